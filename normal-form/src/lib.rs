@@ -1,0 +1,1 @@
+//! lasalle-normal-form
