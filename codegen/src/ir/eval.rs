@@ -1,0 +1,152 @@
+//! Evaluation of the DAG over any number-like type: f64 for checks, truncated power series
+//! for Taylor expansion (normal forms), intervals or jets later.
+
+use super::{Graph, Id, Input, Node};
+
+/// What the DAG needs from a value type to be evaluated over it.
+///
+/// `powf` is only called with rational exponents that are not integers (±½, ±3/2, …).
+pub trait Scalar: Clone {
+    /// A constant.
+    fn from_f64(c: f64) -> Self;
+    /// self + o
+    fn add(&self, o: &Self) -> Self;
+    /// self · o
+    fn mul(&self, o: &Self) -> Self;
+    /// 1 / self
+    fn recip(&self) -> Self;
+    /// selfⁿ for an integer n (negative allowed).
+    fn powi(&self, n: i32) -> Self;
+    /// selfᵖ for a non-integer rational p.
+    fn powf(&self, p: f64) -> Self;
+    /// eˢᵉˡᶠ
+    fn exp(&self) -> Self;
+    /// ln(self)
+    fn ln(&self) -> Self;
+    /// sin(self)
+    fn sin(&self) -> Self;
+    /// cos(self)
+    fn cos(&self) -> Self;
+}
+
+impl Scalar for f64 {
+    fn from_f64(c: f64) -> Self {
+        c
+    }
+    fn add(&self, o: &Self) -> Self {
+        self + o
+    }
+    fn mul(&self, o: &Self) -> Self {
+        self * o
+    }
+    fn recip(&self) -> Self {
+        1.0 / self
+    }
+    fn powi(&self, n: i32) -> Self {
+        f64::powi(*self, n)
+    }
+    fn powf(&self, p: f64) -> Self {
+        if p == 0.5 {
+            self.sqrt()
+        } else if p == -0.5 {
+            1.0 / self.sqrt()
+        } else {
+            f64::powf(*self, p)
+        }
+    }
+    fn exp(&self) -> Self {
+        f64::exp(*self)
+    }
+    fn ln(&self) -> Self {
+        f64::ln(*self)
+    }
+    fn sin(&self) -> Self {
+        f64::sin(*self)
+    }
+    fn cos(&self) -> Self {
+        f64::cos(*self)
+    }
+}
+
+impl Graph {
+    /// Evaluates `outputs`, asking `input` for the value of each leaf once.
+    ///
+    /// Every reachable node is evaluated exactly once, in topological order.
+    pub fn eval<S: Scalar>(&self, outputs: &[Id], input: &mut dyn FnMut(Input) -> S) -> Vec<S> {
+        let order = self.reachable(outputs);
+        let mut slot = vec![usize::MAX; self.len()];
+        let mut values: Vec<S> = Vec::with_capacity(order.len());
+        for &id in &order {
+            let v = |k: &Id| &values[slot[k.index()]];
+            let value = match self.node(id) {
+                Node::Num(b) => S::from_f64(f64::from_bits(*b)),
+                Node::Input(i) => input(*i),
+                Node::Add(c) => c[1..].iter().fold(v(&c[0]).clone(), |acc, k| acc.add(v(k))),
+                Node::Mul(c) => c[1..].iter().fold(v(&c[0]).clone(), |acc, k| acc.mul(v(k))),
+                Node::Pow(b, e) if e.is_int() => v(b).powi(e.num),
+                Node::Pow(b, e) => v(b).powf(e.to_f64()),
+                Node::Func(f, a) => {
+                    let a = v(a);
+                    match f {
+                        super::Func::Exp => a.exp(),
+                        super::Func::Ln => a.ln(),
+                        super::Func::Sin => a.sin(),
+                        super::Func::Cos => a.cos(),
+                    }
+                }
+            };
+            slot[id.index()] = values.len();
+            values.push(value);
+        }
+        outputs.iter().map(|o| values[slot[o.index()]].clone()).collect()
+    }
+
+    /// Evaluates in f64 with inputs from a closure.
+    pub fn eval_f64(&self, outputs: &[Id], input: &mut dyn FnMut(Input) -> f64) -> Vec<f64> {
+        self.eval(outputs, input)
+    }
+
+    /// Evaluates `root` in f64 together with a rounding-error scale: a bound on the magnitude
+    /// of the terms whose cancellation produced the value (Σ|terms| through sums, Π through
+    /// products, amplified by exponents). A value that should vanish is "zero up to rounding"
+    /// when it is small relative to this scale.
+    pub fn eval_with_scale(&self, root: Id, input: &mut dyn FnMut(Input) -> f64) -> (f64, f64) {
+        let order = self.reachable(&[root]);
+        let mut val = vec![0.0; self.len()];
+        let mut mag = vec![0.0; self.len()];
+        for &id in &order {
+            let (v, m) = match self.node(id) {
+                Node::Num(b) => {
+                    let x = f64::from_bits(*b);
+                    (x, x.abs())
+                }
+                Node::Input(i) => {
+                    let x = input(*i);
+                    (x, x.abs())
+                }
+                Node::Add(c) => (c.iter().map(|k| val[k.index()]).sum(), c.iter().map(|k| mag[k.index()]).sum()),
+                Node::Mul(c) => (c.iter().map(|k| val[k.index()]).product(), c.iter().map(|k| mag[k.index()]).product()),
+                Node::Pow(b, e) => {
+                    let (bv, bm) = (val[b.index()], mag[b.index()]);
+                    let v = if e.is_int() { bv.powi(e.num) } else { bv.powf(e.to_f64()) };
+                    // relative error of bᵉ ≈ |e| · relative error of b
+                    let amplification = (e.to_f64().abs() * bm / bv.abs()).max(1.0);
+                    (v, v.abs() * amplification)
+                }
+                Node::Func(f, a) => {
+                    let (av, am) = (val[a.index()], mag[a.index()]);
+                    let v = f.apply(av);
+                    let m = match f {
+                        super::Func::Exp => v.abs() * am.max(1.0),
+                        super::Func::Ln => v.abs().max(am / av.abs()),
+                        super::Func::Sin | super::Func::Cos => v.abs().max(am),
+                    };
+                    (v, m)
+                }
+            };
+            val[id.index()] = v;
+            mag[id.index()] = m;
+        }
+        (val[root.index()], mag[root.index()])
+    }
+}

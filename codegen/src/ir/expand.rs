@@ -1,0 +1,98 @@
+//! Full expansion of products of sums, used to prove identities such as ∇f · X = 0.
+//!
+//! Expansion can blow up, so it runs under a term budget and gives up (returns `None`) past it.
+
+use super::{Graph, Id, Node};
+use std::collections::HashMap;
+
+impl Graph {
+    /// The expanded form of `root` (products of sums multiplied out, positive integer powers
+    /// of sums expanded), or `None` if some intermediate sum exceeds `max_terms` terms.
+    pub fn expand(&mut self, root: Id, max_terms: usize) -> Option<Id> {
+        let mut memo = HashMap::new();
+        self.expand_rec(root, max_terms, &mut memo)
+    }
+
+    fn terms(&self, id: Id) -> Vec<Id> {
+        match self.node(id) {
+            Node::Add(c) => c.to_vec(),
+            _ => vec![id],
+        }
+    }
+
+    fn product_of_sums(&mut self, a: Id, b: Id, max_terms: usize) -> Option<Id> {
+        let (ta, tb) = (self.terms(a), self.terms(b));
+        if ta.len() * tb.len() > max_terms {
+            return None;
+        }
+        let mut out = Vec::with_capacity(ta.len() * tb.len());
+        for &x in &ta {
+            for &y in &tb {
+                out.push(self.mul(&[x, y]));
+            }
+        }
+        Some(self.add(&out))
+    }
+
+    fn expand_rec(&mut self, id: Id, max_terms: usize, memo: &mut HashMap<Id, Id>) -> Option<Id> {
+        if let Some(&e) = memo.get(&id) {
+            return Some(e);
+        }
+        let result = match self.node(id).clone() {
+            Node::Num(_) | Node::Input(_) => id,
+            Node::Add(c) => {
+                let c: Option<Vec<Id>> = c.iter().map(|&k| self.expand_rec(k, max_terms, memo)).collect();
+                self.add(&c?)
+            }
+            Node::Mul(c) => {
+                let mut acc = self.num(1.0);
+                for &k in c.iter() {
+                    let e = self.expand_rec(k, max_terms, memo)?;
+                    acc = self.product_of_sums(acc, e, max_terms)?;
+                }
+                acc
+            }
+            Node::Pow(b, e) => {
+                let base = self.expand_rec(b, max_terms, memo)?;
+                if e.is_int() && e.num > 0 && matches!(self.node(base), Node::Add(_)) {
+                    let mut acc = base;
+                    for _ in 1..e.num {
+                        acc = self.product_of_sums(acc, base, max_terms)?;
+                    }
+                    acc
+                } else {
+                    self.pow(base, e)
+                }
+            }
+            Node::Func(f, a) => {
+                let a = self.expand_rec(a, max_terms, memo)?;
+                self.func(f, a)
+            }
+        };
+        memo.insert(id, result);
+        Some(result)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::ir::{Graph, Input, Rational};
+
+    #[test]
+    fn expansion_proves_a_polynomial_identity() {
+        // (x + y)² − x² − 2xy − y² ⇒ 0
+        let mut g = Graph::new();
+        let x = g.input(Input::State(0));
+        let y = g.input(Input::State(1));
+        let s = g.add(&[x, y]);
+        let s2 = g.pow(s, Rational::int(2));
+        let x2 = g.pow(x, Rational::int(2));
+        let y2 = g.pow(y, Rational::int(2));
+        let two = g.num(2.0);
+        let xy2 = g.mul(&[two, x, y]);
+        let rhs = g.add(&[x2, xy2, y2]);
+        let d = g.sub(s2, rhs);
+        let e = g.expand(d, 1000).unwrap();
+        assert_eq!(g.as_num(e), Some(0.0));
+    }
+}

@@ -1,0 +1,141 @@
+//! The syntax tree of a model file, with a span on every node.
+
+use crate::error::Span;
+
+/// A name with its place in the file.
+#[derive(Clone, Debug)]
+pub struct Ident {
+    /// The name.
+    pub name: String,
+    /// Where it is written.
+    pub span: Span,
+}
+
+/// An expression.
+#[derive(Clone, Debug)]
+pub struct Expr {
+    /// What kind of expression.
+    pub kind: ExprKind,
+    /// The whole expression's extent.
+    pub span: Span,
+}
+
+/// Binary operators, by precedence class.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BinOp {
+    /// `+`
+    Add,
+    /// `-`
+    Sub,
+    /// `*` (scalar product, matrix–vector or matrix–matrix product)
+    Mul,
+    /// `/` (by a scalar)
+    Div,
+    /// `^` (scalar to a constant power)
+    Pow,
+}
+
+/// The forms an expression takes.
+#[derive(Clone, Debug)]
+pub enum ExprKind {
+    /// A numeric literal.
+    Num(f64),
+    /// A name: state, parameter, `let`, invariant or gain.
+    Name(Ident),
+    /// `-e`
+    Neg(Box<Expr>),
+    /// `a op b`
+    Binary(BinOp, Box<Expr>, Box<Expr>),
+    /// `f(a, b, …)`
+    Call(Ident, Vec<Expr>),
+    /// `e[i]` or `e[i, j]`
+    Index(Box<Expr>, Vec<Expr>),
+    /// `[a, b, c]` (a vector) or `[[a, b], [c, d]]` (a matrix, by rows)
+    List(Vec<Expr>),
+}
+
+/// A declared shape in `state x: vec3`.
+#[derive(Clone, Debug)]
+pub struct TypeName {
+    /// The written name (`scalar`, `vec3`, `mat3`, …).
+    pub name: String,
+    /// Where it is written.
+    pub span: Span,
+}
+
+/// The structure that turns a Hamiltonian into a vector field.
+#[derive(Clone, Debug)]
+pub enum StructureDecl {
+    /// `structure canonical(q, p)`: q̇ = ∂H/∂p, ṗ = −∂H/∂q.
+    Canonical(Ident, Ident),
+    /// `structure lie_poisson_so3(P)`: Ṗ = P × ∇H.
+    LiePoissonSo3(Ident),
+}
+
+/// Whether an invariant is a constraint f₀ or a first integral.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InvariantDeclKind {
+    /// `constraint`
+    Constraint,
+    /// `integral`
+    Integral,
+}
+
+/// `gain 4` or `gain k1 = 4`.
+#[derive(Clone, Debug)]
+pub struct GainDecl {
+    /// The gain's name, if given.
+    pub name: Option<Ident>,
+    /// Its default value.
+    pub value: Expr,
+}
+
+/// One item in the model body.
+#[derive(Clone, Debug)]
+pub enum Item {
+    /// `state x: vec3, v: vec3;`
+    State(Vec<(Ident, TypeName)>),
+    /// `param mu = 1.0;`
+    Param(Ident, Expr),
+    /// `let r = norm(x);`
+    Let(Ident, Expr),
+    /// `d/dt x = v;`
+    Derivative(Ident, Expr),
+    /// `integral L = cross(x, v) gain 4;` or `constraint C = … gain …;`
+    Invariant {
+        /// Constraint or integral.
+        kind: InvariantDeclKind,
+        /// Its name.
+        name: Ident,
+        /// Its value f(x).
+        value: Expr,
+        /// Its gain, if written.
+        gain: Option<GainDecl>,
+    },
+    /// `lyapunov V = …;`
+    Lyapunov(Ident, Expr),
+    /// `hamiltonian H = …;`
+    Hamiltonian(Ident, Expr),
+    /// `structure canonical(q, p);`
+    Structure(StructureDecl, Span),
+    /// `point L4 { q = […]; p = […]; }`
+    Point(Ident, Vec<(Ident, Expr)>),
+}
+
+/// An item with the span of its whole text (for error messages and generated comments).
+#[derive(Clone, Debug)]
+pub struct Spanned {
+    /// The item.
+    pub item: Item,
+    /// From its keyword to its `;` or `}`.
+    pub span: Span,
+}
+
+/// A parsed model file.
+#[derive(Clone, Debug)]
+pub struct ModelAst {
+    /// The name after `model`.
+    pub name: Ident,
+    /// The items in order.
+    pub items: Vec<Spanned>,
+}

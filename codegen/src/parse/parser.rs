@@ -1,0 +1,352 @@
+//! Recursive-descent parser: tokens → [`ModelAst`].
+//!
+//! Grammar (precedence from loosest to tightest: `+ -`, `* /`, unary `-`, `^` (right
+//! associative), postfix indexing):
+//! ```text
+//! file      = "model" NAME "{" item* "}"
+//! item      = "state" NAME ":" TYPE ("," NAME ":" TYPE)* ";"
+//!           | "param" NAME "=" expr ";"          | "let" NAME "=" expr ";"
+//!           | "d" "/" "dt" NAME "=" expr ";"
+//!           | ("integral" | "constraint") NAME "=" expr ["gain" [NAME "="] expr] ";"
+//!           | "lyapunov" NAME "=" expr ";"       | "hamiltonian" NAME "=" expr ";"
+//!           | "structure" ("canonical" "(" NAME "," NAME ")" | "lie_poisson_so3" "(" NAME ")") ";"
+//!           | "point" NAME "{" (NAME "=" expr ";")* "}"
+//! ```
+
+use super::ast::*;
+use super::lexer::{Tok, Token};
+use crate::error::{Diagnostic, Span};
+
+/// Keywords that start an item, for "expected one of" messages.
+const ITEM_KEYWORDS: &[&str] =
+    &["state", "param", "let", "d/dt", "integral", "constraint", "lyapunov", "hamiltonian", "structure", "point"];
+
+/// The parser state: a token list and a cursor.
+pub struct Parser {
+    tokens: Vec<Token>,
+    pos: usize,
+}
+
+type PResult<T> = Result<T, Diagnostic>;
+
+impl Parser {
+    /// A parser over `tokens` (which end with `Tok::Eof`).
+    pub fn new(tokens: Vec<Token>) -> Self {
+        Parser { tokens, pos: 0 }
+    }
+
+    fn peek(&self) -> &Token {
+        &self.tokens[self.pos.min(self.tokens.len() - 1)]
+    }
+
+    fn peek_at(&self, k: usize) -> &Tok {
+        &self.tokens[(self.pos + k).min(self.tokens.len() - 1)].tok
+    }
+
+    fn bump(&mut self) -> Token {
+        let t = self.peek().clone();
+        if self.pos < self.tokens.len() - 1 {
+            self.pos += 1;
+        }
+        t
+    }
+
+    fn prev_span(&self) -> Span {
+        self.tokens[self.pos.saturating_sub(1)].span.clone()
+    }
+
+    fn is_punct(&self, c: char) -> bool {
+        self.peek().tok == Tok::Punct(c)
+    }
+
+    fn is_keyword(&self, k: &str) -> bool {
+        matches!(&self.peek().tok, Tok::Ident(s) if s == k)
+    }
+
+    fn unexpected(&self, expected: &str) -> Diagnostic {
+        let t = self.peek();
+        Diagnostic::new(&t.span, format!("expected {expected}, found {}", t.tok.describe()))
+    }
+
+    fn expect_punct(&mut self, c: char) -> PResult<Span> {
+        if self.is_punct(c) {
+            Ok(self.bump().span)
+        } else {
+            let mut d = self.unexpected(&format!("`{c}`"));
+            if c == ';' {
+                // Point at the end of the previous token: that is where the `;` is missing.
+                let prev = self.prev_span();
+                d = Diagnostic::new(&Span { start: prev.end, end: prev.end + 1, ..prev }, d.message)
+                    .help("every item ends with `;`");
+            }
+            Err(d)
+        }
+    }
+
+    fn expect_keyword(&mut self, k: &str) -> PResult<Span> {
+        if self.is_keyword(k) {
+            Ok(self.bump().span)
+        } else {
+            Err(self.unexpected(&format!("`{k}`")))
+        }
+    }
+
+    fn ident(&mut self, what: &str) -> PResult<Ident> {
+        match &self.peek().tok {
+            Tok::Ident(name) => {
+                let name = name.clone();
+                let span = self.bump().span;
+                Ok(Ident { name, span })
+            }
+            _ => Err(self.unexpected(what)),
+        }
+    }
+
+    /// Parses a whole model file.
+    pub fn model(&mut self) -> PResult<ModelAst> {
+        self.expect_keyword("model").map_err(|d| d.help("a model file starts with `model Name { … }`"))?;
+        let name = self.ident("the model's name")?;
+        self.expect_punct('{')?;
+        let mut items = Vec::new();
+        while !self.is_punct('}') {
+            if self.peek().tok == Tok::Eof {
+                return Err(self.unexpected("`}` closing the model").help("the model body is not closed"));
+            }
+            items.push(self.item()?);
+        }
+        self.bump();
+        if self.peek().tok != Tok::Eof {
+            return Err(self.unexpected("end of file").help("a file holds exactly one model"));
+        }
+        Ok(ModelAst { name, items })
+    }
+
+    fn item(&mut self) -> PResult<Spanned> {
+        let start = self.peek().span.clone();
+        let keyword = match &self.peek().tok {
+            Tok::Ident(k) => k.clone(),
+            _ => return Err(self.expected_item()),
+        };
+        let item = match keyword.as_str() {
+            "state" => {
+                self.bump();
+                let mut decls = Vec::new();
+                loop {
+                    let name = self.ident("a state variable's name")?;
+                    self.expect_punct(':').map_err(|d| d.help("declare a shape: `state x: vec3;`"))?;
+                    let ty = self.ident("a shape (`scalar`, `vec2`, `vec3`, `mat2`, `mat3`, …)")?;
+                    decls.push((name, TypeName { name: ty.name, span: ty.span }));
+                    if self.is_punct(',') {
+                        self.bump();
+                    } else {
+                        break;
+                    }
+                }
+                self.expect_punct(';')?;
+                Item::State(decls)
+            }
+            "param" | "let" | "lyapunov" | "hamiltonian" => {
+                self.bump();
+                let name = self.ident("a name")?;
+                self.expect_punct('=')?;
+                let value = self.expr()?;
+                self.expect_punct(';')?;
+                match keyword.as_str() {
+                    "param" => Item::Param(name, value),
+                    "let" => Item::Let(name, value),
+                    "lyapunov" => Item::Lyapunov(name, value),
+                    _ => Item::Hamiltonian(name, value),
+                }
+            }
+            "d" if self.peek_at(1) == &Tok::Punct('/') => {
+                self.bump();
+                self.bump();
+                self.expect_keyword("dt").map_err(|d| d.help("write a derivative as `d/dt x = …;`"))?;
+                let name = self.ident("a state variable")?;
+                self.expect_punct('=')?;
+                let value = self.expr()?;
+                self.expect_punct(';')?;
+                Item::Derivative(name, value)
+            }
+            "integral" | "constraint" => {
+                self.bump();
+                let kind =
+                    if keyword == "integral" { InvariantDeclKind::Integral } else { InvariantDeclKind::Constraint };
+                let name = self.ident("a name")?;
+                self.expect_punct('=')?;
+                let value = self.expr()?;
+                let gain = if self.is_keyword("gain") {
+                    self.bump();
+                    let named = matches!(self.peek().tok, Tok::Ident(_)) && self.peek_at(1) == &Tok::Punct('=');
+                    let name = if named {
+                        let n = self.ident("a gain name")?;
+                        self.bump();
+                        Some(n)
+                    } else {
+                        None
+                    };
+                    Some(GainDecl { name, value: self.expr()? })
+                } else {
+                    None
+                };
+                self.expect_punct(';')?;
+                Item::Invariant { kind, name, value, gain }
+            }
+            "structure" => {
+                self.bump();
+                let kind = self.ident("`canonical` or `lie_poisson_so3`")?;
+                self.expect_punct('(')?;
+                let s = match kind.name.as_str() {
+                    "canonical" => {
+                        let q = self.ident("the position variable")?;
+                        self.expect_punct(',')?;
+                        let p = self.ident("the momentum variable")?;
+                        StructureDecl::Canonical(q, p)
+                    }
+                    "lie_poisson_so3" => StructureDecl::LiePoissonSo3(self.ident("the momentum variable")?),
+                    other => {
+                        return Err(Diagnostic::new(&kind.span, format!("unknown structure `{other}`"))
+                            .help("known structures: `canonical(q, p)`, `lie_poisson_so3(P)`"))
+                    }
+                };
+                self.expect_punct(')')?;
+                self.expect_punct(';')?;
+                Item::Structure(s, kind.span)
+            }
+            "point" => {
+                self.bump();
+                let name = self.ident("the point's name")?;
+                self.expect_punct('{')?;
+                let mut values = Vec::new();
+                while !self.is_punct('}') {
+                    let var = self.ident("a state variable or `}`")?;
+                    self.expect_punct('=')?;
+                    let value = self.expr()?;
+                    self.expect_punct(';')?;
+                    values.push((var, value));
+                }
+                self.bump();
+                Item::Point(name, values)
+            }
+            _ => return Err(self.expected_item()),
+        };
+        Ok(Spanned { item, span: start.to(&self.prev_span()) })
+    }
+
+    fn expected_item(&self) -> Diagnostic {
+        let list: Vec<String> = ITEM_KEYWORDS.iter().map(|k| format!("`{k}`")).collect();
+        self.unexpected(&format!("one of {}", list.join(", ")))
+    }
+
+    /// expr = term (("+" | "-") term)*
+    pub fn expr(&mut self) -> PResult<Expr> {
+        let mut lhs = self.term()?;
+        while self.is_punct('+') || self.is_punct('-') {
+            let op = if self.bump().tok == Tok::Punct('+') { BinOp::Add } else { BinOp::Sub };
+            let rhs = self.term()?;
+            lhs = binary(op, lhs, rhs);
+        }
+        Ok(lhs)
+    }
+
+    fn term(&mut self) -> PResult<Expr> {
+        let mut lhs = self.unary()?;
+        while self.is_punct('*') || self.is_punct('/') {
+            let op = if self.bump().tok == Tok::Punct('*') { BinOp::Mul } else { BinOp::Div };
+            let rhs = self.unary()?;
+            lhs = binary(op, lhs, rhs);
+        }
+        Ok(lhs)
+    }
+
+    fn unary(&mut self) -> PResult<Expr> {
+        if self.is_punct('-') {
+            let start = self.bump().span;
+            let inner = self.unary()?;
+            let span = start.to(&inner.span);
+            return Ok(Expr { kind: ExprKind::Neg(Box::new(inner)), span });
+        }
+        if self.is_punct('+') {
+            self.bump();
+            return self.unary();
+        }
+        self.power()
+    }
+
+    fn power(&mut self) -> PResult<Expr> {
+        let base = self.postfix()?;
+        if self.is_punct('^') {
+            self.bump();
+            let exponent = self.unary()?; // right associative: a^b^c = a^(b^c); a^-1 allowed
+            return Ok(binary(BinOp::Pow, base, exponent));
+        }
+        Ok(base)
+    }
+
+    fn postfix(&mut self) -> PResult<Expr> {
+        let mut e = self.primary()?;
+        while self.is_punct('[') {
+            self.bump();
+            let mut indices = vec![self.expr()?];
+            while self.is_punct(',') {
+                self.bump();
+                indices.push(self.expr()?);
+            }
+            let end = self.expect_punct(']')?;
+            let span = e.span.to(&end);
+            e = Expr { kind: ExprKind::Index(Box::new(e), indices), span };
+        }
+        Ok(e)
+    }
+
+    fn primary(&mut self) -> PResult<Expr> {
+        let t = self.peek().clone();
+        match t.tok {
+            Tok::Num(x) => {
+                self.bump();
+                Ok(Expr { kind: ExprKind::Num(x), span: t.span })
+            }
+            Tok::Ident(name) => {
+                self.bump();
+                let id = Ident { name, span: t.span.clone() };
+                if self.is_punct('(') {
+                    self.bump();
+                    let mut args = Vec::new();
+                    if !self.is_punct(')') {
+                        args.push(self.expr()?);
+                        while self.is_punct(',') {
+                            self.bump();
+                            args.push(self.expr()?);
+                        }
+                    }
+                    let end = self.expect_punct(')')?;
+                    Ok(Expr { kind: ExprKind::Call(id, args), span: t.span.to(&end) })
+                } else {
+                    Ok(Expr { kind: ExprKind::Name(id), span: t.span })
+                }
+            }
+            Tok::Punct('(') => {
+                self.bump();
+                let inner = self.expr()?;
+                let end = self.expect_punct(')')?;
+                Ok(Expr { kind: inner.kind, span: t.span.to(&end) })
+            }
+            Tok::Punct('[') => {
+                self.bump();
+                let mut elems = vec![self.expr()?];
+                while self.is_punct(',') {
+                    self.bump();
+                    elems.push(self.expr()?);
+                }
+                let end = self.expect_punct(']')?;
+                Ok(Expr { kind: ExprKind::List(elems), span: t.span.to(&end) })
+            }
+            _ => Err(self.unexpected("an expression")),
+        }
+    }
+}
+
+fn binary(op: BinOp, lhs: Expr, rhs: Expr) -> Expr {
+    let span = lhs.span.to(&rhs.span);
+    Expr { kind: ExprKind::Binary(op, Box::new(lhs), Box::new(rhs)), span }
+}
