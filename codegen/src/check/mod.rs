@@ -1,1 +1,214 @@
-//! Stage 4: checks.
+//! Stage 4: checks that need the derivatives: every declared integral is conserved by the field,
+//! every constraint's manifold is invariant, an explicit V vanishes on the invariant set.
+//!
+//! A Lie derivative ∇f · X is first simplified and expanded; if it becomes the number 0 the
+//! integral is *proved*. Otherwise it is evaluated at random states (deterministic seed) and
+//! must be zero up to rounding relative to the size of its terms at each of them.
+
+mod sampling;
+
+use crate::derive::Derivatives;
+use crate::error::{Diagnostic, Error};
+use crate::ir::Input;
+use crate::model::{InvariantKind, Model};
+use sampling::{project_onto, Rng};
+
+/// Number of random states each invariant is checked at.
+pub const SAMPLES: usize = 128;
+/// A residual counts as zero when |residual| ≤ TOLERANCE · (size of the terms).
+pub const TOLERANCE: f64 = 1e-9;
+/// Expansion budget (terms) for the symbolic proof.
+pub const EXPAND_LIMIT: usize = 20_000;
+
+/// How an invariant was shown to be conserved.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Verdict {
+    /// ∇f · X simplified to 0.
+    Proved,
+    /// Zero up to rounding at this many random states; the worst relative residual.
+    Sampled {
+        /// Number of states checked.
+        samples: usize,
+        /// max |∇f·X| / (size of its terms) over the samples.
+        worst_relative: f64,
+    },
+}
+
+/// The result of the conservation check of one invariant.
+#[derive(Clone, Debug)]
+pub struct Conservation {
+    /// The invariant's name.
+    pub name: String,
+    /// How it was established.
+    pub verdict: Verdict,
+}
+
+/// Checks every invariant (and an explicit V); reports all failures at once.
+pub fn check(model: &mut Model, d: &Derivatives) -> Result<Vec<Conservation>, Error> {
+    let params = model.default_params();
+    let mut out = Vec::new();
+    let mut errors = Vec::new();
+    let n = model.dim();
+    for f in model.invariants.clone() {
+        let range = f.offset..f.offset + f.value.shape.len();
+        let lie: Vec<_> = d.lie_derivatives[range.clone()].to_vec();
+        let proved = lie.iter().all(|&l| {
+            model.graph.expand(l, EXPAND_LIMIT).is_some_and(|e| model.graph.as_num(e) == Some(0.0))
+        });
+        if proved {
+            out.push(Conservation { name: f.name.clone(), verdict: Verdict::Proved });
+            continue;
+        }
+        let mut rng = Rng::new(0x1a5a11e ^ f.offset as u64);
+        let mut worst = 0.0f64;
+        let mut samples = 0;
+        let mut failure = None;
+        let mut attempts = 0;
+        while samples < SAMPLES && attempts < 20 * SAMPLES && failure.is_none() {
+            attempts += 1;
+            let mut x: Vec<f64> = (0..n).map(|_| rng.uniform(-1.5, 1.5)).collect();
+            if f.kind == InvariantKind::Constraint {
+                let Some(on) = project_onto(&model.graph, &d.jacobian[range.clone()], &f.value.ids, &params, &x) else {
+                    continue;
+                };
+                x = on;
+            }
+            let mut input = |i: Input| match i {
+                Input::State(k) => x[k as usize],
+                Input::Param(k) => params[k as usize],
+                _ => f64::NAN,
+            };
+            let mut ok = true;
+            let mut this_worst = 0.0f64;
+            for (c, &l) in lie.iter().enumerate() {
+                let (v, scale) = model.graph.eval_with_scale(l, &mut input);
+                if !v.is_finite() || !scale.is_finite() {
+                    ok = false;
+                    break;
+                }
+                let rel = if scale > 0.0 { v.abs() / scale } else { 0.0 };
+                this_worst = this_worst.max(rel);
+                if rel > TOLERANCE && v.abs() > 1e-300 {
+                    failure = Some((c, v, scale, x.clone()));
+                    break;
+                }
+            }
+            if ok {
+                samples += 1;
+                worst = worst.max(this_worst);
+            }
+        }
+        if let Some((c, v, scale, x)) = failure {
+            let component = if f.value.shape.len() > 1 { format!(" (component {c})") } else { String::new() };
+            let what = if f.kind == InvariantKind::Constraint { "constraint" } else { "integral" };
+            let help = if f.kind == InvariantKind::Constraint {
+                "the field must be tangent to {f₀ = 0}; check the formula".to_string()
+            } else {
+                "check the formula; if it holds only on a manifold, declare it as a `constraint` (written so that the manifold is {f = 0})".to_string()
+            };
+            errors.push(
+                Diagnostic::new(
+                    &f.span,
+                    format!(
+                        "{what} `{}` is not conserved by the field: d/dt {}{component} = ∇f·X = {v:.3e} at x = {}, where its terms are of size {scale:.3e}",
+                        f.name,
+                        f.name,
+                        state_string(model, &x)
+                    ),
+                )
+                .help(help),
+            );
+        } else if samples < SAMPLES / 2 {
+            errors.push(Diagnostic::new(&f.span, format!(
+                "cannot check `{}`: it or the field is not finite at {} of {attempts} random states", f.name, attempts - samples
+            )).help("the check samples states with components in [−1.5, 1.5]; avoid singular formulas there"));
+        } else {
+            out.push(Conservation { name: f.name.clone(), verdict: Verdict::Sampled { samples, worst_relative: worst } });
+        }
+    }
+    if let Some(span) = model.lyapunov_span.clone() {
+        if let Err(e) = check_lyapunov(model, d, &params, &span) {
+            errors.push(e);
+        }
+    }
+    if errors.is_empty() {
+        Ok(out)
+    } else {
+        Err(Error::Model(errors))
+    }
+}
+
+/// An explicit V must vanish where f(x) = f(x₀) on the constraint manifold, and be ≥ 0.
+fn check_lyapunov(model: &Model, d: &Derivatives, params: &[f64], span: &crate::Span) -> Result<(), Diagnostic> {
+    let n = model.dim();
+    let f = model.invariant_ids();
+    // The constraint rows of f and Df, to sample the manifold {f₀ = 0}.
+    let rows: Vec<usize> = model
+        .invariants
+        .iter()
+        .filter(|f| f.kind == InvariantKind::Constraint)
+        .flat_map(|f| f.offset..f.offset + f.value.shape.len())
+        .collect();
+    let constraint_ids: Vec<_> = rows.iter().map(|&r| f[r]).collect();
+    let constraint_jac: Vec<Vec<_>> = rows.iter().map(|&r| d.jacobian[r].clone()).collect();
+    let gains: Vec<f64> = model.gains.iter().map(|g| g.default.max(1.0)).collect();
+    let mut rng = Rng::new(0x5eed);
+    for _ in 0..SAMPLES {
+        let mut x: Vec<f64> = (0..n).map(|_| rng.uniform(-1.5, 1.5)).collect();
+        let y: Vec<f64> = (0..n).map(|_| rng.uniform(-1.5, 1.5)).collect();
+        if !rows.is_empty() {
+            match project_onto(&model.graph, &constraint_jac, &constraint_ids, params, &x) {
+                Some(on) => x = on,
+                None => continue,
+            }
+        }
+        let at = |s: &[f64]| {
+            model.graph.eval_f64(&f, &mut |i| match i {
+                Input::State(k) => s[k as usize],
+                Input::Param(k) => params[k as usize],
+                _ => f64::NAN,
+            })
+        };
+        let (fx, fy) = (at(&x), at(&y));
+        let v = |target: &[f64]| {
+            model.graph.eval_with_scale(model.lyapunov, &mut |i| match i {
+                Input::State(k) => x[k as usize],
+                Input::Param(k) => params[k as usize],
+                Input::Target(k) => target[k as usize],
+                Input::Gain(k) => gains[k as usize],
+            })
+        };
+        let (v0, scale0) = v(&fx);
+        let (v1, scale1) = v(&fy);
+        if !(v0.is_finite() && v1.is_finite()) {
+            continue;
+        }
+        if v0.abs() > 1e-7 * scale0 && v0.abs() > 1e-300 {
+            return Err(Diagnostic::new(span, format!(
+                "V does not vanish on the invariant set: V = {v0:.3e} at x = {} with f(x₀) = f(x)",
+                state_string(model, &x)
+            )).help("V must vanish exactly where f(x) = f(x₀) (and the constraints hold), e.g. k/2 * norm(f - target(f))^2"));
+        }
+        if v1 < -TOLERANCE * scale1 {
+            return Err(Diagnostic::new(span, format!("V is negative: V = {v1:.3e} at x = {}", state_string(model, &x)))
+                .help("V must be ≥ 0, e.g. a sum of k/2 * norm(f - target(f))^2 with k ≥ 0"));
+        }
+    }
+    Ok(())
+}
+
+fn state_string(model: &Model, x: &[f64]) -> String {
+    let parts: Vec<String> = model
+        .state
+        .iter()
+        .map(|s| {
+            let vals: Vec<String> = x[s.offset..s.offset + s.shape.len()].iter().map(|v| format!("{v:.4}")).collect();
+            if vals.len() == 1 {
+                format!("{} = {}", s.name, vals[0])
+            } else {
+                format!("{} = [{}]", s.name, vals.join(", "))
+            }
+        })
+        .collect();
+    format!("({})", parts.join(", "))
+}

@@ -163,3 +163,95 @@ mod tests {
         assert_eq!(g.display(grad[1]), "3*x1");
     }
 }
+
+/// Everything the emitter needs beyond the model itself.
+#[derive(Clone, Debug)]
+pub struct Derivatives {
+    /// Df: `jacobian[c][i] = ∂f_c/∂x_i`, M rows of N.
+    pub jacobian: Vec<Vec<Id>>,
+    /// ∇V, by reverse mode.
+    pub lyapunov_gradient: Vec<Id>,
+    /// X − ∇V.
+    pub feedback: Vec<Id>,
+    /// The Lie derivatives ∇f_c · X, which must vanish for integrals.
+    pub lie_derivatives: Vec<Id>,
+    /// For a partitioned field (q̇ = a(p), ṗ = b(q)): `true` at the q components.
+    pub partition: Option<Vec<bool>>,
+}
+
+/// Differentiates a lowered model: Df, ∇V, X − ∇V, the Lie derivatives and the partition.
+pub fn derive(model: &mut crate::Model) -> Derivatives {
+    let n = model.dim();
+    let vars: Vec<Input> = (0..n as u32).map(Input::State).collect();
+    let f = model.invariant_ids();
+    let g = &mut model.graph;
+    let mut memos: Vec<HashMap<Id, Id>> = vec![HashMap::new(); n];
+    let jacobian: Vec<Vec<Id>> =
+        f.iter().map(|&fc| (0..n).map(|i| diff(g, fc, vars[i], &mut memos[i])).collect()).collect();
+    let lie_derivatives = jacobian
+        .iter()
+        .map(|row| {
+            let terms: Vec<Id> = row.iter().zip(&model.field).map(|(&d, &x)| g.mul(&[d, x])).collect();
+            g.add(&terms)
+        })
+        .collect();
+    let lyapunov_gradient = gradient(g, model.lyapunov, &vars);
+    let feedback = model.field.iter().zip(&lyapunov_gradient).map(|(&x, &d)| g.sub(x, d)).collect();
+    let partition = partition(model);
+    Derivatives { jacobian, lyapunov_gradient, feedback, lie_derivatives, partition }
+}
+
+/// Splits the state variables into two groups q, p with q̇ = a(p) and ṗ = b(q), if possible:
+/// a 2-colouring of the graph with an edge between two variables whenever one's rate depends
+/// on the other. The group of the first state variable is q.
+fn partition(model: &crate::Model) -> Option<Vec<bool>> {
+    let g = &model.graph;
+    let block_of = |i: usize| model.state.iter().position(|s| (s.offset..s.offset + s.shape.len()).contains(&i));
+    let nb = model.state.len();
+    let mut edges = vec![Vec::new(); nb];
+    for (b, s) in model.state.iter().enumerate() {
+        for &rate in &model.field[s.offset..s.offset + s.shape.len()] {
+            for id in g.reachable(&[rate]) {
+                if let Node::Input(Input::State(i)) = g.node(id) {
+                    let c = block_of(*i as usize)?;
+                    if c == b {
+                        return None; // a rate that depends on its own group
+                    }
+                    edges[b].push(c);
+                    edges[c].push(b);
+                }
+            }
+        }
+    }
+    if edges.iter().all(Vec::is_empty) {
+        return None;
+    }
+    let mut colour: Vec<Option<bool>> = vec![None; nb];
+    for start in 0..nb {
+        if colour[start].is_some() {
+            continue;
+        }
+        colour[start] = Some(true);
+        let mut stack = vec![start];
+        while let Some(b) = stack.pop() {
+            let cb = colour[b]?;
+            for &c in &edges[b] {
+                match colour[c] {
+                    None => {
+                        colour[c] = Some(!cb);
+                        stack.push(c);
+                    }
+                    Some(cc) if cc == cb => return None,
+                    Some(_) => {}
+                }
+            }
+        }
+    }
+    let mut is_q = vec![false; model.dim()];
+    for (b, s) in model.state.iter().enumerate() {
+        for k in s.offset..s.offset + s.shape.len() {
+            is_q[k] = colour[b] == Some(true);
+        }
+    }
+    Some(is_q)
+}
