@@ -1,14 +1,56 @@
 //! # lasalle-runtime
 //!
 //! The traits that lasalle-generated models implement ([`Field`], [`Invariants`],
-//! [`Lyapunov`], [`Partitioned`]) and the steppers, observers and outputs that integrate them.
+//! [`Lyapunov`], [`Partitioned`], [`ModelInfo`]) and the machinery that integrates them:
+//!
+//! - [`Stepper`]: one-step methods — [`ExplicitRk`] over a [`Tableau`] (Euler, Heun, RK4,
+//!   DOPRI5), adaptive [`DormandPrince`] with dense output, [`StormerVerlet`] A/B,
+//!   [`Projection`] onto f(x) = f(x₀), [`RigidBodySplitting`];
+//! - [`Driver`] / [`integrate`]: run a stepper to an end time with observers, blow-up checks
+//!   and guards, failing loudly with a [`StepError`] that carries t, h and the state;
+//! - [`FeedbackField`]: the feedback integrator's field X − ∇V, so any stepper becomes a
+//!   feedback integrator; [`gains`](crate::scaled_gains) selection ([`GainPolicy`],
+//!   [`AdaptiveGain`]);
+//! - [`Observer`]s ([`Recorder`] of states and invariant errors, [`Stride`], [`StopWhen`]) and
+//!   CSV [`write_csv`].
+//!
+//! A feedback-Euler run of a model `m` with state `x0`, gains `k` and step `h`:
+//!
+//! ```ignore
+//! let fb = FeedbackField::from_initial(&m, &x0, k);
+//! let mut rec = Recorder::new(&m, &x0, 100, sample_capacity(n_steps, 100));
+//! let end = integrate(&mut ExplicitRk::euler(), &fb, &x0, 0.0, t_end, h, &mut rec)?;
+//! ```
 #![warn(missing_docs)]
 
+mod driver;
+mod error;
+mod feedback;
 mod field;
+mod gains;
+mod observe;
+mod output;
+pub mod steppers;
 
+pub use driver::{integrate, Driver, GuardFn, Summary};
+pub use error::StepError;
+pub use feedback::{default_lyapunov_gradient, expand_gains, FeedbackField};
 pub use field::{
     lit, Field, InvariantInfo, InvariantKind, Invariants, Lyapunov, ModelInfo, Partitioned, Shape,
     Slot,
+};
+pub use gains::{
+    gauss_newton_hessian, gauss_newton_norm, gauss_newton_trace, scaled_gains,
+    symmetric_spectral_norm, AdaptiveGain, GainError, GainPolicy,
+};
+pub use observe::{
+    sample_capacity, Control, Observer, Recorder, StateRecorder, StopWhen, Stride,
+};
+pub use output::{component_names, write_csv};
+pub use steppers::{
+    pivoted_cholesky_solve, DenseOutput, DormandPrince, DormandPrinceOptions, Euler, ExplicitRk,
+    Heun, Projection, RigidBodySplitting, Rk4, StepOutcome, Stepper, StormerVerlet, Tableau,
+    VerletVariant,
 };
 pub use nalgebra;
 pub use num_traits;

@@ -1,0 +1,325 @@
+//! The integration driver: runs a [`Stepper`] from t₀ to t_end, observing, checking for
+//! blow-up and running the caller's guard.
+//!
+//! The driver never stops silently: it either reaches the end time (or an observer's stop
+//! request) and returns a [`Summary`], or returns a [`StepError`] carrying the time, the step
+//! size and the state (non-finite state, guard failure, step budget, or the stepper's own
+//! error).
+
+use num_traits::Float;
+
+use crate::error::{all_finite, state_to_vec, to_f64, StepError};
+use crate::field::lit;
+use crate::observe::{Control, Observer};
+use crate::steppers::{DenseOutput, Stepper};
+
+/// A validity check run on the state after every k-th step: `None` if the state is fine,
+/// `Some(message)` otherwise (e.g. `|x| < 1e-8` for Kepler: "collision").
+pub type GuardFn<'g, T, const N: usize> = dyn Fn(&[T; N]) -> Option<String> + 'g;
+
+/// How an integration ended.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Summary<T, const N: usize> {
+    /// The final time (t_end unless an observer stopped the run).
+    pub t: T,
+    /// The final state.
+    pub x: [T; N],
+    /// Accepted steps.
+    pub steps: u64,
+    /// Rejected trial steps (adaptive steppers).
+    pub rejections: u64,
+    /// Field evaluations reported by the stepper.
+    pub evaluations: u64,
+    /// True if an observer returned [`Control::Stop`].
+    pub stopped_by_observer: bool,
+}
+
+/// Settings of an integration run: time span, step size, step budget and guard.
+///
+/// ```
+/// use lasalle_runtime::{Field, Driver, ExplicitRk, StepError};
+/// struct Blow;
+/// impl Field<f64, 1> for Blow {
+///     fn field(&self, x: &[f64; 1], dx: &mut [f64; 1]) { dx[0] = x[0] * x[0]; }
+/// }
+/// let err = Driver::new(0.0, 2.0, 0.01)
+///     .guard(1, |x: &[f64; 1]| (x[0] > 1e6).then(|| format!("|x| = {} > 1e6", x[0])))
+///     .run(&mut ExplicitRk::euler(), &Blow, &[1.0], &mut ())
+///     .unwrap_err();
+/// assert!(matches!(err, StepError::Guard { .. }));
+/// assert!(err.time().unwrap() > 0.9);
+/// ```
+pub struct Driver<'g, T, const N: usize> {
+    t0: T,
+    t_end: T,
+    h: T,
+    max_steps: u64,
+    guard: Option<(u64, Box<GuardFn<'g, T, N>>)>,
+}
+
+impl<'g, T: Float, const N: usize> Driver<'g, T, N> {
+    /// Integrates from `t0` to `t_end ≥ t0` with step `h` (fixed-step methods; for adaptive
+    /// ones `h` is the initial step, and `h = 0` asks the stepper to choose it).
+    pub fn new(t0: T, t_end: T, h: T) -> Self {
+        Driver {
+            t0,
+            t_end,
+            h,
+            max_steps: u64::MAX,
+            guard: None,
+        }
+    }
+
+    /// Fails with [`StepError::MaxSteps`] after `n` accepted steps short of the end time
+    /// (default: unlimited).
+    pub fn max_steps(mut self, n: u64) -> Self {
+        self.max_steps = n;
+        self
+    }
+
+    /// Runs `check` on the initial state and after every `every`-th step (0 is treated as 1);
+    /// a `Some(message)` stops the run with [`StepError::Guard`].
+    pub fn guard(mut self, every: u64, check: impl Fn(&[T; N]) -> Option<String> + 'g) -> Self {
+        self.guard = Some((every.max(1), Box::new(check)));
+        self
+    }
+
+    fn run_guard(&self, step: u64, t: T, h: T, x: &[T; N]) -> Result<(), StepError> {
+        if let Some((every, check)) = &self.guard {
+            if step % every == 0 {
+                if let Some(message) = check(x) {
+                    return Err(StepError::Guard {
+                        t: to_f64(t),
+                        h: to_f64(h),
+                        message,
+                        state: state_to_vec(x),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The shared stepping loop; `on_step(stepper, steps, t, x)` is called at the start
+    /// (steps = 0) and after every accepted step.
+    fn drive<F, S, C>(
+        &self,
+        stepper: &mut S,
+        field: &F,
+        x0: &[T; N],
+        t_end: T,
+        mut on_step: C,
+    ) -> Result<Summary<T, N>, StepError>
+    where
+        F: ?Sized,
+        S: Stepper<T, N, F>,
+        C: FnMut(&S, u64, T, &[T; N]) -> Control,
+    {
+        let t0 = self.t0;
+        if !(t0.is_finite() && t_end.is_finite() && t_end >= t0) {
+            return Err(StepError::InvalidInput(format!(
+                "need finite t0 <= t_end, got t0 = {}, t_end = {}",
+                to_f64(t0),
+                to_f64(t_end)
+            )));
+        }
+        let adaptive = stepper.is_adaptive();
+        let mut h = self.h;
+        if adaptive && !(h > T::zero()) {
+            h = stepper
+                .initial_step(field, t0, x0, t_end)
+                .ok_or_else(|| StepError::InvalidInput("no initial step size".to_string()))?;
+        }
+        if !(h > T::zero() && h.is_finite()) {
+            return Err(StepError::InvalidInput(format!(
+                "step size must be positive and finite, got h = {}",
+                to_f64(h)
+            )));
+        }
+        let mut x = *x0;
+        let mut summary = Summary {
+            t: t0,
+            x,
+            steps: 0,
+            rejections: 0,
+            evaluations: 0,
+            stopped_by_observer: false,
+        };
+        if !all_finite(&x) {
+            return Err(StepError::non_finite("state", t0, h, &x));
+        }
+        self.run_guard(0, t0, h, &x)?;
+        if on_step(stepper, 0, t0, &x) == Control::Stop {
+            summary.stopped_by_observer = true;
+            return Ok(summary);
+        }
+        // fixed steps: t_n = t0 + n h exactly, the last step shortened to hit t_end
+        let (n_full, partial) = {
+            let ratio = (t_end - t0) / h;
+            let r = ratio.round();
+            if (ratio - r).abs() <= lit::<T>(1e-9) * ratio.max(T::one()) {
+                (r, false)
+            } else {
+                (ratio.floor(), true)
+            }
+        };
+        let n_total = n_full + if partial { T::one() } else { T::zero() };
+        let mut t = t0;
+        let mut n = T::zero();
+        while t < t_end {
+            let (h_step, last) = if adaptive {
+                let remaining = t_end - t;
+                if h * lit(1.01) >= remaining {
+                    (remaining, true)
+                } else {
+                    (h, false)
+                }
+            } else if n + T::one() >= n_total {
+                (t_end - t, true)
+            } else {
+                (h, false)
+            };
+            if summary.steps >= self.max_steps {
+                return Err(StepError::MaxSteps {
+                    t: to_f64(t),
+                    h: to_f64(h_step),
+                    steps: summary.steps,
+                    state: state_to_vec(&x),
+                });
+            }
+            let outcome = stepper.step(field, t, &mut x, h_step)?;
+            summary.steps += 1;
+            summary.rejections += u64::from(outcome.rejections);
+            summary.evaluations += u64::from(outcome.evaluations);
+            n = n + T::one();
+            t = if last && outcome.h_taken >= h_step {
+                t_end
+            } else if adaptive {
+                t + outcome.h_taken
+            } else {
+                t0 + n * h
+            };
+            if !all_finite(&x) {
+                return Err(StepError::non_finite("state", t, outcome.h_taken, &x));
+            }
+            self.run_guard(summary.steps, t, outcome.h_taken, &x)?;
+            if on_step(stepper, summary.steps, t, &x) == Control::Stop {
+                summary.stopped_by_observer = true;
+                break;
+            }
+            if adaptive {
+                h = outcome.h_next;
+            }
+        }
+        summary.t = t;
+        summary.x = x;
+        Ok(summary)
+    }
+
+    /// Integrates `field` from `x0` with `stepper`, calling `observer` at the start, after
+    /// every accepted step and (via [`Observer::finish`]) at the end.
+    pub fn run<F, S, O>(
+        &self,
+        stepper: &mut S,
+        field: &F,
+        x0: &[T; N],
+        observer: &mut O,
+    ) -> Result<Summary<T, N>, StepError>
+    where
+        F: ?Sized,
+        S: Stepper<T, N, F>,
+        O: Observer<T, N> + ?Sized,
+    {
+        let summary = self.drive(stepper, field, x0, self.t_end, |_, step, t, x| {
+            observer.observe(step, t, x)
+        })?;
+        observer.finish(summary.steps, summary.t, &summary.x);
+        Ok(summary)
+    }
+
+    /// Integrates with a dense-output stepper up to the last of `times` (sorted, within
+    /// [t₀, t_end]) and calls `observer(i, times[i], x(times[i]))` with the interpolated state
+    /// at each output time, independent of the steps taken (HNW I §II.6).
+    /// [`Observer::finish`] receives the number of outputs and the last one.
+    pub fn run_dense<F, S, O>(
+        &self,
+        stepper: &mut S,
+        field: &F,
+        x0: &[T; N],
+        times: &[T],
+        observer: &mut O,
+    ) -> Result<Summary<T, N>, StepError>
+    where
+        F: ?Sized,
+        S: Stepper<T, N, F> + DenseOutput<T, N>,
+        O: Observer<T, N> + ?Sized,
+    {
+        let Some(&t_last) = times.last() else {
+            return Err(StepError::InvalidInput("no output times".to_string()));
+        };
+        let sorted = times.windows(2).all(|w| w[0] <= w[1]);
+        if !sorted || times[0] < self.t0 || t_last > self.t_end {
+            return Err(StepError::InvalidInput(
+                "output times must be sorted and within [t0, t_end]".to_string(),
+            ));
+        }
+        let mut next = 0usize;
+        let mut out = [T::zero(); N];
+        let mut last_out = *x0;
+        let mut stopped = false;
+        let mut summary = self.drive(stepper, field, x0, t_last, |s, step, t, x| {
+            while next < times.len() && times[next] <= t {
+                let ti = times[next];
+                if step == 0 || ti == t {
+                    out = *x;
+                } else if !s.interpolate(ti, &mut out) {
+                    out = *x;
+                }
+                last_out = out;
+                let c = observer.observe(next as u64, ti, &out);
+                next += 1;
+                if c == Control::Stop {
+                    stopped = true;
+                    return Control::Stop;
+                }
+            }
+            Control::Continue
+        })?;
+        summary.stopped_by_observer = stopped;
+        let t_done = if next > 0 { times[next - 1] } else { self.t0 };
+        observer.finish(next as u64, t_done, &last_out);
+        Ok(summary)
+    }
+}
+
+/// Integrates `field` from `(t0, x0)` to `t_end` with `stepper` and step `h` (the initial step
+/// for adaptive steppers; `h = 0` chooses it automatically), calling `observer` after each
+/// accepted step. Shortcut for `Driver::new(t0, t_end, h).run(stepper, field, x0, observer)`.
+///
+/// ```
+/// use lasalle_runtime::{integrate, ExplicitRk, Field};
+/// struct Osc;
+/// impl Field<f64, 2> for Osc {
+///     fn field(&self, x: &[f64; 2], dx: &mut [f64; 2]) { dx[0] = x[1]; dx[1] = -x[0]; }
+/// }
+/// let end = integrate(&mut ExplicitRk::rk4(), &Osc, &[1.0, 0.0], 0.0, 1.0, 0.01, &mut ()).unwrap();
+/// assert_eq!(end.steps, 100);
+/// assert!((end.x[0] - 1f64.cos()).abs() < 1e-9);
+/// ```
+pub fn integrate<T, F, S, O, const N: usize>(
+    stepper: &mut S,
+    field: &F,
+    x0: &[T; N],
+    t0: T,
+    t_end: T,
+    h: T,
+    observer: &mut O,
+) -> Result<Summary<T, N>, StepError>
+where
+    T: Float,
+    F: ?Sized,
+    S: Stepper<T, N, F>,
+    O: Observer<T, N> + ?Sized,
+{
+    Driver::new(t0, t_end, h).run(stepper, field, x0, observer)
+}

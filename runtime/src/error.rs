@@ -1,0 +1,155 @@
+//! [`StepError`]: why a step or an integration stopped early, with the time, step and state.
+//!
+//! Every variant carries the time `t`, the step size `h` being attempted and the state at
+//! which the failure was detected (converted to `f64`), so a caller can always report *where*
+//! an integration went wrong (diffsol's `StepSizeTooSmall { time }` habit). The state vector is
+//! only built on the error path; the stepping loop itself does not allocate.
+
+use num_traits::Float;
+
+/// Converts a state into the `Vec<f64>` stored in a [`StepError`].
+pub(crate) fn state_to_vec<T: Float, const N: usize>(x: &[T; N]) -> Vec<f64> {
+    x.iter().map(|v| v.to_f64().unwrap_or(f64::NAN)).collect()
+}
+
+/// Converts a scalar into `f64` for an error message.
+pub(crate) fn to_f64<T: Float>(v: T) -> f64 {
+    v.to_f64().unwrap_or(f64::NAN)
+}
+
+/// An integration failed: the error says why, at which time and step, and in which state.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum StepError {
+    /// The state (or the field evaluated at it) contains NaN or ±∞: the solution blew up.
+    #[error("blow-up: non-finite {what} at t = {t} (h = {h}); state = {state:?}")]
+    NonFinite {
+        /// What was non-finite: `"state"` or `"field"`.
+        what: &'static str,
+        /// Time at which the non-finite value was detected.
+        t: f64,
+        /// Step size of the step that produced it.
+        h: f64,
+        /// The state (after the step for `"state"`, before it for `"field"`).
+        state: Vec<f64>,
+    },
+    /// An adaptive stepper needed a step below the smallest admissible one.
+    #[error("step size too small at t = {t}: h = {h} < h_min = {h_min}; state = {state:?}")]
+    StepSizeTooSmall {
+        /// Time at the start of the failed step.
+        t: f64,
+        /// The rejected step size.
+        h: f64,
+        /// The smallest admissible step at this time.
+        h_min: f64,
+        /// The state at the start of the failed step.
+        state: Vec<f64>,
+    },
+    /// An adaptive stepper rejected too many consecutive trial steps.
+    #[error("too many rejected steps at t = {t}: {rejections} in a row (last h = {h}); state = {state:?}")]
+    TooManyRejections {
+        /// Time at the start of the failed step.
+        t: f64,
+        /// The last trial step size.
+        h: f64,
+        /// Number of consecutive rejections.
+        rejections: u32,
+        /// The state at the start of the failed step.
+        state: Vec<f64>,
+    },
+    /// The driver reached its step budget before the end time.
+    #[error("maximum number of steps ({steps}) reached at t = {t} (h = {h}); state = {state:?}")]
+    MaxSteps {
+        /// Time reached.
+        t: f64,
+        /// The current step size.
+        h: f64,
+        /// The step budget.
+        steps: u64,
+        /// The state reached.
+        state: Vec<f64>,
+    },
+    /// The simplified Newton iteration of the projection method did not reach its tolerance.
+    #[error(
+        "projection did not converge at t = {t} (h = {h}): |f(x) - f(x0)| = {residual} > tol = {tol} \
+         after {iterations} iterations; state = {state:?}"
+    )]
+    ProjectionNotConverged {
+        /// Time at the end of the step being projected.
+        t: f64,
+        /// Step size of the base step.
+        h: f64,
+        /// Newton iterations performed.
+        iterations: u32,
+        /// Euclidean norm of the last residual f(x̃) − f(x₀).
+        residual: f64,
+        /// The requested tolerance.
+        tol: f64,
+        /// The last iterate x̃.
+        state: Vec<f64>,
+    },
+    /// A caller-supplied validity check (a guard, see [`crate::Driver::guard`]) failed.
+    #[error("guard failed at t = {t} (h = {h}): {message}; state = {state:?}")]
+    Guard {
+        /// Time of the offending state.
+        t: f64,
+        /// Step size of the step that produced it.
+        h: f64,
+        /// The guard's message.
+        message: String,
+        /// The offending state.
+        state: Vec<f64>,
+    },
+    /// The arguments of a stepper or of the driver are inconsistent (e.g. h ≤ 0, t_end < t₀).
+    #[error("invalid input: {0}")]
+    InvalidInput(String),
+}
+
+impl StepError {
+    /// The time at which the error occurred, if it has one.
+    pub fn time(&self) -> Option<f64> {
+        match self {
+            StepError::NonFinite { t, .. }
+            | StepError::StepSizeTooSmall { t, .. }
+            | StepError::TooManyRejections { t, .. }
+            | StepError::MaxSteps { t, .. }
+            | StepError::ProjectionNotConverged { t, .. }
+            | StepError::Guard { t, .. } => Some(*t),
+            StepError::InvalidInput(_) => None,
+        }
+    }
+
+    /// The state at which the error occurred, if it has one.
+    pub fn state(&self) -> Option<&[f64]> {
+        match self {
+            StepError::NonFinite { state, .. }
+            | StepError::StepSizeTooSmall { state, .. }
+            | StepError::TooManyRejections { state, .. }
+            | StepError::MaxSteps { state, .. }
+            | StepError::ProjectionNotConverged { state, .. }
+            | StepError::Guard { state, .. } => Some(state),
+            StepError::InvalidInput(_) => None,
+        }
+    }
+
+    /// A [`StepError::NonFinite`] for a state or field value.
+    pub(crate) fn non_finite<T: Float, const N: usize>(
+        what: &'static str,
+        t: T,
+        h: T,
+        x: &[T; N],
+    ) -> Self {
+        StepError::NonFinite {
+            what,
+            t: to_f64(t),
+            h: to_f64(h),
+            state: state_to_vec(x),
+        }
+    }
+}
+
+/// True when every component is finite.
+#[inline]
+pub(crate) fn all_finite<T: Float, const N: usize>(x: &[T; N]) -> bool {
+    x.iter().all(|v| v.is_finite())
+}

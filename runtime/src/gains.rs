@@ -1,0 +1,435 @@
+//! Gain selection for feedback integrators.
+//!
+//! For the default V = ½ ΔfᵀKΔf (Δf = f(x) − f(x₀), K = diag of the gains expanded per
+//! component, [`expand_gains`]) the Hessian of V at the target set is the Gauss–Newton matrix
+//! H_GN = Df(x)ᵀ K Df(x) (the term with second derivatives of f vanishes where Δf = 0). An
+//! explicit method sees −∇V as a contraction with rates up to L = ‖H_GN‖₂; explicit Euler is
+//! stable on it only for h·L < 2 (Chang et al. 2016, Appendix; see docs/equations.md §1), and
+//! h·L = 1 removes the error along the stiffest direction in one step. Following Bae & Chang,
+//! *Feedback integrators revisited* (arXiv:2512.01528), the gains are therefore chosen as
+//!
+//! ```text
+//! gains = α · unit,   α = c / (h · L(unit)),   0 < c < 2 (default 1),
+//! ```
+//!
+//! either once at x₀ ([`scaled_gains`], the "fixed" scaled gain) or re-estimated at the
+//! current state every m steps with a safety factor ([`AdaptiveGain`], the periodic adaptive
+//! gain). L is computed by power iteration ([`gauss_newton_norm`]); the trace of H_GN is a
+//! cheap upper bound ([`gauss_newton_trace`]). These formulas assume the default form of V.
+
+use std::str::FromStr;
+
+use num_traits::Float;
+
+use crate::error::StepError;
+use crate::feedback::{expand_gains, FeedbackField};
+use crate::field::{lit, Invariants, Lyapunov, ModelInfo};
+use crate::steppers::{StepOutcome, Stepper};
+
+/// The Gauss–Newton Hessian H_GN = Df(x)ᵀ K Df(x) ∈ R^{N×N} of V = ½ΔfᵀKΔf.
+pub fn gauss_newton_hessian<Mdl, T, const N: usize, const M: usize, const G: usize>(
+    model: &Mdl,
+    x: &[T; N],
+    gains: &[T; G],
+) -> [[T; N]; N]
+where
+    Mdl: Invariants<T, N, M> + ModelInfo + ?Sized,
+    T: Float,
+{
+    let k = expand_gains::<Mdl, T, G, M>(gains);
+    let mut jac = [[T::zero(); N]; M];
+    model.invariants_jacobian(x, &mut jac);
+    let mut h = [[T::zero(); N]; N];
+    for (row, &ki) in jac.iter().zip(k.iter()) {
+        if ki == T::zero() {
+            continue;
+        }
+        for a in 0..N {
+            let kr = ki * row[a];
+            if kr == T::zero() {
+                continue;
+            }
+            for b in 0..N {
+                h[a][b] = h[a][b] + kr * row[b];
+            }
+        }
+    }
+    h
+}
+
+/// The largest eigenvalue of a symmetric positive semi-definite matrix by power iteration
+/// with Rayleigh quotients (Golub & Van Loan, *Matrix Computations*, 4th ed., §8.2.1), from a
+/// fixed generic start vector, stopping when the estimate changes by less than `rel_tol`
+/// (relative) or after `max_iter` iterations. Allocation free; a lower bound that converges to
+/// ‖A‖₂.
+pub fn symmetric_spectral_norm<T: Float, const N: usize>(
+    a: &[[T; N]; N],
+    max_iter: u32,
+    rel_tol: T,
+) -> T {
+    let mut v = [T::zero(); N];
+    for (i, vi) in v.iter_mut().enumerate() {
+        // a start vector with no special structure (golden-ratio offsets)
+        let frac = (i as f64 * 0.618_033_988_749_895).fract();
+        *vi = lit(1.0 + frac);
+    }
+    let norm = |v: &[T; N]| v.iter().fold(T::zero(), |s, x| s + *x * *x).sqrt();
+    let mut lambda = T::zero();
+    for _ in 0..max_iter.max(1) {
+        let nv = norm(&v);
+        if !(nv > T::zero()) {
+            return T::zero();
+        }
+        for vi in v.iter_mut() {
+            *vi = *vi / nv;
+        }
+        let mut w = [T::zero(); N];
+        for i in 0..N {
+            for j in 0..N {
+                w[i] = w[i] + a[i][j] * v[j];
+            }
+        }
+        let rayleigh = v.iter().zip(w.iter()).fold(T::zero(), |s, (p, q)| s + *p * *q);
+        let done = (rayleigh - lambda).abs() <= rel_tol * rayleigh.abs();
+        lambda = rayleigh;
+        v = w;
+        if done {
+            break;
+        }
+    }
+    lambda
+}
+
+/// L = ‖Df(x)ᵀ K Df(x)‖₂ by power iteration (at most 200 iterations, relative tolerance 1e-8).
+pub fn gauss_newton_norm<Mdl, T, const N: usize, const M: usize, const G: usize>(
+    model: &Mdl,
+    x: &[T; N],
+    gains: &[T; G],
+) -> T
+where
+    Mdl: Invariants<T, N, M> + ModelInfo + ?Sized,
+    T: Float,
+{
+    let h = gauss_newton_hessian::<Mdl, T, N, M, G>(model, x, gains);
+    symmetric_spectral_norm(&h, 200, lit(1e-8))
+}
+
+/// tr(Df(x)ᵀ K Df(x)) = Σᵢ kᵢ |∇fᵢ(x)|² — a cheap upper bound on L (H_GN is positive
+/// semi-definite).
+pub fn gauss_newton_trace<Mdl, T, const N: usize, const M: usize, const G: usize>(
+    model: &Mdl,
+    x: &[T; N],
+    gains: &[T; G],
+) -> T
+where
+    Mdl: Invariants<T, N, M> + ModelInfo + ?Sized,
+    T: Float,
+{
+    let k = expand_gains::<Mdl, T, G, M>(gains);
+    let mut jac = [[T::zero(); N]; M];
+    model.invariants_jacobian(x, &mut jac);
+    jac.iter()
+        .zip(k.iter())
+        .fold(T::zero(), |s, (row, &ki)| {
+            s + ki * row.iter().fold(T::zero(), |r, v| r + *v * *v)
+        })
+}
+
+/// Why gains could not be chosen.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum GainError {
+    /// ‖H_GN‖₂ is zero or not finite at the state (e.g. the Jacobian vanishes).
+    #[error("cannot scale gains: |Df^T K Df| = {0} at the state")]
+    Degenerate(f64),
+    /// Explicit gains with the wrong count.
+    #[error("expected {expected} gains, got {got}")]
+    WrongCount {
+        /// The model's number of gains.
+        expected: usize,
+        /// The number given.
+        got: usize,
+    },
+    /// A gain specification that does not parse.
+    #[error("invalid gain specification `{0}`: expected `default`, `auto`, `fixed[:c]`, `adaptive[:m[:c]]` or `k1,k2,...`")]
+    Parse(String),
+    /// A non-positive or non-finite step size, or c outside (0, 2).
+    #[error("invalid gain parameter: {0}")]
+    Invalid(String),
+}
+
+/// The scaled fixed gain: `unit · c/(h·L)` with L = [`gauss_newton_norm`] at `x` for the
+/// `unit` gains, so that h·‖∇²V‖₂ ≈ c near x (Bae & Chang; see the module docs).
+pub fn scaled_gains<Mdl, T, const N: usize, const M: usize, const G: usize>(
+    model: &Mdl,
+    x: &[T; N],
+    unit: &[T; G],
+    h: T,
+    c: T,
+) -> Result<[T; G], GainError>
+where
+    Mdl: Invariants<T, N, M> + ModelInfo + ?Sized,
+    T: Float,
+{
+    if !(h > T::zero() && h.is_finite()) {
+        return Err(GainError::Invalid(format!(
+            "step size h = {}",
+            h.to_f64().unwrap_or(f64::NAN)
+        )));
+    }
+    let l = gauss_newton_norm::<Mdl, T, N, M, G>(model, x, unit);
+    if !(l > T::zero() && l.is_finite()) {
+        return Err(GainError::Degenerate(l.to_f64().unwrap_or(f64::NAN)));
+    }
+    let alpha = c / (h * l);
+    Ok(unit.map(|k| k * alpha))
+}
+
+/// A stepper wrapper for feedback fields that re-chooses the gains every `every` steps as
+/// `unit · safety·c/(h·L(x))` at the current state (the periodic adaptive gain of Bae & Chang),
+/// writing them into the [`FeedbackField`] through [`FeedbackField::set_gains`].
+///
+/// If L is degenerate at some state the previous gains are kept.
+#[derive(Clone, Debug)]
+pub struct AdaptiveGain<S, T, const G: usize> {
+    base: S,
+    unit: [T; G],
+    c: T,
+    safety: T,
+    every: u64,
+    steps: u64,
+    last_norm: T,
+}
+
+impl<S, T: Float, const G: usize> AdaptiveGain<S, T, G> {
+    /// Wraps `base`; defaults `c = 1`, `safety = 0.8`, re-estimation every `every` steps
+    /// (0 is treated as 1).
+    pub fn new(base: S, unit: [T; G], every: u64) -> Self {
+        AdaptiveGain {
+            base,
+            unit,
+            c: T::one(),
+            safety: lit(0.8),
+            every: every.max(1),
+            steps: 0,
+            last_norm: T::nan(),
+        }
+    }
+
+    /// Sets c ∈ (0, 2) (default 1).
+    pub fn c(mut self, c: T) -> Self {
+        self.c = c;
+        self
+    }
+
+    /// Sets the safety factor (default 0.8).
+    pub fn safety(mut self, safety: T) -> Self {
+        self.safety = safety;
+        self
+    }
+
+    /// The last estimate of L = ‖H_GN‖₂ for the unit gains (NaN before the first step).
+    pub fn last_norm(&self) -> T {
+        self.last_norm
+    }
+
+    /// The wrapped stepper.
+    pub fn base(&self) -> &S {
+        &self.base
+    }
+}
+
+impl<'a, S, Mdl, T, const N: usize, const M: usize, const G: usize>
+    Stepper<T, N, FeedbackField<'a, Mdl, T, N, M, G>> for AdaptiveGain<S, T, G>
+where
+    S: Stepper<T, N, FeedbackField<'a, Mdl, T, N, M, G>>,
+    Mdl: Lyapunov<T, N, M, G> + ModelInfo + ?Sized,
+    T: Float,
+{
+    fn step(
+        &mut self,
+        field: &FeedbackField<'a, Mdl, T, N, M, G>,
+        t: T,
+        x: &mut [T; N],
+        h: T,
+    ) -> Result<StepOutcome<T>, StepError> {
+        if self.steps % self.every == 0 && h > T::zero() {
+            let l = gauss_newton_norm::<Mdl, T, N, M, G>(field.model(), x, &self.unit);
+            if l > T::zero() && l.is_finite() {
+                self.last_norm = l;
+                let alpha = self.safety * self.c / (h * l);
+                field.set_gains(self.unit.map(|k| k * alpha));
+            }
+        }
+        self.steps += 1;
+        self.base.step(field, t, x, h)
+    }
+
+    fn order(&self) -> u32 {
+        self.base.order()
+    }
+
+    fn name(&self) -> String {
+        format!("adaptive-gain({})", self.base.name())
+    }
+
+    fn is_adaptive(&self) -> bool {
+        self.base.is_adaptive()
+    }
+
+    fn reset(&mut self) {
+        self.steps = 0;
+        self.base.reset()
+    }
+}
+
+/// How to choose the gains of a feedback integrator (the CLI's `--gains`).
+///
+/// | text | policy |
+/// | --- | --- |
+/// | `default` | the gains written in the model file ([`ModelInfo::DEFAULT_GAINS`]) |
+/// | `auto` | same as `fixed` with c = 1 (the recommended automatic choice) |
+/// | `fixed`, `fixed:c` | [`scaled_gains`] at x₀ with unit gains and c (default 1) |
+/// | `adaptive`, `adaptive:m`, `adaptive:m:c` | [`AdaptiveGain`] every m steps (default 100), c (default 1) |
+/// | `k1,k2,…` | these gains |
+#[derive(Clone, Debug, PartialEq)]
+pub enum GainPolicy {
+    /// The model file's default gains.
+    ModelDefault,
+    /// The scaled fixed gain c/(h·L) at x₀ times unit gains.
+    Scaled {
+        /// The target h·L, in (0, 2).
+        c: f64,
+    },
+    /// The periodic adaptive gain.
+    Adaptive {
+        /// Re-estimation period in steps.
+        every: u64,
+        /// The target h·L, in (0, 2).
+        c: f64,
+    },
+    /// Explicit gains.
+    Explicit(Vec<f64>),
+}
+
+impl FromStr for GainPolicy {
+    type Err = GainError;
+
+    fn from_str(s: &str) -> Result<Self, GainError> {
+        let bad = || GainError::Parse(s.to_string());
+        let num = |p: &str| p.trim().parse::<f64>().map_err(|_| bad());
+        let check_c = |c: f64| {
+            if c > 0.0 && c < 2.0 {
+                Ok(c)
+            } else {
+                Err(GainError::Invalid(format!("c = {c} is not in (0, 2)")))
+            }
+        };
+        let mut parts = s.trim().split(':');
+        let head = parts.next().unwrap_or("");
+        let rest: Vec<&str> = parts.collect();
+        match head {
+            "default" | "model" if rest.is_empty() => Ok(GainPolicy::ModelDefault),
+            "auto" if rest.is_empty() => Ok(GainPolicy::Scaled { c: 1.0 }),
+            "fixed" => match rest.as_slice() {
+                [] => Ok(GainPolicy::Scaled { c: 1.0 }),
+                [c] => Ok(GainPolicy::Scaled {
+                    c: check_c(num(c)?)?,
+                }),
+                _ => Err(bad()),
+            },
+            "adaptive" => {
+                let every = match rest.first() {
+                    None => 100,
+                    Some(m) => m.trim().parse::<u64>().map_err(|_| bad())?,
+                };
+                let c = match rest.get(1) {
+                    None => 1.0,
+                    Some(c) => check_c(num(c)?)?,
+                };
+                if rest.len() > 2 {
+                    return Err(bad());
+                }
+                Ok(GainPolicy::Adaptive { every, c })
+            }
+            _ if rest.is_empty() => {
+                let gains = head.split(',').map(num).collect::<Result<Vec<_>, _>>()?;
+                if gains.iter().any(|g| !g.is_finite()) {
+                    return Err(bad());
+                }
+                Ok(GainPolicy::Explicit(gains))
+            }
+            _ => Err(bad()),
+        }
+    }
+}
+
+impl GainPolicy {
+    /// The gains to start with at x₀ for step size h (for `Adaptive`, the scaled gains at x₀;
+    /// wrap the stepper in [`AdaptiveGain`] to keep adapting them).
+    pub fn initial_gains<Mdl, T, const N: usize, const M: usize, const G: usize>(
+        &self,
+        model: &Mdl,
+        x0: &[T; N],
+        h: T,
+    ) -> Result<[T; G], GainError>
+    where
+        Mdl: Invariants<T, N, M> + ModelInfo + ?Sized,
+        T: Float,
+    {
+        let from = |v: &[f64]| -> Result<[T; G], GainError> {
+            if v.len() != G {
+                return Err(GainError::WrongCount {
+                    expected: G,
+                    got: v.len(),
+                });
+            }
+            Ok(std::array::from_fn(|i| lit(v[i])))
+        };
+        match self {
+            GainPolicy::ModelDefault => from(Mdl::DEFAULT_GAINS),
+            GainPolicy::Explicit(v) => from(v),
+            GainPolicy::Scaled { c } | GainPolicy::Adaptive { c, .. } => {
+                scaled_gains::<Mdl, T, N, M, G>(model, x0, &[T::one(); G], h, lit(*c))
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn power_iteration_finds_largest_eigenvalue() {
+        // eigenvalues 5, 2, 0 (rank deficient, like H_GN)
+        let q = [
+            [1.0 / 3f64.sqrt(), 1.0 / 2f64.sqrt(), 1.0 / 6f64.sqrt()],
+            [1.0 / 3f64.sqrt(), -1.0 / 2f64.sqrt(), 1.0 / 6f64.sqrt()],
+            [1.0 / 3f64.sqrt(), 0.0, -2.0 / 6f64.sqrt()],
+        ];
+        let d = [5.0, 2.0, 0.0];
+        let a: [[f64; 3]; 3] =
+            std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| q[i][k] * d[k] * q[j][k]).sum()));
+        let l = symmetric_spectral_norm(&a, 200, 1e-12);
+        assert!((l - 5.0).abs() < 1e-9, "{l}");
+    }
+
+    #[test]
+    fn parse_policies() {
+        assert_eq!("default".parse::<GainPolicy>().unwrap(), GainPolicy::ModelDefault);
+        assert_eq!("auto".parse::<GainPolicy>().unwrap(), GainPolicy::Scaled { c: 1.0 });
+        assert_eq!("fixed:0.5".parse::<GainPolicy>().unwrap(), GainPolicy::Scaled { c: 0.5 });
+        assert_eq!(
+            "adaptive:10:1.5".parse::<GainPolicy>().unwrap(),
+            GainPolicy::Adaptive { every: 10, c: 1.5 }
+        );
+        assert_eq!(
+            "4,2".parse::<GainPolicy>().unwrap(),
+            GainPolicy::Explicit(vec![4.0, 2.0])
+        );
+        assert!("fixed:3".parse::<GainPolicy>().is_err());
+        assert!("bogus".parse::<GainPolicy>().is_err());
+        assert!("1,x".parse::<GainPolicy>().is_err());
+    }
+}

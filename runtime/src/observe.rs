@@ -1,0 +1,345 @@
+//! Observers: what happens to the state after each accepted step.
+//!
+//! The driver ([`crate::Driver`]) calls [`Observer::observe`] at the initial point (step 0) and
+//! after every accepted step, and [`Observer::finish`] once at the end. An observer may stop
+//! the integration by returning [`Control::Stop`]. Adapters thin out the samples ([`Stride`])
+//! or add a stop condition ([`StopWhen`]); [`Recorder`] stores states and invariant errors in
+//! preallocated vectors.
+
+use std::ops::Range;
+
+use num_traits::Float;
+
+use crate::field::{Invariants, ModelInfo};
+
+/// Whether the integration should go on after an observation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Control {
+    /// Keep integrating.
+    Continue,
+    /// Stop now; the driver returns successfully with `stopped_by_observer = true`.
+    Stop,
+}
+
+/// Called with `(step, t, x)` at the initial point (step 0) and after each accepted step
+/// (`step` = number of accepted steps so far). With dense output
+/// ([`crate::Driver::run_dense`]) `step` is the index of the output time instead.
+pub trait Observer<T, const N: usize> {
+    /// Observes the state `x` at time `t`; return [`Control::Stop`] to end the integration.
+    fn observe(&mut self, step: u64, t: T, x: &[T; N]) -> Control;
+
+    /// Called once when the integration ends without error (end time reached or stopped by an
+    /// observer), with the final step count, time and state. The default does nothing.
+    fn finish(&mut self, _step: u64, _t: T, _x: &[T; N]) {}
+}
+
+/// The observer that observes nothing.
+impl<T, const N: usize> Observer<T, N> for () {
+    fn observe(&mut self, _step: u64, _t: T, _x: &[T; N]) -> Control {
+        Control::Continue
+    }
+}
+
+/// Any closure `FnMut(step, t, &x) -> Control` is an observer.
+impl<T, const N: usize, C: FnMut(u64, T, &[T; N]) -> Control> Observer<T, N> for C {
+    fn observe(&mut self, step: u64, t: T, x: &[T; N]) -> Control {
+        self(step, t, x)
+    }
+}
+
+/// Both observers see every observation; the integration stops if either asks to.
+impl<T: Copy, const N: usize, A: Observer<T, N>, B: Observer<T, N>> Observer<T, N> for (A, B) {
+    fn observe(&mut self, step: u64, t: T, x: &[T; N]) -> Control {
+        let a = self.0.observe(step, t, x);
+        let b = self.1.observe(step, t, x);
+        if a == Control::Stop || b == Control::Stop {
+            Control::Stop
+        } else {
+            Control::Continue
+        }
+    }
+
+    fn finish(&mut self, step: u64, t: T, x: &[T; N]) {
+        self.0.finish(step, t, x);
+        self.1.finish(step, t, x);
+    }
+}
+
+/// Forwards every `every`-th observation (steps 0, n, 2n, …) and, at the end, the final state
+/// if it was not forwarded already.
+#[derive(Clone, Debug)]
+pub struct Stride<O> {
+    /// The wrapped observer.
+    pub inner: O,
+    every: u64,
+    last: Option<u64>,
+}
+
+impl<O> Stride<O> {
+    /// Forwards steps 0, `every`, 2·`every`, … to `inner` (`every` = 0 is treated as 1).
+    pub fn new(inner: O, every: u64) -> Self {
+        Stride {
+            inner,
+            every: every.max(1),
+            last: None,
+        }
+    }
+}
+
+impl<T: Copy, const N: usize, O: Observer<T, N>> Observer<T, N> for Stride<O> {
+    fn observe(&mut self, step: u64, t: T, x: &[T; N]) -> Control {
+        if step % self.every == 0 {
+            self.last = Some(step);
+            self.inner.observe(step, t, x)
+        } else {
+            Control::Continue
+        }
+    }
+
+    fn finish(&mut self, step: u64, t: T, x: &[T; N]) {
+        if self.last != Some(step) {
+            self.last = Some(step);
+            // the integration is over: a stop request is moot
+            let _ = self.inner.observe(step, t, x);
+        }
+        self.inner.finish(step, t, x);
+    }
+}
+
+/// Stops the integration when `stop(t, x)` becomes true (after passing that observation on).
+#[derive(Clone, Debug)]
+pub struct StopWhen<O, P> {
+    /// The wrapped observer.
+    pub inner: O,
+    stop: P,
+}
+
+impl<O, P> StopWhen<O, P> {
+    /// Wraps `inner`, stopping when `stop(t, x)` returns true.
+    pub fn new(inner: O, stop: P) -> Self {
+        StopWhen { inner, stop }
+    }
+}
+
+impl<T: Copy, const N: usize, O: Observer<T, N>, P: FnMut(T, &[T; N]) -> bool> Observer<T, N>
+    for StopWhen<O, P>
+{
+    fn observe(&mut self, step: u64, t: T, x: &[T; N]) -> Control {
+        let c = self.inner.observe(step, t, x);
+        if c == Control::Stop || (self.stop)(t, x) {
+            Control::Stop
+        } else {
+            Control::Continue
+        }
+    }
+
+    fn finish(&mut self, step: u64, t: T, x: &[T; N]) {
+        self.inner.finish(step, t, x);
+    }
+}
+
+/// Records `(t, x)` every `every` steps (and the final state) into preallocated vectors.
+#[derive(Clone, Debug)]
+pub struct StateRecorder<T, const N: usize> {
+    /// Sample times.
+    pub t: Vec<T>,
+    /// Sampled states.
+    pub x: Vec<[T; N]>,
+    every: u64,
+    last: Option<u64>,
+}
+
+impl<T: Copy, const N: usize> StateRecorder<T, N> {
+    /// Records every `every`-th step (0 is treated as 1), with room for `capacity` samples.
+    pub fn new(every: u64, capacity: usize) -> Self {
+        StateRecorder {
+            t: Vec::with_capacity(capacity),
+            x: Vec::with_capacity(capacity),
+            every: every.max(1),
+            last: None,
+        }
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    /// True if nothing was recorded.
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    fn push(&mut self, step: u64, t: T, x: &[T; N]) {
+        self.last = Some(step);
+        self.t.push(t);
+        self.x.push(*x);
+    }
+}
+
+impl<T: Copy, const N: usize> Observer<T, N> for StateRecorder<T, N> {
+    fn observe(&mut self, step: u64, t: T, x: &[T; N]) -> Control {
+        if step % self.every == 0 {
+            self.push(step, t, x);
+        }
+        Control::Continue
+    }
+
+    fn finish(&mut self, step: u64, t: T, x: &[T; N]) {
+        if self.last != Some(step) {
+            self.push(step, t, x);
+        }
+    }
+}
+
+/// Number of samples a run of `steps` steps recorded every `every` steps produces (including
+/// the initial and the final sample) — the capacity to reserve.
+pub fn sample_capacity(steps: u64, every: u64) -> usize {
+    (steps / every.max(1) + 2) as usize
+}
+
+/// Records `t`, the state and each declared invariant's error ‖fᵢ(x) − fᵢ(x₀)‖ (Euclidean
+/// norm of the block; Frobenius for matrices) every `every` steps and at the end.
+///
+/// Storage is reserved up front; during the run a sample costs one evaluation of f and a push
+/// into vectors with enough capacity (no reallocation if the capacity was right).
+#[derive(Clone, Debug)]
+pub struct Recorder<'m, Mdl: ?Sized, T, const N: usize, const M: usize> {
+    model: &'m Mdl,
+    target: [T; M],
+    blocks: Vec<(&'static str, Range<usize>)>,
+    every: u64,
+    last: Option<u64>,
+    /// Sample times.
+    pub t: Vec<T>,
+    /// Sampled states.
+    pub x: Vec<[T; N]>,
+    /// Invariant errors, `blocks().len()` per sample, sample-major.
+    pub errors: Vec<T>,
+}
+
+impl<'m, Mdl, T, const N: usize, const M: usize> Recorder<'m, Mdl, T, N, M>
+where
+    Mdl: Invariants<T, N, M> + ?Sized,
+    T: Float,
+{
+    /// A recorder of the invariants declared by the model ([`ModelInfo::INVARIANTS`]) relative
+    /// to f(x₀), sampling every `every` steps, with room for `capacity` samples (see
+    /// [`sample_capacity`]).
+    pub fn new(model: &'m Mdl, x0: &[T; N], every: u64, capacity: usize) -> Self
+    where
+        Mdl: ModelInfo,
+    {
+        let blocks = Mdl::INVARIANTS
+            .iter()
+            .map(|i| (i.slot.name, i.slot.range()))
+            .collect();
+        Self::with_blocks(model, x0, blocks, every, capacity)
+    }
+
+    /// A recorder with explicitly given blocks `(name, index range in f)`.
+    pub fn with_blocks(
+        model: &'m Mdl,
+        x0: &[T; N],
+        blocks: Vec<(&'static str, Range<usize>)>,
+        every: u64,
+        capacity: usize,
+    ) -> Self {
+        let mut target = [T::zero(); M];
+        model.invariants(x0, &mut target);
+        let nb = blocks.len();
+        Recorder {
+            model,
+            target,
+            blocks,
+            every: every.max(1),
+            last: None,
+            t: Vec::with_capacity(capacity),
+            x: Vec::with_capacity(capacity),
+            errors: Vec::with_capacity(capacity * nb),
+        }
+    }
+
+    /// The recorded blocks (name, range in the stacked f).
+    pub fn blocks(&self) -> &[(&'static str, Range<usize>)] {
+        &self.blocks
+    }
+
+    /// The target f(x₀).
+    pub fn target(&self) -> &[T; M] {
+        &self.target
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    /// True if nothing was recorded.
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    /// The invariant errors of sample `i`, one per block.
+    pub fn errors_at(&self, i: usize) -> &[T] {
+        let nb = self.blocks.len();
+        &self.errors[i * nb..(i + 1) * nb]
+    }
+
+    /// The error series of block `b` over all samples.
+    pub fn error_series(&self, b: usize) -> impl Iterator<Item = T> + '_ {
+        let nb = self.blocks.len();
+        self.errors.iter().skip(b).step_by(nb.max(1)).copied()
+    }
+
+    /// The largest recorded error of block `b` (NaN-propagating).
+    pub fn max_error(&self, b: usize) -> T {
+        self.error_series(b).fold(T::zero(), |m, e| {
+            if e.is_nan() || m.is_nan() {
+                T::nan()
+            } else {
+                m.max(e)
+            }
+        })
+    }
+
+    /// The index of the block called `name`.
+    pub fn block_index(&self, name: &str) -> Option<usize> {
+        self.blocks.iter().position(|(n, _)| *n == name)
+    }
+
+    fn push(&mut self, step: u64, t: T, x: &[T; N]) {
+        self.last = Some(step);
+        let mut f = [T::zero(); M];
+        self.model.invariants(x, &mut f);
+        self.t.push(t);
+        self.x.push(*x);
+        for (_, range) in &self.blocks {
+            let mut s = T::zero();
+            for i in range.clone() {
+                let d = f[i] - self.target[i];
+                s = s + d * d;
+            }
+            self.errors.push(s.sqrt());
+        }
+    }
+}
+
+impl<Mdl, T, const N: usize, const M: usize> Observer<T, N> for Recorder<'_, Mdl, T, N, M>
+where
+    Mdl: Invariants<T, N, M> + ?Sized,
+    T: Float,
+{
+    fn observe(&mut self, step: u64, t: T, x: &[T; N]) -> Control {
+        if step % self.every == 0 {
+            self.push(step, t, x);
+        }
+        Control::Continue
+    }
+
+    fn finish(&mut self, step: u64, t: T, x: &[T; N]) {
+        if self.last != Some(step) {
+            self.push(step, t, x);
+        }
+    }
+}
