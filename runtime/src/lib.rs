@@ -30,6 +30,7 @@ mod field;
 mod gains;
 mod observe;
 mod output;
+mod params;
 pub mod steppers;
 
 pub use driver::{integrate, Driver, GuardFn, Summary};
@@ -46,6 +47,7 @@ pub use gains::{
 pub use observe::{
     sample_capacity, Control, Observer, Recorder, StateRecorder, StopWhen, Stride,
 };
+pub use params::{ParamError, Parameters};
 pub use output::{component_names, write_csv};
 pub use steppers::{
     pivoted_cholesky_solve, DenseOutput, DormandPrince, DormandPrinceOptions, Euler, ExplicitRk,
