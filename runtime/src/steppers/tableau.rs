@@ -190,9 +190,22 @@ mod tests {
         let ac = |i: usize| (0..7).map(|j| a[i][j] * c[j]).sum::<f64>();
         assert!((sum(&|i| b[i] * ac(i)) - 1.0 / 6.0).abs() < 1e-14);
         assert!((sum(&|i| b[i] * c[i] * ac(i)) - 1.0 / 8.0).abs() < 1e-14);
-        // the embedded method is of order 4
+        // the embedded method satisfies the 8 conditions of order 4 (HNW I, Table 2.1) but
+        // not all of order 5
         let bh = t.b_hat.unwrap();
-        assert!((sum(&|i| bh[i] * c[i].powi(3)) - 0.25).abs() < 1e-14);
+        let ac2 = |i: usize| (0..7).map(|j| a[i][j] * c[j] * c[j]).sum::<f64>();
+        let aac = |i: usize| (0..7).map(|j| a[i][j] * ac(j)).sum::<f64>();
+        for w in [b, bh] {
+            let s = |f: &dyn Fn(usize) -> f64| (0..7).map(|i| w[i] * f(i)).sum::<f64>();
+            assert!((s(&|_| 1.0) - 1.0).abs() < 1e-14);
+            assert!((s(&|i| c[i]) - 0.5).abs() < 1e-14);
+            assert!((s(&|i| c[i] * c[i]) - 1.0 / 3.0).abs() < 1e-14);
+            assert!((s(&ac) - 1.0 / 6.0).abs() < 1e-14);
+            assert!((s(&|i| c[i].powi(3)) - 0.25).abs() < 1e-14);
+            assert!((s(&|i| c[i] * ac(i)) - 1.0 / 8.0).abs() < 1e-14);
+            assert!((s(&ac2) - 1.0 / 12.0).abs() < 1e-14);
+            assert!((s(&aac) - 1.0 / 24.0).abs() < 1e-14);
+        }
         assert!((sum(&|i| bh[i] * c[i].powi(4)) - 0.2).abs() > 1e-6);
     }
 }
