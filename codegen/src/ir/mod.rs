@@ -214,6 +214,11 @@ impl Graph {
         self.intern(Node::Input(input))
     }
 
+    /// The Id of a node if it is already in the graph (no insertion).
+    pub fn find(&self, node: &Node) -> Option<Id> {
+        self.index.get(node).copied()
+    }
+
     /// The value of a numeric node.
     pub fn as_num(&self, id: Id) -> Option<f64> {
         match self.node(id) {

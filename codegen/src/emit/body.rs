@@ -1,0 +1,304 @@
+//! Writes one function body: inputs bound once, shared subexpressions in named temporaries
+//! (common-subexpression elimination falls out of the hash-consed DAG), every output assigned
+//! under a comment that points at the model line it comes from.
+
+use super::names::Scope;
+use crate::ir::{Func, Graph, Id, Input, Node, Rational};
+use proc_macro2::{Literal, TokenStream};
+use quote::{format_ident, quote};
+use std::collections::HashMap;
+
+/// How leaves are read inside the function.
+pub struct Leaves<'a> {
+    /// Name and source expression (`x[3]`, `self.mu`, …) of an input.
+    pub input: &'a dyn Fn(Input) -> (String, TokenStream),
+    /// Preferred names for nodes that are `let` bindings of the model, with the note to print.
+    pub let_names: &'a HashMap<Id, (String, String)>,
+}
+
+/// One assignment of the function: `place = value;`, optionally under a note.
+pub struct Output {
+    /// The place written, e.g. `dx[3]`.
+    pub place: TokenStream,
+    /// The value.
+    pub id: Id,
+    /// A comment line shown above it (shown once for consecutive equal notes).
+    pub note: Option<String>,
+}
+
+/// A comment in generated code: a marker statement replaced by `// …` after formatting
+/// (token streams cannot carry comments).
+pub fn note(text: &str) -> TokenStream {
+    let lit = Literal::string(text);
+    quote!(lasalle_note!(#lit);)
+}
+
+/// Precedence of a rendered expression: what it can stand inside without parentheses.
+#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Prec {
+    Sum,
+    Product,
+    Unary,
+    Atom,
+}
+
+struct Writer<'a> {
+    g: &'a Graph,
+    named: HashMap<Id, TokenStream>,
+    scope: Scope,
+}
+
+/// The statements of a function computing `outputs`, with `reserved` names (arguments) taken.
+pub fn body(g: &Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str]) -> TokenStream {
+    let roots: Vec<Id> = outputs.iter().map(|o| o.id).collect();
+    let order = g.reachable(&roots);
+    let mut uses: HashMap<Id, usize> = HashMap::new();
+    for &id in &order {
+        for &c in g.children(id) {
+            *uses.entry(c).or_default() += 1;
+        }
+    }
+    for r in &roots {
+        *uses.entry(*r).or_default() += 1;
+    }
+    let mut w = Writer { g, named: HashMap::new(), scope: Scope::with(reserved) };
+    let mut stmts = Vec::new();
+    // Leaves, each read once.
+    for &id in &order {
+        if let Node::Input(i) = g.node(id) {
+            let (name, source) = (leaves.input)(*i);
+            let name = w.scope.fresh(&name);
+            let ident = format_ident!("{}", name);
+            stmts.push(quote!(let #ident = #source;));
+            w.named.insert(id, quote!(#ident));
+        }
+    }
+    // Shared or named subexpressions become temporaries, in topological order.
+    let mut temp = 0usize;
+    let mut last_note: Option<String> = None;
+    for &id in &order {
+        if matches!(g.node(id), Node::Num(_) | Node::Input(_)) {
+            continue;
+        }
+        let shared = uses.get(&id).copied().unwrap_or(0) >= 2;
+        let let_name = leaves.let_names.get(&id);
+        // A square root whose powers are needed elsewhere is named so `r.powi(3)` can reuse it.
+        if !(shared || let_name.is_some()) {
+            continue;
+        }
+        let name = match let_name {
+            Some((n, note_text)) => {
+                if last_note.as_deref() != Some(note_text) {
+                    stmts.push(note(note_text));
+                    last_note = Some(note_text.clone());
+                }
+                w.scope.fresh(n)
+            }
+            None => {
+                temp += 1;
+                w.scope.fresh(&format!("t{temp}"))
+            }
+        };
+        let value = w.render(id).0;
+        let ident = format_ident!("{}", name);
+        stmts.push(quote!(let #ident = #value;));
+        w.named.insert(id, quote!(#ident));
+    }
+    // Outputs.
+    for o in outputs {
+        if let Some(n) = &o.note {
+            if last_note.as_deref() != Some(n) {
+                stmts.push(note(n));
+                last_note = Some(n.clone());
+            }
+        }
+        let value = w.reference(o.id).0;
+        let place = &o.place;
+        stmts.push(quote!(#place = #value;));
+    }
+    quote!(#(#stmts)*)
+}
+
+/// A numeric literal as `T`.
+pub fn literal(x: f64) -> TokenStream {
+    if x == 0.0 {
+        quote!(T::zero())
+    } else if x == 1.0 {
+        quote!(T::one())
+    } else {
+        let l = Literal::f64_unsuffixed(x.abs());
+        if x < 0.0 {
+            quote!(lit::<T>(-#l))
+        } else {
+            quote!(lit::<T>(#l))
+        }
+    }
+}
+
+impl Writer<'_> {
+    fn wrap(&self, (ts, p): (TokenStream, Prec), min: Prec) -> TokenStream {
+        if p < min {
+            quote!((#ts))
+        } else {
+            ts
+        }
+    }
+
+    /// A reference to a node: its name if it has one, else its rendering.
+    fn reference(&self, id: Id) -> (TokenStream, Prec) {
+        if let Some(n) = self.named.get(&id) {
+            return (n.clone(), Prec::Atom);
+        }
+        self.render(id)
+    }
+
+    fn render(&self, id: Id) -> (TokenStream, Prec) {
+        match self.g.node(id) {
+            Node::Num(b) => {
+                let x = f64::from_bits(*b);
+                (literal(x), Prec::Atom)
+            }
+            Node::Input(_) => self.reference(id),
+            Node::Add(terms) => self.sum(terms),
+            Node::Mul(factors) => self.product(factors),
+            Node::Pow(b, e) => self.power(*b, *e),
+            Node::Func(f, a) => {
+                let a = self.wrap(self.reference(*a), Prec::Atom);
+                let ts = match f {
+                    Func::Exp => quote!(#a.exp()),
+                    Func::Ln => quote!(#a.ln()),
+                    Func::Sin => quote!(#a.sin()),
+                    Func::Cos => quote!(#a.cos()),
+                };
+                (ts, Prec::Atom)
+            }
+        }
+    }
+
+    /// A term's sign and magnitude: `−3xy → (true, 3xy)`.
+    fn signed(&self, id: Id) -> (bool, TokenStream, Prec) {
+        if !self.named.contains_key(&id) {
+            match self.g.node(id) {
+                Node::Num(b) if f64::from_bits(*b) < 0.0 => {
+                    return (true, literal(-f64::from_bits(*b)), Prec::Atom);
+                }
+                Node::Mul(fs) => {
+                    if let Some(c) = self.g.as_num(fs[0]).filter(|c| *c < 0.0) {
+                        let (ts, p) = self.product_with(-c, &fs[1..]);
+                        return (true, ts, p);
+                    }
+                }
+                _ => {}
+            }
+        }
+        let (ts, p) = self.reference(id);
+        (false, ts, p)
+    }
+
+    fn sum(&self, terms: &[Id]) -> (TokenStream, Prec) {
+        let mut parts: Vec<(bool, TokenStream, Prec)> = terms.iter().map(|&t| self.signed(t)).collect();
+        // Positive terms first reads best: `a + b − c` rather than `−c + a + b`.
+        parts.sort_by_key(|(neg, ..)| *neg);
+        let mut out = TokenStream::new();
+        for (k, (neg, ts, p)) in parts.into_iter().enumerate() {
+            let t = self.wrap((ts, p), Prec::Product);
+            out = match (k, neg) {
+                (0, false) => t,
+                (0, true) => quote!(-#t),
+                (_, false) => quote!(#out + #t),
+                (_, true) => quote!(#out - #t),
+            };
+        }
+        (out, Prec::Sum)
+    }
+
+    fn product(&self, factors: &[Id]) -> (TokenStream, Prec) {
+        match self.g.as_num(factors[0]) {
+            Some(c) if c < 0.0 => {
+                let inner = self.product_with(-c, &factors[1..]);
+                let inner = self.wrap(inner, Prec::Unary);
+                (quote!(-#inner), Prec::Unary)
+            }
+            Some(c) => self.product_with(c, &factors[1..]),
+            None => self.product_with(1.0, factors),
+        }
+    }
+
+    /// c · Π factors, with negative powers written as divisions.
+    fn product_with(&self, c: f64, factors: &[Id]) -> (TokenStream, Prec) {
+        let mut num: Vec<TokenStream> = Vec::new();
+        let mut den: Vec<TokenStream> = Vec::new();
+        if c != 1.0 {
+            num.push(literal(c));
+        }
+        for &f in factors {
+            match self.g.node(f) {
+                Node::Pow(b, e) if e.num < 0 && !self.named.contains_key(&f) => {
+                    let pos = Rational { num: -e.num, den: e.den };
+                    den.push(self.wrap(self.power_positive(*b, pos), Prec::Atom));
+                }
+                _ => num.push(self.wrap(self.reference(f), Prec::Unary)),
+            }
+        }
+        if num.is_empty() {
+            num.push(quote!(T::one()));
+        }
+        let mut ts = num[0].clone();
+        for n in &num[1..] {
+            ts = quote!(#ts * #n);
+        }
+        for d in &den {
+            ts = quote!(#ts / #d);
+        }
+        let p = if num.len() == 1 && den.is_empty() { Prec::Atom } else { Prec::Product };
+        (ts, p)
+    }
+
+    fn power(&self, b: Id, e: Rational) -> (TokenStream, Prec) {
+        if e.num < 0 {
+            let pos = self.wrap(self.power_positive(b, Rational { num: -e.num, den: e.den }), Prec::Atom);
+            return (quote!(T::one() / #pos), Prec::Product);
+        }
+        self.power_positive(b, e)
+    }
+
+    /// bᵉ for e > 0.
+    fn power_positive(&self, b: Id, e: Rational) -> (TokenStream, Prec) {
+        // Reuse a named bᵉ or √b when one exists in this function.
+        if let Some(id) = self.g.find(&Node::Pow(b, e)) {
+            if let Some(n) = self.named.get(&id) {
+                return (n.clone(), Prec::Atom);
+            }
+        }
+        let base = self.wrap(self.reference(b), Prec::Atom);
+        if e.is_int() {
+            let n = Literal::i32_unsuffixed(e.num);
+            if e.num == 1 {
+                return (base, Prec::Atom);
+            }
+            if e.num == 2 && self.named.contains_key(&b) {
+                return (quote!(#base * #base), Prec::Product);
+            }
+            return (quote!(#base.powi(#n)), Prec::Atom);
+        }
+        if e.den == 2 {
+            let root = self
+                .g
+                .find(&Node::Pow(b, Rational::new(1, 2)))
+                .and_then(|id| self.named.get(&id).cloned())
+                .unwrap_or_else(|| quote!(#base.sqrt()));
+            return match e.num {
+                1 => (root, Prec::Atom),
+                n => {
+                    let n = Literal::i32_unsuffixed(n);
+                    (quote!(#root.powi(#n)), Prec::Atom)
+                }
+            };
+        }
+        if e == Rational::new(1, 3) {
+            return (quote!(#base.cbrt()), Prec::Atom);
+        }
+        let p = literal(e.to_f64());
+        (quote!(#base.powf(#p)), Prec::Atom)
+    }
+}
