@@ -22,7 +22,7 @@ pub(crate) fn to_f64<T: Float>(v: T) -> f64 {
 #[non_exhaustive]
 pub enum StepError {
     /// The state (or the field evaluated at it) contains NaN or ±∞: the solution blew up.
-    #[error("blow-up: non-finite {what} at t = {t} (h = {h}); state = {state:?}")]
+    #[error("blow-up: non-finite {what} at t = {t} (h = {h:e}); state = {state:?}")]
     NonFinite {
         /// What was non-finite: `"state"` or `"field"`.
         what: &'static str,
@@ -34,7 +34,7 @@ pub enum StepError {
         state: Vec<f64>,
     },
     /// An adaptive stepper needed a step below the smallest admissible one.
-    #[error("step size too small at t = {t}: h = {h} < h_min = {h_min}; state = {state:?}")]
+    #[error("step size too small at t = {t}: h = {h:e} < h_min = {h_min:e}; state = {state:?}")]
     StepSizeTooSmall {
         /// Time at the start of the failed step.
         t: f64,
@@ -46,7 +46,7 @@ pub enum StepError {
         state: Vec<f64>,
     },
     /// An adaptive stepper rejected too many consecutive trial steps.
-    #[error("too many rejected steps at t = {t}: {rejections} in a row (last h = {h}); state = {state:?}")]
+    #[error("too many rejected steps at t = {t}: {rejections} in a row (last h = {h:e}); state = {state:?}")]
     TooManyRejections {
         /// Time at the start of the failed step.
         t: f64,
@@ -58,7 +58,7 @@ pub enum StepError {
         state: Vec<f64>,
     },
     /// The driver reached its step budget before the end time.
-    #[error("maximum number of steps ({steps}) reached at t = {t} (h = {h}); state = {state:?}")]
+    #[error("maximum number of steps ({steps}) reached at t = {t} (h = {h:e}); state = {state:?}")]
     MaxSteps {
         /// Time reached.
         t: f64,
@@ -71,7 +71,7 @@ pub enum StepError {
     },
     /// The simplified Newton iteration of the projection method did not reach its tolerance.
     #[error(
-        "projection did not converge at t = {t} (h = {h}): |f(x) - f(x0)| = {residual} > tol = {tol} \
+        "projection did not converge at t = {t} (h = {h:e}): |f(x) - f(x0)| = {residual:e} > tol = {tol:e} \
          after {iterations} iterations; state = {state:?}"
     )]
     ProjectionNotConverged {
@@ -89,7 +89,7 @@ pub enum StepError {
         state: Vec<f64>,
     },
     /// A caller-supplied validity check (a guard, see [`crate::Driver::guard`]) failed.
-    #[error("guard failed at t = {t} (h = {h}): {message}; state = {state:?}")]
+    #[error("guard failed at t = {t} (h = {h:e}): {message}; state = {state:?}")]
     Guard {
         /// Time of the offending state.
         t: f64,
