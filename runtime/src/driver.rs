@@ -270,9 +270,8 @@ impl<'g, T: Float, const N: usize> Driver<'g, T, N> {
         let mut summary = self.drive(stepper, field, x0, t_last, |s, step, t, x| {
             while next < times.len() && times[next] <= t {
                 let ti = times[next];
-                if step == 0 || ti == t {
-                    out = *x;
-                } else if !s.interpolate(ti, &mut out) {
+                let exact = step == 0 || ti == t;
+                if exact || !s.interpolate(ti, &mut out) {
                     out = *x;
                 }
                 last_out = out;

@@ -39,8 +39,7 @@ use crate::field::{Field, Invariants, Lyapunov, ModelInfo};
 /// The gains sit in a [`Cell`] so that a stepper wrapper (e.g. [`crate::AdaptiveGain`]) can
 /// change them between steps through a shared reference.
 #[derive(Debug)]
-pub struct FeedbackField<'a, Mdl: ?Sized, T: Copy, const N: usize, const M: usize, const G: usize>
-{
+pub struct FeedbackField<'a, Mdl: ?Sized, T: Copy, const N: usize, const M: usize, const G: usize> {
     model: &'a Mdl,
     target: [T; M],
     gains: Cell<[T; G]>,

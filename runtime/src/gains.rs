@@ -92,7 +92,10 @@ pub fn symmetric_spectral_norm<T: Float, const N: usize>(
                 w[i] = w[i] + a[i][j] * v[j];
             }
         }
-        let rayleigh = v.iter().zip(w.iter()).fold(T::zero(), |s, (p, q)| s + *p * *q);
+        let rayleigh = v
+            .iter()
+            .zip(w.iter())
+            .fold(T::zero(), |s, (p, q)| s + *p * *q);
         let done = (rayleigh - lambda).abs() <= rel_tol * rayleigh.abs();
         lambda = rayleigh;
         v = w;
@@ -131,11 +134,9 @@ where
     let k = expand_gains::<Mdl, T, G, M>(gains);
     let mut jac = [[T::zero(); N]; M];
     model.invariants_jacobian(x, &mut jac);
-    jac.iter()
-        .zip(k.iter())
-        .fold(T::zero(), |s, (row, &ki)| {
-            s + ki * row.iter().fold(T::zero(), |r, v| r + *v * *v)
-        })
+    jac.iter().zip(k.iter()).fold(T::zero(), |s, (row, &ki)| {
+        s + ki * row.iter().fold(T::zero(), |r, v| r + *v * *v)
+    })
 }
 
 /// Why gains could not be chosen.
@@ -412,20 +413,27 @@ mod tests {
             [1.0 / 3f64.sqrt(), 0.0, -2.0 / 6f64.sqrt()],
         ];
         let d = [5.0, 2.0, 0.0];
-        let a: [[f64; 3]; 3] =
-            std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| q[i][k] * d[k] * q[j][k]).sum()));
+        let a: [[f64; 3]; 3] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| (0..3).map(|k| q[i][k] * d[k] * q[j][k]).sum())
+        });
         let l = symmetric_spectral_norm(&a, 200, 1e-12);
         assert!((l - 5.0).abs() < 1e-9, "{l}");
     }
 
     #[test]
     fn parse_policies() {
-        assert_eq!("default".parse::<GainPolicy>().unwrap(), GainPolicy::ModelDefault);
+        assert_eq!(
+            "default".parse::<GainPolicy>().unwrap(),
+            GainPolicy::ModelDefault
+        );
         assert_eq!(
             "auto".parse::<GainPolicy>().unwrap(),
             GainPolicy::Adaptive { every: 100, c: 1.0 }
         );
-        assert_eq!("fixed:0.5".parse::<GainPolicy>().unwrap(), GainPolicy::Scaled { c: 0.5 });
+        assert_eq!(
+            "fixed:0.5".parse::<GainPolicy>().unwrap(),
+            GainPolicy::Scaled { c: 0.5 }
+        );
         assert_eq!(
             "adaptive:10:1.5".parse::<GainPolicy>().unwrap(),
             GainPolicy::Adaptive { every: 10, c: 1.5 }

@@ -22,6 +22,10 @@
 //! let end = integrate(&mut ExplicitRk::euler(), &fb, &x0, 0.0, t_end, h, &mut rec)?;
 //! ```
 #![warn(missing_docs)]
+// Numerical kernels index several arrays with the same loop variable.
+#![allow(clippy::needless_range_loop)]
+// `!(a > b)` is deliberate throughout: it is also true when a comparison involves NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 mod driver;
 mod error;
@@ -44,15 +48,13 @@ pub use gains::{
     gauss_newton_hessian, gauss_newton_norm, gauss_newton_trace, scaled_gains,
     symmetric_spectral_norm, AdaptiveGain, GainError, GainPolicy,
 };
-pub use observe::{
-    sample_capacity, Control, Observer, Recorder, StateRecorder, StopWhen, Stride,
-};
-pub use params::{ParamError, Parameters};
+pub use nalgebra;
+pub use num_traits;
+pub use observe::{sample_capacity, Control, Observer, Recorder, StateRecorder, StopWhen, Stride};
 pub use output::{component_names, write_csv};
+pub use params::{ParamError, Parameters};
 pub use steppers::{
     pivoted_cholesky_solve, DenseOutput, DormandPrince, DormandPrinceOptions, Euler, ExplicitRk,
     Heun, Projection, RigidBodySplitting, Rk4, StepOutcome, Stepper, StormerVerlet, Tableau,
     VerletVariant,
 };
-pub use nalgebra;
-pub use num_traits;

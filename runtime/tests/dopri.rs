@@ -2,6 +2,8 @@
 //! controller behaviour, on the e = 0.8 Kepler orbit of Chang et al. §4.2 (exact solution from
 //! Kepler's equation).
 
+#![allow(clippy::needless_range_loop)]
+
 mod common;
 
 use common::*;
@@ -75,18 +77,33 @@ fn dense_output_is_accurate() {
         let mut worst = 0.0f64;
         let mut count = 0;
         let end = Driver::new(0.0, t_end, 0.0)
-            .run_dense(&mut dp, &Kepler { mu: 1.0 }, &x0, &times, &mut |i: u64, t: f64, x: &[f64; 6]| {
-                assert_eq!(t, times[i as usize]);
-                worst = worst.max(dist(x, &ORBIT.exact(t)));
-                count += 1;
-                Control::Continue
-            })
+            .run_dense(
+                &mut dp,
+                &Kepler { mu: 1.0 },
+                &x0,
+                &times,
+                &mut |i: u64, t: f64, x: &[f64; 6]| {
+                    assert_eq!(t, times[i as usize]);
+                    worst = worst.max(dist(x, &ORBIT.exact(t)));
+                    count += 1;
+                    Control::Continue
+                },
+            )
             .unwrap();
-        eprintln!("dense tol {tol:e}: worst error {worst:.3e} over {count} outputs, {} steps", end.steps);
+        eprintln!(
+            "dense tol {tol:e}: worst error {worst:.3e} over {count} outputs, {} steps",
+            end.steps
+        );
         assert_eq!(count, times.len());
-        assert!(end.steps < times.len() as u64 || tol < 1e-8, "steps not independent of outputs");
+        assert!(
+            end.steps < times.len() as u64 || tol < 1e-8,
+            "steps not independent of outputs"
+        );
         // as large as the step errors (see `meets_tolerance_on_kepler`), not larger
-        assert!(worst < 1e4 * tol, "tol {tol:e}: dense output error {worst:e}");
+        assert!(
+            worst < 1e4 * tol,
+            "tol {tol:e}: dense output error {worst:e}"
+        );
     }
 }
 

@@ -1,6 +1,8 @@
 //! The driver fails loudly (blow-up, guard, step budget, invalid input) with the time and
 //! state; observers, recorders and CSV output.
 
+#![allow(clippy::needless_range_loop)]
+
 mod common;
 
 use common::*;
@@ -16,7 +18,16 @@ impl Field<f64, 1> for Blow {
 
 #[test]
 fn blow_up_reports_time_and_state() {
-    let err = integrate(&mut ExplicitRk::euler(), &Blow, &[1.0], 0.0, 5.0, 0.01, &mut ()).unwrap_err();
+    let err = integrate(
+        &mut ExplicitRk::euler(),
+        &Blow,
+        &[1.0],
+        0.0,
+        5.0,
+        0.01,
+        &mut (),
+    )
+    .unwrap_err();
     let msg = err.to_string();
     eprintln!("{msg}");
     match &err {
@@ -42,7 +53,9 @@ fn adaptive_blow_up_fails_near_singularity() {
     assert!((t - 1.0).abs() < 1e-3, "t = {t}: {err}");
     assert!(matches!(
         err,
-        StepError::StepSizeTooSmall { .. } | StepError::TooManyRejections { .. } | StepError::NonFinite { .. }
+        StepError::StepSizeTooSmall { .. }
+            | StepError::TooManyRejections { .. }
+            | StepError::NonFinite { .. }
     ));
 }
 
@@ -62,7 +75,9 @@ fn guard_catches_kepler_collision() {
     eprintln!("{err}");
     let t_collision = std::f64::consts::PI / (2.0 * 2f64.sqrt());
     match &err {
-        StepError::Guard { t, message, state, .. } => {
+        StepError::Guard {
+            t, message, state, ..
+        } => {
             assert!(*t < t_collision && *t > t_collision - 0.01, "t = {t}");
             assert!(message.contains("near collision"));
             assert!(norm(&state[0..3]) < 5e-2);
@@ -77,13 +92,39 @@ fn max_steps_and_invalid_input() {
         .max_steps(10)
         .run(&mut ExplicitRk::euler(), &Oscillator, &[1.0, 0.0], &mut ())
         .unwrap_err();
-    assert!(matches!(err, StepError::MaxSteps { steps: 10, .. }), "{err}");
+    assert!(
+        matches!(err, StepError::MaxSteps { steps: 10, .. }),
+        "{err}"
+    );
     assert!((err.time().unwrap() - 0.1).abs() < 1e-12);
-    for (t0, t1, h) in [(0.0, 1.0, 0.0), (0.0, 1.0, -0.1), (1.0, 0.0, 0.1), (0.0, f64::NAN, 0.1)] {
-        let err = integrate(&mut ExplicitRk::euler(), &Oscillator, &[1.0, 0.0], t0, t1, h, &mut ()).unwrap_err();
+    for (t0, t1, h) in [
+        (0.0, 1.0, 0.0),
+        (0.0, 1.0, -0.1),
+        (1.0, 0.0, 0.1),
+        (0.0, f64::NAN, 0.1),
+    ] {
+        let err = integrate(
+            &mut ExplicitRk::euler(),
+            &Oscillator,
+            &[1.0, 0.0],
+            t0,
+            t1,
+            h,
+            &mut (),
+        )
+        .unwrap_err();
         assert!(matches!(err, StepError::InvalidInput(_)), "{err}");
     }
-    let err = integrate(&mut ExplicitRk::euler(), &Oscillator, &[f64::NAN, 0.0], 0.0, 1.0, 0.1, &mut ()).unwrap_err();
+    let err = integrate(
+        &mut ExplicitRk::euler(),
+        &Oscillator,
+        &[f64::NAN, 0.0],
+        0.0,
+        1.0,
+        0.1,
+        &mut (),
+    )
+    .unwrap_err();
     assert!(matches!(err, StepError::NonFinite { .. }));
 }
 
@@ -98,14 +139,36 @@ fn observers_stride_stop_and_recorder() {
         },
         3,
     );
-    integrate(&mut ExplicitRk::euler(), &Oscillator, &[1.0, 0.0], 0.0, 1.0, 0.1, &mut obs).unwrap();
+    integrate(
+        &mut ExplicitRk::euler(),
+        &Oscillator,
+        &[1.0, 0.0],
+        0.0,
+        1.0,
+        0.1,
+        &mut obs,
+    )
+    .unwrap();
     assert_eq!(seen, [0, 3, 6, 9, 10]);
 
     // StopWhen: stop when q < 0 (after a quarter period)
     let mut obs = StopWhen::new((), |_t: f64, x: &[f64; 2]| x[0] < 0.0);
-    let end = integrate(&mut ExplicitRk::rk4(), &Oscillator, &[1.0, 0.0], 0.0, 10.0, 0.01, &mut obs).unwrap();
+    let end = integrate(
+        &mut ExplicitRk::rk4(),
+        &Oscillator,
+        &[1.0, 0.0],
+        0.0,
+        10.0,
+        0.01,
+        &mut obs,
+    )
+    .unwrap();
     assert!(end.stopped_by_observer);
-    assert!((end.t - std::f64::consts::FRAC_PI_2).abs() < 0.011, "t = {}", end.t);
+    assert!(
+        (end.t - std::f64::consts::FRAC_PI_2).abs() < 0.011,
+        "t = {}",
+        end.t
+    );
 
     // Recorder: capacity reserved up front is not exceeded, errors per invariant block
     let k = Kepler { mu: 1.0 };
@@ -114,10 +177,23 @@ fn observers_stride_stop_and_recorder() {
     let cap = sample_capacity(n, 7);
     let mut rec = Recorder::new(&k, &x0, 7, cap);
     let (p_t, p_x, p_e) = (rec.t.as_ptr(), rec.x.as_ptr(), rec.errors.as_ptr());
-    integrate(&mut ExplicitRk::rk4(), &k, &x0, 0.0, 1.0, 1.0 / n as f64, &mut rec).unwrap();
+    integrate(
+        &mut ExplicitRk::rk4(),
+        &k,
+        &x0,
+        0.0,
+        1.0,
+        1.0 / n as f64,
+        &mut rec,
+    )
+    .unwrap();
     assert_eq!(rec.len(), (n / 7 + 2) as usize); // 0, 7, …, 994 and the final 1000
     assert!(rec.len() <= cap);
-    assert_eq!((rec.t.as_ptr(), rec.x.as_ptr(), rec.errors.as_ptr()), (p_t, p_x, p_e), "reallocated");
+    assert_eq!(
+        (rec.t.as_ptr(), rec.x.as_ptr(), rec.errors.as_ptr()),
+        (p_t, p_x, p_e),
+        "reallocated"
+    );
     assert_eq!(*rec.t.last().unwrap(), 1.0);
     assert_eq!(rec.errors_at(0), [0.0, 0.0]);
     assert!(rec.max_error(0) > 0.0 && rec.max_error(0) < 1e-8);
@@ -127,7 +203,10 @@ fn observers_stride_stop_and_recorder() {
     write_csv(&mut buf, &rec, Kepler::STATE).unwrap();
     let text = String::from_utf8(buf).unwrap();
     let mut lines = text.lines();
-    assert_eq!(lines.next().unwrap(), "t,x[0],x[1],x[2],v[0],v[1],v[2],|ΔL|,|ΔA|");
+    assert_eq!(
+        lines.next().unwrap(),
+        "t,x[0],x[1],x[2],v[0],v[1],v[2],|ΔL|,|ΔA|"
+    );
     assert_eq!(lines.count(), rec.len());
     assert_eq!(
         component_names(RigidBody::STATE)[..4],
@@ -142,10 +221,16 @@ fn dense_sampling_edges() {
     let times = [0.0, 0.0, 0.25, 1.0];
     let mut got = Vec::new();
     Driver::new(0.0, 2.0, 0.0)
-        .run_dense(&mut dp, &Oscillator, &[1.0, 0.0], &times, &mut |i: u64, t: f64, x: &[f64; 2]| {
-            got.push((i, t, x[0]));
-            Control::Continue
-        })
+        .run_dense(
+            &mut dp,
+            &Oscillator,
+            &[1.0, 0.0],
+            &times,
+            &mut |i: u64, t: f64, x: &[f64; 2]| {
+                got.push((i, t, x[0]));
+                Control::Continue
+            },
+        )
         .unwrap();
     assert_eq!(got.len(), 4);
     for (i, t, q) in got {

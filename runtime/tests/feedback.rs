@@ -2,12 +2,17 @@
 //! keeps the invariants bounded where plain Euler drifts; gain selection; the test models'
 //! Jacobians and gradients are checked against finite differences and the paper's formulas.
 
+#![allow(clippy::needless_range_loop)]
+
 mod common;
 
 use common::*;
 use lasalle_runtime::*;
 
-fn fd_jacobian_check<F: Invariants<f64, N, M>, const N: usize, const M: usize>(model: &F, x: &[f64; N]) {
+fn fd_jacobian_check<F: Invariants<f64, N, M>, const N: usize, const M: usize>(
+    model: &F,
+    x: &[f64; N],
+) {
     let mut jac = [[0.0; N]; M];
     model.invariants_jacobian(x, &mut jac);
     for n in 0..N {
@@ -20,7 +25,11 @@ fn fd_jacobian_check<F: Invariants<f64, N, M>, const N: usize, const M: usize>(m
         model.invariants(&xm, &mut fm);
         for i in 0..M {
             let fd = (fp[i] - fm[i]) / (2.0 * eps);
-            assert!((fd - jac[i][n]).abs() < 1e-7 * (1.0 + fd.abs()), "d f{i}/d x{n}: {fd} vs {}", jac[i][n]);
+            assert!(
+                (fd - jac[i][n]).abs() < 1e-7 * (1.0 + fd.abs()),
+                "d f{i}/d x{n}: {fd} vs {}",
+                jac[i][n]
+            );
         }
     }
 }
@@ -29,7 +38,12 @@ fn fd_jacobian_check<F: Invariants<f64, N, M>, const N: usize, const M: usize>(m
 fn hand_jacobians_match_finite_differences() {
     fd_jacobian_check(&Kepler { mu: 1.3 }, &[0.7, -0.4, 0.2, 0.1, 1.1, -0.3]);
     let x: [f64; 12] = std::array::from_fn(|i| 0.3 + 0.17 * i as f64 - 0.05 * (i * i) as f64);
-    fd_jacobian_check(&RigidBody { inertia: [3.0, 2.0, 1.0] }, &x);
+    fd_jacobian_check(
+        &RigidBody {
+            inertia: [3.0, 2.0, 1.0],
+        },
+        &x,
+    );
 }
 
 /// JᵀKΔf equals the paper's hand-derived Kepler feedback field (Lemma 3.5, eq. (41)).
@@ -64,7 +78,11 @@ fn feedback_euler_on_kepler_keeps_integrals() {
     // worst error in the first and in the last period: bounded, not growing
     let half = rec.len() / 10;
     let first = |b: usize| rec.error_series(b).take(half).fold(0.0, f64::max);
-    let last = |b: usize| rec.error_series(b).skip(rec.len() - half).fold(0.0, f64::max);
+    let last = |b: usize| {
+        rec.error_series(b)
+            .skip(rec.len() - half)
+            .fold(0.0, f64::max)
+    };
     eprintln!(
         "feedback Euler: |ΔL| max {:.3e} (first period {:.3e}, last {:.3e}); |ΔA| max {:.3e} (first {:.3e}, last {:.3e})",
         rec.max_error(il), first(il), last(il), rec.max_error(ia), first(ia), last(ia)
@@ -86,7 +104,9 @@ fn feedback_euler_on_kepler_keeps_integrals() {
 /// (h·L = 0.2 at x₀).
 #[test]
 fn feedback_euler_on_rigid_body() {
-    let body = RigidBody { inertia: [3.0, 2.0, 1.0] };
+    let body = RigidBody {
+        inertia: [3.0, 2.0, 1.0],
+    };
     let x0 = RigidBody::initial();
     let (h, t_end) = (1e-4, 20.0);
     let paper = [50.0, 100.0, 50.0];
@@ -96,7 +116,16 @@ fn feedback_euler_on_rigid_body() {
         let fb = FeedbackField::from_initial(&body, &x0, gains);
         let mut rec = Recorder::new(&body, &x0, 1000, 202);
         if !feedback {
-            integrate(&mut ExplicitRk::euler(), &body, &x0, 0.0, t_end, h, &mut rec).unwrap();
+            integrate(
+                &mut ExplicitRk::euler(),
+                &body,
+                &x0,
+                0.0,
+                t_end,
+                h,
+                &mut rec,
+            )
+            .unwrap();
         } else if adaptive {
             let mut st = AdaptiveGain::new(ExplicitRk::euler(), [1.0; 3], 100);
             integrate(&mut st, &fb, &x0, 0.0, t_end, h, &mut rec).unwrap();
@@ -114,7 +143,12 @@ fn feedback_euler_on_rigid_body() {
     eprintln!("scaled gains {scaled:?}: {se:?}; adaptive: {ae:?}");
     for b in 0..3 {
         assert!(fe[b] < 1e-4, "feedback {b}: {:e}", fe[b]);
-        assert!(pe[b] > 100.0 * fe[b], "plain {b}: {:e} vs feedback {:e}", pe[b], fe[b]);
+        assert!(
+            pe[b] > 100.0 * fe[b],
+            "plain {b}: {:e} vs feedback {:e}",
+            pe[b],
+            fe[b]
+        );
         assert!(
             se[b] < fe[b] && ae[b] < fe[b],
             "scaled {:e} / adaptive {:e} vs paper {:e}",
@@ -143,17 +177,29 @@ fn scaled_and_adaptive_gains() {
     let apo = orbit.exact(orbit.period() / 2.0);
     let hl_apo = h * gauss_newton_norm(&k, &apo, &gains);
     let hl_paper = h * gauss_newton_norm(&k, &apo, &[4.0, 2.0]);
-    eprintln!("scaled gains at x0: {gains:?}; h L at apoapsis: scaled {hl_apo:.3}, paper {hl_paper:.3}");
+    eprintln!(
+        "scaled gains at x0: {gains:?}; h L at apoapsis: scaled {hl_apo:.3}, paper {hl_paper:.3}"
+    );
     assert!(hl_apo > 2.0 && hl_paper < 2.0);
 
     assert_eq!(
-        "fixed".parse::<GainPolicy>().unwrap().initial_gains(&k, &x0, h).unwrap(),
+        "fixed"
+            .parse::<GainPolicy>()
+            .unwrap()
+            .initial_gains(&k, &x0, h)
+            .unwrap(),
         gains
     );
-    assert_eq!(GainPolicy::ModelDefault.initial_gains(&k, &x0, h).unwrap(), [4.0, 2.0]);
+    assert_eq!(
+        GainPolicy::ModelDefault.initial_gains(&k, &x0, h).unwrap(),
+        [4.0, 2.0]
+    );
     assert!(matches!(
         GainPolicy::Explicit(vec![1.0]).initial_gains::<Kepler, f64, 6, 6, 2>(&k, &x0, h),
-        Err(GainError::WrongCount { expected: 2, got: 1 })
+        Err(GainError::WrongCount {
+            expected: 2,
+            got: 1
+        })
     ));
 
     let t_end = 3.0 * orbit.period();
@@ -172,9 +218,14 @@ fn scaled_and_adaptive_gains() {
     let paper = run([4.0, 2.0], false);
     let scaled = run(gains, false);
     let adaptive = run(gains, true);
-    eprintln!("max (|ΔL|, |ΔA|): paper gains {paper:?}, fixed scaled {scaled:?}, adaptive {adaptive:?}");
+    eprintln!(
+        "max (|ΔL|, |ΔA|): paper gains {paper:?}, fixed scaled {scaled:?}, adaptive {adaptive:?}"
+    );
     assert!(adaptive.0 < paper.0 && adaptive.1 < paper.1);
-    assert!(scaled.0 > 0.1 || scaled.1 > 0.1, "fixed scaled gain unexpectedly fine: {scaled:?}");
+    assert!(
+        scaled.0 > 0.1 || scaled.1 > 0.1,
+        "fixed scaled gain unexpectedly fine: {scaled:?}"
+    );
 }
 
 /// Gains above the Euler stability limit (h·L ≫ 2) make feedback-Euler blow up; the driver

@@ -1,6 +1,8 @@
 //! Convergence order of every fixed-step stepper: the slope of log(error) against log(h) over
 //! a step sweep on a smooth problem with a known solution must be within ±0.15 of the order.
 
+#![allow(clippy::needless_range_loop)]
+
 mod common;
 
 use common::*;
@@ -15,7 +17,16 @@ const T_END: f64 = 2.0;
 fn kepler_error<S: Stepper<f64, 6, Kepler>>(mut stepper: S, n: u64) -> f64 {
     let x0 = ORBIT.initial();
     let h = T_END / n as f64;
-    let end = integrate(&mut stepper, &Kepler { mu: 1.0 }, &x0, 0.0, T_END, h, &mut ()).unwrap();
+    let end = integrate(
+        &mut stepper,
+        &Kepler { mu: 1.0 },
+        &x0,
+        0.0,
+        T_END,
+        h,
+        &mut (),
+    )
+    .unwrap();
     assert_eq!(end.steps, n);
     assert_eq!(end.t, T_END);
     dist(&end.x, &ORBIT.exact(T_END))
@@ -25,7 +36,10 @@ fn check_order(name: &str, order: f64, ns: &[u64], err: impl Fn(u64) -> f64) {
     let hs: Vec<f64> = ns.iter().map(|&n| T_END / n as f64).collect();
     let errs: Vec<f64> = ns.iter().map(|&n| err(n)).collect();
     let slope = fit_slope(&hs, &errs);
-    eprintln!("{name}: errors {:?} slope {slope:.4}", errs.iter().map(|e| format!("{e:.2e}")).collect::<Vec<_>>());
+    eprintln!(
+        "{name}: errors {:?} slope {slope:.4}",
+        errs.iter().map(|e| format!("{e:.2e}")).collect::<Vec<_>>()
+    );
     assert!(
         (slope - order).abs() <= 0.15,
         "{name}: observed order {slope:.3}, expected {order} (errors {errs:?})"
@@ -62,12 +76,18 @@ fn dopri5_tableau_is_fifth_order() {
 
 #[test]
 fn stormer_verlet_a_and_b_are_second_order() {
-    check_order("stormer-verlet-a", 2.0, &[250, 500, 1000, 2000, 4000], |n| {
-        kepler_error(StormerVerlet::a(), n)
-    });
-    check_order("stormer-verlet-b", 2.0, &[250, 500, 1000, 2000, 4000], |n| {
-        kepler_error(StormerVerlet::b(), n)
-    });
+    check_order(
+        "stormer-verlet-a",
+        2.0,
+        &[250, 500, 1000, 2000, 4000],
+        |n| kepler_error(StormerVerlet::a(), n),
+    );
+    check_order(
+        "stormer-verlet-b",
+        2.0,
+        &[250, 500, 1000, 2000, 4000],
+        |n| kepler_error(StormerVerlet::b(), n),
+    );
 }
 
 /// The two Störmer–Verlet variants are different methods (A ≠ B after one step) but both
@@ -84,7 +104,11 @@ fn stormer_verlet_variants_differ_and_are_reversible() {
         let mut x = x0;
         Stepper::<f64, 6, Kepler>::step(&mut sv, &k, 0.0, &mut x, 0.1).unwrap();
         Stepper::<f64, 6, Kepler>::step(&mut sv, &k, 0.1, &mut x, -0.1).unwrap();
-        assert!(dist(&x, &x0) < 1e-14, "{:?} not reversible: {x:?}", sv.variant);
+        assert!(
+            dist(&x, &x0) < 1e-14,
+            "{:?} not reversible: {x:?}",
+            sv.variant
+        );
     }
 }
 
@@ -95,19 +119,32 @@ fn stormer_verlet_pendulum() {
     let x0 = [2.0, 0.0];
     let t_end = 5.0;
     let mut dp = DormandPrince::with_tolerances(1e-13, 1e-13);
-    let reference = integrate(&mut dp, &Pendulum, &x0, 0.0, t_end, 0.0, &mut ()).unwrap().x;
+    let reference = integrate(&mut dp, &Pendulum, &x0, 0.0, t_end, 0.0, &mut ())
+        .unwrap()
+        .x;
     let ns = [200u64, 400, 800, 1600];
     let hs: Vec<f64> = ns.iter().map(|&n| t_end / n as f64).collect();
     let errs: Vec<f64> = ns
         .iter()
         .map(|&n| {
-            let end = integrate(&mut StormerVerlet::a(), &Pendulum, &x0, 0.0, t_end, t_end / n as f64, &mut ())
-                .unwrap();
+            let end = integrate(
+                &mut StormerVerlet::a(),
+                &Pendulum,
+                &x0,
+                0.0,
+                t_end,
+                t_end / n as f64,
+                &mut (),
+            )
+            .unwrap();
             dist(&end.x, &reference)
         })
         .collect();
     let slope = fit_slope(&hs, &errs);
-    assert!((slope - 2.0).abs() <= 0.15, "slope {slope}, errors {errs:?}");
+    assert!(
+        (slope - 2.0).abs() <= 0.15,
+        "slope {slope}, errors {errs:?}"
+    );
 }
 
 /// Three-rotation splitting of the free rigid body: order 2 against a DOPRI5 reference
@@ -119,7 +156,9 @@ fn rigid_body_splitting_is_second_order() {
     let x0 = RigidBody::initial();
     let t_end = 5.0;
     let mut dp = DormandPrince::with_tolerances(1e-13, 1e-13);
-    let reference = integrate(&mut dp, &body, &x0, 0.0, t_end, 0.0, &mut ()).unwrap().x;
+    let reference = integrate(&mut dp, &body, &x0, 0.0, t_end, 0.0, &mut ())
+        .unwrap()
+        .x;
     let ns = [250u64, 500, 1000, 2000, 4000];
     let hs: Vec<f64> = ns.iter().map(|&n| t_end / n as f64).collect();
     let errs: Vec<f64> = ns
@@ -131,15 +170,30 @@ fn rigid_body_splitting_is_second_order() {
         })
         .collect();
     let slope = fit_slope(&hs, &errs);
-    eprintln!("splitting: errors {:?} slope {slope:.4}", errs.iter().map(|e| format!("{e:.2e}")).collect::<Vec<_>>());
-    assert!((slope - 2.0).abs() <= 0.15, "slope {slope}, errors {errs:?}");
+    eprintln!(
+        "splitting: errors {:?} slope {slope:.4}",
+        errs.iter().map(|e| format!("{e:.2e}")).collect::<Vec<_>>()
+    );
+    assert!(
+        (slope - 2.0).abs() <= 0.15,
+        "slope {slope}, errors {errs:?}"
+    );
 }
 
 /// RK4 on the harmonic oscillator: the fixed-step driver hits t_end exactly, also with a
 /// step that does not divide the interval (last step shortened).
 #[test]
 fn driver_hits_end_time_with_partial_last_step() {
-    let end = integrate(&mut ExplicitRk::rk4(), &Oscillator, &[1.0, 0.0], 0.0, 1.0, 0.3, &mut ()).unwrap();
+    let end = integrate(
+        &mut ExplicitRk::rk4(),
+        &Oscillator,
+        &[1.0, 0.0],
+        0.0,
+        1.0,
+        0.3,
+        &mut (),
+    )
+    .unwrap();
     assert_eq!(end.steps, 4);
     assert_eq!(end.t, 1.0);
     assert!((end.x[0] - 1f64.cos()).abs() < 1e-3);

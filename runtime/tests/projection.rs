@@ -1,6 +1,8 @@
 //! The standard projection method (GNI §IV.4, Algorithm 4.2) on Kepler (A·L ≡ 0 makes
 //! Df Dfᵀ singular) and on the free rigid body (RᵀR − I has 9 components, 6 independent).
 
+#![allow(clippy::needless_range_loop)]
+
 mod common;
 
 use common::*;
@@ -17,14 +19,22 @@ fn projected_euler_on_kepler_stays_within_tolerance() {
     for tol in [1e-8, 0.005] {
         let mut proj = Projection::from_initial(ExplicitRk::euler(), &k, &x0, tol);
         let mut worst = 0.0f64;
-        let end = integrate(&mut proj, &k, &x0, 0.0, t_end, h, &mut |_s: u64, _t: f64, x: &[f64; 6]| {
-            let mut f = [0.0; 6];
-            k.invariants(x, &mut f);
-            let mut f0 = [0.0; 6];
-            k.invariants(&x0, &mut f0);
-            worst = worst.max(dist(&f, &f0));
-            Control::Continue
-        })
+        let end = integrate(
+            &mut proj,
+            &k,
+            &x0,
+            0.0,
+            t_end,
+            h,
+            &mut |_s: u64, _t: f64, x: &[f64; 6]| {
+                let mut f = [0.0; 6];
+                k.invariants(x, &mut f);
+                let mut f0 = [0.0; 6];
+                k.invariants(&x0, &mut f0);
+                worst = worst.max(dist(&f, &f0));
+                Control::Continue
+            },
+        )
         .unwrap();
         eprintln!(
             "tol {tol:e}: worst |Δf| = {worst:.3e}, {} steps, {} projections, {} Newton iterations",
@@ -47,7 +57,9 @@ fn projected_euler_on_kepler_stays_within_tolerance() {
 /// although the 9 constraint rows are pairwise equal (rank-deficient Df Dfᵀ).
 #[test]
 fn projected_euler_on_rigid_body() {
-    let body = RigidBody { inertia: [3.0, 2.0, 1.0] };
+    let body = RigidBody {
+        inertia: [3.0, 2.0, 1.0],
+    };
     let x0 = RigidBody::initial();
     let tol = 1e-10;
     let mut proj = Projection::from_initial(ExplicitRk::euler(), &body, &x0, tol);
@@ -56,7 +68,12 @@ fn projected_euler_on_rigid_body() {
     let names: Vec<&str> = rec.blocks().iter().map(|b| b.0).collect();
     assert_eq!(names, ["orth", "E", "pi"]);
     for b in 0..3 {
-        assert!(rec.max_error(b) <= tol, "{}: {:e}", names[b], rec.max_error(b));
+        assert!(
+            rec.max_error(b) <= tol,
+            "{}: {:e}",
+            names[b],
+            rec.max_error(b)
+        );
     }
     assert!(RigidBody::orthogonality_error(&end.x) <= tol);
     eprintln!(
@@ -67,9 +84,23 @@ fn projected_euler_on_rigid_body() {
     );
     // plain Euler drifts in all three
     let mut rec = Recorder::new(&body, &x0, 100, 300);
-    integrate(&mut ExplicitRk::euler(), &body, &x0, 0.0, 20.0, 1e-3, &mut rec).unwrap();
+    integrate(
+        &mut ExplicitRk::euler(),
+        &body,
+        &x0,
+        0.0,
+        20.0,
+        1e-3,
+        &mut rec,
+    )
+    .unwrap();
     for b in 0..3 {
-        assert!(rec.max_error(b) > 1e-3, "plain Euler {}: {:e}", names[b], rec.max_error(b));
+        assert!(
+            rec.max_error(b) > 1e-3,
+            "plain Euler {}: {:e}",
+            names[b],
+            rec.max_error(b)
+        );
     }
 }
 
@@ -79,7 +110,8 @@ fn projection_wraps_any_stepper() {
     let k = Kepler { mu: 1.0 };
     let orbit = KeplerOrbit { e: 0.5, rp: 0.5 };
     let x0 = orbit.initial();
-    let mut proj = Projection::from_initial(DormandPrince::with_tolerances(1e-6, 1e-6), &k, &x0, 1e-12);
+    let mut proj =
+        Projection::from_initial(DormandPrince::with_tolerances(1e-6, 1e-6), &k, &x0, 1e-12);
     assert!(Stepper::<f64, 6, Kepler>::is_adaptive(&proj));
     let end = integrate(&mut proj, &k, &x0, 0.0, 10.0, 0.0, &mut ()).unwrap();
     let (mut f, mut f0) = ([0.0; 6], [0.0; 6]);
@@ -100,7 +132,12 @@ fn projection_failure_is_reported() {
     let err = integrate(&mut proj, &k, &x0, 0.0, 1.0, 0.01, &mut ()).unwrap_err();
     eprintln!("{err}");
     match err {
-        StepError::ProjectionNotConverged { t, iterations, state, .. } => {
+        StepError::ProjectionNotConverged {
+            t,
+            iterations,
+            state,
+            ..
+        } => {
             assert!((t - 0.01).abs() < 1e-15);
             assert!(iterations <= 20);
             assert_eq!(state.len(), 6);

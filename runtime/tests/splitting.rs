@@ -1,5 +1,7 @@
 //! Three-rotation splitting of the free rigid body (GNI §VII.5, pp. 284–285).
 
+#![allow(clippy::needless_range_loop)]
+
 mod common;
 
 use common::*;
@@ -40,7 +42,10 @@ fn sub_flows_are_exact_rotations() {
     for k in 0..3 {
         let mut x = x0;
         s.sub_flow(k, 0.37, &mut x);
-        assert!(dist(&body.spatial_momentum(&x), &pi0) < 1e-14, "π, axis {k}");
+        assert!(
+            dist(&body.spatial_momentum(&x), &pi0) < 1e-14,
+            "π, axis {k}"
+        );
         assert!((casimir(&x) - casimir(&x0)).abs() < 1e-14, "|m|², axis {k}");
         assert!((h_k(&x, k) - h_k(&x0, k)).abs() < 1e-15, "H_{k}");
         assert!(RigidBody::orthogonality_error(&x) < 1e-14);
@@ -60,7 +65,11 @@ fn sub_flows_are_exact_rotations() {
         let mdot = cross(&m, &w);
         for i in 0..3 {
             let fd = INERTIA[i] * (xp[9 + i] - xm[9 + i]) / (2.0 * eps);
-            assert!((fd - mdot[i]).abs() < 1e-8, "axis {k}: ṁ{i} {fd} vs {}", mdot[i]);
+            assert!(
+                (fd - mdot[i]).abs() < 1e-8,
+                "axis {k}: ṁ{i} {fd} vs {}",
+                mdot[i]
+            );
         }
         for a in 0..3 {
             for b in 0..3 {
@@ -97,12 +106,20 @@ fn composition_conserves_momentum_and_orthogonality() {
     let e0 = body.energy(&x0);
     let (mut worst_pi, mut worst_orth, mut worst_e) = (0.0f64, 0.0f64, 0.0f64);
     let h = 0.01;
-    integrate(&mut s, &body, &x0, 0.0, 1000.0, h, &mut |_n: u64, _t: f64, x: &[f64; 12]| {
-        worst_pi = worst_pi.max(dist(&body.spatial_momentum(x), &pi0));
-        worst_orth = worst_orth.max(RigidBody::orthogonality_error(x));
-        worst_e = worst_e.max((body.energy(x) - e0).abs());
-        Control::Continue
-    })
+    integrate(
+        &mut s,
+        &body,
+        &x0,
+        0.0,
+        1000.0,
+        h,
+        &mut |_n: u64, _t: f64, x: &[f64; 12]| {
+            worst_pi = worst_pi.max(dist(&body.spatial_momentum(x), &pi0));
+            worst_orth = worst_orth.max(RigidBody::orthogonality_error(x));
+            worst_e = worst_e.max((body.energy(x) - e0).abs());
+            Control::Continue
+        },
+    )
     .unwrap();
     eprintln!("1e5 steps h = {h}: max |Δπ| {worst_pi:.3e}, |RᵀR − I| {worst_orth:.3e}, |ΔE| {worst_e:.3e}");
     assert!(worst_pi < 1e-11 && worst_orth < 1e-11);
@@ -122,7 +139,11 @@ fn axis_order_is_configurable() {
     let x0 = RigidBody::initial();
     let mut a = RigidBodySplitting::new(INERTIA);
     let mut b = RigidBodySplitting::with_axes(INERTIA, [2, 1, 0]);
-    let ea = integrate(&mut a, &body, &x0, 0.0, 1.0, 0.01, &mut ()).unwrap().x;
-    let eb = integrate(&mut b, &body, &x0, 0.0, 1.0, 0.01, &mut ()).unwrap().x;
+    let ea = integrate(&mut a, &body, &x0, 0.0, 1.0, 0.01, &mut ())
+        .unwrap()
+        .x;
+    let eb = integrate(&mut b, &body, &x0, 0.0, 1.0, 0.01, &mut ())
+        .unwrap()
+        .x;
     assert!(dist(&ea, &eb) > 1e-8 && dist(&ea, &eb) < 1e-3);
 }

@@ -192,13 +192,7 @@ impl<T: Float, const N: usize> Default for DormandPrince<T, N> {
 }
 
 impl<T: Float, const N: usize, F: Field<T, N> + ?Sized> Stepper<T, N, F> for DormandPrince<T, N> {
-    fn step(
-        &mut self,
-        field: &F,
-        t: T,
-        x: &mut [T; N],
-        h: T,
-    ) -> Result<StepOutcome<T>, StepError> {
+    fn step(&mut self, field: &F, t: T, x: &mut [T; N], h: T) -> Result<StepOutcome<T>, StepError> {
         if !(h > T::zero() && h.is_finite()) {
             return Err(StepError::InvalidInput(format!(
                 "dopri5: step size must be positive and finite, got h = {}",
@@ -382,7 +376,8 @@ impl<T: Float, const N: usize, F: Field<T, N> + ?Sized> Stepper<T, N, F> for Dor
 
 impl<T: Float, const N: usize> DenseOutput<T, N> for DormandPrince<T, N> {
     fn dense_interval(&self) -> Option<(T, T)> {
-        self.has_dense.then(|| (self.t_old, self.t_old + self.h_old))
+        self.has_dense
+            .then(|| (self.t_old, self.t_old + self.h_old))
     }
 
     /// `x(t_old + θh) ≈ r₁ + θ(r₂ + (1−θ)(r₃ + θ(r₄ + (1−θ) r₅)))` (`dopri5.f`, `CONTD5`).

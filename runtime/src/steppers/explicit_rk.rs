@@ -73,13 +73,7 @@ impl<T: Float> ExplicitRk<T, 7> {
 impl<T: Float, const N: usize, const S: usize, F: Field<T, N> + ?Sized> Stepper<T, N, F>
     for ExplicitRk<T, S>
 {
-    fn step(
-        &mut self,
-        field: &F,
-        t: T,
-        x: &mut [T; N],
-        h: T,
-    ) -> Result<StepOutcome<T>, StepError> {
+    fn step(&mut self, field: &F, t: T, x: &mut [T; N], h: T) -> Result<StepOutcome<T>, StepError> {
         let mut k = [[T::zero(); N]; S];
         let mut y = [T::zero(); N];
         field.field(x, &mut k[0]);

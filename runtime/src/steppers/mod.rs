@@ -5,7 +5,7 @@
 //! `x_{n+1} = x_n + h Φ(x_n, h)`). Fixed-step methods always take the requested `h`; adaptive
 //! ones ([`DormandPrince`]) may take a smaller step and propose the next one. The outcome of a
 //! step is a [`StepOutcome`] (diffsol's `OdeSolverStopReason` habit); failures are
-//! [`StepError`](crate::StepError)s carrying `t`, `h` and the state.
+//! [`StepError`]s carrying `t`, `h` and the state.
 //!
 //! | stepper | file | order | needs |
 //! | --- | --- | --- | --- |
@@ -74,13 +74,7 @@ pub trait Stepper<T: Float, const N: usize, F: ?Sized> {
     ///
     /// On error `x` is left unchanged for adaptive methods and may hold the failed iterate for
     /// fixed-step ones; the error itself carries the relevant state.
-    fn step(
-        &mut self,
-        field: &F,
-        t: T,
-        x: &mut [T; N],
-        h: T,
-    ) -> Result<StepOutcome<T>, StepError>;
+    fn step(&mut self, field: &F, t: T, x: &mut [T; N], h: T) -> Result<StepOutcome<T>, StepError>;
 
     /// The classical order of the method.
     fn order(&self) -> u32;
@@ -119,13 +113,7 @@ pub trait DenseOutput<T: Float, const N: usize> {
 impl<T: Float, const N: usize, F: ?Sized, S: Stepper<T, N, F> + ?Sized> Stepper<T, N, F>
     for &mut S
 {
-    fn step(
-        &mut self,
-        field: &F,
-        t: T,
-        x: &mut [T; N],
-        h: T,
-    ) -> Result<StepOutcome<T>, StepError> {
+    fn step(&mut self, field: &F, t: T, x: &mut [T; N], h: T) -> Result<StepOutcome<T>, StepError> {
         (**self).step(field, t, x, h)
     }
     fn order(&self) -> u32 {

@@ -198,13 +198,7 @@ where
     F: Invariants<T, N, M> + ?Sized,
     S: Stepper<T, N, F>,
 {
-    fn step(
-        &mut self,
-        field: &F,
-        t: T,
-        x: &mut [T; N],
-        h: T,
-    ) -> Result<StepOutcome<T>, StepError> {
+    fn step(&mut self, field: &F, t: T, x: &mut [T; N], h: T) -> Result<StepOutcome<T>, StepError> {
         let outcome = self.base.step(field, t, x, h)?;
         let t_new = t + outcome.h_taken;
         let mut f = [T::zero(); M];
@@ -315,7 +309,12 @@ mod tests {
     #[test]
     fn pivoted_cholesky_rank_deficient_consistent() {
         // A = J Jᵀ with duplicated rows of J (like the (i,j) and (j,i) entries of RᵀR − I)
-        let j = [[1.0, 2.0, 0.0], [0.0, 1.0, 1.0], [1.0, 2.0, 0.0], [3.0, 0.0, -1.0]];
+        let j = [
+            [1.0, 2.0, 0.0],
+            [0.0, 1.0, 1.0],
+            [1.0, 2.0, 0.0],
+            [3.0, 0.0, -1.0],
+        ];
         let mut a = [[0.0; 4]; 4];
         for p in 0..4 {
             for q in 0..4 {

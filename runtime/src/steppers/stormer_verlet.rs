@@ -92,13 +92,7 @@ fn drift<T: Float, const N: usize, F: Partitioned<T, N> + ?Sized>(
 }
 
 impl<T: Float, const N: usize, F: Partitioned<T, N> + ?Sized> Stepper<T, N, F> for StormerVerlet {
-    fn step(
-        &mut self,
-        field: &F,
-        t: T,
-        x: &mut [T; N],
-        h: T,
-    ) -> Result<StepOutcome<T>, StepError> {
+    fn step(&mut self, field: &F, t: T, x: &mut [T; N], h: T) -> Result<StepOutcome<T>, StepError> {
         let half = h * lit(0.5);
         let mut dx = [T::zero(); N];
         match self.variant {

@@ -18,7 +18,11 @@ pub fn norm(v: &[f64]) -> f64 {
 }
 
 pub fn dist(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt()
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum::<f64>()
+        .sqrt()
 }
 
 /// Least-squares slope of log(err) against log(h).
@@ -67,11 +71,23 @@ impl Invariants<f64, 2, 1> for Oscillator {
 impl ModelInfo for Oscillator {
     const NAME: &'static str = "oscillator";
     const STATE: &'static [Slot] = &[
-        Slot { name: "q", shape: Shape::Scalar, offset: 0 },
-        Slot { name: "p", shape: Shape::Scalar, offset: 1 },
+        Slot {
+            name: "q",
+            shape: Shape::Scalar,
+            offset: 0,
+        },
+        Slot {
+            name: "p",
+            shape: Shape::Scalar,
+            offset: 1,
+        },
     ];
     const INVARIANTS: &'static [InvariantInfo] = &[InvariantInfo {
-        slot: Slot { name: "E", shape: Shape::Scalar, offset: 0 },
+        slot: Slot {
+            name: "E",
+            shape: Shape::Scalar,
+            offset: 0,
+        },
         kind: InvariantKind::Integral,
         gain: 0,
     }];
@@ -114,11 +130,23 @@ impl Invariants<f64, 2, 1> for Pendulum {
 impl ModelInfo for Pendulum {
     const NAME: &'static str = "pendulum";
     const STATE: &'static [Slot] = &[
-        Slot { name: "q", shape: Shape::Scalar, offset: 0 },
-        Slot { name: "p", shape: Shape::Scalar, offset: 1 },
+        Slot {
+            name: "q",
+            shape: Shape::Scalar,
+            offset: 0,
+        },
+        Slot {
+            name: "p",
+            shape: Shape::Scalar,
+            offset: 1,
+        },
     ];
     const INVARIANTS: &'static [InvariantInfo] = &[InvariantInfo {
-        slot: Slot { name: "E", shape: Shape::Scalar, offset: 0 },
+        slot: Slot {
+            name: "E",
+            shape: Shape::Scalar,
+            offset: 0,
+        },
         kind: InvariantKind::Integral,
         gain: 0,
     }];
@@ -244,7 +272,13 @@ impl Lyapunov<f64, 6, 6, 2> for Kepler {
         let mut g = [0.0; 6];
         default_lyapunov_gradient(self, x, target, gains, &mut g)
     }
-    fn lyapunov_gradient(&self, x: &[f64; 6], target: &[f64; 6], gains: &[f64; 2], grad: &mut [f64; 6]) {
+    fn lyapunov_gradient(
+        &self,
+        x: &[f64; 6],
+        target: &[f64; 6],
+        gains: &[f64; 2],
+        grad: &mut [f64; 6],
+    ) {
         default_lyapunov_gradient(self, x, target, gains, grad);
     }
     fn feedback_field(&self, x: &[f64; 6], target: &[f64; 6], gains: &[f64; 2], dx: &mut [f64; 6]) {
@@ -260,24 +294,44 @@ impl Lyapunov<f64, 6, 6, 2> for Kepler {
 impl ModelInfo for Kepler {
     const NAME: &'static str = "kepler";
     const STATE: &'static [Slot] = &[
-        Slot { name: "x", shape: Shape::Vector(3), offset: 0 },
-        Slot { name: "v", shape: Shape::Vector(3), offset: 3 },
+        Slot {
+            name: "x",
+            shape: Shape::Vector(3),
+            offset: 0,
+        },
+        Slot {
+            name: "v",
+            shape: Shape::Vector(3),
+            offset: 3,
+        },
     ];
     const INVARIANTS: &'static [InvariantInfo] = &[
         InvariantInfo {
-            slot: Slot { name: "L", shape: Shape::Vector(3), offset: 0 },
+            slot: Slot {
+                name: "L",
+                shape: Shape::Vector(3),
+                offset: 0,
+            },
             kind: InvariantKind::Integral,
             gain: 0,
         },
         InvariantInfo {
-            slot: Slot { name: "A", shape: Shape::Vector(3), offset: 3 },
+            slot: Slot {
+                name: "A",
+                shape: Shape::Vector(3),
+                offset: 3,
+            },
             kind: InvariantKind::Integral,
             gain: 1,
         },
     ];
     const GAIN_NAMES: &'static [&'static str] = &["k1", "k2"];
     const DEFAULT_GAINS: &'static [f64] = &[4.0, 2.0];
-    const PARAMS: &'static [Slot] = &[Slot { name: "mu", shape: Shape::Scalar, offset: 0 }];
+    const PARAMS: &'static [Slot] = &[Slot {
+        name: "mu",
+        shape: Shape::Scalar,
+        offset: 0,
+    }];
 }
 
 /// The planar Kepler orbit (μ = 1) that starts at periapsis (rp, 0, 0) with velocity
@@ -295,7 +349,14 @@ impl KeplerOrbit {
         2.0 * std::f64::consts::PI * self.a().powf(1.5)
     }
     pub fn initial(&self) -> [f64; 6] {
-        [self.rp, 0.0, 0.0, 0.0, ((1.0 + self.e) / self.rp).sqrt(), 0.0]
+        [
+            self.rp,
+            0.0,
+            0.0,
+            0.0,
+            ((1.0 + self.e) / self.rp).sqrt(),
+            0.0,
+        ]
     }
     pub fn exact(&self, t: f64) -> [f64; 6] {
         let (a, e) = (self.a(), self.e);
@@ -338,16 +399,24 @@ impl RigidBody {
         [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0]
     }
     pub fn energy(&self, x: &[f64; 12]) -> f64 {
-        0.5 * (0..3).map(|k| self.inertia[k] * x[9 + k] * x[9 + k]).sum::<f64>()
+        0.5 * (0..3)
+            .map(|k| self.inertia[k] * x[9 + k] * x[9 + k])
+            .sum::<f64>()
     }
     pub fn spatial_momentum(&self, x: &[f64; 12]) -> [f64; 3] {
-        std::array::from_fn(|a| (0..3).map(|b| Self::r(x, a, b) * self.inertia[b] * x[9 + b]).sum())
+        std::array::from_fn(|a| {
+            (0..3)
+                .map(|b| Self::r(x, a, b) * self.inertia[b] * x[9 + b])
+                .sum()
+        })
     }
     pub fn orthogonality_error(x: &[f64; 12]) -> f64 {
         let mut s = 0.0;
         for i in 0..3 {
             for j in 0..3 {
-                let c: f64 = (0..3).map(|k| Self::r(x, k, i) * Self::r(x, k, j)).sum::<f64>()
+                let c: f64 = (0..3)
+                    .map(|k| Self::r(x, k, i) * Self::r(x, k, j))
+                    .sum::<f64>()
                     - if i == j { 1.0 } else { 0.0 };
                 s += c * c;
             }
@@ -418,10 +487,22 @@ impl Lyapunov<f64, 12, 13, 3> for RigidBody {
         let mut g = [0.0; 12];
         default_lyapunov_gradient(self, x, target, gains, &mut g)
     }
-    fn lyapunov_gradient(&self, x: &[f64; 12], target: &[f64; 13], gains: &[f64; 3], grad: &mut [f64; 12]) {
+    fn lyapunov_gradient(
+        &self,
+        x: &[f64; 12],
+        target: &[f64; 13],
+        gains: &[f64; 3],
+        grad: &mut [f64; 12],
+    ) {
         default_lyapunov_gradient(self, x, target, gains, grad);
     }
-    fn feedback_field(&self, x: &[f64; 12], target: &[f64; 13], gains: &[f64; 3], dx: &mut [f64; 12]) {
+    fn feedback_field(
+        &self,
+        x: &[f64; 12],
+        target: &[f64; 13],
+        gains: &[f64; 3],
+        dx: &mut [f64; 12],
+    ) {
         let mut g = [0.0; 12];
         default_lyapunov_gradient(self, x, target, gains, &mut g);
         self.field(x, dx);
@@ -434,27 +515,51 @@ impl Lyapunov<f64, 12, 13, 3> for RigidBody {
 impl ModelInfo for RigidBody {
     const NAME: &'static str = "rigid_body";
     const STATE: &'static [Slot] = &[
-        Slot { name: "R", shape: Shape::Matrix(3, 3), offset: 0 },
-        Slot { name: "Omega", shape: Shape::Vector(3), offset: 9 },
+        Slot {
+            name: "R",
+            shape: Shape::Matrix(3, 3),
+            offset: 0,
+        },
+        Slot {
+            name: "Omega",
+            shape: Shape::Vector(3),
+            offset: 9,
+        },
     ];
     const INVARIANTS: &'static [InvariantInfo] = &[
         InvariantInfo {
-            slot: Slot { name: "orth", shape: Shape::Matrix(3, 3), offset: 0 },
+            slot: Slot {
+                name: "orth",
+                shape: Shape::Matrix(3, 3),
+                offset: 0,
+            },
             kind: InvariantKind::Constraint,
             gain: 0,
         },
         InvariantInfo {
-            slot: Slot { name: "E", shape: Shape::Scalar, offset: 9 },
+            slot: Slot {
+                name: "E",
+                shape: Shape::Scalar,
+                offset: 9,
+            },
             kind: InvariantKind::Integral,
             gain: 1,
         },
         InvariantInfo {
-            slot: Slot { name: "pi", shape: Shape::Vector(3), offset: 10 },
+            slot: Slot {
+                name: "pi",
+                shape: Shape::Vector(3),
+                offset: 10,
+            },
             kind: InvariantKind::Integral,
             gain: 2,
         },
     ];
     const GAIN_NAMES: &'static [&'static str] = &["k0", "k1", "k2"];
     const DEFAULT_GAINS: &'static [f64] = &[50.0, 100.0, 50.0];
-    const PARAMS: &'static [Slot] = &[Slot { name: "I", shape: Shape::Vector(3), offset: 0 }];
+    const PARAMS: &'static [Slot] = &[Slot {
+        name: "I",
+        shape: Shape::Vector(3),
+        offset: 0,
+    }];
 }
