@@ -28,7 +28,8 @@ pub struct Summary<T, const N: usize> {
     pub steps: u64,
     /// Rejected trial steps (adaptive steppers).
     pub rejections: u64,
-    /// Field evaluations reported by the stepper.
+    /// Field evaluations reported by the stepper (excluding the 2 evaluations of an adaptive
+    /// stepper's initial step selection).
     pub evaluations: u64,
     /// True if an observer returned [`Control::Stop`].
     pub stopped_by_observer: bool,

@@ -128,14 +128,15 @@ pub struct Projection<T, const M: usize, S> {
 
 impl<T: Float, const M: usize, S> Projection<T, M, S> {
     /// Projects the steps of `base` onto {f(x) = `target`} with tolerance `tol` on
-    /// |f(x) − target|₂. Defaults: at most 50 Newton iterations, pivot tolerance 1e-12.
+    /// |f(x) − target|₂. Defaults: at most 50 Newton iterations, relative pivot tolerance
+    /// max(10⁴·ε, 1e-12) (2.2e-12 for `f64`).
     pub fn new(base: S, target: [T; M], tol: T) -> Self {
         Projection {
             base,
             target,
             tol,
             max_iterations: 50,
-            pivot_tol: lit(1e-12),
+            pivot_tol: (T::epsilon() * lit(1e4)).max(lit(1e-12)),
             newton_iterations: 0,
             projections: 0,
         }
@@ -159,8 +160,8 @@ impl<T: Float, const M: usize, S> Projection<T, M, S> {
         self
     }
 
-    /// Sets the relative pivot tolerance of the truncated pivoted Cholesky solve (default
-    /// 1e-12, relative to the largest diagonal entry of Df Dfᵀ).
+    /// Sets the pivot tolerance of the truncated pivoted Cholesky solve, relative to the
+    /// largest diagonal entry of Df Dfᵀ (default max(10⁴·ε, 1e-12)).
     pub fn pivot_tol(mut self, tol: T) -> Self {
         self.pivot_tol = tol;
         self
