@@ -242,3 +242,33 @@ fn dense_sampling_edges() {
         .unwrap_err();
     assert!(matches!(err, StepError::InvalidInput(_)));
 }
+
+/// Everything is generic over the scalar: an `f32` oscillator through RK4, DOPRI5 and
+/// projected Euler.
+#[test]
+fn f32_scalar_works() {
+    struct Osc32;
+    impl Field<f32, 2> for Osc32 {
+        fn field(&self, x: &[f32; 2], dx: &mut [f32; 2]) {
+            dx[0] = x[1];
+            dx[1] = -x[0];
+        }
+    }
+    impl Invariants<f32, 2, 1> for Osc32 {
+        fn invariants(&self, x: &[f32; 2], f: &mut [f32; 1]) {
+            f[0] = 0.5 * (x[0] * x[0] + x[1] * x[1]);
+        }
+        fn invariants_jacobian(&self, x: &[f32; 2], j: &mut [[f32; 2]; 1]) {
+            j[0] = [x[0], x[1]];
+        }
+    }
+    let x0 = [1.0f32, 0.0];
+    let end = integrate(&mut ExplicitRk::rk4(), &Osc32, &x0, 0.0, 1.0, 0.01, &mut ()).unwrap();
+    assert!((end.x[0] - 1f32.cos()).abs() < 1e-5);
+    let mut dp = DormandPrince::<f32, 2>::with_tolerances(1e-5, 1e-5);
+    let end = integrate(&mut dp, &Osc32, &x0, 0.0, 1.0, 0.0, &mut ()).unwrap();
+    assert!((end.x[0] - 1f32.cos()).abs() < 1e-4);
+    let mut proj = Projection::from_initial(ExplicitRk::euler(), &Osc32, &x0, 1e-6);
+    let end = integrate(&mut proj, &Osc32, &x0, 0.0, 1.0, 0.01, &mut ()).unwrap();
+    assert!((0.5 * (end.x[0] * end.x[0] + end.x[1] * end.x[1]) - 0.5).abs() <= 1e-6);
+}
