@@ -48,6 +48,9 @@ enum Ctx {
     Lyapunov,
 }
 
+/// The message of an error that repeats an earlier one (a use of a failed definition).
+const POISONED: &str = "(already reported)";
+
 const FUNCTIONS: &[&str] = &[
     "sqrt", "exp", "log", "sin", "cos", "norm", "dot", "cross", "hat", "transpose", "trace", "inv", "eye", "diag",
     "target",
@@ -62,6 +65,10 @@ struct Lowerer {
     symbols: HashMap<String, Symbol>,
     /// Default values of parameter slots, for constant folding of later defaults.
     param_defaults: Vec<f64>,
+    /// Names of the gains written anywhere in the file (for messages about misplaced gains).
+    gain_names: std::collections::HashSet<String>,
+    /// Names whose definition failed: uses of them are not reported again.
+    poisoned: std::collections::HashSet<String>,
     /// Offset and shape of each invariant in the stacked f, for `target(f)`.
     invariant_offsets: HashMap<String, (usize, Shape)>,
     errors: Vec<Diagnostic>,
@@ -77,6 +84,8 @@ pub fn lower(ast: &ModelAst, source: Arc<Source>) -> Result<Model, Error> {
         symbols: HashMap::new(),
         param_defaults: Vec::new(),
         invariant_offsets: HashMap::new(),
+        poisoned: Default::default(),
+        gain_names: Default::default(),
         errors: Vec::new(),
     };
     let model = lw.model(ast);
@@ -134,6 +143,9 @@ impl Lowerer {
                         params.push(p);
                     }
                 }
+                Item::Invariant { gain: Some(GainDecl { name: Some(g), .. }), .. } => {
+                    self.gain_names.insert(g.name.clone());
+                }
                 _ => {}
             }
         }
@@ -156,10 +168,17 @@ impl Lowerer {
         for it in &ast.items {
             let result: L<()> = match &it.item {
                 Item::State(_) | Item::Param(..) => Ok(()),
-                Item::Let(name, e) => self.expr(e, Ctx::Model).map(|v| {
-                    lets.push(Binding { name: name.name.clone(), value: v.clone(), span: it.span.clone() });
-                    self.declare(name, Kind::Let, v);
-                }),
+                Item::Let(name, e) => match self.expr(e, Ctx::Model) {
+                    Ok(v) => {
+                        lets.push(Binding { name: name.name.clone(), value: v.clone(), span: it.span.clone() });
+                        self.declare(name, Kind::Let, v);
+                        Ok(())
+                    }
+                    Err(d) => {
+                        self.poisoned.insert(name.name.clone());
+                        Err(d)
+                    }
+                },
                 Item::Derivative(name, e) => self.derivative(name, e, &it.span, &mut field),
                 Item::Invariant { kind, name, value, gain } => {
                     let kind = match kind {
@@ -202,7 +221,9 @@ impl Lowerer {
                 Item::Point(name, values) => self.point(name, values, &state, &it.span).map(|p| points.push(p)),
             };
             if let Err(d) = result {
-                self.errors.push(d);
+                if d.message != POISONED {
+                    self.errors.push(d);
+                }
             }
         }
 
@@ -244,13 +265,6 @@ impl Lowerer {
         }
 
         // V: explicit, or Σ kᵢ/2 |fᵢ − fᵢ(x₀)|².
-        for (i, gain) in gains.iter().enumerate() {
-            let id = self.g.input(Input::Gain(i as u32));
-            self.symbols.insert(
-                gain.name.clone(),
-                Symbol { kind: Kind::Gain, value: Value::scalar(id), span: ast.name.span.clone() },
-            );
-        }
         let (lyapunov, lyapunov_span) = match lyapunov {
             Some((_, e, span)) => match self.expr(e, Ctx::Lyapunov).and_then(|v| self.expect_scalar(&v, e, "V")) {
                 Ok(v) => (v, Some(span)),
@@ -398,6 +412,8 @@ impl Lowerer {
             automatic,
             span: span.clone(),
         });
+        let gain_id = self.g.input(Input::Gain(gains.len() as u32));
+        self.symbols.insert(gain_name.clone(), Symbol { kind: Kind::Gain, value: Value::scalar(gain_id), span: span.clone() });
         gains.push(Gain { name: gain_name, default });
         self.declare(name, if automatic { Kind::Hamiltonian } else { Kind::Invariant }, value);
         Ok(())
@@ -537,6 +553,11 @@ impl Lowerer {
                         .help(help));
                 }
                 Ok(sym.clone())
+            }
+            None if self.poisoned.contains(&name.name) => Err(Diagnostic::new(&name.span, POISONED)),
+            None if self.gain_names.contains(&name.name) => {
+                Err(Diagnostic::new(&name.span, format!("gain `{}` cannot be used here", name.name))
+                    .help("gains may appear only in `lyapunov`"))
             }
             None => {
                 let mut d = Diagnostic::new(&name.span, format!("unknown symbol `{}`", name.name));
