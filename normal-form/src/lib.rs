@@ -3,14 +3,27 @@
 
 mod complex;
 mod dd;
+mod error;
+mod hamiltonian;
 pub mod jet;
+mod lie;
+pub mod linalg;
+mod linear;
+pub mod models;
 mod monomial;
+mod normal_form;
 pub mod poly;
 mod scalar;
 
 pub use complex::Complex;
 pub use dd::Dd;
+pub use error::{Eigenvalue, NormalFormError};
+pub use hamiltonian::{find_equilibrium, taylor, Equilibrium, HamiltonianFn};
 pub use jet::{Jet, Scalar};
 pub use monomial::{binomial, MonomialTable};
+pub use normal_form::{
+    normalize, ActionTerm, ArnoldMoser, Diagnostics, NormalForm, Options, Point, PolyMap, Precision, ResonantTerm,
+    SmallDivisor, Term, Timings, Value,
+};
 pub use poly::Poly;
 pub use scalar::{Coeff, Real};

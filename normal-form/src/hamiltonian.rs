@@ -1,0 +1,119 @@
+//! Hamiltonians as expressions evaluated over any [`Scalar`], their Taylor expansion by jet
+//! arithmetic, and Newton's method for equilibria.
+
+use crate::error::NormalFormError;
+use crate::jet::{Jet, Scalar};
+use crate::linalg::{solve, Mat};
+use crate::monomial::MonomialTable;
+use crate::poly::Poly;
+use crate::scalar::Real;
+use std::sync::Arc;
+
+/// A Hamiltonian with `n` degrees of freedom in canonical coordinates
+/// `z = (q₁…q_n, p₁…p_n)`, evaluated generically so that the same expression gives numbers,
+/// jets (Taylor series) and double-double values.
+///
+/// Parameters are part of the implementing value (e.g. `Cr3bp { mu }`).
+pub trait HamiltonianFn {
+    /// Degrees of freedom n.
+    fn n_dof(&self) -> usize;
+    /// H(z).
+    fn eval<S: Scalar>(&self, z: &[S]) -> S;
+    /// A short name for reports.
+    fn name(&self) -> String {
+        "hamiltonian".into()
+    }
+    /// Names of the 2n coordinates for reports (default q1…qn, p1…pn).
+    fn coordinate_names(&self) -> Vec<String> {
+        let n = self.n_dof();
+        (1..=n).map(|k| format!("q{k}")).chain((1..=n).map(|k| format!("p{k}"))).collect()
+    }
+}
+
+/// Taylor expansion of H about `point` to the table's degree: H(point + δz) as a polynomial
+/// in δz, by evaluating H once over jets.
+pub fn taylor<R: Real, H: HamiltonianFn + ?Sized>(h: &H, point: &[R], table: &Arc<MonomialTable>) -> Poly<R> {
+    let z: Vec<Jet<R>> = point.iter().enumerate().map(|(i, &x)| Jet::Series(Poly::variable(table.clone(), i, x))).collect();
+    h.eval(&z).into_poly(table)
+}
+
+/// Result of the equilibrium search.
+#[derive(Clone, Debug)]
+pub struct Equilibrium<R> {
+    /// The point.
+    pub z: Vec<R>,
+    /// |∇H| at the starting point.
+    pub initial_gradient: f64,
+    /// |∇H| at the returned point.
+    pub gradient: f64,
+    /// Newton iterations done.
+    pub iterations: usize,
+}
+
+/// Gradient and Hessian from a degree-2 Taylor polynomial.
+pub fn gradient_hessian<R: Real>(p: &Poly<R>) -> (Vec<R>, Mat<R>) {
+    let d = p.nvars();
+    let mut g = vec![R::zero(); d];
+    let mut s = vec![vec![R::zero(); d]; d];
+    let mut e = vec![0u8; d];
+    for i in 0..d {
+        e[i] = 1;
+        g[i] = p.coeff(&e);
+        e[i] = 0;
+    }
+    for i in 0..d {
+        for j in i..d {
+            e[i] += 1;
+            e[j] += 1;
+            let c = p.coeff(&e);
+            e[i] -= 1;
+            e[j] -= 1;
+            if i == j {
+                s[i][i] = c + c;
+            } else {
+                s[i][j] = c;
+                s[j][i] = c;
+            }
+        }
+    }
+    (g, s)
+}
+
+fn norm<R: Real>(v: &[R]) -> f64 {
+    v.iter().map(|x| x.to_f64() * x.to_f64()).sum::<f64>().sqrt()
+}
+
+/// Newton's method for ∇H = 0 from `start`, in the working precision R.
+pub fn find_equilibrium<R: Real, H: HamiltonianFn + ?Sized>(h: &H, start: &[R], max_iter: usize) -> Result<Equilibrium<R>, NormalFormError> {
+    let d = 2 * h.n_dof();
+    let table = Arc::new(MonomialTable::new(d, 2));
+    let mut z = start.to_vec();
+    let mut initial = f64::NAN;
+    let scale = 1.0 + norm(start);
+    for it in 0..=max_iter {
+        let p = taylor(h, &z, &table);
+        let (g, s) = gradient_hessian(&p);
+        let gn = norm(&g);
+        if !gn.is_finite() {
+            return Err(NormalFormError::NonFinite("the gradient at the equilibrium guess"));
+        }
+        if it == 0 {
+            initial = gn;
+        }
+        let rhs: Vec<R> = g.iter().map(|&x| -x).collect();
+        let Some(dz) = solve(s, rhs) else {
+            return Err(NormalFormError::NewtonFailed { iterations: it, residual: gn });
+        };
+        let step = norm(&dz);
+        if gn == 0.0 || step <= 8.0 * R::EPSILON * scale {
+            return Ok(Equilibrium { z, initial_gradient: initial, gradient: gn, iterations: it });
+        }
+        for (zi, di) in z.iter_mut().zip(&dz) {
+            *zi += *di;
+        }
+        if it == max_iter {
+            return Err(NormalFormError::NewtonFailed { iterations: it, residual: gn });
+        }
+    }
+    unreachable!()
+}

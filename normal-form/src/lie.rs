@@ -1,0 +1,240 @@
+//! Lie-series (Deprit) normalisation in diagonal complex coordinates.
+//!
+//! Variables `u = (x₁…x_n, y₁…y_n)` with `{x_k, y_k} = 1` and
+//! `H₂ = Σ λ_k x_k y_k`, `λ_k = i σ_k ω_k`. For each degree r = 3…N the generator `G_r`
+//! solves the homological equation `{H₂, G_r} + H_r = Z_r`: since
+//! `{H₂, xᵃyᵇ} = ⟨λ, b − a⟩ xᵃyᵇ`, each monomial with `a ≠ b` (and no resonance) gets
+//! `g_{ab} = h_{ab} / ⟨λ, a − b⟩`, the seed's eq. (21), and `Z_r` keeps the terms with
+//! `a = b` (plus resonant ones if asked). Then `H ← exp(L_{G_r}) H = Σ_j L_{G_r}ʲ H / j!` with
+//! `L_G F = {F, G}`, i.e. `H ← H ∘ φ¹_{G_r}` (time-one flow of G_r), truncated at degree N.
+//! Each homogeneous part `H_s` is pushed along the chain `T₀ = H_s`, `T_j = {T_{j−1}, G}/j`
+//! into degree `s + j(r−2)`; parts are processed by decreasing degree so that each chain
+//! starts from the untransformed part, and the first link of the chain from H₂ is taken as
+//! `Z_r − H_r` exactly (Jorba 1999, "A methodology for the numerical computation of normal
+//! forms, centre manifolds and first integrals of Hamiltonian systems").
+
+use crate::complex::Complex;
+use crate::monomial::MonomialTable;
+use crate::poly::{deriv_hom, mul_acc_hom, Poly};
+use crate::scalar::{Coeff, Real};
+use std::collections::BTreeMap;
+
+/// Derivatives of a homogeneous generator, arranged for `{T, G} = Σ_k T_{x_k}·G_{y_k} + T_{y_k}·(−G_{x_k})`.
+struct GeneratorDerivs<C> {
+    degree: usize,
+    /// For k < n: ∂G/∂y_k ; for k ≥ n: −∂G/∂x_{k−n}. Empty if zero.
+    d: Vec<Vec<C>>,
+}
+
+impl<C: Coeff> GeneratorDerivs<C> {
+    fn new(table: &MonomialTable, g: &[C], r: usize) -> Self {
+        let n = table.nvars() / 2;
+        let mut d = Vec::with_capacity(2 * n);
+        for k in 0..n {
+            d.push(deriv_hom(table, g, r, n + k));
+        }
+        for k in 0..n {
+            d.push(deriv_hom(table, g, r, k).into_iter().map(|c| -c).collect());
+        }
+        for v in d.iter_mut() {
+            if v.iter().all(|c| c.is_zero()) {
+                v.clear();
+            }
+        }
+        GeneratorDerivs { degree: r, d }
+    }
+}
+
+/// `out += {t, G}` for a homogeneous `t` of degree `deg ≥ 1`.
+fn bracket_acc<C: Coeff>(table: &MonomialTable, out: &mut [C], t: &[C], deg: usize, g: &GeneratorDerivs<C>) {
+    let n = table.nvars() / 2;
+    for k in 0..n {
+        // T_{x_k} G_{y_k}
+        if !g.d[k].is_empty() {
+            let tx = deriv_hom(table, t, deg, k);
+            mul_acc_hom(table, out, &tx, deg - 1, &g.d[k], g.degree - 1);
+        }
+        // T_{y_k} (−G_{x_k})
+        if !g.d[n + k].is_empty() {
+            let ty = deriv_hom(table, t, deg, n + k);
+            mul_acc_hom(table, out, &ty, deg - 1, &g.d[n + k], g.degree - 1);
+        }
+    }
+}
+
+/// `F ← exp(L_G) F = Σ_j L_Gʲ F / j!` truncated at degree `cap`, G homogeneous of degree r ≥ 3.
+/// `first_link_from_h2`: the exact `{H₂, G}` (= Z_r − H_r) used for the chain from degree 2.
+pub(crate) fn lie_transform<R: Real>(
+    f: &mut Poly<Complex<R>>,
+    g: &[Complex<R>],
+    r: usize,
+    cap: usize,
+    first_link_from_h2: Option<Vec<Complex<R>>>,
+) {
+    let table = f.table().clone();
+    let gd = GeneratorDerivs::new(&table, g, r);
+    if gd.d.iter().all(|v| v.is_empty()) {
+        return;
+    }
+    let mut first = first_link_from_h2;
+    for s in (1..=cap).rev() {
+        let Some(part) = f.part(s) else { continue };
+        if part.iter().all(|c| c.is_zero()) {
+            continue;
+        }
+        let mut t: Vec<Complex<R>> = part.to_vec();
+        let mut deg = s;
+        let mut j = 1usize;
+        while deg + r - 2 <= cap {
+            let new_deg = deg + r - 2;
+            let next: Vec<Complex<R>> = match (s, j, first.take()) {
+                (2, 1, Some(exact)) => exact,
+                (_, _, other) => {
+                    first = other;
+                    let mut out = vec![Complex::zero(); table.count(new_deg)];
+                    bracket_acc(&table, &mut out, &t, deg, &gd);
+                    if j > 1 {
+                        let inv = R::one() / R::from_f64(j as f64);
+                        out.iter_mut().for_each(|c| *c = c.scale_r(inv));
+                    }
+                    out
+                }
+            };
+            if next.iter().all(|c| c.is_zero()) {
+                break;
+            }
+            let dst = f.part_mut(new_deg);
+            for (d, &x) in dst.iter_mut().zip(&next) {
+                *d += x;
+            }
+            t = next;
+            deg = new_deg;
+            j += 1;
+        }
+    }
+}
+
+/// A small divisor met: `m·ω` for an integer vector m relative to the positive frequencies.
+#[derive(Clone, Debug)]
+pub(crate) struct Divisor<R> {
+    pub m: Vec<i32>,
+    pub value: R,
+    pub order: usize,
+}
+
+/// Output of the normalisation.
+pub(crate) struct LieOutput<R> {
+    /// Normalised Hamiltonian Z (in u), degrees 0 and 2…N.
+    pub z: Poly<Complex<R>>,
+    /// Generators G_r (index r; empty for r < 3 or zero).
+    pub generators: Vec<Vec<Complex<R>>>,
+    /// Every distinct m met with its divisor, by first order.
+    pub divisors: Vec<Divisor<R>>,
+}
+
+/// Canonical form of m relative to positive frequencies: mω = Σ σ_k ω_k m_k, sign fixed so
+/// that the first nonzero entry is positive.
+pub(crate) fn canonical_m(m: &[i32], sigma: &[i8]) -> (Vec<i32>, bool) {
+    let mut v: Vec<i32> = m.iter().zip(sigma).map(|(&a, &s)| a * s as i32).collect();
+    let flip = v.iter().find(|&&x| x != 0).is_some_and(|&x| x < 0);
+    if flip {
+        v.iter_mut().for_each(|x| *x = -*x);
+    }
+    (v, flip)
+}
+
+/// Runs the normalisation of `h` (complex, degrees ≥ 2, H₂ = Σ λ_k x_k y_k) to degree N.
+/// `is_resonant(m)` decides whether the term is kept (resonant normal form); it is only
+/// asked about canonical m.
+pub(crate) fn normalize<R: Real>(
+    mut h: Poly<Complex<R>>,
+    omega: &[R],
+    sigma: &[i8],
+    is_resonant: &dyn Fn(&[i32]) -> bool,
+) -> LieOutput<R> {
+    let table = h.table().clone();
+    let nmax = table.max_degree();
+    let n = table.nvars() / 2;
+    let mut generators = vec![Vec::new(); nmax + 1];
+    let mut divisors: BTreeMap<Vec<i32>, Divisor<R>> = BTreeMap::new();
+    h.set_part(1, Vec::new());
+    for r in 3..=nmax {
+        let Some(hr) = h.part(r) else { continue };
+        let hr = hr.to_vec();
+        let mut g = vec![Complex::zero(); hr.len()];
+        let mut zr = vec![Complex::zero(); hr.len()];
+        let mut any = false;
+        let mut m = vec![0i32; n];
+        for (i, &c) in hr.iter().enumerate() {
+            if c.is_zero() {
+                continue;
+            }
+            let e = table.exponents(r, i);
+            for k in 0..n {
+                m[k] = e[k] as i32 - e[n + k] as i32;
+            }
+            if m.iter().all(|&x| x == 0) {
+                zr[i] = c;
+                continue;
+            }
+            let (cm, _) = canonical_m(&m, sigma);
+            let entry = divisors.entry(cm.clone()).or_insert_with(|| {
+                let value = cm.iter().zip(omega).fold(R::zero(), |s, (&a, &w)| s + w.scale(a as f64));
+                Divisor { m: cm.clone(), value, order: r }
+            });
+            let _ = entry;
+            if is_resonant(&cm) {
+                zr[i] = c;
+                continue;
+            }
+            // ⟨λ, a − b⟩ = i Σ σ_k ω_k m_k
+            let s = m.iter().zip(omega).zip(sigma).fold(R::zero(), |acc, ((&mk, &w), &sg)| acc + w.scale((mk * sg as i32) as f64));
+            let div = Complex::new(R::zero(), s);
+            g[i] = c / div;
+            any = true;
+        }
+        if any {
+            let first: Vec<Complex<R>> = zr.iter().zip(&hr).map(|(&z, &x)| z - x).collect();
+            lie_transform(&mut h, &g, r, nmax, Some(first));
+            // the degree-r part is Z_r up to rounding of h + (z − h); set it exactly
+            h.set_part(r, zr);
+            generators[r] = g;
+        }
+    }
+    h.prune();
+    let mut divisors: Vec<Divisor<R>> = divisors.into_values().collect();
+    divisors.sort_by(|a, b| a.value.abs().to_f64().total_cmp(&b.value.abs().to_f64()));
+    LieOutput { z: h, generators, divisors }
+}
+
+/// Old diagonal coordinates as series in the new ones (`forward = true`:
+/// `u = exp(L_{G_N})…exp(L_{G_3}) u'`-style composition, i.e. `u = φ_{G₃}∘…∘φ_{G_N}(u')`), or the
+/// new ones in terms of the old (`forward = false`), truncated at degree `cap`.
+pub(crate) fn coordinate_maps<R: Real>(
+    table: &std::sync::Arc<MonomialTable>,
+    generators: &[Vec<Complex<R>>],
+    cap: usize,
+    forward: bool,
+) -> Vec<Poly<Complex<R>>> {
+    let d = table.nvars();
+    let nmax = generators.len() - 1;
+    (0..d)
+        .map(|j| {
+            let mut f = Poly::variable(table.clone(), j, Complex::zero());
+            let order: Vec<usize> = if forward { (3..=nmax).collect() } else { (3..=nmax).rev().collect() };
+            for r in order {
+                let g = &generators[r];
+                if g.is_empty() {
+                    continue;
+                }
+                if forward {
+                    lie_transform(&mut f, g, r, cap, None);
+                } else {
+                    let neg: Vec<Complex<R>> = g.iter().map(|&c| -c).collect();
+                    lie_transform(&mut f, &neg, r, cap, None);
+                }
+            }
+            f
+        })
+        .collect()
+}

@@ -1,0 +1,861 @@
+//! The driver: equilibrium → Taylor expansion → linear normalisation → Lie normalisation →
+//! [`NormalForm`], in either precision, with an error estimate from the other precision.
+
+use crate::complex::Complex;
+use crate::error::NormalFormError;
+use crate::hamiltonian::{find_equilibrium, gradient_hessian, taylor, HamiltonianFn};
+use crate::lie;
+use crate::linalg::{matmul, Mat};
+use crate::linear::{complexification, linear_normalization, symplectic_inverse};
+use crate::monomial::MonomialTable;
+use crate::poly::Poly;
+use crate::scalar::{Coeff, Real};
+use crate::Dd;
+use serde::Serialize;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Working precision of the series algebra.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum Precision {
+    /// IEEE double.
+    #[serde(rename = "f64")]
+    F64,
+    /// Double-double (≈ 32 digits), about 4–6× slower.
+    #[serde(rename = "dd")]
+    DoubleDouble,
+}
+
+impl std::str::FromStr for Precision {
+    type Err = NormalFormError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "f64" | "double" => Ok(Precision::F64),
+            "dd" | "double-double" => Ok(Precision::DoubleDouble),
+            _ => Err(NormalFormError::Invalid(format!("unknown precision `{s}` (expected `f64` or `dd`)"))),
+        }
+    }
+}
+
+impl std::fmt::Display for Precision {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Precision::F64 => "f64",
+            Precision::DoubleDouble => "dd",
+        })
+    }
+}
+
+/// Where to normalise.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Point {
+    /// An equilibrium given exactly (checked: |∇H| ≤ `Options::equilibrium_tol`), then
+    /// polished by Newton in the working precision.
+    Given(Vec<f64>),
+    /// A starting guess for Newton's method on ∇H = 0.
+    Newton(Vec<f64>),
+}
+
+/// Options of [`normalize`]. Defaults: order 12, f64, non-resonant, resonance tolerance 1e-6,
+/// error estimate on, transformation on.
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// Truncation degree N ≥ 2 of the normal form (H̄ contains actions up to degree N/2).
+    /// Default: 12.
+    pub order: usize,
+    /// Working precision. Default: f64.
+    pub precision: Precision,
+    /// Keep resonant terms (|m·ω| < `resonance_tol`) instead of failing. Default: false.
+    pub resonant: bool,
+    /// Assumption 1′ tolerance on |m·ω| for 0 < |m|₁ ≤ N. Default: 1e-6.
+    pub resonance_tol: f64,
+    /// Also run the other precision and report |difference| per coefficient. Default: true.
+    pub error_estimate: bool,
+    /// Compute the transformation to and from normal coordinates. Default: true.
+    pub transform: bool,
+    /// Newton iterations allowed. Default: 50.
+    pub max_newton: usize,
+    /// |∇H| allowed at a [`Point::Given`]. Default: 1e-8.
+    pub equilibrium_tol: f64,
+    /// Rotate each normal plane (Q_k, P_k) by these angles (radians) before the nonlinear
+    /// normalisation. H̄ does not depend on them, so comparing runs with different angles
+    /// measures rounding errors independently of the precision. Default: none.
+    pub basis_rotation: Vec<f64>,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            order: 12,
+            precision: Precision::F64,
+            resonant: false,
+            resonance_tol: 1e-6,
+            error_estimate: true,
+            transform: true,
+            max_newton: 50,
+            equilibrium_tol: 1e-8,
+            basis_rotation: Vec::new(),
+        }
+    }
+}
+
+impl Options {
+    /// Options with the given order and defaults otherwise.
+    pub fn with_order(order: usize) -> Self {
+        Options { order, ..Options::default() }
+    }
+    /// Sets the precision.
+    pub fn precision(mut self, p: Precision) -> Self {
+        self.precision = p;
+        self
+    }
+    /// Sets resonant mode.
+    pub fn resonant(mut self, r: bool) -> Self {
+        self.resonant = r;
+        self
+    }
+    /// Turns the error estimate on or off.
+    pub fn error_estimate(mut self, e: bool) -> Self {
+        self.error_estimate = e;
+        self
+    }
+    /// Turns the coordinate transformation on or off.
+    pub fn transform(mut self, t: bool) -> Self {
+        self.transform = t;
+        self
+    }
+}
+
+/// A number in the report: `value + lo` (lo ≠ 0 only in double-double) and an error estimate.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Value {
+    /// The value rounded to f64.
+    pub value: f64,
+    /// Double-double tail (value + lo is the computed number).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub lo: f64,
+    /// Estimated absolute error (see the crate docs), when an estimate was made.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<f64>,
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
+}
+
+impl Value {
+    fn of<R: Real>(x: R) -> Value {
+        let (hi, lo) = x.hi_lo();
+        Value { value: hi, lo, error: None }
+    }
+    /// Estimated relative error |error/value|.
+    pub fn relative_error(&self) -> Option<f64> {
+        self.error.map(|e| if self.value == 0.0 { e } else { e / self.value.abs() })
+    }
+}
+
+/// A coefficient of H̄ = Σ h_a I^a: `exponents` = a, `degree` = 2|a| in the phase-space
+/// variables.
+#[derive(Clone, Debug, Serialize)]
+pub struct ActionTerm {
+    /// Exponents a of I₁…I_n.
+    pub exponents: Vec<u32>,
+    /// Degree 2|a| as a polynomial in (Q, P).
+    pub degree: usize,
+    /// h_a
+    pub coeff: Value,
+}
+
+/// A real monomial term `c·Q^α P^β` in the linear normal coordinates (generating function).
+#[derive(Clone, Debug, Serialize)]
+pub struct Term {
+    /// Exponents of (Q₁…Q_n, P₁…P_n).
+    pub exponents: Vec<u32>,
+    /// Total degree (the index r of the generator G_r it belongs to).
+    pub degree: usize,
+    /// Coefficient.
+    pub coeff: Value,
+}
+
+/// A resonant term kept in the normal form, in the complex coordinates `x^a y^b`.
+#[derive(Clone, Debug, Serialize)]
+pub struct ResonantTerm {
+    /// Exponents a of x.
+    pub x: Vec<u32>,
+    /// Exponents b of y.
+    pub y: Vec<u32>,
+    /// Real part.
+    pub re: f64,
+    /// Imaginary part.
+    pub im: f64,
+}
+
+/// A small divisor met: m·ω with m relative to the positive frequencies.
+#[derive(Clone, Debug, Serialize)]
+pub struct SmallDivisor {
+    /// Integer vector m (first nonzero entry positive).
+    pub m: Vec<i32>,
+    /// m·ω
+    pub m_dot_omega: f64,
+    /// Degree at which it was first met.
+    pub order: usize,
+    /// Kept as resonant (resonant mode only).
+    pub resonant: bool,
+}
+
+/// The Arnold–Moser twist coefficients for two degrees of freedom:
+/// `H̄₄ = ½(A I₁² + 2B I₁I₂ + C I₂²)` and `D₄ = −det[[A, B, ν₁], [B, C, ν₂], [ν₁, ν₂, 0]]
+/// = A ν₂² − 2B ν₁ν₂ + C ν₁²` with `ν = (σ₁ω₁, σ₂ω₂)`; for `H₂ = ω₁I₁ − ω₂I₂` (L4) this is
+/// Deprit's `D₄ = A ω₂² + 2B ω₁ω₂ + C ω₁²`.
+#[derive(Clone, Debug, Serialize)]
+pub struct ArnoldMoser {
+    /// A = ∂²H̄/∂I₁²
+    pub a: Value,
+    /// B = ∂²H̄/∂I₁∂I₂
+    pub b: Value,
+    /// C = ∂²H̄/∂I₂²
+    pub c: Value,
+    /// D₄
+    pub d4: Value,
+}
+
+/// Wall-clock time per phase, in seconds.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Timings {
+    /// Newton + Taylor expansion by jets.
+    pub taylor: f64,
+    /// Linear normalisation and substitution into the complex diagonal coordinates.
+    pub linear: f64,
+    /// Lie-series normalisation.
+    pub lie: f64,
+    /// Coordinate transformations (both directions) and the real forms.
+    pub transform: f64,
+    /// Total (this precision only).
+    pub total: f64,
+    /// The error-estimate run in the other precision (0 if none).
+    pub error_estimate: f64,
+}
+
+/// Numerical checks made on the way.
+#[derive(Clone, Debug, Serialize)]
+pub struct Diagnostics {
+    /// Newton iterations for the equilibrium.
+    pub newton_iterations: usize,
+    /// |∇H| at the returned equilibrium.
+    pub gradient_norm: f64,
+    /// max |AᵀJA − J|
+    pub symplectic_residual: f64,
+    /// max |AᵀSA − diag(σω)|
+    pub diagonal_residual: f64,
+    /// max |off-diagonal part of H₂| in the complex coordinates (dropped).
+    pub quadratic_residual: f64,
+    /// max |Im| of the action coefficients (should be rounding noise).
+    pub hbar_imag_residual: f64,
+    /// max |Im| of the real-form generating function (rounding noise).
+    pub generating_imag_residual: f64,
+    /// max |Im| of the real-form transformations (rounding noise).
+    pub transform_imag_residual: f64,
+    /// How errors were estimated.
+    pub error_method: Option<String>,
+    /// max over H̄ coefficients of |f64 − dd| / (|dd| · 2⁻⁵³): how much rounding is amplified.
+    pub amplification: Option<f64>,
+    /// Timings.
+    pub timings: Timings,
+    /// Memory of the monomial tables (bytes).
+    pub table_bytes: usize,
+}
+
+/// A real polynomial map ℝ²ⁿ → ℝ²ⁿ (one polynomial per output component).
+#[derive(Clone, Debug)]
+pub struct PolyMap {
+    /// Output components.
+    pub components: Vec<Poly<f64>>,
+}
+
+impl PolyMap {
+    /// Evaluates the map.
+    pub fn eval(&self, x: &[f64]) -> Vec<f64> {
+        self.components.iter().map(|p| p.eval(x)).collect()
+    }
+}
+
+/// A Birkhoff normal form and everything needed to use it.
+///
+/// Conventions (see the crate docs): normal coordinates `(Q, P)` with
+/// `δz = z − z_eq = A (Q, P)` (A real symplectic) to first order, actions
+/// `I_k = (Q_k² + P_k²)/2`, `H̄ = E₀ + Σ σ_k ω_k I_k + Σ_{|a|≥2} h_a I^a`.
+#[derive(Clone, Debug, Serialize)]
+pub struct NormalForm {
+    /// Model name.
+    pub model: String,
+    /// Degrees of freedom n.
+    pub n_dof: usize,
+    /// Truncation degree N.
+    pub order: usize,
+    /// Precision of the reported values.
+    pub precision: Precision,
+    /// Resonant mode.
+    pub resonant: bool,
+    /// Names of the phase-space coordinates (q₁…q_n, p₁…p_n).
+    pub coordinates: Vec<String>,
+    /// The equilibrium z_eq.
+    pub equilibrium: Vec<Value>,
+    /// H(z_eq) (the constant term of H̄).
+    pub energy: Value,
+    /// ω_k > 0, decreasing.
+    pub omega: Vec<Value>,
+    /// σ_k = ±1: H₂ = Σ σ_k ω_k I_k.
+    pub signs: Vec<i8>,
+    /// The linear symplectic map A (rows: coordinates, columns: Q₁…Q_n, P₁…P_n).
+    pub linear_map: Vec<Vec<f64>>,
+    /// H̄ as coefficients of action monomials (degree ≥ 2 in (Q, P), i.e. |a| ≥ 1).
+    pub hamiltonian: Vec<ActionTerm>,
+    /// Resonant terms kept (resonant mode).
+    pub resonant_terms: Vec<ResonantTerm>,
+    /// Generators G₃…G_N in real form in (Q, P); the transformation is
+    /// `φ_{G₃} ∘ φ_{G₄} ∘ … ∘ φ_{G_N}` (time-one flows), old = that map of new.
+    pub generating_function: Vec<Term>,
+    /// Small divisors met, smallest |m·ω| first.
+    pub small_divisors: Vec<SmallDivisor>,
+    /// A, B, C and D₄ (two degrees of freedom, N ≥ 4).
+    pub d4: Option<ArnoldMoser>,
+    /// Checks and timings.
+    pub diagnostics: Diagnostics,
+    /// (Q', P') as polynomials in δz = z − z_eq, degree ≤ N−1.
+    #[serde(skip)]
+    pub to_normal_map: Option<PolyMap>,
+    /// δz as polynomials in (Q', P'), degree ≤ N−1.
+    #[serde(skip)]
+    pub from_normal_map: Option<PolyMap>,
+    /// A⁻¹
+    #[serde(skip)]
+    pub linear_inverse: Vec<Vec<f64>>,
+}
+
+/// Internal result in the working precision.
+struct Raw<R> {
+    eq: crate::hamiltonian::Equilibrium<R>,
+    energy: R,
+    omega: Vec<R>,
+    sigma: Vec<i8>,
+    a: Mat<R>,
+    ainv: Mat<R>,
+    symplectic_residual: f64,
+    diagonal_residual: f64,
+    quadratic_residual: f64,
+    /// dense over action exponents with 1 ≤ |a| ≤ N/2 (in table order of degree 2|a| with a=b)
+    hbar: Vec<(Vec<u32>, R)>,
+    hbar_imag: f64,
+    resonant_terms: Vec<ResonantTerm>,
+    /// dense over all monomials of degrees 3…N
+    generating: Vec<(Vec<u32>, usize, R)>,
+    generating_imag: f64,
+    divisors: Vec<SmallDivisor>,
+    d4: Option<[R; 4]>,
+    to_normal: Option<Vec<Poly<R>>>,
+    from_normal: Option<Vec<Poly<R>>>,
+    transform_imag: f64,
+    timings: Timings,
+    table_bytes: usize,
+}
+
+fn to_complex<R: Real>(m: &Mat<R>) -> Mat<Complex<R>> {
+    m.iter().map(|r| r.iter().map(|&x| Complex::real(x)).collect()).collect()
+}
+
+/// (−i)^m
+fn minus_i_pow<R: Real>(m: usize) -> Complex<R> {
+    match m % 4 {
+        0 => Complex::real(R::one()),
+        1 => Complex::new(R::zero(), -R::one()),
+        2 => Complex::real(-R::one()),
+        _ => Complex::new(R::zero(), R::one()),
+    }
+}
+
+/// All m ∈ ℤⁿ with 0 < |m|₁ ≤ n_max and first nonzero entry positive, by increasing |m|₁.
+fn integer_vectors(n: usize, n_max: usize) -> Vec<Vec<i32>> {
+    let mut out = Vec::new();
+    fn rec(m: &mut Vec<i32>, k: usize, left: i32, out: &mut Vec<Vec<i32>>) {
+        if k == m.len() {
+            if left == 0 {
+                let first = m.iter().find(|&&x| x != 0);
+                if first.is_some_and(|&x| x > 0) {
+                    out.push(m.clone());
+                }
+            }
+            return;
+        }
+        for v in -left..=left {
+            m[k] = v;
+            rec(m, k + 1, left - v.abs(), out);
+        }
+        m[k] = 0;
+    }
+    for total in 1..=n_max as i32 {
+        let mut m = vec![0; n];
+        rec(&mut m, 0, total, &mut out);
+    }
+    out
+}
+
+/// Real parts of a complex polynomial, and the largest imaginary part.
+fn real_part<R: Real>(p: &Poly<Complex<R>>) -> (Poly<R>, f64) {
+    let mut imag: f64 = 0.0;
+    for (_, _, c) in p.terms() {
+        imag = imag.max(c.im.abs().to_f64());
+    }
+    (p.map(|c| c.re), imag)
+}
+
+fn run<R: Real, H: HamiltonianFn + ?Sized>(h: &H, point: &Point, o: &Options) -> Result<Raw<R>, NormalFormError> {
+    let t_start = Instant::now();
+    let n = h.n_dof();
+    let d = 2 * n;
+    let nmax = o.order;
+    let (start, given) = match point {
+        Point::Given(v) => (v, true),
+        Point::Newton(v) => (v, false),
+    };
+    if start.len() != d {
+        return Err(NormalFormError::Invalid(format!("point has {} components, expected {d}", start.len())));
+    }
+    let start: Vec<R> = start.iter().map(|&x| R::from_f64(x)).collect();
+    let eq = find_equilibrium(h, &start, o.max_newton)?;
+    if given && eq.initial_gradient > o.equilibrium_tol {
+        return Err(NormalFormError::NotAnEquilibrium { gradient_norm: eq.initial_gradient });
+    }
+    let table = Arc::new(MonomialTable::new(d, nmax));
+    let hz = taylor(h, &eq.z, &table);
+    if !hz.is_finite() {
+        return Err(NormalFormError::NonFinite("the Taylor expansion"));
+    }
+    let energy = hz.constant_term();
+    let mut timings = Timings { taylor: t_start.elapsed().as_secs_f64(), ..Timings::default() };
+
+    // linear normalisation
+    let t = Instant::now();
+    let (_, s) = gradient_hessian(&hz);
+    let lin = linear_normalization(&s, &o.basis_rotation)?;
+    let ainv = symplectic_inverse(&lin.a);
+    let (c, ci) = complexification::<R>(n);
+    let l = matmul(&to_complex(&lin.a), &c);
+    let mut hc = hz.map(Complex::real).substitute_linear(&l);
+    let lambda: Vec<Complex<R>> =
+        lin.omega.iter().zip(&lin.sigma).map(|(&w, &sg)| Complex::new(R::zero(), w.scale(sg as f64))).collect();
+    let mut quadratic_residual: f64 = 0.0;
+    let mut h2 = vec![Complex::zero(); table.count(2)];
+    for k in 0..n {
+        let mut e = vec![0u8; d];
+        e[k] = 1;
+        e[n + k] = 1;
+        let (_, i) = table.index(&e).expect("x_k y_k");
+        h2[i] = lambda[k];
+    }
+    if let Some(p) = hc.part(2) {
+        for (x, y) in p.iter().zip(&h2) {
+            quadratic_residual = quadratic_residual.max((*x - *y).magnitude());
+        }
+    }
+    hc.set_part(2, h2);
+    hc.set_part(1, Vec::new());
+    timings.linear = t.elapsed().as_secs_f64();
+
+    // Assumption 1′
+    let omega_f: Vec<f64> = lin.omega.iter().map(|w| w.to_f64()).collect();
+    let mdot = |m: &[i32]| -> R { m.iter().zip(&lin.omega).fold(R::zero(), |s, (&a, &w)| s + w.scale(a as f64)) };
+    if !o.resonant {
+        for m in integer_vectors(n, nmax) {
+            let v = mdot(&m);
+            if v.abs().to_f64() < o.resonance_tol {
+                let order = m.iter().map(|x| x.unsigned_abs() as usize).sum();
+                return Err(NormalFormError::Resonance { m, m_dot_omega: v.to_f64(), order, omega: omega_f });
+            }
+        }
+    }
+    let tol = o.resonance_tol;
+    let resonant_mode = o.resonant;
+    let is_res = |m: &[i32]| resonant_mode && mdot(m).abs().to_f64() < tol;
+
+    // Lie normalisation
+    let t = Instant::now();
+    let out = lie::normalize(hc, &lin.omega, &lin.sigma, &is_res);
+    timings.lie = t.elapsed().as_secs_f64();
+
+    // H̄ in actions: x_k y_k = −i I_k
+    let mut hbar: Vec<(Vec<u32>, R)> = Vec::new();
+    let mut hbar_imag: f64 = 0.0;
+    let mut resonant_terms = Vec::new();
+    for k in (2..=nmax).step_by(2) {
+        for i in 0..table.count(k) {
+            let e = table.exponents(k, i);
+            if e[..n] == e[n..] {
+                let z = out.z.part(k).map_or(Complex::zero(), |p| p[i]);
+                let v = z * minus_i_pow::<R>(k / 2);
+                hbar_imag = hbar_imag.max(v.im.abs().to_f64());
+                hbar.push((e[..n].iter().map(|&x| x as u32).collect(), v.re));
+            }
+        }
+    }
+    for (k, i, zc) in out.z.terms() {
+        let e = table.exponents(k, i);
+        if k >= 3 && e[..n] != e[n..] {
+            let (re, im) = zc.to_f64();
+            resonant_terms.push(ResonantTerm {
+                x: e[..n].iter().map(|&x| x as u32).collect(),
+                y: e[n..].iter().map(|&x| x as u32).collect(),
+                re,
+                im,
+            });
+        }
+    }
+    let divisors = out
+        .divisors
+        .iter()
+        .map(|dv| SmallDivisor {
+            m: dv.m.clone(),
+            m_dot_omega: dv.value.to_f64(),
+            order: dv.order,
+            resonant: resonant_mode && dv.value.abs().to_f64() < tol,
+        })
+        .collect();
+
+    // D4
+    let d4 = if n == 2 && nmax >= 4 {
+        let get = |a: [u32; 2]| hbar.iter().find(|(e, _)| e[..] == a).map_or(R::zero(), |(_, v)| *v);
+        let (a, b, cc) = (get([2, 0]).scale(2.0), get([1, 1]), get([0, 2]).scale(2.0));
+        let nu1 = lin.omega[0].scale(lin.sigma[0] as f64);
+        let nu2 = lin.omega[1].scale(lin.sigma[1] as f64);
+        let d4 = a * nu2 * nu2 - (b * nu1 * nu2).scale(2.0) + cc * nu1 * nu1;
+        Some([a, b, cc, d4])
+    } else {
+        None
+    };
+
+    // generating function in real form: G(u) with u = C⁻¹ w
+    let t = Instant::now();
+    let mut gsum = Poly::zero(table.clone());
+    for (r, g) in out.generators.iter().enumerate() {
+        if !g.is_empty() {
+            gsum.set_part(r, g.clone());
+        }
+    }
+    let (greal, generating_imag) = real_part(&gsum.substitute_linear(&ci));
+    let mut generating = Vec::new();
+    for r in 3..=nmax {
+        for i in 0..table.count(r) {
+            let v = greal.part(r).map_or(R::zero(), |p| p[i]);
+            generating.push((table.exponents(r, i).iter().map(|&x| x as u32).collect(), r, v));
+        }
+    }
+
+    // transformations
+    let (mut to_normal, mut from_normal, mut transform_imag) = (None, None, 0.0f64);
+    if o.transform && nmax >= 2 {
+        let cap = nmax - 1;
+        let fwd = lie::coordinate_maps(&table, &out.generators, cap, true);
+        let inv = lie::coordinate_maps(&table, &out.generators, cap, false);
+        // δz = L u(u'), u' = C⁻¹ w'
+        let vs: Vec<Poly<Complex<R>>> = fwd.iter().map(|p| p.substitute_linear(&ci)).collect();
+        let mut from = Vec::with_capacity(d);
+        for row in &l {
+            let mut acc = Poly::zero(table.clone());
+            for (j, v) in vs.iter().enumerate() {
+                acc.add_scaled(v, row[j]);
+            }
+            let (re, im) = real_part(&acc);
+            transform_imag = transform_imag.max(im);
+            from.push(re);
+        }
+        // w' = C u'(u), u = C⁻¹ A⁻¹ δz
+        let m = matmul(&ci, &to_complex(&ainv));
+        let vs: Vec<Poly<Complex<R>>> = inv.iter().map(|p| p.substitute_linear(&m)).collect();
+        let mut to = Vec::with_capacity(d);
+        for row in &c {
+            let mut acc = Poly::zero(table.clone());
+            for (j, v) in vs.iter().enumerate() {
+                if !row[j].is_zero() {
+                    acc.add_scaled(v, row[j]);
+                }
+            }
+            let (re, im) = real_part(&acc);
+            transform_imag = transform_imag.max(im);
+            to.push(re);
+        }
+        to_normal = Some(to);
+        from_normal = Some(from);
+    }
+    timings.transform = t.elapsed().as_secs_f64();
+    timings.total = t_start.elapsed().as_secs_f64();
+    Ok(Raw {
+        eq,
+        energy,
+        omega: lin.omega.clone(),
+        sigma: lin.sigma.clone(),
+        a: lin.a.clone(),
+        ainv,
+        symplectic_residual: lin.symplectic_residual,
+        diagonal_residual: lin.diagonal_residual,
+        quadratic_residual,
+        hbar,
+        hbar_imag,
+        resonant_terms,
+        generating,
+        generating_imag,
+        divisors,
+        d4,
+        to_normal,
+        from_normal,
+        transform_imag,
+        timings,
+        table_bytes: table.memory_bytes(),
+    })
+}
+
+fn to_f64_mat<R: Real>(m: &Mat<R>) -> Vec<Vec<f64>> {
+    m.iter().map(|r| r.iter().map(|x| x.to_f64()).collect()).collect()
+}
+
+fn assemble<R: Real, H: HamiltonianFn + ?Sized>(h: &H, raw: Raw<R>, o: &Options) -> NormalForm {
+    let map = |ps: Option<Vec<Poly<R>>>| ps.map(|v| PolyMap { components: v.iter().map(|p| p.map(|c| c.to_f64())).collect() });
+    let d4 = raw.d4.map(|[a, b, c, d]| ArnoldMoser { a: Value::of(a), b: Value::of(b), c: Value::of(c), d4: Value::of(d) });
+    let generating = raw
+        .generating
+        .iter()
+        .map(|(e, r, v)| Term { exponents: e.clone(), degree: *r, coeff: Value::of(*v) })
+        .collect();
+    NormalForm {
+        model: h.name(),
+        n_dof: h.n_dof(),
+        order: o.order,
+        precision: o.precision,
+        resonant: o.resonant,
+        coordinates: h.coordinate_names(),
+        equilibrium: raw.eq.z.iter().map(|&x| Value::of(x)).collect(),
+        energy: Value::of(raw.energy),
+        omega: raw.omega.iter().map(|&x| Value::of(x)).collect(),
+        signs: raw.sigma.clone(),
+        linear_map: to_f64_mat(&raw.a),
+        hamiltonian: raw
+            .hbar
+            .iter()
+            .map(|(e, v)| ActionTerm { exponents: e.clone(), degree: 2 * e.iter().sum::<u32>() as usize, coeff: Value::of(*v) })
+            .collect(),
+        resonant_terms: raw.resonant_terms,
+        generating_function: generating,
+        small_divisors: raw.divisors,
+        d4,
+        diagnostics: Diagnostics {
+            newton_iterations: raw.eq.iterations,
+            gradient_norm: raw.eq.gradient,
+            symplectic_residual: raw.symplectic_residual,
+            diagonal_residual: raw.diagonal_residual,
+            quadratic_residual: raw.quadratic_residual,
+            hbar_imag_residual: raw.hbar_imag,
+            generating_imag_residual: raw.generating_imag,
+            transform_imag_residual: raw.transform_imag,
+            error_method: None,
+            amplification: None,
+            timings: raw.timings,
+            table_bytes: raw.table_bytes,
+        },
+        to_normal_map: map(raw.to_normal),
+        from_normal_map: map(raw.from_normal),
+        linear_inverse: to_f64_mat(&raw.ainv),
+    }
+}
+
+fn run_assembled<H: HamiltonianFn + ?Sized>(h: &H, point: &Point, o: &Options) -> Result<NormalForm, NormalFormError> {
+    match o.precision {
+        Precision::F64 => run::<f64, H>(h, point, o).map(|r| assemble(h, r, o)),
+        Precision::DoubleDouble => run::<Dd, H>(h, point, o).map(|r| assemble(h, r, o)),
+    }
+}
+
+/// Computes the Birkhoff normal form of `h` at the equilibrium found from `point`.
+///
+/// Steps: Newton on ∇H = 0 (in the working precision) → Taylor expansion of H to degree N
+/// by jet arithmetic → symplectic diagonalisation of H₂ (fails with
+/// [`NormalFormError::NotElliptic`]) → Assumption 1′ check (fails with
+/// [`NormalFormError::Resonance`] unless `resonant`) → Lie-series normalisation → real
+/// forms of H̄, the generators and the transformation. With `error_estimate` the other
+/// precision is run too (without the transformation) and each coefficient gets
+/// `error = |c_f64 − c_dd|` (f64 run) or `|c_f64 − c_dd|·2⁻⁵¹` (double-double run: the same
+/// amplification of rounding errors acting on a unit roundoff 2⁵¹ times smaller).
+pub fn normalize<H: HamiltonianFn + ?Sized>(h: &H, point: &Point, options: &Options) -> Result<NormalForm, NormalFormError> {
+    if options.order < 2 || options.order > 120 {
+        return Err(NormalFormError::Invalid(format!("order {} outside 2…120", options.order)));
+    }
+    let mut nf = run_assembled(h, point, options)?;
+    if options.error_estimate {
+        let t = Instant::now();
+        let other_precision = match options.precision {
+            Precision::F64 => Precision::DoubleDouble,
+            Precision::DoubleDouble => Precision::F64,
+        };
+        let other_opts = Options { precision: other_precision, error_estimate: false, transform: false, ..options.clone() };
+        if let Ok(other) = run_assembled(h, point, &other_opts) {
+            let factor = match options.precision {
+                Precision::F64 => 1.0,
+                Precision::DoubleDouble => 2f64.powi(-51),
+            };
+            attach_errors(&mut nf, &other, factor);
+            nf.diagnostics.error_method = Some(match options.precision {
+                Precision::F64 => "|f64 - dd|".into(),
+                Precision::DoubleDouble => "|f64 - dd| * 2^-51".into(),
+            });
+        }
+        nf.diagnostics.timings.error_estimate = t.elapsed().as_secs_f64();
+    }
+    prune_generating(&mut nf);
+    Ok(nf)
+}
+
+/// Drops generator coefficients that are rounding noise (the real form of a complex
+/// polynomial has exact zeros that come out as ~ε·max).
+fn prune_generating(nf: &mut NormalForm) {
+    let eps = match nf.precision {
+        Precision::F64 => f64::EPSILON,
+        Precision::DoubleDouble => Dd::EPSILON,
+    };
+    let mut max_by_degree = vec![0.0f64; nf.order + 1];
+    for t in &nf.generating_function {
+        max_by_degree[t.degree] = max_by_degree[t.degree].max(t.coeff.value.abs());
+    }
+    nf.generating_function.retain(|t| t.coeff.value.abs() > 1e3 * eps * max_by_degree[t.degree]);
+}
+
+fn err(a: &Value, b: &Value, factor: f64) -> f64 {
+    let diff = ((a.value - b.value) + (a.lo - b.lo)).abs() * factor;
+    // never claim better than the working precision
+    let floor = if factor < 1.0 { 4.0 * Dd::EPSILON } else { f64::EPSILON / 2.0 } * a.value.abs();
+    diff.max(floor)
+}
+
+fn attach_errors(nf: &mut NormalForm, other: &NormalForm, factor: f64) {
+    let pairs = |a: &mut [Value], b: &[Value]| {
+        for (x, y) in a.iter_mut().zip(b) {
+            x.error = Some(err(x, y, factor));
+        }
+    };
+    pairs(&mut nf.equilibrium, &other.equilibrium);
+    pairs(&mut nf.omega, &other.omega);
+    nf.energy.error = Some(err(&nf.energy, &other.energy, factor));
+    let mut amp: f64 = 0.0;
+    for (x, y) in nf.hamiltonian.iter_mut().zip(&other.hamiltonian) {
+        let e = err(&x.coeff, &y.coeff, factor);
+        x.coeff.error = Some(e);
+        let (f, dd) = if factor == 1.0 { (&x.coeff, &y.coeff) } else { (&y.coeff, &x.coeff) };
+        if dd.value != 0.0 {
+            amp = amp.max(((f.value - dd.value) - dd.lo).abs() / (dd.value.abs() * f64::EPSILON / 2.0));
+        }
+    }
+    nf.diagnostics.amplification = Some(amp);
+    for (x, y) in nf.generating_function.iter_mut().zip(&other.generating_function) {
+        x.coeff.error = Some(err(&x.coeff, &y.coeff, factor));
+    }
+    if let (Some(a), Some(b)) = (nf.d4.as_mut(), other.d4.as_ref()) {
+        a.a.error = Some(err(&a.a, &b.a, factor));
+        a.b.error = Some(err(&a.b, &b.b, factor));
+        a.c.error = Some(err(&a.c, &b.c, factor));
+        a.d4.error = Some(err(&a.d4, &b.d4, factor));
+    }
+}
+
+impl NormalForm {
+    /// Computes the normal form (see [`normalize`]).
+    pub fn compute<H: HamiltonianFn + ?Sized>(h: &H, point: &Point, options: &Options) -> Result<NormalForm, NormalFormError> {
+        normalize(h, point, options)
+    }
+    /// ω as f64.
+    pub fn frequencies_linear(&self) -> Vec<f64> {
+        self.omega.iter().map(|v| v.value).collect()
+    }
+    /// The equilibrium as f64.
+    pub fn equilibrium_f64(&self) -> Vec<f64> {
+        self.equilibrium.iter().map(|v| v.value + v.lo).collect()
+    }
+    /// The coefficient h_a of I^a (0 if absent).
+    pub fn coefficient(&self, a: &[u32]) -> f64 {
+        self.hamiltonian.iter().find(|t| t.exponents == a).map_or(0.0, |t| t.coeff.value)
+    }
+    /// H̄(I) (including the constant E₀).
+    pub fn energy_at(&self, actions: &[f64]) -> f64 {
+        self.energy.value
+            + self
+                .hamiltonian
+                .iter()
+                .map(|t| t.coeff.value * t.exponents.iter().zip(actions).map(|(&e, &i)| i.powi(e as i32)).product::<f64>())
+                .sum::<f64>()
+    }
+    /// The frequency map ν = ∂H̄/∂I at the actions I (ν_k = σ_k ω_k + …).
+    pub fn frequencies(&self, actions: &[f64]) -> Vec<f64> {
+        let n = self.n_dof;
+        (0..n)
+            .map(|k| {
+                self.hamiltonian
+                    .iter()
+                    .filter(|t| t.exponents[k] > 0)
+                    .map(|t| {
+                        let mut m = t.coeff.value * t.exponents[k] as f64;
+                        for (j, (&e, &i)) in t.exponents.iter().zip(actions).enumerate() {
+                            let e = if j == k { e - 1 } else { e };
+                            m *= i.powi(e as i32);
+                        }
+                        m
+                    })
+                    .sum()
+            })
+            .collect()
+    }
+    /// Normal coordinates (Q', P') of a phase-space point z (needs the transformation).
+    pub fn to_normal(&self, z: &[f64]) -> Option<Vec<f64>> {
+        let eq = self.equilibrium_f64();
+        let dz: Vec<f64> = z.iter().zip(&eq).map(|(a, b)| a - b).collect();
+        self.to_normal_map.as_ref().map(|m| m.eval(&dz))
+    }
+    /// The phase-space point of normal coordinates (Q', P').
+    pub fn from_normal(&self, w: &[f64]) -> Option<Vec<f64>> {
+        let eq = self.equilibrium_f64();
+        self.from_normal_map.as_ref().map(|m| m.eval(w).iter().zip(&eq).map(|(a, b)| a + b).collect())
+    }
+    /// Actions I_k = (Q'_k² + P'_k²)/2 of a phase-space point.
+    pub fn actions(&self, z: &[f64]) -> Option<Vec<f64>> {
+        let n = self.n_dof;
+        self.to_normal(z).map(|w| (0..n).map(|k| 0.5 * (w[k] * w[k] + w[n + k] * w[n + k])).collect())
+    }
+    /// The truncated normal-form flow (seed eq. 5) mapped back: z(t) from z(0). In normal
+    /// coordinates each plane rotates, `Q' + iP' ↦ (Q' + iP') e^{−iν_k t}` with ν = ∂H̄/∂I
+    /// at the initial actions.
+    pub fn flow(&self, z0: &[f64], t: f64) -> Option<Vec<f64>> {
+        if !self.resonant_terms.is_empty() {
+            return None;
+        }
+        let n = self.n_dof;
+        let w = self.to_normal(z0)?;
+        let actions: Vec<f64> = (0..n).map(|k| 0.5 * (w[k] * w[k] + w[n + k] * w[n + k])).collect();
+        let nu = self.frequencies(&actions);
+        let mut wt = w.clone();
+        for k in 0..n {
+            let (s, c) = (nu[k] * t).sin_cos();
+            wt[k] = w[k] * c + w[n + k] * s;
+            wt[n + k] = -w[k] * s + w[n + k] * c;
+        }
+        self.from_normal(&wt)
+    }
+    /// The linearised flow about the equilibrium: δz(t) = A R(σω t) A⁻¹ δz(0).
+    pub fn linear_flow(&self, z0: &[f64], t: f64) -> Vec<f64> {
+        let n = self.n_dof;
+        let eq = self.equilibrium_f64();
+        let dz: Vec<f64> = z0.iter().zip(&eq).map(|(a, b)| a - b).collect();
+        let w: Vec<f64> = self.linear_inverse.iter().map(|r| r.iter().zip(&dz).map(|(a, b)| a * b).sum()).collect();
+        let mut wt = w.clone();
+        for k in 0..n {
+            let nu = self.omega[k].value * self.signs[k] as f64;
+            let (s, c) = (nu * t).sin_cos();
+            wt[k] = w[k] * c + w[n + k] * s;
+            wt[n + k] = -w[k] * s + w[n + k] * c;
+        }
+        self.linear_map.iter().zip(&eq).map(|(r, e)| e + r.iter().zip(&wt).map(|(a, b)| a * b).sum::<f64>()).collect()
+    }
+}
