@@ -39,7 +39,10 @@ fn kepler_from_the_generated_crate() {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let out = Command::new(cargo)
         .args(["test", "--offline", "--quiet"])
-        .env("CARGO_TARGET_DIR", root.join("target/gen-crate-test/target"))
+        .env(
+            "CARGO_TARGET_DIR",
+            root.join("target/gen-crate-test/target"),
+        )
         .current_dir(&dir)
         .output()
         .expect("run cargo test in the generated crate");

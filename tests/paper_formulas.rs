@@ -28,8 +28,15 @@ impl Rng {
 
 fn assert_close(what: &str, got: &[f64], want: &[f64], rel: f64) {
     let scale = want.iter().fold(0.0f64, |m, w| m.max(w.abs())).max(1e-300);
-    let err = got.iter().zip(want).fold(0.0f64, |m, (g, w)| m.max((g - w).abs()));
-    assert!(err <= rel * scale, "{what}: max error {err:.3e} relative {:.3e}\n got  {got:?}\n want {want:?}", err / scale);
+    let err = got
+        .iter()
+        .zip(want)
+        .fold(0.0f64, |m, (g, w)| m.max((g - w).abs()));
+    assert!(
+        err <= rel * scale,
+        "{what}: max error {err:.3e} relative {:.3e}\n got  {got:?}\n want {want:?}",
+        err / scale
+    );
 }
 
 /// ∇V against central differences of V (step ~1e-5, truncation error ~1e-10).
@@ -56,7 +63,10 @@ fn check_against_finite_differences<M, const N: usize, const K: usize, const G: 
 }
 
 fn split<const N: usize>(x: &[f64; N], at: usize) -> (Vector3<f64>, Vector3<f64>) {
-    (Vector3::from_column_slice(&x[at - 3..at]), Vector3::from_column_slice(&x[at..at + 3]))
+    (
+        Vector3::from_column_slice(&x[at - 3..at]),
+        Vector3::from_column_slice(&x[at..at + 3]),
+    )
 }
 
 #[test]
@@ -77,7 +87,12 @@ fn kepler_matches_the_paper() {
         let mut dx = [0.0; 6];
         m.field(&x, &mut dx);
         let acc = -mu * xv / r.powi(3);
-        assert_close("field", &dx, &[v[0], v[1], v[2], acc[0], acc[1], acc[2]], REL);
+        assert_close(
+            "field",
+            &dx,
+            &[v[0], v[1], v[2], acc[0], acc[1], acc[2]],
+            REL,
+        );
         // (32), (33)
         let l = xv.cross(&v);
         let a = v.cross(&l) - mu * xv / r;
@@ -86,13 +101,21 @@ fn kepler_matches_the_paper() {
         assert_close("L, A", &f, &[l[0], l[1], l[2], a[0], a[1], a[2]], REL);
         // Lemma 3.5
         let target = m.targets(&x0);
-        let (dl, da) = (l - Vector3::from_column_slice(&target[..3]), a - Vector3::from_column_slice(&target[3..]));
+        let (dl, da) = (
+            l - Vector3::from_column_slice(&target[..3]),
+            a - Vector3::from_column_slice(&target[3..]),
+        );
         let gx = k1 * v.cross(&dl)
             + k2 * (v.cross(&da.cross(&v)) - (mu / r) * da + (mu / r.powi(3)) * xv * xv.dot(&da));
         let gv = k1 * dl.cross(&xv) + k2 * (xv.cross(&v).cross(&da) + xv.cross(&v.cross(&da)));
         let mut grad = [0.0; 6];
         m.lyapunov_gradient(&x, &target, &[k1, k2], &mut grad);
-        assert_close("∇V (Lemma 3.5)", &grad, &[gx[0], gx[1], gx[2], gv[0], gv[1], gv[2]], REL);
+        assert_close(
+            "∇V (Lemma 3.5)",
+            &grad,
+            &[gx[0], gx[1], gx[2], gv[0], gv[1], gv[2]],
+            REL,
+        );
         // (41) = (31) − ∇V
         let mut fb = [0.0; 6];
         m.feedback_field(&x, &target, &[k1, k2], &mut fb);
@@ -121,7 +144,12 @@ fn perturbed_kepler_matches_the_paper() {
         let mut dx = [0.0; 6];
         m.field(&x, &mut dx);
         let acc = -du(r) * xv / r;
-        assert_close("field (42)", &dx, &[v[0], v[1], v[2], acc[0], acc[1], acc[2]], REL);
+        assert_close(
+            "field (42)",
+            &dx,
+            &[v[0], v[1], v[2], acc[0], acc[1], acc[2]],
+            REL,
+        );
         let e = 0.5 * v.dot(&v) + u(r);
         let l = xv.cross(&v);
         let mut f = [0.0; 4];
@@ -133,7 +161,12 @@ fn perturbed_kepler_matches_the_paper() {
         let gv = k1 * de * v + k2 * dl.cross(&xv);
         let mut grad = [0.0; 6];
         m.lyapunov_gradient(&x, &target, &[k1, k2], &mut grad);
-        assert_close("∇V (§3.3)", &grad, &[gx[0], gx[1], gx[2], gv[0], gv[1], gv[2]], REL);
+        assert_close(
+            "∇V (§3.3)",
+            &grad,
+            &[gx[0], gx[1], gx[2], gv[0], gv[1], gv[2]],
+            REL,
+        );
         check_against_finite_differences(&m, &x, &target, &[k1, k2]);
     }
 }
@@ -163,11 +196,19 @@ fn rigid_body_matches_the_paper() {
         let pi = r * inertia * w;
         let mut f = [0.0; 13];
         m.invariants(&x, &mut f);
-        let want: Vec<f64> = c.iter().copied().chain([e]).chain(pi.iter().copied()).collect();
+        let want: Vec<f64> = c
+            .iter()
+            .copied()
+            .chain([e])
+            .chain(pi.iter().copied())
+            .collect();
         assert_close("RᵀR − I, E, π", &f, &want, REL);
         // (19a), (19b)
         let target = m.targets(&x0);
-        let (de, dpi) = (e - target[9], pi - Vector3::from_column_slice(&target[10..]));
+        let (de, dpi) = (
+            e - target[9],
+            pi - Vector3::from_column_slice(&target[10..]),
+        );
         let gr = k0 * r * c + k2 * dpi * (inertia * w).transpose();
         let gw = k1 * de * inertia * w + k2 * inertia * r.transpose() * dpi;
         let mut grad = [0.0; 12];
@@ -177,7 +218,10 @@ fn rigid_body_matches_the_paper() {
         // (18) itself
         let v = k0 / 4.0 * c.norm_squared() + k1 / 2.0 * de * de + k2 / 2.0 * dpi.norm_squared();
         let got = m.lyapunov(&x, &target, &[k0, k1, k2]);
-        assert!((got - v).abs() <= REL * v.abs().max(1e-300), "V (18): {got} vs {v}");
+        assert!(
+            (got - v).abs() <= REL * v.abs().max(1e-300),
+            "V (18): {got} vs {v}"
+        );
         check_against_finite_differences(&m, &x, &target, &[k0, k1, k2]);
     }
 }
@@ -191,9 +235,19 @@ fn paper_initial_conditions() {
     // §4.2: L(0) = (0, 0, √1.8), A(0) = (0.8, 0, 0)
     let k = Kepler::<f64>::default();
     let f = k.targets(&k.point_paper());
-    assert_close("Kepler L0, A0", &f, &[0.0, 0.0, 1.8f64.sqrt(), 0.8, 0.0, 0.0], 1e-15);
+    assert_close(
+        "Kepler L0, A0",
+        &f,
+        &[0.0, 0.0, 1.8f64.sqrt(), 0.8, 0.0, 0.0],
+        1e-15,
+    );
     // §4.3: E(0) = −0.5390625, L(0) = (0, 0, 0.8)
     let p = PerturbedKepler::<f64>::default();
     let f = p.targets(&p.point_paper());
-    assert_close("perturbed Kepler E0, L0", &f, &[-0.5390625, 0.0, 0.0, 0.8], 1e-15);
+    assert_close(
+        "perturbed Kepler E0, L0",
+        &f,
+        &[-0.5390625, 0.0, 0.0, 0.8],
+        1e-15,
+    );
 }

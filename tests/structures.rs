@@ -26,7 +26,10 @@ fn type_i_extremals_are_the_thesis_equations() {
         let want = [p2, -p1 + p1 * p3 / c1, -p1 * p2 / c1];
         assert!(close(&dx[..3], &want, 1e-14), "{:?} vs {want:?}", &dx[..3]);
     }
-    let names: Vec<&str> = So3TypeI::<f64>::INVARIANTS.iter().map(|f| f.slot.name).collect();
+    let names: Vec<&str> = So3TypeI::<f64>::INVARIANTS
+        .iter()
+        .map(|f| f.slot.name)
+        .collect();
     assert_eq!(names, ["H", "orthogonality", "casimir"]);
     let mut f = [0.0; 11];
     m.invariants(&m.point_thesis(), &mut f);
@@ -40,7 +43,12 @@ fn cr3bp_canonical_equations_and_l4_equilibrium() {
     let mu = m.mu;
     for k in 0..200 {
         let s = k as f64 * 0.61;
-        let x = [0.3 + s.cos(), 0.8 * s.sin(), -0.7 + 0.1 * s, 0.4 * (3.0 * s).cos()];
+        let x = [
+            0.3 + s.cos(),
+            0.8 * s.sin(),
+            -0.7 + 0.1 * s,
+            0.4 * (3.0 * s).cos(),
+        ];
         let (qx, qy, px, py) = (x[0], x[1], x[2], x[3]);
         let r1 = ((qx + mu).powi(2) + qy * qy).sqrt();
         let r2 = ((qx - 1.0 + mu).powi(2) + qy * qy).sqrt();
@@ -56,5 +64,8 @@ fn cr3bp_canonical_equations_and_l4_equilibrium() {
     }
     let mut dx = [1.0; 4];
     m.field(&m.point_l4(), &mut dx);
-    assert!(dx.iter().all(|d| d.abs() < 1e-15), "L4 is an equilibrium: {dx:?}");
+    assert!(
+        dx.iter().all(|d| d.abs() < 1e-15),
+        "L4 is an equilibrium: {dx:?}"
+    );
 }

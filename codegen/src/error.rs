@@ -51,12 +51,17 @@ impl Span {
 
     /// The smallest span covering both.
     pub fn to(&self, other: &Span) -> Span {
-        Span { source: self.source.clone(), start: self.start.min(other.start), end: self.end.max(other.end) }
+        Span {
+            source: self.source.clone(),
+            start: self.start.min(other.start),
+            end: self.end.max(other.end),
+        }
     }
 
     /// The covered source text.
     pub fn text(&self) -> &str {
-        &self.source.text[self.start.min(self.source.text.len())..self.end.min(self.source.text.len())]
+        &self.source.text
+            [self.start.min(self.source.text.len())..self.end.min(self.source.text.len())]
     }
 }
 
@@ -74,7 +79,11 @@ pub struct Diagnostic {
 impl Diagnostic {
     /// An error at `span`.
     pub fn new(span: &Span, message: impl Into<String>) -> Self {
-        Diagnostic { message: message.into(), span: Some(span.clone()), help: None }
+        Diagnostic {
+            message: message.into(),
+            span: Some(span.clone()),
+            help: None,
+        }
     }
 
     /// Adds a help line.
@@ -91,11 +100,23 @@ impl fmt::Display for Diagnostic {
             let (line, col) = span.line_col();
             let text = span.line_text();
             let gutter = line.to_string().len();
-            let width = span.text().chars().take_while(|&c| c != '\n').count().max(1);
+            let width = span
+                .text()
+                .chars()
+                .take_while(|&c| c != '\n')
+                .count()
+                .max(1);
             writeln!(f, "{:gutter$}--> {}", "", span.location())?;
             writeln!(f, "{:gutter$} |", "")?;
             writeln!(f, "{line} | {text}")?;
-            writeln!(f, "{:gutter$} | {:pad$}{}", "", "", "^".repeat(width), pad = col - 1)?;
+            writeln!(
+                f,
+                "{:gutter$} | {:pad$}{}",
+                "",
+                "",
+                "^".repeat(width),
+                pad = col - 1
+            )?;
         }
         if let Some(help) = &self.help {
             writeln!(f, "  = help: {help}")?;

@@ -25,7 +25,12 @@ fn assert_error(text: &str, line: usize, col: usize, needles: &[&str]) {
 #[test]
 fn syntax_error_names_the_place() {
     let text = "model M {\n    state x: scalar;\n    d/dt x = 2 * ;\n}\n";
-    assert_error(text, 3, 18, &["expected an expression, found `;`", "d/dt x = 2 * ;", "^"]);
+    assert_error(
+        text,
+        3,
+        18,
+        &["expected an expression, found `;`", "d/dt x = 2 * ;", "^"],
+    );
 }
 
 #[test]
@@ -39,13 +44,23 @@ fn unknown_symbol_suggests_a_name() {
     let text = KEPLER.replace("d/dt x = v;", "d/dt x = vv;");
     let line = text.lines().position(|l| l.contains("vv")).unwrap() + 1;
     let col = text.lines().nth(line - 1).unwrap().find("vv").unwrap() + 1;
-    assert_error(&text, line, col, &["unknown symbol `vv`", "did you mean `v`?"]);
+    assert_error(
+        &text,
+        line,
+        col,
+        &["unknown symbol `vv`", "did you mean `v`?"],
+    );
 }
 
 #[test]
 fn unknown_function_suggests_a_name() {
     let text = KEPLER.replace("let r = norm(x);", "let r = nrm(x);");
-    assert_error(&text, 7, 13, &["unknown function `nrm`", "did you mean `norm`?"]);
+    assert_error(
+        &text,
+        7,
+        13,
+        &["unknown function `nrm`", "did you mean `norm`?"],
+    );
 }
 
 #[test]
@@ -53,27 +68,48 @@ fn shape_mismatch_names_both_shapes() {
     let text = KEPLER.replace("d/dt x = v;", "d/dt x = v + mu;");
     assert_error(&text, 9, 14, &["cannot add a vec3 and a scalar"]);
     let text = KEPLER.replace("d/dt x = v;", "d/dt x = x * v;");
-    assert_error(&text, 9, 14, &["cannot multiply a vec3 by a vec3", "dot(a, b)"]);
+    assert_error(
+        &text,
+        9,
+        14,
+        &["cannot multiply a vec3 by a vec3", "dot(a, b)"],
+    );
     let text = KEPLER.replace("d/dt x = v;", "d/dt x = dot(x, v);");
     assert_error(&text, 9, 14, &["d/dt x is a scalar but `x` is a vec3"]);
 }
 
 #[test]
 fn an_integral_that_is_not_conserved_is_named() {
-    let text = KEPLER.replace("    point paper", "    integral bad = x[0];\n    point paper");
-    let line = text.lines().position(|l| l.contains("integral bad")).unwrap() + 1;
+    let text = KEPLER.replace(
+        "    point paper",
+        "    integral bad = x[0];\n    point paper",
+    );
+    let line = text
+        .lines()
+        .position(|l| l.contains("integral bad"))
+        .unwrap()
+        + 1;
     let msg = error_of(&text);
     assert!(msg.contains("integral `bad` is not conserved"), "{msg}");
     assert!(msg.contains(&format!("models/test.lsl:{line}:5")), "{msg}");
-    assert!(msg.contains("at x = (x = ["), "the message shows the state: {msg}");
+    assert!(
+        msg.contains("at x = (x = ["),
+        "the message shows the state: {msg}"
+    );
 }
 
 #[test]
 fn a_constraint_the_field_leaves_is_named() {
     // |x|² − 1 is not kept by the Kepler flow.
-    let text = KEPLER.replace("    point paper", "    constraint sphere = dot(x, x) - 1;\n    point paper");
+    let text = KEPLER.replace(
+        "    point paper",
+        "    constraint sphere = dot(x, x) - 1;\n    point paper",
+    );
     let msg = error_of(&text);
-    assert!(msg.contains("constraint `sphere` is not conserved"), "{msg}");
+    assert!(
+        msg.contains("constraint `sphere` is not conserved"),
+        "{msg}"
+    );
 }
 
 #[test]
@@ -92,17 +128,28 @@ fn gains_and_targets_only_in_lyapunov() {
 
 #[test]
 fn all_errors_are_reported_at_once() {
-    let text = KEPLER.replace("d/dt x = v;", "d/dt x = vv;").replace("let r = norm(x);", "let r = nrm(x);");
+    let text = KEPLER
+        .replace("d/dt x = v;", "d/dt x = vv;")
+        .replace("let r = norm(x);", "let r = nrm(x);");
     let msg = error_of(&text);
-    assert!(msg.contains("unknown symbol `vv`") && msg.contains("unknown function `nrm`"), "{msg}");
+    assert!(
+        msg.contains("unknown symbol `vv`") && msg.contains("unknown function `nrm`"),
+        "{msg}"
+    );
     assert!(msg.contains("aborting due to 2 errors"), "{msg}");
 }
 
 #[test]
 fn explicit_lyapunov_must_vanish_on_the_invariant_set() {
-    let text = KEPLER.replace("    point paper", "    lyapunov V = k1 / 2 * norm(L)^2;\n    point paper");
+    let text = KEPLER.replace(
+        "    point paper",
+        "    lyapunov V = k1 / 2 * norm(L)^2;\n    point paper",
+    );
     let msg = error_of(&text);
-    assert!(msg.contains("V does not vanish on the invariant set"), "{msg}");
+    assert!(
+        msg.contains("V does not vanish on the invariant set"),
+        "{msg}"
+    );
 }
 
 /// Mutations of every model file (deleted, duplicated and replaced characters) never make the
@@ -110,12 +157,17 @@ fn explicit_lyapunov_must_vanish_on_the_invariant_set() {
 #[test]
 fn no_input_makes_the_generator_panic() {
     let models = ["kepler", "perturbed_kepler", "rigid_body"].map(|m| {
-        std::fs::read_to_string(format!("{}/../models/{m}.lsl", env!("CARGO_MANIFEST_DIR"))).unwrap()
+        std::fs::read_to_string(format!("{}/../models/{m}.lsl", env!("CARGO_MANIFEST_DIR")))
+            .unwrap()
     });
-    let replacements = ['(', ')', '[', ']', ';', '^', '*', '/', '-', '0', 'x', ' ', '{', '}', ',', '='];
+    let replacements = [
+        '(', ')', '[', ']', ';', '^', '*', '/', '-', '0', 'x', ' ', '{', '}', ',', '=',
+    ];
     let mut state = 12345u64;
     let mut next = |n: usize| {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((state >> 33) as usize) % n.max(1)
     };
     for text in &models {
@@ -133,7 +185,8 @@ fn no_input_makes_the_generator_panic() {
                 }
             }
             let mutated: String = c.into_iter().collect();
-            let result = std::panic::catch_unwind(|| generate_source("mutated.lsl", &mutated).map(|_| ()));
+            let result =
+                std::panic::catch_unwind(|| generate_source("mutated.lsl", &mutated).map(|_| ()));
             match result {
                 Err(_) => panic!("the generator panicked on:\n{mutated}"),
                 Ok(Err(e)) => assert!(!e.to_string().is_empty()),

@@ -9,7 +9,8 @@ fn models_dir() -> std::path::PathBuf {
 #[test]
 fn paper_models_pass_the_conservation_check() {
     for name in ["kepler", "perturbed_kepler", "rigid_body"] {
-        let mut m = load_model(models_dir().join(format!("{name}.lsl"))).unwrap_or_else(|e| panic!("{e}"));
+        let mut m =
+            load_model(models_dir().join(format!("{name}.lsl"))).unwrap_or_else(|e| panic!("{e}"));
         let d = derive::derive(&mut m);
         let verdicts = check::check(&mut m, &d).unwrap_or_else(|e| panic!("{e}"));
         let v_ops = m.graph.op_count(&[m.lyapunov]);

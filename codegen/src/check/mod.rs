@@ -53,10 +53,16 @@ pub fn check(model: &mut Model, d: &Derivatives) -> Result<Vec<Conservation>, Er
         let range = f.offset..f.offset + f.value.shape.len();
         let lie: Vec<_> = d.lie_derivatives[range.clone()].to_vec();
         let proved = lie.iter().all(|&l| {
-            model.graph.expand(l, EXPAND_LIMIT).is_some_and(|e| model.graph.as_num(e) == Some(0.0))
+            model
+                .graph
+                .expand(l, EXPAND_LIMIT)
+                .is_some_and(|e| model.graph.as_num(e) == Some(0.0))
         });
         if proved {
-            out.push(Conservation { name: f.name.clone(), verdict: Verdict::Proved });
+            out.push(Conservation {
+                name: f.name.clone(),
+                verdict: Verdict::Proved,
+            });
             continue;
         }
         let mut rng = Rng::new(0x1a5a11e ^ f.offset as u64);
@@ -68,7 +74,13 @@ pub fn check(model: &mut Model, d: &Derivatives) -> Result<Vec<Conservation>, Er
             attempts += 1;
             let mut x: Vec<f64> = (0..n).map(|_| rng.uniform(-1.5, 1.5)).collect();
             if f.kind == InvariantKind::Constraint {
-                let Some(on) = project_onto(&model.graph, &d.jacobian[range.clone()], &f.value.ids, &params, &x) else {
+                let Some(on) = project_onto(
+                    &model.graph,
+                    &d.jacobian[range.clone()],
+                    &f.value.ids,
+                    &params,
+                    &x,
+                ) else {
                     continue;
                 };
                 x = on;
@@ -99,8 +111,16 @@ pub fn check(model: &mut Model, d: &Derivatives) -> Result<Vec<Conservation>, Er
             }
         }
         if let Some((c, v, scale, x)) = failure {
-            let component = if f.value.shape.len() > 1 { format!(" (component {c})") } else { String::new() };
-            let what = if f.kind == InvariantKind::Constraint { "constraint" } else { "integral" };
+            let component = if f.value.shape.len() > 1 {
+                format!(" (component {c})")
+            } else {
+                String::new()
+            };
+            let what = if f.kind == InvariantKind::Constraint {
+                "constraint"
+            } else {
+                "integral"
+            };
             let help = if f.kind == InvariantKind::Constraint {
                 "the field must be tangent to {f₀ = 0}; check the formula".to_string()
             } else {
@@ -123,7 +143,13 @@ pub fn check(model: &mut Model, d: &Derivatives) -> Result<Vec<Conservation>, Er
                 "cannot check `{}`: it or the field is not finite at {} of {attempts} random states", f.name, attempts - samples
             )).help("the check samples states with components in [−1.5, 1.5]; avoid singular formulas there"));
         } else {
-            out.push(Conservation { name: f.name.clone(), verdict: Verdict::Sampled { samples, worst_relative: worst } });
+            out.push(Conservation {
+                name: f.name.clone(),
+                verdict: Verdict::Sampled {
+                    samples,
+                    worst_relative: worst,
+                },
+            });
         }
     }
     if let Some(span) = model.lyapunov_span.clone() {
@@ -139,7 +165,12 @@ pub fn check(model: &mut Model, d: &Derivatives) -> Result<Vec<Conservation>, Er
 }
 
 /// An explicit V must vanish where f(x) = f(x₀) on the constraint manifold, and be ≥ 0.
-fn check_lyapunov(model: &Model, d: &Derivatives, params: &[f64], span: &crate::Span) -> Result<(), Diagnostic> {
+fn check_lyapunov(
+    model: &Model,
+    d: &Derivatives,
+    params: &[f64],
+    span: &crate::Span,
+) -> Result<(), Diagnostic> {
     let n = model.dim();
     let f = model.invariant_ids();
     // The constraint rows of f and Df, to sample the manifold {f₀ = 0}.
@@ -171,12 +202,14 @@ fn check_lyapunov(model: &Model, d: &Derivatives, params: &[f64], span: &crate::
         };
         let (fx, fy) = (at(&x), at(&y));
         let v = |target: &[f64]| {
-            model.graph.eval_with_scale(model.lyapunov, &mut |i| match i {
-                Input::State(k) => x[k as usize],
-                Input::Param(k) => params[k as usize],
-                Input::Target(k) => target[k as usize],
-                Input::Gain(k) => gains[k as usize],
-            })
+            model
+                .graph
+                .eval_with_scale(model.lyapunov, &mut |i| match i {
+                    Input::State(k) => x[k as usize],
+                    Input::Param(k) => params[k as usize],
+                    Input::Target(k) => target[k as usize],
+                    Input::Gain(k) => gains[k as usize],
+                })
         };
         let (v0, scale0) = v(&fx);
         let (v1, scale1) = v(&fy);
@@ -190,8 +223,14 @@ fn check_lyapunov(model: &Model, d: &Derivatives, params: &[f64], span: &crate::
             )).help("V must vanish exactly where f(x) = f(x₀) (and the constraints hold), e.g. k/2 * norm(f - target(f))^2"));
         }
         if v1 < -TOLERANCE * scale1 {
-            return Err(Diagnostic::new(span, format!("V is negative: V = {v1:.3e} at x = {}", state_string(model, &x)))
-                .help("V must be ≥ 0, e.g. a sum of k/2 * norm(f - target(f))^2 with k ≥ 0"));
+            return Err(Diagnostic::new(
+                span,
+                format!(
+                    "V is negative: V = {v1:.3e} at x = {}",
+                    state_string(model, &x)
+                ),
+            )
+            .help("V must be ≥ 0, e.g. a sum of k/2 * norm(f - target(f))^2 with k ≥ 0"));
         }
     }
     Ok(())
@@ -202,7 +241,10 @@ fn state_string(model: &Model, x: &[f64]) -> String {
         .state
         .iter()
         .map(|s| {
-            let vals: Vec<String> = x[s.offset..s.offset + s.shape.len()].iter().map(|v| format!("{v:.4}")).collect();
+            let vals: Vec<String> = x[s.offset..s.offset + s.shape.len()]
+                .iter()
+                .map(|v| format!("{v:.4}"))
+                .collect();
             if vals.len() == 1 {
                 format!("{} = {}", s.name, vals[0])
             } else {

@@ -28,7 +28,13 @@ impl Rng {
 
 /// Moves `x` onto {c(x) = 0} by Levenberg–Marquardt on ½|c|² (c may have dependent rows,
 /// like the nine components of RᵀR − I). `None` if it does not converge to 1e-13.
-pub fn project_onto(g: &Graph, jac: &[Vec<Id>], c: &[Id], params: &[f64], x: &[f64]) -> Option<Vec<f64>> {
+pub fn project_onto(
+    g: &Graph,
+    jac: &[Vec<Id>],
+    c: &[Id],
+    params: &[f64],
+    x: &[f64],
+) -> Option<Vec<f64>> {
     let n = x.len();
     let mut x = x.to_vec();
     let mut lambda = 1e-3;
@@ -55,11 +61,11 @@ pub fn project_onto(g: &Graph, jac: &[Vec<Id>], c: &[Id], params: &[f64], x: &[f
         // (JᵀJ + λ diag) δ = −Jᵀr
         let mut a = vec![vec![0.0; n]; n];
         let mut b = vec![0.0; n];
-        for i in 0..n {
-            for k in 0..n {
-                a[i][k] = (0..c.len()).map(|row| j(row, i) * j(row, k)).sum();
+        for (i, (a_row, b_i)) in a.iter_mut().zip(b.iter_mut()).enumerate() {
+            for (k, a_ik) in a_row.iter_mut().enumerate() {
+                *a_ik = (0..c.len()).map(|row| j(row, i) * j(row, k)).sum();
             }
-            b[i] = -(0..c.len()).map(|row| j(row, i) * r[row]).sum::<f64>();
+            *b_i = -(0..c.len()).map(|row| j(row, i) * r[row]).sum::<f64>();
         }
         for (i, row) in a.iter_mut().enumerate() {
             row[i] += lambda * (1.0 + row[i]);
@@ -91,12 +97,14 @@ fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
         }
         a.swap(col, piv);
         b.swap(col, piv);
-        for row in col + 1..n {
-            let factor = a[row][col] / a[col][col];
-            for k in col..n {
-                a[row][k] -= factor * a[col][k];
+        let (top, rest) = a.split_at_mut(col + 1);
+        let pivot_row = &top[col];
+        for (offset, row) in rest.iter_mut().enumerate() {
+            let factor = row[col] / pivot_row[col];
+            for (x, p) in row[col..].iter_mut().zip(&pivot_row[col..]) {
+                *x -= factor * p;
             }
-            b[row] -= factor * b[col];
+            b[col + 1 + offset] -= factor * b[col];
         }
     }
     for col in (0..n).rev() {

@@ -25,7 +25,12 @@ pub fn diff(g: &mut Graph, root: Id, var: Input, memo: &mut HashMap<Id, Id>) -> 
                     if g.as_num(dk) == Some(0.0) {
                         continue;
                     }
-                    let mut factors: Vec<Id> = c.iter().enumerate().filter(|&(j, _)| j != i).map(|(_, &f)| f).collect();
+                    let mut factors: Vec<Id> = c
+                        .iter()
+                        .enumerate()
+                        .filter(|&(j, _)| j != i)
+                        .map(|(_, &f)| f)
+                        .collect();
                     factors.push(dk);
                     terms.push(g.mul(&factors));
                 }
@@ -58,7 +63,7 @@ pub fn diff(g: &mut Graph, root: Id, var: Input, memo: &mut HashMap<Id, Id>) -> 
 /// d(bᵉ)/db = e·bᵉ⁻¹.
 fn local_pow(g: &mut Graph, b: Id, e: Rational) -> Id {
     let c = g.num(e.to_f64());
-    let p = g.pow(b, e.add(Rational::int(-1)));
+    let p = g.pow(b, e + Rational::int(-1));
     g.mul(&[c, p])
 }
 
@@ -85,7 +90,9 @@ pub fn gradient(g: &mut Graph, root: Id, vars: &[Input]) -> Vec<Id> {
     contributions.insert(root, vec![one]);
     let mut adjoint_of_input: HashMap<Input, Id> = HashMap::new();
     for &id in order.iter().rev() {
-        let Some(parts) = contributions.remove(&id) else { continue };
+        let Some(parts) = contributions.remove(&id) else {
+            continue;
+        };
         let adj = g.add(&parts);
         if g.as_num(adj) == Some(0.0) {
             continue;
@@ -104,7 +111,12 @@ pub fn gradient(g: &mut Graph, root: Id, vars: &[Input]) -> Vec<Id> {
                     if matches!(g.node(k), Node::Num(_)) {
                         continue;
                     }
-                    let mut factors: Vec<Id> = c.iter().enumerate().filter(|&(j, _)| j != i).map(|(_, &f)| f).collect();
+                    let mut factors: Vec<Id> = c
+                        .iter()
+                        .enumerate()
+                        .filter(|&(j, _)| j != i)
+                        .map(|(_, &f)| f)
+                        .collect();
                     factors.push(adj);
                     let t = g.mul(&factors);
                     push(k, t, &mut contributions);
@@ -122,7 +134,14 @@ pub fn gradient(g: &mut Graph, root: Id, vars: &[Input]) -> Vec<Id> {
             }
         }
     }
-    vars.iter().map(|v| adjoint_of_input.get(v).copied().unwrap_or_else(|| g.num(0.0))).collect()
+    vars.iter()
+        .map(|v| {
+            adjoint_of_input
+                .get(v)
+                .copied()
+                .unwrap_or_else(|| g.num(0.0))
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -186,19 +205,40 @@ pub fn derive(model: &mut crate::Model) -> Derivatives {
     let f = model.invariant_ids();
     let g = &mut model.graph;
     let mut memos: Vec<HashMap<Id, Id>> = vec![HashMap::new(); n];
-    let jacobian: Vec<Vec<Id>> =
-        f.iter().map(|&fc| (0..n).map(|i| diff(g, fc, vars[i], &mut memos[i])).collect()).collect();
+    let jacobian: Vec<Vec<Id>> = f
+        .iter()
+        .map(|&fc| {
+            (0..n)
+                .map(|i| diff(g, fc, vars[i], &mut memos[i]))
+                .collect()
+        })
+        .collect();
     let lie_derivatives = jacobian
         .iter()
         .map(|row| {
-            let terms: Vec<Id> = row.iter().zip(&model.field).map(|(&d, &x)| g.mul(&[d, x])).collect();
+            let terms: Vec<Id> = row
+                .iter()
+                .zip(&model.field)
+                .map(|(&d, &x)| g.mul(&[d, x]))
+                .collect();
             g.add(&terms)
         })
         .collect();
     let lyapunov_gradient = gradient(g, model.lyapunov, &vars);
-    let feedback = model.field.iter().zip(&lyapunov_gradient).map(|(&x, &d)| g.sub(x, d)).collect();
+    let feedback = model
+        .field
+        .iter()
+        .zip(&lyapunov_gradient)
+        .map(|(&x, &d)| g.sub(x, d))
+        .collect();
     let partition = partition(model);
-    Derivatives { jacobian, lyapunov_gradient, feedback, lie_derivatives, partition }
+    Derivatives {
+        jacobian,
+        lyapunov_gradient,
+        feedback,
+        lie_derivatives,
+        partition,
+    }
 }
 
 /// Splits the state variables into two groups q, p with q̇ = a(p) and ṗ = b(q), if possible:
@@ -206,7 +246,12 @@ pub fn derive(model: &mut crate::Model) -> Derivatives {
 /// on the other. The group of the first state variable is q.
 fn partition(model: &crate::Model) -> Option<Vec<bool>> {
     let g = &model.graph;
-    let block_of = |i: usize| model.state.iter().position(|s| (s.offset..s.offset + s.shape.len()).contains(&i));
+    let block_of = |i: usize| {
+        model
+            .state
+            .iter()
+            .position(|s| (s.offset..s.offset + s.shape.len()).contains(&i))
+    };
     let nb = model.state.len();
     let mut edges = vec![Vec::new(); nb];
     for (b, s) in model.state.iter().enumerate() {
@@ -249,9 +294,7 @@ fn partition(model: &crate::Model) -> Option<Vec<bool>> {
     }
     let mut is_q = vec![false; model.dim()];
     for (b, s) in model.state.iter().enumerate() {
-        for k in s.offset..s.offset + s.shape.len() {
-            is_q[k] = colour[b] == Some(true);
-        }
+        is_q[s.offset..s.offset + s.shape.len()].fill(colour[b] == Some(true));
     }
     Some(is_q)
 }

@@ -18,7 +18,7 @@ pub struct Leaves<'a> {
 
 /// One assignment of the function: `place = value;`, optionally under a note.
 pub struct Output {
-    /// The place written, e.g. `dx[3]`.
+    /// The place written, e.g. `dx[3]`; empty for the function's return value (last output).
     pub place: TokenStream,
     /// The value.
     pub id: Id,
@@ -61,7 +61,11 @@ pub fn body(g: &Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str]) -
     for r in &roots {
         *uses.entry(*r).or_default() += 1;
     }
-    let mut w = Writer { g, named: HashMap::new(), scope: Scope::with(reserved) };
+    let mut w = Writer {
+        g,
+        named: HashMap::new(),
+        scope: Scope::with(reserved),
+    };
     let mut stmts = Vec::new();
     // Leaves, each read once.
     for &id in &order {
@@ -114,7 +118,11 @@ pub fn body(g: &Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str]) -
         }
         let value = w.reference(o.id).0;
         let place = &o.place;
-        stmts.push(quote!(#place = #value;));
+        if place.is_empty() {
+            stmts.push(value); // the function's tail expression
+        } else {
+            stmts.push(quote!(#place = #value;));
+        }
     }
     quote!(#(#stmts)*)
 }
@@ -196,7 +204,8 @@ impl Writer<'_> {
     }
 
     fn sum(&self, terms: &[Id]) -> (TokenStream, Prec) {
-        let mut parts: Vec<(bool, TokenStream, Prec)> = terms.iter().map(|&t| self.signed(t)).collect();
+        let mut parts: Vec<(bool, TokenStream, Prec)> =
+            terms.iter().map(|&t| self.signed(t)).collect();
         // Positive terms first reads best: `a + b − c` rather than `−c + a + b`.
         parts.sort_by_key(|(neg, ..)| *neg);
         let mut out = TokenStream::new();
@@ -234,7 +243,10 @@ impl Writer<'_> {
         for &f in factors {
             match self.g.node(f) {
                 Node::Pow(b, e) if e.num < 0 && !self.named.contains_key(&f) => {
-                    let pos = Rational { num: -e.num, den: e.den };
+                    let pos = Rational {
+                        num: -e.num,
+                        den: e.den,
+                    };
                     den.push(self.wrap(self.power_positive(*b, pos), Prec::Atom));
                 }
                 _ => num.push(self.wrap(self.reference(f), Prec::Unary)),
@@ -250,13 +262,26 @@ impl Writer<'_> {
         for d in &den {
             ts = quote!(#ts / #d);
         }
-        let p = if num.len() == 1 && den.is_empty() { Prec::Atom } else { Prec::Product };
+        let p = if num.len() == 1 && den.is_empty() {
+            Prec::Atom
+        } else {
+            Prec::Product
+        };
         (ts, p)
     }
 
     fn power(&self, b: Id, e: Rational) -> (TokenStream, Prec) {
         if e.num < 0 {
-            let pos = self.wrap(self.power_positive(b, Rational { num: -e.num, den: e.den }), Prec::Atom);
+            let pos = self.wrap(
+                self.power_positive(
+                    b,
+                    Rational {
+                        num: -e.num,
+                        den: e.den,
+                    },
+                ),
+                Prec::Atom,
+            );
             return (quote!(T::one() / #pos), Prec::Product);
         }
         self.power_positive(b, e)

@@ -50,22 +50,35 @@ fn u(k: usize) -> Literal {
 fn shape_tokens(shape: Shape) -> TokenStream {
     match shape {
         Shape::Scalar => quote!(Shape::Scalar),
-        Shape::Vector(n) => { let n = u(n); quote!(Shape::Vector(#n)) },
-        Shape::Matrix(r, c) => { let (r, c) = (u(r), u(c)); quote!(Shape::Matrix(#r, #c)) },
+        Shape::Vector(n) => {
+            let n = u(n);
+            quote!(Shape::Vector(#n))
+        }
+        Shape::Matrix(r, c) => {
+            let (r, c) = (u(r), u(c));
+            quote!(Shape::Matrix(#r, #c))
+        }
     }
 }
 
 fn file_name(model: &Model) -> String {
     std::path::Path::new(&model.source.path)
         .file_name()
-        .map_or_else(|| model.source.path.clone(), |f| f.to_string_lossy().into_owned())
+        .map_or_else(
+            || model.source.path.clone(),
+            |f| f.to_string_lossy().into_owned(),
+        )
 }
 
 /// `kepler.lsl:9: d/dt v = -mu * x / r^3;` for the item at `span`.
 fn note_for(model: &Model, span: &crate::Span) -> String {
     let (line, _) = span.line_col();
     let text = span.text().split_whitespace().collect::<Vec<_>>().join(" ");
-    let text = if text.chars().count() > 90 { format!("{}…", text.chars().take(89).collect::<String>()) } else { text };
+    let text = if text.chars().count() > 90 {
+        format!("{}…", text.chars().take(89).collect::<String>())
+    } else {
+        text
+    };
     format!("{}:{line}: {text}", file_name(model))
 }
 
@@ -77,9 +90,19 @@ fn param_fields(model: &Model) -> Result<Vec<String>, crate::Diagnostic> {
         let name = snake(&p.name);
         let fresh = scope.fresh(&name);
         if fresh != name && !matches!(name.as_str(), "type" | "fn" | "self") {
-            let other = model.params.iter().find(|q| snake(&q.name) == name).map_or("", |q| q.name.as_str());
-            return Err(crate::Diagnostic::new(&p.span, format!("parameters `{}` and `{other}` would both be the Rust field `{name}`", p.name))
-                .help("rename one of them"));
+            let other = model
+                .params
+                .iter()
+                .find(|q| snake(&q.name) == name)
+                .map_or("", |q| q.name.as_str());
+            return Err(crate::Diagnostic::new(
+                &p.span,
+                format!(
+                    "parameters `{}` and `{other}` would both be the Rust field `{name}`",
+                    p.name
+                ),
+            )
+            .help("rename one of them"));
         }
         out.push(fresh);
     }
@@ -88,7 +111,11 @@ fn param_fields(model: &Model) -> Result<Vec<String>, crate::Diagnostic> {
 
 /// Emits the struct and trait impls of a model, given its derivatives and the conservation
 /// verdicts (quoted in the docs).
-pub fn emit(model: &Model, d: &Derivatives, conservation: &[Conservation]) -> crate::Result<Emitted> {
+pub fn emit(
+    model: &Model,
+    d: &Derivatives,
+    conservation: &[Conservation],
+) -> crate::Result<Emitted> {
     let g = &model.graph;
     let ty = format_ident!("{}", model.name);
     let (n, m, ng) = (model.dim(), model.invariant_dim(), model.gains.len());
@@ -97,7 +124,11 @@ pub fn emit(model: &Model, d: &Derivatives, conservation: &[Conservation]) -> cr
 
     // Leaves: state components by name, parameters from `self`, targets and gains by index.
     let state_name = |k: usize| -> String {
-        let s = model.state.iter().find(|s| (s.offset..s.offset + s.shape.len()).contains(&k)).expect("in range");
+        let s = model
+            .state
+            .iter()
+            .find(|s| (s.offset..s.offset + s.shape.len()).contains(&k))
+            .expect("in range");
         let base = snake(&s.name);
         let j = k - s.offset;
         match s.shape {
@@ -107,15 +138,26 @@ pub fn emit(model: &Model, d: &Derivatives, conservation: &[Conservation]) -> cr
         }
     };
     let param_source = |k: usize| -> (String, TokenStream) {
-        let (pi, p) = model.params.iter().enumerate().find(|(_, p)| (p.offset..p.offset + p.slots()).contains(&k)).expect("slot");
+        let (pi, p) = model
+            .params
+            .iter()
+            .enumerate()
+            .find(|(_, p)| (p.offset..p.offset + p.slots()).contains(&k))
+            .expect("slot");
         let field = format_ident!("{}", fields[pi]);
         let j = k - p.offset;
         match (p.shape, p.diagonal) {
             (Shape::Scalar, _) => (fields[pi].clone(), quote!(self.#field)),
-            (Shape::Vector(_), _) | (_, true) => (format!("{}_{j}", fields[pi]), { let j = u(j); quote!(self.#field[#j]) }),
+            (Shape::Vector(_), _) | (_, true) => (format!("{}_{j}", fields[pi]), {
+                let j = u(j);
+                quote!(self.#field[#j])
+            }),
             (Shape::Matrix(r, _), false) => {
                 let (i, c) = (j % r, j / r);
-                (format!("{}_{i}{c}", fields[pi]), { let (i, c) = (u(i), u(c)); quote!(self.#field[#i][#c]) })
+                (format!("{}_{i}{c}", fields[pi]), {
+                    let (i, c) = (u(i), u(c));
+                    quote!(self.#field[#i][#c])
+                })
             }
         }
     };
@@ -124,19 +166,36 @@ pub fn emit(model: &Model, d: &Derivatives, conservation: &[Conservation]) -> cr
         match i {
             Input::State(k) => {
                 let k = k as usize;
-                (state_name(k), { let k = u(k); quote!(x[#k]) })
+                (state_name(k), {
+                    let k = u(k);
+                    quote!(x[#k])
+                })
             }
             Input::Param(k) => param_source(k as usize),
             Input::Target(k) => {
                 let k = k as usize;
-                let f = model.invariants.iter().find(|f| (f.offset..f.offset + f.value.shape.len()).contains(&k)).expect("target");
+                let f = model
+                    .invariants
+                    .iter()
+                    .find(|f| (f.offset..f.offset + f.value.shape.len()).contains(&k))
+                    .expect("target");
                 let j = k - f.offset;
-                let name = if f.value.shape.len() == 1 { format!("{}_0", snake(&f.name)) } else { format!("{}_0_{j}", snake(&f.name)) };
-                (name, { let k = u(k); quote!(target[#k]) })
+                let name = if f.value.shape.len() == 1 {
+                    format!("{}_0", snake(&f.name))
+                } else {
+                    format!("{}_0_{j}", snake(&f.name))
+                };
+                (name, {
+                    let k = u(k);
+                    quote!(target[#k])
+                })
             }
             Input::Gain(k) => {
                 let k = k as usize;
-                (gain_name(k), { let k = u(k); quote!(gains[#k]) })
+                (gain_name(k), {
+                    let k = u(k);
+                    quote!(gains[#k])
+                })
             }
         }
     };
@@ -152,80 +211,203 @@ pub fn emit(model: &Model, d: &Derivatives, conservation: &[Conservation]) -> cr
             if g.children(id).is_empty() {
                 continue; // a let that is just a leaf or a number needs no temporary
             }
-            let_names.entry(id).or_insert((name, note_for(model, &b.span)));
+            let_names
+                .entry(id)
+                .or_insert((name, note_for(model, &b.span)));
         }
     }
-    let leaves = Leaves { input: &input_fn, let_names: &let_names };
+    let leaves = Leaves {
+        input: &input_fn,
+        let_names: &let_names,
+    };
 
-    let field_outputs = |ids: &[Id], place: &dyn Fn(usize) -> TokenStream, only: &dyn Fn(usize) -> bool| -> Vec<Output> {
+    let field_outputs = |ids: &[Id],
+                         place: &dyn Fn(usize) -> TokenStream,
+                         only: &dyn Fn(usize) -> bool|
+     -> Vec<Output> {
         ids.iter()
             .enumerate()
             .filter(|(k, _)| only(*k))
-            .map(|(k, &id)| Output { place: place(k), id, note: Some(note_for(model, &model.field_spans[k])) })
+            .map(|(k, &id)| Output {
+                place: place(k),
+                id,
+                note: Some(note_for(model, &model.field_spans[k])),
+            })
             .collect()
     };
-    let dx_place = |k: usize| { let k = u(k); quote!(dx[#k]) };
+    let dx_place = |k: usize| {
+        let k = u(k);
+        quote!(dx[#k])
+    };
     let all = |_: usize| true;
 
     // Field.
-    let field_body = body(g, &leaves, &field_outputs(&model.field, &dx_place, &all), &["x", "dx"]);
+    let field_body = body(
+        g,
+        &leaves,
+        &field_outputs(&model.field, &dx_place, &all),
+        &["x", "dx"],
+    );
 
     // Invariants and their Jacobian.
     let invariant_note = |k: usize| {
-        let f = model.invariants.iter().find(|f| (f.offset..f.offset + f.value.shape.len()).contains(&k)).expect("row");
+        let f = model
+            .invariants
+            .iter()
+            .find(|f| (f.offset..f.offset + f.value.shape.len()).contains(&k))
+            .expect("row");
         note_for(model, &f.span)
     };
     let f_ids = model.invariant_ids();
-    let inv_outputs: Vec<Output> =
-        f_ids.iter().enumerate().map(|(k, &id)| Output { place: { let k = u(k); quote!(f[#k]) }, id, note: Some(invariant_note(k)) }).collect();
+    let inv_outputs: Vec<Output> = f_ids
+        .iter()
+        .enumerate()
+        .map(|(k, &id)| Output {
+            place: {
+                let k = u(k);
+                quote!(f[#k])
+            },
+            id,
+            note: Some(invariant_note(k)),
+        })
+        .collect();
     let inv_body = body(g, &leaves, &inv_outputs, &["x", "f"]);
     let mut jac_outputs = Vec::new();
     for (c, row) in d.jacobian.iter().enumerate() {
         for (i, &id) in row.iter().enumerate() {
             if g.as_num(id) != Some(0.0) {
-                jac_outputs.push(Output { place: { let (c, i) = (u(c), u(i)); quote!(jac[#c][#i]) }, id, note: Some(invariant_note(c)) });
+                jac_outputs.push(Output {
+                    place: {
+                        let (c, i) = (u(c), u(i));
+                        quote!(jac[#c][#i])
+                    },
+                    id,
+                    note: Some(invariant_note(c)),
+                });
             }
         }
     }
     let jac_body = body(g, &leaves, &jac_outputs, &["x", "jac"]);
 
     // V, ∇V and X − ∇V.
-    let v_note = model.lyapunov_span.as_ref().map(|s| note_for(model, s))
-        .unwrap_or_else(|| format!("{}: V = Σ k/2 |f − f(x₀)|² over the invariants", file_name(model)));
-    let v_body = body(g, &leaves, &[Output { place: quote!(let v), id: model.lyapunov, note: Some(v_note.clone()) }], &["x", "target", "gains", "v"]);
-    let grad_outputs: Vec<Output> = d.lyapunov_gradient.iter().enumerate()
-        .map(|(k, &id)| Output { place: { let k = u(k); quote!(grad[#k]) }, id, note: Some(format!("∂V/∂x[{k}] ({})", state_name(k))) })
+    let v_note = model
+        .lyapunov_span
+        .as_ref()
+        .map(|s| note_for(model, s))
+        .unwrap_or_else(|| {
+            format!(
+                "{}: V = Σ k/2 |f − f(x₀)|² over the invariants",
+                file_name(model)
+            )
+        });
+    let v_body = body(
+        g,
+        &leaves,
+        &[Output {
+            place: TokenStream::new(),
+            id: model.lyapunov,
+            note: Some(v_note),
+        }],
+        &["x", "target", "gains"],
+    );
+    let grad_outputs: Vec<Output> = d
+        .lyapunov_gradient
+        .iter()
+        .enumerate()
+        .map(|(k, &id)| Output {
+            place: {
+                let k = u(k);
+                quote!(grad[#k])
+            },
+            id,
+            note: Some(format!("∂V/∂x[{k}] ({})", state_name(k))),
+        })
         .collect();
     let grad_body = body(g, &leaves, &grad_outputs, &["x", "target", "gains", "grad"]);
-    let fb_outputs: Vec<Output> = d.feedback.iter().enumerate()
-        .map(|(k, &id)| Output { place: { let k = u(k); quote!(dx[#k]) }, id, note: Some(format!("{} − ∂V/∂x[{k}]", note_for(model, &model.field_spans[k]))) })
+    let fb_outputs: Vec<Output> = d
+        .feedback
+        .iter()
+        .enumerate()
+        .map(|(k, &id)| Output {
+            place: {
+                let k = u(k);
+                quote!(dx[#k])
+            },
+            id,
+            note: Some(format!(
+                "{} − ∂V/∂x[{k}]",
+                note_for(model, &model.field_spans[k])
+            )),
+        })
         .collect();
     let fb_body = body(g, &leaves, &fb_outputs, &["x", "target", "gains", "dx"]);
 
     // Unused arguments get a leading underscore (no warnings in generated code).
-    let uses = |ids: &[Id], pred: &dyn Fn(Input) -> bool| ids.iter().any(|&id| g.depends_on(id, pred));
-    let arg = |used: bool, name: &str| if used { format_ident!("{}", name) } else { format_ident!("_{}", name) };
+    let uses =
+        |ids: &[Id], pred: &dyn Fn(Input) -> bool| ids.iter().any(|&id| g.depends_on(id, pred));
+    let arg = |used: bool, name: &str| {
+        if used {
+            format_ident!("{}", name)
+        } else {
+            format_ident!("_{}", name)
+        }
+    };
     let is_target = |i: Input| matches!(i, Input::Target(_));
     let is_gain = |i: Input| matches!(i, Input::Gain(_));
     let is_state = |i: Input| matches!(i, Input::State(_));
-    let (v_t, v_g) = (arg(uses(&[model.lyapunov], &is_target), "target"), arg(uses(&[model.lyapunov], &is_gain), "gains"));
+    let (v_t, v_g) = (
+        arg(uses(&[model.lyapunov], &is_target), "target"),
+        arg(uses(&[model.lyapunov], &is_gain), "gains"),
+    );
     let v_x = arg(uses(&[model.lyapunov], &is_state), "x");
-    let (gr_t, gr_g) = (arg(uses(&d.lyapunov_gradient, &is_target), "target"), arg(uses(&d.lyapunov_gradient, &is_gain), "gains"));
+    let (gr_t, gr_g) = (
+        arg(uses(&d.lyapunov_gradient, &is_target), "target"),
+        arg(uses(&d.lyapunov_gradient, &is_gain), "gains"),
+    );
     let gr_x = arg(uses(&d.lyapunov_gradient, &is_state), "x");
-    let (fb_t, fb_g) = (arg(uses(&d.feedback, &is_target), "target"), arg(uses(&d.feedback, &is_gain), "gains"));
+    let (fb_t, fb_g) = (
+        arg(uses(&d.feedback, &is_target), "target"),
+        arg(uses(&d.feedback, &is_gain), "gains"),
+    );
     let fb_x = arg(uses(&d.feedback, &is_state), "x");
     let f_x = arg(uses(&model.field, &is_state), "x");
     let i_x = arg(uses(&f_ids, &is_state), "x");
-    let j_x = arg(jac_outputs.iter().any(|o| g.depends_on(o.id, is_state)), "x");
-    let jac_init = if jac_outputs.len() < n * m { quote!(*jac = [[T::zero(); #nl]; #ml];) } else { quote!() };
+    let j_x = arg(
+        jac_outputs.iter().any(|o| g.depends_on(o.id, is_state)),
+        "x",
+    );
+    let jac_init = if jac_outputs.len() < n * m {
+        quote!(*jac = [[T::zero(); #nl]; #ml];)
+    } else {
+        quote!()
+    };
 
     // Partitioned fields get Störmer–Verlet's half-fields.
     let partitioned = d.partition.as_ref().map(|is_q| {
-        let q_body = body(g, &leaves, &field_outputs(&model.field, &dx_place, &|k| is_q[k]), &["x", "dx"]);
-        let p_body = body(g, &leaves, &field_outputs(&model.field, &dx_place, &|k| !is_q[k]), &["x", "dx"]);
-        let q_ids: Vec<Id> = (0..n).filter(|&k| is_q[k]).map(|k| model.field[k]).collect();
-        let p_ids: Vec<Id> = (0..n).filter(|&k| !is_q[k]).map(|k| model.field[k]).collect();
-        let (qx, px) = (arg(uses(&q_ids, &is_state), "x"), arg(uses(&p_ids, &is_state), "x"));
+        let q_body = body(
+            g,
+            &leaves,
+            &field_outputs(&model.field, &dx_place, &|k| is_q[k]),
+            &["x", "dx"],
+        );
+        let p_body = body(
+            g,
+            &leaves,
+            &field_outputs(&model.field, &dx_place, &|k| !is_q[k]),
+            &["x", "dx"],
+        );
+        let q_ids: Vec<Id> = (0..n)
+            .filter(|&k| is_q[k])
+            .map(|k| model.field[k])
+            .collect();
+        let p_ids: Vec<Id> = (0..n)
+            .filter(|&k| !is_q[k])
+            .map(|k| model.field[k])
+            .collect();
+        let (qx, px) = (
+            arg(uses(&q_ids, &is_state), "x"),
+            arg(uses(&p_ids, &is_state), "x"),
+        );
         quote! {
             impl<T: Float> Partitioned<T, #nl> for #ty<T> {
                 const IS_Q: [bool; #nl] = [#(#is_q),*];
@@ -238,14 +420,28 @@ pub fn emit(model: &Model, d: &Derivatives, conservation: &[Conservation]) -> cr
     // The parameter struct.
     let struct_fields = model.params.iter().zip(&fields).map(|(p, f)| {
         let f = format_ident!("{}", f);
-        let t: TokenStream = if p.diagonal { format!("[T; {}]", p.slots()) } else { p.shape.rust_type() }.parse().expect("type");
+        let t: TokenStream = if p.diagonal {
+            format!("[T; {}]", p.slots())
+        } else {
+            p.shape.rust_type()
+        }
+        .parse()
+        .expect("type");
         let doc = format!(
             " `{}` ({}{}), default {}: `{}`",
             p.name,
             p.shape,
-            if p.diagonal { ", stored as its diagonal" } else { "" },
+            if p.diagonal {
+                ", stored as its diagonal"
+            } else {
+                ""
+            },
             fmt_values(&p.defaults),
-            p.span.text().split_whitespace().collect::<Vec<_>>().join(" ")
+            p.span
+                .text()
+                .split_whitespace()
+                .collect::<Vec<_>>()
+                .join(" ")
         );
         quote!(#[doc = #doc] pub #f: #t)
     });
@@ -271,8 +467,19 @@ pub fn emit(model: &Model, d: &Derivatives, conservation: &[Conservation]) -> cr
     // Named points.
     let point_fns = model.points.iter().map(|pt| {
         let fname = format_ident!("point_{}", snake(&pt.name));
-        let outputs: Vec<Output> =
-            pt.values.iter().enumerate().map(|(k, &id)| Output { place: { let k = u(k); quote!(out[#k]) }, id, note: None }).collect();
+        let outputs: Vec<Output> = pt
+            .values
+            .iter()
+            .enumerate()
+            .map(|(k, &id)| Output {
+                place: {
+                    let k = u(k);
+                    quote!(out[#k])
+                },
+                id,
+                note: None,
+            })
+            .collect();
         let b = body(g, &leaves, &outputs, &["out"]);
         let doc = format!(" The point `{}` ({}).", pt.name, note_for(model, &pt.span));
         quote! {
@@ -322,8 +529,17 @@ pub fn emit(model: &Model, d: &Derivatives, conservation: &[Conservation]) -> cr
             (Shape::Matrix(r, c), false) => { let (r, c) = (u(r), u(c)); quote!(#name => Some((0..#c).flat_map(|j| (0..#r).map(move |i| (i, j))).map(|(i, j)| self.#fi[i][j]).collect())) },
         }
     });
-    let known_params = model.params.iter().map(|p| format!("`{}`", p.name)).collect::<Vec<_>>().join(", ");
-    let known_params = if known_params.is_empty() { "(none)".to_string() } else { known_params };
+    let known_params = model
+        .params
+        .iter()
+        .map(|p| format!("`{}`", p.name))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let known_params = if known_params.is_empty() {
+        "(none)".to_string()
+    } else {
+        known_params
+    };
 
     // Static layout.
     let state_slots = model.state.iter().map(|s| {
@@ -331,7 +547,11 @@ pub fn emit(model: &Model, d: &Derivatives, conservation: &[Conservation]) -> cr
         quote!(Slot { name: #name, shape: #shape, offset: #off })
     });
     let param_slots = model.params.iter().map(|p| {
-        let shape = if p.diagonal { Shape::Vector(p.slots()) } else { p.shape };
+        let shape = if p.diagonal {
+            Shape::Vector(p.slots())
+        } else {
+            p.shape
+        };
         let (name, shape, off) = (&p.name, shape_tokens(shape), u(p.offset));
         quote!(Slot { name: #name, shape: #shape, offset: #off })
     });
@@ -344,7 +564,11 @@ pub fn emit(model: &Model, d: &Derivatives, conservation: &[Conservation]) -> cr
         quote!(InvariantInfo { slot: Slot { name: #name, shape: #shape, offset: #off }, kind: #kind, gain: #gain })
     });
     let gain_names = model.gains.iter().map(|k| k.name.as_str());
-    let gain_defaults: Vec<Literal> = model.gains.iter().map(|k| Literal::f64_unsuffixed(k.default)).collect();
+    let gain_defaults: Vec<Literal> = model
+        .gains
+        .iter()
+        .map(|k| Literal::f64_unsuffixed(k.default))
+        .collect();
     let gain_lits = model.gains.iter().map(|k| literal(k.default));
 
     // Accessors: nalgebra views of the state blocks.
@@ -449,7 +673,6 @@ pub fn emit(model: &Model, d: &Derivatives, conservation: &[Conservation]) -> cr
         impl<T: Float> Lyapunov<T, #n, #m, #ng> for #ty<T> {
             fn lyapunov(&self, #v_x: &[T; #n], #v_t: &[T; #m], #v_g: &[T; #ng]) -> T {
                 #v_body
-                v
             }
             fn lyapunov_gradient(&self, #gr_x: &[T; #n], #gr_t: &[T; #m], #gr_g: &[T; #ng], grad: &mut [T; #n]) { #grad_body }
             fn feedback_field(&self, #fb_x: &[T; #n], #fb_t: &[T; #m], #fb_g: &[T; #ng], dx: &mut [T; #n]) { #fb_body }
@@ -490,22 +713,42 @@ pub fn emit(model: &Model, d: &Derivatives, conservation: &[Conservation]) -> cr
             }
         }
     };
-    Ok(Emitted { items, summary, stats })
+    Ok(Emitted {
+        items,
+        summary,
+        stats,
+    })
 }
 
 fn fmt_values(v: &[f64]) -> String {
     if v.len() == 1 {
         format!("{}", v[0])
     } else {
-        format!("[{}]", v.iter().map(|x| format!("{x}")).collect::<Vec<_>>().join(", "))
+        format!(
+            "[{}]",
+            v.iter()
+                .map(|x| format!("{x}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
     }
 }
 
 fn summary(model: &Model, d: &Derivatives, conservation: &[Conservation], s: &Stats) -> String {
-    let mut out = format!("The model `{}` from `{}`, generated by lasalle-codegen.\n\n", model.name, file_name(model));
+    let mut out = format!(
+        "The model `{}` from `{}`, generated by lasalle-codegen.\n\n",
+        model.name,
+        file_name(model)
+    );
     out.push_str("State (flat, matrices column-major):\n");
     for v in &model.state {
-        out.push_str(&format!("- `{}`: {} at x[{}..{}]\n", v.name, v.shape, v.offset, v.offset + v.shape.len()));
+        out.push_str(&format!(
+            "- `{}`: {} at x[{}..{}]\n",
+            v.name,
+            v.shape,
+            v.offset,
+            v.offset + v.shape.len()
+        ));
     }
     out.push_str("\nInvariants (stacked f):\n");
     for f in &model.invariants {
@@ -515,7 +758,11 @@ fn summary(model: &Model, d: &Derivatives, conservation: &[Conservation], s: &St
                 format!("conserved at {samples} random states (worst relative residual {worst_relative:.1e})")
             }
         });
-        let kind = if f.kind == InvariantKind::Constraint { "constraint" } else { "integral" };
+        let kind = if f.kind == InvariantKind::Constraint {
+            "constraint"
+        } else {
+            "integral"
+        };
         out.push_str(&format!(
             "- `{}`: {kind}, {} at f[{}..{}], gain `{}` = {}{}\n",
             f.name,
@@ -541,7 +788,8 @@ fn summary(model: &Model, d: &Derivatives, conservation: &[Conservation], s: &St
 
 /// Formats items with prettyplease and turns note markers into `//` comments.
 pub fn format(items: &TokenStream) -> crate::Result<String> {
-    let file: syn::File = syn::parse2(items.clone()).map_err(|e| crate::Error::Internal(format!("emitted code does not parse: {e}")))?;
+    let file: syn::File = syn::parse2(items.clone())
+        .map_err(|e| crate::Error::Internal(format!("emitted code does not parse: {e}")))?;
     let text = prettyplease::unparse(&file);
     Ok(replace_notes(&text))
 }
@@ -564,7 +812,11 @@ fn replace_notes(text: &str) -> String {
                 None => break,
             }
         }
-        let inner = call.trim_start_matches("lasalle_note!(").trim_end_matches(");").trim().trim_end_matches(',');
+        let inner = call
+            .trim_start_matches("lasalle_note!(")
+            .trim_end_matches(");")
+            .trim()
+            .trim_end_matches(',');
         let lit: syn::LitStr = syn::parse_str(inner).expect("a string literal we emitted");
         out.push_str(&line[..line.len() - trimmed.len()]);
         out.push_str("// ");

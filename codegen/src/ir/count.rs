@@ -21,7 +21,11 @@ impl Graph {
             Node::Pow(_, e) => {
                 let n = e.num.unsigned_abs() as u64;
                 let int_part = if e.is_int() { n } else { n / 2 + 1 };
-                let mults = if e.is_int() { 64 - n.leading_zeros() as u64 - 1 + n.count_ones() as u64 - 1 } else { int_part.min(3) };
+                let mults = if e.is_int() {
+                    64 - n.leading_zeros() as u64 - 1 + n.count_ones() as u64 - 1
+                } else {
+                    int_part.min(3)
+                };
                 mults + u64::from(e.num < 0) + u64::from(!e.is_int())
             }
             Node::Func(..) => 1,
@@ -34,10 +38,13 @@ impl Graph {
         let dag = order.iter().map(|&id| self.node_ops(id)).sum();
         let mut tree_of = vec![0u64; self.len()];
         for &id in &order {
-            tree_of[id.index()] =
-                self.children(id).iter().fold(self.node_ops(id), |acc, c| acc.saturating_add(tree_of[c.index()]));
+            tree_of[id.index()] = self.children(id).iter().fold(self.node_ops(id), |acc, c| {
+                acc.saturating_add(tree_of[c.index()])
+            });
         }
-        let tree = outputs.iter().fold(0u64, |acc, o| acc.saturating_add(tree_of[o.index()]));
+        let tree = outputs
+            .iter()
+            .fold(0u64, |acc, o| acc.saturating_add(tree_of[o.index()]));
         OpCount { tree, dag }
     }
 }

@@ -98,7 +98,10 @@ impl Graph {
             slot[id.index()] = values.len();
             values.push(value);
         }
-        outputs.iter().map(|o| values[slot[o.index()]].clone()).collect()
+        outputs
+            .iter()
+            .map(|o| values[slot[o.index()]].clone())
+            .collect()
     }
 
     /// Evaluates in f64 with inputs from a closure.
@@ -124,11 +127,21 @@ impl Graph {
                     let x = input(*i);
                     (x, x.abs())
                 }
-                Node::Add(c) => (c.iter().map(|k| val[k.index()]).sum(), c.iter().map(|k| mag[k.index()]).sum()),
-                Node::Mul(c) => (c.iter().map(|k| val[k.index()]).product(), c.iter().map(|k| mag[k.index()]).product()),
+                Node::Add(c) => (
+                    c.iter().map(|k| val[k.index()]).sum(),
+                    c.iter().map(|k| mag[k.index()]).sum(),
+                ),
+                Node::Mul(c) => (
+                    c.iter().map(|k| val[k.index()]).product(),
+                    c.iter().map(|k| mag[k.index()]).product(),
+                ),
                 Node::Pow(b, e) => {
                     let (bv, bm) = (val[b.index()], mag[b.index()]);
-                    let v = if e.is_int() { bv.powi(e.num) } else { bv.powf(e.to_f64()) };
+                    let v = if e.is_int() {
+                        bv.powi(e.num)
+                    } else {
+                        bv.powf(e.to_f64())
+                    };
                     // relative error of bᵉ ≈ |e| · relative error of b
                     let amplification = (e.to_f64().abs() * bm / bv.abs()).max(1.0);
                     (v, v.abs() * amplification)

@@ -41,7 +41,10 @@ impl Graph {
         let result = match self.node(id).clone() {
             Node::Num(_) | Node::Input(_) => id,
             Node::Add(c) => {
-                let c: Option<Vec<Id>> = c.iter().map(|&k| self.expand_rec(k, max_terms, memo)).collect();
+                let c: Option<Vec<Id>> = c
+                    .iter()
+                    .map(|&k| self.expand_rec(k, max_terms, memo))
+                    .collect();
                 self.add(&c?)
             }
             Node::Mul(c) => {

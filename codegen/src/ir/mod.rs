@@ -63,19 +63,14 @@ impl Rational {
         assert!(den != 0, "zero denominator");
         let g = gcd(num.unsigned_abs(), den.unsigned_abs()).max(1) as i32;
         let s = if den < 0 { -1 } else { 1 };
-        Rational { num: s * num / g, den: s * den / g }
+        Rational {
+            num: s * num / g,
+            den: s * den / g,
+        }
     }
     /// An integer.
     pub fn int(n: i32) -> Rational {
         Rational { num: n, den: 1 }
-    }
-    /// Sum.
-    pub fn add(self, o: Rational) -> Rational {
-        Rational::new(self.num * o.den + o.num * self.den, self.den * o.den)
-    }
-    /// Product.
-    pub fn mul(self, o: Rational) -> Rational {
-        Rational::new(self.num * o.num, self.den * o.den)
     }
     /// Is it an integer?
     pub fn is_int(self) -> bool {
@@ -91,6 +86,20 @@ impl Rational {
             let num = x * den as f64;
             (num.round() == num && num.abs() < 1e6).then(|| Rational::new(num as i32, den))
         })
+    }
+}
+
+impl std::ops::Add for Rational {
+    type Output = Rational;
+    fn add(self, o: Rational) -> Rational {
+        Rational::new(self.num * o.den + o.num * self.den, self.den * o.den)
+    }
+}
+
+impl std::ops::Mul for Rational {
+    type Output = Rational;
+    fn mul(self, o: Rational) -> Rational {
+        Rational::new(self.num * o.num, self.den * o.den)
     }
 }
 
@@ -233,7 +242,11 @@ impl Graph {
             Node::Num(b) => (f64::from_bits(b), None),
             Node::Mul(fs) => match self.as_num(fs[0]) {
                 Some(c) => {
-                    let rest = if fs.len() == 2 { fs[1] } else { self.intern(Node::Mul(fs[1..].into())) };
+                    let rest = if fs.len() == 2 {
+                        fs[1]
+                    } else {
+                        self.intern(Node::Mul(fs[1..].into()))
+                    };
                     (c, Some(rest))
                 }
                 None => (1.0, Some(id)),
@@ -290,15 +303,19 @@ impl Graph {
         let mut constant = 1.0;
         let mut exps: Vec<(Id, Rational)> = Vec::new();
         let mut position: HashMap<Id, usize> = HashMap::new();
-        let mut stack: Vec<(Id, Rational)> = factors.iter().rev().map(|&f| (f, Rational::int(1))).collect();
+        let mut stack: Vec<(Id, Rational)> = factors
+            .iter()
+            .rev()
+            .map(|&f| (f, Rational::int(1)))
+            .collect();
         while let Some((f, e)) = stack.pop() {
             match self.node(f).clone() {
                 Node::Num(b) if e.is_int() => constant *= f64::from_bits(b).powi(e.num),
                 Node::Mul(inner) if e.is_int() => stack.extend(inner.iter().rev().map(|&g| (g, e))),
                 // (b^e2)^e = b^(e2·e) holds for integer e; (b²)^½ = |b| does not fold.
-                Node::Pow(base, e2) if e.is_int() => stack.push((base, e2.mul(e))),
+                Node::Pow(base, e2) if e.is_int() => stack.push((base, e2 * e)),
                 _ => match position.get(&f) {
-                    Some(&k) => exps[k].1 = exps[k].1.add(e),
+                    Some(&k) => exps[k].1 = exps[k].1 + e,
                     None => {
                         position.insert(f, exps.len());
                         exps.push((f, e));
@@ -361,7 +378,7 @@ impl Graph {
     fn clone_shallow_pow(&mut self, base: Id, e: Rational) -> Vec<Id> {
         match self.node(base).clone() {
             Node::Mul(fs) if e.is_int() => fs.iter().map(|&f| self.pow(f, e)).collect(),
-            Node::Pow(b, e2) if e.is_int() => vec![self.pow(b, e2.mul(e))],
+            Node::Pow(b, e2) if e.is_int() => vec![self.pow(b, e2 * e)],
             _ => vec![self.pow_raw(base, e)],
         }
     }
@@ -422,16 +439,26 @@ impl Graph {
                 stack.extend_from_slice(self.children(id));
             }
         }
-        seen.iter().enumerate().filter(|(_, &s)| s).map(|(i, _)| Id(i as u32)).collect()
+        seen.iter()
+            .enumerate()
+            .filter(|(_, &s)| s)
+            .map(|(i, _)| Id(i as u32))
+            .collect()
     }
 
     /// Does the expression depend on any input for which `pred` holds?
     pub fn depends_on(&self, root: Id, pred: impl Fn(Input) -> bool) -> bool {
-        self.reachable(&[root]).into_iter().any(|id| matches!(self.node(id), Node::Input(i) if pred(*i)))
+        self.reachable(&[root])
+            .into_iter()
+            .any(|id| matches!(self.node(id), Node::Input(i) if pred(*i)))
     }
 
     /// Replaces inputs by expressions, rebuilding (and re-simplifying) everything above them.
-    pub fn substitute(&mut self, roots: &[Id], map: &mut dyn FnMut(&mut Graph, Input) -> Option<Id>) -> Vec<Id> {
+    pub fn substitute(
+        &mut self,
+        roots: &[Id],
+        map: &mut dyn FnMut(&mut Graph, Input) -> Option<Id>,
+    ) -> Vec<Id> {
         let order = self.reachable(roots);
         let mut new: HashMap<Id, Id> = HashMap::with_capacity(order.len());
         for id in order {
@@ -463,9 +490,27 @@ impl Graph {
             Node::Input(Input::Param(i)) => format!("p{i}"),
             Node::Input(Input::Target(i)) => format!("f0_{i}"),
             Node::Input(Input::Gain(i)) => format!("k{i}"),
-            Node::Add(c) => format!("({})", c.iter().map(|&k| self.display(k)).collect::<Vec<_>>().join(" + ")),
-            Node::Mul(c) => c.iter().map(|&k| self.display(k)).collect::<Vec<_>>().join("*"),
-            Node::Pow(b, e) => format!("{}^{}", self.display(*b), if e.is_int() { e.to_string() } else { format!("({e})") }),
+            Node::Add(c) => format!(
+                "({})",
+                c.iter()
+                    .map(|&k| self.display(k))
+                    .collect::<Vec<_>>()
+                    .join(" + ")
+            ),
+            Node::Mul(c) => c
+                .iter()
+                .map(|&k| self.display(k))
+                .collect::<Vec<_>>()
+                .join("*"),
+            Node::Pow(b, e) => format!(
+                "{}^{}",
+                self.display(*b),
+                if e.is_int() {
+                    e.to_string()
+                } else {
+                    format!("({e})")
+                }
+            ),
             Node::Func(f, a) => format!("{}({})", f.name(), self.display(*a)),
         }
     }

@@ -52,11 +52,34 @@ enum Ctx {
 const POISONED: &str = "(already reported)";
 
 const FUNCTIONS: &[&str] = &[
-    "sqrt", "exp", "log", "sin", "cos", "norm", "dot", "cross", "hat", "transpose", "trace", "inv", "eye", "diag",
+    "sqrt",
+    "exp",
+    "log",
+    "sin",
+    "cos",
+    "norm",
+    "dot",
+    "cross",
+    "hat",
+    "transpose",
+    "trace",
+    "inv",
+    "eye",
+    "diag",
     "target",
 ];
 const KEYWORDS: &[&str] = &[
-    "model", "state", "param", "let", "integral", "constraint", "gain", "lyapunov", "hamiltonian", "structure", "point",
+    "model",
+    "state",
+    "param",
+    "let",
+    "integral",
+    "constraint",
+    "gain",
+    "lyapunov",
+    "hamiltonian",
+    "structure",
+    "point",
 ];
 
 struct Lowerer {
@@ -100,20 +123,38 @@ impl Lowerer {
     fn declare(&mut self, name: &Ident, kind: Kind, value: Value) {
         if KEYWORDS.contains(&name.name.as_str()) || FUNCTIONS.contains(&name.name.as_str()) {
             self.errors.push(
-                Diagnostic::new(&name.span, format!("`{}` is reserved and cannot name a {}", name.name, kind.describe()))
-                    .help("choose another name"),
+                Diagnostic::new(
+                    &name.span,
+                    format!(
+                        "`{}` is reserved and cannot name a {}",
+                        name.name,
+                        kind.describe()
+                    ),
+                )
+                .help("choose another name"),
             );
             return;
         }
         if let Some(prev) = self.symbols.get(&name.name) {
             let (line, _) = prev.span.line_col();
             self.errors.push(
-                Diagnostic::new(&name.span, format!("`{}` is already defined", name.name))
-                    .help(format!("it is a {} declared on line {line}; choose another name", prev.kind.describe())),
+                Diagnostic::new(&name.span, format!("`{}` is already defined", name.name)).help(
+                    format!(
+                        "it is a {} declared on line {line}; choose another name",
+                        prev.kind.describe()
+                    ),
+                ),
             );
             return;
         }
-        self.symbols.insert(name.name.clone(), Symbol { kind, value, span: name.span.clone() });
+        self.symbols.insert(
+            name.name.clone(),
+            Symbol {
+                kind,
+                value,
+                span: name.span.clone(),
+            },
+        );
     }
 
     fn model(&mut self, ast: &ModelAst) -> Option<Model> {
@@ -128,13 +169,22 @@ impl Lowerer {
                         let Some(shape) = Shape::from_name(&ty.name) else {
                             self.errors.push(
                                 Diagnostic::new(&ty.span, format!("unknown shape `{}`", ty.name))
-                                    .help("shapes are `scalar`, `vecN` (e.g. `vec3`), `matN` or `matRxC`"),
+                                    .help(
+                                    "shapes are `scalar`, `vecN` (e.g. `vec3`), `matN` or `matRxC`",
+                                ),
                             );
                             continue;
                         };
-                        let ids = (0..shape.len()).map(|k| self.g.input(Input::State((n + k) as u32))).collect();
+                        let ids = (0..shape.len())
+                            .map(|k| self.g.input(Input::State((n + k) as u32)))
+                            .collect();
                         self.declare(name, Kind::State, Value { shape, ids });
-                        state.push(StateVar { name: name.name.clone(), shape, offset: n, span: name.span.clone() });
+                        state.push(StateVar {
+                            name: name.name.clone(),
+                            shape,
+                            offset: n,
+                            span: name.span.clone(),
+                        });
                         n += shape.len();
                     }
                 }
@@ -143,7 +193,10 @@ impl Lowerer {
                         params.push(p);
                     }
                 }
-                Item::Invariant { gain: Some(GainDecl { name: Some(g), .. }), .. } => {
+                Item::Invariant {
+                    gain: Some(GainDecl { name: Some(g), .. }),
+                    ..
+                } => {
                     self.gain_names.insert(g.name.clone());
                 }
                 _ => {}
@@ -151,8 +204,11 @@ impl Lowerer {
         }
         if state.is_empty() && self.errors.is_empty() {
             self.errors.push(
-                Diagnostic::new(&ast.name.span, format!("model `{}` declares no state", ast.name.name))
-                    .help("add e.g. `state x: vec3, v: vec3;`"),
+                Diagnostic::new(
+                    &ast.name.span,
+                    format!("model `{}` declares no state", ast.name.name),
+                )
+                .help("add e.g. `state x: vec3, v: vec3;`"),
             );
         }
 
@@ -170,7 +226,11 @@ impl Lowerer {
                 Item::State(_) | Item::Param(..) => Ok(()),
                 Item::Let(name, e) => match self.expr(e, Ctx::Model) {
                     Ok(v) => {
-                        lets.push(Binding { name: name.name.clone(), value: v.clone(), span: it.span.clone() });
+                        lets.push(Binding {
+                            name: name.name.clone(),
+                            value: v.clone(),
+                            span: it.span.clone(),
+                        });
                         self.declare(name, Kind::Let, v);
                         Ok(())
                     }
@@ -180,13 +240,27 @@ impl Lowerer {
                     }
                 },
                 Item::Derivative(name, e) => self.derivative(name, e, &it.span, &mut field),
-                Item::Invariant { kind, name, value, gain } => {
+                Item::Invariant {
+                    kind,
+                    name,
+                    value,
+                    gain,
+                } => {
                     let kind = match kind {
                         InvariantDeclKind::Constraint => InvariantKind::Constraint,
                         InvariantDeclKind::Integral => InvariantKind::Integral,
                     };
                     self.expr(value, Ctx::Model).and_then(|v| {
-                        self.invariant(name, kind, v, gain.as_ref(), false, &it.span, &mut invariants, &mut gains)
+                        self.invariant(
+                            name,
+                            kind,
+                            v,
+                            gain.as_ref(),
+                            false,
+                            &it.span,
+                            &mut invariants,
+                            &mut gains,
+                        )
                     })
                 }
                 Item::Lyapunov(name, e) => {
@@ -200,11 +274,21 @@ impl Lowerer {
                 }
                 Item::Hamiltonian(name, e) => {
                     if hamiltonian.is_some() {
-                        Err(Diagnostic::new(&name.span, "a second `hamiltonian`").help("a model has one Hamiltonian"))
+                        Err(Diagnostic::new(&name.span, "a second `hamiltonian`")
+                            .help("a model has one Hamiltonian"))
                     } else {
                         self.expr(e, Ctx::Model).and_then(|v| {
                             let h = self.expect_scalar(&v, e, "a Hamiltonian")?;
-                            self.invariant(name, InvariantKind::Integral, v.clone(), None, true, &it.span, &mut invariants, &mut gains)?;
+                            self.invariant(
+                                name,
+                                InvariantKind::Integral,
+                                v.clone(),
+                                None,
+                                true,
+                                &it.span,
+                                &mut invariants,
+                                &mut gains,
+                            )?;
                             hamiltonian = Some((name.clone(), h, it.span.clone()));
                             Ok(())
                         })
@@ -212,13 +296,16 @@ impl Lowerer {
                 }
                 Item::Structure(s, span) => {
                     if structure.is_some() {
-                        Err(Diagnostic::new(span, "a second `structure`").help("a model has one Poisson structure"))
+                        Err(Diagnostic::new(span, "a second `structure`")
+                            .help("a model has one Poisson structure"))
                     } else {
                         structure = Some((s, it.span.clone()));
                         Ok(())
                     }
                 }
-                Item::Point(name, values) => self.point(name, values, &state, &it.span).map(|p| points.push(p)),
+                Item::Point(name, values) => self
+                    .point(name, values, &state, &it.span)
+                    .map(|p| points.push(p)),
             };
             if let Err(d) = result {
                 if d.message != POISONED {
@@ -231,7 +318,11 @@ impl Lowerer {
         let hamiltonian = match (hamiltonian, structure) {
             (Some((name, h, _)), Some((s, span))) => {
                 match self.structure(s, &span, h, &mut field, &mut invariants, &mut gains) {
-                    Ok(structure) => Some(Hamiltonian { name: name.name, h, structure }),
+                    Ok(structure) => Some(Hamiltonian {
+                        name: name.name,
+                        h,
+                        structure,
+                    }),
                     Err(d) => {
                         self.errors.push(d);
                         None
@@ -240,14 +331,18 @@ impl Lowerer {
             }
             (Some((name, _, span)), None) => {
                 self.errors.push(
-                    Diagnostic::new(&span, format!("hamiltonian `{}` has no `structure`", name.name))
-                        .help("add `structure canonical(q, p);` or `structure lie_poisson_so3(P);`"),
+                    Diagnostic::new(
+                        &span,
+                        format!("hamiltonian `{}` has no `structure`", name.name),
+                    )
+                    .help("add `structure canonical(q, p);` or `structure lie_poisson_so3(P);`"),
                 );
                 None
             }
             (None, Some((_, span))) => {
                 self.errors.push(
-                    Diagnostic::new(&span, "`structure` without a `hamiltonian`").help("add `hamiltonian H = …;`"),
+                    Diagnostic::new(&span, "`structure` without a `hamiltonian`")
+                        .help("add `hamiltonian H = …;`"),
                 );
                 None
             }
@@ -256,17 +351,28 @@ impl Lowerer {
 
         // Every state component needs exactly one equation.
         for s in &state {
-            if field[s.offset..s.offset + s.shape.len()].iter().any(Option::is_none) && self.errors.is_empty() {
+            if field[s.offset..s.offset + s.shape.len()]
+                .iter()
+                .any(Option::is_none)
+                && self.errors.is_empty()
+            {
                 self.errors.push(
-                    Diagnostic::new(&s.span, format!("state `{}` has no equation", s.name))
-                        .help(format!("add `d/dt {} = …;` or a Hamiltonian with a structure that covers it", s.name)),
+                    Diagnostic::new(&s.span, format!("state `{}` has no equation", s.name)).help(
+                        format!(
+                            "add `d/dt {} = …;` or a Hamiltonian with a structure that covers it",
+                            s.name
+                        ),
+                    ),
                 );
             }
         }
 
         // V: explicit, or Σ kᵢ/2 |fᵢ − fᵢ(x₀)|².
         let (lyapunov, lyapunov_span) = match lyapunov {
-            Some((_, e, span)) => match self.expr(e, Ctx::Lyapunov).and_then(|v| self.expect_scalar(&v, e, "V")) {
+            Some((_, e, span)) => match self
+                .expr(e, Ctx::Lyapunov)
+                .and_then(|v| self.expect_scalar(&v, e, "V"))
+            {
                 Ok(v) => (v, Some(span)),
                 Err(d) => {
                     self.errors.push(d);
@@ -301,7 +407,9 @@ impl Lowerer {
     fn param(&mut self, name: &Ident, e: &Expr, it: &Spanned) -> Option<Param> {
         let offset = self.param_defaults.len();
         let (value, diagonal) = match &e.kind {
-            ExprKind::Call(f, args) if f.name == "diag" => (self.diag_args(args, e, Ctx::Constant), true),
+            ExprKind::Call(f, args) if f.name == "diag" => {
+                (self.diag_args(args, e, Ctx::Constant), true)
+            }
             _ => (self.expr(e, Ctx::Constant), false),
         };
         let value = match value {
@@ -343,28 +451,66 @@ impl Lowerer {
                 .collect()
         };
         self.param_defaults.extend(&defaults);
-        self.declare(name, Kind::Param, Value { shape: value.shape, ids });
-        Some(Param { name: name.name.clone(), shape: value.shape, diagonal, offset, defaults, span: it.span.clone() })
+        self.declare(
+            name,
+            Kind::Param,
+            Value {
+                shape: value.shape,
+                ids,
+            },
+        );
+        Some(Param {
+            name: name.name.clone(),
+            shape: value.shape,
+            diagonal,
+            offset,
+            defaults,
+            span: it.span.clone(),
+        })
     }
 
-    fn derivative(&mut self, name: &Ident, e: &Expr, span: &Span, field: &mut [Option<(Id, Span)>]) -> L<()> {
+    fn derivative(
+        &mut self,
+        name: &Ident,
+        e: &Expr,
+        span: &Span,
+        field: &mut [Option<(Id, Span)>],
+    ) -> L<()> {
         let sym = self.lookup(name, Ctx::Model)?;
         if sym.kind != Kind::State {
-            return Err(Diagnostic::new(&name.span, format!("`{}` is a {}, not a state variable", name.name, sym.kind.describe()))
-                .help("`d/dt` takes a variable declared with `state`"));
+            return Err(Diagnostic::new(
+                &name.span,
+                format!(
+                    "`{}` is a {}, not a state variable",
+                    name.name,
+                    sym.kind.describe()
+                ),
+            )
+            .help("`d/dt` takes a variable declared with `state`"));
         }
         let v = self.expr(e, Ctx::Model)?;
         if v.shape != sym.value.shape {
-            return Err(Diagnostic::new(&e.span, format!("d/dt {} is a {} but `{}` is a {}", name.name, v.shape, name.name, sym.value.shape))
-                .help("the right-hand side must have the state variable's shape"));
+            return Err(Diagnostic::new(
+                &e.span,
+                format!(
+                    "d/dt {} is a {} but `{}` is a {}",
+                    name.name, v.shape, name.name, sym.value.shape
+                ),
+            )
+            .help("the right-hand side must have the state variable's shape"));
         }
         for (k, &state_id) in sym.value.ids.iter().enumerate() {
-            let Node::Input(Input::State(i)) = *self.g.node(state_id) else { unreachable!("state ids are inputs") };
+            let Node::Input(Input::State(i)) = *self.g.node(state_id) else {
+                unreachable!("state ids are inputs")
+            };
             let slot = &mut field[i as usize];
             if let Some((_, prev)) = slot {
                 let (line, _) = prev.line_col();
-                return Err(Diagnostic::new(&name.span, format!("`{}` already has an equation", name.name))
-                    .help(format!("see line {line}; keep one")));
+                return Err(Diagnostic::new(
+                    &name.span,
+                    format!("`{}` already has an equation", name.name),
+                )
+                .help(format!("see line {line}; keep one")));
             }
             *slot = Some((v.ids[k], span.clone()));
         }
@@ -387,22 +533,36 @@ impl Lowerer {
             Some(GainDecl { name: gname, value }) => {
                 let v = self.expr(value, Ctx::Constant)?;
                 let k = self.expect_scalar(&v, value, "a gain")?;
-                let Some(k) = self.g.as_num(k) else { unreachable!("constant context folds") };
+                let Some(k) = self.g.as_num(k) else {
+                    unreachable!("constant context folds")
+                };
                 if !(k >= 0.0 && k.is_finite()) {
-                    return Err(Diagnostic::new(&value.span, format!("gain {k} is not a non-negative number"))
-                        .help("gains weigh |f − f(x₀)|² in V and must be ≥ 0"));
+                    return Err(Diagnostic::new(
+                        &value.span,
+                        format!("gain {k} is not a non-negative number"),
+                    )
+                    .help("gains weigh |f − f(x₀)|² in V and must be ≥ 0"));
                 }
-                (gname.as_ref().map_or_else(|| format!("k_{}", name.name), |n| n.name.clone()), k)
+                (
+                    gname
+                        .as_ref()
+                        .map_or_else(|| format!("k_{}", name.name), |n| n.name.clone()),
+                    k,
+                )
             }
             None => (format!("k_{}", name.name), 1.0),
         };
         if let Some(g) = gain.and_then(|g| g.name.as_ref()) {
             if gains.iter().any(|x| x.name == g.name) || self.symbols.contains_key(&g.name) {
-                return Err(Diagnostic::new(&g.span, format!("`{}` is already defined", g.name)).help("give each gain its own name"));
+                return Err(
+                    Diagnostic::new(&g.span, format!("`{}` is already defined", g.name))
+                        .help("give each gain its own name"),
+                );
             }
         }
         let offset = invariants.iter().map(|f| f.value.shape.len()).sum();
-        self.invariant_offsets.insert(name.name.clone(), (offset, value.shape));
+        self.invariant_offsets
+            .insert(name.name.clone(), (offset, value.shape));
         invariants.push(Invariant {
             name: name.name.clone(),
             kind,
@@ -413,9 +573,27 @@ impl Lowerer {
             span: span.clone(),
         });
         let gain_id = self.g.input(Input::Gain(gains.len() as u32));
-        self.symbols.insert(gain_name.clone(), Symbol { kind: Kind::Gain, value: Value::scalar(gain_id), span: span.clone() });
-        gains.push(Gain { name: gain_name, default });
-        self.declare(name, if automatic { Kind::Hamiltonian } else { Kind::Invariant }, value);
+        self.symbols.insert(
+            gain_name.clone(),
+            Symbol {
+                kind: Kind::Gain,
+                value: Value::scalar(gain_id),
+                span: span.clone(),
+            },
+        );
+        gains.push(Gain {
+            name: gain_name,
+            default,
+        });
+        self.declare(
+            name,
+            if automatic {
+                Kind::Hamiltonian
+            } else {
+                Kind::Invariant
+            },
+            value,
+        );
         Ok(())
     }
 
@@ -431,8 +609,11 @@ impl Lowerer {
         let state_indices = |lw: &mut Lowerer, id: &Ident| -> L<(Vec<usize>, Shape)> {
             let sym = lw.lookup(id, Ctx::Model)?;
             if sym.kind != Kind::State {
-                return Err(Diagnostic::new(&id.span, format!("`{}` is not a state variable", id.name))
-                    .help("a structure names state variables"));
+                return Err(Diagnostic::new(
+                    &id.span,
+                    format!("`{}` is not a state variable", id.name),
+                )
+                .help("a structure names state variables"));
             }
             let idx = sym.value.ids.iter().map(|&k| match lw.g.node(k) {
                 Node::Input(Input::State(i)) => *i as usize,
@@ -442,8 +623,11 @@ impl Lowerer {
         };
         let mut assign = |i: usize, value: Id, who: &Ident| -> L<()> {
             if field[i].is_some() {
-                return Err(Diagnostic::new(&who.span, format!("`{}` has both a `d/dt` equation and a structure", who.name))
-                    .help("remove the `d/dt` line: the structure gives its equation"));
+                return Err(Diagnostic::new(
+                    &who.span,
+                    format!("`{}` has both a `d/dt` equation and a structure", who.name),
+                )
+                .help("remove the `d/dt` line: the structure gives its equation"));
             }
             field[i] = Some((value, span.clone()));
             Ok(())
@@ -453,10 +637,17 @@ impl Lowerer {
                 let (q, qs) = state_indices(self, qn)?;
                 let (p, ps) = state_indices(self, pn)?;
                 if qs != ps {
-                    return Err(Diagnostic::new(&pn.span, format!("`{}` is a {qs} but `{}` is a {ps}", qn.name, pn.name))
-                        .help("canonical pairs q, p have the same shape"));
+                    return Err(Diagnostic::new(
+                        &pn.span,
+                        format!("`{}` is a {qs} but `{}` is a {ps}", qn.name, pn.name),
+                    )
+                    .help("canonical pairs q, p have the same shape"));
                 }
-                let vars: Vec<Input> = q.iter().chain(&p).map(|&i| Input::State(i as u32)).collect();
+                let vars: Vec<Input> = q
+                    .iter()
+                    .chain(&p)
+                    .map(|&i| Input::State(i as u32))
+                    .collect();
                 let grad = crate::derive::gradient(&mut self.g, h, &vars);
                 let m = q.len();
                 for k in 0..m {
@@ -469,51 +660,103 @@ impl Lowerer {
             StructureDecl::LiePoissonSo3(pn) => {
                 let (p, ps) = state_indices(self, pn)?;
                 if ps != Shape::Vector(3) {
-                    return Err(Diagnostic::new(&pn.span, format!("`{}` is a {ps}, lie_poisson_so3 needs a vec3", pn.name))
-                        .help("declare it `state P: vec3;`"));
+                    return Err(Diagnostic::new(
+                        &pn.span,
+                        format!("`{}` is a {ps}, lie_poisson_so3 needs a vec3", pn.name),
+                    )
+                    .help("declare it `state P: vec3;`"));
                 }
                 let vars: Vec<Input> = p.iter().map(|&i| Input::State(i as u32)).collect();
                 let grad = crate::derive::gradient(&mut self.g, h, &vars);
-                let pv: Vec<Id> = p.iter().map(|&i| self.g.input(Input::State(i as u32))).collect();
+                let pv: Vec<Id> = p
+                    .iter()
+                    .map(|&i| self.g.input(Input::State(i as u32)))
+                    .collect();
                 let rate = self.cross(&pv, &grad);
                 for k in 0..3 {
                     assign(p[k], rate[k], pn)?;
                 }
-                let sq: Vec<Id> = pv.iter().map(|&x| self.g.pow(x, Rational::int(2))).collect();
+                let sq: Vec<Id> = pv
+                    .iter()
+                    .map(|&x| self.g.pow(x, Rational::int(2)))
+                    .collect();
                 let casimir = self.g.add(&sq);
-                let name = Ident { name: "casimir".into(), span: pn.span.clone() };
-                self.invariant(&name, InvariantKind::Integral, Value::scalar(casimir), None, true, span, invariants, gains)?;
+                let name = Ident {
+                    name: "casimir".into(),
+                    span: pn.span.clone(),
+                };
+                self.invariant(
+                    &name,
+                    InvariantKind::Integral,
+                    Value::scalar(casimir),
+                    None,
+                    true,
+                    span,
+                    invariants,
+                    gains,
+                )?;
                 Ok(Structure::LiePoissonSo3 { p })
             }
         }
     }
 
-    fn point(&mut self, name: &Ident, values: &[(Ident, Expr)], state: &[StateVar], span: &Span) -> L<Point> {
+    fn point(
+        &mut self,
+        name: &Ident,
+        values: &[(Ident, Expr)],
+        state: &[StateVar],
+        span: &Span,
+    ) -> L<Point> {
         let n: usize = state.iter().map(|s| s.shape.len()).sum();
         let mut out: Vec<Option<Id>> = vec![None; n];
         for (var, e) in values {
             let Some(s) = state.iter().find(|s| s.name == var.name) else {
-                return Err(Diagnostic::new(&var.span, format!("`{}` is not a state variable", var.name))
-                    .help("a point assigns every state variable"));
+                return Err(Diagnostic::new(
+                    &var.span,
+                    format!("`{}` is not a state variable", var.name),
+                )
+                .help("a point assigns every state variable"));
             };
             let v = self.expr(e, Ctx::Model)?;
             if v.shape != s.shape {
-                return Err(Diagnostic::new(&e.span, format!("`{}` is a {} but this value is a {}", s.name, s.shape, v.shape)));
+                return Err(Diagnostic::new(
+                    &e.span,
+                    format!(
+                        "`{}` is a {} but this value is a {}",
+                        s.name, s.shape, v.shape
+                    ),
+                ));
             }
-            if v.ids.iter().any(|&id| self.g.depends_on(id, |i| matches!(i, Input::State(_)))) {
-                return Err(Diagnostic::new(&e.span, "a point's coordinates may depend on parameters only"));
+            if v.ids
+                .iter()
+                .any(|&id| self.g.depends_on(id, |i| matches!(i, Input::State(_))))
+            {
+                return Err(Diagnostic::new(
+                    &e.span,
+                    "a point's coordinates may depend on parameters only",
+                ));
             }
             for (k, &id) in v.ids.iter().enumerate() {
                 out[s.offset + k] = Some(id);
             }
         }
-        let missing: Vec<&str> =
-            state.iter().filter(|s| out[s.offset].is_none()).map(|s| s.name.as_str()).collect();
+        let missing: Vec<&str> = state
+            .iter()
+            .filter(|s| out[s.offset].is_none())
+            .map(|s| s.name.as_str())
+            .collect();
         if !missing.is_empty() {
-            return Err(Diagnostic::new(&name.span, format!("point `{}` does not give {}", name.name, missing.join(", ")))
-                .help("assign every state variable, e.g. `x = [1, 0, 0];`"));
+            return Err(Diagnostic::new(
+                &name.span,
+                format!("point `{}` does not give {}", name.name, missing.join(", ")),
+            )
+            .help("assign every state variable, e.g. `x = [1, 0, 0];`"));
         }
-        Ok(Point { name: name.name.clone(), values: out.into_iter().map(Option::unwrap).collect(), span: span.clone() })
+        Ok(Point {
+            name: name.name.clone(),
+            values: out.into_iter().map(Option::unwrap).collect(),
+            span: span.clone(),
+        })
     }
 
     fn default_lyapunov(&mut self, invariants: &[Invariant]) -> Id {
@@ -549,16 +792,26 @@ impl Lowerer {
                     } else {
                         "gains may appear only in `lyapunov`".to_string()
                     };
-                    return Err(Diagnostic::new(&name.span, format!("{} `{}` cannot be used here", sym.kind.describe(), name.name))
-                        .help(help));
+                    return Err(Diagnostic::new(
+                        &name.span,
+                        format!(
+                            "{} `{}` cannot be used here",
+                            sym.kind.describe(),
+                            name.name
+                        ),
+                    )
+                    .help(help));
                 }
                 Ok(sym.clone())
             }
-            None if self.poisoned.contains(&name.name) => Err(Diagnostic::new(&name.span, POISONED)),
-            None if self.gain_names.contains(&name.name) => {
-                Err(Diagnostic::new(&name.span, format!("gain `{}` cannot be used here", name.name))
-                    .help("gains may appear only in `lyapunov`"))
+            None if self.poisoned.contains(&name.name) => {
+                Err(Diagnostic::new(&name.span, POISONED))
             }
+            None if self.gain_names.contains(&name.name) => Err(Diagnostic::new(
+                &name.span,
+                format!("gain `{}` cannot be used here", name.name),
+            )
+            .help("gains may appear only in `lyapunov`")),
             None => {
                 let mut d = Diagnostic::new(&name.span, format!("unknown symbol `{}`", name.name));
                 if let Some(s) = self.suggest(&name.name) {
@@ -575,8 +828,14 @@ impl Lowerer {
         let lower = name.to_lowercase();
         let mut best: Option<(usize, &String)> = None;
         for k in self.symbols.keys() {
-            let d = if k.to_lowercase() == lower { 0 } else { edit_distance(&k.to_lowercase(), &lower) };
-            if d <= 2.max(name.len() / 3) && best.is_none_or(|(bd, bk)| d < bd || (d == bd && k < bk)) {
+            let d = if k.to_lowercase() == lower {
+                0
+            } else {
+                edit_distance(&k.to_lowercase(), &lower)
+            };
+            if d <= 2.max(name.len() / 3)
+                && best.is_none_or(|(bd, bk)| d < bd || (d == bd && k < bk))
+            {
                 best = Some((d, k));
             }
         }
@@ -587,27 +846,36 @@ impl Lowerer {
         if v.shape == Shape::Scalar {
             Ok(v.ids[0])
         } else {
-            Err(Diagnostic::new(&e.span, format!("{what} must be a scalar, this is a {}", v.shape)))
+            Err(Diagnostic::new(
+                &e.span,
+                format!("{what} must be a scalar, this is a {}", v.shape),
+            ))
         }
     }
 
     fn constant(&mut self, e: &Expr, what: &str) -> L<f64> {
         let v = self.expr(e, Ctx::Constant).map_err(|d| {
-            if d.message.contains("cannot be used here") || d.message.starts_with("unknown symbol") {
-                Diagnostic::new(&e.span, format!("{what} must be a constant number")).help("write a number, e.g. `2` or `1/2`")
+            if d.message.contains("cannot be used here") || d.message.starts_with("unknown symbol")
+            {
+                Diagnostic::new(&e.span, format!("{what} must be a constant number"))
+                    .help("write a number, e.g. `2` or `1/2`")
             } else {
                 d
             }
         })?;
         let id = self.expect_scalar(&v, e, what)?;
-        self.g.as_num(id).ok_or_else(|| Diagnostic::new(&e.span, format!("{what} must be a constant number")))
+        self.g
+            .as_num(id)
+            .ok_or_else(|| Diagnostic::new(&e.span, format!("{what} must be a constant number")))
     }
 
     fn index(&mut self, e: &Expr, len: usize) -> L<usize> {
         let k = self.constant(e, "an index")?;
         if k.fract() != 0.0 || k < 0.0 || k >= len as f64 {
-            return Err(Diagnostic::new(&e.span, format!("index {k} is out of range 0..{len}"))
-                .help("indices are whole numbers counted from 0"));
+            return Err(
+                Diagnostic::new(&e.span, format!("index {k} is out of range 0..{len}"))
+                    .help("indices are whole numbers counted from 0"),
+            );
         }
         Ok(k as usize)
     }
@@ -617,16 +885,25 @@ impl Lowerer {
             ExprKind::Num(x) => Ok(Value::scalar(self.g.num(*x))),
             ExprKind::Name(name) => {
                 if ctx == Ctx::Constant {
-                    if let Some(sym) = self.symbols.get(&name.name).filter(|s| s.kind == Kind::Param) {
+                    if let Some(sym) = self
+                        .symbols
+                        .get(&name.name)
+                        .filter(|s| s.kind == Kind::Param)
+                    {
                         let ids = sym.value.ids.clone();
                         let folded = ids
                             .iter()
                             .map(|&id| match *self.g.node(id) {
-                                Node::Input(Input::Param(k)) => self.g.num(self.param_defaults[k as usize]),
+                                Node::Input(Input::Param(k)) => {
+                                    self.g.num(self.param_defaults[k as usize])
+                                }
                                 _ => id,
                             })
                             .collect();
-                        return Ok(Value { shape: sym.value.shape, ids: folded });
+                        return Ok(Value {
+                            shape: sym.value.shape,
+                            ids: folded,
+                        });
                     }
                 }
                 Ok(self.lookup(name, ctx)?.value)
@@ -649,9 +926,14 @@ impl Lowerer {
                         let j = self.index(&idx[1], c)?;
                         Ok(Value::scalar(v.at(i, j)))
                     }
-                    (Shape::Matrix(..), _) => Err(Diagnostic::new(&e.span, "a matrix takes two indices")
-                        .help("write `R[i, j]` (row, column, counted from 0)")),
-                    (Shape::Vector(_), _) => Err(Diagnostic::new(&e.span, "a vector takes one index").help("write `x[i]`")),
+                    (Shape::Matrix(..), _) => {
+                        Err(Diagnostic::new(&e.span, "a matrix takes two indices")
+                            .help("write `R[i, j]` (row, column, counted from 0)"))
+                    }
+                    (Shape::Vector(_), _) => {
+                        Err(Diagnostic::new(&e.span, "a vector takes one index")
+                            .help("write `x[i]`"))
+                    }
                     (Shape::Scalar, _) => Err(Diagnostic::new(&base.span, "cannot index a scalar")),
                 }
             }
@@ -662,15 +944,24 @@ impl Lowerer {
     fn list(&mut self, elems: &[Expr], e: &Expr, ctx: Ctx) -> L<Value> {
         let vals: Vec<Value> = elems.iter().map(|x| self.expr(x, ctx)).collect::<L<_>>()?;
         if vals.iter().all(|v| v.shape == Shape::Scalar) {
-            return Ok(Value { shape: Shape::Vector(vals.len()), ids: vals.iter().map(|v| v.ids[0]).collect() });
+            return Ok(Value {
+                shape: Shape::Vector(vals.len()),
+                ids: vals.iter().map(|v| v.ids[0]).collect(),
+            });
         }
         // Rows of a matrix.
         let first = vals[0].shape;
         let Shape::Vector(c) = first else {
-            return Err(Diagnostic::new(&e.span, "a list holds scalars (a vector) or equal-length rows (a matrix)"));
+            return Err(Diagnostic::new(
+                &e.span,
+                "a list holds scalars (a vector) or equal-length rows (a matrix)",
+            ));
         };
         if let Some((k, v)) = vals.iter().enumerate().find(|(_, v)| v.shape != first) {
-            return Err(Diagnostic::new(&elems[k].span, format!("row {k} is a {}, the first row is a {first}", v.shape)));
+            return Err(Diagnostic::new(
+                &elems[k].span,
+                format!("row {k} is a {}, the first row is a {first}", v.shape),
+            ));
         }
         let r = vals.len();
         let mut ids = Vec::with_capacity(r * c);
@@ -679,24 +970,38 @@ impl Lowerer {
                 ids.push(row.ids[j]);
             }
         }
-        Ok(Value { shape: Shape::Matrix(r, c), ids })
+        Ok(Value {
+            shape: Shape::Matrix(r, c),
+            ids,
+        })
     }
 
     fn map(&mut self, v: &Value, mut f: impl FnMut(&mut Graph, Id) -> Id) -> Value {
-        Value { shape: v.shape, ids: v.ids.iter().map(|&x| f(&mut self.g, x)).collect() }
+        Value {
+            shape: v.shape,
+            ids: v.ids.iter().map(|&x| f(&mut self.g, x)).collect(),
+        }
     }
 
     fn binary(&mut self, op: BinOp, a: &Expr, b: &Expr, e: &Expr, ctx: Ctx) -> L<Value> {
         let va = self.expr(a, ctx)?;
         if op == BinOp::Pow {
             if va.shape != Shape::Scalar {
-                return Err(Diagnostic::new(&a.span, format!("cannot raise a {} to a power", va.shape))
-                    .help("`^` applies to scalars; use matrix products for matrices"));
+                return Err(Diagnostic::new(
+                    &a.span,
+                    format!("cannot raise a {} to a power", va.shape),
+                )
+                .help("`^` applies to scalars; use matrix products for matrices"));
             }
             let p = self.constant(b, "an exponent")?;
             let Some(r) = Rational::from_f64(p) else {
-                return Err(Diagnostic::new(&b.span, format!("exponent {p} is not a simple fraction"))
-                    .help("exponents are integers or fractions with denominators up to 12, e.g. `3/2`"));
+                return Err(Diagnostic::new(
+                    &b.span,
+                    format!("exponent {p} is not a simple fraction"),
+                )
+                .help(
+                    "exponents are integers or fractions with denominators up to 12, e.g. `3/2`",
+                ));
             };
             return Ok(Value::scalar(self.g.pow(va.ids[0], r)));
         }
@@ -706,14 +1011,23 @@ impl Lowerer {
             BinOp::Add | BinOp::Sub => {
                 if sa != sb {
                     let verb = if op == BinOp::Add { "add" } else { "subtract" };
-                    return Err(Diagnostic::new(&e.span, format!("cannot {verb} a {sa} and a {sb}"))
-                        .help("both sides of `+` and `-` must have the same shape"));
+                    return Err(Diagnostic::new(
+                        &e.span,
+                        format!("cannot {verb} a {sa} and a {sb}"),
+                    )
+                    .help("both sides of `+` and `-` must have the same shape"));
                 }
                 let ids = va
                     .ids
                     .iter()
                     .zip(&vb.ids)
-                    .map(|(&x, &y)| if op == BinOp::Add { self.g.add(&[x, y]) } else { self.g.sub(x, y) })
+                    .map(|(&x, &y)| {
+                        if op == BinOp::Add {
+                            self.g.add(&[x, y])
+                        } else {
+                            self.g.sub(x, y)
+                        }
+                    })
                     .collect();
                 Ok(Value { shape: sa, ids })
             }
@@ -725,8 +1039,11 @@ impl Lowerer {
                     return Ok(self.map(&va, |g, x| g.mul(&[x, vb.ids[0]])));
                 }
                 if let (Shape::Vector(_), Shape::Vector(_)) = (sa, sb) {
-                    return Err(Diagnostic::new(&e.span, format!("cannot multiply a {sa} by a {sb}"))
-                        .help("use `dot(a, b)` or `cross(a, b)`"));
+                    return Err(Diagnostic::new(
+                        &e.span,
+                        format!("cannot multiply a {sa} by a {sb}"),
+                    )
+                    .help("use `dot(a, b)` or `cross(a, b)`"));
                 }
                 let ((r1, c1), (r2, c2)) = (sa.dims(), sb.dims());
                 if c1 != r2 {
@@ -735,14 +1052,19 @@ impl Lowerer {
                 let mut ids = Vec::with_capacity(r1 * c2);
                 for j in 0..c2 {
                     for i in 0..r1 {
-                        let terms: Vec<Id> = (0..c1).map(|k| {
-                            let (x, y) = (va.at(i, k), vb.at(k, j));
-                            self.g.mul(&[x, y])
-                        }).collect();
+                        let terms: Vec<Id> = (0..c1)
+                            .map(|k| {
+                                let (x, y) = (va.at(i, k), vb.at(k, j));
+                                self.g.mul(&[x, y])
+                            })
+                            .collect();
                         ids.push(self.g.add(&terms));
                     }
                 }
-                Ok(Value { shape: Shape::from_dims(r1, c2), ids })
+                Ok(Value {
+                    shape: Shape::from_dims(r1, c2),
+                    ids,
+                })
             }
             BinOp::Div => {
                 if sb != Shape::Scalar {
@@ -761,7 +1083,11 @@ impl Lowerer {
             let q = g.mul(&[a[j], b[i]]);
             g.sub(p, q)
         };
-        vec![c(&mut self.g, 1, 2), c(&mut self.g, 2, 0), c(&mut self.g, 0, 1)]
+        vec![
+            c(&mut self.g, 1, 2),
+            c(&mut self.g, 2, 0),
+            c(&mut self.g, 0, 1),
+        ]
     }
 
     fn diag_args(&mut self, args: &[Expr], e: &Expr, ctx: Ctx) -> L<Value> {
@@ -769,7 +1095,12 @@ impl Lowerer {
             let v = self.expr(&args[0], ctx)?;
             match v.shape {
                 Shape::Vector(_) => v.ids,
-                s => return Err(Diagnostic::new(&args[0].span, format!("diag takes a vector or several scalars, not a {s}"))),
+                s => {
+                    return Err(Diagnostic::new(
+                        &args[0].span,
+                        format!("diag takes a vector or several scalars, not a {s}"),
+                    ))
+                }
             }
         } else {
             let mut ids = Vec::new();
@@ -788,7 +1119,10 @@ impl Lowerer {
         for (i, &d) in entries.iter().enumerate() {
             ids[i * n + i] = d;
         }
-        Ok(Value { shape: Shape::Matrix(n, n), ids })
+        Ok(Value {
+            shape: Shape::Matrix(n, n),
+            ids,
+        })
     }
 
     fn call(&mut self, f: &Ident, args: &[Expr], e: &Expr, ctx: Ctx) -> L<Value> {
@@ -796,14 +1130,23 @@ impl Lowerer {
             if args.len() == n {
                 Ok(())
             } else {
-                Err(Diagnostic::new(&e.span, format!("`{}` takes {n} argument{}, {} given", f.name, if n == 1 { "" } else { "s" }, args.len())))
+                Err(Diagnostic::new(
+                    &e.span,
+                    format!(
+                        "`{}` takes {n} argument{}, {} given",
+                        f.name,
+                        if n == 1 { "" } else { "s" },
+                        args.len()
+                    ),
+                ))
             }
         };
         match f.name.as_str() {
             "sqrt" | "exp" | "log" | "sin" | "cos" => {
                 arity(1)?;
                 let v = self.expr(&args[0], ctx)?;
-                let x = self.expect_scalar(&v, &args[0], &format!("the argument of `{}`", f.name))?;
+                let x =
+                    self.expect_scalar(&v, &args[0], &format!("the argument of `{}`", f.name))?;
                 let y = match f.name.as_str() {
                     "sqrt" => self.g.sqrt(x),
                     "exp" => self.g.func(Func::Exp, x),
@@ -816,7 +1159,11 @@ impl Lowerer {
             "norm" => {
                 arity(1)?;
                 let v = self.expr(&args[0], ctx)?;
-                let sq: Vec<Id> = v.ids.iter().map(|&x| self.g.pow(x, Rational::int(2))).collect();
+                let sq: Vec<Id> = v
+                    .ids
+                    .iter()
+                    .map(|&x| self.g.pow(x, Rational::int(2)))
+                    .collect();
                 let s = self.g.add(&sq);
                 Ok(Value::scalar(self.g.sqrt(s)))
             }
@@ -825,9 +1172,20 @@ impl Lowerer {
                 let a = self.expr(&args[0], ctx)?;
                 let b = self.expr(&args[1], ctx)?;
                 if a.shape != b.shape || !matches!(a.shape, Shape::Vector(_)) {
-                    return Err(Diagnostic::new(&e.span, format!("dot needs two vectors of the same length, got a {} and a {}", a.shape, b.shape)));
+                    return Err(Diagnostic::new(
+                        &e.span,
+                        format!(
+                            "dot needs two vectors of the same length, got a {} and a {}",
+                            a.shape, b.shape
+                        ),
+                    ));
                 }
-                let terms: Vec<Id> = a.ids.iter().zip(&b.ids).map(|(&x, &y)| self.g.mul(&[x, y])).collect();
+                let terms: Vec<Id> = a
+                    .ids
+                    .iter()
+                    .zip(&b.ids)
+                    .map(|(&x, &y)| self.g.mul(&[x, y]))
+                    .collect();
                 Ok(Value::scalar(self.g.add(&terms)))
             }
             "cross" => {
@@ -836,38 +1194,69 @@ impl Lowerer {
                 let b = self.expr(&args[1], ctx)?;
                 for (v, arg) in [(&a, &args[0]), (&b, &args[1])] {
                     if v.shape != Shape::Vector(3) {
-                        return Err(Diagnostic::new(&arg.span, format!("cross needs vec3 arguments, this is a {}", v.shape)));
+                        return Err(Diagnostic::new(
+                            &arg.span,
+                            format!("cross needs vec3 arguments, this is a {}", v.shape),
+                        ));
                     }
                 }
                 let ids = self.cross(&a.ids, &b.ids);
-                Ok(Value { shape: Shape::Vector(3), ids })
+                Ok(Value {
+                    shape: Shape::Vector(3),
+                    ids,
+                })
             }
             "hat" => {
                 arity(1)?;
                 let a = self.expr(&args[0], ctx)?;
                 if a.shape != Shape::Vector(3) {
-                    return Err(Diagnostic::new(&args[0].span, format!("hat takes a vec3, this is a {}", a.shape)));
+                    return Err(Diagnostic::new(
+                        &args[0].span,
+                        format!("hat takes a vec3, this is a {}", a.shape),
+                    ));
                 }
                 // hat(a) b = a × b:  [[0, −a3, a2], [a3, 0, −a1], [−a2, a1, 0]]
                 let z = self.g.num(0.0);
                 let n: Vec<Id> = a.ids.iter().map(|&x| self.g.neg(x)).collect();
-                let rows = [[z, n[2], a.ids[1]], [a.ids[2], z, n[0]], [n[1], a.ids[0], z]];
-                let ids = (0..3).flat_map(|j| (0..3).map(move |i| rows[i][j])).collect();
-                Ok(Value { shape: Shape::Matrix(3, 3), ids })
+                let rows = [
+                    [z, n[2], a.ids[1]],
+                    [a.ids[2], z, n[0]],
+                    [n[1], a.ids[0], z],
+                ];
+                let ids = (0..3)
+                    .flat_map(|j| (0..3).map(move |i| rows[i][j]))
+                    .collect();
+                Ok(Value {
+                    shape: Shape::Matrix(3, 3),
+                    ids,
+                })
             }
             "transpose" => {
                 arity(1)?;
                 let a = self.expr(&args[0], ctx)?;
                 let (r, c) = a.shape.dims();
-                let ids = (0..r).flat_map(|i| (0..c).map(move |j| (i, j))).map(|(i, j)| a.at(i, j)).collect();
-                Ok(Value { shape: if a.shape == Shape::Scalar { Shape::Scalar } else { Shape::Matrix(c, r) }, ids })
+                let ids = (0..r)
+                    .flat_map(|i| (0..c).map(move |j| (i, j)))
+                    .map(|(i, j)| a.at(i, j))
+                    .collect();
+                Ok(Value {
+                    shape: if a.shape == Shape::Scalar {
+                        Shape::Scalar
+                    } else {
+                        Shape::Matrix(c, r)
+                    },
+                    ids,
+                })
             }
             "trace" => {
                 arity(1)?;
                 let a = self.expr(&args[0], ctx)?;
                 let (r, c) = a.shape.dims();
                 if r != c || !matches!(a.shape, Shape::Matrix(..)) {
-                    return Err(Diagnostic::new(&args[0].span, format!("trace needs a square matrix, this is a {}", a.shape)));
+                    return Err(Diagnostic::new(
+                        &args[0].span,
+                        format!("trace needs a square matrix, this is a {}", a.shape),
+                    ));
                 }
                 let d: Vec<Id> = (0..r).map(|i| a.at(i, i)).collect();
                 Ok(Value::scalar(self.g.add(&d)))
@@ -881,32 +1270,56 @@ impl Lowerer {
                 arity(1)?;
                 let n = self.constant(&args[0], "the size of `eye`")?;
                 if n.fract() != 0.0 || !(1.0..=64.0).contains(&n) {
-                    return Err(Diagnostic::new(&args[0].span, format!("eye({n}): the size must be a whole number from 1 to 64")));
+                    return Err(Diagnostic::new(
+                        &args[0].span,
+                        format!("eye({n}): the size must be a whole number from 1 to 64"),
+                    ));
                 }
                 let n = n as usize;
                 let (zero, one) = (self.g.num(0.0), self.g.num(1.0));
-                let ids = (0..n * n).map(|k| if k % (n + 1) == 0 { one } else { zero }).collect();
-                Ok(Value { shape: Shape::Matrix(n, n), ids })
+                let ids = (0..n * n)
+                    .map(|k| if k % (n + 1) == 0 { one } else { zero })
+                    .collect();
+                Ok(Value {
+                    shape: Shape::Matrix(n, n),
+                    ids,
+                })
             }
             "diag" => self.diag_args(args, e, ctx),
             "target" => {
                 if ctx != Ctx::Lyapunov {
-                    return Err(Diagnostic::new(&f.span, "`target` can only be used in `lyapunov`")
-                        .help("target(f) is the value f(x₀) of an invariant at the initial point"));
+                    return Err(Diagnostic::new(
+                        &f.span,
+                        "`target` can only be used in `lyapunov`",
+                    )
+                    .help("target(f) is the value f(x₀) of an invariant at the initial point"));
                 }
                 arity(1)?;
                 let ExprKind::Name(name) = &args[0].kind else {
-                    return Err(Diagnostic::new(&args[0].span, "target takes the name of an integral or constraint"));
+                    return Err(Diagnostic::new(
+                        &args[0].span,
+                        "target takes the name of an integral or constraint",
+                    ));
                 };
                 let sym = self.lookup(name, ctx)?;
                 if !matches!(sym.kind, Kind::Invariant | Kind::Hamiltonian) {
-                    return Err(Diagnostic::new(&name.span, format!("`{}` is a {}, not an invariant", name.name, sym.kind.describe())));
+                    return Err(Diagnostic::new(
+                        &name.span,
+                        format!(
+                            "`{}` is a {}, not an invariant",
+                            name.name,
+                            sym.kind.describe()
+                        ),
+                    ));
                 }
                 self.target_of(name)
             }
             other => {
                 let mut d = Diagnostic::new(&f.span, format!("unknown function `{other}`"));
-                let near = FUNCTIONS.iter().min_by_key(|k| edit_distance(k, other)).filter(|k| edit_distance(k, other) <= 2);
+                let near = FUNCTIONS
+                    .iter()
+                    .min_by_key(|k| edit_distance(k, other))
+                    .filter(|k| edit_distance(k, other) <= 2);
                 d = d.help(match near {
                     Some(k) => format!("did you mean `{k}`?"),
                     None => format!("known functions: {}", FUNCTIONS.join(", ")),
@@ -919,18 +1332,29 @@ impl Lowerer {
     /// `target(f)`: the target inputs of invariant `f`, found by its declaration order.
     fn target_of(&mut self, name: &Ident) -> L<Value> {
         let (offset, shape) = self.invariant_offsets[&name.name];
-        let ids = (0..shape.len()).map(|k| self.g.input(Input::Target((offset + k) as u32))).collect();
+        let ids = (0..shape.len())
+            .map(|k| self.g.input(Input::Target((offset + k) as u32)))
+            .collect();
         Ok(Value { shape, ids })
     }
 
     fn inverse(&mut self, a: &Value, arg: &Expr) -> L<Value> {
         let (r, c) = a.shape.dims();
         if r != c || !matches!(a.shape, Shape::Matrix(..)) || r > 3 {
-            return Err(Diagnostic::new(&arg.span, format!("inv takes a 1×1, 2×2 or 3×3 matrix, this is a {}", a.shape)));
+            return Err(Diagnostic::new(
+                &arg.span,
+                format!("inv takes a 1×1, 2×2 or 3×3 matrix, this is a {}", a.shape),
+            ));
         }
-        if a.ids.iter().any(|&id| self.g.depends_on(id, |i| matches!(i, Input::State(_)))) {
-            return Err(Diagnostic::new(&arg.span, "inv of a state-dependent matrix is not supported")
-                .help("`inv` takes parameter matrices, e.g. `inv(I)` for an inertia tensor"));
+        if a.ids
+            .iter()
+            .any(|&id| self.g.depends_on(id, |i| matches!(i, Input::State(_))))
+        {
+            return Err(Diagnostic::new(
+                &arg.span,
+                "inv of a state-dependent matrix is not supported",
+            )
+            .help("`inv` takes parameter matrices, e.g. `inv(I)` for an inertia tensor"));
         }
         let m = |i: usize, j: usize| a.at(i, j);
         let g = &mut self.g;
@@ -944,15 +1368,32 @@ impl Lowerer {
             1 => (vec![vec![g.num(1.0)]], m(0, 0)),
             2 => {
                 let (n01, n10) = (g.neg(m(0, 1)), g.neg(m(1, 0)));
-                (vec![vec![m(1, 1), n01], vec![n10, m(0, 0)]], det2(g, m(0, 0), m(0, 1), m(1, 0), m(1, 1)))
+                (
+                    vec![vec![m(1, 1), n01], vec![n10, m(0, 0)]],
+                    det2(g, m(0, 0), m(0, 1), m(1, 0), m(1, 1)),
+                )
             }
             _ => {
-                let cof = |g: &mut Graph, i: usize, j: usize, det2: &mut dyn FnMut(&mut Graph, Id, Id, Id, Id) -> Id| {
-                    let rows: Vec<usize> = (0..3).filter(|&k| k != i).collect();
-                    let cols: Vec<usize> = (0..3).filter(|&k| k != j).collect();
-                    let d = det2(g, m(rows[0], cols[0]), m(rows[0], cols[1]), m(rows[1], cols[0]), m(rows[1], cols[1]));
-                    if (i + j) % 2 == 1 { g.neg(d) } else { d }
-                };
+                let cof =
+                    |g: &mut Graph,
+                     i: usize,
+                     j: usize,
+                     det2: &mut dyn FnMut(&mut Graph, Id, Id, Id, Id) -> Id| {
+                        let rows: Vec<usize> = (0..3).filter(|&k| k != i).collect();
+                        let cols: Vec<usize> = (0..3).filter(|&k| k != j).collect();
+                        let d = det2(
+                            g,
+                            m(rows[0], cols[0]),
+                            m(rows[0], cols[1]),
+                            m(rows[1], cols[0]),
+                            m(rows[1], cols[1]),
+                        );
+                        if (i + j) % 2 == 1 {
+                            g.neg(d)
+                        } else {
+                            d
+                        }
+                    };
                 let mut c = vec![vec![Id(0); 3]; 3];
                 for (i, row) in c.iter_mut().enumerate() {
                     for (j, x) in row.iter_mut().enumerate() {
@@ -962,14 +1403,25 @@ impl Lowerer {
                 let terms: Vec<Id> = (0..3).map(|j| g.mul(&[m(0, j), c[0][j]])).collect();
                 let det = g.add(&terms);
                 // adj = cofactorᵀ
-                ((0..3).map(|i| (0..3).map(|j| c[j][i]).collect()).collect(), det)
+                (
+                    (0..3).map(|i| (0..3).map(|j| c[j][i]).collect()).collect(),
+                    det,
+                )
             }
         };
         if self.g.as_num(det) == Some(0.0) {
-            return Err(Diagnostic::new(&arg.span, "this matrix is singular").help("its determinant is 0"));
+            return Err(
+                Diagnostic::new(&arg.span, "this matrix is singular").help("its determinant is 0")
+            );
         }
-        let ids = (0..r).flat_map(|j| (0..r).map(move |i| (i, j))).map(|(i, j)| self.g.div(adj[i][j], det)).collect();
-        Ok(Value { shape: a.shape, ids })
+        let ids = (0..r)
+            .flat_map(|j| (0..r).map(move |i| (i, j)))
+            .map(|(i, j)| self.g.div(adj[i][j], det))
+            .collect();
+        Ok(Value {
+            shape: a.shape,
+            ids,
+        })
     }
 }
 

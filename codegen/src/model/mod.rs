@@ -185,12 +185,18 @@ impl Model {
 
     /// The default parameter slots.
     pub fn default_params(&self) -> Vec<f64> {
-        self.params.iter().flat_map(|p| p.defaults.iter().copied()).collect()
+        self.params
+            .iter()
+            .flat_map(|p| p.defaults.iter().copied())
+            .collect()
     }
 
     /// The stacked invariant nodes f(x).
     pub fn invariant_ids(&self) -> Vec<Id> {
-        self.invariants.iter().flat_map(|f| f.value.ids.iter().copied()).collect()
+        self.invariants
+            .iter()
+            .flat_map(|f| f.value.ids.iter().copied())
+            .collect()
     }
 
     /// The parameter called `name`.

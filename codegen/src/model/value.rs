@@ -97,7 +97,10 @@ pub struct Value {
 impl Value {
     /// A scalar.
     pub fn scalar(id: Id) -> Value {
-        Value { shape: Shape::Scalar, ids: vec![id] }
+        Value {
+            shape: Shape::Scalar,
+            ids: vec![id],
+        }
     }
 
     /// Component (i, j) of a matrix (or (i, 0) of a vector).

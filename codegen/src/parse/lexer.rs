@@ -40,7 +40,11 @@ pub struct Token {
 /// Tokenises `source`, or reports the first character that starts no token.
 pub fn lex(source: &Arc<Source>) -> Result<Vec<Token>, Diagnostic> {
     let text = source.text.as_bytes();
-    let span = |start: usize, end: usize| Span { source: source.clone(), start, end };
+    let span = |start: usize, end: usize| Span {
+        source: source.clone(),
+        start,
+        end,
+    };
     let mut tokens = Vec::new();
     let mut i = 0;
     while i < text.len() {
@@ -56,8 +60,11 @@ pub fn lex(source: &Arc<Source>) -> Result<Vec<Token>, Diagnostic> {
             match source.text[i + 2..].find("*/") {
                 Some(k) => i += k + 4,
                 None => {
-                    return Err(Diagnostic::new(&span(start, start + 2), "unterminated block comment")
-                        .help("close it with `*/`"))
+                    return Err(Diagnostic::new(
+                        &span(start, start + 2),
+                        "unterminated block comment",
+                    )
+                    .help("close it with `*/`"))
                 }
             }
         } else if c.is_ascii_alphabetic() || c == b'_' {
@@ -65,8 +72,13 @@ pub fn lex(source: &Arc<Source>) -> Result<Vec<Token>, Diagnostic> {
             while i < text.len() && (text[i].is_ascii_alphanumeric() || text[i] == b'_') {
                 i += 1;
             }
-            tokens.push(Token { tok: Tok::Ident(source.text[start..i].to_string()), span: span(start, i) });
-        } else if c.is_ascii_digit() || (c == b'.' && text.get(i + 1).is_some_and(u8::is_ascii_digit)) {
+            tokens.push(Token {
+                tok: Tok::Ident(source.text[start..i].to_string()),
+                span: span(start, i),
+            });
+        } else if c.is_ascii_digit()
+            || (c == b'.' && text.get(i + 1).is_some_and(u8::is_ascii_digit))
+        {
             let start = i;
             while i < text.len() && (text[i].is_ascii_digit() || text[i] == b'.') {
                 i += 1;
@@ -87,16 +99,28 @@ pub fn lex(source: &Arc<Source>) -> Result<Vec<Token>, Diagnostic> {
             let value: f64 = literal.parse().map_err(|_| {
                 Diagnostic::new(&span(start, i), format!("malformed number `{literal}`"))
             })?;
-            tokens.push(Token { tok: Tok::Num(value), span: span(start, i) });
+            tokens.push(Token {
+                tok: Tok::Num(value),
+                span: span(start, i),
+            });
         } else if b"{}()[],;:=+-*/^".contains(&c) {
-            tokens.push(Token { tok: Tok::Punct(c as char), span: span(i, i + 1) });
+            tokens.push(Token {
+                tok: Tok::Punct(c as char),
+                span: span(i, i + 1),
+            });
             i += 1;
         } else {
             let ch = source.text[i..].chars().next().unwrap_or('?');
-            return Err(Diagnostic::new(&span(i, i + ch.len_utf8()), format!("unexpected character `{ch}`"))
-                .help("model files use ASCII names, numbers and the operators + - * / ^"));
+            return Err(Diagnostic::new(
+                &span(i, i + ch.len_utf8()),
+                format!("unexpected character `{ch}`"),
+            )
+            .help("model files use ASCII names, numbers and the operators + - * / ^"));
         }
     }
-    tokens.push(Token { tok: Tok::Eof, span: span(text.len(), text.len()) });
+    tokens.push(Token {
+        tok: Tok::Eof,
+        span: span(text.len(), text.len()),
+    });
     Ok(tokens)
 }

@@ -18,8 +18,18 @@ use super::lexer::{Tok, Token};
 use crate::error::{Diagnostic, Span};
 
 /// Keywords that start an item, for "expected one of" messages.
-const ITEM_KEYWORDS: &[&str] =
-    &["state", "param", "let", "d/dt", "integral", "constraint", "lyapunov", "hamiltonian", "structure", "point"];
+const ITEM_KEYWORDS: &[&str] = &[
+    "state",
+    "param",
+    "let",
+    "d/dt",
+    "integral",
+    "constraint",
+    "lyapunov",
+    "hamiltonian",
+    "structure",
+    "point",
+];
 
 /// The parser state: a token list and a cursor.
 pub struct Parser {
@@ -65,7 +75,10 @@ impl Parser {
 
     fn unexpected(&self, expected: &str) -> Diagnostic {
         let t = self.peek();
-        Diagnostic::new(&t.span, format!("expected {expected}, found {}", t.tok.describe()))
+        Diagnostic::new(
+            &t.span,
+            format!("expected {expected}, found {}", t.tok.describe()),
+        )
     }
 
     fn expect_punct(&mut self, c: char) -> PResult<Span> {
@@ -76,8 +89,15 @@ impl Parser {
             if c == ';' {
                 // Point at the end of the previous token: that is where the `;` is missing.
                 let prev = self.prev_span();
-                d = Diagnostic::new(&Span { start: prev.end, end: prev.end + 1, ..prev }, d.message)
-                    .help("every item ends with `;`");
+                d = Diagnostic::new(
+                    &Span {
+                        start: prev.end,
+                        end: prev.end + 1,
+                        ..prev
+                    },
+                    d.message,
+                )
+                .help("every item ends with `;`");
             }
             Err(d)
         }
@@ -104,19 +124,24 @@ impl Parser {
 
     /// Parses a whole model file.
     pub fn model(&mut self) -> PResult<ModelAst> {
-        self.expect_keyword("model").map_err(|d| d.help("a model file starts with `model Name { … }`"))?;
+        self.expect_keyword("model")
+            .map_err(|d| d.help("a model file starts with `model Name { … }`"))?;
         let name = self.ident("the model's name")?;
         self.expect_punct('{')?;
         let mut items = Vec::new();
         while !self.is_punct('}') {
             if self.peek().tok == Tok::Eof {
-                return Err(self.unexpected("`}` closing the model").help("the model body is not closed"));
+                return Err(self
+                    .unexpected("`}` closing the model")
+                    .help("the model body is not closed"));
             }
             items.push(self.item()?);
         }
         self.bump();
         if self.peek().tok != Tok::Eof {
-            return Err(self.unexpected("end of file").help("a file holds exactly one model"));
+            return Err(self
+                .unexpected("end of file")
+                .help("a file holds exactly one model"));
         }
         Ok(ModelAst { name, items })
     }
@@ -133,9 +158,16 @@ impl Parser {
                 let mut decls = Vec::new();
                 loop {
                     let name = self.ident("a state variable's name")?;
-                    self.expect_punct(':').map_err(|d| d.help("declare a shape: `state x: vec3;`"))?;
+                    self.expect_punct(':')
+                        .map_err(|d| d.help("declare a shape: `state x: vec3;`"))?;
                     let ty = self.ident("a shape (`scalar`, `vec2`, `vec3`, `mat2`, `mat3`, …)")?;
-                    decls.push((name, TypeName { name: ty.name, span: ty.span }));
+                    decls.push((
+                        name,
+                        TypeName {
+                            name: ty.name,
+                            span: ty.span,
+                        },
+                    ));
                     if self.is_punct(',') {
                         self.bump();
                     } else {
@@ -161,7 +193,8 @@ impl Parser {
             "d" if self.peek_at(1) == &Tok::Punct('/') => {
                 self.bump();
                 self.bump();
-                self.expect_keyword("dt").map_err(|d| d.help("write a derivative as `d/dt x = …;`"))?;
+                self.expect_keyword("dt")
+                    .map_err(|d| d.help("write a derivative as `d/dt x = …;`"))?;
                 let name = self.ident("a state variable")?;
                 self.expect_punct('=')?;
                 let value = self.expr()?;
@@ -170,14 +203,18 @@ impl Parser {
             }
             "integral" | "constraint" => {
                 self.bump();
-                let kind =
-                    if keyword == "integral" { InvariantDeclKind::Integral } else { InvariantDeclKind::Constraint };
+                let kind = if keyword == "integral" {
+                    InvariantDeclKind::Integral
+                } else {
+                    InvariantDeclKind::Constraint
+                };
                 let name = self.ident("a name")?;
                 self.expect_punct('=')?;
                 let value = self.expr()?;
                 let gain = if self.is_keyword("gain") {
                     self.bump();
-                    let named = matches!(self.peek().tok, Tok::Ident(_)) && self.peek_at(1) == &Tok::Punct('=');
+                    let named = matches!(self.peek().tok, Tok::Ident(_))
+                        && self.peek_at(1) == &Tok::Punct('=');
                     let name = if named {
                         let n = self.ident("a gain name")?;
                         self.bump();
@@ -185,12 +222,20 @@ impl Parser {
                     } else {
                         None
                     };
-                    Some(GainDecl { name, value: self.expr()? })
+                    Some(GainDecl {
+                        name,
+                        value: self.expr()?,
+                    })
                 } else {
                     None
                 };
                 self.expect_punct(';')?;
-                Item::Invariant { kind, name, value, gain }
+                Item::Invariant {
+                    kind,
+                    name,
+                    value,
+                    gain,
+                }
             }
             "structure" => {
                 self.bump();
@@ -203,10 +248,15 @@ impl Parser {
                         let p = self.ident("the momentum variable")?;
                         StructureDecl::Canonical(q, p)
                     }
-                    "lie_poisson_so3" => StructureDecl::LiePoissonSo3(self.ident("the momentum variable")?),
+                    "lie_poisson_so3" => {
+                        StructureDecl::LiePoissonSo3(self.ident("the momentum variable")?)
+                    }
                     other => {
-                        return Err(Diagnostic::new(&kind.span, format!("unknown structure `{other}`"))
-                            .help("known structures: `canonical(q, p)`, `lie_poisson_so3(P)`"))
+                        return Err(Diagnostic::new(
+                            &kind.span,
+                            format!("unknown structure `{other}`"),
+                        )
+                        .help("known structures: `canonical(q, p)`, `lie_poisson_so3(P)`"))
                     }
                 };
                 self.expect_punct(')')?;
@@ -230,7 +280,10 @@ impl Parser {
             }
             _ => return Err(self.expected_item()),
         };
-        Ok(Spanned { item, span: start.to(&self.prev_span()) })
+        Ok(Spanned {
+            item,
+            span: start.to(&self.prev_span()),
+        })
     }
 
     fn expected_item(&self) -> Diagnostic {
@@ -242,7 +295,11 @@ impl Parser {
     pub fn expr(&mut self) -> PResult<Expr> {
         let mut lhs = self.term()?;
         while self.is_punct('+') || self.is_punct('-') {
-            let op = if self.bump().tok == Tok::Punct('+') { BinOp::Add } else { BinOp::Sub };
+            let op = if self.bump().tok == Tok::Punct('+') {
+                BinOp::Add
+            } else {
+                BinOp::Sub
+            };
             let rhs = self.term()?;
             lhs = binary(op, lhs, rhs);
         }
@@ -252,7 +309,11 @@ impl Parser {
     fn term(&mut self) -> PResult<Expr> {
         let mut lhs = self.unary()?;
         while self.is_punct('*') || self.is_punct('/') {
-            let op = if self.bump().tok == Tok::Punct('*') { BinOp::Mul } else { BinOp::Div };
+            let op = if self.bump().tok == Tok::Punct('*') {
+                BinOp::Mul
+            } else {
+                BinOp::Div
+            };
             let rhs = self.unary()?;
             lhs = binary(op, lhs, rhs);
         }
@@ -264,7 +325,10 @@ impl Parser {
             let start = self.bump().span;
             let inner = self.unary()?;
             let span = start.to(&inner.span);
-            return Ok(Expr { kind: ExprKind::Neg(Box::new(inner)), span });
+            return Ok(Expr {
+                kind: ExprKind::Neg(Box::new(inner)),
+                span,
+            });
         }
         if self.is_punct('+') {
             self.bump();
@@ -294,7 +358,10 @@ impl Parser {
             }
             let end = self.expect_punct(']')?;
             let span = e.span.to(&end);
-            e = Expr { kind: ExprKind::Index(Box::new(e), indices), span };
+            e = Expr {
+                kind: ExprKind::Index(Box::new(e), indices),
+                span,
+            };
         }
         Ok(e)
     }
@@ -304,11 +371,17 @@ impl Parser {
         match t.tok {
             Tok::Num(x) => {
                 self.bump();
-                Ok(Expr { kind: ExprKind::Num(x), span: t.span })
+                Ok(Expr {
+                    kind: ExprKind::Num(x),
+                    span: t.span,
+                })
             }
             Tok::Ident(name) => {
                 self.bump();
-                let id = Ident { name, span: t.span.clone() };
+                let id = Ident {
+                    name,
+                    span: t.span.clone(),
+                };
                 if self.is_punct('(') {
                     self.bump();
                     let mut args = Vec::new();
@@ -320,16 +393,25 @@ impl Parser {
                         }
                     }
                     let end = self.expect_punct(')')?;
-                    Ok(Expr { kind: ExprKind::Call(id, args), span: t.span.to(&end) })
+                    Ok(Expr {
+                        kind: ExprKind::Call(id, args),
+                        span: t.span.to(&end),
+                    })
                 } else {
-                    Ok(Expr { kind: ExprKind::Name(id), span: t.span })
+                    Ok(Expr {
+                        kind: ExprKind::Name(id),
+                        span: t.span,
+                    })
                 }
             }
             Tok::Punct('(') => {
                 self.bump();
                 let inner = self.expr()?;
                 let end = self.expect_punct(')')?;
-                Ok(Expr { kind: inner.kind, span: t.span.to(&end) })
+                Ok(Expr {
+                    kind: inner.kind,
+                    span: t.span.to(&end),
+                })
             }
             Tok::Punct('[') => {
                 self.bump();
@@ -339,7 +421,10 @@ impl Parser {
                     elems.push(self.expr()?);
                 }
                 let end = self.expect_punct(']')?;
-                Ok(Expr { kind: ExprKind::List(elems), span: t.span.to(&end) })
+                Ok(Expr {
+                    kind: ExprKind::List(elems),
+                    span: t.span.to(&end),
+                })
             }
             _ => Err(self.unexpected("an expression")),
         }
@@ -348,5 +433,8 @@ impl Parser {
 
 fn binary(op: BinOp, lhs: Expr, rhs: Expr) -> Expr {
     let span = lhs.span.to(&rhs.span);
-    Expr { kind: ExprKind::Binary(op, Box::new(lhs), Box::new(rhs)), span }
+    Expr {
+        kind: ExprKind::Binary(op, Box::new(lhs), Box::new(rhs)),
+        span,
+    }
 }
