@@ -13,6 +13,7 @@ pub mod models;
 mod monomial;
 mod normal_form;
 pub mod poly;
+pub mod validate;
 mod scalar;
 
 pub use complex::Complex;

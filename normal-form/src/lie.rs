@@ -64,13 +64,7 @@ fn bracket_acc<C: Coeff>(table: &MonomialTable, out: &mut [C], t: &[C], deg: usi
 
 /// `F ← exp(L_G) F = Σ_j L_Gʲ F / j!` truncated at degree `cap`, G homogeneous of degree r ≥ 3.
 /// `first_link_from_h2`: the exact `{H₂, G}` (= Z_r − H_r) used for the chain from degree 2.
-pub(crate) fn lie_transform<R: Real>(
-    f: &mut Poly<Complex<R>>,
-    g: &[Complex<R>],
-    r: usize,
-    cap: usize,
-    first_link_from_h2: Option<Vec<Complex<R>>>,
-) {
+pub(crate) fn lie_transform<C: Coeff>(f: &mut Poly<C>, g: &[C], r: usize, cap: usize, first_link_from_h2: Option<Vec<C>>) {
     let table = f.table().clone();
     let gd = GeneratorDerivs::new(&table, g, r);
     if gd.d.iter().all(|v| v.is_empty()) {
@@ -82,20 +76,20 @@ pub(crate) fn lie_transform<R: Real>(
         if part.iter().all(|c| c.is_zero()) {
             continue;
         }
-        let mut t: Vec<Complex<R>> = part.to_vec();
+        let mut t: Vec<C> = part.to_vec();
         let mut deg = s;
         let mut j = 1usize;
         while deg + r - 2 <= cap {
             let new_deg = deg + r - 2;
-            let next: Vec<Complex<R>> = match (s, j, first.take()) {
+            let next: Vec<C> = match (s, j, first.take()) {
                 (2, 1, Some(exact)) => exact,
                 (_, _, other) => {
                     first = other;
-                    let mut out = vec![Complex::zero(); table.count(new_deg)];
+                    let mut out = vec![C::zero(); table.count(new_deg)];
                     bracket_acc(&table, &mut out, &t, deg, &gd);
                     if j > 1 {
-                        let inv = R::one() / R::from_f64(j as f64);
-                        out.iter_mut().for_each(|c| *c = c.scale_r(inv));
+                        let inv = C::one() / C::from_f64(j as f64);
+                        out.iter_mut().for_each(|c| *c *= inv);
                     }
                     out
                 }
@@ -207,20 +201,22 @@ pub(crate) fn normalize<R: Real>(
     LieOutput { z: h, generators, divisors }
 }
 
-/// Old diagonal coordinates as series in the new ones (`forward = true`:
-/// `u = exp(L_{G_N})…exp(L_{G_3}) u'`-style composition, i.e. `u = φ_{G₃}∘…∘φ_{G_N}(u')`), or the
-/// new ones in terms of the old (`forward = false`), truncated at degree `cap`.
-pub(crate) fn coordinate_maps<R: Real>(
+/// Old coordinates as series in the new ones (`forward = true`: `w = φ_{G₃}∘…∘φ_{G_N}(w')`,
+/// computed as `w_j ∘ φ_{G₃} ∘ … = exp(L_{G_N})…exp(L_{G₃}) w_j`, generators applied in the
+/// order 3…N), or the new ones in terms of the old (`forward = false`: the flows of −G_r in
+/// the order N…3), truncated at degree `cap`. Works in any canonical coordinates in which
+/// the generators are given (the real normal coordinates (Q, P) in practice).
+pub(crate) fn coordinate_maps<C: Coeff>(
     table: &std::sync::Arc<MonomialTable>,
-    generators: &[Vec<Complex<R>>],
+    generators: &[Vec<C>],
     cap: usize,
     forward: bool,
-) -> Vec<Poly<Complex<R>>> {
+) -> Vec<Poly<C>> {
     let d = table.nvars();
     let nmax = generators.len() - 1;
     (0..d)
         .map(|j| {
-            let mut f = Poly::variable(table.clone(), j, Complex::zero());
+            let mut f = Poly::variable(table.clone(), j, C::zero());
             let order: Vec<usize> = if forward { (3..=nmax).collect() } else { (3..=nmax).rev().collect() };
             for r in order {
                 let g = &generators[r];
@@ -230,7 +226,7 @@ pub(crate) fn coordinate_maps<R: Real>(
                 if forward {
                     lie_transform(&mut f, g, r, cap, None);
                 } else {
-                    let neg: Vec<Complex<R>> = g.iter().map(|&c| -c).collect();
+                    let neg: Vec<C> = g.iter().map(|&c| -c).collect();
                     lie_transform(&mut f, &neg, r, cap, None);
                 }
             }

@@ -265,7 +265,8 @@ pub struct Diagnostics {
     pub table_bytes: usize,
 }
 
-/// A real polynomial map ℝ²ⁿ → ℝ²ⁿ (one polynomial per output component).
+/// A real polynomial map ℝ²ⁿ → ℝ²ⁿ (one polynomial per output component) between the
+/// linear normal coordinates (Q, P) = A⁻¹ δz and the nonlinear ones (Q', P').
 #[derive(Clone, Debug)]
 pub struct PolyMap {
     /// Output components.
@@ -321,10 +322,10 @@ pub struct NormalForm {
     pub d4: Option<ArnoldMoser>,
     /// Checks and timings.
     pub diagnostics: Diagnostics,
-    /// (Q', P') as polynomials in δz = z − z_eq, degree ≤ N−1.
+    /// (Q', P') as polynomials in (Q, P) = A⁻¹(z − z_eq), degree ≤ N−1.
     #[serde(skip)]
     pub to_normal_map: Option<PolyMap>,
-    /// δz as polynomials in (Q', P'), degree ≤ N−1.
+    /// (Q, P) as polynomials in (Q', P'), degree ≤ N−1; z = z_eq + A (Q, P).
     #[serde(skip)]
     pub from_normal_map: Option<PolyMap>,
     /// A⁻¹
@@ -541,6 +542,7 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(h: &H, point: &Point, o: &Options) ->
         }
     }
     let (greal, generating_imag) = real_part(&gsum.substitute_linear(&ci));
+    let greal_parts: Vec<Vec<R>> = (0..=nmax).map(|r| greal.part(r).map_or(Vec::new(), |p| p.to_vec())).collect();
     let mut generating = Vec::new();
     for r in 3..=nmax {
         for i in 0..table.count(r) {
@@ -550,38 +552,15 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(h: &H, point: &Point, o: &Options) ->
     }
 
     // transformations
-    let (mut to_normal, mut from_normal, mut transform_imag) = (None, None, 0.0f64);
+    let (mut to_normal, mut from_normal, transform_imag) = (None, None, 0.0f64);
     if o.transform && nmax >= 2 {
         let cap = nmax - 1;
-        let fwd = lie::coordinate_maps(&table, &out.generators, cap, true);
-        let inv = lie::coordinate_maps(&table, &out.generators, cap, false);
-        // δz = L u(u'), u' = C⁻¹ w'
-        let vs: Vec<Poly<Complex<R>>> = fwd.iter().map(|p| p.substitute_linear(&ci)).collect();
-        let mut from = Vec::with_capacity(d);
-        for row in &l {
-            let mut acc = Poly::zero(table.clone());
-            for (j, v) in vs.iter().enumerate() {
-                acc.add_scaled(v, row[j]);
-            }
-            let (re, im) = real_part(&acc);
-            transform_imag = transform_imag.max(im);
-            from.push(re);
-        }
-        // w' = C u'(u), u = C⁻¹ A⁻¹ δz
-        let m = matmul(&ci, &to_complex(&ainv));
-        let vs: Vec<Poly<Complex<R>>> = inv.iter().map(|p| p.substitute_linear(&m)).collect();
-        let mut to = Vec::with_capacity(d);
-        for row in &c {
-            let mut acc = Poly::zero(table.clone());
-            for (j, v) in vs.iter().enumerate() {
-                if !row[j].is_zero() {
-                    acc.add_scaled(v, row[j]);
-                }
-            }
-            let (re, im) = real_part(&acc);
-            transform_imag = transform_imag.max(im);
-            to.push(re);
-        }
+        let fwd = lie::coordinate_maps(&table, &greal_parts, cap, true);
+        let inv = lie::coordinate_maps(&table, &greal_parts, cap, false);
+        // the generators in real form generate the same maps in (Q, P), since the
+        // complexification is symplectic: the coordinate maps are real Lie series
+        let from = fwd;
+        let to = inv;
         to_normal = Some(to);
         from_normal = Some(from);
     }
@@ -808,16 +787,25 @@ impl NormalForm {
             })
             .collect()
     }
-    /// Normal coordinates (Q', P') of a phase-space point z (needs the transformation).
-    pub fn to_normal(&self, z: &[f64]) -> Option<Vec<f64>> {
+    /// Linear normal coordinates (Q, P) = A⁻¹(z − z_eq).
+    pub fn to_linear_normal(&self, z: &[f64]) -> Vec<f64> {
         let eq = self.equilibrium_f64();
         let dz: Vec<f64> = z.iter().zip(&eq).map(|(a, b)| a - b).collect();
-        self.to_normal_map.as_ref().map(|m| m.eval(&dz))
+        self.linear_inverse.iter().map(|r| r.iter().zip(&dz).map(|(a, b)| a * b).sum()).collect()
+    }
+    /// The phase-space point z = z_eq + A (Q, P).
+    pub fn from_linear_normal(&self, w: &[f64]) -> Vec<f64> {
+        let eq = self.equilibrium_f64();
+        self.linear_map.iter().zip(&eq).map(|(r, e)| e + r.iter().zip(w).map(|(a, b)| a * b).sum::<f64>()).collect()
+    }
+    /// Normal coordinates (Q', P') of a phase-space point z (needs the transformation).
+    pub fn to_normal(&self, z: &[f64]) -> Option<Vec<f64>> {
+        let w = self.to_linear_normal(z);
+        self.to_normal_map.as_ref().map(|m| m.eval(&w))
     }
     /// The phase-space point of normal coordinates (Q', P').
     pub fn from_normal(&self, w: &[f64]) -> Option<Vec<f64>> {
-        let eq = self.equilibrium_f64();
-        self.from_normal_map.as_ref().map(|m| m.eval(w).iter().zip(&eq).map(|(a, b)| a + b).collect())
+        self.from_normal_map.as_ref().map(|m| self.from_linear_normal(&m.eval(w)))
     }
     /// Actions I_k = (Q'_k² + P'_k²)/2 of a phase-space point.
     pub fn actions(&self, z: &[f64]) -> Option<Vec<f64>> {
@@ -846,9 +834,7 @@ impl NormalForm {
     /// The linearised flow about the equilibrium: δz(t) = A R(σω t) A⁻¹ δz(0).
     pub fn linear_flow(&self, z0: &[f64], t: f64) -> Vec<f64> {
         let n = self.n_dof;
-        let eq = self.equilibrium_f64();
-        let dz: Vec<f64> = z0.iter().zip(&eq).map(|(a, b)| a - b).collect();
-        let w: Vec<f64> = self.linear_inverse.iter().map(|r| r.iter().zip(&dz).map(|(a, b)| a * b).sum()).collect();
+        let w = self.to_linear_normal(z0);
         let mut wt = w.clone();
         for k in 0..n {
             let nu = self.omega[k].value * self.signs[k] as f64;
@@ -856,6 +842,6 @@ impl NormalForm {
             wt[k] = w[k] * c + w[n + k] * s;
             wt[n + k] = -w[k] * s + w[n + k] * c;
         }
-        self.linear_map.iter().zip(&eq).map(|(r, e)| e + r.iter().zip(&wt).map(|(a, b)| a * b).sum::<f64>()).collect()
+        self.from_linear_normal(&wt)
     }
 }
