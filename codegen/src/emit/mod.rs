@@ -578,11 +578,12 @@ pub fn emit(
         let (get, get_mut) = (format_ident!("{}", name), format_ident!("{}_mut", name));
         let (a, b) = (u(s.offset), u(s.offset + s.shape.len()));
         let doc = format!(" The state block `{}` ({}) of a flat state, as a nalgebra view.", s.name, s.shape);
+        let scalar_doc = format!(" The state component `{}` of a flat state.", s.name);
         let (r, c) = s.shape.dims();
         let (rd, cd) = (format_ident!("U{}", r), format_ident!("U{}", c));
         match s.shape {
             Shape::Scalar => quote! {
-                #[doc = #doc]
+                #[doc = #scalar_doc]
                 pub fn #get(x: &[T; #nl]) -> T { x[#a] }
             },
             _ => quote! {
@@ -608,7 +609,7 @@ pub fn emit(
     };
     let summary = summary(model, d, conservation, &stats);
     let name_str = &model.name;
-    let struct_doc = format!(" Parameters of the model `{}` (state dimension N = {n}, {m} invariant components, {ng} gains).", model.name);
+    let struct_doc = format!(" Parameters of the model `{}`: state dimension N = {n}, invariant components M = {m}, gains G = {ng}.", model.name);
 
     let (n, m, ng) = (u(n), u(m), u(ng));
     let items = quote! {
