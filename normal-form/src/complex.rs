@@ -163,4 +163,8 @@ impl<R: Real> Coeff for Complex<R> {
     fn scale(self, s: f64) -> Self {
         Complex { re: self.re.scale(s), im: self.im.scale(s) }
     }
+    #[inline]
+    fn mul_acc_kernel(out: &mut [Self], a: &[Self], ka: &[u32], b: &[Self], kb: &[u32], lk: &[u32]) {
+        R::complex_kernel(out, a, ka, b, kb, lk);
+    }
 }

@@ -24,21 +24,7 @@ pub fn mul_acc_hom<T: Coeff>(table: &MonomialTable, out: &mut [T], a: &[T], da: 
     let ka = &table.degree(da).keys[..];
     let kb = &table.degree(db).keys[..];
     assert!(ka.len() == a.len() && kb.len() == b.len() && out.len() == table.count(da + db));
-    for (i, &ca) in a.iter().enumerate() {
-        if ca.is_zero() {
-            continue;
-        }
-        let base = ka[i];
-        for (&cb, &k) in b.iter().zip(kb) {
-            // SAFETY: keys of degree-da and degree-db monomials add to the key of a
-            // degree-(da+db) monomial, which the lookup table maps to a valid index of `out`.
-            unsafe {
-                let idx = *lk.get_unchecked((base + k) as usize) as usize;
-                debug_assert!(idx < out.len());
-                out.get_unchecked_mut(idx).mul_acc(ca, cb);
-            }
-        }
-    }
+    T::mul_acc_kernel(out, a, ka, b, kb, lk);
 }
 
 /// ∂a/∂x_v of a homogeneous part `a` of degree `k ≥ 1`, as a part of degree k−1.

@@ -45,6 +45,45 @@ pub trait Coeff:
     fn scale(self, s: f64) -> Self {
         self * Self::from_f64(s)
     }
+    /// The product kernel: `out[lk[ka[i] + kb[j]]] += a[i]·b[j]` for all i, j.
+    ///
+    /// The keys must be those of a [`MonomialTable`](crate::MonomialTable) (so every sum of
+    /// keys is a valid entry of `lk` pointing into `out`); this is checked in debug builds
+    /// only. Scalars may override it with a faster loop (double-double does).
+    #[inline]
+    fn mul_acc_kernel(out: &mut [Self], a: &[Self], ka: &[u32], b: &[Self], kb: &[u32], lk: &[u32]) {
+        generic_kernel(out, a, ka, b, kb, lk, |o, x, y| o.mul_acc(x, y));
+    }
+}
+
+/// The product loop with a custom multiply-accumulate.
+#[inline(always)]
+pub(crate) fn generic_kernel<T: Copy + Coeff>(
+    out: &mut [T],
+    a: &[T],
+    ka: &[u32],
+    b: &[T],
+    kb: &[u32],
+    lk: &[u32],
+    acc: impl Fn(&mut T, T, T),
+) {
+    assert!(ka.len() == a.len() && kb.len() == b.len());
+    for (i, &ca) in a.iter().enumerate() {
+        if ca.is_zero() {
+            continue;
+        }
+        let base = ka[i];
+        for (&cb, &k) in b.iter().zip(kb) {
+            let key = (base + k) as usize;
+            debug_assert!(key < lk.len() && (lk[key] as usize) < out.len());
+            // SAFETY: keys of two monomial tables add to a key of the product degree, which
+            // the lookup table maps to a valid index of `out` (see MonomialTable).
+            unsafe {
+                let idx = *lk.get_unchecked(key) as usize;
+                acc(out.get_unchecked_mut(idx), ca, cb);
+            }
+        }
+    }
 }
 
 /// A real scalar with the elementary functions: `f64` or [`Dd`](crate::Dd).
@@ -82,6 +121,18 @@ pub trait Real: Coeff + PartialOrd {
         } else {
             (self.ln() * Self::from_f64(p)).exp()
         }
+    }
+    /// [`Coeff::mul_acc_kernel`] for complex coefficients over this real type.
+    #[inline]
+    fn complex_kernel(
+        out: &mut [crate::Complex<Self>],
+        a: &[crate::Complex<Self>],
+        ka: &[u32],
+        b: &[crate::Complex<Self>],
+        kb: &[u32],
+        lk: &[u32],
+    ) {
+        generic_kernel(out, a, ka, b, kb, lk, |o, x, y| o.mul_acc(x, y));
     }
     /// sign of self as −1, 0, +1
     fn signum_f64(self) -> f64 {
@@ -143,8 +194,39 @@ impl Coeff for f64 {
     }
 }
 
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "fma")]
+unsafe fn complex_kernel_f64_fma(
+    out: &mut [crate::Complex<f64>],
+    a: &[crate::Complex<f64>],
+    ka: &[u32],
+    b: &[crate::Complex<f64>],
+    kb: &[u32],
+    lk: &[u32],
+) {
+    generic_kernel(out, a, ka, b, kb, lk, |o, x, y| {
+        o.re = x.re.mul_add(y.re, (-x.im).mul_add(y.im, o.re));
+        o.im = x.re.mul_add(y.im, x.im.mul_add(y.re, o.im));
+    });
+}
+
 impl Real for f64 {
     const NAME: &'static str = "f64";
+    fn complex_kernel(
+        out: &mut [crate::Complex<f64>],
+        a: &[crate::Complex<f64>],
+        ka: &[u32],
+        b: &[crate::Complex<f64>],
+        kb: &[u32],
+        lk: &[u32],
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("fma") {
+            // SAFETY: FMA is available; keys as documented on `Coeff::mul_acc_kernel`.
+            return unsafe { complex_kernel_f64_fma(out, a, ka, b, kb, lk) };
+        }
+        generic_kernel(out, a, ka, b, kb, lk, |o, x, y| o.mul_acc(x, y));
+    }
     const EPSILON: f64 = f64::EPSILON / 2.0;
     fn to_f64(self) -> f64 {
         self
