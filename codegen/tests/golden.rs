@@ -14,13 +14,20 @@ fn emitted_code_matches_the_golden_file() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden");
     let text = std::fs::read_to_string(dir.join("pendulum.lsl")).unwrap();
     let generated = lasalle_codegen::generate_source("golden/pendulum.lsl", &text).unwrap();
-    let code = lasalle_codegen::Generated { models: vec![generated] }.module_file();
+    let code = lasalle_codegen::Generated {
+        models: vec![generated],
+    }
+    .module_file();
     let golden = dir.join("pendulum.rs");
     if std::env::var_os("UPDATE_GOLDEN").is_some() {
         std::fs::write(&golden, &code).unwrap();
     }
     let expected = std::fs::read_to_string(&golden).unwrap();
-    assert!(code == expected, "emitted code differs from {}; rerun with UPDATE_GOLDEN=1 if intended", golden.display());
+    assert!(
+        code == expected,
+        "emitted code differs from {}; rerun with UPDATE_GOLDEN=1 if intended",
+        golden.display()
+    );
 }
 
 #[test]
@@ -40,6 +47,9 @@ fn the_golden_code_runs() {
     let mut grad = [0.0; 2];
     m.lyapunov_gradient(&x, &target, &[2.0], &mut grad);
     let want = [2.0 * 0.1 * 9.81 * 0.5f64.sin(), 2.0 * 0.1 * -0.25];
-    assert!((grad[0] - want[0]).abs() < 1e-14 && (grad[1] - want[1]).abs() < 1e-14, "{grad:?}");
+    assert!(
+        (grad[0] - want[0]).abs() < 1e-14 && (grad[1] - want[1]).abs() < 1e-14,
+        "{grad:?}"
+    );
     assert_eq!(m.point_rest(), [0.0, 0.0]);
 }

@@ -1,20 +1,31 @@
-//! The three paper models go through parse → lower → derive → check.
-
-use lasalle_codegen::{check, derive, load_model};
-
-fn models_dir() -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../models")
-}
+//! The paper models go through the whole pipeline; the gradient of V stays a small multiple
+//! of V's cost (reverse mode), as the issue asks (≤ 4×). Prints the per-model statistics.
 
 #[test]
-fn paper_models_pass_the_conservation_check() {
-    for name in ["kepler", "perturbed_kepler", "rigid_body"] {
-        let mut m =
-            load_model(models_dir().join(format!("{name}.lsl"))).unwrap_or_else(|e| panic!("{e}"));
-        let d = derive::derive(&mut m);
-        let verdicts = check::check(&mut m, &d).unwrap_or_else(|e| panic!("{e}"));
-        let v_ops = m.graph.op_count(&[m.lyapunov]);
-        let g_ops = m.graph.op_count(&d.lyapunov_gradient);
-        eprintln!("{name}: {verdicts:?}\n  V ops {v_ops:?}, grad V ops {g_ops:?}");
+fn paper_models_generate_with_cheap_gradients() {
+    for name in [
+        "kepler",
+        "perturbed_kepler",
+        "rigid_body",
+        "cr3bp",
+        "so3_type_i",
+    ] {
+        let path = format!("{}/../models/{name}.lsl", env!("CARGO_MANIFEST_DIR"));
+        let m = lasalle_codegen::generate_file(&path).unwrap_or_else(|e| panic!("{e}"));
+        let s = &m.report.stats;
+        eprintln!(
+            "{name}: {:.1} ms, {} lines, {} bytes\n  {s:?}\n  {:?}",
+            m.report.time.as_secs_f64() * 1e3,
+            m.report.lines,
+            m.report.bytes,
+            m.report.conservation
+        );
+        assert!(
+            s.lyapunov_gradient.emitted <= 4 * s.lyapunov.cse,
+            "{name}: ∇V costs {} ops, V {}",
+            s.lyapunov_gradient.emitted,
+            s.lyapunov.cse
+        );
+        assert!(s.feedback_field.emitted <= s.feedback_field.cse);
     }
 }

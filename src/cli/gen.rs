@@ -95,8 +95,8 @@ fn print_stats(m: &lasalle_codegen::GeneratedModel) {
         ("X − ∇V", s.feedback_field),
     ] {
         eprintln!(
-            "  {name:<14} ops: {:>6} as a tree, {:>5} after CSE",
-            c.tree, c.dag
+            "  {name:<14} ops: {:>6} as a tree, {:>5} after CSE, {:>5} as emitted",
+            c.tree, c.cse, c.emitted
         );
     }
     for c in &m.report.conservation {

@@ -48,9 +48,18 @@ struct Writer<'a> {
     scope: Scope,
 }
 
-/// The statements of a function computing `outputs`, with `reserved` names (arguments) taken.
-pub fn body(g: &Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str]) -> TokenStream {
-    let roots: Vec<Id> = outputs.iter().map(|o| o.id).collect();
+/// The statements of a function computing `outputs`, with `reserved` names (arguments) taken,
+/// and the number of operations they execute. The outputs are first rewritten for emission
+/// (factored sums, shared products) in `g`.
+pub fn body(
+    g: &mut Graph,
+    leaves: &Leaves,
+    outputs: &[Output],
+    reserved: &[&str],
+) -> (TokenStream, u64) {
+    let roots = g.optimize_for_emission(&outputs.iter().map(|o| o.id).collect::<Vec<_>>());
+    let ops = g.op_count(&roots).dag;
+    let g: &Graph = g;
     let order = g.reachable(&roots);
     let mut uses: HashMap<Id, usize> = HashMap::new();
     for &id in &order {
@@ -109,14 +118,14 @@ pub fn body(g: &Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str]) -
         w.named.insert(id, quote!(#ident));
     }
     // Outputs.
-    for o in outputs {
+    for (o, &root) in outputs.iter().zip(&roots) {
         if let Some(n) = &o.note {
             if last_note.as_deref() != Some(n) {
                 stmts.push(note(n));
                 last_note = Some(n.clone());
             }
         }
-        let value = w.reference(o.id).0;
+        let value = w.reference(root).0;
         let place = &o.place;
         if place.is_empty() {
             stmts.push(value); // the function's tail expression
@@ -124,7 +133,7 @@ pub fn body(g: &Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str]) -
             stmts.push(quote!(#place = #value;));
         }
     }
-    quote!(#(#stmts)*)
+    (quote!(#(#stmts)*), ops)
 }
 
 /// A numeric literal as `T`.

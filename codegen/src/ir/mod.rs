@@ -17,6 +17,7 @@
 mod count;
 mod eval;
 mod expand;
+mod factor;
 
 pub use count::OpCount;
 pub use eval::Scalar;

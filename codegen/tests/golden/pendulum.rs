@@ -11,7 +11,7 @@
 ///
 /// The field is partitioned (q̇ = a(p), ṗ = b(q)): Störmer–Verlet applies.
 ///
-/// Operations (tree → after CSE): X 5 → 5, f 8 → 8, Df 4 → 4, V 13 → 13, ∇V 28 → 17, X − ∇V 37 → 24.
+/// Operations (as a tree → after CSE → as emitted): X 5 → 5 → 5, f 8 → 8 → 8, Df 4 → 4 → 4, V 13 → 13 → 13, ∇V 28 → 17 → 15, X − ∇V 37 → 24 → 20.
 pub mod pendulum {
     #[allow(unused_imports)]
     use lasalle_runtime::num_traits::{Float, One, Zero};
@@ -129,12 +129,13 @@ pub mod pendulum {
             let l = self.l;
             let k_e = gains[0];
             let e_0 = target[0];
-            let t1 = T::one() / l;
-            let t2 = lit::<T>(0.5) * (omega * omega) - g * t1 * theta.cos() - e_0;
+            // pendulum.lsl:7: let k = g / l;
+            let k = g / l;
+            let t1 = k_e * (lit::<T>(0.5) * (omega * omega) - k * theta.cos() - e_0);
             // ∂V/∂x[0] (theta)
-            grad[0] = g * t1 * theta.sin() * k_e * t2;
+            grad[0] = k * theta.sin() * t1;
             // ∂V/∂x[1] (omega)
-            grad[1] = omega * k_e * t2;
+            grad[1] = omega * t1;
         }
         fn feedback_field(
             &self,
@@ -149,13 +150,14 @@ pub mod pendulum {
             let l = self.l;
             let k_e = gains[0];
             let e_0 = target[0];
-            let t1 = T::one() / l;
-            let t2 = theta.sin();
-            let t3 = lit::<T>(0.5) * (omega * omega) - g * t1 * theta.cos() - e_0;
+            // pendulum.lsl:7: let k = g / l;
+            let k = g / l;
+            let t1 = k_e * (lit::<T>(0.5) * (omega * omega) - k * theta.cos() - e_0);
+            let t2 = k * theta.sin();
             // pendulum.lsl:8: d/dt theta = omega; − ∂V/∂x[0]
-            dx[0] = omega - g * t1 * t2 * k_e * t3;
+            dx[0] = omega - t1 * t2;
             // pendulum.lsl:9: d/dt omega = -k * sin(theta); − ∂V/∂x[1]
-            dx[1] = -g * t1 * t2 - omega * k_e * t3;
+            dx[1] = -t2 - omega * t1;
         }
     }
     impl<T: Float> Partitioned<T, 2> for Pendulum<T> {
