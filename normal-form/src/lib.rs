@@ -3,6 +3,7 @@
 
 mod complex;
 mod dd;
+mod emit;
 mod error;
 mod hamiltonian;
 pub mod jet;
@@ -10,8 +11,10 @@ mod lie;
 pub mod linalg;
 mod linear;
 pub mod models;
+pub mod model;
 mod monomial;
 mod normal_form;
+mod output;
 pub mod poly;
 pub mod validate;
 mod scalar;
@@ -28,3 +31,4 @@ pub use normal_form::{
 };
 pub use poly::Poly;
 pub use scalar::{Coeff, Real};
+pub use model::{normalize_model, normalize_model_file, ModelHamiltonian, ModelPoint};
