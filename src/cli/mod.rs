@@ -1,6 +1,10 @@
 //! Subcommands. Each lives in its own module; this file only parses arguments and dispatches.
 
+mod experiment;
 mod gen;
+mod plot;
+mod run;
+mod sim;
 
 use clap::{Parser, Subcommand};
 
@@ -19,11 +23,18 @@ struct Cli {
 enum Command {
     /// Generate Rust from a model file: print it, or write a standalone crate.
     Gen(gen::GenArgs),
+    /// Integrate a model with one method; write trace.csv and summary.json.
+    Run(run::RunArgs),
+    /// Reproduce the paper's §4 experiments (rigid-body, kepler, perturbed-kepler) or the
+    /// gain study (gains): data, tables and figures.
+    Experiment(experiment::ExperimentArgs),
 }
 
 /// Parses the command line and runs the subcommand.
 pub fn main() -> CliResult {
     match Cli::parse().command {
         Command::Gen(args) => gen::run(&args),
+        Command::Run(args) => run::run(&args),
+        Command::Experiment(args) => experiment::run(&args),
     }
 }

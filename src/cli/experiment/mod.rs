@@ -1,0 +1,208 @@
+//! `lasalle experiment <rigid-body|kepler|perturbed-kepler|gains|all>`: the paper's §4
+//! experiments (Chang, Jiménez & Perlmutter 2016, Figs. 1–10) and the gain study.
+//!
+//! Each experiment runs its methods through the same core as `lasalle run`
+//! ([`super::sim::simulate`]) and writes into `--out` (default `out/experiment-<name>/`):
+//! one `<method>.csv` per method (t, state, invariant errors), `summary.md` (the tables, with
+//! the command that regenerates them), `summary.json`, and the figures `figN_*.svg` / `.png`.
+//! `--t-end` / `--periods` shorten the runs (the tests use that).
+
+mod gains;
+mod kepler;
+mod perturbed_kepler;
+mod rigid_body;
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+
+use super::sim::{ModelName, Trace};
+use super::CliResult;
+
+/// Arguments of `lasalle experiment`.
+#[derive(Args, Debug, Clone)]
+pub struct ExperimentArgs {
+    /// rigid-body (Figs. 1–4), kepler (Figs. 5–7), perturbed-kepler (Figs. 8–10), gains (the
+    /// gain study), or all.
+    pub name: String,
+    /// Output directory (default: out/experiment-<name>/).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// End time instead of the paper's (rigid body 1000, perturbed Kepler 200).
+    #[arg(long)]
+    pub t_end: Option<f64>,
+    /// Kepler: number of periods T = 70.2481 instead of the paper's 1000.
+    #[arg(long)]
+    pub periods: Option<f64>,
+    /// Step size instead of the paper's Δt.
+    #[arg(long)]
+    pub dt: Option<f64>,
+    /// Skip the figures.
+    #[arg(long)]
+    pub no_figures: bool,
+    /// No progress bars and no tables on standard output.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// Which experiment.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Which {
+    Model(ModelName),
+    Gains,
+    All,
+}
+
+/// Runs `lasalle experiment`.
+pub fn run(args: &ExperimentArgs) -> CliResult {
+    let which = match args.name.as_str() {
+        "gains" | "gain" => Which::Gains,
+        "all" => Which::All,
+        other => Which::Model(other.parse().map_err(|e: String| {
+            format!("{e}; experiments: rigid-body, kepler, perturbed-kepler, gains, all")
+        })?),
+    };
+    if let Some(dt) = args.dt {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(format!("step size must be positive and finite, got --dt {dt}").into());
+        }
+    }
+    for (flag, v) in [("--t-end", args.t_end), ("--periods", args.periods)] {
+        if let Some(v) = v {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("{flag} must be positive and finite, got {v}").into());
+            }
+        }
+    }
+    match which {
+        Which::Model(m) => run_one(args, m),
+        Which::Gains => gains::run(args, &out_dir(args, "gains")?),
+        Which::All => {
+            for m in ModelName::ALL {
+                run_one(args, m)?;
+            }
+            gains::run(args, &out_dir(args, "gains")?)
+        }
+    }
+}
+
+fn run_one(args: &ExperimentArgs, model: ModelName) -> CliResult {
+    let dir = out_dir(args, model.cli_name())?;
+    match model {
+        ModelName::RigidBody => rigid_body::run(args, &dir),
+        ModelName::Kepler => kepler::run(args, &dir),
+        ModelName::PerturbedKepler => perturbed_kepler::run(args, &dir),
+    }
+}
+
+/// `--out` (with `all`: a subdirectory per experiment) or `out/experiment-<name>`; created.
+fn out_dir(args: &ExperimentArgs, name: &str) -> Result<PathBuf, String> {
+    let dir = match (&args.out, args.name.as_str()) {
+        (Some(d), "all") => d.join(format!("experiment-{name}")),
+        (Some(d), _) => d.clone(),
+        (None, _) => PathBuf::from(format!("out/experiment-{name}")),
+    };
+    std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    Ok(dir)
+}
+
+/// The command line that reproduces this run (for the reports).
+fn command_line(args: &ExperimentArgs, name: &str) -> String {
+    let mut c = format!("cargo run --release -- experiment {name}");
+    if let Some(t) = args.t_end {
+        let _ = write!(c, " --t-end {t}");
+    }
+    if let Some(p) = args.periods {
+        let _ = write!(c, " --periods {p}");
+    }
+    if let Some(dt) = args.dt {
+        let _ = write!(c, " --dt {dt}");
+    }
+    c
+}
+
+/// Scientific notation with 3 significant digits; NaN/∞ spelled out.
+pub(crate) fn sci(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v:.3e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// A markdown table.
+#[derive(Default)]
+struct Table {
+    header: Vec<String>,
+    rows: Vec<Vec<String>>,
+}
+
+impl Table {
+    fn new(header: &[&str]) -> Self {
+        Table {
+            header: header.iter().map(|s| s.to_string()).collect(),
+            rows: Vec::new(),
+        }
+    }
+
+    fn row(&mut self, cells: Vec<String>) {
+        self.rows.push(cells);
+    }
+
+    fn markdown(&self) -> String {
+        let mut s = String::new();
+        // a `|` inside a cell (|ΔE|) must be escaped in markdown
+        let line = |cells: &[String]| {
+            let escaped: Vec<String> = cells.iter().map(|c| c.replace('|', "\\|")).collect();
+            format!("| {} |", escaped.join(" | "))
+        };
+        let _ = writeln!(s, "{}", line(&self.header));
+        let _ = writeln!(s, "|{}", " --- |".repeat(self.header.len()));
+        for r in &self.rows {
+            let _ = writeln!(s, "{}", line(r));
+        }
+        s
+    }
+}
+
+/// The note on a run that stopped early, or the empty string.
+fn failure_note(trace: &Trace) -> String {
+    match &trace.failure {
+        Some(e) => format!(
+            "stopped at t = {:.4}: {}",
+            e.time().unwrap_or(f64::NAN),
+            e.to_string().split(';').next().unwrap_or("")
+        ),
+        None => String::new(),
+    }
+}
+
+/// Writes each trace as `<method>.csv`, `summary.md` and `summary.json`; prints the report
+/// unless quiet.
+fn write_outputs(
+    dir: &Path,
+    traces: &[&Trace],
+    report: &str,
+    json: serde_json::Value,
+    quiet: bool,
+) -> CliResult {
+    for t in traces {
+        t.write_csv(&dir.join(format!("{}.csv", t.method)))?;
+    }
+    std::fs::write(dir.join("summary.md"), report)?;
+    std::fs::write(
+        dir.join("summary.json"),
+        serde_json::to_string_pretty(&json)? + "\n",
+    )?;
+    if !quiet {
+        println!("{report}");
+        println!("wrote {}", dir.display());
+    }
+    Ok(())
+}
+
+/// Runs a method and fails on invalid arguments (a blow-up is kept in the trace).
+fn must(r: Result<Trace, String>) -> Result<Trace, Box<dyn std::error::Error>> {
+    r.map_err(Into::into)
+}

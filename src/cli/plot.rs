@@ -1,0 +1,364 @@
+//! Figures of the experiments: line charts and orbit plots with plotters, written as SVG
+//! (text as `<text>` elements, no font needed) and PNG (text rasterised with DejaVu Sans
+//! embedded from the `dejavu` crate; no system fonts). Long series are thinned to a few
+//! thousand points per curve ([`thin`], keeping each bin's extremes so error peaks survive).
+
+use std::path::Path;
+use std::sync::Once;
+
+use plotters::coord::ranged1d::{AsRangedCoord, Ranged, ValueFormatter};
+use plotters::coord::types::RangedCoordf64;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use super::CliResult;
+
+/// How a series is drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Style {
+    /// A polyline through the points.
+    Line,
+    /// A small dot at each point (orbits sampled at irregular phases).
+    Dots,
+}
+
+/// One curve.
+#[derive(Clone, Debug)]
+pub struct Series {
+    /// Legend text.
+    pub label: String,
+    /// Abscissae.
+    pub x: Vec<f64>,
+    /// Ordinates.
+    pub y: Vec<f64>,
+    /// Colour index into [`PALETTE`].
+    pub color: usize,
+    /// Line or dots.
+    pub style: Style,
+}
+
+/// One panel: axes, labels and curves.
+#[derive(Clone, Debug)]
+pub struct Chart {
+    /// Panel title.
+    pub title: String,
+    /// x axis label.
+    pub x_label: String,
+    /// y axis label.
+    pub y_label: String,
+    /// Logarithmic y axis (values ≤ [`LOG_FLOOR`] are drawn at the floor).
+    pub log_y: bool,
+    /// Equal scales on both axes (orbits).
+    pub equal_aspect: bool,
+    /// The curves.
+    pub series: Vec<Series>,
+}
+
+/// Smallest value drawn on a logarithmic axis (exact zeros, e.g. an invariant kept to the last
+/// bit, sit here).
+pub const LOG_FLOOR: f64 = 1e-17;
+
+/// Colours of the methods: feedback (blue), projection (orange), splitting / Störmer–Verlet
+/// (green, red), Euler / reference (purple, black).
+pub const PALETTE: [RGBColor; 6] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(0, 0, 0),
+];
+
+impl Chart {
+    /// A panel with no curves.
+    pub fn new(title: &str, x_label: &str, y_label: &str, log_y: bool) -> Self {
+        Chart {
+            title: title.to_string(),
+            x_label: x_label.to_string(),
+            y_label: y_label.to_string(),
+            log_y,
+            equal_aspect: false,
+            series: Vec::new(),
+        }
+    }
+
+    /// Adds a curve.
+    pub fn add(&mut self, label: &str, x: Vec<f64>, y: Vec<f64>, color: usize, style: Style) {
+        self.series.push(Series {
+            label: label.to_string(),
+            x,
+            y,
+            color,
+            style,
+        });
+    }
+}
+
+/// At most about `max` points of (x, y): the series is cut into max/2 bins and each bin
+/// contributes its smallest and largest y (in x order), so oscillations and peaks stay visible.
+pub fn thin(x: &[f64], y: &[f64], max: usize) -> (Vec<f64>, Vec<f64>) {
+    let n = x.len().min(y.len());
+    if n <= max || max < 4 {
+        return (x[..n].to_vec(), y[..n].to_vec());
+    }
+    let bins = max / 2;
+    let (mut tx, mut ty) = (Vec::with_capacity(max + 2), Vec::with_capacity(max + 2));
+    for b in 0..bins {
+        let (lo, hi) = (b * n / bins, ((b + 1) * n / bins).max(b * n / bins + 1));
+        let (mut imin, mut imax) = (lo, lo);
+        for i in lo..hi {
+            if y[i] < y[imin] {
+                imin = i;
+            }
+            if y[i] > y[imax] {
+                imax = i;
+            }
+        }
+        let (a, c) = if imin <= imax {
+            (imin, imax)
+        } else {
+            (imax, imin)
+        };
+        tx.push(x[a]);
+        ty.push(y[a]);
+        if c != a {
+            tx.push(x[c]);
+            ty.push(y[c]);
+        }
+    }
+    if tx.last() != Some(&x[n - 1]) {
+        tx.push(x[n - 1]);
+        ty.push(y[n - 1]);
+    }
+    (tx, ty)
+}
+
+/// Every k-th point, so that at most `max` remain (for dot plots of orbits).
+pub fn decimate(x: &[f64], y: &[f64], max: usize) -> (Vec<f64>, Vec<f64>) {
+    let n = x.len().min(y.len());
+    let k = n.div_ceil(max.max(1)).max(1);
+    (
+        x[..n].iter().step_by(k).copied().collect(),
+        y[..n].iter().step_by(k).copied().collect(),
+    )
+}
+
+static FONT: Once = Once::new();
+
+fn register_font() {
+    FONT.call_once(|| {
+        // DejaVu Sans is a valid TrueType font; registration cannot fail on it.
+        let _ = plotters::style::register_font(
+            "sans-serif",
+            FontStyle::Normal,
+            dejavu::sans::regular(),
+        );
+    });
+}
+
+/// Writes `<stem>.svg` and `<stem>.png` in `dir` with the panels on a `rows × cols` grid,
+/// each panel `panel_size` pixels.
+pub fn write_figure(
+    dir: &Path,
+    stem: &str,
+    panels: &[Chart],
+    (rows, cols): (usize, usize),
+    panel_size: (u32, u32),
+) -> CliResult {
+    register_font();
+    let size = (panel_size.0 * cols as u32, panel_size.1 * rows as u32);
+    let svg = dir.join(format!("{stem}.svg"));
+    {
+        let root = SVGBackend::new(&svg, size).into_drawing_area();
+        draw_panels(&root, panels, rows, cols)?;
+        root.present()
+            .map_err(|e| format!("writing {}: {e}", svg.display()))?;
+    }
+    let png = dir.join(format!("{stem}.png"));
+    let mut buf = vec![0u8; (size.0 * size.1 * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+        draw_panels(&root, panels, rows, cols)?;
+        root.present()
+            .map_err(|e| format!("drawing {}: {e}", png.display()))?;
+    }
+    write_png(&png, &buf, size)
+}
+
+fn write_png(path: &Path, rgb: &[u8], (w, h): (u32, u32)) -> CliResult {
+    let file = std::fs::File::create(path)
+        .map_err(|e| format!("cannot create {}: {e}", path.display()))?;
+    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut writer = enc.write_header()?;
+    writer.write_image_data(rgb)?;
+    writer.finish()?;
+    Ok(())
+}
+
+fn draw_panels<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    panels: &[Chart],
+    rows: usize,
+    cols: usize,
+) -> CliResult
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let areas = root.split_evenly((rows, cols));
+    for (area, chart) in areas.iter().zip(panels) {
+        draw_chart(area, chart)?;
+    }
+    Ok(())
+}
+
+/// The data range of all curves of a chart, padded; log10 of the y range for log axes.
+fn ranges(chart: &Chart) -> ((f64, f64), (f64, f64)) {
+    let (mut x0, mut x1, mut y0, mut y1) = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
+    for s in &chart.series {
+        for (&x, &y) in s.x.iter().zip(&s.y) {
+            if !(x.is_finite() && y.is_finite()) {
+                continue;
+            }
+            let y = if chart.log_y { y.max(LOG_FLOOR) } else { y };
+            x0 = x0.min(x);
+            x1 = x1.max(x);
+            y0 = y0.min(y);
+            y1 = y1.max(y);
+        }
+    }
+    if !x0.is_finite() {
+        return ((0.0, 1.0), (if chart.log_y { 1e-16 } else { 0.0 }, 1.0));
+    }
+    if x1 <= x0 {
+        x1 = x0 + 1.0;
+    }
+    if chart.log_y {
+        let (l0, l1) = (
+            y0.log10().floor(),
+            y1.log10().ceil().max(y0.log10().floor() + 1.0),
+        );
+        ((x0, x1), (10f64.powf(l0), 10f64.powf(l1)))
+    } else {
+        if y1 <= y0 {
+            y1 = y0 + 1.0;
+        }
+        let pad = 0.05 * (y1 - y0);
+        if chart.equal_aspect {
+            let pad_x = 0.05 * (x1 - x0);
+            ((x0 - pad_x, x1 + pad_x), (y0 - pad, y1 + pad))
+        } else {
+            ((x0, x1), (y0 - pad, y1 + pad))
+        }
+    }
+}
+
+fn draw_chart<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, chart: &Chart) -> CliResult
+where
+    DB::ErrorType: 'static,
+{
+    let ((x0, x1), (y0, y1)) = ranges(chart);
+    let mut builder = ChartBuilder::on(area);
+    builder
+        .caption(&chart.title, ("sans-serif", 17))
+        .margin(12)
+        .x_label_area_size(38)
+        .y_label_area_size(68);
+    if chart.log_y {
+        let ctx = builder
+            .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
+            .map_err(|e| e.to_string())?;
+        finish_chart(ctx, chart, |v: &f64| format!("{v:.0e}"))
+    } else {
+        let (x0, x1, y0, y1) = if chart.equal_aspect {
+            equalise(area, (x0, x1), (y0, y1))
+        } else {
+            (x0, x1, y0, y1)
+        };
+        let ctx = builder
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(|e| e.to_string())?;
+        finish_chart(ctx, chart, |v: &f64| format!("{v:.3}"))
+    }
+}
+
+/// Widens one of the ranges so that a unit has the same length on both axes.
+fn equalise<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+) -> (f64, f64, f64, f64) {
+    let (w, h) = area.dim_in_pixel();
+    let (w, h) = ((w as f64 - 90.0).max(10.0), (h as f64 - 80.0).max(10.0));
+    let (sx, sy) = ((x1 - x0) / w, (y1 - y0) / h);
+    if sx > sy {
+        let c = 0.5 * (y0 + y1);
+        let half = 0.5 * sx * h;
+        (x0, x1, c - half, c + half)
+    } else {
+        let c = 0.5 * (x0 + x1);
+        let half = 0.5 * sy * w;
+        (c - half, c + half, y0, y1)
+    }
+}
+
+fn finish_chart<'a, DB, Y>(
+    mut ctx: ChartContext<'a, DB, Cartesian2d<RangedCoordf64, Y>>,
+    chart: &Chart,
+    y_fmt: impl Fn(&f64) -> String,
+) -> CliResult
+where
+    DB: DrawingBackend + 'a,
+    DB::ErrorType: 'static,
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    std::ops::Range<f64>: AsRangedCoord<CoordDescType = RangedCoordf64>,
+{
+    ctx.configure_mesh()
+        .x_desc(chart.x_label.as_str())
+        .y_desc(chart.y_label.as_str())
+        .y_label_formatter(&y_fmt)
+        .x_label_formatter(&|v: &f64| format!("{v}"))
+        .label_style(("sans-serif", 12))
+        .light_line_style(RGBColor(235, 235, 235))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    let floor = chart.log_y;
+    for s in &chart.series {
+        let color = PALETTE[s.color % PALETTE.len()];
+        let pts =
+            s.x.iter()
+                .zip(&s.y)
+                .filter(|(x, y)| x.is_finite() && y.is_finite())
+                .map(move |(&x, &y)| (x, if floor { y.max(LOG_FLOOR) } else { y }));
+        let anno = match s.style {
+            Style::Line => ctx
+                .draw_series(LineSeries::new(pts, color.stroke_width(1)))
+                .map_err(|e| e.to_string())?,
+            Style::Dots => ctx
+                .draw_series(pts.map(|p| Circle::new(p, 1, color.filled())))
+                .map_err(|e| e.to_string())?,
+        };
+        if !s.label.is_empty() {
+            anno.label(s.label.as_str()).legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+            });
+        }
+    }
+    if chart.series.iter().any(|s| !s.label.is_empty()) {
+        ctx.configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(RGBColor(180, 180, 180))
+            .label_font(("sans-serif", 12))
+            .position(SeriesLabelPosition::UpperLeft)
+            .draw()
+            .map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}

@@ -1,0 +1,924 @@
+//! The simulation core shared by `lasalle run` and `lasalle experiment`.
+//!
+//! A run is a model, a [`Method`] and a [`RunSpec`] (step, end time, gains, tolerances). The
+//! command line knows models by name ([`ModelName`]) and dispatches to monomorphised code:
+//! every model implements [`CliModel`], and [`simulate`] builds the stepper for the method by
+//! composing [`Visit`]ors (`projection-` wraps the base stepper in a [`Projection`], `feedback-`
+//! integrates the [`FeedbackField`], `--gains adaptive` wraps the stepper in an
+//! [`AdaptiveGain`]), so the inner loop is static code for each (model, method) pair.
+//! Methods that need structure the model lacks fail with a message
+//! ("method `stormer-verlet-a` needs a partitioned model").
+//!
+//! The result is a [`Trace`]: sampled times, states and invariant errors, wall time and
+//! counters, and, if the integration blew up, the [`StepError`] with its time and state.
+
+use std::fmt;
+use std::io::{IsTerminal, Write};
+use std::marker::PhantomData;
+use std::path::Path;
+use std::str::FromStr;
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use lasalle::models::{kepler::Kepler, perturbed_kepler::PerturbedKepler, rigid_body::RigidBody};
+use lasalle::{
+    component_names, sample_capacity, AdaptiveGain, Control, DormandPrince, Driver, ExplicitRk,
+    FeedbackField, Field, GainPolicy, Invariants, Lyapunov, ModelInfo, Observer, Parameters,
+    Projection, Recorder, RigidBodySplitting, StepError, Stepper, StormerVerlet, VerletVariant,
+};
+use serde_json::json;
+
+use super::CliResult;
+
+/// The models the command line knows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ModelName {
+    /// `models/rigid_body.lsl`: the free rigid body (paper §3.1, §4.1).
+    RigidBody,
+    /// `models/kepler.lsl`: the Kepler problem (§3.2, §4.2).
+    Kepler,
+    /// `models/perturbed_kepler.lsl`: the perturbed Kepler problem (§3.3, §4.3).
+    PerturbedKepler,
+}
+
+impl ModelName {
+    /// All models, in the paper's order.
+    pub const ALL: [ModelName; 3] = [
+        ModelName::RigidBody,
+        ModelName::Kepler,
+        ModelName::PerturbedKepler,
+    ];
+
+    /// The name on the command line.
+    pub fn cli_name(self) -> &'static str {
+        match self {
+            ModelName::RigidBody => "rigid-body",
+            ModelName::Kepler => "kepler",
+            ModelName::PerturbedKepler => "perturbed-kepler",
+        }
+    }
+}
+
+impl fmt::Display for ModelName {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.cli_name())
+    }
+}
+
+/// Lower case without `-` and `_`, so `rigid-body`, `rigid_body` and `RigidBody` agree.
+fn normalise(s: &str) -> String {
+    s.chars()
+        .filter(|c| *c != '-' && *c != '_')
+        .flat_map(char::to_lowercase)
+        .collect()
+}
+
+impl FromStr for ModelName {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        let key = normalise(s);
+        ModelName::ALL
+            .into_iter()
+            .find(|m| normalise(m.cli_name()) == key)
+            .ok_or_else(|| {
+                let known: Vec<_> = ModelName::ALL.iter().map(|m| m.cli_name()).collect();
+                format!("unknown model `{s}`; known models: {}", known.join(", "))
+            })
+    }
+}
+
+/// An explicit Runge–Kutta base method.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Base {
+    /// Explicit Euler (order 1).
+    Euler,
+    /// Heun (order 2).
+    Heun,
+    /// Classical Runge–Kutta (order 4).
+    Rk4,
+    /// Adaptive Dormand–Prince 5(4) with `--rtol`/`--atol`.
+    Dopri5,
+}
+
+impl Base {
+    const ALL: [Base; 4] = [Base::Euler, Base::Heun, Base::Rk4, Base::Dopri5];
+
+    fn name(self) -> &'static str {
+        match self {
+            Base::Euler => "euler",
+            Base::Heun => "heun",
+            Base::Rk4 => "rk4",
+            Base::Dopri5 => "dopri5",
+        }
+    }
+}
+
+/// A method of the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// A base method on the model's own field X.
+    Plain(Base),
+    /// A base method on the feedback field X − ∇V (a feedback integrator).
+    Feedback(Base),
+    /// A base method on X followed by the projection onto {f = f(x₀)} (GNI §IV.4).
+    Projection(Base),
+    /// Störmer–Verlet A (GNI (3.4)) or B (GNI (3.5)); partitioned models only.
+    StormerVerlet(VerletVariant),
+    /// The three-rotation splitting of the free rigid body (GNI §VII.5).
+    Splitting,
+}
+
+impl Method {
+    /// Every accepted spelling, for messages.
+    pub fn known() -> String {
+        let mut v: Vec<String> = Base::ALL.iter().map(|b| b.name().to_string()).collect();
+        v.extend(Base::ALL.iter().map(|b| format!("feedback-{}", b.name())));
+        v.extend(Base::ALL.iter().map(|b| format!("projection-{}", b.name())));
+        v.extend(["stormer-verlet-a", "stormer-verlet-b", "splitting"].map(String::from));
+        v.join(", ")
+    }
+
+    /// Is this a feedback integrator (the gains apply)?
+    pub fn is_feedback(self) -> bool {
+        matches!(self, Method::Feedback(_))
+    }
+}
+
+impl fmt::Display for Method {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Method::Plain(b) => f.write_str(b.name()),
+            Method::Feedback(b) => write!(f, "feedback-{}", b.name()),
+            Method::Projection(b) => write!(f, "projection-{}", b.name()),
+            Method::StormerVerlet(VerletVariant::A) => f.write_str("stormer-verlet-a"),
+            Method::StormerVerlet(VerletVariant::B) => f.write_str("stormer-verlet-b"),
+            Method::Splitting => f.write_str("splitting"),
+        }
+    }
+}
+
+impl FromStr for Method {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        let key = s.trim().to_lowercase().replace('_', "-");
+        let base = |b: &str| Base::ALL.into_iter().find(|x| x.name() == b);
+        let found = match key.as_str() {
+            "stormer-verlet-a" | "sv-a" | "verlet-a" | "stormer-verlet" => {
+                Some(Method::StormerVerlet(VerletVariant::A))
+            }
+            "stormer-verlet-b" | "sv-b" | "verlet-b" => {
+                Some(Method::StormerVerlet(VerletVariant::B))
+            }
+            "splitting" => Some(Method::Splitting),
+            k => {
+                if let Some(rest) = k.strip_prefix("feedback-") {
+                    base(rest).map(Method::Feedback)
+                } else if let Some(rest) = k.strip_prefix("projection-") {
+                    base(rest).map(Method::Projection)
+                } else {
+                    base(k).map(Method::Plain)
+                }
+            }
+        };
+        found.ok_or_else(|| format!("unknown method `{s}`; known methods: {}", Method::known()))
+    }
+}
+
+/// Everything about a run except the model and the initial state.
+#[derive(Clone, Debug)]
+pub struct RunSpec {
+    /// The method.
+    pub method: Method,
+    /// Step size (fixed-step methods) or initial step (`dopri5`; 0 = automatic).
+    pub dt: f64,
+    /// End time (the run starts at t = 0).
+    pub t_end: f64,
+    /// Gains of feedback methods.
+    pub gains: GainPolicy,
+    /// Tolerance of the projection on |f(x) − f(x₀)|₂.
+    pub tol: f64,
+    /// Relative tolerance of `dopri5`.
+    pub rtol: f64,
+    /// Absolute tolerance of `dopri5`.
+    pub atol: f64,
+    /// Record every `every`-th step (0: about [`AUTO_SAMPLES`] samples).
+    pub every: u64,
+    /// Show a progress bar (only if standard error is a terminal).
+    pub progress: bool,
+}
+
+/// The number of samples a run records when `every` is 0.
+pub const AUTO_SAMPLES: u64 = 20_000;
+
+impl RunSpec {
+    /// A spec with the defaults of `lasalle run`: model gains, tol = dt, rtol = atol = 1e-10.
+    pub fn new(method: Method, dt: f64, t_end: f64) -> Self {
+        RunSpec {
+            method,
+            dt,
+            t_end,
+            gains: GainPolicy::ModelDefault,
+            tol: dt,
+            rtol: 1e-10,
+            atol: 1e-10,
+            every: 0,
+            progress: false,
+        }
+    }
+
+    /// The number of steps of a fixed-step run (an estimate for `dopri5`).
+    pub fn steps(&self) -> u64 {
+        if self.dt > 0.0 {
+            (self.t_end / self.dt).ceil().max(1.0) as u64
+        } else {
+            1000
+        }
+    }
+
+    fn record_every(&self) -> u64 {
+        if self.every > 0 {
+            self.every
+        } else {
+            (self.steps() / AUTO_SAMPLES).max(1)
+        }
+    }
+
+    /// Checks the numbers: positive finite step and end time, tolerances in range.
+    pub fn validate(&self) -> Result<(), String> {
+        let adaptive = matches!(
+            self.method,
+            Method::Plain(Base::Dopri5)
+                | Method::Feedback(Base::Dopri5)
+                | Method::Projection(Base::Dopri5)
+        );
+        if !(self.dt.is_finite() && (self.dt > 0.0 || (adaptive && self.dt == 0.0))) {
+            return Err(format!(
+                "step size must be positive and finite, got --dt {}",
+                self.dt
+            ));
+        }
+        if !(self.t_end.is_finite() && self.t_end > 0.0) {
+            return Err(format!(
+                "end time must be positive and finite, got --t-end {}",
+                self.t_end
+            ));
+        }
+        if self.dt > self.t_end {
+            return Err(format!(
+                "step size --dt {} exceeds the end time --t-end {}",
+                self.dt, self.t_end
+            ));
+        }
+        if !(self.tol.is_finite() && self.tol > 0.0) {
+            return Err(format!(
+                "projection tolerance must be positive, got --tol {}",
+                self.tol
+            ));
+        }
+        if !(self.rtol > 0.0 && self.atol > 0.0 && self.rtol.is_finite() && self.atol.is_finite()) {
+            return Err(format!(
+                "need positive --rtol and --atol, got {} and {}",
+                self.rtol, self.atol
+            ));
+        }
+        if !self.method.is_feedback() && self.gains != GainPolicy::ModelDefault {
+            return Err(format!(
+                "--gains applies to feedback methods only, not to `{}`",
+                self.method
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Counters of a stepper after a run (Newton iterations of a projection, the last spectral
+/// norm estimate of an adaptive gain).
+pub trait Stats {
+    /// Named counters; none by default.
+    fn stats(&self) -> Vec<(&'static str, f64)> {
+        Vec::new()
+    }
+}
+
+impl<const S: usize> Stats for ExplicitRk<f64, S> {}
+impl<const N: usize> Stats for DormandPrince<f64, N> {}
+impl Stats for StormerVerlet {}
+impl Stats for RigidBodySplitting<f64> {}
+
+impl<const M: usize, S: Stats> Stats for Projection<f64, M, S> {
+    fn stats(&self) -> Vec<(&'static str, f64)> {
+        let mut v = self.base().stats();
+        v.push(("newton_iterations", self.newton_iterations() as f64));
+        v.push(("projected_steps", self.projections() as f64));
+        v
+    }
+}
+
+impl<S: Stats, const G: usize> Stats for AdaptiveGain<S, f64, G> {
+    fn stats(&self) -> Vec<(&'static str, f64)> {
+        let mut v = self.base().stats();
+        v.push(("last_gauss_newton_norm", self.last_norm()));
+        v
+    }
+}
+
+/// Something that does a run with any stepper for the field `F` (the continuation that
+/// [`simulate`] hands the stepper it built).
+pub trait Visit<F: ?Sized, const N: usize> {
+    /// The result.
+    type Out;
+    /// Runs with `stepper`.
+    fn visit<S: Stepper<f64, N, F> + Stats>(self, stepper: S) -> Self::Out;
+}
+
+/// A model the command line can run: the generated traits plus the steppers that need the
+/// model's structure (Störmer–Verlet, splitting) and a validity guard.
+pub trait CliModel<const N: usize, const M: usize, const G: usize>:
+    Lyapunov<f64, N, M, G> + ModelInfo + Parameters + Clone + Sized
+{
+    /// The model's name on the command line.
+    const CLI: ModelName;
+
+    /// Hands `visit` the model-specific stepper for `method` (Störmer–Verlet, splitting), or
+    /// says why the model cannot use it.
+    fn special<V: Visit<Self, N>>(&self, method: Method, visit: V) -> Result<V::Out, String>;
+
+    /// A check run on the state after every step (e.g. Kepler: |x| → 0 is a collision).
+    fn guard() -> Option<fn(&[f64; N]) -> Option<String>> {
+        None
+    }
+}
+
+/// |x| below this stops a Kepler run: the field is singular at the origin.
+pub const COLLISION_RADIUS: f64 = 1e-6;
+
+fn collision_guard(x: &[f64; 6]) -> Option<String> {
+    let r = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
+    (r < COLLISION_RADIUS).then(|| format!("collision: |x| = {r:e} < {COLLISION_RADIUS:e}"))
+}
+
+fn needs_partitioned(method: Method, model: ModelName) -> String {
+    match method {
+        Method::Splitting => format!(
+            "method `splitting` is the free rigid body's three-rotation splitting; model `{model}` cannot use it"
+        ),
+        _ => format!("method `{method}` needs a partitioned model; `{model}` is not partitioned"),
+    }
+}
+
+impl CliModel<6, 6, 2> for Kepler {
+    const CLI: ModelName = ModelName::Kepler;
+
+    fn special<V: Visit<Self, 6>>(&self, method: Method, visit: V) -> Result<V::Out, String> {
+        match method {
+            Method::StormerVerlet(VerletVariant::A) => Ok(visit.visit(StormerVerlet::a())),
+            Method::StormerVerlet(VerletVariant::B) => Ok(visit.visit(StormerVerlet::b())),
+            _ => Err(needs_partitioned(method, Self::CLI)),
+        }
+    }
+
+    fn guard() -> Option<fn(&[f64; 6]) -> Option<String>> {
+        Some(collision_guard)
+    }
+}
+
+impl CliModel<6, 4, 2> for PerturbedKepler {
+    const CLI: ModelName = ModelName::PerturbedKepler;
+
+    fn special<V: Visit<Self, 6>>(&self, method: Method, visit: V) -> Result<V::Out, String> {
+        match method {
+            Method::StormerVerlet(VerletVariant::A) => Ok(visit.visit(StormerVerlet::a())),
+            Method::StormerVerlet(VerletVariant::B) => Ok(visit.visit(StormerVerlet::b())),
+            _ => Err(needs_partitioned(method, Self::CLI)),
+        }
+    }
+
+    fn guard() -> Option<fn(&[f64; 6]) -> Option<String>> {
+        Some(collision_guard)
+    }
+}
+
+impl CliModel<12, 13, 3> for RigidBody {
+    const CLI: ModelName = ModelName::RigidBody;
+
+    fn special<V: Visit<Self, 12>>(&self, method: Method, visit: V) -> Result<V::Out, String> {
+        match method {
+            Method::Splitting => Ok(visit.visit(RigidBodySplitting::new(self.i))),
+            _ => Err(needs_partitioned(method, Self::CLI)),
+        }
+    }
+}
+
+/// Sampled output of a run.
+#[derive(Clone, Debug)]
+pub struct Trace {
+    /// The method as given.
+    pub method: String,
+    /// The stepper's own name, e.g. `projection(euler)`.
+    pub stepper: String,
+    /// Names of the state components (`R[0,0]`, …, `Omega[2]`).
+    pub state_names: Vec<String>,
+    /// Names of the invariant blocks whose errors are recorded.
+    pub blocks: Vec<String>,
+    /// Sample times.
+    pub t: Vec<f64>,
+    /// Sampled states, `state_names.len()` per sample.
+    pub x: Vec<f64>,
+    /// Invariant errors ‖fᵢ(x) − fᵢ(x₀)‖, `blocks.len()` per sample.
+    pub errors: Vec<f64>,
+    /// Wall-clock time of the integration (including the sampling), in seconds.
+    pub wall_seconds: f64,
+    /// Accepted steps.
+    pub steps: u64,
+    /// Field evaluations reported by the stepper.
+    pub evaluations: u64,
+    /// Rejected steps (adaptive methods).
+    pub rejections: u64,
+    /// Stepper counters ([`Stats`]).
+    pub stats: Vec<(&'static str, f64)>,
+    /// Gains at the start (feedback methods).
+    pub gains_initial: Option<Vec<f64>>,
+    /// Gains at the end (differ from the initial ones for adaptive gains).
+    pub gains_final: Option<Vec<f64>>,
+    /// Why the run stopped early, if it did.
+    pub failure: Option<StepError>,
+    /// Recorded every this many steps.
+    pub every: u64,
+}
+
+impl Trace {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    /// The state dimension.
+    pub fn dim(&self) -> usize {
+        self.state_names.len()
+    }
+
+    /// The state of sample `i`.
+    pub fn state(&self, i: usize) -> &[f64] {
+        let n = self.dim();
+        &self.x[i * n..(i + 1) * n]
+    }
+
+    /// The final recorded state.
+    pub fn last_state(&self) -> &[f64] {
+        self.state(self.len() - 1)
+    }
+
+    /// The index of the invariant block `name`.
+    pub fn block(&self, name: &str) -> Option<usize> {
+        self.blocks.iter().position(|b| b == name)
+    }
+
+    /// The error series of block `b`.
+    pub fn error_series(&self, b: usize) -> Vec<f64> {
+        let nb = self.blocks.len();
+        self.errors
+            .iter()
+            .skip(b)
+            .step_by(nb.max(1))
+            .copied()
+            .collect()
+    }
+
+    /// The error of block `b` at the last sample.
+    pub fn final_error(&self, b: usize) -> f64 {
+        let nb = self.blocks.len();
+        self.errors[(self.len() - 1) * nb + b]
+    }
+
+    /// The largest sampled error of block `b` (NaN if any sample is NaN).
+    pub fn max_error(&self, b: usize) -> f64 {
+        self.error_series(b).into_iter().fold(0.0, |m: f64, e| {
+            if e.is_nan() || m.is_nan() {
+                f64::NAN
+            } else {
+                m.max(e)
+            }
+        })
+    }
+
+    /// The error of block `name` at the end, by name (panics on an unknown name).
+    pub fn final_of(&self, name: &str) -> f64 {
+        self.final_error(
+            self.block(name)
+                .unwrap_or_else(|| panic!("no invariant `{name}`")),
+        )
+    }
+
+    /// The largest sampled error of block `name`.
+    pub fn max_of(&self, name: &str) -> f64 {
+        self.max_error(
+            self.block(name)
+                .unwrap_or_else(|| panic!("no invariant `{name}`")),
+        )
+    }
+
+    /// A stepper counter by name.
+    pub fn stat(&self, name: &str) -> Option<f64> {
+        self.stats.iter().find(|(n, _)| *n == name).map(|(_, v)| *v)
+    }
+
+    /// Writes the samples as CSV: `t`, the state components, one `|Δname|` column per
+    /// invariant (Frobenius norm for the matrix constraint).
+    pub fn write_csv(&self, path: &Path) -> CliResult {
+        let file = std::fs::File::create(path)
+            .map_err(|e| format!("cannot create {}: {e}", path.display()))?;
+        let mut w = std::io::BufWriter::new(file);
+        write!(w, "t")?;
+        for n in &self.state_names {
+            write!(w, ",{n}")?;
+        }
+        for b in &self.blocks {
+            write!(w, ",|Δ{b}|")?;
+        }
+        writeln!(w)?;
+        let nb = self.blocks.len();
+        for i in 0..self.len() {
+            write!(w, "{}", self.t[i])?;
+            for v in self.state(i) {
+                write!(w, ",{v}")?;
+            }
+            for e in &self.errors[i * nb..(i + 1) * nb] {
+                write!(w, ",{e}")?;
+            }
+            writeln!(w)?;
+        }
+        w.flush()?;
+        Ok(())
+    }
+
+    /// The run's summary as JSON: counters, wall time, final and maximal invariant errors,
+    /// final state, failure.
+    pub fn summary_json(&self) -> serde_json::Value {
+        let invariants: serde_json::Map<String, serde_json::Value> = self
+            .blocks
+            .iter()
+            .enumerate()
+            .map(|(b, name)| {
+                (
+                    name.clone(),
+                    json!({ "final": num(self.final_error(b)), "max": num(self.max_error(b)) }),
+                )
+            })
+            .collect();
+        let stats: serde_json::Map<String, serde_json::Value> = self
+            .stats
+            .iter()
+            .map(|(n, v)| (n.to_string(), num(*v)))
+            .collect();
+        json!({
+            "method": self.method,
+            "stepper": self.stepper,
+            "t_final": num(*self.t.last().unwrap_or(&0.0)),
+            "steps": self.steps,
+            "evaluations": self.evaluations,
+            "rejections": self.rejections,
+            "wall_seconds": self.wall_seconds,
+            "samples": self.len(),
+            "record_every": self.every,
+            "invariant_errors": invariants,
+            "final_state": self.last_state().iter().map(|v| num(*v)).collect::<Vec<_>>(),
+            "gains_initial": self.gains_initial,
+            "gains_final": self.gains_final,
+            "stats": stats,
+            "failure": self.failure.as_ref().map(|e| json!({
+                "message": e.to_string(),
+                "t": e.time(),
+                "state": e.state(),
+            })),
+        })
+    }
+}
+
+/// A finite number as JSON, anything else as a string (JSON has no NaN).
+pub fn num(v: f64) -> serde_json::Value {
+    if v.is_finite() {
+        json!(v)
+    } else {
+        json!(v.to_string())
+    }
+}
+
+/// A progress bar over [0, t_end], drawn on standard error only if it is a terminal.
+pub fn progress_bar(enabled: bool, label: &str) -> ProgressBar {
+    if !enabled || !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::stderr());
+    if let Ok(style) = ProgressStyle::with_template(
+        "{msg:>28} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}",
+    ) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.set_message(label.to_string());
+    bar
+}
+
+/// Forwards every `every`-th step to `inner` (counting down, so the hot loop has no integer
+/// division) and moves the progress bar every 2¹⁶ steps.
+struct Sampler<'o, O> {
+    inner: &'o mut O,
+    bar: &'o ProgressBar,
+    t_end: f64,
+    every: u64,
+    countdown: u64,
+}
+
+impl<O: Observer<f64, N>, const N: usize> Observer<f64, N> for Sampler<'_, O> {
+    #[inline]
+    fn observe(&mut self, step: u64, t: f64, x: &[f64; N]) -> Control {
+        if self.countdown > 1 {
+            self.countdown -= 1;
+            return Control::Continue;
+        }
+        self.countdown = self.every;
+        if step & 0xffff < self.every {
+            self.bar.set_position((t / self.t_end * 1000.0) as u64);
+        }
+        self.inner.observe(step, t, x)
+    }
+
+    fn finish(&mut self, step: u64, t: f64, x: &[f64; N]) {
+        self.inner.finish(step, t, x)
+    }
+}
+
+/// The innermost visitor: integrates `field` with the stepper and records the model's
+/// invariants.
+struct Drive<'a, Mdl, F: ?Sized, const N: usize, const M: usize> {
+    model: &'a Mdl,
+    field: &'a F,
+    x0: [f64; N],
+    spec: &'a RunSpec,
+    guard: Option<fn(&[f64; N]) -> Option<String>>,
+    invariants: PhantomData<[f64; M]>,
+}
+
+impl<Mdl, F, const N: usize, const M: usize> Visit<F, N> for Drive<'_, Mdl, F, N, M>
+where
+    Mdl: Invariants<f64, N, M> + ModelInfo,
+    F: ?Sized,
+{
+    type Out = Trace;
+
+    fn visit<S: Stepper<f64, N, F> + Stats>(self, mut stepper: S) -> Trace {
+        let spec = self.spec;
+        let every = spec.record_every();
+        // the sampler forwards every `every`-th step; the recorder keeps all it is given
+        let mut rec = Recorder::new(
+            self.model,
+            &self.x0,
+            1,
+            sample_capacity(spec.steps(), every),
+        );
+        let bar = progress_bar(spec.progress, &spec.method.to_string());
+        let mut driver = Driver::new(0.0, spec.t_end, spec.dt);
+        if let Some(g) = self.guard {
+            driver = driver.guard(1, g);
+        }
+        let mut obs = Sampler {
+            inner: &mut rec,
+            bar: &bar,
+            t_end: spec.t_end,
+            every,
+            countdown: 0,
+        };
+        let start = Instant::now();
+        let result = driver.run(&mut stepper, self.field, &self.x0, &mut obs);
+        let wall_seconds = start.elapsed().as_secs_f64();
+        bar.finish_and_clear();
+        let mut names = component_names(Mdl::STATE);
+        names.resize_with(N, String::new);
+        let (steps, evaluations, rejections, failure) = match result {
+            Ok(s) => (s.steps, s.evaluations, s.rejections, None),
+            Err(e) => (0, 0, 0, Some(e)),
+        };
+        Trace {
+            method: spec.method.to_string(),
+            stepper: stepper.name(),
+            state_names: names,
+            blocks: rec.blocks().iter().map(|(n, _)| n.to_string()).collect(),
+            x: rec.x.iter().flat_map(|s| s.iter().copied()).collect(),
+            t: rec.t,
+            errors: rec.errors,
+            wall_seconds,
+            steps,
+            evaluations,
+            rejections,
+            stats: stepper.stats(),
+            gains_initial: None,
+            gains_final: None,
+            failure,
+            every,
+        }
+    }
+}
+
+/// Wraps the base stepper in the projection onto {f = target} (GNI §IV.4).
+struct Project<V, const M: usize> {
+    inner: V,
+    target: [f64; M],
+    tol: f64,
+}
+
+impl<F, V, const N: usize, const M: usize> Visit<F, N> for Project<V, M>
+where
+    F: Invariants<f64, N, M> + ?Sized,
+    V: Visit<F, N>,
+{
+    type Out = V::Out;
+
+    fn visit<S: Stepper<f64, N, F> + Stats>(self, stepper: S) -> V::Out {
+        self.inner
+            .visit(Projection::new(stepper, self.target, self.tol))
+    }
+}
+
+/// Wraps the base stepper in the periodic adaptive gain (Bae & Chang).
+struct Adapt<V, const G: usize> {
+    inner: V,
+    every: u64,
+    c: f64,
+}
+
+impl<'a, Mdl, V, const N: usize, const M: usize, const G: usize>
+    Visit<FeedbackField<'a, Mdl, f64, N, M, G>, N> for Adapt<V, G>
+where
+    Mdl: Lyapunov<f64, N, M, G> + ModelInfo,
+    V: Visit<FeedbackField<'a, Mdl, f64, N, M, G>, N>,
+{
+    type Out = V::Out;
+
+    fn visit<S>(self, stepper: S) -> V::Out
+    where
+        S: Stepper<f64, N, FeedbackField<'a, Mdl, f64, N, M, G>> + Stats,
+    {
+        self.inner
+            .visit(AdaptiveGain::new(stepper, [1.0; G], self.every).c(self.c))
+    }
+}
+
+/// Hands `visit` the explicit Runge–Kutta stepper `base`.
+fn with_base<F, V, const N: usize>(base: Base, spec: &RunSpec, visit: V) -> V::Out
+where
+    F: Field<f64, N> + ?Sized,
+    V: Visit<F, N>,
+{
+    match base {
+        Base::Euler => visit.visit(ExplicitRk::<f64, 1>::euler()),
+        Base::Heun => visit.visit(ExplicitRk::<f64, 2>::heun()),
+        Base::Rk4 => visit.visit(ExplicitRk::<f64, 4>::rk4()),
+        Base::Dopri5 => visit.visit(DormandPrince::<f64, N>::with_tolerances(
+            spec.rtol, spec.atol,
+        )),
+    }
+}
+
+/// Integrates `model` from `x0` as `spec` says. An integration that blows up still returns
+/// the samples up to the failure, with [`Trace::failure`] set; invalid arguments (bad
+/// numbers, a method the model cannot use, gains of the wrong count) are errors.
+pub fn simulate<Mdl, const N: usize, const M: usize, const G: usize>(
+    model: &Mdl,
+    x0: &[f64; N],
+    spec: &RunSpec,
+) -> Result<Trace, String>
+where
+    Mdl: CliModel<N, M, G>,
+{
+    spec.validate()?;
+    if let Some(i) = x0.iter().position(|v| !v.is_finite()) {
+        return Err(format!("initial state component {i} is not finite"));
+    }
+    let drive = |field| Drive {
+        model,
+        field,
+        x0: *x0,
+        spec,
+        guard: Mdl::guard(),
+        invariants: PhantomData::<[f64; M]>,
+    };
+    match spec.method {
+        Method::Plain(b) => Ok(with_base(b, spec, drive(model))),
+        Method::Projection(b) => {
+            let mut target = [0.0; M];
+            model.invariants(x0, &mut target);
+            let visit = Project {
+                inner: drive(model),
+                target,
+                tol: spec.tol,
+            };
+            Ok(with_base(b, spec, visit))
+        }
+        Method::Feedback(b) => {
+            let gains: [f64; G] = spec
+                .gains
+                .initial_gains::<Mdl, f64, N, M, G>(model, x0, spec.dt)
+                .map_err(|e| {
+                    format!(
+                        "{e} (model `{}` has gains {})",
+                        Mdl::CLI,
+                        Mdl::GAIN_NAMES.join(", ")
+                    )
+                })?;
+            let fb = FeedbackField::from_initial(model, x0, gains);
+            let drive = Drive {
+                model,
+                field: &fb,
+                x0: *x0,
+                spec,
+                guard: Mdl::guard(),
+                invariants: PhantomData::<[f64; M]>,
+            };
+            let mut trace = match spec.gains {
+                GainPolicy::Adaptive { every, c } => with_base(
+                    b,
+                    spec,
+                    Adapt::<_, G> {
+                        inner: drive,
+                        every,
+                        c,
+                    },
+                ),
+                _ => with_base(b, spec, drive),
+            };
+            trace.gains_initial = Some(gains.to_vec());
+            trace.gains_final = Some(fb.gains().to_vec());
+            Ok(trace)
+        }
+        Method::StormerVerlet(_) | Method::Splitting => model.special(spec.method, drive(model)),
+    }
+}
+
+/// Applies `name=v1,v2,…` to the model's parameters.
+pub fn apply_param<P: Parameters + ?Sized>(model: &mut P, text: &str) -> Result<(), String> {
+    let (name, values) = text
+        .split_once('=')
+        .ok_or_else(|| format!("invalid --param `{text}`: expected `name=value[,value…]`"))?;
+    let values = parse_numbers(values).map_err(|e| format!("invalid --param `{text}`: {e}"))?;
+    model
+        .set_param(name.trim(), &values)
+        .map_err(|e| e.to_string())
+}
+
+/// Comma-separated finite numbers.
+pub fn parse_numbers(text: &str) -> Result<Vec<f64>, String> {
+    text.split(',')
+        .map(|s| {
+            let s = s.trim();
+            match s.parse::<f64>() {
+                Ok(v) if v.is_finite() => Ok(v),
+                _ => Err(format!("`{s}` is not a finite number")),
+            }
+        })
+        .collect()
+}
+
+/// The initial state from `--init`: a named point of the model (`paper`) or N
+/// comma-separated numbers in the flat state order.
+pub fn initial_state<Mdl, const N: usize>(model: &Mdl, init: &str) -> Result<[f64; N], String>
+where
+    Mdl: Parameters + ModelInfo,
+{
+    let values = if let Some(p) = model.point(init.trim()) {
+        p
+    } else if init
+        .trim()
+        .starts_with(|c: char| c.is_ascii_digit() || "+-.".contains(c))
+    {
+        parse_numbers(init).map_err(|e| format!("invalid --init: {e}"))?
+    } else {
+        return Err(format!(
+            "unknown point `{init}`; model has points: {} (or give {N} comma-separated numbers)",
+            model.point_names().join(", ")
+        ));
+    };
+    if values.len() != N {
+        let layout: Vec<String> = Mdl::STATE
+            .iter()
+            .map(|s| {
+                format!(
+                    "{}: {} at [{}..{}]",
+                    s.name,
+                    s.shape,
+                    s.offset,
+                    s.offset + s.shape.len()
+                )
+            })
+            .collect();
+        return Err(format!(
+            "--init has {} numbers but the state of `{}` has dimension {N} ({})",
+            values.len(),
+            Mdl::NAME,
+            layout.join(", ")
+        ));
+    }
+    let mut x = [0.0; N];
+    x.copy_from_slice(&values);
+    Ok(x)
+}
