@@ -1,0 +1,81 @@
+//! The failure modes: resonances (Assumption 1′), a non-elliptic equilibrium, bad input.
+
+use lasalle_normal_form::models::Cr3bp;
+use lasalle_normal_form::{normalize, NormalFormError, Options, Point};
+
+fn run(mu: f64, order: usize, resonant: bool) -> Result<lasalle_normal_form::NormalForm, NormalFormError> {
+    let h = Cr3bp { mu };
+    let opts = Options::with_order(order).resonant(resonant).error_estimate(false);
+    normalize(&h, &Point::Newton(h.l4().to_vec()), &opts)
+}
+
+#[test]
+fn resonance_1_2_stops_at_order_3() {
+    let e = run(0.0242939, 3, false).unwrap_err();
+    match &e {
+        NormalFormError::Resonance { m, m_dot_omega, order, .. } => {
+            assert_eq!(m, &vec![1, -2]);
+            assert_eq!(*order, 3);
+            assert!(m_dot_omega.abs() < 1e-6);
+        }
+        other => panic!("expected a resonance, got {other}"),
+    }
+    let msg = e.to_string();
+    assert!(msg.contains("m = (1, -2)") && msg.contains("order 3"), "{msg}");
+    // order 2 (linear normal form only) is fine
+    assert!(run(0.0242939, 2, false).is_ok());
+}
+
+#[test]
+fn resonance_1_3_stops_at_order_4() {
+    assert!(run(0.0135160, 3, false).is_ok());
+    match run(0.0135160, 4, false).unwrap_err() {
+        NormalFormError::Resonance { m, order, .. } => {
+            assert_eq!(m, vec![1, -3]);
+            assert_eq!(order, 4);
+        }
+        other => panic!("expected a resonance, got {other}"),
+    }
+}
+
+#[test]
+fn resonant_mode_keeps_the_resonant_terms() {
+    let nf = run(0.0242939, 6, true).expect("resonant normal form");
+    assert!(!nf.resonant_terms.is_empty());
+    // x1 y2² or y1 x2² type terms (m = ±(1, −2) in the positive-frequency convention)
+    assert!(nf.resonant_terms.iter().all(|t| {
+        let m: Vec<i32> = (0..2).map(|k| t.x[k] as i32 - t.y[k] as i32).collect();
+        let m = [m[0] * nf.signs[0] as i32, m[1] * nf.signs[1] as i32];
+        (m[0] * 2 + m[1]) == 0 || (m == [0, 0])
+    }));
+    assert!(nf.small_divisors.iter().any(|d| d.resonant && d.m == vec![1, -2]));
+    assert!(nf.flow(&Cr3bp { mu: 0.0242939 }.l4(), 1.0).is_none());
+}
+
+#[test]
+fn beyond_routh_is_not_elliptic() {
+    let e = run(0.05, 6, false).unwrap_err();
+    match &e {
+        NormalFormError::NotElliptic { eigenvalues, .. } => {
+            assert_eq!(eigenvalues.len(), 4);
+            assert!(eigenvalues.iter().all(|l| l.re.abs() > 1e-3 && l.im.abs() > 1e-3));
+        }
+        other => panic!("expected not elliptic, got {other}"),
+    }
+    assert!(e.to_string().starts_with("equilibrium is not elliptic: eigenvalues"), "{e}");
+}
+
+#[test]
+fn a_point_that_is_not_an_equilibrium() {
+    let h = Cr3bp { mu: 0.01 };
+    let e = normalize(&h, &Point::Given(vec![0.5, 0.8, -0.8, 0.5]), &Options::with_order(4)).unwrap_err();
+    assert!(matches!(e, NormalFormError::NotAnEquilibrium { .. }), "{e}");
+    // the same point as a Newton start converges to L4
+    let nf = normalize(&h, &Point::Newton(vec![0.5, 0.8, -0.8, 0.5]), &Options::with_order(4)).unwrap();
+    let l4 = h.l4();
+    assert!(nf.equilibrium.iter().zip(&l4).all(|(a, b)| (a.value - b).abs() < 1e-14));
+    assert!(matches!(
+        normalize(&h, &Point::Newton(l4.to_vec()), &Options::with_order(1)),
+        Err(NormalFormError::Invalid(_))
+    ));
+}

@@ -1,0 +1,56 @@
+//! Accuracy beyond f64. Errors are measured against double-double runs in a rotated normal
+//! basis (H̄ does not depend on the basis, rounding does), an estimate independent of the
+//! precision itself.
+
+use lasalle_normal_form::models::Cr3bp;
+use lasalle_normal_form::{normalize, NormalForm, Options, Point, Precision};
+
+fn run(mu: f64, order: usize, precision: Precision, rotation: Vec<f64>) -> NormalForm {
+    let h = Cr3bp { mu };
+    let mut opts = Options::with_order(order).precision(precision).error_estimate(false).transform(false);
+    opts.basis_rotation = rotation;
+    normalize(&h, &Point::Newton(h.l4().to_vec()), &opts).unwrap()
+}
+
+fn worst_relative(a: &NormalForm, b: &NormalForm, max_degree: usize) -> f64 {
+    a.hamiltonian
+        .iter()
+        .zip(&b.hamiltonian)
+        .filter(|(x, _)| x.degree <= max_degree)
+        .map(|(x, y)| (((x.coeff.value - y.coeff.value) + (x.coeff.lo - y.coeff.lo)) / (y.coeff.value + y.coeff.lo)).abs())
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn double_double_at_mu_0_001_through_degree_12() {
+    let dd = run(0.001, 12, Precision::DoubleDouble, vec![]);
+    let dd_rot = run(0.001, 12, Precision::DoubleDouble, vec![0.7, -1.3]);
+    let err = worst_relative(&dd_rot, &dd, 12);
+    assert!(err < 1e-10, "dd relative error {err:e}");
+    // f64 loses the degree-12 coefficients there (small divisor ω₂ ≈ 0.082)
+    let f = run(0.001, 12, Precision::F64, vec![]);
+    assert!(worst_relative(&f, &dd, 12) > 1e-3);
+}
+
+#[test]
+fn f64_at_earth_moon() {
+    let dd = run(Cr3bp::EARTH_MOON, 8, Precision::DoubleDouble, vec![]);
+    let f = run(Cr3bp::EARTH_MOON, 8, Precision::F64, vec![]);
+    let e6 = worst_relative(&f, &dd, 6);
+    let e8 = worst_relative(&f, &dd, 8);
+    assert!(e6 < 1e-10, "f64 through degree 6: {e6:e}");
+    assert!(e8 < 1e-8, "f64 through degree 8: {e8:e}");
+}
+
+#[test]
+fn error_estimates_are_reported() {
+    let h = Cr3bp { mu: 0.001 };
+    let nf = normalize(&h, &Point::Newton(h.l4().to_vec()), &Options::with_order(8).transform(false)).unwrap();
+    assert!(nf.hamiltonian.iter().all(|t| t.coeff.error.is_some()));
+    // the estimate |f64 − dd| is the actual f64 error
+    let dd = run(0.001, 8, Precision::DoubleDouble, vec![]);
+    for (t, r) in nf.hamiltonian.iter().zip(&dd.hamiltonian) {
+        let actual = ((t.coeff.value - r.coeff.value) - r.coeff.lo).abs();
+        assert!((t.coeff.error.unwrap() - actual).abs() <= 1e-3 * actual + 1e-16 * r.coeff.value.abs());
+    }
+}
