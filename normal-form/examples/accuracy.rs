@@ -6,11 +6,19 @@ use lasalle_normal_form::models::Cr3bp;
 use lasalle_normal_form::{normalize, Options, Point, Precision};
 
 fn main() {
-    let mu: f64 = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(0.001);
-    let order: usize = std::env::args().nth(2).and_then(|s| s.parse().ok()).unwrap_or(12);
+    let mu: f64 = std::env::args()
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0.001);
+    let order: usize = std::env::args()
+        .nth(2)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(12);
     let h = Cr3bp { mu };
     let p = Point::Newton(h.l4().to_vec());
-    let base = Options::with_order(order).error_estimate(false).transform(false);
+    let base = Options::with_order(order)
+        .error_estimate(false)
+        .transform(false);
     let f = normalize(&h, &p, &base.clone().precision(Precision::F64)).unwrap();
     let d = normalize(&h, &p, &base.clone().precision(Precision::DoubleDouble)).unwrap();
     let mut rot = base.clone().precision(Precision::DoubleDouble);
@@ -19,15 +27,40 @@ fn main() {
     let mut rotf = base.clone();
     rotf.basis_rotation = vec![0.7, -1.3];
     let fr = normalize(&h, &p, &rotf).unwrap();
-    println!("mu = {mu}, order {order}, omega = {:?}", d.frequencies_linear());
-    println!("{:>8} {:>26} {:>11} {:>11} {:>11}", "I^a", "h_a (dd)", "rel f64", "rel f64rot", "rel dd-rot");
+    println!(
+        "mu = {mu}, order {order}, omega = {:?}",
+        d.frequencies_linear()
+    );
+    println!(
+        "{:>8} {:>26} {:>11} {:>11} {:>11}",
+        "I^a", "h_a (dd)", "rel f64", "rel f64rot", "rel dd-rot"
+    );
     let mut worst = [0.0f64; 3];
-    for ((tf, td), (tdr, tfr)) in f.hamiltonian.iter().zip(&d.hamiltonian).zip(dr.hamiltonian.iter().zip(&fr.hamiltonian)) {
+    for ((tf, td), (tdr, tfr)) in f
+        .hamiltonian
+        .iter()
+        .zip(&d.hamiltonian)
+        .zip(dr.hamiltonian.iter().zip(&fr.hamiltonian))
+    {
         let v = td.coeff.value + td.coeff.lo;
         let rel = |x: f64, lo: f64| (((x - td.coeff.value) + (lo - td.coeff.lo)) / v).abs();
-        let (a, b, c) = (rel(tf.coeff.value, 0.0), rel(tfr.coeff.value, 0.0), rel(tdr.coeff.value, tdr.coeff.lo));
+        let (a, b, c) = (
+            rel(tf.coeff.value, 0.0),
+            rel(tfr.coeff.value, 0.0),
+            rel(tdr.coeff.value, tdr.coeff.lo),
+        );
         worst = [worst[0].max(a), worst[1].max(b), worst[2].max(c)];
-        println!("{:>8} {:>26.17e} {:>11.2e} {:>11.2e} {:>11.2e}", format!("{:?}", tf.exponents), v, a, b, c);
+        println!(
+            "{:>8} {:>26.17e} {:>11.2e} {:>11.2e} {:>11.2e}",
+            format!("{:?}", tf.exponents),
+            v,
+            a,
+            b,
+            c
+        );
     }
-    println!("worst relative: f64 {:.2e}, f64 rotated basis {:.2e}, dd rotated basis {:.2e}", worst[0], worst[1], worst[2]);
+    println!(
+        "worst relative: f64 {:.2e}, f64 rotated basis {:.2e}, dd rotated basis {:.2e}",
+        worst[0], worst[1], worst[2]
+    );
 }

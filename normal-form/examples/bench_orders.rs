@@ -7,12 +7,20 @@ use std::time::Instant;
 
 fn peak_rss_kib() -> Option<u64> {
     let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    s.lines().find(|l| l.starts_with("VmHWM:"))?.split_whitespace().nth(1)?.parse().ok()
+    s.lines()
+        .find(|l| l.starts_with("VmHWM:"))?
+        .split_whitespace()
+        .nth(1)?
+        .parse()
+        .ok()
 }
 
 fn main() {
     let orders: Vec<usize> = {
-        let a: Vec<usize> = std::env::args().skip(1).filter_map(|s| s.parse().ok()).collect();
+        let a: Vec<usize> = std::env::args()
+            .skip(1)
+            .filter_map(|s| s.parse().ok())
+            .collect();
         if a.is_empty() {
             vec![8, 12, 16, 20, 24, 28, 32]
         } else {
@@ -20,13 +28,24 @@ fn main() {
         }
     };
     let transform = !std::env::args().any(|a| a == "--no-transform");
-    let h = Cr3bp { mu: Cr3bp::EARTH_MOON };
+    let h = Cr3bp {
+        mu: Cr3bp::EARTH_MOON,
+    };
     let point = Point::Newton(h.l4().to_vec());
     println!("order  precision  total[s]   taylor   linear      lie  transform   peak RSS[MiB]");
     for &order in &orders {
         for precision in [Precision::F64, Precision::DoubleDouble] {
-            let opts = Options::with_order(order).precision(precision).error_estimate(false).transform(transform);
-            let reps = if order <= 12 { 20 } else if order <= 20 { 3 } else { 1 };
+            let opts = Options::with_order(order)
+                .precision(precision)
+                .error_estimate(false)
+                .transform(transform);
+            let reps = if order <= 12 {
+                20
+            } else if order <= 20 {
+                3
+            } else {
+                1
+            };
             let mut best = f64::INFINITY;
             let mut nf = None;
             for _ in 0..reps {

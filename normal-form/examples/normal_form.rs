@@ -3,7 +3,10 @@ use lasalle_normal_form::{normalize_model_file, ModelPoint, Options};
 
 fn main() {
     let a: Vec<String> = std::env::args().skip(1).collect();
-    let path = a.first().cloned().unwrap_or_else(|| "models/cr3bp.lsl".into());
+    let path = a
+        .first()
+        .cloned()
+        .unwrap_or_else(|| "models/cr3bp.lsl".into());
     let mut params = Vec::new();
     if let Some(mu) = a.get(1).and_then(|s| s.parse::<f64>().ok()) {
         params.push(("mu".to_string(), mu));

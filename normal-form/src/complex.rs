@@ -25,12 +25,18 @@ impl<R: Real> Complex<R> {
     }
     /// i
     pub fn i() -> Self {
-        Complex { re: R::zero(), im: R::one() }
+        Complex {
+            re: R::zero(),
+            im: R::one(),
+        }
     }
     /// Complex conjugate.
     #[inline(always)]
     pub fn conj(self) -> Self {
-        Complex { re: self.re, im: -self.im }
+        Complex {
+            re: self.re,
+            im: -self.im,
+        }
     }
     /// |z|² in R.
     #[inline(always)]
@@ -44,12 +50,18 @@ impl<R: Real> Complex<R> {
     /// i·self
     #[inline(always)]
     pub fn mul_i(self) -> Self {
-        Complex { re: -self.im, im: self.re }
+        Complex {
+            re: -self.im,
+            im: self.re,
+        }
     }
     /// self · r for real r.
     #[inline(always)]
     pub fn scale_r(self, r: R) -> Self {
-        Complex { re: self.re * r, im: self.im * r }
+        Complex {
+            re: self.re * r,
+            im: self.im * r,
+        }
     }
     /// Principal square root.
     pub fn sqrt(self) -> Self {
@@ -76,21 +88,30 @@ impl<R: Real> Add for Complex<R> {
     type Output = Self;
     #[inline(always)]
     fn add(self, o: Self) -> Self {
-        Complex { re: self.re + o.re, im: self.im + o.im }
+        Complex {
+            re: self.re + o.re,
+            im: self.im + o.im,
+        }
     }
 }
 impl<R: Real> Sub for Complex<R> {
     type Output = Self;
     #[inline(always)]
     fn sub(self, o: Self) -> Self {
-        Complex { re: self.re - o.re, im: self.im - o.im }
+        Complex {
+            re: self.re - o.re,
+            im: self.im - o.im,
+        }
     }
 }
 impl<R: Real> Mul for Complex<R> {
     type Output = Self;
     #[inline(always)]
     fn mul(self, o: Self) -> Self {
-        Complex { re: self.re * o.re - self.im * o.im, im: self.re * o.im + self.im * o.re }
+        Complex {
+            re: self.re * o.re - self.im * o.im,
+            im: self.re * o.im + self.im * o.re,
+        }
     }
 }
 impl<R: Real> Div for Complex<R> {
@@ -98,14 +119,20 @@ impl<R: Real> Div for Complex<R> {
     fn div(self, o: Self) -> Self {
         let d = o.norm_sqr();
         let n = self * o.conj();
-        Complex { re: n.re / d, im: n.im / d }
+        Complex {
+            re: n.re / d,
+            im: n.im / d,
+        }
     }
 }
 impl<R: Real> Neg for Complex<R> {
     type Output = Self;
     #[inline(always)]
     fn neg(self) -> Self {
-        Complex { re: -self.re, im: -self.im }
+        Complex {
+            re: -self.re,
+            im: -self.im,
+        }
     }
 }
 impl<R: Real> AddAssign for Complex<R> {
@@ -132,15 +159,24 @@ impl<R: Real> MulAssign for Complex<R> {
 impl<R: Real> Coeff for Complex<R> {
     #[inline(always)]
     fn zero() -> Self {
-        Complex { re: R::zero(), im: R::zero() }
+        Complex {
+            re: R::zero(),
+            im: R::zero(),
+        }
     }
     #[inline(always)]
     fn one() -> Self {
-        Complex { re: R::one(), im: R::zero() }
+        Complex {
+            re: R::one(),
+            im: R::zero(),
+        }
     }
     #[inline(always)]
     fn from_f64(x: f64) -> Self {
-        Complex { re: R::from_f64(x), im: R::zero() }
+        Complex {
+            re: R::from_f64(x),
+            im: R::zero(),
+        }
     }
     #[inline(always)]
     fn is_zero(&self) -> bool {
@@ -161,10 +197,20 @@ impl<R: Real> Coeff for Complex<R> {
     }
     #[inline(always)]
     fn scale(self, s: f64) -> Self {
-        Complex { re: self.re.scale(s), im: self.im.scale(s) }
+        Complex {
+            re: self.re.scale(s),
+            im: self.im.scale(s),
+        }
     }
     #[inline]
-    fn mul_acc_kernel(out: &mut [Self], a: &[Self], ka: &[u32], b: &[Self], kb: &[u32], lk: &[u32]) {
+    fn mul_acc_kernel(
+        out: &mut [Self],
+        a: &[Self],
+        ka: &[u32],
+        b: &[Self],
+        kb: &[u32],
+        lk: &[u32],
+    ) {
         R::complex_kernel(out, a, ka, b, kb, lk);
     }
 }

@@ -86,7 +86,10 @@ impl Dd {
     #[inline(always)]
     pub fn ldexp(self, k: i32) -> Dd {
         let f = 2f64.powi(k);
-        Dd { hi: self.hi * f, lo: self.lo * f }
+        Dd {
+            hi: self.hi * f,
+            lo: self.lo * f,
+        }
     }
     /// Nearest integer (as Dd).
     pub fn round(self) -> Dd {
@@ -98,18 +101,31 @@ impl Dd {
             Dd { hi: h, lo: l }
         } else if (hi - self.hi).abs() == 0.5 && self.lo != 0.0 {
             // a tie in hi broken by lo
-            let h = if (hi - self.hi) * self.lo > 0.0 { hi - (hi - self.hi).signum() } else { hi };
+            let h = if (hi - self.hi) * self.lo > 0.0 {
+                hi - (hi - self.hi).signum()
+            } else {
+                hi
+            };
             Dd { hi: h, lo: 0.0 }
         } else {
             Dd { hi, lo: 0.0 }
         }
     }
     /// π
-    pub const PI: Dd = Dd { hi: 3.141_592_653_589_793e0, lo: 1.224_646_799_147_353_2e-16 };
+    pub const PI: Dd = Dd {
+        hi: std::f64::consts::PI,
+        lo: 1.224_646_799_147_353_2e-16,
+    };
     /// π/2
-    pub const FRAC_PI_2: Dd = Dd { hi: 1.570_796_326_794_896_6e0, lo: 6.123_233_995_736_766e-17 };
+    pub const FRAC_PI_2: Dd = Dd {
+        hi: std::f64::consts::FRAC_PI_2,
+        lo: 6.123_233_995_736_766e-17,
+    };
     /// ln 2
-    pub const LN_2: Dd = Dd { hi: 6.931_471_805_599_453e-1, lo: 2.319_046_813_846_299_6e-17 };
+    pub const LN_2: Dd = Dd {
+        hi: std::f64::consts::LN_2,
+        lo: 2.319_046_813_846_299_6e-17,
+    };
 
     fn exp_impl(self) -> Dd {
         if self.hi > 709.0 {
@@ -224,7 +240,10 @@ impl Neg for Dd {
     type Output = Dd;
     #[inline(always)]
     fn neg(self) -> Dd {
-        Dd { hi: -self.hi, lo: -self.lo }
+        Dd {
+            hi: -self.hi,
+            lo: -self.lo,
+        }
     }
 }
 impl Mul for Dd {
@@ -387,7 +406,14 @@ fn has_fma() -> bool {
 }
 
 impl Real for Dd {
-    fn complex_kernel(out: &mut [Complex<Dd>], a: &[Complex<Dd>], ka: &[u32], b: &[Complex<Dd>], kb: &[u32], lk: &[u32]) {
+    fn complex_kernel(
+        out: &mut [Complex<Dd>],
+        a: &[Complex<Dd>],
+        ka: &[u32],
+        b: &[Complex<Dd>],
+        kb: &[u32],
+        lk: &[u32],
+    ) {
         // SAFETY: the fma variant runs only when the CPU has FMA; both rely on the key
         // invariant documented on `Coeff::mul_acc_kernel`.
         unsafe {
@@ -415,7 +441,11 @@ impl Real for Dd {
     }
     fn sqrt(self) -> Self {
         if self.hi <= 0.0 {
-            return if self.hi == 0.0 { Dd::new(0.0) } else { Dd::new(f64::NAN) };
+            return if self.hi == 0.0 {
+                Dd::new(0.0)
+            } else {
+                Dd::new(f64::NAN)
+            };
         }
         // Karp's trick: one Newton correction of the f64 root
         let x = 1.0 / self.hi.sqrt();
@@ -462,7 +492,10 @@ mod tests {
     fn elementary_functions() {
         let one = Dd::new(1.0);
         // e from the known double-double value
-        let e = Dd { hi: 2.718281828459045, lo: 1.4456468917292502e-16 };
+        let e = Dd {
+            hi: std::f64::consts::E,
+            lo: 1.4456468917292502e-16,
+        };
         assert!(close(one.exp(), e, 1e-31));
         assert!(close(e.ln(), one, 1e-31));
         assert!(close(Dd::new(0.5).ln().exp(), Dd::new(0.5), 1e-31));
@@ -473,6 +506,10 @@ mod tests {
             assert!(close(s * s + c * c, one, 1e-30));
         }
         assert!(close((Dd::PI / Dd::new(6.0)).sin(), Dd::new(0.5), 1e-31));
-        assert!(close(Dd::new(2.0).powf(-1.5) * Dd::new(2.0).sqrt() * Dd::new(2.0), one, 1e-31));
+        assert!(close(
+            Dd::new(2.0).powf(-1.5) * Dd::new(2.0).sqrt() * Dd::new(2.0),
+            one,
+            1e-31
+        ));
     }
 }

@@ -14,16 +14,31 @@ pub struct Eigenvalue {
 
 impl fmt::Display for Eigenvalue {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{:.12} {} {:.12}i", self.re, if self.im < 0.0 { '-' } else { '+' }, self.im.abs())
+        write!(
+            f,
+            "{:.12} {} {:.12}i",
+            self.re,
+            if self.im < 0.0 { '-' } else { '+' },
+            self.im.abs()
+        )
     }
 }
 
 fn list(eigs: &[Eigenvalue]) -> String {
-    eigs.iter().map(|e| e.to_string()).collect::<Vec<_>>().join(", ")
+    eigs.iter()
+        .map(|e| e.to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 fn ivec(m: &[i32]) -> String {
-    format!("({})", m.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(", "))
+    format!(
+        "({})",
+        m.iter()
+            .map(|x| x.to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    )
 }
 
 /// Why a normal form could not be computed.
@@ -76,5 +91,8 @@ pub enum NormalFormError {
 }
 
 fn list_f(w: &[f64]) -> String {
-    w.iter().map(|x| format!("{x:.12}")).collect::<Vec<_>>().join(", ")
+    w.iter()
+        .map(|x| format!("{x:.12}"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }

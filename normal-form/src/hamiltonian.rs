@@ -26,14 +26,25 @@ pub trait HamiltonianFn {
     /// Names of the 2n coordinates for reports (default q1…qn, p1…pn).
     fn coordinate_names(&self) -> Vec<String> {
         let n = self.n_dof();
-        (1..=n).map(|k| format!("q{k}")).chain((1..=n).map(|k| format!("p{k}"))).collect()
+        (1..=n)
+            .map(|k| format!("q{k}"))
+            .chain((1..=n).map(|k| format!("p{k}")))
+            .collect()
     }
 }
 
 /// Taylor expansion of H about `point` to the table's degree: H(point + δz) as a polynomial
 /// in δz, by evaluating H once over jets.
-pub fn taylor<R: Real, H: HamiltonianFn + ?Sized>(h: &H, point: &[R], table: &Arc<MonomialTable>) -> Poly<R> {
-    let z: Vec<Jet<R>> = point.iter().enumerate().map(|(i, &x)| Jet::Series(Poly::variable(table.clone(), i, x))).collect();
+pub fn taylor<R: Real, H: HamiltonianFn + ?Sized>(
+    h: &H,
+    point: &[R],
+    table: &Arc<MonomialTable>,
+) -> Poly<R> {
+    let z: Vec<Jet<R>> = point
+        .iter()
+        .enumerate()
+        .map(|(i, &x)| Jet::Series(Poly::variable(table.clone(), i, x)))
+        .collect();
     h.eval(&z).into_poly(table)
 }
 
@@ -80,11 +91,18 @@ pub fn gradient_hessian<R: Real>(p: &Poly<R>) -> (Vec<R>, Mat<R>) {
 }
 
 fn norm<R: Real>(v: &[R]) -> f64 {
-    v.iter().map(|x| x.to_f64() * x.to_f64()).sum::<f64>().sqrt()
+    v.iter()
+        .map(|x| x.to_f64() * x.to_f64())
+        .sum::<f64>()
+        .sqrt()
 }
 
 /// Newton's method for ∇H = 0 from `start`, in the working precision R.
-pub fn find_equilibrium<R: Real, H: HamiltonianFn + ?Sized>(h: &H, start: &[R], max_iter: usize) -> Result<Equilibrium<R>, NormalFormError> {
+pub fn find_equilibrium<R: Real, H: HamiltonianFn + ?Sized>(
+    h: &H,
+    start: &[R],
+    max_iter: usize,
+) -> Result<Equilibrium<R>, NormalFormError> {
     let d = 2 * h.n_dof();
     let table = Arc::new(MonomialTable::new(d, 2));
     let mut z = start.to_vec();
@@ -96,24 +114,38 @@ pub fn find_equilibrium<R: Real, H: HamiltonianFn + ?Sized>(h: &H, start: &[R], 
         let (g, s) = gradient_hessian(&p);
         let gn = norm(&g);
         if !gn.is_finite() {
-            return Err(NormalFormError::NonFinite("the gradient at the equilibrium guess"));
+            return Err(NormalFormError::NonFinite(
+                "the gradient at the equilibrium guess",
+            ));
         }
         if it == 0 {
             initial = gn;
         }
         // |∇H| at rounding level: ε·|S|·|z| (the gradient cannot be resolved below this)
-        let s_norm = s.iter().flatten().map(|x| x.to_f64().abs()).fold(0.0, f64::max);
+        let s_norm = s
+            .iter()
+            .flatten()
+            .map(|x| x.to_f64().abs())
+            .fold(0.0, f64::max);
         let floor = 16.0 * R::EPSILON * s_norm.max(1.0) * scale;
         if best.as_ref().is_none_or(|b| gn < b.0) {
             best = Some((gn, z.clone(), it));
         }
         let rhs: Vec<R> = g.iter().map(|&x| -x).collect();
         let Some(dz) = solve(s, rhs) else {
-            return Err(NormalFormError::NewtonFailed { iterations: it, residual: gn });
+            return Err(NormalFormError::NewtonFailed {
+                iterations: it,
+                residual: gn,
+            });
         };
         let step = norm(&dz);
         if gn <= floor || step <= 16.0 * R::EPSILON * scale {
-            return Ok(Equilibrium { z, initial_gradient: initial, gradient: gn, iterations: it });
+            return Ok(Equilibrium {
+                z,
+                initial_gradient: initial,
+                gradient: gn,
+                iterations: it,
+            });
         }
         for (zi, di) in z.iter_mut().zip(&dz) {
             *zi += *di;
@@ -122,10 +154,18 @@ pub fn find_equilibrium<R: Real, H: HamiltonianFn + ?Sized>(h: &H, start: &[R], 
             // stagnation at rounding level is convergence
             if let Some((bg, bz, bit)) = best {
                 if bg <= 1e3 * floor {
-                    return Ok(Equilibrium { z: bz, initial_gradient: initial, gradient: bg, iterations: bit });
+                    return Ok(Equilibrium {
+                        z: bz,
+                        initial_gradient: initial,
+                        gradient: bg,
+                        iterations: bit,
+                    });
                 }
             }
-            return Err(NormalFormError::NewtonFailed { iterations: it, residual: gn });
+            return Err(NormalFormError::NewtonFailed {
+                iterations: it,
+                residual: gn,
+            });
         }
     }
     unreachable!()

@@ -134,14 +134,18 @@ impl<R: Real> Scalar for Jet<R> {
     fn add(&self, o: &Self) -> Self {
         match (self, o) {
             (Jet::Const(a), Jet::Const(b)) => Jet::Const(*a + *b),
-            (Jet::Const(a), Jet::Series(p)) | (Jet::Series(p), Jet::Const(a)) => Jet::Series(p.add_constant(*a)),
+            (Jet::Const(a), Jet::Series(p)) | (Jet::Series(p), Jet::Const(a)) => {
+                Jet::Series(p.add_constant(*a))
+            }
             (Jet::Series(p), Jet::Series(q)) => Jet::Series(p.add(q)),
         }
     }
     fn mul(&self, o: &Self) -> Self {
         match (self, o) {
             (Jet::Const(a), Jet::Const(b)) => Jet::Const(*a * *b),
-            (Jet::Const(a), Jet::Series(p)) | (Jet::Series(p), Jet::Const(a)) => Jet::Series(p.scaled(*a)),
+            (Jet::Const(a), Jet::Series(p)) | (Jet::Series(p), Jet::Const(a)) => {
+                Jet::Series(p.scaled(*a))
+            }
             (Jet::Series(p), Jet::Series(q)) => Jet::Series(p.mul(q)),
         }
     }
@@ -170,11 +174,20 @@ impl<R: Real> Scalar for Jet<R> {
 
 /// Degrees j ≥ 1 where `f` has a nonzero part.
 fn nonzero_degrees<T: Coeff>(f: &Poly<T>) -> Vec<usize> {
-    (1..=f.max_degree()).filter(|&j| f.part(j).is_some_and(|p| p.iter().any(|c| !c.is_zero()))).collect()
+    (1..=f.max_degree())
+        .filter(|&j| f.part(j).is_some_and(|p| p.iter().any(|c| !c.is_zero())))
+        .collect()
 }
 
 /// out += Σ_{j ∈ js, j ≤ k} w(j)·f_j·g_{k−j}
-fn conv_acc<R: Real>(out: &mut [R], f: &Poly<R>, js: &[usize], g: &[Vec<R>], k: usize, w: impl Fn(usize) -> f64) {
+fn conv_acc<R: Real>(
+    out: &mut [R],
+    f: &Poly<R>,
+    js: &[usize],
+    g: &[Vec<R>],
+    k: usize,
+    w: impl Fn(usize) -> f64,
+) {
     let table = f.table();
     for &j in js {
         if j > k {
@@ -188,7 +201,12 @@ fn conv_acc<R: Real>(out: &mut [R], f: &Poly<R>, js: &[usize], g: &[Vec<R>], k: 
         if wj == 0.0 {
             continue;
         }
-        let fj: Vec<R> = f.part(j).expect("nonzero part").iter().map(|&c| c.scale(wj)).collect();
+        let fj: Vec<R> = f
+            .part(j)
+            .expect("nonzero part")
+            .iter()
+            .map(|&c| c.scale(wj))
+            .collect();
         mul_acc_hom(table, out, &fj, j, gk, k - j);
     }
 }
@@ -245,7 +263,11 @@ pub fn series_powi<R: Real>(f: &Poly<R>, n: i32) -> Poly<R> {
         _ if !f.constant_term().is_zero() => series_powf(f, n as f64),
         _ if n < 0 => series_powi(&series_recip(f), -n),
         _ => {
-            let (mut acc, mut base, mut k) = (Poly::constant(f.table().clone(), R::one()), f.clone(), n as u32);
+            let (mut acc, mut base, mut k) = (
+                Poly::constant(f.table().clone(), R::one()),
+                f.clone(),
+                n as u32,
+            );
             while k > 0 {
                 if k & 1 == 1 {
                     acc = acc.mul(&base);
@@ -323,7 +345,12 @@ mod tests {
     use std::sync::Arc;
 
     /// Checks a series against finite values at a nearby point (Taylor remainder ~ h^(N+1)).
-    fn check(f: impl Fn(f64, f64) -> f64, g: impl Fn(&Jet<f64>, &Jet<f64>) -> Jet<f64>, x0: f64, y0: f64) {
+    fn check(
+        f: impl Fn(f64, f64) -> f64,
+        g: impl Fn(&Jet<f64>, &Jet<f64>) -> Jet<f64>,
+        x0: f64,
+        y0: f64,
+    ) {
         let tab = Arc::new(MonomialTable::new(2, 14));
         let x = Jet::Series(Poly::variable(tab.clone(), 0, x0));
         let y = Jet::Series(Poly::variable(tab.clone(), 1, y0));
@@ -331,17 +358,50 @@ mod tests {
         let (dx, dy) = (0.013, -0.021);
         let exact = f(x0 + dx, y0 + dy);
         let approx = s.eval(&[dx, dy]);
-        assert!((exact - approx).abs() < 1e-14 * exact.abs().max(1.0), "{exact} vs {approx}");
+        assert!(
+            (exact - approx).abs() < 1e-14 * exact.abs().max(1.0),
+            "{exact} vs {approx}"
+        );
     }
 
     #[test]
     fn elementary_series() {
-        check(|x, y| (x * x + y * y).powf(-0.5), |x, y| x.mul(x).add(&y.mul(y)).powf(-0.5), 0.4, 0.8);
-        check(|x, y| (x * x + y * y).powf(-1.5), |x, y| x.mul(x).add(&y.mul(y)).powf(-1.5), 0.4, 0.8);
-        check(|x, y| (x * y).exp() + (x / y), |x, y| x.mul(y).exp().add(&x.div(y)), 0.4, 0.8);
-        check(|x, y| (x + y).ln() * x.sin() - y.cos(), |x, y| x.add(y).ln().mul(&x.sin()).sub(&y.cos()), 0.4, 0.8);
-        check(|x, y| (x - y).powi(-3) + x.powi(5), |x, y| x.sub(y).powi(-3).add(&x.powi(5)), 0.4, 1.3);
-        check(|x, y| (x - 2.0 * y).powi(4), |x, y| x.sub(&y.mul(&Jet::from_f64(2.0))).powi(4), 0.0, 0.0);
+        check(
+            |x, y| (x * x + y * y).powf(-0.5),
+            |x, y| x.mul(x).add(&y.mul(y)).powf(-0.5),
+            0.4,
+            0.8,
+        );
+        check(
+            |x, y| (x * x + y * y).powf(-1.5),
+            |x, y| x.mul(x).add(&y.mul(y)).powf(-1.5),
+            0.4,
+            0.8,
+        );
+        check(
+            |x, y| (x * y).exp() + (x / y),
+            |x, y| x.mul(y).exp().add(&x.div(y)),
+            0.4,
+            0.8,
+        );
+        check(
+            |x, y| (x + y).ln() * x.sin() - y.cos(),
+            |x, y| x.add(y).ln().mul(&x.sin()).sub(&y.cos()),
+            0.4,
+            0.8,
+        );
+        check(
+            |x, y| (x - y).powi(-3) + x.powi(5),
+            |x, y| x.sub(y).powi(-3).add(&x.powi(5)),
+            0.4,
+            1.3,
+        );
+        check(
+            |x, y| (x - 2.0 * y).powi(4),
+            |x, y| x.sub(&y.mul(&Jet::from_f64(2.0))).powi(4),
+            0.0,
+            0.0,
+        );
     }
 
     #[test]

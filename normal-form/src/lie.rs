@@ -46,7 +46,13 @@ impl<C: Coeff> GeneratorDerivs<C> {
 }
 
 /// `out += {t, G}` for a homogeneous `t` of degree `deg ≥ 1`.
-fn bracket_acc<C: Coeff>(table: &MonomialTable, out: &mut [C], t: &[C], deg: usize, g: &GeneratorDerivs<C>) {
+fn bracket_acc<C: Coeff>(
+    table: &MonomialTable,
+    out: &mut [C],
+    t: &[C],
+    deg: usize,
+    g: &GeneratorDerivs<C>,
+) {
     let n = table.nvars() / 2;
     for k in 0..n {
         // T_{x_k} G_{y_k}
@@ -64,7 +70,13 @@ fn bracket_acc<C: Coeff>(table: &MonomialTable, out: &mut [C], t: &[C], deg: usi
 
 /// `F ← exp(L_G) F = Σ_j L_Gʲ F / j!` truncated at degree `cap`, G homogeneous of degree r ≥ 3.
 /// `first_link_from_h2`: the exact `{H₂, G}` (= Z_r − H_r) used for the chain from degree 2.
-pub(crate) fn lie_transform<C: Coeff>(f: &mut Poly<C>, g: &[C], r: usize, cap: usize, first_link_from_h2: Option<Vec<C>>) {
+pub(crate) fn lie_transform<C: Coeff>(
+    f: &mut Poly<C>,
+    g: &[C],
+    r: usize,
+    cap: usize,
+    first_link_from_h2: Option<Vec<C>>,
+) {
     let table = f.table().clone();
     let gd = GeneratorDerivs::new(&table, g, r);
     if gd.d.iter().all(|v| v.is_empty()) {
@@ -140,6 +152,7 @@ pub(crate) fn canonical_m(m: &[i32], sigma: &[i8]) -> (Vec<i32>, bool) {
 /// Runs the normalisation of `h` (complex, degrees ≥ 2, H₂ = Σ λ_k x_k y_k) to degree N.
 /// `is_resonant(m)` decides whether the term is kept (resonant normal form); it is only
 /// asked about canonical m.
+#[allow(clippy::needless_range_loop)]
 pub(crate) fn normalize<R: Real>(
     mut h: Poly<Complex<R>>,
     omega: &[R],
@@ -173,8 +186,15 @@ pub(crate) fn normalize<R: Real>(
             }
             let (cm, _) = canonical_m(&m, sigma);
             let entry = divisors.entry(cm.clone()).or_insert_with(|| {
-                let value = cm.iter().zip(omega).fold(R::zero(), |s, (&a, &w)| s + w.scale(a as f64));
-                Divisor { m: cm.clone(), value, order: r }
+                let value = cm
+                    .iter()
+                    .zip(omega)
+                    .fold(R::zero(), |s, (&a, &w)| s + w.scale(a as f64));
+                Divisor {
+                    m: cm.clone(),
+                    value,
+                    order: r,
+                }
             });
             let _ = entry;
             if is_resonant(&cm) {
@@ -182,7 +202,13 @@ pub(crate) fn normalize<R: Real>(
                 continue;
             }
             // ⟨λ, a − b⟩ = i Σ σ_k ω_k m_k
-            let s = m.iter().zip(omega).zip(sigma).fold(R::zero(), |acc, ((&mk, &w), &sg)| acc + w.scale((mk * sg as i32) as f64));
+            let s = m
+                .iter()
+                .zip(omega)
+                .zip(sigma)
+                .fold(R::zero(), |acc, ((&mk, &w), &sg)| {
+                    acc + w.scale((mk * sg as i32) as f64)
+                });
             let div = Complex::new(R::zero(), s);
             g[i] = c / div;
             any = true;
@@ -198,7 +224,11 @@ pub(crate) fn normalize<R: Real>(
     h.prune();
     let mut divisors: Vec<Divisor<R>> = divisors.into_values().collect();
     divisors.sort_by(|a, b| a.value.abs().to_f64().total_cmp(&b.value.abs().to_f64()));
-    LieOutput { z: h, generators, divisors }
+    LieOutput {
+        z: h,
+        generators,
+        divisors,
+    }
 }
 
 /// Old coordinates as series in the new ones (`forward = true`: `w = φ_{G₃}∘…∘φ_{G_N}(w')`,
@@ -217,7 +247,11 @@ pub(crate) fn coordinate_maps<C: Coeff>(
     (0..d)
         .map(|j| {
             let mut f = Poly::variable(table.clone(), j, C::zero());
-            let order: Vec<usize> = if forward { (3..=nmax).collect() } else { (3..=nmax).rev().collect() };
+            let order: Vec<usize> = if forward {
+                (3..=nmax).collect()
+            } else {
+                (3..=nmax).rev().collect()
+            };
             for r in order {
                 let g = &generators[r];
                 if g.is_empty() {

@@ -49,7 +49,9 @@ pub fn transpose<T: Coeff>(a: &Mat<T>) -> Mat<T> {
 
 /// A·x
 pub fn matvec<T: Coeff>(a: &Mat<T>, x: &[T]) -> Vec<T> {
-    a.iter().map(|row| row.iter().zip(x).fold(T::zero(), |s, (&p, &q)| s + p * q)).collect()
+    a.iter()
+        .map(|row| row.iter().zip(x).fold(T::zero(), |s, (&p, &q)| s + p * q))
+        .collect()
 }
 
 /// The canonical symplectic matrix J = [[0, I], [−I, 0]] of size 2n.
@@ -64,14 +66,19 @@ pub fn symplectic_j<T: Coeff>(n: usize) -> Mat<T> {
 
 /// max |A − B| over entries, as f64.
 pub fn max_diff<T: Coeff>(a: &Mat<T>, b: &Mat<T>) -> f64 {
-    a.iter().zip(b).flat_map(|(r, s)| r.iter().zip(s).map(|(&x, &y)| (x - y).magnitude())).fold(0.0, f64::max)
+    a.iter()
+        .zip(b)
+        .flat_map(|(r, s)| r.iter().zip(s).map(|(&x, &y)| (x - y).magnitude()))
+        .fold(0.0, f64::max)
 }
 
 /// Solves A x = b by Gaussian elimination with partial pivoting; `None` if singular.
+#[allow(clippy::needless_range_loop)]
 pub fn solve<T: Coeff>(mut a: Mat<T>, mut b: Vec<T>) -> Option<Vec<T>> {
     let n = a.len();
     for col in 0..n {
-        let piv = (col..n).max_by(|&i, &j| a[i][col].magnitude().total_cmp(&a[j][col].magnitude()))?;
+        let piv =
+            (col..n).max_by(|&i, &j| a[i][col].magnitude().total_cmp(&a[j][col].magnitude()))?;
         if a[piv][col].magnitude() == 0.0 || !a[piv][col].is_finite() {
             return None;
         }
@@ -116,6 +123,7 @@ pub fn inverse<T: Coeff>(a: &Mat<T>) -> Option<Mat<T>> {
 
 /// A nonzero x with A x ≈ 0 for a matrix of corank one: Gaussian elimination with complete
 /// pivoting, the last (smallest) pivot taken as zero.
+#[allow(clippy::needless_range_loop)]
 pub fn null_vector<T: Coeff>(mut a: Mat<T>) -> Vec<T> {
     let n = a.len();
     let mut perm: Vec<usize> = (0..n).collect(); // column permutation
@@ -202,7 +210,11 @@ pub fn poly_roots<R: Real>(c: &[R]) -> Vec<Complex<R>> {
     }
     // initial guesses on a circle of the Cauchy radius
     let lead = c[n].to_f64();
-    let radius = 1.0 + c[..n].iter().map(|x| (x.to_f64() / lead).abs()).fold(0.0, f64::max);
+    let radius = 1.0
+        + c[..n]
+            .iter()
+            .map(|x| (x.to_f64() / lead).abs())
+            .fold(0.0, f64::max);
     let r0 = radius.min(1e3) * 0.5;
     let mut z: Vec<Complex<R>> = (0..n)
         .map(|k| {

@@ -10,7 +10,9 @@
 
 use crate::complex::Complex;
 use crate::error::{Eigenvalue, NormalFormError};
-use crate::linalg::{char_poly, matmul, max_diff, null_vector, poly_roots, symplectic_j, transpose, zeros, Mat};
+use crate::linalg::{
+    char_poly, matmul, max_diff, null_vector, poly_roots, symplectic_j, transpose, zeros, Mat,
+};
 use crate::scalar::{Coeff, Real};
 
 /// Result of the linear normalisation.
@@ -40,7 +42,10 @@ pub(crate) fn hamiltonian_matrix<R: Real>(s: &Mat<R>) -> Mat<R> {
     m
 }
 
-pub(crate) fn linear_normalization<R: Real>(s: &Mat<R>, rotation: &[f64]) -> Result<LinearNormalization<R>, NormalFormError> {
+pub(crate) fn linear_normalization<R: Real>(
+    s: &Mat<R>,
+    rotation: &[f64],
+) -> Result<LinearNormalization<R>, NormalFormError> {
     let d = s.len();
     let n = d / 2;
     let m = hamiltonian_matrix(s);
@@ -48,7 +53,11 @@ pub(crate) fn linear_normalization<R: Real>(s: &Mat<R>, rotation: &[f64]) -> Res
     // q(s) = Σ c_{2j} s^j
     let q: Vec<R> = (0..=n).map(|j| c[2 * j]).collect();
     let roots = poly_roots(&q);
-    let scale = roots.iter().map(|r| r.magnitude()).fold(0.0, f64::max).max(1e-300);
+    let scale = roots
+        .iter()
+        .map(|r| r.magnitude())
+        .fold(0.0, f64::max)
+        .max(1e-300);
     let eigenvalues = || -> Vec<Eigenvalue> {
         roots
             .iter()
@@ -60,14 +69,23 @@ pub(crate) fn linear_normalization<R: Real>(s: &Mat<R>, rotation: &[f64]) -> Res
             .collect()
     };
     let tol_im = 1e-9 * scale;
-    if roots.iter().any(|r| r.im.abs().to_f64() > tol_im || r.re.to_f64() >= 0.0) {
-        return Err(NormalFormError::NotElliptic { eigenvalues: eigenvalues(), repeated: false });
+    if roots
+        .iter()
+        .any(|r| r.im.abs().to_f64() > tol_im || r.re.to_f64() >= 0.0)
+    {
+        return Err(NormalFormError::NotElliptic {
+            eigenvalues: eigenvalues(),
+            repeated: false,
+        });
     }
     let mut omega: Vec<R> = roots.iter().map(|r| (-r.re).sqrt()).collect();
     omega.sort_by(|a, b| b.to_f64().total_cmp(&a.to_f64()));
     for k in 1..n {
         if (omega[k - 1] - omega[k]).to_f64() <= 1e-7 * omega[0].to_f64() {
-            return Err(NormalFormError::NotElliptic { eigenvalues: eigenvalues(), repeated: true });
+            return Err(NormalFormError::NotElliptic {
+                eigenvalues: eigenvalues(),
+                repeated: true,
+            });
         }
     }
     // eigenvectors of iω_k, refined by one Newton step on ω is unnecessary: the null vector
@@ -78,7 +96,17 @@ pub(crate) fn linear_normalization<R: Real>(s: &Mat<R>, rotation: &[f64]) -> Res
     for k in 0..n {
         let lam = Complex::new(R::zero(), omega[k]);
         let mc: Mat<Complex<R>> = (0..d)
-            .map(|i| (0..d).map(|l| if i == l { Complex::real(m[i][l]) - lam } else { Complex::real(m[i][l]) }).collect())
+            .map(|i| {
+                (0..d)
+                    .map(|l| {
+                        if i == l {
+                            Complex::real(m[i][l]) - lam
+                        } else {
+                            Complex::real(m[i][l])
+                        }
+                    })
+                    .collect()
+            })
             .collect();
         let f = null_vector(mc);
         let u: Vec<R> = f.iter().map(|c| c.re).collect();
@@ -110,7 +138,13 @@ pub(crate) fn linear_normalization<R: Real>(s: &Mat<R>, rotation: &[f64]) -> Res
         dgl[n + k][n + k] = w;
     }
     let diagonal_residual = max_diff(&matmul(&matmul(&at, s), &a), &dgl);
-    Ok(LinearNormalization { omega, sigma, a, symplectic_residual, diagonal_residual })
+    Ok(LinearNormalization {
+        omega,
+        sigma,
+        a,
+        symplectic_residual,
+        diagonal_residual,
+    })
 }
 
 /// The complexification `Q_k = (x_k + i y_k)/√2`, `P_k = (i x_k + y_k)/√2` (matrix C with
@@ -141,5 +175,7 @@ pub(crate) fn symplectic_inverse<R: Real>(a: &Mat<R>) -> Mat<R> {
     let n = a.len() / 2;
     let j: Mat<R> = symplectic_j(n);
     let r = matmul(&matmul(&j, &transpose(a)), &j);
-    r.into_iter().map(|row| row.into_iter().map(|x| -x).collect()).collect()
+    r.into_iter()
+        .map(|row| row.into_iter().map(|x| -x).collect())
+        .collect()
 }

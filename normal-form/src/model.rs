@@ -63,7 +63,9 @@ impl<'a> ModelHamiltonian<'a> {
     /// The model's Hamiltonian with its default parameters overridden by `params`
     /// (`name = value`, scalar parameters only).
     pub fn new(model: &'a Model, params: &[(String, f64)]) -> Result<Self, NormalFormError> {
-        let ham = model.hamiltonian.as_ref().ok_or_else(|| NormalFormError::Model(format!("model `{}` has no `hamiltonian`", model.name)))?;
+        let ham = model.hamiltonian.as_ref().ok_or_else(|| {
+            NormalFormError::Model(format!("model `{}` has no `hamiltonian`", model.name))
+        })?;
         let (q, p) = match &ham.structure {
             Structure::Canonical { q, p } => (q, p),
             _ => {
@@ -94,14 +96,25 @@ impl<'a> ModelHamiltonian<'a> {
         for (name, v) in params {
             let par = model.param(name).ok_or_else(|| {
                 let known: Vec<&str> = model.params.iter().map(|p| p.name.as_str()).collect();
-                NormalFormError::Model(format!("unknown parameter `{name}` (the model has: {})", known.join(", ")))
+                NormalFormError::Model(format!(
+                    "unknown parameter `{name}` (the model has: {})",
+                    known.join(", ")
+                ))
             })?;
             if par.slots() != 1 {
-                return Err(NormalFormError::Model(format!("parameter `{name}` is not a scalar")));
+                return Err(NormalFormError::Model(format!(
+                    "parameter `{name}` is not a scalar"
+                )));
             }
             values[par.offset] = *v;
         }
-        Ok(ModelHamiltonian { model, h: ham.h, slot, n, params: values })
+        Ok(ModelHamiltonian {
+            model,
+            h: ham.h,
+            slot,
+            n,
+            params: values,
+        })
     }
     /// The parameter slots in use.
     pub fn params(&self) -> &[f64] {
@@ -158,7 +171,11 @@ impl HamiltonianFn for ModelHamiltonian<'_> {
         for sv in &self.model.state {
             let len = sv.shape.len();
             for c in 0..len {
-                let name = if len == 1 { sv.name.clone() } else { format!("{}[{c}]", sv.name) };
+                let name = if len == 1 {
+                    sv.name.clone()
+                } else {
+                    format!("{}[{c}]", sv.name)
+                };
                 names[self.slot[sv.offset + c]] = name;
             }
         }
@@ -185,20 +202,33 @@ pub fn normalize_model_file(
     point: &ModelPoint,
     options: &Options,
 ) -> Result<NormalForm, NormalFormError> {
-    let model = lasalle_codegen::load_model(path.as_ref()).map_err(|e| NormalFormError::Model(e.to_string()))?;
+    let model = lasalle_codegen::load_model(path.as_ref())
+        .map_err(|e| NormalFormError::Model(e.to_string()))?;
     normalize_model(&model, params, point, options)
 }
 
 /// The normal form of a lowered model (see [`normalize_model_file`]).
-pub fn normalize_model(model: &Model, params: &[(String, f64)], point: &ModelPoint, options: &Options) -> Result<NormalForm, NormalFormError> {
+pub fn normalize_model(
+    model: &Model,
+    params: &[(String, f64)],
+    point: &ModelPoint,
+    options: &Options,
+) -> Result<NormalForm, NormalFormError> {
     let h = ModelHamiltonian::new(model, params)?;
     let start = match point {
         ModelPoint::Named(name) => h.point(name).ok_or_else(|| {
-            NormalFormError::Model(format!("no point `{name}` (the model has: {})", h.point_names().join(", ")))
+            NormalFormError::Model(format!(
+                "no point `{name}` (the model has: {})",
+                h.point_names().join(", ")
+            ))
         })?,
         ModelPoint::Values(v) => {
             if v.len() != model.dim() {
-                return Err(NormalFormError::Invalid(format!("point has {} components, the state has {}", v.len(), model.dim())));
+                return Err(NormalFormError::Invalid(format!(
+                    "point has {} components, the state has {}",
+                    v.len(),
+                    model.dim()
+                )));
             }
             let mut z = vec![0.0; v.len()];
             for (i, &x) in v.iter().enumerate() {
@@ -208,7 +238,10 @@ pub fn normalize_model(model: &Model, params: &[(String, f64)], point: &ModelPoi
         }
         ModelPoint::Auto => {
             let name = h.point_names().into_iter().next().ok_or_else(|| {
-                NormalFormError::Model(format!("model `{}` declares no point: give one with `--point`", model.name))
+                NormalFormError::Model(format!(
+                    "model `{}` declares no point: give one with `--point`",
+                    model.name
+                ))
             })?;
             h.point(&name).expect("declared point")
         }

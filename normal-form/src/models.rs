@@ -54,13 +54,19 @@ impl HamiltonianFn for Cr3bp {
         let r2sq = b.mul(&b).add(&q2.mul(q2));
         let kinetic = half.mul(&p1.mul(p1).add(&p2.mul(p2)));
         let coriolis = q2.mul(p1).sub(&q1.mul(p2));
-        kinetic.add(&coriolis).sub(&one_mu.mul(&r1sq.powf(-0.5))).sub(&mu.mul(&r2sq.powf(-0.5)))
+        kinetic
+            .add(&coriolis)
+            .sub(&one_mu.mul(&r1sq.powf(-0.5)))
+            .sub(&mu.mul(&r2sq.powf(-0.5)))
     }
     fn name(&self) -> String {
         format!("cr3bp(mu={})", self.mu)
     }
     fn coordinate_names(&self) -> Vec<String> {
-        ["x", "y", "px", "py"].iter().map(|s| s.to_string()).collect()
+        ["x", "y", "px", "py"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
     }
 }
 
@@ -79,7 +85,9 @@ pub struct CoupledOscillators {
 
 impl Default for CoupledOscillators {
     fn default() -> Self {
-        CoupledOscillators { couplings: [0.3, -0.2, 0.1, 0.05, 0.07] }
+        CoupledOscillators {
+            couplings: [0.3, -0.2, 0.1, 0.05, 0.07],
+        }
     }
 }
 
@@ -96,7 +104,10 @@ impl HamiltonianFn for CoupledOscillators {
         let h2 = half.mul(&w2).mul(&p2.mul(p2).add(&q2.mul(q2)));
         let q1s = q1.mul(q1);
         let cubic = a.mul(&q1s).mul(q2).add(&b.mul(q1).mul(&q2.mul(q2)));
-        let quartic = c.mul(&q1s.mul(&q1s)).add(&d.mul(&q1s).mul(&q2.mul(q2))).add(&e.mul(p1).mul(p2).mul(q2));
+        let quartic = c
+            .mul(&q1s.mul(&q1s))
+            .add(&d.mul(&q1s).mul(&q2.mul(q2)))
+            .add(&e.mul(p1).mul(p2).mul(q2));
         h1.add(&h2).add(&cubic).add(&quartic)
     }
     fn name(&self) -> String {
@@ -123,7 +134,11 @@ impl HamiltonianFn for Anharmonic {
         let half = S::from_f64(0.5);
         let q2 = q.mul(q);
         half.mul(&p.mul(p).add(&q2))
-            .add(&S::from_f64(self.alpha).div(&S::from_f64(3.0)).mul(&q2.mul(q)))
+            .add(
+                &S::from_f64(self.alpha)
+                    .div(&S::from_f64(3.0))
+                    .mul(&q2.mul(q)),
+            )
             .add(&S::from_f64(self.beta / 4.0).mul(&q2.mul(&q2)))
     }
     fn name(&self) -> String {

@@ -111,9 +111,19 @@ impl MonomialTable {
                     }
                 }
             }
-            degrees.push(DegreeTable { exps, keys, lookup, deriv });
+            degrees.push(DegreeTable {
+                exps,
+                keys,
+                lookup,
+                deriv,
+            });
         }
-        MonomialTable { nvars, max_degree, base, degrees }
+        MonomialTable {
+            nvars,
+            max_degree,
+            base,
+            degrees,
+        }
     }
     /// Number of variables.
     pub fn nvars(&self) -> usize {
@@ -152,14 +162,21 @@ impl MonomialTable {
             b *= self.base as usize;
         }
         let t = &self.degrees[k];
-        t.lookup.get(key).copied().filter(|&i| i != u32::MAX).map(|i| (k, i as usize))
+        t.lookup
+            .get(key)
+            .copied()
+            .filter(|&i| i != u32::MAX)
+            .map(|i| (k, i as usize))
     }
     /// Approximate memory used by the tables, in bytes.
     pub fn memory_bytes(&self) -> usize {
         self.degrees
             .iter()
             .map(|t| {
-                t.exps.len() + 4 * t.keys.len() + 4 * t.lookup.len() + t.deriv.iter().map(|d| 8 * d.len()).sum::<usize>()
+                t.exps.len()
+                    + 4 * t.keys.len()
+                    + 4 * t.lookup.len()
+                    + t.deriv.iter().map(|d| 8 * d.len()).sum::<usize>()
             })
             .sum()
     }

@@ -32,7 +32,9 @@ impl std::str::FromStr for Precision {
         match s {
             "f64" | "double" => Ok(Precision::F64),
             "dd" | "double-double" => Ok(Precision::DoubleDouble),
-            _ => Err(NormalFormError::Invalid(format!("unknown precision `{s}` (expected `f64` or `dd`)"))),
+            _ => Err(NormalFormError::Invalid(format!(
+                "unknown precision `{s}` (expected `f64` or `dd`)"
+            ))),
         }
     }
 }
@@ -102,7 +104,10 @@ impl Default for Options {
 impl Options {
     /// Options with the given order and defaults otherwise.
     pub fn with_order(order: usize) -> Self {
-        Options { order, ..Options::default() }
+        Options {
+            order,
+            ..Options::default()
+        }
     }
     /// Sets the precision.
     pub fn precision(mut self, p: Precision) -> Self {
@@ -146,11 +151,21 @@ fn is_zero(x: &f64) -> bool {
 impl Value {
     fn of<R: Real>(x: R) -> Value {
         let (hi, lo) = x.hi_lo();
-        Value { value: hi, lo, error: None }
+        Value {
+            value: hi,
+            lo,
+            error: None,
+        }
     }
     /// Estimated relative error |error/value|.
     pub fn relative_error(&self) -> Option<f64> {
-        self.error.map(|e| if self.value == 0.0 { e } else { e / self.value.abs() })
+        self.error.map(|e| {
+            if self.value == 0.0 {
+                e
+            } else {
+                e / self.value.abs()
+            }
+        })
     }
 }
 
@@ -361,7 +376,9 @@ struct Raw<R> {
 }
 
 fn to_complex<R: Real>(m: &Mat<R>) -> Mat<Complex<R>> {
-    m.iter().map(|r| r.iter().map(|&x| Complex::real(x)).collect()).collect()
+    m.iter()
+        .map(|r| r.iter().map(|&x| Complex::real(x)).collect())
+        .collect()
 }
 
 /// (−i)^m
@@ -409,7 +426,11 @@ fn real_part<R: Real>(p: &Poly<Complex<R>>) -> (Poly<R>, f64) {
     (p.map(|c| c.re), imag)
 }
 
-fn run<R: Real, H: HamiltonianFn + ?Sized>(h: &H, point: &Point, o: &Options) -> Result<Raw<R>, NormalFormError> {
+fn run<R: Real, H: HamiltonianFn + ?Sized>(
+    h: &H,
+    point: &Point,
+    o: &Options,
+) -> Result<Raw<R>, NormalFormError> {
     let t_start = Instant::now();
     let n = h.n_dof();
     let d = 2 * n;
@@ -419,12 +440,17 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(h: &H, point: &Point, o: &Options) ->
         Point::Newton(v) => (v, false),
     };
     if start.len() != d {
-        return Err(NormalFormError::Invalid(format!("point has {} components, expected {d}", start.len())));
+        return Err(NormalFormError::Invalid(format!(
+            "point has {} components, expected {d}",
+            start.len()
+        )));
     }
     let start: Vec<R> = start.iter().map(|&x| R::from_f64(x)).collect();
     let eq = find_equilibrium(h, &start, o.max_newton)?;
     if given && eq.initial_gradient > o.equilibrium_tol {
-        return Err(NormalFormError::NotAnEquilibrium { gradient_norm: eq.initial_gradient });
+        return Err(NormalFormError::NotAnEquilibrium {
+            gradient_norm: eq.initial_gradient,
+        });
     }
     let table = Arc::new(MonomialTable::new(d, nmax));
     let hz = taylor(h, &eq.z, &table);
@@ -432,7 +458,10 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(h: &H, point: &Point, o: &Options) ->
         return Err(NormalFormError::NonFinite("the Taylor expansion"));
     }
     let energy = hz.constant_term();
-    let mut timings = Timings { taylor: t_start.elapsed().as_secs_f64(), ..Timings::default() };
+    let mut timings = Timings {
+        taylor: t_start.elapsed().as_secs_f64(),
+        ..Timings::default()
+    };
 
     // linear normalisation
     let t = Instant::now();
@@ -442,8 +471,12 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(h: &H, point: &Point, o: &Options) ->
     let (c, ci) = complexification::<R>(n);
     let l = matmul(&to_complex(&lin.a), &c);
     let mut hc = hz.map(Complex::real).substitute_linear(&l);
-    let lambda: Vec<Complex<R>> =
-        lin.omega.iter().zip(&lin.sigma).map(|(&w, &sg)| Complex::new(R::zero(), w.scale(sg as f64))).collect();
+    let lambda: Vec<Complex<R>> = lin
+        .omega
+        .iter()
+        .zip(&lin.sigma)
+        .map(|(&w, &sg)| Complex::new(R::zero(), w.scale(sg as f64)))
+        .collect();
     let mut quadratic_residual: f64 = 0.0;
     let mut h2 = vec![Complex::zero(); table.count(2)];
     for k in 0..n {
@@ -464,13 +497,22 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(h: &H, point: &Point, o: &Options) ->
 
     // Assumption 1′
     let omega_f: Vec<f64> = lin.omega.iter().map(|w| w.to_f64()).collect();
-    let mdot = |m: &[i32]| -> R { m.iter().zip(&lin.omega).fold(R::zero(), |s, (&a, &w)| s + w.scale(a as f64)) };
+    let mdot = |m: &[i32]| -> R {
+        m.iter()
+            .zip(&lin.omega)
+            .fold(R::zero(), |s, (&a, &w)| s + w.scale(a as f64))
+    };
     if !o.resonant {
         for m in integer_vectors(n, nmax) {
             let v = mdot(&m);
             if v.abs().to_f64() < o.resonance_tol {
                 let order = m.iter().map(|x| x.unsigned_abs() as usize).sum();
-                return Err(NormalFormError::Resonance { m, m_dot_omega: v.to_f64(), order, omega: omega_f });
+                return Err(NormalFormError::Resonance {
+                    m,
+                    m_dot_omega: v.to_f64(),
+                    order,
+                    omega: omega_f,
+                });
             }
         }
     }
@@ -523,7 +565,11 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(h: &H, point: &Point, o: &Options) ->
 
     // D4
     let d4 = if n == 2 && nmax >= 4 {
-        let get = |a: [u32; 2]| hbar.iter().find(|(e, _)| e[..] == a).map_or(R::zero(), |(_, v)| *v);
+        let get = |a: [u32; 2]| {
+            hbar.iter()
+                .find(|(e, _)| e[..] == a)
+                .map_or(R::zero(), |(_, v)| *v)
+        };
         let (a, b, cc) = (get([2, 0]).scale(2.0), get([1, 1]), get([0, 2]).scale(2.0));
         let nu1 = lin.omega[0].scale(lin.sigma[0] as f64);
         let nu2 = lin.omega[1].scale(lin.sigma[1] as f64);
@@ -542,12 +588,18 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(h: &H, point: &Point, o: &Options) ->
         }
     }
     let (greal, generating_imag) = real_part(&gsum.substitute_linear(&ci));
-    let greal_parts: Vec<Vec<R>> = (0..=nmax).map(|r| greal.part(r).map_or(Vec::new(), |p| p.to_vec())).collect();
+    let greal_parts: Vec<Vec<R>> = (0..=nmax)
+        .map(|r| greal.part(r).map_or(Vec::new(), |p| p.to_vec()))
+        .collect();
     let mut generating = Vec::new();
     for r in 3..=nmax {
         for i in 0..table.count(r) {
             let v = greal.part(r).map_or(R::zero(), |p| p[i]);
-            generating.push((table.exponents(r, i).iter().map(|&x| x as u32).collect(), r, v));
+            generating.push((
+                table.exponents(r, i).iter().map(|&x| x as u32).collect(),
+                r,
+                v,
+            ));
         }
     }
 
@@ -592,16 +644,31 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(h: &H, point: &Point, o: &Options) ->
 }
 
 fn to_f64_mat<R: Real>(m: &Mat<R>) -> Vec<Vec<f64>> {
-    m.iter().map(|r| r.iter().map(|x| x.to_f64()).collect()).collect()
+    m.iter()
+        .map(|r| r.iter().map(|x| x.to_f64()).collect())
+        .collect()
 }
 
 fn assemble<R: Real, H: HamiltonianFn + ?Sized>(h: &H, raw: Raw<R>, o: &Options) -> NormalForm {
-    let map = |ps: Option<Vec<Poly<R>>>| ps.map(|v| PolyMap { components: v.iter().map(|p| p.map(|c| c.to_f64())).collect() });
-    let d4 = raw.d4.map(|[a, b, c, d]| ArnoldMoser { a: Value::of(a), b: Value::of(b), c: Value::of(c), d4: Value::of(d) });
+    let map = |ps: Option<Vec<Poly<R>>>| {
+        ps.map(|v| PolyMap {
+            components: v.iter().map(|p| p.map(|c| c.to_f64())).collect(),
+        })
+    };
+    let d4 = raw.d4.map(|[a, b, c, d]| ArnoldMoser {
+        a: Value::of(a),
+        b: Value::of(b),
+        c: Value::of(c),
+        d4: Value::of(d),
+    });
     let generating = raw
         .generating
         .iter()
-        .map(|(e, r, v)| Term { exponents: e.clone(), degree: *r, coeff: Value::of(*v) })
+        .map(|(e, r, v)| Term {
+            exponents: e.clone(),
+            degree: *r,
+            coeff: Value::of(*v),
+        })
         .collect();
     NormalForm {
         model: h.name(),
@@ -618,7 +685,11 @@ fn assemble<R: Real, H: HamiltonianFn + ?Sized>(h: &H, raw: Raw<R>, o: &Options)
         hamiltonian: raw
             .hbar
             .iter()
-            .map(|(e, v)| ActionTerm { exponents: e.clone(), degree: 2 * e.iter().sum::<u32>() as usize, coeff: Value::of(*v) })
+            .map(|(e, v)| ActionTerm {
+                exponents: e.clone(),
+                degree: 2 * e.iter().sum::<u32>() as usize,
+                coeff: Value::of(*v),
+            })
             .collect(),
         resonant_terms: raw.resonant_terms,
         generating_function: generating,
@@ -644,7 +715,11 @@ fn assemble<R: Real, H: HamiltonianFn + ?Sized>(h: &H, raw: Raw<R>, o: &Options)
     }
 }
 
-fn run_assembled<H: HamiltonianFn + ?Sized>(h: &H, point: &Point, o: &Options) -> Result<NormalForm, NormalFormError> {
+fn run_assembled<H: HamiltonianFn + ?Sized>(
+    h: &H,
+    point: &Point,
+    o: &Options,
+) -> Result<NormalForm, NormalFormError> {
     match o.precision {
         Precision::F64 => run::<f64, H>(h, point, o).map(|r| assemble(h, r, o)),
         Precision::DoubleDouble => run::<Dd, H>(h, point, o).map(|r| assemble(h, r, o)),
@@ -661,9 +736,16 @@ fn run_assembled<H: HamiltonianFn + ?Sized>(h: &H, point: &Point, o: &Options) -
 /// precision is run too (without the transformation) and each coefficient gets
 /// `error = |c_f64 − c_dd|` (f64 run) or `|c_f64 − c_dd|·2⁻⁵¹` (double-double run: the same
 /// amplification of rounding errors acting on a unit roundoff 2⁵¹ times smaller).
-pub fn normalize<H: HamiltonianFn + ?Sized>(h: &H, point: &Point, options: &Options) -> Result<NormalForm, NormalFormError> {
+pub fn normalize<H: HamiltonianFn + ?Sized>(
+    h: &H,
+    point: &Point,
+    options: &Options,
+) -> Result<NormalForm, NormalFormError> {
     if options.order < 2 || options.order > 120 {
-        return Err(NormalFormError::Invalid(format!("order {} outside 2…120", options.order)));
+        return Err(NormalFormError::Invalid(format!(
+            "order {} outside 2…120",
+            options.order
+        )));
     }
     let mut nf = run_assembled(h, point, options)?;
     if options.error_estimate {
@@ -672,7 +754,12 @@ pub fn normalize<H: HamiltonianFn + ?Sized>(h: &H, point: &Point, options: &Opti
             Precision::F64 => Precision::DoubleDouble,
             Precision::DoubleDouble => Precision::F64,
         };
-        let other_opts = Options { precision: other_precision, error_estimate: false, transform: false, ..options.clone() };
+        let other_opts = Options {
+            precision: other_precision,
+            error_estimate: false,
+            transform: false,
+            ..options.clone()
+        };
         if let Ok(other) = run_assembled(h, point, &other_opts) {
             let factor = match options.precision {
                 Precision::F64 => 1.0,
@@ -701,13 +788,18 @@ fn prune_generating(nf: &mut NormalForm) {
     for t in &nf.generating_function {
         max_by_degree[t.degree] = max_by_degree[t.degree].max(t.coeff.value.abs());
     }
-    nf.generating_function.retain(|t| t.coeff.value.abs() > 1e3 * eps * max_by_degree[t.degree]);
+    nf.generating_function
+        .retain(|t| t.coeff.value.abs() > 1e3 * eps * max_by_degree[t.degree]);
 }
 
 fn err(a: &Value, b: &Value, factor: f64) -> f64 {
     let diff = ((a.value - b.value) + (a.lo - b.lo)).abs() * factor;
     // never claim better than the working precision
-    let floor = if factor < 1.0 { 4.0 * Dd::EPSILON } else { f64::EPSILON / 2.0 } * a.value.abs();
+    let floor = if factor < 1.0 {
+        4.0 * Dd::EPSILON
+    } else {
+        f64::EPSILON / 2.0
+    } * a.value.abs();
     diff.max(floor)
 }
 
@@ -724,13 +816,22 @@ fn attach_errors(nf: &mut NormalForm, other: &NormalForm, factor: f64) {
     for (x, y) in nf.hamiltonian.iter_mut().zip(&other.hamiltonian) {
         let e = err(&x.coeff, &y.coeff, factor);
         x.coeff.error = Some(e);
-        let (f, dd) = if factor == 1.0 { (&x.coeff, &y.coeff) } else { (&y.coeff, &x.coeff) };
+        let (f, dd) = if factor == 1.0 {
+            (&x.coeff, &y.coeff)
+        } else {
+            (&y.coeff, &x.coeff)
+        };
         if dd.value != 0.0 {
-            amp = amp.max(((f.value - dd.value) - dd.lo).abs() / (dd.value.abs() * f64::EPSILON / 2.0));
+            amp = amp
+                .max(((f.value - dd.value) - dd.lo).abs() / (dd.value.abs() * f64::EPSILON / 2.0));
         }
     }
     nf.diagnostics.amplification = Some(amp);
-    for (x, y) in nf.generating_function.iter_mut().zip(&other.generating_function) {
+    for (x, y) in nf
+        .generating_function
+        .iter_mut()
+        .zip(&other.generating_function)
+    {
         x.coeff.error = Some(err(&x.coeff, &y.coeff, factor));
     }
     if let (Some(a), Some(b)) = (nf.d4.as_mut(), other.d4.as_ref()) {
@@ -743,7 +844,11 @@ fn attach_errors(nf: &mut NormalForm, other: &NormalForm, factor: f64) {
 
 impl NormalForm {
     /// Computes the normal form (see [`normalize`]).
-    pub fn compute<H: HamiltonianFn + ?Sized>(h: &H, point: &Point, options: &Options) -> Result<NormalForm, NormalFormError> {
+    pub fn compute<H: HamiltonianFn + ?Sized>(
+        h: &H,
+        point: &Point,
+        options: &Options,
+    ) -> Result<NormalForm, NormalFormError> {
         normalize(h, point, options)
     }
     /// ω as f64.
@@ -756,7 +861,10 @@ impl NormalForm {
     }
     /// The coefficient h_a of I^a (0 if absent).
     pub fn coefficient(&self, a: &[u32]) -> f64 {
-        self.hamiltonian.iter().find(|t| t.exponents == a).map_or(0.0, |t| t.coeff.value)
+        self.hamiltonian
+            .iter()
+            .find(|t| t.exponents == a)
+            .map_or(0.0, |t| t.coeff.value)
     }
     /// H̄(I) (including the constant E₀).
     pub fn energy_at(&self, actions: &[f64]) -> f64 {
@@ -764,7 +872,14 @@ impl NormalForm {
             + self
                 .hamiltonian
                 .iter()
-                .map(|t| t.coeff.value * t.exponents.iter().zip(actions).map(|(&e, &i)| i.powi(e as i32)).product::<f64>())
+                .map(|t| {
+                    t.coeff.value
+                        * t.exponents
+                            .iter()
+                            .zip(actions)
+                            .map(|(&e, &i)| i.powi(e as i32))
+                            .product::<f64>()
+                })
                 .sum::<f64>()
     }
     /// The frequency map ν = ∂H̄/∂I at the actions I (ν_k = σ_k ω_k + …).
@@ -791,12 +906,19 @@ impl NormalForm {
     pub fn to_linear_normal(&self, z: &[f64]) -> Vec<f64> {
         let eq = self.equilibrium_f64();
         let dz: Vec<f64> = z.iter().zip(&eq).map(|(a, b)| a - b).collect();
-        self.linear_inverse.iter().map(|r| r.iter().zip(&dz).map(|(a, b)| a * b).sum()).collect()
+        self.linear_inverse
+            .iter()
+            .map(|r| r.iter().zip(&dz).map(|(a, b)| a * b).sum())
+            .collect()
     }
     /// The phase-space point z = z_eq + A (Q, P).
     pub fn from_linear_normal(&self, w: &[f64]) -> Vec<f64> {
         let eq = self.equilibrium_f64();
-        self.linear_map.iter().zip(&eq).map(|(r, e)| e + r.iter().zip(w).map(|(a, b)| a * b).sum::<f64>()).collect()
+        self.linear_map
+            .iter()
+            .zip(&eq)
+            .map(|(r, e)| e + r.iter().zip(w).map(|(a, b)| a * b).sum::<f64>())
+            .collect()
     }
     /// Normal coordinates (Q', P') of a phase-space point z (needs the transformation).
     pub fn to_normal(&self, z: &[f64]) -> Option<Vec<f64>> {
@@ -805,12 +927,18 @@ impl NormalForm {
     }
     /// The phase-space point of normal coordinates (Q', P').
     pub fn from_normal(&self, w: &[f64]) -> Option<Vec<f64>> {
-        self.from_normal_map.as_ref().map(|m| self.from_linear_normal(&m.eval(w)))
+        self.from_normal_map
+            .as_ref()
+            .map(|m| self.from_linear_normal(&m.eval(w)))
     }
     /// Actions I_k = (Q'_k² + P'_k²)/2 of a phase-space point.
     pub fn actions(&self, z: &[f64]) -> Option<Vec<f64>> {
         let n = self.n_dof;
-        self.to_normal(z).map(|w| (0..n).map(|k| 0.5 * (w[k] * w[k] + w[n + k] * w[n + k])).collect())
+        self.to_normal(z).map(|w| {
+            (0..n)
+                .map(|k| 0.5 * (w[k] * w[k] + w[n + k] * w[n + k]))
+                .collect()
+        })
     }
     /// The truncated normal-form flow (seed eq. 5) mapped back: z(t) from z(0). In normal
     /// coordinates each plane rotates, `Q' + iP' ↦ (Q' + iP') e^{−iν_k t}` with ν = ∂H̄/∂I
@@ -821,7 +949,9 @@ impl NormalForm {
         }
         let n = self.n_dof;
         let w = self.to_normal(z0)?;
-        let actions: Vec<f64> = (0..n).map(|k| 0.5 * (w[k] * w[k] + w[n + k] * w[n + k])).collect();
+        let actions: Vec<f64> = (0..n)
+            .map(|k| 0.5 * (w[k] * w[k] + w[n + k] * w[n + k]))
+            .collect();
         let nu = self.frequencies(&actions);
         let mut wt = w.clone();
         for k in 0..n {

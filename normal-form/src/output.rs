@@ -4,7 +4,10 @@ use crate::normal_form::{NormalForm, Value};
 use std::fmt::Write;
 
 fn exps(e: &[u32]) -> String {
-    e.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(" ")
+    e.iter()
+        .map(|x| x.to_string())
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 fn monomial(vars: &[String], e: &[u32]) -> String {
@@ -12,7 +15,13 @@ fn monomial(vars: &[String], e: &[u32]) -> String {
         .iter()
         .zip(e)
         .filter(|(_, &k)| k > 0)
-        .map(|(v, &k)| if k == 1 { v.clone() } else { format!("{v}^{k}") })
+        .map(|(v, &k)| {
+            if k == 1 {
+                v.clone()
+            } else {
+                format!("{v}^{k}")
+            }
+        })
         .collect();
     if parts.is_empty() {
         "1".into()
@@ -26,7 +35,8 @@ fn err_str(v: &Value) -> String {
 }
 
 fn rel_str(v: &Value) -> String {
-    v.relative_error().map_or(String::new(), |e| format!("{e:.1e}"))
+    v.relative_error()
+        .map_or(String::new(), |e| format!("{e:.1e}"))
 }
 
 fn value_str(v: &Value) -> String {
@@ -44,7 +54,10 @@ impl NormalForm {
     }
     /// Names Q1…Qn, P1…Pn of the normal coordinates.
     fn normal_names(&self) -> Vec<String> {
-        (1..=self.n_dof).map(|k| format!("Q{k}")).chain((1..=self.n_dof).map(|k| format!("P{k}"))).collect()
+        (1..=self.n_dof)
+            .map(|k| format!("Q{k}"))
+            .chain((1..=self.n_dof).map(|k| format!("P{k}")))
+            .collect()
     }
 
     /// Everything as pretty JSON (the transformation maps are left out; see [`NormalForm::to_rust`]).
@@ -74,11 +87,25 @@ impl NormalForm {
         }
         row(&mut s, "energy", "E0", "", "0".into(), &self.energy);
         for (k, (v, sg)) in self.omega.iter().zip(&self.signs).enumerate() {
-            row(&mut s, "omega", &format!("omega{}", k + 1), &sg.to_string(), "2".into(), v);
+            row(
+                &mut s,
+                "omega",
+                &format!("omega{}", k + 1),
+                &sg.to_string(),
+                "2".into(),
+                v,
+            );
         }
         let an = self.action_names();
         for t in &self.hamiltonian {
-            row(&mut s, "hbar", &monomial(&an, &t.exponents), &exps(&t.exponents), t.degree.to_string(), &t.coeff);
+            row(
+                &mut s,
+                "hbar",
+                &monomial(&an, &t.exponents),
+                &exps(&t.exponents),
+                t.degree.to_string(),
+                &t.coeff,
+            );
         }
         if let Some(d) = &self.d4 {
             for (name, v) in [("A", &d.a), ("B", &d.b), ("C", &d.c), ("D4", &d.d4)] {
@@ -87,16 +114,42 @@ impl NormalForm {
         }
         let nn = self.normal_names();
         for t in &self.generating_function {
-            row(&mut s, "generating", &monomial(&nn, &t.exponents), &exps(&t.exponents), t.degree.to_string(), &t.coeff);
+            row(
+                &mut s,
+                "generating",
+                &monomial(&nn, &t.exponents),
+                &exps(&t.exponents),
+                t.degree.to_string(),
+                &t.coeff,
+            );
         }
         for d in &self.small_divisors {
-            let e = d.m.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(" ");
-            let v = Value { value: d.m_dot_omega, lo: 0.0, error: None };
-            row(&mut s, "divisor", if d.resonant { "resonant" } else { "m" }, &e, d.order.to_string(), &v);
+            let e =
+                d.m.iter()
+                    .map(|x| x.to_string())
+                    .collect::<Vec<_>>()
+                    .join(" ");
+            let v = Value {
+                value: d.m_dot_omega,
+                lo: 0.0,
+                error: None,
+            };
+            row(
+                &mut s,
+                "divisor",
+                if d.resonant { "resonant" } else { "m" },
+                &e,
+                d.order.to_string(),
+                &v,
+            );
         }
         for r in &self.resonant_terms {
             let e = format!("{} {}", exps(&r.x), exps(&r.y));
-            let v = Value { value: r.re, lo: r.im, error: None };
+            let v = Value {
+                value: r.re,
+                lo: r.im,
+                error: None,
+            };
             let deg = (r.x.iter().sum::<u32>() + r.y.iter().sum::<u32>()).to_string();
             row(&mut s, "resonant", "x^a y^b", &e, deg, &v);
         }
@@ -113,22 +166,40 @@ impl NormalForm {
             self.order,
             self.precision,
             if self.resonant { ", resonant" } else { "" },
-            self.diagnostics.error_method.as_ref().map_or(String::new(), |m| format!(", errors estimated as {m}"))
+            self.diagnostics
+                .error_method
+                .as_ref()
+                .map_or(String::new(), |m| format!(", errors estimated as {m}"))
         );
-        let _ = writeln!(s, "\nequilibrium (|grad H| = {:.1e}, {} Newton steps):", self.diagnostics.gradient_norm, self.diagnostics.newton_iterations);
+        let _ = writeln!(
+            s,
+            "\nequilibrium (|grad H| = {:.1e}, {} Newton steps):",
+            self.diagnostics.gradient_norm, self.diagnostics.newton_iterations
+        );
         for (name, v) in self.coordinates.iter().zip(&self.equilibrium) {
             let _ = writeln!(s, "  {name:>6} = {:>25}  {}", value_str(v), err_str(v));
         }
         let _ = writeln!(s, "  H(z_eq) = {}", value_str(&self.energy));
         let _ = writeln!(s, "\nlinear frequencies (H2 = sum sigma_k omega_k I_k):");
         for (k, (v, sg)) in self.omega.iter().zip(&self.signs).enumerate() {
-            let _ = writeln!(s, "  omega{} = {:>25}  sigma = {:+}  {}", k + 1, value_str(v), sg, err_str(v));
+            let _ = writeln!(
+                s,
+                "  omega{} = {:>25}  sigma = {:+}  {}",
+                k + 1,
+                value_str(v),
+                sg,
+                err_str(v)
+            );
         }
         let _ = writeln!(
             s,
             "\nnormal form  Hbar = H(z_eq) + sum_a h_a I^a,  I_k = (Q_k^2 + P_k^2)/2 in normal coordinates:"
         );
-        let _ = writeln!(s, "  {:<14} {:>6} {:>26} {:>10} {:>10}", "monomial", "degree", "h_a", "abs.err", "rel.err");
+        let _ = writeln!(
+            s,
+            "  {:<14} {:>6} {:>26} {:>10} {:>10}",
+            "monomial", "degree", "h_a", "abs.err", "rel.err"
+        );
         let an = self.action_names();
         for t in &self.hamiltonian {
             let _ = writeln!(
@@ -150,11 +221,20 @@ impl NormalForm {
         if !self.resonant_terms.is_empty() {
             let _ = writeln!(s, "\nresonant terms kept (complex coordinates x^a y^b):");
             for r in &self.resonant_terms {
-                let _ = writeln!(s, "  x^{:?} y^{:?}: {:.17e} {:+.17e}i", r.x, r.y, r.re, r.im);
+                let _ = writeln!(
+                    s,
+                    "  x^{:?} y^{:?}: {:.17e} {:+.17e}i",
+                    r.x, r.y, r.re, r.im
+                );
             }
         }
         let shown = self.small_divisors.len().min(10);
-        let _ = writeln!(s, "\nsmall divisors met ({} smallest of {}):", shown, self.small_divisors.len());
+        let _ = writeln!(
+            s,
+            "\nsmall divisors met ({} smallest of {}):",
+            shown,
+            self.small_divisors.len()
+        );
         for d in &self.small_divisors[..shown] {
             let _ = writeln!(
                 s,
@@ -173,7 +253,13 @@ impl NormalForm {
             self.order
         );
         for t in self.generating_function.iter().filter(|t| t.degree <= 4) {
-            let _ = writeln!(s, "  {:<24} {:>26} {:>10}", monomial(&nn, &t.exponents), value_str(&t.coeff), err_str(&t.coeff));
+            let _ = writeln!(
+                s,
+                "  {:<24} {:>26} {:>10}",
+                monomial(&nn, &t.exponents),
+                value_str(&t.coeff),
+                err_str(&t.coeff)
+            );
         }
         let d = &self.diagnostics;
         let _ = writeln!(
@@ -182,7 +268,9 @@ impl NormalForm {
             d.symplectic_residual,
             d.diagonal_residual,
             d.hbar_imag_residual,
-            d.amplification.map_or(String::new(), |a| format!(", rounding amplification {a:.1e}"))
+            d.amplification.map_or(String::new(), |a| format!(
+                ", rounding amplification {a:.1e}"
+            ))
         );
         let t = &d.timings;
         let _ = writeln!(

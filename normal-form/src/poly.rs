@@ -18,8 +18,19 @@ pub struct Poly<T> {
 /// `out += a·b` for homogeneous parts `a` (degree `da`) and `b` (degree `db`); `out` has
 /// degree `da + db`.
 #[inline]
-pub fn mul_acc_hom<T: Coeff>(table: &MonomialTable, out: &mut [T], a: &[T], da: usize, b: &[T], db: usize) {
-    let (a, da, b, db) = if a.len() <= b.len() { (a, da, b, db) } else { (b, db, a, da) };
+pub fn mul_acc_hom<T: Coeff>(
+    table: &MonomialTable,
+    out: &mut [T],
+    a: &[T],
+    da: usize,
+    b: &[T],
+    db: usize,
+) {
+    let (a, da, b, db) = if a.len() <= b.len() {
+        (a, da, b, db)
+    } else {
+        (b, db, a, da)
+    };
     let lk = &table.degree(da + db).lookup[..];
     let ka = &table.degree(da).keys[..];
     let kb = &table.degree(db).keys[..];
@@ -46,7 +57,10 @@ impl<T: Coeff> Poly<T> {
     /// The zero polynomial.
     pub fn zero(table: Arc<MonomialTable>) -> Self {
         let n = table.max_degree() + 1;
-        Poly { table, parts: vec![Vec::new(); n] }
+        Poly {
+            table,
+            parts: vec![Vec::new(); n],
+        }
     }
     /// The constant `c`.
     pub fn constant(table: Arc<MonomialTable>, c: T) -> Self {
@@ -131,7 +145,10 @@ impl<T: Coeff> Poly<T> {
     }
     /// Sets the coefficient of `x^e` (must be within the truncation degree).
     pub fn set_coeff(&mut self, e: &[u8], c: T) {
-        let (k, i) = self.table.index(e).expect("monomial within the truncation degree");
+        let (k, i) = self
+            .table
+            .index(e)
+            .expect("monomial within the truncation degree");
         self.part_mut(k)[i] = c;
     }
     /// The constant term.
@@ -140,10 +157,12 @@ impl<T: Coeff> Poly<T> {
     }
     /// Nonzero terms as (degree, index in degree, coefficient), by increasing degree.
     pub fn terms(&self) -> impl Iterator<Item = (usize, usize, T)> + '_ {
-        self.parts
-            .iter()
-            .enumerate()
-            .flat_map(|(k, p)| p.iter().enumerate().filter(|(_, c)| !c.is_zero()).map(move |(i, &c)| (k, i, c)))
+        self.parts.iter().enumerate().flat_map(|(k, p)| {
+            p.iter()
+                .enumerate()
+                .filter(|(_, c)| !c.is_zero())
+                .map(move |(i, &c)| (k, i, c))
+        })
     }
     /// Exponents of monomial `i` of degree `k`.
     pub fn exponents(&self, k: usize, i: usize) -> &[u8] {
@@ -159,7 +178,14 @@ impl<T: Coeff> Poly<T> {
     }
     /// Coefficient-wise map to another scalar.
     pub fn map<U: Coeff>(&self, f: impl Fn(T) -> U) -> Poly<U> {
-        Poly { table: self.table.clone(), parts: self.parts.iter().map(|p| p.iter().map(|&c| f(c)).collect()).collect() }
+        Poly {
+            table: self.table.clone(),
+            parts: self
+                .parts
+                .iter()
+                .map(|p| p.iter().map(|&c| f(c)).collect())
+                .collect(),
+        }
     }
     /// Same polynomial over a table with another truncation degree (terms above it dropped).
     pub fn retabled(&self, table: Arc<MonomialTable>) -> Poly<T> {
@@ -232,8 +258,12 @@ impl<T: Coeff> Poly<T> {
     pub fn mul(&self, o: &Poly<T>) -> Poly<T> {
         let n = self.max_degree();
         let mut r = Poly::zero(self.table.clone());
-        let nz_a: Vec<usize> = (0..=n).filter(|&k| self.part(k).is_some_and(|p| !is_zero_slice(p))).collect();
-        let nz_b: Vec<usize> = (0..=n).filter(|&k| o.part(k).is_some_and(|p| !is_zero_slice(p))).collect();
+        let nz_a: Vec<usize> = (0..=n)
+            .filter(|&k| self.part(k).is_some_and(|p| !is_zero_slice(p)))
+            .collect();
+        let nz_b: Vec<usize> = (0..=n)
+            .filter(|&k| o.part(k).is_some_and(|p| !is_zero_slice(p)))
+            .collect();
         for &i in &nz_a {
             for &j in &nz_b {
                 if i + j > n {
@@ -262,7 +292,10 @@ impl<T: Coeff> Poly<T> {
     /// variables ordered (q₁…q_n, p₁…p_n); truncated at degree N.
     pub fn poisson(&self, o: &Poly<T>) -> Poly<T> {
         let d = self.nvars();
-        assert!(d % 2 == 0, "Poisson bracket needs an even number of variables");
+        assert!(
+            d & 1 == 0,
+            "Poisson bracket needs an even number of variables"
+        );
         let n = d / 2;
         let mut r = Poly::zero(self.table.clone());
         for k in 0..n {
@@ -316,7 +349,10 @@ impl<T: Coeff> Poly<T> {
         let d = self.nvars();
         assert_eq!(m.len(), d);
         let table = self.table.clone();
-        let forms: Vec<Poly<T>> = m.iter().map(|row| Poly::linear(table.clone(), row)).collect();
+        let forms: Vec<Poly<T>> = m
+            .iter()
+            .map(|row| Poly::linear(table.clone(), row))
+            .collect();
         let mut out = Poly::zero(table.clone());
         if let Some(p) = self.part(0) {
             out.parts[0] = p.to_vec();
@@ -338,16 +374,27 @@ impl<T: Coeff> Poly<T> {
     }
     /// Largest |coefficient| of the degree-k part (0 if zero).
     pub fn max_abs(&self, k: usize) -> f64 {
-        self.part(k).map_or(0.0, |p| p.iter().map(|c| c.magnitude()).fold(0.0, f64::max))
+        self.part(k)
+            .map_or(0.0, |p| p.iter().map(|c| c.magnitude()).fold(0.0, f64::max))
     }
     /// Number of nonzero coefficients.
     pub fn nnz(&self) -> usize {
-        self.parts.iter().map(|p| p.iter().filter(|c| !c.is_zero()).count()).sum()
+        self.parts
+            .iter()
+            .map(|p| p.iter().filter(|c| !c.is_zero()).count())
+            .sum()
     }
 }
 
 /// Homogeneous `Σ_terms c·Π_{v≥var} ℓ_v^{e_v}` of degree `degree` by Horner in ℓ_var.
-fn subst_rec<T: Coeff>(table: &MonomialTable, forms: &[Poly<T>], terms: &[(T, &[u8])], var: usize, degree: usize) -> Vec<T> {
+#[allow(clippy::explicit_counter_loop)]
+fn subst_rec<T: Coeff>(
+    table: &MonomialTable,
+    forms: &[Poly<T>],
+    terms: &[(T, &[u8])],
+    var: usize,
+    degree: usize,
+) -> Vec<T> {
     let d = table.nvars();
     let lin = forms[var].part(1).expect("linear form");
     if var + 1 == d {
@@ -366,7 +413,10 @@ fn subst_rec<T: Coeff>(table: &MonomialTable, forms: &[Poly<T>], terms: &[(T, &[
     for &(c, e) in terms {
         groups[e[var] as usize].push((c, e));
     }
-    let top = (0..=degree).rev().find(|&e| !groups[e].is_empty()).expect("nonempty");
+    let top = (0..=degree)
+        .rev()
+        .find(|&e| !groups[e].is_empty())
+        .expect("nonempty");
     let mut acc = subst_rec(table, forms, &groups[top], var + 1, degree - top);
     let mut acc_deg = degree - top;
     for e in (0..top).rev() {
@@ -421,13 +471,24 @@ mod tests {
     #[test]
     fn linear_substitution_matches_evaluation() {
         let tab = t(3, 7);
-        let vars: Vec<Poly<f64>> = (0..3).map(|v| Poly::variable(tab.clone(), v, 0.0)).collect();
+        let vars: Vec<Poly<f64>> = (0..3)
+            .map(|v| Poly::variable(tab.clone(), v, 0.0))
+            .collect();
         let mut p = vars[0].mul(&vars[1]).mul(&vars[2]).add_constant(0.5);
-        p = p.add(&p.mul(&p)).add(&vars[2].mul(&vars[2]).mul(&vars[2]).mul(&vars[0]));
-        let m = vec![vec![0.3, -1.0, 2.0], vec![0.1, 0.2, -0.7], vec![1.1, 0.0, 0.4]];
+        p = p
+            .add(&p.mul(&p))
+            .add(&vars[2].mul(&vars[2]).mul(&vars[2]).mul(&vars[0]));
+        let m = vec![
+            vec![0.3, -1.0, 2.0],
+            vec![0.1, 0.2, -0.7],
+            vec![1.1, 0.0, 0.4],
+        ];
         let s = p.substitute_linear(&m);
         let w = [0.21, -0.33, 0.17];
-        let x: Vec<f64> = m.iter().map(|r| r.iter().zip(&w).map(|(a, b)| a * b).sum()).collect();
+        let x: Vec<f64> = m
+            .iter()
+            .map(|r| r.iter().zip(&w).map(|(a, b)| a * b).sum())
+            .collect();
         assert!((s.eval(&w) - p.eval(&x)).abs() < 1e-13);
     }
 }

@@ -51,7 +51,14 @@ pub trait Coeff:
     /// keys is a valid entry of `lk` pointing into `out`); this is checked in debug builds
     /// only. Scalars may override it with a faster loop (double-double does).
     #[inline]
-    fn mul_acc_kernel(out: &mut [Self], a: &[Self], ka: &[u32], b: &[Self], kb: &[u32], lk: &[u32]) {
+    fn mul_acc_kernel(
+        out: &mut [Self],
+        a: &[Self],
+        ka: &[u32],
+        b: &[Self],
+        kb: &[u32],
+        lk: &[u32],
+    ) {
         generic_kernel(out, a, ka, b, kb, lk, |o, x, y| o.mul_acc(x, y));
     }
 }

@@ -29,7 +29,10 @@ pub struct Field<'a, H: ?Sized> {
 impl<'a, H: HamiltonianFn + ?Sized> Field<'a, H> {
     /// The field of `h`.
     pub fn new(h: &'a H) -> Self {
-        Field { h, table: Arc::new(MonomialTable::new(2 * h.n_dof(), 1)) }
+        Field {
+            h,
+            table: Arc::new(MonomialTable::new(2 * h.n_dof(), 1)),
+        }
     }
     /// ż at z.
     pub fn eval(&self, z: &[f64]) -> Vec<f64> {
@@ -54,18 +57,53 @@ impl<'a, H: HamiltonianFn + ?Sized> Field<'a, H> {
 /// Integrates y' = f(y) from `y0` over `[0, t]` with the Dormand–Prince 5(4) pair
 /// (Hairer, Nørsett & Wanner, Solving ODEs I, §II.5), local error control
 /// `|err_i| ≤ atol + rtol·|y_i|`. Returns y(t) and the number of accepted steps.
-pub fn dopri5(f: &dyn Fn(&[f64]) -> Vec<f64>, y0: &[f64], t: f64, rtol: f64, atol: f64) -> (Vec<f64>, usize) {
+pub fn dopri5(
+    f: &dyn Fn(&[f64]) -> Vec<f64>,
+    y0: &[f64],
+    t: f64,
+    rtol: f64,
+    atol: f64,
+) -> (Vec<f64>, usize) {
     const C: [f64; 7] = [0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0];
     const A: [[f64; 6]; 7] = [
         [0.0; 6],
         [1.0 / 5.0, 0.0, 0.0, 0.0, 0.0, 0.0],
         [3.0 / 40.0, 9.0 / 40.0, 0.0, 0.0, 0.0, 0.0],
         [44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0, 0.0, 0.0, 0.0],
-        [19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0, 0.0, 0.0],
-        [9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0, 0.0],
-        [35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0],
+        [
+            19372.0 / 6561.0,
+            -25360.0 / 2187.0,
+            64448.0 / 6561.0,
+            -212.0 / 729.0,
+            0.0,
+            0.0,
+        ],
+        [
+            9017.0 / 3168.0,
+            -355.0 / 33.0,
+            46732.0 / 5247.0,
+            49.0 / 176.0,
+            -5103.0 / 18656.0,
+            0.0,
+        ],
+        [
+            35.0 / 384.0,
+            0.0,
+            500.0 / 1113.0,
+            125.0 / 192.0,
+            -2187.0 / 6784.0,
+            11.0 / 84.0,
+        ],
     ];
-    const B: [f64; 7] = [35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0, 0.0];
+    const B: [f64; 7] = [
+        35.0 / 384.0,
+        0.0,
+        500.0 / 1113.0,
+        125.0 / 192.0,
+        -2187.0 / 6784.0,
+        11.0 / 84.0,
+        0.0,
+    ];
     const E: [f64; 7] = [
         71.0 / 57600.0,
         0.0,
@@ -79,7 +117,7 @@ pub fn dopri5(f: &dyn Fn(&[f64]) -> Vec<f64>, y0: &[f64], t: f64, rtol: f64, ato
     let n = y0.len();
     let mut y = y0.to_vec();
     let mut s = 0.0;
-    let mut h = (t.abs() / 100.0).min(0.01).max(1e-6) * t.signum();
+    let mut h = (t.abs() / 100.0).clamp(1e-6, 0.01) * t.signum();
     let mut k: Vec<Vec<f64>> = vec![f(&y); 7];
     let mut steps = 0;
     while (t - s) * t.signum() > 0.0 {
@@ -93,7 +131,9 @@ pub fn dopri5(f: &dyn Fn(&[f64]) -> Vec<f64>, y0: &[f64], t: f64, rtol: f64, ato
             }
             k[i] = f(&yi);
         }
-        let ynew: Vec<f64> = (0..n).map(|j| y[j] + h * (0..7).map(|l| B[l] * k[l][j]).sum::<f64>()).collect();
+        let ynew: Vec<f64> = (0..n)
+            .map(|j| y[j] + h * (0..7).map(|l| B[l] * k[l][j]).sum::<f64>())
+            .collect();
         let err = (0..n)
             .map(|j| {
                 let e = h * (0..7).map(|l| E[l] * k[l][j]).sum::<f64>();
@@ -141,7 +181,9 @@ pub fn measure_frequencies<H: HamiltonianFn + ?Sized>(
         if s > 0 {
             z = dopri5(&f, &z, dt, tol, tol).0;
         }
-        let w = reference.to_normal(&z).expect("reference with transformation");
+        let w = reference
+            .to_normal(&z)
+            .expect("reference with transformation");
         ts.push(s as f64 * dt);
         for k in 0..n {
             let th = w[n + k].atan2(w[k]);

@@ -6,7 +6,10 @@ use lasalle_normal_form::{normalize, Options, Point, Precision};
 
 fn d4(mu: f64, precision: Precision) -> f64 {
     let h = Cr3bp { mu };
-    let opts = Options::with_order(4).precision(precision).error_estimate(false).transform(false);
+    let opts = Options::with_order(4)
+        .precision(precision)
+        .error_estimate(false)
+        .transform(false);
     let nf = normalize(&h, &Point::Given(h.l4().to_vec()), &opts).expect("normal form");
     let d = nf.d4.expect("two degrees of freedom").d4;
     d.value + d.lo
@@ -17,14 +20,32 @@ fn d4(mu: f64, precision: Precision) -> f64 {
 fn d4_matches_deprit_across_the_stable_range() {
     let mu_r = Cr3bp::mu_routh();
     // away from 1:3 (0.013516), 1:2 (0.024294), μ_c (D₄ = 0) and μ_R (1:1)
-    let mus = [1e-4, 5e-4, 0.001, 0.003, 0.005, 0.008, 0.01, Cr3bp::EARTH_MOON, 0.016, 0.02, 0.028, 0.03, 0.034, 0.037];
+    let mus = [
+        1e-4,
+        5e-4,
+        0.001,
+        0.003,
+        0.005,
+        0.008,
+        0.01,
+        Cr3bp::EARTH_MOON,
+        0.016,
+        0.02,
+        0.028,
+        0.03,
+        0.034,
+        0.037,
+    ];
     for &mu in &mus {
         assert!(mu < mu_r);
         let reference = deprit_d4(mu);
         for precision in [Precision::F64, Precision::DoubleDouble] {
             let ours = d4(mu, precision);
             let rel = ((ours + reference) / reference).abs();
-            assert!(rel < 1e-10, "mu = {mu} ({precision}): ours {ours}, Deprit {reference}, rel {rel:e}");
+            assert!(
+                rel < 1e-10,
+                "mu = {mu} ({precision}): ours {ours}, Deprit {reference}, rel {rel:e}"
+            );
         }
     }
 }
@@ -33,7 +54,10 @@ fn d4_matches_deprit_across_the_stable_range() {
 fn critical_mass_ratio_from_our_d4() {
     // secant/bisection on our D₄(μ) in double-double
     let (mut a, mut b) = (0.0105, 0.0113);
-    let (mut fa, fb) = (d4(a, Precision::DoubleDouble), d4(b, Precision::DoubleDouble));
+    let (mut fa, fb) = (
+        d4(a, Precision::DoubleDouble),
+        d4(b, Precision::DoubleDouble),
+    );
     assert!(fa * fb < 0.0);
     for _ in 0..60 {
         let m = 0.5 * (a + b);
@@ -53,5 +77,8 @@ fn critical_mass_ratio_from_our_d4() {
     let w = (541.0 - 199_945f64.sqrt()) / 1288.0;
     let exact = (1.0 - (1.0 - 16.0 * w / 27.0).sqrt()) / 2.0;
     assert!((mu_c - 0.0109137).abs() < 1e-7, "mu_c = {mu_c}");
-    assert!((mu_c - exact).abs() < 1e-12, "mu_c = {mu_c}, closed form {exact}");
+    assert!(
+        (mu_c - exact).abs() < 1e-12,
+        "mu_c = {mu_c}, closed form {exact}"
+    );
 }

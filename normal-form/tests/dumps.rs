@@ -5,7 +5,9 @@ use lasalle_normal_form::models::Cr3bp;
 use lasalle_normal_form::{normalize, NormalForm, Options, Point};
 
 fn nf() -> NormalForm {
-    let h = Cr3bp { mu: Cr3bp::EARTH_MOON };
+    let h = Cr3bp {
+        mu: Cr3bp::EARTH_MOON,
+    };
     normalize(&h, &Point::Newton(h.l4().to_vec()), &Options::with_order(8)).unwrap()
 }
 
@@ -14,14 +16,24 @@ fn json_csv_table() {
     let nf = nf();
     let v: serde_json::Value = serde_json::from_str(&nf.to_json()).unwrap();
     assert_eq!(v["order"], 8);
-    assert_eq!(v["hamiltonian"].as_array().unwrap().len(), nf.hamiltonian.len());
+    assert_eq!(
+        v["hamiltonian"].as_array().unwrap().len(),
+        nf.hamiltonian.len()
+    );
     assert!(v["d4"]["d4"]["value"].as_f64().unwrap() < 0.0);
     let csv = nf.to_csv();
     let hbar_rows = csv.lines().filter(|l| l.starts_with("hbar,")).count();
     assert_eq!(hbar_rows, nf.hamiltonian.len());
     assert!(csv.lines().all(|l| l.split(',').count() == 7));
     let table = nf.to_table();
-    for s in ["equilibrium", "linear frequencies", "normal form", "Arnold-Moser", "small divisors", "generating function"] {
+    for s in [
+        "equilibrium",
+        "linear frequencies",
+        "normal form",
+        "Arnold-Moser",
+        "small divisors",
+        "generating function",
+    ] {
         assert!(table.contains(s), "missing {s}");
     }
 }
@@ -40,14 +52,29 @@ fn emitted_rust_compiles_and_agrees() {
     std::fs::write(&src, main).unwrap();
     let exe = dir.join("emitted");
     let rustc = std::env::var("RUSTC").unwrap_or_else(|_| "rustc".into());
-    let status = std::process::Command::new(rustc).args(["--edition", "2021", "-O", "-o"]).arg(&exe).arg(&src).status().unwrap();
+    let status = std::process::Command::new(rustc)
+        .args(["--edition", "2021", "-O", "-o"])
+        .arg(&exe)
+        .arg(&src)
+        .status()
+        .unwrap();
     assert!(status.success(), "emitted code does not compile");
     let out = String::from_utf8(std::process::Command::new(&exe).output().unwrap().stdout).unwrap();
-    let nums: Vec<f64> = out.replace(['[', ']', ','], " ").split_whitespace().map(|s| s.parse().unwrap()).collect();
+    let nums: Vec<f64> = out
+        .replace(['[', ']', ','], " ")
+        .split_whitespace()
+        .map(|s| s.parse().unwrap())
+        .collect();
     let z = nf.flow(&z0, 7.5).unwrap();
     let i = nf.actions(&z0).unwrap();
     let nu = nf.frequencies(&i);
-    let expected: Vec<f64> = z.iter().chain(&i).chain(&nu).copied().chain([nf.energy_at(&i)]).collect();
+    let expected: Vec<f64> = z
+        .iter()
+        .chain(&i)
+        .chain(&nu)
+        .copied()
+        .chain([nf.energy_at(&i)])
+        .collect();
     assert_eq!(nums.len(), expected.len());
     for (a, b) in nums.iter().zip(&expected) {
         assert!((a - b).abs() <= 1e-14 * b.abs().max(1e-3), "{a} vs {b}");

@@ -3,9 +3,15 @@
 use lasalle_normal_form::models::Cr3bp;
 use lasalle_normal_form::{normalize, NormalFormError, Options, Point};
 
-fn run(mu: f64, order: usize, resonant: bool) -> Result<lasalle_normal_form::NormalForm, NormalFormError> {
+fn run(
+    mu: f64,
+    order: usize,
+    resonant: bool,
+) -> Result<lasalle_normal_form::NormalForm, NormalFormError> {
     let h = Cr3bp { mu };
-    let opts = Options::with_order(order).resonant(resonant).error_estimate(false);
+    let opts = Options::with_order(order)
+        .resonant(resonant)
+        .error_estimate(false);
     normalize(&h, &Point::Newton(h.l4().to_vec()), &opts)
 }
 
@@ -13,7 +19,12 @@ fn run(mu: f64, order: usize, resonant: bool) -> Result<lasalle_normal_form::Nor
 fn resonance_1_2_stops_at_order_3() {
     let e = run(0.0242939, 3, false).unwrap_err();
     match &e {
-        NormalFormError::Resonance { m, m_dot_omega, order, .. } => {
+        NormalFormError::Resonance {
+            m,
+            m_dot_omega,
+            order,
+            ..
+        } => {
             assert_eq!(m, &vec![1, -2]);
             assert_eq!(*order, 3);
             assert!(m_dot_omega.abs() < 1e-6);
@@ -21,7 +32,10 @@ fn resonance_1_2_stops_at_order_3() {
         other => panic!("expected a resonance, got {other}"),
     }
     let msg = e.to_string();
-    assert!(msg.contains("m = (1, -2)") && msg.contains("order 3"), "{msg}");
+    assert!(
+        msg.contains("m = (1, -2)") && msg.contains("order 3"),
+        "{msg}"
+    );
     // order 2 (linear normal form only) is fine
     assert!(run(0.0242939, 2, false).is_ok());
 }
@@ -48,7 +62,10 @@ fn resonant_mode_keeps_the_resonant_terms() {
         let m = [m[0] * nf.signs[0] as i32, m[1] * nf.signs[1] as i32];
         (m[0] * 2 + m[1]) == 0 || (m == [0, 0])
     }));
-    assert!(nf.small_divisors.iter().any(|d| d.resonant && d.m == vec![1, -2]));
+    assert!(nf
+        .small_divisors
+        .iter()
+        .any(|d| d.resonant && d.m == vec![1, -2]));
     assert!(nf.flow(&Cr3bp { mu: 0.0242939 }.l4(), 1.0).is_none());
 }
 
@@ -58,22 +75,42 @@ fn beyond_routh_is_not_elliptic() {
     match &e {
         NormalFormError::NotElliptic { eigenvalues, .. } => {
             assert_eq!(eigenvalues.len(), 4);
-            assert!(eigenvalues.iter().all(|l| l.re.abs() > 1e-3 && l.im.abs() > 1e-3));
+            assert!(eigenvalues
+                .iter()
+                .all(|l| l.re.abs() > 1e-3 && l.im.abs() > 1e-3));
         }
         other => panic!("expected not elliptic, got {other}"),
     }
-    assert!(e.to_string().starts_with("equilibrium is not elliptic: eigenvalues"), "{e}");
+    assert!(
+        e.to_string()
+            .starts_with("equilibrium is not elliptic: eigenvalues"),
+        "{e}"
+    );
 }
 
 #[test]
 fn a_point_that_is_not_an_equilibrium() {
     let h = Cr3bp { mu: 0.01 };
-    let e = normalize(&h, &Point::Given(vec![0.5, 0.8, -0.8, 0.5]), &Options::with_order(4)).unwrap_err();
+    let e = normalize(
+        &h,
+        &Point::Given(vec![0.5, 0.8, -0.8, 0.5]),
+        &Options::with_order(4),
+    )
+    .unwrap_err();
     assert!(matches!(e, NormalFormError::NotAnEquilibrium { .. }), "{e}");
     // the same point as a Newton start converges to L4
-    let nf = normalize(&h, &Point::Newton(vec![0.5, 0.8, -0.8, 0.5]), &Options::with_order(4)).unwrap();
+    let nf = normalize(
+        &h,
+        &Point::Newton(vec![0.5, 0.8, -0.8, 0.5]),
+        &Options::with_order(4),
+    )
+    .unwrap();
     let l4 = h.l4();
-    assert!(nf.equilibrium.iter().zip(&l4).all(|(a, b)| (a.value - b).abs() < 1e-14));
+    assert!(nf
+        .equilibrium
+        .iter()
+        .zip(&l4)
+        .all(|(a, b)| (a.value - b).abs() < 1e-14));
     assert!(matches!(
         normalize(&h, &Point::Newton(l4.to_vec()), &Options::with_order(1)),
         Err(NormalFormError::Invalid(_))

@@ -7,7 +7,10 @@ use lasalle_normal_form::{normalize, NormalForm, Options, Point, Precision};
 
 fn run(mu: f64, order: usize, precision: Precision, rotation: Vec<f64>) -> NormalForm {
     let h = Cr3bp { mu };
-    let mut opts = Options::with_order(order).precision(precision).error_estimate(false).transform(false);
+    let mut opts = Options::with_order(order)
+        .precision(precision)
+        .error_estimate(false)
+        .transform(false);
     opts.basis_rotation = rotation;
     normalize(&h, &Point::Newton(h.l4().to_vec()), &opts).unwrap()
 }
@@ -17,7 +20,11 @@ fn worst_relative(a: &NormalForm, b: &NormalForm, max_degree: usize) -> f64 {
         .iter()
         .zip(&b.hamiltonian)
         .filter(|(x, _)| x.degree <= max_degree)
-        .map(|(x, y)| (((x.coeff.value - y.coeff.value) + (x.coeff.lo - y.coeff.lo)) / (y.coeff.value + y.coeff.lo)).abs())
+        .map(|(x, y)| {
+            (((x.coeff.value - y.coeff.value) + (x.coeff.lo - y.coeff.lo))
+                / (y.coeff.value + y.coeff.lo))
+                .abs()
+        })
         .fold(0.0, f64::max)
 }
 
@@ -45,12 +52,19 @@ fn f64_at_earth_moon() {
 #[test]
 fn error_estimates_are_reported() {
     let h = Cr3bp { mu: 0.001 };
-    let nf = normalize(&h, &Point::Newton(h.l4().to_vec()), &Options::with_order(8).transform(false)).unwrap();
+    let nf = normalize(
+        &h,
+        &Point::Newton(h.l4().to_vec()),
+        &Options::with_order(8).transform(false),
+    )
+    .unwrap();
     assert!(nf.hamiltonian.iter().all(|t| t.coeff.error.is_some()));
     // the estimate |f64 − dd| is the actual f64 error
     let dd = run(0.001, 8, Precision::DoubleDouble, vec![]);
     for (t, r) in nf.hamiltonian.iter().zip(&dd.hamiltonian) {
         let actual = ((t.coeff.value - r.coeff.value) - r.coeff.lo).abs();
-        assert!((t.coeff.error.unwrap() - actual).abs() <= 1e-3 * actual + 1e-16 * r.coeff.value.abs());
+        assert!(
+            (t.coeff.error.unwrap() - actual).abs() <= 1e-3 * actual + 1e-16 * r.coeff.value.abs()
+        );
     }
 }
