@@ -2,6 +2,7 @@
 
 mod experiment;
 mod gen;
+mod normal_form;
 mod plot;
 mod run;
 mod sim;
@@ -28,6 +29,8 @@ enum Command {
     /// Reproduce the paper's §4 experiments (rigid-body, kepler, perturbed-kepler) or the
     /// gain study (gains): data, tables and figures.
     Experiment(experiment::ExperimentArgs),
+    /// Birkhoff normal form of a Hamiltonian model at an elliptic equilibrium.
+    NormalForm(normal_form::NormalFormArgs),
 }
 
 /// Parses the command line and runs the subcommand.
@@ -36,5 +39,6 @@ pub fn main() -> CliResult {
         Command::Gen(args) => gen::run(&args),
         Command::Run(args) => run::run(&args),
         Command::Experiment(args) => experiment::run(&args),
+        Command::NormalForm(args) => normal_form::run(&args),
     }
 }
