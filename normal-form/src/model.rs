@@ -30,8 +30,8 @@ impl<S: Scalar> IrScalar for Adapt<S> {
     fn powi(&self, n: i32) -> Self {
         Adapt(self.0.powi(n))
     }
-    fn powf(&self, p: f64) -> Self {
-        Adapt(self.0.powf(p))
+    fn powf(&self, p: lasalle_codegen::ir::Rational) -> Self {
+        Adapt(self.0.powf(p.to_f64()))
     }
     fn exp(&self) -> Self {
         Adapt(self.0.exp())

@@ -1,11 +1,12 @@
 //! Evaluation of the DAG over any number-like type: f64 for checks, truncated power series
 //! for Taylor expansion (normal forms), intervals or jets later.
 
-use super::{Graph, Id, Input, Node};
+use super::{Graph, Id, Input, Node, Rational};
 
 /// What the DAG needs from a value type to be evaluated over it.
 ///
-/// `powf` is only called with rational exponents that are not integers (±½, ±3/2, …).
+/// `powf` is only called with rational exponents that are not integers (±½, ±3/2, …); the
+/// exponent is exact, so extended-precision types can compute with it exactly.
 pub trait Scalar: Clone {
     /// A constant.
     fn from_f64(c: f64) -> Self;
@@ -18,7 +19,7 @@ pub trait Scalar: Clone {
     /// selfⁿ for an integer n (negative allowed).
     fn powi(&self, n: i32) -> Self;
     /// selfᵖ for a non-integer rational p.
-    fn powf(&self, p: f64) -> Self;
+    fn powf(&self, p: Rational) -> Self;
     /// eˢᵉˡᶠ
     fn exp(&self) -> Self;
     /// ln(self)
@@ -27,6 +28,22 @@ pub trait Scalar: Clone {
     fn sin(&self) -> Self;
     /// cos(self)
     fn cos(&self) -> Self;
+    /// −self
+    fn neg(&self) -> Self {
+        self.mul(&Self::from_f64(-1.0))
+    }
+    /// self − o
+    fn sub(&self, o: &Self) -> Self {
+        self.add(&o.neg())
+    }
+    /// self / o
+    fn div(&self, o: &Self) -> Self {
+        self.mul(&o.recip())
+    }
+    /// √self
+    fn sqrt(&self) -> Self {
+        self.powf(Rational::new(1, 2))
+    }
 }
 
 impl Scalar for f64 {
@@ -45,14 +62,15 @@ impl Scalar for f64 {
     fn powi(&self, n: i32) -> Self {
         f64::powi(*self, n)
     }
-    fn powf(&self, p: f64) -> Self {
-        if p == 0.5 {
-            self.sqrt()
-        } else if p == -0.5 {
-            1.0 / self.sqrt()
-        } else {
-            f64::powf(*self, p)
+    fn powf(&self, p: Rational) -> Self {
+        match (p.num, p.den) {
+            (1, 2) => f64::sqrt(*self),
+            (-1, 2) => 1.0 / f64::sqrt(*self),
+            _ => f64::powf(*self, p.to_f64()),
         }
+    }
+    fn sqrt(&self) -> Self {
+        f64::sqrt(*self)
     }
     fn exp(&self) -> Self {
         f64::exp(*self)
@@ -84,7 +102,7 @@ impl Graph {
                 Node::Add(c) => c[1..].iter().fold(v(&c[0]).clone(), |acc, k| acc.add(v(k))),
                 Node::Mul(c) => c[1..].iter().fold(v(&c[0]).clone(), |acc, k| acc.mul(v(k))),
                 Node::Pow(b, e) if e.is_int() => v(b).powi(e.num),
-                Node::Pow(b, e) => v(b).powf(e.to_f64()),
+                Node::Pow(b, e) => v(b).powf(*e),
                 Node::Func(f, a) => {
                     let a = v(a);
                     match f {
