@@ -8,13 +8,7 @@ use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
 use std::collections::HashMap;
 
-/// How leaves are read inside the function.
-pub struct Leaves<'a> {
-    /// Name and source expression (`x[3]`, `self.mu`, …) of an input.
-    pub input: &'a dyn Fn(Input) -> (String, TokenStream),
-    /// Preferred names for nodes that are `let` bindings of the model, with the note to print.
-    pub let_names: &'a HashMap<Id, (String, String)>,
-}
+use super::leaves::Leaves;
 
 /// One assignment of the function: `place = value;`, optionally under a note.
 pub struct Output {
@@ -48,19 +42,42 @@ struct Writer<'a> {
     scope: Scope,
 }
 
-/// The statements of a function computing `outputs`, with `reserved` names (arguments) taken,
-/// and the number of operations they execute. The outputs are first rewritten for emission
-/// (factored sums, shared products) in `g`.
-pub fn body(
-    g: &mut Graph,
-    leaves: &Leaves,
-    outputs: &[Output],
-    reserved: &[&str],
-) -> (TokenStream, u64) {
+/// A function body and what it needs.
+pub struct Body {
+    /// The statements.
+    pub tokens: TokenStream,
+    /// Operations it executes.
+    pub ops: u64,
+    /// The inputs it reads.
+    inputs: Vec<Input>,
+}
+
+impl Body {
+    /// The argument `name`, with a leading underscore if the body reads no input of its kind
+    /// (generated code has no unused-variable warnings).
+    pub fn arg(&self, name: &str, kind: fn(&Input) -> bool) -> proc_macro2::Ident {
+        if self.inputs.iter().any(kind) {
+            format_ident!("{}", name)
+        } else {
+            format_ident!("_{}", name)
+        }
+    }
+}
+
+/// The statements of a function computing `outputs`, with `reserved` names (arguments) taken.
+/// The outputs are first rewritten for emission (factored sums, shared products) in `g`.
+pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str]) -> Body {
     let roots = g.optimize_for_emission(&outputs.iter().map(|o| o.id).collect::<Vec<_>>());
     let ops = g.op_count(&roots).dag;
     let g: &Graph = g;
     let order = g.reachable(&roots);
+    let inputs: Vec<Input> = order
+        .iter()
+        .filter_map(|&id| match g.node(id) {
+            Node::Input(i) => Some(*i),
+            _ => None,
+        })
+        .collect();
     let mut uses: HashMap<Id, usize> = HashMap::new();
     for &id in &order {
         for &c in g.children(id) {
@@ -79,7 +96,7 @@ pub fn body(
     // Leaves, each read once.
     for &id in &order {
         if let Node::Input(i) = g.node(id) {
-            let (name, source) = (leaves.input)(*i);
+            let (name, source) = leaves.input(*i);
             let name = w.scope.fresh(&name);
             let ident = format_ident!("{}", name);
             stmts.push(quote!(let #ident = #source;));
@@ -94,7 +111,7 @@ pub fn body(
             continue;
         }
         let shared = uses.get(&id).copied().unwrap_or(0) >= 2;
-        let let_name = leaves.let_names.get(&id);
+        let let_name = leaves.let_name(id);
         // A square root whose powers are needed elsewhere is named so `r.powi(3)` can reuse it.
         if !(shared || let_name.is_some()) {
             continue;
@@ -133,7 +150,11 @@ pub fn body(
             stmts.push(quote!(#place = #value;));
         }
     }
-    (quote!(#(#stmts)*), ops)
+    Body {
+        tokens: quote!(#(#stmts)*),
+        ops,
+        inputs,
+    }
 }
 
 /// A numeric literal as `T`.

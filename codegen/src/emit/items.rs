@@ -1,0 +1,351 @@
+//! The model's own items: the parameter struct, its inherent methods (gains, targets, named
+//! points, nalgebra views of the state), and the `ModelInfo` and `Parameters` impls.
+
+use super::body::{literal, Output};
+use super::names::{snake, Scope};
+use super::{note_for, u, Emitter};
+use crate::model::{InvariantKind, Shape};
+use proc_macro2::{Literal, TokenStream};
+use quote::{format_ident, quote};
+
+fn shape_tokens(shape: Shape) -> TokenStream {
+    match shape {
+        Shape::Scalar => quote!(Shape::Scalar),
+        Shape::Vector(n) => {
+            let n = u(n);
+            quote!(Shape::Vector(#n))
+        }
+        Shape::Matrix(r, c) => {
+            let (r, c) = (u(r), u(c));
+            quote!(Shape::Matrix(#r, #c))
+        }
+    }
+}
+
+fn fmt_values(v: &[f64]) -> String {
+    if v.len() == 1 {
+        format!("{}", v[0])
+    } else {
+        format!(
+            "[{}]",
+            v.iter()
+                .map(|x| format!("{x}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    }
+}
+
+impl Emitter<'_> {
+    /// The parameter struct, `Default`, the size constants and the inherent methods.
+    pub fn struct_items(&mut self) -> TokenStream {
+        let model = self.model;
+        let points = self.point_fns();
+        let (ty, n, m, ng) = (&self.ty, u(self.n), u(self.m), u(self.gains()));
+        let fields: Vec<_> = self
+            .leaves
+            .fields
+            .iter()
+            .map(|f| format_ident!("{}", f))
+            .collect();
+        let struct_fields = model.params.iter().zip(&fields).map(|(p, f)| {
+            let t: TokenStream = if p.diagonal {
+                format!("[T; {}]", p.slots())
+            } else {
+                p.shape.rust_type()
+            }
+            .parse()
+            .expect("type");
+            let doc = format!(
+                " `{}` ({}{}), default {}: `{}`",
+                p.name,
+                p.shape,
+                if p.diagonal {
+                    ", stored as its diagonal"
+                } else {
+                    ""
+                },
+                fmt_values(&p.defaults),
+                p.span
+                    .text()
+                    .split_whitespace()
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            );
+            quote!(#[doc = #doc] pub #f: #t)
+        });
+        let struct_defaults = model.params.iter().zip(&fields).map(|(p, f)| {
+            let value = match (p.shape, p.diagonal) {
+                (Shape::Scalar, _) => literal(p.defaults[0]),
+                (Shape::Vector(_), _) | (_, true) => {
+                    let v = p.defaults.iter().map(|&x| literal(x));
+                    quote!([#(#v),*])
+                }
+                (Shape::Matrix(r, c), false) => {
+                    let rows = (0..r).map(|i| {
+                        let v = (0..c).map(|j| literal(p.defaults[j * r + i]));
+                        quote!([#(#v),*])
+                    });
+                    quote!([#(#rows),*])
+                }
+            };
+            quote!(#f: #value)
+        });
+        let gain_lits = model.gains.iter().map(|k| literal(k.default));
+        let struct_doc = format!(
+            " Parameters of the model `{}`: state dimension N = {}, invariant components M = {}, gains G = {}.",
+            model.name,
+            self.n,
+            self.m,
+            self.gains()
+        );
+        quote! {
+            #[doc = #struct_doc]
+            #[derive(Clone, Copy, Debug, PartialEq)]
+            pub struct #ty<T = f64> {
+                #(#struct_fields,)*
+            }
+
+            impl<T: Float> Default for #ty<T> {
+                fn default() -> Self {
+                    #ty { #(#struct_defaults,)* }
+                }
+            }
+
+            impl<T> #ty<T> {
+                /// Dimension N of the flat state.
+                pub const N: usize = #n;
+                /// Number M of stacked invariant components.
+                pub const M: usize = #m;
+                /// Number G of gains.
+                pub const G: usize = #ng;
+            }
+
+            impl<T: Float> #ty<T> {
+                /// The gains as written in the model file.
+                pub fn default_gains() -> [T; #ng] {
+                    [#(#gain_lits),*]
+                }
+
+                /// The target f(x₀) of the feedback field: the invariants at the initial state.
+                pub fn targets(&self, x0: &[T; #n]) -> [T; #m] {
+                    let mut f = [T::zero(); #m];
+                    self.invariants(x0, &mut f);
+                    f
+                }
+
+                #(#points)*
+            }
+        }
+    }
+
+    /// `point_<name>()` for each named point, evaluated from the parameters.
+    fn point_fns(&mut self) -> Vec<TokenStream> {
+        let n = u(self.n);
+        let model = self.model;
+        model
+            .points
+            .iter()
+            .map(|pt| {
+                let fname = format_ident!("point_{}", snake(&pt.name));
+                let outputs: Vec<Output> = pt
+                    .values
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &id)| {
+                        let k = u(k);
+                        Output {
+                            place: quote!(out[#k]),
+                            id,
+                            note: None,
+                        }
+                    })
+                    .collect();
+                let body = self.body(&outputs, &["out"]).tokens;
+                let doc = format!(" The point `{}` ({}).", pt.name, note_for(model, &pt.span));
+                quote! {
+                    #[doc = #doc]
+                    pub fn #fname(&self) -> [T; #n] {
+                        let mut out = [T::zero(); #n];
+                        #body
+                        out
+                    }
+                }
+            })
+            .collect()
+    }
+
+    /// nalgebra views of the state blocks: `Kepler::x(&state)`, `Kepler::x_mut(&mut state)`.
+    pub fn accessors(&self) -> TokenStream {
+        let (ty, n) = (&self.ty, u(self.n));
+        let mut scope = Scope::with(&["default_gains", "targets"]);
+        let accessors = self.model.state.iter().map(|s| {
+            let name = scope.fresh(&snake(&s.name));
+            let (get, get_mut) = (format_ident!("{}", name), format_ident!("{}_mut", name));
+            let (a, b) = (u(s.offset), u(s.offset + s.shape.len()));
+            let (r, c) = s.shape.dims();
+            let (rd, cd) = (format_ident!("U{}", r), format_ident!("U{}", c));
+            match s.shape {
+                Shape::Scalar => {
+                    let doc = format!(" The state component `{}` of a flat state.", s.name);
+                    quote! {
+                        #[doc = #doc]
+                        pub fn #get(x: &[T; #n]) -> T { x[#a] }
+                    }
+                }
+                _ => {
+                    let doc = format!(" The state block `{}` ({}) of a flat state, as a nalgebra view.", s.name, s.shape);
+                    quote! {
+                        #[doc = #doc]
+                        pub fn #get(x: &[T; #n]) -> nalgebra::MatrixView<'_, T, nalgebra::#rd, nalgebra::#cd> {
+                            nalgebra::MatrixView::<'_, T, nalgebra::#rd, nalgebra::#cd>::from_slice(&x[#a..#b])
+                        }
+                        #[doc = #doc]
+                        pub fn #get_mut(x: &mut [T; #n]) -> nalgebra::MatrixViewMut<'_, T, nalgebra::#rd, nalgebra::#cd> {
+                            nalgebra::MatrixViewMut::<'_, T, nalgebra::#rd, nalgebra::#cd>::from_slice(&mut x[#a..#b])
+                        }
+                    }
+                }
+            }
+        });
+        quote! {
+            impl<T: Float + nalgebra::Scalar> #ty<T> {
+                #(#accessors)*
+            }
+        }
+    }
+
+    /// `impl ModelInfo`: names, shapes and offsets.
+    pub fn model_info_impl(&self) -> TokenStream {
+        let model = self.model;
+        let (ty, name) = (&self.ty, &model.name);
+        let slot = |name: &str, shape: Shape, offset: usize| {
+            let (shape, off) = (shape_tokens(shape), u(offset));
+            quote!(Slot { name: #name, shape: #shape, offset: #off })
+        };
+        let state_slots = model.state.iter().map(|s| slot(&s.name, s.shape, s.offset));
+        let param_slots = model.params.iter().map(|p| {
+            slot(
+                &p.name,
+                if p.diagonal {
+                    Shape::Vector(p.slots())
+                } else {
+                    p.shape
+                },
+                p.offset,
+            )
+        });
+        let inv_infos = model.invariants.iter().map(|f| {
+            let s = slot(&f.name, f.value.shape, f.offset);
+            let gain = u(f.gain);
+            let kind = match f.kind {
+                InvariantKind::Constraint => quote!(InvariantKind::Constraint),
+                InvariantKind::Integral => quote!(InvariantKind::Integral),
+            };
+            quote!(InvariantInfo { slot: #s, kind: #kind, gain: #gain })
+        });
+        let gain_names = model.gains.iter().map(|k| k.name.as_str());
+        let gain_defaults = model
+            .gains
+            .iter()
+            .map(|k| Literal::f64_unsuffixed(k.default));
+        quote! {
+            impl<T> ModelInfo for #ty<T> {
+                const NAME: &'static str = #name;
+                const STATE: &'static [Slot] = &[#(#state_slots),*];
+                const INVARIANTS: &'static [InvariantInfo] = &[#(#inv_infos),*];
+                const GAIN_NAMES: &'static [&'static str] = &[#(#gain_names),*];
+                const DEFAULT_GAINS: &'static [f64] = &[#(#gain_defaults),*];
+                const PARAMS: &'static [Slot] = &[#(#param_slots),*];
+            }
+        }
+    }
+
+    /// `impl Parameters`: parameters and points by name, for command lines and configs.
+    pub fn parameters_impl(&self) -> TokenStream {
+        let model = self.model;
+        let ty = &self.ty;
+        let fields: Vec<_> = self
+            .leaves
+            .fields
+            .iter()
+            .map(|f| format_ident!("{}", f))
+            .collect();
+        let set_arms = model.params.iter().zip(&fields).map(|(p, fi)| {
+            let name = &p.name;
+            let len = u(p.slots());
+            let assign = match (p.shape, p.diagonal) {
+                (Shape::Scalar, _) => quote!(self.#fi = values[0];),
+                (Shape::Vector(_), _) | (_, true) => quote!(self.#fi.copy_from_slice(values);),
+                (Shape::Matrix(r, c), false) => {
+                    let (r, c) = (u(r), u(c));
+                    quote! {
+                        for j in 0..#c { for i in 0..#r { self.#fi[i][j] = values[j * #r + i]; } }
+                    }
+                }
+            };
+            quote! {
+                #name => {
+                    if values.len() != #len {
+                        return Err(ParamError::WrongLength { name: name.to_string(), expected: #len, given: values.len() });
+                    }
+                    #assign
+                    Ok(())
+                }
+            }
+        });
+        let get_arms = model.params.iter().zip(&fields).map(|(p, fi)| {
+            let name = &p.name;
+            match (p.shape, p.diagonal) {
+                (Shape::Scalar, _) => quote!(#name => Some(vec![self.#fi])),
+                (Shape::Vector(_), _) | (_, true) => quote!(#name => Some(self.#fi.to_vec())),
+                (Shape::Matrix(r, c), false) => {
+                    let (r, c) = (u(r), u(c));
+                    quote!(#name => Some((0..#c).flat_map(|j| (0..#r).map(move |i| (i, j))).map(|(i, j)| self.#fi[i][j]).collect()))
+                }
+            }
+        });
+        let known = model
+            .params
+            .iter()
+            .map(|p| format!("`{}`", p.name))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let known = if known.is_empty() {
+            "(none)".to_string()
+        } else {
+            known
+        };
+        let point_names = model.points.iter().map(|p| p.name.as_str());
+        let point_arms = model.points.iter().map(|pt| {
+            let name = &pt.name;
+            let fname = format_ident!("point_{}", snake(&pt.name));
+            quote!(#name => Some(self.#fname().to_vec()))
+        });
+        quote! {
+            impl Parameters for #ty<f64> {
+                fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
+                    match name {
+                        #(#set_arms)*
+                        _ => Err(ParamError::Unknown { name: name.to_string(), known: #known.to_string() }),
+                    }
+                }
+                fn param(&self, name: &str) -> Option<Vec<f64>> {
+                    match name {
+                        #(#get_arms,)*
+                        _ => None,
+                    }
+                }
+                fn point_names(&self) -> &'static [&'static str] {
+                    &[#(#point_names),*]
+                }
+                fn point(&self, name: &str) -> Option<Vec<f64>> {
+                    match name {
+                        #(#point_arms,)*
+                        _ => None,
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,147 @@
+//! How a function reads its leaves: state components, parameters, targets and gains, each
+//! under a readable name (`x_0`, `mu`, `l_0_2`, `k1`), and which nodes carry `let` names.
+
+use super::names::{snake, Scope};
+use super::{note_for, u};
+use crate::ir::{Id, Input};
+use crate::model::{Model, Shape};
+use proc_macro2::TokenStream;
+use quote::{format_ident, quote};
+use std::collections::HashMap;
+
+/// Names of a model's leaves and `let` bindings in generated code.
+pub struct Leaves<'a> {
+    model: &'a Model,
+    /// Rust field name of each parameter.
+    pub fields: Vec<String>,
+    /// Nodes bound by `let`: their name and the note quoting the binding.
+    let_names: HashMap<Id, (String, String)>,
+}
+
+/// The name of component `j` of a block called `base`: `x_0`, `r_12` (row 1, column 2).
+fn component(base: &str, shape: Shape, j: usize) -> String {
+    match shape {
+        Shape::Scalar => base.to_string(),
+        Shape::Vector(_) => format!("{base}_{j}"),
+        Shape::Matrix(r, _) => format!("{base}_{}{}", j % r, j / r),
+    }
+}
+
+impl<'a> Leaves<'a> {
+    /// The leaves of `model`; fails if two parameters would share a Rust field name.
+    pub fn new(model: &'a Model) -> Result<Self, crate::Diagnostic> {
+        let mut scope = Scope::with(&[]);
+        let mut fields = Vec::new();
+        for p in &model.params {
+            let name = snake(&p.name);
+            let fresh = scope.fresh(&name);
+            if fresh != name && !matches!(name.as_str(), "type" | "fn" | "self") {
+                let other = model
+                    .params
+                    .iter()
+                    .find(|q| snake(&q.name) == name)
+                    .map_or("", |q| q.name.as_str());
+                return Err(crate::Diagnostic::new(
+                    &p.span,
+                    format!(
+                        "parameters `{}` and `{other}` would both be the Rust field `{name}`",
+                        p.name
+                    ),
+                )
+                .help("rename one of them"));
+            }
+            fields.push(fresh);
+        }
+        let mut let_names = HashMap::new();
+        for b in &model.lets {
+            let base = snake(&b.name);
+            for (j, &id) in b.value.ids.iter().enumerate() {
+                if model.graph.children(id).is_empty() {
+                    continue; // a let that is just a leaf or a number needs no temporary
+                }
+                let_names
+                    .entry(id)
+                    .or_insert((component(&base, b.value.shape, j), note_for(model, &b.span)));
+            }
+        }
+        Ok(Leaves {
+            model,
+            fields,
+            let_names,
+        })
+    }
+
+    /// The name and note of a node bound by `let`.
+    pub fn let_name(&self, id: Id) -> Option<&(String, String)> {
+        self.let_names.get(&id)
+    }
+
+    /// The name of state component k (`x_0`, `r_12`, `theta`).
+    pub fn state_name(&self, k: usize) -> String {
+        let s = self
+            .model
+            .state
+            .iter()
+            .find(|s| (s.offset..s.offset + s.shape.len()).contains(&k))
+            .expect("in range");
+        component(&snake(&s.name), s.shape, k - s.offset)
+    }
+
+    /// The name of an input and the expression that reads it.
+    pub fn input(&self, i: Input) -> (String, TokenStream) {
+        let model = self.model;
+        match i {
+            Input::State(k) => {
+                let k = k as usize;
+                let ku = u(k);
+                (self.state_name(k), quote!(x[#ku]))
+            }
+            Input::Param(k) => {
+                let k = k as usize;
+                let (pi, p) = model
+                    .params
+                    .iter()
+                    .enumerate()
+                    .find(|(_, p)| (p.offset..p.offset + p.slots()).contains(&k))
+                    .expect("slot");
+                let field = format_ident!("{}", self.fields[pi]);
+                let j = k - p.offset;
+                match (p.shape, p.diagonal) {
+                    (Shape::Scalar, _) => (self.fields[pi].clone(), quote!(self.#field)),
+                    (Shape::Vector(_), _) | (_, true) => {
+                        let ju = u(j);
+                        (format!("{}_{j}", self.fields[pi]), quote!(self.#field[#ju]))
+                    }
+                    (Shape::Matrix(r, _), false) => {
+                        let (i, c) = (j % r, j / r);
+                        let (iu, cu) = (u(i), u(c));
+                        (
+                            format!("{}_{i}{c}", self.fields[pi]),
+                            quote!(self.#field[#iu][#cu]),
+                        )
+                    }
+                }
+            }
+            Input::Target(k) => {
+                let k = k as usize;
+                let f = model
+                    .invariants
+                    .iter()
+                    .find(|f| (f.offset..f.offset + f.value.shape.len()).contains(&k))
+                    .expect("target");
+                let base = snake(&f.name);
+                let name = if f.value.shape.len() == 1 {
+                    format!("{base}_0")
+                } else {
+                    format!("{base}_0_{}", k - f.offset)
+                };
+                let ku = u(k);
+                (name, quote!(target[#ku]))
+            }
+            Input::Gain(k) => {
+                let ku = u(k as usize);
+                (snake(&model.gains[k as usize].name), quote!(gains[#ku]))
+            }
+        }
+    }
+}

@@ -1,0 +1,211 @@
+//! The runtime-trait impls of a model: `Field`, `Invariants`, `Lyapunov`, `Partitioned`.
+
+use super::body::{Body, Output};
+use super::{file_name, note_for, u, Emitter};
+use crate::ir::{Id, Input};
+use proc_macro2::TokenStream;
+use quote::quote;
+
+fn is_state(i: &Input) -> bool {
+    matches!(i, Input::State(_))
+}
+fn is_target(i: &Input) -> bool {
+    matches!(i, Input::Target(_))
+}
+fn is_gain(i: &Input) -> bool {
+    matches!(i, Input::Gain(_))
+}
+
+/// An indexed place: `dx[3]`, `f[0]`.
+fn place(array: &str, k: usize) -> TokenStream {
+    let array = quote::format_ident!("{}", array);
+    let k = u(k);
+    quote!(#array[#k])
+}
+
+impl Emitter<'_> {
+    /// `dx[k] = X_k` for the components where `only(k)`, each under its model line.
+    fn field_outputs(&self, ids: &[Id], only: impl Fn(usize) -> bool) -> Vec<Output> {
+        ids.iter()
+            .enumerate()
+            .filter(|(k, _)| only(*k))
+            .map(|(k, &id)| Output {
+                place: place("dx", k),
+                id,
+                note: Some(note_for(self.model, &self.model.field_spans[k])),
+            })
+            .collect()
+    }
+
+    /// The note of the invariant that stacked component k belongs to.
+    fn invariant_note(&self, k: usize) -> String {
+        let f = self
+            .model
+            .invariants
+            .iter()
+            .find(|f| (f.offset..f.offset + f.value.shape.len()).contains(&k))
+            .expect("row");
+        note_for(self.model, &f.span)
+    }
+
+    /// `impl Field`, and the body's operation count.
+    pub fn field_impl(&mut self) -> (TokenStream, u64) {
+        let outputs = self.field_outputs(&self.model.field, |_| true);
+        let body = self.body(&outputs, &["x", "dx"]);
+        let (ty, n) = (&self.ty, u(self.n));
+        let x = body.arg("x", is_state);
+        let tokens = &body.tokens;
+        (
+            quote! {
+                impl<T: Float> Field<T, #n> for #ty<T> {
+                    fn field(&self, #x: &[T; #n], dx: &mut [T; #n]) { #tokens }
+                }
+            },
+            body.ops,
+        )
+    }
+
+    /// `impl Invariants`, and the operation counts of f and Df.
+    pub fn invariants_impl(&mut self) -> (TokenStream, u64, u64, Vec<Id>) {
+        let f_ids = self.model.invariant_ids();
+        let outputs: Vec<Output> = f_ids
+            .iter()
+            .enumerate()
+            .map(|(k, &id)| Output {
+                place: place("f", k),
+                id,
+                note: Some(self.invariant_note(k)),
+            })
+            .collect();
+        let inv = self.body(&outputs, &["x", "f"]);
+        let mut jac_outputs = Vec::new();
+        let mut jac_ids = Vec::new();
+        for (c, row) in self.d.jacobian.iter().enumerate() {
+            for (i, &id) in row.iter().enumerate() {
+                if self.model.graph.as_num(id) != Some(0.0) {
+                    let (cu, iu) = (u(c), u(i));
+                    jac_outputs.push(Output {
+                        place: quote!(jac[#cu][#iu]),
+                        id,
+                        note: Some(self.invariant_note(c)),
+                    });
+                    jac_ids.push(id);
+                }
+            }
+        }
+        let jac = self.body(&jac_outputs, &["x", "jac"]);
+        let (ty, n, m) = (&self.ty, u(self.n), u(self.m));
+        let jac_init = if jac_outputs.len() < self.n * self.m {
+            quote!(*jac = [[T::zero(); #n]; #m];)
+        } else {
+            quote!()
+        };
+        let (ix, jx) = (inv.arg("x", is_state), jac.arg("x", is_state));
+        let (inv_tokens, jac_tokens) = (&inv.tokens, &jac.tokens);
+        let tokens = quote! {
+            impl<T: Float> Invariants<T, #n, #m> for #ty<T> {
+                fn invariants(&self, #ix: &[T; #n], f: &mut [T; #m]) { #inv_tokens }
+                fn invariants_jacobian(&self, #jx: &[T; #n], jac: &mut [[T; #n]; #m]) {
+                    #jac_init
+                    #jac_tokens
+                }
+            }
+        };
+        (tokens, inv.ops, jac.ops, jac_ids)
+    }
+
+    /// `impl Lyapunov`, and the operation counts of V, ∇V and X − ∇V.
+    pub fn lyapunov_impl(&mut self) -> (TokenStream, [u64; 3]) {
+        let model = self.model;
+        let v_note = model
+            .lyapunov_span
+            .as_ref()
+            .map(|s| note_for(model, s))
+            .unwrap_or_else(|| {
+                format!(
+                    "{}: V = Σ k/2 |f − f(x₀)|² over the invariants",
+                    file_name(model)
+                )
+            });
+        let v = self.body(
+            &[Output {
+                place: TokenStream::new(),
+                id: model.lyapunov,
+                note: Some(v_note),
+            }],
+            &["x", "target", "gains"],
+        );
+        let grad_outputs: Vec<Output> = self
+            .d
+            .lyapunov_gradient
+            .iter()
+            .enumerate()
+            .map(|(k, &id)| Output {
+                place: place("grad", k),
+                id,
+                note: Some(format!("∂V/∂x[{k}] ({})", self.leaves.state_name(k))),
+            })
+            .collect();
+        let grad = self.body(&grad_outputs, &["x", "target", "gains", "grad"]);
+        let fb_outputs: Vec<Output> = self
+            .d
+            .feedback
+            .iter()
+            .enumerate()
+            .map(|(k, &id)| Output {
+                place: place("dx", k),
+                id,
+                note: Some(format!(
+                    "{} − ∂V/∂x[{k}]",
+                    note_for(model, &model.field_spans[k])
+                )),
+            })
+            .collect();
+        let fb = self.body(&fb_outputs, &["x", "target", "gains", "dx"]);
+        let (ty, n, m, ng) = (&self.ty, u(self.n), u(self.m), u(self.gains()));
+        let sig = |b: &Body| {
+            (
+                b.arg("x", is_state),
+                b.arg("target", is_target),
+                b.arg("gains", is_gain),
+            )
+        };
+        let ((vx, vt, vg), (gx, gt, gg), (fx, ft, fg)) = (sig(&v), sig(&grad), sig(&fb));
+        let (v_tokens, grad_tokens, fb_tokens) = (&v.tokens, &grad.tokens, &fb.tokens);
+        let tokens = quote! {
+            impl<T: Float> Lyapunov<T, #n, #m, #ng> for #ty<T> {
+                fn lyapunov(&self, #vx: &[T; #n], #vt: &[T; #m], #vg: &[T; #ng]) -> T {
+                    #v_tokens
+                }
+                fn lyapunov_gradient(&self, #gx: &[T; #n], #gt: &[T; #m], #gg: &[T; #ng], grad: &mut [T; #n]) { #grad_tokens }
+                fn feedback_field(&self, #fx: &[T; #n], #ft: &[T; #m], #fg: &[T; #ng], dx: &mut [T; #n]) { #fb_tokens }
+            }
+        };
+        (tokens, [v.ops, grad.ops, fb.ops])
+    }
+
+    /// `impl Partitioned` for fields q̇ = a(p), ṗ = b(q): Störmer–Verlet's half-fields.
+    pub fn partitioned_impl(&mut self) -> TokenStream {
+        let Some(is_q) = self.d.partition.clone() else {
+            return TokenStream::new();
+        };
+        let q = self.body(
+            &self.field_outputs(&self.model.field, |k| is_q[k]),
+            &["x", "dx"],
+        );
+        let p = self.body(
+            &self.field_outputs(&self.model.field, |k| !is_q[k]),
+            &["x", "dx"],
+        );
+        let (ty, n) = (&self.ty, u(self.n));
+        let (qx, px) = (q.arg("x", is_state), p.arg("x", is_state));
+        let (q_tokens, p_tokens) = (&q.tokens, &p.tokens);
+        quote! {
+            impl<T: Float> Partitioned<T, #n> for #ty<T> {
+                const IS_Q: [bool; #n] = [#(#is_q),*];
+                fn field_q(&self, #qx: &[T; #n], dx: &mut [T; #n]) { #q_tokens }
+                fn field_p(&self, #px: &[T; #n], dx: &mut [T; #n]) { #p_tokens }
+            }
+        }
+    }
+}
