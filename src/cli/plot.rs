@@ -46,7 +46,8 @@ pub struct Chart {
     pub x_label: String,
     /// y axis label.
     pub y_label: String,
-    /// Logarithmic y axis (values ≤ [`LOG_FLOOR`] are drawn at the floor).
+    /// Logarithmic y axis (values below the smallest positive one, e.g. exact zeros, are drawn
+    /// at the bottom of the axis).
     pub log_y: bool,
     /// Equal scales on both axes (orbits).
     pub equal_aspect: bool,
@@ -54,8 +55,7 @@ pub struct Chart {
     pub series: Vec<Series>,
 }
 
-/// Smallest value drawn on a logarithmic axis (exact zeros, e.g. an invariant kept to the last
-/// bit, sit here).
+/// Values up to this are "zero" on a logarithmic axis (left out of its range).
 pub const LOG_FLOOR: f64 = 1e-17;
 
 /// Colours of the methods: feedback (blue), projection (orange), splitting / Störmer–Verlet
@@ -227,12 +227,22 @@ fn ranges(chart: &Chart) -> ((f64, f64), (f64, f64)) {
             if !(x.is_finite() && y.is_finite()) {
                 continue;
             }
-            let y = if chart.log_y { y.max(LOG_FLOOR) } else { y };
+            // exact zeros (t = 0) would stretch a log axis to the floor: leave them out of the
+            // range; they are drawn at its bottom
+            if chart.log_y && y <= LOG_FLOOR {
+                x0 = x0.min(x);
+                x1 = x1.max(x);
+                continue;
+            }
             x0 = x0.min(x);
             x1 = x1.max(x);
             y0 = y0.min(y);
             y1 = y1.max(y);
         }
+    }
+    if !y0.is_finite() {
+        y0 = if chart.log_y { 1e-16 } else { 0.0 };
+        y1 = 1.0;
     }
     if !x0.is_finite() {
         return ((0.0, 1.0), (if chart.log_y { 1e-16 } else { 0.0 }, 1.0));
@@ -275,7 +285,7 @@ where
         let ctx = builder
             .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
             .map_err(|e| e.to_string())?;
-        finish_chart(ctx, chart, |v: &f64| format!("{v:.0e}"))
+        finish_chart(ctx, chart, y0, |v: &f64| format!("{v:.0e}"))
     } else {
         let (x0, x1, y0, y1) = if chart.equal_aspect {
             equalise(area, (x0, x1), (y0, y1))
@@ -285,7 +295,7 @@ where
         let ctx = builder
             .build_cartesian_2d(x0..x1, y0..y1)
             .map_err(|e| e.to_string())?;
-        finish_chart(ctx, chart, |v: &f64| format!("{v:.3}"))
+        finish_chart(ctx, chart, f64::NEG_INFINITY, |v: &f64| format!("{v:.3}"))
     }
 }
 
@@ -312,6 +322,7 @@ fn equalise<DB: DrawingBackend>(
 fn finish_chart<'a, DB, Y>(
     mut ctx: ChartContext<'a, DB, Cartesian2d<RangedCoordf64, Y>>,
     chart: &Chart,
+    y_floor: f64,
     y_fmt: impl Fn(&f64) -> String,
 ) -> CliResult
 where
@@ -329,14 +340,13 @@ where
         .light_line_style(RGBColor(235, 235, 235))
         .draw()
         .map_err(|e| e.to_string())?;
-    let floor = chart.log_y;
     for s in &chart.series {
         let color = PALETTE[s.color % PALETTE.len()];
         let pts =
             s.x.iter()
                 .zip(&s.y)
                 .filter(|(x, y)| x.is_finite() && y.is_finite())
-                .map(move |(&x, &y)| (x, if floor { y.max(LOG_FLOOR) } else { y }));
+                .map(move |(&x, &y)| (x, y.max(y_floor)));
         let anno = match s.style {
             Style::Line => ctx
                 .draw_series(LineSeries::new(pts, color.stroke_width(1)))

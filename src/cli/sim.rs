@@ -345,8 +345,9 @@ pub trait CliModel<const N: usize, const M: usize, const G: usize>:
     /// says why the model cannot use it.
     fn special<V: Visit<Self, N>>(&self, method: Method, visit: V) -> Result<V::Out, String>;
 
-    /// A check run on the state after every step (e.g. Kepler: |x| → 0 is a collision).
-    fn guard() -> Option<fn(&[f64; N]) -> Option<String>> {
+    /// A check run on the state after every step, given the step size (e.g. Kepler: |x| → 0
+    /// is a collision).
+    fn guard() -> Option<fn(&[f64; N], f64) -> Option<String>> {
         None
     }
 }
@@ -354,9 +355,23 @@ pub trait CliModel<const N: usize, const M: usize, const G: usize>:
 /// |x| below this stops a Kepler run: the field is singular at the origin.
 pub const COLLISION_RADIUS: f64 = 1e-6;
 
-fn collision_guard(x: &[f64; 6]) -> Option<String> {
+/// The Kepler guard: |x| → 0. A fixed step jumps over the singularity instead of landing on
+/// it, so the run also stops when one step moves further than the distance to the centre,
+/// h·|v| > |x| (the close approach is not resolved; the state after it is meaningless).
+/// `h = 0` (adaptive methods, which shrink their steps) checks |x| only.
+pub fn collision_guard(x: &[f64; 6], h: f64) -> Option<String> {
     let r = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
-    (r < COLLISION_RADIUS).then(|| format!("collision: |x| = {r:e} < {COLLISION_RADIUS:e}"))
+    let v = (x[3] * x[3] + x[4] * x[4] + x[5] * x[5]).sqrt();
+    if r < COLLISION_RADIUS {
+        Some(format!("collision: |x| = {r:e} < {COLLISION_RADIUS:e}"))
+    } else if h * v > r {
+        Some(format!(
+            "collision: |x| = {r:e} is below one step h·|v| = {:e}; the close approach is not resolved",
+            h * v
+        ))
+    } else {
+        None
+    }
 }
 
 fn needs_partitioned(method: Method, model: ModelName) -> String {
@@ -379,7 +394,7 @@ impl CliModel<6, 6, 2> for Kepler {
         }
     }
 
-    fn guard() -> Option<fn(&[f64; 6]) -> Option<String>> {
+    fn guard() -> Option<fn(&[f64; 6], f64) -> Option<String>> {
         Some(collision_guard)
     }
 }
@@ -395,7 +410,7 @@ impl CliModel<6, 4, 2> for PerturbedKepler {
         }
     }
 
-    fn guard() -> Option<fn(&[f64; 6]) -> Option<String>> {
+    fn guard() -> Option<fn(&[f64; 6], f64) -> Option<String>> {
         Some(collision_guard)
     }
 }
@@ -656,7 +671,7 @@ struct Drive<'a, Mdl, F: ?Sized, const N: usize, const M: usize> {
     field: &'a F,
     x0: [f64; N],
     spec: &'a RunSpec,
-    guard: Option<fn(&[f64; N]) -> Option<String>>,
+    guard: Option<fn(&[f64; N], f64) -> Option<String>>,
     invariants: PhantomData<[f64; M]>,
 }
 
@@ -680,7 +695,8 @@ where
         let bar = progress_bar(spec.progress, &spec.method.to_string());
         let mut driver = Driver::new(0.0, spec.t_end, spec.dt);
         if let Some(g) = self.guard {
-            driver = driver.guard(1, g);
+            let h = spec.dt;
+            driver = driver.guard(1, move |x: &[f64; N]| g(x, h));
         }
         let mut obs = Sampler {
             inner: &mut rec,

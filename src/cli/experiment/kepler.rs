@@ -104,7 +104,7 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
     let _ = writeln!(
         report,
         "## Kepler problem (paper §4.2, Figs. 5–7)\n\n`{}`\n\nμ = 1, x(0) = (1, 0, 0), v(0) = (0, √1.8, 0), \
-         t ∈ [0, {t_end}] ({:.1} periods of T = {PERIOD}), Δt = {dt}; feedback gains (k₁, k₂) = (4, 2); \
+         t ∈ [0, {t_end:.1}] ({:.1} periods of T = {PERIOD}), Δt = {dt}; feedback gains (k₁, k₂) = (4, 2); \
          projection tolerance {dt}. Errors at the end and the largest of {} samples (every {} steps); \
          arg A is the perihelion direction (0 initially): its drift is the precession.\n",
         command_line(args, "kepler"),

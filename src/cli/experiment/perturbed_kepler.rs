@@ -14,7 +14,7 @@ use lasalle::{Control, DormandPrince, Driver, VerletVariant};
 use serde_json::json;
 
 use super::super::plot::{thin, write_figure, Chart, Style};
-use super::super::sim::{num, simulate, Base, Method, RunSpec, Trace, COLLISION_RADIUS};
+use super::super::sim::{collision_guard, num, simulate, Base, Method, RunSpec, Trace};
 use super::{command_line, failure_note, must, sci, write_outputs, ExperimentArgs, Table};
 use crate::cli::CliResult;
 
@@ -40,10 +40,7 @@ pub fn dense_reference(
     let mut out = Vec::with_capacity(times.len());
     let t_end = *times.last().ok_or("no output times")?;
     Driver::new(0.0, t_end, 0.0)
-        .guard(1, |x: &[f64; 6]| {
-            let r = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
-            (r < COLLISION_RADIUS).then(|| format!("collision: |x| = {r:e}"))
-        })
+        .guard(1, |x: &[f64; 6]| collision_guard(x, 0.0))
         .run_dense(
             &mut DormandPrince::with_tolerances(tol, tol),
             model,
