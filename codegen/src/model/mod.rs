@@ -1,5 +1,6 @@
 //! The lowered model: the syntax tree resolved into shaped values over one DAG.
 
+mod expr;
 mod lower;
 mod value;
 
