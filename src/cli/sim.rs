@@ -333,6 +333,9 @@ pub trait Visit<F: ?Sized, const N: usize> {
     fn visit<S: Stepper<f64, N, F> + Stats>(self, stepper: S) -> Self::Out;
 }
 
+/// A check of the state after a step of size h: `Some(message)` stops the run.
+pub type GuardFn<const N: usize> = fn(&[f64; N], f64) -> Option<String>;
+
 /// A model the command line can run: the generated traits plus the steppers that need the
 /// model's structure (Störmer–Verlet, splitting) and a validity guard.
 pub trait CliModel<const N: usize, const M: usize, const G: usize>:
@@ -347,7 +350,7 @@ pub trait CliModel<const N: usize, const M: usize, const G: usize>:
 
     /// A check run on the state after every step, given the step size (e.g. Kepler: |x| → 0
     /// is a collision).
-    fn guard() -> Option<fn(&[f64; N], f64) -> Option<String>> {
+    fn guard() -> Option<GuardFn<N>> {
         None
     }
 }
@@ -366,7 +369,8 @@ pub fn collision_guard(x: &[f64; 6], h: f64) -> Option<String> {
         Some(format!("collision: |x| = {r:e} < {COLLISION_RADIUS:e}"))
     } else if h * v > r {
         Some(format!(
-            "collision: |x| = {r:e} is below one step h·|v| = {:e}; the close approach is not resolved",
+            "collision or blow-up: one step h·|v| = {:e} exceeds |x| = {r:e}, so the close \
+             approach is not resolved",
             h * v
         ))
     } else {
@@ -394,7 +398,7 @@ impl CliModel<6, 6, 2> for Kepler {
         }
     }
 
-    fn guard() -> Option<fn(&[f64; 6], f64) -> Option<String>> {
+    fn guard() -> Option<GuardFn<6>> {
         Some(collision_guard)
     }
 }
@@ -410,7 +414,7 @@ impl CliModel<6, 4, 2> for PerturbedKepler {
         }
     }
 
-    fn guard() -> Option<fn(&[f64; 6], f64) -> Option<String>> {
+    fn guard() -> Option<GuardFn<6>> {
         Some(collision_guard)
     }
 }
@@ -671,7 +675,7 @@ struct Drive<'a, Mdl, F: ?Sized, const N: usize, const M: usize> {
     field: &'a F,
     x0: [f64; N],
     spec: &'a RunSpec,
-    guard: Option<fn(&[f64; N], f64) -> Option<String>>,
+    guard: Option<GuardFn<N>>,
     invariants: PhantomData<[f64; M]>,
 }
 

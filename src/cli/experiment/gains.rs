@@ -250,12 +250,14 @@ fn pericentre_check(model: &PerturbedKepler, x0: &[f64; 6]) -> String {
     let times: Vec<f64> = (0..=400).map(|i| i as f64 * 0.01).collect();
     let along =
         super::perturbed_kepler::dense_reference(model, x0, &times, 1e-10).unwrap_or_default();
-    let max_along = |k: [f64; 2]| {
+    let norms = |k: [f64; 2]| {
         along
             .iter()
             .map(|x| gauss_newton_norm::<PerturbedKepler, f64, 6, 4, 2>(model, x, &k))
-            .fold(0.0f64, f64::max)
+            .collect::<Vec<f64>>()
     };
+    let max_along = |k: [f64; 2]| norms(k).into_iter().fold(0.0f64, f64::max);
+    let min_along = |k: [f64; 2]| norms(k).into_iter().fold(f64::INFINITY, f64::min);
     let (lp, lu) = (gains_of([2.0, 3.0]), gains_of([1.0, 1.0]));
     let (mp, mu) = (max_along([2.0, 3.0]), max_along([1.0, 1.0]));
     let verdict = |hl: f64| {
@@ -268,7 +270,8 @@ fn pericentre_check(model: &PerturbedKepler, x0: &[f64; 6]) -> String {
     format!(
         "Perturbed Kepler, Δt = {h}: at the pericentre h·L = {:.3} with the paper's gains (2, 3), {}, \
          and {:.3} with unity gains, {}. The largest h·L along the orbit is {:.3} (paper gains) and \
-         {:.3} (unity); Euler's limit is reached at h = 2/L = {:.4} (paper gains) and {:.4} (unity).\n",
+         {:.3} (unity); Euler's limit is reached at h = 2/L = {:.4} (paper gains) and {:.4} (unity). \
+         Along one orbit L (unity gains) ranges over [{:.3}, {:.3}], a factor {:.1}.\n",
         h * lp,
         verdict(h * lp),
         h * lu,
@@ -277,5 +280,8 @@ fn pericentre_check(model: &PerturbedKepler, x0: &[f64; 6]) -> String {
         h * mu,
         2.0 / mp,
         2.0 / mu,
+        min_along([1.0, 1.0]),
+        mu,
+        mu / min_along([1.0, 1.0]),
     )
 }

@@ -6,7 +6,7 @@
 //! Kepler problem (41) = (31) − Lemma 3.5, written the way one would by hand: plain `f64`
 //! arrays, the intermediate quantities (RᵀR − I, ΔE, Δπ; ΔL, ΔA) computed once.
 
-#![allow(dead_code)]
+#![allow(dead_code, clippy::needless_range_loop)]
 
 /// The rigid-body feedback field for 𝕀 = diag(`i`), state x = (R column-major, Ω):
 ///
