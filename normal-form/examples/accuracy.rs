@@ -2,8 +2,7 @@
 //! double-double in a rotated normal basis (an error estimate independent of the precision).
 //!
 //! `cargo run -p lasalle-normal-form --release --example accuracy [mu] [order]`
-use lasalle_normal_form::models::Cr3bp;
-use lasalle_normal_form::{normalize, Options, Point, Precision};
+use lasalle_normal_form::{normalize_model, ModelPoint, Options, Precision};
 
 fn main() {
     let mu: f64 = std::env::args()
@@ -14,19 +13,23 @@ fn main() {
         .nth(2)
         .and_then(|s| s.parse().ok())
         .unwrap_or(12);
-    let h = Cr3bp { mu };
-    let p = Point::Newton(h.l4().to_vec());
+    let model =
+        lasalle_codegen::load_model(concat!(env!("CARGO_MANIFEST_DIR"), "/../models/cr3bp.lsl"))
+            .expect("model");
+    let params = [("mu".to_string(), mu)];
+    let l4 = ModelPoint::Named("L4".into());
+    let normalize = |opts: &Options| normalize_model(&model, &params, &l4, opts);
     let base = Options::with_order(order)
         .error_estimate(false)
         .transform(false);
-    let f = normalize(&h, &p, &base.clone().precision(Precision::F64)).unwrap();
-    let d = normalize(&h, &p, &base.clone().precision(Precision::DoubleDouble)).unwrap();
+    let f = normalize(&base.clone().precision(Precision::F64)).unwrap();
+    let d = normalize(&base.clone().precision(Precision::DoubleDouble)).unwrap();
     let mut rot = base.clone().precision(Precision::DoubleDouble);
     rot.basis_rotation = vec![0.7, -1.3];
-    let dr = normalize(&h, &p, &rot).unwrap();
+    let dr = normalize(&rot).unwrap();
     let mut rotf = base.clone();
     rotf.basis_rotation = vec![0.7, -1.3];
-    let fr = normalize(&h, &p, &rotf).unwrap();
+    let fr = normalize(&rotf).unwrap();
     println!(
         "mu = {mu}, order {order}, omega = {:?}",
         d.frequencies_linear()

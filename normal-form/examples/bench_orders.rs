@@ -1,8 +1,8 @@
 //! Timings of the L4 normal form (Earth–Moon) per order and precision, with peak memory.
 //!
 //! `cargo run -p lasalle-normal-form --release --example bench_orders [orders…]`
-use lasalle_normal_form::models::Cr3bp;
-use lasalle_normal_form::{normalize, Options, Point, Precision};
+use lasalle_normal_form::validate::EARTH_MOON_MU;
+use lasalle_normal_form::{normalize_model, ModelPoint, Options, Precision};
 use std::time::Instant;
 
 fn peak_rss_kib() -> Option<u64> {
@@ -28,10 +28,11 @@ fn main() {
         }
     };
     let transform = !std::env::args().any(|a| a == "--no-transform");
-    let h = Cr3bp {
-        mu: Cr3bp::EARTH_MOON,
-    };
-    let point = Point::Newton(h.l4().to_vec());
+    let model =
+        lasalle_codegen::load_model(concat!(env!("CARGO_MANIFEST_DIR"), "/../models/cr3bp.lsl"))
+            .expect("model");
+    let params = [("mu".to_string(), EARTH_MOON_MU)];
+    let point = ModelPoint::Named("L4".into());
     println!("order  precision  total[s]   taylor   linear      lie  transform   peak RSS[MiB]");
     for &order in &orders {
         for precision in [Precision::F64, Precision::DoubleDouble] {
@@ -50,7 +51,7 @@ fn main() {
             let mut nf = None;
             for _ in 0..reps {
                 let t = Instant::now();
-                nf = Some(normalize(&h, &point, &opts).expect("normal form"));
+                nf = Some(normalize_model(&model, &params, &point, &opts).expect("normal form"));
                 best = best.min(t.elapsed().as_secs_f64());
             }
             let t = &nf.as_ref().unwrap().diagnostics.timings;

@@ -1,15 +1,15 @@
 //! D₄ at L4 against Deprit & Deprit-Bartholomé, and μ_c by bisection on our D₄.
 //!
 //! `cargo run -p lasalle-normal-form --release --example d4_table`
-use lasalle_normal_form::models::Cr3bp;
-use lasalle_normal_form::validate::deprit_d4;
-use lasalle_normal_form::{normalize, Options, Point, Precision};
+use lasalle_codegen::Model;
+use lasalle_normal_form::validate::{deprit_d4, EARTH_MOON_MU};
+use lasalle_normal_form::{normalize_model, ModelPoint, Options, Precision};
 
-fn d4(mu: f64, p: Precision) -> (f64, f64, f64, f64) {
-    let h = Cr3bp { mu };
-    let nf = normalize(
-        &h,
-        &Point::Newton(h.l4().to_vec()),
+fn d4(model: &Model, mu: f64, p: Precision) -> (f64, f64, f64, f64) {
+    let nf = normalize_model(
+        model,
+        &[("mu".to_string(), mu)],
+        &ModelPoint::Named("L4".into()),
         &Options::with_order(4)
             .precision(p)
             .error_estimate(false)
@@ -21,13 +21,16 @@ fn d4(mu: f64, p: Precision) -> (f64, f64, f64, f64) {
 }
 
 fn main() {
+    let model =
+        &lasalle_codegen::load_model(concat!(env!("CARGO_MANIFEST_DIR"), "/../models/cr3bp.lsl"))
+            .expect("model");
     println!(
         "{:>20} {:>12} {:>12} {:>12} {:>22} {:>22} {:>10} {:>10}",
         "mu", "A", "B", "C", "D4 (ours, dd)", "Deprit (textbook)", "rel f64", "rel dd"
     );
-    for mu in [0.001, 0.005, 0.01, Cr3bp::EARTH_MOON, 0.02, 0.03] {
-        let (a, b, c, dd) = d4(mu, Precision::DoubleDouble);
-        let (.., f) = d4(mu, Precision::F64);
+    for mu in [0.001, 0.005, 0.01, EARTH_MOON_MU, 0.02, 0.03] {
+        let (a, b, c, dd) = d4(model, mu, Precision::DoubleDouble);
+        let (.., f) = d4(model, mu, Precision::F64);
         let r = deprit_d4(mu);
         println!(
             "{mu:>20} {a:>12.8} {b:>12.8} {c:>12.8} {dd:>22.15e} {r:>22.15e} {:>10.1e} {:>10.1e}",
@@ -36,10 +39,10 @@ fn main() {
         );
     }
     let (mut lo, mut hi) = (0.0105, 0.0113);
-    let f_lo = d4(lo, Precision::DoubleDouble).3;
+    let f_lo = d4(model, lo, Precision::DoubleDouble).3;
     for _ in 0..60 {
         let m = 0.5 * (lo + hi);
-        if d4(m, Precision::DoubleDouble).3 * f_lo > 0.0 {
+        if d4(model, m, Precision::DoubleDouble).3 * f_lo > 0.0 {
             lo = m
         } else {
             hi = m

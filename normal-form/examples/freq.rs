@@ -1,12 +1,13 @@
 //! Frequencies of the normal form at orders 2…16 against frequencies measured along a DOPRI5
 //! orbit of the full CR3BP near L4 (Earth–Moon). `… --example freq [amplitude]`
-use lasalle_normal_form::models::Cr3bp;
 use lasalle_normal_form::validate::*;
 use lasalle_normal_form::*;
 fn main() {
-    let mu = Cr3bp::EARTH_MOON;
-    let h = Cr3bp { mu };
-    let p = Point::Newton(h.l4().to_vec());
+    let model =
+        lasalle_codegen::load_model(concat!(env!("CARGO_MANIFEST_DIR"), "/../models/cr3bp.lsl"))
+            .expect("model");
+    let h = ModelHamiltonian::new(&model, &[("mu".to_string(), EARTH_MOON_MU)]).unwrap();
+    let p = Point::Newton(h.point("L4").unwrap());
     let reference = normalize(&h, &p, &Options::with_order(16).error_estimate(false)).unwrap();
     let amp: f64 = std::env::args()
         .nth(1)
@@ -15,7 +16,7 @@ fn main() {
     let w0 = [amp, 0.0, 0.0, amp];
     let z0 = reference.from_normal(&w0).unwrap();
     let t0 = std::time::Instant::now();
-    let nu = measure_frequencies(&h, &reference, &z0, 2000.0, 0.5, 1e-13);
+    let nu = measure_frequencies(&h, &reference, &z0, 2000.0, 0.5, 1e-13).unwrap();
     println!("measured {:?} in {:?}", nu, t0.elapsed());
     for order in [2, 4, 6, 8, 10, 12, 14, 16] {
         let nf = normalize(&h, &p, &Options::with_order(order).error_estimate(false)).unwrap();

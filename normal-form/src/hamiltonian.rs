@@ -2,18 +2,24 @@
 //! arithmetic, and Newton's method for equilibria.
 
 use crate::error::NormalFormError;
-use crate::jet::{Jet, Scalar};
+use crate::jet::Jet;
 use crate::linalg::{solve, Mat};
 use crate::monomial::MonomialTable;
 use crate::poly::Poly;
 use crate::scalar::Real;
+use lasalle_codegen::ir::Scalar;
 use std::sync::Arc;
 
 /// A Hamiltonian with `n` degrees of freedom in canonical coordinates
 /// `z = (q₁…q_n, p₁…p_n)`, evaluated generically so that the same expression gives numbers,
-/// jets (Taylor series) and double-double values.
+/// jets (Taylor series) and double-double values: `S` is the code generator's
+/// `lasalle_codegen::ir::Scalar` (re-exported as [`Scalar`](crate::Scalar)).
 ///
-/// Parameters are part of the implementing value (e.g. `Cr3bp { mu }`).
+/// Parameters are part of the implementing value. DSL models are [`ModelHamiltonian`]s;
+/// writing one in Rust is mainly for independent checks (see [`PolynomialHamiltonian`]).
+///
+/// [`ModelHamiltonian`]: crate::ModelHamiltonian
+/// [`PolynomialHamiltonian`]: crate::models::PolynomialHamiltonian
 pub trait HamiltonianFn {
     /// Degrees of freedom n.
     fn n_dof(&self) -> usize;

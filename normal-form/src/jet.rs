@@ -17,90 +17,63 @@
 //! Only the nonzero homogeneous parts of `f` enter the sums, so `1/r = (x² + y²)^{−½}` costs
 //! two small products per degree. The same code serves univariate series in time (one
 //! variable) for a Taylor integrator.
+//!
+//! Jets implement the code generator's `lasalle_codegen::ir::Scalar` (re-exported as
+//! [`Scalar`]), so a model's expression DAG evaluates over them directly
+//! (`Graph::eval`), with exact rational exponents.
 
 use crate::poly::{mul_acc_hom, Poly};
 use crate::scalar::{Coeff, Real};
 use crate::Dd;
+use lasalle_codegen::ir::{Rational, Scalar};
 
-/// The operations a Hamiltonian expression is evaluated with. It mirrors
-/// `lasalle_codegen::ir::Scalar` (numbers, jets of any precision).
-pub trait Scalar: Clone {
-    /// A constant.
-    fn from_f64(c: f64) -> Self;
-    /// self + o
-    fn add(&self, o: &Self) -> Self;
-    /// self · o
-    fn mul(&self, o: &Self) -> Self;
-    /// 1 / self
-    fn recip(&self) -> Self;
-    /// selfⁿ for an integer n (negative allowed).
-    fn powi(&self, n: i32) -> Self;
-    /// selfᵖ for a non-integer rational p (the base must have a positive constant term).
-    fn powf(&self, p: f64) -> Self;
-    /// eˢᵉˡᶠ
-    fn exp(&self) -> Self;
-    /// ln(self)
-    fn ln(&self) -> Self;
-    /// sin(self)
-    fn sin(&self) -> Self;
-    /// cos(self)
-    fn cos(&self) -> Self;
-    /// −self
+/// Double-double values in expression evaluation (`lasalle_codegen::ir::Graph::eval`, any
+/// [`HamiltonianFn`](crate::HamiltonianFn)); `f64` has its implementation in the code
+/// generator.
+impl Scalar for Dd {
+    fn from_f64(c: f64) -> Self {
+        Dd::new(c)
+    }
+    fn add(&self, o: &Self) -> Self {
+        *self + *o
+    }
+    fn mul(&self, o: &Self) -> Self {
+        *self * *o
+    }
+    fn recip(&self) -> Self {
+        Dd::new(1.0) / *self
+    }
+    fn powi(&self, n: i32) -> Self {
+        crate::scalar::powi(*self, n as i64)
+    }
+    fn powf(&self, p: Rational) -> Self {
+        Real::powf(*self, p)
+    }
+    fn exp(&self) -> Self {
+        Real::exp(*self)
+    }
+    fn ln(&self) -> Self {
+        Real::ln(*self)
+    }
+    fn sin(&self) -> Self {
+        Real::sin(*self)
+    }
+    fn cos(&self) -> Self {
+        Real::cos(*self)
+    }
     fn neg(&self) -> Self {
-        self.mul(&Self::from_f64(-1.0))
+        -*self
     }
-    /// self − o
     fn sub(&self, o: &Self) -> Self {
-        self.add(&o.neg())
+        *self - *o
     }
-    /// self / o
     fn div(&self, o: &Self) -> Self {
-        self.mul(&o.recip())
+        *self / *o
     }
-    /// √self
     fn sqrt(&self) -> Self {
-        self.powf(0.5)
+        Real::sqrt(*self)
     }
 }
-
-macro_rules! real_scalar {
-    ($t:ty) => {
-        impl Scalar for $t {
-            fn from_f64(c: f64) -> Self {
-                <$t as Coeff>::from_f64(c)
-            }
-            fn add(&self, o: &Self) -> Self {
-                *self + *o
-            }
-            fn mul(&self, o: &Self) -> Self {
-                *self * *o
-            }
-            fn recip(&self) -> Self {
-                <$t as Coeff>::one() / *self
-            }
-            fn powi(&self, n: i32) -> Self {
-                crate::scalar::powi(*self, n as i64)
-            }
-            fn powf(&self, p: f64) -> Self {
-                Real::powf(*self, p)
-            }
-            fn exp(&self) -> Self {
-                Real::exp(*self)
-            }
-            fn ln(&self) -> Self {
-                Real::ln(*self)
-            }
-            fn sin(&self) -> Self {
-                Real::sin(*self)
-            }
-            fn cos(&self) -> Self {
-                Real::cos(*self)
-            }
-        }
-    };
-}
-real_scalar!(f64);
-real_scalar!(Dd);
 
 /// A value in a jet evaluation: a constant, or a truncated series.
 #[derive(Clone, Debug)]
@@ -155,7 +128,7 @@ impl<R: Real> Scalar for Jet<R> {
     fn powi(&self, n: i32) -> Self {
         self.unary(|x| crate::scalar::powi(x, n as i64), |p| series_powi(p, n))
     }
-    fn powf(&self, e: f64) -> Self {
+    fn powf(&self, e: Rational) -> Self {
         self.unary(|x| x.powf(e), |p| series_powf(p, e))
     }
     fn exp(&self) -> Self {
@@ -169,6 +142,12 @@ impl<R: Real> Scalar for Jet<R> {
     }
     fn cos(&self) -> Self {
         self.unary(|x| x.cos(), |p| series_sin_cos(p).1)
+    }
+    fn neg(&self) -> Self {
+        self.unary(|x| -x, |p| p.map(|c| -c))
+    }
+    fn sub(&self, o: &Self) -> Self {
+        self.add(&o.neg())
     }
 }
 
@@ -236,17 +215,22 @@ pub fn series_recip<R: Real>(f: &Poly<R>) -> Poly<R> {
     finish(f, g)
 }
 
-/// f^p for real p (needs f₀ > 0 unless p is an integer): the Euler-operator recurrence.
-pub fn series_powf<R: Real>(f: &Poly<R>, p: f64) -> Poly<R> {
+/// f^p for a rational p = num/den (needs f₀ > 0 unless p is an integer): the
+/// Euler-operator recurrence `g_k = 1/(k·den·f₀) Σ_j (num·j − den·(k−j)) f_j g_{k−j}`, whose
+/// weights are exact integers, so the only roundings are those of the working precision.
+pub fn series_powf<R: Real>(f: &Poly<R>, p: Rational) -> Poly<R> {
     let f0 = f.constant_term();
     let js = nonzero_degrees(f);
     let n = f.max_degree();
     let mut g: Vec<Vec<R>> = vec![vec![f0.powf(p)]];
     let inv_f0 = R::one() / f0;
+    let (num, den) = (p.num as f64, p.den as f64);
     for k in 1..=n {
         let mut acc = vec![R::zero(); f.table().count(k)];
-        conv_acc(&mut acc, f, &js, &g, k, |j| p * j as f64 - (k - j) as f64);
-        let s = inv_f0 / R::from_f64(k as f64);
+        conv_acc(&mut acc, f, &js, &g, k, |j| {
+            num * j as f64 - den * (k - j) as f64
+        });
+        let s = inv_f0 / R::from_f64(k as f64 * den);
         acc.iter_mut().for_each(|c| *c *= s);
         g.push(acc);
     }
@@ -260,7 +244,7 @@ pub fn series_powi<R: Real>(f: &Poly<R>, n: i32) -> Poly<R> {
         0 => Poly::constant(f.table().clone(), R::one()),
         1 => f.clone(),
         2 => f.mul(f),
-        _ if !f.constant_term().is_zero() => series_powf(f, n as f64),
+        _ if !f.constant_term().is_zero() => series_powf(f, Rational::int(n)),
         _ if n < 0 => series_powi(&series_recip(f), -n),
         _ => {
             let (mut acc, mut base, mut k) = (
@@ -368,13 +352,13 @@ mod tests {
     fn elementary_series() {
         check(
             |x, y| (x * x + y * y).powf(-0.5),
-            |x, y| x.mul(x).add(&y.mul(y)).powf(-0.5),
+            |x, y| x.mul(x).add(&y.mul(y)).powf(Rational::new(-1, 2)),
             0.4,
             0.8,
         );
         check(
             |x, y| (x * x + y * y).powf(-1.5),
-            |x, y| x.mul(x).add(&y.mul(y)).powf(-1.5),
+            |x, y| x.mul(x).add(&y.mul(y)).powf(Rational::new(-3, 2)),
             0.4,
             0.8,
         );
@@ -397,11 +381,39 @@ mod tests {
             1.3,
         );
         check(
+            |x, y| (x * x + y).powf(2.0 / 7.0),
+            |x, y| x.mul(x).add(y).powf(Rational::new(2, 7)),
+            0.4,
+            0.8,
+        );
+        check(
             |x, y| (x - 2.0 * y).powi(4),
             |x, y| x.sub(&y.mul(&Jet::from_f64(2.0))).powi(4),
             0.0,
             0.0,
         );
+    }
+
+    /// Exponents that are not multiples of ½ keep double-double precision: (f^⅓)³ = f and
+    /// (f^(−2/5))^(−5/2) = f coefficient by coefficient to ~1e-30.
+    #[test]
+    fn rational_exponents_in_double_double() {
+        let tab = Arc::new(MonomialTable::new(2, 10));
+        let x = Jet::Series(Poly::variable(tab.clone(), 0, Dd::new(0.7)));
+        let y = Jet::Series(Poly::variable(tab.clone(), 1, Dd::new(-0.3)));
+        let f = x.mul(&x).add(&y).add(&Jet::from_f64(0.25));
+        let third = f.powf(Rational::new(1, 3));
+        let back = third.mul(&third).mul(&third);
+        let g = f.powf(Rational::new(-2, 5)).powf(Rational::new(-5, 2));
+        let fp = f.into_poly(&tab);
+        for r in [back.into_poly(&tab), g.into_poly(&tab)] {
+            for (k, i, c) in fp.terms() {
+                let d = r.part(k).map_or(Dd::new(0.0), |p| p[i]) - c;
+                assert!(d.to_f64().abs() < 1e-29 * c.to_f64().abs(), "{d}");
+            }
+        }
+        let c = Scalar::powf(&Dd::new(2.0), Rational::new(1, 3));
+        assert!((c * c * c - Dd::new(2.0)).to_f64().abs() < 1e-31);
     }
 
     #[test]

@@ -5,18 +5,21 @@
 //! reference case (seed `004`, first paper pp. 8–22; `docs/equations.md` §3).
 //!
 //! ```
-//! use lasalle_normal_form::models::Cr3bp;
-//! use lasalle_normal_form::{normalize, Options, Point};
+//! use lasalle_normal_form::validate::{deprit_d4, EARTH_MOON_MU};
+//! use lasalle_normal_form::{normalize_model_file, ModelPoint, Options};
 //!
-//! let h = Cr3bp { mu: Cr3bp::EARTH_MOON };
-//! let nf = normalize(&h, &Point::Newton(h.l4().to_vec()), &Options::with_order(6)).unwrap();
+//! let model = concat!(env!("CARGO_MANIFEST_DIR"), "/../models/cr3bp.lsl");
+//! let params = [("mu".to_string(), EARTH_MOON_MU)];
+//! let at = ModelPoint::Named("L4".into());
+//! let nf = normalize_model_file(model, &params, &at, &Options::with_order(6)).unwrap();
 //! let d4 = nf.d4.as_ref().unwrap().d4.value;
-//! assert!((d4 + lasalle_normal_form::validate::deprit_d4(Cr3bp::EARTH_MOON)).abs() < 1e-10);
+//! assert!((d4 + deprit_d4(EARTH_MOON_MU)).abs() < 1e-10);
 //! println!("{}", nf.to_table());
 //! ```
 //!
-//! DSL models go through [`normalize_model_file`] (what `lasalle normal-form` calls):
-//! `normalize_model_file("models/cr3bp.lsl", &[("mu".into(), 0.0121505856)], &ModelPoint::Auto, &opts)`.
+//! This is what `lasalle normal-form models/cr3bp.lsl --order 6` calls. Any
+//! [`HamiltonianFn`] goes through [`normalize`] the same way; the crate's own Rust
+//! Hamiltonians ([`models`]) are only independent checks.
 //!
 //! ## Pipeline
 //!
@@ -114,7 +117,8 @@ pub use complex::Complex;
 pub use dd::Dd;
 pub use error::{Eigenvalue, NormalFormError};
 pub use hamiltonian::{find_equilibrium, taylor, Equilibrium, HamiltonianFn};
-pub use jet::{Jet, Scalar};
+pub use jet::Jet;
+pub use lasalle_codegen::ir::{Rational, Scalar};
 pub use model::{normalize_model, normalize_model_file, ModelHamiltonian, ModelPoint};
 pub use monomial::{binomial, MonomialTable};
 pub use normal_form::{

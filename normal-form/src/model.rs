@@ -1,51 +1,14 @@
 //! DSL models (`lasalle_codegen::Model`) as Hamiltonians: the expression DAG is evaluated
 //! over jets through `Graph::eval`, so any model with `structure canonical(q, p)` goes
-//! through the same path as the built-in Rust Hamiltonians.
+//! through the same path as a [`HamiltonianFn`] written in Rust. Jets and double-doubles
+//! implement the generator's `ir::Scalar` themselves, so nothing is adapted in between.
 
 use crate::error::NormalFormError;
 use crate::hamiltonian::HamiltonianFn;
-use crate::jet::Scalar;
 use crate::normal_form::{normalize, NormalForm, Options, Point};
-use lasalle_codegen::ir::{Id, Input, Scalar as IrScalar};
+use lasalle_codegen::ir::{Id, Input, Scalar};
 use lasalle_codegen::model::{Model, Structure};
 use std::path::Path;
-
-/// Wraps one of our scalars as a `lasalle_codegen::ir::Scalar`.
-#[derive(Clone)]
-struct Adapt<S>(S);
-
-impl<S: Scalar> IrScalar for Adapt<S> {
-    fn from_f64(c: f64) -> Self {
-        Adapt(S::from_f64(c))
-    }
-    fn add(&self, o: &Self) -> Self {
-        Adapt(self.0.add(&o.0))
-    }
-    fn mul(&self, o: &Self) -> Self {
-        Adapt(self.0.mul(&o.0))
-    }
-    fn recip(&self) -> Self {
-        Adapt(self.0.recip())
-    }
-    fn powi(&self, n: i32) -> Self {
-        Adapt(self.0.powi(n))
-    }
-    fn powf(&self, p: lasalle_codegen::ir::Rational) -> Self {
-        Adapt(self.0.powf(p.to_f64()))
-    }
-    fn exp(&self) -> Self {
-        Adapt(self.0.exp())
-    }
-    fn ln(&self) -> Self {
-        Adapt(self.0.ln())
-    }
-    fn sin(&self) -> Self {
-        Adapt(self.0.sin())
-    }
-    fn cos(&self) -> Self {
-        Adapt(self.0.cos())
-    }
-}
 
 /// The Hamiltonian of a lowered DSL model with `structure canonical(q, p)`, with its
 /// parameter values fixed.
@@ -142,15 +105,15 @@ impl HamiltonianFn for ModelHamiltonian<'_> {
     fn eval<S: Scalar>(&self, z: &[S]) -> S {
         let params = &self.params;
         let slot = &self.slot;
-        let mut input = |i: Input| -> Adapt<S> {
+        let mut input = |i: Input| -> S {
             match i {
-                Input::State(k) => Adapt(z[slot[k as usize]].clone()),
-                Input::Param(k) => Adapt(S::from_f64(params[k as usize])),
-                _ => Adapt(S::from_f64(f64::NAN)),
+                Input::State(k) => z[slot[k as usize]].clone(),
+                Input::Param(k) => S::from_f64(params[k as usize]),
+                _ => S::from_f64(f64::NAN),
             }
         };
         let mut out = self.model.graph.eval(&[self.h], &mut input);
-        out.pop().expect("one output").0
+        out.pop().expect("one output")
     }
     fn name(&self) -> String {
         let ps: Vec<String> = self

@@ -1,6 +1,7 @@
 //! Coefficient scalars: the ring the series algebra works over ([`Coeff`]) and the real
 //! fields with elementary functions ([`Real`]): `f64` and [`Dd`](crate::Dd).
 
+use lasalle_codegen::ir::Rational;
 use std::fmt::Debug;
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
 
@@ -117,16 +118,15 @@ pub trait Real: Coeff + PartialOrd {
     fn cos(self) -> Self;
     /// π
     fn pi() -> Self;
-    /// selfᵖ for self > 0; exact for p a multiple of ½.
-    fn powf(self, p: f64) -> Self {
-        let twice = 2.0 * p;
-        if twice == twice.round() && twice.abs() < 1e6 {
-            let n = twice as i64;
-            let base = if n % 2 == 0 { self } else { self.sqrt() };
-            let k = if n % 2 == 0 { n / 2 } else { n };
-            powi(base, k)
-        } else {
-            (self.ln() * Self::from_f64(p)).exp()
+    /// selfᵖ for an exact rational p (self > 0 unless p is an integer). Integers and
+    /// multiples of ½ go through powering and √; any other p = num/den is formed in the
+    /// working precision, `exp(ln(self)·num/den)`, so double-double keeps its 32 digits for
+    /// exponents like ⅓.
+    fn powf(self, p: Rational) -> Self {
+        match p.den {
+            1 => powi(self, p.num as i64),
+            2 => powi(self.sqrt(), p.num as i64),
+            _ => (self.ln() * (Self::from_f64(p.num as f64) / Self::from_f64(p.den as f64))).exp(),
         }
     }
     /// [`Coeff::mul_acc_kernel`] for complex coefficients over this real type.
@@ -262,15 +262,13 @@ impl Real for f64 {
     fn pi() -> Self {
         std::f64::consts::PI
     }
-    fn powf(self, p: f64) -> Self {
-        if p == 0.5 {
-            f64::sqrt(self)
-        } else if p == -0.5 {
-            1.0 / f64::sqrt(self)
-        } else if p == p.round() && p.abs() < 1e9 {
-            f64::powi(self, p as i32)
-        } else {
-            f64::powf(self, p)
+    fn powf(self, p: Rational) -> Self {
+        match (p.num, p.den) {
+            (n, 1) => f64::powi(self, n),
+            (1, 2) => f64::sqrt(self),
+            (-1, 2) => 1.0 / f64::sqrt(self),
+            (1, 3) => f64::cbrt(self),
+            _ => f64::powf(self, p.num as f64 / p.den as f64),
         }
     }
 }

@@ -1,16 +1,18 @@
 //! D₄ at L4 against Deprit & Deprit-Bartholomé's closed form, and the critical mass ratio μ_c.
 
-use lasalle_normal_form::models::Cr3bp;
-use lasalle_normal_form::validate::deprit_d4;
+mod common;
+
+use lasalle_normal_form::validate::{deprit_d4, mu_routh, EARTH_MOON_MU};
 use lasalle_normal_form::{normalize, Options, Point, Precision};
 
+/// D₄ of `models/cr3bp.lsl` at its point L4, given as an exact equilibrium.
 fn d4(mu: f64, precision: Precision) -> f64 {
-    let h = Cr3bp { mu };
     let opts = Options::with_order(4)
         .precision(precision)
         .error_estimate(false)
         .transform(false);
-    let nf = normalize(&h, &Point::Given(h.l4().to_vec()), &opts).expect("normal form");
+    let h = common::cr3bp(mu);
+    let nf = normalize(&h, &Point::Given(common::l4(mu)), &opts).expect("normal form");
     let d = nf.d4.expect("two degrees of freedom").d4;
     d.value + d.lo
 }
@@ -18,7 +20,7 @@ fn d4(mu: f64, precision: Precision) -> f64 {
 /// Our D₄ is the textbook expression with the opposite sign (see the crate docs, "Sign of D₄").
 #[test]
 fn d4_matches_deprit_across_the_stable_range() {
-    let mu_r = Cr3bp::mu_routh();
+    let mu_r = mu_routh();
     // away from 1:3 (0.013516), 1:2 (0.024294), μ_c (D₄ = 0) and μ_R (1:1)
     let mus = [
         1e-4,
@@ -28,7 +30,7 @@ fn d4_matches_deprit_across_the_stable_range() {
         0.005,
         0.008,
         0.01,
-        Cr3bp::EARTH_MOON,
+        EARTH_MOON_MU,
         0.016,
         0.02,
         0.028,

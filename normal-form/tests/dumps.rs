@@ -1,14 +1,13 @@
 //! The dump formats: JSON parses, CSV has a row per number, the table has the sections, the
 //! emitted Rust compiles and agrees with the library.
 
-use lasalle_normal_form::models::Cr3bp;
-use lasalle_normal_form::{normalize, NormalForm, Options, Point};
+mod common;
+
+use lasalle_normal_form::validate::EARTH_MOON_MU;
+use lasalle_normal_form::{NormalForm, Options};
 
 fn nf() -> NormalForm {
-    let h = Cr3bp {
-        mu: Cr3bp::EARTH_MOON,
-    };
-    normalize(&h, &Point::Newton(h.l4().to_vec()), &Options::with_order(8)).unwrap()
+    common::l4_normal_form(EARTH_MOON_MU, &Options::with_order(8)).unwrap()
 }
 
 #[test]

@@ -1,6 +1,7 @@
 //! The failure modes: resonances (Assumption 1′), a non-elliptic equilibrium, bad input.
 
-use lasalle_normal_form::models::Cr3bp;
+mod common;
+
 use lasalle_normal_form::{normalize, NormalFormError, Options, Point};
 
 fn run(
@@ -8,11 +9,10 @@ fn run(
     order: usize,
     resonant: bool,
 ) -> Result<lasalle_normal_form::NormalForm, NormalFormError> {
-    let h = Cr3bp { mu };
     let opts = Options::with_order(order)
         .resonant(resonant)
         .error_estimate(false);
-    normalize(&h, &Point::Newton(h.l4().to_vec()), &opts)
+    common::l4_normal_form(mu, &opts)
 }
 
 #[test]
@@ -66,7 +66,7 @@ fn resonant_mode_keeps_the_resonant_terms() {
         .small_divisors
         .iter()
         .any(|d| d.resonant && d.m == vec![1, -2]));
-    assert!(nf.flow(&Cr3bp { mu: 0.0242939 }.l4(), 1.0).is_none());
+    assert!(nf.flow(&common::l4(0.0242939), 1.0).is_none());
 }
 
 #[test]
@@ -90,7 +90,7 @@ fn beyond_routh_is_not_elliptic() {
 
 #[test]
 fn a_point_that_is_not_an_equilibrium() {
-    let h = Cr3bp { mu: 0.01 };
+    let h = common::cr3bp(0.01);
     let e = normalize(
         &h,
         &Point::Given(vec![0.5, 0.8, -0.8, 0.5]),
@@ -105,7 +105,7 @@ fn a_point_that_is_not_an_equilibrium() {
         &Options::with_order(4),
     )
     .unwrap();
-    let l4 = h.l4();
+    let l4 = common::l4(0.01);
     assert!(nf
         .equilibrium
         .iter()

@@ -1,17 +1,14 @@
 //! The normal form against the true flow: frequencies measured along DOPRI5 orbits of the full
 //! CR3BP near L4 (Earth–Moon), and the truncated normal-form flow against the linear one.
 
-use lasalle_normal_form::models::Cr3bp;
-use lasalle_normal_form::validate::{dopri5, measure_frequencies, Field};
-use lasalle_normal_form::{normalize, NormalForm, Options, Point};
+mod common;
+
+use lasalle_normal_form::validate::{measure_frequencies, orbit, EARTH_MOON_MU};
+use lasalle_normal_form::{NormalForm, Options};
 
 fn nf(order: usize) -> NormalForm {
-    let h = Cr3bp {
-        mu: Cr3bp::EARTH_MOON,
-    };
-    normalize(
-        &h,
-        &Point::Newton(h.l4().to_vec()),
+    common::l4_normal_form(
+        EARTH_MOON_MU,
         &Options::with_order(order).error_estimate(false),
     )
     .unwrap()
@@ -19,13 +16,11 @@ fn nf(order: usize) -> NormalForm {
 
 #[test]
 fn frequencies_converge_to_the_measured_ones() {
-    let h = Cr3bp {
-        mu: Cr3bp::EARTH_MOON,
-    };
+    let h = common::cr3bp(EARTH_MOON_MU);
     let reference = nf(14);
     // actions I ≈ 5e-5 in both modes (normal amplitudes 0.01)
     let z0 = reference.from_normal(&[0.01, 0.0, 0.0, 0.01]).unwrap();
-    let measured = measure_frequencies(&h, &reference, &z0, 1000.0, 0.5, 1e-13);
+    let measured = measure_frequencies(&h, &reference, &z0, 1000.0, 0.5, 1e-13).unwrap();
     let mut errors = Vec::new();
     for order in [2, 4, 6, 8, 10] {
         let f = nf(order);
@@ -54,22 +49,17 @@ fn frequencies_converge_to_the_measured_ones() {
 
 #[test]
 fn normal_form_flow_tracks_the_orbit_better_than_the_linear_flow() {
-    let h = Cr3bp {
-        mu: Cr3bp::EARTH_MOON,
-    };
-    let field = Field::new(&h);
-    let f = |z: &[f64]| field.eval(z);
+    let h = common::cr3bp(EARTH_MOON_MU);
     let nf = nf(10);
     let z0 = nf.from_normal(&[0.02, 0.0, 0.01, 0.0]).unwrap();
     // over T = 100 (≈ 15 short and 5 long periods)
-    let (mut z, mut t) = (z0.clone(), 0.0);
+    let times: Vec<f64> = (1..=20).map(|k| 5.0 * k as f64).collect();
+    let zs = orbit(&h, &z0, &times, 1e-13).unwrap();
     let (mut worst_nf, mut worst_lin): (f64, f64) = (0.0, 0.0);
-    for _ in 0..20 {
-        z = dopri5(&f, &z, 5.0, 1e-13, 1e-13).0;
-        t += 5.0;
+    for (&t, z) in times.iter().zip(&zs) {
         let dist = |a: &[f64]| {
             a.iter()
-                .zip(&z)
+                .zip(z)
                 .map(|(x, y)| (x - y).powi(2))
                 .sum::<f64>()
                 .sqrt()
@@ -95,9 +85,7 @@ fn transformations_are_inverse_and_symplectic() {
         "{back:?}"
     );
     // H is conserved into H̄: H(z) = H̄(I(z)) up to the truncation
-    let h = Cr3bp {
-        mu: Cr3bp::EARTH_MOON,
-    };
+    let h = common::cr3bp(EARTH_MOON_MU);
     let z = nf.from_normal(&w).unwrap();
     let hz: f64 = lasalle_normal_form::HamiltonianFn::eval(&h, &z);
     let hbar = nf.energy_at(&nf.actions(&z).unwrap());

@@ -2,17 +2,18 @@
 //! basis (H̄ does not depend on the basis, rounding does), an estimate independent of the
 //! precision itself.
 
-use lasalle_normal_form::models::Cr3bp;
-use lasalle_normal_form::{normalize, NormalForm, Options, Point, Precision};
+mod common;
+
+use lasalle_normal_form::validate::EARTH_MOON_MU;
+use lasalle_normal_form::{NormalForm, Options, Precision};
 
 fn run(mu: f64, order: usize, precision: Precision, rotation: Vec<f64>) -> NormalForm {
-    let h = Cr3bp { mu };
     let mut opts = Options::with_order(order)
         .precision(precision)
         .error_estimate(false)
         .transform(false);
     opts.basis_rotation = rotation;
-    normalize(&h, &Point::Newton(h.l4().to_vec()), &opts).unwrap()
+    common::l4_normal_form(mu, &opts).unwrap()
 }
 
 fn worst_relative(a: &NormalForm, b: &NormalForm, max_degree: usize) -> f64 {
@@ -41,8 +42,8 @@ fn double_double_at_mu_0_001_through_degree_12() {
 
 #[test]
 fn f64_at_earth_moon() {
-    let dd = run(Cr3bp::EARTH_MOON, 8, Precision::DoubleDouble, vec![]);
-    let f = run(Cr3bp::EARTH_MOON, 8, Precision::F64, vec![]);
+    let dd = run(EARTH_MOON_MU, 8, Precision::DoubleDouble, vec![]);
+    let f = run(EARTH_MOON_MU, 8, Precision::F64, vec![]);
     let e6 = worst_relative(&f, &dd, 6);
     let e8 = worst_relative(&f, &dd, 8);
     assert!(e6 < 1e-10, "f64 through degree 6: {e6:e}");
@@ -51,13 +52,7 @@ fn f64_at_earth_moon() {
 
 #[test]
 fn error_estimates_are_reported() {
-    let h = Cr3bp { mu: 0.001 };
-    let nf = normalize(
-        &h,
-        &Point::Newton(h.l4().to_vec()),
-        &Options::with_order(8).transform(false),
-    )
-    .unwrap();
+    let nf = common::l4_normal_form(0.001, &Options::with_order(8).transform(false)).unwrap();
     assert!(nf.hamiltonian.iter().all(|t| t.coeff.error.is_some()));
     // the estimate |f64 − dd| is the actual f64 error
     let dd = run(0.001, 8, Precision::DoubleDouble, vec![]);
