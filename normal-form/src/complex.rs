@@ -3,8 +3,10 @@
 use crate::scalar::{Coeff, Real};
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
 
-/// `re + i·im` over a real scalar `R` (f64 or [`Dd`](crate::Dd)).
+/// `re + i·im` over a real scalar `R` (f64 or [`Dd`](crate::Dd)); `repr(C)`, so a
+/// `Complex<Dd>` is `[re.hi, re.lo, im.hi, im.lo]` (the SIMD kernels rely on it).
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
+#[repr(C)]
 pub struct Complex<R> {
     /// Real part.
     pub re: R,

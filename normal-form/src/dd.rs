@@ -12,8 +12,9 @@ use crate::scalar::{generic_kernel, Coeff, Real};
 use std::fmt;
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
 
-/// A double-double number `hi + lo`.
+/// A double-double number `hi + lo` (`repr(C)`: the SIMD kernels read `[hi, lo]` pairs).
 #[derive(Clone, Copy, Debug, PartialEq, PartialOrd, Default)]
+#[repr(C)]
 pub struct Dd {
     /// Leading part (the value rounded to f64).
     pub hi: f64,
@@ -344,6 +345,21 @@ fn acc2(c: Dd, a: Dd, b: Dd, x: Dd, y: Dd, tp: impl Fn(f64, f64) -> (f64, f64)) 
     Dd { hi, lo }
 }
 
+/// [`acc2`] with FMA: the cross terms `a.hi·b.lo + a.lo·b.hi + x.hi·y.lo + x.lo·y.hi` by
+/// three fused multiply-adds (the lane arithmetic of the AVX2 kernel, bit for bit).
+#[inline(always)]
+fn acc2_fma(c: Dd, a: Dd, b: Dd, x: Dd, y: Dd) -> Dd {
+    let (p, e1) = two_prod_fma(a.hi, b.hi);
+    let (q, e2) = two_prod_fma(x.hi, y.hi);
+    let cross =
+        a.hi.mul_add(b.lo, a.lo.mul_add(b.hi, x.hi.mul_add(y.lo, x.lo * y.hi)));
+    let (s, f) = two_sum(c.hi, p);
+    let (s, g) = two_sum(s, q);
+    let lo = c.lo + ((e1 + e2) + (cross + (f + g)));
+    let (hi, lo) = quick_two_sum(s, lo);
+    Dd { hi, lo }
+}
+
 /// `c + a·b`, same scheme.
 #[inline(always)]
 fn acc1(c: Dd, a: Dd, b: Dd, tp: impl Fn(f64, f64) -> (f64, f64)) -> Dd {
@@ -375,12 +391,12 @@ fn two_prod_fma(a: f64, b: f64) -> (f64, f64) {
 }
 
 macro_rules! kernels {
-    ($complex:ident, $real:ident, $tp:ident $(, #[$attr:meta])?) => {
+    ($complex:ident, $real:ident, $tp:ident, $acc2:expr $(, #[$attr:meta])?) => {
         $(#[$attr])?
         unsafe fn $complex(out: &mut [Complex<Dd>], a: &[Complex<Dd>], ka: &[u32], b: &[Complex<Dd>], kb: &[u32], lk: &[u32]) {
             generic_kernel(out, a, ka, b, kb, lk, |o, x, y| {
-                o.re = acc2(o.re, x.re, y.re, -x.im, y.im, $tp);
-                o.im = acc2(o.im, x.re, y.im, x.im, y.re, $tp);
+                o.re = $acc2(o.re, x.re, y.re, -x.im, y.im);
+                o.im = $acc2(o.im, x.re, y.im, x.im, y.re);
             });
         }
         $(#[$attr])?
@@ -389,9 +405,14 @@ macro_rules! kernels {
         }
     };
 }
-kernels!(complex_kernel_plain, real_kernel_plain, two_prod_dekker);
+kernels!(
+    complex_kernel_plain,
+    real_kernel_plain,
+    two_prod_dekker,
+    |c, a, b, x, y| acc2(c, a, b, x, y, two_prod_dekker)
+);
 #[cfg(target_arch = "x86_64")]
-kernels!(complex_kernel_fma, real_kernel_fma, two_prod_fma, #[target_feature(enable = "fma")]);
+kernels!(complex_kernel_fma, real_kernel_fma, two_prod_fma, acc2_fma, #[target_feature(enable = "fma")]);
 
 #[inline]
 fn has_fma() -> bool {
@@ -405,6 +426,129 @@ fn has_fma() -> bool {
     }
 }
 
+#[inline]
+fn has_avx2_fma() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// The complex double-double product kernel in AVX2: two products `out[·] += a[i]·b[j]`,
+/// `a[i]·b[j+1]` at a time, the four lanes holding (re, im) of both. Per lane it is exactly
+/// the scalar `acc2` (two TwoProds, the cross terms by FMA, two TwoSums, one renormalisation),
+/// so the results are bit-for-bit those of `complex_kernel_fma` ([`acc2_fma`]).
+#[cfg(target_arch = "x86_64")]
+mod avx {
+    use super::{acc2_fma, Complex, Dd};
+    use std::arch::x86_64::*;
+
+    /// (hi, lo) of two complex dd at `p` and `q` as lanes [re(p), im(p), re(q), im(q)].
+    #[inline(always)]
+    unsafe fn load2(p: *const f64, q: *const f64) -> (__m256d, __m256d) {
+        let u = _mm256_loadu_pd(p); // [rh, rl, ih, il] of p
+        let v = _mm256_loadu_pd(q);
+        let t0 = _mm256_permute2f128_pd::<0x20>(u, v); // [rh_p, rl_p, rh_q, rl_q]
+        let t1 = _mm256_permute2f128_pd::<0x31>(u, v); // [ih_p, il_p, ih_q, il_q]
+        (_mm256_unpacklo_pd(t0, t1), _mm256_unpackhi_pd(t0, t1))
+    }
+
+    /// Inverse of [`load2`].
+    #[inline(always)]
+    unsafe fn store2(p: *mut f64, q: *mut f64, hi: __m256d, lo: __m256d) {
+        let t0 = _mm256_unpacklo_pd(hi, lo); // [rh_p, rl_p, rh_q, rl_q]
+        let t1 = _mm256_unpackhi_pd(hi, lo); // [ih_p, il_p, ih_q, il_q]
+        _mm256_storeu_pd(p, _mm256_permute2f128_pd::<0x20>(t0, t1));
+        _mm256_storeu_pd(q, _mm256_permute2f128_pd::<0x31>(t0, t1));
+    }
+
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn complex_kernel(
+        out: &mut [Complex<Dd>],
+        a: &[Complex<Dd>],
+        ka: &[u32],
+        b: &[Complex<Dd>],
+        kb: &[u32],
+        lk: &[u32],
+    ) {
+        assert!(ka.len() == a.len() && kb.len() == b.len());
+        let o = out.as_mut_ptr() as *mut f64;
+        let bp = b.as_ptr() as *const f64;
+        let pairs = b.len() / 2;
+        for (i, &x) in a.iter().enumerate() {
+            if x.re.hi == 0.0 && x.im.hi == 0.0 {
+                continue;
+            }
+            let base = ka[i];
+            // re lane: xr·yr + (−xi)·yi ; im lane: xr·yi + xi·yr
+            let ah = _mm256_set1_pd(x.re.hi);
+            let al = _mm256_set1_pd(x.re.lo);
+            let xh = _mm256_setr_pd(-x.im.hi, x.im.hi, -x.im.hi, x.im.hi);
+            let xl = _mm256_setr_pd(-x.im.lo, x.im.lo, -x.im.lo, x.im.lo);
+            for jj in 0..pairs {
+                let j = 2 * jj;
+                let k0 = (base + *kb.get_unchecked(j)) as usize;
+                let k1 = (base + *kb.get_unchecked(j + 1)) as usize;
+                debug_assert!(k0 < lk.len() && k1 < lk.len());
+                let i0 = *lk.get_unchecked(k0) as usize;
+                let i1 = *lk.get_unchecked(k1) as usize;
+                debug_assert!(i0 < out.len() && i1 < out.len() && i0 != i1);
+                let (bh, bl) = load2(bp.add(4 * j), bp.add(4 * j + 4));
+                let yh = _mm256_permute_pd::<0b0101>(bh);
+                let yl = _mm256_permute_pd::<0b0101>(bl);
+                let (p0, p1) = (o.add(4 * i0), o.add(4 * i1));
+                let (ch, cl) = load2(p0, p1);
+                let p = _mm256_mul_pd(ah, bh);
+                let e1 = _mm256_fmsub_pd(ah, bh, p);
+                let q = _mm256_mul_pd(xh, yh);
+                let e2 = _mm256_fmsub_pd(xh, yh, q);
+                let cross = _mm256_fmadd_pd(
+                    ah,
+                    bl,
+                    _mm256_fmadd_pd(al, bh, _mm256_fmadd_pd(xh, yl, _mm256_mul_pd(xl, yh))),
+                );
+                // (s, f) = TwoSum(c.hi, p)
+                let s = _mm256_add_pd(ch, p);
+                let bb = _mm256_sub_pd(s, ch);
+                let f = _mm256_add_pd(
+                    _mm256_sub_pd(ch, _mm256_sub_pd(s, bb)),
+                    _mm256_sub_pd(p, bb),
+                );
+                // (s2, g) = TwoSum(s, q)
+                let s2 = _mm256_add_pd(s, q);
+                let bb = _mm256_sub_pd(s2, s);
+                let g = _mm256_add_pd(
+                    _mm256_sub_pd(s, _mm256_sub_pd(s2, bb)),
+                    _mm256_sub_pd(q, bb),
+                );
+                let lo = _mm256_add_pd(
+                    cl,
+                    _mm256_add_pd(
+                        _mm256_add_pd(e1, e2),
+                        _mm256_add_pd(cross, _mm256_add_pd(f, g)),
+                    ),
+                );
+                // QuickTwoSum(s2, lo)
+                let hi = _mm256_add_pd(s2, lo);
+                let lo = _mm256_sub_pd(lo, _mm256_sub_pd(hi, s2));
+                store2(p0, p1, hi, lo);
+            }
+            if b.len() % 2 == 1 {
+                let j = b.len() - 1;
+                let idx = *lk.get_unchecked((base + kb[j]) as usize) as usize;
+                let y = b[j];
+                let c = out.get_unchecked_mut(idx);
+                c.re = acc2_fma(c.re, x.re, y.re, -x.im, y.im);
+                c.im = acc2_fma(c.im, x.re, y.im, x.im, y.re);
+            }
+        }
+    }
+}
+
 impl Real for Dd {
     fn complex_kernel(
         out: &mut [Complex<Dd>],
@@ -414,9 +558,13 @@ impl Real for Dd {
         kb: &[u32],
         lk: &[u32],
     ) {
-        // SAFETY: the fma variant runs only when the CPU has FMA; both rely on the key
-        // invariant documented on `Coeff::mul_acc_kernel`.
+        // SAFETY: the fma variant runs only when the CPU has FMA, the AVX2 one only with AVX2
+        // and FMA; all rely on the key invariant documented on `Coeff::mul_acc_kernel`.
         unsafe {
+            #[cfg(target_arch = "x86_64")]
+            if has_avx2_fma() {
+                return avx::complex_kernel(out, a, ka, b, kb, lk);
+            }
             #[cfg(target_arch = "x86_64")]
             if has_fma() {
                 return complex_kernel_fma(out, a, ka, b, kb, lk);
@@ -486,6 +634,60 @@ mod tests {
         // 0.1 + 0.2 − 0.3 in dd is the f64 representation error, not 0
         let x = Dd::new(0.1) + Dd::new(0.2) - Dd::new(0.3);
         assert!((x.to_f64() - 2.7755575615628914e-17).abs() < 1e-32);
+    }
+
+    /// The kernels agree bit for bit (AVX2 vs scalar FMA) and with plain dd arithmetic to
+    /// ~1e-31.
+    #[test]
+    fn complex_kernels_agree() {
+        use crate::MonomialTable;
+        let t = MonomialTable::new(4, 9);
+        let mut seed = 12345u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let x = (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            Dd::new(x) + Dd::new(x * 1e-17)
+        };
+        let (da, db) = (4, 5);
+        let a: Vec<Complex<Dd>> = (0..t.count(da))
+            .map(|_| Complex::new(rnd(), rnd()))
+            .collect();
+        let b: Vec<Complex<Dd>> = (0..t.count(db))
+            .map(|_| Complex::new(rnd(), rnd()))
+            .collect();
+        let (ka, kb, lk) = (
+            &t.degree(da).keys,
+            &t.degree(db).keys,
+            &t.degree(da + db).lookup,
+        );
+        let zero = vec![Complex::new(Dd::new(0.0), Dd::new(0.0)); t.count(da + db)];
+        let mut reference = zero.clone();
+        generic_kernel(&mut reference, &a, ka, &b, kb, lk, |o, x, y| *o += x * y);
+        let mut plain = zero.clone();
+        unsafe { complex_kernel_plain(&mut plain, &a, ka, &b, kb, lk) };
+        let close = |u: &[Complex<Dd>]| {
+            u.iter().zip(&reference).all(|(x, y)| {
+                (x.re - y.re).to_f64().abs() < 1e-30 && (x.im - y.im).to_f64().abs() < 1e-30
+            })
+        };
+        assert!(close(&plain));
+        #[cfg(target_arch = "x86_64")]
+        if has_avx2_fma() {
+            let mut f = zero.clone();
+            unsafe { complex_kernel_fma(&mut f, &a, ka, &b, kb, lk) };
+            let mut v = zero.clone();
+            unsafe { avx::complex_kernel(&mut v, &a, ka, &b, kb, lk) };
+            assert!(close(&f));
+            assert_eq!(f, v);
+            // odd length of b
+            let (mut f, mut v) = (zero.clone(), zero.clone());
+            let n = b.len() - 1;
+            unsafe { complex_kernel_fma(&mut f, &a, ka, &b[..n], &kb[..n], lk) };
+            unsafe { avx::complex_kernel(&mut v, &a, ka, &b[..n], &kb[..n], lk) };
+            assert_eq!(f, v);
+        }
     }
 
     #[test]
