@@ -15,7 +15,7 @@
 
 use crate::complex::Complex;
 use crate::monomial::MonomialTable;
-use crate::poly::{deriv_hom, mul_acc_hom, Poly};
+use crate::poly::{deriv_hom, deriv_hom_into, mul_acc_hom, Poly};
 use crate::scalar::{Coeff, Real};
 use std::collections::BTreeMap;
 
@@ -27,14 +27,17 @@ struct GeneratorDerivs<C> {
 }
 
 impl<C: Coeff> GeneratorDerivs<C> {
-    fn new(table: &MonomialTable, g: &[C], r: usize) -> Self {
+    /// All 2n derivatives, or (`half`) only the n derivatives ∂G/∂y_k.
+    fn new(table: &MonomialTable, g: &[C], r: usize, half: bool) -> Self {
         let n = table.nvars() / 2;
         let mut d = Vec::with_capacity(2 * n);
         for k in 0..n {
             d.push(deriv_hom(table, g, r, n + k));
         }
-        for k in 0..n {
-            d.push(deriv_hom(table, g, r, k).into_iter().map(|c| -c).collect());
+        if !half {
+            for k in 0..n {
+                d.push(deriv_hom(table, g, r, k).into_iter().map(|c| -c).collect());
+            }
         }
         for v in d.iter_mut() {
             if v.iter().all(|c| c.is_zero()) {
@@ -43,45 +46,98 @@ impl<C: Coeff> GeneratorDerivs<C> {
         }
         GeneratorDerivs { degree: r, d }
     }
+    fn is_zero(&self) -> bool {
+        self.d.iter().all(|v| v.is_empty())
+    }
 }
 
-/// `out += {t, G}` for a homogeneous `t` of degree `deg ≥ 1`.
+/// Reusable buffers of the brackets (no allocation per bracket).
+struct Scratch<C> {
+    deriv: Vec<C>,
+    half: Vec<C>,
+}
+
+impl<C> Scratch<C> {
+    fn new() -> Self {
+        Scratch {
+            deriv: Vec::new(),
+            half: Vec::new(),
+        }
+    }
+}
+
+/// `out += {t, G}` for a homogeneous `t` of degree `deg ≥ 1`: 2n products.
 fn bracket_acc<C: Coeff>(
     table: &MonomialTable,
     out: &mut [C],
     t: &[C],
     deg: usize,
     g: &GeneratorDerivs<C>,
+    s: &mut Scratch<C>,
 ) {
-    let n = table.nvars() / 2;
-    for k in 0..n {
-        // T_{x_k} G_{y_k}
-        if !g.d[k].is_empty() {
-            let tx = deriv_hom(table, t, deg, k);
-            mul_acc_hom(table, out, &tx, deg - 1, &g.d[k], g.degree - 1);
+    for (v, gv) in g.d.iter().enumerate() {
+        if gv.is_empty() {
+            continue;
         }
-        // T_{y_k} (−G_{x_k})
-        if !g.d[n + k].is_empty() {
-            let ty = deriv_hom(table, t, deg, n + k);
-            mul_acc_hom(table, out, &ty, deg - 1, &g.d[n + k], g.degree - 1);
-        }
+        // v < n: T_{x_v} G_{y_v}; v = n + k: T_{y_k} (−G_{x_k}), i.e. ∂T/∂u_v · g.d[v]
+        deriv_hom_into(table, &mut s.deriv, t, deg, v);
+        mul_acc_hom(table, out, &s.deriv, deg - 1, gv, g.degree - 1);
     }
 }
 
-/// `F ← exp(L_G) F = Σ_j L_Gʲ F / j!` truncated at degree `cap`, G homogeneous of degree r ≥ 3.
+/// `i^d · conj(z)`: the coefficient of `x^b y^a` in `conj(F)` when `z` is that of `x^a y^b`
+/// in F and d = |a| + |b| (since `conj(x_k) = i y_k`, `conj(y_k) = i x_k` on real points).
+#[inline(always)]
+fn i_pow_conj<R: Real>(z: Complex<R>, d: usize) -> Complex<R> {
+    match d % 4 {
+        0 => Complex::new(z.re, -z.im),
+        1 => Complex::new(z.im, z.re),
+        2 => Complex::new(-z.re, z.im),
+        _ => Complex::new(-z.im, -z.re),
+    }
+}
+
+/// `out += {t, G}` for **real** t and G (real-valued on real points) in the complex
+/// coordinates, with half the products. On real points `conj(∂F/∂x_k) = −i ∂F/∂y_k` for real
+/// F, hence `T_{y_k}G_{x_k} = −conj(T_{x_k}G_{y_k})` and
+/// `{T, G} = P + conj(P)`, `P = Σ_k T_{x_k} G_{y_k}`: n products instead of 2n, and the
+/// result is exactly real (its coefficients satisfy `c_{ba} = i^d conj(c_{ab})`).
+fn bracket_real_acc<R: Real>(
+    table: &MonomialTable,
+    out: &mut [Complex<R>],
+    t: &[Complex<R>],
+    deg: usize,
+    g: &GeneratorDerivs<Complex<R>>,
+    s: &mut Scratch<Complex<R>>,
+) {
+    let n = table.nvars() / 2;
+    let od = deg + g.degree - 2;
+    s.half.clear();
+    s.half.resize(table.count(od), Complex::zero());
+    for k in 0..n {
+        if g.d[k].is_empty() {
+            continue;
+        }
+        deriv_hom_into(table, &mut s.deriv, t, deg, k);
+        mul_acc_hom(table, &mut s.half, &s.deriv, deg - 1, &g.d[k], g.degree - 1);
+    }
+    let mirror = &table.degree(od).mirror;
+    for ((o, &p), &m) in out.iter_mut().zip(&s.half).zip(mirror) {
+        *o += p + i_pow_conj(s.half[m as usize], od);
+    }
+}
+
+/// `F ← exp(L_G) F = Σ_j L_Gʲ F / j!` truncated at degree `cap`, G homogeneous of degree
+/// r ≥ 3, with `bracket(out, t, deg)` doing `out += {t, G}`.
 /// `first_link_from_h2`: the exact `{H₂, G}` (= Z_r − H_r) used for the chain from degree 2.
-pub(crate) fn lie_transform<C: Coeff>(
+fn lie_chain<C: Coeff>(
     f: &mut Poly<C>,
-    g: &[C],
     r: usize,
     cap: usize,
     first_link_from_h2: Option<Vec<C>>,
+    bracket: &mut dyn FnMut(&mut [C], &[C], usize),
 ) {
     let table = f.table().clone();
-    let gd = GeneratorDerivs::new(&table, g, r);
-    if gd.d.iter().all(|v| v.is_empty()) {
-        return;
-    }
     let mut first = first_link_from_h2;
     for s in (1..=cap).rev() {
         let Some(part) = f.part(s) else { continue };
@@ -98,7 +154,7 @@ pub(crate) fn lie_transform<C: Coeff>(
                 (_, _, other) => {
                     first = other;
                     let mut out = vec![C::zero(); table.count(new_deg)];
-                    bracket_acc(&table, &mut out, &t, deg, &gd);
+                    bracket(&mut out, &t, deg);
                     if j > 1 {
                         let inv = C::one() / C::from_f64(j as f64);
                         out.iter_mut().for_each(|c| *c *= inv);
@@ -118,6 +174,45 @@ pub(crate) fn lie_transform<C: Coeff>(
             j += 1;
         }
     }
+}
+
+/// [`lie_chain`] with the full bracket (any canonical coordinates, any coefficients).
+pub(crate) fn lie_transform<C: Coeff>(
+    f: &mut Poly<C>,
+    g: &[C],
+    r: usize,
+    cap: usize,
+    first_link_from_h2: Option<Vec<C>>,
+) {
+    let table = f.table().clone();
+    let gd = GeneratorDerivs::new(&table, g, r, false);
+    if gd.is_zero() {
+        return;
+    }
+    let mut scratch = Scratch::new();
+    lie_chain(f, r, cap, first_link_from_h2, &mut |out, t, deg| {
+        bracket_acc(&table, out, t, deg, &gd, &mut scratch)
+    });
+}
+
+/// [`lie_chain`] for a real F and a real G in the complex coordinates (half the products,
+/// see [`bracket_real_acc`]).
+pub(crate) fn lie_transform_real<R: Real>(
+    f: &mut Poly<Complex<R>>,
+    g: &[Complex<R>],
+    r: usize,
+    cap: usize,
+    first_link_from_h2: Option<Vec<Complex<R>>>,
+) {
+    let table = f.table().clone();
+    let gd = GeneratorDerivs::new(&table, g, r, true);
+    if gd.is_zero() {
+        return;
+    }
+    let mut scratch = Scratch::new();
+    lie_chain(f, r, cap, first_link_from_h2, &mut |out, t, deg| {
+        bracket_real_acc(&table, out, t, deg, &gd, &mut scratch)
+    });
 }
 
 /// A small divisor met: `m·ω` for an integer vector m relative to the positive frequencies.
@@ -215,7 +310,7 @@ pub(crate) fn normalize<R: Real>(
         }
         if any {
             let first: Vec<Complex<R>> = zr.iter().zip(&hr).map(|(&z, &x)| z - x).collect();
-            lie_transform(&mut h, &g, r, nmax, Some(first));
+            lie_transform_real(&mut h, &g, r, nmax, Some(first));
             // the degree-r part is Z_r up to rounding of h + (z − h); set it exactly
             h.set_part(r, zr);
             generators[r] = g;
@@ -267,4 +362,55 @@ pub(crate) fn coordinate_maps<C: Coeff>(
             f
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::linear::complexification;
+    use std::sync::Arc;
+
+    /// A real polynomial of degree `deg` in (Q₁, Q₂, P₁, P₂), in the complex coordinates.
+    fn real_poly(table: &Arc<MonomialTable>, deg: usize, seed: u64) -> Vec<Complex<f64>> {
+        let mut x = seed;
+        let mut p: Poly<f64> = Poly::zero(table.clone());
+        let part = (0..table.count(deg))
+            .map(|_| {
+                x = x
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+            })
+            .collect();
+        p.set_part(deg, part);
+        // (Q, P) = C u
+        let (c, _) = complexification::<f64>(2);
+        p.map(Complex::real)
+            .substitute_linear(&c)
+            .part(deg)
+            .unwrap()
+            .to_vec()
+    }
+
+    #[test]
+    fn half_bracket_of_real_functions_is_the_bracket() {
+        let table = Arc::new(MonomialTable::new(4, 9));
+        for (dt, dg) in [(2, 3), (4, 3), (3, 5), (5, 4)] {
+            let t = real_poly(&table, dt, 7 + dt as u64);
+            let g = real_poly(&table, dg, 99 + dg as u64);
+            let od = dt + dg - 2;
+            let mut full = vec![Complex::zero(); table.count(od)];
+            let mut half = full.clone();
+            let mut s = Scratch::new();
+            let gd = GeneratorDerivs::new(&table, &g, dg, false);
+            bracket_acc(&table, &mut full, &t, dt, &gd, &mut s);
+            let gd = GeneratorDerivs::new(&table, &g, dg, true);
+            bracket_real_acc(&table, &mut half, &t, dt, &gd, &mut s);
+            let scale = full.iter().map(|c| c.magnitude()).fold(0.0, f64::max);
+            assert!(scale > 0.1);
+            for (a, b) in full.iter().zip(&half) {
+                assert!((*a - *b).magnitude() < 1e-14 * scale, "{a:?} vs {b:?}");
+            }
+        }
+    }
 }

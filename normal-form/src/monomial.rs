@@ -18,6 +18,9 @@ pub struct DegreeTable {
     pub lookup: Vec<u32>,
     /// For each variable v: for each monomial, (index of ∂/∂x_v in degree k−1, exponent of v).
     pub deriv: Vec<Vec<(u32, u32)>>,
+    /// For an even number of variables 2n: for each monomial `x^a y^b` (x the first n
+    /// variables, y the last n) the index of `x^b y^a`; empty for an odd number.
+    pub mirror: Vec<u32>,
 }
 
 /// Monomial tables for `nvars` variables up to total degree `max_degree`.
@@ -111,11 +114,24 @@ impl MonomialTable {
                     }
                 }
             }
+            let mirror = if nvars % 2 == 0 {
+                let h = nvars / 2;
+                (0..count)
+                    .map(|i| {
+                        let e = &exps[i * nvars..(i + 1) * nvars];
+                        let f: Vec<u8> = e[h..].iter().chain(&e[..h]).copied().collect();
+                        lookup[key_of(&f) as usize]
+                    })
+                    .collect()
+            } else {
+                Vec::new()
+            };
             degrees.push(DegreeTable {
                 exps,
                 keys,
                 lookup,
                 deriv,
+                mirror,
             });
         }
         MonomialTable {
@@ -177,6 +193,7 @@ impl MonomialTable {
                     + 4 * t.keys.len()
                     + 4 * t.lookup.len()
                     + t.deriv.iter().map(|d| 8 * d.len()).sum::<usize>()
+                    + 4 * t.mirror.len()
             })
             .sum()
     }
@@ -202,6 +219,10 @@ mod tests {
         let key = t.degree(4).keys[a] + t.degree(4).keys[b];
         let (_, c) = t.index(&[1, 3, 3, 1]).unwrap();
         assert_eq!(t.degree(8).lookup[key as usize] as usize, c);
+        // x₁x₂³ y₁³y₂ ↔ x₁³x₂ y₁y₂³
+        let (_, m) = t.index(&[3, 1, 1, 3]).unwrap();
+        assert_eq!(t.degree(8).mirror[c] as usize, m);
+        assert_eq!(t.degree(8).mirror[m] as usize, c);
     }
 
     #[test]

@@ -49,6 +49,23 @@ pub fn deriv_hom<T: Coeff>(table: &MonomialTable, a: &[T], k: usize, v: usize) -
     out
 }
 
+/// [`deriv_hom`] into a reusable buffer (resized to the part of degree k−1).
+pub fn deriv_hom_into<T: Coeff>(
+    table: &MonomialTable,
+    out: &mut Vec<T>,
+    a: &[T],
+    k: usize,
+    v: usize,
+) {
+    out.clear();
+    out.resize(table.count(k - 1), T::zero());
+    for (&c, &(j, e)) in a.iter().zip(&table.degree(k).deriv[v]) {
+        if e != 0 && !c.is_zero() {
+            out[j as usize] = c.scale(e as f64);
+        }
+    }
+}
+
 fn is_zero_slice<T: Coeff>(a: &[T]) -> bool {
     a.iter().all(|c| c.is_zero())
 }
