@@ -127,6 +127,9 @@ fn bracket_real_acc<R: Real>(
     }
 }
 
+/// `bracket(out, t, deg)`: `out += {t, G}` for a homogeneous t of degree deg.
+type BracketFn<'a, C> = dyn FnMut(&mut [C], &[C], usize) + 'a;
+
 /// `F ← exp(L_G) F = Σ_j L_Gʲ F / j!` truncated at degree `cap`, G homogeneous of degree
 /// r ≥ 3, with `bracket(out, t, deg)` doing `out += {t, G}`.
 /// `first_link_from_h2`: the exact `{H₂, G}` (= Z_r − H_r) used for the chain from degree 2.
@@ -135,7 +138,7 @@ fn lie_chain<C: Coeff>(
     r: usize,
     cap: usize,
     first_link_from_h2: Option<Vec<C>>,
-    bracket: &mut dyn FnMut(&mut [C], &[C], usize),
+    bracket: &mut BracketFn<'_, C>,
 ) {
     let table = f.table().clone();
     let mut first = first_link_from_h2;

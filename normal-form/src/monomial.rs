@@ -114,7 +114,7 @@ impl MonomialTable {
                     }
                 }
             }
-            let mirror = if nvars % 2 == 0 {
+            let mirror = if nvars.is_multiple_of(2) {
                 let h = nvars / 2;
                 (0..count)
                     .map(|i| {
