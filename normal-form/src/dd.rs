@@ -322,6 +322,10 @@ impl Coeff for Dd {
         // SAFETY: as for `complex_kernel`.
         unsafe {
             #[cfg(target_arch = "x86_64")]
+            if has_avx2_fma() {
+                return avx::real_kernel(out, a, ka, b, kb, lk);
+            }
+            #[cfg(target_arch = "x86_64")]
             if has_fma() {
                 return real_kernel_fma(out, a, ka, b, kb, lk);
             }
@@ -371,6 +375,18 @@ fn acc1(c: Dd, a: Dd, b: Dd, tp: impl Fn(f64, f64) -> (f64, f64)) -> Dd {
     Dd { hi, lo }
 }
 
+/// [`acc1`] with FMA (the cross term `a.hi·b.lo + a.lo·b.hi` fused; the lane arithmetic of
+/// the AVX2 kernel, bit for bit).
+#[inline(always)]
+fn acc1_fma(c: Dd, a: Dd, b: Dd) -> Dd {
+    let (p, e1) = two_prod_fma(a.hi, b.hi);
+    let cross = a.hi.mul_add(b.lo, a.lo * b.hi);
+    let (s, f) = two_sum(c.hi, p);
+    let lo = c.lo + (e1 + (cross + f));
+    let (hi, lo) = quick_two_sum(s, lo);
+    Dd { hi, lo }
+}
+
 #[inline(always)]
 fn two_prod_dekker(a: f64, b: f64) -> (f64, f64) {
     const SPLITTER: f64 = 134_217_729.0; // 2^27 + 1
@@ -391,7 +407,7 @@ fn two_prod_fma(a: f64, b: f64) -> (f64, f64) {
 }
 
 macro_rules! kernels {
-    ($complex:ident, $real:ident, $tp:ident, $acc2:expr $(, #[$attr:meta])?) => {
+    ($complex:ident, $real:ident, $acc1:expr, $acc2:expr $(, #[$attr:meta])?) => {
         $(#[$attr])?
         unsafe fn $complex(out: &mut [Complex<Dd>], a: &[Complex<Dd>], ka: &[u32], b: &[Complex<Dd>], kb: &[u32], lk: &[u32]) {
             generic_kernel(out, a, ka, b, kb, lk, |o, x, y| {
@@ -401,18 +417,18 @@ macro_rules! kernels {
         }
         $(#[$attr])?
         unsafe fn $real(out: &mut [Dd], a: &[Dd], ka: &[u32], b: &[Dd], kb: &[u32], lk: &[u32]) {
-            generic_kernel(out, a, ka, b, kb, lk, |o, x, y| *o = acc1(*o, x, y, $tp));
+            generic_kernel(out, a, ka, b, kb, lk, |o, x, y| *o = $acc1(*o, x, y));
         }
     };
 }
 kernels!(
     complex_kernel_plain,
     real_kernel_plain,
-    two_prod_dekker,
+    |c, a, b| acc1(c, a, b, two_prod_dekker),
     |c, a, b, x, y| acc2(c, a, b, x, y, two_prod_dekker)
 );
 #[cfg(target_arch = "x86_64")]
-kernels!(complex_kernel_fma, real_kernel_fma, two_prod_fma, acc2_fma, #[target_feature(enable = "fma")]);
+kernels!(complex_kernel_fma, real_kernel_fma, acc1_fma, acc2_fma, #[target_feature(enable = "fma")]);
 
 #[inline]
 fn has_fma() -> bool {
@@ -444,7 +460,7 @@ fn has_avx2_fma() -> bool {
 /// so the results are bit-for-bit those of `complex_kernel_fma` ([`acc2_fma`]).
 #[cfg(target_arch = "x86_64")]
 mod avx {
-    use super::{acc2_fma, Complex, Dd};
+    use super::{acc1_fma, acc2_fma, Complex, Dd};
     use std::arch::x86_64::*;
 
     /// (hi, lo) of two complex dd at `p` and `q` as lanes [re(p), im(p), re(q), im(q)].
@@ -464,6 +480,84 @@ mod avx {
         let t1 = _mm256_unpackhi_pd(hi, lo); // [ih_p, il_p, ih_q, il_q]
         _mm256_storeu_pd(p, _mm256_permute2f128_pd::<0x20>(t0, t1));
         _mm256_storeu_pd(q, _mm256_permute2f128_pd::<0x31>(t0, t1));
+    }
+
+    /// The real double-double product kernel, four products `a[i]·b[j..j+4]` at a time (lanes
+    /// in the order j, j+2, j+1, j+3 of `unpacklo/hi`); per lane exactly [`acc1_fma`].
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn real_kernel(
+        out: &mut [Dd],
+        a: &[Dd],
+        ka: &[u32],
+        b: &[Dd],
+        kb: &[u32],
+        lk: &[u32],
+    ) {
+        assert!(ka.len() == a.len() && kb.len() == b.len());
+        let o = out.as_mut_ptr() as *mut f64;
+        let bp = b.as_ptr() as *const f64;
+        let quads = b.len() / 4;
+        for (i, &x) in a.iter().enumerate() {
+            if x.hi == 0.0 {
+                continue;
+            }
+            let base = ka[i];
+            let ah = _mm256_set1_pd(x.hi);
+            let al = _mm256_set1_pd(x.lo);
+            for jq in 0..quads {
+                let j = 4 * jq;
+                let mut idx = [0usize; 4];
+                for (m, id) in idx.iter_mut().enumerate() {
+                    let k = (base + *kb.get_unchecked(j + m)) as usize;
+                    debug_assert!(k < lk.len());
+                    *id = *lk.get_unchecked(k) as usize;
+                    debug_assert!(*id < out.len());
+                }
+                let u = _mm256_loadu_pd(bp.add(2 * j)); // [h0, l0, h1, l1]
+                let v = _mm256_loadu_pd(bp.add(2 * j + 4)); // [h2, l2, h3, l3]
+                let bh = _mm256_unpacklo_pd(u, v); // [h0, h2, h1, h3]
+                let bl = _mm256_unpackhi_pd(u, v);
+                let p = [
+                    o.add(2 * idx[0]),
+                    o.add(2 * idx[1]),
+                    o.add(2 * idx[2]),
+                    o.add(2 * idx[3]),
+                ];
+                let cu = _mm256_insertf128_pd::<1>(
+                    _mm256_castpd128_pd256(_mm_loadu_pd(p[0])),
+                    _mm_loadu_pd(p[1]),
+                );
+                let cv = _mm256_insertf128_pd::<1>(
+                    _mm256_castpd128_pd256(_mm_loadu_pd(p[2])),
+                    _mm_loadu_pd(p[3]),
+                );
+                let ch = _mm256_unpacklo_pd(cu, cv);
+                let cl = _mm256_unpackhi_pd(cu, cv);
+                let prod = _mm256_mul_pd(ah, bh);
+                let e1 = _mm256_fmsub_pd(ah, bh, prod);
+                let cross = _mm256_fmadd_pd(ah, bl, _mm256_mul_pd(al, bh));
+                let s = _mm256_add_pd(ch, prod);
+                let bb = _mm256_sub_pd(s, ch);
+                let f = _mm256_add_pd(
+                    _mm256_sub_pd(ch, _mm256_sub_pd(s, bb)),
+                    _mm256_sub_pd(prod, bb),
+                );
+                let lo = _mm256_add_pd(cl, _mm256_add_pd(e1, _mm256_add_pd(cross, f)));
+                let hi = _mm256_add_pd(s, lo);
+                let lo = _mm256_sub_pd(lo, _mm256_sub_pd(hi, s));
+                let ru = _mm256_unpacklo_pd(hi, lo); // [h0, l0, h1, l1]
+                let rv = _mm256_unpackhi_pd(hi, lo); // [h2, l2, h3, l3]
+                _mm_storeu_pd(p[0], _mm256_castpd256_pd128(ru));
+                _mm_storeu_pd(p[1], _mm256_extractf128_pd::<1>(ru));
+                _mm_storeu_pd(p[2], _mm256_castpd256_pd128(rv));
+                _mm_storeu_pd(p[3], _mm256_extractf128_pd::<1>(rv));
+            }
+            for j in 4 * quads..b.len() {
+                let idx = *lk.get_unchecked((base + kb[j]) as usize) as usize;
+                let c = out.get_unchecked_mut(idx);
+                *c = acc1_fma(*c, x, b[j]);
+            }
+        }
     }
 
     #[target_feature(enable = "avx2,fma")]
@@ -687,6 +781,45 @@ mod tests {
             unsafe { complex_kernel_fma(&mut f, &a, ka, &b[..n], &kb[..n], lk) };
             unsafe { avx::complex_kernel(&mut v, &a, ka, &b[..n], &kb[..n], lk) };
             assert_eq!(f, v);
+        }
+    }
+
+    #[test]
+    fn real_kernels_agree() {
+        use crate::MonomialTable;
+        let t = MonomialTable::new(4, 11);
+        let mut seed = 987u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let x = (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            Dd::new(x) + Dd::new(x * 1e-17)
+        };
+        for (da, db) in [(3, 5), (4, 6), (1, 7), (2, 2)] {
+            let a: Vec<Dd> = (0..t.count(da)).map(|_| rnd()).collect();
+            let b: Vec<Dd> = (0..t.count(db)).map(|_| rnd()).collect();
+            let (ka, kb, lk) = (
+                &t.degree(da).keys,
+                &t.degree(db).keys,
+                &t.degree(da + db).lookup,
+            );
+            let zero = vec![Dd::new(0.0); t.count(da + db)];
+            let mut reference = zero.clone();
+            generic_kernel(&mut reference, &a, ka, &b, kb, lk, |o, x, y| *o += x * y);
+            let mut plain = zero.clone();
+            unsafe { real_kernel_plain(&mut plain, &a, ka, &b, kb, lk) };
+            assert!(plain
+                .iter()
+                .zip(&reference)
+                .all(|(x, y)| (*x - *y).to_f64().abs() < 1e-30));
+            #[cfg(target_arch = "x86_64")]
+            if has_avx2_fma() {
+                let (mut f, mut v) = (zero.clone(), zero.clone());
+                unsafe { real_kernel_fma(&mut f, &a, ka, &b, kb, lk) };
+                unsafe { avx::real_kernel(&mut v, &a, ka, &b, kb, lk) };
+                assert_eq!(f, v);
+            }
         }
     }
 
