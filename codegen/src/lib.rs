@@ -146,6 +146,8 @@ impl Generated {
                 ));
             }
             out.push_str(&format!("pub mod {} {{\n", m.module));
+            // Literals come from the model file, which may write 3.14 for a reason.
+            out.push_str("    #![allow(clippy::approx_constant)]\n");
             for line in m.code.lines() {
                 if line.is_empty() {
                     out.push('\n');

@@ -160,18 +160,54 @@ pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str
 /// A numeric literal as `T`.
 pub fn literal(x: f64) -> TokenStream {
     if x == 0.0 {
-        quote!(T::zero())
-    } else if x == 1.0 {
-        quote!(T::one())
-    } else {
-        let l = Literal::f64_unsuffixed(x.abs());
-        if x < 0.0 {
-            quote!(lit::<T>(-#l))
-        } else {
-            quote!(lit::<T>(#l))
+        return quote!(T::zero());
+    }
+    if x == 1.0 {
+        return quote!(T::one());
+    }
+    // A value that is exactly a named constant (√2 from `sqrt(2)`, π) is written by name.
+    let magnitude = match NAMED_CONSTANTS.iter().find(|(_, v)| *v == x.abs()) {
+        Some((name, _)) => {
+            let name = format_ident!("{}", name);
+            quote!(core::f64::consts::#name)
         }
+        None => {
+            let l = Literal::f64_unsuffixed(x.abs());
+            quote!(#l)
+        }
+    };
+    if x < 0.0 {
+        quote!(lit::<T>(-#magnitude))
+    } else {
+        quote!(lit::<T>(#magnitude))
     }
 }
+
+/// The constants of `core::f64::consts` that folded literals may hit exactly.
+const NAMED_CONSTANTS: &[(&str, f64)] = {
+    use core::f64::consts::*;
+    &[
+        ("PI", PI),
+        ("TAU", TAU),
+        ("E", E),
+        ("SQRT_2", SQRT_2),
+        ("FRAC_1_SQRT_2", FRAC_1_SQRT_2),
+        ("FRAC_PI_2", FRAC_PI_2),
+        ("FRAC_PI_3", FRAC_PI_3),
+        ("FRAC_PI_4", FRAC_PI_4),
+        ("FRAC_PI_6", FRAC_PI_6),
+        ("FRAC_PI_8", FRAC_PI_8),
+        ("FRAC_1_PI", FRAC_1_PI),
+        ("FRAC_2_PI", FRAC_2_PI),
+        ("FRAC_2_SQRT_PI", FRAC_2_SQRT_PI),
+        ("LN_2", LN_2),
+        ("LN_10", LN_10),
+        ("LOG2_E", LOG2_E),
+        ("LOG10_E", LOG10_E),
+        ("LOG2_10", LOG2_10),
+        ("LOG10_2", LOG10_2),
+    ]
+};
 
 impl Writer<'_> {
     fn wrap(&self, (ts, p): (TokenStream, Prec), min: Prec) -> TokenStream {

@@ -13,6 +13,7 @@
 ///
 /// Operations (as a tree → after CSE → as emitted): X 5 → 5 → 5, f 8 → 8 → 8, Df 4 → 4 → 4, V 13 → 13 → 13, ∇V 28 → 17 → 15, X − ∇V 37 → 24 → 20.
 pub mod pendulum {
+    #![allow(clippy::approx_constant)]
     #[allow(unused_imports)]
     use lasalle_runtime::num_traits::{Float, One, Zero};
     #[allow(unused_imports)]
