@@ -25,14 +25,7 @@ pub fn diff(g: &mut Graph, root: Id, var: Input, memo: &mut HashMap<Id, Id>) -> 
                     if g.as_num(dk) == Some(0.0) {
                         continue;
                     }
-                    let mut factors: Vec<Id> = c
-                        .iter()
-                        .enumerate()
-                        .filter(|&(j, _)| j != i)
-                        .map(|(_, &f)| f)
-                        .collect();
-                    factors.push(dk);
-                    terms.push(g.mul(&factors));
+                    terms.push(g.mul(&others_times(&c, i, dk)));
                 }
                 g.add(&terms)
             }
@@ -58,6 +51,16 @@ pub fn diff(g: &mut Graph, root: Id, var: Input, memo: &mut HashMap<Id, Id>) -> 
         memo.insert(id, d);
     }
     memo[&root]
+}
+
+/// The factors of a product except the i-th, and `extra`: ∂(Π cⱼ)/∂cᵢ · extra.
+fn others_times(c: &[Id], i: usize, extra: Id) -> Vec<Id> {
+    c.iter()
+        .enumerate()
+        .filter(|&(j, _)| j != i)
+        .map(|(_, &f)| f)
+        .chain([extra])
+        .collect()
 }
 
 /// d(bᵉ)/db = e·bᵉ⁻¹.
@@ -111,14 +114,7 @@ pub fn gradient(g: &mut Graph, root: Id, vars: &[Input]) -> Vec<Id> {
                     if matches!(g.node(k), Node::Num(_)) {
                         continue;
                     }
-                    let mut factors: Vec<Id> = c
-                        .iter()
-                        .enumerate()
-                        .filter(|&(j, _)| j != i)
-                        .map(|(_, &f)| f)
-                        .collect();
-                    factors.push(adj);
-                    let t = g.mul(&factors);
+                    let t = g.mul(&others_times(&c, i, adj));
                     push(k, t, &mut contributions);
                 }
             }

@@ -454,35 +454,6 @@ impl Graph {
             .any(|id| matches!(self.node(id), Node::Input(i) if pred(*i)))
     }
 
-    /// Replaces inputs by expressions, rebuilding (and re-simplifying) everything above them.
-    pub fn substitute(
-        &mut self,
-        roots: &[Id],
-        map: &mut dyn FnMut(&mut Graph, Input) -> Option<Id>,
-    ) -> Vec<Id> {
-        let order = self.reachable(roots);
-        let mut new: HashMap<Id, Id> = HashMap::with_capacity(order.len());
-        for id in order {
-            let node = self.node(id).clone();
-            let rebuilt = match node {
-                Node::Num(_) => id,
-                Node::Input(i) => map(self, i).unwrap_or(id),
-                Node::Add(c) => {
-                    let c: Vec<Id> = c.iter().map(|k| new[k]).collect();
-                    self.add(&c)
-                }
-                Node::Mul(c) => {
-                    let c: Vec<Id> = c.iter().map(|k| new[k]).collect();
-                    self.mul(&c)
-                }
-                Node::Pow(b, e) => self.pow(new[&b], e),
-                Node::Func(f, a) => self.func(f, new[&a]),
-            };
-            new.insert(id, rebuilt);
-        }
-        roots.iter().map(|r| new[r]).collect()
-    }
-
     /// A readable rendering of an expression (for tests and messages).
     pub fn display(&self, id: Id) -> String {
         match self.node(id) {
