@@ -13,4 +13,5 @@ model CoupledOscillators {
     structure canonical(q, p);
 
     point origin { q = [0, 0]; p = [0, 0]; }
+    point excited { q = [0.1, 0.05]; p = [0, 0.1]; }
 }

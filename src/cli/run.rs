@@ -5,7 +5,10 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use lasalle::models::{kepler::Kepler, perturbed_kepler::PerturbedKepler, rigid_body::RigidBody};
+use lasalle::models::{
+    coupled_oscillators::CoupledOscillators, cr3bp::CR3BP, kepler::Kepler,
+    perturbed_kepler::PerturbedKepler, rigid_body::RigidBody, so3_type_i::So3TypeI,
+};
 use lasalle::GainPolicy;
 
 use super::sim::{apply_param, initial_state, simulate, CliModel, Method, ModelName, RunSpec};
@@ -31,10 +34,10 @@ pub struct RunArgs {
     /// repeatable.
     #[arg(long, value_name = "NAME=V")]
     pub param: Vec<String>,
-    /// The initial state: a named point of the model (`paper`) or the flat state as
-    /// comma-separated numbers.
-    #[arg(long, default_value = "paper", allow_hyphen_values = true)]
-    pub init: String,
+    /// The initial state: a named point of the model (default: `paper` if the model has it,
+    /// else its first point) or the flat state as comma-separated numbers.
+    #[arg(long, allow_hyphen_values = true)]
+    pub init: Option<String>,
     /// Gains of feedback methods: default (the model's), auto (= adaptive), fixed[:c],
     /// adaptive[:m[:c]], or k1,k2,…
     #[arg(long, default_value = "default")]
@@ -59,12 +62,15 @@ pub struct RunArgs {
     pub quiet: bool,
 }
 
-/// The paper's step size and end time for a model (§4).
+/// The default step size and end time for a model: the paper's (§4) for its three models.
 pub fn paper_step_and_end(model: ModelName) -> (f64, f64) {
     match model {
         ModelName::RigidBody => (1e-4, 1000.0),
         ModelName::Kepler => (0.005, 70.2481),
         ModelName::PerturbedKepler => (0.03, 200.0),
+        ModelName::Cr3bp => (1e-3, 100.0),
+        ModelName::So3TypeI => (1e-3, 10.0), // the thesis' Appendix B span
+        ModelName::CoupledOscillators => (1e-2, 100.0),
     }
 }
 
@@ -75,7 +81,21 @@ pub fn run(args: &RunArgs) -> CliResult {
         ModelName::RigidBody => run_model::<RigidBody, 12, 13, 3>(args),
         ModelName::Kepler => run_model::<Kepler, 6, 6, 2>(args),
         ModelName::PerturbedKepler => run_model::<PerturbedKepler, 6, 4, 2>(args),
+        ModelName::Cr3bp => run_model::<CR3BP, 4, 1, 1>(args),
+        ModelName::So3TypeI => run_model::<So3TypeI, 12, 11, 3>(args),
+        ModelName::CoupledOscillators => run_model::<CoupledOscillators, 4, 1, 1>(args),
     }
+}
+
+/// `paper` if the model has that point, else its first point.
+fn default_point(model: &impl lasalle::Parameters) -> Result<String, String> {
+    let names = model.point_names();
+    names
+        .iter()
+        .find(|&&n| n == "paper")
+        .or(names.first())
+        .map(|n| n.to_string())
+        .ok_or_else(|| "the model has no named point: give --init x1,x2,…".to_string())
 }
 
 fn run_model<Mdl, const N: usize, const M: usize, const G: usize>(args: &RunArgs) -> CliResult
@@ -87,7 +107,11 @@ where
     for p in &args.param {
         apply_param(&mut model, p)?;
     }
-    let x0: [f64; N] = initial_state(&model, &args.init)?;
+    let init = match &args.init {
+        Some(init) => init.clone(),
+        None => default_point(&model)?,
+    };
+    let x0: [f64; N] = initial_state(&model, &init)?;
     let (dt0, t_end0) = paper_step_and_end(Mdl::CLI);
     let dt = args.dt.unwrap_or(dt0);
     let mut spec = RunSpec::new(method, dt, args.t_end.unwrap_or(t_end0));

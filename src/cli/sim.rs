@@ -20,7 +20,10 @@ use std::str::FromStr;
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use lasalle::models::{kepler::Kepler, perturbed_kepler::PerturbedKepler, rigid_body::RigidBody};
+use lasalle::models::{
+    coupled_oscillators::CoupledOscillators, cr3bp::CR3BP, kepler::Kepler,
+    perturbed_kepler::PerturbedKepler, rigid_body::RigidBody, so3_type_i::So3TypeI,
+};
 use lasalle::{
     component_names, sample_capacity, AdaptiveGain, Control, DormandPrince, Driver, ExplicitRk,
     FeedbackField, Field, GainPolicy, Invariants, Lyapunov, ModelInfo, Observer, Parameters,
@@ -39,14 +42,30 @@ pub enum ModelName {
     Kepler,
     /// `models/perturbed_kepler.lsl`: the perturbed Kepler problem (§3.3, §4.3).
     PerturbedKepler,
+    /// `models/cr3bp.lsl`: the planar circular restricted three-body problem (Jacobi integral).
+    Cr3bp,
+    /// `models/so3_type_i.lsl`: Type I optimal control on SO(3) with reconstruction.
+    So3TypeI,
+    /// `models/coupled_oscillators.lsl`: two nonlinearly coupled oscillators.
+    CoupledOscillators,
 }
 
 impl ModelName {
-    /// All models, in the paper's order.
-    pub const ALL: [ModelName; 3] = [
+    /// The models of the paper's experiments, in the paper's order.
+    pub const PAPER: [ModelName; 3] = [
         ModelName::RigidBody,
         ModelName::Kepler,
         ModelName::PerturbedKepler,
+    ];
+
+    /// Every model the command line runs.
+    pub const ALL: [ModelName; 6] = [
+        ModelName::RigidBody,
+        ModelName::Kepler,
+        ModelName::PerturbedKepler,
+        ModelName::Cr3bp,
+        ModelName::So3TypeI,
+        ModelName::CoupledOscillators,
     ];
 
     /// The name on the command line.
@@ -55,6 +74,9 @@ impl ModelName {
             ModelName::RigidBody => "rigid-body",
             ModelName::Kepler => "kepler",
             ModelName::PerturbedKepler => "perturbed-kepler",
+            ModelName::Cr3bp => "cr3bp",
+            ModelName::So3TypeI => "so3-type-i",
+            ModelName::CoupledOscillators => "coupled-oscillators",
         }
     }
 }
@@ -387,37 +409,63 @@ fn needs_partitioned(method: Method, model: ModelName) -> String {
     }
 }
 
-impl CliModel<6, 6, 2> for Kepler {
-    const CLI: ModelName = ModelName::Kepler;
+/// `CliModel` for a model whose field is partitioned: Störmer–Verlet A and B apply.
+macro_rules! partitioned_model {
+    ($ty:ty, $n:literal, $m:literal, $g:literal, $cli:expr, $guard:expr) => {
+        impl CliModel<$n, $m, $g> for $ty {
+            const CLI: ModelName = $cli;
 
-    fn special<V: Visit<Self, 6>>(&self, method: Method, visit: V) -> Result<V::Out, String> {
-        match method {
-            Method::StormerVerlet(VerletVariant::A) => Ok(visit.visit(StormerVerlet::a())),
-            Method::StormerVerlet(VerletVariant::B) => Ok(visit.visit(StormerVerlet::b())),
-            _ => Err(needs_partitioned(method, Self::CLI)),
+            fn special<V: Visit<Self, $n>>(
+                &self,
+                method: Method,
+                visit: V,
+            ) -> Result<V::Out, String> {
+                match method {
+                    Method::StormerVerlet(VerletVariant::A) => Ok(visit.visit(StormerVerlet::a())),
+                    Method::StormerVerlet(VerletVariant::B) => Ok(visit.visit(StormerVerlet::b())),
+                    _ => Err(needs_partitioned(method, Self::CLI)),
+                }
+            }
+
+            fn guard() -> Option<GuardFn<$n>> {
+                $guard
+            }
         }
-    }
-
-    fn guard() -> Option<GuardFn<6>> {
-        Some(collision_guard)
-    }
+    };
 }
 
-impl CliModel<6, 4, 2> for PerturbedKepler {
-    const CLI: ModelName = ModelName::PerturbedKepler;
+/// `CliModel` for a model with no structure-specific stepper.
+macro_rules! general_model {
+    ($ty:ty, $n:literal, $m:literal, $g:literal, $cli:expr) => {
+        impl CliModel<$n, $m, $g> for $ty {
+            const CLI: ModelName = $cli;
 
-    fn special<V: Visit<Self, 6>>(&self, method: Method, visit: V) -> Result<V::Out, String> {
-        match method {
-            Method::StormerVerlet(VerletVariant::A) => Ok(visit.visit(StormerVerlet::a())),
-            Method::StormerVerlet(VerletVariant::B) => Ok(visit.visit(StormerVerlet::b())),
-            _ => Err(needs_partitioned(method, Self::CLI)),
+            fn special<V: Visit<Self, $n>>(&self, method: Method, _: V) -> Result<V::Out, String> {
+                Err(needs_partitioned(method, Self::CLI))
+            }
         }
-    }
-
-    fn guard() -> Option<GuardFn<6>> {
-        Some(collision_guard)
-    }
+    };
 }
+
+partitioned_model!(Kepler, 6, 6, 2, ModelName::Kepler, Some(collision_guard));
+partitioned_model!(
+    PerturbedKepler,
+    6,
+    4,
+    2,
+    ModelName::PerturbedKepler,
+    Some(collision_guard)
+);
+partitioned_model!(
+    CoupledOscillators,
+    4,
+    1,
+    1,
+    ModelName::CoupledOscillators,
+    None
+);
+general_model!(CR3BP, 4, 1, 1, ModelName::Cr3bp);
+general_model!(So3TypeI, 12, 11, 3, ModelName::So3TypeI);
 
 impl CliModel<12, 13, 3> for RigidBody {
     const CLI: ModelName = ModelName::RigidBody;

@@ -79,7 +79,7 @@ pub fn run(args: &ExperimentArgs) -> CliResult {
         Which::Model(m) => run_one(args, m),
         Which::Gains => gains::run(args, &out_dir(args, "gains")?),
         Which::All => {
-            for m in ModelName::ALL {
+            for m in ModelName::PAPER {
                 run_one(args, m)?;
             }
             gains::run(args, &out_dir(args, "gains")?)
@@ -93,6 +93,10 @@ fn run_one(args: &ExperimentArgs, model: ModelName) -> CliResult {
         ModelName::RigidBody => rigid_body::run(args, &dir),
         ModelName::Kepler => kepler::run(args, &dir),
         ModelName::PerturbedKepler => perturbed_kepler::run(args, &dir),
+        other => Err(format!(
+            "no experiment for model `{other}`; experiments: rigid-body, kepler, perturbed-kepler, gains, all (use `lasalle run {other}` to integrate it)"
+        )
+        .into()),
     }
 }
 
