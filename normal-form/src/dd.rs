@@ -674,6 +674,9 @@ impl Real for Dd {
     fn hi_lo(self) -> (f64, f64) {
         (self.hi, self.lo)
     }
+    fn from_hi_lo(hi: f64, lo: f64) -> Self {
+        Dd::from_parts(hi, lo)
+    }
     fn abs(self) -> Self {
         if self.hi < 0.0 || (self.hi == 0.0 && self.lo < 0.0) {
             -self

@@ -15,8 +15,9 @@
 
 use crate::complex::Complex;
 use crate::monomial::MonomialTable;
-use crate::poly::{deriv_hom, deriv_hom_into, mul_acc_hom, Poly};
+use crate::poly::{deriv_hom, deriv_hom_sparse, mul_acc_sparse, Poly};
 use crate::scalar::{Coeff, Real};
+use crate::Dd;
 use std::collections::BTreeMap;
 
 /// Derivatives of a homogeneous generator, arranged for `{T, G} = Σ_k T_{x_k}·G_{y_k} + T_{y_k}·(−G_{x_k})`.
@@ -53,20 +54,22 @@ impl<C: Coeff> GeneratorDerivs<C> {
 
 /// Reusable buffers of the brackets (no allocation per bracket).
 struct Scratch<C> {
-    deriv: Vec<C>,
-    half: Vec<C>,
+    /// ∂T/∂u_v in sparse form
+    vals: Vec<C>,
+    keys: Vec<u32>,
 }
 
 impl<C> Scratch<C> {
     fn new() -> Self {
         Scratch {
-            deriv: Vec::new(),
-            half: Vec::new(),
+            vals: Vec::new(),
+            keys: Vec::new(),
         }
     }
 }
 
-/// `out += {t, G}` for a homogeneous `t` of degree `deg ≥ 1`: 2n products.
+/// `out += {t, G}` for a homogeneous `t` of degree `deg ≥ 1`: 2n products, each of the
+/// sparse derivative of t with a derivative of G.
 fn bracket_acc<C: Coeff>(
     table: &MonomialTable,
     out: &mut [C],
@@ -80,8 +83,9 @@ fn bracket_acc<C: Coeff>(
             continue;
         }
         // v < n: T_{x_v} G_{y_v}; v = n + k: T_{y_k} (−G_{x_k}), i.e. ∂T/∂u_v · g.d[v]
-        deriv_hom_into(table, &mut s.deriv, t, deg, v);
-        mul_acc_hom(table, out, &s.deriv, deg - 1, gv, g.degree - 1);
+        deriv_hom_sparse(table, &mut s.vals, &mut s.keys, t, deg, v);
+        let od = deg + g.degree - 2;
+        mul_acc_sparse(table, out, od, &s.vals, &s.keys, gv, g.degree - 1);
     }
 }
 
@@ -97,12 +101,12 @@ fn i_pow_conj<R: Real>(z: Complex<R>, d: usize) -> Complex<R> {
     }
 }
 
-/// `out += {t, G}` for **real** t and G (real-valued on real points) in the complex
-/// coordinates, with half the products. On real points `conj(∂F/∂x_k) = −i ∂F/∂y_k` for real
-/// F, hence `T_{y_k}G_{x_k} = −conj(T_{x_k}G_{y_k})` and
+/// `out = {t, G}` (`out` zero on entry) for **real** t and G (real-valued on real points) in
+/// the complex coordinates, with half the products. On real points
+/// `conj(∂F/∂x_k) = −i ∂F/∂y_k` for real F, hence `T_{y_k}G_{x_k} = −conj(T_{x_k}G_{y_k})` and
 /// `{T, G} = P + conj(P)`, `P = Σ_k T_{x_k} G_{y_k}`: n products instead of 2n, and the
 /// result is exactly real (its coefficients satisfy `c_{ba} = i^d conj(c_{ab})`).
-fn bracket_real_acc<R: Real>(
+fn bracket_real<R: Real>(
     table: &MonomialTable,
     out: &mut [Complex<R>],
     t: &[Complex<R>],
@@ -112,26 +116,33 @@ fn bracket_real_acc<R: Real>(
 ) {
     let n = table.nvars() / 2;
     let od = deg + g.degree - 2;
-    s.half.clear();
-    s.half.resize(table.count(od), Complex::zero());
     for k in 0..n {
         if g.d[k].is_empty() {
             continue;
         }
-        deriv_hom_into(table, &mut s.deriv, t, deg, k);
-        mul_acc_hom(table, &mut s.half, &s.deriv, deg - 1, &g.d[k], g.degree - 1);
+        deriv_hom_sparse(table, &mut s.vals, &mut s.keys, t, deg, k);
+        mul_acc_sparse(table, out, od, &s.vals, &s.keys, &g.d[k], g.degree - 1);
     }
+    // out = P + conj(P) in place, pair by pair
     let mirror = &table.degree(od).mirror;
-    for ((o, &p), &m) in out.iter_mut().zip(&s.half).zip(mirror) {
-        *o += p + i_pow_conj(s.half[m as usize], od);
+    for i in 0..out.len() {
+        let m = mirror[i] as usize;
+        if m > i {
+            let (p, q) = (out[i], out[m]);
+            out[i] = p + i_pow_conj(q, od);
+            out[m] = q + i_pow_conj(p, od);
+        } else if m == i {
+            out[i] += i_pow_conj(out[i], od);
+        }
     }
 }
 
-/// `bracket(out, t, deg)`: `out += {t, G}` for a homogeneous t of degree deg.
-type BracketFn<'a, C> = dyn FnMut(&mut [C], &[C], usize) + 'a;
+/// `bracket(out, t, deg, j)`: `out = {t, G}/j` for a homogeneous t of degree deg, `out` zero
+/// on entry.
+type BracketFn<'a, C> = dyn FnMut(&mut [C], &[C], usize, usize) + 'a;
 
 /// `F ← exp(L_G) F = Σ_j L_Gʲ F / j!` truncated at degree `cap`, G homogeneous of degree
-/// r ≥ 3, with `bracket(out, t, deg)` doing `out += {t, G}`.
+/// r ≥ 3, with `bracket(out, t, deg)` giving `{t, G}`.
 /// `first_link_from_h2`: the exact `{H₂, G}` (= Z_r − H_r) used for the chain from degree 2.
 fn lie_chain<C: Coeff>(
     f: &mut Poly<C>,
@@ -157,11 +168,7 @@ fn lie_chain<C: Coeff>(
                 (_, _, other) => {
                     first = other;
                     let mut out = vec![C::zero(); table.count(new_deg)];
-                    bracket(&mut out, &t, deg);
-                    if j > 1 {
-                        let inv = C::one() / C::from_f64(j as f64);
-                        out.iter_mut().for_each(|c| *c *= inv);
-                    }
+                    bracket(&mut out, &t, deg, j);
                     out
                 }
             };
@@ -179,6 +186,14 @@ fn lie_chain<C: Coeff>(
     }
 }
 
+/// `out /= j` (as a product with 1/j).
+fn divide<C: Coeff>(out: &mut [C], j: usize) {
+    if j > 1 {
+        let inv = C::one() / C::from_f64(j as f64);
+        out.iter_mut().for_each(|c| *c *= inv);
+    }
+}
+
 /// [`lie_chain`] with the full bracket (any canonical coordinates, any coefficients).
 pub(crate) fn lie_transform<C: Coeff>(
     f: &mut Poly<C>,
@@ -193,19 +208,22 @@ pub(crate) fn lie_transform<C: Coeff>(
         return;
     }
     let mut scratch = Scratch::new();
-    lie_chain(f, r, cap, first_link_from_h2, &mut |out, t, deg| {
-        bracket_acc(&table, out, t, deg, &gd, &mut scratch)
+    lie_chain(f, r, cap, first_link_from_h2, &mut |out, t, deg, j| {
+        bracket_acc(&table, out, t, deg, &gd, &mut scratch);
+        divide(out, j);
     });
 }
 
 /// [`lie_chain`] for a real F and a real G in the complex coordinates (half the products,
-/// see [`bracket_real_acc`]).
+/// see [`bracket_real`]); brackets with output degree ≤ `compensate_to` are accumulated in
+/// double-double and rounded once (see [`bracket_real_compensated`]).
 pub(crate) fn lie_transform_real<R: Real>(
     f: &mut Poly<Complex<R>>,
     g: &[Complex<R>],
     r: usize,
     cap: usize,
     first_link_from_h2: Option<Vec<Complex<R>>>,
+    compensate_to: usize,
 ) {
     let table = f.table().clone();
     let gd = GeneratorDerivs::new(&table, g, r, true);
@@ -213,9 +231,56 @@ pub(crate) fn lie_transform_real<R: Real>(
         return;
     }
     let mut scratch = Scratch::new();
-    lie_chain(f, r, cap, first_link_from_h2, &mut |out, t, deg| {
-        bracket_real_acc(&table, out, t, deg, &gd, &mut scratch)
+    // the lowest bracket output degree is r + 1 (from H₃; the H₂ link is given)
+    let wide = (compensate_to > r).then(|| {
+        let gw: Vec<Complex<Dd>> = g.iter().map(|&c| widen(c)).collect();
+        GeneratorDerivs::new(&table, &gw, r, true)
     });
+    let mut sw = Scratch::new();
+    lie_chain(
+        f,
+        r,
+        cap,
+        first_link_from_h2,
+        &mut |out, t, deg, j| match &wide {
+            Some(gdw) if deg + r - 2 <= compensate_to => {
+                bracket_real_compensated(&table, out, t, deg, j, gdw, &mut sw)
+            }
+            _ => {
+                bracket_real(&table, out, t, deg, &gd, &mut scratch);
+                divide(out, j);
+            }
+        },
+    );
+}
+
+fn widen<R: Real>(c: Complex<R>) -> Complex<Dd> {
+    let (a, b) = c.re.hi_lo();
+    let (x, y) = c.im.hi_lo();
+    Complex::new(Dd::from_parts(a, b), Dd::from_parts(x, y))
+}
+
+/// `{t, G}/j` as [`bracket_real`] but in double-double: the f64 inputs are widened exactly,
+/// the products accumulated with error-free transformations, and `P + conj(P)` and the
+/// division by j formed before the one rounding into `out`. However much `P` cancels, `out`
+/// is the correctly rounded bracket of the rounded inputs.
+fn bracket_real_compensated<R: Real>(
+    table: &MonomialTable,
+    out: &mut [Complex<R>],
+    t: &[Complex<R>],
+    deg: usize,
+    j: usize,
+    g: &GeneratorDerivs<Complex<Dd>>,
+    s: &mut Scratch<Complex<Dd>>,
+) {
+    let tw: Vec<Complex<Dd>> = t.iter().map(|&c| widen(c)).collect();
+    let mut w = vec![Complex::zero(); out.len()];
+    bracket_real(table, &mut w, &tw, deg, g, s);
+    let inv = Dd::new(1.0) / Dd::new(j as f64);
+    for (o, x) in out.iter_mut().zip(&w) {
+        let (re, im) = (x.re * inv, x.im * inv);
+        *o = Complex::new(R::from_hi_lo(re.hi, re.lo), R::from_hi_lo(im.hi, im.lo));
+    }
 }
 
 /// A small divisor met: `m·ω` for an integer vector m relative to the positive frequencies.
@@ -248,14 +313,17 @@ pub(crate) fn canonical_m(m: &[i32], sigma: &[i8]) -> (Vec<i32>, bool) {
 }
 
 /// Runs the normalisation of `h` (complex, degrees ≥ 2, H₂ = Σ λ_k x_k y_k) to degree N.
+/// `omega_dd`: the frequencies in double-double (the divisors are formed from them);
 /// `is_resonant(m)` decides whether the term is kept (resonant normal form); it is only
-/// asked about canonical m.
+/// asked about canonical m; brackets with output degree ≤ `compensate_to` are accumulated in
+/// double-double ([`bracket_real_compensated`]).
 #[allow(clippy::needless_range_loop)]
 pub(crate) fn normalize<R: Real>(
     mut h: Poly<Complex<R>>,
-    omega: &[R],
+    omega_dd: &[Dd],
     sigma: &[i8],
     is_resonant: &dyn Fn(&[i32]) -> bool,
+    compensate_to: usize,
 ) -> LieOutput<R> {
     let table = h.table().clone();
     let nmax = table.max_degree();
@@ -284,10 +352,11 @@ pub(crate) fn normalize<R: Real>(
             }
             let (cm, _) = canonical_m(&m, sigma);
             let entry = divisors.entry(cm.clone()).or_insert_with(|| {
-                let value = cm
+                let v = cm
                     .iter()
-                    .zip(omega)
-                    .fold(R::zero(), |s, (&a, &w)| s + w.scale(a as f64));
+                    .zip(omega_dd)
+                    .fold(Dd::new(0.0), |s, (&a, &w)| s + w.scale(a as f64));
+                let value = R::from_hi_lo(v.hi, v.lo);
                 Divisor {
                     m: cm.clone(),
                     value,
@@ -299,21 +368,27 @@ pub(crate) fn normalize<R: Real>(
                 zr[i] = c;
                 continue;
             }
-            // ⟨λ, a − b⟩ = i Σ σ_k ω_k m_k
+            // g = h / ⟨λ, a − b⟩, ⟨λ, a − b⟩ = i Σ σ_k ω_k m_k: the divisor from the
+            // double-double frequencies and each part divided once, so that g is the
+            // correctly rounded quotient (the small divisors amplify every rounding here)
             let s = m
                 .iter()
-                .zip(omega)
+                .zip(omega_dd)
                 .zip(sigma)
-                .fold(R::zero(), |acc, ((&mk, &w), &sg)| {
+                .fold(Dd::new(0.0), |acc, ((&mk, &w), &sg)| {
                     acc + w.scale((mk * sg as i32) as f64)
                 });
-            let div = Complex::new(R::zero(), s);
-            g[i] = c / div;
+            let q = |x: R| {
+                let (hi, lo) = x.hi_lo();
+                let v = Dd::from_parts(hi, lo) / s;
+                R::from_hi_lo(v.hi, v.lo)
+            };
+            g[i] = Complex::new(q(c.im), q(-c.re));
             any = true;
         }
         if any {
             let first: Vec<Complex<R>> = zr.iter().zip(&hr).map(|(&z, &x)| z - x).collect();
-            lie_transform_real(&mut h, &g, r, nmax, Some(first));
+            lie_transform_real(&mut h, &g, r, nmax, Some(first), compensate_to);
             // the degree-r part is Z_r up to rounding of h + (z − h); set it exactly
             h.set_part(r, zr);
             generators[r] = g;
@@ -408,7 +483,7 @@ mod tests {
             let gd = GeneratorDerivs::new(&table, &g, dg, false);
             bracket_acc(&table, &mut full, &t, dt, &gd, &mut s);
             let gd = GeneratorDerivs::new(&table, &g, dg, true);
-            bracket_real_acc(&table, &mut half, &t, dt, &gd, &mut s);
+            bracket_real(&table, &mut half, &t, dt, &gd, &mut s);
             let scale = full.iter().map(|c| c.magnitude()).fold(0.0, f64::max);
             assert!(scale > 0.1);
             for (a, b) in full.iter().zip(&half) {

@@ -14,6 +14,7 @@ use crate::linalg::{
     char_poly, matmul, max_diff, null_vector, poly_roots, symplectic_j, transpose, zeros, Mat,
 };
 use crate::scalar::{Coeff, Real};
+use crate::Dd;
 
 /// Result of the linear normalisation.
 #[derive(Clone, Debug)]
@@ -92,7 +93,6 @@ pub(crate) fn linear_normalization<R: Real>(
     // of (M − iωI) is as accurate as ω itself.
     let mut a: Mat<R> = zeros(d, d);
     let mut sigma = vec![0i8; n];
-    let j: Mat<R> = symplectic_j(n);
     for k in 0..n {
         let lam = Complex::new(R::zero(), omega[k]);
         let mc: Mat<Complex<R>> = (0..d)
@@ -129,15 +129,7 @@ pub(crate) fn linear_normalization<R: Real>(
         }
         sigma[k] = sg;
     }
-    let at = transpose(&a);
-    let symplectic_residual = max_diff(&matmul(&matmul(&at, &j), &a), &j);
-    let mut dgl: Mat<R> = zeros(d, d);
-    for k in 0..n {
-        let w = omega[k] * R::from_f64(sigma[k] as f64);
-        dgl[k][k] = w;
-        dgl[n + k][n + k] = w;
-    }
-    let diagonal_residual = max_diff(&matmul(&matmul(&at, s), &a), &dgl);
+    let (symplectic_residual, diagonal_residual) = residuals(&a, s, &omega, &sigma);
     Ok(LinearNormalization {
         omega,
         sigma,
@@ -145,6 +137,44 @@ pub(crate) fn linear_normalization<R: Real>(
         symplectic_residual,
         diagonal_residual,
     })
+}
+
+/// (max |AᵀJA − J|, max |AᵀSA − diag(σω, σω)|)
+fn residuals<R: Real>(a: &Mat<R>, s: &Mat<R>, omega: &[R], sigma: &[i8]) -> (f64, f64) {
+    let d = a.len();
+    let n = d / 2;
+    let j: Mat<R> = symplectic_j(n);
+    let at = transpose(a);
+    let symplectic = max_diff(&matmul(&matmul(&at, &j), a), &j);
+    let mut dgl: Mat<R> = zeros(d, d);
+    for k in 0..n {
+        let w = omega[k] * R::from_f64(sigma[k] as f64);
+        dgl[k][k] = w;
+        dgl[n + k][n + k] = w;
+    }
+    (symplectic, max_diff(&matmul(&matmul(&at, s), a), &dgl))
+}
+
+impl LinearNormalization<Dd> {
+    /// A and ω rounded to the working precision R, the residuals recomputed there (`s`: the
+    /// Hessian in R).
+    pub(crate) fn rounded<R: Real>(&self, s: &Mat<R>) -> LinearNormalization<R> {
+        let r = |x: &Dd| R::from_hi_lo(x.hi, x.lo);
+        let a: Mat<R> = self
+            .a
+            .iter()
+            .map(|row| row.iter().map(r).collect())
+            .collect();
+        let omega: Vec<R> = self.omega.iter().map(r).collect();
+        let (symplectic_residual, diagonal_residual) = residuals(&a, s, &omega, &self.sigma);
+        LinearNormalization {
+            omega,
+            sigma: self.sigma.clone(),
+            a,
+            symplectic_residual,
+            diagonal_residual,
+        }
+    }
 }
 
 /// The complexification `Q_k = (x_k + i y_k)/√2`, `P_k = (i x_k + y_k)/√2` (matrix C with

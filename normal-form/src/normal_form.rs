@@ -83,6 +83,12 @@ pub struct Options {
     /// normalisation. H̄ does not depend on them, so comparing runs with different angles
     /// measures rounding errors independently of the precision. Default: none.
     pub basis_rotation: Vec<f64>,
+    /// f64 runs only: the Poisson brackets of the Lie series and the substitution into the
+    /// complex coordinates are accumulated in double-double (error-free transformations of
+    /// the f64 values, rounded once) for output degrees ≤ this. The low degrees are where
+    /// rounding errors meet the most small divisors afterwards, and they are cheap.
+    /// Default: 12; 0 = plain f64 arithmetic throughout.
+    pub compensated_degree: usize,
 }
 
 impl Default for Options {
@@ -97,6 +103,7 @@ impl Default for Options {
             max_newton: 50,
             equilibrium_tol: 1e-8,
             basis_rotation: Vec::new(),
+            compensated_degree: 12,
         }
     }
 }
@@ -381,6 +388,52 @@ fn to_complex<R: Real>(m: &Mat<R>) -> Mat<Complex<R>> {
         .collect()
 }
 
+fn widen<R: Real>(x: R) -> Dd {
+    let (hi, lo) = x.hi_lo();
+    Dd::from_parts(hi, lo)
+}
+
+/// H(z_eq + A C u) as a complex polynomial in u (C: the complexification). The parts of
+/// degree ≤ `compensate_to` are substituted in double-double and rounded once (their
+/// rounding errors are the ones the small divisors amplify most), the others in R.
+fn to_complex_coordinates<R: Real>(
+    hz: &Poly<R>,
+    a: &Mat<R>,
+    compensate_to: usize,
+) -> Poly<Complex<R>> {
+    let n = a.len() / 2;
+    let (c, _) = complexification::<R>(n);
+    let l = matmul(&to_complex(a), &c);
+    let mut high = hz.clone();
+    for k in 0..=compensate_to.min(hz.max_degree()) {
+        high.set_part(k, Vec::new());
+    }
+    let mut out = high.map(Complex::real).substitute_linear(&l);
+    if compensate_to > 0 {
+        let mut low = hz.map(widen);
+        low.truncate(compensate_to);
+        let (c, _) = complexification::<Dd>(n);
+        let a_dd: Mat<Dd> = a
+            .iter()
+            .map(|row| row.iter().map(|&x| widen(x)).collect())
+            .collect();
+        let l_dd = matmul(&to_complex(&a_dd), &c);
+        let low = low.map(Complex::real).substitute_linear(&l_dd);
+        let narrow = |x: Dd| R::from_hi_lo(x.hi, x.lo);
+        for k in 0..=compensate_to.min(hz.max_degree()) {
+            if let Some(p) = low.part(k) {
+                out.set_part(
+                    k,
+                    p.iter()
+                        .map(|z| Complex::new(narrow(z.re), narrow(z.im)))
+                        .collect(),
+                );
+            }
+        }
+    }
+    out
+}
+
 /// (−i)^m
 fn minus_i_pow<R: Real>(m: usize) -> Complex<R> {
     match m % 4 {
@@ -465,12 +518,23 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(
 
     // linear normalisation
     let t = Instant::now();
+    // in double-double whatever the working precision: a 2n×2n problem, and f64 frequencies
+    // and A come out correctly rounded (the small divisors amplify every error in ω)
     let (_, s) = gradient_hessian(&hz);
-    let lin = linear_normalization(&s, &o.basis_rotation)?;
+    let s_dd: Mat<Dd> = s
+        .iter()
+        .map(|row| row.iter().map(|&x| widen(x)).collect())
+        .collect();
+    let lin_dd = linear_normalization(&s_dd, &o.basis_rotation)?;
+    let lin = lin_dd.rounded(&s);
     let ainv = symplectic_inverse(&lin.a);
-    let (c, ci) = complexification::<R>(n);
-    let l = matmul(&to_complex(&lin.a), &c);
-    let mut hc = hz.map(Complex::real).substitute_linear(&l);
+    let (_, ci) = complexification::<R>(n);
+    let compensate_to = if R::NAME == "f64" {
+        o.compensated_degree.min(nmax)
+    } else {
+        0
+    };
+    let mut hc = to_complex_coordinates(&hz, &lin.a, compensate_to);
     let lambda: Vec<Complex<R>> = lin
         .omega
         .iter()
@@ -522,7 +586,7 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(
 
     // Lie normalisation
     let t = Instant::now();
-    let out = lie::normalize(hc, &lin.omega, &lin.sigma, &is_res);
+    let out = lie::normalize(hc, &lin_dd.omega, &lin.sigma, &is_res, compensate_to);
     timings.lie = t.elapsed().as_secs_f64();
 
     // H̄ in actions: x_k y_k = −i I_k

@@ -49,20 +49,46 @@ pub fn deriv_hom<T: Coeff>(table: &MonomialTable, a: &[T], k: usize, v: usize) -
     out
 }
 
-/// [`deriv_hom`] into a reusable buffer (resized to the part of degree k−1).
-pub fn deriv_hom_into<T: Coeff>(
+/// ∂a/∂x_v of a homogeneous part `a` of degree `k ≥ 1` in sparse form: its nonzero
+/// coefficients and their monomial keys (degree k−1), into reusable buffers.
+pub fn deriv_hom_sparse<T: Coeff>(
     table: &MonomialTable,
-    out: &mut Vec<T>,
+    vals: &mut Vec<T>,
+    keys: &mut Vec<u32>,
     a: &[T],
     k: usize,
     v: usize,
 ) {
-    out.clear();
-    out.resize(table.count(k - 1), T::zero());
+    vals.clear();
+    keys.clear();
+    let prev = &table.degree(k - 1).keys;
     for (&c, &(j, e)) in a.iter().zip(&table.degree(k).deriv[v]) {
         if e != 0 && !c.is_zero() {
-            out[j as usize] = c.scale(e as f64);
+            vals.push(c.scale(e as f64));
+            keys.push(prev[j as usize]);
         }
+    }
+}
+
+/// `out += a·b` for a sparse `a` (coefficients and keys, e.g. from [`deriv_hom_sparse`]) and
+/// a dense homogeneous part `b` of degree `db`; `out` is the part of degree `deg_out`.
+pub fn mul_acc_sparse<T: Coeff>(
+    table: &MonomialTable,
+    out: &mut [T],
+    deg_out: usize,
+    a: &[T],
+    ka: &[u32],
+    b: &[T],
+    db: usize,
+) {
+    let lk = &table.degree(deg_out).lookup[..];
+    let kb = &table.degree(db).keys[..];
+    assert!(ka.len() == a.len() && kb.len() == b.len() && out.len() == table.count(deg_out));
+    // the longer array inside (the kernels vectorise the inner loop)
+    if a.len() <= b.len() {
+        T::mul_acc_kernel(out, a, ka, b, kb, lk);
+    } else {
+        T::mul_acc_kernel(out, b, kb, a, ka, lk);
     }
 }
 

@@ -104,6 +104,8 @@ pub trait Real: Coeff + PartialOrd {
     fn to_f64(self) -> f64;
     /// The value as an unevaluated sum `hi + lo` of two f64 (lo = 0 for f64).
     fn hi_lo(self) -> (f64, f64);
+    /// `hi + lo` in this precision (rounded for f64).
+    fn from_hi_lo(hi: f64, lo: f64) -> Self;
     /// |self|
     fn abs(self) -> Self;
     /// √self
@@ -240,6 +242,9 @@ impl Real for f64 {
     }
     fn hi_lo(self) -> (f64, f64) {
         (self, 0.0)
+    }
+    fn from_hi_lo(hi: f64, lo: f64) -> Self {
+        hi + lo
     }
     fn abs(self) -> Self {
         f64::abs(self)

@@ -122,7 +122,7 @@ fn dsl_cr3bp_agrees_with_the_hand_written_one() {
         for (a, b) in from_file.hamiltonian.iter().zip(&direct.hamiltonian) {
             let (x, y) = (a.coeff.value + a.coeff.lo, b.coeff.value + b.coeff.lo);
             let tol = if precision == Precision::F64 {
-                1e-8
+                1e-9
             } else {
                 1e-20
             };
