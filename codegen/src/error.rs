@@ -98,7 +98,6 @@ impl fmt::Display for Diagnostic {
         writeln!(f, "error: {}", self.message)?;
         if let Some(span) = &self.span {
             let (line, col) = span.line_col();
-            let text = span.line_text();
             let gutter = line.to_string().len();
             let width = span
                 .text()
@@ -106,16 +105,25 @@ impl fmt::Display for Diagnostic {
                 .take_while(|&c| c != '\n')
                 .count()
                 .max(1);
+            // Long lines are shown as a window around the caret.
+            let chars: Vec<char> = span.line_text().chars().collect();
+            let start = (col - 1).saturating_sub(40);
+            let end = (col - 1 + width.min(40) + 40).min(chars.len());
+            let (prefix, suffix) = (
+                if start > 0 { "…" } else { "" },
+                if end < chars.len() { "…" } else { "" },
+            );
+            let text: String = chars[start..end].iter().collect();
+            let pad = col - 1 - start + prefix.chars().count();
             writeln!(f, "{:gutter$}--> {}", "", span.location())?;
             writeln!(f, "{:gutter$} |", "")?;
-            writeln!(f, "{line} | {text}")?;
+            writeln!(f, "{line} | {prefix}{text}{suffix}")?;
             writeln!(
                 f,
                 "{:gutter$} | {:pad$}{}",
                 "",
                 "",
-                "^".repeat(width),
-                pad = col - 1
+                "^".repeat(width.min(end - (col - 1)).max(1))
             )?;
         }
         if let Some(help) = &self.help {

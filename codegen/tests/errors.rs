@@ -152,6 +152,34 @@ fn explicit_lyapunov_must_vanish_on_the_invariant_set() {
     );
 }
 
+#[test]
+fn deep_nesting_and_huge_exponents_are_errors_not_crashes() {
+    let deep = format!(
+        "model M {{\n    state x: scalar;\n    d/dt x = {}x{};\n}}\n",
+        "(".repeat(100_000),
+        ")".repeat(100_000)
+    );
+    let msg = error_of(&deep);
+    // Each parenthesis opens two levels (expression, operand): the 100th is too deep.
+    assert!(
+        msg.contains("models/test.lsl:3:114") && msg.contains("nested more than 200 levels deep"),
+        "{}",
+        &msg[..200]
+    );
+    let minus = format!(
+        "model M {{\n    state x: scalar;\n    d/dt x = {}x;\n}}\n",
+        "-".repeat(100_000)
+    );
+    assert!(
+        error_of(&minus).contains("nested more than 200 levels deep"),
+        "a chain of unary minus"
+    );
+    // (x^999999)^999999 overflows the exponent arithmetic: kept unfolded, never a panic.
+    let text =
+        "model M {\n    state x: scalar;\n    d/dt x = (x^999999)^999999 - (x^999999)^999999;\n}\n";
+    assert!(generate_source("m.lsl", text).is_ok());
+}
+
 /// Mutations of every model file (deleted, duplicated and replaced characters) never make the
 /// generator panic: each input either generates or fails with a diagnostic.
 #[test]

@@ -66,7 +66,13 @@ fn others_times(c: &[Id], i: usize, extra: Id) -> Vec<Id> {
 /// d(bᵉ)/db = e·bᵉ⁻¹.
 fn local_pow(g: &mut Graph, b: Id, e: Rational) -> Id {
     let c = g.num(e.to_f64());
-    let p = g.pow(b, e + Rational::int(-1));
+    let p = match e.checked_add(Rational::int(-1)) {
+        Some(e1) => g.pow(b, e1),
+        None => {
+            let (pe, inv) = (g.pow(b, e), g.pow(b, Rational::int(-1)));
+            g.mul(&[pe, inv])
+        }
+    };
     g.mul(&[c, p])
 }
 

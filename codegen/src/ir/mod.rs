@@ -62,12 +62,7 @@ impl Rational {
     /// p/q reduced to lowest terms.
     pub fn new(num: i32, den: i32) -> Rational {
         assert!(den != 0, "zero denominator");
-        let g = gcd(num.unsigned_abs(), den.unsigned_abs()).max(1) as i32;
-        let s = if den < 0 { -1 } else { 1 };
-        Rational {
-            num: s * num / g,
-            den: s * den / g,
-        }
+        Rational::reduce(num.into(), den.into()).expect("a reduced i32 fraction fits in i32")
     }
     /// An integer.
     pub fn int(n: i32) -> Rational {
@@ -90,17 +85,38 @@ impl Rational {
     }
 }
 
-impl std::ops::Add for Rational {
-    type Output = Rational;
-    fn add(self, o: Rational) -> Rational {
-        Rational::new(self.num * o.den + o.num * self.den, self.den * o.den)
+impl Rational {
+    /// p/q from 64-bit parts, if it fits.
+    fn reduce(num: i64, den: i64) -> Option<Rational> {
+        let g = gcd(num.unsigned_abs(), den.unsigned_abs()).max(1) as i64;
+        let s = if den < 0 { -1 } else { 1 };
+        let (num, den) = (s * num / g, s * den / g);
+        Some(Rational {
+            num: i32::try_from(num).ok()?,
+            den: i32::try_from(den).ok()?,
+        })
+    }
+
+    /// The sum, or `None` if it overflows (absurd exponents never panic the generator).
+    pub fn checked_add(self, o: Rational) -> Option<Rational> {
+        let (a, b, c, d) = (self.num as i64, self.den as i64, o.num as i64, o.den as i64);
+        Rational::reduce(a * d + c * b, b * d)
+    }
+
+    /// The product, or `None` if it overflows.
+    pub fn checked_mul(self, o: Rational) -> Option<Rational> {
+        Rational::reduce(
+            self.num as i64 * o.num as i64,
+            self.den as i64 * o.den as i64,
+        )
     }
 }
 
-impl std::ops::Mul for Rational {
-    type Output = Rational;
-    fn mul(self, o: Rational) -> Rational {
-        Rational::new(self.num * o.num, self.den * o.den)
+fn gcd(a: u64, b: u64) -> u64 {
+    if b == 0 {
+        a
+    } else {
+        gcd(b, a % b)
     }
 }
 
@@ -111,14 +127,6 @@ impl fmt::Display for Rational {
         } else {
             write!(f, "{}/{}", self.num, self.den)
         }
-    }
-}
-
-fn gcd(a: u32, b: u32) -> u32 {
-    if b == 0 {
-        a
-    } else {
-        gcd(b, a % b)
     }
 }
 
@@ -314,9 +322,14 @@ impl Graph {
                 Node::Num(b) if e.is_int() => constant *= f64::from_bits(b).powi(e.num),
                 Node::Mul(inner) if e.is_int() => stack.extend(inner.iter().rev().map(|&g| (g, e))),
                 // (b^e2)^e = b^(e2·e) holds for integer e; (b²)^½ = |b| does not fold.
-                Node::Pow(base, e2) if e.is_int() => stack.push((base, e2 * e)),
+                Node::Pow(base, e2) if e.is_int() && e2.checked_mul(e).is_some() => {
+                    stack.push((base, e2.checked_mul(e).expect("checked")))
+                }
                 _ => match position.get(&f) {
-                    Some(&k) => exps[k].1 = exps[k].1 + e,
+                    Some(&k) => match exps[k].1.checked_add(e) {
+                        Some(sum) => exps[k].1 = sum,
+                        None => exps.push((f, e)), // too large to merge: keep apart
+                    },
                     None => {
                         position.insert(f, exps.len());
                         exps.push((f, e));
@@ -379,7 +392,10 @@ impl Graph {
     fn clone_shallow_pow(&mut self, base: Id, e: Rational) -> Vec<Id> {
         match self.node(base).clone() {
             Node::Mul(fs) if e.is_int() => fs.iter().map(|&f| self.pow(f, e)).collect(),
-            Node::Pow(b, e2) if e.is_int() => vec![self.pow(b, e2 * e)],
+            Node::Pow(b, e2) if e.is_int() => match e2.checked_mul(e) {
+                Some(p) => vec![self.pow(b, p)],
+                None => vec![self.pow_raw(base, e)],
+            },
             _ => vec![self.pow_raw(base, e)],
         }
     }

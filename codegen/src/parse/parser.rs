@@ -35,14 +35,23 @@ const ITEM_KEYWORDS: &[&str] = &[
 pub struct Parser {
     tokens: Vec<Token>,
     pos: usize,
+    /// Current nesting of expressions, bounded so no input can exhaust the stack.
+    depth: usize,
 }
+
+/// Deepest nesting of parentheses, calls, lists and unary operators accepted.
+const MAX_DEPTH: usize = 200;
 
 type PResult<T> = Result<T, Diagnostic>;
 
 impl Parser {
     /// A parser over `tokens` (which end with `Tok::Eof`).
     pub fn new(tokens: Vec<Token>) -> Self {
-        Parser { tokens, pos: 0 }
+        Parser {
+            tokens,
+            pos: 0,
+            depth: 0,
+        }
     }
 
     fn peek(&self) -> &Token {
@@ -291,8 +300,27 @@ impl Parser {
         self.unexpected(&format!("one of {}", list.join(", ")))
     }
 
+    /// Runs `parse` one nesting level deeper, or fails if the input nests too deeply.
+    fn nested<T>(&mut self, parse: impl FnOnce(&mut Self) -> PResult<T>) -> PResult<T> {
+        if self.depth >= MAX_DEPTH {
+            return Err(Diagnostic::new(
+                &self.peek().span,
+                format!("expression nested more than {MAX_DEPTH} levels deep"),
+            )
+            .help("split it with `let` bindings"));
+        }
+        self.depth += 1;
+        let result = parse(self);
+        self.depth -= 1;
+        result
+    }
+
     /// expr = term (("+" | "-") term)*
     pub fn expr(&mut self) -> PResult<Expr> {
+        self.nested(Self::sum)
+    }
+
+    fn sum(&mut self) -> PResult<Expr> {
         let mut lhs = self.term()?;
         while self.is_punct('+') || self.is_punct('-') {
             let op = if self.bump().tok == Tok::Punct('+') {
@@ -321,6 +349,10 @@ impl Parser {
     }
 
     fn unary(&mut self) -> PResult<Expr> {
+        self.nested(Self::unary_inner)
+    }
+
+    fn unary_inner(&mut self) -> PResult<Expr> {
         if self.is_punct('-') {
             let start = self.bump().span;
             let inner = self.unary()?;
