@@ -5,7 +5,7 @@ use crate::complex::Complex;
 use crate::error::NormalFormError;
 use crate::hamiltonian::{find_equilibrium, gradient_hessian, taylor, HamiltonianFn};
 use crate::lie;
-use crate::linalg::{matmul, Mat};
+use crate::linalg::Mat;
 use crate::linear::{complexification, linear_normalization, symplectic_inverse};
 use crate::monomial::MonomialTable;
 use crate::poly::Poly;
@@ -382,45 +382,50 @@ struct Raw<R> {
     table_bytes: usize,
 }
 
-fn to_complex<R: Real>(m: &Mat<R>) -> Mat<Complex<R>> {
-    m.iter()
-        .map(|r| r.iter().map(|&x| Complex::real(x)).collect())
-        .collect()
-}
-
 fn widen<R: Real>(x: R) -> Dd {
     let (hi, lo) = x.hi_lo();
     Dd::from_parts(hi, lo)
 }
 
-/// H(z_eq + A C u) as a complex polynomial in u (C: the complexification). The parts of
-/// degree ≤ `compensate_to` are substituted in double-double and rounded once (their
-/// rounding errors are the ones the small divisors amplify most), the others in R.
+/// The 2×2 blocks of a matrix acting on the variable pairs (k, n + k) only.
+fn pair_blocks<T: Coeff>(m: &Mat<T>) -> Vec<[[T; 2]; 2]> {
+    let n = m.len() / 2;
+    (0..n)
+        .map(|k| [[m[k][k], m[k][n + k]], [m[n + k][k], m[n + k][n + k]]])
+        .collect()
+}
+
+/// H(z_eq + A C u) as a complex polynomial in u (C: the complexification): the real
+/// substitution of A, then C pair by pair. The parts of degree ≤ `compensate_to` are
+/// substituted in double-double and rounded once (their rounding errors are the ones the
+/// small divisors amplify most), the others in R.
 fn to_complex_coordinates<R: Real>(
     hz: &Poly<R>,
     a: &Mat<R>,
     compensate_to: usize,
 ) -> Poly<Complex<R>> {
-    let n = a.len() / 2;
-    let (c, _) = complexification::<R>(n);
-    let l = matmul(&to_complex(a), &c);
+    fn subst<T: Real>(p: &Poly<T>, a: &Mat<T>) -> Poly<Complex<T>> {
+        let (c, _) = complexification::<T>(a.len() / 2);
+        p.substitute_linear(a)
+            .map(Complex::real)
+            .substitute_pairs(&pair_blocks(&c))
+    }
+    let top = compensate_to.min(hz.max_degree());
     let mut high = hz.clone();
-    for k in 0..=compensate_to.min(hz.max_degree()) {
+    for k in 0..=top {
         high.set_part(k, Vec::new());
     }
-    let mut out = high.map(Complex::real).substitute_linear(&l);
+    let mut out = subst(&high, a);
     if compensate_to > 0 {
         let mut low = hz.map(widen);
-        low.truncate(compensate_to);
-        let (c, _) = complexification::<Dd>(n);
+        low.truncate(top);
         let a_dd: Mat<Dd> = a
             .iter()
             .map(|row| row.iter().map(|&x| widen(x)).collect())
             .collect();
-        let l_dd = matmul(&to_complex(&a_dd), &c);
-        let low = low.map(Complex::real).substitute_linear(&l_dd);
+        let low = subst(&low, &a_dd);
         let narrow = |x: Dd| R::from_hi_lo(x.hi, x.lo);
-        for k in 0..=compensate_to.min(hz.max_degree()) {
+        for k in 0..=top {
             if let Some(p) = low.part(k) {
                 out.set_part(
                     k,
@@ -651,7 +656,7 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(
             gsum.set_part(r, g.clone());
         }
     }
-    let (greal, generating_imag) = real_part(&gsum.substitute_linear(&ci));
+    let (greal, generating_imag) = real_part(&gsum.substitute_pairs(&pair_blocks(&ci)));
     let greal_parts: Vec<Vec<R>> = (0..=nmax)
         .map(|r| greal.part(r).map_or(Vec::new(), |p| p.to_vec()))
         .collect();
