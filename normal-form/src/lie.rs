@@ -12,6 +12,14 @@
 //! starts from the untransformed part, and the first link of the chain from H₂ is taken as
 //! `Z_r − H_r` exactly (Jorba 1999, "A methodology for the numerical computation of normal
 //! forms, centre manifolds and first integrals of Hamiltonian systems").
+//!
+//! H and every G_r are real functions, so on real points `conj(x_k) = i y_k`,
+//! `conj(y_k) = i x_k` and their coefficients satisfy `c_{ba} = i^{|a|+|b|} conj(c_{ab})`.
+//! Each bracket is then `{T, G} = P + conj(P)` with `P = Σ_k T_{x_k} G_{y_k}` — half the
+//! products of the textbook formula, and exactly real. In f64 runs the brackets landing in
+//! low degrees are formed in double-double and rounded once ([`bracket_real_compensated`]):
+//! P and conj(P) cancel by up to two orders of magnitude there, and those degrees meet every
+//! later small divisor.
 
 use crate::complex::Complex;
 use crate::monomial::MonomialTable;
