@@ -34,6 +34,69 @@ fn anharmonic_oscillator_closed_form() {
     }
 }
 
+/// Three degrees of freedom: uncoupled quartic oscillators `ω(q² + p²)/2 + βq⁴/4` have
+/// `h_{2e_k} = 3β_k/8` (⟨q⁴⟩ = 3I²/2);
+/// with a cubic coupling q₁q₂q₃ the two precisions still agree.
+#[test]
+fn three_degrees_of_freedom() {
+    let w = [1.0, 2f64.sqrt(), 3f64.sqrt()];
+    let beta = [0.3, -0.2, 0.5];
+    let mut terms: Vec<(f64, Vec<u8>)> = Vec::new();
+    for k in 0..3 {
+        let mut e = vec![0u8; 6];
+        e[k] = 2;
+        terms.push((w[k] / 2.0, e.clone()));
+        e[k] = 4;
+        terms.push((beta[k] / 4.0, e.clone()));
+        e[k] = 0;
+        e[3 + k] = 2;
+        terms.push((w[k] / 2.0, e));
+    }
+    let build = |t: &[(f64, Vec<u8>)]| {
+        let r: Vec<(f64, &[u8])> = t.iter().map(|(c, e)| (*c, &e[..])).collect();
+        PolynomialHamiltonian::from_terms(3, &r)
+    };
+    let opts = Options::with_order(6).error_estimate(false);
+    let nf = normalize(&build(&terms), &Point::Given(vec![0.0; 6]), &opts).unwrap();
+    assert_eq!(nf.signs, vec![1, 1, 1]);
+    for k in 0..3 {
+        // ω sorted decreasing: mode k is at position 2 − k
+        let mut a = [0u32; 3];
+        a[2 - k] = 2;
+        let expected = 3.0 * beta[k] / 8.0;
+        assert!(
+            (nf.coefficient(&a) - expected).abs() < 1e-14,
+            "{a:?}: {} vs {expected}",
+            nf.coefficient(&a)
+        );
+    }
+    let mut coupled = terms.clone();
+    coupled.push((0.1, vec![1, 1, 1, 0, 0, 0]));
+    let h = build(&coupled);
+    let f = normalize(&h, &Point::Given(vec![0.0; 6]), &opts).unwrap();
+    let d = normalize(
+        &h,
+        &Point::Given(vec![0.0; 6]),
+        &opts.clone().precision(Precision::DoubleDouble),
+    )
+    .unwrap();
+    assert_eq!(f.hamiltonian.len(), d.hamiltonian.len());
+    for (a, b) in f.hamiltonian.iter().zip(&d.hamiltonian) {
+        let y = b.coeff.value + b.coeff.lo;
+        assert!(
+            (a.coeff.value - y).abs() <= 1e-12 * y.abs().max(1e-3),
+            "{:?}: {} vs {y}",
+            a.exponents,
+            a.coeff.value
+        );
+    }
+    assert!(f.coefficient(&[1, 1, 1]).abs() > 1e-4);
+    // the transformation maps back and forth
+    let wv = [1e-3, -2e-3, 5e-4, 1.5e-3, 7e-4, -1e-3];
+    let back = f.to_normal(&f.from_normal(&wv).unwrap()).unwrap();
+    assert!(back.iter().zip(&wv).all(|(a, b)| (a - b).abs() < 1e-14));
+}
+
 /// `models/coupled_oscillators.lsl`: frequencies √2 and 1 with cubic and quartic couplings.
 #[test]
 fn coupled_oscillators_frequencies() {
