@@ -134,8 +134,8 @@
 //! coordinates take half the products (`{T, G} = P + conj P`), derivatives enter the
 //! products in sparse form, and the complexification is substituted pair by pair.
 //! Double-double products run in AVX2 kernels (two complex or four real products per
-//! iteration, FMA cross terms; runtime detection, with FMA-only and plain fallbacks that give
-//! the same bits as the AVX2 path on FMA hardware). Earth–Moon L4, best of several runs
+//! iteration, FMA cross terms; runtime detection, with a scalar FMA fallback that gives the
+//! same bits and a plain one without FMA). Earth–Moon L4, best of several runs
 //! (`cargo run -p lasalle-normal-form --release --example bench_orders`):
 //!
 //! | order | f64, H̄ only | dd, H̄ only | ratio | f64, with maps | dd, with maps | ratio |
