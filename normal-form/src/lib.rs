@@ -66,14 +66,21 @@
 //! Our D₄ equals `+(36 − 541w + 644w²)/(8(1 − 4w)(4 − 25w))`, `w = ω₁²ω₂²`, to 1e-12
 //! relative over the whole stable range (tests/deprit.rs): the magnitude and the zero
 //! μ_c = 0.010913667677201 agree with Deprit & Deprit-Bartholomé, the sign is opposite to the
-//! textbook form. The sign is not a matter of how the planes are oriented: the Birkhoff
-//! coefficients h_a are invariants of the function H once the actions are nonnegative, and
-//! ours are checked against the true flow (tests/frequencies.rs: ∂H̄/∂I matches frequencies
-//! measured along DOPRI5 orbits, which fixes the signs of A, B, C). D₄ is odd under
-//! H → −H (A, B, C change sign, ω do not), so the textbook form corresponds to normalising
-//! −H, i.e. to the convention in which Hamilton's equations read ż = −J∇H (or, equivalently,
-//! in which the L4 quadratic part is taken as −ω₁I₁ + ω₂I₂ and relabelled). At Earth–Moon
-//! ours is D₄ = −0.33759; the textbook value is +0.33759.
+//! textbook form `−(36 − 541w + 644w²)/(…)`. The textbook sign is the one in error:
+//!
+//! - our A, B, C agree one by one, to 1e-10, with the closed forms of the same paper (as given
+//!   by Meyer, Hall & Offin): `A = ω₂²(81 − 696ω₁² + 124ω₁⁴)/(72(1 − 2ω₁²)²(1 − 5ω₁²))`,
+//!   `B = −ω₁ω₂(43 + 64w)/(6(1 − 4w)(4 − 25w))`, `C` = A with ω₁ ↔ ω₂;
+//! - inserted in the definition D₄ = Aω₂² + 2Bω₁ω₂ + Cω₁², these closed forms give the plus
+//!   sign (tests/deprit.rs checks this algebra numerically);
+//! - the signs of A, B, C are also fixed by the flow: ∂H̄/∂I matches frequencies measured along
+//!   DOPRI5 orbits (tests/frequencies.rs). The Birkhoff coefficients are invariants of H once
+//!   the actions are nonnegative, so no orientation convention can flip them; only H → −H
+//!   (equations ż = −J∇H) flips D₄.
+//!
+//! So the published closed form for D₄ carries a sign inconsistent with its own A, B, C;
+//! its magnitude and zero (what Arnold–Moser stability needs: D₄ ≠ 0) are right. At
+//! Earth–Moon D₄ = −0.33759 (textbook formula: +0.33759).
 //!
 //! ## Precision and error estimates
 //!

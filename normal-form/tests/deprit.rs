@@ -84,3 +84,51 @@ fn critical_mass_ratio_from_our_d4() {
         "mu_c = {mu_c}, closed form {exact}"
     );
 }
+
+/// The quartic coefficients one by one, against the closed forms of Deprit & Deprit-Bartholomé
+/// (1967) as given in Meyer, Hall & Offin, *Introduction to Hamiltonian Dynamical Systems and
+/// the N-Body Problem*: with w = ω₁²ω₂²,
+///
+/// ```text
+/// A = ω₂²(81 − 696ω₁² + 124ω₁⁴) / (72(1 − 2ω₁²)²(1 − 5ω₁²))
+/// B = −ω₁ω₂(43 + 64w) / (6(1 − 4w)(4 − 25w))
+/// C = ω₁²(81 − 696ω₂² + 124ω₂⁴) / (72(1 − 2ω₂²)²(1 − 5ω₂²))
+/// ```
+///
+/// They settle the sign of D₄: these very A, B, C give Aω₂² + 2Bω₁ω₂ + Cω₁² =
+/// +(36 − 541w + 644w²)/(8(1 − 4w)(4 − 25w)), so the leading minus of the textbook D₄ does not
+/// follow from its own coefficients; ours agree with all three and with integrated orbits.
+#[test]
+fn quartic_coefficients_match_the_closed_forms() {
+    for mu in [0.001, 0.005, 0.01, EARTH_MOON_MU, 0.02, 0.03] {
+        let opts = Options::with_order(4)
+            .precision(Precision::DoubleDouble)
+            .error_estimate(false)
+            .transform(false);
+        let nf = normalize(&common::cr3bp(mu), &Point::Given(common::l4(mu)), &opts)
+            .expect("normal form");
+        let am = nf.d4.expect("two degrees of freedom");
+        let (o1, o2) = lasalle_normal_form::validate::l4_frequencies(mu);
+        let w = o1 * o1 * o2 * o2;
+        let a = o2 * o2 * (81.0 - 696.0 * o1 * o1 + 124.0 * o1.powi(4))
+            / (72.0 * (1.0 - 2.0 * o1 * o1).powi(2) * (1.0 - 5.0 * o1 * o1));
+        let b = -o1 * o2 * (43.0 + 64.0 * w) / (6.0 * (1.0 - 4.0 * w) * (4.0 - 25.0 * w));
+        let c = o1 * o1 * (81.0 - 696.0 * o2 * o2 + 124.0 * o2.powi(4))
+            / (72.0 * (1.0 - 2.0 * o2 * o2).powi(2) * (1.0 - 5.0 * o2 * o2));
+        for (name, ours, closed) in [
+            ("A", am.a.value, a),
+            ("B", am.b.value, b),
+            ("C", am.c.value, c),
+        ] {
+            assert!(
+                ((ours - closed) / closed).abs() < 1e-10,
+                "mu = {mu}: {name} = {ours}, closed form {closed}"
+            );
+        }
+        let d = a * o2 * o2 + 2.0 * b * o1 * o2 + c * o1 * o1;
+        assert!(
+            ((d + deprit_d4(mu)) / d).abs() < 1e-10,
+            "mu = {mu}: the closed forms give D4 = {d}"
+        );
+    }
+}
