@@ -9,9 +9,11 @@ use lasalle::models::kepler::Kepler;
 use lasalle::VerletVariant;
 use serde_json::json;
 
-use super::super::plot::{decimate, thin, write_figure, Chart, Style};
+use super::super::plot::{decimate, write_figure, Chart, Style};
 use super::super::sim::{num, simulate, Base, Method, RunSpec, Trace};
-use super::{command_line, failure_note, must, sci, write_outputs, ExperimentArgs, Table};
+use super::{
+    command_line, error_figure, failure_note, must, sci, write_outputs, ExperimentArgs, Table,
+};
 use crate::cli::CliResult;
 
 /// The period of the paper's orbit, 2π a^{3/2} with a = 1/(2 − 1.8) = 5, as the paper rounds it.
@@ -162,7 +164,7 @@ fn figures(dir: &Path, traces: &[Trace]) -> CliResult {
         })
         .collect();
     write_figure(dir, "fig5_orbit", &panels, (2, 2), (560, 460))?;
-    for (stem, block, title, label) in [
+    for figure in [
         (
             "fig6_lrl",
             "A",
@@ -176,13 +178,7 @@ fn figures(dir: &Path, traces: &[Trace]) -> CliResult {
             "|ΔL|",
         ),
     ] {
-        let mut c = Chart::new(title, "t", label, true);
-        for (t, (_, color, name)) in traces.iter().zip(METHODS) {
-            let b = t.block(block).unwrap_or(0);
-            let (x, y) = thin(&t.t, &t.error_series(b), 4000);
-            c.add(name, x, y, color, Style::Line);
-        }
-        write_figure(dir, stem, &[c], (1, 1), (900, 560))?;
+        error_figure(dir, figure, traces, &METHODS)?;
     }
     Ok(())
 }

@@ -17,7 +17,8 @@ use std::path::{Path, PathBuf};
 
 use clap::Args;
 
-use super::sim::{ModelName, Trace};
+use super::plot::{thin, write_figure, Chart, Style};
+use super::sim::{Method, ModelName, Trace};
 use super::CliResult;
 
 /// Arguments of `lasalle experiment`.
@@ -209,4 +210,21 @@ fn write_outputs(
 /// Runs a method and fails on invalid arguments (a blow-up is kept in the trace).
 fn must(r: Result<Trace, String>) -> Result<Trace, Box<dyn std::error::Error>> {
     r.map_err(Into::into)
+}
+
+/// One figure of an invariant's error |f(t) − f(0)| over t for every method, on a log scale:
+/// the paper's Figs. 2–4, 6–7 and 9–10.
+fn error_figure(
+    dir: &Path,
+    (stem, block, title, label): (&str, &str, &str, &str),
+    traces: &[Trace],
+    methods: &[(Method, usize, &str)],
+) -> CliResult {
+    let mut c = Chart::new(title, "t", label, true);
+    for (t, &(_, color, name)) in traces.iter().zip(methods) {
+        let b = t.block(block).unwrap_or(0);
+        let (x, y) = thin(&t.t, &t.error_series(b), 4000);
+        c.add(name, x, y, color, Style::Line);
+    }
+    write_figure(dir, stem, &[c], (1, 1), (900, 560))
 }

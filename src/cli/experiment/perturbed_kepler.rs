@@ -15,7 +15,9 @@ use serde_json::json;
 
 use super::super::plot::{thin, write_figure, Chart, Style};
 use super::super::sim::{collision_guard, num, simulate, Base, Method, RunSpec, Trace};
-use super::{command_line, failure_note, must, sci, write_outputs, ExperimentArgs, Table};
+use super::{
+    command_line, error_figure, failure_note, must, sci, write_outputs, ExperimentArgs, Table,
+};
 use crate::cli::CliResult;
 
 const METHODS: [(Method, usize, &str); 4] = [
@@ -192,7 +194,7 @@ fn figures(
         })
         .collect();
     write_figure(dir, "fig8_orbit", &panels, (2, 2), (560, 460))?;
-    for (stem, block, title, label) in [
+    for figure in [
         ("fig9_energy", "E", "energy error |E(t) − E(0)|", "|ΔE|"),
         (
             "fig10_angular_momentum",
@@ -201,13 +203,7 @@ fn figures(
             "|ΔL|",
         ),
     ] {
-        let mut c = Chart::new(title, "t", label, true);
-        for (t, (_, color, name)) in traces.iter().zip(METHODS) {
-            let b = t.block(block).unwrap_or(0);
-            let (x, y) = thin(&t.t, &t.error_series(b), 4000);
-            c.add(name, x, y, color, Style::Line);
-        }
-        write_figure(dir, stem, &[c], (1, 1), (900, 560))?;
+        error_figure(dir, figure, traces, &METHODS)?;
     }
     let mut c = Chart::new(
         "distance from the DOPRI5 reference |x(t) − x_ref(t)|",

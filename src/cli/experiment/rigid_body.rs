@@ -11,7 +11,9 @@ use serde_json::json;
 
 use super::super::plot::{thin, write_figure, Chart, Style};
 use super::super::sim::{num, simulate, Base, Method, RunSpec, Trace};
-use super::{command_line, failure_note, must, sci, write_outputs, ExperimentArgs, Table};
+use super::{
+    command_line, error_figure, failure_note, must, sci, write_outputs, ExperimentArgs, Table,
+};
 use crate::cli::CliResult;
 
 /// The paper's methods, colours and legend names.
@@ -142,35 +144,22 @@ fn figures(dir: &Path, traces: &[Trace]) -> CliResult {
         })
         .collect();
     write_figure(dir, "fig1_omega", &panels, (2, 2), (640, 400))?;
-    for (stem, block, title) in [
-        ("fig2_energy", "E", "energy error |E(t) − E(0)|"),
+    for figure in [
+        ("fig2_energy", "E", "energy error |E(t) − E(0)|", "|ΔE|"),
         (
             "fig3_momentum",
             "pi",
             "spatial angular momentum error |π(t) − π(0)|",
+            "|Δπ|",
         ),
         (
             "fig4_constraint",
             "C",
             "deviation from SO(3) ‖R(t)ᵀR(t) − I‖",
+            "‖RᵀR − I‖",
         ),
     ] {
-        let mut c = Chart::new(title, "t", title.split(' ').next_back().unwrap_or(""), true);
-        c.y_label = block_label(block).to_string();
-        for (t, (_, color, name)) in traces.iter().zip(METHODS) {
-            let b = t.block(block).unwrap_or(0);
-            let (x, y) = thin(&t.t, &t.error_series(b), 4000);
-            c.add(name, x, y, color, Style::Line);
-        }
-        write_figure(dir, stem, &[c], (1, 1), (900, 560))?;
+        error_figure(dir, figure, traces, &METHODS)?;
     }
     Ok(())
-}
-
-fn block_label(block: &str) -> &'static str {
-    match block {
-        "E" => "|ΔE|",
-        "pi" => "|Δπ|",
-        _ => "‖RᵀR − I‖",
-    }
 }
