@@ -72,3 +72,24 @@ fn every_model_runs() {
     );
     assert!(max_error(&osc, "H") < 1e-5);
 }
+
+#[test]
+fn a_singular_initial_state_is_an_error_not_a_panic() {
+    let out = Command::new(env!("CARGO_BIN_EXE_lasalle"))
+        .args([
+            "run",
+            "kepler",
+            "-m",
+            "euler",
+            "--init",
+            "0,0,0,0,0,0",
+            "-q",
+        ])
+        .output()
+        .expect("run lasalle");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("invalid initial state") && !err.contains("panicked"),
+        "{err}"
+    );
+}

@@ -863,6 +863,19 @@ where
     if let Some(i) = x0.iter().position(|v| !v.is_finite()) {
         return Err(format!("initial state component {i} is not finite"));
     }
+    // The field and the invariants must be defined at x0 (e.g. Kepler at x = 0 is not).
+    let (mut dx, mut f) = ([0.0; N], [0.0; M]);
+    model.field(x0, &mut dx);
+    model.invariants(x0, &mut f);
+    if let Some(message) = Mdl::guard().and_then(|guard| guard(x0, 0.0)) {
+        return Err(format!("invalid initial state {x0:?}: {message}"));
+    }
+    if dx.iter().chain(&f).any(|v| !v.is_finite()) {
+        return Err(format!(
+            "the field or the invariants of `{}` are not finite at the initial state {x0:?}",
+            Mdl::CLI
+        ));
+    }
     let drive = |field| Drive {
         model,
         field,
