@@ -262,7 +262,12 @@ fn generated_code_is_generic_over_the_scalar() {
     let target = m64.targets(&x);
     let (mut a, mut b) = ([0.0f64; 12], [0.0f32; 12]);
     m64.feedback_field(&x64, &target, &[50.0, 100.0, 50.0], &mut a);
-    m32.feedback_field(&x32, &target.map(|v| v as f32), &[50.0, 100.0, 50.0], &mut b);
+    m32.feedback_field(
+        &x32,
+        &target.map(|v| v as f32),
+        &[50.0, 100.0, 50.0],
+        &mut b,
+    );
     let b: Vec<f64> = b.iter().map(|&v| f64::from(v)).collect();
     assert_close("f32 vs f64", &b, &a, 1e-5);
 }
