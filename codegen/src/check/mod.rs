@@ -1,10 +1,11 @@
 //! Stage 4: checks that need the derivatives: every declared integral is conserved by the field,
 //! every constraint's manifold is invariant, an explicit V vanishes on the invariant set.
 //!
-//! A Lie derivative ∇f · X is first simplified and expanded; if it becomes the number 0 the
-//! integral is *proved*. Otherwise it is evaluated at random states (deterministic seed) and
+//! A Lie derivative ∇f · X is first simplified and expanded (square roots of a sum reduced
+//! with ρ² = s, see [`prove`]); if it becomes the number 0 the integral is *proved*. Otherwise it is evaluated at random states (deterministic seed) and
 //! must be zero up to rounding relative to the size of its terms at each of them.
 
+mod prove;
 mod sampling;
 
 use crate::derive::Derivatives;
@@ -52,12 +53,12 @@ pub fn check(model: &mut Model, d: &Derivatives) -> Result<Vec<Conservation>, Er
     for f in model.invariants.clone() {
         let range = f.offset..f.offset + f.value.shape.len();
         let lie: Vec<_> = d.lie_derivatives[range.clone()].to_vec();
-        let proved = lie.iter().all(|&l| {
-            model
-                .graph
-                .expand(l, EXPAND_LIMIT)
-                .is_some_and(|e| model.graph.as_num(e) == Some(0.0))
-        });
+        // Proofs work on a scratch copy, so the model's graph (and the emitted code) does not
+        // depend on what the proof tried.
+        let mut scratch = model.graph.clone();
+        let proved = lie
+            .iter()
+            .all(|&l| prove::vanishes(&mut scratch, l, EXPAND_LIMIT));
         if proved {
             out.push(Conservation {
                 name: f.name.clone(),
@@ -209,6 +210,7 @@ fn check_lyapunov(
                     Input::Param(k) => params[k as usize],
                     Input::Target(k) => target[k as usize],
                     Input::Gain(k) => gains[k as usize],
+                    Input::Symbol(_) => f64::NAN,
                 })
         };
         let (v0, scale0) = v(&fx);

@@ -142,6 +142,7 @@ impl<'a> Leaves<'a> {
                 let ku = u(k as usize);
                 (snake(&model.gains[k as usize].name), quote!(gains[#ku]))
             }
+            Input::Symbol(_) => unreachable!("auxiliary symbols never reach emission"),
         }
     }
 }

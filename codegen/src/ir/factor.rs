@@ -18,26 +18,10 @@ impl Graph {
 
     /// Factors common factors out of every sum reachable from `roots`.
     pub fn factor_sums(&mut self, roots: &[Id]) -> Vec<Id> {
-        let order = self.reachable(roots);
-        let mut new: HashMap<Id, Id> = HashMap::with_capacity(order.len());
-        for id in order {
-            let node = self.node(id).clone();
-            let rebuilt = match node {
-                Node::Num(_) | Node::Input(_) => id,
-                Node::Add(c) => {
-                    let terms: Vec<Id> = c.iter().map(|k| new[k]).collect();
-                    self.factor_sum(terms)
-                }
-                Node::Mul(c) => {
-                    let c: Vec<Id> = c.iter().map(|k| new[k]).collect();
-                    self.mul(&c)
-                }
-                Node::Pow(b, e) => self.pow(new[&b], e),
-                Node::Func(f, a) => self.func(f, new[&a]),
-            };
-            new.insert(id, rebuilt);
-        }
-        roots.iter().map(|r| new[r]).collect()
+        self.rebuild(roots, |g, node| match node {
+            Node::Add(terms) => Some(g.factor_sum(terms.to_vec())),
+            _ => None,
+        })
     }
 
     /// The non-numeric factors of a term.

@@ -47,6 +47,9 @@ pub enum Input {
     Target(u32),
     /// Gain slot (in Lyapunov functions).
     Gain(u32),
+    /// An auxiliary symbol introduced by a rewrite (ρ = √s in a conservation proof); never
+    /// part of a model's expressions.
+    Symbol(u32),
 }
 
 /// A rational exponent p/q in lowest terms, q > 0.
@@ -470,6 +473,39 @@ impl Graph {
             .any(|id| matches!(self.node(id), Node::Input(i) if pred(*i)))
     }
 
+    /// Rebuilds everything reachable from `roots` bottom-up. `rewrite` sees each node with its
+    /// children already rebuilt and returns its new Id, or `None` to rebuild it with the
+    /// canonical constructors.
+    pub fn rebuild(
+        &mut self,
+        roots: &[Id],
+        mut rewrite: impl FnMut(&mut Graph, &Node) -> Option<Id>,
+    ) -> Vec<Id> {
+        let order = self.reachable(roots);
+        let mut new: HashMap<Id, Id> = HashMap::with_capacity(order.len());
+        for id in order {
+            let node = match self.node(id).clone() {
+                Node::Add(c) => Node::Add(c.iter().map(|k| new[k]).collect()),
+                Node::Mul(c) => Node::Mul(c.iter().map(|k| new[k]).collect()),
+                Node::Pow(b, e) => Node::Pow(new[&b], e),
+                Node::Func(f, a) => Node::Func(f, new[&a]),
+                leaf => leaf,
+            };
+            let rebuilt = match rewrite(self, &node) {
+                Some(r) => r,
+                None => match node {
+                    Node::Num(_) | Node::Input(_) => id,
+                    Node::Add(c) => self.add(&c),
+                    Node::Mul(c) => self.mul(&c),
+                    Node::Pow(b, e) => self.pow(b, e),
+                    Node::Func(f, a) => self.func(f, a),
+                },
+            };
+            new.insert(id, rebuilt);
+        }
+        roots.iter().map(|r| new[r]).collect()
+    }
+
     /// A readable rendering of an expression (for tests and messages).
     pub fn display(&self, id: Id) -> String {
         match self.node(id) {
@@ -478,6 +514,7 @@ impl Graph {
             Node::Input(Input::Param(i)) => format!("p{i}"),
             Node::Input(Input::Target(i)) => format!("f0_{i}"),
             Node::Input(Input::Gain(i)) => format!("k{i}"),
+            Node::Input(Input::Symbol(i)) => format!("s{i}"),
             Node::Add(c) => format!(
                 "({})",
                 c.iter()
