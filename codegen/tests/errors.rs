@@ -121,6 +121,23 @@ fn missing_equation_and_duplicates() {
 }
 
 #[test]
+fn parameters_that_map_to_one_rust_field() {
+    let text = "model M {\n    state x: scalar;\n    param Mu = 1;\n    param mu = 2;\n    param match = 3;\n    d/dt x = -Mu * mu * match * x;\n}\n";
+    assert_error(
+        text,
+        4,
+        5,
+        &["parameters `mu` and `Mu` would both be the Rust field `mu`"],
+    );
+    let ok = "model M {\n    state x: scalar;\n    param match = 3;\n    d/dt x = -match * x;\n}\n";
+    let code = generate_source("m.lsl", ok).unwrap().code;
+    assert!(
+        code.contains("pub match_: T"),
+        "a keyword parameter becomes `match_`"
+    );
+}
+
+#[test]
 fn gains_and_targets_only_in_lyapunov() {
     let text = KEPLER.replace("d/dt x = v;", "d/dt x = k1 * v;");
     assert_error(&text, 9, 14, &["gain `k1` cannot be used here"]);

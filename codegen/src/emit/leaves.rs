@@ -1,7 +1,7 @@
 //! How a function reads its leaves: state components, parameters, targets and gains, each
 //! under a readable name (`x_0`, `mu`, `l_0_2`, `k1`), and which nodes carry `let` names.
 
-use super::names::{snake, Scope};
+use super::names::{identifier, snake, Scope};
 use super::{note_for, u};
 use crate::ir::{Id, Input};
 use crate::model::{Model, Shape};
@@ -33,24 +33,24 @@ impl<'a> Leaves<'a> {
         let mut scope = Scope::with(&[]);
         let mut fields = Vec::new();
         for p in &model.params {
-            let name = snake(&p.name);
-            let fresh = scope.fresh(&name);
-            if fresh != name && !matches!(name.as_str(), "type" | "fn" | "self") {
+            let name = scope.fresh(&snake(&p.name));
+            if name != identifier(&snake(&p.name)) {
                 let other = model
                     .params
                     .iter()
-                    .find(|q| snake(&q.name) == name)
-                    .map_or("", |q| q.name.as_str());
+                    .find(|q| identifier(&snake(&q.name)) == identifier(&snake(&p.name)));
                 return Err(crate::Diagnostic::new(
                     &p.span,
                     format!(
-                        "parameters `{}` and `{other}` would both be the Rust field `{name}`",
-                        p.name
+                        "parameters `{}` and `{}` would both be the Rust field `{}`",
+                        p.name,
+                        other.map_or("", |q| q.name.as_str()),
+                        identifier(&snake(&p.name))
                     ),
                 )
                 .help("rename one of them"));
             }
-            fields.push(fresh);
+            fields.push(name);
         }
         let mut let_names = HashMap::new();
         for b in &model.lets {

@@ -31,6 +31,18 @@ pub fn snake(name: &str) -> String {
     out
 }
 
+/// `base` made a valid identifier: a leading letter, and a `_` after a keyword (`type_`).
+pub fn identifier(base: &str) -> String {
+    let mut base = base.to_string();
+    if base.is_empty() || base.starts_with(|c: char| c.is_ascii_digit()) {
+        base.insert(0, 'v');
+    }
+    if RUST_KEYWORDS.contains(&base.as_str()) {
+        base.push('_');
+    }
+    base
+}
+
 /// The identifiers taken in one scope.
 #[derive(Default)]
 pub struct Scope {
@@ -47,13 +59,7 @@ impl Scope {
 
     /// A fresh identifier based on `base`, made unique with a numeric suffix.
     pub fn fresh(&mut self, base: &str) -> String {
-        let mut base = base.to_string();
-        if base.is_empty() || base.starts_with(|c: char| c.is_ascii_digit()) {
-            base.insert(0, 'v');
-        }
-        if RUST_KEYWORDS.contains(&base.as_str()) {
-            base.push('_');
-        }
+        let base = identifier(base);
         let mut name = base.clone();
         let mut k = 2;
         while self.taken.contains(&name) {
