@@ -11,19 +11,20 @@ use num_traits::Float;
 use crate::error::{all_finite, state_to_vec, to_f64, StepError};
 use crate::field::lit;
 use crate::observe::{Control, Observer};
+use crate::state::State;
 use crate::steppers::{DenseOutput, Stepper};
 
 /// A validity check run on the state after every k-th step: `None` if the state is fine,
 /// `Some(message)` otherwise (e.g. `|x| < 1e-8` for Kepler: "collision").
-pub type GuardFn<'g, T, const N: usize> = dyn Fn(&[T; N]) -> Option<String> + 'g;
+pub type GuardFn<'g, X> = dyn Fn(&X) -> Option<String> + 'g;
 
 /// How an integration ended.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Summary<T, const N: usize> {
+pub struct Summary<T, X> {
     /// The final time (t_end unless an observer stopped the run).
     pub t: T,
     /// The final state.
-    pub x: [T; N],
+    pub x: X,
     /// Accepted steps.
     pub steps: u64,
     /// Rejected trial steps (adaptive steppers).
@@ -40,7 +41,7 @@ pub struct Summary<T, const N: usize> {
 /// ```
 /// use lasalle_runtime::{Field, Driver, ExplicitRk, StepError};
 /// struct Blow;
-/// impl Field<f64, 1> for Blow {
+/// impl Field<f64, [f64; 1]> for Blow {
 ///     fn field(&self, x: &[f64; 1], dx: &mut [f64; 1]) { dx[0] = x[0] * x[0]; }
 /// }
 /// let err = Driver::new(0.0, 2.0, 0.01)
@@ -50,15 +51,15 @@ pub struct Summary<T, const N: usize> {
 /// assert!(matches!(err, StepError::Guard { .. }));
 /// assert!(err.time().unwrap() > 0.9);
 /// ```
-pub struct Driver<'g, T, const N: usize> {
+pub struct Driver<'g, T, X> {
     t0: T,
     t_end: T,
     h: T,
     max_steps: u64,
-    guard: Option<(u64, Box<GuardFn<'g, T, N>>)>,
+    guard: Option<(u64, Box<GuardFn<'g, X>>)>,
 }
 
-impl<'g, T: Float, const N: usize> Driver<'g, T, N> {
+impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
     /// Integrates from `t0` to `t_end ≥ t0` with step `h` (fixed-step methods; for adaptive
     /// ones `h` is the initial step, and `h = 0` asks the stepper to choose it).
     pub fn new(t0: T, t_end: T, h: T) -> Self {
@@ -80,12 +81,12 @@ impl<'g, T: Float, const N: usize> Driver<'g, T, N> {
 
     /// Runs `check` on the initial state and after every `every`-th step (0 is treated as 1);
     /// a `Some(message)` stops the run with [`StepError::Guard`].
-    pub fn guard(mut self, every: u64, check: impl Fn(&[T; N]) -> Option<String> + 'g) -> Self {
+    pub fn guard(mut self, every: u64, check: impl Fn(&X) -> Option<String> + 'g) -> Self {
         self.guard = Some((every.max(1), Box::new(check)));
         self
     }
 
-    fn run_guard(&self, step: u64, t: T, h: T, x: &[T; N]) -> Result<(), StepError> {
+    fn run_guard(&self, step: u64, t: T, h: T, x: &X) -> Result<(), StepError> {
         if let Some((every, check)) = &self.guard {
             if step % every == 0 {
                 if let Some(message) = check(x) {
@@ -93,7 +94,7 @@ impl<'g, T: Float, const N: usize> Driver<'g, T, N> {
                         t: to_f64(t),
                         h: to_f64(h),
                         message,
-                        state: state_to_vec(x),
+                        state: state_to_vec(x.as_ref()),
                     });
                 }
             }
@@ -107,14 +108,14 @@ impl<'g, T: Float, const N: usize> Driver<'g, T, N> {
         &self,
         stepper: &mut S,
         field: &F,
-        x0: &[T; N],
+        x0: &X,
         t_end: T,
         mut on_step: C,
-    ) -> Result<Summary<T, N>, StepError>
+    ) -> Result<Summary<T, X>, StepError>
     where
         F: ?Sized,
-        S: Stepper<T, N, F>,
-        C: FnMut(&S, u64, T, &[T; N]) -> Control,
+        S: Stepper<T, X, F>,
+        C: FnMut(&S, u64, T, &X) -> Control,
     {
         let t0 = self.t0;
         if !(t0.is_finite() && t_end.is_finite() && t_end >= t0) {
@@ -137,17 +138,17 @@ impl<'g, T: Float, const N: usize> Driver<'g, T, N> {
                 to_f64(h)
             )));
         }
-        let mut x = *x0;
+        let mut x = x0.clone();
         let mut summary = Summary {
             t: t0,
-            x,
+            x: x0.clone(),
             steps: 0,
             rejections: 0,
             evaluations: 0,
             stopped_by_observer: false,
         };
-        if !all_finite(&x) {
-            return Err(StepError::non_finite("state", t0, h, &x));
+        if !all_finite(x.as_ref()) {
+            return Err(StepError::non_finite("state", t0, h, x.as_ref()));
         }
         self.run_guard(0, t0, h, &x)?;
         if on_step(stepper, 0, t0, &x) == Control::Stop {
@@ -185,7 +186,7 @@ impl<'g, T: Float, const N: usize> Driver<'g, T, N> {
                     t: to_f64(t),
                     h: to_f64(h_step),
                     steps: summary.steps,
-                    state: state_to_vec(&x),
+                    state: state_to_vec(x.as_ref()),
                 });
             }
             let outcome = stepper.step(field, t, &mut x, h_step)?;
@@ -200,8 +201,8 @@ impl<'g, T: Float, const N: usize> Driver<'g, T, N> {
             } else {
                 t0 + n * h
             };
-            if !all_finite(&x) {
-                return Err(StepError::non_finite("state", t, outcome.h_taken, &x));
+            if !all_finite(x.as_ref()) {
+                return Err(StepError::non_finite("state", t, outcome.h_taken, x.as_ref()));
             }
             self.run_guard(summary.steps, t, outcome.h_taken, &x)?;
             if on_step(stepper, summary.steps, t, &x) == Control::Stop {
@@ -223,13 +224,13 @@ impl<'g, T: Float, const N: usize> Driver<'g, T, N> {
         &self,
         stepper: &mut S,
         field: &F,
-        x0: &[T; N],
+        x0: &X,
         observer: &mut O,
-    ) -> Result<Summary<T, N>, StepError>
+    ) -> Result<Summary<T, X>, StepError>
     where
         F: ?Sized,
-        S: Stepper<T, N, F>,
-        O: Observer<T, N> + ?Sized,
+        S: Stepper<T, X, F>,
+        O: Observer<T, X> + ?Sized,
     {
         let summary = self.drive(stepper, field, x0, self.t_end, |_, step, t, x| {
             observer.observe(step, t, x)
@@ -246,14 +247,14 @@ impl<'g, T: Float, const N: usize> Driver<'g, T, N> {
         &self,
         stepper: &mut S,
         field: &F,
-        x0: &[T; N],
+        x0: &X,
         times: &[T],
         observer: &mut O,
-    ) -> Result<Summary<T, N>, StepError>
+    ) -> Result<Summary<T, X>, StepError>
     where
         F: ?Sized,
-        S: Stepper<T, N, F> + DenseOutput<T, N>,
-        O: Observer<T, N> + ?Sized,
+        S: Stepper<T, X, F> + DenseOutput<T, X>,
+        O: Observer<T, X> + ?Sized,
     {
         let Some(&t_last) = times.last() else {
             return Err(StepError::InvalidInput("no output times".to_string()));
@@ -265,17 +266,17 @@ impl<'g, T: Float, const N: usize> Driver<'g, T, N> {
             ));
         }
         let mut next = 0usize;
-        let mut out = [T::zero(); N];
-        let mut last_out = *x0;
+        let mut out = x0.clone();
+        let mut last_out = x0.clone();
         let mut stopped = false;
         let mut summary = self.drive(stepper, field, x0, t_last, |s, step, t, x| {
             while next < times.len() && times[next] <= t {
                 let ti = times[next];
                 let exact = step == 0 || ti == t;
                 if exact || !s.interpolate(ti, &mut out) {
-                    out = *x;
+                    out.clone_from(x);
                 }
-                last_out = out;
+                last_out.clone_from(&out);
                 let c = observer.observe(next as u64, ti, &out);
                 next += 1;
                 if c == Control::Stop {
@@ -299,27 +300,28 @@ impl<'g, T: Float, const N: usize> Driver<'g, T, N> {
 /// ```
 /// use lasalle_runtime::{integrate, ExplicitRk, Field};
 /// struct Osc;
-/// impl Field<f64, 2> for Osc {
+/// impl Field<f64, [f64; 2]> for Osc {
 ///     fn field(&self, x: &[f64; 2], dx: &mut [f64; 2]) { dx[0] = x[1]; dx[1] = -x[0]; }
 /// }
 /// let end = integrate(&mut ExplicitRk::rk4(), &Osc, &[1.0, 0.0], 0.0, 1.0, 0.01, &mut ()).unwrap();
 /// assert_eq!(end.steps, 100);
 /// assert!((end.x[0] - 1f64.cos()).abs() < 1e-9);
 /// ```
-pub fn integrate<T, F, S, O, const N: usize>(
+pub fn integrate<T, X, F, S, O>(
     stepper: &mut S,
     field: &F,
-    x0: &[T; N],
+    x0: &X,
     t0: T,
     t_end: T,
     h: T,
     observer: &mut O,
-) -> Result<Summary<T, N>, StepError>
+) -> Result<Summary<T, X>, StepError>
 where
     T: Float,
+    X: State<T>,
     F: ?Sized,
-    S: Stepper<T, N, F>,
-    O: Observer<T, N> + ?Sized,
+    S: Stepper<T, X, F>,
+    O: Observer<T, X> + ?Sized,
 {
     Driver::new(t0, t_end, h).run(stepper, field, x0, observer)
 }

@@ -8,7 +8,7 @@
 use num_traits::Float;
 
 /// Converts a state into the `Vec<f64>` stored in a [`StepError`].
-pub(crate) fn state_to_vec<T: Float, const N: usize>(x: &[T; N]) -> Vec<f64> {
+pub(crate) fn state_to_vec<T: Float>(x: &[T]) -> Vec<f64> {
     x.iter().map(|v| v.to_f64().unwrap_or(f64::NAN)).collect()
 }
 
@@ -133,12 +133,7 @@ impl StepError {
     }
 
     /// A [`StepError::NonFinite`] for a state or field value.
-    pub(crate) fn non_finite<T: Float, const N: usize>(
-        what: &'static str,
-        t: T,
-        h: T,
-        x: &[T; N],
-    ) -> Self {
+    pub(crate) fn non_finite<T: Float>(what: &'static str, t: T, h: T, x: &[T]) -> Self {
         StepError::NonFinite {
             what,
             t: to_f64(t),
@@ -150,6 +145,6 @@ impl StepError {
 
 /// True when every component is finite.
 #[inline]
-pub(crate) fn all_finite<T: Float, const N: usize>(x: &[T; N]) -> bool {
+pub(crate) fn all_finite<T: Float>(x: &[T]) -> bool {
     x.iter().all(|v| v.is_finite())
 }

@@ -10,6 +10,8 @@
 
 use num_traits::Float;
 
+pub use crate::state::State;
+
 /// Converts an `f64` literal into any `Float` scalar (nalgebra's `convert` habit).
 ///
 /// Generated code writes every numeric constant through this helper, so the same code runs
@@ -20,10 +22,11 @@ pub fn lit<T: Float>(x: f64) -> T {
     T::from(x).unwrap_or_else(T::nan)
 }
 
-/// An autonomous vector field ẋ = X(x) on Rᴺ.
-pub trait Field<T: Float, const N: usize> {
+/// An autonomous vector field ẋ = X(x) on Rᴺ, for states stored as `X` (`[T; N]` for compiled
+/// models, `Vec<T>` for models loaded at run time; see [`State`]).
+pub trait Field<T, X: State<T>> {
     /// Writes X(x) into `dx`.
-    fn field(&self, x: &[T; N], dx: &mut [T; N]);
+    fn field(&self, x: &X, dx: &mut X);
 }
 
 /// Is the invariant a manifold condition (f₀) or a first integral (fᵢ, ∇fᵢ · X = 0)?
@@ -102,51 +105,63 @@ pub struct InvariantInfo {
     pub gain: usize,
 }
 
-/// Static description of a generated model: names and layout of its state, invariants and gains.
+/// Description of a model: names and layout of its state, invariants, gains and parameters.
+///
+/// Compiled models return constants; a model loaded at run time returns its own tables (whose
+/// names it keeps for the life of the process).
 pub trait ModelInfo {
     /// The model's name as written after `model`.
-    const NAME: &'static str;
+    fn model_name(&self) -> &'static str;
     /// The state variables in order, with their offsets in the flat state.
-    const STATE: &'static [Slot];
+    fn state_slots(&self) -> &'static [Slot];
     /// The invariants in order, with their offsets in the stacked f.
-    const INVARIANTS: &'static [InvariantInfo];
+    fn invariant_infos(&self) -> &'static [InvariantInfo];
     /// Names of the gains, in the order of the gains array.
-    const GAIN_NAMES: &'static [&'static str];
+    fn gain_names(&self) -> &'static [&'static str];
     /// Default gains as written in the model file.
-    const DEFAULT_GAINS: &'static [f64];
+    fn default_gain_values(&self) -> &'static [f64];
     /// Parameter names with their shapes (matrices column-major), in declaration order.
-    const PARAMS: &'static [Slot];
+    fn param_slots(&self) -> &'static [Slot];
+    /// The dimension N of the flat state.
+    fn state_dim(&self) -> usize {
+        self.state_slots().iter().map(|s| s.shape.len()).sum()
+    }
 }
 
-/// Constraints and first integrals, stacked into f(x) ∈ Rᴹ.
-pub trait Invariants<T: Float, const N: usize, const M: usize>: Field<T, N> {
+/// Constraints and first integrals, stacked into f(x) ∈ Rᴹ (storage `F`).
+pub trait Invariants<T, X: State<T>, F: State<T>>: Field<T, X> {
+    /// The number M of stacked components. The default is the length of fixed-size storage;
+    /// a model with run-time-sized storage (`Vec<T>`) must implement it.
+    fn invariant_dim(&self) -> usize {
+        F::LEN.expect("Invariants::invariant_dim must be implemented for run-time-sized storage")
+    }
     /// Writes f(x).
-    fn invariants(&self, x: &[T; N], f: &mut [T; M]);
+    fn invariants(&self, x: &X, f: &mut F);
     /// Writes the Jacobian Df(x), row i = ∇fᵢ(x).
-    fn invariants_jacobian(&self, x: &[T; N], jac: &mut [[T; N]; M]);
+    fn invariants_jacobian(&self, x: &X, jac: &mut F::Rows<X>);
 }
 
 /// A Lyapunov function V(x) ≥ 0 vanishing on {f(x) = f(x₀)} and the feedback field X − ∇V.
 ///
-/// `target` is f(x₀) (the stacked invariants at the initial point) and `gains` the G gains.
-pub trait Lyapunov<T: Float, const N: usize, const M: usize, const G: usize>:
-    Invariants<T, N, M>
-{
+/// `target` is f(x₀) (the stacked invariants at the initial point) and `gains` the G gains
+/// (storage `K`).
+pub trait Lyapunov<T, X: State<T>, F: State<T>, K: State<T>>: Invariants<T, X, F> {
     /// V(x), e.g. ½ (f(x) − f(x₀))ᵀ K (f(x) − f(x₀)) (paper eq. (10)).
-    fn lyapunov(&self, x: &[T; N], target: &[T; M], gains: &[T; G]) -> T;
+    fn lyapunov(&self, x: &X, target: &F, gains: &K) -> T;
     /// ∇V(x).
-    fn lyapunov_gradient(&self, x: &[T; N], target: &[T; M], gains: &[T; G], grad: &mut [T; N]);
+    fn lyapunov_gradient(&self, x: &X, target: &F, gains: &K, grad: &mut X);
     /// The feedback field ẋ = X(x) − ∇V(x) (paper eqs. (3), (11)).
-    fn feedback_field(&self, x: &[T; N], target: &[T; M], gains: &[T; G], dx: &mut [T; N]);
+    fn feedback_field(&self, x: &X, target: &F, gains: &K, dx: &mut X);
 }
 
 /// A partitioned field: the state splits into groups q and p with q̇ = a(p), ṗ = b(q)
 /// (e.g. ẋ = v, v̇ = −μx/|x|³), which Störmer–Verlet integrates explicitly.
-pub trait Partitioned<T: Float, const N: usize>: Field<T, N> {
-    /// `true` at the components of q (the "drift" group), `false` at those of p.
-    const IS_Q: [bool; N];
+pub trait Partitioned<T, X: State<T>>: Field<T, X> {
+    /// `true` at the components of q (the "drift" group), `false` at those of p; one entry
+    /// per state component.
+    fn is_q(&self) -> &[bool];
     /// Writes q̇ = a(p) into the q components of `dx`; leaves the p components alone.
-    fn field_q(&self, x: &[T; N], dx: &mut [T; N]);
+    fn field_q(&self, x: &X, dx: &mut X);
     /// Writes ṗ = b(q) into the p components of `dx`; leaves the q components alone.
-    fn field_p(&self, x: &[T; N], dx: &mut [T; N]);
+    fn field_p(&self, x: &X, dx: &mut X);
 }

@@ -27,32 +27,34 @@ use num_traits::Float;
 use crate::error::StepError;
 use crate::feedback::{expand_gains, FeedbackField};
 use crate::field::{lit, Invariants, Lyapunov, ModelInfo};
+use crate::state::State;
 use crate::steppers::{StepOutcome, Stepper};
 
-/// The Gauss–Newton Hessian H_GN = Df(x)ᵀ K Df(x) ∈ R^{N×N} of V = ½ΔfᵀKΔf.
-pub fn gauss_newton_hessian<Mdl, T, const N: usize, const M: usize, const G: usize>(
-    model: &Mdl,
-    x: &[T; N],
-    gains: &[T; G],
-) -> [[T; N]; N]
+/// The Gauss–Newton Hessian H_GN = Df(x)ᵀ K Df(x) ∈ R^{N×N} of V = ½ΔfᵀKΔf, row by row.
+pub fn gauss_newton_hessian<Mdl, T, X, F>(model: &Mdl, x: &X, gains: &[T]) -> X::Rows<X>
 where
-    Mdl: Invariants<T, N, M> + ModelInfo + ?Sized,
+    Mdl: Invariants<T, X, F> + ModelInfo + ?Sized,
     T: Float,
+    X: State<T>,
+    F: State<T>,
 {
-    let k = expand_gains::<Mdl, T, G, M>(gains);
-    let mut jac = [[T::zero(); N]; M];
+    let (n, m) = (x.len(), model.invariant_dim());
+    let mut k = F::filled(F::len_for(m), T::zero());
+    expand_gains(model, gains, k.as_mut());
+    let zero_x = X::filled(X::len_for(n), T::zero());
+    let mut jac = F::rows(F::len_for(m), zero_x.clone());
     model.invariants_jacobian(x, &mut jac);
-    let mut h = [[T::zero(); N]; N];
-    for (row, &ki) in jac.iter().zip(k.iter()) {
+    let mut h = X::rows(X::len_for(n), zero_x);
+    for (row, &ki) in jac.as_ref().iter().zip(k.as_ref()) {
         if ki == T::zero() {
             continue;
         }
-        for a in 0..N {
+        for a in 0..n {
             let kr = ki * row[a];
             if kr == T::zero() {
                 continue;
             }
-            for b in 0..N {
+            for b in 0..n {
                 h[a][b] = h[a][b] + kr * row[b];
             }
         }
@@ -60,45 +62,43 @@ where
     h
 }
 
-/// The largest eigenvalue of a symmetric positive semi-definite matrix by power iteration
-/// with Rayleigh quotients (Golub & Van Loan, *Matrix Computations*, 4th ed., §8.2.1), from a
-/// fixed generic start vector, stopping when the estimate changes by less than `rel_tol`
-/// (relative) or after `max_iter` iterations. Allocation free; a lower bound that converges to
-/// ‖A‖₂.
-pub fn symmetric_spectral_norm<T: Float, const N: usize>(
-    a: &[[T; N]; N],
-    max_iter: u32,
-    rel_tol: T,
-) -> T {
-    let mut v = [T::zero(); N];
-    for (i, vi) in v.iter_mut().enumerate() {
+/// The largest eigenvalue of a symmetric positive semi-definite matrix (given by its rows) by
+/// power iteration with Rayleigh quotients (Golub & Van Loan, *Matrix Computations*, 4th ed.,
+/// §8.2.1), from a fixed generic start vector, stopping when the estimate changes by less than
+/// `rel_tol` (relative) or after `max_iter` iterations. A lower bound that converges to ‖A‖₂.
+pub fn symmetric_spectral_norm<T: Float, R: State<T>>(a: &[R], max_iter: u32, rel_tol: T) -> T {
+    let n = a.len();
+    let mut v = R::filled(R::len_for(n), T::zero());
+    for (i, vi) in v.as_mut().iter_mut().enumerate() {
         // a start vector with no special structure (golden-ratio offsets)
         let frac = (i as f64 * 0.618_033_988_749_895).fract();
         *vi = lit(1.0 + frac);
     }
-    let norm = |v: &[T; N]| v.iter().fold(T::zero(), |s, x| s + *x * *x).sqrt();
+    let mut w = v.clone();
+    let norm = |v: &[T]| v.iter().fold(T::zero(), |s, x| s + *x * *x).sqrt();
     let mut lambda = T::zero();
     for _ in 0..max_iter.max(1) {
-        let nv = norm(&v);
+        let nv = norm(v.as_ref());
         if !(nv > T::zero()) {
             return T::zero();
         }
-        for vi in v.iter_mut() {
+        for vi in v.as_mut().iter_mut() {
             *vi = *vi / nv;
         }
-        let mut w = [T::zero(); N];
-        for i in 0..N {
-            for j in 0..N {
+        for i in 0..n {
+            w[i] = T::zero();
+            for j in 0..n {
                 w[i] = w[i] + a[i][j] * v[j];
             }
         }
         let rayleigh = v
+            .as_ref()
             .iter()
-            .zip(w.iter())
+            .zip(w.as_ref())
             .fold(T::zero(), |s, (p, q)| s + *p * *q);
         let done = (rayleigh - lambda).abs() <= rel_tol * rayleigh.abs();
         lambda = rayleigh;
-        v = w;
+        std::mem::swap(&mut v, &mut w);
         if done {
             break;
         }
@@ -107,36 +107,37 @@ pub fn symmetric_spectral_norm<T: Float, const N: usize>(
 }
 
 /// L = ‖Df(x)ᵀ K Df(x)‖₂ by power iteration (at most 200 iterations, relative tolerance 1e-8).
-pub fn gauss_newton_norm<Mdl, T, const N: usize, const M: usize, const G: usize>(
-    model: &Mdl,
-    x: &[T; N],
-    gains: &[T; G],
-) -> T
+pub fn gauss_newton_norm<Mdl, T, X, F>(model: &Mdl, x: &X, gains: &[T]) -> T
 where
-    Mdl: Invariants<T, N, M> + ModelInfo + ?Sized,
+    Mdl: Invariants<T, X, F> + ModelInfo + ?Sized,
     T: Float,
+    X: State<T>,
+    F: State<T>,
 {
-    let h = gauss_newton_hessian::<Mdl, T, N, M, G>(model, x, gains);
-    symmetric_spectral_norm(&h, 200, lit(1e-8))
+    let h = gauss_newton_hessian(model, x, gains);
+    symmetric_spectral_norm(h.as_ref(), 200, lit(1e-8))
 }
 
 /// tr(Df(x)ᵀ K Df(x)) = Σᵢ kᵢ |∇fᵢ(x)|² — a cheap upper bound on L (H_GN is positive
 /// semi-definite).
-pub fn gauss_newton_trace<Mdl, T, const N: usize, const M: usize, const G: usize>(
-    model: &Mdl,
-    x: &[T; N],
-    gains: &[T; G],
-) -> T
+pub fn gauss_newton_trace<Mdl, T, X, F>(model: &Mdl, x: &X, gains: &[T]) -> T
 where
-    Mdl: Invariants<T, N, M> + ModelInfo + ?Sized,
+    Mdl: Invariants<T, X, F> + ModelInfo + ?Sized,
     T: Float,
+    X: State<T>,
+    F: State<T>,
 {
-    let k = expand_gains::<Mdl, T, G, M>(gains);
-    let mut jac = [[T::zero(); N]; M];
+    let m = model.invariant_dim();
+    let mut k = F::filled(F::len_for(m), T::zero());
+    expand_gains(model, gains, k.as_mut());
+    let mut jac = F::rows(F::len_for(m), X::filled(X::len_for(x.len()), T::zero()));
     model.invariants_jacobian(x, &mut jac);
-    jac.iter().zip(k.iter()).fold(T::zero(), |s, (row, &ki)| {
-        s + ki * row.iter().fold(T::zero(), |r, v| r + *v * *v)
-    })
+    jac.as_ref()
+        .iter()
+        .zip(k.as_ref())
+        .fold(T::zero(), |s, (row, &ki)| {
+            s + ki * row.as_ref().iter().fold(T::zero(), |r, v| r + *v * *v)
+        })
 }
 
 /// Why gains could not be chosen.
@@ -164,16 +165,19 @@ pub enum GainError {
 
 /// The scaled fixed gain: `unit · c/(h·L)` with L = [`gauss_newton_norm`] at `x` for the
 /// `unit` gains, so that h·‖∇²V‖₂ ≈ c near x (Bae & Chang; see the module docs).
-pub fn scaled_gains<Mdl, T, const N: usize, const M: usize, const G: usize>(
+pub fn scaled_gains<Mdl, T, X, F, K>(
     model: &Mdl,
-    x: &[T; N],
-    unit: &[T; G],
+    x: &X,
+    unit: &K,
     h: T,
     c: T,
-) -> Result<[T; G], GainError>
+) -> Result<K, GainError>
 where
-    Mdl: Invariants<T, N, M> + ModelInfo + ?Sized,
+    Mdl: Invariants<T, X, F> + ModelInfo + ?Sized,
     T: Float,
+    X: State<T>,
+    F: State<T>,
+    K: State<T>,
 {
     if !(h > T::zero() && h.is_finite()) {
         return Err(GainError::Invalid(format!(
@@ -181,12 +185,14 @@ where
             h.to_f64().unwrap_or(f64::NAN)
         )));
     }
-    let l = gauss_newton_norm::<Mdl, T, N, M, G>(model, x, unit);
+    let l = gauss_newton_norm(model, x, unit.as_ref());
     if !(l > T::zero() && l.is_finite()) {
         return Err(GainError::Degenerate(l.to_f64().unwrap_or(f64::NAN)));
     }
     let alpha = c / (h * l);
-    Ok(unit.map(|k| k * alpha))
+    let mut gains = unit.clone();
+    gains.as_mut().iter_mut().for_each(|k| *k = *k * alpha);
+    Ok(gains)
 }
 
 /// A stepper wrapper for feedback fields that re-chooses the gains every `every` steps as
@@ -195,9 +201,9 @@ where
 ///
 /// If L is degenerate at some state the previous gains are kept.
 #[derive(Clone, Debug)]
-pub struct AdaptiveGain<S, T, const G: usize> {
+pub struct AdaptiveGain<S, T, K> {
     base: S,
-    unit: [T; G],
+    unit: K,
     c: T,
     safety: T,
     every: u64,
@@ -205,10 +211,10 @@ pub struct AdaptiveGain<S, T, const G: usize> {
     last_norm: T,
 }
 
-impl<S, T: Float, const G: usize> AdaptiveGain<S, T, G> {
+impl<S, T: Float, K> AdaptiveGain<S, T, K> {
     /// Wraps `base`; defaults `c = 1`, `safety = 0.8`, re-estimation every `every` steps
     /// (0 is treated as 1).
-    pub fn new(base: S, unit: [T; G], every: u64) -> Self {
+    pub fn new(base: S, unit: K, every: u64) -> Self {
         AdaptiveGain {
             base,
             unit,
@@ -243,26 +249,30 @@ impl<S, T: Float, const G: usize> AdaptiveGain<S, T, G> {
     }
 }
 
-impl<'a, S, Mdl, T, const N: usize, const M: usize, const G: usize>
-    Stepper<T, N, FeedbackField<'a, Mdl, T, N, M, G>> for AdaptiveGain<S, T, G>
+impl<'a, S, Mdl, T, X, F, K> Stepper<T, X, FeedbackField<'a, Mdl, F, K>> for AdaptiveGain<S, T, K>
 where
-    S: Stepper<T, N, FeedbackField<'a, Mdl, T, N, M, G>>,
-    Mdl: Lyapunov<T, N, M, G> + ModelInfo + ?Sized,
+    S: Stepper<T, X, FeedbackField<'a, Mdl, F, K>>,
+    Mdl: Lyapunov<T, X, F, K> + ModelInfo + ?Sized,
     T: Float,
+    X: State<T>,
+    F: State<T>,
+    K: State<T>,
 {
     fn step(
         &mut self,
-        field: &FeedbackField<'a, Mdl, T, N, M, G>,
+        field: &FeedbackField<'a, Mdl, F, K>,
         t: T,
-        x: &mut [T; N],
+        x: &mut X,
         h: T,
     ) -> Result<StepOutcome<T>, StepError> {
         if self.steps % self.every == 0 && h > T::zero() {
-            let l = gauss_newton_norm::<Mdl, T, N, M, G>(field.model(), x, &self.unit);
+            let l = gauss_newton_norm(field.model(), x, self.unit.as_ref());
             if l > T::zero() && l.is_finite() {
                 self.last_norm = l;
                 let alpha = self.safety * self.c / (h * l);
-                field.set_gains(self.unit.map(|k| k * alpha));
+                let mut gains = self.unit.clone();
+                gains.as_mut().iter_mut().for_each(|k| *k = *k * alpha);
+                field.set_gains(gains);
             }
         }
         self.steps += 1;
@@ -291,7 +301,7 @@ where
 ///
 /// | text | policy |
 /// | --- | --- |
-/// | `default` | the gains written in the model file ([`ModelInfo::DEFAULT_GAINS`]) |
+/// | `default` | the gains written in the model file ([`ModelInfo::default_gain_values`]) |
 /// | `auto` | same as `adaptive` (m = 100, c = 1): the safe automatic choice |
 /// | `fixed`, `fixed:c` | [`scaled_gains`] at x₀ with unit gains and c (default 1) |
 /// | `adaptive`, `adaptive:m`, `adaptive:m:c` | [`AdaptiveGain`] every m steps (default 100), c (default 1) |
@@ -371,30 +381,34 @@ impl FromStr for GainPolicy {
 impl GainPolicy {
     /// The gains to start with at x₀ for step size h (for `Adaptive`, the scaled gains at x₀;
     /// wrap the stepper in [`AdaptiveGain`] to keep adapting them).
-    pub fn initial_gains<Mdl, T, const N: usize, const M: usize, const G: usize>(
-        &self,
-        model: &Mdl,
-        x0: &[T; N],
-        h: T,
-    ) -> Result<[T; G], GainError>
+    pub fn initial_gains<Mdl, T, X, F, K>(&self, model: &Mdl, x0: &X, h: T) -> Result<K, GainError>
     where
-        Mdl: Invariants<T, N, M> + ModelInfo + ?Sized,
+        Mdl: Lyapunov<T, X, F, K> + ModelInfo + ?Sized,
         T: Float,
+        X: State<T>,
+        F: State<T>,
+        K: State<T>,
     {
-        let from = |v: &[f64]| -> Result<[T; G], GainError> {
-            if v.len() != G {
+        let g = model.gain_names().len();
+        let from = |v: &[f64]| -> Result<K, GainError> {
+            if v.len() != g {
                 return Err(GainError::WrongCount {
-                    expected: G,
+                    expected: g,
                     got: v.len(),
                 });
             }
-            Ok(std::array::from_fn(|i| lit(v[i])))
+            let mut k = K::filled(K::len_for(g), T::zero());
+            for (ki, vi) in k.as_mut().iter_mut().zip(v) {
+                *ki = lit(*vi);
+            }
+            Ok(k)
         };
         match self {
-            GainPolicy::ModelDefault => from(Mdl::DEFAULT_GAINS),
+            GainPolicy::ModelDefault => from(model.default_gain_values()),
             GainPolicy::Explicit(v) => from(v),
             GainPolicy::Scaled { c } | GainPolicy::Adaptive { c, .. } => {
-                scaled_gains::<Mdl, T, N, M, G>(model, x0, &[T::one(); G], h, lit(*c))
+                let unit = K::filled(K::len_for(g), T::one());
+                scaled_gains(model, x0, &unit, h, lit(*c))
             }
         }
     }

@@ -35,6 +35,7 @@ mod gains;
 mod observe;
 mod output;
 mod params;
+mod state;
 pub mod steppers;
 
 pub use driver::{integrate, Driver, GuardFn, Summary};
@@ -53,6 +54,7 @@ pub use num_traits;
 pub use observe::{sample_capacity, Control, Observer, Recorder, StateRecorder, StopWhen, Stride};
 pub use output::{component_names, write_csv};
 pub use params::{ParamError, Parameters};
+pub use state::State;
 pub use steppers::{
     pivoted_cholesky_solve, DenseOutput, DormandPrince, DormandPrinceOptions, Euler, ExplicitRk,
     Heun, Projection, RigidBodySplitting, Rk4, StepOutcome, Stepper, StormerVerlet, Tableau,

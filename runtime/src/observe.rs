@@ -11,6 +11,7 @@ use std::ops::Range;
 use num_traits::Float;
 
 use crate::field::{Invariants, ModelInfo};
+use crate::state::State;
 
 /// Whether the integration should go on after an observation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -24,32 +25,32 @@ pub enum Control {
 /// Called with `(step, t, x)` at the initial point (step 0) and after each accepted step
 /// (`step` = number of accepted steps so far). With dense output
 /// ([`crate::Driver::run_dense`]) `step` is the index of the output time instead.
-pub trait Observer<T, const N: usize> {
+pub trait Observer<T, X: ?Sized> {
     /// Observes the state `x` at time `t`; return [`Control::Stop`] to end the integration.
-    fn observe(&mut self, step: u64, t: T, x: &[T; N]) -> Control;
+    fn observe(&mut self, step: u64, t: T, x: &X) -> Control;
 
     /// Called once when the integration ends without error (end time reached or stopped by an
     /// observer), with the final step count, time and state. The default does nothing.
-    fn finish(&mut self, _step: u64, _t: T, _x: &[T; N]) {}
+    fn finish(&mut self, _step: u64, _t: T, _x: &X) {}
 }
 
 /// The observer that observes nothing.
-impl<T, const N: usize> Observer<T, N> for () {
-    fn observe(&mut self, _step: u64, _t: T, _x: &[T; N]) -> Control {
+impl<T, X: ?Sized> Observer<T, X> for () {
+    fn observe(&mut self, _step: u64, _t: T, _x: &X) -> Control {
         Control::Continue
     }
 }
 
 /// Any closure `FnMut(step, t, &x) -> Control` is an observer.
-impl<T, const N: usize, C: FnMut(u64, T, &[T; N]) -> Control> Observer<T, N> for C {
-    fn observe(&mut self, step: u64, t: T, x: &[T; N]) -> Control {
+impl<T, X: ?Sized, C: FnMut(u64, T, &X) -> Control> Observer<T, X> for C {
+    fn observe(&mut self, step: u64, t: T, x: &X) -> Control {
         self(step, t, x)
     }
 }
 
 /// Both observers see every observation; the integration stops if either asks to.
-impl<T: Copy, const N: usize, A: Observer<T, N>, B: Observer<T, N>> Observer<T, N> for (A, B) {
-    fn observe(&mut self, step: u64, t: T, x: &[T; N]) -> Control {
+impl<T: Copy, X: ?Sized, A: Observer<T, X>, B: Observer<T, X>> Observer<T, X> for (A, B) {
+    fn observe(&mut self, step: u64, t: T, x: &X) -> Control {
         let a = self.0.observe(step, t, x);
         let b = self.1.observe(step, t, x);
         if a == Control::Stop || b == Control::Stop {
@@ -59,7 +60,7 @@ impl<T: Copy, const N: usize, A: Observer<T, N>, B: Observer<T, N>> Observer<T, 
         }
     }
 
-    fn finish(&mut self, step: u64, t: T, x: &[T; N]) {
+    fn finish(&mut self, step: u64, t: T, x: &X) {
         self.0.finish(step, t, x);
         self.1.finish(step, t, x);
     }
@@ -86,8 +87,8 @@ impl<O> Stride<O> {
     }
 }
 
-impl<T: Copy, const N: usize, O: Observer<T, N>> Observer<T, N> for Stride<O> {
-    fn observe(&mut self, step: u64, t: T, x: &[T; N]) -> Control {
+impl<T: Copy, X: ?Sized, O: Observer<T, X>> Observer<T, X> for Stride<O> {
+    fn observe(&mut self, step: u64, t: T, x: &X) -> Control {
         if step % self.every == 0 {
             self.last = Some(step);
             self.inner.observe(step, t, x)
@@ -96,7 +97,7 @@ impl<T: Copy, const N: usize, O: Observer<T, N>> Observer<T, N> for Stride<O> {
         }
     }
 
-    fn finish(&mut self, step: u64, t: T, x: &[T; N]) {
+    fn finish(&mut self, step: u64, t: T, x: &X) {
         if self.last != Some(step) {
             self.last = Some(step);
             // the integration is over: a stop request is moot
@@ -121,10 +122,10 @@ impl<O, P> StopWhen<O, P> {
     }
 }
 
-impl<T: Copy, const N: usize, O: Observer<T, N>, P: FnMut(T, &[T; N]) -> bool> Observer<T, N>
+impl<T: Copy, X: ?Sized, O: Observer<T, X>, P: FnMut(T, &X) -> bool> Observer<T, X>
     for StopWhen<O, P>
 {
-    fn observe(&mut self, step: u64, t: T, x: &[T; N]) -> Control {
+    fn observe(&mut self, step: u64, t: T, x: &X) -> Control {
         let c = self.inner.observe(step, t, x);
         if c == Control::Stop || (self.stop)(t, x) {
             Control::Stop
@@ -133,23 +134,23 @@ impl<T: Copy, const N: usize, O: Observer<T, N>, P: FnMut(T, &[T; N]) -> bool> O
         }
     }
 
-    fn finish(&mut self, step: u64, t: T, x: &[T; N]) {
+    fn finish(&mut self, step: u64, t: T, x: &X) {
         self.inner.finish(step, t, x);
     }
 }
 
 /// Records `(t, x)` every `every` steps (and the final state) into preallocated vectors.
 #[derive(Clone, Debug)]
-pub struct StateRecorder<T, const N: usize> {
+pub struct StateRecorder<T, X> {
     /// Sample times.
     pub t: Vec<T>,
     /// Sampled states.
-    pub x: Vec<[T; N]>,
+    pub x: Vec<X>,
     every: u64,
     last: Option<u64>,
 }
 
-impl<T: Copy, const N: usize> StateRecorder<T, N> {
+impl<T: Copy, X: Clone> StateRecorder<T, X> {
     /// Records every `every`-th step (0 is treated as 1), with room for `capacity` samples.
     pub fn new(every: u64, capacity: usize) -> Self {
         StateRecorder {
@@ -170,22 +171,22 @@ impl<T: Copy, const N: usize> StateRecorder<T, N> {
         self.t.is_empty()
     }
 
-    fn push(&mut self, step: u64, t: T, x: &[T; N]) {
+    fn push(&mut self, step: u64, t: T, x: &X) {
         self.last = Some(step);
         self.t.push(t);
-        self.x.push(*x);
+        self.x.push(x.clone());
     }
 }
 
-impl<T: Copy, const N: usize> Observer<T, N> for StateRecorder<T, N> {
-    fn observe(&mut self, step: u64, t: T, x: &[T; N]) -> Control {
+impl<T: Copy, X: Clone> Observer<T, X> for StateRecorder<T, X> {
+    fn observe(&mut self, step: u64, t: T, x: &X) -> Control {
         if step % self.every == 0 {
             self.push(step, t, x);
         }
         Control::Continue
     }
 
-    fn finish(&mut self, step: u64, t: T, x: &[T; N]) {
+    fn finish(&mut self, step: u64, t: T, x: &X) {
         if self.last != Some(step) {
             self.push(step, t, x);
         }
@@ -204,33 +205,38 @@ pub fn sample_capacity(steps: u64, every: u64) -> usize {
 /// Storage is reserved up front; during the run a sample costs one evaluation of f and a push
 /// into vectors with enough capacity (no reallocation if the capacity was right).
 #[derive(Clone, Debug)]
-pub struct Recorder<'m, Mdl: ?Sized, T, const N: usize, const M: usize> {
+pub struct Recorder<'m, Mdl: ?Sized, T, X, F> {
     model: &'m Mdl,
-    target: [T; M],
+    target: F,
+    /// Scratch for f(x) at a sample.
+    f: F,
     blocks: Vec<(&'static str, Range<usize>)>,
     every: u64,
     last: Option<u64>,
     /// Sample times.
     pub t: Vec<T>,
     /// Sampled states.
-    pub x: Vec<[T; N]>,
+    pub x: Vec<X>,
     /// Invariant errors, `blocks().len()` per sample, sample-major.
     pub errors: Vec<T>,
 }
 
-impl<'m, Mdl, T, const N: usize, const M: usize> Recorder<'m, Mdl, T, N, M>
+impl<'m, Mdl, T, X, F> Recorder<'m, Mdl, T, X, F>
 where
-    Mdl: Invariants<T, N, M> + ?Sized,
+    Mdl: Invariants<T, X, F> + ?Sized,
     T: Float,
+    X: State<T>,
+    F: State<T>,
 {
-    /// A recorder of the invariants declared by the model ([`ModelInfo::INVARIANTS`]) relative
-    /// to f(x₀), sampling every `every` steps, with room for `capacity` samples (see
+    /// A recorder of the invariants declared by the model ([`ModelInfo::invariant_infos`])
+    /// relative to f(x₀), sampling every `every` steps, with room for `capacity` samples (see
     /// [`sample_capacity`]).
-    pub fn new(model: &'m Mdl, x0: &[T; N], every: u64, capacity: usize) -> Self
+    pub fn new(model: &'m Mdl, x0: &X, every: u64, capacity: usize) -> Self
     where
         Mdl: ModelInfo,
     {
-        let blocks = Mdl::INVARIANTS
+        let blocks = model
+            .invariant_infos()
             .iter()
             .map(|i| (i.slot.name, i.slot.range()))
             .collect();
@@ -240,16 +246,17 @@ where
     /// A recorder with explicitly given blocks `(name, index range in f)`.
     pub fn with_blocks(
         model: &'m Mdl,
-        x0: &[T; N],
+        x0: &X,
         blocks: Vec<(&'static str, Range<usize>)>,
         every: u64,
         capacity: usize,
     ) -> Self {
-        let mut target = [T::zero(); M];
+        let mut target = F::filled(F::len_for(model.invariant_dim()), T::zero());
         model.invariants(x0, &mut target);
         let nb = blocks.len();
         Recorder {
             model,
+            f: target.clone(),
             target,
             blocks,
             every: every.max(1),
@@ -266,7 +273,7 @@ where
     }
 
     /// The target f(x₀).
-    pub fn target(&self) -> &[T; M] {
+    pub fn target(&self) -> &F {
         &self.target
     }
 
@@ -308,16 +315,15 @@ where
         self.blocks.iter().position(|(n, _)| *n == name)
     }
 
-    fn push(&mut self, step: u64, t: T, x: &[T; N]) {
+    fn push(&mut self, step: u64, t: T, x: &X) {
         self.last = Some(step);
-        let mut f = [T::zero(); M];
-        self.model.invariants(x, &mut f);
+        self.model.invariants(x, &mut self.f);
         self.t.push(t);
-        self.x.push(*x);
+        self.x.push(x.clone());
         for (_, range) in &self.blocks {
             let mut s = T::zero();
             for i in range.clone() {
-                let d = f[i] - self.target[i];
+                let d = self.f[i] - self.target[i];
                 s = s + d * d;
             }
             self.errors.push(s.sqrt());
@@ -325,19 +331,21 @@ where
     }
 }
 
-impl<Mdl, T, const N: usize, const M: usize> Observer<T, N> for Recorder<'_, Mdl, T, N, M>
+impl<Mdl, T, X, F> Observer<T, X> for Recorder<'_, Mdl, T, X, F>
 where
-    Mdl: Invariants<T, N, M> + ?Sized,
+    Mdl: Invariants<T, X, F> + ?Sized,
     T: Float,
+    X: State<T>,
+    F: State<T>,
 {
-    fn observe(&mut self, step: u64, t: T, x: &[T; N]) -> Control {
+    fn observe(&mut self, step: u64, t: T, x: &X) -> Control {
         if step % self.every == 0 {
             self.push(step, t, x);
         }
         Control::Continue
     }
 
-    fn finish(&mut self, step: u64, t: T, x: &[T; N]) {
+    fn finish(&mut self, step: u64, t: T, x: &X) {
         if self.last != Some(step) {
             self.push(step, t, x);
         }

@@ -12,7 +12,7 @@ use lasalle_runtime::*;
 /// x(0) = (1, 0, 0), v(0) = (0, √1.8, 0): e = 0.8, a = 5, T = 2π·5^{3/2} ≈ 70.2481.
 const ORBIT: KeplerOrbit = KeplerOrbit { e: 0.8, rp: 1.0 };
 
-fn one_period(tol: f64) -> (f64, Summary<f64, 6>) {
+fn one_period(tol: f64) -> (f64, Summary<f64, [f64; 6]>) {
     let x0 = ORBIT.initial();
     let t = ORBIT.period();
     let mut dp = DormandPrince::with_tolerances(tol, tol);
@@ -116,7 +116,7 @@ fn dense_output_local_order() {
         .iter()
         .map(|&h| {
             // loose tolerances: the step is always accepted
-            let mut dp = DormandPrince::<f64, 2>::with_tolerances(1.0, 1.0);
+            let mut dp = DormandPrince::<f64, [f64; 2]>::with_tolerances(1.0, 1.0);
             let mut x = [1.0, 0.0];
             let out = dp.step(&Oscillator, 0.0, &mut x, h).unwrap();
             assert_eq!(out.h_taken, h);
@@ -133,7 +133,7 @@ fn dense_output_local_order() {
 /// Interpolation reproduces both ends of the last step and refuses times outside it.
 #[test]
 fn dense_interval_ends() {
-    let mut dp = DormandPrince::<f64, 2>::with_tolerances(1e-8, 1e-8);
+    let mut dp = DormandPrince::<f64, [f64; 2]>::with_tolerances(1e-8, 1e-8);
     let mut x = [1.0, 0.0];
     let x_old = x;
     let out = dp.step(&Oscillator, 0.0, &mut x, 0.1).unwrap();

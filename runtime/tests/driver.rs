@@ -10,7 +10,7 @@ use lasalle_runtime::*;
 
 /// ẋ = x² from x(0) = 1 blows up at t = 1; explicit Euler overflows shortly after.
 struct Blow;
-impl Field<f64, 1> for Blow {
+impl Field<f64, [f64; 1]> for Blow {
     fn field(&self, x: &[f64; 1], dx: &mut [f64; 1]) {
         dx[0] = x[0] * x[0];
     }
@@ -200,7 +200,7 @@ fn observers_stride_stop_and_recorder() {
 
     // CSV output
     let mut buf = Vec::new();
-    write_csv(&mut buf, &rec, Kepler::STATE).unwrap();
+    write_csv(&mut buf, &rec, Kepler { mu: 1.0 }.state_slots()).unwrap();
     let text = String::from_utf8(buf).unwrap();
     let mut lines = text.lines();
     assert_eq!(
@@ -209,7 +209,7 @@ fn observers_stride_stop_and_recorder() {
     );
     assert_eq!(lines.count(), rec.len());
     assert_eq!(
-        component_names(RigidBody::STATE)[..4],
+        component_names(RigidBody { inertia: [1.0; 3] }.state_slots())[..4],
         ["R[0,0]", "R[1,0]", "R[2,0]", "R[0,1]"]
     );
 }
@@ -248,13 +248,13 @@ fn dense_sampling_edges() {
 #[test]
 fn f32_scalar_works() {
     struct Osc32;
-    impl Field<f32, 2> for Osc32 {
+    impl Field<f32, [f32; 2]> for Osc32 {
         fn field(&self, x: &[f32; 2], dx: &mut [f32; 2]) {
             dx[0] = x[1];
             dx[1] = -x[0];
         }
     }
-    impl Invariants<f32, 2, 1> for Osc32 {
+    impl Invariants<f32, [f32; 2], [f32; 1]> for Osc32 {
         fn invariants(&self, x: &[f32; 2], f: &mut [f32; 1]) {
             f[0] = 0.5 * (x[0] * x[0] + x[1] * x[1]);
         }
@@ -265,7 +265,7 @@ fn f32_scalar_works() {
     let x0 = [1.0f32, 0.0];
     let end = integrate(&mut ExplicitRk::rk4(), &Osc32, &x0, 0.0, 1.0, 0.01, &mut ()).unwrap();
     assert!((end.x[0] - 1f32.cos()).abs() < 1e-5);
-    let mut dp = DormandPrince::<f32, 2>::with_tolerances(1e-5, 1e-5);
+    let mut dp = DormandPrince::<f32, [f32; 2]>::with_tolerances(1e-5, 1e-5);
     let end = integrate(&mut dp, &Osc32, &x0, 0.0, 1.0, 0.0, &mut ()).unwrap();
     assert!((end.x[0] - 1f32.cos()).abs() < 1e-4);
     let mut proj = Projection::from_initial(ExplicitRk::euler(), &Osc32, &x0, 1e-6);

@@ -9,7 +9,7 @@ mod common;
 use common::*;
 use lasalle_runtime::*;
 
-fn fd_jacobian_check<F: Invariants<f64, N, M>, const N: usize, const M: usize>(
+fn fd_jacobian_check<F: Invariants<f64, [f64; N], [f64; M]>, const N: usize, const M: usize>(
     model: &F,
     x: &[f64; N],
 ) {
@@ -195,7 +195,7 @@ fn scaled_and_adaptive_gains() {
         [4.0, 2.0]
     );
     assert!(matches!(
-        GainPolicy::Explicit(vec![1.0]).initial_gains::<Kepler, f64, 6, 6, 2>(&k, &x0, h),
+        GainPolicy::Explicit(vec![1.0]).initial_gains::<Kepler, f64, [f64; 6], [f64; 6], [f64; 2]>(&k, &x0, h),
         Err(GainError::WrongCount {
             expected: 2,
             got: 1

@@ -14,7 +14,7 @@ use lasalle_runtime::*;
 const ORBIT: KeplerOrbit = KeplerOrbit { e: 0.5, rp: 0.5 };
 const T_END: f64 = 2.0;
 
-fn kepler_error<S: Stepper<f64, 6, Kepler>>(mut stepper: S, n: u64) -> f64 {
+fn kepler_error<S: Stepper<f64, [f64; 6], Kepler>>(mut stepper: S, n: u64) -> f64 {
     let x0 = ORBIT.initial();
     let h = T_END / n as f64;
     let end = integrate(
@@ -102,8 +102,8 @@ fn stormer_verlet_variants_differ_and_are_reversible() {
     assert!(dist(&xa, &xb) > 1e-4, "A and B coincide: {xa:?}");
     for mut sv in [StormerVerlet::a(), StormerVerlet::b()] {
         let mut x = x0;
-        Stepper::<f64, 6, Kepler>::step(&mut sv, &k, 0.0, &mut x, 0.1).unwrap();
-        Stepper::<f64, 6, Kepler>::step(&mut sv, &k, 0.1, &mut x, -0.1).unwrap();
+        Stepper::<f64, [f64; 6], Kepler>::step(&mut sv, &k, 0.0, &mut x, 0.1).unwrap();
+        Stepper::<f64, [f64; 6], Kepler>::step(&mut sv, &k, 0.1, &mut x, -0.1).unwrap();
         assert!(
             dist(&x, &x0) < 1e-14,
             "{:?} not reversible: {x:?}",

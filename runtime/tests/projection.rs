@@ -112,7 +112,7 @@ fn projection_wraps_any_stepper() {
     let x0 = orbit.initial();
     let mut proj =
         Projection::from_initial(DormandPrince::with_tolerances(1e-6, 1e-6), &k, &x0, 1e-12);
-    assert!(Stepper::<f64, 6, Kepler>::is_adaptive(&proj));
+    assert!(Stepper::<f64, [f64; 6], Kepler>::is_adaptive(&proj));
     let end = integrate(&mut proj, &k, &x0, 0.0, 10.0, 0.0, &mut ()).unwrap();
     let (mut f, mut f0) = ([0.0; 6], [0.0; 6]);
     k.invariants(&end.x, &mut f);

@@ -128,8 +128,8 @@ fn composition_conserves_momentum_and_orthogonality() {
     // reversibility
     let mut x = generic_state();
     let x_start = x;
-    Stepper::<f64, 12, RigidBody>::step(&mut s, &body, 0.0, &mut x, 0.1).unwrap();
-    Stepper::<f64, 12, RigidBody>::step(&mut s, &body, 0.1, &mut x, -0.1).unwrap();
+    Stepper::<f64, [f64; 12], RigidBody>::step(&mut s, &body, 0.0, &mut x, 0.1).unwrap();
+    Stepper::<f64, [f64; 12], RigidBody>::step(&mut s, &body, 0.1, &mut x, -0.1).unwrap();
     assert!(dist(&x, &x_start) < 1e-14);
 }
 

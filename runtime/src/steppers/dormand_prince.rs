@@ -19,6 +19,7 @@ use num_traits::Float;
 use super::{DenseOutput, StepOutcome, Stepper, Tableau};
 use crate::error::{all_finite, state_to_vec, to_f64, StepError};
 use crate::field::{lit, Field};
+use crate::state::State;
 
 /// Tolerances and controller parameters of [`DormandPrince`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -77,10 +78,10 @@ const DENSE: [f64; 7] = [
 /// ```
 /// use lasalle_runtime::{Field, DormandPrince, DormandPrinceOptions, DenseOutput, Driver, Control};
 /// struct Decay;
-/// impl Field<f64, 1> for Decay {
+/// impl Field<f64, [f64; 1]> for Decay {
 ///     fn field(&self, x: &[f64; 1], dx: &mut [f64; 1]) { dx[0] = -x[0]; }
 /// }
-/// let mut dp = DormandPrince::<f64, 1>::new(DormandPrinceOptions { rtol: 1e-10, atol: 1e-12, ..Default::default() });
+/// let mut dp = DormandPrince::<f64, [f64; 1]>::new(DormandPrinceOptions { rtol: 1e-10, atol: 1e-12, ..Default::default() });
 /// let times = [0.5, 1.0, 2.0];
 /// let mut out = Vec::new();
 /// // h = 0: automatic initial step; the observer sees the interpolated state at each output time
@@ -93,26 +94,48 @@ const DENSE: [f64; 7] = [
 /// for (t, x) in out { assert!((x - (-t).exp()).abs() < 1e-9); }
 /// ```
 #[derive(Clone, Debug)]
-pub struct DormandPrince<T, const N: usize> {
+pub struct DormandPrince<T, X> {
     opts: DormandPrinceOptions<T>,
     a: [[T; 7]; 7],
     b: [T; 7],
     /// `b − b̂`: the error estimate is `h Σ e_i k_i`.
     e: [T; 7],
     d: [T; 7],
-    /// `k₁ = X(x)` for `x == x_last` when `fsal_valid`.
-    k1: [T; N],
-    x_last: [T; N],
+    /// State-sized storage, allocated when the stepper first sees a state.
+    work: Option<Work<X>>,
     fsal_valid: bool,
     fac_old: T,
     last_rejected: bool,
-    dense: [[T; N]; 5],
     t_old: T,
     h_old: T,
     has_dense: bool,
 }
 
-impl<T: Float, const N: usize> DormandPrince<T, N> {
+/// The state-sized storage of [`DormandPrince`].
+#[derive(Clone, Debug)]
+struct Work<X> {
+    /// `k₁ = X(x)` for `x == x_last` when `fsal_valid`; the stages k₁…k₇.
+    k: [X; 7],
+    x_last: X,
+    y: X,
+    y_new: X,
+    /// Dense output coefficients r₁…r₅ of the last accepted step.
+    dense: [X; 5],
+}
+
+impl<X: Clone> Work<X> {
+    fn new(zero: X) -> Self {
+        Work {
+            k: std::array::from_fn(|_| zero.clone()),
+            x_last: zero.clone(),
+            y: zero.clone(),
+            y_new: zero.clone(),
+            dense: std::array::from_fn(|_| zero.clone()),
+        }
+    }
+}
+
+impl<T: Float, X: State<T>> DormandPrince<T, X> {
     /// A stepper with the given options.
     pub fn new(opts: DormandPrinceOptions<T>) -> Self {
         let tab = Tableau::dormand_prince54();
@@ -127,12 +150,10 @@ impl<T: Float, const N: usize> DormandPrince<T, N> {
             b: tab.b.map(lit),
             e,
             d: DENSE.map(lit),
-            k1: [T::zero(); N],
-            x_last: [T::zero(); N],
+            work: None,
             fsal_valid: false,
             fac_old: lit(1e-4),
             last_rejected: false,
-            dense: [[T::zero(); N]; 5],
             t_old: T::zero(),
             h_old: T::zero(),
             has_dense: false,
@@ -154,45 +175,57 @@ impl<T: Float, const N: usize> DormandPrince<T, N> {
     }
 
     /// RMS norm of `v` scaled by `atol + rtol·|x|` (HNW I, eq. (4.11) with one state).
-    fn scaled_norm(&self, v: &[T; N], x: &[T; N]) -> T {
+    fn scaled_norm(&self, v: &[T], x: &[T]) -> T {
         let mut s = T::zero();
-        for i in 0..N {
-            let sk = self.opts.atol + self.opts.rtol * x[i].abs();
-            let r = v[i] / sk;
+        for (vi, xi) in v.iter().zip(x) {
+            let sk = self.opts.atol + self.opts.rtol * xi.abs();
+            let r = *vi / sk;
             s = s + r * r;
         }
-        (s / lit(N.max(1) as f64)).sqrt()
+        (s / lit(x.len().max(1) as f64)).sqrt()
     }
 
-    fn ensure_k1<F: Field<T, N> + ?Sized>(
+    /// The work storage, (re)allocated for states of `x`'s length.
+    fn work(&mut self, x: &X) -> &mut Work<X> {
+        let n = x.len();
+        if !matches!(&self.work, Some(w) if w.y.len() == n) {
+            self.fsal_valid = false;
+            self.work = Some(Work::new(X::filled(X::len_for(n), T::zero())));
+        }
+        self.work.as_mut().expect("allocated above")
+    }
+
+    fn ensure_k1<F: Field<T, X> + ?Sized>(
         &mut self,
         field: &F,
         t: T,
-        x: &[T; N],
+        x: &X,
         h: T,
     ) -> Result<u32, StepError> {
-        if self.fsal_valid && self.x_last == *x {
+        let fsal_valid = self.fsal_valid;
+        let w = self.work(x);
+        if fsal_valid && w.x_last == *x {
             return Ok(0);
         }
-        field.field(x, &mut self.k1);
-        if !all_finite(&self.k1) {
+        field.field(x, &mut w.k[0]);
+        if !all_finite(w.k[0].as_ref()) {
             self.fsal_valid = false;
-            return Err(StepError::non_finite("field", t, h, x));
+            return Err(StepError::non_finite("field", t, h, x.as_ref()));
         }
-        self.x_last = *x;
+        w.x_last.clone_from(x);
         self.fsal_valid = true;
         Ok(1)
     }
 }
 
-impl<T: Float, const N: usize> Default for DormandPrince<T, N> {
+impl<T: Float, X: State<T>> Default for DormandPrince<T, X> {
     fn default() -> Self {
         Self::new(DormandPrinceOptions::default())
     }
 }
 
-impl<T: Float, const N: usize, F: Field<T, N> + ?Sized> Stepper<T, N, F> for DormandPrince<T, N> {
-    fn step(&mut self, field: &F, t: T, x: &mut [T; N], h: T) -> Result<StepOutcome<T>, StepError> {
+impl<T: Float, X: State<T>, F: Field<T, X> + ?Sized> Stepper<T, X, F> for DormandPrince<T, X> {
+    fn step(&mut self, field: &F, t: T, x: &mut X, h: T) -> Result<StepOutcome<T>, StepError> {
         if !(h > T::zero() && h.is_finite()) {
             return Err(StepError::InvalidInput(format!(
                 "dopri5: step size must be positive and finite, got h = {}",
@@ -205,8 +238,8 @@ impl<T: Float, const N: usize, F: Field<T, N> + ?Sized> Stepper<T, N, F> for Dor
         let mut rejections = 0u32;
         let ten = lit::<T>(10.0);
         let expo1 = lit::<T>(0.2) - lit::<T>(0.75) * o.beta;
-        let mut k = [[T::zero(); N]; 7];
-        k[0] = self.k1;
+        let n_dim = x.len();
+        let w = self.work.as_mut().expect("allocated by ensure_k1");
         loop {
             let h_min = o.h_min.max(ten * T::epsilon() * t.abs());
             if h < h_min {
@@ -214,44 +247,44 @@ impl<T: Float, const N: usize, F: Field<T, N> + ?Sized> Stepper<T, N, F> for Dor
                     t: to_f64(t),
                     h: to_f64(h),
                     h_min: to_f64(h_min),
-                    state: state_to_vec(x),
+                    state: state_to_vec(x.as_ref()),
                 });
             }
             // stages 2..6
             for i in 1..6 {
-                let mut y = *x;
+                w.y.clone_from(x);
                 for j in 0..i {
                     let hc = h * self.a[i][j];
-                    for n in 0..N {
-                        y[n] = y[n] + hc * k[j][n];
+                    for n in 0..n_dim {
+                        w.y[n] = w.y[n] + hc * w.k[j][n];
                     }
                 }
-                field.field(&y, &mut k[i]);
+                field.field(&w.y, &mut w.k[i]);
             }
             // 5th-order solution (a₇ⱼ = bⱼ, b₇ = 0) and the FSAL stage k₇ = X(x_{n+1})
-            let mut y_new = *x;
+            w.y_new.clone_from(x);
             for j in 0..6 {
                 let hc = h * self.b[j];
-                for n in 0..N {
-                    y_new[n] = y_new[n] + hc * k[j][n];
+                for n in 0..n_dim {
+                    w.y_new[n] = w.y_new[n] + hc * w.k[j][n];
                 }
             }
-            field.field(&y_new, &mut k[6]);
+            field.field(&w.y_new, &mut w.k[6]);
             evaluations += 6;
             // error estimate h Σ (bᵢ − b̂ᵢ) kᵢ in the norm (4.11)
             let mut s = T::zero();
-            for n in 0..N {
+            for n in 0..n_dim {
                 let mut en = T::zero();
                 for j in 0..7 {
-                    en = en + self.e[j] * k[j][n];
+                    en = en + self.e[j] * w.k[j][n];
                 }
                 en = en * h;
-                let sk = o.atol + o.rtol * x[n].abs().max(y_new[n].abs());
+                let sk = o.atol + o.rtol * x[n].abs().max(w.y_new[n].abs());
                 let r = en / sk;
                 s = s + r * r;
             }
-            let err = (s / lit(N.max(1) as f64)).sqrt();
-            let accepted = err.is_finite() && err <= T::one() && all_finite(&y_new);
+            let err = (s / lit(n_dim.max(1) as f64)).sqrt();
+            let accepted = err.is_finite() && err <= T::one() && all_finite(w.y_new.as_ref());
             if accepted {
                 let fac11 = err.powf(expo1);
                 let fac = (fac11 / self.fac_old.powf(o.beta) / o.safety)
@@ -264,26 +297,26 @@ impl<T: Float, const N: usize, F: Field<T, N> + ?Sized> Stepper<T, N, F> for Dor
                 }
                 self.last_rejected = false;
                 // dense output (HNW I §II.6; dopri5.f)
-                for n in 0..N {
-                    let ydiff = y_new[n] - x[n];
-                    let bspl = h * k[0][n] - ydiff;
-                    self.dense[0][n] = x[n];
-                    self.dense[1][n] = ydiff;
-                    self.dense[2][n] = bspl;
-                    self.dense[3][n] = ydiff - h * k[6][n] - bspl;
+                for n in 0..n_dim {
+                    let ydiff = w.y_new[n] - x[n];
+                    let bspl = h * w.k[0][n] - ydiff;
+                    w.dense[0][n] = x[n];
+                    w.dense[1][n] = ydiff;
+                    w.dense[2][n] = bspl;
+                    w.dense[3][n] = ydiff - h * w.k[6][n] - bspl;
                     let mut dk = T::zero();
                     for j in 0..7 {
-                        dk = dk + self.d[j] * k[j][n];
+                        dk = dk + self.d[j] * w.k[j][n];
                     }
-                    self.dense[4][n] = h * dk;
+                    w.dense[4][n] = h * dk;
                 }
                 self.t_old = t;
                 self.h_old = h;
                 self.has_dense = true;
-                *x = y_new;
-                self.k1 = k[6];
-                self.x_last = y_new;
-                self.fsal_valid = all_finite(&self.k1);
+                x.clone_from(&w.y_new);
+                w.k.swap(0, 6);
+                w.x_last.clone_from(&w.y_new);
+                self.fsal_valid = all_finite(w.k[0].as_ref());
                 return Ok(StepOutcome {
                     h_taken: h,
                     h_next: h_new.min(o.h_max),
@@ -298,7 +331,7 @@ impl<T: Float, const N: usize, F: Field<T, N> + ?Sized> Stepper<T, N, F> for Dor
                     t: to_f64(t),
                     h: to_f64(h),
                     rejections,
-                    state: state_to_vec(x),
+                    state: state_to_vec(x.as_ref()),
                 });
             }
             h = if err.is_finite() {
@@ -322,11 +355,13 @@ impl<T: Float, const N: usize, F: Field<T, N> + ?Sized> Stepper<T, N, F> for Dor
     }
 
     /// HNW I, §II.4, "Starting step size" (a)–(f) with p = 4 (exponent 1/(p+1) = 1/5).
-    fn initial_step(&mut self, field: &F, t0: T, x0: &[T; N], t_end: T) -> Option<T> {
-        let mut f0 = [T::zero(); N];
+    fn initial_step(&mut self, field: &F, t0: T, x0: &X, t_end: T) -> Option<T> {
+        let n_dim = x0.len();
+        let opts = self.opts;
+        let mut f0 = X::filled(X::len_for(n_dim), T::zero());
         field.field(x0, &mut f0);
-        let d0 = self.scaled_norm(x0, x0);
-        let d1 = self.scaled_norm(&f0, x0);
+        let d0 = self.scaled_norm(x0.as_ref(), x0.as_ref());
+        let d1 = self.scaled_norm(f0.as_ref(), x0.as_ref());
         let small = lit::<T>(1e-5);
         let mut h0 = if d0 < small || d1 < small {
             lit(1e-6)
@@ -337,31 +372,31 @@ impl<T: Float, const N: usize, F: Field<T, N> + ?Sized> Stepper<T, N, F> for Dor
         if span > T::zero() {
             h0 = h0.min(span);
         }
-        h0 = h0.min(self.opts.h_max);
-        let mut x1 = *x0;
-        for n in 0..N {
+        h0 = h0.min(opts.h_max);
+        let mut x1 = x0.clone();
+        for n in 0..n_dim {
             x1[n] = x1[n] + h0 * f0[n];
         }
-        let mut f1 = [T::zero(); N];
+        let mut f1 = X::filled(X::len_for(n_dim), T::zero());
         field.field(&x1, &mut f1);
-        let mut diff = [T::zero(); N];
-        for n in 0..N {
-            diff[n] = f1[n] - f0[n];
+        for n in 0..n_dim {
+            x1[n] = f1[n] - f0[n];
         }
-        let d2 = self.scaled_norm(&diff, x0) / h0;
+        let d2 = self.scaled_norm(x1.as_ref(), x0.as_ref()) / h0;
         let dmax = d1.max(d2);
         let h1 = if !(dmax > lit(1e-15)) {
             lit::<T>(1e-6).max(h0 * lit(1e-3))
         } else {
             (lit::<T>(0.01) / dmax).powf(lit(0.2))
         };
-        let mut h = (lit::<T>(100.0) * h0).min(h1).min(self.opts.h_max);
+        let mut h = (lit::<T>(100.0) * h0).min(h1).min(opts.h_max);
         if span > T::zero() {
             h = h.min(span);
         }
-        if all_finite(&f0) {
-            self.k1 = f0;
-            self.x_last = *x0;
+        if all_finite(f0.as_ref()) {
+            let w = self.work(x0);
+            w.k[0] = f0;
+            w.x_last.clone_from(x0);
             self.fsal_valid = true;
         }
         (h > T::zero() && h.is_finite()).then_some(h)
@@ -374,25 +409,25 @@ impl<T: Float, const N: usize, F: Field<T, N> + ?Sized> Stepper<T, N, F> for Dor
     }
 }
 
-impl<T: Float, const N: usize> DenseOutput<T, N> for DormandPrince<T, N> {
+impl<T: Float, X: State<T>> DenseOutput<T, X> for DormandPrince<T, X> {
     fn dense_interval(&self) -> Option<(T, T)> {
         self.has_dense
             .then(|| (self.t_old, self.t_old + self.h_old))
     }
 
     /// `x(t_old + θh) ≈ r₁ + θ(r₂ + (1−θ)(r₃ + θ(r₄ + (1−θ) r₅)))` (`dopri5.f`, `CONTD5`).
-    fn interpolate(&self, t: T, out: &mut [T; N]) -> bool {
-        if !self.has_dense {
+    fn interpolate(&self, t: T, out: &mut X) -> bool {
+        let Some(w) = self.work.as_ref().filter(|_| self.has_dense) else {
             return false;
-        }
+        };
         let theta = (t - self.t_old) / self.h_old;
         let slack = lit::<T>(1e-9);
         if !(theta >= -slack && theta <= T::one() + slack) {
             return false;
         }
         let theta1 = T::one() - theta;
-        let r = &self.dense;
-        for n in 0..N {
+        let r = &w.dense;
+        for n in 0..out.len() {
             out[n] = r[0][n]
                 + theta * (r[1][n] + theta1 * (r[2][n] + theta * (r[3][n] + theta1 * r[4][n])));
         }

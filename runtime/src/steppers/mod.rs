@@ -18,6 +18,7 @@
 use num_traits::Float;
 
 use crate::error::StepError;
+use crate::state::State;
 
 mod dormand_prince;
 mod explicit_rk;
@@ -59,9 +60,10 @@ impl<T: Copy> StepOutcome<T> {
     }
 }
 
-/// A one-step method for the field `F` on Rᴺ.
+/// A one-step method for the field `F` on Rᴺ, with states stored as `X` ([`State`]).
 ///
-/// `step` advances `x` in place from time `t` by (at most) `h` and must not allocate. The
+/// `step` advances `x` in place from time `t` by (at most) `h` and must not allocate (scratch
+/// storage for run-time-sized states is allocated at the first step and kept). The
 /// field type is a trait parameter so each method can ask for exactly the capability it uses
 /// (diffsol's habit of splitting traits by capability): explicit Runge–Kutta needs
 /// [`Field`](crate::Field), Störmer–Verlet [`Partitioned`](crate::Partitioned), projection
@@ -69,12 +71,12 @@ impl<T: Copy> StepOutcome<T> {
 ///
 /// Use a stepper directly in a loop, or through [`integrate`](crate::integrate) /
 /// [`Driver`](crate::Driver), which handles the end time, observers, blow-up checks and guards.
-pub trait Stepper<T: Float, const N: usize, F: ?Sized> {
+pub trait Stepper<T: Float, X: State<T>, F: ?Sized> {
     /// Advances `x` from `t` by a step of (at most) `h > 0`.
     ///
     /// On error `x` is left unchanged for adaptive methods and may hold the failed iterate for
     /// fixed-step ones; the error itself carries the relevant state.
-    fn step(&mut self, field: &F, t: T, x: &mut [T; N], h: T) -> Result<StepOutcome<T>, StepError>;
+    fn step(&mut self, field: &F, t: T, x: &mut X, h: T) -> Result<StepOutcome<T>, StepError>;
 
     /// The classical order of the method.
     fn order(&self) -> u32;
@@ -90,7 +92,7 @@ pub trait Stepper<T: Float, const N: usize, F: ?Sized> {
 
     /// An initial step size for adaptive methods (HNW I, §II.4 "Starting step size"), given
     /// the initial state and the end time. Fixed-step methods return `None`.
-    fn initial_step(&mut self, _field: &F, _t0: T, _x0: &[T; N], _t_end: T) -> Option<T> {
+    fn initial_step(&mut self, _field: &F, _t0: T, _x0: &X, _t_end: T) -> Option<T> {
         None
     }
 
@@ -100,20 +102,18 @@ pub trait Stepper<T: Float, const N: usize, F: ?Sized> {
 }
 
 /// Continuous extension of the last accepted step (HNW I, §II.6 "Dense output").
-pub trait DenseOutput<T: Float, const N: usize> {
+pub trait DenseOutput<T: Float, X: State<T>> {
     /// The interval `[t_old, t_new]` covered by the last accepted step, if any.
     fn dense_interval(&self) -> Option<(T, T)>;
 
     /// Writes the interpolated state at time `t` (within [`dense_interval`](Self::dense_interval))
     /// into `out`. Returns `false` if there is no step yet or `t` lies outside the interval
     /// (beyond a relative slack of a few ulps).
-    fn interpolate(&self, t: T, out: &mut [T; N]) -> bool;
+    fn interpolate(&self, t: T, out: &mut X) -> bool;
 }
 
-impl<T: Float, const N: usize, F: ?Sized, S: Stepper<T, N, F> + ?Sized> Stepper<T, N, F>
-    for &mut S
-{
-    fn step(&mut self, field: &F, t: T, x: &mut [T; N], h: T) -> Result<StepOutcome<T>, StepError> {
+impl<T: Float, X: State<T>, F: ?Sized, S: Stepper<T, X, F> + ?Sized> Stepper<T, X, F> for &mut S {
+    fn step(&mut self, field: &F, t: T, x: &mut X, h: T) -> Result<StepOutcome<T>, StepError> {
         (**self).step(field, t, x, h)
     }
     fn order(&self) -> u32 {
@@ -125,7 +125,7 @@ impl<T: Float, const N: usize, F: ?Sized, S: Stepper<T, N, F> + ?Sized> Stepper<
     fn is_adaptive(&self) -> bool {
         (**self).is_adaptive()
     }
-    fn initial_step(&mut self, field: &F, t0: T, x0: &[T; N], t_end: T) -> Option<T> {
+    fn initial_step(&mut self, field: &F, t0: T, x0: &X, t_end: T) -> Option<T> {
         (**self).initial_step(field, t0, x0, t_end)
     }
     fn reset(&mut self) {

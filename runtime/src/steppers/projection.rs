@@ -22,78 +22,88 @@ use num_traits::Float;
 use super::{StepOutcome, Stepper};
 use crate::error::{state_to_vec, to_f64, StepError};
 use crate::field::{lit, Invariants};
+use crate::state::State;
 
 /// Solves `A z = rhs` for a symmetric positive semi-definite `A` by the Cholesky factorisation
 /// with complete (diagonal) pivoting, `P A Pᵀ = L Lᵀ` (Higham, *Accuracy and Stability of
 /// Numerical Algorithms*, 2nd ed., §10.3), stopped when the largest remaining pivot is at most
 /// `rel_tol · max_i A_ii`. The components of `z` outside the numerical rank are set to zero
-/// (a "basic" solution). Returns the numerical rank. Allocation free.
-pub fn pivoted_cholesky_solve<T: Float, const M: usize>(
-    a: &[[T; M]; M],
-    rhs: &[T; M],
+/// (a "basic" solution). Returns the numerical rank.
+///
+/// Allocation free: `a` (M rows of length M) is overwritten by the factor, `rhs` is used as
+/// scratch, and `perm` (length M) holds the pivoting.
+pub fn pivoted_cholesky_solve<T: Float, R: AsRef<[T]> + AsMut<[T]>>(
+    a: &mut [R],
+    rhs: &mut [T],
     rel_tol: T,
-    z: &mut [T; M],
+    perm: &mut [usize],
+    z: &mut [T],
 ) -> usize {
-    let mut w = *a;
-    let mut perm = [0usize; M];
+    let m = a.len();
     for (i, p) in perm.iter_mut().enumerate() {
         *p = i;
     }
-    *z = [T::zero(); M];
-    let max_diag = (0..M).map(|i| a[i][i]).fold(T::zero(), T::max);
+    z.iter_mut().for_each(|v| *v = T::zero());
+    let max_diag = (0..m).map(|i| a[i].as_ref()[i]).fold(T::zero(), T::max);
     if !(max_diag > T::zero()) {
         return 0;
     }
     let thresh = rel_tol * max_diag;
+    let w = a;
+    let at = |w: &[R], i: usize, j: usize| w[i].as_ref()[j];
     let mut rank = 0;
-    for k in 0..M {
+    for k in 0..m {
         let mut p = k;
-        for i in k + 1..M {
-            if w[i][i] > w[p][p] {
+        for i in k + 1..m {
+            if at(w, i, i) > at(w, p, p) {
                 p = i;
             }
         }
-        if !(w[p][p] > thresh) {
+        if !(at(w, p, p) > thresh) {
             break;
         }
         if p != k {
             w.swap(k, p);
             for row in w.iter_mut() {
-                row.swap(k, p);
+                row.as_mut().swap(k, p);
             }
             perm.swap(k, p);
         }
-        let d = w[k][k].sqrt();
-        w[k][k] = d;
-        for i in k + 1..M {
-            w[i][k] = w[i][k] / d;
-            w[k][i] = w[i][k];
+        let d = at(w, k, k).sqrt();
+        w[k].as_mut()[k] = d;
+        for i in k + 1..m {
+            let v = at(w, i, k) / d;
+            w[i].as_mut()[k] = v;
+            w[k].as_mut()[i] = v;
         }
-        for i in k + 1..M {
-            for j in k + 1..M {
-                w[i][j] = w[i][j] - w[i][k] * w[j][k];
+        for i in k + 1..m {
+            for j in k + 1..m {
+                let v = at(w, i, j) - at(w, i, k) * at(w, j, k);
+                w[i].as_mut()[j] = v;
             }
         }
         rank = k + 1;
     }
-    // forward substitution L y = P rhs, then back substitution Lᵀ u = y (leading rank block)
-    let mut y = [T::zero(); M];
+    // forward substitution L y = P rhs, then back substitution Lᵀ u = y (leading rank block);
+    // y overwrites z's first `rank` entries in pivot order, then moves to its place
     for i in 0..rank {
         let mut s = rhs[perm[i]];
         for j in 0..i {
-            s = s - w[i][j] * y[j];
+            s = s - at(w, i, j) * z[j];
         }
-        y[i] = s / w[i][i];
+        z[i] = s / at(w, i, i);
     }
     for i in (0..rank).rev() {
-        let mut s = y[i];
+        let mut s = z[i];
         for j in i + 1..rank {
-            s = s - w[j][i] * y[j];
+            s = s - at(w, j, i) * z[j];
         }
-        y[i] = s / w[i][i];
+        z[i] = s / at(w, i, i);
     }
+    rhs[..rank].copy_from_slice(&z[..rank]);
+    z.iter_mut().for_each(|v| *v = T::zero());
     for i in 0..rank {
-        z[perm[i]] = y[i];
+        z[perm[i]] = rhs[i];
     }
     rank
 }
@@ -104,8 +114,8 @@ pub fn pivoted_cholesky_solve<T: Float, const M: usize>(
 /// ```
 /// # use lasalle_runtime::*;
 /// # struct Osc;
-/// # impl Field<f64, 2> for Osc { fn field(&self, x: &[f64; 2], dx: &mut [f64; 2]) { dx[0] = x[1]; dx[1] = -x[0]; } }
-/// # impl Invariants<f64, 2, 1> for Osc {
+/// # impl Field<f64, [f64; 2]> for Osc { fn field(&self, x: &[f64; 2], dx: &mut [f64; 2]) { dx[0] = x[1]; dx[1] = -x[0]; } }
+/// # impl Invariants<f64, [f64; 2], [f64; 1]> for Osc {
 /// #     fn invariants(&self, x: &[f64; 2], f: &mut [f64; 1]) { f[0] = 0.5 * (x[0] * x[0] + x[1] * x[1]); }
 /// #     fn invariants_jacobian(&self, x: &[f64; 2], j: &mut [[f64; 2]; 1]) { j[0] = [x[0], x[1]]; }
 /// # }
@@ -116,21 +126,37 @@ pub fn pivoted_cholesky_solve<T: Float, const M: usize>(
 /// assert!((energy - 0.5).abs() <= 1e-12);
 /// ```
 #[derive(Clone, Debug)]
-pub struct Projection<T, const M: usize, S> {
+pub struct Projection<T, F: State<T>, S, X: State<T>> {
     base: S,
-    target: [T; M],
+    target: F,
     tol: T,
     max_iterations: u32,
     pivot_tol: T,
     newton_iterations: u64,
     projections: u64,
+    work: Option<Work<T, X, F>>,
 }
 
-impl<T: Float, const M: usize, S> Projection<T, M, S> {
+/// Scratch storage of [`Projection`], sized at the first step.
+#[derive(Clone, Debug)]
+struct Work<T, X: State<T>, F: State<T>> {
+    f: F,
+    r: F,
+    lambda: F,
+    dlambda: F,
+    x_tilde: X,
+    jac: F::Rows<X>,
+    /// Df Dfᵀ at x̃, and its copy that each solve overwrites with the factor.
+    gram0: F::Rows<F>,
+    gram: F::Rows<F>,
+    perm: Vec<usize>,
+}
+
+impl<T: Float, F: State<T>, S, X: State<T>> Projection<T, F, S, X> {
     /// Projects the steps of `base` onto {f(x) = `target`} with tolerance `tol` on
     /// |f(x) − target|₂. Defaults: at most 50 Newton iterations, relative pivot tolerance
     /// max(10⁴·ε, 1e-12) (2.2e-12 for `f64`).
-    pub fn new(base: S, target: [T; M], tol: T) -> Self {
+    pub fn new(base: S, target: F, tol: T) -> Self {
         Projection {
             base,
             target,
@@ -139,17 +165,18 @@ impl<T: Float, const M: usize, S> Projection<T, M, S> {
             pivot_tol: (T::epsilon() * lit(1e4)).max(lit(1e-12)),
             newton_iterations: 0,
             projections: 0,
+            work: None,
         }
     }
 
     /// Like [`Projection::new`] with the target f(x₀) computed from the model.
-    pub fn from_initial<const N: usize, F: Invariants<T, N, M> + ?Sized>(
+    pub fn from_initial<Mdl: Invariants<T, X, F> + ?Sized>(
         base: S,
-        model: &F,
-        x0: &[T; N],
+        model: &Mdl,
+        x0: &X,
         tol: T,
     ) -> Self {
-        let mut target = [T::zero(); M];
+        let mut target = F::filled(F::len_for(model.invariant_dim()), T::zero());
         model.invariants(x0, &mut target);
         Self::new(base, target, tol)
     }
@@ -168,7 +195,7 @@ impl<T: Float, const M: usize, S> Projection<T, M, S> {
     }
 
     /// The target f(x₀).
-    pub fn target(&self) -> &[T; M] {
+    pub fn target(&self) -> &F {
         &self.target
     }
 
@@ -189,50 +216,68 @@ impl<T: Float, const M: usize, S> Projection<T, M, S> {
     }
 }
 
-fn norm2<T: Float, const M: usize>(r: &[T; M]) -> T {
-    r.iter().fold(T::zero(), |s, v| s + *v * *v).sqrt()
+/// |f − target|₂, writing the residual f − target into `r`.
+fn residual<T: Float>(f: &[T], target: &[T], r: &mut [T]) -> T {
+    let mut s = T::zero();
+    for ((ri, fi), ti) in r.iter_mut().zip(f).zip(target) {
+        *ri = *fi - *ti;
+        s = s + *ri * *ri;
+    }
+    s.sqrt()
 }
 
-impl<T, const N: usize, const M: usize, F, S> Stepper<T, N, F> for Projection<T, M, S>
+impl<T, X, F, Mdl, S> Stepper<T, X, Mdl> for Projection<T, F, S, X>
 where
     T: Float,
-    F: Invariants<T, N, M> + ?Sized,
-    S: Stepper<T, N, F>,
+    X: State<T>,
+    F: State<T>,
+    Mdl: Invariants<T, X, F> + ?Sized,
+    S: Stepper<T, X, Mdl>,
 {
-    fn step(&mut self, field: &F, t: T, x: &mut [T; N], h: T) -> Result<StepOutcome<T>, StepError> {
+    fn step(&mut self, field: &Mdl, t: T, x: &mut X, h: T) -> Result<StepOutcome<T>, StepError> {
         let outcome = self.base.step(field, t, x, h)?;
         let t_new = t + outcome.h_taken;
-        let mut f = [T::zero(); M];
-        let mut r = [T::zero(); M];
-        let target = self.target;
-        let residual = |f: &[T; M], r: &mut [T; M]| {
-            for i in 0..M {
-                r[i] = f[i] - target[i];
-            }
-            norm2(r)
-        };
-        field.invariants(x, &mut f);
-        let mut res = residual(&f, &mut r);
+        let (n, m) = (x.len(), self.target.len());
+        if !matches!(&self.work, Some(w) if w.x_tilde.len() == n) {
+            let zero_f = F::filled(F::len_for(m), T::zero());
+            let zero_x = X::filled(X::len_for(n), T::zero());
+            self.work = Some(Work {
+                jac: F::rows(F::len_for(m), zero_x.clone()),
+                gram0: F::rows(F::len_for(m), zero_f.clone()),
+                gram: F::rows(F::len_for(m), zero_f.clone()),
+                f: zero_f.clone(),
+                r: zero_f.clone(),
+                lambda: zero_f.clone(),
+                dlambda: zero_f,
+                x_tilde: zero_x,
+                perm: vec![0; m],
+            });
+        }
+        let w = self.work.as_mut().expect("sized above");
+        let target = self.target.as_ref();
+        field.invariants(x, &mut w.f);
+        let mut res = residual(w.f.as_ref(), target, w.r.as_mut());
         if res <= self.tol {
             return Ok(outcome);
         }
         self.projections += 1;
-        let x_tilde = *x;
-        let mut jac = [[T::zero(); N]; M];
-        field.invariants_jacobian(&x_tilde, &mut jac);
-        let mut gram = [[T::zero(); M]; M];
-        for i in 0..M {
+        w.x_tilde.clone_from(x);
+        field.invariants_jacobian(&w.x_tilde, &mut w.jac);
+        let jac = w.jac.as_ref();
+        let gram0 = w.gram0.as_mut();
+        for i in 0..m {
             for j in 0..=i {
-                let mut s = T::zero();
-                for n in 0..N {
-                    s = s + jac[i][n] * jac[j][n];
-                }
-                gram[i][j] = s;
-                gram[j][i] = s;
+                let s = jac[i]
+                    .as_ref()
+                    .iter()
+                    .zip(jac[j].as_ref())
+                    .fold(T::zero(), |s, (a, b)| s + *a * *b);
+                gram0[i].as_mut()[j] = s;
+                gram0[j].as_mut()[i] = s;
             }
         }
-        let mut lambda = [T::zero(); M];
-        let mut dlambda = [T::zero(); M];
+        let lambda = w.lambda.as_mut();
+        lambda.iter_mut().for_each(|l| *l = T::zero());
         let mut iterations = 0u32;
         loop {
             if !res.is_finite() || iterations >= self.max_iterations {
@@ -242,28 +287,35 @@ where
                     iterations,
                     residual: to_f64(res),
                     tol: to_f64(self.tol),
-                    state: state_to_vec(x),
+                    state: state_to_vec(x.as_ref()),
                 });
             }
-            let neg_r = r.map(|v| -v);
-            pivoted_cholesky_solve(&gram, &neg_r, self.pivot_tol, &mut dlambda);
-            for i in 0..M {
-                lambda[i] = lambda[i] + dlambda[i];
+            w.gram.clone_from(&w.gram0);
+            let gram = w.gram.as_mut();
+            w.r.as_mut().iter_mut().for_each(|v| *v = -*v);
+            pivoted_cholesky_solve(
+                gram,
+                w.r.as_mut(),
+                self.pivot_tol,
+                &mut w.perm,
+                w.dlambda.as_mut(),
+            );
+            for (l, d) in lambda.iter_mut().zip(w.dlambda.as_ref()) {
+                *l = *l + *d;
             }
             // x = x̃ + Dfᵀ λ
-            *x = x_tilde;
-            for i in 0..M {
-                let l = lambda[i];
+            x.clone_from(&w.x_tilde);
+            for (row, &l) in jac.iter().zip(lambda.iter()) {
                 if l != T::zero() {
-                    for n in 0..N {
-                        x[n] = x[n] + jac[i][n] * l;
+                    for (xn, jn) in x.as_mut().iter_mut().zip(row.as_ref()) {
+                        *xn = *xn + *jn * l;
                     }
                 }
             }
             iterations += 1;
             self.newton_iterations += 1;
-            field.invariants(x, &mut f);
-            res = residual(&f, &mut r);
+            field.invariants(x, &mut w.f);
+            res = residual(w.f.as_ref(), target, w.r.as_mut());
             if res <= self.tol {
                 return Ok(outcome);
             }
@@ -282,7 +334,7 @@ where
         self.base.is_adaptive()
     }
 
-    fn initial_step(&mut self, field: &F, t0: T, x0: &[T; N], t_end: T) -> Option<T> {
+    fn initial_step(&mut self, field: &Mdl, t0: T, x0: &X, t_end: T) -> Option<T> {
         self.base.initial_step(field, t0, x0, t_end)
     }
 
@@ -300,7 +352,8 @@ mod tests {
         let a = [[4.0, 2.0, 0.6], [2.0, 5.0, 1.0], [0.6, 1.0, 3.0]];
         let b = [1.0, -2.0, 0.5];
         let mut z = [0.0; 3];
-        assert_eq!(pivoted_cholesky_solve(&a, &b, 1e-12, &mut z), 3);
+        let (mut f, mut rhs, mut perm) = (a, b, [0; 3]);
+        assert_eq!(pivoted_cholesky_solve(&mut f, &mut rhs, 1e-12, &mut perm, &mut z), 3);
         for i in 0..3 {
             let az: f64 = (0..3).map(|j| a[i][j] * z[j]).sum();
             assert!((az - b[i]).abs() < 1e-14, "row {i}: {az} vs {}", b[i]);
@@ -326,7 +379,8 @@ mod tests {
         let w = [0.3, -1.0, 0.7, 2.0];
         let b: [f64; 4] = std::array::from_fn(|p| (0..4).map(|q| a[p][q] * w[q]).sum());
         let mut z = [0.0; 4];
-        assert_eq!(pivoted_cholesky_solve(&a, &b, 1e-12, &mut z), 3);
+        let (mut f, mut rhs, mut perm) = (a, b, [0; 4]);
+        assert_eq!(pivoted_cholesky_solve(&mut f, &mut rhs, 1e-12, &mut perm, &mut z), 3);
         // same correction Jᵀz = Jᵀw
         for n in 0..3 {
             let jz: f64 = (0..4).map(|p| j[p][n] * z[p]).sum();

@@ -22,6 +22,7 @@ use num_traits::Float;
 use super::{StepOutcome, Stepper};
 use crate::error::{all_finite, StepError};
 use crate::field::lit;
+use crate::state::State;
 
 /// The three-rotation splitting of the free rigid body (GNI §VII.5), for the 12-dimensional
 /// state x = (R column-major in x[0..9], Ω in x[9..12]).
@@ -60,7 +61,7 @@ impl<T: Float> RigidBodySplitting<T> {
     }
 
     /// The exact flow of H_k = m_k²/(2I_k) over time `tau` (axis `k` ∈ {0, 1, 2}), in place.
-    pub fn sub_flow(&self, k: usize, tau: T, x: &mut [T; 12]) {
+    pub fn sub_flow(&self, k: usize, tau: T, x: &mut [T]) {
         let (i, j) = ((k + 1) % 3, (k + 2) % 3);
         // θ = τ m_k / I_k = τ Ω_k
         let theta = tau * x[9 + k];
@@ -80,14 +81,15 @@ impl<T: Float> RigidBodySplitting<T> {
     }
 }
 
-impl<T: Float, F: ?Sized> Stepper<T, 12, F> for RigidBodySplitting<T> {
-    fn step(
-        &mut self,
-        _field: &F,
-        t: T,
-        x: &mut [T; 12],
-        h: T,
-    ) -> Result<StepOutcome<T>, StepError> {
+impl<T: Float, X: State<T>, F: ?Sized> Stepper<T, X, F> for RigidBodySplitting<T> {
+    fn step(&mut self, _field: &F, t: T, x: &mut X, h: T) -> Result<StepOutcome<T>, StepError> {
+        let x = x.as_mut();
+        if x.len() != 12 {
+            return Err(StepError::InvalidInput(format!(
+                "the rigid-body splitting needs the 12-dimensional state (R, Ω), got {}",
+                x.len()
+            )));
+        }
         let half = h * lit(0.5);
         let [a, b, c] = self.axes;
         self.sub_flow(a, half, x);

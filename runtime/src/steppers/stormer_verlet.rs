@@ -22,6 +22,7 @@ use num_traits::Float;
 use super::{StepOutcome, Stepper};
 use crate::error::{all_finite, StepError};
 use crate::field::{lit, Partitioned};
+use crate::state::{ensure_len, State};
 
 /// Which Störmer–Verlet scheme to use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -37,17 +38,20 @@ pub enum VerletVariant {
 ///
 /// Costs two evaluations of the expensive half per step (the FSAL reuse of b(q_{n+1}) is not
 /// attempted, so the stepper is stateless).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct StormerVerlet {
+#[derive(Clone, Debug, PartialEq)]
+pub struct StormerVerlet<X> {
     /// The scheme.
     pub variant: VerletVariant,
+    /// Scratch for the partial fields, sized at the first step.
+    dx: Option<X>,
 }
 
-impl StormerVerlet {
+impl<X> StormerVerlet<X> {
     /// Störmer–Verlet-A, GNI (3.4): kick–drift–kick.
     pub fn a() -> Self {
         StormerVerlet {
             variant: VerletVariant::A,
+            dx: None,
         }
     }
 
@@ -55,60 +59,60 @@ impl StormerVerlet {
     pub fn b() -> Self {
         StormerVerlet {
             variant: VerletVariant::B,
+            dx: None,
         }
     }
 }
 
 /// x_p += τ·b(q) on the p components.
 #[inline]
-fn kick<T: Float, const N: usize, F: Partitioned<T, N> + ?Sized>(
+fn kick<T: Float, X: State<T>, F: Partitioned<T, X> + ?Sized>(
     field: &F,
-    x: &mut [T; N],
+    x: &mut X,
     tau: T,
-    dx: &mut [T; N],
+    dx: &mut X,
 ) {
     field.field_p(x, dx);
-    for n in 0..N {
-        if !F::IS_Q[n] {
+    for (n, &q) in field.is_q().iter().enumerate() {
+        if !q {
             x[n] = x[n] + tau * dx[n];
         }
     }
 }
 
-/// x_q += τ·a(p) on the q components.
 #[inline]
-fn drift<T: Float, const N: usize, F: Partitioned<T, N> + ?Sized>(
+fn drift<T: Float, X: State<T>, F: Partitioned<T, X> + ?Sized>(
     field: &F,
-    x: &mut [T; N],
+    x: &mut X,
     tau: T,
-    dx: &mut [T; N],
+    dx: &mut X,
 ) {
     field.field_q(x, dx);
-    for n in 0..N {
-        if F::IS_Q[n] {
+    for (n, &q) in field.is_q().iter().enumerate() {
+        if q {
             x[n] = x[n] + tau * dx[n];
         }
     }
 }
 
-impl<T: Float, const N: usize, F: Partitioned<T, N> + ?Sized> Stepper<T, N, F> for StormerVerlet {
-    fn step(&mut self, field: &F, t: T, x: &mut [T; N], h: T) -> Result<StepOutcome<T>, StepError> {
+impl<T: Float, X: State<T>, F: Partitioned<T, X> + ?Sized> Stepper<T, X, F> for StormerVerlet<X> {
+    fn step(&mut self, field: &F, t: T, x: &mut X, h: T) -> Result<StepOutcome<T>, StepError> {
         let half = h * lit(0.5);
-        let mut dx = [T::zero(); N];
+        let dx = ensure_len(&mut self.dx, x.len(), T::zero());
         match self.variant {
             VerletVariant::A => {
-                kick(field, x, half, &mut dx);
-                drift(field, x, h, &mut dx);
-                kick(field, x, half, &mut dx);
+                kick(field, x, half, dx);
+                drift(field, x, h, dx);
+                kick(field, x, half, dx);
             }
             VerletVariant::B => {
-                drift(field, x, half, &mut dx);
-                kick(field, x, h, &mut dx);
-                drift(field, x, half, &mut dx);
+                drift(field, x, half, dx);
+                kick(field, x, h, dx);
+                drift(field, x, half, dx);
             }
         }
-        if !all_finite(&dx) {
-            return Err(StepError::non_finite("field", t, h, x));
+        if !all_finite(dx.as_ref()) {
+            return Err(StepError::non_finite("field", t, h, x.as_ref()));
         }
         // three partial evaluations ≈ 1.5 full ones; report the two expensive ones
         Ok(StepOutcome::fixed(h, 2))

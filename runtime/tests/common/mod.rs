@@ -42,15 +42,17 @@ pub fn fit_slope(hs: &[f64], errs: &[f64]) -> f64 {
 /// q̇ = p, ṗ = −q; exact solution q = q₀ cos t + p₀ sin t. Invariant: E = ½(q² + p²).
 pub struct Oscillator;
 
-impl Field<f64, 2> for Oscillator {
+impl Field<f64, [f64; 2]> for Oscillator {
     fn field(&self, x: &[f64; 2], dx: &mut [f64; 2]) {
         dx[0] = x[1];
         dx[1] = -x[0];
     }
 }
 
-impl Partitioned<f64, 2> for Oscillator {
-    const IS_Q: [bool; 2] = [true, false];
+impl Partitioned<f64, [f64; 2]> for Oscillator {
+    fn is_q(&self) -> &[bool] {
+        &[true, false]
+    }
     fn field_q(&self, x: &[f64; 2], dx: &mut [f64; 2]) {
         dx[0] = x[1];
     }
@@ -59,7 +61,7 @@ impl Partitioned<f64, 2> for Oscillator {
     }
 }
 
-impl Invariants<f64, 2, 1> for Oscillator {
+impl Invariants<f64, [f64; 2], [f64; 1]> for Oscillator {
     fn invariants(&self, x: &[f64; 2], f: &mut [f64; 1]) {
         f[0] = 0.5 * (x[0] * x[0] + x[1] * x[1]);
     }
@@ -69,8 +71,11 @@ impl Invariants<f64, 2, 1> for Oscillator {
 }
 
 impl ModelInfo for Oscillator {
-    const NAME: &'static str = "oscillator";
-    const STATE: &'static [Slot] = &[
+    fn model_name(&self) -> &'static str {
+        "oscillator"
+    }
+    fn state_slots(&self) -> &'static [Slot] {
+        &[
         Slot {
             name: "q",
             shape: Shape::Scalar,
@@ -81,8 +86,10 @@ impl ModelInfo for Oscillator {
             shape: Shape::Scalar,
             offset: 1,
         },
-    ];
-    const INVARIANTS: &'static [InvariantInfo] = &[InvariantInfo {
+    ]
+    }
+    fn invariant_infos(&self) -> &'static [InvariantInfo] {
+        &[InvariantInfo {
         slot: Slot {
             name: "E",
             shape: Shape::Scalar,
@@ -90,10 +97,17 @@ impl ModelInfo for Oscillator {
         },
         kind: InvariantKind::Integral,
         gain: 0,
-    }];
-    const GAIN_NAMES: &'static [&'static str] = &["k"];
-    const DEFAULT_GAINS: &'static [f64] = &[1.0];
-    const PARAMS: &'static [Slot] = &[];
+    }]
+    }
+    fn gain_names(&self) -> &'static [&'static str] {
+        &["k"]
+    }
+    fn default_gain_values(&self) -> &'static [f64] {
+        &[1.0]
+    }
+    fn param_slots(&self) -> &'static [Slot] {
+        &[]
+    }
 }
 
 // ---------------------------------------------------------------- pendulum
@@ -101,15 +115,17 @@ impl ModelInfo for Oscillator {
 /// q̇ = p, ṗ = −sin q; E = ½p² − cos q.
 pub struct Pendulum;
 
-impl Field<f64, 2> for Pendulum {
+impl Field<f64, [f64; 2]> for Pendulum {
     fn field(&self, x: &[f64; 2], dx: &mut [f64; 2]) {
         dx[0] = x[1];
         dx[1] = -x[0].sin();
     }
 }
 
-impl Partitioned<f64, 2> for Pendulum {
-    const IS_Q: [bool; 2] = [true, false];
+impl Partitioned<f64, [f64; 2]> for Pendulum {
+    fn is_q(&self) -> &[bool] {
+        &[true, false]
+    }
     fn field_q(&self, x: &[f64; 2], dx: &mut [f64; 2]) {
         dx[0] = x[1];
     }
@@ -118,7 +134,7 @@ impl Partitioned<f64, 2> for Pendulum {
     }
 }
 
-impl Invariants<f64, 2, 1> for Pendulum {
+impl Invariants<f64, [f64; 2], [f64; 1]> for Pendulum {
     fn invariants(&self, x: &[f64; 2], f: &mut [f64; 1]) {
         f[0] = 0.5 * x[1] * x[1] - x[0].cos();
     }
@@ -128,8 +144,11 @@ impl Invariants<f64, 2, 1> for Pendulum {
 }
 
 impl ModelInfo for Pendulum {
-    const NAME: &'static str = "pendulum";
-    const STATE: &'static [Slot] = &[
+    fn model_name(&self) -> &'static str {
+        "pendulum"
+    }
+    fn state_slots(&self) -> &'static [Slot] {
+        &[
         Slot {
             name: "q",
             shape: Shape::Scalar,
@@ -140,8 +159,10 @@ impl ModelInfo for Pendulum {
             shape: Shape::Scalar,
             offset: 1,
         },
-    ];
-    const INVARIANTS: &'static [InvariantInfo] = &[InvariantInfo {
+    ]
+    }
+    fn invariant_infos(&self) -> &'static [InvariantInfo] {
+        &[InvariantInfo {
         slot: Slot {
             name: "E",
             shape: Shape::Scalar,
@@ -149,10 +170,17 @@ impl ModelInfo for Pendulum {
         },
         kind: InvariantKind::Integral,
         gain: 0,
-    }];
-    const GAIN_NAMES: &'static [&'static str] = &["k"];
-    const DEFAULT_GAINS: &'static [f64] = &[1.0];
-    const PARAMS: &'static [Slot] = &[];
+    }]
+    }
+    fn gain_names(&self) -> &'static [&'static str] {
+        &["k"]
+    }
+    fn default_gain_values(&self) -> &'static [f64] {
+        &[1.0]
+    }
+    fn param_slots(&self) -> &'static [Slot] {
+        &[]
+    }
 }
 
 // ---------------------------------------------------------------- Kepler
@@ -196,7 +224,7 @@ impl Kepler {
     }
 }
 
-impl Field<f64, 6> for Kepler {
+impl Field<f64, [f64; 6]> for Kepler {
     fn field(&self, x: &[f64; 6], dx: &mut [f64; 6]) {
         let r2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
         let c = -self.mu / (r2 * r2.sqrt());
@@ -209,8 +237,10 @@ impl Field<f64, 6> for Kepler {
     }
 }
 
-impl Partitioned<f64, 6> for Kepler {
-    const IS_Q: [bool; 6] = [true, true, true, false, false, false];
+impl Partitioned<f64, [f64; 6]> for Kepler {
+    fn is_q(&self) -> &[bool] {
+        &[true, true, true, false, false, false]
+    }
     fn field_q(&self, x: &[f64; 6], dx: &mut [f64; 6]) {
         dx[0] = x[3];
         dx[1] = x[4];
@@ -233,7 +263,7 @@ fn matmul3(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
     std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
 }
 
-impl Invariants<f64, 6, 6> for Kepler {
+impl Invariants<f64, [f64; 6], [f64; 6]> for Kepler {
     fn invariants(&self, x: &[f64; 6], f: &mut [f64; 6]) {
         let p = [x[0], x[1], x[2]];
         let v = [x[3], x[4], x[5]];
@@ -267,7 +297,7 @@ impl Invariants<f64, 6, 6> for Kepler {
     }
 }
 
-impl Lyapunov<f64, 6, 6, 2> for Kepler {
+impl Lyapunov<f64, [f64; 6], [f64; 6], [f64; 2]> for Kepler {
     fn lyapunov(&self, x: &[f64; 6], target: &[f64; 6], gains: &[f64; 2]) -> f64 {
         let mut g = [0.0; 6];
         default_lyapunov_gradient(self, x, target, gains, &mut g)
@@ -292,8 +322,11 @@ impl Lyapunov<f64, 6, 6, 2> for Kepler {
 }
 
 impl ModelInfo for Kepler {
-    const NAME: &'static str = "kepler";
-    const STATE: &'static [Slot] = &[
+    fn model_name(&self) -> &'static str {
+        "kepler"
+    }
+    fn state_slots(&self) -> &'static [Slot] {
+        &[
         Slot {
             name: "x",
             shape: Shape::Vector(3),
@@ -304,8 +337,10 @@ impl ModelInfo for Kepler {
             shape: Shape::Vector(3),
             offset: 3,
         },
-    ];
-    const INVARIANTS: &'static [InvariantInfo] = &[
+    ]
+    }
+    fn invariant_infos(&self) -> &'static [InvariantInfo] {
+        &[
         InvariantInfo {
             slot: Slot {
                 name: "L",
@@ -324,14 +359,21 @@ impl ModelInfo for Kepler {
             kind: InvariantKind::Integral,
             gain: 1,
         },
-    ];
-    const GAIN_NAMES: &'static [&'static str] = &["k1", "k2"];
-    const DEFAULT_GAINS: &'static [f64] = &[4.0, 2.0];
-    const PARAMS: &'static [Slot] = &[Slot {
+    ]
+    }
+    fn gain_names(&self) -> &'static [&'static str] {
+        &["k1", "k2"]
+    }
+    fn default_gain_values(&self) -> &'static [f64] {
+        &[4.0, 2.0]
+    }
+    fn param_slots(&self) -> &'static [Slot] {
+        &[Slot {
         name: "mu",
         shape: Shape::Scalar,
         offset: 0,
-    }];
+    }]
+    }
 }
 
 /// The planar Kepler orbit (μ = 1) that starts at periapsis (rp, 0, 0) with velocity
@@ -425,7 +467,7 @@ impl RigidBody {
     }
 }
 
-impl Field<f64, 12> for RigidBody {
+impl Field<f64, [f64; 12]> for RigidBody {
     fn field(&self, x: &[f64; 12], dx: &mut [f64; 12]) {
         let w = [x[9], x[10], x[11]];
         let i = self.inertia;
@@ -444,7 +486,7 @@ impl Field<f64, 12> for RigidBody {
     }
 }
 
-impl Invariants<f64, 12, 13> for RigidBody {
+impl Invariants<f64, [f64; 12], [f64; 13]> for RigidBody {
     fn invariants(&self, x: &[f64; 12], f: &mut [f64; 13]) {
         for i in 0..3 {
             for j in 0..3 {
@@ -482,7 +524,7 @@ impl Invariants<f64, 12, 13> for RigidBody {
     }
 }
 
-impl Lyapunov<f64, 12, 13, 3> for RigidBody {
+impl Lyapunov<f64, [f64; 12], [f64; 13], [f64; 3]> for RigidBody {
     fn lyapunov(&self, x: &[f64; 12], target: &[f64; 13], gains: &[f64; 3]) -> f64 {
         let mut g = [0.0; 12];
         default_lyapunov_gradient(self, x, target, gains, &mut g)
@@ -513,8 +555,11 @@ impl Lyapunov<f64, 12, 13, 3> for RigidBody {
 }
 
 impl ModelInfo for RigidBody {
-    const NAME: &'static str = "rigid_body";
-    const STATE: &'static [Slot] = &[
+    fn model_name(&self) -> &'static str {
+        "rigid_body"
+    }
+    fn state_slots(&self) -> &'static [Slot] {
+        &[
         Slot {
             name: "R",
             shape: Shape::Matrix(3, 3),
@@ -525,8 +570,10 @@ impl ModelInfo for RigidBody {
             shape: Shape::Vector(3),
             offset: 9,
         },
-    ];
-    const INVARIANTS: &'static [InvariantInfo] = &[
+    ]
+    }
+    fn invariant_infos(&self) -> &'static [InvariantInfo] {
+        &[
         InvariantInfo {
             slot: Slot {
                 name: "orth",
@@ -554,12 +601,19 @@ impl ModelInfo for RigidBody {
             kind: InvariantKind::Integral,
             gain: 2,
         },
-    ];
-    const GAIN_NAMES: &'static [&'static str] = &["k0", "k1", "k2"];
-    const DEFAULT_GAINS: &'static [f64] = &[50.0, 100.0, 50.0];
-    const PARAMS: &'static [Slot] = &[Slot {
+    ]
+    }
+    fn gain_names(&self) -> &'static [&'static str] {
+        &["k0", "k1", "k2"]
+    }
+    fn default_gain_values(&self) -> &'static [f64] {
+        &[50.0, 100.0, 50.0]
+    }
+    fn param_slots(&self) -> &'static [Slot] {
+        &[Slot {
         name: "I",
         shape: Shape::Vector(3),
         offset: 0,
-    }];
+    }]
+    }
 }
