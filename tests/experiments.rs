@@ -83,10 +83,10 @@ fn record<'m, F, S, Mdl, const N: usize, const M: usize>(
     t_end: f64,
     h: f64,
     every: u64,
-) -> Recorder<'m, Mdl, f64, N, M>
+) -> Recorder<'m, Mdl, f64, [f64; N], [f64; M]>
 where
-    Mdl: Invariants<f64, N, M> + lasalle::ModelInfo,
-    S: Stepper<f64, N, F>,
+    Mdl: Invariants<f64, [f64; N], [f64; M]> + lasalle::ModelInfo,
+    S: Stepper<f64, [f64; N], F>,
     F: ?Sized,
 {
     let steps = (t_end / h).round() as u64;
@@ -97,13 +97,13 @@ where
 
 /// Max of a block's errors over the samples with t in [a, b].
 fn max_between<Mdl, const N: usize, const M: usize>(
-    rec: &Recorder<'_, Mdl, f64, N, M>,
+    rec: &Recorder<'_, Mdl, f64, [f64; N], [f64; M]>,
     block: usize,
     a: f64,
     b: f64,
 ) -> f64
 where
-    Mdl: Invariants<f64, N, M> + ?Sized,
+    Mdl: Invariants<f64, [f64; N], [f64; M]> + ?Sized,
 {
     rec.t
         .iter()
@@ -354,7 +354,15 @@ fn kepler_verlet_precesses_feedback_does_not() {
     let period = 70.2481;
     let (h, t_end) = (0.005, 40.0 * period);
     let fb = FeedbackField::from_initial(&kp, &x0, Kepler::<f64>::default_gains());
-    let rec_fb = record(&kp, &fb, ExplicitRk::<f64, 1>::euler(), &x0, t_end, h, 100);
+    let rec_fb = record(
+        &kp,
+        &fb,
+        ExplicitRk::<f64, 1, _>::euler(),
+        &x0,
+        t_end,
+        h,
+        100,
+    );
     let rec_sv = record(&kp, &kp, StormerVerlet::a(), &x0, t_end, h, 100);
     let a = rec_fb.block_index("A").unwrap();
     let l = rec_sv.block_index("L").unwrap();
@@ -439,7 +447,7 @@ fn dopri5_meets_tolerance_on_kepler() {
     let period = 2.0 * std::f64::consts::PI * 5f64.powf(1.5);
     let tol = 1e-10;
     let mut steps: Vec<(f64, [f64; 6])> = Vec::new();
-    let mut dp = DormandPrince::<f64, 6>::with_tolerances(tol, tol);
+    let mut dp = DormandPrince::<f64, [f64; 6]>::with_tolerances(tol, tol);
     integrate(
         &mut dp,
         &kp,
@@ -456,7 +464,7 @@ fn dopri5_meets_tolerance_on_kepler() {
     let mut worst = 0.0f64;
     for w in steps.windows(2) {
         let ((t0, xa), (t1, xb)) = (w[0], w[1]);
-        let mut tight = DormandPrince::<f64, 6>::with_tolerances(1e-14, 1e-14);
+        let mut tight = DormandPrince::<f64, [f64; 6]>::with_tolerances(1e-14, 1e-14);
         let exact = integrate(&mut tight, &kp, &xa, t0, t1, 0.0, &mut ())
             .unwrap()
             .x;
@@ -475,7 +483,7 @@ fn dopri5_meets_tolerance_on_kepler() {
     // the global error follows the tolerance (measured: 2.7e-5, 1.9e-7, 2.4e-9)
     let mut errors = Vec::new();
     for tol in [1e-8, 1e-10, 1e-12] {
-        let mut dp = DormandPrince::<f64, 6>::with_tolerances(tol, tol);
+        let mut dp = DormandPrince::<f64, [f64; 6]>::with_tolerances(tol, tol);
         let end = integrate(&mut dp, &kp, &x0, 0.0, period, 0.0, &mut ()).unwrap();
         errors.push(
             (0..6)
@@ -492,7 +500,7 @@ fn dopri5_meets_tolerance_on_kepler() {
     // dense output at T/2
     let times = [0.5 * period];
     let mut mid = None;
-    let mut dp = DormandPrince::<f64, 6>::with_tolerances(1e-10, 1e-10);
+    let mut dp = DormandPrince::<f64, [f64; 6]>::with_tolerances(1e-10, 1e-10);
     lasalle::Driver::new(0.0, period, 0.0)
         .run_dense(
             &mut dp,
@@ -554,12 +562,14 @@ fn perturbed_kepler_projection_precesses() {
 fn gauss_newton_stability_limits() {
     let pk = PerturbedKepler::default();
     let x0 = pk.point_paper();
-    let l_paper = gauss_newton_norm::<PerturbedKepler, f64, 6, 4, 2>(&pk, &x0, &[2.0, 3.0]);
-    let l_unit = gauss_newton_norm::<PerturbedKepler, f64, 6, 4, 2>(&pk, &x0, &[1.0, 1.0]);
+    let l_paper =
+        gauss_newton_norm::<PerturbedKepler, f64, [f64; 6], [f64; 4]>(&pk, &x0, &[2.0, 3.0]);
+    let l_unit =
+        gauss_newton_norm::<PerturbedKepler, f64, [f64; 6], [f64; 4]>(&pk, &x0, &[1.0, 1.0]);
     assert!(0.03 * l_paper > 2.0, "h·L = {}", 0.03 * l_paper);
     assert!(0.03 * l_unit < 2.0, "h·L = {}", 0.03 * l_unit);
     let rb = RigidBody::default();
-    let l_rb = gauss_newton_norm::<RigidBody, f64, 12, 13, 3>(
+    let l_rb = gauss_newton_norm::<RigidBody, f64, [f64; 12], [f64; 13]>(
         &rb,
         &rb.point_paper(),
         &[50.0, 100.0, 50.0],
@@ -793,7 +803,7 @@ fn kepler_collision_stops_with_an_error() {
 fn projection_with_tight_tolerance_projects_every_step() {
     let pk = PerturbedKepler::default();
     let x0 = pk.point_paper();
-    let mut proj = Projection::from_initial(ExplicitRk::<f64, 1>::euler(), &pk, &x0, 1e-8);
+    let mut proj = Projection::from_initial(ExplicitRk::<f64, 1, _>::euler(), &pk, &x0, 1e-8);
     let end = integrate(&mut proj, &pk, &x0, 0.0, 6.0, 0.03, &mut ()).unwrap();
     assert_eq!(proj.projections(), end.steps);
     assert!(proj.newton_iterations() >= end.steps);

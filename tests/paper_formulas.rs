@@ -46,7 +46,7 @@ fn check_against_finite_differences<M, const N: usize, const K: usize, const G: 
     target: &[f64; K],
     gains: &[f64; G],
 ) where
-    M: Lyapunov<f64, N, K, G>,
+    M: Lyapunov<f64, [f64; N], [f64; K], [f64; G]>,
 {
     let mut grad = [0.0; N];
     m.lyapunov_gradient(x, target, gains, &mut grad);

@@ -2,7 +2,7 @@
 //! textbook equations, and the Hamiltonian (and Casimir) come out as integrals.
 
 use lasalle::models::{cr3bp::CR3BP, so3_type_i::So3TypeI};
-use lasalle::{Field, Invariants, ModelInfo};
+use lasalle::{Field, Invariants};
 
 fn close(a: &[f64], b: &[f64], rel: f64) -> bool {
     let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs())).max(1e-300);

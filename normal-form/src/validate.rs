@@ -54,7 +54,9 @@ impl<'a, H: HamiltonianFn + ?Sized, const N: usize> HamiltonianField<'a, H, N> {
     }
 }
 
-impl<H: HamiltonianFn + ?Sized, const N: usize> Field<f64, N> for HamiltonianField<'_, H, N> {
+impl<H: HamiltonianFn + ?Sized, const N: usize> Field<f64, [f64; N]>
+    for HamiltonianField<'_, H, N>
+{
     fn field(&self, z: &[f64; N], dz: &mut [f64; N]) {
         let n = N / 2;
         let p = taylor(self.h, z, &self.table);
@@ -77,7 +79,7 @@ fn orbit_n<H: HamiltonianFn + ?Sized, const N: usize>(
     let x0: [f64; N] = z0
         .try_into()
         .map_err(|_| NormalFormError::Invalid(format!("initial state of length {}", z0.len())))?;
-    let mut stepper = DormandPrince::<f64, N>::with_tolerances(tol, tol);
+    let mut stepper = DormandPrince::<f64, [f64; N]>::with_tolerances(tol, tol);
     let mut out = Vec::with_capacity(times.len());
     let t_end = times.last().copied().unwrap_or(0.0);
     Driver::new(0.0, t_end, 0.0)

@@ -202,7 +202,12 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
                 t0 + n * h
             };
             if !all_finite(x.as_ref()) {
-                return Err(StepError::non_finite("state", t, outcome.h_taken, x.as_ref()));
+                return Err(StepError::non_finite(
+                    "state",
+                    t,
+                    outcome.h_taken,
+                    x.as_ref(),
+                ));
             }
             self.run_guard(summary.steps, t, outcome.h_taken, &x)?;
             if on_step(stepper, summary.steps, t, &x) == Control::Stop {

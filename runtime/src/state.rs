@@ -26,13 +26,12 @@
 //! Matrices with one row per invariant (the Jacobian Df ∈ R^{M×N}) are [`State::Rows`] of the
 //! invariants' storage: `[[T; N]; M]` for compiled models, `Vec<Vec<T>>` for loaded ones.
 
-use std::fmt::Debug;
 use std::ops::{Index, IndexMut};
 
 /// A flat vector of scalars of fixed (`[T; N]`) or run-time (`Vec<T>`) length: a state, the
 /// stacked invariants f(x), the gains. See the [module docs](self) for why.
 pub trait State<T>:
-    Clone + Debug + PartialEq + AsRef<[T]> + AsMut<[T]> + Index<usize, Output = T> + IndexMut<usize>
+    Clone + PartialEq + AsRef<[T]> + AsMut<[T]> + Index<usize, Output = T> + IndexMut<usize>
 {
     /// The length fixed by the type (`Some(N)` for `[T; N]`), `None` if it is known only at
     /// run time.
@@ -40,8 +39,7 @@ pub trait State<T>:
 
     /// Storage with one element of type `R` per component of `Self`: `[R; N]` or `Vec<R>`.
     /// The Jacobian of the invariants is `F::Rows<X>` (one state-sized row per invariant).
-    type Rows<R: Clone + Debug + PartialEq>: Clone
-        + Debug
+    type Rows<R: Clone + PartialEq>: Clone
         + PartialEq
         + AsRef<[R]>
         + AsMut<[R]>
@@ -52,7 +50,7 @@ pub trait State<T>:
     fn filled(len: usize, value: T) -> Self;
 
     /// `len` rows, each a clone of `row`. For `[T; N]`, `len` must be `N`.
-    fn rows<R: Clone + Debug + PartialEq>(len: usize, row: R) -> Self::Rows<R>;
+    fn rows<R: Clone + PartialEq>(len: usize, row: R) -> Self::Rows<R>;
 
     /// The number of components.
     #[inline]
@@ -80,9 +78,9 @@ pub trait State<T>:
     }
 }
 
-impl<T: Copy + Debug + PartialEq, const N: usize> State<T> for [T; N] {
+impl<T: Copy + PartialEq, const N: usize> State<T> for [T; N] {
     const LEN: Option<usize> = Some(N);
-    type Rows<R: Clone + Debug + PartialEq> = [R; N];
+    type Rows<R: Clone + PartialEq> = [R; N];
 
     #[inline]
     fn filled(len: usize, value: T) -> Self {
@@ -91,15 +89,15 @@ impl<T: Copy + Debug + PartialEq, const N: usize> State<T> for [T; N] {
     }
 
     #[inline]
-    fn rows<R: Clone + Debug + PartialEq>(len: usize, row: R) -> [R; N] {
+    fn rows<R: Clone + PartialEq>(len: usize, row: R) -> [R; N] {
         debug_assert_eq!(len, N, "[R; {N}] with {len} rows");
         std::array::from_fn(|_| row.clone())
     }
 }
 
-impl<T: Clone + Debug + PartialEq> State<T> for Vec<T> {
+impl<T: Clone + PartialEq> State<T> for Vec<T> {
     const LEN: Option<usize> = None;
-    type Rows<R: Clone + Debug + PartialEq> = Vec<R>;
+    type Rows<R: Clone + PartialEq> = Vec<R>;
 
     #[inline]
     fn filled(len: usize, value: T) -> Self {
@@ -107,7 +105,7 @@ impl<T: Clone + Debug + PartialEq> State<T> for Vec<T> {
     }
 
     #[inline]
-    fn rows<R: Clone + Debug + PartialEq>(len: usize, row: R) -> Vec<R> {
+    fn rows<R: Clone + PartialEq>(len: usize, row: R) -> Vec<R> {
         vec![row; len]
     }
 }

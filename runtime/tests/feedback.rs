@@ -195,7 +195,8 @@ fn scaled_and_adaptive_gains() {
         [4.0, 2.0]
     );
     assert!(matches!(
-        GainPolicy::Explicit(vec![1.0]).initial_gains::<Kepler, f64, [f64; 6], [f64; 6], [f64; 2]>(&k, &x0, h),
+        GainPolicy::Explicit(vec![1.0])
+            .initial_gains::<Kepler, f64, [f64; 6], [f64; 6], [f64; 2]>(&k, &x0, h),
         Err(GainError::WrongCount {
             expected: 2,
             got: 1

@@ -78,12 +78,12 @@ pub fn paper_step_and_end(model: ModelName) -> (f64, f64) {
 pub fn run(args: &RunArgs) -> CliResult {
     let model: ModelName = args.model.parse()?;
     match model {
-        ModelName::RigidBody => run_model::<RigidBody, 12, 13, 3>(args),
-        ModelName::Kepler => run_model::<Kepler, 6, 6, 2>(args),
-        ModelName::PerturbedKepler => run_model::<PerturbedKepler, 6, 4, 2>(args),
-        ModelName::Cr3bp => run_model::<CR3BP, 4, 1, 1>(args),
-        ModelName::So3TypeI => run_model::<So3TypeI, 12, 11, 3>(args),
-        ModelName::CoupledOscillators => run_model::<CoupledOscillators, 4, 1, 1>(args),
+        ModelName::RigidBody => run_model::<RigidBody, 12, 13, 3>(args, model),
+        ModelName::Kepler => run_model::<Kepler, 6, 6, 2>(args, model),
+        ModelName::PerturbedKepler => run_model::<PerturbedKepler, 6, 4, 2>(args, model),
+        ModelName::Cr3bp => run_model::<CR3BP, 4, 1, 1>(args, model),
+        ModelName::So3TypeI => run_model::<So3TypeI, 12, 11, 3>(args, model),
+        ModelName::CoupledOscillators => run_model::<CoupledOscillators, 4, 1, 1>(args, model),
     }
 }
 
@@ -98,9 +98,12 @@ fn default_point(model: &impl lasalle::Parameters) -> Result<String, String> {
         .ok_or_else(|| "the model has no named point: give --init x1,x2,…".to_string())
 }
 
-fn run_model<Mdl, const N: usize, const M: usize, const G: usize>(args: &RunArgs) -> CliResult
+fn run_model<Mdl, const N: usize, const M: usize, const G: usize>(
+    args: &RunArgs,
+    name: ModelName,
+) -> CliResult
 where
-    Mdl: CliModel<N, M, G> + Default,
+    Mdl: CliModel<[f64; N], [f64; M], [f64; G]> + Default,
 {
     let method: Method = args.method.parse()?;
     let mut model = Mdl::default();
@@ -111,8 +114,10 @@ where
         Some(init) => init.clone(),
         None => default_point(&model)?,
     };
-    let x0: [f64; N] = initial_state(&model, &init)?;
-    let (dt0, t_end0) = paper_step_and_end(Mdl::CLI);
+    let x0: [f64; N] = initial_state(&model, &init)?
+        .try_into()
+        .expect("initial_state checks the dimension");
+    let (dt0, t_end0) = paper_step_and_end(name);
     let dt = args.dt.unwrap_or(dt0);
     let mut spec = RunSpec::new(method, dt, args.t_end.unwrap_or(t_end0));
     spec.gains = args.gains.parse::<GainPolicy>()?;
@@ -126,11 +131,11 @@ where
     let dir = args
         .out
         .clone()
-        .unwrap_or_else(|| PathBuf::from(format!("out/{}-{}", Mdl::CLI, method)));
+        .unwrap_or_else(|| PathBuf::from(format!("out/{}-{}", name, method)));
     std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     trace.write_csv(&dir.join("trace.csv"))?;
     let mut summary = trace.summary_json();
-    summary["model"] = Mdl::CLI.cli_name().into();
+    summary["model"] = name.cli_name().into();
     summary["dt"] = dt.into();
     summary["t_end"] = spec.t_end.into();
     summary["x0"] = x0.to_vec().into();
@@ -148,7 +153,7 @@ where
         return Err(format!(
             "{} on `{}` stopped: {e}\n(samples up to the failure are in {})",
             method,
-            Mdl::CLI,
+            name,
             dir.display()
         )
         .into());
@@ -156,12 +161,7 @@ where
     if !args.quiet {
         println!(
             "{} {} dt = {dt} to t = {}: {} steps, {} evaluations, {:.3} s",
-            Mdl::CLI,
-            method,
-            spec.t_end,
-            trace.steps,
-            trace.evaluations,
-            trace.wall_seconds
+            name, method, spec.t_end, trace.steps, trace.evaluations, trace.wall_seconds
         );
         for (b, name) in trace.blocks.iter().enumerate() {
             println!(

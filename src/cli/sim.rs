@@ -27,7 +27,8 @@ use lasalle::models::{
 use lasalle::{
     component_names, sample_capacity, AdaptiveGain, Control, DormandPrince, Driver, ExplicitRk,
     FeedbackField, Field, GainPolicy, Invariants, Lyapunov, ModelInfo, Observer, Parameters,
-    Projection, Recorder, RigidBodySplitting, StepError, Stepper, StormerVerlet, VerletVariant,
+    Projection, Recorder, RigidBodySplitting, State, StepError, Stepper, StormerVerlet,
+    VerletVariant,
 };
 use serde_json::json;
 
@@ -324,12 +325,12 @@ pub trait Stats {
     }
 }
 
-impl<const S: usize> Stats for ExplicitRk<f64, S> {}
-impl<const N: usize> Stats for DormandPrince<f64, N> {}
-impl Stats for StormerVerlet {}
+impl<const S: usize, X> Stats for ExplicitRk<f64, S, X> {}
+impl<X> Stats for DormandPrince<f64, X> {}
+impl<X> Stats for StormerVerlet<X> {}
 impl Stats for RigidBodySplitting<f64> {}
 
-impl<const M: usize, S: Stats> Stats for Projection<f64, M, S> {
+impl<F: State<f64>, S: Stats, X: State<f64>> Stats for Projection<f64, F, S, X> {
     fn stats(&self) -> Vec<(&'static str, f64)> {
         let mut v = self.base().stats();
         v.push(("newton_iterations", self.newton_iterations() as f64));
@@ -338,7 +339,7 @@ impl<const M: usize, S: Stats> Stats for Projection<f64, M, S> {
     }
 }
 
-impl<S: Stats, const G: usize> Stats for AdaptiveGain<S, f64, G> {
+impl<S: Stats, K> Stats for AdaptiveGain<S, f64, K> {
     fn stats(&self) -> Vec<(&'static str, f64)> {
         let mut v = self.base().stats();
         v.push(("last_gauss_newton_norm", self.last_norm()));
@@ -348,31 +349,31 @@ impl<S: Stats, const G: usize> Stats for AdaptiveGain<S, f64, G> {
 
 /// Something that does a run with any stepper for the field `F` (the continuation that
 /// [`simulate`] hands the stepper it built).
-pub trait Visit<F: ?Sized, const N: usize> {
+pub trait Visit<F: ?Sized, X: State<f64>> {
     /// The result.
     type Out;
     /// Runs with `stepper`.
-    fn visit<S: Stepper<f64, N, F> + Stats>(self, stepper: S) -> Self::Out;
+    fn visit<S: Stepper<f64, X, F> + Stats>(self, stepper: S) -> Self::Out;
 }
 
 /// A check of the state after a step of size h: `Some(message)` stops the run.
-pub type GuardFn<const N: usize> = fn(&[f64; N], f64) -> Option<String>;
+pub type GuardFn = fn(&[f64], f64) -> Option<String>;
 
 /// A model the command line can run: the generated traits plus the steppers that need the
 /// model's structure (Störmer–Verlet, splitting) and a validity guard.
-pub trait CliModel<const N: usize, const M: usize, const G: usize>:
-    Lyapunov<f64, N, M, G> + ModelInfo + Parameters + Clone + Sized
+pub trait CliModel<X: State<f64>, F: State<f64>, K: State<f64>>:
+    Lyapunov<f64, X, F, K> + ModelInfo + Parameters + Sized
 {
     /// The model's name on the command line.
-    const CLI: ModelName;
+    fn cli_name(&self) -> String;
 
     /// Hands `visit` the model-specific stepper for `method` (Störmer–Verlet, splitting), or
     /// says why the model cannot use it.
-    fn special<V: Visit<Self, N>>(&self, method: Method, visit: V) -> Result<V::Out, String>;
+    fn special<V: Visit<Self, X>>(&self, method: Method, visit: V) -> Result<V::Out, String>;
 
     /// A check run on the state after every step, given the step size (e.g. Kepler: |x| → 0
     /// is a collision).
-    fn guard() -> Option<GuardFn<N>> {
+    fn guard(&self) -> Option<GuardFn> {
         None
     }
 }
@@ -384,7 +385,7 @@ pub const COLLISION_RADIUS: f64 = 1e-6;
 /// it, so the run also stops when one step moves further than the distance to the centre,
 /// h·|v| > |x| (the close approach is not resolved; the state after it is meaningless).
 /// `h = 0` (adaptive methods, which shrink their steps) checks |x| only.
-pub fn collision_guard(x: &[f64; 6], h: f64) -> Option<String> {
+pub fn collision_guard(x: &[f64], h: f64) -> Option<String> {
     let r = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
     let v = (x[3] * x[3] + x[4] * x[4] + x[5] * x[5]).sqrt();
     if r < COLLISION_RADIUS {
@@ -400,7 +401,7 @@ pub fn collision_guard(x: &[f64; 6], h: f64) -> Option<String> {
     }
 }
 
-fn needs_partitioned(method: Method, model: ModelName) -> String {
+fn needs_partitioned(method: Method, model: &str) -> String {
     match method {
         Method::Splitting => format!(
             "method `splitting` is the free rigid body's three-rotation splitting; model `{model}` cannot use it"
@@ -412,10 +413,12 @@ fn needs_partitioned(method: Method, model: ModelName) -> String {
 /// `CliModel` for a model whose field is partitioned: Störmer–Verlet A and B apply.
 macro_rules! partitioned_model {
     ($ty:ty, $n:literal, $m:literal, $g:literal, $cli:expr, $guard:expr) => {
-        impl CliModel<$n, $m, $g> for $ty {
-            const CLI: ModelName = $cli;
+        impl CliModel<[f64; $n], [f64; $m], [f64; $g]> for $ty {
+            fn cli_name(&self) -> String {
+                $cli.to_string()
+            }
 
-            fn special<V: Visit<Self, $n>>(
+            fn special<V: Visit<Self, [f64; $n]>>(
                 &self,
                 method: Method,
                 visit: V,
@@ -423,11 +426,11 @@ macro_rules! partitioned_model {
                 match method {
                     Method::StormerVerlet(VerletVariant::A) => Ok(visit.visit(StormerVerlet::a())),
                     Method::StormerVerlet(VerletVariant::B) => Ok(visit.visit(StormerVerlet::b())),
-                    _ => Err(needs_partitioned(method, Self::CLI)),
+                    _ => Err(needs_partitioned(method, &self.cli_name())),
                 }
             }
 
-            fn guard() -> Option<GuardFn<$n>> {
+            fn guard(&self) -> Option<GuardFn> {
                 $guard
             }
         }
@@ -437,11 +440,17 @@ macro_rules! partitioned_model {
 /// `CliModel` for a model with no structure-specific stepper.
 macro_rules! general_model {
     ($ty:ty, $n:literal, $m:literal, $g:literal, $cli:expr) => {
-        impl CliModel<$n, $m, $g> for $ty {
-            const CLI: ModelName = $cli;
+        impl CliModel<[f64; $n], [f64; $m], [f64; $g]> for $ty {
+            fn cli_name(&self) -> String {
+                $cli.to_string()
+            }
 
-            fn special<V: Visit<Self, $n>>(&self, method: Method, _: V) -> Result<V::Out, String> {
-                Err(needs_partitioned(method, Self::CLI))
+            fn special<V: Visit<Self, [f64; $n]>>(
+                &self,
+                method: Method,
+                _: V,
+            ) -> Result<V::Out, String> {
+                Err(needs_partitioned(method, &self.cli_name()))
             }
         }
     };
@@ -467,13 +476,19 @@ partitioned_model!(
 general_model!(CR3BP, 4, 1, 1, ModelName::Cr3bp);
 general_model!(So3TypeI, 12, 11, 3, ModelName::So3TypeI);
 
-impl CliModel<12, 13, 3> for RigidBody {
-    const CLI: ModelName = ModelName::RigidBody;
+impl CliModel<[f64; 12], [f64; 13], [f64; 3]> for RigidBody {
+    fn cli_name(&self) -> String {
+        ModelName::RigidBody.to_string()
+    }
 
-    fn special<V: Visit<Self, 12>>(&self, method: Method, visit: V) -> Result<V::Out, String> {
+    fn special<V: Visit<Self, [f64; 12]>>(
+        &self,
+        method: Method,
+        visit: V,
+    ) -> Result<V::Out, String> {
         match method {
             Method::Splitting => Ok(visit.visit(RigidBodySplitting::new(self.i))),
-            _ => Err(needs_partitioned(method, Self::CLI)),
+            _ => Err(needs_partitioned(method, &self.cli_name())),
         }
     }
 }
@@ -697,9 +712,9 @@ struct Sampler<'o, O> {
     countdown: u64,
 }
 
-impl<O: Observer<f64, N>, const N: usize> Observer<f64, N> for Sampler<'_, O> {
+impl<O: Observer<f64, X>, X: ?Sized> Observer<f64, X> for Sampler<'_, O> {
     #[inline]
-    fn observe(&mut self, step: u64, t: f64, x: &[f64; N]) -> Control {
+    fn observe(&mut self, step: u64, t: f64, x: &X) -> Control {
         if self.countdown > 1 {
             self.countdown -= 1;
             return Control::Continue;
@@ -711,30 +726,32 @@ impl<O: Observer<f64, N>, const N: usize> Observer<f64, N> for Sampler<'_, O> {
         self.inner.observe(step, t, x)
     }
 
-    fn finish(&mut self, step: u64, t: f64, x: &[f64; N]) {
+    fn finish(&mut self, step: u64, t: f64, x: &X) {
         self.inner.finish(step, t, x)
     }
 }
 
 /// The innermost visitor: integrates `field` with the stepper and records the model's
 /// invariants.
-struct Drive<'a, Mdl, F: ?Sized, const N: usize, const M: usize> {
+struct Drive<'a, Mdl, F: ?Sized, X, FV> {
     model: &'a Mdl,
     field: &'a F,
-    x0: [f64; N],
+    x0: X,
     spec: &'a RunSpec,
-    guard: Option<GuardFn<N>>,
-    invariants: PhantomData<[f64; M]>,
+    guard: Option<GuardFn>,
+    invariants: PhantomData<FV>,
 }
 
-impl<Mdl, F, const N: usize, const M: usize> Visit<F, N> for Drive<'_, Mdl, F, N, M>
+impl<Mdl, F, X, FV> Visit<F, X> for Drive<'_, Mdl, F, X, FV>
 where
-    Mdl: Invariants<f64, N, M> + ModelInfo,
+    Mdl: Invariants<f64, X, FV> + ModelInfo,
+    X: State<f64>,
+    FV: State<f64>,
     F: ?Sized,
 {
     type Out = Trace;
 
-    fn visit<S: Stepper<f64, N, F> + Stats>(self, mut stepper: S) -> Trace {
+    fn visit<S: Stepper<f64, X, F> + Stats>(self, mut stepper: S) -> Trace {
         let spec = self.spec;
         let every = spec.record_every();
         // the sampler forwards every `every`-th step; the recorder keeps all it is given
@@ -748,7 +765,7 @@ where
         let mut driver = Driver::new(0.0, spec.t_end, spec.dt);
         if let Some(g) = self.guard {
             let h = spec.dt;
-            driver = driver.guard(1, move |x: &[f64; N]| g(x, h));
+            driver = driver.guard(1, move |x: &X| g(x.as_ref(), h));
         }
         let mut obs = Sampler {
             inner: &mut rec,
@@ -761,8 +778,8 @@ where
         let result = driver.run(&mut stepper, self.field, &self.x0, &mut obs);
         let wall_seconds = start.elapsed().as_secs_f64();
         bar.finish_and_clear();
-        let mut names = component_names(Mdl::STATE);
-        names.resize_with(N, String::new);
+        let mut names = component_names(self.model.state_slots());
+        names.resize_with(self.x0.len(), String::new);
         let (steps, evaluations, rejections, failure) = match result {
             Ok(s) => (s.steps, s.evaluations, s.rejections, None),
             Err(e) => (0, 0, 0, Some(e)),
@@ -772,7 +789,11 @@ where
             stepper: stepper.name(),
             state_names: names,
             blocks: rec.blocks().iter().map(|(n, _)| n.to_string()).collect(),
-            x: rec.x.iter().flat_map(|s| s.iter().copied()).collect(),
+            x: rec
+                .x
+                .iter()
+                .flat_map(|s| s.as_ref().iter().copied())
+                .collect(),
             t: rec.t,
             errors: rec.errors,
             wall_seconds,
@@ -789,60 +810,66 @@ where
 }
 
 /// Wraps the base stepper in the projection onto {f = target} (GNI §IV.4).
-struct Project<V, const M: usize> {
+struct Project<V, FV> {
     inner: V,
-    target: [f64; M],
+    target: FV,
     tol: f64,
 }
 
-impl<F, V, const N: usize, const M: usize> Visit<F, N> for Project<V, M>
+impl<F, V, X, FV> Visit<F, X> for Project<V, FV>
 where
-    F: Invariants<f64, N, M> + ?Sized,
-    V: Visit<F, N>,
+    F: Invariants<f64, X, FV> + ?Sized,
+    V: Visit<F, X>,
+    X: State<f64>,
+    FV: State<f64>,
 {
     type Out = V::Out;
 
-    fn visit<S: Stepper<f64, N, F> + Stats>(self, stepper: S) -> V::Out {
+    fn visit<S: Stepper<f64, X, F> + Stats>(self, stepper: S) -> V::Out {
         self.inner
             .visit(Projection::new(stepper, self.target, self.tol))
     }
 }
 
 /// Wraps the base stepper in the periodic adaptive gain (Bae & Chang).
-struct Adapt<V, const G: usize> {
+struct Adapt<V, K> {
     inner: V,
+    unit: K,
     every: u64,
     c: f64,
 }
 
-impl<'a, Mdl, V, const N: usize, const M: usize, const G: usize>
-    Visit<FeedbackField<'a, Mdl, f64, N, M, G>, N> for Adapt<V, G>
+impl<'a, Mdl, V, X, FV, K> Visit<FeedbackField<'a, Mdl, FV, K>, X> for Adapt<V, K>
 where
-    Mdl: Lyapunov<f64, N, M, G> + ModelInfo,
-    V: Visit<FeedbackField<'a, Mdl, f64, N, M, G>, N>,
+    Mdl: Lyapunov<f64, X, FV, K> + ModelInfo,
+    V: Visit<FeedbackField<'a, Mdl, FV, K>, X>,
+    X: State<f64>,
+    FV: State<f64>,
+    K: State<f64>,
 {
     type Out = V::Out;
 
     fn visit<S>(self, stepper: S) -> V::Out
     where
-        S: Stepper<f64, N, FeedbackField<'a, Mdl, f64, N, M, G>> + Stats,
+        S: Stepper<f64, X, FeedbackField<'a, Mdl, FV, K>> + Stats,
     {
         self.inner
-            .visit(AdaptiveGain::new(stepper, [1.0; G], self.every).c(self.c))
+            .visit(AdaptiveGain::new(stepper, self.unit, self.every).c(self.c))
     }
 }
 
 /// Hands `visit` the explicit Runge–Kutta stepper `base`.
-fn with_base<F, V, const N: usize>(base: Base, spec: &RunSpec, visit: V) -> V::Out
+fn with_base<F, V, X>(base: Base, spec: &RunSpec, visit: V) -> V::Out
 where
-    F: Field<f64, N> + ?Sized,
-    V: Visit<F, N>,
+    F: Field<f64, X> + ?Sized,
+    V: Visit<F, X>,
+    X: State<f64>,
 {
     match base {
-        Base::Euler => visit.visit(ExplicitRk::<f64, 1>::euler()),
-        Base::Heun => visit.visit(ExplicitRk::<f64, 2>::heun()),
-        Base::Rk4 => visit.visit(ExplicitRk::<f64, 4>::rk4()),
-        Base::Dopri5 => visit.visit(DormandPrince::<f64, N>::with_tolerances(
+        Base::Euler => visit.visit(ExplicitRk::<f64, 1, X>::euler()),
+        Base::Heun => visit.visit(ExplicitRk::<f64, 2, X>::heun()),
+        Base::Rk4 => visit.visit(ExplicitRk::<f64, 4, X>::rk4()),
+        Base::Dopri5 => visit.visit(DormandPrince::<f64, X>::with_tolerances(
             spec.rtol, spec.atol,
         )),
     }
@@ -851,85 +878,81 @@ where
 /// Integrates `model` from `x0` as `spec` says. An integration that blows up still returns
 /// the samples up to the failure, with [`Trace::failure`] set; invalid arguments (bad
 /// numbers, a method the model cannot use, gains of the wrong count) are errors.
-pub fn simulate<Mdl, const N: usize, const M: usize, const G: usize>(
-    model: &Mdl,
-    x0: &[f64; N],
-    spec: &RunSpec,
-) -> Result<Trace, String>
+pub fn simulate<Mdl, X, FV, K>(model: &Mdl, x0: &X, spec: &RunSpec) -> Result<Trace, String>
 where
-    Mdl: CliModel<N, M, G>,
+    Mdl: CliModel<X, FV, K>,
+    X: State<f64>,
+    FV: State<f64>,
+    K: State<f64>,
 {
     spec.validate()?;
-    if let Some(i) = x0.iter().position(|v| !v.is_finite()) {
+    let name = model.cli_name();
+    if let Some(i) = x0.as_ref().iter().position(|v| !v.is_finite()) {
         return Err(format!("initial state component {i} is not finite"));
     }
     // The field and the invariants must be defined at x0 (e.g. Kepler at x = 0 is not).
-    let (mut dx, mut f) = ([0.0; N], [0.0; M]);
+    let mut dx = x0.clone();
+    let mut f = FV::filled(FV::len_for(model.invariant_dim()), 0.0);
     model.field(x0, &mut dx);
     model.invariants(x0, &mut f);
-    if let Some(message) = Mdl::guard().and_then(|guard| guard(x0, 0.0)) {
-        return Err(format!("invalid initial state {x0:?}: {message}"));
+    let shown = x0.as_ref();
+    if let Some(message) = model.guard().and_then(|guard| guard(shown, 0.0)) {
+        return Err(format!("invalid initial state {shown:?}: {message}"));
     }
-    if dx.iter().chain(&f).any(|v| !v.is_finite()) {
+    if dx.as_ref().iter().chain(f.as_ref()).any(|v| !v.is_finite()) {
         return Err(format!(
-            "the field or the invariants of `{}` are not finite at the initial state {x0:?}",
-            Mdl::CLI
+            "the field or the invariants of `{name}` are not finite at the initial state {shown:?}"
         ));
     }
     let drive = |field| Drive {
         model,
         field,
-        x0: *x0,
+        x0: x0.clone(),
         spec,
-        guard: Mdl::guard(),
-        invariants: PhantomData::<[f64; M]>,
+        guard: model.guard(),
+        invariants: PhantomData::<FV>,
     };
     match spec.method {
         Method::Plain(b) => Ok(with_base(b, spec, drive(model))),
         Method::Projection(b) => {
-            let mut target = [0.0; M];
-            model.invariants(x0, &mut target);
             let visit = Project {
                 inner: drive(model),
-                target,
+                target: f,
                 tol: spec.tol,
             };
             Ok(with_base(b, spec, visit))
         }
         Method::Feedback(b) => {
-            let gains: [f64; G] = spec
-                .gains
-                .initial_gains::<Mdl, f64, N, M, G>(model, x0, spec.dt)
-                .map_err(|e| {
-                    format!(
-                        "{e} (model `{}` has gains {})",
-                        Mdl::CLI,
-                        Mdl::GAIN_NAMES.join(", ")
-                    )
-                })?;
-            let fb = FeedbackField::from_initial(model, x0, gains);
+            let gains: K = spec.gains.initial_gains(model, x0, spec.dt).map_err(|e| {
+                format!(
+                    "{e} (model `{name}` has gains {})",
+                    model.gain_names().join(", ")
+                )
+            })?;
+            let fb = FeedbackField::from_initial(model, x0, gains.clone());
             let drive = Drive {
                 model,
                 field: &fb,
-                x0: *x0,
+                x0: x0.clone(),
                 spec,
-                guard: Mdl::guard(),
-                invariants: PhantomData::<[f64; M]>,
+                guard: model.guard(),
+                invariants: PhantomData::<FV>,
             };
             let mut trace = match spec.gains {
                 GainPolicy::Adaptive { every, c } => with_base(
                     b,
                     spec,
-                    Adapt::<_, G> {
+                    Adapt {
                         inner: drive,
+                        unit: K::filled(K::len_for(gains.len()), 1.0),
                         every,
                         c,
                     },
                 ),
                 _ => with_base(b, spec, drive),
             };
-            trace.gains_initial = Some(gains.to_vec());
-            trace.gains_final = Some(fb.gains().to_vec());
+            trace.gains_initial = Some(gains.as_ref().to_vec());
+            trace.gains_final = Some(fb.gains().as_ref().to_vec());
             Ok(trace)
         }
         Method::StormerVerlet(_) | Method::Splitting => model.special(spec.method, drive(model)),
@@ -962,10 +985,11 @@ pub fn parse_numbers(text: &str) -> Result<Vec<f64>, String> {
 
 /// The initial state from `--init`: a named point of the model (`paper`) or N
 /// comma-separated numbers in the flat state order.
-pub fn initial_state<Mdl, const N: usize>(model: &Mdl, init: &str) -> Result<[f64; N], String>
+pub fn initial_state<Mdl>(model: &Mdl, init: &str) -> Result<Vec<f64>, String>
 where
     Mdl: Parameters + ModelInfo,
 {
+    let n = model.state_dim();
     let values = if let Some(p) = model.point(init.trim()) {
         p
     } else if init
@@ -975,12 +999,13 @@ where
         parse_numbers(init).map_err(|e| format!("invalid --init: {e}"))?
     } else {
         return Err(format!(
-            "unknown point `{init}`; model has points: {} (or give {N} comma-separated numbers)",
+            "unknown point `{init}`; model has points: {} (or give {n} comma-separated numbers)",
             model.point_names().join(", ")
         ));
     };
-    if values.len() != N {
-        let layout: Vec<String> = Mdl::STATE
+    if values.len() != n {
+        let layout: Vec<String> = model
+            .state_slots()
             .iter()
             .map(|s| {
                 format!(
@@ -993,13 +1018,11 @@ where
             })
             .collect();
         return Err(format!(
-            "--init has {} numbers but the state of `{}` has dimension {N} ({})",
+            "--init has {} numbers but the state of `{}` has dimension {n} ({})",
             values.len(),
-            Mdl::NAME,
+            model.model_name(),
             layout.join(", ")
         ));
     }
-    let mut x = [0.0; N];
-    x.copy_from_slice(&values);
-    Ok(x)
+    Ok(values)
 }

@@ -250,13 +250,28 @@ impl Emitter<'_> {
             .iter()
             .map(|k| Literal::f64_unsuffixed(k.default));
         quote! {
+            impl<T> #ty<T> {
+                /// The model's name.
+                pub const NAME: &'static str = #name;
+                /// The state variables with their offsets in the flat state.
+                pub const STATE: &'static [Slot] = &[#(#state_slots),*];
+                /// The invariants with their offsets in the stacked f.
+                pub const INVARIANTS: &'static [InvariantInfo] = &[#(#inv_infos),*];
+                /// The names of the gains.
+                pub const GAIN_NAMES: &'static [&'static str] = &[#(#gain_names),*];
+                /// The gains as written in the model file.
+                pub const DEFAULT_GAINS: &'static [f64] = &[#(#gain_defaults),*];
+                /// The parameters with their offsets in the parameter slots.
+                pub const PARAMS: &'static [Slot] = &[#(#param_slots),*];
+            }
+
             impl<T> ModelInfo for #ty<T> {
-                const NAME: &'static str = #name;
-                const STATE: &'static [Slot] = &[#(#state_slots),*];
-                const INVARIANTS: &'static [InvariantInfo] = &[#(#inv_infos),*];
-                const GAIN_NAMES: &'static [&'static str] = &[#(#gain_names),*];
-                const DEFAULT_GAINS: &'static [f64] = &[#(#gain_defaults),*];
-                const PARAMS: &'static [Slot] = &[#(#param_slots),*];
+                fn model_name(&self) -> &'static str { Self::NAME }
+                fn state_slots(&self) -> &'static [Slot] { Self::STATE }
+                fn invariant_infos(&self) -> &'static [InvariantInfo] { Self::INVARIANTS }
+                fn gain_names(&self) -> &'static [&'static str] { Self::GAIN_NAMES }
+                fn default_gain_values(&self) -> &'static [f64] { Self::DEFAULT_GAINS }
+                fn param_slots(&self) -> &'static [Slot] { Self::PARAMS }
             }
         }
     }

@@ -57,7 +57,7 @@ impl Emitter<'_> {
         let tokens = &body.tokens;
         (
             quote! {
-                impl<T: Float> Field<T, #n> for #ty<T> {
+                impl<T: Float> Field<T, [T; #n]> for #ty<T> {
                     fn field(&self, #x: &[T; #n], dx: &mut [T; #n]) { #tokens }
                 }
             },
@@ -103,7 +103,7 @@ impl Emitter<'_> {
         let (ix, jx) = (inv.arg("x", is_state), jac.arg("x", is_state));
         let (inv_tokens, jac_tokens) = (&inv.tokens, &jac.tokens);
         let tokens = quote! {
-            impl<T: Float> Invariants<T, #n, #m> for #ty<T> {
+            impl<T: Float> Invariants<T, [T; #n], [T; #m]> for #ty<T> {
                 fn invariants(&self, #ix: &[T; #n], f: &mut [T; #m]) { #inv_tokens }
                 fn invariants_jacobian(&self, #jx: &[T; #n], jac: &mut [[T; #n]; #m]) {
                     #jac_init
@@ -173,7 +173,7 @@ impl Emitter<'_> {
         let ((vx, vt, vg), (gx, gt, gg), (fx, ft, fg)) = (sig(&v), sig(&grad), sig(&fb));
         let (v_tokens, grad_tokens, fb_tokens) = (&v.tokens, &grad.tokens, &fb.tokens);
         let tokens = quote! {
-            impl<T: Float> Lyapunov<T, #n, #m, #ng> for #ty<T> {
+            impl<T: Float> Lyapunov<T, [T; #n], [T; #m], [T; #ng]> for #ty<T> {
                 fn lyapunov(&self, #vx: &[T; #n], #vt: &[T; #m], #vg: &[T; #ng]) -> T {
                     #v_tokens
                 }
@@ -201,8 +201,8 @@ impl Emitter<'_> {
         let (qx, px) = (q.arg("x", is_state), p.arg("x", is_state));
         let (q_tokens, p_tokens) = (&q.tokens, &p.tokens);
         quote! {
-            impl<T: Float> Partitioned<T, #n> for #ty<T> {
-                const IS_Q: [bool; #n] = [#(#is_q),*];
+            impl<T: Float> Partitioned<T, [T; #n]> for #ty<T> {
+                fn is_q(&self) -> &[bool] { &[#(#is_q),*] }
                 fn field_q(&self, #qx: &[T; #n], dx: &mut [T; #n]) { #q_tokens }
                 fn field_p(&self, #px: &[T; #n], dx: &mut [T; #n]) { #p_tokens }
             }

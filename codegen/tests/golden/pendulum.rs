@@ -74,7 +74,7 @@ pub mod pendulum {
             x[1]
         }
     }
-    impl<T: Float> Field<T, 2> for Pendulum<T> {
+    impl<T: Float> Field<T, [T; 2]> for Pendulum<T> {
         fn field(&self, x: &[T; 2], dx: &mut [T; 2]) {
             let theta = x[0];
             let omega = x[1];
@@ -86,7 +86,7 @@ pub mod pendulum {
             dx[1] = -(g * theta.sin() / l);
         }
     }
-    impl<T: Float> Invariants<T, 2, 1> for Pendulum<T> {
+    impl<T: Float> Invariants<T, [T; 2], [T; 1]> for Pendulum<T> {
         fn invariants(&self, x: &[T; 2], f: &mut [T; 1]) {
             let theta = x[0];
             let omega = x[1];
@@ -105,7 +105,7 @@ pub mod pendulum {
             jac[0][1] = omega;
         }
     }
-    impl<T: Float> Lyapunov<T, 2, 1, 1> for Pendulum<T> {
+    impl<T: Float> Lyapunov<T, [T; 2], [T; 1], [T; 1]> for Pendulum<T> {
         fn lyapunov(&self, x: &[T; 2], target: &[T; 1], gains: &[T; 1]) -> T {
             let theta = x[0];
             let omega = x[1];
@@ -161,8 +161,10 @@ pub mod pendulum {
             dx[1] = -t2 - omega * t1;
         }
     }
-    impl<T: Float> Partitioned<T, 2> for Pendulum<T> {
-        const IS_Q: [bool; 2] = [true, false];
+    impl<T: Float> Partitioned<T, [T; 2]> for Pendulum<T> {
+        fn is_q(&self) -> &[bool] {
+            &[true, false]
+        }
         fn field_q(&self, x: &[T; 2], dx: &mut [T; 2]) {
             let omega = x[1];
             // pendulum.lsl:8: d/dt theta = omega;
@@ -176,9 +178,11 @@ pub mod pendulum {
             dx[1] = -(g * theta.sin() / l);
         }
     }
-    impl<T> ModelInfo for Pendulum<T> {
-        const NAME: &'static str = "Pendulum";
-        const STATE: &'static [Slot] = &[
+    impl<T> Pendulum<T> {
+        /// The model's name.
+        pub const NAME: &'static str = "Pendulum";
+        /// The state variables with their offsets in the flat state.
+        pub const STATE: &'static [Slot] = &[
             Slot {
                 name: "theta",
                 shape: Shape::Scalar,
@@ -190,7 +194,8 @@ pub mod pendulum {
                 offset: 1,
             },
         ];
-        const INVARIANTS: &'static [InvariantInfo] = &[
+        /// The invariants with their offsets in the stacked f.
+        pub const INVARIANTS: &'static [InvariantInfo] = &[
             InvariantInfo {
                 slot: Slot {
                     name: "E",
@@ -201,9 +206,12 @@ pub mod pendulum {
                 gain: 0,
             },
         ];
-        const GAIN_NAMES: &'static [&'static str] = &["k_E"];
-        const DEFAULT_GAINS: &'static [f64] = &[2.0];
-        const PARAMS: &'static [Slot] = &[
+        /// The names of the gains.
+        pub const GAIN_NAMES: &'static [&'static str] = &["k_E"];
+        /// The gains as written in the model file.
+        pub const DEFAULT_GAINS: &'static [f64] = &[2.0];
+        /// The parameters with their offsets in the parameter slots.
+        pub const PARAMS: &'static [Slot] = &[
             Slot {
                 name: "g",
                 shape: Shape::Scalar,
@@ -215,6 +223,26 @@ pub mod pendulum {
                 offset: 1,
             },
         ];
+    }
+    impl<T> ModelInfo for Pendulum<T> {
+        fn model_name(&self) -> &'static str {
+            Self::NAME
+        }
+        fn state_slots(&self) -> &'static [Slot] {
+            Self::STATE
+        }
+        fn invariant_infos(&self) -> &'static [InvariantInfo] {
+            Self::INVARIANTS
+        }
+        fn gain_names(&self) -> &'static [&'static str] {
+            Self::GAIN_NAMES
+        }
+        fn default_gain_values(&self) -> &'static [f64] {
+            Self::DEFAULT_GAINS
+        }
+        fn param_slots(&self) -> &'static [Slot] {
+            Self::PARAMS
+        }
     }
     impl Parameters for Pendulum<f64> {
         fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {

@@ -125,7 +125,7 @@ pub fn pivoted_cholesky_solve<T: Float, R: AsRef<[T]> + AsMut<[T]>>(
 /// let energy = 0.5 * (end.x[0] * end.x[0] + end.x[1] * end.x[1]);
 /// assert!((energy - 0.5).abs() <= 1e-12);
 /// ```
-#[derive(Clone, Debug)]
+#[derive(Clone)]
 pub struct Projection<T, F: State<T>, S, X: State<T>> {
     base: S,
     target: F,
@@ -138,7 +138,7 @@ pub struct Projection<T, F: State<T>, S, X: State<T>> {
 }
 
 /// Scratch storage of [`Projection`], sized at the first step.
-#[derive(Clone, Debug)]
+#[derive(Clone)]
 struct Work<T, X: State<T>, F: State<T>> {
     f: F,
     r: F,
@@ -213,6 +213,21 @@ impl<T: Float, F: State<T>, S, X: State<T>> Projection<T, F, S, X> {
     /// step).
     pub fn projections(&self) -> u64 {
         self.projections
+    }
+}
+
+impl<T: std::fmt::Debug, F: State<T> + std::fmt::Debug, S: std::fmt::Debug, X: State<T>>
+    std::fmt::Debug for Projection<T, F, S, X>
+{
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Projection")
+            .field("base", &self.base)
+            .field("target", &self.target)
+            .field("tol", &self.tol)
+            .field("max_iterations", &self.max_iterations)
+            .field("newton_iterations", &self.newton_iterations)
+            .field("projections", &self.projections)
+            .finish_non_exhaustive()
     }
 }
 
@@ -353,7 +368,10 @@ mod tests {
         let b = [1.0, -2.0, 0.5];
         let mut z = [0.0; 3];
         let (mut f, mut rhs, mut perm) = (a, b, [0; 3]);
-        assert_eq!(pivoted_cholesky_solve(&mut f, &mut rhs, 1e-12, &mut perm, &mut z), 3);
+        assert_eq!(
+            pivoted_cholesky_solve(&mut f, &mut rhs, 1e-12, &mut perm, &mut z),
+            3
+        );
         for i in 0..3 {
             let az: f64 = (0..3).map(|j| a[i][j] * z[j]).sum();
             assert!((az - b[i]).abs() < 1e-14, "row {i}: {az} vs {}", b[i]);
@@ -380,7 +398,10 @@ mod tests {
         let b: [f64; 4] = std::array::from_fn(|p| (0..4).map(|q| a[p][q] * w[q]).sum());
         let mut z = [0.0; 4];
         let (mut f, mut rhs, mut perm) = (a, b, [0; 4]);
-        assert_eq!(pivoted_cholesky_solve(&mut f, &mut rhs, 1e-12, &mut perm, &mut z), 3);
+        assert_eq!(
+            pivoted_cholesky_solve(&mut f, &mut rhs, 1e-12, &mut perm, &mut z),
+            3
+        );
         // same correction Jᵀz = Jᵀw
         for n in 0..3 {
             let jz: f64 = (0..4).map(|p| j[p][n] * z[p]).sum();

@@ -76,28 +76,28 @@ impl ModelInfo for Oscillator {
     }
     fn state_slots(&self) -> &'static [Slot] {
         &[
-        Slot {
-            name: "q",
-            shape: Shape::Scalar,
-            offset: 0,
-        },
-        Slot {
-            name: "p",
-            shape: Shape::Scalar,
-            offset: 1,
-        },
-    ]
+            Slot {
+                name: "q",
+                shape: Shape::Scalar,
+                offset: 0,
+            },
+            Slot {
+                name: "p",
+                shape: Shape::Scalar,
+                offset: 1,
+            },
+        ]
     }
     fn invariant_infos(&self) -> &'static [InvariantInfo] {
         &[InvariantInfo {
-        slot: Slot {
-            name: "E",
-            shape: Shape::Scalar,
-            offset: 0,
-        },
-        kind: InvariantKind::Integral,
-        gain: 0,
-    }]
+            slot: Slot {
+                name: "E",
+                shape: Shape::Scalar,
+                offset: 0,
+            },
+            kind: InvariantKind::Integral,
+            gain: 0,
+        }]
     }
     fn gain_names(&self) -> &'static [&'static str] {
         &["k"]
@@ -149,28 +149,28 @@ impl ModelInfo for Pendulum {
     }
     fn state_slots(&self) -> &'static [Slot] {
         &[
-        Slot {
-            name: "q",
-            shape: Shape::Scalar,
-            offset: 0,
-        },
-        Slot {
-            name: "p",
-            shape: Shape::Scalar,
-            offset: 1,
-        },
-    ]
+            Slot {
+                name: "q",
+                shape: Shape::Scalar,
+                offset: 0,
+            },
+            Slot {
+                name: "p",
+                shape: Shape::Scalar,
+                offset: 1,
+            },
+        ]
     }
     fn invariant_infos(&self) -> &'static [InvariantInfo] {
         &[InvariantInfo {
-        slot: Slot {
-            name: "E",
-            shape: Shape::Scalar,
-            offset: 0,
-        },
-        kind: InvariantKind::Integral,
-        gain: 0,
-    }]
+            slot: Slot {
+                name: "E",
+                shape: Shape::Scalar,
+                offset: 0,
+            },
+            kind: InvariantKind::Integral,
+            gain: 0,
+        }]
     }
     fn gain_names(&self) -> &'static [&'static str] {
         &["k"]
@@ -327,39 +327,39 @@ impl ModelInfo for Kepler {
     }
     fn state_slots(&self) -> &'static [Slot] {
         &[
-        Slot {
-            name: "x",
-            shape: Shape::Vector(3),
-            offset: 0,
-        },
-        Slot {
-            name: "v",
-            shape: Shape::Vector(3),
-            offset: 3,
-        },
-    ]
-    }
-    fn invariant_infos(&self) -> &'static [InvariantInfo] {
-        &[
-        InvariantInfo {
-            slot: Slot {
-                name: "L",
+            Slot {
+                name: "x",
                 shape: Shape::Vector(3),
                 offset: 0,
             },
-            kind: InvariantKind::Integral,
-            gain: 0,
-        },
-        InvariantInfo {
-            slot: Slot {
-                name: "A",
+            Slot {
+                name: "v",
                 shape: Shape::Vector(3),
                 offset: 3,
             },
-            kind: InvariantKind::Integral,
-            gain: 1,
-        },
-    ]
+        ]
+    }
+    fn invariant_infos(&self) -> &'static [InvariantInfo] {
+        &[
+            InvariantInfo {
+                slot: Slot {
+                    name: "L",
+                    shape: Shape::Vector(3),
+                    offset: 0,
+                },
+                kind: InvariantKind::Integral,
+                gain: 0,
+            },
+            InvariantInfo {
+                slot: Slot {
+                    name: "A",
+                    shape: Shape::Vector(3),
+                    offset: 3,
+                },
+                kind: InvariantKind::Integral,
+                gain: 1,
+            },
+        ]
     }
     fn gain_names(&self) -> &'static [&'static str] {
         &["k1", "k2"]
@@ -369,10 +369,10 @@ impl ModelInfo for Kepler {
     }
     fn param_slots(&self) -> &'static [Slot] {
         &[Slot {
-        name: "mu",
-        shape: Shape::Scalar,
-        offset: 0,
-    }]
+            name: "mu",
+            shape: Shape::Scalar,
+            offset: 0,
+        }]
     }
 }
 
@@ -560,48 +560,48 @@ impl ModelInfo for RigidBody {
     }
     fn state_slots(&self) -> &'static [Slot] {
         &[
-        Slot {
-            name: "R",
-            shape: Shape::Matrix(3, 3),
-            offset: 0,
-        },
-        Slot {
-            name: "Omega",
-            shape: Shape::Vector(3),
-            offset: 9,
-        },
-    ]
-    }
-    fn invariant_infos(&self) -> &'static [InvariantInfo] {
-        &[
-        InvariantInfo {
-            slot: Slot {
-                name: "orth",
+            Slot {
+                name: "R",
                 shape: Shape::Matrix(3, 3),
                 offset: 0,
             },
-            kind: InvariantKind::Constraint,
-            gain: 0,
-        },
-        InvariantInfo {
-            slot: Slot {
-                name: "E",
-                shape: Shape::Scalar,
+            Slot {
+                name: "Omega",
+                shape: Shape::Vector(3),
                 offset: 9,
             },
-            kind: InvariantKind::Integral,
-            gain: 1,
-        },
-        InvariantInfo {
-            slot: Slot {
-                name: "pi",
-                shape: Shape::Vector(3),
-                offset: 10,
+        ]
+    }
+    fn invariant_infos(&self) -> &'static [InvariantInfo] {
+        &[
+            InvariantInfo {
+                slot: Slot {
+                    name: "orth",
+                    shape: Shape::Matrix(3, 3),
+                    offset: 0,
+                },
+                kind: InvariantKind::Constraint,
+                gain: 0,
             },
-            kind: InvariantKind::Integral,
-            gain: 2,
-        },
-    ]
+            InvariantInfo {
+                slot: Slot {
+                    name: "E",
+                    shape: Shape::Scalar,
+                    offset: 9,
+                },
+                kind: InvariantKind::Integral,
+                gain: 1,
+            },
+            InvariantInfo {
+                slot: Slot {
+                    name: "pi",
+                    shape: Shape::Vector(3),
+                    offset: 10,
+                },
+                kind: InvariantKind::Integral,
+                gain: 2,
+            },
+        ]
     }
     fn gain_names(&self) -> &'static [&'static str] {
         &["k0", "k1", "k2"]
@@ -611,9 +611,9 @@ impl ModelInfo for RigidBody {
     }
     fn param_slots(&self) -> &'static [Slot] {
         &[Slot {
-        name: "I",
-        shape: Shape::Vector(3),
-        offset: 0,
-    }]
+            name: "I",
+            shape: Shape::Vector(3),
+            offset: 0,
+        }]
     }
 }

@@ -107,7 +107,7 @@ fn study<Mdl, const N: usize, const M: usize, const G: usize>(
     stability: &mut String,
 ) -> Result<(String, serde_json::Value), String>
 where
-    Mdl: CliModel<N, M, G>,
+    Mdl: CliModel<[f64; N], [f64; M], [f64; G]>,
 {
     let mut header = vec!["method".to_string()];
     header.extend(steps.iter().map(|h| format!("h = {h}")));
@@ -141,9 +141,9 @@ where
         table.row(cells);
     }
     // stability of feedback-Euler on −∇V at x0: h·L < 2
-    let paper: [f64; G] = std::array::from_fn(|i| Mdl::DEFAULT_GAINS[i]);
-    let l_paper = gauss_newton_norm::<Mdl, f64, N, M, G>(model, x0, &paper);
-    let l_unit = gauss_newton_norm::<Mdl, f64, N, M, G>(model, x0, &[1.0; G]);
+    let paper = model.default_gain_values();
+    let l_paper = gauss_newton_norm::<Mdl, f64, [f64; N], [f64; M]>(model, x0, paper);
+    let l_unit = gauss_newton_norm::<Mdl, f64, [f64; N], [f64; M]>(model, x0, &[1.0; G]);
     let _ = writeln!(
         stability,
         "| {title} | {} | {} | {} | {} |",
@@ -245,7 +245,7 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
 /// h·L at the perturbed Kepler pericentre and its maximum along the orbit, for Δt = 0.03.
 fn pericentre_check(model: &PerturbedKepler, x0: &[f64; 6]) -> String {
     let h = 0.03;
-    let gains_of = |k: [f64; 2]| gauss_newton_norm::<PerturbedKepler, f64, 6, 4, 2>(model, x0, &k);
+    let gains_of = |k: [f64; 2]| gauss_newton_norm(model, x0, &k);
     // L along one exact orbit (DOPRI5 reference over one radial period ≈ 3.9)
     let times: Vec<f64> = (0..=400).map(|i| i as f64 * 0.01).collect();
     let along =
@@ -253,7 +253,7 @@ fn pericentre_check(model: &PerturbedKepler, x0: &[f64; 6]) -> String {
     let norms = |k: [f64; 2]| {
         along
             .iter()
-            .map(|x| gauss_newton_norm::<PerturbedKepler, f64, 6, 4, 2>(model, x, &k))
+            .map(|x| gauss_newton_norm(model, x, &k))
             .collect::<Vec<f64>>()
     };
     let max_along = |k: [f64; 2]| norms(k).into_iter().fold(0.0f64, f64::max);
