@@ -46,7 +46,7 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 /// Low part of π in double-double: π = `PI` + `PI_LO` to ~32 digits.
 const PI_LO: f64 = 1.224_646_799_147_353_2e-16;
-/// Low part of π/2 in double-double.
+/// Low part of π/2 in double-double: π/2 = `FRAC_PI_2` + `FRAC_PI_2_LO` to ~32 digits.
 const FRAC_PI_2_LO: f64 = 6.123_233_995_736_766e-17;
 /// Maximum number of AGM / Landen levels. AGM(1, b) with b ≥ √(min positive f64) reaches the
 /// tolerance in at most ~14 steps; the cap only guards against an infinite loop.
@@ -252,7 +252,9 @@ pub fn ellipkm1(m1: f64) -> f64 {
 /// integral R_F computed by duplication (DLMF 19.36.1; Carlson 1995, Numer. Algorithms 10,
 /// 13–26); 1 − m sin²φ is formed as cos²φ + (1 − m) sin²φ when m > ½ to avoid cancellation
 /// near m = 1, φ = π/2. Other φ are reduced by F(φ + nπ | m) = F(φ | m) + 2nK(m)
-/// (A&S 17.4.3), with φ − nπ taken in double-double.
+/// (A&S 17.4.3), with φ − nπ in double-double and its low part carried to first order, so
+/// the steep regions near odd multiples of π/2 (F′ = 1/√(1 − m sin²φ) ≫ 1 as m → 1) keep
+/// full accuracy. For m = 1, F = arsinh(tan φ) directly.
 ///
 /// F is odd in φ; F(φ | 0) = φ; F(φ | 1) = artanh(sin φ) = gd⁻¹ φ for |φ| < π/2 and ±∞
 /// beyond. Relative error is a few ulp (tested ≤ 1·10⁻¹⁵ against quadrature).
@@ -269,11 +271,34 @@ pub fn ellipf(phi: f64, m: f64) -> f64 {
     if !phi.is_finite() || !(0.0..=1.0).contains(&m) {
         return f64::NAN;
     }
-    let n = (phi / PI).round();
-    // r = φ − nπ, |r| ≤ π/2 (up to rounding), with π in double-double.
-    let r = (-n).mul_add(PI, phi) - n * PI_LO;
+    if m == 1.0 {
+        // F(φ | 1) = gd⁻¹ φ = arsinh(tan φ) for |φ| < π/2 (A&S 17.4.21), infinite beyond.
+        return if phi.abs() < FRAC_PI_2 {
+            phi.tan().asinh()
+        } else {
+            f64::INFINITY.copysign(phi)
+        };
+    }
+    // φ = nπ + r with |r| ≤ π/2 (A&S 17.4.3: F(φ + nπ) = F(φ) + 2nK). For n ≠ 0, r is
+    // formed in double-double, r = r_hi + r_lo, and F(r) = F(r_hi) + r_lo/Δ(r_hi) to first
+    // order; that keeps full accuracy where F′ = 1/Δ is large (m → 1, r → ±π/2).
+    // (|φ| ≤ π/2 is kept as is: `FRAC_PI_2` < π/2, and the tie φ/π = ½ would round away.)
+    let n = if phi.abs() <= FRAC_PI_2 {
+        0.0
+    } else {
+        (phi / PI).round()
+    };
+    let (r, r_lo) = if n == 0.0 {
+        (phi, 0.0)
+    } else {
+        let p = n * PI;
+        let p_lo = n.mul_add(PI, -p) + n * PI_LO;
+        let (d, d_lo) = two_sum(phi, -p);
+        two_sum(d, d_lo - p_lo)
+    };
     let (s, c) = r.sin_cos();
-    let (c2, s2) = (c * c, s * s);
+    let (s2, c2) = (s * s, c * c);
+    // Δ² = 1 − m sin²r, as cos²r + (1 − m) sin²r when m > ½ (no cancellation near m = 1).
     let delta2 = if m > 0.5 {
         (1.0 - m).mul_add(s2, c2)
     } else {
@@ -282,10 +307,11 @@ pub fn ellipf(phi: f64, m: f64) -> f64 {
     let f = s * carlson_rf(c2, delta2, 1.0);
     if n == 0.0 {
         f
-    } else if m == 1.0 {
-        f64::INFINITY.copysign(phi)
     } else {
-        (2.0 * n).mul_add(ellipk(m), f)
+        // K in double-double: 2nK + F(r) then has a single rounding.
+        let (m1, m1_lo) = two_sum(1.0, -m);
+        let (k, k_lo) = complete_k_dd(m1, m1_lo);
+        (2.0 * n).mul_add(k, (2.0 * n).mul_add(k_lo, f + r_lo / delta2.sqrt()))
     }
 }
 
@@ -293,7 +319,12 @@ pub fn ellipf(phi: f64, m: f64) -> f64 {
 fn jacobi(u: f64, m: f64, m1: f64, m1_lo: f64) -> Jacobi {
     if m == 0.0 && m1_lo == 0.0 && m1 == 1.0 {
         let (sn, cn) = u.sin_cos();
-        return Jacobi { sn, cn, dn: 1.0, am: u };
+        return Jacobi {
+            sn,
+            cn,
+            dn: 1.0,
+            am: u,
+        };
     }
     if m1 == 0.0 {
         // m = 1: sn = tanh u, cn = dn = sech u, am = gd u (A&S 16.15).
@@ -367,15 +398,21 @@ fn branch(theta: f64, near: f64) -> f64 {
 
 /// K(1 − (m1 + m1_lo)) for 0 ≤ m1 ≤ 1.
 fn complete_k(m1: f64, m1_lo: f64) -> f64 {
+    let (k, k_lo) = complete_k_dd(m1, m1_lo);
+    k + k_lo
+}
+
+/// K(1 − (m1 + m1_lo)) = k + k_lo (unnormalised double-double) for 0 ≤ m1 ≤ 1.
+fn complete_k_dd(m1: f64, m1_lo: f64) -> (f64, f64) {
     if m1 == 0.0 && m1_lo == 0.0 {
-        return f64::INFINITY;
+        return (f64::INFINITY, 0.0);
     }
     let chain = Agm::new(m1, m1_lo);
     let (mh, ml) = (chain.mean, chain.mean_lo);
     // K = (π/2)/M with π/2 and M in double-double and one correction step.
     let q = FRAC_PI_2 / mh;
     let r = (-q).mul_add(mh, FRAC_PI_2) + FRAC_PI_2_LO - q * ml;
-    q + r / mh
+    (q, r / mh)
 }
 
 /// The AGM chain a₀ = 1, b₀ = √m₁, aₙ₊₁ = (aₙ + bₙ)/2, bₙ₊₁ = √(aₙbₙ) (A&S 17.6.1) up to the
@@ -471,7 +508,8 @@ fn carlson_rf(x: f64, y: f64, z: f64) -> f64 {
     let e2 = xx * yy - zz * zz;
     let e3 = xx * yy * zz;
     // DLMF 19.36.1, through the terms of total degree 7 in (X, Y, Z).
-    let poly = 1.0 - e2 / 10.0 + e3 / 14.0 + e2 * e2 / 24.0 - 3.0 * e2 * e3 / 44.0
+    let poly = 1.0 - e2 / 10.0 + e3 / 14.0 + e2 * e2 / 24.0
+        - 3.0 * e2 * e3 / 44.0
         - 5.0 * e2 * e2 * e2 / 208.0
         + 3.0 * e3 * e3 / 104.0
         + e2 * e2 * e3 / 16.0;

@@ -22,10 +22,7 @@ struct Dd {
 
 const ZERO: Dd = Dd { hi: 0.0, lo: 0.0 };
 /// π to ~32 digits.
-const PI_DD: Dd = Dd {
-    hi: PI,
-    lo: PI_LO,
-};
+const PI_DD: Dd = Dd { hi: PI, lo: PI_LO };
 
 fn quick_two_sum(a: f64, b: f64) -> Dd {
     let s = a + b;
@@ -216,7 +213,7 @@ fn compare(j: Jacobi, r: [Dd; 4], m: f64, u: f64, e: &mut MaxErr) {
 }
 
 /// Absolute tolerance for sn, cn, dn against the reference, for |u| ≤ 50, all m.
-const TOL_J: f64 = 1.5e-15;
+const TOL_J: f64 = 1e-15;
 /// Tolerance for am relative to max(1, |am|).
 const TOL_AM: f64 = 1e-15;
 
@@ -333,13 +330,13 @@ fn jacobi_pythagorean_identities() {
         assert!(j.dn >= (1.0 - m).sqrt() * (1.0 - 1e-15));
     }
     eprintln!("sn² + cn² − 1: {e1:.1e}; dn² + m sn² − 1: {e2:.1e}");
-    assert!(e1 <= 5e-16 && e2 <= 5e-16);
+    assert!(e1 <= 8e-16 && e2 <= 8e-16);
 }
 
 #[test]
 fn jacobi_derivatives_by_central_differences() {
     // Fourth-order central difference, h = 2⁻¹⁰: truncation h⁴|f⁽⁵⁾|/30 ≲ 10⁻¹², rounding
-    // ≈ 1.5 ε/h ≈ 3·10⁻¹³.
+    // ≈ 1.5 ε|f|/h ≈ 3·10⁻¹³·max(1, |f|) (|am| reaches 50).
     let h = 1.0 / 1024.0;
     let mut worst = 0.0f64;
     for (u, m) in grid() {
@@ -353,11 +350,12 @@ fn jacobi_derivatives_by_central_differences() {
             diff(|j| j.dn) + m * j.sn * j.cn,
             diff(|j| j.am) - j.dn,
         ];
-        for e in errs {
-            worst = worst.max(e.abs());
+        for (i, e) in errs.iter().enumerate() {
+            let scale = if i == 3 { j.am.abs().max(1.0) } else { 1.0 };
+            worst = worst.max(e.abs() / scale);
         }
     }
-    eprintln!("derivative identities (4th-order differences): {worst:.1e}");
+    eprintln!("derivative identities (4th-order differences), error / max(1, |f|): {worst:.1e}");
     assert!(worst <= 2e-12);
 }
 
@@ -387,7 +385,7 @@ fn jacobi_addition_theorem() {
         }
     }
     eprintln!("addition theorem, error × denominator: {worst:.1e}");
-    assert!(worst <= 4e-15);
+    assert!(worst <= 1.5e-15);
 }
 
 #[test]
@@ -399,17 +397,31 @@ fn jacobi_periods_and_quarter_period_values() {
         let kd = k_reference(m1);
         let k = kd.hi;
         let kp = m1.hi.sqrt(); // k′ = √(1 − m)
-        // sn(K) = 1, cn(K) = 0, dn(K) = k′ (A&S 16.5). K is rounded by kd.lo, and
-        // cn′(K) = −k′, so cn(K_f64) = k′·kd.lo to first order.
+                               // sn(K) = 1, cn(K) = 0, dn(K) = k′ (A&S 16.5). K is rounded by kd.lo, and
+                               // cn′(K) = −k′, so cn(K_f64) = k′·kd.lo to first order.
         let j = ellipj(k, m);
         assert!((j.sn - 1.0).abs() <= 2.3e-16, "sn(K) = {} at m = {m}", j.sn);
-        assert!((j.cn - kp * kd.lo).abs() <= 3e-16, "cn(K) = {} at m = {m}", j.cn);
+        assert!(
+            (j.cn - kp * kd.lo).abs() <= 3e-16,
+            "cn(K) = {} at m = {m}",
+            j.cn
+        );
         assert!((j.dn - kp).abs() <= 3e-16, "dn(K) = {} at m = {m}", j.dn);
         assert!((j.am - FRAC_PI_2).abs() <= 3e-16);
-        // sn(2K) = 0, cn(2K) = −1, dn(2K) = 1, am(2K) = π.
+        // sn(2K) = 0, cn(2K) = −1, dn(2K) = 1, am(2K) = π; sn′(2K) = −1 and 2K is rounded
+        // by 2·kd.lo, so sn(2K_f64) = 2·kd.lo to first order.
         let j = ellipj(2.0 * k, m);
-        assert!(j.sn.abs() <= 3e-16 && (j.cn + 1.0).abs() <= 3e-16);
-        assert!((j.dn - 1.0).abs() <= 3e-16 && (j.am - PI).abs() <= 1e-15);
+        assert!(
+            (j.sn - 2.0 * kd.lo).abs() <= 3e-16,
+            "sn(2K) = {} at m = {m}",
+            j.sn
+        );
+        assert!((j.cn + 1.0).abs() <= 3e-16);
+        // am′(2K) = 1 = −sn′(2K): am(2K_f64) − π = −sn(2K_f64) to first order.
+        assert!(
+            (j.dn - 1.0).abs() <= 3e-16 && (j.am - PI + j.sn).abs() <= 5e-16,
+            "{j:?}"
+        );
         // Periods: sn, cn have period 4K, dn has 2K (A&S 16.2); am(u + 2K) = am(u) + π.
         for i in 0..40 {
             let u = -7.0 + 0.351 * i as f64;
@@ -464,8 +476,10 @@ fn jacobi_limits() {
             .max((j.dn - (sech + wp * t * sech)).abs())
             .max((j.am - (2.0 * (0.5 * u).tanh().atan() + w * sech)).abs());
     }
-    eprintln!("m = 1e-12 vs first-order in m: {e0:.1e}; m = 1 − 1e-12 vs first-order in m₁: {e1:.1e}");
-    assert!(e0 <= 4e-16 && e1 <= 6e-16);
+    eprintln!(
+        "m = 1e-12 vs first-order in m: {e0:.1e}; m = 1 − 1e-12 vs first-order in m₁: {e1:.1e}"
+    );
+    assert!(e0 <= 5e-16 && e1 <= 1e-15);
 }
 
 #[test]
@@ -476,7 +490,9 @@ fn jacobi_small_argument_series_joins_landen() {
             let j = ellipj(u, m);
             let (s, c, d) = (j.sn, j.cn, j.dn);
             assert!((s - u).abs() <= u * u * u * (1.0 + m) / 6.0 * 1.000_001 + 1e-19);
-            assert!((c * c + s * s - 1.0).abs() <= 3e-16 && (d * d + m * s * s - 1.0).abs() <= 3e-16);
+            assert!(
+                (c * c + s * s - 1.0).abs() <= 3e-16 && (d * d + m * s * s - 1.0).abs() <= 3e-16
+            );
         }
     }
     let j = ellipj(1e-300, 0.5);
@@ -586,9 +602,15 @@ fn ellipk_matches_double_double_agm() {
             check(ellipk(m), k_reference(Dd::new(1.0) - Dd::new(m)));
         }
     }
-    check(ellipkm1(f64::MIN_POSITIVE), k_reference(Dd::new(f64::MIN_POSITIVE)));
+    check(
+        ellipkm1(f64::MIN_POSITIVE),
+        k_reference(Dd::new(f64::MIN_POSITIVE)),
+    );
     check(ellipkm1(5e-324), k_reference(Dd::new(5e-324)));
-    check(ellipk(1.0 - f64::EPSILON / 2.0), k_reference(Dd::new(f64::EPSILON / 2.0)));
+    check(
+        ellipk(1.0 - f64::EPSILON / 2.0),
+        k_reference(Dd::new(f64::EPSILON / 2.0)),
+    );
     eprintln!("K relative error vs double-double AGM: {worst:.1e}");
     assert!(worst <= 2.5e-16);
 }
@@ -621,18 +643,17 @@ fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
 
 /// ∫₀^φ dθ/√(1 − m sin²θ) by 20-point Gauss–Legendre on `panels` equal panels.
 fn f_quadrature(phi: f64, m: f64, rule: &[(f64, f64)], panels: usize) -> f64 {
+    // Accumulated in double-double so that the sum's rounding stays below the test tolerance.
     let h = phi / panels as f64;
-    let mut sum = 0.0;
+    let mut sum = ZERO;
     for p in 0..panels {
         let mid = (p as f64 + 0.5) * h;
-        let mut s = 0.0;
         for &(x, w) in rule {
-            let t = mid + 0.5 * h * x;
-            s += w / (1.0 - m * t.sin().powi(2)).sqrt();
+            let t = (0.5 * h).mul_add(x, mid);
+            sum = sum + Dd::new(0.5 * h * w / (-m * t.sin().powi(2)).mul_add(1.0, 1.0).sqrt());
         }
-        sum += 0.5 * h * s;
     }
-    sum
+    sum.hi
 }
 
 #[test]
@@ -644,10 +665,16 @@ fn ellipf_matches_quadrature() {
             let phi = 0.1 * i as f64 + 0.013;
             let q = f_quadrature(phi, m, &rule, 64);
             let f = ellipf(phi, m);
-            worst = worst.max((f - q).abs() / q.abs().max(1e-300));
+            worst = worst.max((f - q).abs() / q.abs());
         }
-        // F(π/2 | m) = K(m) (A&S 17.2.7 with φ = π/2, up to π/2's rounding).
-        assert!((ellipf(FRAC_PI_2, m) - ellipk(m)).abs() <= 4e-16 * ellipk(m));
+        // F(π/2 | m) = K(m) (A&S 17.3.1); `FRAC_PI_2` is π/2 − FRAC_PI_2_LO, and F′(π/2) =
+        // 1/√(1 − m), so F(FRAC_PI_2) = K − FRAC_PI_2_LO/√(1 − m) to first order.
+        let expected = ellipk(m) - FRAC_PI_2_LO / (1.0 - m).sqrt();
+        assert!(
+            (ellipf(FRAC_PI_2, m) - expected).abs() <= 4.5e-16 * expected,
+            "m = {m}: {} vs {expected}",
+            ellipf(FRAC_PI_2, m)
+        );
     }
     eprintln!("F vs Gauss–Legendre quadrature, relative: {worst:.1e}");
     assert!(worst <= 1e-15);
@@ -700,10 +727,14 @@ fn amplitude_inverts_ellipf() {
     }
     eprintln!("am(F(φ)) − φ: {worst:.1e}");
     assert!(worst <= 1e-15);
-    // F(φ | 1) = artanh(sin φ), F(φ | 0) = φ.
-    for i in -30..=30 {
+    // F(φ | 1) = artanh(sin φ), F(φ | 0) = φ. The reference artanh(sin φ) itself carries
+    // an error up to ε·|sin φ|/cos²φ from rounding sin φ.
+    for i in -31..=31 {
         let phi = 0.05 * i as f64;
-        assert!((ellipf(phi, 1.0) - phi.sin().atanh()).abs() <= 1e-15 * phi.sin().atanh().abs().max(1.0));
+        let (s, c) = phi.sin_cos();
+        let exact = s.atanh();
+        let tol = 2.0 * f64::EPSILON * (exact.abs() + s.abs() / (c * c));
+        assert!((ellipf(phi, 1.0) - exact).abs() <= tol, "F({phi} | 1)");
         assert!((ellipf(phi, 0.0) - phi).abs() <= 2.0 * f64::EPSILON * phi.abs());
     }
 }
