@@ -481,9 +481,9 @@ fn sqrt_dd(hi: f64, lo: f64) -> (f64, f64) {
 const RF_Q: f64 = 380.0;
 
 /// Carlson's symmetric integral R_F(x, y, z) = ½∫₀^∞ dt / √((t+x)(t+y)(t+z)) for
-/// x, y, z ≥ 0 with at most one zero (DLMF 19.16.1), by duplication (DLMF 19.36.1).
+/// x, y ≥ 0 and z > 0 (DLMF 19.16.1), by duplication (DLMF 19.36.1); R_F(0, 0, z) = +∞.
 fn carlson_rf(x: f64, y: f64, z: f64) -> f64 {
-    if (x == 0.0 && y == 0.0) || (y == 0.0 && z == 0.0) || (x == 0.0 && z == 0.0) {
+    if x == 0.0 && y == 0.0 {
         return f64::INFINITY;
     }
     let a0 = (x + y + z) / 3.0;
