@@ -738,3 +738,65 @@ fn amplitude_inverts_ellipf() {
         assert!((ellipf(phi, 0.0) - phi).abs() <= 2.0 * f64::EPSILON * phi.abs());
     }
 }
+
+#[test]
+fn jacobi_error_does_not_grow_with_argument() {
+    // Out to u = 1000 (≈ 540 quarter periods at m = ½): the scaled argument u·π/(2K) is
+    // formed in double-double, so the error stays at the rounding level of the result.
+    let n = (1000.0 / H) as usize;
+    for m in [0.5, 0.99, 1.0 - 1e-12] {
+        let traj = trajectory(Dd::new(m), n);
+        let mut e = MaxErr {
+            sn: 0.0,
+            cn: 0.0,
+            dn: 0.0,
+            am: 0.0,
+            at: (0.0, 0.0),
+        };
+        for (i, r) in traj.iter().enumerate().skip(n / 2) {
+            let u = i as f64 * H;
+            compare(ellipj(u, m), *r, m, u, &mut e);
+            if i % 16 == 3 {
+                // an argument off the grid: u + 0.1 (rounded; the reference takes it exactly)
+                let v = u + 0.1;
+                compare(
+                    ellipj(v, m),
+                    reference_at(&traj, Dd::new(m), v),
+                    m,
+                    v,
+                    &mut e,
+                );
+            }
+        }
+        eprintln!(
+            "m = {m:e}, 500 ≤ u ≤ 1000: max |Δsn| {:.1e}, |Δcn| {:.1e}, |Δdn| {:.1e}, |Δam|/am {:.1e}",
+            e.sn, e.cn, e.dn, e.am
+        );
+        assert!(e.sn.max(e.cn).max(e.dn) <= TOL_J && e.am <= TOL_AM);
+    }
+}
+
+#[test]
+fn jacobi_huge_arguments_stay_finite_and_consistent() {
+    // Beyond |u| ~ 10⁸ the half-ulp uncertainty of u exceeds 10⁻⁸ and values are only
+    // "some point on the orbit", but they must still satisfy the identities and be finite.
+    for (m, _) in parameters() {
+        for u in [1e4, 1e8, 1e12, 1e15, 1e100, 1e300, f64::MAX] {
+            for u in [u, -u] {
+                let j = ellipj(u, m);
+                assert!(
+                    j.sn.is_finite() && j.cn.is_finite() && j.dn.is_finite() && j.am.is_finite()
+                );
+                assert!(
+                    (j.sn * j.sn + j.cn * j.cn - 1.0).abs() <= 8e-16,
+                    "{u} {m} {j:?}"
+                );
+                assert!(
+                    (j.dn * j.dn + m * j.sn * j.sn - 1.0).abs() <= 8e-16,
+                    "{u} {m} {j:?}"
+                );
+            }
+        }
+        assert!(ellipf(1e300, m).is_finite() || m == 1.0);
+    }
+}
