@@ -3,11 +3,11 @@
 //! # Parameter convention: m = k²
 //!
 //! **Every function here takes the *parameter* m = k², not the modulus k**, as Abramowitz &
-//! Stegun ch. 16–17 (A&S 16.1.1: sn(u|m)), DLMF §22.1 (where k² is written out), MATLAB's
-//! `ellipj(u, m)`/`ellipke(m)` and SciPy's `ellipj(u, m)`/`ellipk(m)` do. Texts that write
-//! sn(u, k) — Byrd & Friedman, Lawden, much of the mechanics literature and the SO(3)
-//! optimal-control thesis this crate serves — mean sn(u | m = k²): call `ellipj(u, k * k)`.
-//! The complementary parameter is m₁ = 1 − m = k′² (A&S 16.1.1, 17.2.18).
+//! Stegun ch. 16–17 (sn(u | m), F(φ | m), K(m)), MATLAB's `ellipj(u, m)`/`ellipke(m)` and
+//! SciPy's `ellipj(u, m)`/`ellipk(m)` do. DLMF ch. 19 and 22, Byrd & Friedman, Lawden, much
+//! of the mechanics literature and the SO(3) optimal-control thesis this crate serves write
+//! the modulus instead: their sn(u, k) is sn(u | m = k²) here — call `ellipj(u, k * k)`.
+//! The complementary parameter is m₁ = 1 − m = k′² (A&S 16.1, 17.2).
 //!
 //! | function | value | method |
 //! |---|---|---|
@@ -24,7 +24,7 @@
 //! are hot-path kernels, so instead of a `Result` they return **NaN** (in every field, for
 //! [`ellipj`]) when the parameter is outside [0, 1], or any input is NaN or infinite. K(1) and
 //! F(φ \| 1) for |φ| ≥ π/2 are +∞ (signed like φ), which are the correct limits, not errors.
-//! Parameters m < 0 or m > 1 are meaningful mathematically (A&S 16.10, 16.11, 17.4.15–18)
+//! Parameters m < 0 or m > 1 are meaningful mathematically (A&S 16.10–16.11, 17.4)
 //! but are not needed here and are rejected rather than silently mis-evaluated.
 //!
 //! # Accuracy
@@ -72,7 +72,7 @@ const SERIES_U: f64 = 1.0 / 1024.0;
 /// by [`ellipj`] and [`ellipj_m1`].
 ///
 /// am = am(u | m) is the continuous, increasing branch with sn = sin am, cn = cos am,
-/// am(0) = 0 and am(u + 2K) = am(u) + π (A&S 16.1.4–5); dn = √(1 − m sn²) ≥ 0.
+/// am(0) = 0 and am(u + 2K) = am(u) + π (A&S 16.1); dn = √(1 − m sn²) ≥ 0.
 ///
 /// The nine remaining functions are Glaisher's quotients pq = pr/qr with n ≡ 1
 /// (A&S 16.3; DLMF 22.2.10): `j.sc()` = sn/cn, `j.ns()` = 1/sn, and so on. They follow IEEE
@@ -80,13 +80,13 @@ const SERIES_U: f64 = 1.0 / 1024.0;
 /// denominator vanishes, e.g. `ns` at u = 0 and `sc`, `dc`, `nc` at odd multiples of K.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Jacobi {
-    /// sn(u | m) = sin am(u | m) (A&S 16.1.5).
+    /// sn(u | m) = sin am(u | m) (A&S 16.1).
     pub sn: f64,
-    /// cn(u | m) = cos am(u | m) (A&S 16.1.5).
+    /// cn(u | m) = cos am(u | m) (A&S 16.1).
     pub cn: f64,
-    /// dn(u | m) = √(1 − m sn²(u | m)) (A&S 16.1.5).
+    /// dn(u | m) = √(1 − m sn²(u | m)) (A&S 16.1).
     pub dn: f64,
-    /// The amplitude am(u | m) = φ with F(φ | m) = u (A&S 16.1.4; DLMF 22.16.1).
+    /// The amplitude am(u | m) = φ with F(φ | m) = u (A&S 16.1; DLMF §22.16).
     pub am: f64,
 }
 
@@ -99,47 +99,47 @@ impl Jacobi {
         am: f64::NAN,
     };
 
-    /// ns = 1/sn (A&S 16.3.1).
+    /// ns = 1/sn (A&S 16.3).
     #[inline]
     pub fn ns(&self) -> f64 {
         1.0 / self.sn
     }
-    /// nc = 1/cn (A&S 16.3.1).
+    /// nc = 1/cn (A&S 16.3).
     #[inline]
     pub fn nc(&self) -> f64 {
         1.0 / self.cn
     }
-    /// nd = 1/dn (A&S 16.3.1).
+    /// nd = 1/dn (A&S 16.3).
     #[inline]
     pub fn nd(&self) -> f64 {
         1.0 / self.dn
     }
-    /// sc = sn/cn (A&S 16.3.2).
+    /// sc = sn/cn (A&S 16.3).
     #[inline]
     pub fn sc(&self) -> f64 {
         self.sn / self.cn
     }
-    /// sd = sn/dn (A&S 16.3.3).
+    /// sd = sn/dn (A&S 16.3).
     #[inline]
     pub fn sd(&self) -> f64 {
         self.sn / self.dn
     }
-    /// cs = cn/sn (A&S 16.3.2).
+    /// cs = cn/sn (A&S 16.3).
     #[inline]
     pub fn cs(&self) -> f64 {
         self.cn / self.sn
     }
-    /// cd = cn/dn (A&S 16.3.1).
+    /// cd = cn/dn (A&S 16.3).
     #[inline]
     pub fn cd(&self) -> f64 {
         self.cn / self.dn
     }
-    /// ds = dn/sn (A&S 16.3.3).
+    /// ds = dn/sn (A&S 16.3).
     #[inline]
     pub fn ds(&self) -> f64 {
         self.dn / self.sn
     }
-    /// dc = dn/cn (A&S 16.3.1).
+    /// dc = dn/cn (A&S 16.3).
     #[inline]
     pub fn dc(&self) -> f64 {
         self.dn / self.cn
@@ -154,10 +154,10 @@ impl Jacobi {
 /// sn′ = cn dn, cn′ = −sn dn, dn′ = −m sn cn with sn(0) = 0, cn(0) = dn(0) = 1.
 ///
 /// Method:
-/// - m = 0: sin u, cos u, 1, u (A&S 16.13); m = 1: tanh u, sech u, sech u, gd u (A&S 16.15).
-/// - |u| < 2⁻¹⁰: Maclaurin series through u⁵ (A&S 16.22.1–4), exact to rounding there.
+/// - m = 0: sin u, cos u, 1, u; m = 1: tanh u, sech u, sech u, gd u (A&S 16.6).
+/// - |u| < 2⁻¹⁰: Maclaurin series through u⁵ (A&S 16.22), exact to rounding there.
 /// - otherwise the descending Gauss (Landen) transformation driven by the AGM
-///   (A&S 16.4, 16.12; DLMF 22.7.1, 22.20) in Bulirsch's cotangent form (Bulirsch 1965,
+///   (A&S 16.4, 16.12; DLMF §22.7, §22.20) in Bulirsch's cotangent form (Bulirsch 1965,
 ///   Numer. Math. 7, 78–90, as `sncndn` in Numerical Recipes): the AGM of (1, √(1 − m))
 ///   gives M = π/(2K); sin and cos of the scaled argument u·M are carried back through the
 ///   transformations with quotients of positive terms only, so no cancellation occurs near
@@ -191,7 +191,7 @@ pub fn ellipj(u: f64, m: f64) -> Jacobi {
 }
 
 /// Jacobi elliptic functions of (u | m) with the parameter given through its complement
-/// m₁ = 1 − m (A&S 16.1.1), 0 ≤ m₁ ≤ 1: `ellipj_m1(u, m1)` = `ellipj(u, 1 - m1)`, but exact
+/// m₁ = 1 − m (A&S 16.1), 0 ≤ m₁ ≤ 1: `ellipj_m1(u, m1)` = `ellipj(u, 1 - m1)`, but exact
 /// when m is within rounding of 1 (e.g. m₁ = 10⁻²⁰, where `1.0 - m1 == 1.0`).
 ///
 /// The algorithm depends on m only through m₁ (see [`ellipj`]), so nothing is lost.
@@ -210,10 +210,10 @@ pub fn ellipj_m1(u: f64, m1: f64) -> Jacobi {
 }
 
 /// Complete elliptic integral of the first kind, **parameter m = k²**:
-/// K(m) = F(π/2 | m) = ∫₀^{π/2} dθ / √(1 − m sin²θ) (A&S 17.3.1; DLMF 19.2.8), 0 ≤ m ≤ 1.
+/// K(m) = F(π/2 | m) = ∫₀^{π/2} dθ / √(1 − m sin²θ) (A&S 17.3; DLMF 19.2.8), 0 ≤ m ≤ 1.
 ///
 /// Computed as K = π / (2 M(1, √(1 − m))) with M the arithmetic–geometric mean
-/// (A&S 17.6; DLMF 19.8.5), run with first-order error terms and a compensated final
+/// (A&S 17.6; DLMF §19.8), run with first-order error terms and a compensated final
 /// division, so the relative error is at most about one ulp (measured 1.1·10⁻¹⁶). K(0) = π/2 and K(1) = +∞; near m = 1,
 /// K ≈ ½ ln(16/(1 − m)) and 1 − m is exact in `f64` for m ≥ ½, so K is accurate right up to
 /// the last `f64` below 1. For parameters closer to 1 than that use [`ellipkm1`].
@@ -235,10 +235,10 @@ pub fn ellipk(m: f64) -> f64 {
 }
 
 /// Complete elliptic integral of the first kind as a function of the complementary parameter:
-/// `ellipkm1(m1)` = K(1 − m₁) = K′(m₁) (A&S 17.1.5, 17.2.18; SciPy's `ellipkm1`), 0 ≤ m₁ ≤ 1.
+/// `ellipkm1(m1)` = K(1 − m₁) = K′(m₁) (A&S 17.3; SciPy's `ellipkm1`), 0 ≤ m₁ ≤ 1.
 ///
 /// K(1 − m₁) = π / (2 M(1, √m₁)), evaluated from m₁ itself, so it keeps full relative accuracy
-/// as m₁ → 0 (K → ½ ln(16/m₁), A&S 17.3.26) even where 1 − m₁ rounds to 1. Equally, it is
+/// as m₁ → 0 (K → ½ ln(16/m₁), A&S 17.3) even where 1 − m₁ rounds to 1. Equally, it is
 /// the complementary integral K′(m) = K(1 − m) of a small parameter m. `ellipkm1(0)` = +∞.
 ///
 /// Returns NaN if m₁ ∉ [0, 1] or m₁ is NaN.
@@ -257,14 +257,14 @@ pub fn ellipkm1(m1: f64) -> f64 {
 }
 
 /// Incomplete elliptic integral of the first kind, **parameter m = k²**:
-/// F(φ | m) = ∫₀^φ dθ / √(1 − m sin²θ) (A&S 17.2.7; DLMF 19.2.4), 0 ≤ m ≤ 1, any finite φ.
+/// F(φ | m) = ∫₀^φ dθ / √(1 − m sin²θ) (A&S 17.2; DLMF 19.2.4), 0 ≤ m ≤ 1, any finite φ.
 ///
-/// The inverse of the amplitude: am(F(φ | m) | m) = φ (A&S 16.1.4). For |φ| ≤ π/2,
+/// The inverse of the amplitude: am(F(φ | m) | m) = φ (A&S 16.1). For |φ| ≤ π/2,
 /// F(φ | m) = sin φ · R_F(cos²φ, 1 − m sin²φ, 1) (DLMF 19.25.5) with Carlson's symmetric
 /// integral R_F computed by duplication (DLMF 19.36.1; Carlson 1995, Numer. Algorithms 10,
 /// 13–26); 1 − m sin²φ is formed as cos²φ + (1 − m) sin²φ when m > ½ to avoid cancellation
 /// near m = 1, φ = π/2. Other φ are reduced by F(φ + nπ | m) = F(φ | m) + 2nK(m)
-/// (A&S 17.4.3), with φ − nπ in double-double and its low part carried to first order, so
+/// (A&S 17.4), with φ − nπ in double-double and its low part carried to first order, so
 /// the steep regions near odd multiples of π/2 (F′ = 1/√(1 − m sin²φ) ≫ 1 as m → 1) keep
 /// full accuracy. For m = 1, F = arsinh(tan φ) directly.
 ///
@@ -285,14 +285,14 @@ pub fn ellipf(phi: f64, m: f64) -> f64 {
         return f64::NAN;
     }
     if m == 1.0 {
-        // F(φ | 1) = gd⁻¹ φ = arsinh(tan φ) for |φ| < π/2 (A&S 17.4.21), infinite beyond.
+        // F(φ | 1) = ∫ dθ/cos θ = gd⁻¹ φ = arsinh(tan φ) for |φ| < π/2, infinite beyond.
         return if phi.abs() < FRAC_PI_2 {
             phi.tan().asinh()
         } else {
             f64::INFINITY.copysign(phi)
         };
     }
-    // φ = nπ + r with |r| ≤ π/2 (A&S 17.4.3: F(φ + nπ) = F(φ) + 2nK). For n ≠ 0, r is
+    // φ = nπ + r with |r| ≤ π/2 (A&S 17.4: F(φ + nπ) = F(φ) + 2nK). For n ≠ 0, r is
     // formed in double-double, r = r_hi + r_lo, and F(r) = F(r_hi) + r_lo/Δ(r_hi) to first
     // order; that keeps full accuracy where F′ = 1/Δ is large (m → 1, r → ±π/2).
     // (|φ| ≤ π/2 is kept as is: `FRAC_PI_2` < π/2, and the tie φ/π = ½ would round away.)
@@ -340,7 +340,7 @@ fn jacobi(u: f64, m: f64, m1: f64, m1_lo: f64) -> Jacobi {
         };
     }
     if m1 == 0.0 {
-        // m = 1: sn = tanh u, cn = dn = sech u, am = gd u (A&S 16.15).
+        // m = 1: sn = tanh u, cn = dn = sech u, am = gd u (A&S 16.6).
         let sn = u.tanh();
         let cn = 1.0 / u.cosh();
         return Jacobi {
@@ -351,7 +351,7 @@ fn jacobi(u: f64, m: f64, m1: f64, m1_lo: f64) -> Jacobi {
         };
     }
     if u.abs() < SERIES_U {
-        // A&S 16.22.1–4; the first neglected terms are below 10⁻¹⁹ relative.
+        // A&S 16.22; the first neglected terms are below 10⁻¹⁹ relative.
         let u2 = u * u;
         let sn = u * (1.0 - u2 * ((1.0 + m) / 6.0 - u2 * (1.0 + m * (14.0 + m)) / 120.0));
         let cn = 1.0 - u2 * (0.5 - u2 * (1.0 + 4.0 * m) / 24.0);
@@ -428,7 +428,7 @@ fn complete_k_dd(m1: f64, m1_lo: f64) -> (f64, f64) {
     (q, r / mh)
 }
 
-/// The AGM chain a₀ = 1, b₀ = √m₁, aₙ₊₁ = (aₙ + bₙ)/2, bₙ₊₁ = √(aₙbₙ) (A&S 17.6.1) up to the
+/// The AGM chain a₀ = 1, b₀ = √m₁, aₙ₊₁ = (aₙ + bₙ)/2, bₙ₊₁ = √(aₙbₙ) (A&S 17.6) up to the
 /// first level with |aₙ − bₙ| ≤ `AGM_TOL`·aₙ, plus the mean M(1, √m₁) = aₙ₊₁ in double-double
 /// (first-order error terms are propagated alongside every step).
 struct Agm {
@@ -490,7 +490,7 @@ fn sqrt_dd(hi: f64, lo: f64) -> (f64, f64) {
 
 /// (3u)^(−1/6) for u = 2⁻⁵³, rounded up: Carlson's duplication stops when the spread of the
 /// arguments, scaled by this, is below their mean; the truncated series is then exact to
-/// rounding (Carlson 1995, eq. 2.2 ff.).
+/// rounding (Carlson 1995).
 const RF_Q: f64 = 380.0;
 
 /// Carlson's symmetric integral R_F(x, y, z) = ½∫₀^∞ dt / √((t+x)(t+y)(t+z)) for
