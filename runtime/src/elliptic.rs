@@ -22,8 +22,9 @@
 //!
 //! All functions accept 0 ≤ m ≤ 1 (including both ends exactly) and finite arguments. They
 //! are hot-path kernels, so instead of a `Result` they return **NaN** (in every field, for
-//! [`ellipj`]) when the parameter is outside [0, 1], or any input is NaN or infinite. K(1) and
-//! F(φ \| 1) for |φ| ≥ π/2 are +∞ (signed like φ), which are the correct limits, not errors.
+//! [`ellipj`]) when the parameter is outside [0, 1], or any input is NaN or infinite. K(1) = +∞
+//! and F(φ \| 1) = ±∞ (signed like φ) for |φ| > π/2 — every `f64` above `FRAC_PI_2`, which
+//! is itself just below π/2 — are the correct values, not errors.
 //! Parameters m < 0 or m > 1 are meaningful mathematically (A&S 16.10–16.11, 17.4)
 //! but are not needed here and are rejected rather than silently mis-evaluated.
 //!
@@ -269,7 +270,7 @@ pub fn ellipkm1(m1: f64) -> f64 {
 /// full accuracy. For m = 1, F = arsinh(tan φ) directly.
 ///
 /// F is odd in φ; F(φ | 0) = φ; F(φ | 1) = artanh(sin φ) = gd⁻¹ φ for |φ| < π/2 and ±∞
-/// beyond. Relative error is a few ulp (measured ≤ 7.5·10⁻¹⁶ against quadrature and against
+/// beyond (F(`FRAC_PI_2` | 1) ≈ 38.1 is finite: `FRAC_PI_2` < π/2). Relative error is a few ulp (measured ≤ 7.5·10⁻¹⁶ against quadrature and against
 /// the inverse of a double-double am).
 ///
 /// Returns NaN if m ∉ [0, 1] or φ or m is not finite.
@@ -286,7 +287,8 @@ pub fn ellipf(phi: f64, m: f64) -> f64 {
     }
     if m == 1.0 {
         // F(φ | 1) = ∫ dθ/cos θ = gd⁻¹ φ = arsinh(tan φ) for |φ| < π/2, infinite beyond.
-        return if phi.abs() < FRAC_PI_2 {
+        // `FRAC_PI_2` itself is just below π/2: finite (≈ 38.1).
+        return if phi.abs() <= FRAC_PI_2 {
             phi.tan().asinh()
         } else {
             f64::INFINITY.copysign(phi)

@@ -727,6 +727,12 @@ fn amplitude_inverts_ellipf() {
     }
     eprintln!("am(F(φ)) − φ: {worst:.1e}");
     assert!(worst <= 1e-15);
+    // The f64 nearest π/2 lies below it; the next one above.
+    let above = f64::from_bits(FRAC_PI_2.to_bits() + 1);
+    assert_eq!(ellipf(FRAC_PI_2, 1.0), FRAC_PI_2.tan().asinh());
+    assert!((ellipf(FRAC_PI_2, 1.0) - (2.0 / FRAC_PI_2_LO).ln()).abs() < 1e-14);
+    assert_eq!(ellipf(above, 1.0), f64::INFINITY);
+    assert_eq!(ellipf(-above, 1.0), f64::NEG_INFINITY);
     // F(φ | 1) = artanh(sin φ), F(φ | 0) = φ. The reference artanh(sin φ) itself carries
     // an error up to ε·|sin φ|/cos²φ from rounding sin φ.
     for i in -31..=31 {
