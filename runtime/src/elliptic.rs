@@ -77,8 +77,10 @@ const SERIES_U: f64 = 1.0 / 1024.0;
 ///
 /// The nine remaining functions are Glaisher's quotients pq = pr/qr with n ≡ 1
 /// (A&S 16.3; DLMF 22.2.10): `j.sc()` = sn/cn, `j.ns()` = 1/sn, and so on. They follow IEEE
-/// division: a quotient is ±∞ (or NaN for 0/0, which cannot occur for valid input) where its
-/// denominator vanishes, e.g. `ns` at u = 0 and `sc`, `dc`, `nc` at odd multiples of K.
+/// division: a quotient is ±∞ where its denominator vanishes, e.g. `ns` at u = 0 (and `sc`,
+/// `dc`, `nc` are huge at odd multiples of K, where cn is K's rounding error). The only 0/0,
+/// giving NaN, is `cd` and `dc` at m = 1 for |u| > 745, where sech u underflows to 0 (their
+/// value there is 1).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Jacobi {
     /// sn(u | m) = sin am(u | m) (A&S 16.1).
@@ -195,7 +197,8 @@ pub fn ellipj(u: f64, m: f64) -> Jacobi {
 /// m₁ = 1 − m (A&S 16.1), 0 ≤ m₁ ≤ 1: `ellipj_m1(u, m1)` = `ellipj(u, 1 - m1)`, but exact
 /// when m is within rounding of 1 (e.g. m₁ = 10⁻²⁰, where `1.0 - m1 == 1.0`).
 ///
-/// The algorithm depends on m only through m₁ (see [`ellipj`]), so nothing is lost.
+/// The algorithm depends on m only through m₁ (see [`ellipj`]; the small-|u| series also uses
+/// the rounded 1 − m₁, which is harmless there), so nothing is lost.
 /// Returns [`Jacobi::NAN`] if m₁ ∉ [0, 1] or u or m₁ is not finite.
 ///
 /// ```
@@ -344,7 +347,13 @@ fn jacobi(u: f64, m: f64, m1: f64, m1_lo: f64) -> Jacobi {
     if m1 == 0.0 {
         // m = 1: sn = tanh u, cn = dn = sech u, am = gd u (A&S 16.6).
         let sn = u.tanh();
-        let cn = 1.0 / u.cosh();
+        // sech u = 2e^{−|u|}/(1 + e^{−2|u|}); past |u| = 20 the denominator is 1 to rounding,
+        // and this form stays nonzero (subnormal) up to |u| ≈ 745 where 1/cosh u is already 0.
+        let cn = if u.abs() < 20.0 {
+            1.0 / u.cosh()
+        } else {
+            2.0 * (-u.abs()).exp()
+        };
         return Jacobi {
             sn,
             cn,

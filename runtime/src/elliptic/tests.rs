@@ -447,6 +447,14 @@ fn jacobi_limits() {
         assert!((j.cn - 1.0 / u.cosh()).abs() <= 2e-16 && j.dn == j.cn);
         assert!((j.am - 2.0 * (0.5 * u).tanh().atan()).abs() <= 5e-16);
     }
+    // sech u underflows gracefully at m = 1: cd = cn/dn = 1 while sech u is representable.
+    let j = ellipj(740.0, 1.0);
+    assert!(j.cn > 0.0 && j.cd() == 1.0 && j.sn == 1.0);
+    // 1/cosh(720) = 0; sech 720 ≈ 2.4·10⁻³¹³ is subnormal, with ~36 significant bits.
+    let j = ellipj(-720.0, 1.0);
+    assert!(((-j.cn.ln()) - (720.0 - 2f64.ln())).abs() <= 1e-9);
+    let c = 1.0 / 30f64.cosh();
+    assert!((ellipj(30.0, 1.0).cn - c).abs() <= 2.0 * f64::EPSILON * c);
     // m → 0: A&S 16.13, error O(m²).
     let m = 1e-12;
     let mut e0 = 0.0f64;
