@@ -12,7 +12,9 @@
 //!   feedback integrator; [`gains`](crate::scaled_gains) selection ([`GainPolicy`],
 //!   [`AdaptiveGain`]);
 //! - [`Observer`]s ([`Recorder`] of states and invariant errors, [`Stride`], [`StopWhen`]) and
-//!   CSV [`write_csv`].
+//!   CSV [`write_csv`];
+//! - [`elliptic`]: Jacobi elliptic functions [`ellipj`] (sn, cn, dn, am; parameter m = k²) and
+//!   elliptic integrals of the first kind [`ellipk`], [`ellipf`].
 //!
 //! A feedback-Euler run of a model `m` with state `x0`, gains `k` and step `h`:
 //!
@@ -28,6 +30,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 mod driver;
+pub mod elliptic;
 mod error;
 mod feedback;
 mod field;
@@ -39,6 +42,7 @@ mod state;
 pub mod steppers;
 
 pub use driver::{integrate, Driver, GuardFn, Summary};
+pub use elliptic::{ellipf, ellipj, ellipj_m1, ellipk, ellipkm1, Jacobi};
 pub use error::StepError;
 pub use feedback::{default_lyapunov_gradient, expand_gains, FeedbackField};
 pub use field::{
