@@ -465,7 +465,7 @@ partitioned_model!(
     None
 );
 general_model!(CR3BP, 4, 1, 1, ModelName::Cr3bp);
-general_model!(So3TypeI, 12, 11, 3, ModelName::So3TypeI);
+general_model!(So3TypeI, 12, 14, 4, ModelName::So3TypeI);
 
 impl CliModel<12, 13, 3> for RigidBody {
     const CLI: ModelName = ModelName::RigidBody;
