@@ -87,6 +87,8 @@ fn random_state(rng: &mut Rng) -> [f64; 12] {
 }
 
 /// The four types, with the thesis' equations written out by hand (not via P × ∇H).
+/// The variants are the thesis' names (Roman numerals), not acronyms.
+#[allow(clippy::upper_case_acronyms)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Type {
     I,
