@@ -10,6 +10,9 @@
 // Reconstruction ġ = g Ξ, Ξ = hat(∇H) = hat(u1, u2, 1). Then d/dt (g P) = g (∇H × P + P × ∇H) = 0
 // identically (without using gᵀg = I): g P is the spatial momentum, the vector of the thesis'
 // (3.12) g P g⁻¹ = Λ (hat(g P) = g hat(P) g⁻¹ for g ∈ SO(3)).
+// Erratum (not in the field): for c1 = c2 = c, Prop. 6.3.1's closed form
+// P2 = √k1 sin((1 − k2/c) t + k3), k3 = −atan(P2(0)/P1(0)), has the wrong sign (it gives
+// P2(0) → −P2(0)); the rotation matrix in its proof is right: (P1, P2) turns by −(1 − P3/c) t.
 model So3TypeIib {
     state P: vec3, g: mat3;
     param c1 = 1.0;                                 // Appendix B, case C.6

@@ -10,6 +10,10 @@
 // Reconstruction ġ = g Ξ, Ξ = hat(∇H) = hat(u1, u2, u3). Then d/dt (g P) = g (∇H × P + P × ∇H) = 0
 // identically (without using gᵀg = I): g P is the spatial momentum, the vector of the thesis'
 // (3.12) g P g⁻¹ = Λ (hat(g P) = g hat(P) g⁻¹ for g ∈ SO(3)).
+// Erratum (not in the field): for c1 = c2 = c ≠ c3, (7.5)–(7.7) make P3 constant and (P1, P2)
+// turn by the angle −(c − c3)/(c c3) P3(0) t; Prop. 7.3.2 prints cosh/sinh instead, with
+// different arguments in the diagonal and off-diagonal entries (the diagonal one is real, so its
+// cosh grows).
 model So3TypeIii {
     state P: vec3, g: mat3;
     param c1 = 3.0;                                 // Appendix B, case C.10
