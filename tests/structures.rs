@@ -30,11 +30,12 @@ fn type_i_extremals_are_the_thesis_equations() {
         .iter()
         .map(|f| f.slot.name)
         .collect();
-    assert_eq!(names, ["H", "orthogonality", "casimir"]);
-    let mut f = [0.0; 11];
+    assert_eq!(names, ["H", "orthogonality", "Lambda", "casimir"]);
+    let mut f = [0.0; 14];
     m.invariants(&m.point_thesis(), &mut f);
     assert_eq!(f[0], 16.0 / 4.0 + 1.0); // H = P1²/(2c1) + P3 = 5
-    assert_eq!(f[10], 17.0); // |P|² = 17
+    assert_eq!(f[10..13], [4.0, 0.0, 1.0]); // Λ = g P = P(0) at g = I
+    assert_eq!(f[13], 17.0); // |P|² = 17
 }
 
 #[test]

@@ -82,7 +82,7 @@ pub fn run(args: &RunArgs) -> CliResult {
         ModelName::Kepler => run_model::<Kepler, 6, 6, 2>(args, model),
         ModelName::PerturbedKepler => run_model::<PerturbedKepler, 6, 4, 2>(args, model),
         ModelName::Cr3bp => run_model::<CR3BP, 4, 1, 1>(args, model),
-        ModelName::So3TypeI => run_model::<So3TypeI, 12, 11, 3>(args, model),
+        ModelName::So3TypeI => run_model::<So3TypeI, 12, 14, 4>(args, model),
         ModelName::CoupledOscillators => run_model::<CoupledOscillators, 4, 1, 1>(args, model),
     }
 }

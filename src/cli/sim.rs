@@ -474,7 +474,7 @@ partitioned_model!(
     None
 );
 general_model!(CR3BP, 4, 1, 1, ModelName::Cr3bp);
-general_model!(So3TypeI, 12, 11, 3, ModelName::So3TypeI);
+general_model!(So3TypeI, 12, 14, 4, ModelName::So3TypeI);
 
 impl CliModel<[f64; 12], [f64; 13], [f64; 3]> for RigidBody {
     fn cli_name(&self) -> String {
