@@ -14,4 +14,6 @@ model CoupledOscillators {
 
     point origin { q = [0, 0]; p = [0, 0]; }
     point excited { q = [0.1, 0.05]; p = [0, 0.1]; }
+
+    run excited { method = stormer_verlet_a; dt = 1e-2; t_end = 100; init = excited; }
 }

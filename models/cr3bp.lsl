@@ -15,4 +15,6 @@ model CR3BP {
     point L4 { q = [0.5 - mu, sqrt(3) / 2]; p = [-sqrt(3) / 2, 0.5 - mu]; }
     // A small libration about L4 (displaced by 0.01 along x): `lasalle run cr3bp --init near_L4`.
     point near_L4 { q = [0.51 - mu, sqrt(3) / 2]; p = [-sqrt(3) / 2, 0.5 - mu]; }
+
+    run near_L4 { method = feedback_rk4; dt = 1e-3; t_end = 100; init = near_L4; }
 }

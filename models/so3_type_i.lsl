@@ -21,4 +21,7 @@ model So3TypeI {
     point thesis { P = [4, 0, 1]; g = eye(3); }
     // the same, named as the other types' cases (Figure C.1): c1 = 2, ode45 on t ∈ [0, 10]
     point case_c1 { P = [4, 0, 1]; g = eye(3); }
+
+    // Appendix B, C.1: c1 = 2 on [0, 10]
+    run case_c1 { method = dopri5; dt = 1e-3; t_end = 10; init = case_c1; c1 = 2; }
 }

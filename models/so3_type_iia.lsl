@@ -25,9 +25,15 @@ model So3TypeIia {
     integral Lambda = g * P;                        // (3.12): hat(g P) = g P g⁻¹ = Λ
 
     // Appendix B / C, Type IIa, all ode45 on [0, 10]. A point carries only the state: the
-    // cases' c1, c2 are in the comments (the DSL has no per-point parameters); the defaults are C.2's.
+    // cases' c1, c2 are in the comments (and in the `run` presets below); the defaults are C.2's.
     point case_c2 { P = [2, 2, 4]; g = eye(3); }    // CASE (I) first part:   c1 = 4, c2 = 1, t ∈ [0, 10]
     point case_c3 { P = [4, 2, 2]; g = eye(3); }    // CASE (I) second part:  c1 = 4, c2 = 1, t ∈ [0, 10]
     point case_c4 { P = [1, 2, 3]; g = eye(3); }    // CASE (II) first part:  c1 = 1, c2 = 4, t ∈ [0, 10]
     point case_c5 { P = [3, 2, 1]; g = eye(3); }    // CASE (II) second part: c1 = 1, c2 = 4, t ∈ [0, 10]
+
+    // The Appendix B cases with their parameters: `lasalle run <model> --preset case_cN`
+    run case_c2 { method = dopri5; dt = 1e-3; t_end = 10; init = case_c2; c1 = 4; c2 = 1; }
+    run case_c3 { method = dopri5; dt = 1e-3; t_end = 10; init = case_c3; c1 = 4; c2 = 1; }
+    run case_c4 { method = dopri5; dt = 1e-3; t_end = 10; init = case_c4; c1 = 1; c2 = 4; }
+    run case_c5 { method = dopri5; dt = 1e-3; t_end = 10; init = case_c5; c1 = 1; c2 = 4; }
 }

@@ -28,7 +28,7 @@ model So3TypeIib {
     integral Lambda = g * P;                        // (3.12): hat(g P) = g P g⁻¹ = Λ
 
     // Appendix B / C, Type IIb. A point carries only the state: the cases' c1, c2 are in the
-    // comments (the DSL has no per-point parameters); the defaults are C.6's. P(0) is the one the
+    // comments (and in the `run` presets below); the defaults are C.6's. P(0) is the one the
     // thesis integrates (its ode45 calls, 4 decimals) and that its elliptic solutions (Section 2)
     // fit; the captions of Figures C.6 and C.8 print P1(0), P2(0) too large by a factor √2 (C.6:
     // P2(0) = 11√3/16 ≈ 1.1908, ode45 0.8420 = 11√6/32; C.8: (√17/2, √5/4, ½), ode45 (1.4577,
@@ -37,4 +37,10 @@ model So3TypeIib {
     point case_c7 { P = [sqrt(3 / 2), 2 * sqrt(2), -1]; g = eye(3); }                  // CASE (I) second part:  c1 = 1, c2 = 1/2, t ∈ [0, 10]
     point case_c8 { P = [sqrt(34) / 4, sqrt(10) / 8, 1 / 2]; g = eye(3); }            // CASE (II) first part:  c1 = 1, c2 = 2,   t ∈ [0, 10] (3-D plot [0, 30])
     point case_c9 { P = [2 * sqrt(5), 1, -2]; g = eye(3); }                            // CASE (II) second part: c1 = 1, c2 = 2,   t ∈ [0, 10]
+
+    // The Appendix B cases with their parameters: `lasalle run <model> --preset case_cN`
+    run case_c6 { method = dopri5; dt = 1e-3; t_end = 10; init = case_c6; c1 = 1; c2 = 1/2; }
+    run case_c7 { method = dopri5; dt = 1e-3; t_end = 10; init = case_c7; c1 = 1; c2 = 1/2; }
+    run case_c8 { method = dopri5; dt = 1e-3; t_end = 10; init = case_c8; c1 = 1; c2 = 2; }
+    run case_c9 { method = dopri5; dt = 1e-3; t_end = 10; init = case_c9; c1 = 1; c2 = 2; }
 }

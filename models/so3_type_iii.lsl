@@ -31,7 +31,7 @@ model So3TypeIii {
     integral Lambda = g * P;                        // (3.12): hat(g P) = g P g⁻¹ = Λ
 
     // Appendix B / C, Type III, all ode45 on [0, 30]. A point carries only the state: the cases'
-    // c1, c2, c3 are in the comments (the DSL has no per-point parameters); the defaults are C.10's.
+    // c1, c2, c3 are in the comments and in the `run` presets below; the defaults are C.10's.
     point case_c10 { P = [0, 1, 2]; g = eye(3); }           // CASE 1A(I) first part:   c1 = 3, c2 = 2,   c3 = 4, t ∈ [0, 30]
     point case_c11 { P = [0, 2, 1]; g = eye(3); }           // CASE 1A(I) second part:  c1 = 3, c2 = 2,   c3 = 4, t ∈ [0, 30]
     point case_c12 { P = [1, 1, 2]; g = eye(3); }           // CASE 1A(II) first part:  c1 = 1, c2 = 2,   c3 = 3, t ∈ [0, 30]
@@ -42,4 +42,16 @@ model So3TypeIii {
     point case_c17 { P = [2, 1, 1]; g = eye(3); }           // CASE 1B(II) second part: c1 = 3, c2 = 2,   c3 = 1, t ∈ [0, 30]
     point case_c18 { P = [sqrt(3), 1, 1]; g = eye(3); }     // CASE 2 (c2 < c3 < c1):   c1 = 2, c2 = 1/2, c3 = 1, t ∈ [0, 30]
     point case_c19 { P = [2, 2, 2]; g = eye(3); }           // CASE 2 (c1 < c3 < c2):   c1 = 1, c2 = 3,   c3 = 2, t ∈ [0, 30]
+
+    // The Appendix B cases with their parameters: `lasalle run <model> --preset case_cN`
+    run case_c10 { method = dopri5; dt = 1e-3; t_end = 30; init = case_c10; c1 = 3; c2 = 2; c3 = 4; }
+    run case_c11 { method = dopri5; dt = 1e-3; t_end = 30; init = case_c11; c1 = 3; c2 = 2; c3 = 4; }
+    run case_c12 { method = dopri5; dt = 1e-3; t_end = 30; init = case_c12; c1 = 1; c2 = 2; c3 = 3; }
+    run case_c13 { method = dopri5; dt = 1e-3; t_end = 30; init = case_c13; c1 = 1; c2 = 2; c3 = 3; }
+    run case_c14 { method = dopri5; dt = 1e-3; t_end = 30; init = case_c14; c1 = 2; c2 = 3; c3 = 1; }
+    run case_c15 { method = dopri5; dt = 1e-3; t_end = 30; init = case_c15; c1 = 2; c2 = 3; c3 = 1; }
+    run case_c16 { method = dopri5; dt = 1e-3; t_end = 30; init = case_c16; c1 = 3; c2 = 2; c3 = 1; }
+    run case_c17 { method = dopri5; dt = 1e-3; t_end = 30; init = case_c17; c1 = 3; c2 = 2; c3 = 1; }
+    run case_c18 { method = dopri5; dt = 1e-3; t_end = 30; init = case_c18; c1 = 2; c2 = 1/2; c3 = 1; }
+    run case_c19 { method = dopri5; dt = 1e-3; t_end = 30; init = case_c19; c1 = 1; c2 = 3; c3 = 2; }
 }

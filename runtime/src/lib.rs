@@ -29,6 +29,7 @@
 // `!(a > b)` is deliberate throughout: it is also true when a comparison involves NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+mod declared;
 mod driver;
 pub mod elliptic;
 mod error;
@@ -41,6 +42,7 @@ mod params;
 mod state;
 pub mod steppers;
 
+pub use declared::{Declared, GuardFailure, Preset};
 pub use driver::{integrate, Driver, GuardFn, Summary};
 pub use elliptic::{ellipf, ellipj, ellipj_m1, ellipk, ellipkm1, Jacobi};
 pub use error::StepError;

@@ -1,13 +1,15 @@
 //! The simulation core shared by `lasalle run` and `lasalle experiment`.
 //!
 //! A run is a model, a [`Method`] and a [`RunSpec`] (step, end time, gains, tolerances). The
-//! command line knows models by name ([`ModelName`]) and dispatches to monomorphised code:
-//! every model implements [`CliModel`], and [`simulate`] builds the stepper for the method by
-//! composing [`Visit`]ors (`projection-` wraps the base stepper in a [`Projection`], `feedback-`
-//! integrates the [`FeedbackField`], `--gains adaptive` wraps the stepper in an
-//! [`AdaptiveGain`]), so the inner loop is static code for each (model, method) pair.
-//! Methods that need structure the model lacks fail with a message
-//! ("method `stormer-verlet-a` needs a partitioned model").
+//! command line does not know models: [`simulate`] runs any model that implements the runtime's
+//! traits and [`Declared`] — a model loaded from a file at run time
+//! ([`lasalle_exec::LoadedModel`]) or one compiled ahead of time (the experiments use those) —
+//! and builds the stepper for the method by composing [`Visit`]ors (`projection-` wraps the
+//! base stepper in a [`Projection`], `feedback-` integrates the [`FeedbackField`],
+//! `--gains adaptive` wraps the stepper in an [`AdaptiveGain`]), so the inner loop is static
+//! code for each (storage, method) pair. Methods that need structure the model does not declare
+//! fail with a message ("method `stormer-verlet-a` needs a partitioned model"); the model's
+//! guards stop a run that leaves its domain.
 //!
 //! The result is a [`Trace`]: sampled times, states and invariant errors, wall time and
 //! counters, and, if the integration blew up, the [`StepError`] with its time and state.
@@ -20,12 +22,8 @@ use std::str::FromStr;
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use lasalle::models::{
-    coupled_oscillators::CoupledOscillators, cr3bp::CR3BP, kepler::Kepler,
-    perturbed_kepler::PerturbedKepler, rigid_body::RigidBody, so3_type_i::So3TypeI,
-};
 use lasalle::{
-    component_names, sample_capacity, AdaptiveGain, Control, DormandPrince, Driver, ExplicitRk,
+    component_names, sample_capacity, Declared, AdaptiveGain, Control, DormandPrince, Driver, ExplicitRk,
     FeedbackField, Field, GainPolicy, Invariants, Lyapunov, ModelInfo, Observer, Parameters,
     Projection, Recorder, RigidBodySplitting, State, StepError, Stepper, StormerVerlet,
     VerletVariant,
@@ -34,81 +32,12 @@ use serde_json::json;
 
 use super::CliResult;
 
-/// The models the command line knows.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ModelName {
-    /// `models/rigid_body.lsl`: the free rigid body (paper §3.1, §4.1).
-    RigidBody,
-    /// `models/kepler.lsl`: the Kepler problem (§3.2, §4.2).
-    Kepler,
-    /// `models/perturbed_kepler.lsl`: the perturbed Kepler problem (§3.3, §4.3).
-    PerturbedKepler,
-    /// `models/cr3bp.lsl`: the planar circular restricted three-body problem (Jacobi integral).
-    Cr3bp,
-    /// `models/so3_type_i.lsl`: Type I optimal control on SO(3) with reconstruction.
-    So3TypeI,
-    /// `models/coupled_oscillators.lsl`: two nonlinearly coupled oscillators.
-    CoupledOscillators,
-}
-
-impl ModelName {
-    /// The models of the paper's experiments, in the paper's order.
-    pub const PAPER: [ModelName; 3] = [
-        ModelName::RigidBody,
-        ModelName::Kepler,
-        ModelName::PerturbedKepler,
-    ];
-
-    /// Every model the command line runs.
-    pub const ALL: [ModelName; 6] = [
-        ModelName::RigidBody,
-        ModelName::Kepler,
-        ModelName::PerturbedKepler,
-        ModelName::Cr3bp,
-        ModelName::So3TypeI,
-        ModelName::CoupledOscillators,
-    ];
-
-    /// The name on the command line.
-    pub fn cli_name(self) -> &'static str {
-        match self {
-            ModelName::RigidBody => "rigid-body",
-            ModelName::Kepler => "kepler",
-            ModelName::PerturbedKepler => "perturbed-kepler",
-            ModelName::Cr3bp => "cr3bp",
-            ModelName::So3TypeI => "so3-type-i",
-            ModelName::CoupledOscillators => "coupled-oscillators",
-        }
-    }
-}
-
-impl fmt::Display for ModelName {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.cli_name())
-    }
-}
-
 /// Lower case without `-` and `_`, so `rigid-body`, `rigid_body` and `RigidBody` agree.
-fn normalise(s: &str) -> String {
+pub fn normalise(s: &str) -> String {
     s.chars()
         .filter(|c| *c != '-' && *c != '_')
         .flat_map(char::to_lowercase)
         .collect()
-}
-
-impl FromStr for ModelName {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, String> {
-        let key = normalise(s);
-        ModelName::ALL
-            .into_iter()
-            .find(|m| normalise(m.cli_name()) == key)
-            .ok_or_else(|| {
-                let known: Vec<_> = ModelName::ALL.iter().map(|m| m.cli_name()).collect();
-                format!("unknown model `{s}`; known models: {}", known.join(", "))
-            })
-    }
 }
 
 /// An explicit Runge–Kutta base method.
@@ -165,6 +94,14 @@ impl Method {
     /// Is this a feedback integrator (the gains apply)?
     pub fn is_feedback(self) -> bool {
         matches!(self, Method::Feedback(_))
+    }
+
+    /// Does the method choose its own step sizes?
+    pub fn is_adaptive(self) -> bool {
+        matches!(
+            self,
+            Method::Plain(Base::Dopri5) | Method::Feedback(Base::Dopri5) | Method::Projection(Base::Dopri5)
+        )
     }
 }
 
@@ -356,141 +293,20 @@ pub trait Visit<F: ?Sized, X: State<f64>> {
     fn visit<S: Stepper<f64, X, F> + Stats>(self, stepper: S) -> Self::Out;
 }
 
-/// A check of the state after a step of size h: `Some(message)` stops the run.
-pub type GuardFn = fn(&[f64], f64) -> Option<String>;
-
-/// A model the command line can run: the generated traits plus the steppers that need the
-/// model's structure (Störmer–Verlet, splitting) and a validity guard.
-pub trait CliModel<X: State<f64>, F: State<f64>, K: State<f64>>:
-    Lyapunov<f64, X, F, K> + ModelInfo + Parameters + Sized
+/// Everything [`simulate`] needs of a model, with states, invariants and gains stored as
+/// `X`, `FV` and `K`: the runtime's traits and the model file's declarations.
+pub trait RunModel<X: State<f64>, FV: State<f64>, K: State<f64>>:
+    Lyapunov<f64, X, FV, K> + ModelInfo + Declared<f64, X>
 {
-    /// The model's name on the command line.
-    fn cli_name(&self) -> String;
-
-    /// Hands `visit` the model-specific stepper for `method` (Störmer–Verlet, splitting), or
-    /// says why the model cannot use it.
-    fn special<V: Visit<Self, X>>(&self, method: Method, visit: V) -> Result<V::Out, String>;
-
-    /// A check run on the state after every step, given the step size (e.g. Kepler: |x| → 0
-    /// is a collision).
-    fn guard(&self) -> Option<GuardFn> {
-        None
-    }
 }
 
-/// |x| below this stops a Kepler run: the field is singular at the origin.
-pub const COLLISION_RADIUS: f64 = 1e-6;
-
-/// The Kepler guard: |x| → 0. A fixed step jumps over the singularity instead of landing on
-/// it, so the run also stops when one step moves further than the distance to the centre,
-/// h·|v| > |x| (the close approach is not resolved; the state after it is meaningless).
-/// `h = 0` (adaptive methods, which shrink their steps) checks |x| only.
-pub fn collision_guard(x: &[f64], h: f64) -> Option<String> {
-    let r = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
-    let v = (x[3] * x[3] + x[4] * x[4] + x[5] * x[5]).sqrt();
-    if r < COLLISION_RADIUS {
-        Some(format!("collision: |x| = {r:e} < {COLLISION_RADIUS:e}"))
-    } else if h * v > r {
-        Some(format!(
-            "collision or blow-up: one step h·|v| = {:e} exceeds |x| = {r:e}, so the close \
-             approach is not resolved",
-            h * v
-        ))
-    } else {
-        None
-    }
-}
-
-fn needs_partitioned(method: Method, model: &str) -> String {
-    match method {
-        Method::Splitting => format!(
-            "method `splitting` is the free rigid body's three-rotation splitting; model `{model}` cannot use it"
-        ),
-        _ => format!("method `{method}` needs a partitioned model; `{model}` is not partitioned"),
-    }
-}
-
-/// `CliModel` for a model whose field is partitioned: Störmer–Verlet A and B apply.
-macro_rules! partitioned_model {
-    ($ty:ty, $n:literal, $m:literal, $g:literal, $cli:expr, $guard:expr) => {
-        impl CliModel<[f64; $n], [f64; $m], [f64; $g]> for $ty {
-            fn cli_name(&self) -> String {
-                $cli.to_string()
-            }
-
-            fn special<V: Visit<Self, [f64; $n]>>(
-                &self,
-                method: Method,
-                visit: V,
-            ) -> Result<V::Out, String> {
-                match method {
-                    Method::StormerVerlet(VerletVariant::A) => Ok(visit.visit(StormerVerlet::a())),
-                    Method::StormerVerlet(VerletVariant::B) => Ok(visit.visit(StormerVerlet::b())),
-                    _ => Err(needs_partitioned(method, &self.cli_name())),
-                }
-            }
-
-            fn guard(&self) -> Option<GuardFn> {
-                $guard
-            }
-        }
-    };
-}
-
-/// `CliModel` for a model with no structure-specific stepper.
-macro_rules! general_model {
-    ($ty:ty, $n:literal, $m:literal, $g:literal, $cli:expr) => {
-        impl CliModel<[f64; $n], [f64; $m], [f64; $g]> for $ty {
-            fn cli_name(&self) -> String {
-                $cli.to_string()
-            }
-
-            fn special<V: Visit<Self, [f64; $n]>>(
-                &self,
-                method: Method,
-                _: V,
-            ) -> Result<V::Out, String> {
-                Err(needs_partitioned(method, &self.cli_name()))
-            }
-        }
-    };
-}
-
-partitioned_model!(Kepler, 6, 6, 2, ModelName::Kepler, Some(collision_guard));
-partitioned_model!(
-    PerturbedKepler,
-    6,
-    4,
-    2,
-    ModelName::PerturbedKepler,
-    Some(collision_guard)
-);
-partitioned_model!(
-    CoupledOscillators,
-    4,
-    1,
-    1,
-    ModelName::CoupledOscillators,
-    None
-);
-general_model!(CR3BP, 4, 1, 1, ModelName::Cr3bp);
-general_model!(So3TypeI, 12, 14, 4, ModelName::So3TypeI);
-
-impl CliModel<[f64; 12], [f64; 13], [f64; 3]> for RigidBody {
-    fn cli_name(&self) -> String {
-        ModelName::RigidBody.to_string()
-    }
-
-    fn special<V: Visit<Self, [f64; 12]>>(
-        &self,
-        method: Method,
-        visit: V,
-    ) -> Result<V::Out, String> {
-        match method {
-            Method::Splitting => Ok(visit.visit(RigidBodySplitting::new(self.i))),
-            _ => Err(needs_partitioned(method, &self.cli_name())),
-        }
-    }
+impl<M, X, FV, K> RunModel<X, FV, K> for M
+where
+    M: Lyapunov<f64, X, FV, K> + ModelInfo + Declared<f64, X>,
+    X: State<f64>,
+    FV: State<f64>,
+    K: State<f64>,
+{
 }
 
 /// Sampled output of a run.
@@ -738,13 +554,12 @@ struct Drive<'a, Mdl, F: ?Sized, X, FV> {
     field: &'a F,
     x0: X,
     spec: &'a RunSpec,
-    guard: Option<GuardFn>,
     invariants: PhantomData<FV>,
 }
 
 impl<Mdl, F, X, FV> Visit<F, X> for Drive<'_, Mdl, F, X, FV>
 where
-    Mdl: Invariants<f64, X, FV> + ModelInfo,
+    Mdl: Invariants<f64, X, FV> + ModelInfo + Declared<f64, X>,
     X: State<f64>,
     FV: State<f64>,
     F: ?Sized,
@@ -763,10 +578,9 @@ where
         );
         let bar = progress_bar(spec.progress, &spec.method.to_string());
         let mut driver = Driver::new(0.0, spec.t_end, spec.dt);
-        if let Some(g) = self.guard {
-            let h = spec.dt;
-            driver = driver.guard(1, move |x: &X| g(x.as_ref(), h));
-        }
+        // the model's guards, with the step size (0 for adaptive methods, which shrink theirs)
+        let (model, h) = (self.model, if spec.method.is_adaptive() { 0.0 } else { spec.dt });
+        driver = driver.guard(1, move |x: &X| model.check_guards(x, h).map(|g| g.to_string()));
         let mut obs = Sampler {
             inner: &mut rec,
             bar: &bar,
@@ -875,19 +689,38 @@ where
     }
 }
 
-/// Integrates `model` from `x0` as `spec` says. An integration that blows up still returns
-/// the samples up to the failure, with [`Trace::failure`] set; invalid arguments (bad
-/// numbers, a method the model cannot use, gains of the wrong count) are errors.
+/// The innermost visitor for `field` (the model itself, its feedback field or its partitioned
+/// half-fields), recording the model's invariants.
+fn drive<'a, Mdl, F: ?Sized, X: Clone, FV>(
+    model: &'a Mdl,
+    field: &'a F,
+    x0: &X,
+    spec: &'a RunSpec,
+) -> Drive<'a, Mdl, F, X, FV> {
+    Drive {
+        model,
+        field,
+        x0: x0.clone(),
+        spec,
+        invariants: PhantomData,
+    }
+}
+
+/// Integrates `model` from `x0` as `spec` says. An integration that blows up or leaves the
+/// model's domain (a failed guard) still returns the samples up to the failure, with
+/// [`Trace::failure`] set; invalid arguments (bad numbers, a method the model cannot use,
+/// gains of the wrong count, an initial state outside the domain) are errors.
 pub fn simulate<Mdl, X, FV, K>(model: &Mdl, x0: &X, spec: &RunSpec) -> Result<Trace, String>
 where
-    Mdl: CliModel<X, FV, K>,
+    Mdl: RunModel<X, FV, K>,
     X: State<f64>,
     FV: State<f64>,
     K: State<f64>,
 {
     spec.validate()?;
-    let name = model.cli_name();
-    if let Some(i) = x0.as_ref().iter().position(|v| !v.is_finite()) {
+    let name = model.model_name();
+    let shown = x0.as_ref();
+    if let Some(i) = shown.iter().position(|v| !v.is_finite()) {
         return Err(format!("initial state component {i} is not finite"));
     }
     // The field and the invariants must be defined at x0 (e.g. Kepler at x = 0 is not).
@@ -895,67 +728,74 @@ where
     let mut f = FV::filled(FV::len_for(model.invariant_dim()), 0.0);
     model.field(x0, &mut dx);
     model.invariants(x0, &mut f);
-    let shown = x0.as_ref();
-    if let Some(message) = model.guard().and_then(|guard| guard(shown, 0.0)) {
-        return Err(format!("invalid initial state {shown:?}: {message}"));
+    if let Some(failure) = model.check_guards(x0, 0.0) {
+        return Err(format!("invalid initial state {shown:?}: {failure}"));
     }
     if dx.as_ref().iter().chain(f.as_ref()).any(|v| !v.is_finite()) {
         return Err(format!(
             "the field or the invariants of `{name}` are not finite at the initial state {shown:?}"
         ));
     }
-    let drive = |field| Drive {
-        model,
-        field,
-        x0: x0.clone(),
-        spec,
-        guard: model.guard(),
-        invariants: PhantomData::<FV>,
-    };
     match spec.method {
-        Method::Plain(b) => Ok(with_base(b, spec, drive(model))),
+        Method::Plain(b) => Ok(with_base(b, spec, drive(model, model, x0, spec))),
         Method::Projection(b) => {
             let visit = Project {
-                inner: drive(model),
+                inner: drive(model, model, x0, spec),
                 target: f,
                 tol: spec.tol,
             };
             Ok(with_base(b, spec, visit))
         }
         Method::Feedback(b) => {
-            let gains: K = spec.gains.initial_gains(model, x0, spec.dt).map_err(|e| {
-                format!(
-                    "{e} (model `{name}` has gains {})",
-                    model.gain_names().join(", ")
-                )
-            })?;
+            let gains: K = spec
+                .gains
+                .initial_gains(model, x0, spec.dt)
+                .map_err(|e| {
+                    format!(
+                        "{e} (model `{name}` has gains {})",
+                        model.gain_names().join(", ")
+                    )
+                })?;
             let fb = FeedbackField::from_initial(model, x0, gains.clone());
-            let drive = Drive {
-                model,
-                field: &fb,
-                x0: x0.clone(),
-                spec,
-                guard: model.guard(),
-                invariants: PhantomData::<FV>,
-            };
+            let inner = drive(model, &fb, x0, spec);
             let mut trace = match spec.gains {
                 GainPolicy::Adaptive { every, c } => with_base(
                     b,
                     spec,
                     Adapt {
-                        inner: drive,
+                        inner,
                         unit: K::filled(K::len_for(gains.len()), 1.0),
                         every,
                         c,
                     },
                 ),
-                _ => with_base(b, spec, drive),
+                _ => with_base(b, spec, inner),
             };
             trace.gains_initial = Some(gains.as_ref().to_vec());
             trace.gains_final = Some(fb.gains().as_ref().to_vec());
             Ok(trace)
         }
-        Method::StormerVerlet(_) | Method::Splitting => model.special(spec.method, drive(model)),
+        Method::StormerVerlet(variant) => {
+            let halves = model.partitioned().ok_or_else(|| {
+                format!(
+                    "method `{}` needs a partitioned model (q̇ = a(p), ṗ = b(q)); the field of `{name}` is not partitioned",
+                    spec.method
+                )
+            })?;
+            let stepper = match variant {
+                VerletVariant::A => StormerVerlet::a(),
+                VerletVariant::B => StormerVerlet::b(),
+            };
+            Ok(drive(model, halves, x0, spec).visit(stepper))
+        }
+        Method::Splitting => {
+            let splitting = model.rigid_body_splitting().ok_or_else(|| {
+                format!(
+                    "method `splitting` is the free rigid body's three-rotation splitting; `{name}` does not declare `splitting rigid_body(R, Omega, I);`"
+                )
+            })?;
+            Ok(drive(model, model, x0, spec).visit(splitting))
+        }
     }
 }
 

@@ -142,7 +142,8 @@ impl<'a> Leaves<'a> {
                 let ku = u(k as usize);
                 (snake(&model.gains[k as usize].name), quote!(gains[#ku]))
             }
-            Input::Symbol(_) => unreachable!("auxiliary symbols never reach emission"),
+            // The only symbol that reaches emission: the step size in a guard.
+            Input::Symbol(_) => ("dt".to_string(), quote!(dt)),
         }
     }
 }

@@ -142,6 +142,7 @@ pub fn emit(
     let (invariants, inv_ops, jac_ops, jac_ids) = e.invariants_impl();
     let (lyapunov, [v_ops, grad_ops, fb_ops]) = e.lyapunov_impl();
     let partitioned = e.partitioned_impl();
+    let declared = e.declared_impl();
     let struct_items = e.struct_items();
     let (accessors, info, parameters) = (e.accessors(), e.model_info_impl(), e.parameters_impl());
 
@@ -158,7 +159,7 @@ pub fn emit(
         #[allow(unused_imports)]
         use lasalle_runtime::num_traits::{Float, One, Zero};
         #[allow(unused_imports)]
-        use lasalle_runtime::{lit, nalgebra, Field, InvariantInfo, InvariantKind, Invariants, Lyapunov, ModelInfo, ParamError, Parameters, Partitioned, Shape, Slot};
+        use lasalle_runtime::{lit, nalgebra, Declared, Field, GuardFailure, InvariantInfo, InvariantKind, Invariants, Lyapunov, ModelInfo, ParamError, Parameters, Partitioned, Preset, RigidBodySplitting, Shape, Slot};
 
         #struct_items
         #accessors
@@ -166,6 +167,7 @@ pub fn emit(
         #invariants
         #lyapunov
         #partitioned
+        #declared
         #info
         #parameters
     };

@@ -1,8 +1,11 @@
-//! The runtime-trait impls of a model: `Field`, `Invariants`, `Lyapunov`, `Partitioned`.
+//! The runtime-trait impls of a model: `Field`, `Invariants`, `Lyapunov`, `Partitioned`,
+//! `Declared`.
 
 use super::body::{Body, Output};
 use super::{file_name, note_for, u, Emitter};
 use crate::ir::{Id, Input};
+use crate::model::Splitting;
+use proc_macro2::Literal;
 use proc_macro2::TokenStream;
 use quote::quote;
 
@@ -205,6 +208,130 @@ impl Emitter<'_> {
                 fn is_q(&self) -> &[bool] { &[#(#is_q),*] }
                 fn field_q(&self, #qx: &[T; #n], dx: &mut [T; #n]) { #q_tokens }
                 fn field_p(&self, #px: &[T; #n], dx: &mut [T; #n]) { #p_tokens }
+            }
+        }
+    }
+
+    /// `impl Declared`: the model file's run presets, guards and structure-specific steppers.
+    pub fn declared_impl(&mut self) -> TokenStream {
+        let model = self.model;
+        let (ty, n) = (self.ty.clone(), u(self.n));
+        let presets = model.presets.iter().map(|p| {
+            let name = &p.name;
+            let opt_str = |v: &Option<String>| match v {
+                Some(s) => quote!(Some(#s)),
+                None => quote!(None),
+            };
+            let opt_f64 = |v: Option<f64>| match v {
+                Some(x) => {
+                    let l = Literal::f64_unsuffixed(x);
+                    quote!(Some(#l))
+                }
+                None => quote!(None),
+            };
+            let (method, init) = (opt_str(&p.method), opt_str(&p.init));
+            let (dt, t_end) = (opt_f64(p.dt), opt_f64(p.t_end));
+            let every = match p.every {
+                Some(k) => {
+                    let k = Literal::u64_unsuffixed(k);
+                    quote!(Some(#k))
+                }
+                None => quote!(None),
+            };
+            let gains = match &p.gains {
+                Some(g) => {
+                    let g = g.iter().map(|x| Literal::f64_unsuffixed(*x));
+                    quote!(Some(&[#(#g),*]))
+                }
+                None => quote!(None),
+            };
+            let params = p.params.iter().map(|(name, values)| {
+                let values = values.iter().map(|x| Literal::f64_unsuffixed(*x));
+                quote!((#name, &[#(#values),*]))
+            });
+            quote! {
+                Preset { name: #name, method: #method, dt: #dt, t_end: #t_end, every: #every, init: #init, gains: #gains, params: &[#(#params),*] }
+            }
+        });
+        let presets = if model.presets.is_empty() {
+            TokenStream::new()
+        } else {
+            quote! {
+                fn presets(&self) -> &'static [Preset] {
+                    &[#(#presets),*]
+                }
+            }
+        };
+        let guards = if model.guards.is_empty() {
+            TokenStream::new()
+        } else {
+            let k = u(model.guards.len());
+            let outputs: Vec<Output> = model
+                .guards
+                .iter()
+                .enumerate()
+                .map(|(i, g)| Output {
+                    place: place("margin", i),
+                    id: g.margin,
+                    note: Some(note_for(model, &g.span)),
+                })
+                .collect();
+            let body = self.body(&outputs, &["x", "dt", "margin"]);
+            let x = body.arg("x", is_state);
+            let dt = body.arg("dt", |i| *i == crate::model::GUARD_STEP);
+            let tokens = &body.tokens;
+            let checks = model.guards.iter().enumerate().map(|(i, g)| {
+                let (name, condition, iu) = (&g.name, &g.condition, u(i));
+                let holds = if g.strict {
+                    quote!(margin[#iu] > T::zero())
+                } else {
+                    quote!(margin[#iu] >= T::zero())
+                };
+                quote! {
+                    if !(#holds) {
+                        return Some(GuardFailure {
+                            name: #name,
+                            condition: #condition,
+                            margin: margin[#iu].to_f64().unwrap_or(f64::NAN),
+                        });
+                    }
+                }
+            });
+            quote! {
+                fn check_guards(&self, #x: &[T; #n], #dt: T) -> Option<GuardFailure> {
+                    let mut margin = [T::zero(); #k];
+                    #tokens
+                    #(#checks)*
+                    None
+                }
+            }
+        };
+        let partitioned = if self.d.partition.is_some() {
+            quote! {
+                fn partitioned(&self) -> Option<&dyn Partitioned<T, [T; #n]>> {
+                    Some(self)
+                }
+            }
+        } else {
+            TokenStream::new()
+        };
+        let splitting = match &model.splitting {
+            Some(Splitting::RigidBody { inertia }) => {
+                let moments = inertia.iter().map(|&k| self.leaves.input(Input::Param(k)).1);
+                quote! {
+                    fn rigid_body_splitting(&self) -> Option<RigidBodySplitting<T>> {
+                        Some(RigidBodySplitting::new([#(#moments),*]))
+                    }
+                }
+            }
+            None => TokenStream::new(),
+        };
+        quote! {
+            impl<T: Float> Declared<T, [T; #n]> for #ty<T> {
+                #presets
+                #guards
+                #partitioned
+                #splitting
             }
         }
     }

@@ -80,6 +80,9 @@ const KEYWORDS: &[&str] = &[
     "hamiltonian",
     "structure",
     "point",
+    "run",
+    "guard",
+    "splitting",
 ];
 
 pub(super) struct Lowerer {
@@ -221,6 +224,9 @@ impl Lowerer {
         let mut hamiltonian: Option<(Ident, Id, Span)> = None;
         let mut structure: Option<(&StructureDecl, Span)> = None;
         let mut points = Vec::new();
+        let mut presets = Vec::new();
+        let mut guards = Vec::new();
+        let mut splitting_decl: Option<(&Ident, &Vec<Ident>, Span)> = None;
         for it in &ast.items {
             let result: L<()> = match &it.item {
                 Item::State(_) | Item::Param(..) => Ok(()),
@@ -306,6 +312,21 @@ impl Lowerer {
                 Item::Point(name, values) => self
                     .point(name, values, &state, &it.span)
                     .map(|p| points.push(p)),
+                Item::Run(name, values) => self
+                    .preset(name, values, &it.span)
+                    .map(|p| presets.push(p)),
+                Item::Guard { name, lhs, op, rhs } => self
+                    .guard(name, lhs, *op, rhs, &it.span)
+                    .map(|g| guards.push(g)),
+                Item::Splitting(kind, args) => {
+                    if splitting_decl.is_some() {
+                        Err(Diagnostic::new(&it.span, "a second `splitting`")
+                            .help("a model admits one structure-specific splitting"))
+                    } else {
+                        splitting_decl = Some((kind, args, it.span.clone()));
+                        Ok(())
+                    }
+                }
             };
             if let Err(d) = result {
                 if d.message != POISONED {
@@ -382,10 +403,26 @@ impl Lowerer {
             None => (self.default_lyapunov(&invariants), None),
         };
 
+        if let Err(d) = self.check_presets(&presets, &points, &params, gains.len()) {
+            self.errors.push(d);
+        }
         if !self.errors.is_empty() {
             return None;
         }
-        let (field, field_spans) = field.into_iter().map(|f| f.expect("checked above")).unzip();
+        let (field, field_spans): (Vec<Id>, Vec<Span>) =
+            field.into_iter().map(|f| f.expect("checked above")).unzip();
+        let splitting = match splitting_decl {
+            Some((kind, args, span)) => {
+                match self.splitting(kind, args, &span, &state, &params, &field) {
+                    Ok(s) => Some(s),
+                    Err(d) => {
+                        self.errors.push(d);
+                        return None;
+                    }
+                }
+            }
+            None => None,
+        };
         Some(Model {
             name: ast.name.name.clone(),
             source: self.source.clone(),
@@ -401,6 +438,9 @@ impl Lowerer {
             lyapunov_span,
             hamiltonian,
             points,
+            presets,
+            guards,
+            splitting,
         })
     }
 

@@ -1,5 +1,6 @@
 //! The lowered model: the syntax tree resolved into shaped values over one DAG.
 
+mod declare;
 mod expr;
 mod lower;
 mod value;
@@ -124,6 +125,62 @@ pub struct Point {
     pub span: Span,
 }
 
+/// A run preset (`run paper { method = feedback_euler; dt = 0.005; … }`): the settings a
+/// command-line run uses unless a flag overrides them. Every setting is optional.
+#[derive(Clone, Debug)]
+pub struct Preset {
+    /// Name.
+    pub name: String,
+    /// The method, as the command line spells it (`feedback-euler`; `_` and `-` agree).
+    pub method: Option<String>,
+    /// Step size (the initial step of adaptive methods).
+    pub dt: Option<f64>,
+    /// End time.
+    pub t_end: Option<f64>,
+    /// Record every n-th step.
+    pub every: Option<u64>,
+    /// The named point to start from.
+    pub init: Option<String>,
+    /// Gains of feedback methods, one per gain of the model.
+    pub gains: Option<Vec<f64>>,
+    /// Parameter values (`c1 = 4;`), each parameter's slots in the order of `--param`.
+    pub params: Vec<(String, Vec<f64>)>,
+    /// Where it is declared.
+    pub span: Span,
+}
+
+/// A domain guard (`guard collision: norm(x) > 1e-6;`): a condition every state of a run must
+/// satisfy; a run stops with an error naming the guard when it fails.
+#[derive(Clone, Debug)]
+pub struct Guard {
+    /// Name.
+    pub name: String,
+    /// The margin: lhs − rhs for `>`/`>=`, rhs − lhs for `<`/`<=`; the guard holds when it is
+    /// positive (`strict`) or non-negative. It may depend on the state, the parameters and
+    /// the step size [`GUARD_STEP`].
+    pub margin: Id,
+    /// `>`/`<` (true) or `>=`/`<=` (false).
+    pub strict: bool,
+    /// The condition as written in the model file.
+    pub condition: String,
+    /// Where it is declared.
+    pub span: Span,
+}
+
+/// The step size `dt` in a guard's condition (0 for adaptive methods).
+pub const GUARD_STEP: crate::ir::Input = crate::ir::Input::Symbol(0);
+
+/// A structure-specific splitting method the model admits (`splitting rigid_body(R, Omega, I);`).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Splitting {
+    /// The free rigid body Ṙ = RΩ̂, Ω̇ = 𝕀⁻¹((𝕀Ω) × Ω) with 𝕀 = diag(I₁, I₂, I₃), integrated by
+    /// three exact rotations (GNI §VII.5). The generator checks that the field is this one.
+    RigidBody {
+        /// The parameter slots of I₁, I₂, I₃.
+        inertia: [u32; 3],
+    },
+}
+
 /// A `let` binding, kept so generated code can name its temporaries after it.
 #[derive(Clone, Debug)]
 pub struct Binding {
@@ -166,6 +223,12 @@ pub struct Model {
     pub hamiltonian: Option<Hamiltonian>,
     /// Named points.
     pub points: Vec<Point>,
+    /// Run presets, in declaration order (the first is the default).
+    pub presets: Vec<Preset>,
+    /// Domain guards.
+    pub guards: Vec<Guard>,
+    /// The structure-specific splitting the model admits, if any.
+    pub splitting: Option<Splitting>,
 }
 
 impl Model {

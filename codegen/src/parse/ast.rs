@@ -120,6 +120,34 @@ pub enum Item {
     Structure(StructureDecl, Span),
     /// `point L4 { q = […]; p = […]; }`
     Point(Ident, Vec<(Ident, Expr)>),
+    /// `run NAME { key = value; … }`: a run preset.
+    Run(Ident, Vec<(Ident, Expr)>),
+    /// `guard NAME: lhs (<|<=|>|>=) rhs;`: a domain condition every state must satisfy.
+    Guard {
+        /// The guard's name.
+        name: Ident,
+        /// Left side of the comparison.
+        lhs: Expr,
+        /// The comparison.
+        op: Comparison,
+        /// Right side of the comparison.
+        rhs: Expr,
+    },
+    /// `splitting KIND(args…);`: a structure-specific splitting method the model admits.
+    Splitting(Ident, Vec<Ident>),
+}
+
+/// A comparison in a `guard`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Comparison {
+    /// `<`
+    Less,
+    /// `<=`
+    LessEq,
+    /// `>`
+    Greater,
+    /// `>=`
+    GreaterEq,
 }
 
 /// An item with the span of its whole text (for error messages and generated comments).

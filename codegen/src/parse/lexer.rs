@@ -10,7 +10,7 @@ pub enum Tok {
     Ident(String),
     /// A numeric literal.
     Num(f64),
-    /// Punctuation: one of `{ } ( ) [ ] , ; : = + - * / ^`.
+    /// Punctuation: one of `{ } ( ) [ ] , ; : = + - * / ^ < >`.
     Punct(char),
     /// End of file.
     Eof,
@@ -103,7 +103,7 @@ pub fn lex(source: &Arc<Source>) -> Result<Vec<Token>, Diagnostic> {
                 tok: Tok::Num(value),
                 span: span(start, i),
             });
-        } else if b"{}()[],;:=+-*/^".contains(&c) {
+        } else if b"{}()[],;:=+-*/^<>".contains(&c) {
             tokens.push(Token {
                 tok: Tok::Punct(c as char),
                 span: span(i, i + 1),

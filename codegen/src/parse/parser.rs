@@ -11,6 +11,9 @@
 //!           | "lyapunov" NAME "=" expr ";"       | "hamiltonian" NAME "=" expr ";"
 //!           | "structure" ("canonical" "(" NAME "," NAME ")" | "lie_poisson_so3" "(" NAME ")") ";"
 //!           | "point" NAME "{" (NAME "=" expr ";")* "}"
+//!           | "run" NAME "{" (NAME "=" expr ";")* "}"
+//!           | "guard" NAME ":" expr ("<" | "<=" | ">" | ">=") expr ";"
+//!           | "splitting" NAME "(" NAME ("," NAME)* ")" ";"
 //! ```
 
 use super::ast::*;
@@ -29,6 +32,9 @@ const ITEM_KEYWORDS: &[&str] = &[
     "hamiltonian",
     "structure",
     "point",
+    "run",
+    "guard",
+    "splitting",
 ];
 
 /// The parser state: a token list and a cursor.
@@ -272,20 +278,74 @@ impl Parser {
                 self.expect_punct(';')?;
                 Item::Structure(s, kind.span)
             }
-            "point" => {
+            "point" | "run" => {
                 self.bump();
-                let name = self.ident("the point's name")?;
+                let name = self.ident(if keyword == "point" {
+                    "the point's name"
+                } else {
+                    "the preset's name"
+                })?;
                 self.expect_punct('{')?;
                 let mut values = Vec::new();
                 while !self.is_punct('}') {
-                    let var = self.ident("a state variable or `}`")?;
+                    let var = self.ident(if keyword == "point" {
+                        "a state variable or `}`"
+                    } else {
+                        "a setting (`method`, `dt`, `t_end`, `gains`, `every`, `init`) or `}`"
+                    })?;
                     self.expect_punct('=')?;
                     let value = self.expr()?;
                     self.expect_punct(';')?;
                     values.push((var, value));
                 }
                 self.bump();
-                Item::Point(name, values)
+                if keyword == "point" {
+                    Item::Point(name, values)
+                } else {
+                    Item::Run(name, values)
+                }
+            }
+            "guard" => {
+                self.bump();
+                let name = self.ident("the guard's name")?;
+                self.expect_punct(':')
+                    .map_err(|d| d.help("write a guard as `guard collision: norm(x) > 1e-6;`"))?;
+                let lhs = self.expr()?;
+                let op = if self.is_punct('<') {
+                    Comparison::Less
+                } else if self.is_punct('>') {
+                    Comparison::Greater
+                } else {
+                    return Err(self
+                        .unexpected("a comparison `<`, `<=`, `>` or `>=`")
+                        .help("a guard states a condition every state must satisfy: `guard collision: norm(x) > 1e-6;`"));
+                };
+                self.bump();
+                let op = if self.is_punct('=') {
+                    self.bump();
+                    match op {
+                        Comparison::Less => Comparison::LessEq,
+                        _ => Comparison::GreaterEq,
+                    }
+                } else {
+                    op
+                };
+                let rhs = self.expr()?;
+                self.expect_punct(';')?;
+                Item::Guard { name, lhs, op, rhs }
+            }
+            "splitting" => {
+                self.bump();
+                let kind = self.ident("a splitting (`rigid_body`)")?;
+                self.expect_punct('(')?;
+                let mut args = vec![self.ident("an argument")?];
+                while self.is_punct(',') {
+                    self.bump();
+                    args.push(self.ident("an argument")?);
+                }
+                self.expect_punct(')')?;
+                self.expect_punct(';')?;
+                Item::Splitting(kind, args)
             }
             _ => return Err(self.expected_item()),
         };

@@ -13,7 +13,7 @@ use lasalle::models::{kepler::Kepler, perturbed_kepler::PerturbedKepler, rigid_b
 use lasalle::{gauss_newton_norm, GainPolicy, VerletVariant};
 use serde_json::json;
 
-use super::super::sim::{simulate, Base, CliModel, Method, RunSpec, Trace};
+use super::super::sim::{simulate, Base, Method, RunModel, RunSpec, Trace};
 use super::{command_line, sci, ExperimentArgs, Table};
 use crate::cli::CliResult;
 
@@ -107,7 +107,7 @@ fn study<Mdl, const N: usize, const M: usize, const G: usize>(
     stability: &mut String,
 ) -> Result<(String, serde_json::Value), String>
 where
-    Mdl: CliModel<[f64; N], [f64; M], [f64; G]>,
+    Mdl: RunModel<[f64; N], [f64; M], [f64; G]>,
 {
     let mut header = vec!["method".to_string()];
     header.extend(steps.iter().map(|h| format!("h = {h}")));

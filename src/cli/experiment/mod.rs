@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::plot::{thin, write_figure, Chart, Style};
-use super::sim::{Method, ModelName, Trace};
+use super::sim::{normalise, Method, Trace};
 use super::CliResult;
 
 /// Arguments of `lasalle experiment`.
@@ -47,10 +47,30 @@ pub struct ExperimentArgs {
     pub quiet: bool,
 }
 
+/// The paper's experiments, one per system of its §4.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Paper {
+    RigidBody,
+    Kepler,
+    PerturbedKepler,
+}
+
+impl Paper {
+    const ALL: [Paper; 3] = [Paper::RigidBody, Paper::Kepler, Paper::PerturbedKepler];
+
+    fn name(self) -> &'static str {
+        match self {
+            Paper::RigidBody => "rigid-body",
+            Paper::Kepler => "kepler",
+            Paper::PerturbedKepler => "perturbed-kepler",
+        }
+    }
+}
+
 /// Which experiment.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Which {
-    Model(ModelName),
+    Paper(Paper),
     Gains,
     All,
 }
@@ -60,9 +80,16 @@ pub fn run(args: &ExperimentArgs) -> CliResult {
     let which = match args.name.as_str() {
         "gains" | "gain" => Which::Gains,
         "all" => Which::All,
-        other => Which::Model(other.parse().map_err(|e: String| {
-            format!("{e}; experiments: rigid-body, kepler, perturbed-kepler, gains, all")
-        })?),
+        other => Which::Paper(
+            Paper::ALL
+                .into_iter()
+                .find(|p| normalise(p.name()) == normalise(other))
+                .ok_or_else(|| {
+                    format!(
+                        "unknown experiment `{other}`; experiments: rigid-body, kepler, perturbed-kepler, gains, all (use `lasalle run {other}` to integrate a model)"
+                    )
+                })?,
+        ),
     };
     if let Some(dt) = args.dt {
         if !(dt.is_finite() && dt > 0.0) {
@@ -77,27 +104,23 @@ pub fn run(args: &ExperimentArgs) -> CliResult {
         }
     }
     match which {
-        Which::Model(m) => run_one(args, m),
+        Which::Paper(p) => run_one(args, p),
         Which::Gains => gains::run(args, &out_dir(args, "gains")?),
         Which::All => {
-            for m in ModelName::PAPER {
-                run_one(args, m)?;
+            for p in Paper::ALL {
+                run_one(args, p)?;
             }
             gains::run(args, &out_dir(args, "gains")?)
         }
     }
 }
 
-fn run_one(args: &ExperimentArgs, model: ModelName) -> CliResult {
-    let dir = out_dir(args, model.cli_name())?;
-    match model {
-        ModelName::RigidBody => rigid_body::run(args, &dir),
-        ModelName::Kepler => kepler::run(args, &dir),
-        ModelName::PerturbedKepler => perturbed_kepler::run(args, &dir),
-        other => Err(format!(
-            "no experiment for model `{other}`; experiments: rigid-body, kepler, perturbed-kepler, gains, all (use `lasalle run {other}` to integrate it)"
-        )
-        .into()),
+fn run_one(args: &ExperimentArgs, experiment: Paper) -> CliResult {
+    let dir = out_dir(args, experiment.name())?;
+    match experiment {
+        Paper::RigidBody => rigid_body::run(args, &dir),
+        Paper::Kepler => kepler::run(args, &dir),
+        Paper::PerturbedKepler => perturbed_kepler::run(args, &dir),
     }
 }
 

@@ -10,11 +10,11 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use lasalle::models::perturbed_kepler::PerturbedKepler;
-use lasalle::{Control, DormandPrince, Driver, VerletVariant};
+use lasalle::{Control, Declared, DormandPrince, Driver, VerletVariant};
 use serde_json::json;
 
 use super::super::plot::{thin, write_figure, Chart, Style};
-use super::super::sim::{collision_guard, num, simulate, Base, Method, RunSpec, Trace};
+use super::super::sim::{num, simulate, Base, Method, RunSpec, Trace};
 use super::{
     command_line, error_figure, failure_note, must, sci, write_outputs, ExperimentArgs, Table,
 };
@@ -42,7 +42,9 @@ pub fn dense_reference(
     let mut out = Vec::with_capacity(times.len());
     let t_end = *times.last().ok_or("no output times")?;
     Driver::new(0.0, t_end, 0.0)
-        .guard(1, |x: &[f64; 6]| collision_guard(x, 0.0))
+        .guard(1, |x: &[f64; 6]| {
+            model.check_guards(x, 0.0).map(|g| g.to_string())
+        })
         .run_dense(
             &mut DormandPrince::with_tolerances(tol, tol),
             model,

@@ -1,0 +1,81 @@
+//! What a model file declares for running it, beyond its field: run presets, domain guards and
+//! the structure-specific steppers it admits. Front ends (the command line, a sweep) read these
+//! instead of knowing models by name; compiled and loaded models implement [`Declared`] alike.
+
+use num_traits::Float;
+
+use crate::field::Partitioned;
+use crate::state::State;
+use crate::steppers::RigidBodySplitting;
+
+/// A run preset (`run paper { method = feedback_euler; dt = 0.005; … }`): the settings a run uses
+/// unless the caller overrides them. Every setting is optional.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Preset {
+    /// Name.
+    pub name: &'static str,
+    /// The method as the command line spells it (`feedback-euler`).
+    pub method: Option<&'static str>,
+    /// Step size (the initial step of adaptive methods).
+    pub dt: Option<f64>,
+    /// End time.
+    pub t_end: Option<f64>,
+    /// Record every n-th step.
+    pub every: Option<u64>,
+    /// The named point to start from.
+    pub init: Option<&'static str>,
+    /// Gains of feedback methods.
+    pub gains: Option<&'static [f64]>,
+    /// Parameter values, each parameter's slots as `Parameters::set_param` takes them.
+    pub params: &'static [(&'static str, &'static [f64])],
+}
+
+/// A domain guard that failed: a condition the model file requires of every state
+/// (`guard collision: norm(x) > 1e-6;`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct GuardFailure {
+    /// The guard's name.
+    pub name: &'static str,
+    /// Its condition as written in the model file.
+    pub condition: &'static str,
+    /// The margin (left − right side for `>`, right − left for `<`) at the state: ≤ 0 or NaN.
+    pub margin: f64,
+}
+
+impl std::fmt::Display for GuardFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "guard `{}` violated: {} does not hold (margin {:e})",
+            self.name, self.condition, self.margin
+        )
+    }
+}
+
+/// The declarations of a model file that a run can use.
+///
+/// Every method has a default meaning "nothing declared", so hand-written models implement it
+/// with an empty `impl`.
+pub trait Declared<T: Float, X: State<T>> {
+    /// The run presets, the first being the default.
+    fn presets(&self) -> &'static [Preset] {
+        &[]
+    }
+
+    /// Checks the guards at state `x` for step size `dt` (0 for adaptive methods): the first
+    /// one that fails, if any.
+    fn check_guards(&self, _x: &X, _dt: T) -> Option<GuardFailure> {
+        None
+    }
+
+    /// The model as a partitioned field, if its field is partitioned (Störmer–Verlet applies).
+    fn partitioned(&self) -> Option<&dyn Partitioned<T, X>> {
+        None
+    }
+
+    /// The free rigid body's three-rotation splitting, if the model declares
+    /// `splitting rigid_body(R, Omega, I);`, with its current moments of inertia.
+    fn rigid_body_splitting(&self) -> Option<RigidBodySplitting<T>> {
+        None
+    }
+}
