@@ -44,6 +44,10 @@ pub trait Scalar: Clone {
     fn sqrt(&self) -> Self {
         self.powf(Rational::new(1, 2))
     }
+    /// ∛self (the emitted code's `cbrt`, real for negative arguments in f64).
+    fn cbrt(&self) -> Self {
+        self.powf(Rational::new(1, 3))
+    }
 }
 
 impl Scalar for f64 {
@@ -71,6 +75,9 @@ impl Scalar for f64 {
     }
     fn sqrt(&self) -> Self {
         f64::sqrt(*self)
+    }
+    fn cbrt(&self) -> Self {
+        f64::cbrt(*self)
     }
     fn exp(&self) -> Self {
         f64::exp(*self)
