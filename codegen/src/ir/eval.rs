@@ -63,6 +63,16 @@ impl Scalar for f64 {
     fn recip(&self) -> Self {
         1.0 / self
     }
+    // One IEEE operation each (the defaults round twice: a · (1/b)).
+    fn neg(&self) -> Self {
+        -self
+    }
+    fn sub(&self, o: &Self) -> Self {
+        self - o
+    }
+    fn div(&self, o: &Self) -> Self {
+        self / o
+    }
     fn powi(&self, n: i32) -> Self {
         f64::powi(*self, n)
     }

@@ -304,7 +304,11 @@ impl Tape {
                 }
             }
         }
-        if let Some(r) = self.hoisted.iter().find(|r| r.index() >= self.prelude.len()) {
+        if let Some(r) = self
+            .hoisted
+            .iter()
+            .find(|r| r.index() >= self.prelude.len())
+        {
             return bad(format!("hoisted register {} is past the prelude", r.0));
         }
         if let Some(r) = self.outputs.iter().find(|r| r.index() >= self.body.len()) {
@@ -321,7 +325,11 @@ impl Tape {
             Op::Param(k) => params[k as usize].clone(),
             _ => unreachable!("validated: only parameters in the prelude"),
         });
-        Ok(self.hoisted.iter().map(|r| regs[r.index()].clone()).collect())
+        Ok(self
+            .hoisted
+            .iter()
+            .map(|r| regs[r.index()].clone())
+            .collect())
     }
 
     /// Runs the body with hoisted values from [`Tape::hoist`]: the outputs.
@@ -345,7 +353,11 @@ impl Tape {
             Op::Hoisted(k) => hoisted[k as usize].clone(),
             _ => unreachable!("validated: no parameter in the body"),
         });
-        Ok(self.outputs.iter().map(|r| regs[r.index()].clone()).collect())
+        Ok(self
+            .outputs
+            .iter()
+            .map(|r| regs[r.index()].clone())
+            .collect())
     }
 
     /// Evaluates the outputs over any [`Scalar`]: prelude, then body.
@@ -362,7 +374,10 @@ impl Tape {
 
     /// Instructions of the body that compute something (not leaves or constants).
     pub fn body_ops(&self) -> usize {
-        self.body.iter().filter(|op| op.operands().next().is_some()).count()
+        self.body
+            .iter()
+            .filter(|op| op.operands().next().is_some())
+            .count()
     }
 }
 
@@ -520,6 +535,11 @@ impl TapeBuilder {
     pub fn with_lets(mut self, lets: impl IntoIterator<Item = Id>) -> Self {
         self.lets.extend(lets);
         self
+    }
+
+    /// The input sizes of the next tapes.
+    pub fn set_dims(&mut self, dims: Dims) {
+        self.dims = dims;
     }
 
     /// The graph as rewritten so far.

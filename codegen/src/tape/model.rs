@@ -16,8 +16,9 @@ pub struct Partition {
     pub field_p: Tape,
 }
 
-/// The tapes of a model's functions. All share the model's [`Dims`]: N state components,
-/// its parameter slots, M targets and its gains.
+/// The tapes of a model's functions. Their [`Dims`] are the model's N state components and
+/// parameter slots; V, ∇V and X − ∇V also take the M targets and the gains, the other tapes
+/// none (targets and gains may appear only in V).
 #[derive(Clone, Debug)]
 pub struct ModelTapes {
     /// X(x): N outputs.
@@ -58,13 +59,20 @@ impl ModelTapes {
             .flat_map(|b| b.value.ids.iter().copied())
             .filter(|&id| !model.graph.children(id).is_empty())
             .collect();
-        let mut b = TapeBuilder::new(model.graph.clone(), dims).with_lets(lets);
+        let plain = Dims {
+            targets: 0,
+            gains: 0,
+            ..dims
+        };
+        let mut b = TapeBuilder::new(model.graph.clone(), plain).with_lets(lets);
         let field = b.build(&model.field)?;
         let invariants = b.build(&model.invariant_ids())?;
         let jacobian = jacobian(&mut b, model, d)?;
+        b.set_dims(dims);
         let lyapunov = b.build(&[model.lyapunov])?;
         let lyapunov_gradient = b.build(&d.lyapunov_gradient)?;
         let feedback = b.build(&d.feedback)?;
+        b.set_dims(plain);
         let partition = match &d.partition {
             Some(is_q) => {
                 let part = |q: bool| -> Vec<Id> {
@@ -140,7 +148,8 @@ fn jacobian(b: &mut TapeBuilder, model: &Model, d: &Derivatives) -> Result<Tape,
                     let z = match tape
                         .body
                         .iter()
-                        .position(|op| matches!(op, super::Op::Const(c) if c.to_bits() == 0)) {
+                        .position(|op| matches!(op, super::Op::Const(c) if c.to_bits() == 0))
+                    {
                         Some(k) => k,
                         None => {
                             tape.body.push(super::Op::Const(0.0));
