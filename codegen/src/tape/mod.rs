@@ -437,6 +437,8 @@ struct Sections {
     pre_index: HashMap<(u8, u64, u64), u32>,
     body_index: HashMap<(u8, u64, u64), u32>,
     hoisted: Vec<Reg>,
+    /// Index in `hoisted` of each hoisted prelude register.
+    hoisted_index: HashMap<u32, u32>,
 }
 
 impl Sections {
@@ -472,14 +474,15 @@ impl Sections {
             Val::Const(c) => self.push(true, Op::Const(c)).map(Reg),
             Val::Body(r) => Ok(Reg(r)),
             Val::Pre(r) => {
-                let i = match self.hoisted.iter().position(|h| h.0 == r) {
-                    Some(i) => i,
+                let i = match self.hoisted_index.get(&r) {
+                    Some(&i) => i,
                     None => {
+                        let i = u32::try_from(self.hoisted.len()).map_err(|_| TapeError::TooLarge)?;
                         self.hoisted.push(Reg(r));
-                        self.hoisted.len() - 1
+                        self.hoisted_index.insert(r, i);
+                        i
                     }
                 };
-                let i = u32::try_from(i).map_err(|_| TapeError::TooLarge)?;
                 self.push(true, Op::Hoisted(i)).map(Reg)
             }
         }
