@@ -26,6 +26,7 @@ mod error;
 pub mod ir;
 pub mod model;
 pub mod parse;
+pub mod tape;
 
 pub use error::{Diagnostic, Error, Result, Source, Span};
 pub use model::Model;

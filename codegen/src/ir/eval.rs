@@ -44,6 +44,10 @@ pub trait Scalar: Clone {
     fn sqrt(&self) -> Self {
         self.powf(Rational::new(1, 2))
     }
+    /// ∛self (the emitted code's `cbrt`, real for negative arguments in f64).
+    fn cbrt(&self) -> Self {
+        self.powf(Rational::new(1, 3))
+    }
 }
 
 impl Scalar for f64 {
@@ -59,6 +63,16 @@ impl Scalar for f64 {
     fn recip(&self) -> Self {
         1.0 / self
     }
+    // One IEEE operation each (the defaults round twice: a · (1/b)).
+    fn neg(&self) -> Self {
+        -self
+    }
+    fn sub(&self, o: &Self) -> Self {
+        self - o
+    }
+    fn div(&self, o: &Self) -> Self {
+        self / o
+    }
     fn powi(&self, n: i32) -> Self {
         f64::powi(*self, n)
     }
@@ -71,6 +85,9 @@ impl Scalar for f64 {
     }
     fn sqrt(&self) -> Self {
         f64::sqrt(*self)
+    }
+    fn cbrt(&self) -> Self {
+        f64::cbrt(*self)
     }
     fn exp(&self) -> Self {
         f64::exp(*self)

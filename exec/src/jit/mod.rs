@@ -1,0 +1,501 @@
+//! The Cranelift back end: one native function per entry point of a tape.
+//!
+//! Every register is one SSA value. `+ − · /`, negation and `sqrt` are native instructions
+//! (IEEE, correctly rounded, never fused or reassociated by Cranelift); `Powi` is expanded
+//! inline by the binary exponentiation of
+//! [`lasalle_codegen::tape::powi`]; `cbrt`, `exp`, `ln`, `sin`, `cos` and
+//! `powf` call `extern "C"` wrappers of the `std` functions, so results are bitwise those of
+//! the interpreter and of the emitted Rust.
+//!
+//! Two functions are compiled per tape:
+//! - `eval(hoisted, state, target, gains, out)` for one state;
+//! - `lanes(k, hoisted, state, target, gains, out)`, a loop over the k lanes of
+//!   structure-of-arrays inputs; instructions that read no state (targets, gains, hoisted
+//!   values, constants and what depends on them alone) are computed once before the loop.
+
+use crate::{Common, Dims, ExecError, Kernel, Op, Tape};
+use cranelift_codegen::ir::condcodes::IntCC;
+use cranelift_codegen::ir::immediates::Ieee64;
+use cranelift_codegen::ir::{
+    types, AbiParam, BlockArg, InstBuilder, MemFlagsData, Signature, Value,
+};
+use cranelift_codegen::settings::{self, Configurable};
+use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
+use cranelift_jit::{JITBuilder, JITModule};
+use cranelift_module::Module;
+use lasalle_codegen::ir::Rational;
+
+type EvalFn = unsafe extern "C" fn(*const f64, *const f64, *const f64, *const f64, *mut f64);
+type LanesFn =
+    unsafe extern "C" fn(usize, *const f64, *const f64, *const f64, *const f64, *mut f64);
+
+extern "C" fn call_cbrt(x: f64) -> f64 {
+    x.cbrt()
+}
+extern "C" fn call_exp(x: f64) -> f64 {
+    x.exp()
+}
+extern "C" fn call_ln(x: f64) -> f64 {
+    x.ln()
+}
+extern "C" fn call_sin(x: f64) -> f64 {
+    x.sin()
+}
+extern "C" fn call_cos(x: f64) -> f64 {
+    x.cos()
+}
+extern "C" fn call_powf(x: f64, num: i32, den: i32) -> f64 {
+    crate::interp::powf(x, Rational { num, den })
+}
+
+fn jit_err(e: impl std::fmt::Display) -> ExecError {
+    ExecError::Jit(e.to_string())
+}
+
+/// A tape compiled to native code.
+pub struct JitKernel {
+    common: Common,
+    /// Owns the code; freed on drop.
+    module: Option<JITModule>,
+    eval: EvalFn,
+    lanes: LanesFn,
+}
+
+// SAFETY: the module is only touched again in `drop` (which has `&mut self`); the compiled
+// functions are pure: they read their arguments, write `out` and keep no state, so calling
+// them from several threads at once is sound.
+unsafe impl Send for JitKernel {}
+// SAFETY: as above; `&self` methods only call the pure compiled functions.
+unsafe impl Sync for JitKernel {}
+
+impl Drop for JitKernel {
+    fn drop(&mut self) {
+        if let Some(module) = self.module.take() {
+            // SAFETY: the function pointers into this module live in `self` only and are
+            // never used again after drop.
+            unsafe { module.free_memory() };
+        }
+    }
+}
+
+impl std::fmt::Debug for JitKernel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("JitKernel")
+            .field("dims", &self.common.dims())
+            .finish_non_exhaustive()
+    }
+}
+
+/// Where the pointer arguments are in the entry block's parameters.
+struct Args {
+    hoisted: Value,
+    state: Value,
+    target: Value,
+    gains: Value,
+    out: Value,
+}
+
+/// How a function addresses the state and the outputs.
+enum Layout {
+    /// One state: component i at `state + 8i`.
+    Scalar,
+    /// One lane of k: component i at `lane_base + i·kb`, with `kb = 8k`.
+    Lanes { kb: Value },
+}
+
+impl JitKernel {
+    /// Compiles a tape (checked with [`Tape::validate`]).
+    pub fn new(tape: &Tape) -> Result<JitKernel, ExecError> {
+        tape.validate()?;
+        let mut flags = settings::builder();
+        let set = |f: &mut settings::Builder, k, v| f.set(k, v).map_err(jit_err);
+        set(&mut flags, "use_colocated_libcalls", "false")?;
+        set(&mut flags, "is_pic", "false")?;
+        set(&mut flags, "opt_level", "speed")?;
+        let isa = cranelift_native::builder()
+            .map_err(jit_err)?
+            .finish(settings::Flags::new(flags))
+            .map_err(jit_err)?;
+        let mut module = JITModule::new(JITBuilder::with_isa(
+            isa,
+            cranelift_module::default_libcall_names(),
+        ));
+        let compiled = Self::define(&mut module, tape);
+        let (eval_id, lanes_id) = match compiled {
+            Ok(ids) => ids,
+            Err(e) => {
+                // SAFETY: nothing compiled in this module has been handed out.
+                unsafe { module.free_memory() };
+                return Err(e);
+            }
+        };
+        let eval = module.get_finalized_function(eval_id);
+        let lanes = module.get_finalized_function(lanes_id);
+        // SAFETY: the two functions were just defined with exactly these signatures (pointer
+        // arguments and a usize, in the ISA's default calling convention, which is the C
+        // convention of the host), and the module that owns their code lives in `self`.
+        let (eval, lanes) = unsafe {
+            (
+                std::mem::transmute::<*const u8, EvalFn>(eval),
+                std::mem::transmute::<*const u8, LanesFn>(lanes),
+            )
+        };
+        Ok(JitKernel {
+            common: Common::new(tape),
+            module: Some(module),
+            eval,
+            lanes,
+        })
+    }
+
+    fn define(
+        module: &mut JITModule,
+        tape: &Tape,
+    ) -> Result<(cranelift_module::FuncId, cranelift_module::FuncId), ExecError> {
+        let ptr = module.target_config().pointer_type();
+        let mut ctx = module.make_context();
+        let mut fctx = FunctionBuilderContext::new();
+        let mut ids = Vec::new();
+        for lanes in [false, true] {
+            let mut sig = module.make_signature();
+            if lanes {
+                sig.params.push(AbiParam::new(ptr));
+            }
+            sig.params.extend([AbiParam::new(ptr); 5]);
+            let id = module.declare_anonymous_function(&sig).map_err(jit_err)?;
+            ctx.func.signature = sig;
+            {
+                let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
+                let entry = b.create_block();
+                b.append_block_params_for_function_params(entry);
+                b.switch_to_block(entry);
+                let p = b.block_params(entry).to_vec();
+                let (k, p) = if lanes {
+                    (Some(p[0]), &p[1..])
+                } else {
+                    (None, &p[..])
+                };
+                let args = Args {
+                    hoisted: p[0],
+                    state: p[1],
+                    target: p[2],
+                    gains: p[3],
+                    out: p[4],
+                };
+                let mut e = Emit {
+                    b,
+                    ptr,
+                    values: vec![None; tape.body.len()],
+                    math: Math::new(module, ptr),
+                };
+                match k {
+                    None => e.scalar(tape, &args)?,
+                    Some(k) => e.lanes(tape, &args, k)?,
+                }
+                e.b.seal_all_blocks();
+                e.b.finalize(module.target_config());
+            }
+            module.define_function(id, &mut ctx).map_err(jit_err)?;
+            module.clear_context(&mut ctx);
+            ids.push(id);
+        }
+        module.finalize_definitions().map_err(jit_err)?;
+        Ok((ids[0], ids[1]))
+    }
+}
+
+/// Signatures of the math wrappers.
+struct Math {
+    unary: Signature,
+    powf: Signature,
+}
+
+impl Math {
+    fn new(module: &JITModule, _ptr: types::Type) -> Math {
+        let mut unary = module.make_signature();
+        unary.params.push(AbiParam::new(types::F64));
+        unary.returns.push(AbiParam::new(types::F64));
+        let mut powf = module.make_signature();
+        powf.params.extend([
+            AbiParam::new(types::F64),
+            AbiParam::new(types::I32),
+            AbiParam::new(types::I32),
+        ]);
+        powf.returns.push(AbiParam::new(types::F64));
+        Math { unary, powf }
+    }
+}
+
+/// The function being built.
+struct Emit<'a> {
+    b: FunctionBuilder<'a>,
+    ptr: types::Type,
+    values: Vec<Option<Value>>,
+    math: Math,
+}
+
+/// A byte offset for a load or store of element `i`.
+fn offset(i: usize) -> Result<i32, ExecError> {
+    i.checked_mul(8)
+        .and_then(|o| i32::try_from(o).ok())
+        .ok_or_else(|| ExecError::Jit(format!("index {i} too large for an immediate offset")))
+}
+
+impl Emit<'_> {
+    fn value(&self, r: crate::Reg) -> Value {
+        self.values[r.index()].expect("validated: operands are defined before use")
+    }
+
+    fn load(&mut self, base: Value, i: usize) -> Result<Value, ExecError> {
+        let off = offset(i)?;
+        Ok(self
+            .b
+            .ins()
+            .load(types::F64, MemFlagsData::trusted(), base, off))
+    }
+
+    fn call(&mut self, f: usize, sig: Signature, args: &[Value]) -> Value {
+        let sig = self.b.import_signature(sig);
+        let callee = self.b.ins().iconst(self.ptr, f as i64);
+        let call = self.b.ins().call_indirect(sig, callee, args);
+        self.b.inst_results(call)[0]
+    }
+
+    fn unary(&mut self, f: extern "C" fn(f64) -> f64, x: Value) -> Value {
+        let sig = self.math.unary.clone();
+        self.call(f as *const () as usize, sig, &[x])
+    }
+
+    /// xⁿ by binary exponentiation (`lasalle_codegen::tape::powi`).
+    fn powi(&mut self, x: Value, n: i32) -> Value {
+        let mut bits = n.unsigned_abs();
+        let mut square = x;
+        let mut result: Option<Value> = None;
+        while bits != 0 {
+            if bits & 1 == 1 {
+                result = Some(match result {
+                    None => square,
+                    Some(r) => self.b.ins().fmul(r, square),
+                });
+            }
+            bits >>= 1;
+            if bits != 0 {
+                square = self.b.ins().fmul(square, square);
+            }
+        }
+        let one = || Ieee64::with_bits(1.0f64.to_bits());
+        let r = match result {
+            Some(r) => r,
+            None => self.b.ins().f64const(one()),
+        };
+        if n < 0 {
+            let one = self.b.ins().f64const(one());
+            self.b.ins().fdiv(one, r)
+        } else {
+            r
+        }
+    }
+
+    /// The value of one instruction; `state(i)` loads state component i.
+    fn op(
+        &mut self,
+        op: Op,
+        args: &Args,
+        state: &mut dyn FnMut(&mut Self, usize) -> Result<Value, ExecError>,
+    ) -> Result<Value, ExecError> {
+        let v = |e: &Self, r| e.value(r);
+        Ok(match op {
+            Op::State(i) => state(self, i as usize)?,
+            Op::Target(i) => self.load(args.target, i as usize)?,
+            Op::Gain(i) => self.load(args.gains, i as usize)?,
+            Op::Hoisted(i) => self.load(args.hoisted, i as usize)?,
+            Op::Param(_) => {
+                return Err(ExecError::Jit("a parameter in the body".into()));
+            }
+            Op::Const(c) => self.b.ins().f64const(Ieee64::with_bits(c.to_bits())),
+            Op::Add(a, c) => {
+                let (x, y) = (v(self, a), v(self, c));
+                self.b.ins().fadd(x, y)
+            }
+            Op::Sub(a, c) => {
+                let (x, y) = (v(self, a), v(self, c));
+                self.b.ins().fsub(x, y)
+            }
+            Op::Mul(a, c) => {
+                let (x, y) = (v(self, a), v(self, c));
+                self.b.ins().fmul(x, y)
+            }
+            Op::Div(a, c) => {
+                let (x, y) = (v(self, a), v(self, c));
+                self.b.ins().fdiv(x, y)
+            }
+            Op::Neg(a) => {
+                let x = v(self, a);
+                self.b.ins().fneg(x)
+            }
+            Op::Sqrt(a) => {
+                let x = v(self, a);
+                self.b.ins().sqrt(x)
+            }
+            Op::Powi(a, n) => {
+                let x = v(self, a);
+                self.powi(x, n)
+            }
+            Op::Cbrt(a) => self.unary(call_cbrt, v(self, a)),
+            Op::Exp(a) => self.unary(call_exp, v(self, a)),
+            Op::Ln(a) => self.unary(call_ln, v(self, a)),
+            Op::Sin(a) => self.unary(call_sin, v(self, a)),
+            Op::Cos(a) => self.unary(call_cos, v(self, a)),
+            Op::Powf(a, p) => {
+                let x = v(self, a);
+                let num = self.b.ins().iconst(types::I32, i64::from(p.num));
+                let den = self.b.ins().iconst(types::I32, i64::from(p.den));
+                let sig = self.math.powf.clone();
+                self.call(call_powf as *const () as usize, sig, &[x, num, den])
+            }
+        })
+    }
+
+    /// Stores the outputs at `base + 8j` (scalar) or `base + j·kb` (lanes).
+    fn store_outputs(&mut self, tape: &Tape, out: Value, layout: &Layout) -> Result<(), ExecError> {
+        for (j, &r) in tape.outputs.iter().enumerate() {
+            let x = self.value(r);
+            match layout {
+                Layout::Scalar => {
+                    let off = offset(j)?;
+                    self.b.ins().store(MemFlagsData::trusted(), x, out, off);
+                }
+                Layout::Lanes { kb } => {
+                    let at = self.b.ins().imul_imm_s(*kb, j as i64);
+                    let addr = self.b.ins().iadd(out, at);
+                    self.b.ins().store(MemFlagsData::trusted(), x, addr, 0);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn scalar(&mut self, tape: &Tape, args: &Args) -> Result<(), ExecError> {
+        let base = args.state;
+        for (i, &op) in tape.body.iter().enumerate() {
+            let v = self.op(op, args, &mut |e, k| e.load(base, k))?;
+            self.values[i] = Some(v);
+        }
+        self.store_outputs(tape, args.out, &Layout::Scalar)?;
+        self.b.ins().return_(&[]);
+        Ok(())
+    }
+
+    fn lanes(&mut self, tape: &Tape, args: &Args, k: Value) -> Result<(), ExecError> {
+        // Which registers depend on the state (those are computed per lane).
+        let mut per_lane = vec![false; tape.body.len()];
+        for (i, op) in tape.body.iter().enumerate() {
+            per_lane[i] = matches!(op, Op::State(_)) || op.operands().any(|r| per_lane[r.index()]);
+        }
+        // Entry: everything shared by the lanes.
+        for (i, &op) in tape.body.iter().enumerate() {
+            if !per_lane[i] {
+                let v = self.op(op, args, &mut |_, _| {
+                    Err(ExecError::Jit("state read outside the lane loop".into()))
+                })?;
+                self.values[i] = Some(v);
+            }
+        }
+        let kb = self.b.ins().ishl_imm_u(k, 3);
+        let body = self.b.create_block();
+        let exit = self.b.create_block();
+        let zero = self.b.ins().iconst(self.ptr, 0);
+        let empty = self.b.ins().icmp_imm_u(IntCC::Equal, k, 0);
+        self.b
+            .ins()
+            .brif(empty, exit, &[], body, &[BlockArg::Value(zero)]);
+        // Loop body, with the byte offset of the lane as its parameter.
+        self.b.switch_to_block(body);
+        let off = self.b.append_block_param(body, self.ptr);
+        let state = self.b.ins().iadd(args.state, off);
+        for (i, &op) in tape.body.iter().enumerate() {
+            if per_lane[i] {
+                let v = self.op(op, args, &mut |e, c| {
+                    let at = e.b.ins().imul_imm_s(kb, c as i64);
+                    let addr = e.b.ins().iadd(state, at);
+                    Ok(e.b.ins().load(types::F64, MemFlagsData::trusted(), addr, 0))
+                })?;
+                self.values[i] = Some(v);
+            }
+        }
+        let out = self.b.ins().iadd(args.out, off);
+        self.store_outputs(tape, out, &Layout::Lanes { kb })?;
+        let next = self.b.ins().iadd_imm_u(off, 8);
+        let more = self.b.ins().icmp(IntCC::UnsignedLessThan, next, kb);
+        self.b
+            .ins()
+            .brif(more, body, &[BlockArg::Value(next)], exit, &[]);
+        self.b.switch_to_block(exit);
+        self.b.ins().return_(&[]);
+        Ok(())
+    }
+}
+
+impl Kernel for JitKernel {
+    fn dims(&self) -> Dims {
+        self.common.dims()
+    }
+
+    fn n_outputs(&self) -> usize {
+        self.common.n_outputs()
+    }
+
+    fn hoist(&self, params: &[f64]) -> Result<Vec<f64>, ExecError> {
+        self.common.hoist(params)
+    }
+
+    fn eval(
+        &self,
+        hoisted: &[f64],
+        state: &[f64],
+        target: &[f64],
+        gains: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), ExecError> {
+        self.common.check(1, hoisted, state, target, gains, out)?;
+        // SAFETY: `check` proved every slice has the length the code indexes (it reads
+        // `hoisted[..H]`, `state[..N]`, `target[..M]`, `gains[..G]` and writes `out[..O]`
+        // only); the code is alive while `self` is.
+        unsafe {
+            (self.eval)(
+                hoisted.as_ptr(),
+                state.as_ptr(),
+                target.as_ptr(),
+                gains.as_ptr(),
+                out.as_mut_ptr(),
+            )
+        };
+        Ok(())
+    }
+
+    fn eval_lanes(
+        &self,
+        k: usize,
+        hoisted: &[f64],
+        state: &[f64],
+        target: &[f64],
+        gains: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), ExecError> {
+        self.common.check(k, hoisted, state, target, gains, out)?;
+        // SAFETY: as in `eval`, with `state.len() = N·k` and `out.len() = O·k` checked, so
+        // every address `base + 8(i·k + lane)` the loop forms is inside its slice (and
+        // 8·N·k fits in a pointer-sized integer because the slices exist).
+        unsafe {
+            (self.lanes)(
+                k,
+                hoisted.as_ptr(),
+                state.as_ptr(),
+                target.as_ptr(),
+                gains.as_ptr(),
+                out.as_mut_ptr(),
+            )
+        };
+        Ok(())
+    }
+}

@@ -1,0 +1,189 @@
+//! # lasalle-exec
+//!
+//! Execution back ends for the register tapes of `lasalle_codegen::tape`: an interpreter
+//! ([`interp`]) and, with the `jit` feature (default), a Cranelift JIT (`jit`). Both compute
+//! what the tape computes in f64, bitwise: every tape instruction is one IEEE operation or a
+//! call of the `std` function the emitted Rust calls.
+//!
+//! A tape is compiled once into a [`Kernel`]. Its prelude (the parameter-only instructions)
+//! runs once per parameter set ([`Kernel::hoist`]); the body runs per state ([`Kernel::eval`])
+//! or for k states at once ([`Kernel::eval_lanes`]).
+//!
+//! ```
+//! use lasalle_codegen::{derive, tape::ModelTapes};
+//! use lasalle_exec::Backend;
+//!
+//! let text = "model Osc { state q: scalar, p: scalar; param w = 2;
+//!             d/dt q = p; d/dt p = -w^2 * q; integral E = p^2/2 + w^2 * q^2/2; }";
+//! let mut model = lasalle_codegen::lower_source("osc.lsl", text).unwrap();
+//! let d = derive::derive(&mut model);
+//! let tapes = ModelTapes::new(&model, &d).unwrap();
+//! let field = Backend::default().compile(&tapes.field).unwrap();
+//! let hoisted = field.hoist(&model.default_params()).unwrap();
+//! let mut dx = [0.0; 2];
+//! field.eval(&hoisted, &[1.0, 0.5], &[], &[], &mut dx).unwrap();
+//! assert_eq!(dx, [0.5, -4.0]);
+//! ```
+#![warn(missing_docs)]
+
+pub mod interp;
+#[cfg(feature = "jit")]
+pub mod jit;
+
+pub use lasalle_codegen::tape::{Dims, Op, Reg, Tape, TapeError};
+
+/// What can go wrong compiling or running a tape.
+#[derive(Debug, thiserror::Error)]
+pub enum ExecError {
+    /// The tape is malformed, or an argument has the wrong length.
+    #[error(transparent)]
+    Tape(#[from] TapeError),
+    /// The JIT was asked for but this build has no `jit` feature.
+    #[error("the JIT back end is not compiled in: enable the `jit` feature of lasalle-exec")]
+    JitUnavailable,
+    /// Cranelift could not compile the tape (or does not support this machine).
+    #[error("JIT compilation failed: {0}")]
+    Jit(String),
+}
+
+/// A compiled tape.
+///
+/// All methods take `&self` and are thread-safe; none allocates except [`Kernel::hoist`] (the
+/// interpreter evaluates into a thread-local scratch buffer that grows once per thread).
+pub trait Kernel: Send + Sync {
+    /// Input sizes of the tape.
+    fn dims(&self) -> Dims;
+
+    /// Number of outputs.
+    fn n_outputs(&self) -> usize;
+
+    /// Runs the prelude: the hoisted values for a parameter set (`params.len() ==
+    /// dims().params`), to pass to [`Kernel::eval`] and [`Kernel::eval_lanes`].
+    fn hoist(&self, params: &[f64]) -> Result<Vec<f64>, ExecError>;
+
+    /// `out = f(state; target, gains, hoisted)` for one state.
+    fn eval(
+        &self,
+        hoisted: &[f64],
+        state: &[f64],
+        target: &[f64],
+        gains: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), ExecError>;
+
+    /// k states at once, structure of arrays: component i of state `lane` at
+    /// `state[i*k + lane]`, output j at `out[j*k + lane]`; targets, gains and hoisted values
+    /// are shared. Each lane's outputs equal [`Kernel::eval`]'s bitwise.
+    fn eval_lanes(
+        &self,
+        k: usize,
+        hoisted: &[f64],
+        state: &[f64],
+        target: &[f64],
+        gains: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), ExecError>;
+}
+
+/// Which back end compiles a tape.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Backend {
+    /// Native code through Cranelift (feature `jit`).
+    Jit,
+    /// A loop over the instructions.
+    Interpreter,
+}
+
+impl Default for Backend {
+    /// The JIT when the `jit` feature is on, else the interpreter.
+    fn default() -> Self {
+        if cfg!(feature = "jit") {
+            Backend::Jit
+        } else {
+            Backend::Interpreter
+        }
+    }
+}
+
+impl Backend {
+    /// The back ends compiled into this build.
+    pub fn available() -> &'static [Backend] {
+        if cfg!(feature = "jit") {
+            &[Backend::Jit, Backend::Interpreter]
+        } else {
+            &[Backend::Interpreter]
+        }
+    }
+
+    /// Compiles a tape (after checking that it is well formed).
+    pub fn compile(self, tape: &Tape) -> Result<Box<dyn Kernel>, ExecError> {
+        tape.validate()?;
+        match self {
+            Backend::Interpreter => Ok(Box::new(interp::Interpreter::new(tape)?)),
+            #[cfg(feature = "jit")]
+            Backend::Jit => Ok(Box::new(jit::JitKernel::new(tape)?)),
+            #[cfg(not(feature = "jit"))]
+            Backend::Jit => Err(ExecError::JitUnavailable),
+        }
+    }
+}
+
+/// What every kernel keeps besides its code: sizes and the prelude, with argument checks.
+#[derive(Clone, Debug)]
+pub(crate) struct Common {
+    dims: Dims,
+    n_hoisted: usize,
+    n_outputs: usize,
+    /// The tape without its body: the prelude and the hoisted registers.
+    prelude: Tape,
+}
+
+impl Common {
+    pub(crate) fn new(tape: &Tape) -> Common {
+        Common {
+            dims: tape.dims,
+            n_hoisted: tape.hoisted.len(),
+            n_outputs: tape.outputs.len(),
+            prelude: Tape {
+                prelude: tape.prelude.clone(),
+                hoisted: tape.hoisted.clone(),
+                body: Vec::new(),
+                outputs: Vec::new(),
+                dims: tape.dims,
+            },
+        }
+    }
+
+    pub(crate) fn dims(&self) -> Dims {
+        self.dims
+    }
+
+    pub(crate) fn n_outputs(&self) -> usize {
+        self.n_outputs
+    }
+
+    pub(crate) fn hoist(&self, params: &[f64]) -> Result<Vec<f64>, ExecError> {
+        Ok(self.prelude.hoist(params)?)
+    }
+
+    /// Checks the lengths of the arguments of `eval_lanes` (k = 1 for `eval`).
+    pub(crate) fn check(
+        &self,
+        k: usize,
+        hoisted: &[f64],
+        state: &[f64],
+        target: &[f64],
+        gains: &[f64],
+        out: &[f64],
+    ) -> Result<(), ExecError> {
+        use lasalle_codegen::tape::expect_len;
+        let d = self.dims;
+        let times = |n: usize| n.checked_mul(k).ok_or(TapeError::TooLarge);
+        expect_len("hoisted", self.n_hoisted, hoisted.len())?;
+        expect_len("state", times(d.state)?, state.len())?;
+        expect_len("target", d.targets, target.len())?;
+        expect_len("gains", d.gains, gains.len())?;
+        expect_len("out", times(self.n_outputs)?, out.len())?;
+        Ok(())
+    }
+}

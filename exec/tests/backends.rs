@@ -1,0 +1,372 @@
+//! One test suite, run on every back end: every function of every model in `models/` and of
+//! random models using every operator and function of the DSL, at random states.
+//!
+//! Agreement required:
+//! - back end vs `Tape::eval::<f64>`: bitwise (NaN = NaN);
+//! - k lanes (k = 1, 4, 5, 8) vs one state: bitwise;
+//! - tape vs the DAG (`Graph::eval_with_scale`, no emission rewrites): the tape reorders sums
+//!   and products, so |tape − DAG| ≤ 1e-12 · S, where S bounds the magnitude of the terms whose
+//!   rounding errors accumulate (Σ|terms| through sums); for well-conditioned values this is a
+//!   few ulps.
+
+use lasalle_codegen::derive::{self, Derivatives};
+use lasalle_codegen::ir::{Id, Input};
+use lasalle_codegen::tape::{ModelTapes, Tape};
+use lasalle_codegen::Model;
+use lasalle_exec::Backend;
+
+/// xorshift64*: tiny, deterministic.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
+    }
+    /// Uniform in [0, 1).
+    fn unit(&mut self) -> f64 {
+        (self.next() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n as u64) as usize
+    }
+    /// ±[0.5, 1.5): away from 0, so |x| of a vec3 is ≥ 0.86 (Kepler's r).
+    fn component(&mut self) -> f64 {
+        let m = 0.5 + self.unit();
+        if self.next() & 1 == 0 {
+            m
+        } else {
+            -m
+        }
+    }
+}
+
+fn same(a: f64, b: f64) -> bool {
+    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+}
+
+/// A model with its derivatives and tapes, and the DAG roots of each tape.
+struct Case {
+    name: String,
+    model: Model,
+    tapes: ModelTapes,
+    roots: Vec<(&'static str, Vec<Id>)>,
+}
+
+impl Case {
+    fn new(name: &str, mut model: Model, checked: bool) -> Case {
+        let d: Derivatives = derive::derive(&mut model);
+        if checked {
+            lasalle_codegen::check::check(&mut model, &d).unwrap_or_else(|e| panic!("{name}: {e}"));
+        }
+        let tapes = ModelTapes::new(&model, &d).unwrap();
+        let mut roots = vec![
+            ("field", model.field.clone()),
+            ("invariants", model.invariant_ids()),
+            ("jacobian", d.jacobian.iter().flatten().copied().collect()),
+            ("lyapunov", vec![model.lyapunov]),
+            ("lyapunov_gradient", d.lyapunov_gradient.clone()),
+            ("feedback", d.feedback.clone()),
+        ];
+        if let Some(h) = &model.hamiltonian {
+            roots.push(("hamiltonian", vec![h.h]));
+        }
+        if let Some(is_q) = &d.partition {
+            for (name, q) in [("field_q", true), ("field_p", false)] {
+                let ids = model
+                    .field
+                    .iter()
+                    .zip(is_q)
+                    .filter(|(_, &x)| x == q)
+                    .map(|(&id, _)| id)
+                    .collect();
+                roots.push((name, ids));
+            }
+        }
+        Case {
+            name: name.to_string(),
+            model,
+            tapes,
+            roots,
+        }
+    }
+
+    /// Checks every tape of the case on `backend` at `samples` random states.
+    fn run(&self, backend: Backend, samples: usize, rng: &mut Rng) {
+        let model = &self.model;
+        let (n, m) = (model.dim(), model.invariant_dim());
+        let params = model.default_params();
+        let gains: Vec<f64> = model.gains.iter().map(|k| k.default).collect();
+        let tapes = self.tapes.all();
+        assert_eq!(tapes.len(), self.roots.len());
+        let kernels: Vec<_> = tapes
+            .iter()
+            .map(|(name, t)| {
+                backend
+                    .compile(t)
+                    .unwrap_or_else(|e| panic!("{} {name}: {e}", self.name))
+            })
+            .collect();
+        let hoisted: Vec<Vec<f64>> = kernels.iter().map(|k| k.hoist(&params).unwrap()).collect();
+        let states: Vec<Vec<f64>> = (0..samples)
+            .map(|_| (0..n).map(|_| rng.component()).collect())
+            .collect();
+        let x0: Vec<f64> = (0..n).map(|_| rng.component()).collect();
+        // The target f(x₀).
+        let target = self.tapes.invariants.eval(&params, &x0, &[], &[]).unwrap();
+        assert_eq!(target.len(), m);
+        for (t, (((name, tape), kernel), hoisted)) in
+            tapes.iter().zip(&kernels).zip(&hoisted).enumerate()
+        {
+            let (root_name, ids) = &self.roots[t];
+            assert_eq!(name, root_name);
+            let outs = tape.outputs.len();
+            assert_eq!(outs, ids.len(), "{} {name}", self.name);
+            // Only V, ∇V and X − ∇V take targets and gains.
+            let (target, gains) = (&target[..tape.dims.targets], &gains[..tape.dims.gains]);
+            let mut results = Vec::with_capacity(samples);
+            for x in &states {
+                let at =
+                    |what: &str| format!("{} {name} ({backend:?}) {what} at x = {x:?}", self.name);
+                let reference = tape.eval(&params, x, target, gains).unwrap();
+                let mut out = vec![0.0; outs];
+                kernel.eval(hoisted, x, target, gains, &mut out).unwrap();
+                for (j, (&a, &b)) in out.iter().zip(&reference).enumerate() {
+                    assert!(
+                        same(a, b),
+                        "{}: output {j}: {a:e} vs tape {b:e}",
+                        at("bitwise")
+                    );
+                }
+                for (j, &id) in ids.iter().enumerate() {
+                    let (v, scale) = model.graph.eval_with_scale(id, &mut |i| match i {
+                        Input::State(k) => x[k as usize],
+                        Input::Param(k) => params[k as usize],
+                        Input::Target(k) => target[k as usize],
+                        Input::Gain(k) => gains[k as usize],
+                        Input::Symbol(_) => f64::NAN,
+                    });
+                    let a = out[j];
+                    let ok = same(a, v)
+                        || (a - v).abs() <= 1e-12 * scale.abs()
+                        || (!v.is_finite() && !a.is_finite())
+                        || !scale.is_finite();
+                    assert!(
+                        ok,
+                        "{}: output {j}: {a:e} vs DAG {v:e} (scale {scale:e})",
+                        at("DAG")
+                    );
+                }
+                results.push(out);
+            }
+            // Lanes: k states at once, bitwise equal to one at a time.
+            for k in [1usize, 4, 5, 8] {
+                for chunk in results.chunks(k).zip(states.chunks(k)).take(6) {
+                    let (expect, xs) = chunk;
+                    let k = xs.len();
+                    let mut soa = vec![0.0; n * k];
+                    for (l, x) in xs.iter().enumerate() {
+                        for i in 0..n {
+                            soa[i * k + l] = x[i];
+                        }
+                    }
+                    let mut out = vec![f64::NAN; outs * k];
+                    kernel
+                        .eval_lanes(k, hoisted, &soa, target, gains, &mut out)
+                        .unwrap();
+                    for (l, e) in expect.iter().enumerate() {
+                        for j in 0..outs {
+                            assert!(
+                                same(out[j * k + l], e[j]),
+                                "{} {name} ({backend:?}) lanes k = {k}, lane {l}, output {j}: {:e} vs {:e}",
+                                self.name,
+                                out[j * k + l],
+                                e[j]
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+fn model_cases() -> Vec<Case> {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../models");
+    let mut paths: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "lsl"))
+        .collect();
+    paths.sort();
+    assert!(paths.len() >= 6, "models/ has {} models", paths.len());
+    paths
+        .iter()
+        .map(|p| {
+            let name = p.file_name().unwrap().to_string_lossy().into_owned();
+            Case::new(&name, lasalle_codegen::load_model(p).unwrap(), true)
+        })
+        .collect()
+}
+
+/// Random model text using every operator and function of the DSL.
+struct Gen {
+    rng: Rng,
+    /// Inside the `let` itself, which cannot refer to itself.
+    in_let: bool,
+}
+
+impl Gen {
+    /// A scalar expression of depth ≤ d.
+    fn scalar(&mut self, d: u32) -> String {
+        if d == 0 {
+            return match self.rng.below(8) {
+                0 => "y".into(),
+                1 => format!("x[{}]", self.rng.below(3)),
+                2 => "a".into(),
+                3 => "b[1]".into(),
+                4 if !self.in_let => "u".into(),
+                4 => "y".into(),
+                5 => "norm(x)".into(),
+                6 => format!("{:.3}", 0.25 + 2.0 * self.rng.unit()),
+                _ => "w".into(),
+            };
+        }
+        let s = |g: &mut Gen| g.scalar(d - 1);
+        match self.rng.below(22) {
+            0 | 1 => format!("({} + {})", s(self), s(self)),
+            2 | 3 => format!("({} - {})", s(self), s(self)),
+            4 | 5 => format!("({} * {})", s(self), s(self)),
+            6 => format!("({} / (1.5 + sin({})))", s(self), s(self)),
+            7 => format!("(-{})", s(self)),
+            8 => format!("({})^{}", s(self), [2, 3, 4, 7][self.rng.below(4)]),
+            9 => format!("(1 + ({})^2)^-{}", s(self), 1 + self.rng.below(3)),
+            10 => format!(
+                "(1 + ({})^2)^({})",
+                s(self),
+                ["1/2", "3/2", "-1/2", "-3/2", "5/2", "1/3", "2/3", "-4/3"][self.rng.below(8)]
+            ),
+            11 => format!("sqrt(1 + ({})^2)", s(self)),
+            12 => format!("exp({} / 4)", s(self)),
+            13 => format!("log(2 + sin({}))", s(self)),
+            14 => format!("sin({})", s(self)),
+            15 => format!("cos({})", s(self)),
+            16 => format!("dot(x, {})", self.vector(d - 1)),
+            17 => format!("norm({})", self.vector(d - 1)),
+            18 => format!("{}[{}]", self.vector(d - 1), self.rng.below(3)),
+            19 => format!("trace(hat(x) * hat({}))", self.vector(d - 1)),
+            20 => format!("(a * {} + a * {})", s(self), s(self)),
+            _ => format!("(x[0] * {} * y / x[1])", s(self)),
+        }
+    }
+
+    /// A vec3 expression of depth ≤ d.
+    fn vector(&mut self, d: u32) -> String {
+        if d == 0 {
+            return ["x", "b", "[y, a, 1]"][self.rng.below(3)].into();
+        }
+        match self.rng.below(8) {
+            0 => format!("cross(x, {})", self.vector(d - 1)),
+            1 => format!("({} * {})", self.scalar(d - 1), self.vector(d - 1)),
+            2 => format!("({} + {})", self.vector(d - 1), self.vector(d - 1)),
+            3 => format!("({} - {})", self.vector(d - 1), self.vector(d - 1)),
+            4 => format!("(hat({}) * x)", self.vector(d - 1)),
+            5 => format!("(transpose(M) * {})", self.vector(d - 1)),
+            6 => format!("({} / norm(x))", self.vector(d - 1)),
+            _ => format!(
+                "[{}, {}, {}]",
+                self.scalar(d - 1),
+                self.scalar(d - 1),
+                self.scalar(d - 1)
+            ),
+        }
+    }
+
+    fn model(&mut self, i: usize) -> String {
+        let d = 3;
+        self.in_let = true;
+        let u = self.scalar(2);
+        self.in_let = false;
+        format!(
+            "model Random{i} {{
+    state x: vec3, y: scalar;
+    param a = 1.25;
+    param b = [0.5, -0.75, 2];
+    param M = [[1, 0.5, 0], [0, 2, 0.25], [0.125, 0, 3]];
+    param w = a * 2;
+    let u = {u};
+    d/dt x = {vx};
+    d/dt y = {vy};
+    integral F = {f} gain k1 = 2;
+    constraint C = {c};
+}}",
+            vx = self.vector(d),
+            vy = self.scalar(d),
+            f = self.scalar(d),
+            c = self.vector(2),
+        )
+    }
+}
+
+fn random_cases(count: usize) -> Vec<Case> {
+    let mut g = Gen {
+        rng: Rng(0x9e37_79b9_7f4a_7c15),
+        in_let: false,
+    };
+    (0..count)
+        .map(|i| {
+            let text = g.model(i);
+            let model = lasalle_codegen::lower_source(&format!("random{i}.lsl"), &text)
+                .unwrap_or_else(|e| panic!("{e}\n{text}"));
+            Case::new(&format!("random{i}"), model, false)
+        })
+        .collect()
+}
+
+fn suite(backend: Backend) {
+    let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+    for case in model_cases() {
+        case.run(backend, 200, &mut rng);
+    }
+    for case in random_cases(40) {
+        case.run(backend, 25, &mut rng);
+    }
+}
+
+#[test]
+fn interpreter() {
+    suite(Backend::Interpreter);
+}
+
+#[cfg(feature = "jit")]
+#[test]
+fn jit() {
+    suite(Backend::Jit);
+}
+
+#[test]
+fn bad_arguments_are_errors_not_panics() {
+    for &backend in Backend::available() {
+        let case = &model_cases()[0];
+        let kernel = backend.compile(&case.tapes.feedback).unwrap();
+        let d = kernel.dims();
+        let hoisted = kernel.hoist(&case.model.default_params()).unwrap();
+        assert!(kernel.hoist(&[]).is_err() || d.params == 0);
+        let (x, t, g) = (vec![0.5; d.state], vec![0.0; d.targets], vec![1.0; d.gains]);
+        let mut out = vec![0.0; kernel.n_outputs()];
+        assert!(kernel.eval(&hoisted, &x[1..], &t, &g, &mut out).is_err());
+        assert!(kernel.eval(&hoisted, &x, &t, &g, &mut out[1..]).is_err());
+        assert!(kernel
+            .eval_lanes(2, &hoisted, &x, &t, &g, &mut out)
+            .is_err());
+        kernel.eval(&hoisted, &x, &t, &g, &mut out).unwrap();
+        kernel
+            .eval_lanes(0, &hoisted, &[], &t, &g, &mut [])
+            .unwrap();
+        let mut broken = Tape::clone(&case.tapes.feedback);
+        broken.outputs.push(lasalle_exec::Reg(u32::MAX));
+        assert!(backend.compile(&broken).is_err());
+    }
+}

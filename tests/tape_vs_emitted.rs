@@ -1,0 +1,128 @@
+//! The tapes of `lasalle_codegen::tape` and their back ends compute what the emitted Rust
+//! computes, bitwise: every function of every model in `models/`, at random states.
+
+use lasalle::models;
+use lasalle_codegen::tape::{ModelTapes, Tape};
+use lasalle_exec::Backend;
+use lasalle_runtime::{Field, Invariants, Lyapunov, Partitioned};
+
+fn same(a: f64, b: f64) -> bool {
+    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+}
+
+/// The tapes of a model file, built as `generate_file` builds the emitted code.
+fn tapes(file: &str) -> (lasalle_codegen::Model, ModelTapes) {
+    let path = format!("{}/models/{file}", env!("CARGO_MANIFEST_DIR"));
+    let mut model = lasalle_codegen::load_model(&path).unwrap();
+    let d = lasalle_codegen::derive::derive(&mut model);
+    lasalle_codegen::check::check(&mut model, &d).unwrap();
+    let tapes = ModelTapes::new(&model, &d).unwrap();
+    (model, tapes)
+}
+
+/// Checks one tape on every back end (and in `Tape::eval`) against the emitted values.
+fn agree(
+    what: &str,
+    tape: &Tape,
+    params: &[f64],
+    x: &[f64],
+    t: &[f64],
+    g: &[f64],
+    emitted: &[f64],
+) {
+    let (t, g) = (&t[..tape.dims.targets], &g[..tape.dims.gains]);
+    let reference = tape.eval(params, x, t, g).unwrap();
+    let mut results = vec![("tape", reference)];
+    for &backend in Backend::available() {
+        let k = backend.compile(tape).unwrap();
+        let h = k.hoist(params).unwrap();
+        let mut out = vec![0.0; k.n_outputs()];
+        k.eval(&h, x, t, g, &mut out).unwrap();
+        results.push((
+            if backend == Backend::Jit {
+                "jit"
+            } else {
+                "interpreter"
+            },
+            out,
+        ));
+    }
+    for (name, got) in results {
+        assert_eq!(got.len(), emitted.len(), "{what}");
+        for (j, (&a, &b)) in got.iter().zip(emitted).enumerate() {
+            assert!(
+                same(a, b),
+                "{what} [{j}] at x = {x:?}: {name} {a:e} vs emitted {b:e}"
+            );
+        }
+    }
+}
+
+macro_rules! check_model {
+    ($test:ident, $file:literal, $ty:ty, partitioned: $part:tt) => {
+        #[test]
+        fn $test() {
+            type Model = $ty;
+            const N: usize = Model::N;
+            const M: usize = Model::M;
+            let (model, tapes) = tapes($file);
+            let sys = Model::default();
+            let params = model.default_params();
+            let gains = Model::default_gains();
+            let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+            let mut rand = move || {
+                seed ^= seed << 13;
+                seed ^= seed >> 7;
+                seed ^= seed << 17;
+                let u = (seed >> 11) as f64 / (1u64 << 53) as f64;
+                if seed & 1 == 0 { 0.5 + u } else { -0.5 - u }
+            };
+            let mut x0 = [0.0; N];
+            x0.iter_mut().for_each(|v| *v = rand());
+            let target = sys.targets(&x0);
+            for _ in 0..200 {
+                let mut x = [0.0; N];
+                x.iter_mut().for_each(|v| *v = rand());
+                let (p, t, g) = (&params[..], &target[..], &gains[..]);
+                let mut dx = [0.0; N];
+                sys.field(&x, &mut dx);
+                agree("field", &tapes.field, p, &x, t, g, &dx);
+                let mut f = [0.0; M];
+                sys.invariants(&x, &mut f);
+                agree("invariants", &tapes.invariants, p, &x, t, g, &f);
+                let mut jac = [[0.0; N]; M];
+                sys.invariants_jacobian(&x, &mut jac);
+                agree("jacobian", &tapes.jacobian, p, &x, t, g, jac.as_flattened());
+                let v = sys.lyapunov(&x, &target, &gains);
+                agree("lyapunov", &tapes.lyapunov, p, &x, t, g, &[v]);
+                let mut grad = [0.0; N];
+                sys.lyapunov_gradient(&x, &target, &gains, &mut grad);
+                agree("lyapunov_gradient", &tapes.lyapunov_gradient, p, &x, t, g, &grad);
+                let mut fb = [0.0; N];
+                sys.feedback_field(&x, &target, &gains, &mut fb);
+                agree("feedback", &tapes.feedback, p, &x, t, g, &fb);
+                check_model!(@partitioned $part, sys, tapes, x, p, t, g, N);
+            }
+        }
+    };
+    (@partitioned true, $sys:ident, $tapes:ident, $x:ident, $p:ident, $t:ident, $g:ident, $n:ident) => {
+        let part = $tapes.partition.as_ref().expect("partitioned");
+        let (mut dq, mut dp) = ([0.0; $n], [0.0; $n]);
+        $sys.field_q(&$x, &mut dq);
+        $sys.field_p(&$x, &mut dp);
+        let q: Vec<f64> = (0..$n).filter(|&k| part.is_q[k]).map(|k| dq[k]).collect();
+        let pp: Vec<f64> = (0..$n).filter(|&k| !part.is_q[k]).map(|k| dp[k]).collect();
+        agree("field_q", &part.field_q, $p, &$x, $t, $g, &q);
+        agree("field_p", &part.field_p, $p, &$x, $t, $g, &pp);
+    };
+    (@partitioned false, $sys:ident, $tapes:ident, $($rest:tt)*) => {
+        assert!($tapes.partition.is_none(), "the model is partitioned: check field_q/field_p");
+    };
+}
+
+check_model!(coupled_oscillators, "coupled_oscillators.lsl", models::coupled_oscillators::CoupledOscillators, partitioned: true);
+check_model!(cr3bp, "cr3bp.lsl", models::cr3bp::CR3BP, partitioned: false);
+check_model!(kepler, "kepler.lsl", models::kepler::Kepler, partitioned: true);
+check_model!(perturbed_kepler, "perturbed_kepler.lsl", models::perturbed_kepler::PerturbedKepler, partitioned: true);
+check_model!(rigid_body, "rigid_body.lsl", models::rigid_body::RigidBody, partitioned: false);
+check_model!(so3_type_i, "so3_type_i.lsl", models::so3_type_i::So3TypeI, partitioned: false);
