@@ -6,7 +6,10 @@
 //! re-exported here integrate.
 #![warn(missing_docs)]
 
+pub use lasalle_exec::{Backend, LoadError, LoadedModel};
 pub use lasalle_runtime::*;
+
+include!(concat!(env!("OUT_DIR"), "/model_files.rs"));
 
 /// The models generated from `models/*.lsl` at build time.
 #[allow(missing_docs)]

@@ -29,6 +29,9 @@
 pub mod interp;
 #[cfg(feature = "jit")]
 pub mod jit;
+pub mod model;
+
+pub use model::{LoadError, LoadedModel};
 
 pub use lasalle_codegen::tape::{Dims, Op, Reg, Tape, TapeError};
 

@@ -2,6 +2,7 @@
 
 mod experiment;
 mod gen;
+mod load;
 mod normal_form;
 mod plot;
 mod run;

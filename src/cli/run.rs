@@ -5,42 +5,44 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use lasalle::models::{
-    coupled_oscillators::CoupledOscillators, cr3bp::CR3BP, kepler::Kepler,
-    perturbed_kepler::PerturbedKepler, rigid_body::RigidBody, so3_type_i::So3TypeI,
-};
-use lasalle::GainPolicy;
+use lasalle::{Declared, GainPolicy, ModelInfo, Parameters, Preset};
 
-use super::sim::{apply_param, initial_state, simulate, CliModel, Method, ModelName, RunSpec};
+use super::load::{load, BackendArg};
+use super::sim::{apply_param, initial_state, simulate, Method, RunSpec};
 use super::CliResult;
 
 /// Arguments of `lasalle run`.
 #[derive(Args, Debug)]
 pub struct RunArgs {
-    /// The model: rigid-body, kepler or perturbed-kepler.
+    /// The model: a path to a model file (`my_model.lsl`) or the name of a built-in model
+    /// (kepler, rigid-body, perturbed-kepler, cr3bp, so3-type-i, …).
     pub model: String,
+    /// A run preset declared in the model file (`run NAME { … }`); default: its first one.
+    /// Flags override the preset's settings.
+    #[arg(long)]
+    pub preset: Option<String>,
     /// The method: euler, heun, rk4, dopri5; feedback-<base> (X − ∇V); projection-<base>;
-    /// stormer-verlet-a / -b (partitioned models); splitting (rigid body).
-    #[arg(long, short, default_value = "feedback-euler")]
-    pub method: String,
-    /// Step size (the initial step for dopri5; default: the paper's Δt for the model —
-    /// 1e-4 rigid body, 0.005 Kepler, 0.03 perturbed Kepler).
+    /// stormer-verlet-a / -b (partitioned models); splitting (models declaring
+    /// `splitting rigid_body(…)`). Default: the preset's, else feedback-euler.
+    #[arg(long, short)]
+    pub method: Option<String>,
+    /// Step size (the initial step for dopri5); default: the preset's.
     #[arg(long, allow_negative_numbers = true)]
     pub dt: Option<f64>,
-    /// End time (default: the paper's — 1000, one period 70.2481, 200).
+    /// End time; default: the preset's.
     #[arg(long, allow_negative_numbers = true)]
     pub t_end: Option<f64>,
     /// Set a parameter, `name=value[,value…]` (e.g. `--param I=3,2,1`, `--param mu=1`);
     /// repeatable.
     #[arg(long, value_name = "NAME=V")]
     pub param: Vec<String>,
-    /// The initial state: a named point of the model (default: `paper` if the model has it,
-    /// else its first point) or the flat state as comma-separated numbers.
+    /// The initial state: a named point of the model (default: the preset's, else its first
+    /// point) or the flat state as comma-separated numbers.
     #[arg(long, allow_hyphen_values = true)]
     pub init: Option<String>,
-    /// Gains of feedback methods: default (the model's), auto (= adaptive), fixed[:c],
-    /// adaptive[:m[:c]], or k1,k2,…
-    #[arg(long, default_value = "default")]
+    /// Gains of feedback methods: default (the preset's, else the model's), auto
+    /// (= adaptive), fixed[:c], adaptive[:m[:c]], or k1,k2,…
+    #[arg(long, default_value = "default", allow_negative_numbers = true)]
     pub gains: String,
     /// Projection tolerance on |f(x) − f(x₀)|₂ (default: dt, as the paper's TolFun).
     #[arg(long)]
@@ -51,9 +53,13 @@ pub struct RunArgs {
     /// Absolute tolerance of dopri5.
     #[arg(long, default_value_t = 1e-10)]
     pub atol: f64,
-    /// Record every n-th step (default: about 20000 samples).
-    #[arg(long, default_value_t = 0)]
-    pub every: u64,
+    /// Record every n-th step (default: the preset's, else about 20000 samples).
+    #[arg(long)]
+    pub every: Option<u64>,
+    /// How the model's functions run: compiled to native code when the model is loaded
+    /// (jit), or interpreted.
+    #[arg(long, value_enum, default_value_t)]
+    pub backend: BackendArg,
     /// Output directory (default: out/<model>-<method>/).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -62,83 +68,92 @@ pub struct RunArgs {
     pub quiet: bool,
 }
 
-/// The default step size and end time for a model: the paper's (§4) for its three models.
-pub fn paper_step_and_end(model: ModelName) -> (f64, f64) {
-    match model {
-        ModelName::RigidBody => (1e-4, 1000.0),
-        ModelName::Kepler => (0.005, 70.2481),
-        ModelName::PerturbedKepler => (0.03, 200.0),
-        ModelName::Cr3bp => (1e-3, 100.0),
-        ModelName::So3TypeI => (1e-3, 10.0), // the thesis' Appendix B span
-        ModelName::CoupledOscillators => (1e-2, 100.0),
+/// The preset `--preset` names, or the model's first one.
+fn preset(model: &impl Declared<f64, Vec<f64>>, name: Option<&str>) -> Result<Option<&'static Preset>, String> {
+    let presets = model.presets();
+    match name {
+        None => Ok(presets.first()),
+        Some(name) => presets.iter().find(|p| p.name == name).map(Some).ok_or_else(|| {
+            let known: Vec<&str> = presets.iter().map(|p| p.name).collect();
+            if known.is_empty() {
+                format!("unknown preset `{name}`: the model declares no `run` preset")
+            } else {
+                format!("unknown preset `{name}`; the model's presets: {}", known.join(", "))
+            }
+        }),
     }
 }
 
 /// Runs `lasalle run`.
 pub fn run(args: &RunArgs) -> CliResult {
-    let model: ModelName = args.model.parse()?;
-    match model {
-        ModelName::RigidBody => run_model::<RigidBody, 12, 13, 3>(args, model),
-        ModelName::Kepler => run_model::<Kepler, 6, 6, 2>(args, model),
-        ModelName::PerturbedKepler => run_model::<PerturbedKepler, 6, 4, 2>(args, model),
-        ModelName::Cr3bp => run_model::<CR3BP, 4, 1, 1>(args, model),
-        ModelName::So3TypeI => run_model::<So3TypeI, 12, 14, 4>(args, model),
-        ModelName::CoupledOscillators => run_model::<CoupledOscillators, 4, 1, 1>(args, model),
+    let (mut model, stem) = load(&args.model, args.backend.into())?;
+    let preset = preset(&model, args.preset.as_deref())?;
+    let model_name = model.model_name();
+    let missing = |what: &str, flag: &str| {
+        format!(
+            "give {flag}: model `{model_name}` declares no {what} (add `run NAME {{ {what} = …; }}` to the model file)"
+        )
+    };
+    if let Some(p) = preset {
+        for (name, values) in p.params {
+            model.set_param(name, values).map_err(|e| e.to_string())?;
+        }
     }
-}
-
-/// `paper` if the model has that point, else its first point.
-fn default_point(model: &impl lasalle::Parameters) -> Result<String, String> {
-    let names = model.point_names();
-    names
-        .iter()
-        .find(|&&n| n == "paper")
-        .or(names.first())
-        .map(|n| n.to_string())
-        .ok_or_else(|| "the model has no named point: give --init x1,x2,…".to_string())
-}
-
-fn run_model<Mdl, const N: usize, const M: usize, const G: usize>(
-    args: &RunArgs,
-    name: ModelName,
-) -> CliResult
-where
-    Mdl: CliModel<[f64; N], [f64; M], [f64; G]> + Default,
-{
-    let method: Method = args.method.parse()?;
-    let mut model = Mdl::default();
     for p in &args.param {
         apply_param(&mut model, p)?;
     }
-    let init = match &args.init {
-        Some(init) => init.clone(),
-        None => default_point(&model)?,
+    let method: Method = args
+        .method
+        .as_deref()
+        .or(preset.and_then(|p| p.method))
+        .unwrap_or("feedback-euler")
+        .parse()?;
+    let init = match (&args.init, preset.and_then(|p| p.init)) {
+        (Some(init), _) => init.clone(),
+        (None, Some(init)) => init.to_string(),
+        (None, None) => model
+            .point_names()
+            .first()
+            .map(|n| n.to_string())
+            .ok_or("the model has no named point: give --init x1,x2,…")?,
     };
-    let x0: [f64; N] = initial_state(&model, &init)?
-        .try_into()
-        .expect("initial_state checks the dimension");
-    let (dt0, t_end0) = paper_step_and_end(name);
-    let dt = args.dt.unwrap_or(dt0);
-    let mut spec = RunSpec::new(method, dt, args.t_end.unwrap_or(t_end0));
-    spec.gains = args.gains.parse::<GainPolicy>()?;
+    let x0 = initial_state(&model, &init)?;
+    let dt = args
+        .dt
+        .or(preset.and_then(|p| p.dt))
+        .ok_or_else(|| missing("dt", "--dt"))?;
+    let t_end = args
+        .t_end
+        .or(preset.and_then(|p| p.t_end))
+        .ok_or_else(|| missing("t_end", "--t-end"))?;
+    let mut spec = RunSpec::new(method, dt, t_end);
+    spec.gains = match (args.gains.parse::<GainPolicy>()?, preset.and_then(|p| p.gains)) {
+        (GainPolicy::ModelDefault, Some(g)) if method.is_feedback() => GainPolicy::Explicit(g.to_vec()),
+        (policy, _) => policy,
+    };
     spec.tol = args.tol.unwrap_or(dt);
     spec.rtol = args.rtol;
     spec.atol = args.atol;
-    spec.every = args.every;
+    spec.every = args.every.or(preset.and_then(|p| p.every)).unwrap_or(0);
     spec.progress = !args.quiet;
     let trace = simulate(&model, &x0, &spec)?;
+    let name = model.model_name();
 
     let dir = args
         .out
         .clone()
-        .unwrap_or_else(|| PathBuf::from(format!("out/{}-{}", name, method)));
+        .unwrap_or_else(|| PathBuf::from(format!("out/{stem}-{method}")));
     std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     trace.write_csv(&dir.join("trace.csv"))?;
     let mut summary = trace.summary_json();
-    summary["model"] = name.cli_name().into();
+    summary["model"] = name.into();
+    summary["model_file"] = stem.clone().into();
+    summary["preset"] = preset.map(|p| p.name).into();
+    summary["backend"] = format!("{:?}", model.backend()).to_lowercase().into();
+    summary["load_seconds"] = model.load_time().as_secs_f64().into();
     summary["dt"] = dt.into();
     summary["t_end"] = spec.t_end.into();
-    summary["x0"] = x0.to_vec().into();
+    summary["x0"] = x0.clone().into();
     if method.is_feedback() {
         summary["gain_policy"] = args.gains.clone().into();
     }
@@ -151,17 +166,19 @@ where
     )?;
     if let Some(e) = &trace.failure {
         return Err(format!(
-            "{} on `{}` stopped: {e}\n(samples up to the failure are in {})",
-            method,
-            name,
+            "{method} on `{name}` stopped: {e}\n(samples up to the failure are in {})",
             dir.display()
         )
         .into());
     }
     if !args.quiet {
         println!(
-            "{} {} dt = {dt} to t = {}: {} steps, {} evaluations, {:.3} s",
-            name, method, spec.t_end, trace.steps, trace.evaluations, trace.wall_seconds
+            "{name} {method} dt = {dt} to t = {}: {} steps, {} evaluations, {:.3} s (model loaded in {:.1} ms)",
+            spec.t_end,
+            trace.steps,
+            trace.evaluations,
+            trace.wall_seconds,
+            model.load_time().as_secs_f64() * 1e3
         );
         for (b, name) in trace.blocks.iter().enumerate() {
             println!(

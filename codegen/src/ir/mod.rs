@@ -441,6 +441,30 @@ impl Graph {
         }
     }
 
+    /// The `roots` with every input `i` replaced by `rename(i)`, rebuilt through the smart
+    /// constructors (in topological order, so deep expressions cannot overflow the stack).
+    pub fn rename_inputs(&mut self, roots: &[Id], rename: impl Fn(Input) -> Input) -> Vec<Id> {
+        let mut new: HashMap<Id, Id> = HashMap::new();
+        for id in self.reachable(roots) {
+            let n = match self.node(id).clone() {
+                Node::Num(_) => id,
+                Node::Input(i) => self.input(rename(i)),
+                Node::Add(c) => {
+                    let c: Vec<Id> = c.iter().map(|k| new[k]).collect();
+                    self.add(&c)
+                }
+                Node::Mul(c) => {
+                    let c: Vec<Id> = c.iter().map(|k| new[k]).collect();
+                    self.mul(&c)
+                }
+                Node::Pow(b, e) => self.pow(new[&b], e),
+                Node::Func(f, a) => self.func(f, new[&a]),
+            };
+            new.insert(id, n);
+        }
+        roots.iter().map(|r| new[r]).collect()
+    }
+
     /// The children of a node.
     pub fn children(&self, id: Id) -> &[Id] {
         match self.node(id) {

@@ -1,0 +1,561 @@
+//! A model loaded from its file at run time: parsed, differentiated, checked and compiled to
+//! kernels in milliseconds, then integrated by the same runtime as compiled models.
+//!
+//! [`LoadedModel`] implements the runtime's traits ([`Field`], [`Invariants`], [`Lyapunov`],
+//! [`Partitioned`], [`ModelInfo`], [`Parameters`], [`Declared`]) with `Vec<f64>` storage, so
+//! every stepper, the driver, the feedback field, gain selection, projection and the recorder
+//! run it unchanged (see `lasalle_runtime::State` for why one code path serves both).
+//!
+//! ```
+//! use lasalle_exec::{Backend, LoadedModel};
+//! use lasalle_runtime::{integrate, ExplicitRk, FeedbackField, Parameters};
+//!
+//! let text = "model Osc { state q: scalar, p: scalar; param w = 2;
+//!             d/dt q = p; d/dt p = -w^2 * q; integral E = p^2/2 + w^2 * q^2/2 gain 10;
+//!             point start { q = 1; p = 0; } }";
+//! let m = LoadedModel::from_source("osc.lsl", text, Backend::default()).unwrap();
+//! let x0 = m.point("start").unwrap();
+//! let fb = FeedbackField::from_initial(&m, &x0, vec![10.0]);
+//! let end = integrate(&mut ExplicitRk::euler(), &fb, &x0, 0.0, 10.0, 1e-3, &mut ()).unwrap();
+//! let energy = end.x[1].powi(2) / 2.0 + 2.0 * end.x[0].powi(2);
+//! assert!((energy - 2.0).abs() < 1e-3);
+//! ```
+
+use std::time::{Duration, Instant};
+
+use lasalle_codegen::check::Conservation;
+use lasalle_codegen::ir::Input;
+use lasalle_codegen::model::{Shape as ModelShape, Splitting, GUARD_STEP};
+use lasalle_codegen::tape::{Dims, ModelTapes, Tape, TapeBuilder};
+use lasalle_codegen::{derive, Model};
+use lasalle_runtime::{
+    Declared, Field, GuardFailure, InvariantInfo, InvariantKind, Invariants, Lyapunov, ModelInfo,
+    ParamError, Parameters, Partitioned, Preset, RigidBodySplitting, Shape, Slot,
+};
+
+use crate::{Backend, ExecError, Kernel};
+
+/// Why a model could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum LoadError {
+    /// The model file has errors (syntax, names, shapes, a non-conserved integral), or cannot
+    /// be read; the message names file:line:col.
+    #[error(transparent)]
+    Model(#[from] lasalle_codegen::Error),
+    /// A function could not be compiled.
+    #[error("cannot compile the model's functions: {0}")]
+    Exec(#[from] ExecError),
+    /// A function could not be linearised into a tape.
+    #[error("cannot linearise the model's functions: {0}")]
+    Tape(#[from] lasalle_codegen::tape::TapeError),
+}
+
+/// A compiled function with the values its prelude computed for the current parameters.
+struct Compiled {
+    kernel: Box<dyn Kernel>,
+    hoisted: Vec<f64>,
+}
+
+impl Compiled {
+    fn new(backend: Backend, tape: &Tape, params: &[f64]) -> Result<Compiled, ExecError> {
+        let kernel = backend.compile(tape)?;
+        let hoisted = kernel.hoist(params)?;
+        Ok(Compiled { kernel, hoisted })
+    }
+
+    /// Evaluates; on an argument error (impossible: every length is fixed when the model is
+    /// loaded) the outputs are NaN, which the driver reports as a blow-up.
+    #[inline]
+    fn eval(&self, state: &[f64], target: &[f64], gains: &[f64], out: &mut [f64]) {
+        if self
+            .kernel
+            .eval(&self.hoisted, state, target, gains, out)
+            .is_err()
+        {
+            out.iter_mut().for_each(|v| *v = f64::NAN);
+        }
+    }
+}
+
+/// The compiled functions of a model.
+struct Kernels {
+    field: Compiled,
+    invariants: Compiled,
+    jacobian: Compiled,
+    lyapunov: Compiled,
+    lyapunov_gradient: Compiled,
+    feedback: Compiled,
+    /// q̇ = a(p) and ṗ = b(q) for partitioned fields, with the q components.
+    partition: Option<(Compiled, Compiled, Vec<bool>)>,
+    /// The margins of the guards, with the step size as the tape's one gain.
+    guards: Option<Compiled>,
+}
+
+impl Kernels {
+    fn all_mut(&mut self) -> impl Iterator<Item = &mut Compiled> {
+        let partition = self
+            .partition
+            .as_mut()
+            .map(|(q, p, _)| [q, p])
+            .into_iter()
+            .flatten();
+        [
+            &mut self.field,
+            &mut self.invariants,
+            &mut self.jacobian,
+            &mut self.lyapunov,
+            &mut self.lyapunov_gradient,
+            &mut self.feedback,
+        ]
+        .into_iter()
+        .chain(partition)
+        .chain(self.guards.as_mut())
+    }
+}
+
+/// The model's description in the runtime's terms. The names live as long as the process (a
+/// few hundred bytes per loaded model), so that [`ModelInfo`] can hand out `'static` tables
+/// as compiled models do.
+struct Info {
+    name: &'static str,
+    state: &'static [Slot],
+    invariants: &'static [InvariantInfo],
+    gain_names: &'static [&'static str],
+    default_gains: &'static [f64],
+    params: &'static [Slot],
+    points: &'static [&'static str],
+    presets: &'static [Preset],
+    guards: Vec<(&'static str, &'static str, bool)>,
+}
+
+fn leak<T>(v: Vec<T>) -> &'static [T] {
+    Box::leak(v.into_boxed_slice())
+}
+
+fn leak_str(s: &str) -> &'static str {
+    Box::leak(s.to_string().into_boxed_str())
+}
+
+fn shape(s: ModelShape) -> Shape {
+    match s {
+        ModelShape::Scalar => Shape::Scalar,
+        ModelShape::Vector(n) => Shape::Vector(n),
+        ModelShape::Matrix(r, c) => Shape::Matrix(r, c),
+    }
+}
+
+impl Info {
+    fn new(model: &Model) -> Info {
+        let slot = |name: &str, shape: Shape, offset: usize| Slot {
+            name: leak_str(name),
+            shape,
+            offset,
+        };
+        Info {
+            name: leak_str(&model.name),
+            state: leak(
+                model
+                    .state
+                    .iter()
+                    .map(|s| slot(&s.name, shape(s.shape), s.offset))
+                    .collect(),
+            ),
+            invariants: leak(
+                model
+                    .invariants
+                    .iter()
+                    .map(|f| InvariantInfo {
+                        slot: slot(&f.name, shape(f.value.shape), f.offset),
+                        kind: match f.kind {
+                            lasalle_codegen::model::InvariantKind::Constraint => {
+                                InvariantKind::Constraint
+                            }
+                            lasalle_codegen::model::InvariantKind::Integral => {
+                                InvariantKind::Integral
+                            }
+                        },
+                        gain: f.gain,
+                    })
+                    .collect(),
+            ),
+            gain_names: leak(model.gains.iter().map(|g| leak_str(&g.name)).collect()),
+            default_gains: leak(model.gains.iter().map(|g| g.default).collect()),
+            params: leak(
+                model
+                    .params
+                    .iter()
+                    .map(|p| {
+                        let s = if p.diagonal {
+                            Shape::Vector(p.slots())
+                        } else {
+                            shape(p.shape)
+                        };
+                        slot(&p.name, s, p.offset)
+                    })
+                    .collect(),
+            ),
+            points: leak(model.points.iter().map(|p| leak_str(&p.name)).collect()),
+            presets: leak(
+                model
+                    .presets
+                    .iter()
+                    .map(|p| Preset {
+                        name: leak_str(&p.name),
+                        method: p.method.as_deref().map(leak_str),
+                        dt: p.dt,
+                        t_end: p.t_end,
+                        every: p.every,
+                        init: p.init.as_deref().map(leak_str),
+                        gains: p.gains.clone().map(leak),
+                        params: leak(
+                            p.params
+                                .iter()
+                                .map(|(n, v)| (leak_str(n), leak(v.clone())))
+                                .collect(),
+                        ),
+                    })
+                    .collect(),
+            ),
+            guards: model
+                .guards
+                .iter()
+                .map(|g| (leak_str(&g.name), leak_str(&g.condition), g.strict))
+                .collect(),
+        }
+    }
+}
+
+/// A model compiled at run time from its file; see the [module docs](self).
+pub struct LoadedModel {
+    model: Model,
+    conservation: Vec<Conservation>,
+    backend: Backend,
+    params: Vec<f64>,
+    kernels: Kernels,
+    info: Info,
+    load_time: Duration,
+}
+
+impl std::fmt::Debug for LoadedModel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LoadedModel")
+            .field("name", &self.info.name)
+            .field("backend", &self.backend)
+            .field("params", &self.params)
+            .finish_non_exhaustive()
+    }
+}
+
+impl LoadedModel {
+    /// Loads a model from its text: parse, lower, derive, check every declared invariant,
+    /// linearise every function into a tape and compile it with `backend`. `path` names the
+    /// file in messages.
+    pub fn from_source(path: &str, text: &str, backend: Backend) -> Result<LoadedModel, LoadError> {
+        let start = Instant::now();
+        let mut model = lasalle_codegen::lower_source(path, text)?;
+        let d = derive::derive(&mut model);
+        let conservation = lasalle_codegen::check::check(&mut model, &d)?;
+        let tapes = ModelTapes::new(&model, &d)?;
+        let params = model.default_params();
+        let c = |tape: &Tape| Compiled::new(backend, tape, &params);
+        let guards = if model.guards.is_empty() {
+            None
+        } else {
+            // the step size `dt` becomes the tape's one gain
+            let mut graph = model.graph.clone();
+            let margins: Vec<_> = model.guards.iter().map(|g| g.margin).collect();
+            let margins = graph.rename_inputs(&margins, |i| {
+                if i == GUARD_STEP {
+                    Input::Gain(0)
+                } else {
+                    i
+                }
+            });
+            let dims = Dims {
+                state: model.dim(),
+                params: model.param_slots(),
+                targets: 0,
+                gains: 1,
+            };
+            Some(c(&TapeBuilder::new(graph, dims).build(&margins)?)?)
+        };
+        let kernels = Kernels {
+            field: c(&tapes.field)?,
+            invariants: c(&tapes.invariants)?,
+            jacobian: c(&tapes.jacobian)?,
+            lyapunov: c(&tapes.lyapunov)?,
+            lyapunov_gradient: c(&tapes.lyapunov_gradient)?,
+            feedback: c(&tapes.feedback)?,
+            partition: match &tapes.partition {
+                Some(p) => Some((c(&p.field_q)?, c(&p.field_p)?, p.is_q.clone())),
+                None => None,
+            },
+            guards,
+        };
+        let info = Info::new(&model);
+        Ok(LoadedModel {
+            model,
+            conservation,
+            backend,
+            params,
+            kernels,
+            info,
+            load_time: start.elapsed(),
+        })
+    }
+
+    /// Reads and loads a model file.
+    pub fn load(path: impl AsRef<std::path::Path>, backend: Backend) -> Result<LoadedModel, LoadError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|e| lasalle_codegen::Error::Io {
+            path: path.display().to_string(),
+            source: e,
+        })?;
+        Self::from_source(&path.display().to_string(), &text, backend)
+    }
+
+    /// The lowered model (its DAG, names and declarations).
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// How each declared invariant was shown to be conserved.
+    pub fn conservation(&self) -> &[Conservation] {
+        &self.conservation
+    }
+
+    /// The back end the functions were compiled with.
+    pub fn backend(&self) -> Backend {
+        self.backend
+    }
+
+    /// Wall time of parse → derive → check → compile.
+    pub fn load_time(&self) -> Duration {
+        self.load_time
+    }
+
+    /// The dimension N of the state.
+    pub fn dim(&self) -> usize {
+        self.model.dim()
+    }
+
+    /// The current parameter slots.
+    pub fn params(&self) -> &[f64] {
+        &self.params
+    }
+
+    /// A preset by name.
+    pub fn preset(&self, name: &str) -> Option<&'static Preset> {
+        self.info.presets.iter().find(|p| p.name == name)
+    }
+
+    /// Recomputes every kernel's parameter-only values after a parameter change.
+    fn rehoist(&mut self) -> Result<(), ExecError> {
+        let params = &self.params;
+        for c in self.kernels.all_mut() {
+            c.hoisted = c.kernel.hoist(params)?;
+        }
+        Ok(())
+    }
+}
+
+impl Field<f64, Vec<f64>> for LoadedModel {
+    #[inline]
+    fn field(&self, x: &Vec<f64>, dx: &mut Vec<f64>) {
+        self.kernels.field.eval(x, &[], &[], dx)
+    }
+}
+
+impl Invariants<f64, Vec<f64>, Vec<f64>> for LoadedModel {
+    fn invariant_dim(&self) -> usize {
+        self.model.invariant_dim()
+    }
+
+    #[inline]
+    fn invariants(&self, x: &Vec<f64>, f: &mut Vec<f64>) {
+        self.kernels.invariants.eval(x, &[], &[], f)
+    }
+
+    fn invariants_jacobian(&self, x: &Vec<f64>, jac: &mut Vec<Vec<f64>>) {
+        // the tape writes Df row-major; the rows are separate vectors
+        let n = x.len();
+        let mut flat = vec![0.0; jac.len() * n];
+        self.kernels.jacobian.eval(x, &[], &[], &mut flat);
+        for (row, values) in jac.iter_mut().zip(flat.chunks_exact(n.max(1))) {
+            row.copy_from_slice(values);
+        }
+    }
+}
+
+impl Lyapunov<f64, Vec<f64>, Vec<f64>, Vec<f64>> for LoadedModel {
+    fn lyapunov(&self, x: &Vec<f64>, target: &Vec<f64>, gains: &Vec<f64>) -> f64 {
+        let mut v = [0.0];
+        self.kernels.lyapunov.eval(x, target, gains, &mut v);
+        v[0]
+    }
+
+    fn lyapunov_gradient(
+        &self,
+        x: &Vec<f64>,
+        target: &Vec<f64>,
+        gains: &Vec<f64>,
+        grad: &mut Vec<f64>,
+    ) {
+        self.kernels.lyapunov_gradient.eval(x, target, gains, grad)
+    }
+
+    #[inline]
+    fn feedback_field(&self, x: &Vec<f64>, target: &Vec<f64>, gains: &Vec<f64>, dx: &mut Vec<f64>) {
+        self.kernels.feedback.eval(x, target, gains, dx)
+    }
+}
+
+/// The half-fields of a partitioned model. For a model whose field is not partitioned
+/// ([`Declared::partitioned`] is `None`), `is_q` is empty and the half-fields write NaN.
+impl Partitioned<f64, Vec<f64>> for LoadedModel {
+    fn is_q(&self) -> &[bool] {
+        self.kernels.partition.as_ref().map_or(&[], |(_, _, q)| q)
+    }
+
+    fn field_q(&self, x: &Vec<f64>, dx: &mut Vec<f64>) {
+        self.half_field(x, dx, true)
+    }
+
+    fn field_p(&self, x: &Vec<f64>, dx: &mut Vec<f64>) {
+        self.half_field(x, dx, false)
+    }
+}
+
+impl LoadedModel {
+    /// Writes q̇ = a(p) (`q`) or ṗ = b(q) into their components of `dx`.
+    fn half_field(&self, x: &[f64], dx: &mut [f64], q: bool) {
+        let Some((fq, fp, is_q)) = &self.kernels.partition else {
+            dx.iter_mut().for_each(|v| *v = f64::NAN);
+            return;
+        };
+        // the tape's outputs are the components of one group, in order
+        let mut out = [0.0; 64];
+        let k = is_q.iter().filter(|&&b| b == q).count();
+        let mut heap;
+        let out: &mut [f64] = if k <= out.len() {
+            &mut out[..k]
+        } else {
+            heap = vec![0.0; k];
+            &mut heap
+        };
+        (if q { fq } else { fp }).eval(x, &[], &[], out);
+        for (slot, v) in (0..x.len()).filter(|&i| is_q[i] == q).zip(out.iter()) {
+            dx[slot] = *v;
+        }
+    }
+}
+
+impl ModelInfo for LoadedModel {
+    fn model_name(&self) -> &'static str {
+        self.info.name
+    }
+    fn state_slots(&self) -> &'static [Slot] {
+        self.info.state
+    }
+    fn invariant_infos(&self) -> &'static [InvariantInfo] {
+        self.info.invariants
+    }
+    fn gain_names(&self) -> &'static [&'static str] {
+        self.info.gain_names
+    }
+    fn default_gain_values(&self) -> &'static [f64] {
+        self.info.default_gains
+    }
+    fn param_slots(&self) -> &'static [Slot] {
+        self.info.params
+    }
+}
+
+impl Parameters for LoadedModel {
+    fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
+        let Some(p) = self.model.params.iter().find(|p| p.name == name) else {
+            let known: Vec<String> = self
+                .model
+                .params
+                .iter()
+                .map(|p| format!("`{}`", p.name))
+                .collect();
+            return Err(ParamError::Unknown {
+                name: name.to_string(),
+                known: known.join(", "),
+            });
+        };
+        if values.len() != p.slots() {
+            return Err(ParamError::WrongLength {
+                name: name.to_string(),
+                expected: p.slots(),
+                given: values.len(),
+            });
+        }
+        self.params[p.offset..p.offset + p.slots()].copy_from_slice(values);
+        // hoisting only evaluates the preludes, whose lengths were fixed at load
+        if self.rehoist().is_err() {
+            for c in self.kernels.all_mut() {
+                c.hoisted.iter_mut().for_each(|v| *v = f64::NAN);
+            }
+        }
+        Ok(())
+    }
+
+    fn param(&self, name: &str) -> Option<Vec<f64>> {
+        let p = self.model.params.iter().find(|p| p.name == name)?;
+        Some(self.params[p.offset..p.offset + p.slots()].to_vec())
+    }
+
+    fn point_names(&self) -> &'static [&'static str] {
+        self.info.points
+    }
+
+    fn point(&self, name: &str) -> Option<Vec<f64>> {
+        self.model.point_values(name, &self.params)
+    }
+}
+
+impl Declared<f64, Vec<f64>> for LoadedModel {
+    fn presets(&self) -> &'static [Preset] {
+        self.info.presets
+    }
+
+    fn check_guards(&self, x: &Vec<f64>, dt: f64) -> Option<GuardFailure> {
+        let guards = self.kernels.guards.as_ref()?;
+        // the guards run after every step: no allocation for the usual handful
+        let mut stack = [0.0; 16];
+        let mut heap;
+        let n = self.info.guards.len();
+        let margins: &mut [f64] = if n <= stack.len() {
+            &mut stack[..n]
+        } else {
+            heap = vec![0.0; n];
+            &mut heap
+        };
+        guards.eval(x, &[], &[dt], margins);
+        self.info
+            .guards
+            .iter()
+            .zip(margins.iter().copied())
+            .find(|(&(_, _, strict), m)| !(if strict { *m > 0.0 } else { *m >= 0.0 }))
+            .map(|(&(name, condition, _), margin)| GuardFailure {
+                name,
+                condition,
+                margin,
+            })
+    }
+
+    fn partitioned(&self) -> Option<&dyn Partitioned<f64, Vec<f64>>> {
+        self.kernels.partition.as_ref().map(|_| self as _)
+    }
+
+    fn rigid_body_splitting(&self) -> Option<RigidBodySplitting<f64>> {
+        match &self.model.splitting {
+            Some(Splitting::RigidBody { inertia }) => Some(RigidBodySplitting::new(
+                inertia.map(|k| self.params[k as usize]),
+            )),
+            None => None,
+        }
+    }
+}

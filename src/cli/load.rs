@@ -1,0 +1,60 @@
+//! Finding and loading a model: a path to any `.lsl` file, or the name of one of the
+//! repository's models (embedded in the binary, so the names work from any directory).
+
+use std::path::Path;
+
+use lasalle::{Backend, LoadedModel, MODEL_FILES};
+
+use super::sim::normalise;
+
+/// Which back end runs a loaded model (`--backend`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum BackendArg {
+    /// Native code compiled by Cranelift when the model is loaded (the default).
+    #[default]
+    Jit,
+    /// An interpreter of the model's tapes (no code generation; slower).
+    Interpreter,
+}
+
+impl From<BackendArg> for Backend {
+    fn from(b: BackendArg) -> Backend {
+        match b {
+            BackendArg::Jit => Backend::Jit,
+            BackendArg::Interpreter => Backend::Interpreter,
+        }
+    }
+}
+
+/// The text of a model given as a path or a name, with the path to show in messages and the
+/// name to use for output directories (the file stem).
+pub fn model_text(arg: &str) -> Result<(String, String, String), String> {
+    let path = Path::new(arg);
+    let looks_like_path = arg.ends_with(".lsl") || arg.contains(['/', '\\']) || path.is_file();
+    if looks_like_path {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("cannot read model file `{arg}`: {e}"))?;
+        let stem = path
+            .file_stem()
+            .map_or_else(|| arg.to_string(), |s| s.to_string_lossy().into_owned());
+        return Ok((arg.to_string(), stem, text));
+    }
+    let key = normalise(arg);
+    match MODEL_FILES.iter().find(|(stem, _)| normalise(stem) == key) {
+        Some((stem, text)) => Ok((format!("models/{stem}.lsl"), stem.to_string(), text.to_string())),
+        None => {
+            let known: Vec<&str> = MODEL_FILES.iter().map(|(stem, _)| *stem).collect();
+            Err(format!(
+                "no model `{arg}`: give a path to a model file (`my_model.lsl`) or one of the built-in models: {}",
+                known.join(", ")
+            ))
+        }
+    }
+}
+
+/// Loads a model given as a path or a name and compiles it with `backend`.
+pub fn load(arg: &str, backend: Backend) -> Result<(LoadedModel, String), String> {
+    let (path, stem, text) = model_text(arg)?;
+    let model = LoadedModel::from_source(&path, &text, backend).map_err(|e| e.to_string())?;
+    Ok((model, stem))
+}
