@@ -186,7 +186,7 @@ impl JitKernel {
                     b,
                     ptr,
                     values: vec![None; tape.body.len()],
-                    math: Math::new(module, ptr),
+                    math: Math::new(module),
                 };
                 match k {
                     None => e.scalar(tape, &args)?,
@@ -211,7 +211,7 @@ struct Math {
 }
 
 impl Math {
-    fn new(module: &JITModule, _ptr: types::Type) -> Math {
+    fn new(module: &JITModule) -> Math {
         let mut unary = module.make_signature();
         unary.params.push(AbiParam::new(types::F64));
         unary.returns.push(AbiParam::new(types::F64));
