@@ -3,7 +3,7 @@
 
 use lasalle::models;
 use lasalle_codegen::tape::{ModelTapes, Tape};
-use lasalle_exec::Backend;
+use lasalle_exec::{Backend, Kernel};
 use lasalle_runtime::{Field, Invariants, Lyapunov, Partitioned};
 
 fn same(a: f64, b: f64) -> bool {
@@ -20,40 +20,49 @@ fn tapes(file: &str) -> (lasalle_codegen::Model, ModelTapes) {
     (model, tapes)
 }
 
-/// Checks one tape on every back end (and in `Tape::eval`) against the emitted values.
-fn agree(
-    what: &str,
-    tape: &Tape,
-    params: &[f64],
-    x: &[f64],
-    t: &[f64],
-    g: &[f64],
-    emitted: &[f64],
-) {
-    let (t, g) = (&t[..tape.dims.targets], &g[..tape.dims.gains]);
-    let reference = tape.eval(params, x, t, g).unwrap();
-    let mut results = vec![("tape", reference)];
-    for &backend in Backend::available() {
-        let k = backend.compile(tape).unwrap();
-        let h = k.hoist(params).unwrap();
-        let mut out = vec![0.0; k.n_outputs()];
-        k.eval(&h, x, t, g, &mut out).unwrap();
-        results.push((
-            if backend == Backend::Jit {
-                "jit"
-            } else {
-                "interpreter"
-            },
-            out,
-        ));
+/// A tape with its kernel on every back end and their hoisted values.
+struct Compiled<'a> {
+    what: &'static str,
+    tape: &'a Tape,
+    kernels: Vec<(Backend, Box<dyn Kernel>, Vec<f64>)>,
+}
+
+impl<'a> Compiled<'a> {
+    fn new(what: &'static str, tape: &'a Tape, params: &[f64]) -> Self {
+        let kernels = Backend::available()
+            .iter()
+            .map(|&b| {
+                let k = b.compile(tape).unwrap();
+                let h = k.hoist(params).unwrap();
+                (b, k, h)
+            })
+            .collect();
+        Compiled {
+            what,
+            tape,
+            kernels,
+        }
     }
-    for (name, got) in results {
-        assert_eq!(got.len(), emitted.len(), "{what}");
-        for (j, (&a, &b)) in got.iter().zip(emitted).enumerate() {
-            assert!(
-                same(a, b),
-                "{what} [{j}] at x = {x:?}: {name} {a:e} vs emitted {b:e}"
-            );
+
+    /// The tape (`Tape::eval`) and every back end against the emitted values.
+    fn agree(&self, params: &[f64], x: &[f64], t: &[f64], g: &[f64], emitted: &[f64]) {
+        let tape = self.tape;
+        let (t, g) = (&t[..tape.dims.targets], &g[..tape.dims.gains]);
+        let mut results = vec![("tape".to_string(), tape.eval(params, x, t, g).unwrap())];
+        for (backend, k, h) in &self.kernels {
+            let mut out = vec![0.0; k.n_outputs()];
+            k.eval(h, x, t, g, &mut out).unwrap();
+            results.push((format!("{backend:?}"), out));
+        }
+        for (name, got) in results {
+            assert_eq!(got.len(), emitted.len(), "{}", self.what);
+            for (j, (&a, &b)) in got.iter().zip(emitted).enumerate() {
+                assert!(
+                    same(a, b),
+                    "{} [{j}] at x = {x:?}: {name} {a:e} vs emitted {b:e}",
+                    self.what
+                );
+            }
         }
     }
 }
@@ -80,42 +89,60 @@ macro_rules! check_model {
             let mut x0 = [0.0; N];
             x0.iter_mut().for_each(|v| *v = rand());
             let target = sys.targets(&x0);
+            let p = &params[..];
+            let [field, invariants, jacobian, lyapunov, gradient, feedback] = [
+                ("field", &tapes.field),
+                ("invariants", &tapes.invariants),
+                ("jacobian", &tapes.jacobian),
+                ("lyapunov", &tapes.lyapunov),
+                ("lyapunov_gradient", &tapes.lyapunov_gradient),
+                ("feedback", &tapes.feedback),
+            ]
+            .map(|(what, tape)| Compiled::new(what, tape, p));
+            let halves = tapes.partition.as_ref().map(|part| {
+                (
+                    Compiled::new("field_q", &part.field_q, p),
+                    Compiled::new("field_p", &part.field_p, p),
+                )
+            });
             for _ in 0..200 {
                 let mut x = [0.0; N];
                 x.iter_mut().for_each(|v| *v = rand());
-                let (p, t, g) = (&params[..], &target[..], &gains[..]);
+                let (t, g) = (&target[..], &gains[..]);
                 let mut dx = [0.0; N];
                 sys.field(&x, &mut dx);
-                agree("field", &tapes.field, p, &x, t, g, &dx);
+                field.agree(p, &x, t, g, &dx);
                 let mut f = [0.0; M];
                 sys.invariants(&x, &mut f);
-                agree("invariants", &tapes.invariants, p, &x, t, g, &f);
+                invariants.agree(p, &x, t, g, &f);
                 let mut jac = [[0.0; N]; M];
                 sys.invariants_jacobian(&x, &mut jac);
-                agree("jacobian", &tapes.jacobian, p, &x, t, g, jac.as_flattened());
+                jacobian.agree(p, &x, t, g, jac.as_flattened());
                 let v = sys.lyapunov(&x, &target, &gains);
-                agree("lyapunov", &tapes.lyapunov, p, &x, t, g, &[v]);
+                lyapunov.agree(p, &x, t, g, &[v]);
                 let mut grad = [0.0; N];
                 sys.lyapunov_gradient(&x, &target, &gains, &mut grad);
-                agree("lyapunov_gradient", &tapes.lyapunov_gradient, p, &x, t, g, &grad);
+                gradient.agree(p, &x, t, g, &grad);
                 let mut fb = [0.0; N];
                 sys.feedback_field(&x, &target, &gains, &mut fb);
-                agree("feedback", &tapes.feedback, p, &x, t, g, &fb);
-                check_model!(@partitioned $part, sys, tapes, x, p, t, g, N);
+                feedback.agree(p, &x, t, g, &fb);
+                check_model!(@partitioned $part, sys, tapes, halves, x, p, t, g, N);
             }
         }
     };
-    (@partitioned true, $sys:ident, $tapes:ident, $x:ident, $p:ident, $t:ident, $g:ident, $n:ident) => {
+    (@partitioned true, $sys:ident, $tapes:ident, $halves:ident, $x:ident, $p:ident, $t:ident, $g:ident, $n:ident) => {
         let part = $tapes.partition.as_ref().expect("partitioned");
+        let (cq, cp) = $halves.as_ref().expect("partitioned");
         let (mut dq, mut dp) = ([0.0; $n], [0.0; $n]);
         $sys.field_q(&$x, &mut dq);
         $sys.field_p(&$x, &mut dp);
         let q: Vec<f64> = (0..$n).filter(|&k| part.is_q[k]).map(|k| dq[k]).collect();
         let pp: Vec<f64> = (0..$n).filter(|&k| !part.is_q[k]).map(|k| dp[k]).collect();
-        agree("field_q", &part.field_q, $p, &$x, $t, $g, &q);
-        agree("field_p", &part.field_p, $p, &$x, $t, $g, &pp);
+        cq.agree($p, &$x, $t, $g, &q);
+        cp.agree($p, &$x, $t, $g, &pp);
     };
-    (@partitioned false, $sys:ident, $tapes:ident, $($rest:tt)*) => {
+    (@partitioned false, $sys:ident, $tapes:ident, $halves:ident, $($rest:tt)*) => {
+        let _ = &$halves;
         assert!($tapes.partition.is_none(), "the model is partitioned: check field_q/field_p");
     };
 }

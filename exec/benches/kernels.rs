@@ -1,5 +1,6 @@
-//! X − ∇V per model: JIT vs interpreter, one state and 8 lanes; and the time from model text
-//! to compiled kernels (parse, derive, check, build every tape, compile every tape).
+//! X − ∇V per model: JIT vs interpreter, one state and 8 lanes; the time from model text to
+//! compiled kernels (`build/`: parse, derive, check, build every tape, compile every tape) and
+//! of the compilation of the tapes alone (`compile/`).
 //!
 //! `cargo bench -p lasalle-exec` (ns per evaluation; the lane benches report per state).
 
@@ -55,6 +56,13 @@ fn kernels(c: &mut Criterion) {
                 b.iter(|| build(&name, black_box(&text), backend))
             });
             let (model, tapes, _) = build(&name, &text, backend);
+            c.bench_function(&format!("compile/{name}/{label}"), |b| {
+                b.iter(|| {
+                    for (_, t) in tapes.all() {
+                        black_box(backend.compile(t).expect("compile"));
+                    }
+                })
+            });
             let k = backend.compile(&tapes.feedback).expect("compile");
             let d = k.dims();
             let h = k.hoist(&model.default_params()).expect("hoist");

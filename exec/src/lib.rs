@@ -181,6 +181,8 @@ impl Common {
     ) -> Result<(), ExecError> {
         use lasalle_codegen::tape::expect_len;
         let d = self.dims;
+        // Byte offsets of lanes (8k) must fit in a usize.
+        k.checked_mul(8).ok_or(TapeError::TooLarge)?;
         let times = |n: usize| n.checked_mul(k).ok_or(TapeError::TooLarge);
         expect_len("hoisted", self.n_hoisted, hoisted.len())?;
         expect_len("state", times(d.state)?, state.len())?;

@@ -38,6 +38,17 @@
 //! for n ≠ ±1) and in `x^(1/3)` (`cbrt` here, `powf` there: they differ for x < 0, where
 //! `powf` is NaN).
 //!
+//! `tests/tape_vs_emitted.rs` (root crate) checks the bitwise claim against the emitted code
+//! of every model in `models/`, for every function, on the tape and on both back ends of
+//! `lasalle-exec`.
+//!
+//! [`Graph::eval`] stays the plain DAG walk and is not a wrapper over a tape: a tape that
+//! matches the emitter needs the emission rewrites, which extend the graph (`&mut`, or a clone
+//! per call), and it would change which [`Scalar`] operations run (`sqrt` then `powi` for
+//! `x^(3/2)` where `Graph::eval` calls `powf`), hence the truncated power series of the
+//! normal-form crate; and for those series the arithmetic dominates, so a tape built per call
+//! would only add work. Use [`Tape::eval`] for values that must match the emitted code.
+//!
 //! Every instruction is computed once: equal instructions are numbered once (value numbering),
 //! each DAG node is lowered once, constants are pooled per section, and every instruction
 //! whose operands are all parameters or constants goes to the prelude (hoisting works at the
@@ -477,7 +488,8 @@ impl Sections {
                 let i = match self.hoisted_index.get(&r) {
                     Some(&i) => i,
                     None => {
-                        let i = u32::try_from(self.hoisted.len()).map_err(|_| TapeError::TooLarge)?;
+                        let i =
+                            u32::try_from(self.hoisted.len()).map_err(|_| TapeError::TooLarge)?;
                         self.hoisted.push(Reg(r));
                         self.hoisted_index.insert(r, i);
                         i

@@ -168,3 +168,33 @@ fn model_tapes_agree_with_the_dag() {
         }
     }
 }
+
+/// Sizes of the X − ∇V tapes of the models (printed with `--nocapture`), and a bound that
+/// catches a lowering that stops sharing work.
+#[test]
+fn feedback_tapes_are_small() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../models");
+    let mut paths: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "lsl"))
+        .collect();
+    paths.sort();
+    for path in paths {
+        let mut model = crate::load_model(&path).unwrap();
+        let d = crate::derive::derive(&mut model);
+        crate::check::check(&mut model, &d).unwrap();
+        let tapes = ModelTapes::new(&model, &d).unwrap();
+        let t = &tapes.feedback;
+        let emitted = model.graph.clone().op_count(&d.feedback).dag;
+        println!(
+            "{}: X − ∇V body {} instructions ({} operations), prelude {}, hoisted {}; DAG ops {emitted}",
+            path.file_name().unwrap().to_string_lossy(),
+            t.body.len(),
+            t.body_ops(),
+            t.prelude.len(),
+            t.hoisted.len()
+        );
+        assert!(t.body_ops() as u64 <= 2 * emitted + 8);
+    }
+}

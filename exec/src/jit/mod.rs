@@ -10,8 +10,10 @@
 //! Two functions are compiled per tape:
 //! - `eval(hoisted, state, target, gains, out)` for one state;
 //! - `lanes(k, hoisted, state, target, gains, out)`, a loop over the k lanes of
-//!   structure-of-arrays inputs; instructions that read no state (targets, gains, hoisted
-//!   values, constants and what depends on them alone) are computed once before the loop.
+//!   structure-of-arrays inputs, two lanes at a time in 128-bit vectors (the same IEEE
+//!   operations lane by lane; calls are made per lane), then the odd last lane in scalars.
+//!   Instructions that read no state (targets, gains, hoisted values, constants and what
+//!   depends on them alone) are computed once before the loop.
 
 use crate::{Common, Dims, ExecError, Kernel, Op, Tape};
 use cranelift_codegen::ir::condcodes::IntCC;
@@ -93,14 +95,6 @@ struct Args {
     target: Value,
     gains: Value,
     out: Value,
-}
-
-/// How a function addresses the state and the outputs.
-enum Layout {
-    /// One state: component i at `state + 8i`.
-    Scalar,
-    /// One lane of k: component i at `lane_base + i·kb`, with `kb = 8k`.
-    Lanes { kb: Value },
 }
 
 impl JitKernel {
@@ -186,7 +180,9 @@ impl JitKernel {
                     b,
                     ptr,
                     values: vec![None; tape.body.len()],
-                    math: Math::new(module, ptr),
+                    vectors: vec![None; tape.body.len()],
+                    vector: false,
+                    math: Math::new(module),
                 };
                 match k {
                     None => e.scalar(tape, &args)?,
@@ -211,7 +207,7 @@ struct Math {
 }
 
 impl Math {
-    fn new(module: &JITModule, _ptr: types::Type) -> Math {
+    fn new(module: &JITModule) -> Math {
         let mut unary = module.make_signature();
         unary.params.push(AbiParam::new(types::F64));
         unary.returns.push(AbiParam::new(types::F64));
@@ -230,9 +226,17 @@ impl Math {
 struct Emit<'a> {
     b: FunctionBuilder<'a>,
     ptr: types::Type,
+    /// Scalar value of each register (shared or of the current lane).
     values: Vec<Option<Value>>,
+    /// Two-lane vector value of each register, in the vector loop.
+    vectors: Vec<Option<Value>>,
+    /// Emitting the two-lane loop.
+    vector: bool,
     math: Math,
 }
+
+/// Two lanes per vector: SSE2 on x86-64, NEON on aarch64.
+const F64X2: types::Type = types::F64X2;
 
 /// A byte offset for a load or store of element `i`.
 fn offset(i: usize) -> Result<i32, ExecError> {
@@ -241,17 +245,40 @@ fn offset(i: usize) -> Result<i32, ExecError> {
         .ok_or_else(|| ExecError::Jit(format!("index {i} too large for an immediate offset")))
 }
 
+/// Loads and stores of f64 (8-byte aligned, in bounds).
+fn scalar_flags() -> MemFlagsData {
+    MemFlagsData::trusted()
+}
+
+/// Loads and stores of two lanes: in bounds but only 8-byte aligned.
+fn vector_flags() -> MemFlagsData {
+    MemFlagsData::new().with_notrap()
+}
+
 impl Emit<'_> {
+    /// The value of register `r` in the current mode.
     fn value(&self, r: crate::Reg) -> Value {
-        self.values[r.index()].expect("validated: operands are defined before use")
+        let v = if self.vector {
+            self.vectors[r.index()]
+        } else {
+            self.values[r.index()]
+        };
+        v.expect("validated: operands are defined before use")
     }
 
     fn load(&mut self, base: Value, i: usize) -> Result<Value, ExecError> {
         let off = offset(i)?;
-        Ok(self
-            .b
-            .ins()
-            .load(types::F64, MemFlagsData::trusted(), base, off))
+        Ok(self.b.ins().load(types::F64, scalar_flags(), base, off))
+    }
+
+    /// A constant in the current mode.
+    fn constant(&mut self, c: f64) -> Value {
+        let x = self.b.ins().f64const(Ieee64::with_bits(c.to_bits()));
+        if self.vector {
+            self.b.ins().splat(F64X2, x)
+        } else {
+            x
+        }
     }
 
     fn call(&mut self, f: usize, sig: Signature, args: &[Value]) -> Value {
@@ -261,9 +288,26 @@ impl Emit<'_> {
         self.b.inst_results(call)[0]
     }
 
+    /// Calls a scalar wrapper on `x`, lane by lane in the vector loop; `extra` are further
+    /// (scalar) arguments.
+    fn call_lanes(&mut self, f: usize, sig: &Signature, x: Value, extra: &[Value]) -> Value {
+        if !self.vector {
+            let args: Vec<Value> = [x].into_iter().chain(extra.iter().copied()).collect();
+            return self.call(f, sig.clone(), &args);
+        }
+        let mut lanes = [x; 2];
+        for (lane, r) in lanes.iter_mut().enumerate() {
+            let xl = self.b.ins().extractlane(x, lane as u8);
+            let args: Vec<Value> = [xl].into_iter().chain(extra.iter().copied()).collect();
+            *r = self.call(f, sig.clone(), &args);
+        }
+        let v = self.b.ins().splat(F64X2, lanes[0]);
+        self.b.ins().insertlane(v, lanes[1], 1)
+    }
+
     fn unary(&mut self, f: extern "C" fn(f64) -> f64, x: Value) -> Value {
         let sig = self.math.unary.clone();
-        self.call(f as *const () as usize, sig, &[x])
+        self.call_lanes(f as *const () as usize, &sig, x, &[])
     }
 
     /// xⁿ by binary exponentiation (`lasalle_codegen::tape::powi`).
@@ -283,20 +327,19 @@ impl Emit<'_> {
                 square = self.b.ins().fmul(square, square);
             }
         }
-        let one = || Ieee64::with_bits(1.0f64.to_bits());
         let r = match result {
             Some(r) => r,
-            None => self.b.ins().f64const(one()),
+            None => self.constant(1.0),
         };
         if n < 0 {
-            let one = self.b.ins().f64const(one());
+            let one = self.constant(1.0);
             self.b.ins().fdiv(one, r)
         } else {
             r
         }
     }
 
-    /// The value of one instruction; `state(i)` loads state component i.
+    /// The value of one instruction in the current mode; `state(i)` loads state component i.
     fn op(
         &mut self,
         op: Op,
@@ -312,7 +355,7 @@ impl Emit<'_> {
             Op::Param(_) => {
                 return Err(ExecError::Jit("a parameter in the body".into()));
             }
-            Op::Const(c) => self.b.ins().f64const(Ieee64::with_bits(c.to_bits())),
+            Op::Const(c) => self.constant(c),
             Op::Add(a, c) => {
                 let (x, y) = (v(self, a), v(self, c));
                 self.b.ins().fadd(x, y)
@@ -351,24 +394,34 @@ impl Emit<'_> {
                 let num = self.b.ins().iconst(types::I32, i64::from(p.num));
                 let den = self.b.ins().iconst(types::I32, i64::from(p.den));
                 let sig = self.math.powf.clone();
-                self.call(call_powf as *const () as usize, sig, &[x, num, den])
+                self.call_lanes(call_powf as *const () as usize, &sig, x, &[num, den])
             }
         })
     }
 
-    /// Stores the outputs at `base + 8j` (scalar) or `base + j·kb` (lanes).
-    fn store_outputs(&mut self, tape: &Tape, out: Value, layout: &Layout) -> Result<(), ExecError> {
+    /// Stores the outputs at `out + 8j` (one state) or `out + j·kb` (lanes, `kb = 8k`).
+    fn store_outputs(
+        &mut self,
+        tape: &Tape,
+        out: Value,
+        kb: Option<Value>,
+    ) -> Result<(), ExecError> {
+        let flags = if self.vector {
+            vector_flags()
+        } else {
+            scalar_flags()
+        };
         for (j, &r) in tape.outputs.iter().enumerate() {
             let x = self.value(r);
-            match layout {
-                Layout::Scalar => {
+            match kb {
+                None => {
                     let off = offset(j)?;
-                    self.b.ins().store(MemFlagsData::trusted(), x, out, off);
+                    self.b.ins().store(flags, x, out, off);
                 }
-                Layout::Lanes { kb } => {
-                    let at = self.b.ins().imul_imm_s(*kb, j as i64);
+                Some(kb) => {
+                    let at = self.b.ins().imul_imm_s(kb, j as i64);
                     let addr = self.b.ins().iadd(out, at);
-                    self.b.ins().store(MemFlagsData::trusted(), x, addr, 0);
+                    self.b.ins().store(flags, x, addr, 0);
                 }
             }
         }
@@ -381,55 +434,92 @@ impl Emit<'_> {
             let v = self.op(op, args, &mut |e, k| e.load(base, k))?;
             self.values[i] = Some(v);
         }
-        self.store_outputs(tape, args.out, &Layout::Scalar)?;
+        self.store_outputs(tape, args.out, None)?;
         self.b.ins().return_(&[]);
         Ok(())
     }
 
-    fn lanes(&mut self, tape: &Tape, args: &Args, k: Value) -> Result<(), ExecError> {
-        // Which registers depend on the state (those are computed per lane).
-        let mut per_lane = vec![false; tape.body.len()];
-        for (i, op) in tape.body.iter().enumerate() {
-            per_lane[i] = matches!(op, Op::State(_)) || op.operands().any(|r| per_lane[r.index()]);
-        }
-        // Entry: everything shared by the lanes.
-        for (i, &op) in tape.body.iter().enumerate() {
-            if !per_lane[i] {
-                let v = self.op(op, args, &mut |_, _| {
-                    Err(ExecError::Jit("state read outside the lane loop".into()))
-                })?;
-                self.values[i] = Some(v);
-            }
-        }
-        let kb = self.b.ins().ishl_imm_u(k, 3);
-        let body = self.b.create_block();
-        let exit = self.b.create_block();
-        let zero = self.b.ins().iconst(self.ptr, 0);
-        let empty = self.b.ins().icmp_imm_u(IntCC::Equal, k, 0);
-        self.b
-            .ins()
-            .brif(empty, exit, &[], body, &[BlockArg::Value(zero)]);
-        // Loop body, with the byte offset of the lane as its parameter.
-        self.b.switch_to_block(body);
-        let off = self.b.append_block_param(body, self.ptr);
+    /// The per-lane instructions for the lane(s) at byte offset `off`, and their stores.
+    fn lane_body(
+        &mut self,
+        tape: &Tape,
+        args: &Args,
+        per_lane: &[bool],
+        off: Value,
+        kb: Value,
+    ) -> Result<(), ExecError> {
+        let (ty, flags) = if self.vector {
+            (F64X2, vector_flags())
+        } else {
+            (types::F64, scalar_flags())
+        };
         let state = self.b.ins().iadd(args.state, off);
         for (i, &op) in tape.body.iter().enumerate() {
             if per_lane[i] {
                 let v = self.op(op, args, &mut |e, c| {
                     let at = e.b.ins().imul_imm_s(kb, c as i64);
                     let addr = e.b.ins().iadd(state, at);
-                    Ok(e.b.ins().load(types::F64, MemFlagsData::trusted(), addr, 0))
+                    Ok(e.b.ins().load(ty, flags, addr, 0))
                 })?;
-                self.values[i] = Some(v);
+                if self.vector {
+                    self.vectors[i] = Some(v);
+                } else {
+                    self.values[i] = Some(v);
+                }
             }
         }
         let out = self.b.ins().iadd(args.out, off);
-        self.store_outputs(tape, out, &Layout::Lanes { kb })?;
-        let next = self.b.ins().iadd_imm_u(off, 8);
-        let more = self.b.ins().icmp(IntCC::UnsignedLessThan, next, kb);
+        self.store_outputs(tape, out, Some(kb))
+    }
+
+    /// Lanes two at a time (vectors), then the odd last lane (scalars).
+    fn lanes(&mut self, tape: &Tape, args: &Args, k: Value) -> Result<(), ExecError> {
+        // Which registers depend on the state (those are computed per lane).
+        let mut per_lane = vec![false; tape.body.len()];
+        for (i, op) in tape.body.iter().enumerate() {
+            per_lane[i] = matches!(op, Op::State(_)) || op.operands().any(|r| per_lane[r.index()]);
+        }
+        // Entry: everything shared by the lanes, also as two-lane vectors.
+        for (i, &op) in tape.body.iter().enumerate() {
+            if !per_lane[i] {
+                let v = self.op(op, args, &mut |_, _| {
+                    Err(ExecError::Jit("state read outside the lane loop".into()))
+                })?;
+                self.values[i] = Some(v);
+                self.vectors[i] = Some(self.b.ins().splat(F64X2, v));
+            }
+        }
+        let kb = self.b.ins().ishl_imm_u(k, 3);
+        let zero = self.b.ins().iconst(self.ptr, 0);
+        let (vhead, vbody) = (self.b.create_block(), self.b.create_block());
+        let (shead, sbody, exit) = (
+            self.b.create_block(),
+            self.b.create_block(),
+            self.b.create_block(),
+        );
+        self.b.ins().jump(vhead, &[BlockArg::Value(zero)]);
+        // vhead(off): two more lanes?
+        self.b.switch_to_block(vhead);
+        let off = self.b.append_block_param(vhead, self.ptr);
+        let next = self.b.ins().iadd_imm_u(off, 16);
+        let fits = self.b.ins().icmp(IntCC::UnsignedLessThanOrEqual, next, kb);
         self.b
             .ins()
-            .brif(more, body, &[BlockArg::Value(next)], exit, &[]);
+            .brif(fits, vbody, &[], shead, &[BlockArg::Value(off)]);
+        self.b.switch_to_block(vbody);
+        self.vector = true;
+        self.lane_body(tape, args, &per_lane, off, kb)?;
+        self.vector = false;
+        self.b.ins().jump(vhead, &[BlockArg::Value(next)]);
+        // shead(off): one more lane?
+        self.b.switch_to_block(shead);
+        let off = self.b.append_block_param(shead, self.ptr);
+        let more = self.b.ins().icmp(IntCC::UnsignedLessThan, off, kb);
+        self.b.ins().brif(more, sbody, &[], exit, &[]);
+        self.b.switch_to_block(sbody);
+        self.lane_body(tape, args, &per_lane, off, kb)?;
+        let next = self.b.ins().iadd_imm_u(off, 8);
+        self.b.ins().jump(shead, &[BlockArg::Value(next)]);
         self.b.switch_to_block(exit);
         self.b.ins().return_(&[]);
         Ok(())
