@@ -11,7 +11,8 @@ fn main() {
         eprintln!("{e}");
         std::process::exit(1);
     }
-    let dir = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("set by cargo")).join("models");
+    let dir =
+        PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("set by cargo")).join("models");
     let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
         .expect("models/ exists")
         .filter_map(|e| e.ok().map(|e| e.path()))
@@ -24,10 +25,16 @@ fn main() {
     );
     for f in &files {
         let stem = f.file_stem().expect("a file").to_string_lossy();
-        writeln!(out, "    ({stem:?}, include_str!({:?})),", f.display().to_string()).unwrap();
+        writeln!(
+            out,
+            "    ({stem:?}, include_str!({:?})),",
+            f.display().to_string()
+        )
+        .unwrap();
     }
     out.push_str("];\n");
-    let target = PathBuf::from(std::env::var("OUT_DIR").expect("set by cargo")).join("model_files.rs");
+    let target =
+        PathBuf::from(std::env::var("OUT_DIR").expect("set by cargo")).join("model_files.rs");
     std::fs::write(target, out).expect("OUT_DIR is writable");
     println!("cargo:rerun-if-changed=models");
 }

@@ -658,7 +658,9 @@ fn run_writes_csv_and_summary() {
     );
     assert_eq!(csv.lines().count(), 1 + 704); // samples 0, 10, …, 7020 and the last step 7025
     let s = summary(&dir);
-    assert_eq!(s["model"], "kepler");
+    assert_eq!(s["model"], "Kepler");
+    assert_eq!(s["model_file"], "kepler");
+    assert_eq!(s["backend"], "jit");
     assert_eq!(s["steps"], 7025);
     assert!(err(&s, "L", "max") < 1e-12);
 }
@@ -707,7 +709,7 @@ fn run_rejects_bad_arguments() {
         ),
         (
             &["run", "pendulum"],
-            "unknown model `pendulum`; known models: rigid-body, kepler, perturbed-kepler",
+            "no model `pendulum`: give a path to a model file (`my_model.lsl`) or one of the built-in models: coupled_oscillators, cr3bp, kepler,",
         ),
         (
             &["run", "kepler", "-m", "leapfrog"],
@@ -746,8 +748,20 @@ fn run_rejects_bad_arguments() {
             "unknown parameter `nu`",
         ),
         (
+            &["run", "kepler", "--preset", "fast"],
+            "unknown preset `fast`; the model's presets: paper",
+        ),
+        (
+            &["run", "kepler", "--backend", "llvm"],
+            "invalid value 'llvm' for '--backend <BACKEND>'",
+        ),
+        (
+            &["run", "no/such/model.lsl"],
+            "cannot read model file `no/such/model.lsl`",
+        ),
+        (
             &["experiment", "double-pendulum"],
-            "unknown model `double-pendulum`",
+            "unknown experiment `double-pendulum`",
         ),
     ];
     for (args, want) in cases {
@@ -784,7 +798,8 @@ fn kepler_collision_stops_with_an_error() {
     assert!(!o.status.success());
     let e = stderr(&o);
     assert!(
-        e.contains("collision or blow-up: one step h·|v| = ") && e.contains("guard failed at t = "),
+        e.contains("guard `resolved` violated: dt * norm(v) <= norm(x) does not hold")
+            && e.contains("guard failed at t = "),
         "{e}"
     );
     let s = summary(&dir);

@@ -393,7 +393,7 @@ fn drift(ty: Type, c: [f64; 3], x0: &[f64; 12], t_end: f64) -> ([f64; 4], [f64; 
             }
             Control::Continue
         };
-        let mut dp = DormandPrince::<f64, 12>::new(opts);
+        let mut dp = DormandPrince::<f64, [f64; 12]>::new(opts);
         let end = Driver::new(0.0, t_end, 0.0)
             .run(&mut dp, &m, x0, &mut observer)
             .unwrap_or_else(|e| panic!("{ty:?} c = {c:?}: {e}"));

@@ -264,13 +264,17 @@ impl LoadedModel {
             // the step size `dt` becomes the tape's one gain
             let mut graph = model.graph.clone();
             let margins: Vec<_> = model.guards.iter().map(|g| g.margin).collect();
-            let margins = graph.rename_inputs(&margins, |i| {
-                if i == GUARD_STEP {
-                    Input::Gain(0)
-                } else {
-                    i
-                }
-            });
+            let margins =
+                graph.rename_inputs(
+                    &margins,
+                    |i| {
+                        if i == GUARD_STEP {
+                            Input::Gain(0)
+                        } else {
+                            i
+                        }
+                    },
+                );
             let dims = Dims {
                 state: model.dim(),
                 params: model.param_slots(),
@@ -305,7 +309,10 @@ impl LoadedModel {
     }
 
     /// Reads and loads a model file.
-    pub fn load(path: impl AsRef<std::path::Path>, backend: Backend) -> Result<LoadedModel, LoadError> {
+    pub fn load(
+        path: impl AsRef<std::path::Path>,
+        backend: Backend,
+    ) -> Result<LoadedModel, LoadError> {
         let path = path.as_ref();
         let text = std::fs::read_to_string(path).map_err(|e| lasalle_codegen::Error::Io {
             path: path.display().to_string(),

@@ -41,7 +41,11 @@ pub fn model_text(arg: &str) -> Result<(String, String, String), String> {
     }
     let key = normalise(arg);
     match MODEL_FILES.iter().find(|(stem, _)| normalise(stem) == key) {
-        Some((stem, text)) => Ok((format!("models/{stem}.lsl"), stem.to_string(), text.to_string())),
+        Some((stem, text)) => Ok((
+            format!("models/{stem}.lsl"),
+            stem.to_string(),
+            text.to_string(),
+        )),
         None => {
             let known: Vec<&str> = MODEL_FILES.iter().map(|(stem, _)| *stem).collect();
             Err(format!(

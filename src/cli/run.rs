@@ -69,18 +69,28 @@ pub struct RunArgs {
 }
 
 /// The preset `--preset` names, or the model's first one.
-fn preset(model: &impl Declared<f64, Vec<f64>>, name: Option<&str>) -> Result<Option<&'static Preset>, String> {
+fn preset(
+    model: &impl Declared<f64, Vec<f64>>,
+    name: Option<&str>,
+) -> Result<Option<&'static Preset>, String> {
     let presets = model.presets();
     match name {
         None => Ok(presets.first()),
-        Some(name) => presets.iter().find(|p| p.name == name).map(Some).ok_or_else(|| {
-            let known: Vec<&str> = presets.iter().map(|p| p.name).collect();
-            if known.is_empty() {
-                format!("unknown preset `{name}`: the model declares no `run` preset")
-            } else {
-                format!("unknown preset `{name}`; the model's presets: {}", known.join(", "))
-            }
-        }),
+        Some(name) => presets
+            .iter()
+            .find(|p| p.name == name)
+            .map(Some)
+            .ok_or_else(|| {
+                let known: Vec<&str> = presets.iter().map(|p| p.name).collect();
+                if known.is_empty() {
+                    format!("unknown preset `{name}`: the model declares no `run` preset")
+                } else {
+                    format!(
+                        "unknown preset `{name}`; the model's presets: {}",
+                        known.join(", ")
+                    )
+                }
+            }),
     }
 }
 
@@ -127,8 +137,13 @@ pub fn run(args: &RunArgs) -> CliResult {
         .or(preset.and_then(|p| p.t_end))
         .ok_or_else(|| missing("t_end", "--t-end"))?;
     let mut spec = RunSpec::new(method, dt, t_end);
-    spec.gains = match (args.gains.parse::<GainPolicy>()?, preset.and_then(|p| p.gains)) {
-        (GainPolicy::ModelDefault, Some(g)) if method.is_feedback() => GainPolicy::Explicit(g.to_vec()),
+    spec.gains = match (
+        args.gains.parse::<GainPolicy>()?,
+        preset.and_then(|p| p.gains),
+    ) {
+        (GainPolicy::ModelDefault, Some(g)) if method.is_feedback() => {
+            GainPolicy::Explicit(g.to_vec())
+        }
         (policy, _) => policy,
     };
     spec.tol = args.tol.unwrap_or(dt);

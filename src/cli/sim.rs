@@ -23,9 +23,9 @@ use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lasalle::{
-    component_names, sample_capacity, Declared, AdaptiveGain, Control, DormandPrince, Driver, ExplicitRk,
-    FeedbackField, Field, GainPolicy, Invariants, Lyapunov, ModelInfo, Observer, Parameters,
-    Projection, Recorder, RigidBodySplitting, State, StepError, Stepper, StormerVerlet,
+    component_names, sample_capacity, AdaptiveGain, Control, Declared, DormandPrince, Driver,
+    ExplicitRk, FeedbackField, Field, GainPolicy, Invariants, Lyapunov, ModelInfo, Observer,
+    Parameters, Projection, Recorder, RigidBodySplitting, State, StepError, Stepper, StormerVerlet,
     VerletVariant,
 };
 use serde_json::json;
@@ -100,7 +100,9 @@ impl Method {
     pub fn is_adaptive(self) -> bool {
         matches!(
             self,
-            Method::Plain(Base::Dopri5) | Method::Feedback(Base::Dopri5) | Method::Projection(Base::Dopri5)
+            Method::Plain(Base::Dopri5)
+                | Method::Feedback(Base::Dopri5)
+                | Method::Projection(Base::Dopri5)
         )
     }
 }
@@ -579,8 +581,17 @@ where
         let bar = progress_bar(spec.progress, &spec.method.to_string());
         let mut driver = Driver::new(0.0, spec.t_end, spec.dt);
         // the model's guards, with the step size (0 for adaptive methods, which shrink theirs)
-        let (model, h) = (self.model, if spec.method.is_adaptive() { 0.0 } else { spec.dt });
-        driver = driver.guard(1, move |x: &X| model.check_guards(x, h).map(|g| g.to_string()));
+        let (model, h) = (
+            self.model,
+            if spec.method.is_adaptive() {
+                0.0
+            } else {
+                spec.dt
+            },
+        );
+        driver = driver.guard(1, move |x: &X| {
+            model.check_guards(x, h).map(|g| g.to_string())
+        });
         let mut obs = Sampler {
             inner: &mut rec,
             bar: &bar,
@@ -747,15 +758,12 @@ where
             Ok(with_base(b, spec, visit))
         }
         Method::Feedback(b) => {
-            let gains: K = spec
-                .gains
-                .initial_gains(model, x0, spec.dt)
-                .map_err(|e| {
-                    format!(
-                        "{e} (model `{name}` has gains {})",
-                        model.gain_names().join(", ")
-                    )
-                })?;
+            let gains: K = spec.gains.initial_gains(model, x0, spec.dt).map_err(|e| {
+                format!(
+                    "{e} (model `{name}` has gains {})",
+                    model.gain_names().join(", ")
+                )
+            })?;
             let fb = FeedbackField::from_initial(model, x0, gains.clone());
             let inner = drive(model, &fb, x0, spec);
             let mut trace = match spec.gains {

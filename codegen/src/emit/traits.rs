@@ -317,7 +317,9 @@ impl Emitter<'_> {
         };
         let splitting = match &model.splitting {
             Some(Splitting::RigidBody { inertia }) => {
-                let moments = inertia.iter().map(|&k| self.leaves.input(Input::Param(k)).1);
+                let moments = inertia
+                    .iter()
+                    .map(|&k| self.leaves.input(Input::Param(k)).1);
                 quote! {
                     fn rigid_body_splitting(&self) -> Option<RigidBodySplitting<T>> {
                         Some(RigidBodySplitting::new([#(#moments),*]))

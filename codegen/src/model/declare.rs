@@ -98,7 +98,12 @@ impl Lowerer {
                     }
                     p.gains = Some(gains);
                 }
-                other if self.symbols.get(other).is_some_and(|s| s.kind == Kind::Param) => {
+                other
+                    if self
+                        .symbols
+                        .get(other)
+                        .is_some_and(|s| s.kind == Kind::Param) =>
+                {
                     // a parameter: its slots, as `--param` takes them (the diagonal of `diag`)
                     let items: Vec<&Expr> = match &e.kind {
                         ExprKind::List(items) => items.iter().collect(),
@@ -111,8 +116,7 @@ impl Lowerer {
                     p.params.push((other.to_string(), values));
                 }
                 other => {
-                    let known: Vec<String> =
-                        PRESET_KEYS.iter().map(|k| format!("`{k}`")).collect();
+                    let known: Vec<String> = PRESET_KEYS.iter().map(|k| format!("`{k}`")).collect();
                     return Err(Diagnostic::new(
                         &key.span,
                         format!("unknown setting `{other}` in preset `{}`", name.name),
@@ -147,7 +151,10 @@ impl Lowerer {
                     let known: Vec<&str> = points.iter().map(|q| q.name.as_str()).collect();
                     return Err(Diagnostic::new(
                         &p.span,
-                        format!("preset `{}` starts from `{init}`, which is not a point", p.name),
+                        format!(
+                            "preset `{}` starts from `{init}`, which is not a point",
+                            p.name
+                        ),
                     )
                     .help(if known.is_empty() {
                         "declare it with `point NAME { … }`".to_string()
@@ -157,7 +164,10 @@ impl Lowerer {
                 }
             }
             for (name, values) in &p.params {
-                let slots = params.iter().find(|q| &q.name == name).map_or(0, Param::slots);
+                let slots = params
+                    .iter()
+                    .find(|q| &q.name == name)
+                    .map_or(0, Param::slots);
                 if values.len() != slots {
                     return Err(Diagnostic::new(
                         &p.span,
@@ -252,7 +262,10 @@ impl Lowerer {
         let [r, omega, inertia] = args else {
             return Err(Diagnostic::new(
                 span,
-                format!("`rigid_body` takes 3 arguments (R, Omega, I), {} given", args.len()),
+                format!(
+                    "`rigid_body` takes 3 arguments (R, Omega, I), {} given",
+                    args.len()
+                ),
             ));
         };
         let var = |a: &Ident, shape: Shape, offset: usize| -> L<()> {
@@ -284,13 +297,16 @@ impl Lowerer {
                 "the rigid-body splitting needs the state (R, Omega) and nothing else",
             ));
         }
-        let p = params.iter().find(|p| p.name == inertia.name).ok_or_else(|| {
-            Diagnostic::new(
-                &inertia.span,
-                format!("`{}` is not a parameter", inertia.name),
-            )
-            .help("declare the inertia tensor as `param I = diag(3, 2, 1);`")
-        })?;
+        let p = params
+            .iter()
+            .find(|p| p.name == inertia.name)
+            .ok_or_else(|| {
+                Diagnostic::new(
+                    &inertia.span,
+                    format!("`{}` is not a parameter", inertia.name),
+                )
+                .help("declare the inertia tensor as `param I = diag(3, 2, 1);`")
+            })?;
         if !(p.slots() == 3 && (p.diagonal || p.shape == Shape::Vector(3))) {
             return Err(Diagnostic::new(
                 &inertia.span,

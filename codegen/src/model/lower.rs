@@ -312,9 +312,9 @@ impl Lowerer {
                 Item::Point(name, values) => self
                     .point(name, values, &state, &it.span)
                     .map(|p| points.push(p)),
-                Item::Run(name, values) => self
-                    .preset(name, values, &it.span)
-                    .map(|p| presets.push(p)),
+                Item::Run(name, values) => {
+                    self.preset(name, values, &it.span).map(|p| presets.push(p))
+                }
                 Item::Guard { name, lhs, op, rhs } => self
                     .guard(name, lhs, *op, rhs, &it.span)
                     .map(|g| guards.push(g)),

@@ -18,8 +18,9 @@ pub mod pendulum {
     use lasalle_runtime::num_traits::{Float, One, Zero};
     #[allow(unused_imports)]
     use lasalle_runtime::{
-        lit, nalgebra, Field, InvariantInfo, InvariantKind, Invariants, Lyapunov, ModelInfo,
-        ParamError, Parameters, Partitioned, Shape, Slot,
+        lit, nalgebra, Declared, Field, GuardFailure, InvariantInfo, InvariantKind,
+        Invariants, Lyapunov, ModelInfo, ParamError, Parameters, Partitioned, Preset,
+        RigidBodySplitting, Shape, Slot,
     };
     /// Parameters of the model `Pendulum`: state dimension N = 2, invariant components M = 1, gains G = 1.
     #[derive(Clone, Copy, Debug, PartialEq)]
@@ -176,6 +177,11 @@ pub mod pendulum {
             let l = self.l;
             // pendulum.lsl:9: d/dt omega = -k * sin(theta);
             dx[1] = -(g * theta.sin() / l);
+        }
+    }
+    impl<T: Float> Declared<T, [T; 2]> for Pendulum<T> {
+        fn partitioned(&self) -> Option<&dyn Partitioned<T, [T; 2]>> {
+            Some(self)
         }
     }
     impl<T> Pendulum<T> {
