@@ -5,7 +5,7 @@
 //! conservation of every declared integral) and emitted as plain, formatted Rust that
 //! implements the traits of `lasalle-runtime`.
 //!
-//! Pipeline: [`parse`] → [`model`] (lowering onto [`ir`]) → [`derive`] → [`check`] → [`emit`].
+//! Pipeline: [`parse`] → [`model`] (lowering onto [`ir`]) → [`derive`](mod@derive) → [`check`] → [`emit`].
 //!
 //! In a build script:
 //!

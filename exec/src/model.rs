@@ -225,7 +225,7 @@ impl Info {
     }
 }
 
-/// A model compiled at run time from its file; see the [module docs](self).
+/// A model compiled at run time from its file; see the [module docs](crate::model).
 pub struct LoadedModel {
     model: Model,
     conservation: Vec<Conservation>,
@@ -544,12 +544,9 @@ impl Declared<f64, Vec<f64>> for LoadedModel {
         self.info
             .guards
             .iter()
-            .zip(margins.iter().copied())
-            .find(|(&(_, _, strict), m)| !(if strict { *m > 0.0 } else { *m >= 0.0 }))
-            .map(|(&(name, condition, _), margin)| GuardFailure {
-                name,
-                condition,
-                margin,
+            .zip(margins.iter())
+            .find_map(|(&(name, condition, strict), &m)| {
+                GuardFailure::check(name, condition, m, strict)
             })
     }
 
@@ -558,11 +555,10 @@ impl Declared<f64, Vec<f64>> for LoadedModel {
     }
 
     fn rigid_body_splitting(&self) -> Option<RigidBodySplitting<f64>> {
-        match &self.model.splitting {
-            Some(Splitting::RigidBody { inertia }) => Some(RigidBodySplitting::new(
-                inertia.map(|k| self.params[k as usize]),
-            )),
-            None => None,
-        }
+        self.model.splitting.as_ref().map(|s| match s {
+            Splitting::RigidBody { inertia } => {
+                RigidBodySplitting::new(inertia.map(|k| self.params[k as usize]))
+            }
+        })
     }
 }

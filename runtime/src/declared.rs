@@ -42,6 +42,28 @@ pub struct GuardFailure {
     pub margin: f64,
 }
 
+impl GuardFailure {
+    /// The failure of the guard `name` if its `margin` is not positive (`strict`, for `<` and
+    /// `>`) or is negative (for `<=` and `>=`), or is NaN; `None` if the guard holds.
+    pub fn check<T: Float>(
+        name: &'static str,
+        condition: &'static str,
+        margin: T,
+        strict: bool,
+    ) -> Option<GuardFailure> {
+        let holds = if strict {
+            margin > T::zero()
+        } else {
+            margin >= T::zero()
+        };
+        (!holds).then(|| GuardFailure {
+            name,
+            condition,
+            margin: margin.to_f64().unwrap_or(f64::NAN),
+        })
+    }
+}
+
 impl std::fmt::Display for GuardFailure {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(

@@ -39,7 +39,7 @@ mod gains;
 mod observe;
 mod output;
 mod params;
-mod state;
+pub mod state;
 pub mod steppers;
 
 pub use declared::{Declared, GuardFailure, Preset};

@@ -29,7 +29,7 @@
 use std::ops::{Index, IndexMut};
 
 /// A flat vector of scalars of fixed (`[T; N]`) or run-time (`Vec<T>`) length: a state, the
-/// stacked invariants f(x), the gains. See the [module docs](self) for why.
+/// stacked invariants f(x), the gains. See the [module docs](crate::state) for why.
 pub trait State<T>:
     Clone + PartialEq + AsRef<[T]> + AsMut<[T]> + Index<usize, Output = T> + IndexMut<usize>
 {

@@ -2,7 +2,7 @@
 //! every constraint's manifold is invariant, an explicit V vanishes on the invariant set.
 //!
 //! A Lie derivative ∇f · X is first simplified and expanded (square roots of a sum reduced
-//! with ρ² = s, see [`prove`]); if it becomes the number 0 the integral is *proved*. Otherwise it is evaluated at random states (deterministic seed) and
+//! with ρ² = s, see `prove.rs`); if it becomes the number 0 the integral is *proved*. Otherwise it is evaluated at random states (deterministic seed) and
 //! must be zero up to rounding relative to the size of its terms at each of them.
 
 mod prove;

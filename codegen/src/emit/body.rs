@@ -97,6 +97,11 @@ pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str
     for &id in &order {
         if let Node::Input(i) = g.node(id) {
             let (name, source) = leaves.input(*i);
+            if source.to_string() == name {
+                // an argument read as it is (the step size of a guard): no copy
+                w.named.insert(id, source);
+                continue;
+            }
             let name = w.scope.fresh(&name);
             let ident = format_ident!("{}", name);
             stmts.push(quote!(let #ident = #source;));

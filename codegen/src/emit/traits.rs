@@ -281,28 +281,17 @@ impl Emitter<'_> {
             let dt = body.arg("dt", |i| *i == crate::model::GUARD_STEP);
             let tokens = &body.tokens;
             let checks = model.guards.iter().enumerate().map(|(i, g)| {
-                let (name, condition, iu) = (&g.name, &g.condition, u(i));
-                let holds = if g.strict {
-                    quote!(margin[#iu] > T::zero())
-                } else {
-                    quote!(margin[#iu] >= T::zero())
-                };
-                quote! {
-                    if !(#holds) {
-                        return Some(GuardFailure {
-                            name: #name,
-                            condition: #condition,
-                            margin: margin[#iu].to_f64().unwrap_or(f64::NAN),
-                        });
-                    }
-                }
+                let (name, condition, iu, strict) = (&g.name, &g.condition, u(i), g.strict);
+                quote!(GuardFailure::check(#name, #condition, margin[#iu], #strict))
             });
+            let mut checks = checks.collect::<Vec<_>>().into_iter();
+            let first = checks.next().expect("at least one guard");
+            let rest = checks.map(|c| quote!(.or_else(|| #c)));
             quote! {
                 fn check_guards(&self, #x: &[T; #n], #dt: T) -> Option<GuardFailure> {
                     let mut margin = [T::zero(); #k];
                     #tokens
-                    #(#checks)*
-                    None
+                    #first #(#rest)*
                 }
             }
         };

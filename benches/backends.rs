@@ -1,0 +1,165 @@
+//! One model, three ways to run it: emitted Rust compiled ahead of time, the same functions
+//! JIT-compiled by Cranelift when the model file is loaded, and the tape interpreter
+//! (Criterion).
+//!
+//! ```sh
+//! cargo bench --bench backends                    # everything (~3 minutes)
+//! cargo bench --bench backends -- feedback/kepler # one model
+//! ```
+//!
+//! - `feedback/<model>/{emitted,jit,interpreter}`: one evaluation of X − ∇V at a state off the
+//!   target set, through the runtime trait (`Lyapunov::feedback_field`) as a stepper calls it;
+//! - `load/<model>`: reading nothing, parsing, deriving, checking every invariant and compiling
+//!   every function of the model with the JIT (what `lasalle run model.lsl` pays before its
+//!   first step);
+//! - `run/rigid_body_1e5/{emitted,jit}`: 10⁵ feedback-Euler steps through `integrate`.
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use lasalle::models;
+use lasalle::{integrate, Backend, ExplicitRk, FeedbackField, LoadedModel, Lyapunov, MODEL_FILES};
+
+/// `x0` moved off the target set by a fixed small perturbation.
+fn perturbed(x0: &[f64]) -> Vec<f64> {
+    x0.iter()
+        .enumerate()
+        .map(|(k, v)| v + 1e-3 * (k as f64 * 0.7).sin())
+        .collect()
+}
+
+fn loaded(stem: &str, backend: Backend) -> LoadedModel {
+    let (_, text) = MODEL_FILES
+        .iter()
+        .find(|(s, _)| *s == stem)
+        .expect("a model of models/");
+    LoadedModel::from_source(&format!("models/{stem}.lsl"), text, backend).expect("loads")
+}
+
+macro_rules! feedback_bench {
+    ($c:expr, $stem:literal, $ty:ty, $point:ident) => {{
+        let m = <$ty>::default();
+        let x0 = m.$point();
+        let target = m.targets(&x0);
+        let gains = <$ty>::default_gains();
+        let x: [f64; <$ty>::N] = perturbed(&x0).try_into().unwrap();
+        let mut g = $c.benchmark_group(concat!("feedback/", $stem));
+        g.bench_function("emitted", |b| {
+            let mut dx = [0.0; <$ty>::N];
+            b.iter(|| {
+                black_box(&m).feedback_field(
+                    black_box(&x),
+                    black_box(&target),
+                    black_box(&gains),
+                    &mut dx,
+                );
+                black_box(dx[0])
+            })
+        });
+        for (name, backend) in [("jit", Backend::Jit), ("interpreter", Backend::Interpreter)] {
+            let l = loaded($stem, backend);
+            let (xv, tv, gv) = (x.to_vec(), target.to_vec(), gains.to_vec());
+            let mut dx = vec![0.0; <$ty>::N];
+            g.bench_function(name, |b| {
+                b.iter(|| {
+                    black_box(&l).feedback_field(
+                        black_box(&xv),
+                        black_box(&tv),
+                        black_box(&gv),
+                        &mut dx,
+                    );
+                    black_box(dx[0])
+                })
+            });
+        }
+        g.finish();
+    }};
+}
+
+fn feedback(c: &mut Criterion) {
+    feedback_bench!(
+        c,
+        "rigid_body",
+        models::rigid_body::RigidBody<f64>,
+        point_paper
+    );
+    feedback_bench!(c, "kepler", models::kepler::Kepler<f64>, point_paper);
+    feedback_bench!(
+        c,
+        "perturbed_kepler",
+        models::perturbed_kepler::PerturbedKepler<f64>,
+        point_paper
+    );
+    feedback_bench!(c, "cr3bp", models::cr3bp::CR3BP<f64>, point_near_l4);
+    feedback_bench!(
+        c,
+        "coupled_oscillators",
+        models::coupled_oscillators::CoupledOscillators<f64>,
+        point_excited
+    );
+    feedback_bench!(
+        c,
+        "so3_type_i",
+        models::so3_type_i::So3TypeI<f64>,
+        point_case_c1
+    );
+    feedback_bench!(
+        c,
+        "so3_type_iia",
+        models::so3_type_iia::So3TypeIia<f64>,
+        point_case_c2
+    );
+    feedback_bench!(
+        c,
+        "so3_type_iib",
+        models::so3_type_iib::So3TypeIib<f64>,
+        point_case_c6
+    );
+    feedback_bench!(
+        c,
+        "so3_type_iii",
+        models::so3_type_iii::So3TypeIii<f64>,
+        point_case_c10
+    );
+}
+
+fn load(c: &mut Criterion) {
+    let mut g = c.benchmark_group("load");
+    g.sample_size(10);
+    for (stem, text) in MODEL_FILES {
+        g.bench_function(*stem, |b| {
+            b.iter(|| LoadedModel::from_source(stem, black_box(text), Backend::Jit).expect("loads"))
+        });
+    }
+    g.finish();
+}
+
+fn run(c: &mut Criterion) {
+    let mut g = c.benchmark_group("run/rigid_body_1e5");
+    g.sample_size(10).measurement_time(Duration::from_secs(5));
+    let m = models::rigid_body::RigidBody::<f64>::default();
+    let x0 = m.point_paper();
+    g.bench_function("emitted", |b| {
+        b.iter(|| {
+            let fb = FeedbackField::from_initial(&m, &x0, [50.0, 100.0, 50.0]);
+            integrate(&mut ExplicitRk::euler(), &fb, &x0, 0.0, 10.0, 1e-4, &mut ())
+                .unwrap()
+                .x[0]
+        })
+    });
+    let l = loaded("rigid_body", Backend::Jit);
+    let y0 = x0.to_vec();
+    g.bench_function("jit", |b| {
+        b.iter(|| {
+            let fb = FeedbackField::from_initial(&l, &y0, vec![50.0, 100.0, 50.0]);
+            integrate(&mut ExplicitRk::euler(), &fb, &y0, 0.0, 10.0, 1e-4, &mut ())
+                .unwrap()
+                .x[0]
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, feedback, load, run);
+criterion_main!(benches);
