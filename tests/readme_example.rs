@@ -28,3 +28,16 @@ fn readme_example() -> Result<(), Box<dyn std::error::Error>> {
     }
     Ok(())
 }
+
+/// The README's run-time example: the same model loaded from its file.
+#[test]
+fn readme_loaded_example() -> Result<(), Box<dyn std::error::Error>> {
+    use lasalle::{Backend, LoadedModel, Parameters};
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/kepler.lsl");
+    let m = LoadedModel::load(path, Backend::Jit)?; // parse, derive, check, compile
+    let x0 = m.point("paper").unwrap(); // Vec<f64>
+    let fb = FeedbackField::from_initial(&m, &x0, vec![4.0, 2.0]);
+    let end = integrate(&mut ExplicitRk::euler(), &fb, &x0, 0.0, 70.2481, 0.005, &mut ())?;
+    assert_eq!(end.steps, 14_050);
+    Ok(())
+}

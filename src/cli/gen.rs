@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 /// Arguments of `lasalle gen`.
 #[derive(Args)]
 pub struct GenArgs {
-    /// The model file (`.lsl`).
-    model: PathBuf,
+    /// The model: a path to a model file (`.lsl`) or the name of a built-in model.
+    model: String,
     /// Write a standalone crate (Cargo.toml + src/lib.rs depending on lasalle-runtime) here.
     #[arg(long = "crate", value_name = "DIR")]
     crate_dir: Option<PathBuf>,
@@ -25,7 +25,8 @@ pub struct GenArgs {
 
 /// Runs `lasalle gen`.
 pub fn run(args: &GenArgs) -> CliResult {
-    let model = lasalle_codegen::generate_file(&args.model)?;
+    let (path, _, text) = super::load::model_text(&args.model)?;
+    let model = lasalle_codegen::generate_source(&path, &text)?;
     if args.stats {
         print_stats(&model);
     }
