@@ -277,12 +277,13 @@ impl Writer<'_> {
         let mut out = TokenStream::new();
         for (k, (neg, ts, p)) in parts.into_iter().enumerate() {
             let t = self.wrap((ts, p), Prec::Product);
-            out = match (k, neg) {
+            // Extended in place: rebuilding `#out + #t` would copy the sum for every term.
+            out.extend(match (k, neg) {
                 (0, false) => t,
                 (0, true) => quote!(-#t),
-                (_, false) => quote!(#out + #t),
-                (_, true) => quote!(#out - #t),
-            };
+                (_, false) => quote!(+ #t),
+                (_, true) => quote!(- #t),
+            });
         }
         (out, Prec::Sum)
     }
@@ -323,10 +324,10 @@ impl Writer<'_> {
         }
         let mut ts = num[0].clone();
         for n in &num[1..] {
-            ts = quote!(#ts * #n);
+            ts.extend(quote!(* #n));
         }
         for d in &den {
-            ts = quote!(#ts / #d);
+            ts.extend(quote!(/ #d));
         }
         let p = if num.len() == 1 && den.is_empty() {
             Prec::Atom
