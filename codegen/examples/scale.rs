@@ -11,7 +11,12 @@ use std::time::Instant;
 fn let_chain(n: usize) -> String {
     let mut s = String::from("model Chain {\n    state q: scalar, p: scalar;\n    let a0 = q;\n");
     for i in 1..n {
-        let _ = writeln!(s, "    let a{i} = 0.999 * a{} + 0.001 * sin(a{});", i - 1, i - 1);
+        let _ = writeln!(
+            s,
+            "    let a{i} = 0.999 * a{} + 0.001 * sin(a{});",
+            i - 1,
+            i - 1
+        );
     }
     let _ = writeln!(
         s,

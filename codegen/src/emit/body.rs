@@ -92,6 +92,8 @@ pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str
         named: HashMap::new(),
         scope: Scope::with(reserved),
     };
+    // A local `lit` would shadow the function that writes literals (`lit::<T>(2.0)`).
+    w.scope.take("lit");
     let mut stmts = Vec::new();
     // Leaves, each read once.
     for &id in &order {
@@ -159,6 +161,18 @@ pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str
 
 /// A numeric literal as `T`.
 pub fn literal(x: f64) -> TokenStream {
+    // Lowering and `emit::check_finite` reject non-finite constants with a located error;
+    // should one get here anyway, it is still valid Rust (proc-macro2 panics on ±∞ and NaN).
+    if x.is_nan() {
+        return quote!(T::nan());
+    }
+    if x.is_infinite() {
+        return if x > 0.0 {
+            quote!(T::infinity())
+        } else {
+            quote!(T::neg_infinity())
+        };
+    }
     if x == 0.0 {
         return quote!(T::zero());
     }

@@ -99,16 +99,30 @@ impl Emitter<'_> {
             self.m,
             self.gains()
         );
+        // A model without parameters still has a `T` (the traits are generic over it): a
+        // marker field uses it, or the struct would not compile (E0392).
+        let (marker, marker_default) = if model.params.is_empty() {
+            (
+                quote! {
+                    #[doc = " The model has no parameters; this marker carries the number type `T`."]
+                    pub _marker: core::marker::PhantomData<T>,
+                },
+                quote!(_marker: core::marker::PhantomData,),
+            )
+        } else {
+            (TokenStream::new(), TokenStream::new())
+        };
         quote! {
             #[doc = #struct_doc]
             #[derive(Clone, Copy, Debug, PartialEq)]
             pub struct #ty<T = f64> {
                 #(#struct_fields,)*
+                #marker
             }
 
             impl<T: Float> Default for #ty<T> {
                 fn default() -> Self {
-                    #ty { #(#struct_defaults,)* }
+                    #ty { #(#struct_defaults,)* #marker_default }
                 }
             }
 
@@ -180,7 +194,14 @@ impl Emitter<'_> {
         let (ty, n) = (&self.ty, u(self.n));
         let mut scope = Scope::with(&["default_gains", "targets"]);
         let accessors = self.model.state.iter().map(|s| {
-            let name = scope.fresh(&snake(&s.name));
+            // `x` and `x_mut` are both taken: a state `x_mut` must not meet `x`'s setter.
+            let name = loop {
+                let name = scope.fresh(&snake(&s.name));
+                if !scope.contains(&format!("{name}_mut")) {
+                    scope.take(&format!("{name}_mut"));
+                    break name;
+                }
+            };
             let (get, get_mut) = (format_ident!("{}", name), format_ident!("{}_mut", name));
             let (a, b) = (u(s.offset), u(s.offset + s.shape.len()));
             let (r, c) = s.shape.dims();

@@ -4,7 +4,7 @@
 mod body;
 mod items;
 mod leaves;
-mod names;
+pub(crate) mod names;
 mod traits;
 
 pub use names::snake;
@@ -135,6 +135,7 @@ pub fn emit(
     d: &Derivatives,
     conservation: &[Conservation],
 ) -> crate::Result<Emitted> {
+    check_finite(model, d)?;
     let mut e = Emitter::new(model, d)?;
     // The order of the bodies fixes the Ids of the nodes the rewrites add, hence the output:
     // keep it stable.
@@ -174,6 +175,51 @@ pub fn emit(
         summary: summary(model, d, conservation, &stats),
         stats,
     })
+}
+
+/// Fails with a located error if a number the emitted code would contain is ±∞ or NaN: a
+/// derivative can overflow where the model's own constants did not (`d/dx 1e308·x² = 2e308·x`).
+fn check_finite(model: &Model, d: &Derivatives) -> crate::Result<()> {
+    let g = &model.graph;
+    let non_finite = |roots: &[crate::ir::Id]| {
+        g.reachable(roots)
+            .into_iter()
+            .find_map(|id| g.as_num(id).filter(|x| !x.is_finite()))
+    };
+    let mut groups: Vec<(Vec<crate::ir::Id>, &crate::Span)> = Vec::new();
+    for (k, span) in model.field_spans.iter().enumerate() {
+        groups.push((vec![model.field[k]], span));
+    }
+    for f in &model.invariants {
+        let rows = f.offset..f.offset + f.value.shape.len();
+        let mut ids = f.value.ids.clone();
+        ids.extend(d.jacobian[rows].iter().flatten());
+        groups.push((ids, &f.span));
+    }
+    let v_span = model
+        .lyapunov_span
+        .as_ref()
+        .or(model.invariants.first().map(|f| &f.span));
+    if let Some(span) = v_span {
+        let mut ids = vec![model.lyapunov];
+        ids.extend(&d.lyapunov_gradient);
+        ids.extend(&d.feedback);
+        groups.push((ids, span));
+    }
+    for p in &model.points {
+        groups.push((p.values.clone(), &p.span));
+    }
+    for (ids, span) in groups {
+        if let Some(x) = non_finite(&ids) {
+            return Err(crate::Diagnostic::new(
+                span,
+                format!("this item, or its derivative, has a constant that is not finite ({x})"),
+            )
+            .help("rescale the model: constants near ±1.8e308 overflow when combined or differentiated")
+            .into());
+        }
+    }
+    Ok(())
 }
 
 fn summary(model: &Model, d: &Derivatives, conservation: &[Conservation], s: &Stats) -> String {

@@ -8,9 +8,16 @@ use std::collections::HashMap;
 impl Graph {
     /// The expanded form of `root` (products of sums multiplied out, positive integer powers
     /// of sums expanded), or `None` if some intermediate sum exceeds `max_terms` terms.
+    ///
+    /// The nodes are expanded in topological order, children first, so a deep expression (a
+    /// chain of 50 000 `let`s) cannot overflow the stack.
     pub fn expand(&mut self, root: Id, max_terms: usize) -> Option<Id> {
-        let mut memo = HashMap::new();
-        self.expand_rec(root, max_terms, &mut memo)
+        let mut memo: HashMap<Id, Id> = HashMap::new();
+        for id in self.reachable(&[root]) {
+            let e = self.expand_node(id, max_terms, &memo)?;
+            memo.insert(id, e);
+        }
+        memo.get(&root).copied()
     }
 
     fn terms(&self, id: Id) -> Vec<Id> {
@@ -34,29 +41,23 @@ impl Graph {
         Some(self.add(&out))
     }
 
-    fn expand_rec(&mut self, id: Id, max_terms: usize, memo: &mut HashMap<Id, Id>) -> Option<Id> {
-        if let Some(&e) = memo.get(&id) {
-            return Some(e);
-        }
+    /// The expansion of one node whose children are expanded in `memo`.
+    fn expand_node(&mut self, id: Id, max_terms: usize, memo: &HashMap<Id, Id>) -> Option<Id> {
         let result = match self.node(id).clone() {
             Node::Num(_) | Node::Input(_) => id,
             Node::Add(c) => {
-                let c: Option<Vec<Id>> = c
-                    .iter()
-                    .map(|&k| self.expand_rec(k, max_terms, memo))
-                    .collect();
-                self.add(&c?)
+                let c: Vec<Id> = c.iter().map(|k| memo[k]).collect();
+                self.add(&c)
             }
             Node::Mul(c) => {
                 let mut acc = self.num(1.0);
-                for &k in c.iter() {
-                    let e = self.expand_rec(k, max_terms, memo)?;
-                    acc = self.product_of_sums(acc, e, max_terms)?;
+                for k in c.iter() {
+                    acc = self.product_of_sums(acc, memo[k], max_terms)?;
                 }
                 acc
             }
             Node::Pow(b, e) => {
-                let base = self.expand_rec(b, max_terms, memo)?;
+                let base = memo[&b];
                 if e.is_int() && e.num > 0 && matches!(self.node(base), Node::Add(_)) {
                     let mut acc = base;
                     for _ in 1..e.num {
@@ -68,11 +69,10 @@ impl Graph {
                 }
             }
             Node::Func(f, a) => {
-                let a = self.expand_rec(a, max_terms, memo)?;
+                let a = memo[&a];
                 self.func(f, a)
             }
         };
-        memo.insert(id, result);
         Some(result)
     }
 }

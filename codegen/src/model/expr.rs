@@ -112,7 +112,66 @@ impl Lowerer {
         Ok(k as usize)
     }
 
+    /// Lowers an expression; a constant that folds to ±∞ or NaN is reported at the smallest
+    /// expression that produced it (`1/0`, `log(0)`, `1e400`), never passed on to emission.
     pub(super) fn expr(&mut self, e: &Expr, ctx: Ctx) -> L<Value> {
+        let v = self.expr_inner(e, ctx)?;
+        self.check_finite(&v, e)?;
+        Ok(v)
+    }
+
+    /// Fails if `v` is a constant that is not finite, or if lowering `e` put a non-finite
+    /// number into the graph. Each node is evaluated once, in creation order (children
+    /// first), so the check costs O(1) per node over the whole model.
+    fn check_finite(&mut self, v: &Value, e: &Expr) -> L<()> {
+        let mut bad = None;
+        for k in self.constants.len()..self.g.len() {
+            let id = Id(k as u32);
+            let c = |k: &Id| self.constants[k.index()];
+            let value = match self.g.node(id) {
+                Node::Num(b) => Some(f64::from_bits(*b)),
+                Node::Input(_) => None,
+                Node::Add(ch) => ch.iter().map(c).sum::<Option<f64>>(),
+                Node::Mul(ch) => ch.iter().map(c).product::<Option<f64>>(),
+                Node::Pow(b, r) if r.is_int() => c(b).map(|x| x.powi(r.num)),
+                Node::Pow(b, r) => c(b).map(|x| x.powf(r.to_f64())),
+                Node::Func(f, a) => c(a).map(|x| f.apply(x)),
+            };
+            if matches!(self.g.node(id), Node::Num(_)) && value.is_some_and(|x| !x.is_finite()) {
+                bad = value;
+            }
+            self.constants.push(value);
+        }
+        let bad = bad.or_else(|| {
+            v.ids
+                .iter()
+                .filter_map(|id| self.constants[id.index()])
+                .find(|x| !x.is_finite())
+        });
+        match bad {
+            None => Ok(()),
+            Some(x) => {
+                let text = e
+                    .span
+                    .text()
+                    .split_whitespace()
+                    .collect::<Vec<_>>()
+                    .join(" ");
+                let text = if text.chars().count() > 60 {
+                    format!("{}…", text.chars().take(59).collect::<String>())
+                } else {
+                    text
+                };
+                Err(Diagnostic::new(
+                    &e.span,
+                    format!("constant expression `{text}` is not finite (it is {x})"),
+                )
+                .help("generated code computes in finite floating point: check for a division by zero, the log or square root of a non-positive number, or a number beyond ±1.8e308"))
+            }
+        }
+    }
+
+    fn expr_inner(&mut self, e: &Expr, ctx: Ctx) -> L<Value> {
         match &e.kind {
             ExprKind::Num(x) => Ok(Value::scalar(self.g.num(*x))),
             ExprKind::Name(name) => {
@@ -316,11 +375,10 @@ impl Lowerer {
             BinOp::Add | BinOp::Sub => {
                 if sa != sb {
                     let verb = if op == BinOp::Add { "add" } else { "subtract" };
-                    return Err(Diagnostic::new(
-                        span,
-                        format!("cannot {verb} a {sa} and a {sb}"),
-                    )
-                    .help("both sides of `+` and `-` must have the same shape"));
+                    return Err(
+                        Diagnostic::new(span, format!("cannot {verb} a {sa} and a {sb}"))
+                            .help("both sides of `+` and `-` must have the same shape"),
+                    );
                 }
                 let ids = va
                     .ids
@@ -344,11 +402,10 @@ impl Lowerer {
                     return Ok(self.map(&va, |g, x| g.mul(&[x, vb.ids[0]])));
                 }
                 if let (Shape::Vector(_), Shape::Vector(_)) = (sa, sb) {
-                    return Err(Diagnostic::new(
-                        span,
-                        format!("cannot multiply a {sa} by a {sb}"),
-                    )
-                    .help("use `dot(a, b)` or `cross(a, b)`"));
+                    return Err(
+                        Diagnostic::new(span, format!("cannot multiply a {sa} by a {sb}"))
+                            .help("use `dot(a, b)` or `cross(a, b)`"),
+                    );
                 }
                 let ((r1, c1), (r2, c2)) = (sa.dims(), sb.dims());
                 if c1 != r2 {

@@ -95,6 +95,9 @@ pub(super) struct Lowerer {
     /// Offset and shape of each invariant in the stacked f, for `target(f)`.
     pub(super) invariant_offsets: HashMap<String, (usize, Shape)>,
     pub(super) errors: Vec<Diagnostic>,
+    /// The value of every graph node that is a constant (no inputs), by Id; filled in
+    /// creation order by `check_finite`.
+    pub(super) constants: Vec<Option<f64>>,
 }
 
 pub(super) type L<T> = Result<T, Diagnostic>;
@@ -110,6 +113,7 @@ pub fn lower(ast: &ModelAst, source: Arc<Source>) -> Result<Model, Error> {
         poisoned: Default::default(),
         gain_names: Default::default(),
         errors: Vec::new(),
+        constants: Vec::new(),
     };
     let model = lw.model(ast);
     if lw.errors.is_empty() {
@@ -158,6 +162,20 @@ impl Lowerer {
     }
 
     fn model(&mut self, ast: &ModelAst) -> Option<Model> {
+        // The model's name becomes a Rust type: keywords and names the emitted code uses
+        // itself are refused (a renamed struct would surprise whoever imports it).
+        if let Some(why) = crate::emit::names::reserved_type_name(&ast.name.name) {
+            self.errors.push(
+                Diagnostic::new(
+                    &ast.name.span,
+                    format!("`{}` cannot name a model: {why}", ast.name.name),
+                )
+                .help(format!(
+                    "the model's name is the generated struct's; choose another, e.g. `{}Model`",
+                    ast.name.name.trim_matches('_')
+                )),
+            );
+        }
         // Pass 1: state and parameters, which may be used anywhere.
         let mut state = Vec::new();
         let mut params: Vec<Param> = Vec::new();
@@ -303,9 +321,28 @@ impl Lowerer {
                         Ok(())
                     }
                 }
-                Item::Point(name, values) => self
-                    .point(name, values, &state, &it.span)
-                    .map(|p| points.push(p)),
+                Item::Point(name, values) => {
+                    let method = crate::emit::snake(&name.name);
+                    match points
+                        .iter()
+                        .find(|p: &&Point| crate::emit::snake(&p.name) == method)
+                    {
+                        Some(prev) => {
+                            let (line, _) = prev.span.line_col();
+                            Err(Diagnostic::new(
+                                &name.span,
+                                format!(
+                                    "point `{}` would be the method `point_{method}` of the point `{}` on line {line}",
+                                    name.name, prev.name
+                                ),
+                            )
+                            .help("give each point its own name"))
+                        }
+                        None => self
+                            .point(name, values, &state, &it.span)
+                            .map(|p| points.push(p)),
+                    }
+                }
             };
             if let Err(d) = result {
                 if d.message != POISONED {
