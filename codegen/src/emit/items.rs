@@ -195,14 +195,20 @@ impl Emitter<'_> {
         let mut scope = Scope::with(&["default_gains", "targets"]);
         let accessors = self.model.state.iter().map(|s| {
             // `x` and `x_mut` are both taken: a state `x_mut` must not meet `x`'s setter.
-            let name = loop {
+            // (`type_` for a keyword gives `type_mut`).
+            let (name, name_mut) = loop {
                 let name = scope.fresh(&snake(&s.name));
-                if !scope.contains(&format!("{name}_mut")) {
-                    scope.take(&format!("{name}_mut"));
-                    break name;
+                let name_mut = if name.ends_with('_') {
+                    format!("{name}mut")
+                } else {
+                    format!("{name}_mut")
+                };
+                if !scope.contains(&name_mut) {
+                    scope.take(&name_mut);
+                    break (name, name_mut);
                 }
             };
-            let (get, get_mut) = (format_ident!("{}", name), format_ident!("{}_mut", name));
+            let (get, get_mut) = (format_ident!("{}", name), format_ident!("{}", name_mut));
             let (a, b) = (u(s.offset), u(s.offset + s.shape.len()));
             let (r, c) = s.shape.dims();
             let (rd, cd) = (format_ident!("U{}", r), format_ident!("U{}", c));
