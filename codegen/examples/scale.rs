@@ -7,8 +7,19 @@
 use std::fmt::Write as _;
 use std::time::Instant;
 
-/// A Hamiltonian through a chain of `n` lets: aᵢ = 0.999·aᵢ₋₁ + 0.001·sin(aᵢ₋₁).
+/// A field through a chain of `n` lets: a₀ = x, aᵢ = sin(aᵢ₋₁) + x/i.
 fn let_chain(n: usize) -> String {
+    let mut s = String::from("model Chain {\n    state x: scalar, v: scalar;\n    let a0 = x;\n");
+    for i in 1..n {
+        let _ = writeln!(s, "    let a{i} = sin(a{}) + x / {i};", i - 1);
+    }
+    let _ = writeln!(s, "    d/dt x = v;\n    d/dt v = -a{};\n}}", n - 1);
+    s
+}
+
+/// A Hamiltonian through a chain of `n` lets: aᵢ = 0.999·aᵢ₋₁ + 0.001·sin(aᵢ₋₁). Its reverse-mode
+/// gradient multiplies n chain-rule factors, which flat products hold in O(n²) nodes.
+fn hamiltonian_chain(n: usize) -> String {
     let mut s = String::from("model Chain {\n    state q: scalar, p: scalar;\n    let a0 = q;\n");
     for i in 1..n {
         let _ = writeln!(
@@ -72,6 +83,11 @@ fn main() {
     if only("lets") {
         for n in sizes(&[1_000, 5_000, 20_000, 50_000]) {
             time("let-chain", n, &let_chain(n));
+        }
+    }
+    if only("hamiltonian") {
+        for n in sizes(&[100, 200, 400]) {
+            time("ham-chain", n, &hamiltonian_chain(n));
         }
     }
     if only("sums") {

@@ -251,7 +251,10 @@ fn reserved_model_names_are_refused_at_the_name() {
             &text,
             1,
             7,
-            &[&format!("`{name}` cannot name a model"), "help: the model's name"],
+            &[
+                &format!("`{name}` cannot name a model"),
+                "help: the model's name",
+            ],
         );
     }
 }
@@ -300,13 +303,25 @@ fn non_finite_constants_are_located_errors_not_panics() {
         );
     }
     // In a parameter default, a `let`, a point and a gain.
-    let text = "model M {\n    state x: scalar;\n    param mu = 2 / (1 - 1);\n    d/dt x = -mu * x;\n}\n";
-    assert_error(text, 3, 16, &["constant expression `2 / (1 - 1)` is not finite"]);
+    let text =
+        "model M {\n    state x: scalar;\n    param mu = 2 / (1 - 1);\n    d/dt x = -mu * x;\n}\n";
+    assert_error(
+        text,
+        3,
+        16,
+        &["constant expression `2 / (1 - 1)` is not finite"],
+    );
     let text = "model M {\n    state x: scalar;\n    let r = exp(1000) * x;\n    d/dt x = -r;\n}\n";
-    assert_error(text, 3, 13, &["constant expression `exp(1000)` is not finite"]);
+    assert_error(
+        text,
+        3,
+        13,
+        &["constant expression `exp(1000)` is not finite"],
+    );
     let text = "model M {\n    state x: scalar;\n    d/dt x = -x;\n    point p { x = 1/0; }\n}\n";
     assert_error(text, 4, 19, &["constant expression `1/0` is not finite"]);
-    let text = "model M {\n    state x: scalar;\n    d/dt x = 0;\n    integral I = 1 gain 1/0;\n}\n";
+    let text =
+        "model M {\n    state x: scalar;\n    d/dt x = 0;\n    integral I = 1 gain 1/0;\n}\n";
     assert_error(text, 4, 25, &["constant expression `1/0` is not finite"]);
     // A derivative that overflows where the model's constants did not.
     let text = "model M {\n    state q: scalar, p: scalar;\n    hamiltonian H = p^2 / 2 + 1e308 * q^4;\n    structure canonical(q, p);\n}\n";
@@ -323,7 +338,10 @@ fn long_flat_chains_and_deep_indexing_do_not_overflow_the_stack() {
         sum.join(" + ")
     );
     let code = generate_source("m.lsl", &text).unwrap().code;
-    assert!(code.contains("dx[0] = lit::<T>(50005000.0) * x_2;"), "{code}");
+    assert!(
+        code.contains("dx[0] = lit::<T>(50005000.0) * x_2;"),
+        "{code}"
+    );
     let product = vec!["x"; 10_000].join(" * ");
     let text = format!("model M {{\n    state x: scalar;\n    d/dt x = {product} / x^9999;\n}}\n");
     assert!(generate_source("m.lsl", &text).is_ok());

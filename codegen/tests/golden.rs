@@ -20,8 +20,7 @@ mod hostile_generated {
 fn assert_golden(name: &str) {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden");
     let text = std::fs::read_to_string(dir.join(format!("{name}.lsl"))).unwrap();
-    let generated =
-        lasalle_codegen::generate_source(&format!("golden/{name}.lsl"), &text).unwrap();
+    let generated = lasalle_codegen::generate_source(&format!("golden/{name}.lsl"), &text).unwrap();
     let code = lasalle_codegen::Generated {
         models: vec![generated],
     }

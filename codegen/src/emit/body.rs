@@ -92,8 +92,10 @@ pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str
         named: HashMap::new(),
         scope: Scope::with(reserved),
     };
-    // A local `lit` would shadow the function that writes literals (`lit::<T>(2.0)`).
+    // A local `lit` would shadow the function that writes literals (`lit::<T>(2.0)`);
+    // `partial_sum` is the accumulator of long sums.
     w.scope.take("lit");
+    w.scope.take("partial_sum");
     let mut stmts = Vec::new();
     // Leaves, each read once.
     for &id in &order {
@@ -158,6 +160,9 @@ pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str
         inputs,
     }
 }
+
+/// Longest sum written as one expression; longer ones are split into partial sums.
+const SUM_CHUNK: usize = 256;
 
 /// A numeric literal as `T`.
 pub fn literal(x: f64) -> TokenStream {
@@ -288,6 +293,9 @@ impl Writer<'_> {
             terms.iter().map(|&t| self.signed(t)).collect();
         // Positive terms first reads best: `a + b − c` rather than `−c + a + b`.
         parts.sort_by_key(|(neg, ..)| *neg);
+        if parts.len() > SUM_CHUNK {
+            return (self.long_sum(parts), Prec::Atom);
+        }
         let mut out = TokenStream::new();
         for (k, (neg, ts, p)) in parts.into_iter().enumerate() {
             let t = self.wrap((ts, p), Prec::Product);
@@ -300,6 +308,34 @@ impl Writer<'_> {
             });
         }
         (out, Prec::Sum)
+    }
+
+    /// A sum of more than [`SUM_CHUNK`] terms as a block of partial sums,
+    /// `{ let partial_sum = a + b + …; let partial_sum = partial_sum + c + …; partial_sum + … }`:
+    /// the same additions in the same order, but no expression nests deeper than a chunk (a
+    /// 10 000-term `a + b + …` is a 10 000-deep tree that overflows the parser's stack).
+    fn long_sum(&self, parts: Vec<(bool, TokenStream, Prec)>) -> TokenStream {
+        let mut chunks: Vec<TokenStream> = Vec::new();
+        let mut parts = parts.into_iter().enumerate().peekable();
+        while parts.peek().is_some() {
+            let mut out = if chunks.is_empty() {
+                TokenStream::new()
+            } else {
+                quote!(partial_sum)
+            };
+            for (k, (neg, ts, p)) in parts.by_ref().take(SUM_CHUNK) {
+                let t = self.wrap((ts, p), Prec::Product);
+                out.extend(match (k, neg) {
+                    (0, false) => t,
+                    (0, true) => quote!(-#t),
+                    (_, false) => quote!(+ #t),
+                    (_, true) => quote!(- #t),
+                });
+            }
+            chunks.push(out);
+        }
+        let last = chunks.pop().expect("a long sum has chunks");
+        quote!({ #(let partial_sum = #chunks;)* #last })
     }
 
     fn product(&self, factors: &[Id]) -> (TokenStream, Prec) {

@@ -83,6 +83,11 @@ pub(crate) fn file_name(model: &Model) -> String {
 /// A note (comment) quoting the model item at `span`: `kepler.lsl:9: d/dt v = -mu * x / r^3;` for the item at `span`.
 pub(crate) fn note_for(model: &Model, span: &crate::Span) -> String {
     let (line, _) = span.line_col();
+    note_at(model, span, line)
+}
+
+/// [`note_for`] with the line number already known (see [`LineIndex`]).
+pub(crate) fn note_at(model: &Model, span: &crate::Span, line: usize) -> String {
     let text = span.text().split_whitespace().collect::<Vec<_>>().join(" ");
     let text = if text.chars().count() > 90 {
         format!("{}…", text.chars().take(89).collect::<String>())
@@ -90,6 +95,24 @@ pub(crate) fn note_for(model: &Model, span: &crate::Span) -> String {
         text
     };
     format!("{}:{line}: {text}", file_name(model))
+}
+
+/// The 1-based line of any byte offset of a text, by binary search over its line starts:
+/// [`crate::Span::line_col`] scans the text before the span, which is quadratic over the
+/// thousands of `let`s of a large model.
+pub(crate) struct LineIndex(Vec<usize>);
+
+impl LineIndex {
+    pub(crate) fn new(text: &str) -> Self {
+        let starts = std::iter::once(0)
+            .chain(text.match_indices('\n').map(|(i, _)| i + 1))
+            .collect();
+        LineIndex(starts)
+    }
+
+    pub(crate) fn line(&self, offset: usize) -> usize {
+        self.0.partition_point(|&s| s <= offset)
+    }
 }
 
 /// The emission of one model: the model, its derivatives, a copy of the graph that the
