@@ -349,29 +349,66 @@ impl Emitter<'_> {
             let fname = format_ident!("point_{}", snake(&pt.name));
             quote!(#name => Some(self.#fname().to_vec()))
         });
-        quote! {
-            impl Parameters for #ty<f64> {
-                fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
-                    match name {
-                        #(#set_arms)*
-                        _ => Err(ParamError::Unknown { name: name.to_string(), known: #known.to_string() }),
+        let unknown =
+            quote!(Err(ParamError::Unknown { name: name.to_string(), known: #known.to_string() }));
+        // Without parameters (or points) the lookups are a plain miss: a `match` with only
+        // `_` and an unused `values` would not be clippy-clean.
+        let (set_param, param) = if model.params.is_empty() {
+            (
+                quote! {
+                    fn set_param(&mut self, name: &str, _values: &[f64]) -> Result<(), ParamError> {
+                        #unknown
                     }
-                }
-                fn param(&self, name: &str) -> Option<Vec<f64>> {
-                    match name {
-                        #(#get_arms,)*
-                        _ => None,
+                    fn param(&self, _name: &str) -> Option<Vec<f64>> {
+                        None
                     }
+                },
+                TokenStream::new(),
+            )
+        } else {
+            (
+                quote! {
+                    fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
+                        match name {
+                            #(#set_arms)*
+                            _ => #unknown,
+                        }
+                    }
+                },
+                quote! {
+                    fn param(&self, name: &str) -> Option<Vec<f64>> {
+                        match name {
+                            #(#get_arms,)*
+                            _ => None,
+                        }
+                    }
+                },
+            )
+        };
+        let point = if model.points.is_empty() {
+            quote! {
+                fn point(&self, _name: &str) -> Option<Vec<f64>> {
+                    None
                 }
-                fn point_names(&self) -> &'static [&'static str] {
-                    &[#(#point_names),*]
-                }
+            }
+        } else {
+            quote! {
                 fn point(&self, name: &str) -> Option<Vec<f64>> {
                     match name {
                         #(#point_arms,)*
                         _ => None,
                     }
                 }
+            }
+        };
+        quote! {
+            impl Parameters for #ty<f64> {
+                #set_param
+                #param
+                fn point_names(&self) -> &'static [&'static str] {
+                    &[#(#point_names),*]
+                }
+                #point
             }
         }
     }

@@ -286,20 +286,14 @@ pub mod hostile {
         const PARAMS: &'static [Slot] = &[];
     }
     impl Parameters for Hostile<f64> {
-        fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
-            match name {
-                _ => {
-                    Err(ParamError::Unknown {
-                        name: name.to_string(),
-                        known: "(none)".to_string(),
-                    })
-                }
-            }
+        fn set_param(&mut self, name: &str, _values: &[f64]) -> Result<(), ParamError> {
+            Err(ParamError::Unknown {
+                name: name.to_string(),
+                known: "(none)".to_string(),
+            })
         }
-        fn param(&self, name: &str) -> Option<Vec<f64>> {
-            match name {
-                _ => None,
-            }
+        fn param(&self, _name: &str) -> Option<Vec<f64>> {
+            None
         }
         fn point_names(&self) -> &'static [&'static str] {
             &["start"]
