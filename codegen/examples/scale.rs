@@ -57,6 +57,18 @@ fn term_sum(n: usize) -> String {
     )
 }
 
+/// A field that is a flat sum of `n` products sharing factors pairwise: ẋ = b₀b₁ + b₁b₂ + …,
+/// with bᵢ = sin((i+1)·x): factoring groups one factor per round.
+fn pair_sum(n: usize) -> String {
+    let mut s = String::from("model Pairs {\n    state x: scalar;\n");
+    for i in 0..=n {
+        let _ = writeln!(s, "    let b{i} = sin({} * x);", i + 1);
+    }
+    let terms: Vec<String> = (0..n).map(|i| format!("b{i} * b{}", i + 1)).collect();
+    let _ = writeln!(s, "    d/dt x = {};\n}}", terms.join(" + "));
+    s
+}
+
 fn time(family: &str, n: usize, text: &str) {
     let start = Instant::now();
     match lasalle_codegen::generate_source("scale.lsl", text) {
@@ -96,6 +108,9 @@ fn main() {
         }
         for n in sizes(&[1_000, 3_000, 10_000]) {
             time("term-sum", n, &term_sum(n));
+        }
+        for n in sizes(&[1_000, 3_000, 10_000]) {
+            time("pair-sum", n, &pair_sum(n));
         }
     }
 }

@@ -30,3 +30,17 @@ fn a_ten_thousand_term_sum_generates() {
     let m = generate_source("sum.lsl", &text).unwrap_or_else(|e| panic!("{e}"));
     assert!(m.code.contains(&format!("a{}", n - 1)));
 }
+
+#[test]
+fn a_ten_thousand_term_sum_of_pairwise_shared_factors_generates() {
+    // b0·b1 + b1·b2 + …: factoring takes one round per term.
+    let n = 10_000;
+    let mut text = String::from("model Pairs {\n    state x: scalar;\n");
+    for i in 0..=n {
+        let _ = writeln!(text, "    let b{i} = sin({} * x);", i + 1);
+    }
+    let terms: Vec<String> = (0..n).map(|i| format!("b{i} * b{}", i + 1)).collect();
+    let _ = writeln!(text, "    d/dt x = {};\n}}", terms.join(" + "));
+    let m = generate_source("pairs.lsl", &text).unwrap_or_else(|e| panic!("{e}"));
+    assert!(m.code.contains(&format!("b{n}")));
+}
