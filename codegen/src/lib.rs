@@ -89,6 +89,7 @@ pub fn generate_source(path: &str, text: &str) -> Result<GeneratedModel> {
     let start = Instant::now();
     let mut model = lower_source(path, text)?;
     let derivatives = derive::derive(&mut model);
+    emit::check_finite(&model, &derivatives)?;
     let conservation = check::check(&mut model, &derivatives)?;
     let emitted = emit::emit(&model, &derivatives, &conservation)?;
     let code = emit::format(&emitted.items)?;

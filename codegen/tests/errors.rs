@@ -260,6 +260,12 @@ fn reserved_model_names_are_refused_at_the_name() {
 }
 
 #[test]
+fn raw_identifiers_are_not_names() {
+    let text = "model M {\n    state x: scalar;\n    let r#fn = x;\n    d/dt x = -x;\n}\n";
+    assert_error(text, 3, 10, &["unexpected character `#`"]);
+}
+
+#[test]
 fn file_stems_that_are_keywords_name_valid_modules() {
     let ok = "model Decay {\n    state x: scalar;\n    d/dt x = -x;\n}\n";
     for (path, module) in [
@@ -325,8 +331,20 @@ fn non_finite_constants_are_located_errors_not_panics() {
     assert_error(text, 4, 25, &["constant expression `1/0` is not finite"]);
     // A derivative that overflows where the model's constants did not.
     let text = "model M {\n    state q: scalar, p: scalar;\n    hamiltonian H = p^2 / 2 + 1e308 * q^4;\n    structure canonical(q, p);\n}\n";
-    let msg = error_of(text);
-    assert!(msg.contains("models/test.lsl:"), "{msg}");
+    assert_error(
+        text,
+        4,
+        5,
+        &["the equations of this structure have a constant that is not finite (-inf)"],
+    );
+    let text =
+        "model M {\n    state x: scalar;\n    d/dt x = 0;\n    integral E = 1e308 * x^4;\n}\n";
+    assert_error(
+        text,
+        4,
+        5,
+        &["this item, or its derivative, has a constant that is not finite (inf)"],
+    );
 }
 
 #[test]

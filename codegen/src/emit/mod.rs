@@ -202,7 +202,9 @@ pub fn emit(
 
 /// Fails with a located error if a number the emitted code would contain is ±∞ or NaN: a
 /// derivative can overflow where the model's own constants did not (`d/dx 1e308·x² = 2e308·x`).
-fn check_finite(model: &Model, d: &Derivatives) -> crate::Result<()> {
+/// [`emit`] calls it; the pipeline calls it right after differentiation too, so the message
+/// names the overflow rather than the conservation check that would trip on it.
+pub fn check_finite(model: &Model, d: &Derivatives) -> crate::Result<()> {
     let g = &model.graph;
     let non_finite = |roots: &[crate::ir::Id]| {
         g.reachable(roots)

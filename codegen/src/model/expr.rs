@@ -124,25 +124,7 @@ impl Lowerer {
     /// number into the graph. Each node is evaluated once, in creation order (children
     /// first), so the check costs O(1) per node over the whole model.
     fn check_finite(&mut self, v: &Value, e: &Expr) -> L<()> {
-        let mut bad = None;
-        for k in self.constants.len()..self.g.len() {
-            let id = Id(k as u32);
-            let c = |k: &Id| self.constants[k.index()];
-            let value = match self.g.node(id) {
-                Node::Num(b) => Some(f64::from_bits(*b)),
-                Node::Input(_) => None,
-                Node::Add(ch) => ch.iter().map(c).sum::<Option<f64>>(),
-                Node::Mul(ch) => ch.iter().map(c).product::<Option<f64>>(),
-                Node::Pow(b, r) if r.is_int() => c(b).map(|x| x.powi(r.num)),
-                Node::Pow(b, r) => c(b).map(|x| x.powf(r.to_f64())),
-                Node::Func(f, a) => c(a).map(|x| f.apply(x)),
-            };
-            if matches!(self.g.node(id), Node::Num(_)) && value.is_some_and(|x| !x.is_finite()) {
-                bad = value;
-            }
-            self.constants.push(value);
-        }
-        let bad = bad.or_else(|| {
+        let bad = self.sweep_constants().or_else(|| {
             v.ids
                 .iter()
                 .filter_map(|id| self.constants[id.index()])
@@ -169,6 +151,30 @@ impl Lowerer {
                 .help("generated code computes in finite floating point: check for a division by zero, the log or square root of a non-positive number, or a number beyond ±1.8e308"))
             }
         }
+    }
+
+    /// Evaluates the constant nodes created since the last sweep (in creation order, so
+    /// children first); returns a non-finite number among the new nodes, if one was created.
+    pub(super) fn sweep_constants(&mut self) -> Option<f64> {
+        let mut bad = None;
+        for k in self.constants.len()..self.g.len() {
+            let id = Id(k as u32);
+            let c = |k: &Id| self.constants[k.index()];
+            let value = match self.g.node(id) {
+                Node::Num(b) => Some(f64::from_bits(*b)),
+                Node::Input(_) => None,
+                Node::Add(ch) => ch.iter().map(c).sum::<Option<f64>>(),
+                Node::Mul(ch) => ch.iter().map(c).product::<Option<f64>>(),
+                Node::Pow(b, r) if r.is_int() => c(b).map(|x| x.powi(r.num)),
+                Node::Pow(b, r) => c(b).map(|x| x.powf(r.to_f64())),
+                Node::Func(f, a) => c(a).map(|x| f.apply(x)),
+            };
+            if matches!(self.g.node(id), Node::Num(_)) && value.is_some_and(|x| !x.is_finite()) {
+                bad = value;
+            }
+            self.constants.push(value);
+        }
+        bad
     }
 
     fn expr_inner(&mut self, e: &Expr, ctx: Ctx) -> L<Value> {

@@ -354,7 +354,17 @@ impl Lowerer {
         // The Hamiltonian route.
         let hamiltonian = match (hamiltonian, structure) {
             (Some((name, h, _)), Some((s, span))) => {
-                match self.structure(s, &span, h, &mut field, &mut invariants, &mut gains) {
+                let result = self.structure(s, &span, h, &mut field, &mut invariants, &mut gains);
+                // The equations are derivatives of H: they can overflow where H did not.
+                let result = result.and_then(|s| match self.sweep_constants() {
+                    Some(x) => Err(Diagnostic::new(
+                        &span,
+                        format!("the equations of this structure have a constant that is not finite ({x})"),
+                    )
+                    .help("they are derivatives of the Hamiltonian: rescale constants near ±1.8e308")),
+                    None => Ok(s),
+                });
+                match result {
                     Ok(structure) => Some(Hamiltonian {
                         name: name.name,
                         h,
