@@ -206,6 +206,10 @@ pub fn emit(
 /// names the overflow rather than the conservation check that would trip on it.
 pub fn check_finite(model: &Model, d: &Derivatives) -> crate::Result<()> {
     let g = &model.graph;
+    // Almost always there is no such number at all: one pass over the graph says so.
+    if (0..g.len()).all(|k| g.as_num(crate::ir::Id(k as u32)).is_none_or(f64::is_finite)) {
+        return Ok(());
+    }
     let non_finite = |roots: &[crate::ir::Id]| {
         g.reachable(roots)
             .into_iter()
