@@ -66,26 +66,22 @@ impl Graph {
         // Terms by sequence number: the order of the list (the grouped term goes last).
         let mut live: BTreeMap<usize, Id> = BTreeMap::new();
         let mut factors: HashMap<usize, Vec<Id>> = HashMap::new();
-        // For each factor, the terms holding it; and the ranking of the factors by
-        // (number of terms, first appearance), the best last.
-        let mut holders: HashMap<Id, BTreeSet<usize>> = HashMap::new();
+        // The ranking of the factors by (number of terms, first appearance), the best last.
+        // For each factor, the terms holding it and its position in each (for the ties).
+        let mut holders: HashMap<Id, BTreeMap<usize, usize>> = HashMap::new();
         type Key = (usize, Reverse<(usize, usize)>, Id);
         let mut ranking: BTreeSet<Key> = BTreeSet::new();
         let mut key_of: HashMap<Id, Key> = HashMap::new();
         let refresh = |f: Id,
-                       holders: &HashMap<Id, BTreeSet<usize>>,
-                       factors: &HashMap<usize, Vec<Id>>,
+                       holders: &HashMap<Id, BTreeMap<usize, usize>>,
                        ranking: &mut BTreeSet<Key>,
                        key_of: &mut HashMap<Id, Key>| {
             if let Some(old) = key_of.remove(&f) {
                 ranking.remove(&old);
             }
-            if let Some(first) = holders.get(&f).and_then(|h| h.first()) {
-                let position = factors[first]
-                    .iter()
-                    .position(|&g| g == f)
-                    .expect("a holder holds its factor");
-                let key = (holders[&f].len(), Reverse((*first, position)), f);
+            let held = &holders[&f];
+            if let Some((&first, &position)) = held.first_key_value() {
+                let key = (held.len(), Reverse((first, position)), f);
                 ranking.insert(key);
                 key_of.insert(f, key);
             }
@@ -95,20 +91,18 @@ impl Graph {
                           t: Id,
                           live: &mut BTreeMap<usize, Id>,
                           factors: &mut HashMap<usize, Vec<Id>>,
-                          holders: &mut HashMap<Id, BTreeSet<usize>>,
+                          holders: &mut HashMap<Id, BTreeMap<usize, usize>>,
                           ranking: &mut BTreeSet<Key>,
                           key_of: &mut HashMap<Id, Key>| {
             let seq = next;
             next += 1;
             live.insert(seq, t);
             let fs = g.factors_of(t);
-            for &f in &fs {
-                holders.entry(f).or_default().insert(seq);
+            for (position, &f) in fs.iter().enumerate() {
+                holders.entry(f).or_default().insert(seq, position);
+                refresh(f, holders, ranking, key_of);
             }
-            factors.insert(seq, fs.clone());
-            for f in fs {
-                refresh(f, holders, factors, ranking, key_of);
-            }
+            factors.insert(seq, fs);
         };
         for t in terms {
             insert(
@@ -126,7 +120,7 @@ impl Graph {
                 let terms: Vec<Id> = live.values().copied().collect();
                 return self.add(&terms);
             };
-            let seqs: Vec<usize> = holders[&f].iter().copied().collect();
+            let seqs: Vec<usize> = holders[&f].keys().copied().collect();
             let with: Vec<Id> = seqs.iter().map(|s| live[s]).collect();
             let mut touched: Vec<Id> = Vec::new();
             for s in &seqs {
@@ -137,7 +131,7 @@ impl Graph {
                 }
             }
             for g in touched {
-                refresh(g, &holders, &factors, &mut ranking, &mut key_of);
+                refresh(g, &holders, &mut ranking, &mut key_of);
             }
             let inner_terms: Vec<Id> = with.iter().map(|&t| self.without_factor(t, f)).collect();
             // Nests at most as deep as a term has factors.
