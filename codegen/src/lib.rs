@@ -90,6 +90,7 @@ pub fn generate_source(path: &str, text: &str) -> Result<GeneratedModel> {
     let start = Instant::now();
     let mut model = lower_source(path, text)?;
     let derivatives = derive::derive(&mut model);
+    emit::check_finite(&model, &derivatives)?;
     let conservation = check::check(&mut model, &derivatives)?;
     let emitted = emit::emit(&model, &derivatives, &conservation)?;
     let code = emit::format(&emitted.items)?;
@@ -99,6 +100,8 @@ pub fn generate_source(path: &str, text: &str) -> Result<GeneratedModel> {
             .map_or_else(|| model.name.clone(), |s| s.to_string_lossy().into_owned()),
     )
     .replace(|c: char| !c.is_ascii_alphanumeric() && c != '_', "_");
+    // `fn.lsl`, `self.lsl`, `1d.lsl`, `_.lsl` still name a valid module: `fn_`, `self_`, `v1d`, `v_`.
+    let module = emit::names::identifier(&module);
     Ok(GeneratedModel {
         module,
         summary: emitted.summary,

@@ -240,3 +240,147 @@ fn no_input_makes_the_generator_panic() {
         }
     }
 }
+
+#[test]
+fn reserved_model_names_are_refused_at_the_name() {
+    for name in [
+        "T", "Default", "Self", "fn", "_", "self", "Field", "Float", "Option", "f64", "lit",
+    ] {
+        let text = format!("model {name} {{\n    state x: scalar;\n    d/dt x = -x;\n}}\n");
+        assert_error(
+            &text,
+            1,
+            7,
+            &[
+                &format!("`{name}` cannot name a model"),
+                "help: the model's name",
+            ],
+        );
+    }
+}
+
+#[test]
+fn raw_identifiers_are_not_names() {
+    let text = "model M {\n    state x: scalar;\n    let r#fn = x;\n    d/dt x = -x;\n}\n";
+    assert_error(text, 3, 10, &["unexpected character `#`"]);
+}
+
+#[test]
+fn file_stems_that_are_keywords_name_valid_modules() {
+    let ok = "model Decay {\n    state x: scalar;\n    d/dt x = -x;\n}\n";
+    for (path, module) in [
+        ("models/fn.lsl", "fn_"),
+        ("models/self.lsl", "self_"),
+        ("models/1d.lsl", "v1d"),
+        ("models/_.lsl", "v_"),
+    ] {
+        assert_eq!(generate_source(path, ok).unwrap().module, module);
+    }
+}
+
+#[test]
+fn points_that_map_to_one_method_are_refused() {
+    let text = "model M {\n    state x: scalar;\n    d/dt x = -x;\n    point A { x = 1; }\n    point a { x = 2; }\n}\n";
+    assert_error(
+        text,
+        5,
+        11,
+        &["point `a` would be the method `point_a` of the point `A` on line 4"],
+    );
+}
+
+#[test]
+fn non_finite_constants_are_located_errors_not_panics() {
+    let field = |rhs: &str| format!("model M {{\n    state x: scalar;\n    d/dt x = {rhs};\n}}\n");
+    for (rhs, col, text) in [
+        ("x + 1/0", 18, "1/0"),
+        ("x * (0/0)", 18, "(0/0)"),
+        ("x + 1e400", 18, "1e400"),
+        ("x + log(0)", 18, "log(0)"),
+        ("x * sqrt(-1)", 18, "sqrt(-1)"),
+        ("x + 1e308 * 10", 18, "1e308 * 10"),
+        ("x + 1e300 * x * 1e300", 18, "1e300 * x * 1e300"),
+    ] {
+        assert_error(
+            &field(rhs),
+            3,
+            col,
+            &[&format!("constant expression `{text}` is not finite")],
+        );
+    }
+    // In a parameter default, a `let`, a point and a gain.
+    let text =
+        "model M {\n    state x: scalar;\n    param mu = 2 / (1 - 1);\n    d/dt x = -mu * x;\n}\n";
+    assert_error(
+        text,
+        3,
+        16,
+        &["constant expression `2 / (1 - 1)` is not finite"],
+    );
+    let text = "model M {\n    state x: scalar;\n    let r = exp(1000) * x;\n    d/dt x = -r;\n}\n";
+    assert_error(
+        text,
+        3,
+        13,
+        &["constant expression `exp(1000)` is not finite"],
+    );
+    let text = "model M {\n    state x: scalar;\n    d/dt x = -x;\n    point p { x = 1/0; }\n}\n";
+    assert_error(text, 4, 19, &["constant expression `1/0` is not finite"]);
+    let text =
+        "model M {\n    state x: scalar;\n    d/dt x = 0;\n    integral I = 1 gain 1/0;\n}\n";
+    assert_error(text, 4, 25, &["constant expression `1/0` is not finite"]);
+    // A derivative that overflows where the model's constants did not.
+    let text = "model M {\n    state q: scalar, p: scalar;\n    hamiltonian H = p^2 / 2 + 1e308 * q^4;\n    structure canonical(q, p);\n}\n";
+    assert_error(
+        text,
+        4,
+        5,
+        &["the equations of this structure have a constant that is not finite (-inf)"],
+    );
+    let text =
+        "model M {\n    state x: scalar;\n    d/dt x = 0;\n    integral E = 1e308 * x^4;\n}\n";
+    assert_error(
+        text,
+        4,
+        5,
+        &["this item, or its derivative, has a constant that is not finite (inf)"],
+    );
+}
+
+#[test]
+fn long_flat_chains_and_deep_indexing_do_not_overflow_the_stack() {
+    // 10 000 terms and factors in one expression: flat chains, not 10 000-deep trees.
+    let sum: Vec<String> = (1..=10_000).map(|i| format!("x*{i}")).collect();
+    let text = format!(
+        "model M {{\n    state x: scalar;\n    d/dt x = {};\n}}\n",
+        sum.join(" + ")
+    );
+    let code = generate_source("m.lsl", &text).unwrap().code;
+    assert!(
+        code.contains("dx[0] = lit::<T>(50005000.0) * x_2;"),
+        "{code}"
+    );
+    let product = vec!["x"; 10_000].join(" * ");
+    let text = format!("model M {{\n    state x: scalar;\n    d/dt x = {product} / x^9999;\n}}\n");
+    assert!(generate_source("m.lsl", &text).is_ok());
+    // x[0][0]…: indexing nests, so it is bounded like parentheses.
+    let text = format!(
+        "model M {{\n    state x: vec1;\n    d/dt x = [x{}];\n}}\n",
+        "[0]".repeat(100_000)
+    );
+    assert!(error_of(&text).contains("nested more than 200 levels deep"));
+}
+
+#[test]
+fn huge_powers_of_sums_give_up_the_proof_not_the_time() {
+    // Expanding (q² + p²)^99999 to prove H conserved would take minutes: the expansion budget
+    // gives up at once and the conservation check samples instead.
+    let text = "model M {\n    state q: scalar, p: scalar;\n    hamiltonian H = (q^2 + p^2)^99999 / 1e9;\n    structure canonical(q, p);\n}\n";
+    let start = std::time::Instant::now();
+    let result = generate_source("m.lsl", text);
+    assert!(
+        start.elapsed() < std::time::Duration::from_secs(60),
+        "{:?}",
+        result.map(|_| ())
+    );
+}

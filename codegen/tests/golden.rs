@@ -9,16 +9,23 @@ mod pendulum_generated {
     include!("golden/pendulum.rs");
 }
 
-#[test]
-fn emitted_code_matches_the_golden_file() {
+/// A model without parameters (E0392 if its `T` were unused) whose state and `let` names are
+/// Rust keywords or names the emitted code uses (`fn`, `self`, `type`, `lit`, `T`, `_`, `x`).
+#[allow(missing_docs, dead_code)]
+mod hostile_generated {
+    include!("golden/hostile.rs");
+}
+
+/// Generates `golden/<name>.lsl` and compares it with `golden/<name>.rs`.
+fn assert_golden(name: &str) {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden");
-    let text = std::fs::read_to_string(dir.join("pendulum.lsl")).unwrap();
-    let generated = lasalle_codegen::generate_source("golden/pendulum.lsl", &text).unwrap();
+    let text = std::fs::read_to_string(dir.join(format!("{name}.lsl"))).unwrap();
+    let generated = lasalle_codegen::generate_source(&format!("golden/{name}.lsl"), &text).unwrap();
     let code = lasalle_codegen::Generated {
         models: vec![generated],
     }
     .module_file();
-    let golden = dir.join("pendulum.rs");
+    let golden = dir.join(format!("{name}.rs"));
     if std::env::var_os("UPDATE_GOLDEN").is_some() {
         std::fs::write(&golden, &code).unwrap();
     }
@@ -28,6 +35,16 @@ fn emitted_code_matches_the_golden_file() {
         "emitted code differs from {}; rerun with UPDATE_GOLDEN=1 if intended",
         golden.display()
     );
+}
+
+#[test]
+fn emitted_code_matches_the_golden_file() {
+    assert_golden("pendulum");
+}
+
+#[test]
+fn hostile_names_and_no_parameters_match_the_golden_file() {
+    assert_golden("hostile");
 }
 
 #[test]
@@ -52,4 +69,24 @@ fn the_golden_code_runs() {
         "{grad:?}"
     );
     assert_eq!(m.point_rest(), [0.0, 0.0]);
+}
+
+#[test]
+fn the_hostile_code_runs() {
+    use hostile_generated::hostile::Hostile;
+    use lasalle_runtime::{Field, Invariants, Parameters};
+    let m = Hostile::<f64>::default();
+    // state: fn, self, type[0], type[1], x, x_mut
+    let s = [0.5, -0.25, 2.0, 3.0, 0.75, 1.5];
+    let mut dx = [0.0; 6];
+    m.field(&s, &mut dx);
+    let t = 1.0 + (2.0f64 * 0.75).powi(2); // T = 1 + lit², lit = type[0]·x
+    assert_eq!(dx, [-0.25 * t, -0.5 * t, 3.0, -2.0, 1.5, -0.75]);
+    let mut f = [0.0; 2];
+    m.invariants(&s, &mut f);
+    assert_eq!(f, [0.3125, 13.0]);
+    assert_eq!(Hostile::<f64>::type_(&s)[1], 3.0);
+    assert_eq!(Hostile::<f64>::x_mut_2(&s), 1.5);
+    assert_eq!(m.point("start"), Some(vec![1.0, 0.0, 1.0, 0.0, 0.0, 1.0]));
+    assert_eq!(m.param("anything"), None);
 }

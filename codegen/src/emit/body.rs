@@ -92,6 +92,10 @@ pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str
         named: HashMap::new(),
         scope: Scope::with(reserved),
     };
+    // A local `lit` would shadow the function that writes literals (`lit::<T>(2.0)`);
+    // `partial_sum` is the accumulator of long sums.
+    w.scope.take("lit");
+    w.scope.take("partial_sum");
     let mut stmts = Vec::new();
     // Leaves, each read once.
     for &id in &order {
@@ -162,8 +166,23 @@ pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str
     }
 }
 
+/// Longest sum written as one expression; longer ones are split into partial sums.
+const SUM_CHUNK: usize = 256;
+
 /// A numeric literal as `T`.
 pub fn literal(x: f64) -> TokenStream {
+    // Lowering and `emit::check_finite` reject non-finite constants with a located error;
+    // should one get here anyway, it is still valid Rust (proc-macro2 panics on ±∞ and NaN).
+    if x.is_nan() {
+        return quote!(T::nan());
+    }
+    if x.is_infinite() {
+        return if x > 0.0 {
+            quote!(T::infinity())
+        } else {
+            quote!(T::neg_infinity())
+        };
+    }
     if x == 0.0 {
         return quote!(T::zero());
     }
@@ -279,17 +298,49 @@ impl Writer<'_> {
             terms.iter().map(|&t| self.signed(t)).collect();
         // Positive terms first reads best: `a + b − c` rather than `−c + a + b`.
         parts.sort_by_key(|(neg, ..)| *neg);
+        if parts.len() > SUM_CHUNK {
+            return (self.long_sum(parts), Prec::Atom);
+        }
         let mut out = TokenStream::new();
         for (k, (neg, ts, p)) in parts.into_iter().enumerate() {
             let t = self.wrap((ts, p), Prec::Product);
-            out = match (k, neg) {
+            // Extended in place: rebuilding `#out + #t` would copy the sum for every term.
+            out.extend(match (k, neg) {
                 (0, false) => t,
                 (0, true) => quote!(-#t),
-                (_, false) => quote!(#out + #t),
-                (_, true) => quote!(#out - #t),
-            };
+                (_, false) => quote!(+ #t),
+                (_, true) => quote!(- #t),
+            });
         }
         (out, Prec::Sum)
+    }
+
+    /// A sum of more than [`SUM_CHUNK`] terms as a block of partial sums,
+    /// `{ let partial_sum = a + b + …; let partial_sum = partial_sum + c + …; partial_sum + … }`:
+    /// the same additions in the same order, but no expression nests deeper than a chunk (a
+    /// 10 000-term `a + b + …` is a 10 000-deep tree that overflows the parser's stack).
+    fn long_sum(&self, parts: Vec<(bool, TokenStream, Prec)>) -> TokenStream {
+        let mut chunks: Vec<TokenStream> = Vec::new();
+        let mut parts = parts.into_iter().enumerate().peekable();
+        while parts.peek().is_some() {
+            let mut out = if chunks.is_empty() {
+                TokenStream::new()
+            } else {
+                quote!(partial_sum)
+            };
+            for (k, (neg, ts, p)) in parts.by_ref().take(SUM_CHUNK) {
+                let t = self.wrap((ts, p), Prec::Product);
+                out.extend(match (k, neg) {
+                    (0, false) => t,
+                    (0, true) => quote!(-#t),
+                    (_, false) => quote!(+ #t),
+                    (_, true) => quote!(- #t),
+                });
+            }
+            chunks.push(out);
+        }
+        let last = chunks.pop().expect("a long sum has chunks");
+        quote!({ #(let partial_sum = #chunks;)* #last })
     }
 
     fn product(&self, factors: &[Id]) -> (TokenStream, Prec) {
@@ -328,10 +379,10 @@ impl Writer<'_> {
         }
         let mut ts = num[0].clone();
         for n in &num[1..] {
-            ts = quote!(#ts * #n);
+            ts.extend(quote!(* #n));
         }
         for d in &den {
-            ts = quote!(#ts / #d);
+            ts.extend(quote!(/ #d));
         }
         let p = if num.len() == 1 && den.is_empty() {
             Prec::Atom

@@ -99,16 +99,30 @@ impl Emitter<'_> {
             self.m,
             self.gains()
         );
+        // A model without parameters still has a `T` (the traits are generic over it): a
+        // marker field uses it, or the struct would not compile (E0392).
+        let (marker, marker_default) = if model.params.is_empty() {
+            (
+                quote! {
+                    #[doc = " The model has no parameters; this marker carries the number type `T`."]
+                    pub _marker: core::marker::PhantomData<T>,
+                },
+                quote!(_marker: core::marker::PhantomData,),
+            )
+        } else {
+            (TokenStream::new(), TokenStream::new())
+        };
         quote! {
             #[doc = #struct_doc]
             #[derive(Clone, Copy, Debug, PartialEq)]
             pub struct #ty<T = f64> {
                 #(#struct_fields,)*
+                #marker
             }
 
             impl<T: Float> Default for #ty<T> {
                 fn default() -> Self {
-                    #ty { #(#struct_defaults,)* }
+                    #ty { #(#struct_defaults,)* #marker_default }
                 }
             }
 
@@ -180,8 +194,21 @@ impl Emitter<'_> {
         let (ty, n) = (&self.ty, u(self.n));
         let mut scope = Scope::with(&["default_gains", "targets"]);
         let accessors = self.model.state.iter().map(|s| {
-            let name = scope.fresh(&snake(&s.name));
-            let (get, get_mut) = (format_ident!("{}", name), format_ident!("{}_mut", name));
+            // `x` and `x_mut` are both taken: a state `x_mut` must not meet `x`'s setter.
+            // (`type_` for a keyword gives `type_mut`).
+            let (name, name_mut) = loop {
+                let name = scope.fresh(&snake(&s.name));
+                let name_mut = if name.ends_with('_') {
+                    format!("{name}mut")
+                } else {
+                    format!("{name}_mut")
+                };
+                if !scope.contains(&name_mut) {
+                    scope.take(&name_mut);
+                    break (name, name_mut);
+                }
+            };
+            let (get, get_mut) = (format_ident!("{}", name), format_ident!("{}", name_mut));
             let (a, b) = (u(s.offset), u(s.offset + s.shape.len()));
             let (r, c) = s.shape.dims();
             let (rd, cd) = (format_ident!("U{}", r), format_ident!("U{}", c));
@@ -337,29 +364,66 @@ impl Emitter<'_> {
             let fname = format_ident!("point_{}", snake(&pt.name));
             quote!(#name => Some(self.#fname().to_vec()))
         });
-        quote! {
-            impl Parameters for #ty<f64> {
-                fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
-                    match name {
-                        #(#set_arms)*
-                        _ => Err(ParamError::Unknown { name: name.to_string(), known: #known.to_string() }),
+        let unknown =
+            quote!(Err(ParamError::Unknown { name: name.to_string(), known: #known.to_string() }));
+        // Without parameters (or points) the lookups are a plain miss: a `match` with only
+        // `_` and an unused `values` would not be clippy-clean.
+        let (set_param, param) = if model.params.is_empty() {
+            (
+                quote! {
+                    fn set_param(&mut self, name: &str, _values: &[f64]) -> Result<(), ParamError> {
+                        #unknown
                     }
-                }
-                fn param(&self, name: &str) -> Option<Vec<f64>> {
-                    match name {
-                        #(#get_arms,)*
-                        _ => None,
+                    fn param(&self, _name: &str) -> Option<Vec<f64>> {
+                        None
                     }
+                },
+                TokenStream::new(),
+            )
+        } else {
+            (
+                quote! {
+                    fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
+                        match name {
+                            #(#set_arms)*
+                            _ => #unknown,
+                        }
+                    }
+                },
+                quote! {
+                    fn param(&self, name: &str) -> Option<Vec<f64>> {
+                        match name {
+                            #(#get_arms,)*
+                            _ => None,
+                        }
+                    }
+                },
+            )
+        };
+        let point = if model.points.is_empty() {
+            quote! {
+                fn point(&self, _name: &str) -> Option<Vec<f64>> {
+                    None
                 }
-                fn point_names(&self) -> &'static [&'static str] {
-                    &[#(#point_names),*]
-                }
+            }
+        } else {
+            quote! {
                 fn point(&self, name: &str) -> Option<Vec<f64>> {
                     match name {
                         #(#point_arms,)*
                         _ => None,
                     }
                 }
+            }
+        };
+        quote! {
+            impl Parameters for #ty<f64> {
+                #set_param
+                #param
+                fn point_names(&self) -> &'static [&'static str] {
+                    &[#(#point_names),*]
+                }
+                #point
             }
         }
     }

@@ -2,7 +2,7 @@
 //! under a readable name (`x_0`, `mu`, `l_0_2`, `k1`), and which nodes carry `let` names.
 
 use super::names::{identifier, snake, Scope};
-use super::{note_for, u};
+use super::{note_at, u, LineIndex};
 use crate::ir::{Id, Input};
 use crate::model::{Model, Shape};
 use proc_macro2::TokenStream;
@@ -53,7 +53,9 @@ impl<'a> Leaves<'a> {
             fields.push(name);
         }
         let mut let_names = HashMap::new();
+        let lines = LineIndex::new(&model.source.text);
         for b in &model.lets {
+            let note = note_at(model, &b.span, lines.line(b.span.start));
             let base = snake(&b.name);
             for (j, &id) in b.value.ids.iter().enumerate() {
                 if model.graph.children(id).is_empty() {
@@ -61,7 +63,7 @@ impl<'a> Leaves<'a> {
                 }
                 let_names
                     .entry(id)
-                    .or_insert((component(&base, b.value.shape, j), note_for(model, &b.span)));
+                    .or_insert_with(|| (component(&base, b.value.shape, j), note.clone()));
             }
         }
         Ok(Leaves {

@@ -4,7 +4,7 @@
 mod body;
 mod items;
 mod leaves;
-mod names;
+pub(crate) mod names;
 mod traits;
 
 pub use names::snake;
@@ -83,6 +83,11 @@ pub(crate) fn file_name(model: &Model) -> String {
 /// A note (comment) quoting the model item at `span`: `kepler.lsl:9: d/dt v = -mu * x / r^3;` for the item at `span`.
 pub(crate) fn note_for(model: &Model, span: &crate::Span) -> String {
     let (line, _) = span.line_col();
+    note_at(model, span, line)
+}
+
+/// [`note_for`] with the line number already known (see [`LineIndex`]).
+pub(crate) fn note_at(model: &Model, span: &crate::Span, line: usize) -> String {
     let text = span.text().split_whitespace().collect::<Vec<_>>().join(" ");
     let text = if text.chars().count() > 90 {
         format!("{}…", text.chars().take(89).collect::<String>())
@@ -90,6 +95,24 @@ pub(crate) fn note_for(model: &Model, span: &crate::Span) -> String {
         text
     };
     format!("{}:{line}: {text}", file_name(model))
+}
+
+/// The 1-based line of any byte offset of a text, by binary search over its line starts:
+/// [`crate::Span::line_col`] scans the text before the span, which is quadratic over the
+/// thousands of `let`s of a large model.
+pub(crate) struct LineIndex(Vec<usize>);
+
+impl LineIndex {
+    pub(crate) fn new(text: &str) -> Self {
+        let starts = std::iter::once(0)
+            .chain(text.match_indices('\n').map(|(i, _)| i + 1))
+            .collect();
+        LineIndex(starts)
+    }
+
+    pub(crate) fn line(&self, offset: usize) -> usize {
+        self.0.partition_point(|&s| s <= offset)
+    }
 }
 
 /// The emission of one model: the model, its derivatives, a copy of the graph that the
@@ -135,6 +158,7 @@ pub fn emit(
     d: &Derivatives,
     conservation: &[Conservation],
 ) -> crate::Result<Emitted> {
+    check_finite(model, d)?;
     let mut e = Emitter::new(model, d)?;
     // The order of the bodies fixes the Ids of the nodes the rewrites add, hence the output:
     // keep it stable.
@@ -176,6 +200,57 @@ pub fn emit(
         summary: summary(model, d, conservation, &stats),
         stats,
     })
+}
+
+/// Fails with a located error if a number the emitted code would contain is ±∞ or NaN: a
+/// derivative can overflow where the model's own constants did not (`d/dx 1e308·x² = 2e308·x`).
+/// [`emit`] calls it; the pipeline calls it right after differentiation too, so the message
+/// names the overflow rather than the conservation check that would trip on it.
+pub fn check_finite(model: &Model, d: &Derivatives) -> crate::Result<()> {
+    let g = &model.graph;
+    // Almost always there is no such number at all: one pass over the graph says so.
+    if (0..g.len()).all(|k| g.as_num(crate::ir::Id(k as u32)).is_none_or(f64::is_finite)) {
+        return Ok(());
+    }
+    let non_finite = |roots: &[crate::ir::Id]| {
+        g.reachable(roots)
+            .into_iter()
+            .find_map(|id| g.as_num(id).filter(|x| !x.is_finite()))
+    };
+    let mut groups: Vec<(Vec<crate::ir::Id>, &crate::Span)> = Vec::new();
+    for (k, span) in model.field_spans.iter().enumerate() {
+        groups.push((vec![model.field[k]], span));
+    }
+    for f in &model.invariants {
+        let rows = f.offset..f.offset + f.value.shape.len();
+        let mut ids = f.value.ids.clone();
+        ids.extend(d.jacobian[rows].iter().flatten());
+        groups.push((ids, &f.span));
+    }
+    let v_span = model
+        .lyapunov_span
+        .as_ref()
+        .or(model.invariants.first().map(|f| &f.span));
+    if let Some(span) = v_span {
+        let mut ids = vec![model.lyapunov];
+        ids.extend(&d.lyapunov_gradient);
+        ids.extend(&d.feedback);
+        groups.push((ids, span));
+    }
+    for p in &model.points {
+        groups.push((p.values.clone(), &p.span));
+    }
+    for (ids, span) in groups {
+        if let Some(x) = non_finite(&ids) {
+            return Err(crate::Diagnostic::new(
+                span,
+                format!("this item, or its derivative, has a constant that is not finite ({x})"),
+            )
+            .help("rescale the model: constants near ±1.8e308 overflow when combined or differentiated")
+            .into());
+        }
+    }
+    Ok(())
 }
 
 fn summary(model: &Model, d: &Derivatives, conservation: &[Conservation], s: &Stats) -> String {

@@ -5,12 +5,36 @@
 use super::{Graph, Id, Node};
 use std::collections::HashMap;
 
+/// Total products of terms an expansion may form, in units of its term limit.
+const WORK_FACTOR: usize = 64;
+
+/// What an expansion may still do.
+struct Budget {
+    /// Most terms in one intermediate sum.
+    max_terms: usize,
+    /// Products of terms left to form.
+    work: usize,
+}
+
 impl Graph {
     /// The expanded form of `root` (products of sums multiplied out, positive integer powers
-    /// of sums expanded), or `None` if some intermediate sum exceeds `max_terms` terms.
+    /// of sums expanded), or `None` if some intermediate sum exceeds `max_terms` terms, or the
+    /// whole expansion forms more than `WORK_FACTOR · max_terms` products of terms (so that
+    /// `(a + b)^999999` gives up at once rather than multiplying for minutes).
+    ///
+    /// The nodes are expanded in topological order, children first, so a deep expression (a
+    /// chain of 50 000 `let`s) cannot overflow the stack.
     pub fn expand(&mut self, root: Id, max_terms: usize) -> Option<Id> {
-        let mut memo = HashMap::new();
-        self.expand_rec(root, max_terms, &mut memo)
+        let mut memo: HashMap<Id, Id> = HashMap::new();
+        let mut budget = Budget {
+            max_terms,
+            work: max_terms.saturating_mul(WORK_FACTOR),
+        };
+        for id in self.reachable(&[root]) {
+            let e = self.expand_node(id, &mut budget, &memo)?;
+            memo.insert(id, e);
+        }
+        memo.get(&root).copied()
     }
 
     fn terms(&self, id: Id) -> Vec<Id> {
@@ -20,11 +44,13 @@ impl Graph {
         }
     }
 
-    fn product_of_sums(&mut self, a: Id, b: Id, max_terms: usize) -> Option<Id> {
+    fn product_of_sums(&mut self, a: Id, b: Id, budget: &mut Budget) -> Option<Id> {
         let (ta, tb) = (self.terms(a), self.terms(b));
-        if ta.len() * tb.len() > max_terms {
+        let products = ta.len() * tb.len();
+        if products > budget.max_terms || products > budget.work {
             return None;
         }
+        budget.work -= products;
         let mut out = Vec::with_capacity(ta.len() * tb.len());
         for &x in &ta {
             for &y in &tb {
@@ -34,33 +60,33 @@ impl Graph {
         Some(self.add(&out))
     }
 
-    fn expand_rec(&mut self, id: Id, max_terms: usize, memo: &mut HashMap<Id, Id>) -> Option<Id> {
-        if let Some(&e) = memo.get(&id) {
-            return Some(e);
-        }
+    /// The expansion of one node whose children are expanded in `memo`.
+    fn expand_node(&mut self, id: Id, budget: &mut Budget, memo: &HashMap<Id, Id>) -> Option<Id> {
         let result = match self.node(id).clone() {
             Node::Num(_) | Node::Input(_) => id,
             Node::Add(c) => {
-                let c: Option<Vec<Id>> = c
-                    .iter()
-                    .map(|&k| self.expand_rec(k, max_terms, memo))
-                    .collect();
-                self.add(&c?)
+                let c: Vec<Id> = c.iter().map(|k| memo[k]).collect();
+                self.add(&c)
             }
             Node::Mul(c) => {
                 let mut acc = self.num(1.0);
-                for &k in c.iter() {
-                    let e = self.expand_rec(k, max_terms, memo)?;
-                    acc = self.product_of_sums(acc, e, max_terms)?;
+                for k in c.iter() {
+                    acc = self.product_of_sums(acc, memo[k], budget)?;
                 }
                 acc
             }
             Node::Pow(b, e) => {
-                let base = self.expand_rec(b, max_terms, memo)?;
+                let base = memo[&b];
                 if e.is_int() && e.num > 0 && matches!(self.node(base), Node::Add(_)) {
+                    // An m-term sum to the power e generically has e·(m − 1) + 1 terms or more
+                    // (fewer only by cancellation, which then goes unproved).
+                    let m = self.terms(base).len();
+                    if (e.num as usize).saturating_mul(m - 1) >= budget.max_terms {
+                        return None;
+                    }
                     let mut acc = base;
                     for _ in 1..e.num {
-                        acc = self.product_of_sums(acc, base, max_terms)?;
+                        acc = self.product_of_sums(acc, base, budget)?;
                     }
                     acc
                 } else {
@@ -68,11 +94,10 @@ impl Graph {
                 }
             }
             Node::Func(f, a) => {
-                let a = self.expand_rec(a, max_terms, memo)?;
+                let a = memo[&a];
                 self.func(f, a)
             }
         };
-        memo.insert(id, result);
         Some(result)
     }
 }

@@ -7,7 +7,8 @@
 //!   automatic).
 
 use super::{Graph, Id, Node};
-use std::collections::HashMap;
+use std::cmp::Reverse;
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 
 impl Graph {
     /// The roots rewritten by both passes, for emission.
@@ -53,40 +54,103 @@ impl Graph {
         }
     }
 
+    /// Groups the terms of a sum by their most frequent factor, repeatedly: each round takes
+    /// the factor that occurs in most terms (ties: the first seen, scanning the terms in order
+    /// and each term's factors in order), factors it out of the terms that hold it (the
+    /// quotients are factored in turn), and appends the grouped term to the remaining ones.
+    ///
+    /// The counts are kept up to date as terms leave and the grouped term arrives, rather than
+    /// recounted each round, so a long sum whose terms share factors pairwise
+    /// (`b0·b1 + b1·b2 + …`, one round per term) costs O(n log n), not O(n²).
     fn factor_sum(&mut self, terms: Vec<Id>) -> Id {
-        let mut count: HashMap<Id, usize> = HashMap::new();
-        let mut first_seen: Vec<Id> = Vec::new();
-        for &t in &terms {
-            for f in self.factors_of(t) {
-                let c = count.entry(f).or_insert(0);
-                if *c == 0 {
-                    first_seen.push(f);
-                }
-                *c += 1;
+        // Terms by sequence number: the order of the list (the grouped term goes last).
+        let mut live: BTreeMap<usize, Id> = BTreeMap::new();
+        let mut factors: HashMap<usize, Vec<Id>> = HashMap::new();
+        // The ranking of the factors by (number of terms, first appearance), the best last.
+        // For each factor, the terms holding it and its position in each (for the ties).
+        let mut holders: HashMap<Id, BTreeMap<usize, usize>> = HashMap::new();
+        type Key = (usize, Reverse<(usize, usize)>, Id);
+        let mut ranking: BTreeSet<Key> = BTreeSet::new();
+        let mut key_of: HashMap<Id, Key> = HashMap::new();
+        let refresh = |f: Id,
+                       holders: &HashMap<Id, BTreeMap<usize, usize>>,
+                       ranking: &mut BTreeSet<Key>,
+                       key_of: &mut HashMap<Id, Key>| {
+            if let Some(old) = key_of.remove(&f) {
+                ranking.remove(&old);
             }
-        }
-        // The most frequent factor; ties go to the first seen, for deterministic output.
-        let best = first_seen.iter().copied().max_by_key(|f| {
-            (
-                count[f],
-                std::cmp::Reverse(first_seen.iter().position(|x| x == f)),
-            )
-        });
-        let Some(f) = best.filter(|f| count[f] >= 2) else {
-            return self.add(&terms);
+            let held = &holders[&f];
+            if let Some((&first, &position)) = held.first_key_value() {
+                let key = (held.len(), Reverse((first, position)), f);
+                ranking.insert(key);
+                key_of.insert(f, key);
+            }
         };
-        let (with, mut without): (Vec<Id>, Vec<Id>) = terms
-            .into_iter()
-            .partition(|&t| self.factors_of(t).contains(&f));
-        let inner_terms: Vec<Id> = with.iter().map(|&t| self.without_factor(t, f)).collect();
-        let inner = self.factor_sum(inner_terms);
-        let grouped = self.mul(&[f, inner]);
-        if without.is_empty() {
-            return grouped;
+        let mut next = 0;
+        let mut insert = |g: &mut Graph,
+                          t: Id,
+                          live: &mut BTreeMap<usize, Id>,
+                          factors: &mut HashMap<usize, Vec<Id>>,
+                          holders: &mut HashMap<Id, BTreeMap<usize, usize>>,
+                          ranking: &mut BTreeSet<Key>,
+                          key_of: &mut HashMap<Id, Key>| {
+            let seq = next;
+            next += 1;
+            live.insert(seq, t);
+            let fs = g.factors_of(t);
+            for (position, &f) in fs.iter().enumerate() {
+                holders.entry(f).or_default().insert(seq, position);
+                refresh(f, holders, ranking, key_of);
+            }
+            factors.insert(seq, fs);
+        };
+        for t in terms {
+            insert(
+                self,
+                t,
+                &mut live,
+                &mut factors,
+                &mut holders,
+                &mut ranking,
+                &mut key_of,
+            );
         }
-        without.push(grouped);
-        // `grouped` may share a factor with the remaining terms: factor again (fewer terms now).
-        self.factor_sum(without)
+        loop {
+            let Some(&(_, _, f)) = ranking.last().filter(|(count, ..)| *count >= 2) else {
+                let terms: Vec<Id> = live.values().copied().collect();
+                return self.add(&terms);
+            };
+            let seqs: Vec<usize> = holders[&f].keys().copied().collect();
+            let with: Vec<Id> = seqs.iter().map(|s| live[s]).collect();
+            let mut touched: Vec<Id> = Vec::new();
+            for s in &seqs {
+                live.remove(s);
+                for g in factors.remove(s).expect("a live term") {
+                    holders.get_mut(&g).expect("held").remove(s);
+                    touched.push(g);
+                }
+            }
+            for g in touched {
+                refresh(g, &holders, &mut ranking, &mut key_of);
+            }
+            let inner_terms: Vec<Id> = with.iter().map(|&t| self.without_factor(t, f)).collect();
+            // Nests at most as deep as a term has factors.
+            let inner = self.factor_sum(inner_terms);
+            let grouped = self.mul(&[f, inner]);
+            if live.is_empty() {
+                return grouped;
+            }
+            // `grouped` may share a factor with the remaining terms: factor again (fewer terms).
+            insert(
+                self,
+                grouped,
+                &mut live,
+                &mut factors,
+                &mut holders,
+                &mut ranking,
+                &mut key_of,
+            );
+        }
     }
 
     /// Introduces shared sub-products for factor pairs that occur in several products.
@@ -117,12 +181,11 @@ impl Graph {
                     }
                 }
             }
-            let best = first_seen.iter().copied().max_by_key(|p| {
-                (
-                    pairs[p],
-                    std::cmp::Reverse(first_seen.iter().position(|x| x == p)),
-                )
-            });
+            let best = first_seen
+                .iter()
+                .enumerate()
+                .max_by_key(|&(i, p)| (pairs[p], std::cmp::Reverse(i)))
+                .map(|(_, &p)| p);
             let Some((a, b)) = best.filter(|p| pairs[p] >= 2) else {
                 return roots;
             };

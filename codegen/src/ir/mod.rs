@@ -475,19 +475,23 @@ impl Graph {
     }
 
     /// Every node reachable from `roots`, in ascending (topological) order.
+    ///
+    /// Costs O(r log r) for r reachable nodes (plus clearing one bit per node of the graph),
+    /// not a scan of the whole graph: it is called for every expression checked and emitted.
     pub fn reachable(&self, roots: &[Id]) -> Vec<Id> {
-        let mut seen = vec![false; self.nodes.len()];
+        let mut seen = vec![0u64; self.nodes.len().div_ceil(64)];
+        let mut out: Vec<Id> = Vec::new();
         let mut stack: Vec<Id> = roots.to_vec();
         while let Some(id) = stack.pop() {
-            if !std::mem::replace(&mut seen[id.index()], true) {
+            let (word, bit) = (id.index() / 64, 1u64 << (id.index() % 64));
+            if seen[word] & bit == 0 {
+                seen[word] |= bit;
+                out.push(id);
                 stack.extend_from_slice(self.children(id));
             }
         }
-        seen.iter()
-            .enumerate()
-            .filter(|(_, &s)| s)
-            .map(|(i, _)| Id(i as u32))
-            .collect()
+        out.sort_unstable();
+        out
     }
 
     /// Does the expression depend on any input for which `pred` holds?

@@ -6,6 +6,9 @@ use crate::error::Diagnostic;
 use crate::ir::{Func, Graph, Id, Input, Node, Rational};
 use crate::parse::ast::*;
 
+/// Products with this many operators or more are multiplied at once (see [`Lowerer::chain`]).
+const LONG_CHAIN: usize = 32;
+
 impl Lowerer {
     pub(super) fn lookup(&self, name: &Ident, ctx: Ctx) -> L<Symbol> {
         match self.symbols.get(&name.name) {
@@ -109,7 +112,72 @@ impl Lowerer {
         Ok(k as usize)
     }
 
+    /// Lowers an expression; a constant that folds to ±∞ or NaN is reported at the smallest
+    /// expression that produced it (`1/0`, `log(0)`, `1e400`), never passed on to emission.
     pub(super) fn expr(&mut self, e: &Expr, ctx: Ctx) -> L<Value> {
+        let v = self.expr_inner(e, ctx)?;
+        self.check_finite(&v, e)?;
+        Ok(v)
+    }
+
+    /// Fails if `v` is a constant that is not finite, or if lowering `e` put a non-finite
+    /// number into the graph. Each node is evaluated once, in creation order (children
+    /// first), so the check costs O(1) per node over the whole model.
+    fn check_finite(&mut self, v: &Value, e: &Expr) -> L<()> {
+        let bad = self.sweep_constants().or_else(|| {
+            v.ids
+                .iter()
+                .filter_map(|id| self.constants[id.index()])
+                .find(|x| !x.is_finite())
+        });
+        match bad {
+            None => Ok(()),
+            Some(x) => {
+                let text = e
+                    .span
+                    .text()
+                    .split_whitespace()
+                    .collect::<Vec<_>>()
+                    .join(" ");
+                let text = if text.chars().count() > 60 {
+                    format!("{}…", text.chars().take(59).collect::<String>())
+                } else {
+                    text
+                };
+                Err(Diagnostic::new(
+                    &e.span,
+                    format!("constant expression `{text}` is not finite (it is {x})"),
+                )
+                .help("generated code computes in finite floating point: check for a division by zero, the log or square root of a non-positive number, or a number beyond ±1.8e308"))
+            }
+        }
+    }
+
+    /// Evaluates the constant nodes created since the last sweep (in creation order, so
+    /// children first); returns a non-finite number among the new nodes, if one was created.
+    pub(super) fn sweep_constants(&mut self) -> Option<f64> {
+        let mut bad = None;
+        for k in self.constants.len()..self.g.len() {
+            let id = Id(k as u32);
+            let c = |k: &Id| self.constants[k.index()];
+            let value = match self.g.node(id) {
+                Node::Num(b) => Some(f64::from_bits(*b)),
+                Node::Input(_) => None,
+                Node::Add(ch) => ch.iter().map(c).sum::<Option<f64>>(),
+                Node::Mul(ch) => ch.iter().map(c).product::<Option<f64>>(),
+                Node::Pow(b, r) if r.is_int() => c(b).map(|x| x.powi(r.num)),
+                Node::Pow(b, r) => c(b).map(|x| x.powf(r.to_f64())),
+                Node::Func(f, a) => c(a).map(|x| f.apply(x)),
+            };
+            if matches!(self.g.node(id), Node::Num(_)) && value.is_some_and(|x| !x.is_finite()) {
+                bad = value;
+            }
+            self.constants.push(value);
+        }
+        bad
+    }
+
+    fn expr_inner(&mut self, e: &Expr, ctx: Ctx) -> L<Value> {
         match &e.kind {
             ExprKind::Num(x) => Ok(Value::scalar(self.g.num(*x))),
             ExprKind::Name(name) => {
@@ -142,6 +210,7 @@ impl Lowerer {
                 Ok(self.map(&v, |g, x| g.neg(x)))
             }
             ExprKind::Binary(op, a, b) => self.binary(*op, a, b, e, ctx),
+            ExprKind::Chain(first, rest) => self.chain(first, rest, ctx),
             ExprKind::Call(f, args) => self.call(f, args, e, ctx),
             ExprKind::Index(base, idx) => {
                 let v = self.expr(base, ctx)?;
@@ -212,6 +281,65 @@ impl Lowerer {
         }
     }
 
+    /// A flat chain `a op b op c …`, lowered in a loop: a sum becomes one n-ary sum per
+    /// component (linear in the number of terms), a product of scalars one n-ary product;
+    /// other products are multiplied left to right.
+    pub(super) fn chain(&mut self, first: &Expr, rest: &[(BinOp, Expr)], ctx: Ctx) -> L<Value> {
+        let acc = self.expr(first, ctx)?;
+        if matches!(rest[0].0, BinOp::Add | BinOp::Sub) {
+            let mut terms: Vec<Vec<Id>> = acc.ids.iter().map(|&id| vec![id]).collect();
+            for (op, b) in rest {
+                let vb = self.expr(b, ctx)?;
+                if vb.shape != acc.shape {
+                    let verb = if *op == BinOp::Add { "add" } else { "subtract" };
+                    return Err(Diagnostic::new(
+                        &first.span.to(&b.span),
+                        format!("cannot {verb} a {} and a {}", acc.shape, vb.shape),
+                    )
+                    .help("both sides of `+` and `-` must have the same shape"));
+                }
+                for (t, &y) in terms.iter_mut().zip(&vb.ids) {
+                    t.push(if *op == BinOp::Sub { self.g.neg(y) } else { y });
+                }
+            }
+            let ids = terms.iter().map(|t| self.g.add(t)).collect();
+            return Ok(Value {
+                shape: acc.shape,
+                ids,
+            });
+        }
+        // Short chains are multiplied left to right, as `(a·b)·c`: their prefix products are
+        // nodes of the DAG, which the emitted code's term order depends on. In a long chain a
+        // run of scalar factors is collected and multiplied once, so a product of n scalars
+        // costs O(n), not O(n²).
+        let mut acc = acc;
+        let mut pending: Vec<Id> = Vec::new();
+        let long = rest.len() >= LONG_CHAIN;
+        for (op, b) in rest {
+            let vb = self.expr(b, ctx)?;
+            if long && acc.shape == Shape::Scalar && vb.shape == Shape::Scalar {
+                if pending.is_empty() {
+                    pending.push(acc.ids[0]);
+                }
+                pending.push(if *op == BinOp::Div {
+                    self.g.pow(vb.ids[0], Rational::int(-1))
+                } else {
+                    vb.ids[0]
+                });
+                continue;
+            }
+            if !pending.is_empty() {
+                acc = Value::scalar(self.g.mul(&pending));
+                pending.clear();
+            }
+            acc = self.apply(*op, acc, vb, &first.span.to(&b.span), &b.span)?;
+        }
+        if !pending.is_empty() {
+            acc = Value::scalar(self.g.mul(&pending));
+        }
+        Ok(acc)
+    }
+
     pub(super) fn binary(&mut self, op: BinOp, a: &Expr, b: &Expr, e: &Expr, ctx: Ctx) -> L<Value> {
         let va = self.expr(a, ctx)?;
         if op == BinOp::Pow {
@@ -235,16 +363,28 @@ impl Lowerer {
             return Ok(Value::scalar(self.g.pow(va.ids[0], r)));
         }
         let vb = self.expr(b, ctx)?;
+        self.apply(op, va, vb, &e.span, &b.span)
+    }
+
+    /// `va op vb` for `+ - * /`, with shapes checked; `span` is the whole operation's,
+    /// `b_span` the right operand's.
+    pub(super) fn apply(
+        &mut self,
+        op: BinOp,
+        va: Value,
+        vb: Value,
+        span: &crate::Span,
+        b_span: &crate::Span,
+    ) -> L<Value> {
         let (sa, sb) = (va.shape, vb.shape);
         match op {
             BinOp::Add | BinOp::Sub => {
                 if sa != sb {
                     let verb = if op == BinOp::Add { "add" } else { "subtract" };
-                    return Err(Diagnostic::new(
-                        &e.span,
-                        format!("cannot {verb} a {sa} and a {sb}"),
-                    )
-                    .help("both sides of `+` and `-` must have the same shape"));
+                    return Err(
+                        Diagnostic::new(span, format!("cannot {verb} a {sa} and a {sb}"))
+                            .help("both sides of `+` and `-` must have the same shape"),
+                    );
                 }
                 let ids = va
                     .ids
@@ -268,15 +408,14 @@ impl Lowerer {
                     return Ok(self.map(&va, |g, x| g.mul(&[x, vb.ids[0]])));
                 }
                 if let (Shape::Vector(_), Shape::Vector(_)) = (sa, sb) {
-                    return Err(Diagnostic::new(
-                        &e.span,
-                        format!("cannot multiply a {sa} by a {sb}"),
-                    )
-                    .help("use `dot(a, b)` or `cross(a, b)`"));
+                    return Err(
+                        Diagnostic::new(span, format!("cannot multiply a {sa} by a {sb}"))
+                            .help("use `dot(a, b)` or `cross(a, b)`"),
+                    );
                 }
                 let ((r1, c1), (r2, c2)) = (sa.dims(), sb.dims());
                 if c1 != r2 {
-                    return Err(Diagnostic::new(&e.span, format!("cannot multiply a {sa} by a {sb}: inner dimensions {c1} and {r2} differ")));
+                    return Err(Diagnostic::new(span, format!("cannot multiply a {sa} by a {sb}: inner dimensions {c1} and {r2} differ")));
                 }
                 let mut ids = Vec::with_capacity(r1 * c2);
                 for j in 0..c2 {
@@ -297,7 +436,7 @@ impl Lowerer {
             }
             BinOp::Div => {
                 if sb != Shape::Scalar {
-                    return Err(Diagnostic::new(&b.span, format!("cannot divide by a {sb}"))
+                    return Err(Diagnostic::new(b_span, format!("cannot divide by a {sb}"))
                         .help("divide by scalars only; use `inv(M)` for parameter matrices"));
                 }
                 Ok(self.map(&va, |g, x| g.div(x, vb.ids[0])))

@@ -98,6 +98,9 @@ pub(super) struct Lowerer {
     /// Offset and shape of each invariant in the stacked f, for `target(f)`.
     pub(super) invariant_offsets: HashMap<String, (usize, Shape)>,
     pub(super) errors: Vec<Diagnostic>,
+    /// The value of every graph node that is a constant (no inputs), by Id; filled in
+    /// creation order by `check_finite`.
+    pub(super) constants: Vec<Option<f64>>,
 }
 
 pub(super) type L<T> = Result<T, Diagnostic>;
@@ -113,6 +116,7 @@ pub fn lower(ast: &ModelAst, source: Arc<Source>) -> Result<Model, Error> {
         poisoned: Default::default(),
         gain_names: Default::default(),
         errors: Vec::new(),
+        constants: Vec::new(),
     };
     let model = lw.model(ast);
     if lw.errors.is_empty() {
@@ -161,6 +165,20 @@ impl Lowerer {
     }
 
     fn model(&mut self, ast: &ModelAst) -> Option<Model> {
+        // The model's name becomes a Rust type: keywords and names the emitted code uses
+        // itself are refused (a renamed struct would surprise whoever imports it).
+        if let Some(why) = crate::emit::names::reserved_type_name(&ast.name.name) {
+            self.errors.push(
+                Diagnostic::new(
+                    &ast.name.span,
+                    format!("`{}` cannot name a model: {why}", ast.name.name),
+                )
+                .help(format!(
+                    "the model's name is the generated struct's; choose another, e.g. `{}Model`",
+                    ast.name.name.trim_matches('_')
+                )),
+            );
+        }
         // Pass 1: state and parameters, which may be used anywhere.
         let mut state = Vec::new();
         let mut params: Vec<Param> = Vec::new();
@@ -309,9 +327,28 @@ impl Lowerer {
                         Ok(())
                     }
                 }
-                Item::Point(name, values) => self
-                    .point(name, values, &state, &it.span)
-                    .map(|p| points.push(p)),
+                Item::Point(name, values) => {
+                    let method = crate::emit::snake(&name.name);
+                    match points
+                        .iter()
+                        .find(|p: &&Point| crate::emit::snake(&p.name) == method)
+                    {
+                        Some(prev) => {
+                            let (line, _) = prev.span.line_col();
+                            Err(Diagnostic::new(
+                                &name.span,
+                                format!(
+                                    "point `{}` would be the method `point_{method}` of the point `{}` on line {line}",
+                                    name.name, prev.name
+                                ),
+                            )
+                            .help("give each point its own name"))
+                        }
+                        None => self
+                            .point(name, values, &state, &it.span)
+                            .map(|p| points.push(p)),
+                    }
+                }
                 Item::Run(name, values) => {
                     self.preset(name, values, &it.span).map(|p| presets.push(p))
                 }
@@ -338,7 +375,17 @@ impl Lowerer {
         // The Hamiltonian route.
         let hamiltonian = match (hamiltonian, structure) {
             (Some((name, h, _)), Some((s, span))) => {
-                match self.structure(s, &span, h, &mut field, &mut invariants, &mut gains) {
+                let result = self.structure(s, &span, h, &mut field, &mut invariants, &mut gains);
+                // The equations are derivatives of H: they can overflow where H did not.
+                let result = result.and_then(|s| match self.sweep_constants() {
+                    Some(x) => Err(Diagnostic::new(
+                        &span,
+                        format!("the equations of this structure have a constant that is not finite ({x})"),
+                    )
+                    .help("they are derivatives of the Hamiltonian: rescale constants near ±1.8e308")),
+                    None => Ok(s),
+                });
+                match result {
                     Ok(structure) => Some(Hamiltonian {
                         name: name.name,
                         h,

@@ -44,8 +44,12 @@ pub enum ExprKind {
     Name(Ident),
     /// `-e`
     Neg(Box<Expr>),
-    /// `a op b`
+    /// `a ^ b` (the only binary operator not parsed as a [`ExprKind::Chain`]).
     Binary(BinOp, Box<Expr>, Box<Expr>),
+    /// A left-associative chain `a op₁ b op₂ c …` of one precedence class (`+ -` or `* /`),
+    /// with at least one operator: the first operand, then each operator with its operand.
+    /// Chains are flat so that a sum of 10 000 terms is no 10 000-deep tree.
+    Chain(Box<Expr>, Vec<(BinOp, Expr)>),
     /// `f(a, b, …)`
     Call(Ident, Vec<Expr>),
     /// `e[i]` or `e[i, j]`

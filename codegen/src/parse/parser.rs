@@ -1,7 +1,9 @@
 //! Recursive-descent parser: tokens → [`ModelAst`].
 //!
 //! Grammar (precedence from loosest to tightest: `+ -`, `* /`, unary `-`, `^` (right
-//! associative), postfix indexing):
+//! associative), postfix indexing). Chains of `+ -` and of `* /` are parsed in a loop into one
+//! flat node, so their length is unbounded; nesting (parentheses, calls, lists, unary
+//! operators, powers, indexing) is bounded by [`MAX_DEPTH`], so no input exhausts the stack:
 //! ```text
 //! file      = "model" NAME "{" item* "}"
 //! item      = "state" NAME ":" TYPE ("," NAME ":" TYPE)* ";"
@@ -381,31 +383,43 @@ impl Parser {
     }
 
     fn sum(&mut self) -> PResult<Expr> {
-        let mut lhs = self.term()?;
-        while self.is_punct('+') || self.is_punct('-') {
-            let op = if self.bump().tok == Tok::Punct('+') {
-                BinOp::Add
-            } else {
-                BinOp::Sub
-            };
-            let rhs = self.term()?;
-            lhs = binary(op, lhs, rhs);
-        }
-        Ok(lhs)
+        self.chain(Self::term, |c| match c {
+            '+' => Some(BinOp::Add),
+            '-' => Some(BinOp::Sub),
+            _ => None,
+        })
     }
 
+    /// term = unary (("*" | "/") unary)*
     fn term(&mut self) -> PResult<Expr> {
-        let mut lhs = self.unary()?;
-        while self.is_punct('*') || self.is_punct('/') {
-            let op = if self.bump().tok == Tok::Punct('*') {
-                BinOp::Mul
-            } else {
-                BinOp::Div
-            };
-            let rhs = self.unary()?;
-            lhs = binary(op, lhs, rhs);
+        self.chain(Self::unary, |c| match c {
+            '*' => Some(BinOp::Mul),
+            '/' => Some(BinOp::Div),
+            _ => None,
+        })
+    }
+
+    /// `operand (op operand)*`, parsed in a loop into one flat [`ExprKind::Chain`].
+    fn chain(
+        &mut self,
+        operand: fn(&mut Self) -> PResult<Expr>,
+        op_of: fn(char) -> Option<BinOp>,
+    ) -> PResult<Expr> {
+        let first = operand(self)?;
+        let mut rest = Vec::new();
+        while let Tok::Punct(c) = self.peek().tok {
+            let Some(op) = op_of(c) else { break };
+            self.bump();
+            rest.push((op, operand(self)?));
         }
-        Ok(lhs)
+        if rest.is_empty() {
+            return Ok(first);
+        }
+        let span = first.span.to(&rest[rest.len() - 1].1.span);
+        Ok(Expr {
+            kind: ExprKind::Chain(Box::new(first), rest),
+            span,
+        })
     }
 
     fn unary(&mut self) -> PResult<Expr> {
@@ -441,7 +455,17 @@ impl Parser {
 
     fn postfix(&mut self) -> PResult<Expr> {
         let mut e = self.primary()?;
+        let mut levels = 0;
         while self.is_punct('[') {
+            // `x[0][0]…` nests like parentheses: bounded the same way.
+            levels += 1;
+            if self.depth + levels > MAX_DEPTH {
+                return Err(Diagnostic::new(
+                    &self.peek().span,
+                    format!("expression nested more than {MAX_DEPTH} levels deep"),
+                )
+                .help("split it with `let` bindings"));
+            }
             self.bump();
             let mut indices = vec![self.expr()?];
             while self.is_punct(',') {
