@@ -37,7 +37,15 @@ fn readme_loaded_example() -> Result<(), Box<dyn std::error::Error>> {
     let m = LoadedModel::load(path, Backend::Jit)?; // parse, derive, check, compile
     let x0 = m.point("paper").unwrap(); // Vec<f64>
     let fb = FeedbackField::from_initial(&m, &x0, vec![4.0, 2.0]);
-    let end = integrate(&mut ExplicitRk::euler(), &fb, &x0, 0.0, 70.2481, 0.005, &mut ())?;
+    let end = integrate(
+        &mut ExplicitRk::euler(),
+        &fb,
+        &x0,
+        0.0,
+        70.2481,
+        0.005,
+        &mut (),
+    )?;
     assert_eq!(end.steps, 14_050);
     Ok(())
 }

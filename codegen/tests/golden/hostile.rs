@@ -20,8 +20,9 @@ pub mod hostile {
     use lasalle_runtime::num_traits::{Float, One, Zero};
     #[allow(unused_imports)]
     use lasalle_runtime::{
-        lit, nalgebra, Field, InvariantInfo, InvariantKind, Invariants, Lyapunov, ModelInfo,
-        ParamError, Parameters, Partitioned, Shape, Slot,
+        lit, nalgebra, Declared, Field, GuardFailure, InvariantInfo, InvariantKind,
+        Invariants, Lyapunov, ModelInfo, ParamError, Parameters, Partitioned, Preset,
+        RigidBodySplitting, Shape, Slot,
     };
     /// Parameters of the model `Hostile`: state dimension N = 6, invariant components M = 2, gains G = 2.
     #[derive(Clone, Copy, Debug, PartialEq)]
@@ -100,7 +101,7 @@ pub mod hostile {
             x[5]
         }
     }
-    impl<T: Float> Field<T, 6> for Hostile<T> {
+    impl<T: Float> Field<T, [T; 6]> for Hostile<T> {
         fn field(&self, x: &[T; 6], dx: &mut [T; 6]) {
             let fn_ = x[0];
             let self_ = x[1];
@@ -125,7 +126,7 @@ pub mod hostile {
             dx[5] = -x_2;
         }
     }
-    impl<T: Float> Invariants<T, 6, 2> for Hostile<T> {
+    impl<T: Float> Invariants<T, [T; 6], [T; 2]> for Hostile<T> {
         fn invariants(&self, x: &[T; 6], f: &mut [T; 2]) {
             let fn_ = x[0];
             let self_ = x[1];
@@ -150,7 +151,7 @@ pub mod hostile {
             jac[1][3] = lit::<T>(2.0) * type_1;
         }
     }
-    impl<T: Float> Lyapunov<T, 6, 2, 2> for Hostile<T> {
+    impl<T: Float> Lyapunov<T, [T; 6], [T; 2], [T; 2]> for Hostile<T> {
         fn lyapunov(&self, x: &[T; 6], target: &[T; 2], gains: &[T; 2]) -> T {
             let fn_ = x[0];
             let self_ = x[1];
@@ -232,9 +233,12 @@ pub mod hostile {
             dx[5] = -x_2;
         }
     }
-    impl<T> ModelInfo for Hostile<T> {
-        const NAME: &'static str = "Hostile";
-        const STATE: &'static [Slot] = &[
+    impl<T: Float> Declared<T, [T; 6]> for Hostile<T> {}
+    impl<T> Hostile<T> {
+        /// The model's name.
+        pub const NAME: &'static str = "Hostile";
+        /// The state variables with their offsets in the flat state.
+        pub const STATE: &'static [Slot] = &[
             Slot {
                 name: "fn",
                 shape: Shape::Scalar,
@@ -261,7 +265,8 @@ pub mod hostile {
                 offset: 5,
             },
         ];
-        const INVARIANTS: &'static [InvariantInfo] = &[
+        /// The invariants with their offsets in the stacked f.
+        pub const INVARIANTS: &'static [InvariantInfo] = &[
             InvariantInfo {
                 slot: Slot {
                     name: "E",
@@ -281,9 +286,32 @@ pub mod hostile {
                 gain: 1,
             },
         ];
-        const GAIN_NAMES: &'static [&'static str] = &["k_E", "k_F"];
-        const DEFAULT_GAINS: &'static [f64] = &[1.0, 1.0];
-        const PARAMS: &'static [Slot] = &[];
+        /// The names of the gains.
+        pub const GAIN_NAMES: &'static [&'static str] = &["k_E", "k_F"];
+        /// The gains as written in the model file.
+        pub const DEFAULT_GAINS: &'static [f64] = &[1.0, 1.0];
+        /// The parameters with their offsets in the parameter slots.
+        pub const PARAMS: &'static [Slot] = &[];
+    }
+    impl<T> ModelInfo for Hostile<T> {
+        fn model_name(&self) -> &'static str {
+            Self::NAME
+        }
+        fn state_slots(&self) -> &'static [Slot] {
+            Self::STATE
+        }
+        fn invariant_infos(&self) -> &'static [InvariantInfo] {
+            Self::INVARIANTS
+        }
+        fn gain_names(&self) -> &'static [&'static str] {
+            Self::GAIN_NAMES
+        }
+        fn default_gain_values(&self) -> &'static [f64] {
+            Self::DEFAULT_GAINS
+        }
+        fn param_slots(&self) -> &'static [Slot] {
+            Self::PARAMS
+        }
     }
     impl Parameters for Hostile<f64> {
         fn set_param(&mut self, name: &str, _values: &[f64]) -> Result<(), ParamError> {
