@@ -748,6 +748,18 @@ fn run_rejects_bad_arguments() {
             "unknown parameter `nu`",
         ),
         (
+            &["run", "kepler", "--init", "nan,0,0,0,1,0"],
+            "invalid --init: `nan` is not a finite number",
+        ),
+        (
+            &["run", "kepler", "--t-end", "1e300"],
+            "would take 2.000e302 steps, more than the limit of 1000000000: raise it with --max-steps",
+        ),
+        (
+            &["run", "kepler", "-m", "feedback-euler", "--gains", "-1,2"],
+            "gains must be finite and ≥ 0",
+        ),
+        (
             &["run", "kepler", "--preset", "fast"],
             "unknown preset `fast`; the model's presets: paper",
         ),

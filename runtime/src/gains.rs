@@ -368,8 +368,10 @@ impl FromStr for GainPolicy {
             }
             _ if rest.is_empty() => {
                 let gains = head.split(',').map(num).collect::<Result<Vec<_>, _>>()?;
-                if gains.iter().any(|g| !g.is_finite()) {
-                    return Err(bad());
+                if let Some(g) = gains.iter().find(|g| !(g.is_finite() && **g >= 0.0)) {
+                    return Err(GainError::Invalid(format!(
+                        "gains must be finite and ≥ 0 (a negative gain makes V repel), got {g}"
+                    )));
                 }
                 Ok(GainPolicy::Explicit(gains))
             }

@@ -42,7 +42,7 @@ pub struct RunArgs {
     pub init: Option<String>,
     /// Gains of feedback methods: default (the preset's, else the model's), auto
     /// (= adaptive), fixed[:c], adaptive[:m[:c]], or k1,k2,…
-    #[arg(long, default_value = "default", allow_negative_numbers = true)]
+    #[arg(long, default_value = "default", allow_hyphen_values = true)]
     pub gains: String,
     /// Projection tolerance on |f(x) − f(x₀)|₂ (default: dt, as the paper's TolFun).
     #[arg(long)]
@@ -56,6 +56,10 @@ pub struct RunArgs {
     /// Record every n-th step (default: the preset's, else about 20000 samples).
     #[arg(long)]
     pub every: Option<u64>,
+    /// The most steps a run may take (fixed-step runs needing more are refused before they
+    /// start).
+    #[arg(long, default_value_t = super::sim::DEFAULT_MAX_STEPS)]
+    pub max_steps: u64,
     /// How the model's functions run: compiled to native code when the model is loaded
     /// (jit), or interpreted.
     #[arg(long, value_enum, default_value_t)]
@@ -151,6 +155,7 @@ pub fn run(args: &RunArgs) -> CliResult {
     spec.atol = args.atol;
     spec.every = args.every.or(preset.and_then(|p| p.every)).unwrap_or(0);
     spec.progress = !args.quiet;
+    spec.max_steps = args.max_steps;
     let trace = simulate(&model, &x0, &spec)?;
     let name = model.model_name();
 

@@ -169,10 +169,16 @@ pub struct RunSpec {
     pub every: u64,
     /// Show a progress bar (only if standard error is a terminal).
     pub progress: bool,
+    /// The most steps the run may take (fixed-step runs longer than this are refused before
+    /// they start; adaptive runs stop with an error when they reach it).
+    pub max_steps: u64,
 }
 
 /// The number of samples a run records when `every` is 0.
 pub const AUTO_SAMPLES: u64 = 20_000;
+
+/// The default step budget: 10⁹ steps, minutes at tens of nanoseconds a step.
+pub const DEFAULT_MAX_STEPS: u64 = 1_000_000_000;
 
 impl RunSpec {
     /// A spec with the defaults of `lasalle run`: model gains, tol = dt, rtol = atol = 1e-10.
@@ -187,6 +193,7 @@ impl RunSpec {
             atol: 1e-10,
             every: 0,
             progress: false,
+            max_steps: DEFAULT_MAX_STEPS,
         }
     }
 
@@ -243,6 +250,16 @@ impl RunSpec {
             return Err(format!(
                 "need positive --rtol and --atol, got {} and {}",
                 self.rtol, self.atol
+            ));
+        }
+        if !self.method.is_adaptive() && self.t_end / self.dt > self.max_steps as f64 {
+            return Err(format!(
+                "--t-end {:e} with --dt {} would take {:.3e} steps, more than the limit of {}: \
+                 raise it with --max-steps if that is intended",
+                self.t_end,
+                self.dt,
+                self.t_end / self.dt,
+                self.max_steps
             ));
         }
         if !self.method.is_feedback() && self.gains != GainPolicy::ModelDefault {
@@ -579,7 +596,7 @@ where
             sample_capacity(spec.steps(), every),
         );
         let bar = progress_bar(spec.progress, &spec.method.to_string());
-        let mut driver = Driver::new(0.0, spec.t_end, spec.dt);
+        let mut driver = Driver::new(0.0, spec.t_end, spec.dt).max_steps(spec.max_steps);
         // the model's guards, with the step size (0 for adaptive methods, which shrink theirs)
         let (model, h) = (
             self.model,
@@ -838,12 +855,14 @@ where
     Mdl: Parameters + ModelInfo,
 {
     let n = model.state_dim();
+    let looks_numeric = |t: &str| {
+        t.contains(',')
+            || t.starts_with(|c: char| c.is_ascii_digit() || "+-.".contains(c))
+            || t.parse::<f64>().is_ok()
+    };
     let values = if let Some(p) = model.point(init.trim()) {
         p
-    } else if init
-        .trim()
-        .starts_with(|c: char| c.is_ascii_digit() || "+-.".contains(c))
-    {
+    } else if looks_numeric(init.trim()) {
         parse_numbers(init).map_err(|e| format!("invalid --init: {e}"))?
     } else {
         return Err(format!(
