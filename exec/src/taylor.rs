@@ -139,19 +139,52 @@ pub fn jorba_zou_step(order: u32, state_norm: f64, norm_pm1: f64, norm_p: f64) -
 #[derive(Clone, Copy, Debug)]
 enum Inst {
     /// A leaf constant along the solution: its order-0 value comes from [`Leaf`].
-    Leaf { d: usize, leaf: Leaf },
-    Add { d: usize, a: usize, b: usize },
-    Sub { d: usize, a: usize, b: usize },
-    Neg { d: usize, a: usize },
+    Leaf {
+        d: usize,
+        leaf: Leaf,
+    },
+    Add {
+        d: usize,
+        a: usize,
+        b: usize,
+    },
+    Sub {
+        d: usize,
+        a: usize,
+        b: usize,
+    },
+    Neg {
+        d: usize,
+        a: usize,
+    },
     /// Cauchy product.
-    Mul { d: usize, a: usize, b: usize },
+    Mul {
+        d: usize,
+        a: usize,
+        b: usize,
+    },
     /// a · c with c constant along the solution.
-    Scale { d: usize, a: usize, c: usize },
+    Scale {
+        d: usize,
+        a: usize,
+        c: usize,
+    },
     /// Cauchy square a·a (symmetric: half the products).
-    Square { d: usize, a: usize },
-    Div { d: usize, a: usize, b: usize },
+    Square {
+        d: usize,
+        a: usize,
+    },
+    Div {
+        d: usize,
+        a: usize,
+        b: usize,
+    },
     /// a / c with c constant along the solution.
-    DivConst { d: usize, a: usize, c: usize },
+    DivConst {
+        d: usize,
+        a: usize,
+        c: usize,
+    },
     /// a^α by the power recurrence; `zero` says how the order-0 value is computed.
     Pow {
         d: usize,
@@ -159,10 +192,23 @@ enum Inst {
         alpha: f64,
         zero: PowZero,
     },
-    Sqrt { d: usize, a: usize },
-    Exp { d: usize, a: usize },
-    Ln { d: usize, a: usize },
-    SinCos { s: usize, c: usize, a: usize },
+    Sqrt {
+        d: usize,
+        a: usize,
+    },
+    Exp {
+        d: usize,
+        a: usize,
+    },
+    Ln {
+        d: usize,
+        a: usize,
+    },
+    SinCos {
+        s: usize,
+        c: usize,
+        a: usize,
+    },
 }
 
 /// Sources of the order-0 value of a leaf.
@@ -292,32 +338,26 @@ impl TaylorTape {
                 }),
                 Op::Neg(x) => b.inst(all_const, |d| Inst::Neg { d, a: row(x) }),
                 Op::Mul(x, y) if x == y => b.inst(all_const, |d| Inst::Square { d, a: row(x) }),
-                Op::Mul(x, y) if is_const(y) && !is_const(x) => {
-                    b.inst(false, |d| Inst::Scale {
-                        d,
-                        a: row(x),
-                        c: row(y),
-                    })
-                }
-                Op::Mul(x, y) if is_const(x) && !is_const(y) => {
-                    b.inst(false, |d| Inst::Scale {
-                        d,
-                        a: row(y),
-                        c: row(x),
-                    })
-                }
+                Op::Mul(x, y) if is_const(y) && !is_const(x) => b.inst(false, |d| Inst::Scale {
+                    d,
+                    a: row(x),
+                    c: row(y),
+                }),
+                Op::Mul(x, y) if is_const(x) && !is_const(y) => b.inst(false, |d| Inst::Scale {
+                    d,
+                    a: row(y),
+                    c: row(x),
+                }),
                 Op::Mul(x, y) => b.inst(all_const, |d| Inst::Mul {
                     d,
                     a: row(x),
                     b: row(y),
                 }),
-                Op::Div(x, y) if is_const(y) && !is_const(x) => {
-                    b.inst(false, |d| Inst::DivConst {
-                        d,
-                        a: row(x),
-                        c: row(y),
-                    })
-                }
+                Op::Div(x, y) if is_const(y) && !is_const(x) => b.inst(false, |d| Inst::DivConst {
+                    d,
+                    a: row(x),
+                    c: row(y),
+                }),
                 Op::Div(x, y) => b.inst(all_const, |d| Inst::Div {
                     d,
                     a: row(x),
@@ -461,26 +501,6 @@ impl TaylorTape {
             let c = &self.table[i * self.stride..i * self.stride + self.order + 1];
             *o = c.iter().rev().fold(0.0, |acc, &ck| acc * s + ck);
         }
-    }
-}
-
-/// The destination row of an instruction with one.
-fn dst(inst: &Inst) -> usize {
-    match *inst {
-        Inst::Leaf { d, .. }
-        | Inst::Add { d, .. }
-        | Inst::Sub { d, .. }
-        | Inst::Neg { d, .. }
-        | Inst::Mul { d, .. }
-        | Inst::Scale { d, .. }
-        | Inst::Square { d, .. }
-        | Inst::Div { d, .. }
-        | Inst::DivConst { d, .. }
-        | Inst::Pow { d, .. }
-        | Inst::Sqrt { d, .. }
-        | Inst::Exp { d, .. }
-        | Inst::Ln { d, .. } => d,
-        Inst::SinCos { s, .. } => s,
     }
 }
 
