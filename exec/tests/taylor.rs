@@ -679,7 +679,7 @@ fn timed_run(
 #[ignore = "timing: run with --release --ignored --nocapture"]
 fn timing_kepler_and_rigid_body() {
     let period = 2.0 * std::f64::consts::PI * 5f64.powf(1.5);
-    for tol in [1e-15, 1e-10] {
+    for tol in [1e-15, f64::EPSILON, 1e-10] {
         let (secs, steps, f0, f1, x) = timed_run("kepler", "paper", 1000.0 * period, tol);
         let m0 = LoadedModel::from_source("k", &model_text("kepler"), Backend::Jit).unwrap();
         let e0 = kepler_energy(&m0.point("paper").unwrap());
