@@ -652,9 +652,9 @@ fn coefficient(t: &mut [f64], inst: Inst, k: usize) {
         Inst::Scale { d, a, c } => t[d + k] = t[a + k] * t[c],
         Inst::Square { d, a } => {
             // Σ_{j=0}^{k} a^[j] a^[k−j] = 2 Σ_{j<k/2} a^[j] a^[k−j] (+ a^[k/2]² for even k)
-            let half = if k % 2 == 0 { k / 2 - 1 } else { k / 2 };
+            let half = (k - 1) / 2; // the largest j < k/2
             let mut s = 2.0 * cauchy(t, a, a, k, 0, half);
-            if k % 2 == 0 {
+            if k.is_multiple_of(2) {
                 s += t[a + k / 2] * t[a + k / 2];
             }
             t[d + k] = s;
@@ -680,9 +680,9 @@ fn coefficient(t: &mut [f64], inst: Inst, k: usize) {
             // u^[k] = (a^[k] − Σ_{j=1}^{k−1} u^[j] u^[k−j]) / (2 u0), the sum folded in half
             let mut s = 0.0;
             if k >= 2 {
-                let half = if k % 2 == 0 { k / 2 - 1 } else { k / 2 };
+                let half = (k - 1) / 2; // the largest j < k/2
                 s = 2.0 * cauchy(t, d, d, k, 1, half);
-                if k % 2 == 0 {
+                if k.is_multiple_of(2) {
                     s += t[d + k / 2] * t[d + k / 2];
                 }
             }
@@ -817,7 +817,7 @@ impl Taylor {
                 opts.tol
             )));
         }
-        if !(opts.h_max > 0.0) {
+        if opts.h_max.is_nan() || opts.h_max <= 0.0 {
             return Err(TaylorError::Option(format!(
                 "h_max must be positive, got {}",
                 opts.h_max
@@ -940,7 +940,7 @@ impl Taylor {
                 x.len()
             )));
         }
-        if !(h > 0.0) {
+        if h.is_nan() || h <= 0.0 {
             return Err(StepError::InvalidInput(format!(
                 "step size must be positive, got {h}"
             )));
