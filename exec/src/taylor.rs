@@ -2,14 +2,14 @@
 //!
 //! # Taylor coefficients by automatic differentiation
 //!
-//! For ẋ = X(x), the normalised Taylor coefficients x^[k] = x⁽ᵏ⁾(t₀)/k! of the solution through
-//! x(t₀) = x₀ follow from x^[0] = x₀ and
+//! For ẋ = X(x), the normalised Taylor coefficients x^\[k\] = x⁽ᵏ⁾(t₀)/k! of the solution through
+//! x(t₀) = x₀ follow from x^\[0\] = x₀ and
 //!
 //! ```text
 //! x^[k+1] = X(x)^[k] / (k + 1),
 //! ```
 //!
-//! where X(x)^[k] is the k-th coefficient of the composite function t ↦ X(x(t)), computed
+//! where X(x)^\[k\] is the k-th coefficient of the composite function t ↦ X(x(t)), computed
 //! instruction by instruction along the field's tape from the coefficients 0..=k of the
 //! instruction's operands (Moore 1966; Griewank & Walther, *Evaluating Derivatives*, 2nd ed.,
 //! §13.2, Table 13.2; Jorba & Zou 2005, §2). With a, b the operands and u the result of an
@@ -18,16 +18,16 @@
 //!
 //! | op | recurrence |
 //! | --- | --- |
-//! | u = a ± b | u^[k] = a^[k] ± b^[k] |
-//! | u = a·b | u^[k] = Σ_{j=0}^{k} a^[j] b^[k−j] (Cauchy product; a·c for a constant c is a scaling) |
-//! | u = a/b | u^[k] = (a^[k] − Σ_{j=1}^{k} b^[j] u^[k−j]) / b^[0] |
-//! | u = aⁿ, n ∈ ℕ | binary exponentiation by Cauchy products (squares and products, as `f64::powi`), so a^[0] = 0 is fine |
+//! | u = a ± b | u^\[k\] = a^\[k\] ± b^\[k\] |
+//! | u = a·b | u^\[k\] = Σ_{j=0}^{k} a^\[j\] b^\[k−j\] (Cauchy product; a·c for a constant c is a scaling) |
+//! | u = a/b | u^\[k\] = (a^\[k\] − Σ_{j=1}^{k} b^\[j\] u^\[k−j\]) / b^\[0\] |
+//! | u = aⁿ, n ∈ ℕ | binary exponentiation by Cauchy products (squares and products, as `f64::powi`), so a^\[0\] = 0 is fine |
 //! | u = a⁻ⁿ | the chain for aⁿ, then 1/aⁿ by the division recurrence |
-//! | u = a^α (Powf, ∛) | u^[k] = 1/(k a^[0]) Σ_{j=0}^{k−1} (α(k−j) − j) a^[k−j] u^[j] (from a u' = α a' u) |
-//! | u = √a | u^[k] = (a^[k] − Σ_{j=1}^{k−1} u^[j] u^[k−j]) / (2 u^[0]) (from u² = a) |
-//! | u = eᵃ | u^[k] = (1/k) Σ_{j=1}^{k} j a^[j] u^[k−j] (from u' = a' u) |
-//! | u = ln a | u^[k] = (a^[k] − (1/k) Σ_{j=1}^{k−1} j u^[j] a^[k−j]) / a^[0] (from a u' = a') |
-//! | s = sin a, c = cos a | s^[k] = (1/k) Σ_{j=1}^{k} j a^[j] c^[k−j], c^[k] = −(1/k) Σ_{j=1}^{k} j a^[j] s^[k−j] |
+//! | u = a^α (Powf, ∛) | u^\[k\] = 1/(k a^\[0\]) Σ_{j=0}^{k−1} (α(k−j) − j) a^\[k−j\] u^\[j\] (from a u' = α a' u) |
+//! | u = √a | u^\[k\] = (a^\[k\] − Σ_{j=1}^{k−1} u^\[j\] u^\[k−j\]) / (2 u^\[0\]) (from u² = a) |
+//! | u = eᵃ | u^\[k\] = (1/k) Σ_{j=1}^{k} j a^\[j\] u^\[k−j\] (from u' = a' u) |
+//! | u = ln a | u^\[k\] = (a^\[k\] − (1/k) Σ_{j=1}^{k−1} j u^\[j\] a^\[k−j\]) / a^\[0\] (from a u' = a') |
+//! | s = sin a, c = cos a | s^\[k\] = (1/k) Σ_{j=1}^{k} j a^\[j\] c^\[k−j\], c^\[k\] = −(1/k) Σ_{j=1}^{k} j a^\[j\] s^\[k−j\] |
 //!
 //! Leaves other than the state (constants, hoisted parameter values, targets, gains) and every
 //! instruction whose operands are all such leaves are constant along the solution: only their
@@ -50,13 +50,13 @@
 //!   precision ε ≈ 2.2·10⁻¹⁶), see [`order_for_tolerance`];
 //! - with m = ‖x₀‖∞, the tolerance is absolute when m ≤ 1 and relative otherwise
 //!   (ε_r m > ε_a ⇔ m > 1): the radius estimates are
-//!   ρ_j = (c / ‖x^[j]‖∞)^{1/j}, c = 1 (absolute) or m (relative), for j = p − 1 and j = p,
+//!   ρ_j = (c / ‖x^\[j\]‖∞)^{1/j}, c = 1 (absolute) or m (relative), for j = p − 1 and j = p,
 //!   ρ = min(ρ_{p−1}, ρ_p);
 //! - the step is h = ρ / e² · exp(−0.7/(p − 1)) (the `exp(−0.7/(p−1))` safety factor of
 //!   Jorba & Zou, also used by heyoka).
 //!
 //! The last two terms of the series are then about ε c in size (for ρ the radius of
-//! convergence of an analytic solution, ‖x^[j]‖ h^j ≈ (h/ρ)^j ≤ e^{−2j}). Steps are never
+//! convergence of an analytic solution, ‖x^\[j\]‖ h^j ≈ (h/ρ)^j ≤ e^{−2j}). Steps are never
 //! rejected. The new state is the Taylor polynomial evaluated at h by Horner's scheme, and the
 //! same polynomial is the dense output on [t, t + h] ([`DenseOutput`]).
 //!
@@ -112,7 +112,7 @@ pub enum TaylorError {
 
 /// Jorba & Zou's order for a tolerance ε: p = ⌈−½ ln ε + 1⌉ (at least 2).
 ///
-/// 19 for ε = 10⁻¹⁵, 20 for `f64::EPSILON`, 10 for 10⁻⁸.
+/// 19 for ε = 10⁻¹⁵, 20 for `f64::EPSILON`, 11 for 10⁻⁸.
 pub fn order_for_tolerance(tol: f64) -> u32 {
     let p = (-0.5 * tol.ln() + 1.0).ceil();
     if p.is_finite() {
@@ -122,8 +122,8 @@ pub fn order_for_tolerance(tol: f64) -> u32 {
     }
 }
 
-/// Jorba & Zou's step size (see the [module docs](self)) from the state norm m = ‖x^[0]‖∞ and
-/// the norms of the last two coefficients, ‖x^[p−1]‖∞ and ‖x^[p]‖∞. `+∞` if both norms are 0
+/// Jorba & Zou's step size (see the [module docs](self)) from the state norm m = ‖x^\[0\]‖∞ and
+/// the norms of the last two coefficients, ‖x^\[p−1\]‖∞ and ‖x^\[p\]‖∞. `+∞` if both norms are 0
 /// (a polynomial solution of degree < p − 1: any step is exact).
 pub fn jorba_zou_step(order: u32, state_norm: f64, norm_pm1: f64, norm_p: f64) -> f64 {
     let p = f64::from(order.max(2));
@@ -230,7 +230,7 @@ enum PowZero {
 /// The Taylor-coefficient recurrences of one field tape, with their coefficient table.
 ///
 /// Built once per tape ([`TaylorTape::new`]); [`TaylorTape::compute`] fills the coefficients
-/// x^[0..=p] of the solution of ẋ = tape(x) through a state, without allocating.
+/// x^\[0..=p\] of the solution of ẋ = tape(x) through a state, without allocating.
 #[derive(Clone, Debug)]
 pub struct TaylorTape {
     /// Per instruction: the recurrence and whether the row is constant along the solution.
@@ -456,7 +456,7 @@ impl TaylorTape {
         self.table.len() / self.stride
     }
 
-    /// Computes the normalised Taylor coefficients x^[0..=order] of the solution through `x`
+    /// Computes the normalised Taylor coefficients x^\[0..=order\] of the solution through `x`
     /// (`order ≤ max_order`; the excess is clamped). Allocates nothing.
     pub fn compute(&mut self, x: &[f64], order: usize) {
         let order = order.min(self.max_order);
@@ -481,13 +481,13 @@ impl TaylorTape {
         }
     }
 
-    /// The coefficients x_i^[0..=order] of state component `i` from the last
+    /// The coefficients x_i^\[0..=order\] of state component `i` from the last
     /// [`TaylorTape::compute`].
     pub fn state_coefficients(&self, i: usize) -> &[f64] {
         &self.table[i * self.stride..i * self.stride + self.order + 1]
     }
 
-    /// ‖x^[k]‖∞ over the state components.
+    /// ‖x^\[k\]‖∞ over the state components.
     pub fn norm(&self, k: usize) -> f64 {
         (0..self.n)
             .map(|i| self.table[i * self.stride + k].abs())
@@ -548,7 +548,7 @@ impl Builder {
 
     /// aᵉ as `f64::powi` computes it ([`lasalle_codegen::tape::powi`]): the squares a, a², a⁴, … multiplied into the
     /// result in increasing order, the first without a product, then 1/· for e < 0, each
-    /// step with its Cauchy recurrence (so a^[0] = 0 is fine for e > 0). Returns the row.
+    /// step with its Cauchy recurrence (so a^\[0\] = 0 is fine for e > 0). Returns the row.
     fn powi(&mut self, base: usize, e: i32, constant: bool) -> usize {
         if e == 0 {
             // powi(x, 0) = 1, even for x = NaN
@@ -617,7 +617,7 @@ fn zeroth(t: &mut [f64], inst: Inst, hoisted: &[f64], target: &[f64], gains: &[f
     }
 }
 
-/// Σ_{j=lo}^{hi} a^[j] b^[k−j] for rows at offsets a, b.
+/// Σ_{j=lo}^{hi} a^\[j\] b^\[k−j\] for rows at offsets a, b.
 #[inline(always)]
 fn cauchy(t: &[f64], a: usize, b: usize, k: usize, lo: usize, hi: usize) -> f64 {
     if lo > hi {
@@ -628,7 +628,7 @@ fn cauchy(t: &[f64], a: usize, b: usize, k: usize, lo: usize, hi: usize) -> f64 
     ra.iter().zip(rb.iter().rev()).map(|(x, y)| x * y).sum()
 }
 
-/// Σ_{j=1}^{k} j a^[j] b^[k−j] (the weighted product of the exp and sin/cos recurrences).
+/// Σ_{j=1}^{k} j a^\[j\] b^\[k−j\] (the weighted product of the exp and sin/cos recurrences).
 #[inline(always)]
 fn weighted(t: &[f64], a: usize, b: usize, k: usize) -> f64 {
     let ra = &t[a + 1..=a + k];
@@ -885,7 +885,7 @@ impl Taylor {
         &self.feedback
     }
 
-    /// The coefficients x^[0..=p] of component `i` of the last accepted step's expansion
+    /// The coefficients x^\[0..=p\] of component `i` of the last accepted step's expansion
     /// (about its initial point), if there was one.
     pub fn last_coefficients(&self, i: usize) -> Option<&[f64]> {
         let (_, _, which) = self.last?;
