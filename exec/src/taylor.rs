@@ -1,4 +1,6 @@
-//! A Taylor-series integrator generated from a field tape, as in heyoka (Biscani & Izzo 2021).
+//! A Taylor-series integrator generated from a field tape, as in heyoka (Biscani & Izzo,
+//! *Revisiting high-order Taylor methods for astrodynamics and celestial mechanics*, MNRAS 504
+//! (2021) 2614–2628).
 //!
 //! # Taylor coefficients by automatic differentiation
 //!
@@ -12,7 +14,7 @@
 //! where X(x)^\[k\] is the k-th coefficient of the composite function t ↦ X(x(t)), computed
 //! instruction by instruction along the field's tape from the coefficients 0..=k of the
 //! instruction's operands (Moore 1966; Griewank & Walther, *Evaluating Derivatives*, 2nd ed.,
-//! §13.2, Table 13.2; Jorba & Zou 2005, §2). With a, b the operands and u the result of an
+//! ch. 13; Jorba & Zou 2005). With a, b the operands and u the result of an
 //! instruction (all normalised coefficients, k ≥ 1; the order-0 value is the instruction's own
 //! f64 operation, so order 0 is the tape's value):
 //!
@@ -44,7 +46,8 @@
 //! # Order and step size (Jorba & Zou 2005)
 //!
 //! Following Jorba & Zou, *A software package for the numerical integration of ODEs by means of
-//! high-order Taylor methods*, Experimental Mathematics 14(1) (2005) 99–117, §3.2, with equal
+//! high-order Taylor methods*, Experimental Mathematics 14(1) (2005) 99–117 (their step size
+//! and order control), with equal
 //! absolute and relative tolerances ε (as heyoka's `taylor_adaptive` does):
 //! - the order is p = ⌈−½ ln ε + 1⌉ (fixed for a given ε; 19 for ε = 10⁻¹⁵, 20 for the double
 //!   precision ε ≈ 2.2·10⁻¹⁶), see [`order_for_tolerance`];
@@ -458,7 +461,11 @@ impl TaylorTape {
 
     /// Computes the normalised Taylor coefficients x^\[0..=order\] of the solution through `x`
     /// (`order ≤ max_order`; the excess is clamped). Allocates nothing.
+    ///
+    /// # Panics
+    /// If `x.len()` is not the state dimension.
     pub fn compute(&mut self, x: &[f64], order: usize) {
+        assert_eq!(x.len(), self.n, "state dimension");
         let order = order.min(self.max_order);
         let stride = self.stride;
         self.order = order;
@@ -496,7 +503,11 @@ impl TaylorTape {
 
     /// Evaluates the Taylor polynomial of the state at `s` (time since the expansion point)
     /// by Horner's scheme into `out`.
+    ///
+    /// # Panics
+    /// If `out.len()` is not the state dimension.
     pub fn evaluate(&self, s: f64, out: &mut [f64]) {
+        assert_eq!(out.len(), self.n, "state dimension");
         for (i, o) in out.iter_mut().enumerate().take(self.n) {
             let c = &self.table[i * self.stride..i * self.stride + self.order + 1];
             *o = c.iter().rev().fold(0.0, |acc, &ck| acc * s + ck);
