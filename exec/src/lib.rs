@@ -30,8 +30,10 @@ pub mod interp;
 #[cfg(feature = "jit")]
 pub mod jit;
 pub mod model;
+pub mod taylor;
 
 pub use model::{LoadError, LoadedModel};
+pub use taylor::{Taylor, TaylorError, TaylorField, TaylorOptions, TaylorTape};
 
 pub use lasalle_codegen::tape::{Dims, Op, Reg, Tape, TapeError};
 
