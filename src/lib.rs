@@ -6,6 +6,7 @@
 //! re-exported here integrate.
 #![warn(missing_docs)]
 
+pub use lasalle_exec as exec;
 pub use lasalle_exec::{Backend, LoadError, LoadedModel};
 pub use lasalle_runtime::*;
 

@@ -22,11 +22,12 @@ use std::str::FromStr;
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use lasalle::exec::{Taylor, TaylorOptions};
 use lasalle::{
     component_names, sample_capacity, AdaptiveGain, Control, Declared, DormandPrince, Driver,
-    ExplicitRk, FeedbackField, Field, GainPolicy, Invariants, Lyapunov, ModelInfo, Observer,
-    Parameters, Projection, Recorder, RigidBodySplitting, State, StepError, Stepper, StormerVerlet,
-    VerletVariant,
+    ExplicitRk, FeedbackField, Field, GainPolicy, Invariants, LoadedModel, Lyapunov, ModelInfo,
+    Observer, Parameters, Projection, Recorder, RigidBodySplitting, State, StepError, Stepper,
+    StormerVerlet, VerletVariant,
 };
 use serde_json::json;
 
@@ -79,6 +80,12 @@ pub enum Method {
     StormerVerlet(VerletVariant),
     /// The three-rotation splitting of the free rigid body (GNI §VII.5).
     Splitting,
+    /// The Taylor method of adaptive order and step (Jorba & Zou 2005) with tolerance
+    /// `--rtol`, on X or (`feedback`) on X − ∇V; models loaded from their files only.
+    Taylor {
+        /// On the feedback field X − ∇V.
+        feedback: bool,
+    },
 }
 
 impl Method {
@@ -87,13 +94,25 @@ impl Method {
         let mut v: Vec<String> = Base::ALL.iter().map(|b| b.name().to_string()).collect();
         v.extend(Base::ALL.iter().map(|b| format!("feedback-{}", b.name())));
         v.extend(Base::ALL.iter().map(|b| format!("projection-{}", b.name())));
-        v.extend(["stormer-verlet-a", "stormer-verlet-b", "splitting"].map(String::from));
+        v.extend(
+            [
+                "stormer-verlet-a",
+                "stormer-verlet-b",
+                "splitting",
+                "taylor",
+                "feedback-taylor",
+            ]
+            .map(String::from),
+        );
         v.join(", ")
     }
 
     /// Is this a feedback integrator (the gains apply)?
     pub fn is_feedback(self) -> bool {
-        matches!(self, Method::Feedback(_))
+        matches!(
+            self,
+            Method::Feedback(_) | Method::Taylor { feedback: true }
+        )
     }
 
     /// Does the method choose its own step sizes?
@@ -103,6 +122,7 @@ impl Method {
             Method::Plain(Base::Dopri5)
                 | Method::Feedback(Base::Dopri5)
                 | Method::Projection(Base::Dopri5)
+                | Method::Taylor { .. }
         )
     }
 }
@@ -116,6 +136,8 @@ impl fmt::Display for Method {
             Method::StormerVerlet(VerletVariant::A) => f.write_str("stormer-verlet-a"),
             Method::StormerVerlet(VerletVariant::B) => f.write_str("stormer-verlet-b"),
             Method::Splitting => f.write_str("splitting"),
+            Method::Taylor { feedback: false } => f.write_str("taylor"),
+            Method::Taylor { feedback: true } => f.write_str("feedback-taylor"),
         }
     }
 }
@@ -134,6 +156,8 @@ impl FromStr for Method {
                 Some(Method::StormerVerlet(VerletVariant::B))
             }
             "splitting" => Some(Method::Splitting),
+            "taylor" => Some(Method::Taylor { feedback: false }),
+            "feedback-taylor" => Some(Method::Taylor { feedback: true }),
             k => {
                 if let Some(rest) = k.strip_prefix("feedback-") {
                     base(rest).map(Method::Feedback)
@@ -216,12 +240,7 @@ impl RunSpec {
 
     /// Checks the numbers: positive finite step and end time, tolerances in range.
     pub fn validate(&self) -> Result<(), String> {
-        let adaptive = matches!(
-            self.method,
-            Method::Plain(Base::Dopri5)
-                | Method::Feedback(Base::Dopri5)
-                | Method::Projection(Base::Dopri5)
-        );
+        let adaptive = self.method.is_adaptive();
         if !(self.dt.is_finite() && (self.dt > 0.0 || (adaptive && self.dt == 0.0))) {
             return Err(format!(
                 "step size must be positive and finite, got --dt {}",
@@ -284,6 +303,7 @@ pub trait Stats {
 impl<const S: usize, X> Stats for ExplicitRk<f64, S, X> {}
 impl<X> Stats for DormandPrince<f64, X> {}
 impl<X> Stats for StormerVerlet<X> {}
+impl Stats for Taylor {}
 impl Stats for RigidBodySplitting<f64> {}
 
 impl<F: State<f64>, S: Stats, X: State<f64>> Stats for Projection<f64, F, S, X> {
@@ -745,25 +765,8 @@ where
     FV: State<f64>,
     K: State<f64>,
 {
-    spec.validate()?;
+    let f = check_start(model, x0, spec)?;
     let name = model.model_name();
-    let shown = x0.as_ref();
-    if let Some(i) = shown.iter().position(|v| !v.is_finite()) {
-        return Err(format!("initial state component {i} is not finite"));
-    }
-    // The field and the invariants must be defined at x0 (e.g. Kepler at x = 0 is not).
-    let mut dx = x0.clone();
-    let mut f = FV::filled(FV::len_for(model.invariant_dim()), 0.0);
-    model.field(x0, &mut dx);
-    model.invariants(x0, &mut f);
-    if let Some(failure) = model.check_guards(x0, 0.0) {
-        return Err(format!("invalid initial state {shown:?}: {failure}"));
-    }
-    if dx.as_ref().iter().chain(f.as_ref()).any(|v| !v.is_finite()) {
-        return Err(format!(
-            "the field or the invariants of `{name}` are not finite at the initial state {shown:?}"
-        ));
-    }
     match spec.method {
         Method::Plain(b) => Ok(with_base(b, spec, drive(model, model, x0, spec))),
         Method::Projection(b) => {
@@ -821,7 +824,82 @@ where
             })?;
             Ok(drive(model, model, x0, spec).visit(splitting))
         }
+        Method::Taylor { .. } => Err(format!(
+            "method `{}` runs on models loaded from their files (`lasalle run model.lsl`)",
+            spec.method
+        )),
     }
+}
+
+/// Checks the spec and the initial state (finite, inside the model's guards, where the field
+/// and the invariants are defined); returns f(x₀).
+fn check_start<Mdl, X, FV, K>(model: &Mdl, x0: &X, spec: &RunSpec) -> Result<FV, String>
+where
+    Mdl: RunModel<X, FV, K>,
+    X: State<f64>,
+    FV: State<f64>,
+    K: State<f64>,
+{
+    spec.validate()?;
+    let name = model.model_name();
+    let shown = x0.as_ref();
+    if let Some(i) = shown.iter().position(|v| !v.is_finite()) {
+        return Err(format!("initial state component {i} is not finite"));
+    }
+    // The field and the invariants must be defined at x0 (e.g. Kepler at x = 0 is not).
+    let mut dx = x0.clone();
+    let mut f = FV::filled(FV::len_for(model.invariant_dim()), 0.0);
+    model.field(x0, &mut dx);
+    model.invariants(x0, &mut f);
+    if let Some(failure) = model.check_guards(x0, 0.0) {
+        return Err(format!("invalid initial state {shown:?}: {failure}"));
+    }
+    if dx.as_ref().iter().chain(f.as_ref()).any(|v| !v.is_finite()) {
+        return Err(format!(
+            "the field or the invariants of `{name}` are not finite at the initial state {shown:?}"
+        ));
+    }
+    Ok(f)
+}
+
+/// [`simulate`] for a model loaded from its file, which also offers the Taylor method (built
+/// from the model's tapes, tolerance `--rtol`).
+pub fn simulate_loaded(
+    model: &LoadedModel,
+    x0: &Vec<f64>,
+    spec: &RunSpec,
+) -> Result<Trace, String> {
+    let Method::Taylor { feedback } = spec.method else {
+        return simulate(model, x0, spec);
+    };
+    check_start(model, x0, spec)?;
+    let taylor =
+        Taylor::for_model(model, TaylorOptions::with_tol(spec.rtol)).map_err(|e| e.to_string())?;
+    if !feedback {
+        return Ok(drive(model, model, x0, spec).visit(taylor));
+    }
+    let gains: Vec<f64> = spec.gains.initial_gains(model, x0, spec.dt).map_err(|e| {
+        format!(
+            "{e} (model `{}` has gains {})",
+            model.model_name(),
+            model.gain_names().join(", ")
+        )
+    })?;
+    let fb = FeedbackField::from_initial(model, x0, gains.clone());
+    let inner = drive(model, &fb, x0, spec);
+    let mut trace = match spec.gains {
+        GainPolicy::Adaptive { every, c } => Adapt {
+            inner,
+            unit: vec![1.0; gains.len()],
+            every,
+            c,
+        }
+        .visit(taylor),
+        _ => inner.visit(taylor),
+    };
+    trace.gains_initial = Some(gains.clone());
+    trace.gains_final = Some(fb.gains());
+    Ok(trace)
 }
 
 /// Applies `name=v1,v2,…` to the model's parameters.
