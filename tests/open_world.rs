@@ -154,6 +154,39 @@ fn unseen_models_run_from_their_files() {
     assert_eq!(lv_interp["final_state"], lv["final_state"]);
 }
 
+/// The Taylor method (adaptive order and step, from the model's tapes) through the command
+/// line: ten Kepler periods at e = 0.8 keep L and A to 1e-13.
+#[test]
+fn taylor_through_the_command_line() {
+    let dir = scratch("open-world-taylor");
+    let o = lasalle(&[
+        "run",
+        "kepler",
+        "-m",
+        "taylor",
+        "--rtol",
+        "1e-15",
+        "--t-end",
+        "702.481",
+        "-q",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(s["method"], "taylor");
+    for name in ["L", "A"] {
+        assert!(
+            max_error(&s, name) < 1e-13,
+            "{name}: {}",
+            max_error(&s, name)
+        );
+    }
+    // far fewer steps than a fixed step of the preset's 0.005 would take
+    assert!(s["steps"].as_u64().unwrap() < 2_000, "{}", s["steps"]);
+}
+
 /// A guard declared in the model file stops a run that leaves the domain, naming the guard.
 #[test]
 fn a_declared_guard_stops_the_run() {
