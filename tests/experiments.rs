@@ -835,3 +835,54 @@ fn projection_with_tight_tolerance_projects_every_step() {
     assert_eq!(proj.projections(), end.steps);
     assert!(proj.newton_iterations() >= end.steps);
 }
+
+/// `experiment so3`: for each of the thesis' four types, g stays in SO(3) under feedback-Euler
+/// while explicit Euler leaves it, and RK4 keeps every invariant to rounding over a short span.
+#[test]
+fn so3_experiment_keeps_g_in_so3_with_feedback() {
+    let dir = scratch("experiment-so3");
+    let o = lasalle(&[
+        "experiment",
+        "so3",
+        "--t-end",
+        "50",
+        "--no-figures",
+        "-q",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s = summary(&dir);
+    let types = s["types"].as_array().unwrap();
+    assert_eq!(types.len(), 4);
+    for t in types {
+        let max = |method: &str, inv: &str| -> f64 {
+            let m = t["methods"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|m| m["method"] == method)
+                .unwrap_or_else(|| panic!("{method} missing"));
+            m["invariant_errors"][inv]["max"]
+                .as_f64()
+                .unwrap_or(f64::INFINITY)
+        };
+        let (fb, euler) = (
+            max("feedback-euler", "orthogonality"),
+            max("euler", "orthogonality"),
+        );
+        assert!(
+            fb < 1e-2 && euler > 10.0 * fb,
+            "{}: feedback {fb:e}, Euler {euler:e}",
+            t["type"]
+        );
+        for inv in ["orthogonality", "H", "casimir", "Lambda"] {
+            assert!(
+                max("rk4", inv) < 1e-10,
+                "{} {inv}: {}",
+                t["type"],
+                max("rk4", inv)
+            );
+        }
+    }
+}

@@ -11,6 +11,7 @@ mod gains;
 mod kepler;
 mod perturbed_kepler;
 mod rigid_body;
+mod so3;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -25,7 +26,7 @@ use super::CliResult;
 #[derive(Args, Debug, Clone)]
 pub struct ExperimentArgs {
     /// rigid-body (Figs. 1–4), kepler (Figs. 5–7), perturbed-kepler (Figs. 8–10), gains (the
-    /// gain study), or all.
+    /// gain study), so3 (the thesis' four extremal systems with reconstruction), or all.
     pub name: String,
     /// Output directory (default: out/experiment-<name>/).
     #[arg(long)]
@@ -72,6 +73,7 @@ impl Paper {
 enum Which {
     Paper(Paper),
     Gains,
+    So3,
     All,
 }
 
@@ -79,6 +81,7 @@ enum Which {
 pub fn run(args: &ExperimentArgs) -> CliResult {
     let which = match args.name.as_str() {
         "gains" | "gain" => Which::Gains,
+        "so3" => Which::So3,
         "all" => Which::All,
         other => Which::Paper(
             Paper::ALL
@@ -86,7 +89,7 @@ pub fn run(args: &ExperimentArgs) -> CliResult {
                 .find(|p| normalise(p.name()) == normalise(other))
                 .ok_or_else(|| {
                     format!(
-                        "unknown experiment `{other}`; experiments: rigid-body, kepler, perturbed-kepler, gains, all (use `lasalle run {other}` to integrate a model)"
+                        "unknown experiment `{other}`; experiments: rigid-body, kepler, perturbed-kepler, gains, so3, all (use `lasalle run {other}` to integrate a model)"
                     )
                 })?,
         ),
@@ -106,11 +109,13 @@ pub fn run(args: &ExperimentArgs) -> CliResult {
     match which {
         Which::Paper(p) => run_one(args, p),
         Which::Gains => gains::run(args, &out_dir(args, "gains")?),
+        Which::So3 => so3::run(args, &out_dir(args, "so3")?),
         Which::All => {
             for p in Paper::ALL {
                 run_one(args, p)?;
             }
-            gains::run(args, &out_dir(args, "gains")?)
+            gains::run(args, &out_dir(args, "gains")?)?;
+            so3::run(args, &out_dir(args, "so3")?)
         }
     }
 }

@@ -1,0 +1,181 @@
+//! Optimal control on SO(3) (Rodgerson 2009, chs. 4–7): the four extremal systems Ṗ = P × ∇H
+//! with the reconstruction ġ = g Ξ(u(P)), each from the first Appendix B case of its type
+//! (the model file's first `run` preset, with its parameters), integrated to t = 1000 by
+//! feedback-Euler, Euler, RK4 and DOPRI5: does g stay in SO(3), are H, the Casimir |P|² and the
+//! spatial momentum Λ = gP kept? The models are loaded from their files (JIT), so this
+//! experiment is also the run-time path's end-to-end check.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use lasalle::{Backend, Declared, Parameters};
+use serde_json::json;
+
+use super::super::load::load;
+use super::super::plot::{thin, write_figure, Chart, Style};
+use super::super::sim::{simulate, Base, Method, RunSpec, Trace};
+use super::{
+    command_line, error_figure, failure_note, must, sci, write_outputs, ExperimentArgs, Table,
+};
+use crate::cli::CliResult;
+
+/// The methods, colours and legend names.
+const METHODS: [(Method, usize, &str); 4] = [
+    (Method::Feedback(Base::Euler), 0, "feedback-Euler"),
+    (Method::Plain(Base::Euler), 4, "Euler"),
+    (Method::Plain(Base::Rk4), 1, "RK4"),
+    (Method::Plain(Base::Dopri5), 2, "DOPRI5"),
+];
+
+/// The four types: model file, title.
+const TYPES: [(&str, &str); 4] = [
+    ("so3_type_i", "Type I (ch. 4)"),
+    ("so3_type_iia", "Type IIa (ch. 5)"),
+    ("so3_type_iib", "Type IIb (ch. 6)"),
+    ("so3_type_iii", "Type III (ch. 7)"),
+];
+
+/// Runs the experiment into `dir` (a subdirectory per type).
+pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
+    let dt = args.dt.unwrap_or(1e-3);
+    let t_end = args.t_end.unwrap_or(1000.0);
+    let mut report = format!(
+        "## Optimal control on SO(3): the four extremal systems with reconstruction\n\n`{}`\n\n\
+         From the first Appendix B case of each type (g(0) = I), t ∈ [0, {t_end}], Δt = {dt} \
+         (DOPRI5: rtol = atol = 1e-10); feedback-Euler with the model's gains. Largest errors \
+         over the run.\n",
+        command_line(args, "so3")
+    );
+    let mut json_types = Vec::new();
+    for (stem, title) in TYPES {
+        let (mut model, _) = load(stem, Backend::Jit)?;
+        let preset = model
+            .presets()
+            .first()
+            .ok_or_else(|| format!("{stem}: no run preset for its Appendix B case"))?;
+        for (name, values) in preset.params {
+            model.set_param(name, values)?;
+        }
+        let init = preset
+            .init
+            .ok_or_else(|| format!("{stem}: the preset has no point"))?;
+        let x0 = model
+            .point(init)
+            .ok_or_else(|| format!("{stem}: no point `{init}`"))?;
+        let mut traces = Vec::new();
+        for (method, _, _) in METHODS {
+            let mut spec = RunSpec::new(method, dt, t_end);
+            spec.every = (spec.steps() / 10_000).max(1);
+            spec.progress = !args.quiet;
+            traces.push(must(simulate(&model, &x0, &spec))?);
+        }
+        let mut table = Table::new(&[
+            "method",
+            "wall [s]",
+            "steps",
+            "max ‖gᵀg − I‖",
+            "max |ΔH|",
+            "max |Δ|P|²|",
+            "max |ΔΛ|",
+            "notes",
+        ]);
+        for t in &traces {
+            table.row(vec![
+                format!("`{}`", t.method),
+                format!("{:.2}", t.wall_seconds),
+                t.steps.to_string(),
+                sci(t.max_of("orthogonality")),
+                sci(t.max_of("H")),
+                sci(t.max_of("casimir")),
+                sci(t.max_of("Lambda")),
+                failure_note(t),
+            ]);
+        }
+        let params: Vec<String> = preset
+            .params
+            .iter()
+            .map(|(n, v)| format!("{n} = {}", v[0]))
+            .collect();
+        let _ = writeln!(
+            report,
+            "\n### {title}: case `{}` ({}), P(0) = ({:.4}, {:.4}, {:.4})\n",
+            preset.name,
+            params.join(", "),
+            x0[0],
+            x0[1],
+            x0[2]
+        );
+        report.push_str(&table.markdown());
+        let sub = dir.join(stem);
+        std::fs::create_dir_all(&sub)
+            .map_err(|e| format!("cannot create {}: {e}", sub.display()))?;
+        write_outputs(
+            &sub,
+            &traces.iter().collect::<Vec<_>>(),
+            &table.markdown(),
+            json!({ "type": stem, "methods": traces.iter().map(|t| t.summary_json()).collect::<Vec<_>>() }),
+            true,
+        )?;
+        if !args.no_figures {
+            figures(&sub, title, &traces)?;
+        }
+        json_types.push(json!({
+            "type": stem,
+            "case": preset.name,
+            "methods": traces.iter().map(|t| t.summary_json()).collect::<Vec<_>>(),
+        }));
+    }
+    let json = json!({
+        "experiment": "so3",
+        "dt": dt,
+        "t_end": t_end,
+        "command": command_line(args, "so3"),
+        "types": json_types,
+    });
+    write_outputs(dir, &[], &report, json, args.quiet)
+}
+
+fn figures(dir: &Path, title: &str, traces: &[Trace]) -> CliResult {
+    // P(t) from DOPRI5 over the first 30 time units (the span of Appendix C's plots)
+    let reference = &traces[3];
+    let mut c = Chart::new(&format!("P(t), {title}, DOPRI5"), "t", "P", false);
+    let shown: Vec<usize> = (0..reference.len())
+        .filter(|&i| reference.t[i] <= 30.0)
+        .collect();
+    let t: Vec<f64> = shown.iter().map(|&i| reference.t[i]).collect();
+    for k in 0..3 {
+        let y: Vec<f64> = shown.iter().map(|&i| reference.state(i)[k]).collect();
+        let (x, y) = thin(&t, &y, 4000);
+        c.add(&format!("P{}", k + 1), x, y, [0, 3, 2][k], Style::Line);
+    }
+    write_figure(dir, "fig_p", &[c], (1, 1), (900, 500))?;
+    for figure in [
+        (
+            "fig_orthogonality",
+            "orthogonality",
+            "deviation from SO(3) ‖gᵀg − I‖",
+            "‖gᵀg − I‖",
+        ),
+        (
+            "fig_hamiltonian",
+            "H",
+            "Hamiltonian error |H(t) − H(0)|",
+            "|ΔH|",
+        ),
+        (
+            "fig_casimir",
+            "casimir",
+            "Casimir error ||P(t)|² − |P(0)|²|",
+            "|Δ|P|²|",
+        ),
+        (
+            "fig_lambda",
+            "Lambda",
+            "spatial momentum error |gP(t) − gP(0)|",
+            "|ΔΛ|",
+        ),
+    ] {
+        error_figure(dir, figure, traces, &METHODS)?;
+    }
+    Ok(())
+}
