@@ -7,6 +7,7 @@ mod normal_form;
 mod plot;
 mod run;
 mod sim;
+mod sweep;
 
 use clap::{Parser, Subcommand};
 
@@ -32,6 +33,11 @@ enum Command {
     Experiment(experiment::ExperimentArgs),
     /// Birkhoff normal form of a Hamiltonian model at an elliptic equilibrium.
     NormalForm(normal_form::NormalFormArgs),
+    /// One run per point of a parameter grid or per row of a list, in parallel; `--shard i/n`
+    /// for a cluster's array jobs; one table.
+    Sweep(sweep::SweepArgs),
+    /// Join the tables of a sharded sweep, checking that every row is there once.
+    SweepMerge(sweep::MergeArgs),
 }
 
 /// Parses the command line and runs the subcommand.
@@ -41,5 +47,7 @@ pub fn main() -> CliResult {
         Command::Run(args) => run::run(&args),
         Command::Experiment(args) => experiment::run(&args),
         Command::NormalForm(args) => normal_form::run(&args),
+        Command::Sweep(args) => sweep::run(&args),
+        Command::SweepMerge(args) => sweep::merge(&args),
     }
 }

@@ -1,0 +1,358 @@
+//! `lasalle sweep <model> --grid name=a:b:n … [--shard i/n] --out table.csv`: one run per point
+//! of a parameter grid (or per row of a list), in parallel across the machine's cores, written
+//! as one table; `--shard i/n` runs every n-th row starting at i, so a cluster's array jobs
+//! (Slurm `--array=0-9` with `--shard $SLURM_ARRAY_TASK_ID/10`, PBS, `xargs -P`) split a sweep
+//! across machines, and `lasalle sweep-merge` joins the shards' tables, checking that every row
+//! is there exactly once.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use clap::Args;
+use lasalle::{Backend, LoadedModel, ModelInfo, Parameters};
+use rayon::prelude::*;
+
+use super::load::{model_text, BackendArg};
+use super::sim::{initial_state, simulate_loaded, Method, RunSpec, Trace};
+use super::CliResult;
+
+/// Arguments of `lasalle sweep`.
+#[derive(Args, Debug)]
+pub struct SweepArgs {
+    /// The model: a path to a model file or the name of a built-in model.
+    pub model: String,
+    /// A parameter axis: `name=start:stop:count` (count values, ends included) or
+    /// `name=v1,v2,…`; repeatable, the grid is their Cartesian product.
+    #[arg(long, value_name = "NAME=SPEC", allow_hyphen_values = true)]
+    pub grid: Vec<String>,
+    /// A CSV file with one run per row; its header names parameters (scalar ones). Instead of,
+    /// or crossed with, `--grid`.
+    #[arg(long, value_name = "FILE")]
+    pub list: Option<PathBuf>,
+    /// The method of every run.
+    #[arg(long, short, default_value = "dopri5")]
+    pub method: String,
+    /// Step size (the initial step of adaptive methods).
+    #[arg(long, default_value_t = 0.01)]
+    pub dt: f64,
+    /// End time.
+    #[arg(long)]
+    pub t_end: f64,
+    /// The initial state: a point of the model (evaluated with each row's parameters) or
+    /// comma-separated numbers; default: the model's first point.
+    #[arg(long, allow_hyphen_values = true)]
+    pub init: Option<String>,
+    /// Relative and absolute tolerance of adaptive methods.
+    #[arg(long, default_value_t = 1e-10)]
+    pub tol: f64,
+    /// This process runs rows i, i + n, i + 2n, … of the sweep (0 ≤ i < n).
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<String>,
+    /// Threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// How the model's functions run.
+    #[arg(long, value_enum, default_value_t)]
+    pub backend: BackendArg,
+    /// The table to write (CSV).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Arguments of `lasalle sweep-merge`.
+#[derive(Args, Debug)]
+pub struct MergeArgs {
+    /// The shards' tables.
+    #[arg(required = true)]
+    pub tables: Vec<PathBuf>,
+    /// The merged table.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// `i/n`.
+fn parse_shard(text: &str) -> Result<(usize, usize), String> {
+    let bad = || format!("invalid --shard `{text}`: expected `i/n` with 0 ≤ i < n, e.g. `3/10`");
+    let (i, n) = text.split_once('/').ok_or_else(bad)?;
+    let (i, n): (usize, usize) = (
+        i.trim().parse().map_err(|_| bad())?,
+        n.trim().parse().map_err(|_| bad())?,
+    );
+    if n == 0 || i >= n {
+        return Err(bad());
+    }
+    Ok((i, n))
+}
+
+/// The values of one `--grid` axis.
+fn parse_axis(text: &str) -> Result<(String, Vec<f64>), String> {
+    let bad = |why: &str| format!("invalid --grid `{text}`: {why}");
+    let (name, spec) = text
+        .split_once('=')
+        .ok_or_else(|| bad("expected `name=start:stop:count` or `name=v1,v2,…`"))?;
+    let number = |s: &str| -> Result<f64, String> {
+        s.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| bad(&format!("`{s}` is not a finite number")))
+    };
+    let values = match spec.split(':').collect::<Vec<_>>().as_slice() {
+        [a, b, n] => {
+            let (a, b) = (number(a)?, number(b)?);
+            let n: usize = n
+                .trim()
+                .parse()
+                .ok()
+                .filter(|&n| n >= 1)
+                .ok_or_else(|| bad("the count must be a whole number ≥ 1"))?;
+            if n == 1 {
+                vec![a]
+            } else {
+                (0..n)
+                    .map(|k| a + (b - a) * k as f64 / (n - 1) as f64)
+                    .collect()
+            }
+        }
+        [list] => list.split(',').map(number).collect::<Result<_, _>>()?,
+        _ => return Err(bad("expected `name=start:stop:count` or `name=v1,v2,…`")),
+    };
+    Ok((name.trim().to_string(), values))
+}
+
+/// The rows of the sweep: for each run, (parameter, value) pairs.
+fn rows(args: &SweepArgs) -> Result<Vec<Vec<(String, f64)>>, String> {
+    let mut rows: Vec<Vec<(String, f64)>> = vec![Vec::new()];
+    if let Some(path) = &args.list {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("cannot read --list {}: {e}", path.display()))?;
+        let mut lines = text.lines().filter(|l| !l.trim().is_empty());
+        let header: Vec<String> = lines
+            .next()
+            .ok_or_else(|| format!("--list {} is empty", path.display()))?
+            .split(',')
+            .map(|h| h.trim().to_string())
+            .collect();
+        let mut listed = Vec::new();
+        for (k, line) in lines.enumerate() {
+            let values: Vec<&str> = line.split(',').collect();
+            if values.len() != header.len() {
+                return Err(format!(
+                    "--list {} line {}: {} values for {} columns",
+                    path.display(),
+                    k + 2,
+                    values.len(),
+                    header.len()
+                ));
+            }
+            let mut row = Vec::new();
+            for (h, v) in header.iter().zip(values) {
+                let v: f64 = v
+                    .trim()
+                    .parse()
+                    .ok()
+                    .filter(|v: &f64| v.is_finite())
+                    .ok_or_else(|| {
+                        format!(
+                            "--list {} line {}: `{v}` is not a finite number",
+                            path.display(),
+                            k + 2
+                        )
+                    })?;
+                row.push((h.clone(), v));
+            }
+            listed.push(row);
+        }
+        rows = listed;
+    }
+    for axis in &args.grid {
+        let (name, values) = parse_axis(axis)?;
+        let mut crossed = Vec::with_capacity(rows.len() * values.len());
+        for row in rows {
+            for &v in &values {
+                let mut r = row.clone();
+                r.push((name.clone(), v));
+                crossed.push(r);
+            }
+        }
+        rows = crossed;
+    }
+    Ok(rows)
+}
+
+/// One run of the sweep, as a table row.
+fn run_row(
+    model: &mut LoadedModel,
+    index: usize,
+    row: &[(String, f64)],
+    args: &SweepArgs,
+    method: Method,
+) -> Result<Vec<String>, String> {
+    for (name, v) in row {
+        model
+            .set_param(name, &[*v])
+            .map_err(|e| format!("row {index}: {e}"))?;
+    }
+    let init = match &args.init {
+        Some(i) => i.clone(),
+        None => model
+            .point_names()
+            .first()
+            .map(|p| p.to_string())
+            .ok_or("the model has no named point: give --init x1,x2,…")?,
+    };
+    let x0 = initial_state(model, &init).map_err(|e| format!("row {index}: {e}"))?;
+    let mut spec = RunSpec::new(method, args.dt, args.t_end);
+    (spec.rtol, spec.atol) = (args.tol, args.tol);
+    spec.every = u64::MAX; // the initial and the final state
+    let trace = simulate_loaded(model, &x0, &spec).map_err(|e| format!("row {index}: {e}"))?;
+    Ok(cells(index, row, &trace))
+}
+
+fn cells(index: usize, row: &[(String, f64)], t: &Trace) -> Vec<String> {
+    let mut c = vec![index.to_string()];
+    c.extend(row.iter().map(|(_, v)| v.to_string()));
+    c.push(t.t.last().copied().unwrap_or(0.0).to_string());
+    c.push(t.steps.to_string());
+    c.push(t.evaluations.to_string());
+    c.push(t.wall_seconds.to_string());
+    for b in 0..t.blocks.len() {
+        c.push(t.final_error(b).to_string());
+        c.push(t.max_error(b).to_string());
+    }
+    c.extend(t.last_state().iter().map(|v| v.to_string()));
+    c.push(
+        t.failure
+            .as_ref()
+            .map(|e| format!("\"{}\"", e.to_string().replace('"', "'")))
+            .unwrap_or_default(),
+    );
+    c
+}
+
+/// Runs `lasalle sweep`.
+pub fn run(args: &SweepArgs) -> CliResult {
+    let method: Method = args.method.parse()?;
+    let (shard, shards) = match &args.shard {
+        Some(s) => parse_shard(s)?,
+        None => (0, 1),
+    };
+    let rows = rows(args)?;
+    let (path, _, text) = model_text(&args.model)?;
+    let backend: Backend = args.backend.into();
+    // the header, from one model
+    let probe = LoadedModel::from_source(&path, &text, backend).map_err(|e| e.to_string())?;
+    let mut header = vec!["row".to_string()];
+    header.extend(rows[0].iter().map(|(n, _)| n.clone()));
+    header.extend(["t_final", "steps", "evaluations", "wall_seconds"].map(String::from));
+    for info in probe.invariant_infos() {
+        header.push(format!("final |Δ{}|", info.slot.name));
+        header.push(format!("max |Δ{}|", info.slot.name));
+    }
+    header.extend(
+        lasalle::component_names(probe.state_slots())
+            .into_iter()
+            .map(|n| format!("{n}(T)")),
+    );
+    header.push("failure".to_string());
+    drop(probe);
+
+    let mine: Vec<(usize, &Vec<(String, f64)>)> = rows
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| k % shards == shard)
+        .collect();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0))
+        .build()
+        .map_err(|e| format!("cannot start threads: {e}"))?;
+    let start = std::time::Instant::now();
+    let results: Vec<Result<Vec<String>, String>> = pool.install(|| {
+        mine.par_iter()
+            .map_init(
+                || LoadedModel::from_source(&path, &text, backend).map_err(|e| e.to_string()),
+                |model, &(k, row)| match model {
+                    Ok(m) => run_row(m, k, row, args, method),
+                    Err(e) => Err(e.clone()),
+                },
+            )
+            .collect()
+    });
+    let mut table = header.join(",") + "\n";
+    for r in results {
+        table.push_str(&r?.join(","));
+        table.push('\n');
+    }
+    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    }
+    std::fs::write(&args.out, table)
+        .map_err(|e| format!("cannot write {}: {e}", args.out.display()))?;
+    eprintln!(
+        "sweep: {} of {} runs (shard {shard}/{shards}) in {:.2} s on {} threads → {}",
+        mine.len(),
+        rows.len(),
+        start.elapsed().as_secs_f64(),
+        pool.current_num_threads(),
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// Runs `lasalle sweep-merge`: the shards' rows, in order, each exactly once.
+pub fn merge(args: &MergeArgs) -> CliResult {
+    let mut header: Option<String> = None;
+    let mut rows: BTreeMap<usize, String> = BTreeMap::new();
+    for path in &args.tables {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        let mut lines = text.lines();
+        let h = lines
+            .next()
+            .ok_or_else(|| format!("{} is empty", path.display()))?;
+        match &header {
+            Some(first) if first != h => {
+                return Err(format!(
+                    "{} has another header than the first table: not the same sweep",
+                    path.display()
+                )
+                .into())
+            }
+            _ => header = Some(h.to_string()),
+        }
+        for line in lines.filter(|l| !l.is_empty()) {
+            let k: usize = line
+                .split(',')
+                .next()
+                .and_then(|k| k.parse().ok())
+                .ok_or_else(|| {
+                    format!("{}: a line without a row number: `{line}`", path.display())
+                })?;
+            if rows.insert(k, line.to_string()).is_some() {
+                return Err(format!(
+                    "row {k} appears twice (in {} and an earlier table)",
+                    path.display()
+                )
+                .into());
+            }
+        }
+    }
+    if let Some(missing) = (0..rows.len()).find(|k| !rows.contains_key(k)) {
+        return Err(format!("row {missing} is missing: did every shard finish?").into());
+    }
+    let mut out = header.unwrap_or_default() + "\n";
+    for line in rows.values() {
+        out.push_str(line);
+        out.push('\n');
+    }
+    std::fs::write(&args.out, out)
+        .map_err(|e| format!("cannot write {}: {e}", args.out.display()))?;
+    eprintln!(
+        "merged {} rows from {} tables → {}",
+        rows.len(),
+        args.tables.len(),
+        args.out.display()
+    );
+    Ok(())
+}
