@@ -187,8 +187,9 @@ pub use lasalle_codegen::ir::{Rational, Scalar};
 pub use model::{normalize_model, normalize_model_file, ModelHamiltonian, ModelPoint};
 pub use monomial::{binomial, MonomialTable};
 pub use normal_form::{
-    normalize, ActionTerm, ArnoldMoser, Diagnostics, NormalForm, Options, Point, PolyMap,
-    Precision, ResonantTerm, SmallDivisor, Term, Timings, Value,
+    normalize, ActionTerm, ArnoldMoser, DegreeError, Diagnostics, ErrorEstimate, NormalForm,
+    Options, Point, PolyMap, Precision, Progress, ResonantTerm, SmallDivisor, Stage, Term, Timings,
+    Value, DEFAULT_MAX_RELATIVE_ERROR, MAX_ORDER,
 };
 pub use poly::Poly;
 pub use scalar::{Coeff, Real};
