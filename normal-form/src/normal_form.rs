@@ -362,9 +362,13 @@ pub struct DegreeError {
     pub max_imag: f64,
     /// max over the degree of the estimated error (when estimated).
     pub max_error: Option<f64>,
-    /// max over the degree of error(h_a) / max(|h_a|, 10⁻⁶·max_coeff): the worst relative
-    /// error of a coefficient, coefficients below a millionth of the degree's largest being
-    /// measured against that millionth (exact zeros would otherwise count as wholly wrong).
+    /// max over the degree of error(h_a) / max(|h_a|, 1000·u·max_coeff) (u: the unit roundoff
+    /// of the precision): the worst relative error of a coefficient. Small coefficients matter
+    /// (at Earth–Moon the I₁ᵏ coefficients, the short-period family, are 10⁻¹⁵ of the largest
+    /// of degree 20 and lose 6% in f64), so only those below 1000 unit roundoffs of the largest
+    /// are measured against that size; exact zeros (0 with error 0) are skipped. A coefficient
+    /// that vanishes in exact arithmetic but comes out as amplified rounding noise counts as
+    /// lost: turn the check off (`max_relative_error = None`) if that is known to happen.
     pub max_relative_error: Option<f64>,
 }
 
@@ -1095,17 +1099,28 @@ fn estimate_errors<H: HamiltonianFn + ?Sized>(
     nf.diagnostics.timings.error_estimate = t.elapsed().as_secs_f64();
 }
 
+/// Coefficients smaller than this many unit roundoffs of the largest of their degree are
+/// measured against that size in [`DegreeError::max_relative_error`].
+const RESOLVABLE: f64 = 1e3;
+
 /// `Options::max_relative_error` by default: three correct digits in every coefficient.
 pub const DEFAULT_MAX_RELATIVE_ERROR: f64 = 1e-3;
 
 /// [`DegreeError::max_error`] and [`DegreeError::max_relative_error`] from the estimates.
 fn fill_degree_errors(nf: &mut NormalForm) {
+    let unit = match nf.precision {
+        Precision::F64 => f64::EPSILON / 2.0,
+        Precision::DoubleDouble => Dd::EPSILON,
+    };
     for d in nf.diagnostics.hbar_degrees.iter_mut() {
-        let floor = 1e-6 * d.max_coeff;
+        let floor = RESOLVABLE * unit * d.max_coeff;
         let (mut abs, mut rel, mut any) = (0.0f64, 0.0f64, false);
         for t in nf.hamiltonian.iter().filter(|t| t.degree == d.degree) {
             if let Some(e) = t.coeff.error {
                 any = true;
+                if e == 0.0 && t.coeff.value == 0.0 {
+                    continue; // an exact zero
+                }
                 abs = abs.max(e);
                 let m = t.coeff.value.abs().max(floor);
                 rel = rel.max(if m > 0.0 { e / m } else { 0.0 });

@@ -313,7 +313,8 @@ impl NormalForm {
         if t.error_estimate > 0.0 {
             let _ = write!(
                 s,
-                " + error estimate (rerun in the other precision) {:.4} s = {:.1}x the run",
+                " + error estimate ({}) {:.4} s = {:.1}x the run",
+                d.error_method.as_deref().unwrap_or("second run"),
                 t.error_estimate,
                 t.error_estimate / t.total.max(1e-12)
             );
