@@ -977,6 +977,13 @@ fn validate_options(o: &Options) -> Result<(), NormalFormError> {
             "basis_rotation contains {x}: angles must be finite"
         ));
     }
+    if let Some(x) = o.max_relative_error {
+        if !(x > 0.0 && x <= 1.0) {
+            return bad(format!(
+                "max_relative_error = {x}: must be in (0, 1] (or None for no check)"
+            ));
+        }
+    }
     if o.max_newton == 0 {
         return bad("max_newton = 0: at least one Newton iteration is needed".into());
     }
