@@ -118,7 +118,8 @@ pub enum Point {
 }
 
 /// Options of [`normalize`]. Defaults: order 12, f64, non-resonant, resonance tolerance 1e-6,
-/// error estimate on, transformation on.
+/// error estimate in the other precision with the precision check at 1e-3 (no automatic
+/// switch), transformation on.
 #[derive(Clone, Debug)]
 pub struct Options {
     /// Truncation degree N ≥ 2 of the normal form (H̄ contains actions up to degree N/2).
@@ -130,7 +131,7 @@ pub struct Options {
     pub resonant: bool,
     /// Assumption 1′ tolerance on |m·ω| for 0 < |m|₁ ≤ N. Default: 1e-6.
     pub resonance_tol: f64,
-    /// How to estimate the error of each coefficient. Default: [`ErrorEstimate::Rerun`].
+    /// How to estimate the error of each coefficient. Default: [`ErrorEstimate::OtherPrecision`].
     pub error_estimate: ErrorEstimate,
     /// Largest estimated relative error accepted for a coefficient of H̄
     /// ([`DegreeError::max_relative_error`]; needs an error estimate). Above it the run fails
@@ -385,7 +386,9 @@ pub struct Diagnostics {
     pub diagonal_residual: f64,
     /// max |off-diagonal part of H₂| in the complex coordinates (dropped).
     pub quadratic_residual: f64,
-    /// max |Im| of the action coefficients (should be rounding noise).
+    /// max |Im| of the action coefficients: rounding of the substitution into the complex
+    /// coordinates only (the brackets are exactly real), absolute; not an error measure (see
+    /// [`DegreeError`] and the error estimates).
     pub hbar_imag_residual: f64,
     /// Per degree of H̄: largest coefficient, imaginary residual and estimated errors.
     pub hbar_degrees: Vec<DegreeError>,
