@@ -490,7 +490,7 @@ struct Raw<R> {
     /// dense over action exponents with 1 ≤ |a| ≤ N/2 (in table order of degree 2|a| with a=b)
     hbar: Vec<(Vec<u32>, R)>,
     hbar_imag: f64,
-    noise: Vec<DegreeError>,
+    degrees: Vec<DegreeError>,
     resonant_terms: Vec<ResonantTerm>,
     /// dense over all monomials of degrees 3…N
     generating: Vec<(Vec<u32>, usize, R)>,
@@ -746,7 +746,7 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(
     let mut hbar: Vec<(Vec<u32>, R)> = Vec::new();
     let mut hbar_imag: f64 = 0.0;
     let mut resonant_terms = Vec::new();
-    let mut noise = Vec::new();
+    let mut degrees = Vec::new();
     for k in (2..=nmax).step_by(2) {
         let mut dn = DegreeError {
             degree: k,
@@ -766,7 +766,7 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(
             }
         }
         hbar_imag = hbar_imag.max(dn.max_imag);
-        noise.push(dn);
+        degrees.push(dn);
     }
     for (k, i, zc) in out.z.terms() {
         let e = table.exponents(k, i);
@@ -858,7 +858,7 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(
         quadratic_residual,
         hbar,
         hbar_imag,
-        noise,
+        degrees,
         resonant_terms,
         generating,
         generating_imag,
@@ -931,7 +931,7 @@ fn assemble<R: Real, H: HamiltonianFn + ?Sized>(h: &H, raw: Raw<R>, o: &Options)
             diagonal_residual: raw.diagonal_residual,
             quadratic_residual: raw.quadratic_residual,
             hbar_imag_residual: raw.hbar_imag,
-            hbar_degrees: raw.noise,
+            hbar_degrees: raw.degrees,
             generating_imag_residual: raw.generating_imag,
             transform_imag_residual: raw.transform_imag,
             error_method: None,
