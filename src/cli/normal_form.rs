@@ -83,9 +83,10 @@ pub struct NormalFormArgs {
     #[arg(long, default_value_t = 1e-6, allow_hyphen_values = true)]
     resonance_tol: f64,
     /// Largest estimated relative error accepted for a coefficient of H̄ (coefficients below
-    /// 1e-6 of the largest of their degree count relative to that). Above it the numbers are
-    /// not printed: with `--precision auto` the run is redone in double-double, otherwise it
-    /// fails. In (0, 1]; default 1e-3, three correct digits.
+    /// 1000 unit roundoffs of the largest of their degree count relative to that size). Above
+    /// it the numbers are not printed: with `--precision auto` the run is redone in
+    /// double-double, otherwise it fails. In (0, 1]; default 1e-3, three correct digits. (At
+    /// Earth–Moon L4 f64 passes through order 17 and fails from degree 18 on.)
     #[arg(long, default_value_t = DEFAULT_MAX_RELATIVE_ERROR, allow_hyphen_values = true)]
     max_rel_error: f64,
     /// How to estimate the error of each coefficient (also what `--max-rel-error` checks).
