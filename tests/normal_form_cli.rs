@@ -65,3 +65,262 @@ fn errors_name_the_resonance_and_the_eigenvalues() {
     let (ok, _, err) = lasalle(&["normal-form", "models/kepler.lsl"]);
     assert!(!ok && err.contains("has no `hamiltonian`"), "{err}");
 }
+
+/// `lasalle` with the given arguments in a fresh temporary directory.
+fn scratch_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("lasalle-nf-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn a_repeated_frequency_is_a_1_1_resonance() {
+    // issue 11, 5a: w2 = 1 makes both frequencies 1
+    let (ok, _, err) = lasalle(&[
+        "normal-form",
+        "models/coupled_oscillators.lsl",
+        "--param",
+        "w2=1",
+        "--order",
+        "6",
+    ]);
+    assert!(!ok, "{err}");
+    assert!(
+        err.contains("resonance m = (1, -1) at order 4")
+            && err.contains("ω1 = ω2 is a repeated frequency")
+            && err.contains("--resonant")
+            && err.contains("--order 3")
+            && !err.contains("not elliptic"),
+        "{err}"
+    );
+    let (ok, out, err) = lasalle(&[
+        "normal-form",
+        "coupled_oscillators",
+        "--param",
+        "w2=1",
+        "--order",
+        "6",
+        "--resonant",
+    ]);
+    assert!(ok, "{err}");
+    assert!(out.contains("resonant normal form"), "{out}");
+    assert!(out.contains("resonant terms kept"), "{out}");
+    assert!(!out.contains("sum_a h_a I^a,"), "{out}");
+    assert!(
+        !out.contains("Arnold-Moser") && !out.contains("D4 ="),
+        "{out}"
+    );
+    assert!(out.contains("(kept: resonant)"), "{out}");
+    let (ok, out, err) = lasalle(&[
+        "normal-form",
+        "coupled_oscillators",
+        "--param",
+        "w2=1",
+        "--resonant",
+        "--format",
+        "json",
+    ]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert!(v["d4"].is_null());
+    assert_eq!(v["omega"][0]["value"].as_f64(), Some(1.0));
+    assert_eq!(v["omega"][1]["value"].as_f64(), Some(1.0));
+}
+
+#[test]
+fn numeric_options_are_validated_by_name() {
+    // issue 11, 5b
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &["--resonance-tol", "nan"],
+            "`--resonance-tol NaN`: must be a finite number ≥ 0",
+        ),
+        (
+            &["--resonance-tol", "inf"],
+            "`--resonance-tol inf`: must be a finite number ≥ 0",
+        ),
+        (&["--resonance-tol", "-1e-3"], "`--resonance-tol -0.001`"),
+        (
+            &["--param", "mu=nan"],
+            "`--param mu=nan`: the value must be a finite number",
+        ),
+        (
+            &["--order", "1"],
+            "`--order 1`: the truncation degree must be between 2 and 120",
+        ),
+        (&["--order", "121"], "`--order 121`"),
+        (
+            &["--max-rel-error", "0"],
+            "`--max-rel-error 0`: must be a number in (0, 1]",
+        ),
+        (&["--max-rel-error", "nan"], "`--max-rel-error NaN`"),
+        (
+            &["--at", "0.5,inf,0,0"],
+            "`--at 0.5,inf,0,0`: `inf` is not a finite number",
+        ),
+    ];
+    for (extra, want) in cases {
+        let args = [&["normal-form", "cr3bp"][..], extra].concat();
+        let (ok, out, err) = lasalle(&args);
+        assert!(!ok && err.contains(want), "{extra:?}: {err}");
+        assert!(out.is_empty(), "{extra:?} printed {out}");
+    }
+}
+
+#[test]
+fn f64_breakdown_at_earth_moon_is_detected() {
+    // issue 11, 5c: from degree 18 an f64 coefficient (I1^9) has > 1e-3 relative error
+    let (ok, out, err) = lasalle(&[
+        "normal-form",
+        "cr3bp",
+        "--order",
+        "20",
+        "--precision",
+        "f64",
+    ]);
+    assert!(!ok && out.is_empty(), "{out}");
+    assert!(
+        err.contains("f64 is not enough for this normal form from degree 18 on")
+            && err.contains("--precision dd"),
+        "{err}"
+    );
+    // auto (the default) switches to double-double and says so
+    let (ok, out, err) = lasalle(&["normal-form", "cr3bp", "--order", "20"]);
+    assert!(ok, "{err}");
+    assert!(err.contains("recomputed in double-double"), "{err}");
+    assert!(out.contains("(dd precision") && out.contains("recomputed in double-double"));
+    // below the breakdown f64 stays
+    let (ok, out, err) = lasalle(&["normal-form", "cr3bp", "--order", "16"]);
+    assert!(
+        ok && out.contains("(f64 precision") && !err.contains("note"),
+        "{err}"
+    );
+}
+
+#[test]
+fn error_estimate_cost_is_stated_and_cheap_by_default() {
+    // issue 11, 5d
+    let (ok, out, err) = lasalle(&["normal-form", "cr3bp", "--order", "16"]);
+    assert!(ok, "{err}");
+    assert!(out.contains("normal planes rotated"), "{out}");
+    let time = out
+        .lines()
+        .find(|l| l.starts_with("time:"))
+        .expect("time line");
+    assert!(time.contains("x the run"), "{time}");
+    let (ok, out, _) = lasalle(&[
+        "normal-form",
+        "cr3bp",
+        "--order",
+        "12",
+        "--error-estimate",
+        "rerun",
+    ]);
+    assert!(
+        ok && out.contains("errors estimated as |f64 - dd|"),
+        "{out}"
+    );
+    let (ok, out, _) = lasalle(&["normal-form", "--help"]);
+    assert!(ok && out.contains("3.3×"), "{out}");
+}
+
+#[test]
+fn no_progress_bar_when_stderr_is_not_a_terminal() {
+    // issue 11, 5e: the bar is drawn only on a terminal (see also the library test of the
+    // progress stages in normal-form/tests/progress.rs)
+    let (ok, _, err) = lasalle(&["normal-form", "cr3bp", "--order", "14"]);
+    assert!(ok);
+    assert!(err.is_empty(), "stderr: {err:?}");
+}
+
+#[test]
+fn progress_bar_on_a_terminal() {
+    // run under `script` (util-linux) so that stderr is a pseudo-terminal
+    let have_script = Command::new("script")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !have_script {
+        eprintln!("`script` not available: skipped");
+        return;
+    }
+    let cmd = format!(
+        "{} normal-form cr3bp --order 24 --precision dd > /dev/null",
+        env!("CARGO_BIN_EXE_lasalle")
+    );
+    let out = Command::new("script")
+        .args(["-qec", &cmd, "/dev/null"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("script");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    assert!(text.contains("dd: degree"), "{text}");
+}
+
+#[test]
+fn bad_output_paths_fail_before_computing() {
+    // issue 11, 5f
+    let dir = scratch_dir("paths");
+    let missing = dir.join("no/such/dir/out.txt");
+    let m = missing.to_string_lossy().into_owned();
+    let (ok, out, err) = lasalle(&["normal-form", "cr3bp", "--order", "24", "--out", &m]);
+    assert!(!ok && out.is_empty(), "{out}");
+    assert!(
+        err.contains(&format!("`--out {m}`")) && err.contains("does not exist"),
+        "{err}"
+    );
+    // --emit-rust into a directory: nothing printed, nothing computed
+    let d = dir.to_string_lossy().into_owned();
+    let t = std::time::Instant::now();
+    let (ok, out, err) = lasalle(&["normal-form", "cr3bp", "--order", "30", "--emit-rust", &d]);
+    assert!(!ok && out.is_empty(), "{out}");
+    assert!(
+        err.contains(&format!("`--emit-rust {d}`: is a directory")),
+        "{err}"
+    );
+    assert!(t.elapsed().as_secs_f64() < 2.0, "it computed first");
+    // a good --out with a failing run leaves no empty file behind
+    let file = dir.join("table.txt");
+    let f = file.to_string_lossy().into_owned();
+    let (ok, _, _) = lasalle(&["normal-form", "cr3bp", "--param", "mu=0.05", "--out", &f]);
+    assert!(!ok && !file.exists());
+    let (ok, out, err) = lasalle(&["normal-form", "cr3bp", "--order", "6", "--out", &f]);
+    assert!(ok && out.is_empty(), "{err}");
+    assert!(std::fs::read_to_string(&file)
+        .unwrap()
+        .contains("Birkhoff normal form"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn spatial_cr3bp_at_order_16_in_double_double() {
+    // issue 11, item 6: three degrees of freedom, vertical frequency 1 (by path: the built-in
+    // name `cr3bp_spatial` works as well, but the list of embedded models is fixed when the
+    // binary is built)
+    let t = std::time::Instant::now();
+    let (ok, out, err) = lasalle(&[
+        "normal-form",
+        "models/cr3bp_spatial.lsl",
+        "--order",
+        "16",
+        "--precision",
+        "dd",
+        "--format",
+        "json",
+    ]);
+    let secs = t.elapsed().as_secs_f64();
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["n_dof"].as_u64(), Some(3));
+    let omega: Vec<f64> = v["omega"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w["value"].as_f64().unwrap())
+        .collect();
+    assert_eq!(omega.len(), 3);
+    assert!(omega.iter().any(|w| (w - 1.0).abs() < 1e-15), "{omega:?}");
+    assert!(secs < 60.0, "{secs} s");
+}

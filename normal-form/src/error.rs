@@ -45,16 +45,27 @@ fn ivec(m: &[i32]) -> String {
 #[derive(Debug, Error, Clone, PartialEq)]
 #[non_exhaustive]
 pub enum NormalFormError {
-    /// The linearisation has eigenvalues off the imaginary axis, or repeated ones.
-    #[error("equilibrium is not elliptic: eigenvalues {}{}", list(.eigenvalues), if *.repeated { " (not distinct)" } else { "" })]
+    /// The linearisation has eigenvalues off the imaginary axis.
+    #[error("equilibrium is not elliptic: eigenvalues {} (a Birkhoff normal form needs them all on the imaginary axis)", list(.eigenvalues))]
     NotElliptic {
         /// All eigenvalues of the linearised field J·S.
         eigenvalues: Vec<Eigenvalue>,
-        /// True when they are on the imaginary axis but not distinct.
-        repeated: bool,
+    },
+    /// A repeated frequency whose eigenspace is too small: the linearisation is not
+    /// diagonalisable (no linear normal form `Σ σ_k ω_k I_k` exists).
+    #[error("the frequency ω = {omega:.12} is repeated {multiplicity} times (ω = {}) but the linearisation has only {eigenvectors} eigenvector(s) for it: it is not diagonalisable (a nilpotent part, as at L4 for Routh's mass ratio), so no Birkhoff normal form exists here; change the parameters to separate the frequencies", list_f(.frequencies))]
+    Defective {
+        /// The repeated frequency.
+        omega: f64,
+        /// Its multiplicity.
+        multiplicity: usize,
+        /// Independent eigenvectors of iω found.
+        eigenvectors: usize,
+        /// All frequencies.
+        frequencies: Vec<f64>,
     },
     /// Assumption 1′ fails: |m·ω| below the resonance tolerance for some 0 < |m| ≤ N.
-    #[error("resonance m = {} at order {order}: m·ω = {m_dot_omega:.3e} (ω = {}); use `--resonant` to keep resonant terms", ivec(.m), list_f(.omega))]
+    #[error("resonance m = {} at order {order}: m·ω = {m_dot_omega:.3e} (ω = {}){}; the Birkhoff normal form exists only to degree {}: use `--resonant` to keep the resonant terms (a resonant normal form), or `--order {}`", ivec(.m), list_f(.omega), repeated_hint(.m, .omega, *.m_dot_omega), .order - 1, .order - 1)]
     Resonance {
         /// Integer vector m (relative to the positive frequencies ω).
         m: Vec<i32>,
@@ -79,6 +90,21 @@ pub enum NormalFormError {
         /// |∇H| at the point.
         gradient_norm: f64,
     },
+    /// The working precision is not enough: a coefficient's estimated relative error is above
+    /// `Options::max_relative_error`.
+    #[error("{precision} is not enough for this normal form from degree {degree} on: a coefficient of that degree has an estimated relative error of {relative_error:.1e} (limit {limit:.0e}), so the numbers would be meaningless; {advice}")]
+    PrecisionLost {
+        /// The precision (`f64` or `dd`).
+        precision: String,
+        /// The first degree of H̄ over the limit.
+        degree: usize,
+        /// Its worst estimated relative error (see `DegreeError::max_relative_error`).
+        relative_error: f64,
+        /// The limit.
+        limit: f64,
+        /// What to do.
+        advice: String,
+    },
     /// A size or option is out of range.
     #[error("invalid input: {0}")]
     Invalid(String),
@@ -95,4 +121,23 @@ fn list_f(w: &[f64]) -> String {
         .map(|x| format!("{x:.12}"))
         .collect::<Vec<_>>()
         .join(", ")
+}
+
+/// ", ω1 = ω2 is repeated (1:1 resonance)" when m = e_j − e_k and m·ω vanishes.
+fn repeated_hint(m: &[i32], omega: &[f64], m_dot_omega: f64) -> String {
+    let nz: Vec<usize> = (0..m.len()).filter(|&k| m[k] != 0).collect();
+    let scale = omega.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+    if nz.len() == 2
+        && m[nz[0]].abs() == 1
+        && m[nz[1]].abs() == 1
+        && m_dot_omega.abs() <= 1e-9 * scale
+    {
+        format!(
+            "; ω{} = ω{} is a repeated frequency, a 1:1 resonance",
+            nz[0] + 1,
+            nz[1] + 1
+        )
+    } else {
+        String::new()
+    }
 }

@@ -324,7 +324,8 @@ pub(crate) fn canonical_m(m: &[i32], sigma: &[i8]) -> (Vec<i32>, bool) {
 /// `omega_dd`: the frequencies in double-double (the divisors are formed from them);
 /// `is_resonant(m)` decides whether the term is kept (resonant normal form); it is only
 /// asked about canonical m; brackets with output degree ≤ `compensate_to` are accumulated in
-/// double-double ([`bracket_real_compensated`]).
+/// double-double ([`bracket_real_compensated`]); `on_degree(r)` is called before degree r is
+/// normalised.
 #[allow(clippy::needless_range_loop)]
 pub(crate) fn normalize<R: Real>(
     mut h: Poly<Complex<R>>,
@@ -332,6 +333,7 @@ pub(crate) fn normalize<R: Real>(
     sigma: &[i8],
     is_resonant: &dyn Fn(&[i32]) -> bool,
     compensate_to: usize,
+    on_degree: &dyn Fn(usize),
 ) -> LieOutput<R> {
     let table = h.table().clone();
     let nmax = table.max_degree();
@@ -340,6 +342,7 @@ pub(crate) fn normalize<R: Real>(
     let mut divisors: BTreeMap<Vec<i32>, Divisor<R>> = BTreeMap::new();
     h.set_part(1, Vec::new());
     for r in 3..=nmax {
+        on_degree(r);
         let Some(hr) = h.part(r) else { continue };
         let hr = hr.to_vec();
         let mut g = vec![Complex::zero(); hr.len()];

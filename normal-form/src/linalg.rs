@@ -167,6 +167,120 @@ pub fn null_vector<T: Coeff>(mut a: Mat<T>) -> Vec<T> {
     x
 }
 
+/// A basis of the numerical null space of the square matrix A: Gaussian elimination with
+/// complete pivoting, stopped when the largest remaining entry is ≤ `rel_tol` times the first
+/// pivot; each remaining (free) column gives one basis vector by back substitution. For a
+/// corank-one matrix this is [`null_vector`]'s vector.
+#[allow(clippy::needless_range_loop)]
+pub fn null_space<T: Coeff>(mut a: Mat<T>, rel_tol: f64) -> Vec<Vec<T>> {
+    let n = a.len();
+    let mut perm: Vec<usize> = (0..n).collect();
+    let mut rank = 0;
+    let mut first = 0.0;
+    for k in 0..n {
+        let (mut pi, mut pj, mut best) = (k, k, -1.0);
+        for (i, row) in a.iter().enumerate().skip(k) {
+            for (j, x) in row.iter().enumerate().skip(k) {
+                let m = x.magnitude();
+                if m > best {
+                    (pi, pj, best) = (i, j, m);
+                }
+            }
+        }
+        if k == 0 {
+            first = best;
+        }
+        if best <= rel_tol * first || best == 0.0 {
+            break;
+        }
+        a.swap(k, pi);
+        for row in a.iter_mut() {
+            row.swap(k, pj);
+        }
+        perm.swap(k, pj);
+        for i in k + 1..n {
+            let f = a[i][k] / a[k][k];
+            for j in k..n {
+                let t = a[k][j];
+                a[i][j] -= f * t;
+            }
+        }
+        rank = k + 1;
+    }
+    (rank..n)
+        .map(|free| {
+            let mut y = vec![T::zero(); n];
+            y[free] = T::one();
+            for i in (0..rank).rev() {
+                let mut s = T::zero();
+                for j in i + 1..n {
+                    s -= a[i][j] * y[j];
+                }
+                y[i] = s / a[i][i];
+            }
+            let mut x = vec![T::zero(); n];
+            for (k, &p) in perm.iter().enumerate() {
+                x[p] = y[k];
+            }
+            x
+        })
+        .collect()
+}
+
+/// Eigenvalues and unitary eigenvectors (columns of V, `Vᴴ G V = diag`) of a small Hermitian
+/// matrix by cyclic complex Jacobi rotations.
+#[allow(clippy::needless_range_loop)]
+pub fn hermitian_eigen<R: Real>(mut g: Mat<Complex<R>>) -> (Vec<R>, Mat<Complex<R>>) {
+    let m = g.len();
+    let mut v: Mat<Complex<R>> = identity(m);
+    let scale = g
+        .iter()
+        .flat_map(|r| r.iter().map(|c| c.magnitude()))
+        .fold(0.0, f64::max)
+        .max(1e-300);
+    for _sweep in 0..60 {
+        let off = (0..m)
+            .flat_map(|p| (p + 1..m).map(move |q| (p, q)))
+            .map(|(p, q)| g[p][q].magnitude())
+            .fold(0.0, f64::max);
+        if off <= 4.0 * R::EPSILON * scale {
+            break;
+        }
+        for p in 0..m {
+            for q in p + 1..m {
+                let a = g[p][q].abs();
+                if a.to_f64() <= R::EPSILON * scale * 1e-3 {
+                    continue;
+                }
+                // D = diag(1, d) with d = conj(g_pq)/|g_pq| makes the (p, q) entry real, then
+                // the real rotation [[c, s], [−s, c]] annihilates it: U = D·R on (p, q)
+                let d = g[p][q].conj().scale_r(R::one() / a);
+                let theta = (g[q][q].re - g[p][p].re) / (a + a);
+                let t = R::from_f64(theta.to_f64().signum())
+                    / (theta.abs() + (theta * theta + R::one()).sqrt());
+                let c = R::one() / (t * t + R::one()).sqrt();
+                let s = t * c;
+                let upp = Complex::real(c);
+                let upq = Complex::real(s);
+                let uqp = d.scale_r(-s);
+                let uqq = d.scale_r(c);
+                // G ← G U (columns p, q), then G ← Uᴴ G (rows p, q); V ← V U
+                for row in g.iter_mut().chain(v.iter_mut()) {
+                    let (x, y) = (row[p], row[q]);
+                    row[p] = x * upp + y * uqp;
+                    row[q] = x * upq + y * uqq;
+                }
+                for j in 0..m {
+                    let (x, y) = (g[p][j], g[q][j]);
+                    g[p][j] = upp.conj() * x + uqp.conj() * y;
+                    g[q][j] = upq.conj() * x + uqq.conj() * y;
+                }
+            }
+        }
+    }
+    ((0..m).map(|k| g[k][k].re).collect(), v)
+}
+
 /// Coefficients c₀…c_n of det(λI − M) = Σ c_k λᵏ (c_n = 1), by Faddeev–LeVerrier.
 pub fn char_poly<R: Real>(m: &Mat<R>) -> Vec<R> {
     let n = m.len();
@@ -269,6 +383,44 @@ mod tests {
         for (z, e) in r.iter().zip([-2.0, 1.0, 3.0]) {
             assert!((z.re - e).abs() < 1e-14 && z.im.abs() < 1e-14);
         }
+    }
+
+    #[test]
+    fn null_space_of_rank_two_and_hermitian_eigen() {
+        // rank 2 in ℝ⁴: two null vectors
+        let a = vec![
+            vec![1.0, 2.0, 0.0, 1.0],
+            vec![0.0, 1.0, 1.0, 0.0],
+            vec![1.0, 3.0, 1.0, 1.0],
+            vec![2.0, 4.0, 0.0, 2.0],
+        ];
+        let ns = null_space(a.clone(), 1e-12);
+        assert_eq!(ns.len(), 2);
+        for x in &ns {
+            assert!(matvec(&a, x).iter().all(|v| v.abs() < 1e-13), "{x:?}");
+        }
+        // an indefinite Hermitian 3×3
+        let c = |re: f64, im: f64| Complex::new(re, im);
+        let g = vec![
+            vec![c(0.0, 0.0), c(1.0, 2.0), c(0.5, 0.0)],
+            vec![c(1.0, -2.0), c(0.0, 0.0), c(0.0, -1.0)],
+            vec![c(0.5, 0.0), c(0.0, 1.0), c(-1.0, 0.0)],
+        ];
+        let (ev, v) = hermitian_eigen(g.clone());
+        let vh: Mat<Complex<f64>> = transpose(&v)
+            .into_iter()
+            .map(|r| r.into_iter().map(|z| z.conj()).collect())
+            .collect();
+        let d = matmul(&matmul(&vh, &g), &v);
+        for i in 0..3 {
+            for j in 0..3 {
+                let want = if i == j { ev[i] } else { 0.0 };
+                assert!((d[i][j] - Complex::real(want)).magnitude() < 1e-13, "{d:?}");
+            }
+        }
+        let trace: f64 = ev.iter().sum();
+        assert!((trace + 1.0).abs() < 1e-13);
+        assert!(ev.iter().any(|&x| x > 0.5) && ev.iter().any(|&x| x < -0.5));
     }
 
     #[test]

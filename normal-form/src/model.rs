@@ -202,7 +202,7 @@ pub fn normalize_model(
         ModelPoint::Auto => {
             let name = h.point_names().into_iter().next().ok_or_else(|| {
                 NormalFormError::Model(format!(
-                    "model `{}` declares no point: give one with `--point`",
+                    "model `{}` declares no point: give one with `--at POINT|x1,x2,…`",
                     model.name
                 ))
             })?;

@@ -48,6 +48,65 @@ impl std::fmt::Display for Precision {
     }
 }
 
+/// A stage of the computation, reported to [`Options::progress`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    /// Equilibrium, Taylor expansion and linear normalisation (in this precision).
+    Start(Precision),
+    /// The Lie normalisation of degree `degree` (3…`order`) begins.
+    Degree {
+        /// The degree being normalised.
+        degree: usize,
+        /// The truncation order N.
+        order: usize,
+        /// The precision of this run.
+        precision: Precision,
+    },
+    /// The real forms and the coordinate transformations.
+    Transform,
+    /// A second run in the other precision (error estimate or precision fallback) begins.
+    Rerun(Precision),
+    /// Done.
+    Done,
+}
+
+/// A callback receiving [`Stage`]s (e.g. to drive a progress bar).
+#[derive(Clone)]
+pub struct Progress(pub Arc<dyn Fn(Stage) + Send + Sync>);
+
+impl std::fmt::Debug for Progress {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Progress(..)")
+    }
+}
+
+impl Progress {
+    fn report(p: &Option<Progress>, stage: Stage) {
+        if let Some(p) = p {
+            (p.0)(stage)
+        }
+    }
+}
+
+/// How [`normalize`] estimates the error of each coefficient.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum ErrorEstimate {
+    /// No estimate (and no precision check).
+    #[serde(rename = "none")]
+    None,
+    /// Rerun H̄ in the same precision with every normal plane rotated (H̄ does not depend on
+    /// the rotation, the rounding does) and take `|c − c_rotated|`. Costs about one run
+    /// without the transformation (1×); tracks the real error within a factor ~3 (at
+    /// Earth–Moon and μ = 0.001, degrees 4…24: `examples/noise.rs`).
+    #[serde(rename = "rotation")]
+    Rotation,
+    /// Rerun H̄ in the other precision and compare: `|c_f64 − c_dd|` for an f64 run (the real
+    /// f64 error; costs 1.2× at order ≤ 12 to 3.3× at order ≥ 24 the f64 run),
+    /// `|c_f64 − c_dd|·2⁻⁵¹` for a double-double run (0.3–0.8× the run).
+    #[serde(rename = "other-precision")]
+    OtherPrecision,
+}
+
 /// Where to normalise.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Point {
@@ -59,7 +118,8 @@ pub enum Point {
 }
 
 /// Options of [`normalize`]. Defaults: order 12, f64, non-resonant, resonance tolerance 1e-6,
-/// error estimate on, transformation on.
+/// error estimate in the other precision with the precision check at 1e-3 (no automatic
+/// switch), transformation on.
 #[derive(Clone, Debug)]
 pub struct Options {
     /// Truncation degree N ≥ 2 of the normal form (H̄ contains actions up to degree N/2).
@@ -71,8 +131,16 @@ pub struct Options {
     pub resonant: bool,
     /// Assumption 1′ tolerance on |m·ω| for 0 < |m|₁ ≤ N. Default: 1e-6.
     pub resonance_tol: f64,
-    /// Also run the other precision and report |difference| per coefficient. Default: true.
-    pub error_estimate: bool,
+    /// How to estimate the error of each coefficient. Default: [`ErrorEstimate::OtherPrecision`].
+    pub error_estimate: ErrorEstimate,
+    /// Largest estimated relative error accepted for a coefficient of H̄
+    /// ([`DegreeError::max_relative_error`]; needs an error estimate). Above it the run fails
+    /// with [`NormalFormError::PrecisionLost`], or, with `auto_precision`, an f64 run is redone
+    /// in double-double. `None`: no check. Default: `Some(1e-3)` (three digits).
+    pub max_relative_error: Option<f64>,
+    /// Redo an f64 run in double-double when its estimated error exceeds
+    /// `max_relative_error` (and say so in [`Diagnostics::precision_note`]). Default: false.
+    pub auto_precision: bool,
     /// Compute the transformation to and from normal coordinates. Default: true.
     pub transform: bool,
     /// Newton iterations allowed. Default: 50.
@@ -89,6 +157,8 @@ pub struct Options {
     /// rounding errors meet the most small divisors afterwards, and they are cheap.
     /// Default: 12; 0 = plain f64 arithmetic throughout.
     pub compensated_degree: usize,
+    /// Called at each stage and before each degree of the Lie normalisation. Default: none.
+    pub progress: Option<Progress>,
 }
 
 impl Default for Options {
@@ -98,12 +168,15 @@ impl Default for Options {
             precision: Precision::F64,
             resonant: false,
             resonance_tol: 1e-6,
-            error_estimate: true,
+            error_estimate: ErrorEstimate::OtherPrecision,
+            max_relative_error: Some(DEFAULT_MAX_RELATIVE_ERROR),
+            auto_precision: false,
             transform: true,
             max_newton: 50,
             equilibrium_tol: 1e-8,
             basis_rotation: Vec::new(),
             compensated_degree: 12,
+            progress: None,
         }
     }
 }
@@ -126,9 +199,28 @@ impl Options {
         self.resonant = r;
         self
     }
-    /// Turns the error estimate on or off.
+    /// Turns the error estimate on ([`ErrorEstimate::OtherPrecision`]) or off.
     pub fn error_estimate(mut self, e: bool) -> Self {
+        self.error_estimate = if e {
+            ErrorEstimate::OtherPrecision
+        } else {
+            ErrorEstimate::None
+        };
+        self
+    }
+    /// Sets the error estimate.
+    pub fn estimate(mut self, e: ErrorEstimate) -> Self {
         self.error_estimate = e;
+        self
+    }
+    /// Sets the limit on the estimated relative error of the coefficients (`None`: no check).
+    pub fn max_relative_error(mut self, limit: Option<f64>) -> Self {
+        self.max_relative_error = limit;
+        self
+    }
+    /// Redo an f64 run in double-double when its estimated error exceeds the limit.
+    pub fn auto_precision(mut self, a: bool) -> Self {
+        self.auto_precision = a;
         self
     }
     /// Turns the coordinate transformation on or off.
@@ -258,6 +350,29 @@ pub struct Timings {
     pub error_estimate: f64,
 }
 
+/// The coefficients of one degree of H̄ and their estimated errors.
+#[derive(Clone, Debug, Serialize)]
+pub struct DegreeError {
+    /// Degree 2|a| in (Q, P).
+    pub degree: usize,
+    /// max |h_a| over the degree.
+    pub max_coeff: f64,
+    /// max |Im h_a| over the degree (H̄ is real: rounding noise of the substitution into the
+    /// complex coordinates only, since the brackets are exactly real by construction; it is
+    /// no measure of the rounding error of the coefficients).
+    pub max_imag: f64,
+    /// max over the degree of the estimated error (when estimated).
+    pub max_error: Option<f64>,
+    /// max over the degree of error(h_a) / max(|h_a|, 1000·u·max_coeff) (u: the unit roundoff
+    /// of the precision): the worst relative error of a coefficient. Small coefficients matter
+    /// (at Earth–Moon the I₁ᵏ coefficients, the short-period family, are 10⁻¹⁵ of the largest
+    /// of degree 20 and lose 6% in f64), so only those below 1000 unit roundoffs of the largest
+    /// are measured against that size; exact zeros (0 with error 0) are skipped. A coefficient
+    /// that vanishes in exact arithmetic but comes out as amplified rounding noise counts as
+    /// lost: turn the check off (`max_relative_error = None`) if that is known to happen.
+    pub max_relative_error: Option<f64>,
+}
+
 /// Numerical checks made on the way.
 #[derive(Clone, Debug, Serialize)]
 pub struct Diagnostics {
@@ -271,14 +386,20 @@ pub struct Diagnostics {
     pub diagonal_residual: f64,
     /// max |off-diagonal part of H₂| in the complex coordinates (dropped).
     pub quadratic_residual: f64,
-    /// max |Im| of the action coefficients (should be rounding noise).
+    /// max |Im| of the action coefficients: rounding of the substitution into the complex
+    /// coordinates only (the brackets are exactly real), absolute; not an error measure (see
+    /// [`DegreeError`] and the error estimates).
     pub hbar_imag_residual: f64,
+    /// Per degree of H̄: largest coefficient, imaginary residual and estimated errors.
+    pub hbar_degrees: Vec<DegreeError>,
     /// max |Im| of the real-form generating function (rounding noise).
     pub generating_imag_residual: f64,
     /// max |Im| of the real-form transformations (rounding noise).
     pub transform_imag_residual: f64,
     /// How errors were estimated.
     pub error_method: Option<String>,
+    /// Set when the precision was changed on the way (`Options::auto_precision`), saying why.
+    pub precision_note: Option<String>,
     /// max over H̄ coefficients of |f64 − dd| / (|dd| · 2⁻⁵³): how much rounding is amplified.
     pub amplification: Option<f64>,
     /// Timings.
@@ -369,6 +490,7 @@ struct Raw<R> {
     /// dense over action exponents with 1 ≤ |a| ≤ N/2 (in table order of degree 2|a| with a=b)
     hbar: Vec<(Vec<u32>, R)>,
     hbar_imag: f64,
+    degrees: Vec<DegreeError>,
     resonant_terms: Vec<ResonantTerm>,
     /// dense over all monomials of degrees 3…N
     generating: Vec<(Vec<u32>, usize, R)>,
@@ -490,6 +612,12 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(
     o: &Options,
 ) -> Result<Raw<R>, NormalFormError> {
     let t_start = Instant::now();
+    let precision = if R::NAME == "f64" {
+        Precision::F64
+    } else {
+        Precision::DoubleDouble
+    };
+    Progress::report(&o.progress, Stage::Start(precision));
     let n = h.n_dof();
     let d = 2 * n;
     let nmax = o.order;
@@ -574,8 +702,11 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(
     if !o.resonant {
         for m in integer_vectors(n, nmax) {
             let v = mdot(&m);
-            if v.abs().to_f64() < o.resonance_tol {
-                let order = m.iter().map(|x| x.unsigned_abs() as usize).sum();
+            // a monomial x^a y^b with a − b = m has degree ≥ |m|₁ of the same parity, and the
+            // Lie normalisation starts at degree 3: m first matters at this degree
+            let norm1: usize = m.iter().map(|x| x.unsigned_abs() as usize).sum();
+            let order = if norm1 < 3 { norm1 + 2 } else { norm1 };
+            if order <= nmax && v.abs().to_f64() < o.resonance_tol {
                 return Err(NormalFormError::Resonance {
                     m,
                     m_dot_omega: v.to_f64(),
@@ -591,23 +722,51 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(
 
     // Lie normalisation
     let t = Instant::now();
-    let out = lie::normalize(hc, &lin_dd.omega, &lin.sigma, &is_res, compensate_to);
+    let out = lie::normalize(
+        hc,
+        &lin_dd.omega,
+        &lin.sigma,
+        &is_res,
+        compensate_to,
+        &|degree| {
+            Progress::report(
+                &o.progress,
+                Stage::Degree {
+                    degree,
+                    order: nmax,
+                    precision,
+                },
+            )
+        },
+    );
+    Progress::report(&o.progress, Stage::Transform);
     timings.lie = t.elapsed().as_secs_f64();
 
     // H̄ in actions: x_k y_k = −i I_k
     let mut hbar: Vec<(Vec<u32>, R)> = Vec::new();
     let mut hbar_imag: f64 = 0.0;
     let mut resonant_terms = Vec::new();
+    let mut degrees = Vec::new();
     for k in (2..=nmax).step_by(2) {
+        let mut dn = DegreeError {
+            degree: k,
+            max_coeff: 0.0,
+            max_imag: 0.0,
+            max_error: None,
+            max_relative_error: None,
+        };
         for i in 0..table.count(k) {
             let e = table.exponents(k, i);
             if e[..n] == e[n..] {
                 let z = out.z.part(k).map_or(Complex::zero(), |p| p[i]);
                 let v = z * minus_i_pow::<R>(k / 2);
-                hbar_imag = hbar_imag.max(v.im.abs().to_f64());
+                dn.max_imag = dn.max_imag.max(v.im.abs().to_f64());
+                dn.max_coeff = dn.max_coeff.max(v.re.abs().to_f64());
                 hbar.push((e[..n].iter().map(|&x| x as u32).collect(), v.re));
             }
         }
+        hbar_imag = hbar_imag.max(dn.max_imag);
+        degrees.push(dn);
     }
     for (k, i, zc) in out.z.terms() {
         let e = table.exponents(k, i);
@@ -632,8 +791,8 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(
         })
         .collect();
 
-    // D4
-    let d4 = if n == 2 && nmax >= 4 {
+    // D4 (meaningless when resonant terms were kept: H̄ is then not a function of I alone)
+    let d4 = if n == 2 && nmax >= 4 && resonant_terms.is_empty() {
         let get = |a: [u32; 2]| {
             hbar.iter()
                 .find(|(e, _)| e[..] == a)
@@ -699,6 +858,7 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(
         quadratic_residual,
         hbar,
         hbar_imag,
+        degrees,
         resonant_terms,
         generating,
         generating_imag,
@@ -771,9 +931,11 @@ fn assemble<R: Real, H: HamiltonianFn + ?Sized>(h: &H, raw: Raw<R>, o: &Options)
             diagonal_residual: raw.diagonal_residual,
             quadratic_residual: raw.quadratic_residual,
             hbar_imag_residual: raw.hbar_imag,
+            hbar_degrees: raw.degrees,
             generating_imag_residual: raw.generating_imag,
             transform_imag_residual: raw.transform_imag,
             error_method: None,
+            precision_note: None,
             amplification: None,
             timings: raw.timings,
             table_bytes: raw.table_bytes,
@@ -795,6 +957,45 @@ fn run_assembled<H: HamiltonianFn + ?Sized>(
     }
 }
 
+/// Checks the numeric options (ranges, finiteness), naming the field.
+fn validate_options(o: &Options) -> Result<(), NormalFormError> {
+    let bad = |msg: String| Err(NormalFormError::Invalid(msg));
+    if o.order < 2 || o.order > MAX_ORDER {
+        return bad(format!("order {} outside 2…{MAX_ORDER}", o.order));
+    }
+    if !(o.resonance_tol.is_finite() && o.resonance_tol >= 0.0) {
+        return bad(format!(
+            "resonance_tol = {}: must be a finite number ≥ 0",
+            o.resonance_tol
+        ));
+    }
+    if !(o.equilibrium_tol.is_finite() && o.equilibrium_tol > 0.0) {
+        return bad(format!(
+            "equilibrium_tol = {}: must be a finite number > 0",
+            o.equilibrium_tol
+        ));
+    }
+    if let Some(x) = o.basis_rotation.iter().find(|x| !x.is_finite()) {
+        return bad(format!(
+            "basis_rotation contains {x}: angles must be finite"
+        ));
+    }
+    if let Some(x) = o.max_relative_error {
+        if !(x > 0.0 && x <= 1.0) {
+            return bad(format!(
+                "max_relative_error = {x}: must be in (0, 1] (or None for no check)"
+            ));
+        }
+    }
+    if o.max_newton == 0 {
+        return bad("max_newton = 0: at least one Newton iteration is needed".into());
+    }
+    Ok(())
+}
+
+/// The largest truncation order accepted.
+pub const MAX_ORDER: usize = 120;
+
 /// Computes the Birkhoff normal form of `h` at the equilibrium found from `point`.
 ///
 /// Steps: Newton on ∇H = 0 (in the working precision) → Taylor expansion of H to degree N
@@ -810,40 +1011,161 @@ pub fn normalize<H: HamiltonianFn + ?Sized>(
     point: &Point,
     options: &Options,
 ) -> Result<NormalForm, NormalFormError> {
-    if options.order < 2 || options.order > 120 {
-        return Err(NormalFormError::Invalid(format!(
-            "order {} outside 2…120",
-            options.order
-        )));
-    }
+    validate_options(options)?;
     let mut nf = run_assembled(h, point, options)?;
-    if options.error_estimate {
-        let t = Instant::now();
-        let other_precision = match options.precision {
-            Precision::F64 => Precision::DoubleDouble,
-            Precision::DoubleDouble => Precision::F64,
-        };
-        let other_opts = Options {
-            precision: other_precision,
-            error_estimate: false,
-            transform: false,
-            ..options.clone()
-        };
-        if let Ok(other) = run_assembled(h, point, &other_opts) {
-            let factor = match options.precision {
-                Precision::F64 => 1.0,
-                Precision::DoubleDouble => 2f64.powi(-51),
-            };
-            attach_errors(&mut nf, &other, factor);
-            nf.diagnostics.error_method = Some(match options.precision {
-                Precision::F64 => "|f64 - dd|".into(),
-                Precision::DoubleDouble => "|f64 - dd| * 2^-51".into(),
-            });
+    estimate_errors(&mut nf, h, point, options);
+    if let Some(limit) = options.max_relative_error {
+        if let Some((degree, err)) = inaccurate_degree(&nf, limit) {
+            if options.auto_precision && options.precision == Precision::F64 {
+                Progress::report(&options.progress, Stage::Rerun(Precision::DoubleDouble));
+                let f64_time = nf.diagnostics.timings.total + nf.diagnostics.timings.error_estimate;
+                let dd_opts = Options {
+                    precision: Precision::DoubleDouble,
+                    ..options.clone()
+                };
+                let f64_nf = nf;
+                nf = run_assembled(h, point, &dd_opts)?;
+                // the f64 run is the other-precision estimate of the dd run, for free
+                attach_errors(&mut nf, &f64_nf, 2f64.powi(-51), true);
+                nf.diagnostics.error_method = Some("|f64 - dd| * 2^-51".into());
+                nf.diagnostics.precision_note = Some(format!(
+                    "f64 is not enough here: a coefficient of degree {degree} of Hbar had an \
+                     estimated relative error of {err:.1e} in f64 (limit {limit:.0e}), so the \
+                     normal form was recomputed in double-double ({f64_time:.3} s spent in f64)"
+                ));
+                fill_degree_errors(&mut nf);
+                if let Some((degree, err)) = inaccurate_degree(&nf, limit) {
+                    return Err(precision_lost(Precision::DoubleDouble, degree, err, limit));
+                }
+            } else {
+                return Err(precision_lost(options.precision, degree, err, limit));
+            }
         }
-        nf.diagnostics.timings.error_estimate = t.elapsed().as_secs_f64();
     }
     prune_generating(&mut nf);
+    Progress::report(&options.progress, Stage::Done);
     Ok(nf)
+}
+
+/// Attaches the error estimate `options.error_estimate` to `nf` (computed with `options`).
+fn estimate_errors<H: HamiltonianFn + ?Sized>(
+    nf: &mut NormalForm,
+    h: &H,
+    point: &Point,
+    options: &Options,
+) {
+    let t = Instant::now();
+    let (other_opts, factor, method) = match options.error_estimate {
+        ErrorEstimate::None => return,
+        ErrorEstimate::Rotation => {
+            // angles far from any symmetry of the problem
+            let rotation: Vec<f64> = (0..nf.n_dof)
+                .map(|k| 0.7 + 1.3 * k as f64 * if k % 2 == 0 { 1.0 } else { -1.0 })
+                .collect();
+            (
+                Options {
+                    basis_rotation: rotation,
+                    ..options.clone()
+                },
+                1.0,
+                "|c - c(normal planes rotated)|",
+            )
+        }
+        ErrorEstimate::OtherPrecision => match options.precision {
+            Precision::F64 => (
+                Options {
+                    precision: Precision::DoubleDouble,
+                    ..options.clone()
+                },
+                1.0,
+                "|f64 - dd|",
+            ),
+            Precision::DoubleDouble => (
+                Options {
+                    precision: Precision::F64,
+                    ..options.clone()
+                },
+                2f64.powi(-51),
+                "|f64 - dd| * 2^-51",
+            ),
+        },
+    };
+    let other_opts = Options {
+        error_estimate: ErrorEstimate::None,
+        transform: false,
+        ..other_opts
+    };
+    Progress::report(&options.progress, Stage::Rerun(other_opts.precision));
+    if let Ok(other) = run_assembled(h, point, &other_opts) {
+        attach_errors(
+            nf,
+            &other,
+            factor,
+            options.error_estimate != ErrorEstimate::Rotation,
+        );
+        nf.diagnostics.error_method = Some(method.into());
+        fill_degree_errors(nf);
+    }
+    nf.diagnostics.timings.error_estimate = t.elapsed().as_secs_f64();
+}
+
+/// Coefficients smaller than this many unit roundoffs of the largest of their degree are
+/// measured against that size in [`DegreeError::max_relative_error`].
+const RESOLVABLE: f64 = 1e3;
+
+/// `Options::max_relative_error` by default: three correct digits in every coefficient.
+pub const DEFAULT_MAX_RELATIVE_ERROR: f64 = 1e-3;
+
+/// [`DegreeError::max_error`] and [`DegreeError::max_relative_error`] from the estimates.
+fn fill_degree_errors(nf: &mut NormalForm) {
+    let unit = match nf.precision {
+        Precision::F64 => f64::EPSILON / 2.0,
+        Precision::DoubleDouble => Dd::EPSILON,
+    };
+    for d in nf.diagnostics.hbar_degrees.iter_mut() {
+        let floor = RESOLVABLE * unit * d.max_coeff;
+        let (mut abs, mut rel, mut any) = (0.0f64, 0.0f64, false);
+        for t in nf.hamiltonian.iter().filter(|t| t.degree == d.degree) {
+            if let Some(e) = t.coeff.error {
+                any = true;
+                if e == 0.0 && t.coeff.value == 0.0 {
+                    continue; // an exact zero
+                }
+                abs = abs.max(e);
+                let m = t.coeff.value.abs().max(floor);
+                rel = rel.max(if m > 0.0 { e / m } else { 0.0 });
+            }
+        }
+        if any {
+            d.max_error = Some(abs);
+            d.max_relative_error = Some(rel);
+        }
+    }
+}
+
+/// The lowest degree of H̄ with an estimated relative error above `limit`, with that error.
+fn inaccurate_degree(nf: &NormalForm, limit: f64) -> Option<(usize, f64)> {
+    nf.diagnostics
+        .hbar_degrees
+        .iter()
+        .filter_map(|d| d.max_relative_error.map(|e| (d.degree, e)))
+        .find(|&(_, e)| e > limit || e.is_nan())
+}
+
+fn precision_lost(precision: Precision, degree: usize, err: f64, limit: f64) -> NormalFormError {
+    let below = degree.saturating_sub(1);
+    NormalFormError::PrecisionLost {
+        precision: precision.to_string(),
+        degree,
+        relative_error: err,
+        limit,
+        advice: match precision {
+            Precision::F64 => {
+                format!("use `--precision dd` (or `auto`), or `--order {below}` or lower")
+            }
+            Precision::DoubleDouble => format!("use `--order {below}` or lower"),
+        },
+    }
 }
 
 /// Drops generator coefficients that are rounding noise (the real form of a complex
@@ -872,7 +1194,10 @@ fn err(a: &Value, b: &Value, factor: f64) -> f64 {
     diff.max(floor)
 }
 
-fn attach_errors(nf: &mut NormalForm, other: &NormalForm, factor: f64) {
+/// Errors from a second run `other`: `|difference|·factor`. With `generators = false` (a run
+/// with rotated normal planes) the generating function, which depends on the rotation, gets
+/// none.
+fn attach_errors(nf: &mut NormalForm, other: &NormalForm, factor: f64, generators: bool) {
     let pairs = |a: &mut [Value], b: &[Value]| {
         for (x, y) in a.iter_mut().zip(b) {
             x.error = Some(err(x, y, factor));
@@ -896,12 +1221,14 @@ fn attach_errors(nf: &mut NormalForm, other: &NormalForm, factor: f64) {
         }
     }
     nf.diagnostics.amplification = Some(amp);
-    for (x, y) in nf
-        .generating_function
-        .iter_mut()
-        .zip(&other.generating_function)
-    {
-        x.coeff.error = Some(err(&x.coeff, &y.coeff, factor));
+    if generators {
+        for (x, y) in nf
+            .generating_function
+            .iter_mut()
+            .zip(&other.generating_function)
+        {
+            x.coeff.error = Some(err(&x.coeff, &y.coeff, factor));
+        }
     }
     if let (Some(a), Some(b)) = (nf.d4.as_mut(), other.d4.as_ref()) {
         a.a.error = Some(err(&a.a, &b.a, factor));

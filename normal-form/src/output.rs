@@ -191,10 +191,22 @@ impl NormalForm {
                 err_str(v)
             );
         }
-        let _ = writeln!(
-            s,
-            "\nnormal form  Hbar = H(z_eq) + sum_a h_a I^a,  I_k = (Q_k^2 + P_k^2)/2 in normal coordinates:"
-        );
+        if let Some(note) = &self.diagnostics.precision_note {
+            let _ = writeln!(s, "\nnote: {note}");
+        }
+        if self.resonant_terms.is_empty() {
+            let _ = writeln!(
+                s,
+                "\nnormal form  Hbar = H(z_eq) + sum_a h_a I^a,  I_k = (Q_k^2 + P_k^2)/2 in normal coordinates:"
+            );
+        } else {
+            let _ = writeln!(
+                s,
+                "\nresonant normal form: Hbar = H(z_eq) + (terms x^a y^a below, written in the actions \
+                 I_k = (Q_k^2 + P_k^2)/2 = i x_k y_k) + (the resonant terms further below); it is not a \
+                 function of the actions alone, so there is no frequency map and no D4:"
+            );
+        }
         let _ = writeln!(
             s,
             "  {:<14} {:>6} {:>26} {:>10} {:>10}",
@@ -219,7 +231,11 @@ impl NormalForm {
             }
         }
         if !self.resonant_terms.is_empty() {
-            let _ = writeln!(s, "\nresonant terms kept (complex coordinates x^a y^b):");
+            let _ = writeln!(
+                s,
+                "\nresonant terms kept, c x^a y^b with x_k = (Q_k - i P_k)/sqrt2, y_k = (P_k - i Q_k)/sqrt2 \
+                 (Q, P: the normal coordinates):"
+            );
             for r in &self.resonant_terms {
                 let _ = writeln!(
                     s,
@@ -262,22 +278,48 @@ impl NormalForm {
             );
         }
         let d = &self.diagnostics;
+        let largest = self
+            .hamiltonian
+            .iter()
+            .map(|t| t.coeff.value.abs())
+            .fold(0.0, f64::max);
         let _ = writeln!(
             s,
-            "\nchecks: |A^T J A - J| = {:.1e}, |A^T S A - diag| = {:.1e}, |Im Hbar| = {:.1e}{}",
+            "\nchecks: |A^T J A - J| = {:.1e}, |A^T S A - diag| = {:.1e}, |Im Hbar| = {:.1e} of its largest coefficient{}",
             d.symplectic_residual,
             d.diagonal_residual,
-            d.hbar_imag_residual,
+            d.hbar_imag_residual / largest.max(f64::MIN_POSITIVE),
             d.amplification.map_or(String::new(), |a| format!(
                 ", rounding amplification {a:.1e}"
             ))
         );
+        let worst = d
+            .hbar_degrees
+            .iter()
+            .filter_map(|x| x.max_relative_error.map(|e| (x.degree, e)))
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((degree, e)) = worst {
+            let _ = writeln!(
+                s,
+                "worst estimated relative error of a coefficient of Hbar: {e:.1e} (degree {degree})"
+            );
+        }
         let t = &d.timings;
-        let _ = writeln!(
+        let _ = write!(
             s,
-            "time: {:.4} s (taylor {:.4}, linear {:.4}, lie {:.4}, transform {:.4}) + error estimate {:.4} s",
-            t.total, t.taylor, t.linear, t.lie, t.transform, t.error_estimate
+            "time: {:.4} s (taylor {:.4}, linear {:.4}, lie {:.4}, transform {:.4})",
+            t.total, t.taylor, t.linear, t.lie, t.transform
         );
+        if t.error_estimate > 0.0 {
+            let _ = write!(
+                s,
+                " + error estimate ({}) {:.4} s = {:.1}x the run",
+                d.error_method.as_deref().unwrap_or("second run"),
+                t.error_estimate,
+                t.error_estimate / t.total.max(1e-12)
+            );
+        }
+        let _ = writeln!(s);
         s
     }
 }

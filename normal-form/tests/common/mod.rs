@@ -50,3 +50,19 @@ pub fn l4_normal_form(mu: f64, options: &Options) -> Result<NormalForm, NormalFo
         options,
     )
 }
+
+/// `models/cr3bp_spatial.lsl`.
+pub fn cr3bp_spatial_model() -> &'static Model {
+    static M: OnceLock<Model> = OnceLock::new();
+    M.get_or_init(|| load("models/cr3bp_spatial.lsl"))
+}
+
+/// The normal form of the spatial CR3BP model at L4.
+pub fn spatial_l4_normal_form(mu: f64, options: &Options) -> Result<NormalForm, NormalFormError> {
+    normalize_model(
+        cr3bp_spatial_model(),
+        &[("mu".to_string(), mu)],
+        &ModelPoint::Named("L4".into()),
+        options,
+    )
+}
