@@ -342,3 +342,63 @@ fn parameters_of_a_loaded_model_take_effect() {
     assert!(m.set_param("mu", &[1.0, 2.0]).is_err());
     assert!(m.set_param("nu", &[1.0]).is_err());
 }
+
+/// `sweep` runs a parameter grid in parallel into one table; three shards merged give the same
+/// rows, and a missing shard is an error.
+#[test]
+fn sweep_shards_merge_to_the_whole_sweep() {
+    let dir = scratch("open-world-sweep");
+    let table = |name: &str| dir.join(name).to_str().unwrap().to_string();
+    let common = [
+        "cr3bp",
+        "--grid",
+        "mu=0.001:0.03:7",
+        "--t-end",
+        "5",
+        "--init",
+        "near_L4",
+    ];
+    let run = |extra: &[&str], out: &str| {
+        let o = lasalle(&[&["sweep"][..], &common, extra, &["--out", out]].concat());
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    run(&[], &table("all.csv"));
+    for i in 0..3 {
+        run(
+            &["--shard", &format!("{i}/3")],
+            &table(&format!("s{i}.csv")),
+        );
+    }
+    let o = lasalle(&[
+        "sweep-merge",
+        &table("s0.csv"),
+        &table("s1.csv"),
+        &table("s2.csv"),
+        "--out",
+        &table("merged.csv"),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // the same runs: every column but the wall time
+    let strip = |path: String| -> Vec<String> {
+        std::fs::read_to_string(path)
+            .unwrap()
+            .lines()
+            .map(|l| {
+                let c: Vec<&str> = l.split(',').collect();
+                [&c[..5], &c[6..]].concat().join(",")
+            })
+            .collect()
+    };
+    let (all, merged) = (strip(table("all.csv")), strip(table("merged.csv")));
+    assert_eq!(all.len(), 8);
+    assert_eq!(all, merged);
+    assert!(all[1].starts_with("0,0.001,"), "{}", all[1]);
+    let o = lasalle(&[
+        "sweep-merge",
+        &table("s0.csv"),
+        &table("s2.csv"),
+        "--out",
+        &table("m.csv"),
+    ]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("row 1 is missing"));
+}

@@ -213,7 +213,7 @@ fn repeated_differentiation() {
         ),
         ("cr3bp", vec![0.5, 0.2, -0.1, 0.3]),
     ];
-    let trig = "model T { state a: scalar, b: scalar, c: scalar;
+    let trig = "model Mixed { state a: scalar, b: scalar, c: scalar;
         d/dt a = sin(b) * exp(-c^2) + (1 + a^2)^(1/3);
         d/dt b = cos(a) - log(2 + b^2) / (1 + c^2);
         d/dt c = (a*b + 3)^(-3/2) - (1 + c^4)^(1/2); }";
