@@ -9,6 +9,8 @@
 pub use lasalle_exec::{Backend, LoadError, LoadedModel};
 pub use lasalle_runtime::*;
 
+/// The thesis' closed-form SO(3) extremals, corrected and as printed (`docs/so3.md`).
+pub mod closed_forms;
 include!(concat!(env!("OUT_DIR"), "/model_files.rs"));
 
 /// The models generated from `models/*.lsl` at build time.
