@@ -831,6 +831,14 @@ enum Kind {
         w0: f64,
         omega: f64,
     },
+    /// P_axes[2] constant, (P_axes[0], P_axes[1]) = rho (cos, sin)(phi + rate·t).
+    Rotation {
+        axes: [usize; 3],
+        rho: f64,
+        phi: f64,
+        rate: f64,
+        p_axis: f64,
+    },
     /// P₃ = r + y(w), w = w0 + lambda·t, Weierstrass' substitution through Jacobi functions.
     Weierstrass(Box<Weier>),
 }
@@ -928,6 +936,8 @@ impl Extremal {
         match ty {
             Type::IIa => Self::euler_top([1.0 / c[0], 1.0 / c[1], 0.0], p0),
             Type::III => Self::euler_top([1.0 / c[0], 1.0 / c[1], 1.0 / c[2]], p0),
+            // c1 = c2 (Prop. 6.3.1): ∇H = (P1/c, P2/c, 1), (P1, P2) turns at P3/c − 1
+            Type::IIb if c[0] == c[1] => Self::rotation([0, 1, 2], p0, p0[2] / c[0] - 1.0),
             Type::I | Type::IIb => Self::weierstrass(ty, c, p0),
         }
     }
@@ -937,7 +947,30 @@ impl Extremal {
         Self::new(case.ty, case.c, case.p0)
     }
 
+    /// Pₗ constant and (Pᵢ, Pⱼ) = ρ (cos(φ + Ωt), sin(φ + Ωt)) for the cyclic axes (i, j, l).
+    fn rotation(axes: [usize; 3], p0: [f64; 3], rate: f64) -> Extremal {
+        let [i, j, _] = axes;
+        Extremal {
+            kind: Kind::Rotation {
+                axes,
+                rho: p0[i].hypot(p0[j]),
+                phi: p0[j].atan2(p0[i]),
+                rate,
+                p_axis: p0[axes[2]],
+            },
+        }
+    }
+
     fn euler_top(inertia: [f64; 3], p0: [f64; 3]) -> Extremal {
+        // a symmetric top (Props. 5.3.1, 7.3.1, 7.3.2 and the "similar results" after 7.3.2):
+        // for the cyclic axes (i, j, l) with Iᵢ = Iⱼ = I, Ṗᵢ = −(I − Iₗ)Pₗ Pⱼ,
+        // Ṗⱼ = (I − Iₗ)Pₗ Pᵢ: (Pᵢ, Pⱼ) turns at Ω = (I − Iₗ)Pₗ, Pₗ is constant.
+        for axes in [[0, 1, 2], [1, 2, 0], [2, 0, 1]] {
+            let [i, j, l] = axes;
+            if inertia[i] == inertia[j] {
+                return Self::rotation(axes, p0, (inertia[i] - inertia[l]) * p0[l]);
+            }
+        }
         let h2 = (0..3).map(|i| inertia[i] * p0[i] * p0[i]).sum::<f64>(); // 2H
         let k = casimir(p0);
         const PERMS: [([usize; 3], f64); 6] = [
@@ -1026,7 +1059,7 @@ impl Extremal {
         let dq = poly_deriv(&q);
         // the adjacent pair of real roots around x0 with Q > 0 between
         let scale = 1.0 + x0.abs();
-        let (lo, hi) = real
+        let (lo, _) = real
             .windows(2)
             .map(|w| (w[0], w[1]))
             .filter(|(l, u)| {
@@ -1127,6 +1160,24 @@ impl Extremal {
         best.expect("four candidates").1
     }
 
+    /// The parameter m = k² of the Jacobi functions (0 for a uniform rotation).
+    pub fn parameter(&self) -> f64 {
+        match &self.kind {
+            Kind::EulerTop { m, .. } => *m,
+            Kind::Rotation { .. } => 0.0,
+            Kind::Weierstrass(w) => w.m,
+        }
+    }
+
+    /// The time scale |dw/dt| of the Jacobi argument w (|Ω| for a rotation).
+    pub fn time_scale(&self) -> f64 {
+        match &self.kind {
+            Kind::EulerTop { omega, .. } => omega.abs(),
+            Kind::Rotation { rate, .. } => rate.abs(),
+            Kind::Weierstrass(w) => w.lambda,
+        }
+    }
+
     /// P(t).
     pub fn p(&self, t: f64) -> [f64; 3] {
         match &self.kind {
@@ -1144,17 +1195,38 @@ impl Extremal {
                 p[perm[2]] = a[2] * j.dn;
                 p
             }
+            Kind::Rotation {
+                axes,
+                rho,
+                phi,
+                rate,
+                p_axis,
+            } => {
+                let (s, c) = (phi + rate * t).sin_cos();
+                let mut p = [0.0; 3];
+                p[axes[0]] = rho * c;
+                p[axes[1]] = rho * s;
+                p[axes[2]] = *p_axis;
+                p
+            }
             Kind::Weierstrass(w) => w.p(t),
         }
     }
 
-    /// The (least) period of P₃(t).
+    /// The (least) period of P₃(t) (∞ where P₃ is constant).
     pub fn p3_period(&self) -> f64 {
         match &self.kind {
             Kind::EulerTop { perm, m, omega, .. } => {
                 // P3 is a·dn (period 2K) if axis 3 is the dn-axis, else cn or sn (4K)
                 let n = if perm[2] == 2 { 2.0 } else { 4.0 };
                 n * ellipk(*m) / omega.abs()
+            }
+            Kind::Rotation { axes, rate, .. } => {
+                if axes[2] == 2 {
+                    f64::INFINITY
+                } else {
+                    2.0 * std::f64::consts::PI / rate.abs()
+                }
             }
             Kind::Weierstrass(w) => {
                 // ℘ has real period 2K/λ in both root configurations (in v = √H₂ s the
@@ -1206,6 +1278,33 @@ impl Weier {
         p[1 - self.a] = self.cb * rb;
         p
     }
+}
+
+/// Prop. 5.3.1 as printed (Type IIa, c₁ = c₂ = c): P₃ = P₃(0) and (P₁, P₂) turned by
+/// P₃(0) t / c. Correct.
+pub fn prop_5_3_1_printed(c: f64, p0: [f64; 3], t: f64) -> [f64; 3] {
+    let (s, co) = (p0[2] * t / c).sin_cos();
+    [p0[0] * co - p0[1] * s, p0[0] * s + p0[1] * co, p0[2]]
+}
+
+/// Prop. 6.3.1 as printed (Type IIb, c₁ = c₂ = c): P₁ = √k₁ cos((1 − k₂/c)t + k₃),
+/// P₂ = √k₁ sin((1 − k₂/c)t + k₃), k₃ = −tan⁻¹(P₂(0)/P₁(0)). Wrong sign of P₂ (and tan⁻¹
+/// loses the quadrant for P₁(0) < 0): the true motion is P₂ = −√k₁ sin(…).
+pub fn prop_6_3_1_printed(c: f64, p0: [f64; 3], t: f64) -> [f64; 3] {
+    let k1 = p0[0] * p0[0] + p0[1] * p0[1];
+    let k3 = -(p0[1] / p0[0]).atan();
+    let arg = (1.0 - p0[2] / c) * t + k3;
+    [k1.sqrt() * arg.cos(), k1.sqrt() * arg.sin(), p0[2]]
+}
+
+/// Prop. 7.3.2 as printed (Type III, c₁ = c₂ ≠ c₃), real part: the diagonal entries are
+/// cosh((c₁ − c₃)(c₃ − c₂)P₃(0)t/√(c₁c₂c₃)) with a real argument; the off-diagonal sinh has
+/// √(c₁c₂(c₁ − c₃)(c₃ − c₂)) = √(−c²(c − c₃)²), imaginary, so sinh(iθ) = i sin θ contributes
+/// no real part. Wrong: the true motion is a rotation (see [`Extremal`]).
+pub fn prop_7_3_2_printed(c: [f64; 3], p0: [f64; 3], t: f64) -> [f64; 3] {
+    let [c1, c2, c3] = c;
+    let ch = ((c1 - c3) * (c3 - c2) * p0[2] / (c1 * c2 * c3).sqrt() * t).cosh();
+    [p0[0] * ch, p0[1] * ch, p0[2]]
 }
 
 /// The corrected P(t) of Appendix B case `case` (an index into [`CASES`], 0 for C.1).

@@ -7,7 +7,10 @@
 //!
 //! Run with `--nocapture` to see the table of `docs/so3.md`.
 
-use lasalle::closed_forms::{casimir, Case, Extremal, Printed, Type, CASES};
+use lasalle::closed_forms::{
+    casimir, prop_5_3_1_printed, prop_6_3_1_printed, prop_7_3_2_printed, Case, Extremal, Printed,
+    Type, CASES,
+};
 use lasalle::models::{
     so3_type_i::So3TypeI, so3_type_iia::So3TypeIia, so3_type_iib::So3TypeIib,
     so3_type_iii::So3TypeIii,
@@ -20,11 +23,21 @@ const TOL: f64 = 1e-10;
 /// Integrates the extremal of `case` (with g(0) = I) and returns P at `OUTPUTS` equally spaced
 /// times on [0, t_end].
 fn integrate(case: &Case) -> Vec<(f64, [f64; 3])> {
+    integrate_from(case.figure, case.ty, case.c, case.p0, case.t_end)
+}
+
+fn integrate_from(
+    figure: &str,
+    ty: Type,
+    c: [f64; 3],
+    p0: [f64; 3],
+    t_end: f64,
+) -> Vec<(f64, [f64; 3])> {
     let times: Vec<f64> = (0..OUTPUTS)
-        .map(|i| case.t_end * i as f64 / (OUTPUTS - 1) as f64)
+        .map(|i| t_end * i as f64 / (OUTPUTS - 1) as f64)
         .collect();
     let mut x0 = [0.0; 12];
-    x0[..3].copy_from_slice(&case.p0);
+    x0[..3].copy_from_slice(&p0);
     x0[3] = 1.0;
     x0[7] = 1.0;
     x0[11] = 1.0;
@@ -39,9 +52,9 @@ fn integrate(case: &Case) -> Vec<(f64, [f64; 3])> {
         Control::Continue
     };
     let mut dp = DormandPrince::<f64, [f64; 12]>::new(opts);
-    let driver = Driver::new(0.0, case.t_end, 0.0).max_steps(10_000_000);
-    let [c1, c2, c3] = case.c;
-    let res = match case.ty {
+    let driver = Driver::new(0.0, t_end, 0.0).max_steps(10_000_000);
+    let [c1, c2, c3] = c;
+    let res = match ty {
         Type::I => {
             let m = So3TypeI::<f64> {
                 c1,
@@ -75,13 +88,8 @@ fn integrate(case: &Case) -> Vec<(f64, [f64; 3])> {
             driver.run_dense(&mut dp, &m, &x0, &times, &mut observer)
         }
     };
-    res.unwrap_or_else(|e| panic!("{}: {e}", case.figure));
-    assert_eq!(
-        out.len(),
-        OUTPUTS,
-        "{}: dense output incomplete",
-        case.figure
-    );
+    res.unwrap_or_else(|e| panic!("{figure}: {e}"));
+    assert_eq!(out.len(), OUTPUTS, "{figure}: dense output incomplete");
     out
 }
 
@@ -119,10 +127,13 @@ fn check_case(name: &str) {
     let exact = Extremal::of_case(case);
     let err = max_diff(&reference, |t| exact.p(t));
     let mut line = format!(
-        "{:5} {:4} corrected {:.2e} | P3 period {:.6}",
+        "{:5} {:4} corrected {:.2e} | m {:.6} (k {:.4}) scale {:.4} | P3 period {:.6}",
         case.figure,
         format!("{:?}", case.ty),
         err,
+        exact.parameter(),
+        exact.parameter().sqrt(),
+        exact.time_scale(),
         exact.p3_period()
     );
     for f in &case.printed {
@@ -184,4 +195,142 @@ cases! {
     c17_type_iii => "C.17",
     c18_type_iii => "C.18",
     c19_type_iii => "C.19",
+}
+
+/// The special-case propositions (c₁ = c₂): the corrected form (a uniform rotation of
+/// (P₁, P₂), or of the pair of equal axes) matches integration; Prop. 5.3.1 as printed is
+/// right, Prop. 6.3.1 has the wrong sign of P₂, Prop. 7.3.2 grows like cosh.
+#[test]
+fn special_case_propositions() {
+    struct Special {
+        name: &'static str,
+        ty: Type,
+        c: [f64; 3],
+        p0: [f64; 3],
+        printed: Option<fn([f64; 3], [f64; 3], f64) -> [f64; 3]>,
+        printed_ok: bool,
+    }
+    let specials = [
+        Special {
+            name: "Prop. 5.3.1 (IIa, c1 = c2)",
+            ty: Type::IIa,
+            c: [1.5, 1.5, 0.0],
+            p0: [1.0, 2.0, 3.0],
+            printed: Some(|c, p, t| prop_5_3_1_printed(c[0], p, t)),
+            printed_ok: true,
+        },
+        Special {
+            name: "Prop. 6.3.1 (IIb, c1 = c2)",
+            ty: Type::IIb,
+            c: [1.5, 1.5, 0.0],
+            p0: [1.0, 2.0, 3.0],
+            printed: Some(|c, p, t| prop_6_3_1_printed(c[0], p, t)),
+            printed_ok: false,
+        },
+        Special {
+            name: "Prop. 7.3.2 (III, c1 = c2 != c3)",
+            ty: Type::III,
+            c: [1.5, 1.5, 0.4],
+            p0: [1.0, 2.0, 0.5],
+            printed: Some(prop_7_3_2_printed),
+            printed_ok: false,
+        },
+        Special {
+            name: "after Prop. 7.3.2 (III, c1 != c2 = c3)",
+            ty: Type::III,
+            c: [0.7, 2.0, 2.0],
+            p0: [1.0, 2.0, 0.5],
+            printed: None,
+            printed_ok: false,
+        },
+        Special {
+            name: "Prop. 7.3.1 (III, c1 = c2 = c3)",
+            ty: Type::III,
+            c: [2.0, 2.0, 2.0],
+            p0: [1.0, 2.0, 0.5],
+            printed: None,
+            printed_ok: false,
+        },
+    ];
+    for s in &specials {
+        let t_end = 10.0;
+        let reference = integrate_from(s.name, s.ty, s.c, s.p0, t_end);
+        let exact = Extremal::new(s.ty, s.c, s.p0);
+        let err = max_diff(&reference, |t| exact.p(t));
+        let printed = s.printed.map(|f| max_diff(&reference, |t| f(s.c, s.p0, t)));
+        println!("{}: corrected {err:.2e}, printed {printed:?}", s.name);
+        assert!(err <= TOL, "{}: corrected differs by {err:.3e}", s.name);
+        if let Some(e) = printed {
+            if s.printed_ok {
+                assert!(e <= TOL, "{}: printed differs by {e:.3e}", s.name);
+            } else {
+                assert!(e > 1.0, "{}: printed only {e:.3e} off", s.name);
+            }
+        }
+    }
+}
+
+/// The listings that start at the right point: with m = k² only these fit (to the four-decimal
+/// rounding of their constants).
+const FIT_AFTER_M_FIX: [(&str, &str); 3] = [("C.1", "dc"), ("C.10", "dn"), ("C.11", "cn")];
+
+/// The printed closed forms are far off: with MATLAB's `ellipj(·, k)` every listing misses by
+/// more than 0.3; fixing only m = k² leaves every listing but the three of `FIT_AFTER_M_FIX`
+/// more than 0.3 off (their P(0) is not the case's P(0): the missing phase), and those three
+/// within 1e-2; the printed periods with m = k² are right except C.6 (k printed 0.0403 for
+/// 0.4037) and C.17 (time scale printed 0.5278 for 0.7265).
+#[test]
+fn printed_forms_are_off_where_the_thesis_is_wrong() {
+    for case in &CASES {
+        let reference = integrate(case);
+        let exact = Extremal::of_case(case);
+        let period = exact.p3_period();
+        for f in &case.printed {
+            let at = format!("{} {}", case.figure, f.name);
+            let as_printed = printed_diff(&reference, f, f.k);
+            assert!(
+                as_printed > 0.3,
+                "{at}: ellipj(., k) only {as_printed:.3e} off"
+            );
+            let m_fixed = printed_diff(&reference, f, f.k * f.k);
+            let start = f.eval(0.0, f.k * f.k);
+            let start_diff = (0..3).fold(0.0f64, |a, i| {
+                a.max((start[i].abs() - case.p0[i].abs()).abs())
+            });
+            if FIT_AFTER_M_FIX.contains(&(case.figure, f.name)) {
+                assert!(m_fixed < 1e-2, "{at}: m = k² still {m_fixed:.3e} off");
+                assert!(start_diff < 1e-2, "{at}: P(0) off by {start_diff:.3e}");
+            } else {
+                assert!(m_fixed > 0.3, "{at}: m = k² only {m_fixed:.3e} off");
+                assert!(start_diff > 0.05, "{at}: P(0) only {start_diff:.3e} off");
+            }
+            // periods: ellipj(., k) is wrong everywhere; with k² right but for two misprints
+            let rel = |p: f64| (p - period).abs() / period;
+            assert!(
+                rel(f.period(f.k)) > 0.02,
+                "{at}: period with m = k is right"
+            );
+            match case.figure {
+                "C.6" => {
+                    assert!(rel(f.period(f.k * f.k)) > 0.04, "{at}");
+                    let k = 10.0 * f.k; // 0.403: the decimal slip undone
+                    assert!(rel(f.period(k * k)) < 2e-3, "{at}: {}", f.period(k * k));
+                }
+                "C.17" => {
+                    assert!(rel(f.period(f.k * f.k)) > 0.3, "{at}");
+                    let fixed = Printed {
+                        omega: 0.7265,
+                        ..*f
+                    };
+                    assert!(rel(fixed.period(f.k * f.k)) < 2e-3, "{at}");
+                    assert!((exact.time_scale() - 0.7265).abs() < 1e-4, "{at}");
+                }
+                _ => assert!(
+                    rel(f.period(f.k * f.k)) < 2e-3,
+                    "{at}: period {} vs {period}",
+                    f.period(f.k * f.k)
+                ),
+            }
+        }
+    }
 }
