@@ -273,6 +273,8 @@ const SQRT_34: f64 = 5.830_951_894_845_301;
 
 /// The 19 cases of Appendix B with their printed closed forms (transcribed from the OCR of
 /// the MATLAB listings; four decimals as printed).
+// The printed four-decimal numbers (0.7071, 1.4142) are the thesis', not approximations of ours.
+#[allow(clippy::approx_constant)]
 pub const CASES: [Case; 19] = {
     use Jf::*;
     use Type::*;

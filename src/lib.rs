@@ -9,7 +9,6 @@
 pub use lasalle_exec::{Backend, LoadError, LoadedModel};
 pub use lasalle_runtime::*;
 
-/// The thesis' closed-form SO(3) extremals, corrected and as printed (`docs/so3.md`).
 pub mod closed_forms;
 include!(concat!(env!("OUT_DIR"), "/model_files.rs"));
 

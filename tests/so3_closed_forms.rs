@@ -56,35 +56,19 @@ fn integrate_from(
     let [c1, c2, c3] = c;
     let res = match ty {
         Type::I => {
-            let m = So3TypeI::<f64> {
-                c1,
-                ..Default::default()
-            };
+            let m = So3TypeI::<f64> { c1 };
             driver.run_dense(&mut dp, &m, &x0, &times, &mut observer)
         }
         Type::IIa => {
-            let m = So3TypeIia::<f64> {
-                c1,
-                c2,
-                ..Default::default()
-            };
+            let m = So3TypeIia::<f64> { c1, c2 };
             driver.run_dense(&mut dp, &m, &x0, &times, &mut observer)
         }
         Type::IIb => {
-            let m = So3TypeIib::<f64> {
-                c1,
-                c2,
-                ..Default::default()
-            };
+            let m = So3TypeIib::<f64> { c1, c2 };
             driver.run_dense(&mut dp, &m, &x0, &times, &mut observer)
         }
         Type::III => {
-            let m = So3TypeIii::<f64> {
-                c1,
-                c2,
-                c3,
-                ..Default::default()
-            };
+            let m = So3TypeIii::<f64> { c1, c2, c3 };
             driver.run_dense(&mut dp, &m, &x0, &times, &mut observer)
         }
     };
@@ -200,6 +184,9 @@ cases! {
 /// The special-case propositions (c₁ = c₂): the corrected form (a uniform rotation of
 /// (P₁, P₂), or of the pair of equal axes) matches integration; Prop. 5.3.1 as printed is
 /// right, Prop. 6.3.1 has the wrong sign of P₂, Prop. 7.3.2 grows like cosh.
+/// A printed proposition: (c, P(0), t) ↦ P(t).
+type PrintedProp = fn([f64; 3], [f64; 3], f64) -> [f64; 3];
+
 #[test]
 fn special_case_propositions() {
     struct Special {
@@ -207,7 +194,7 @@ fn special_case_propositions() {
         ty: Type,
         c: [f64; 3],
         p0: [f64; 3],
-        printed: Option<fn([f64; 3], [f64; 3], f64) -> [f64; 3]>,
+        printed: Option<PrintedProp>,
         printed_ok: bool,
     }
     let specials = [
