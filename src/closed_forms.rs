@@ -1282,6 +1282,53 @@ impl Weier {
     }
 }
 
+/// The invariants (g₂, g₁) of Theorem 4.3.2 as printed (its g₁ is the usual g₃), with
+/// a = 2c₁, b = (H + 2c₁)/3: ℘′² = 4℘³ − g₂℘ − g₁ for ℘ = (P₃ − b)/a.
+pub fn theorem_4_3_2_invariants(c1: f64, h: f64, k: f64) -> (f64, f64) {
+    let a = 2.0 * c1;
+    let b = (h + 2.0 * c1) / 3.0;
+    let q = 2.0 + h / c1;
+    let g1 = -2.0 / (a * a)
+        * (b.powi(3) / c1 - q * b * b + (4.0 * h - k / c1) * b + h * (k / c1 - 2.0 * h));
+    let g2 = -2.0 / a * (3.0 / c1 * b * b - 2.0 * q * b + 4.0 * h - k / c1);
+    (g2, g1)
+}
+
+/// Theorem 4.3.2 corrected: P₃ = 2c₁ ℘(t − t₀ + ω₃) + (H + 2c₁)/3 with the printed invariants
+/// and ℘ on its **bounded** real branch (shifted by the imaginary half-period ω₃),
+/// ℘(z + ω₃) = e₃ + (e₂ − e₃) sn²(√(e₁ − e₃) z | m), m = (e₂ − e₃)/(e₁ − e₃), e₁ > e₂ > e₃
+/// the roots of 4e³ − g₂e − g₁ (trigonometric solution), and t₀ from P₃(0) and the sign of
+/// Ṗ₃(0) = −P₁(0)P₂(0)/c₁. As printed, "P₃ = 2c₁℘ + b" with ℘(t) on the real axis has a pole
+/// at t = 0 and takes values ≥ e₁, i.e. P₃ ≥ H on the unbounded branch where P₁² < 0.
+pub fn theorem_4_3_2_p3(c1: f64, p0: [f64; 3], t: f64) -> f64 {
+    let h = Type::I.hamiltonian([c1, 0.0, 0.0], p0);
+    let k = casimir(p0);
+    let (g2, g3) = theorem_4_3_2_invariants(c1, h, k);
+    let a = 2.0 * c1;
+    let b = (h + 2.0 * c1) / 3.0;
+    // 4e³ − g₂e − g₃ = 0: e = 2√(g₂/12) cos(θ/3 − 2πj/3), cos θ = g₃/(8 (g₂/12)^{3/2})
+    let r = (g2 / 12.0).sqrt();
+    let theta = (g3 / (8.0 * r * r * r)).clamp(-1.0, 1.0).acos();
+    let e = |j: f64| 2.0 * r * (theta / 3.0 - 2.0 * std::f64::consts::PI * j / 3.0).cos();
+    let (e1, e2, e3) = (e(0.0), e(1.0), e(2.0));
+    let m = (e2 - e3) / (e1 - e3);
+    let lambda = (e1 - e3).sqrt();
+    // sn²(u₀) = (℘(0) − e₃)/(e₂ − e₃), u₀ = −λt₀,
+    // and Ṗ₃(0) = 2a(e₂ − e₃)λ sn cn dn; near sn = 0 the latter fixes sn to full accuracy
+    // (√ of the former would lose half the digits at a turning point)
+    let s2 = (((p0[2] - b) / a - e3) / (e2 - e3)).clamp(0.0, 1.0);
+    let dp3 = -p0[0] * p0[1] / c1;
+    let cn0 = (1.0 - s2).sqrt();
+    let sn0 = if s2 < 0.5 {
+        dp3 / (2.0 * a * (e2 - e3) * lambda * cn0 * (1.0 - m * s2).sqrt())
+    } else {
+        s2.sqrt().copysign(dp3)
+    };
+    let u0 = ellipf(sn0.atan2(cn0), m);
+    let sn = ellipj(u0 + lambda * t, m).sn;
+    a * (e3 + (e2 - e3) * sn * sn) + b
+}
+
 /// Prop. 5.3.1 as printed (Type IIa, c₁ = c₂ = c): P₃ = P₃(0) and (P₁, P₂) turned by
 /// P₃(0) t / c. Correct.
 pub fn prop_5_3_1_printed(c: f64, p0: [f64; 3], t: f64) -> [f64; 3] {
