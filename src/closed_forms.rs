@@ -1159,7 +1159,13 @@ impl Extremal {
                 }
             }
         }
-        best.expect("four candidates").1
+        let (_, mut best) = best.expect("four candidates");
+        // Near a turning point x(0) fixes w₀ only to √(rounding); the component that vanishes
+        // there (P_a at r, ∝ sn; the cn-factor at r′) fixes it to full accuracy.
+        if let Kind::Weierstrass(w) = &mut best.kind {
+            w.refine_phase(p0[a], p0[1 - a]);
+        }
+        best
     }
 
     /// The parameter m = k² of the Jacobi functions (0 for a uniform rotation).
@@ -1240,6 +1246,53 @@ impl Extremal {
 }
 
 impl Weier {
+    /// Recomputes w₀ near the turning points, where x(0) determines it badly: near r
+    /// (sn w₀ ≈ 0) from P_a(0) ∝ sn w₀, near r′ (cn w₀ ≈ 0) from the component ∝ cn w₀.
+    fn refine_phase(&mut self, pa0: f64, pb0: f64) {
+        let j = ellipj(self.w0, self.m);
+        let (sn, cn, dn) = (j.sn, j.cn, j.dn);
+        let s2 = sn * sn;
+        let (sn_new, cn_new) = match self.roots {
+            Roots::Three { e3, star } => {
+                let d = self.lambda * self.lambda + (e3 - self.e0) * s2;
+                let f = |root: Root| match root {
+                    Root::E1 => cn,
+                    Root::E2 => dn,
+                    Root::E3 => 1.0,
+                };
+                if s2 < 0.5 {
+                    // P_a = ca λ f* sn / D
+                    let sn_new = pa0 * d / (self.ca * self.lambda * f(star));
+                    (sn_new, (1.0 - sn_new * sn_new).max(0.0).sqrt().copysign(cn))
+                } else {
+                    // the cn-factor: in P_a (e* = e₁) or in P_b = cb λ² f_j f_l / D
+                    let cn_new = if star == Root::E1 {
+                        pa0 * d / (self.ca * self.lambda * sn)
+                    } else {
+                        let g = if star == Root::E2 { 1.0 } else { dn };
+                        pb0 * d / (self.cb * self.lambda * self.lambda * g)
+                    };
+                    ((1.0 - cn_new * cn_new).max(0.0).sqrt().copysign(sn), cn_new)
+                }
+            }
+            Roots::One { er, h2, .. } => {
+                // P_a = ca √H₂ cn sn dn / D: near sn = 0 solve for sn, near cn = 0 for cn
+                let d = h2 * cn * cn + (er - self.e0) * s2 * dn * dn;
+                let scd = pa0 * d / (self.ca * h2.sqrt());
+                if s2 < 0.5 {
+                    let sn_new = scd / (cn * dn);
+                    (sn_new, (1.0 - sn_new * sn_new).max(0.0).sqrt().copysign(cn))
+                } else {
+                    let cn_new = scd / (sn * dn);
+                    ((1.0 - cn_new * cn_new).max(0.0).sqrt().copysign(sn), cn_new)
+                }
+            }
+        };
+        if sn_new.is_finite() && cn_new.is_finite() {
+            self.w0 = ellipf(sn_new.atan2(cn_new), self.m);
+        }
+    }
+
     fn p(&self, t: f64) -> [f64; 3] {
         let j = ellipj(self.w0 + self.lambda * t, self.m);
         let (sn, cn, dn) = (j.sn, j.cn, j.dn);
@@ -1314,15 +1367,19 @@ pub fn theorem_4_3_2_p3(c1: f64, p0: [f64; 3], t: f64) -> f64 {
     let m = (e2 - e3) / (e1 - e3);
     let lambda = (e1 - e3).sqrt();
     // sn²(u₀) = (℘(0) − e₃)/(e₂ − e₃), u₀ = −λt₀,
-    // and Ṗ₃(0) = 2a(e₂ − e₃)λ sn cn dn; near sn = 0 the latter fixes sn to full accuracy
-    // (√ of the former would lose half the digits at a turning point)
+    // and Ṗ₃(0) = 2a(e₂ − e₃)λ sn cn dn; near sn = 0 (cn = 0) the latter fixes sn (cn) to full
+    // accuracy (√ of the former would lose half the digits at a turning point)
     let s2 = (((p0[2] - b) / a - e3) / (e2 - e3)).clamp(0.0, 1.0);
     let dp3 = -p0[0] * p0[1] / c1;
     let cn0 = (1.0 - s2).sqrt();
-    let sn0 = if s2 < 0.5 {
-        dp3 / (2.0 * a * (e2 - e3) * lambda * cn0 * (1.0 - m * s2).sqrt())
+    let scd = dp3 / (2.0 * a * (e2 - e3) * lambda); // sn cn dn at u₀
+    let dn0 = (1.0 - m * s2).sqrt();
+    let (sn0, cn0) = if s2 < 0.5 {
+        (scd / (cn0 * dn0), cn0)
     } else {
-        s2.sqrt().copysign(dp3)
+        // near the maximum (cn u₀ ≈ 0) take cn from Ṗ₃(0), with u₀ ∈ [0, 2K) (sn ≥ 0)
+        let sn0 = s2.sqrt();
+        (sn0, scd / (sn0 * dn0))
     };
     let u0 = ellipf(sn0.atan2(cn0), m);
     let sn = ellipj(u0 + lambda * t, m).sn;

@@ -355,3 +355,66 @@ fn theorem_4_3_2_with_bounded_branch_and_phase() {
         assert!(max_diff(&reference, |t| exact.p(t)) <= TOL);
     }
 }
+
+/// Types I and IIb restarted from points of their own closed-form orbit — at and 10⁻⁹ either
+/// side of the turning points (the zeros of the vanishing component, found by bisection) and
+/// at generic times — reproduce the orbit: P_restart(t) = P(t₁ + t) to 1e-10 on [0, 10]; for
+/// Type I so does Theorem 4.3.2's corrected P₃.
+#[test]
+fn restarts_along_the_orbit() {
+    for case in CASES.iter().filter(|c| matches!(c.ty, Type::I | Type::IIb)) {
+        let orbit = Extremal::of_case(case);
+        let half = 0.5 * orbit.p3_period();
+        // the turning points in [0, 2·period): sign changes of P1 or P2
+        let mut starts = vec![0.37 * half, 1.21 * half];
+        let n = 400;
+        for i in 0..n {
+            let (t0, t1) = (
+                4.0 * half * i as f64 / n as f64,
+                4.0 * half * (i + 1) as f64 / n as f64,
+            );
+            for comp in 0..2 {
+                let (mut lo, mut hi) = (t0, t1);
+                let s = |t: f64| orbit.p(t)[comp];
+                if s(lo) * s(hi) >= 0.0 {
+                    continue;
+                }
+                for _ in 0..200 {
+                    let mid = 0.5 * (lo + hi);
+                    if s(lo) * s(mid) <= 0.0 {
+                        hi = mid;
+                    } else {
+                        lo = mid;
+                    }
+                }
+                starts.extend([lo, lo - 1e-9, lo + 1e-9]);
+            }
+        }
+        assert!(starts.len() >= 5, "{}: no turning point found", case.figure);
+        let mut worst = 0.0f64;
+        for &t1 in &starts {
+            let restart = Extremal::new(case.ty, case.c, orbit.p(t1));
+            for k in 0..=200 {
+                let t = 10.0 * k as f64 / 200.0;
+                let (a, b) = (restart.p(t), orbit.p(t1 + t));
+                for i in 0..3 {
+                    worst = worse(worst, (a[i] - b[i]).abs());
+                }
+                if case.ty == Type::I {
+                    let p3 = theorem_4_3_2_p3(case.c[0], orbit.p(t1), t);
+                    worst = worse(worst, (p3 - b[2]).abs());
+                }
+            }
+        }
+        println!(
+            "{}: {} restarts, max difference {worst:.2e}",
+            case.figure,
+            starts.len()
+        );
+        assert!(
+            worst <= TOL,
+            "{}: restart differs by {worst:.3e}",
+            case.figure
+        );
+    }
+}
