@@ -418,3 +418,25 @@ fn restarts_along_the_orbit() {
         );
     }
 }
+
+/// Theorems 4.3.1 and 6.3.1 impose H² − K > 0 ("since c₁ is real"); extremals with H² < K
+/// exist (their α, β = H ± √(H² − K) are complex, so the printed forms do not apply) and the
+/// corrected forms cover them.
+#[test]
+fn extremals_with_h2_below_k() {
+    for (ty, c, p0) in [
+        (Type::I, [2.0, 0.0, 0.0], [3.0, 1.0, 0.5]),
+        (Type::IIb, [1.0, 2.0, 0.0], [1.0, 1.0, 0.5]),
+        (Type::IIb, [1.0, 0.5, 0.0], [0.5, 1.0, -0.5]),
+    ] {
+        let (h, k) = (ty.hamiltonian(c, p0), casimir(p0));
+        assert!(h * h < k, "{ty:?} {p0:?}: H² = {} ≥ K = {k}", h * h);
+        let reference = integrate_from("H² < K", ty, c, p0, 10.0);
+        let err = max_diff(&reference, |t| Extremal::new(ty, c, p0).p(t));
+        println!(
+            "{ty:?} c = {c:?} P(0) = {p0:?}: H² − K = {:.4}, corrected {err:.2e}",
+            h * h - k
+        );
+        assert!(err <= TOL, "{ty:?} {p0:?}: {err:.3e}");
+    }
+}
