@@ -9,7 +9,7 @@
 
 use lasalle::closed_forms::{
     casimir, prop_5_3_1_printed, prop_6_3_1_printed, prop_7_3_2_printed, theorem_4_3_2_p3, Case,
-    Extremal, Printed, Type, CASES,
+    Extremal, P3Form, Printed, Type, CASES,
 };
 use lasalle::models::{
     so3_type_i::So3TypeI, so3_type_iia::So3TypeIia, so3_type_iib::So3TypeIib,
@@ -438,5 +438,112 @@ fn extremals_with_h2_below_k() {
             h * h - k
         );
         assert!(err <= TOL, "{ty:?} {p0:?}: {err:.3e}");
+    }
+}
+
+/// The listings with a defect beyond the convention and the phase: C.4 nd (P₁, P₂ exchanged),
+/// C.6 (k printed 0.0403 for 0.4026), C.7 ds (denominator a for √(a² + b²)), C.17 (ω printed
+/// 0.5278 for 0.7265).
+const DEFECTIVE: [(&str, &str); 6] = [
+    ("C.4", "nd"),
+    ("C.6", "dc"),
+    ("C.6", "ns"),
+    ("C.7", "ds"),
+    ("C.17", "sd"),
+    ("C.17", "cn"),
+];
+
+/// A defective listing with the repair of `docs/so3.md` (#7–#10).
+fn repaired(figure: &str, f: &Printed) -> Printed {
+    match (figure, f.name) {
+        ("C.4", "nd") => Printed {
+            p1: f.p2,
+            p2: f.p1,
+            ..*f
+        },
+        // b/a of Theorem 6.3.1 CASE (I) from C.6's H and K
+        ("C.6", _) => Printed { k: 0.4026, ..*f },
+        ("C.7", "ds") => match f.p3 {
+            P3Form::Mobius { n0, n1, f: jf, .. } => Printed {
+                p3: P3Form::Mobius {
+                    n0,
+                    n1,
+                    d1: 10.7522,
+                    f: jf,
+                },
+                ..*f
+            },
+            P3Form::Scaled(..) => unreachable!("C.7 ds is a Möbius form"),
+        },
+        ("C.17", _) => Printed {
+            omega: 0.7265,
+            ..*f
+        },
+        _ => unreachable!("{figure} {} is not defective", f.name),
+    }
+}
+
+/// The best time shift t₀ for a printed listing with m = k²: the difference of
+/// P_printed(t + t₀) from the integration in P₃, P₁², P₂² (squares, so that neither the "±" nor
+/// √ of a rounded radicand near a zero — √(10⁻³) ≈ 0.03 — counts), minimised over t₀ (a scan of
+/// one period, then a golden-section refinement).
+fn best_shift(reference: &[(f64, [f64; 3])], f: &Printed) -> (f64, f64) {
+    let m = f.k * f.k;
+    let err = |t0: f64| {
+        reference.iter().fold(0.0f64, |acc, (t, p)| {
+            let q = f.eval(t + t0, m);
+            let d = (q[0] * q[0] - p[0] * p[0])
+                .abs()
+                .max((q[1] * q[1] - p[1] * p[1]).abs())
+                .max((q[2] - p[2]).abs());
+            worse(acc, d)
+        })
+    };
+    let period = f.period(m);
+    let n = 4000;
+    let (mut best_t, mut best_e) = (0.0, f64::INFINITY);
+    for i in 0..n {
+        let t0 = period * i as f64 / n as f64;
+        let e = err(t0);
+        if e < best_e {
+            (best_t, best_e) = (t0, e);
+        }
+    }
+    let (mut a, mut b) = (best_t - period / n as f64, best_t + period / n as f64);
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    for _ in 0..60 {
+        let (x1, x2) = (b - g * (b - a), a + g * (b - a));
+        if err(x1) < err(x2) {
+            b = x2;
+        } else {
+            a = x1;
+        }
+    }
+    let t0 = 0.5 * (a + b);
+    (t0, err(t0).min(best_e))
+}
+
+/// With m = k² *and* the right phase every listing fits to the four-decimal rounding of its
+/// constants — except the six with a further defect, which stay far off whatever the phase.
+/// So the convention (#1) and the phase (#2) are the whole story for the other 32.
+#[test]
+fn printed_forms_fit_up_to_the_phase() {
+    for case in &CASES {
+        let reference = integrate(case);
+        for f in &case.printed {
+            let (t0, e) = best_shift(&reference, f);
+            let at = format!("{} {}", case.figure, f.name);
+            println!("{at}: best shift t0 = {t0:.5}, max difference {e:.2e}");
+            if DEFECTIVE.contains(&(case.figure, f.name)) {
+                assert!(e > 0.1, "{at}: fits ({e:.3e}) though listed as defective");
+                // the documented repair makes it fit
+                let fixed = repaired(case.figure, f);
+                let (t1, e1) = best_shift(&reference, &fixed);
+                println!("{at} repaired: best shift t0 = {t1:.5}, max difference {e1:.2e}");
+                assert!(e1 < 2e-2, "{at}: repaired listing still {e1:.3e} off");
+            } else {
+                assert!(e < 2e-2, "{at}: {e:.3e} off even with the best phase");
+            }
+        }
     }
 }
