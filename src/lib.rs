@@ -10,6 +10,7 @@ pub use lasalle_exec as exec;
 pub use lasalle_exec::{Backend, LoadError, LoadedModel};
 pub use lasalle_runtime::*;
 
+pub mod closed_forms;
 include!(concat!(env!("OUT_DIR"), "/model_files.rs"));
 
 /// The models generated from `models/*.lsl` at build time.
