@@ -8,6 +8,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use lasalle::closed_forms::{Extremal, Type};
 use lasalle::{Backend, Declared, Parameters};
 use serde_json::json;
 
@@ -27,13 +28,16 @@ const METHODS: [(Method, usize, &str); 4] = [
     (Method::Plain(Base::Dopri5), 2, "DOPRI5"),
 ];
 
-/// The four types: model file, title.
-const TYPES: [(&str, &str); 4] = [
-    ("so3_type_i", "Type I (ch. 4)"),
-    ("so3_type_iia", "Type IIa (ch. 5)"),
-    ("so3_type_iib", "Type IIb (ch. 6)"),
-    ("so3_type_iii", "Type III (ch. 7)"),
+/// The four types: model file, title, the thesis' type.
+const TYPES: [(&str, &str, Type); 4] = [
+    ("so3_type_i", "Type I (ch. 4)", Type::I),
+    ("so3_type_iia", "Type IIa (ch. 5)", Type::IIa),
+    ("so3_type_iib", "Type IIb (ch. 6)", Type::IIb),
+    ("so3_type_iii", "Type III (ch. 7)", Type::III),
 ];
+
+/// The span of Appendix C's plots, over which the closed form is compared.
+const CLOSED_FORM_SPAN: f64 = 30.0;
 
 /// Runs the experiment into `dir` (a subdirectory per type).
 pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
@@ -47,7 +51,7 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
         command_line(args, "so3")
     );
     let mut json_types = Vec::new();
-    for (stem, title) in TYPES {
+    for (stem, title, ty) in TYPES {
         let (mut model, _) = load(stem, Backend::Jit)?;
         let preset = model
             .presets()
@@ -65,10 +69,28 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
         let mut traces = Vec::new();
         for (method, _, _) in METHODS {
             let mut spec = RunSpec::new(method, dt, t_end);
-            spec.every = (spec.steps() / 10_000).max(1);
+            // every accepted step of the adaptive method (≈ 5·10⁴), ≈ 10⁴ samples otherwise
+            spec.every = if method.is_adaptive() {
+                1
+            } else {
+                (spec.steps() / 10_000).max(1)
+            };
             spec.progress = !args.quiet;
             traces.push(must(simulate(&model, &x0, &spec))?);
         }
+        // the corrected closed form (docs/so3.md) against DOPRI5
+        let c = ["c1", "c2", "c3"].map(|n| model.param(n).map_or(1.0, |v| v[0]));
+        let closed = Extremal::new(ty, c, [x0[0], x0[1], x0[2]]);
+        let reference = &traces[3];
+        let closed_gap = (0..reference.len())
+            .filter(|&i| reference.t[i] <= CLOSED_FORM_SPAN)
+            .map(|i| {
+                let p = closed.p(reference.t[i]);
+                (0..3)
+                    .map(|k| (p[k] - reference.state(i)[k]).abs())
+                    .fold(0.0, f64::max)
+            })
+            .fold(0.0, f64::max);
         let mut table = Table::new(&[
             "method",
             "wall [s]",
@@ -106,6 +128,12 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
             x0[2]
         );
         report.push_str(&table.markdown());
+        let _ = writeln!(
+            report,
+            "\nCorrected closed form vs DOPRI5 on [0, {CLOSED_FORM_SPAN}]: max |ΔP| = {} (the \
+             integration's own error at rtol = atol = 1e-10).",
+            sci(closed_gap)
+        );
         let sub = dir.join(stem);
         std::fs::create_dir_all(&sub)
             .map_err(|e| format!("cannot create {}: {e}", sub.display()))?;
@@ -117,11 +145,12 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
             true,
         )?;
         if !args.no_figures {
-            figures(&sub, title, &traces)?;
+            figures(&sub, title, &traces, &closed)?;
         }
         json_types.push(json!({
             "type": stem,
             "case": preset.name,
+            "closed_form_max_difference": closed_gap,
             "methods": traces.iter().map(|t| t.summary_json()).collect::<Vec<_>>(),
         }));
     }
@@ -135,18 +164,34 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
     write_outputs(dir, &[], &report, json, args.quiet)
 }
 
-fn figures(dir: &Path, title: &str, traces: &[Trace]) -> CliResult {
-    // P(t) from DOPRI5 over the first 30 time units (the span of Appendix C's plots)
+fn figures(dir: &Path, title: &str, traces: &[Trace], closed: &Extremal) -> CliResult {
+    // P(t) from DOPRI5 (lines) and the closed form (dots) over Appendix C's span
     let reference = &traces[3];
-    let mut c = Chart::new(&format!("P(t), {title}, DOPRI5"), "t", "P", false);
+    let mut c = Chart::new(
+        &format!("P(t), {title}: DOPRI5 (lines), closed form (dots)"),
+        "t",
+        "P",
+        false,
+    );
     let shown: Vec<usize> = (0..reference.len())
-        .filter(|&i| reference.t[i] <= 30.0)
+        .filter(|&i| reference.t[i] <= CLOSED_FORM_SPAN)
         .collect();
     let t: Vec<f64> = shown.iter().map(|&i| reference.t[i]).collect();
+    let t_dots: Vec<f64> = (0..=120)
+        .map(|i| i as f64 * CLOSED_FORM_SPAN / 120.0)
+        .collect();
     for k in 0..3 {
         let y: Vec<f64> = shown.iter().map(|&i| reference.state(i)[k]).collect();
         let (x, y) = thin(&t, &y, 4000);
         c.add(&format!("P{}", k + 1), x, y, [0, 3, 2][k], Style::Line);
+        let y: Vec<f64> = t_dots.iter().map(|&s| closed.p(s)[k]).collect();
+        c.add(
+            &format!("P{} closed form", k + 1),
+            t_dots.clone(),
+            y,
+            [0, 3, 2][k],
+            Style::Dots,
+        );
     }
     write_figure(dir, "fig_p", &[c], (1, 1), (900, 500))?;
     for figure in [
