@@ -7,6 +7,7 @@ mod normal_form;
 mod plot;
 mod run;
 mod sim;
+mod stability;
 
 use clap::{Parser, Subcommand};
 
@@ -32,6 +33,9 @@ enum Command {
     Experiment(experiment::ExperimentArgs),
     /// Birkhoff normal form of a Hamiltonian model at an elliptic equilibrium.
     NormalForm(normal_form::NormalFormArgs),
+    /// Equilibria of a Lie–Poisson model and their stability (energy–Casimir, linearisation),
+    /// on a Casimir level and over a range of levels.
+    Stability(stability::StabilityArgs),
 }
 
 /// Parses the command line and runs the subcommand.
@@ -41,5 +45,6 @@ pub fn main() -> CliResult {
         Command::Run(args) => run::run(&args),
         Command::Experiment(args) => experiment::run(&args),
         Command::NormalForm(args) => normal_form::run(&args),
+        Command::Stability(args) => stability::run(&args),
     }
 }
