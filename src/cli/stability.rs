@@ -77,10 +77,7 @@ fn print_table(rows: &[Equilibrium]) {
             fmt_p(e.p),
             e.lambda,
             e.energy,
-            format!(
-                "{:.6}, {:.6}",
-                e.second_variation[0], e.second_variation[1]
-            ),
+            format!("{:.6}, {:.6}", e.second_variation[0], e.second_variation[1]),
             e.spectrum.to_string(),
             e.verdict
         );
@@ -101,7 +98,11 @@ fn print_sweep(s: &Sweep) {
         println!(
             "  branch {}{}:",
             i + 1,
-            if family { " (a circle of equilibria on each level)" } else { "" }
+            if family {
+                " (a circle of equilibria on each level)"
+            } else {
+                ""
+            }
         );
         for g in &b.segments {
             let end = |r: f64, refined: bool| {
@@ -176,8 +177,14 @@ pub fn run(args: &StabilityArgs) -> CliResult {
             let (a, b) = r
                 .split_once(':')
                 .ok_or_else(|| format!("invalid --range `{r}`: expected `a:b`"))?;
-            let a: f64 = a.trim().parse().map_err(|_| format!("invalid --range `{r}`"))?;
-            let b: f64 = b.trim().parse().map_err(|_| format!("invalid --range `{r}`"))?;
+            let a: f64 = a
+                .trim()
+                .parse()
+                .map_err(|_| format!("invalid --range `{r}`"))?;
+            let b: f64 = b
+                .trim()
+                .parse()
+                .map_err(|_| format!("invalid --range `{r}`"))?;
             if !(a > 0.0 && b > a && b.is_finite()) {
                 return Err(format!("invalid --range `{r}`: need 0 < a < b").into());
             }

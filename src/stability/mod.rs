@@ -84,7 +84,10 @@ impl fmt::Display for StabilityError {
                 write!(f, "{SUPPORTED}; `{model}` cannot be analysed: {why}")
             }
             StabilityError::BadLevel(r) => {
-                write!(f, "the Casimir level |P| = {r} is not a positive finite number")
+                write!(
+                    f,
+                    "the Casimir level |P| = {r} is not a positive finite number"
+                )
             }
             StabilityError::NotEquilibrium {
                 p,
@@ -185,7 +188,9 @@ impl fmt::Display for Verdict {
                     Extremum::Max => "max",
                 }
             ),
-            Verdict::LinearlyUnstable { rate } => write!(f, "linearly unstable (eigenvalue +{rate:.6})"),
+            Verdict::LinearlyUnstable { rate } => {
+                write!(f, "linearly unstable (eigenvalue +{rate:.6})")
+            }
             Verdict::Undecided { probe } => write!(
                 f,
                 "undecided (degenerate); {}",
@@ -417,12 +422,22 @@ fn newton(sys: &LiePoissonSystem, p0: V3, rho: f64, pin: Option<(V3, V3)>) -> Op
         r.iter().take(3).all(|x| x.abs() <= 1e-12 * size)
             && r.iter().skip(3).all(|x| x.abs() <= 1e-12 * rho)
     };
-    for _ in 0..200 {
+    // after convergence, keep iterating while the residual still falls (up to 80 more
+    // steps): at a degenerate (multiple) root Newton converges only linearly, and the point is
+    // determined to about the cube root of the rounding level there
+    let mut extra = None;
+    for _ in 0..300 {
         if !r.iter().all(|x| x.is_finite()) {
             return None;
         }
-        if converged(&r, size) {
-            return Some((p, lambda));
+        if extra.is_none() && converged(&r, size) {
+            extra = Some(0);
+        }
+        if let Some(k) = extra.as_mut() {
+            *k += 1;
+            if *k > 80 {
+                return Some((p, lambda));
+            }
         }
         let mut jm = DMatrix::zeros(rows, 4);
         for i in 0..3 {
@@ -459,6 +474,9 @@ fn newton(sys: &LiePoissonSystem, p0: V3, rho: f64, pin: Option<(V3, V3)>) -> Op
         if !accepted {
             break;
         }
+    }
+    if extra.is_some() {
+        return Some((p, lambda));
     }
     // stagnated: accept only a small residual (degenerate roots converge slowly)
     let ok = r.iter().take(3).all(|x| x.abs() <= 1e-9 * size)
@@ -572,13 +590,21 @@ fn trace_family(sys: &LiePoissonSystem, p: V3, opts: &Options) -> Option<(Family
         let m = |u: V3, v: V3| dot(u, matvec(&lm.hess, v)) + so.lambda * dot(u, v);
         let (a, b) = (m(e1, e1), m(e1, e2));
         // the eigenvector of the eigenvalue closest to zero
-        let ev = so.eig[if so.eig[0].abs() <= so.eig[1].abs() { 0 } else { 1 }];
+        let ev = so.eig[if so.eig[0].abs() <= so.eig[1].abs() {
+            0
+        } else {
+            1
+        }];
         let (x, y) = if b.abs() > 1e-300 || (a - ev).abs() > 1e-300 {
             (b, ev - a)
         } else {
             (1.0, 0.0)
         };
-        let (x, y) = if x.abs() + y.abs() == 0.0 { (1.0, 0.0) } else { (x, y) };
+        let (x, y) = if x.abs() + y.abs() == 0.0 {
+            (1.0, 0.0)
+        } else {
+            (x, y)
+        };
         let v = add(scale(e1, x), scale(e2, y));
         let v = scale(v, 1.0 / norm(v));
         match prev {
@@ -595,12 +621,20 @@ fn trace_family(sys: &LiePoissonSystem, p: V3, opts: &Options) -> Option<(Family
         let pred = scale(pred, rho / norm(pred));
         let (next, _) = newton(sys, pred, rho, Some((v, pred)))?;
         if norm(sub(next, pred)) > 0.5 * step {
-            return if k == 0 { None } else { break_family(members, closed, rho) };
+            return if k == 0 {
+                None
+            } else {
+                break_family(members, closed, rho)
+            };
         }
         let so = second_order(sys, next, opts);
         if so.eig[0].abs().min(so.eig[1].abs()) > 10.0 * so.tol {
             // left the family (its end, or an isolated neighbour)
-            return if k == 0 { None } else { break_family(members, closed, rho) };
+            return if k == 0 {
+                None
+            } else {
+                break_family(members, closed, rho)
+            };
         }
         if k >= 3 && norm(sub(next, p)) < 0.75 * step {
             closed = true;
@@ -618,7 +652,9 @@ fn break_family(members: Vec<V3>, closed: bool, rho: f64) -> Option<(Family, Vec
         return None;
     }
     let n = members.len() as f64;
-    let mean = members.iter().fold([0.0; 3], |a, &m| add(a, scale(m, 1.0 / n)));
+    let mean = members
+        .iter()
+        .fold([0.0; 3], |a, &m| add(a, scale(m, 1.0 / n)));
     let mut mat = DMatrix::zeros(members.len(), 3);
     for (i, m) in members.iter().enumerate() {
         for j in 0..3 {
@@ -750,7 +786,10 @@ pub fn analyse_level(
             equilibria: Vec::new(),
         });
     }
-    let mut found: Vec<V3> = Vec::new();
+    // clusters of converged points: within 10⁻⁴ ρ, or within 10⁻³ ρ when both are nearly
+    // degenerate (a multiple root is only determined to ~ε^⅓); a cluster is represented by its
+    // mean, put back on the sphere
+    let mut clusters: Vec<(Vec<V3>, bool)> = Vec::new();
     for start in fibonacci(opts.starts, rho) {
         let Some((p, _)) = newton(sys, start, rho, None) else {
             continue;
@@ -759,10 +798,32 @@ pub fn analyse_level(
         if norm(sys.local(p).field) > 1e-8 * field_scale(sys, p).max(1e-300) {
             continue;
         }
-        if found.iter().all(|&q| norm(sub(p, q)) > 1e-4 * rho) {
-            found.push(p);
+        let so = second_order(sys, p, opts);
+        let near_degenerate =
+            so.eig[0].abs().min(so.eig[1].abs()) <= 1e-3 * so.tol / opts.degenerate;
+        let home = clusters.iter_mut().find(|(members, degenerate)| {
+            let d = norm(sub(p, members[0]));
+            d <= 1e-4 * rho || (near_degenerate && *degenerate && d <= 1e-3 * rho)
+        });
+        match home {
+            Some((members, _)) => members.push(p),
+            None => clusters.push((vec![p], near_degenerate)),
         }
     }
+    let found: Vec<V3> = clusters
+        .iter()
+        .map(|(members, _)| {
+            let n = members.len() as f64;
+            let mean = members
+                .iter()
+                .fold([0.0; 3], |a, &m| add(a, scale(m, 1.0 / n)));
+            if norm(mean) > 0.5 * rho {
+                scale(mean, rho / norm(mean))
+            } else {
+                members[0]
+            }
+        })
+        .collect();
     let mut equilibria: Vec<Equilibrium> = Vec::new();
     let mut covered: Vec<(Family, Vec<V3>)> = Vec::new();
     for p in found {
@@ -956,7 +1017,8 @@ fn segments(
     let family = points[0].1.family.is_some();
     let mut start = 0;
     for i in 1..=points.len() {
-        let end_here = i == points.len() || points[i].1.verdict.class() != points[start].1.verdict.class();
+        let end_here =
+            i == points.len() || points[i].1.verdict.class() != points[start].1.verdict.class();
         if !end_here {
             continue;
         }

@@ -62,11 +62,16 @@ impl LiePoissonSystem {
             });
         };
         let p: [u32; 3] = match &ham.structure {
-            Structure::LiePoissonSo3 { p } if p.len() == 3 => [p[0] as u32, p[1] as u32, p[2] as u32],
+            Structure::LiePoissonSo3 { p } if p.len() == 3 => {
+                [p[0] as u32, p[1] as u32, p[2] as u32]
+            }
             Structure::LiePoissonSo3 { p } => {
                 return Err(StabilityError::Unsupported {
                     model: model.name.clone(),
-                    why: format!("its lie_poisson_so3 momentum has {} components, not 3", p.len()),
+                    why: format!(
+                        "its lie_poisson_so3 momentum has {} components, not 3",
+                        p.len()
+                    ),
                 })
             }
             Structure::Canonical { .. } => {
@@ -92,7 +97,9 @@ impl LiePoissonSystem {
             if graph.depends_on(root, outside) {
                 return Err(StabilityError::Unsupported {
                     model: model.name.clone(),
-                    why: format!("{what} depends on state outside P: the P-subsystem is not closed"),
+                    why: format!(
+                        "{what} depends on state outside P: the P-subsystem is not closed"
+                    ),
                 });
             }
         }
