@@ -4,7 +4,7 @@
 //! branch of equilibria over a range of Casimir levels. See `docs/stability.md`.
 
 use clap::Args;
-use lasalle::stability::{self, Equilibrium, Family, Level, Options, Sweep};
+use lasalle::stability::{self, Equilibrium, Family, Level, Options, StabilityError, Sweep};
 use lasalle::{ModelInfo, Parameters};
 use lasalle_codegen::model::Structure;
 
@@ -141,11 +141,13 @@ pub fn run(args: &StabilityArgs) -> CliResult {
     }
     // one match on the structure: the canonical branch is where the normal-form based
     // analysis of canonical equilibria will go
+    let name = model.model().name.clone();
     let p_index = match model.model().hamiltonian.as_ref().map(|h| &h.structure) {
         Some(Structure::LiePoissonSo3 { p }) => p.clone(),
-        Some(Structure::Canonical { .. }) | None => {
-            return Err(stability::system(&model).map(|_| ()).unwrap_err().into())
+        Some(Structure::Canonical { .. }) => {
+            return Err(StabilityError::CanonicalNotYet { model: name }.into())
         }
+        None => return Err(StabilityError::NoStructure { model: name }.into()),
     };
     let sys = stability::system(&model)?;
     let opts = Options::default();

@@ -1056,7 +1056,7 @@ fn segments(
 }
 
 /// The level between `a` and `b` (adjacent levels of one branch with different verdict
-/// classes) where the class changes, and the equilibrium there.
+/// classes) where the class changes, and the equilibrium there (on `a`'s side).
 fn bisect(
     sys: &LiePoissonSystem,
     a: &Equilibrium,
@@ -1065,7 +1065,7 @@ fn bisect(
 ) -> Option<(f64, V3)> {
     let class_a = a.verdict.class();
     let (mut lo, mut hi) = (a.rho, b.rho);
-    let (mut p_lo, mut p_hi) = (a.p, b.p);
+    let mut p_lo = a.p;
     for _ in 0..50 {
         let mid = 0.5 * (lo + hi);
         let guess = scale(p_lo, mid / norm(p_lo));
@@ -1077,10 +1077,8 @@ fn bisect(
             p_lo = p;
         } else {
             hi = mid;
-            p_hi = p;
         }
     }
-    let _ = p_hi;
     let mid = 0.5 * (lo + hi);
     Some((mid, scale(p_lo, mid / norm(p_lo))))
 }
