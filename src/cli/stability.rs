@@ -90,7 +90,7 @@ fn print_table(rows: &[Equilibrium]) {
 fn print_sweep(s: &Sweep) {
     let (lo, hi) = (s.rho[0], s.rho[s.rho.len() - 1]);
     println!(
-        "\nBranches of equilibria over Casimir levels ρ ∈ [{lo}, {hi}] ({} levels; verdict changes located by bisection, marked *):",
+        "\nBranches of equilibria over Casimir levels ρ ∈ [{lo:.4}, {hi:.4}] ({} levels; verdict changes located by bisection, marked *):",
         s.rho.len()
     );
     for (i, b) in s.branches.iter().enumerate() {

@@ -932,8 +932,9 @@ pub struct Sweep {
 }
 
 /// Follows the equilibria over `levels` Casimir levels evenly spaced in [ρ_min, ρ_max]: on
-/// each level all equilibria are found ([`analyse_level`]); consecutive levels are matched by
-/// the direction P/|P| (nearest first, within 0.15), and where a branch's verdict class changes
+/// each level all equilibria are found ([`analyse_level`]); a branch is continued to the next
+/// level by Newton from its last point (scaled to the new level) and matched to the equilibrium
+/// found there (else, nearest first, to the closest direction P/|P| within 0.35), and where a branch's verdict class changes
 /// the level is located by bisection (50 halvings, the branch followed by Newton).
 pub fn sweep(
     sys: &LiePoissonSystem,
@@ -964,13 +965,25 @@ pub fn sweep(
         let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
         for &b in &open {
             let last = &branches[b].last().expect("open branches are non-empty").1;
+            // the branch continued to this level by Newton from its last point, scaled
+            let tracked = if last.family.is_none() {
+                newton(sys, scale(last.p, rho / last.rho), rho, None)
+                    .map(|(p, _)| scale(p, rho / norm(p)))
+            } else {
+                None
+            };
             for (i, e) in level.equilibria.iter().enumerate() {
                 if e.family.is_some() != last.family.is_some() {
                     continue;
                 }
                 let d = norm(sub(unit(e), unit(last)));
-                if d < 0.15 {
-                    pairs.push((d, b, i));
+                match tracked {
+                    // the continuation lands on it: matched before any closeness guess
+                    Some(t) if norm(sub(t, e.p)) <= 1e-3 * rho => {
+                        pairs.push((1e-3 * norm(sub(t, e.p)) / rho, b, i))
+                    }
+                    _ if d < 0.35 => pairs.push((d, b, i)),
+                    _ => {}
                 }
             }
         }
