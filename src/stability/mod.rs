@@ -879,7 +879,15 @@ pub fn analyse_point(
     }
     let residual = norm(sys.local(p).field);
     if residual > 1e-8 * field_scale(sys, p).max(1e-300) {
-        let nearest = newton(sys, p, rho, None).map(|(q, _)| q);
+        // Newton from P, else (P may be a singular start) from points 1–10 % of ρ away
+        let basis = tangent_basis(p);
+        let nearest = newton(sys, p, rho, None)
+            .or_else(|| {
+                [1e-2, 3e-2, 1e-1]
+                    .iter()
+                    .find_map(|&r| newton(sys, geodesic(p, basis, r * rho, 0.7), rho, None))
+            })
+            .map(|(q, _)| scale(q, rho / norm(q)));
         return Err(StabilityError::NotEquilibrium {
             p,
             residual,
