@@ -463,6 +463,10 @@ fn dynamics_stay_near_stable_and_leave_unstable_equilibria() {
         let (m, sys) = model(stem, params);
         let e = stability::analyse_point(&sys, p, &Options::default()).unwrap();
         let d = excursion(&m, &sys, p, 1.0, 200.0);
+        eprintln!(
+            "{stem} {params:?} at {p:?}: {}, excursion {d:.3e}",
+            e.verdict
+        );
         match e.verdict.class() {
             VerdictClass::Stable => assert!(
                 d < 1e-2,
