@@ -7,6 +7,7 @@ mod normal_form;
 mod plot;
 mod run;
 mod sim;
+mod stability;
 mod sweep;
 
 use clap::{Parser, Subcommand};
@@ -38,6 +39,9 @@ enum Command {
     Sweep(sweep::SweepArgs),
     /// Join the tables of a sharded sweep, checking that every row is there once.
     SweepMerge(sweep::MergeArgs),
+    /// Equilibria of a Lie–Poisson model and their stability (energy–Casimir, linearisation),
+    /// on a Casimir level and over a range of levels.
+    Stability(stability::StabilityArgs),
 }
 
 /// Parses the command line and runs the subcommand.
@@ -49,5 +53,6 @@ pub fn main() -> CliResult {
         Command::NormalForm(args) => normal_form::run(&args),
         Command::Sweep(args) => sweep::run(&args),
         Command::SweepMerge(args) => sweep::merge(&args),
+        Command::Stability(args) => stability::run(&args),
     }
 }

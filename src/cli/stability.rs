@@ -1,0 +1,260 @@
+//! `lasalle stability <model> [--param k=v …] [--casimir ρ | --at p1,p2,p3] [--range a:b]
+//! [--levels n] [--json]`: the equilibria of a Lie–Poisson model on a Casimir level (or at a
+//! given point) with their energy–Casimir / linear verdicts, and the verdict ranges of every
+//! branch of equilibria over a range of Casimir levels. See `docs/stability.md`.
+
+use clap::Args;
+use lasalle::stability::{self, Equilibrium, Family, Level, Options, StabilityError, Sweep};
+use lasalle::{ModelInfo, Parameters};
+use lasalle_codegen::model::Structure;
+
+use super::load::{load, BackendArg};
+use super::sim::{apply_param, parse_numbers};
+use super::CliResult;
+
+/// Arguments of `lasalle stability`.
+#[derive(Args, Debug)]
+pub struct StabilityArgs {
+    /// The model: a path to a model file or the name of a built-in model (so3-type-i, …).
+    pub model: String,
+    /// Set a parameter, `name=value[,value…]`; repeatable.
+    #[arg(long, value_name = "NAME=V")]
+    pub param: Vec<String>,
+    /// The Casimir level |P| = ρ whose equilibria are listed (default: |P| of the model's
+    /// first named point, else 1).
+    #[arg(long, conflicts_with = "at")]
+    pub casimir: Option<f64>,
+    /// Analyse this point instead (it must be an equilibrium): P1,P2,P3.
+    #[arg(long, allow_hyphen_values = true, value_name = "P1,P2,P3")]
+    pub at: Option<String>,
+    /// The range of Casimir levels of the family summary, `a:b` (default: up to three times
+    /// the largest of 1, |parameters| and the level).
+    #[arg(long, value_name = "A:B")]
+    pub range: Option<String>,
+    /// Number of levels in the family summary.
+    #[arg(long, default_value_t = 121)]
+    pub levels: usize,
+    /// Print JSON instead of tables.
+    #[arg(long)]
+    pub json: bool,
+    /// How the model's functions run (the analysis itself evaluates the symbolic derivatives).
+    #[arg(long, value_enum, default_value_t)]
+    pub backend: BackendArg,
+}
+
+fn fmt_p(p: [f64; 3]) -> String {
+    let c = |x: f64| {
+        let x = if x.abs() < 5e-10 { 0.0 } else { x };
+        format!("{x:9.5}")
+    };
+    format!("({}, {}, {})", c(p[0]), c(p[1]), c(p[2]))
+}
+
+fn fmt_family(f: &Family) -> String {
+    let axis = (0..3).find(|&k| f.normal[k].abs() > 1.0 - 1e-9);
+    let plane = match axis {
+        Some(k) => format!("P{} = {:.6}", k + 1, f.offset * f.normal[k].signum()),
+        None => format!(
+            "({:.4}, {:.4}, {:.4})·P = {:.6}",
+            f.normal[0], f.normal[1], f.normal[2], f.offset
+        ),
+    };
+    format!(
+        "circle {{{plane}}} ∩ sphere{} ({} points traced)",
+        if f.closed { "" } else { " (arc)" },
+        f.members
+    )
+}
+
+fn print_table(rows: &[Equilibrium]) {
+    println!(
+        "  {:<34} {:>11} {:>11} {:>25} {:>16}  verdict",
+        "P", "λ", "H", "δ²(H+λC) on T (eigs)", "linear (eigs)"
+    );
+    for e in rows {
+        println!(
+            "  {:<34} {:>11.6} {:>11.6} {:>25} {:>16}  {}",
+            fmt_p(e.p),
+            e.lambda,
+            e.energy,
+            format!("{:.6}, {:.6}", e.second_variation[0], e.second_variation[1]),
+            e.spectrum.to_string(),
+            e.verdict
+        );
+        if let Some(f) = &e.family {
+            println!("      ↳ on a family of equilibria: {}", fmt_family(f));
+        }
+    }
+}
+
+fn print_sweep(s: &Sweep) {
+    let (lo, hi) = (s.rho[0], s.rho[s.rho.len() - 1]);
+    println!(
+        "\nBranches of equilibria over Casimir levels ρ ∈ [{lo:.4}, {hi:.4}] ({} levels; verdict changes located by bisection, marked *):",
+        s.rho.len()
+    );
+    for (i, b) in s.branches.iter().enumerate() {
+        let family = b.segments.first().is_some_and(|g| g.family);
+        println!(
+            "  branch {}{}:",
+            i + 1,
+            if family {
+                " (a circle of equilibria on each level)"
+            } else {
+                ""
+            }
+        );
+        for g in &b.segments {
+            let end = |r: f64, refined: bool| {
+                if refined {
+                    format!("{r:.6}*")
+                } else {
+                    format!("{r:.4}")
+                }
+            };
+            println!(
+                "    ρ ∈ [{}, {}]: {:<19} P from {} to {}",
+                end(g.rho_from, g.refined[0]),
+                end(g.rho_to, g.refined[1]),
+                g.class.to_string(),
+                fmt_p(g.p_from),
+                fmt_p(g.p_to)
+            );
+            if let stability::Verdict::Undecided { .. } = g.verdict {
+                println!("      {}", g.verdict);
+            }
+        }
+    }
+    if !s.all_equilibria.is_empty() {
+        println!(
+            "  the field vanishes on the whole level (every point an equilibrium) at {} of the levels",
+            s.all_equilibria.len()
+        );
+    }
+}
+
+/// Runs `lasalle stability`.
+pub fn run(args: &StabilityArgs) -> CliResult {
+    let (mut model, stem) = load(&args.model, args.backend.into())?;
+    for p in &args.param {
+        apply_param(&mut model, p)?;
+    }
+    // one match on the structure: the canonical branch is where the normal-form based
+    // analysis of canonical equilibria will go
+    let name = model.model().name.clone();
+    let p_index = match model.model().hamiltonian.as_ref().map(|h| &h.structure) {
+        Some(Structure::LiePoissonSo3 { p }) => p.clone(),
+        Some(Structure::Canonical { .. }) => {
+            return Err(StabilityError::CanonicalNotYet { model: name }.into())
+        }
+        None => return Err(StabilityError::NoStructure { model: name }.into()),
+    };
+    let sys = stability::system(&model)?;
+    let opts = Options::default();
+    let params: Vec<(String, Vec<f64>)> = model
+        .model()
+        .params
+        .iter()
+        .map(|p| (p.name.clone(), model.param(&p.name).unwrap_or_default()))
+        .collect();
+    let level_rho = match (&args.casimir, &args.at) {
+        (Some(r), _) => *r,
+        (None, Some(at)) => {
+            let v = parse_numbers(at).map_err(|e| format!("invalid --at `{at}`: {e}"))?;
+            if v.len() != 3 {
+                return Err(format!("--at needs 3 numbers P1,P2,P3, got {}", v.len()).into());
+            }
+            (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+        }
+        (None, None) => model
+            .point_names()
+            .first()
+            .and_then(|n| model.point(n))
+            .map(|x| p_index.iter().map(|&i| x[i] * x[i]).sum::<f64>().sqrt())
+            .filter(|r| *r > 0.0)
+            .unwrap_or(1.0),
+    };
+    let (range_lo, range_hi) = match &args.range {
+        Some(r) => {
+            let (a, b) = r
+                .split_once(':')
+                .ok_or_else(|| format!("invalid --range `{r}`: expected `a:b`"))?;
+            let a: f64 = a
+                .trim()
+                .parse()
+                .map_err(|_| format!("invalid --range `{r}`"))?;
+            let b: f64 = b
+                .trim()
+                .parse()
+                .map_err(|_| format!("invalid --range `{r}`"))?;
+            if !(a > 0.0 && b > a && b.is_finite()) {
+                return Err(format!("invalid --range `{r}`: need 0 < a < b").into());
+            }
+            (a, b)
+        }
+        None => {
+            let big = params
+                .iter()
+                .flat_map(|(_, v)| v.iter().map(|x| x.abs()))
+                .fold(level_rho.max(1.0), f64::max);
+            (3.0 * big / 120.0, 3.0 * big)
+        }
+    };
+    let point = match &args.at {
+        Some(at) => {
+            let v = parse_numbers(at)?;
+            Some(stability::analyse_point(&sys, [v[0], v[1], v[2]], &opts)?)
+        }
+        None => None,
+    };
+    let level: Option<Level> = match point {
+        Some(_) => None,
+        None => Some(stability::analyse_level(&sys, level_rho, &opts)?),
+    };
+    let sweep = stability::sweep(&sys, range_lo, range_hi, args.levels, &opts)?;
+    if args.json {
+        let json = serde_json::json!({
+            "model": model.model_name(),
+            "file": stem,
+            "params": params.iter().map(|(n, v)| (n.clone(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
+            "casimir": "C = |P|^2/2; lambda: grad H + lambda P = 0",
+            "point": point,
+            "level": level,
+            "sweep": sweep,
+        });
+        println!("{}", serde_json::to_string_pretty(&json)?);
+        return Ok(());
+    }
+    let pstr: Vec<String> = params
+        .iter()
+        .map(|(n, v)| {
+            let v: Vec<String> = v.iter().map(|x| x.to_string()).collect();
+            format!("{n} = {}", v.join(","))
+        })
+        .collect();
+    println!(
+        "{} ({stem}): Lie–Poisson on so(3)*, Ṗ = P × ∇H; {}",
+        model.model_name(),
+        pstr.join(", ")
+    );
+    println!(
+        "Casimir C = ½|P|²; equilibria ∇H + λP = 0; δ² = second variation of H + λC on the tangent plane of the sphere |P| = ρ; linear = eigenvalues of the field's Jacobian there."
+    );
+    if let Some(e) = &point {
+        println!("\nThe equilibrium P = {} (|P| = {:.6}):", fmt_p(e.p), e.rho);
+        print_table(std::slice::from_ref(e));
+    }
+    if let Some(l) = &level {
+        if l.all_equilibria {
+            println!(
+                "\nOn the Casimir level |P| = {:.6} the field vanishes: every point is an equilibrium (trivially stable).",
+                l.rho
+            );
+        } else {
+            println!("\nEquilibria on the Casimir level |P| = {:.6}:", l.rho);
+            print_table(&l.equilibria);
+        }
+    }
+    print_sweep(&sweep);
+    Ok(())
+}
