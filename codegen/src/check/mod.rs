@@ -26,8 +26,17 @@ pub const EXPAND_LIMIT: usize = 20_000;
 pub enum Verdict {
     /// ∇f · X simplified to 0.
     Proved,
-    /// Zero up to rounding at this many random states; the worst relative residual.
+    /// Zero up to rounding at this many random states (on the constraints' manifold for a
+    /// constraint); the worst relative residual.
     Sampled {
+        /// Number of states checked.
+        samples: usize,
+        /// max |∇f·X| / (size of its terms) over the samples.
+        worst_relative: f64,
+    },
+    /// An integral conserved only on the manifold of the model's constraints, zero up to
+    /// rounding at this many random states on it.
+    OnConstraints {
         /// Number of states checked.
         samples: usize,
         /// max |∇f·X| / (size of its terms) over the samples.
@@ -44,12 +53,97 @@ pub struct Conservation {
     pub verdict: Verdict,
 }
 
+/// What sampling ∇f·X at random states found.
+struct Sampled {
+    samples: usize,
+    attempts: usize,
+    worst: f64,
+    /// The first state where a component was not zero: (component, value, scale, state).
+    failure: Option<(usize, f64, f64, Vec<f64>)>,
+}
+
+/// The constraint manifold {f₀ = 0} of all constraints together: their stacked components and
+/// Jacobian rows.
+struct Manifold {
+    ids: Vec<crate::ir::Id>,
+    jacobian: Vec<Vec<crate::ir::Id>>,
+}
+
+/// Samples the Lie derivatives `lie` at random states (projected onto `manifold` if given).
+fn sample(
+    model: &Model,
+    lie: &[crate::ir::Id],
+    manifold: Option<&Manifold>,
+    params: &[f64],
+    seed: u64,
+) -> Sampled {
+    let n = model.dim();
+    let mut rng = Rng::new(seed);
+    let mut out = Sampled {
+        samples: 0,
+        attempts: 0,
+        worst: 0.0,
+        failure: None,
+    };
+    while out.samples < SAMPLES && out.attempts < 20 * SAMPLES && out.failure.is_none() {
+        out.attempts += 1;
+        let mut x: Vec<f64> = (0..n).map(|_| rng.uniform(-1.5, 1.5)).collect();
+        if let Some(m) = manifold {
+            match project_onto(&model.graph, &m.jacobian, &m.ids, params, &x) {
+                Some(on) => x = on,
+                None => continue,
+            }
+        }
+        let mut input = |i: Input| match i {
+            Input::State(k) => x[k as usize],
+            Input::Param(k) => params[k as usize],
+            _ => f64::NAN,
+        };
+        let mut ok = true;
+        let mut this_worst = 0.0f64;
+        for (c, &l) in lie.iter().enumerate() {
+            let (v, scale) = model.graph.eval_with_scale(l, &mut input);
+            if !v.is_finite() || !scale.is_finite() {
+                ok = false;
+                break;
+            }
+            let rel = if scale > 0.0 { v.abs() / scale } else { 0.0 };
+            this_worst = this_worst.max(rel);
+            if rel > TOLERANCE && v.abs() > 1e-300 {
+                out.failure = Some((c, v, scale, x.clone()));
+                break;
+            }
+        }
+        if ok {
+            out.samples += 1;
+            out.worst = out.worst.max(this_worst);
+        }
+    }
+    out
+}
+
 /// Checks every invariant (and an explicit V); reports all failures at once.
+///
+/// Constraints are checked together, on their common manifold (so `|x|² − 1` and `x · v` of a
+/// spherical pendulum hold each on the other's manifold). An integral that is not conserved
+/// everywhere but is on that manifold is accepted as conserved on the constraint manifold
+/// ([`Verdict::OnConstraints`]): the feedback integrator keeps the motion near the manifold,
+/// where the integral is then kept too.
 pub fn check(model: &mut Model, d: &Derivatives) -> Result<Vec<Conservation>, Error> {
     let params = model.default_params();
     let mut out = Vec::new();
     let mut errors = Vec::new();
-    let n = model.dim();
+    let rows: Vec<usize> = model
+        .invariants
+        .iter()
+        .filter(|f| f.kind == InvariantKind::Constraint)
+        .flat_map(|f| f.offset..f.offset + f.value.shape.len())
+        .collect();
+    let all_ids = model.invariant_ids();
+    let manifold = (!rows.is_empty()).then(|| Manifold {
+        ids: rows.iter().map(|&r| all_ids[r]).collect(),
+        jacobian: rows.iter().map(|&r| d.jacobian[r].clone()).collect(),
+    });
     for f in model.invariants.clone() {
         let range = f.offset..f.offset + f.value.shape.len();
         let lie: Vec<_> = d.lie_derivatives[range.clone()].to_vec();
@@ -66,64 +160,42 @@ pub fn check(model: &mut Model, d: &Derivatives) -> Result<Vec<Conservation>, Er
             });
             continue;
         }
-        let mut rng = Rng::new(0x1a5a11e ^ f.offset as u64);
-        let mut worst = 0.0f64;
-        let mut samples = 0;
-        let mut failure = None;
-        let mut attempts = 0;
-        while samples < SAMPLES && attempts < 20 * SAMPLES && failure.is_none() {
-            attempts += 1;
-            let mut x: Vec<f64> = (0..n).map(|_| rng.uniform(-1.5, 1.5)).collect();
-            if f.kind == InvariantKind::Constraint {
-                let Some(on) = project_onto(
-                    &model.graph,
-                    &d.jacobian[range.clone()],
-                    &f.value.ids,
-                    &params,
-                    &x,
-                ) else {
-                    continue;
-                };
-                x = on;
-            }
-            let mut input = |i: Input| match i {
-                Input::State(k) => x[k as usize],
-                Input::Param(k) => params[k as usize],
-                _ => f64::NAN,
-            };
-            let mut ok = true;
-            let mut this_worst = 0.0f64;
-            for (c, &l) in lie.iter().enumerate() {
-                let (v, scale) = model.graph.eval_with_scale(l, &mut input);
-                if !v.is_finite() || !scale.is_finite() {
-                    ok = false;
-                    break;
-                }
-                let rel = if scale > 0.0 { v.abs() / scale } else { 0.0 };
-                this_worst = this_worst.max(rel);
-                if rel > TOLERANCE && v.abs() > 1e-300 {
-                    failure = Some((c, v, scale, x.clone()));
-                    break;
-                }
-            }
-            if ok {
-                samples += 1;
-                worst = worst.max(this_worst);
+        let seed = 0x1a5a11e ^ f.offset as u64;
+        let constraint = f.kind == InvariantKind::Constraint;
+        let mut result = sample(
+            model,
+            &lie,
+            manifold.as_ref().filter(|_| constraint),
+            &params,
+            seed,
+        );
+        let mut on_constraints = constraint;
+        if result.failure.is_some() && !constraint && manifold.is_some() {
+            let on = sample(model, &lie, manifold.as_ref(), &params, seed);
+            if on.failure.is_none() && on.samples >= SAMPLES / 2 {
+                result = on;
+                on_constraints = true;
             }
         }
+        let Sampled {
+            samples,
+            attempts,
+            worst,
+            failure,
+        } = result;
         if let Some((c, v, scale, x)) = failure {
             let component = if f.value.shape.len() > 1 {
                 format!(" (component {c})")
             } else {
                 String::new()
             };
-            let what = if f.kind == InvariantKind::Constraint {
-                "constraint"
-            } else {
-                "integral"
-            };
-            let help = if f.kind == InvariantKind::Constraint {
-                "the field must be tangent to {f₀ = 0}; check the formula".to_string()
+            let what = if constraint { "constraint" } else { "integral" };
+            let help = if constraint {
+                "the field must be tangent to the constraints' manifold {f₀ = 0}; check the formula"
+                    .to_string()
+            } else if manifold.is_some() {
+                "it is not conserved on the constraints' manifold either; check the formula"
+                    .to_string()
             } else {
                 "check the formula; if it holds only on a manifold, declare it as a `constraint` (written so that the manifold is {f = 0})".to_string()
             };
@@ -146,9 +218,16 @@ pub fn check(model: &mut Model, d: &Derivatives) -> Result<Vec<Conservation>, Er
         } else {
             out.push(Conservation {
                 name: f.name.clone(),
-                verdict: Verdict::Sampled {
-                    samples,
-                    worst_relative: worst,
+                verdict: if on_constraints && !constraint {
+                    Verdict::OnConstraints {
+                        samples,
+                        worst_relative: worst,
+                    }
+                } else {
+                    Verdict::Sampled {
+                        samples,
+                        worst_relative: worst,
+                    }
                 },
             });
         }

@@ -276,6 +276,9 @@ fn summary(model: &Model, d: &Derivatives, conservation: &[Conservation], s: &St
             Verdict::Sampled { samples, worst_relative } => {
                 format!("conserved at {samples} random states (worst relative residual {worst_relative:.1e})")
             }
+            Verdict::OnConstraints { samples, worst_relative } => {
+                format!("conserved on the constraints' manifold only, at {samples} random states on it (worst relative residual {worst_relative:.1e})")
+            }
         });
         let kind = if f.kind == InvariantKind::Constraint {
             "constraint"
