@@ -27,7 +27,7 @@ use cranelift_jit::{JITBuilder, JITModule};
 use cranelift_module::Module;
 use lasalle_codegen::ir::Rational;
 
-type EvalFn = unsafe extern "C" fn(*const f64, *const f64, *const f64, *const f64, *mut f64);
+type EvalFn = crate::RawEval;
 type LanesFn =
     unsafe extern "C" fn(usize, *const f64, *const f64, *const f64, *const f64, *mut f64);
 
@@ -106,6 +106,9 @@ impl JitKernel {
         set(&mut flags, "use_colocated_libcalls", "false")?;
         set(&mut flags, "is_pic", "false")?;
         set(&mut flags, "opt_level", "speed")?;
+        // The IR is built by this module from validated tapes: verify it in debug builds only.
+        let verify = if cfg!(debug_assertions) { "true" } else { "false" };
+        set(&mut flags, "enable_verifier", verify)?;
         let isa = cranelift_native::builder()
             .map_err(jit_err)?
             .finish(settings::Flags::new(flags))
@@ -191,7 +194,10 @@ impl JitKernel {
                 e.b.seal_all_blocks();
                 e.b.finalize(module.target_config());
             }
+            let dump = std::env::var_os("LASALLE_JIT_DUMP").is_some() && !lanes;
+            if dump { ctx.set_disasm(true); eprintln!("{}", ctx.func.display()); }
             module.define_function(id, &mut ctx).map_err(jit_err)?;
+            if dump { eprintln!("{}", ctx.compiled_code().unwrap().vcode.as_deref().unwrap_or("")); }
             module.clear_context(&mut ctx);
             ids.push(id);
         }
@@ -245,14 +251,23 @@ fn offset(i: usize) -> Result<i32, ExecError> {
         .ok_or_else(|| ExecError::Jit(format!("index {i} too large for an immediate offset")))
 }
 
-/// Loads and stores of f64 (8-byte aligned, in bounds).
+/// Stores of f64 (8-byte aligned, in bounds).
 fn scalar_flags() -> MemFlagsData {
     MemFlagsData::trusted()
 }
 
-/// Loads and stores of two lanes: in bounds but only 8-byte aligned.
+/// Stores of two lanes: in bounds but only 8-byte aligned.
 fn vector_flags() -> MemFlagsData {
     MemFlagsData::new().with_notrap()
+}
+
+/// Loads of the inputs. They are in bounds (`notrap`), and the inputs are shared slices that
+/// nothing writes during a call (`out` is a `&mut` slice, so it cannot overlap them):
+/// `readonly` + `can_move` make the loads pure for Cranelift's e-graph, which then places each
+/// load next to its first use (or folds it into the instruction as a memory operand) instead
+/// of issuing every load up front and spilling the values.
+fn load_flags(f: MemFlagsData) -> MemFlagsData {
+    f.with_readonly().with_can_move()
 }
 
 impl Emit<'_> {
@@ -268,7 +283,7 @@ impl Emit<'_> {
 
     fn load(&mut self, base: Value, i: usize) -> Result<Value, ExecError> {
         let off = offset(i)?;
-        Ok(self.b.ins().load(types::F64, scalar_flags(), base, off))
+        Ok(self.b.ins().load(types::F64, load_flags(scalar_flags()), base, off))
     }
 
     /// A constant in the current mode.
@@ -459,7 +474,7 @@ impl Emit<'_> {
                 let v = self.op(op, args, &mut |e, c| {
                     let at = e.b.ins().imul_imm_s(kb, c as i64);
                     let addr = e.b.ins().iadd(state, at);
-                    Ok(e.b.ins().load(ty, flags, addr, 0))
+                    Ok(e.b.ins().load(ty, load_flags(flags), addr, 0))
                 })?;
                 if self.vector {
                     self.vectors[i] = Some(v);
@@ -561,6 +576,30 @@ impl Kernel for JitKernel {
             )
         };
         Ok(())
+    }
+
+    unsafe fn eval_unchecked(
+        &self,
+        hoisted: &[f64],
+        state: &[f64],
+        target: &[f64],
+        gains: &[f64],
+        out: &mut [f64],
+    ) {
+        // SAFETY: the caller guarantees the lengths `eval` checks.
+        unsafe {
+            (self.eval)(
+                hoisted.as_ptr(),
+                state.as_ptr(),
+                target.as_ptr(),
+                gains.as_ptr(),
+                out.as_mut_ptr(),
+            )
+        }
+    }
+
+    fn raw_eval(&self) -> Option<crate::RawEval> {
+        Some(self.eval)
     }
 
     fn eval_lanes(
