@@ -91,6 +91,41 @@ struct Ins {
     code: Code,
 }
 
+/// An instruction of the one-state loop: `slot[first + i] = slot[a] · slot[m] + slot[c]`, the
+/// product and the sum being two separately rounded IEEE operations (never fused). With the
+/// constants 1, −1 and −0 in their slots this is each of `+ − · neg` exactly:
+///
+/// | tape    | a | m  | c  | computed        |
+/// |---------|---|----|----|-----------------|
+/// | x + y   | x | 1  | y  | (x·1) + y       |
+/// | x − y   | y | −1 | x  | (−y) + x        |
+/// | x · y   | x | y  | −0 | (x·y) + (−0)    |
+/// | −x      | x | −1 | −0 | (−x) + (−0)     |
+///
+/// since x·1 = x and y·(−1) = −y exactly, `−y + x` is the IEEE `x − y` (= `x + (−y)`;
+/// addition is commutative), and adding −0 changes nothing (+0 + −0 = +0 and −0 + −0 = −0
+/// in the default rounding mode). The values are therefore bitwise those of the tape, except
+/// that a NaN may come out with the other sign bit (`y·(−1)` keeps a NaN's sign where `−y`
+/// flips it); every NaN stays a NaN. One form for all four means the loop takes no
+/// data-dependent branch: an interpreter's usual cost is the mispredicted jump per
+/// instruction. The other instructions ([`Special`]) split the loop into runs.
+#[derive(Clone, Copy, Debug)]
+struct Fast {
+    a: u32,
+    m: u32,
+    c: u32,
+}
+
+/// An instruction off the straight path: `code(slot[a], slot[b])` (`b` is the exponent's
+/// index for `Powf`), after `fast_end` straight instructions in all.
+#[derive(Clone, Copy, Debug)]
+struct Special {
+    fast_end: usize,
+    code: Code,
+    a: u32,
+    b: u32,
+}
+
 /// A tape ready to be interpreted.
 #[derive(Clone, Debug)]
 pub struct Interpreter {
@@ -102,6 +137,10 @@ pub struct Interpreter {
     /// Slot written by the first instruction.
     first: usize,
     code: Vec<Ins>,
+    /// `code` for the one-state loop: the straight instructions…
+    fast: Vec<Fast>,
+    /// … and the others, in order.
+    specials: Vec<Special>,
     /// Exponents of the `Powf` instructions.
     rationals: Vec<Rational>,
     /// Slot of each output.
@@ -171,6 +210,8 @@ impl Interpreter {
             code: Vec::new(),
             rationals: Vec::new(),
         };
+        // the constants of the `Fast` encoding
+        let [one, minus_one, minus_zero] = [1.0, -1.0, -0.0].map(|c| dec.constant(c));
         let mut slots: Vec<Slot> = Vec::with_capacity(tape.body.len());
         let inputs = |base: usize, k: u32| Slot::Fixed(base + k as usize);
         for &op in &tape.body {
@@ -243,8 +284,32 @@ impl Interpreter {
                     "decoded instruction {i} reads a later slot"
                 ))));
             }
-            if ins.code == Code::Powf && ins.b as usize >= dec.rationals.len() {
+            if ins.code == Code::Powf && (ins.b as usize >= dec.rationals.len() || ins.b >= 1 << 24) {
                 return Err(ExecError::Tape(TapeError::Malformed("bad exponent".into())));
+            }
+        }
+        let [one, minus_one, minus_zero] =
+            [one, minus_one, minus_zero].map(|c| (consts_at + c as usize) as u32);
+        let mut fast = Vec::new();
+        let mut specials = Vec::new();
+        for ins in &code {
+            let (a, b) = (ins.a, ins.b);
+            let f = |a, m, c| Some(Fast { a, m, c });
+            let straight = match ins.code {
+                Code::Add => f(a, one, b),
+                Code::Sub => f(b, minus_one, a),
+                Code::Mul => f(a, b, minus_zero),
+                Code::Neg => f(a, minus_one, minus_zero),
+                _ => None,
+            };
+            match straight {
+                Some(f) => fast.push(f),
+                None => specials.push(Special {
+                    fast_end: fast.len(),
+                    code: ins.code,
+                    a,
+                    b,
+                }),
             }
         }
         let outputs: Vec<u32> = tape.outputs.iter().map(|r| place(slots[r.index()])).collect();
@@ -259,6 +324,8 @@ impl Interpreter {
             consts_at,
             first,
             code,
+            fast,
+            specials,
             rationals: dec.rationals,
             outputs,
             n_slots,
@@ -294,28 +361,45 @@ impl Interpreter {
             }
             debug_assert_eq!(at, w.add(self.consts_at));
             copy(self.consts.as_ptr(), at, self.consts.len());
-            let mut dst = w.add(self.first);
             let r = |s: u32| *w.add(s as usize);
-            for ins in &self.code {
-                let x = r(ins.a);
-                *dst = match ins.code {
-                    Code::Add => x + r(ins.b),
-                    Code::Sub => x - r(ins.b),
-                    Code::Mul => x * r(ins.b),
-                    Code::Div => x / r(ins.b),
-                    Code::Neg => -x,
-                    Code::Sqrt => x.sqrt(),
-                    Code::Cbrt => x.cbrt(),
-                    Code::Exp => x.exp(),
-                    Code::Ln => x.ln(),
-                    Code::Sin => x.sin(),
-                    Code::Cos => x.cos(),
-                    Code::Powf => powf(x, *self.rationals.get_unchecked(ins.b as usize)),
-                };
+            let straight = |from: usize, to: usize, mut dst: *mut f64| {
+                for f in self.fast.get_unchecked(from..to) {
+                    *dst = r(f.a) * r(f.m) + r(f.c);
+                    dst = dst.add(1);
+                }
+                dst
+            };
+            let mut dst = w.add(self.first);
+            let mut done = 0;
+            for s in &self.specials {
+                dst = straight(done, s.fast_end, dst);
+                done = s.fast_end;
+                // `b` is a slot unless the exponent's index (Powf)
+                let y = if s.code == Code::Powf { 0.0 } else { r(s.b) };
+                *dst = self.special(s, r(s.a), y);
                 dst = dst.add(1);
             }
+            straight(done, self.fast.len(), dst);
             for (o, &s) in out.iter_mut().zip(&self.outputs) {
                 *o = r(s);
+            }
+        }
+    }
+
+    /// An instruction off the straight path.
+    #[inline(never)]
+    fn special(&self, s: &Special, x: f64, y: f64) -> f64 {
+        match s.code {
+            Code::Div => x / y,
+            Code::Sqrt => x.sqrt(),
+            Code::Cbrt => x.cbrt(),
+            Code::Exp => x.exp(),
+            Code::Ln => x.ln(),
+            Code::Sin => x.sin(),
+            Code::Cos => x.cos(),
+            Code::Powf => powf(x, self.rationals[s.b as usize]),
+            Code::Add | Code::Sub | Code::Mul | Code::Neg => {
+                unreachable!("decoded: these take the straight path")
             }
         }
     }
