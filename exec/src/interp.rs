@@ -80,6 +80,9 @@ enum Code {
     Cos,
     /// `b` indexes [`Interpreter::rationals`], not a slot.
     Powf,
+    /// `a·b + c`: a product whose one use is this sum (`Add(Mul(a, b), c)` or
+    /// `Add(c, Mul(a, b))`, the same IEEE sum), two roundings as in the tape, never fused.
+    MulAdd,
 }
 
 /// A decoded instruction: `slot[first + i] = code(slot[a], slot[b])` (`b` unused by unary
@@ -88,6 +91,8 @@ enum Code {
 struct Ins {
     a: u32,
     b: u32,
+    /// The addend of `MulAdd`.
+    c: u32,
     code: Code,
 }
 
@@ -159,8 +164,11 @@ struct Decoder {
     consts: Vec<f64>,
     /// Constants as (bits, index), for pooling.
     pool: std::collections::HashMap<u64, u32>,
-    /// Instructions on unplaced slots (`Powf`: the exponent's index as `Slot::Fixed`).
-    code: Vec<(Code, Slot, Slot)>,
+    /// Instructions on unplaced slots (`Powf`: the exponent's index as `Slot::Fixed`; the
+    /// third operand is `MulAdd`'s addend, else a copy of the first).
+    code: Vec<(Code, Slot, Slot, Slot)>,
+    /// The factors of the products deferred to their sum ([`Slot::Product`]).
+    products: Vec<(Slot, Slot)>,
     rationals: Vec<Rational>,
 }
 
@@ -175,7 +183,12 @@ impl Decoder {
 
     /// Appends an instruction; its slot.
     fn push(&mut self, code: Code, a: Slot, b: Slot) -> Slot {
-        self.code.push((code, a, b));
+        self.push3(code, a, b, a)
+    }
+
+    /// Appends an instruction with three operands; its slot.
+    fn push3(&mut self, code: Code, a: Slot, b: Slot, c: Slot) -> Slot {
+        self.code.push((code, a, b, c));
         Slot::Computed(self.code.len() - 1)
     }
 }
@@ -189,6 +202,8 @@ enum Slot {
     Const(u32),
     /// The value of the instruction `code[i]`.
     Computed(usize),
+    /// Not computed: the product `products[i]`, folded into its one use, a sum.
+    Product(usize),
 }
 
 impl Interpreter {
@@ -209,15 +224,52 @@ impl Interpreter {
             pool: Default::default(),
             code: Vec::new(),
             rationals: Vec::new(),
+            products: Vec::new(),
         };
+        // The products used once, by a sum: computed in the sum's `MulAdd`.
+        let mut uses = vec![0u32; tape.body.len()];
+        for r in tape.body.iter().flat_map(Op::operands).chain(tape.outputs.iter().copied()) {
+            uses[r.index()] += 1;
+        }
+        let mut fold = vec![false; tape.body.len()];
+        for op in &tape.body {
+            if let Op::Add(a, b) = *op {
+                for r in [a, b] {
+                    if uses[r.index()] == 1 && matches!(tape.body[r.index()], Op::Mul(..)) {
+                        fold[r.index()] = true;
+                    }
+                }
+            }
+        }
         // the constants of the `Fast` encoding
         let [one, minus_one, minus_zero] = [1.0, -1.0, -0.0].map(|c| dec.constant(c));
         let mut slots: Vec<Slot> = Vec::with_capacity(tape.body.len());
         let inputs = |base: usize, k: u32| Slot::Fixed(base + k as usize);
-        for &op in &tape.body {
+        for (i, &op) in tape.body.iter().enumerate() {
             // operands are earlier registers (validated)
             let s = |r: Reg| slots[r.index()];
             let slot = match op {
+                Op::Mul(a, b) if fold[i] => {
+                    dec.products.push((s(a), s(b)));
+                    Slot::Product(dec.products.len() - 1)
+                }
+                Op::Add(a, b) if matches!(s(a), Slot::Product(_)) || matches!(s(b), Slot::Product(_)) => {
+                    let (p, c) = match (s(a), s(b)) {
+                        (Slot::Product(p), c) => (p, c),
+                        (c, Slot::Product(p)) => (p, c),
+                        _ => unreachable!("one operand is a product"),
+                    };
+                    let (x, y) = dec.products[p];
+                    // a sum of two such products computes the other one on its own
+                    let c = match c {
+                        Slot::Product(q) => {
+                            let (u, v) = dec.products[q];
+                            dec.push(Code::Mul, u, v)
+                        }
+                        c => c,
+                    };
+                    dec.push3(Code::MulAdd, x, y, c)
+                }
                 Op::State(k) => inputs(0, k),
                 Op::Target(k) => inputs(d.state, k),
                 Op::Gain(k) => inputs(d.state + d.targets, k),
@@ -261,17 +313,19 @@ impl Interpreter {
                 Slot::Fixed(i) => i,
                 Slot::Const(c) => consts_at + c as usize,
                 Slot::Computed(i) => first + i,
+                Slot::Product(_) => unreachable!("a product is only read by its sum"),
             }) as u32
         };
         let code: Vec<Ins> = dec
             .code
             .iter()
-            .map(|&(code, a, b)| Ins {
+            .map(|&(code, a, b, c)| Ins {
                 a: place(a),
                 b: match (code, b) {
                     (Code::Powf, Slot::Fixed(i)) => i as u32,
                     _ => place(b),
                 },
+                c: place(c),
                 code,
             })
             .collect();
@@ -279,7 +333,7 @@ impl Interpreter {
         for (i, ins) in code.iter().enumerate() {
             let own = (first + i) as u32;
             let binary = ins.code != Code::Powf;
-            if ins.a >= own || (binary && ins.b >= own) {
+            if ins.a >= own || (binary && ins.b >= own) || ins.c >= own {
                 return Err(ExecError::Tape(TapeError::Malformed(format!(
                     "decoded instruction {i} reads a later slot"
                 ))));
@@ -300,6 +354,7 @@ impl Interpreter {
                 Code::Sub => f(b, minus_one, a),
                 Code::Mul => f(a, b, minus_zero),
                 Code::Neg => f(a, minus_one, minus_zero),
+                Code::MulAdd => f(a, b, ins.c),
                 _ => None,
             };
             match straight {
@@ -398,7 +453,7 @@ impl Interpreter {
             Code::Sin => x.sin(),
             Code::Cos => x.cos(),
             Code::Powf => powf(x, self.rationals[s.b as usize]),
-            Code::Add | Code::Sub | Code::Mul | Code::Neg => {
+            Code::Add | Code::Sub | Code::Mul | Code::Neg | Code::MulAdd => {
                 unreachable!("decoded: these take the straight path")
             }
         }
@@ -434,6 +489,12 @@ impl Interpreter {
                 Code::Mul => map2(dst, a, lane(ins.b), |x, y| x * y),
                 Code::Div => map2(dst, a, lane(ins.b), |x, y| x / y),
                 Code::Neg => map1(dst, a, |x| -x),
+                Code::MulAdd => {
+                    let (b, c) = (lane(ins.b), lane(ins.c));
+                    for (((d, &x), &y), &z) in dst.iter_mut().zip(a).zip(b).zip(c) {
+                        *d = x * y + z;
+                    }
+                }
                 Code::Sqrt => map1(dst, a, f64::sqrt),
                 Code::Cbrt => map1(dst, a, f64::cbrt),
                 Code::Exp => map1(dst, a, f64::exp),
