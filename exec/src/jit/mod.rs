@@ -185,6 +185,14 @@ impl JitKernel {
                     values: vec![None; tape.body.len()],
                     vectors: vec![None; tape.body.len()],
                     vector: false,
+                    negated: tape
+                        .body
+                        .iter()
+                        .map(|op| match *op {
+                            Op::Neg(y) => Some(y),
+                            _ => None,
+                        })
+                        .collect(),
                     math: Math::new(module),
                 };
                 match k {
@@ -238,6 +246,10 @@ struct Emit<'a> {
     vectors: Vec<Option<Value>>,
     /// Emitting the two-lane loop.
     vector: bool,
+    /// `Some(y)` for the registers that are `Neg(y)`: `x + (−y)` is emitted as `x − y` and
+    /// `x − (−y)` as `x + y`, the same IEEE operations (the negation, if unused otherwise, is
+    /// then dead and not emitted).
+    negated: Vec<Option<crate::Reg>>,
     math: Math,
 }
 
@@ -371,14 +383,31 @@ impl Emit<'_> {
                 return Err(ExecError::Jit("a parameter in the body".into()));
             }
             Op::Const(c) => self.constant(c),
-            Op::Add(a, c) => {
-                let (x, y) = (v(self, a), v(self, c));
-                self.b.ins().fadd(x, y)
-            }
-            Op::Sub(a, c) => {
-                let (x, y) = (v(self, a), v(self, c));
-                self.b.ins().fsub(x, y)
-            }
+            Op::Add(a, c) => match (self.negated[a.index()], self.negated[c.index()]) {
+                (_, Some(y)) => {
+                    let (x, y) = (v(self, a), v(self, y));
+                    self.b.ins().fsub(x, y)
+                }
+                (Some(y), None) => {
+                    // −y + x = x − y: IEEE addition is commutative
+                    let (x, y) = (v(self, c), v(self, y));
+                    self.b.ins().fsub(x, y)
+                }
+                (None, None) => {
+                    let (x, y) = (v(self, a), v(self, c));
+                    self.b.ins().fadd(x, y)
+                }
+            },
+            Op::Sub(a, c) => match self.negated[c.index()] {
+                Some(y) => {
+                    let (x, y) = (v(self, a), v(self, y));
+                    self.b.ins().fadd(x, y)
+                }
+                None => {
+                    let (x, y) = (v(self, a), v(self, c));
+                    self.b.ins().fsub(x, y)
+                }
+            },
             Op::Mul(a, c) => {
                 let (x, y) = (v(self, a), v(self, c));
                 self.b.ins().fmul(x, y)
