@@ -169,6 +169,8 @@ struct Decoder {
     code: Vec<(Code, Slot, Slot, Slot)>,
     /// The factors of the products deferred to their sum ([`Slot::Product`]).
     products: Vec<(Slot, Slot)>,
+    /// The operands of the negations deferred to their use ([`Slot::Negated`]).
+    negated: Vec<Slot>,
     rationals: Vec<Rational>,
 }
 
@@ -184,6 +186,21 @@ impl Decoder {
     /// Appends an instruction; its slot.
     fn push(&mut self, code: Code, a: Slot, b: Slot) -> Slot {
         self.push3(code, a, b, a)
+    }
+
+    /// A deferred value computed after all (a sum of two products, say), or `s` itself.
+    fn materialize(&mut self, s: Slot) -> Slot {
+        match s {
+            Slot::Product(p) => {
+                let (x, y) = self.products[p];
+                self.push(Code::Mul, x, y)
+            }
+            Slot::Negated(k) => {
+                let x = self.negated[k];
+                self.push(Code::Neg, x, x)
+            }
+            s => s,
+        }
     }
 
     /// Appends an instruction with three operands; its slot.
@@ -204,6 +221,8 @@ enum Slot {
     Computed(usize),
     /// Not computed: the product `products[i]`, folded into its one use, a sum.
     Product(usize),
+    /// Not computed: minus `negated[i]`, folded into its one use, a sum or a difference.
+    Negated(usize),
 }
 
 impl Interpreter {
@@ -225,20 +244,30 @@ impl Interpreter {
             code: Vec::new(),
             rationals: Vec::new(),
             products: Vec::new(),
+            negated: Vec::new(),
         };
         // The products used once, by a sum: computed in the sum's `MulAdd`.
         let mut uses = vec![0u32; tape.body.len()];
         for r in tape.body.iter().flat_map(Op::operands).chain(tape.outputs.iter().copied()) {
             uses[r.index()] += 1;
         }
+        // …and the negations used once, by a sum or as what a difference subtracts:
+        // `x + (−y)` and `−y + x` are the IEEE `x − y`, `x − (−y)` is `x + y`.
         let mut fold = vec![false; tape.body.len()];
         for op in &tape.body {
-            if let Op::Add(a, b) = *op {
-                for r in [a, b] {
-                    if uses[r.index()] == 1 && matches!(tape.body[r.index()], Op::Mul(..)) {
-                        fold[r.index()] = true;
+            let once = |r: Reg| uses[r.index()] == 1;
+            match *op {
+                Op::Add(a, b) => {
+                    for r in [a, b] {
+                        if once(r) && matches!(tape.body[r.index()], Op::Mul(..) | Op::Neg(_)) {
+                            fold[r.index()] = true;
+                        }
                     }
                 }
+                Op::Sub(_, b) if once(b) && matches!(tape.body[b.index()], Op::Neg(_)) => {
+                    fold[b.index()] = true;
+                }
+                _ => {}
             }
         }
         // the constants of the `Fast` encoding
@@ -253,22 +282,33 @@ impl Interpreter {
                     dec.products.push((s(a), s(b)));
                     Slot::Product(dec.products.len() - 1)
                 }
-                Op::Add(a, b) if matches!(s(a), Slot::Product(_)) || matches!(s(b), Slot::Product(_)) => {
-                    let (p, c) = match (s(a), s(b)) {
-                        (Slot::Product(p), c) => (p, c),
-                        (c, Slot::Product(p)) => (p, c),
-                        _ => unreachable!("one operand is a product"),
-                    };
-                    let (x, y) = dec.products[p];
-                    // a sum of two such products computes the other one on its own
-                    let c = match c {
-                        Slot::Product(q) => {
-                            let (u, v) = dec.products[q];
-                            dec.push(Code::Mul, u, v)
+                Op::Neg(a) if fold[i] => {
+                    dec.negated.push(s(a));
+                    Slot::Negated(dec.negated.len() - 1)
+                }
+                Op::Add(a, b) => match (s(a), s(b)) {
+                    (Slot::Product(p), c) | (c, Slot::Product(p)) => {
+                        // a sum of two products computes the other one on its own
+                        let c = dec.materialize(c);
+                        let (x, y) = dec.products[p];
+                        dec.push3(Code::MulAdd, x, y, c)
+                    }
+                    (x, Slot::Negated(y)) | (Slot::Negated(y), x) => {
+                        let x = dec.materialize(x);
+                        let y = dec.negated[y];
+                        dec.push(Code::Sub, x, y)
+                    }
+                    (x, y) => dec.push(Code::Add, x, y),
+                },
+                Op::Sub(a, b) => {
+                    let x = dec.materialize(s(a));
+                    match s(b) {
+                        Slot::Negated(y) => {
+                            let y = dec.negated[y];
+                            dec.push(Code::Add, x, y)
                         }
-                        c => c,
-                    };
-                    dec.push3(Code::MulAdd, x, y, c)
+                        y => dec.push(Code::Sub, x, y),
+                    }
                 }
                 Op::State(k) => inputs(0, k),
                 Op::Target(k) => inputs(d.state, k),
@@ -279,8 +319,6 @@ impl Interpreter {
                 Op::Powi(a, n) => powi_slots(&mut dec, s(a), n),
                 op => {
                     let (code, a, b) = match op {
-                        Op::Add(a, b) => (Code::Add, s(a), s(b)),
-                        Op::Sub(a, b) => (Code::Sub, s(a), s(b)),
                         Op::Mul(a, b) => (Code::Mul, s(a), s(b)),
                         Op::Div(a, b) => (Code::Div, s(a), s(b)),
                         Op::Neg(a) => (Code::Neg, s(a), s(a)),
@@ -294,7 +332,7 @@ impl Interpreter {
                             dec.rationals.push(p);
                             (Code::Powf, s(a), Slot::Fixed(dec.rationals.len() - 1))
                         }
-                        _ => unreachable!("leaves and powi are handled above"),
+                        _ => unreachable!("leaves, sums, differences and powi are handled above"),
                     };
                     dec.push(code, a, b)
                 }
@@ -313,7 +351,9 @@ impl Interpreter {
                 Slot::Fixed(i) => i,
                 Slot::Const(c) => consts_at + c as usize,
                 Slot::Computed(i) => first + i,
-                Slot::Product(_) => unreachable!("a product is only read by its sum"),
+                Slot::Product(_) | Slot::Negated(_) => {
+                    unreachable!("a deferred value is only read by its one use")
+                }
             }) as u32
         };
         let code: Vec<Ins> = dec
