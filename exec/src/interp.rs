@@ -9,14 +9,21 @@
 //! ```
 //!
 //! A call copies its inputs and the (pooled) constants into the first slots, which replaces
-//! every leaf instruction of the tape, and then runs the computed instructions ([`Ins`]: an
-//! opcode and two `u32` slot indices; instruction i writes slot `first + i`). `Powi` is
-//! expanded into the multiplications of its binary exponentiation
-//! ([`lasalle_codegen::tape::powi`]: the same IEEE
-//! operations in the same order, so the values are bitwise those of `powi`), `x⁰` becomes the
-//! constant 1 and `x¹` the slot of x itself. Every other instruction is the one IEEE operation
-//! or `std` call of the tape, on the same operands, so the results are bitwise those of the
-//! tape.
+//! every leaf instruction of the tape, and then runs the computed instructions (instruction i
+//! writes slot `first + i`). Decoding also
+//! - expands `Powi` into the multiplications of its binary exponentiation
+//!   ([`lasalle_codegen::tape::powi`]: the same IEEE operations in the same order), with `x⁰`
+//!   the constant 1 and `x¹` the slot of x itself;
+//! - folds a product used once, by a sum, into that sum (`a·b + c`, the product and the sum
+//!   rounded separately as in the tape: never a fused multiply-add);
+//! - folds a negation used once, by a sum or as the subtrahend of a difference, into it
+//!   (`x + (−y)` and `−y + x` are the IEEE `x − y`; `x − (−y)` is `x + y`).
+//!
+//! The one-state loop runs `+ − · neg` and the folded products in one branch-free form,
+//! `a·m + c` ([`Fast`]), and the other instructions (division, square root, the `std`
+//! functions) between runs of it. Every value is therefore the IEEE operation or `std` call of
+//! the tape on the same operands: the results are bitwise those of the tape, except that a NaN
+//! may come out with the other sign bit (see [`Fast`]; the tests count every NaN as equal).
 //!
 //! # Safety of the unchecked loop
 //!
@@ -106,6 +113,7 @@ struct Ins {
 /// | x − y   | y | −1 | x  | (−y) + x        |
 /// | x · y   | x | y  | −0 | (x·y) + (−0)    |
 /// | −x      | x | −1 | −0 | (−x) + (−0)     |
+/// | x·y + z | x | y  | z  | (x·y) + z       |
 ///
 /// since x·1 = x and y·(−1) = −y exactly, `−y + x` is the IEEE `x − y` (= `x + (−y)`;
 /// addition is commutative), and adding −0 changes nothing (+0 + −0 = +0 and −0 + −0 = −0

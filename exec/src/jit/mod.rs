@@ -202,10 +202,7 @@ impl JitKernel {
                 e.b.seal_all_blocks();
                 e.b.finalize(module.target_config());
             }
-            let dump = std::env::var_os("LASALLE_JIT_DUMP").is_some() && !lanes;
-            if dump { ctx.set_disasm(true); eprintln!("{}", ctx.func.display()); }
             module.define_function(id, &mut ctx).map_err(jit_err)?;
-            if dump { eprintln!("{}", ctx.compiled_code().unwrap().vcode.as_deref().unwrap_or("")); }
             module.clear_context(&mut ctx);
             ids.push(id);
         }
