@@ -14,6 +14,12 @@
 //!   operations lane by lane; calls are made per lane), then the odd last lane in scalars.
 //!   Instructions that read no state (targets, gains, hoisted values, constants and what
 //!   depends on them alone) are computed once before the loop.
+//!
+//! For speed: the loads of the inputs are marked pure (see `load_flags`), so Cranelift places
+//! them at their uses instead of loading everything up front and spilling; `x + (−y)` is
+//! emitted as `x − y` and `x − (−y)` as `x + y` (the same IEEE operations); and
+//! [`Kernel::raw_eval`] hands out the `eval` function itself, which
+//! [`LoadedModel`](crate::LoadedModel) calls directly after comparing the lengths.
 
 use crate::{Common, Dims, ExecError, Kernel, Op, Tape};
 use cranelift_codegen::ir::condcodes::IntCC;
