@@ -20,10 +20,10 @@
 //!   (`x + (−y)` and `−y + x` are the IEEE `x − y`; `x − (−y)` is `x + y`).
 //!
 //! The one-state loop runs `+ − · neg` and the folded products in one branch-free form,
-//! `a·m + c` ([`Fast`]), and the other instructions (division, square root, the `std`
+//! `a·m + c` (`Fast`), and the other instructions (division, square root, the `std`
 //! functions) between runs of it. Every value is therefore the IEEE operation or `std` call of
 //! the tape on the same operands: the results are bitwise those of the tape, except that a NaN
-//! may come out with the other sign bit (see [`Fast`]; the tests count every NaN as equal).
+//! may come out with the other sign bit (see `Fast`; the tests count every NaN as equal).
 //!
 //! # Safety of the unchecked loop
 //!
@@ -36,7 +36,7 @@
 //!
 //! # Scratch
 //!
-//! The slots live on the stack when they fit in [`STACK_SLOTS`] (no allocation, no
+//! The slots live on the stack when they fit in `STACK_SLOTS` = 480 (no allocation, no
 //! thread-local access, never initialised: every slot is written before it is read, as above);
 //! larger tapes use a thread-local buffer that is taken out of its cell for the call and put
 //! back afterwards (so a re-entrant call finds the cell empty and uses a buffer of its own).

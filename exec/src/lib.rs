@@ -52,7 +52,8 @@ pub enum ExecError {
 /// A compiled tape.
 ///
 /// All methods take `&self` and are thread-safe; none allocates except [`Kernel::hoist`] (the
-/// interpreter evaluates into a thread-local scratch buffer that grows once per thread).
+/// interpreter evaluates on the stack, or for large tapes into a thread-local scratch buffer
+/// that grows once per thread).
 pub trait Kernel: Send + Sync {
     /// Input sizes of the tape.
     fn dims(&self) -> Dims;
