@@ -1,22 +1,63 @@
-//! The interpreter: one pass over the body per call.
+//! The interpreter: one pass over a pre-decoded copy of the body per call.
 //!
-//! Registers live in a thread-local scratch buffer that is taken out of its cell for the
-//! duration of a call and put back afterwards, so calls allocate nothing once a thread has
-//! seen its largest tape, need no lock, and stay correct if a call is re-entered (the inner
-//! call then finds the cell empty and uses a buffer of its own). With k lanes the buffer holds
-//! register r of lane l at `r*k + l`, and every instruction is a loop over the lanes, which
-//! the compiler vectorises.
+//! # Layout
+//!
+//! [`Interpreter::new`] decodes the body once into a register file of *slots*:
+//!
+//! ```text
+//! [ state N | targets M | gains G | hoisted H | constants C | computed … ]
+//! ```
+//!
+//! A call copies its inputs and the (pooled) constants into the first slots, which replaces
+//! every leaf instruction of the tape, and then runs the computed instructions (instruction i
+//! writes slot `first + i`). Decoding also
+//! - expands `Powi` into the multiplications of its binary exponentiation
+//!   ([`lasalle_codegen::tape::powi`]: the same IEEE operations in the same order), with `x⁰`
+//!   the constant 1 and `x¹` the slot of x itself;
+//! - folds a product used once, by a sum, into that sum (`a·b + c`, the product and the sum
+//!   rounded separately as in the tape: never a fused multiply-add);
+//! - folds a negation used once, by a sum or as the subtrahend of a difference, into it
+//!   (`x + (−y)` and `−y + x` are the IEEE `x − y`; `x − (−y)` is `x + y`).
+//!
+//! The one-state loop runs `+ − · neg` and the folded products in one branch-free form,
+//! `a·m + c` (`Fast`), and the other instructions (division, square root, the `std`
+//! functions) between runs of it. Every value is therefore the IEEE operation or `std` call of
+//! the tape on the same operands: the results are bitwise those of the tape, except that a NaN
+//! may come out with the other sign bit (see `Fast`; the tests count every NaN as equal).
+//!
+//! # Safety of the unchecked loop
+//!
+//! Decoding proves, once, that every operand slot of instruction i is below its own slot
+//! `first + i` (so it was written earlier in the same call, by the input copies or by an
+//! earlier instruction), that the inputs fill exactly the slots below `first`, and that every
+//! output slot is below the number of slots. A call then only needs the input lengths (checked
+//! by [`Kernel::eval`], guaranteed by the caller of [`Kernel::eval_unchecked`]) and a buffer of
+//! `n_slots` values; the loop indexes it without bounds checks.
+//!
+//! # Scratch
+//!
+//! The slots live on the stack when they fit in `STACK_SLOTS` = 480 (no allocation, no
+//! thread-local access, never initialised: every slot is written before it is read, as above);
+//! larger tapes use a thread-local buffer that is taken out of its cell for the call and put
+//! back afterwards (so a re-entrant call finds the cell empty and uses a buffer of its own).
+//!
+//! With k lanes (`eval_lanes`) slot s of lane l is at `s*k + l`, and every instruction is a
+//! loop over the lanes, which the compiler vectorises.
 
-use crate::{Common, Dims, ExecError, Kernel, Op, Reg, Tape};
+use crate::{Common, Dims, ExecError, Kernel, Op, Reg, Tape, TapeError};
 use lasalle_codegen::ir::{Rational, Scalar};
-use lasalle_codegen::tape::powi;
 use std::cell::Cell;
+use std::mem::MaybeUninit;
 
 thread_local! {
     static SCRATCH: Cell<Vec<f64>> = const { Cell::new(Vec::new()) };
 }
 
-/// Runs `f` on a scratch slice of `len` registers (contents unspecified).
+/// Tapes with at most this many slots run on a stack buffer (under a page, so the frame needs
+/// no stack probe loop).
+const STACK_SLOTS: usize = 480;
+
+/// Runs `f` on a thread-local scratch slice of `len` values (contents unspecified).
 fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
     SCRATCH.with(|cell| {
         let mut v = cell.take();
@@ -29,12 +70,96 @@ fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
     })
 }
 
+/// What a decoded instruction computes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+enum Code {
+    Add,
+    Sub,
+    Mul,
+    Div,
+    Neg,
+    Sqrt,
+    Cbrt,
+    Exp,
+    Ln,
+    Sin,
+    Cos,
+    /// `b` indexes [`Interpreter::rationals`], not a slot.
+    Powf,
+    /// `a·b + c`: a product whose one use is this sum (`Add(Mul(a, b), c)` or
+    /// `Add(c, Mul(a, b))`, the same IEEE sum), two roundings as in the tape, never fused.
+    MulAdd,
+}
+
+/// A decoded instruction: `slot[first + i] = code(slot[a], slot[b])` (`b` unused by unary
+/// codes, the exponent's index for `Powf`).
+#[derive(Clone, Copy, Debug)]
+struct Ins {
+    a: u32,
+    b: u32,
+    /// The addend of `MulAdd`.
+    c: u32,
+    code: Code,
+}
+
+/// An instruction of the one-state loop: `slot[first + i] = slot[a] · slot[m] + slot[c]`, the
+/// product and the sum being two separately rounded IEEE operations (never fused). With the
+/// constants 1, −1 and −0 in their slots this is each of `+ − · neg` exactly:
+///
+/// | tape    | a | m  | c  | computed        |
+/// |---------|---|----|----|-----------------|
+/// | x + y   | x | 1  | y  | (x·1) + y       |
+/// | x − y   | y | −1 | x  | (−y) + x        |
+/// | x · y   | x | y  | −0 | (x·y) + (−0)    |
+/// | −x      | x | −1 | −0 | (−x) + (−0)     |
+/// | x·y + z | x | y  | z  | (x·y) + z       |
+///
+/// since x·1 = x and y·(−1) = −y exactly, `−y + x` is the IEEE `x − y` (= `x + (−y)`;
+/// addition is commutative), and adding −0 changes nothing (+0 + −0 = +0 and −0 + −0 = −0
+/// in the default rounding mode). The values are therefore bitwise those of the tape, except
+/// that a NaN may come out with the other sign bit (`y·(−1)` keeps a NaN's sign where `−y`
+/// flips it); every NaN stays a NaN. One form for all four means the loop takes no
+/// data-dependent branch: an interpreter's usual cost is the mispredicted jump per
+/// instruction. The other instructions ([`Special`]) split the loop into runs.
+#[derive(Clone, Copy, Debug)]
+struct Fast {
+    a: u32,
+    m: u32,
+    c: u32,
+}
+
+/// An instruction off the straight path: `code(slot[a], slot[b])` (`b` is the exponent's
+/// index for `Powf`), after `fast_end` straight instructions in all.
+#[derive(Clone, Copy, Debug)]
+struct Special {
+    fast_end: usize,
+    code: Code,
+    a: u32,
+    b: u32,
+}
+
 /// A tape ready to be interpreted.
 #[derive(Clone, Debug)]
 pub struct Interpreter {
     common: Common,
-    body: Vec<Op>,
-    outputs: Vec<Reg>,
+    /// The pooled constants, copied to the slots `consts_at..first` on each call.
+    consts: Vec<f64>,
+    /// Slot of the first constant (= N + M + G + H).
+    consts_at: usize,
+    /// Slot written by the first instruction.
+    first: usize,
+    code: Vec<Ins>,
+    /// `code` for the one-state loop: the straight instructions…
+    fast: Vec<Fast>,
+    /// … and the others, in order.
+    specials: Vec<Special>,
+    /// Exponents of the `Powf` instructions.
+    rationals: Vec<Rational>,
+    /// Slot of each output.
+    outputs: Vec<u32>,
+    /// first + code.len().
+    n_slots: usize,
 }
 
 /// `Op::Powf` in f64: as the generic evaluation of the tape ([`Scalar::powf`] for f64).
@@ -42,45 +167,356 @@ pub fn powf(x: f64, p: Rational) -> f64 {
     Scalar::powf(&x, p)
 }
 
+/// Decodes a body; see the [module docs](self).
+struct Decoder {
+    consts: Vec<f64>,
+    /// Constants as (bits, index), for pooling.
+    pool: std::collections::HashMap<u64, u32>,
+    /// Instructions on unplaced slots (`Powf`: the exponent's index as `Slot::Fixed`; the
+    /// third operand is `MulAdd`'s addend, else a copy of the first).
+    code: Vec<(Code, Slot, Slot, Slot)>,
+    /// The factors of the products deferred to their sum ([`Slot::Product`]).
+    products: Vec<(Slot, Slot)>,
+    /// The operands of the negations deferred to their use ([`Slot::Negated`]).
+    negated: Vec<Slot>,
+    rationals: Vec<Rational>,
+}
+
+impl Decoder {
+    fn constant(&mut self, c: f64) -> u32 {
+        let n = self.consts.len() as u32;
+        *self.pool.entry(c.to_bits()).or_insert_with(|| {
+            self.consts.push(c);
+            n
+        })
+    }
+
+    /// Appends an instruction; its slot.
+    fn push(&mut self, code: Code, a: Slot, b: Slot) -> Slot {
+        self.push3(code, a, b, a)
+    }
+
+    /// A deferred value computed after all (a sum of two products, say), or `s` itself.
+    fn materialize(&mut self, s: Slot) -> Slot {
+        match s {
+            Slot::Product(p) => {
+                let (x, y) = self.products[p];
+                self.push(Code::Mul, x, y)
+            }
+            Slot::Negated(k) => {
+                let x = self.negated[k];
+                self.push(Code::Neg, x, x)
+            }
+            s => s,
+        }
+    }
+
+    /// Appends an instruction with three operands; its slot.
+    fn push3(&mut self, code: Code, a: Slot, b: Slot, c: Slot) -> Slot {
+        self.code.push((code, a, b, c));
+        Slot::Computed(self.code.len() - 1)
+    }
+}
+
+/// A slot before the constants are placed: an input, a constant or a computed value.
+#[derive(Clone, Copy)]
+enum Slot {
+    /// An input (or, as the second operand of `Powf`, the exponent's index).
+    Fixed(usize),
+    /// The constant `consts[i]`.
+    Const(u32),
+    /// The value of the instruction `code[i]`.
+    Computed(usize),
+    /// Not computed: the product `products[i]`, folded into its one use, a sum.
+    Product(usize),
+    /// Not computed: minus `negated[i]`, folded into its one use, a sum or a difference.
+    Negated(usize),
+}
+
 impl Interpreter {
     /// Prepares a tape (checked with [`Tape::validate`]).
     pub fn new(tape: &Tape) -> Result<Interpreter, ExecError> {
         tape.validate()?;
+        let d = tape.dims;
+        let n_hoisted = tape.hoisted.len();
+        let too_large = || ExecError::Tape(TapeError::TooLarge);
+        let consts_at = [d.state, d.targets, d.gains, n_hoisted]
+            .into_iter()
+            .try_fold(0usize, |a, n| a.checked_add(n))
+            .ok_or_else(too_large)?;
+        // Pass 1: computed instructions are numbered from 0, constants pooled; the slots of
+        // both are fixed in pass 2 once the number of constants is known.
+        let mut dec = Decoder {
+            consts: Vec::new(),
+            pool: Default::default(),
+            code: Vec::new(),
+            rationals: Vec::new(),
+            products: Vec::new(),
+            negated: Vec::new(),
+        };
+        // The products used once, by a sum: computed in the sum's `MulAdd`.
+        let mut uses = vec![0u32; tape.body.len()];
+        for r in tape.body.iter().flat_map(Op::operands).chain(tape.outputs.iter().copied()) {
+            uses[r.index()] += 1;
+        }
+        // …and the negations used once, by a sum or as what a difference subtracts:
+        // `x + (−y)` and `−y + x` are the IEEE `x − y`, `x − (−y)` is `x + y`.
+        let mut fold = vec![false; tape.body.len()];
+        for op in &tape.body {
+            let once = |r: Reg| uses[r.index()] == 1;
+            match *op {
+                Op::Add(a, b) => {
+                    for r in [a, b] {
+                        if once(r) && matches!(tape.body[r.index()], Op::Mul(..) | Op::Neg(_)) {
+                            fold[r.index()] = true;
+                        }
+                    }
+                }
+                Op::Sub(_, b) if once(b) && matches!(tape.body[b.index()], Op::Neg(_)) => {
+                    fold[b.index()] = true;
+                }
+                _ => {}
+            }
+        }
+        // the constants of the `Fast` encoding
+        let [one, minus_one, minus_zero] = [1.0, -1.0, -0.0].map(|c| dec.constant(c));
+        let mut slots: Vec<Slot> = Vec::with_capacity(tape.body.len());
+        let inputs = |base: usize, k: u32| Slot::Fixed(base + k as usize);
+        for (i, &op) in tape.body.iter().enumerate() {
+            // operands are earlier registers (validated)
+            let s = |r: Reg| slots[r.index()];
+            let slot = match op {
+                Op::Mul(a, b) if fold[i] => {
+                    dec.products.push((s(a), s(b)));
+                    Slot::Product(dec.products.len() - 1)
+                }
+                Op::Neg(a) if fold[i] => {
+                    dec.negated.push(s(a));
+                    Slot::Negated(dec.negated.len() - 1)
+                }
+                Op::Add(a, b) => match (s(a), s(b)) {
+                    (Slot::Product(p), c) | (c, Slot::Product(p)) => {
+                        // a sum of two products computes the other one on its own
+                        let c = dec.materialize(c);
+                        let (x, y) = dec.products[p];
+                        dec.push3(Code::MulAdd, x, y, c)
+                    }
+                    (x, Slot::Negated(y)) | (Slot::Negated(y), x) => {
+                        let x = dec.materialize(x);
+                        let y = dec.negated[y];
+                        dec.push(Code::Sub, x, y)
+                    }
+                    (x, y) => dec.push(Code::Add, x, y),
+                },
+                Op::Sub(a, b) => {
+                    let x = dec.materialize(s(a));
+                    match s(b) {
+                        Slot::Negated(y) => {
+                            let y = dec.negated[y];
+                            dec.push(Code::Add, x, y)
+                        }
+                        y => dec.push(Code::Sub, x, y),
+                    }
+                }
+                Op::State(k) => inputs(0, k),
+                Op::Target(k) => inputs(d.state, k),
+                Op::Gain(k) => inputs(d.state + d.targets, k),
+                Op::Hoisted(k) => inputs(d.state + d.targets + d.gains, k),
+                Op::Param(_) => return Err(ExecError::Jit("a parameter in the body".into())),
+                Op::Const(c) => Slot::Const(dec.constant(c)),
+                Op::Powi(a, n) => powi_slots(&mut dec, s(a), n),
+                op => {
+                    let (code, a, b) = match op {
+                        Op::Mul(a, b) => (Code::Mul, s(a), s(b)),
+                        Op::Div(a, b) => (Code::Div, s(a), s(b)),
+                        Op::Neg(a) => (Code::Neg, s(a), s(a)),
+                        Op::Sqrt(a) => (Code::Sqrt, s(a), s(a)),
+                        Op::Cbrt(a) => (Code::Cbrt, s(a), s(a)),
+                        Op::Exp(a) => (Code::Exp, s(a), s(a)),
+                        Op::Ln(a) => (Code::Ln, s(a), s(a)),
+                        Op::Sin(a) => (Code::Sin, s(a), s(a)),
+                        Op::Cos(a) => (Code::Cos, s(a), s(a)),
+                        Op::Powf(a, p) => {
+                            dec.rationals.push(p);
+                            (Code::Powf, s(a), Slot::Fixed(dec.rationals.len() - 1))
+                        }
+                        _ => unreachable!("leaves, sums, differences and powi are handled above"),
+                    };
+                    dec.push(code, a, b)
+                }
+            };
+            slots.push(slot);
+        }
+        // Pass 2: constants at consts_at.., computed values at first...
+        let first = consts_at
+            .checked_add(dec.consts.len())
+            .ok_or_else(too_large)?;
+        let n_slots = first.checked_add(dec.code.len()).ok_or_else(too_large)?;
+        // every slot index fits in a u32
+        u32::try_from(n_slots).map_err(|_| too_large())?;
+        let place = |s: Slot| -> u32 {
+            (match s {
+                Slot::Fixed(i) => i,
+                Slot::Const(c) => consts_at + c as usize,
+                Slot::Computed(i) => first + i,
+                Slot::Product(_) | Slot::Negated(_) => {
+                    unreachable!("a deferred value is only read by its one use")
+                }
+            }) as u32
+        };
+        let code: Vec<Ins> = dec
+            .code
+            .iter()
+            .map(|&(code, a, b, c)| Ins {
+                a: place(a),
+                b: match (code, b) {
+                    (Code::Powf, Slot::Fixed(i)) => i as u32,
+                    _ => place(b),
+                },
+                c: place(c),
+                code,
+            })
+            .collect();
+        // The safety argument of the unchecked loop (module docs), checked here once.
+        for (i, ins) in code.iter().enumerate() {
+            let own = (first + i) as u32;
+            let binary = ins.code != Code::Powf;
+            if ins.a >= own || (binary && ins.b >= own) || ins.c >= own {
+                return Err(ExecError::Tape(TapeError::Malformed(format!(
+                    "decoded instruction {i} reads a later slot"
+                ))));
+            }
+            if ins.code == Code::Powf && (ins.b as usize >= dec.rationals.len() || ins.b >= 1 << 24) {
+                return Err(ExecError::Tape(TapeError::Malformed("bad exponent".into())));
+            }
+        }
+        let [one, minus_one, minus_zero] =
+            [one, minus_one, minus_zero].map(|c| (consts_at + c as usize) as u32);
+        let mut fast = Vec::new();
+        let mut specials = Vec::new();
+        for ins in &code {
+            let (a, b) = (ins.a, ins.b);
+            let f = |a, m, c| Some(Fast { a, m, c });
+            let straight = match ins.code {
+                Code::Add => f(a, one, b),
+                Code::Sub => f(b, minus_one, a),
+                Code::Mul => f(a, b, minus_zero),
+                Code::Neg => f(a, minus_one, minus_zero),
+                Code::MulAdd => f(a, b, ins.c),
+                _ => None,
+            };
+            match straight {
+                Some(f) => fast.push(f),
+                None => specials.push(Special {
+                    fast_end: fast.len(),
+                    code: ins.code,
+                    a,
+                    b,
+                }),
+            }
+        }
+        let outputs: Vec<u32> = tape.outputs.iter().map(|r| place(slots[r.index()])).collect();
+        if outputs.iter().any(|&s| s as usize >= n_slots) {
+            return Err(ExecError::Tape(TapeError::Malformed(
+                "an output past the slots".into(),
+            )));
+        }
         Ok(Interpreter {
             common: Common::new(tape),
-            body: tape.body.clone(),
-            outputs: tape.outputs.clone(),
+            consts: dec.consts,
+            consts_at,
+            first,
+            code,
+            fast,
+            specials,
+            rationals: dec.rationals,
+            outputs,
+            n_slots,
         })
     }
 
-    fn run(&self, hoisted: &[f64], state: &[f64], target: &[f64], gains: &[f64], w: &mut [f64]) {
-        for (i, &op) in self.body.iter().enumerate() {
-            let r = |k: Reg| w[k.index()];
-            w[i] = match op {
-                Op::State(k) => state[k as usize],
-                Op::Target(k) => target[k as usize],
-                Op::Gain(k) => gains[k as usize],
-                Op::Hoisted(k) => hoisted[k as usize],
-                // `validate` rejects parameters in the body.
-                Op::Param(_) => f64::NAN,
-                Op::Const(c) => c,
-                Op::Add(a, b) => r(a) + r(b),
-                Op::Sub(a, b) => r(a) - r(b),
-                Op::Mul(a, b) => r(a) * r(b),
-                Op::Div(a, b) => r(a) / r(b),
-                Op::Neg(a) => -r(a),
-                Op::Powi(a, n) => powi(r(a), n),
-                Op::Sqrt(a) => r(a).sqrt(),
-                Op::Cbrt(a) => r(a).cbrt(),
-                Op::Powf(a, p) => powf(r(a), p),
-                Op::Exp(a) => r(a).exp(),
-                Op::Ln(a) => r(a).ln(),
-                Op::Sin(a) => r(a).sin(),
-                Op::Cos(a) => r(a).cos(),
+    /// Copies the inputs and constants into `w[..first]`, runs the instructions and copies
+    /// the outputs.
+    ///
+    /// # Safety
+    ///
+    /// `w` points to `n_slots` writable values (initialised or not); the inputs have the
+    /// lengths of `self.common.dims()` and the hoisted count, `out` the number of outputs.
+    #[inline(always)]
+    unsafe fn run(
+        &self,
+        w: *mut f64,
+        hoisted: &[f64],
+        state: &[f64],
+        target: &[f64],
+        gains: &[f64],
+        out: &mut [f64],
+    ) {
+        use std::ptr::copy_nonoverlapping as copy;
+        // SAFETY (whole body): see the module docs; the slot ranges of the inputs add up to
+        // `consts_at`, the constants fill `consts_at..first`, instruction i writes
+        // `first + i < n_slots` and reads slots below it.
+        unsafe {
+            let mut at = w;
+            for input in [state, target, gains, hoisted] {
+                copy(input.as_ptr(), at, input.len());
+                at = at.add(input.len());
+            }
+            debug_assert_eq!(at, w.add(self.consts_at));
+            copy(self.consts.as_ptr(), at, self.consts.len());
+            let r = |s: u32| *w.add(s as usize);
+            let straight = |from: usize, to: usize, mut dst: *mut f64| {
+                // two at a time (half the loop overhead); the second may read the first's
+                // slot, which is written before (raw pointers: the order is kept)
+                let mut pairs = self.fast.get_unchecked(from..to).chunks_exact(2);
+                for p in &mut pairs {
+                    let (f, g) = (p.get_unchecked(0), p.get_unchecked(1));
+                    *dst = r(f.a) * r(f.m) + r(f.c);
+                    *dst.add(1) = r(g.a) * r(g.m) + r(g.c);
+                    dst = dst.add(2);
+                }
+                for f in pairs.remainder() {
+                    *dst = r(f.a) * r(f.m) + r(f.c);
+                    dst = dst.add(1);
+                }
+                dst
             };
+            let mut dst = w.add(self.first);
+            let mut done = 0;
+            for s in &self.specials {
+                dst = straight(done, s.fast_end, dst);
+                done = s.fast_end;
+                // `b` is a slot unless the exponent's index (Powf)
+                let y = if s.code == Code::Powf { 0.0 } else { r(s.b) };
+                *dst = self.special(s, r(s.a), y);
+                dst = dst.add(1);
+            }
+            straight(done, self.fast.len(), dst);
+            for (o, &s) in out.iter_mut().zip(&self.outputs) {
+                *o = r(s);
+            }
         }
     }
 
+    /// An instruction off the straight path.
+    #[inline(never)]
+    fn special(&self, s: &Special, x: f64, y: f64) -> f64 {
+        match s.code {
+            Code::Div => x / y,
+            Code::Sqrt => x.sqrt(),
+            Code::Cbrt => x.cbrt(),
+            Code::Exp => x.exp(),
+            Code::Ln => x.ln(),
+            Code::Sin => x.sin(),
+            Code::Cos => x.cos(),
+            Code::Powf => powf(x, self.rationals[s.b as usize]),
+            Code::Add | Code::Sub | Code::Mul | Code::Neg | Code::MulAdd => {
+                unreachable!("decoded: these take the straight path")
+            }
+        }
+    }
+
+    /// The body for k lanes into `w` (`n_slots·k` values), outputs into `out`.
     #[allow(clippy::too_many_arguments)]
     fn run_lanes(
         &self,
@@ -90,33 +526,77 @@ impl Interpreter {
         target: &[f64],
         gains: &[f64],
         w: &mut [f64],
+        out: &mut [f64],
     ) {
-        for (i, &op) in self.body.iter().enumerate() {
-            let (src, dst) = w.split_at_mut(i * k);
+        // inputs: the state is already structure of arrays; the rest is shared by the lanes
+        let (head, rest) = w.split_at_mut(state.len());
+        head.copy_from_slice(state);
+        let shared = target.iter().chain(gains).chain(hoisted).chain(&self.consts);
+        for (lanes, &v) in rest.chunks_exact_mut(k).zip(shared) {
+            lanes.fill(v);
+        }
+        for (i, ins) in self.code.iter().enumerate() {
+            let (src, dst) = w.split_at_mut((self.first + i) * k);
             let dst = &mut dst[..k];
-            let lane = |r: Reg| &src[r.index() * k..][..k];
-            match op {
-                Op::State(s) => dst.copy_from_slice(&state[s as usize * k..][..k]),
-                Op::Target(t) => dst.fill(target[t as usize]),
-                Op::Gain(g) => dst.fill(gains[g as usize]),
-                Op::Hoisted(h) => dst.fill(hoisted[h as usize]),
-                Op::Param(_) => dst.fill(f64::NAN),
-                Op::Const(c) => dst.fill(c),
-                Op::Add(a, b) => map2(dst, lane(a), lane(b), |x, y| x + y),
-                Op::Sub(a, b) => map2(dst, lane(a), lane(b), |x, y| x - y),
-                Op::Mul(a, b) => map2(dst, lane(a), lane(b), |x, y| x * y),
-                Op::Div(a, b) => map2(dst, lane(a), lane(b), |x, y| x / y),
-                Op::Neg(a) => map1(dst, lane(a), |x| -x),
-                Op::Powi(a, n) => map1(dst, lane(a), |x| powi(x, n)),
-                Op::Sqrt(a) => map1(dst, lane(a), f64::sqrt),
-                Op::Cbrt(a) => map1(dst, lane(a), f64::cbrt),
-                Op::Powf(a, p) => map1(dst, lane(a), |x| powf(x, p)),
-                Op::Exp(a) => map1(dst, lane(a), f64::exp),
-                Op::Ln(a) => map1(dst, lane(a), f64::ln),
-                Op::Sin(a) => map1(dst, lane(a), f64::sin),
-                Op::Cos(a) => map1(dst, lane(a), f64::cos),
+            let lane = |s: u32| &src[s as usize * k..][..k];
+            let a = lane(ins.a);
+            match ins.code {
+                Code::Add => map2(dst, a, lane(ins.b), |x, y| x + y),
+                Code::Sub => map2(dst, a, lane(ins.b), |x, y| x - y),
+                Code::Mul => map2(dst, a, lane(ins.b), |x, y| x * y),
+                Code::Div => map2(dst, a, lane(ins.b), |x, y| x / y),
+                Code::Neg => map1(dst, a, |x| -x),
+                Code::MulAdd => {
+                    let (b, c) = (lane(ins.b), lane(ins.c));
+                    for (((d, &x), &y), &z) in dst.iter_mut().zip(a).zip(b).zip(c) {
+                        *d = x * y + z;
+                    }
+                }
+                Code::Sqrt => map1(dst, a, f64::sqrt),
+                Code::Cbrt => map1(dst, a, f64::cbrt),
+                Code::Exp => map1(dst, a, f64::exp),
+                Code::Ln => map1(dst, a, f64::ln),
+                Code::Sin => map1(dst, a, f64::sin),
+                Code::Cos => map1(dst, a, f64::cos),
+                Code::Powf => {
+                    let p = self.rationals[ins.b as usize];
+                    map1(dst, a, |x| powf(x, p))
+                }
             }
         }
+        for (j, &s) in self.outputs.iter().enumerate() {
+            out[j * k..][..k].copy_from_slice(&w[s as usize * k..][..k]);
+        }
+    }
+}
+
+/// `xⁿ` as [`lasalle_codegen::tape::powi`] computes it: the multiplications of the binary exponentiation (the first
+/// square is taken as is), and `1 / r` for n < 0.
+fn powi_slots(dec: &mut Decoder, x: Slot, n: i32) -> Slot {
+    let mut bits = n.unsigned_abs();
+    let mut square = x;
+    let mut result: Option<Slot> = None;
+    while bits != 0 {
+        if bits & 1 == 1 {
+            result = Some(match result {
+                None => square,
+                Some(r) => dec.push(Code::Mul, r, square),
+            });
+        }
+        bits >>= 1;
+        if bits != 0 {
+            square = dec.push(Code::Mul, square, square);
+        }
+    }
+    let r = match result {
+        Some(r) => r,
+        None => Slot::Const(dec.constant(1.0)),
+    };
+    if n < 0 {
+        let one = Slot::Const(dec.constant(1.0));
+        dec.push(Code::Div, one, r)
+    } else {
+        r
     }
 }
 
@@ -131,6 +611,34 @@ fn map1(dst: &mut [f64], a: &[f64], f: impl Fn(f64) -> f64) {
 fn map2(dst: &mut [f64], a: &[f64], b: &[f64], f: impl Fn(f64, f64) -> f64) {
     for ((d, &x), &y) in dst.iter_mut().zip(a).zip(b) {
         *d = f(x, y);
+    }
+}
+
+impl Interpreter {
+    /// Runs on a stack buffer when the slots fit, else on the thread-local one.
+    ///
+    /// # Safety
+    ///
+    /// As [`Interpreter::run`], without the buffer.
+    #[inline]
+    unsafe fn eval_with_scratch(
+        &self,
+        hoisted: &[f64],
+        state: &[f64],
+        target: &[f64],
+        gains: &[f64],
+        out: &mut [f64],
+    ) {
+        if self.n_slots <= STACK_SLOTS {
+            let mut buf = [MaybeUninit::<f64>::uninit(); STACK_SLOTS];
+            // SAFETY: n_slots values fit; `run` writes each slot before reading it.
+            unsafe { self.run(buf.as_mut_ptr().cast(), hoisted, state, target, gains, out) }
+        } else {
+            with_scratch(self.n_slots, |w| {
+                // SAFETY: `w` has n_slots values.
+                unsafe { self.run(w.as_mut_ptr(), hoisted, state, target, gains, out) }
+            })
+        }
     }
 }
 
@@ -156,13 +664,21 @@ impl Kernel for Interpreter {
         out: &mut [f64],
     ) -> Result<(), ExecError> {
         self.common.check(1, hoisted, state, target, gains, out)?;
-        with_scratch(self.body.len(), |w| {
-            self.run(hoisted, state, target, gains, w);
-            for (o, r) in out.iter_mut().zip(&self.outputs) {
-                *o = w[r.index()];
-            }
-        });
+        // SAFETY: `check` proved the lengths.
+        unsafe { self.eval_with_scratch(hoisted, state, target, gains, out) };
         Ok(())
+    }
+
+    unsafe fn eval_unchecked(
+        &self,
+        hoisted: &[f64],
+        state: &[f64],
+        target: &[f64],
+        gains: &[f64],
+        out: &mut [f64],
+    ) {
+        // SAFETY: the caller guarantees the lengths `eval` checks.
+        unsafe { self.eval_with_scratch(hoisted, state, target, gains, out) }
     }
 
     fn eval_lanes(
@@ -178,17 +694,10 @@ impl Kernel for Interpreter {
         if k == 0 {
             return Ok(());
         }
-        // `check` proved state.len() = N·k, so N·k fits; registers ≥ N need their own check.
-        let len = self
-            .body
-            .len()
-            .checked_mul(k)
-            .ok_or(crate::TapeError::TooLarge)?;
+        // `check` proved state.len() = N·k, so N·k fits; the slots need their own check.
+        let len = self.n_slots.checked_mul(k).ok_or(TapeError::TooLarge)?;
         with_scratch(len, |w| {
-            self.run_lanes(k, hoisted, state, target, gains, w);
-            for (j, r) in self.outputs.iter().enumerate() {
-                out[j * k..][..k].copy_from_slice(&w[r.index() * k..][..k]);
-            }
+            self.run_lanes(k, hoisted, state, target, gains, w, out)
         });
         Ok(())
     }

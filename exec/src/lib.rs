@@ -54,7 +54,8 @@ pub enum ExecError {
 /// A compiled tape.
 ///
 /// All methods take `&self` and are thread-safe; none allocates except [`Kernel::hoist`] (the
-/// interpreter evaluates into a thread-local scratch buffer that grows once per thread).
+/// interpreter evaluates on the stack, or for large tapes into a thread-local scratch buffer
+/// that grows once per thread).
 pub trait Kernel: Send + Sync {
     /// Input sizes of the tape.
     fn dims(&self) -> Dims;
@@ -76,6 +77,37 @@ pub trait Kernel: Send + Sync {
         out: &mut [f64],
     ) -> Result<(), ExecError>;
 
+    /// [`Kernel::eval`] without the argument checks, for callers that fix the lengths once
+    /// (as [`LoadedModel`] does) and call many times. The default runs [`Kernel::eval`] (and
+    /// writes NaN on an error); the back ends skip the checks.
+    ///
+    /// # Safety
+    ///
+    /// `hoisted` must have the length of what [`Kernel::hoist`] returns, `state` `dims().state`,
+    /// `target` `dims().targets`, `gains` `dims().gains` and `out` [`Kernel::n_outputs`]: the
+    /// back ends read and write those ranges without bounds checks.
+    unsafe fn eval_unchecked(
+        &self,
+        hoisted: &[f64],
+        state: &[f64],
+        target: &[f64],
+        gains: &[f64],
+        out: &mut [f64],
+    ) {
+        if self.eval(hoisted, state, target, gains, out).is_err() {
+            out.iter_mut().for_each(|v| *v = f64::NAN);
+        }
+    }
+
+    /// The compiled code of [`Kernel::eval`] as a plain function, if the back end has one (the
+    /// JIT): a caller that checks the lengths once can then call it directly, without the
+    /// virtual call and the checks. The pointer is valid while `self` is alive; calling it has
+    /// the safety requirements of [`Kernel::eval_unchecked`], with the slices passed as their
+    /// start pointers.
+    fn raw_eval(&self) -> Option<RawEval> {
+        None
+    }
+
     /// k states at once, structure of arrays: component i of state `lane` at
     /// `state[i*k + lane]`, output j at `out[j*k + lane]`; targets, gains and hoisted values
     /// are shared. Each lane's outputs equal [`Kernel::eval`]'s bitwise.
@@ -89,6 +121,11 @@ pub trait Kernel: Send + Sync {
         out: &mut [f64],
     ) -> Result<(), ExecError>;
 }
+
+/// The code of [`Kernel::eval`] as a function of the start pointers of `hoisted`, `state`,
+/// `target`, `gains` and `out` (see [`Kernel::raw_eval`]).
+pub type RawEval =
+    unsafe extern "C" fn(*const f64, *const f64, *const f64, *const f64, *mut f64);
 
 /// Which back end compiles a tape.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

@@ -51,30 +51,78 @@ pub enum LoadError {
 }
 
 /// A compiled function with the values its prelude computed for the current parameters.
+///
+/// Every call of the runtime's traits comes through [`Compiled::eval`], so it is kept short:
+/// the lengths are compared with the tape's (fixed at load), and then the JIT's code is called
+/// directly through its function pointer (no virtual call, no `Result`), or the kernel's
+/// unchecked entry point.
 struct Compiled {
     kernel: Box<dyn Kernel>,
+    /// `kernel.raw_eval()`: valid while `kernel` is alive, which is as long as `self`.
+    raw: Option<crate::RawEval>,
     hoisted: Vec<f64>,
+    /// Lengths of hoisted, state, target, gains and out that the kernel expects.
+    lens: [usize; 5],
 }
 
 impl Compiled {
     fn new(backend: Backend, tape: &Tape, params: &[f64]) -> Result<Compiled, ExecError> {
         let kernel = backend.compile(tape)?;
         let hoisted = kernel.hoist(params)?;
-        Ok(Compiled { kernel, hoisted })
+        let d = kernel.dims();
+        let lens = [
+            hoisted.len(),
+            d.state,
+            d.targets,
+            d.gains,
+            kernel.n_outputs(),
+        ];
+        let raw = kernel.raw_eval();
+        Ok(Compiled {
+            kernel,
+            raw,
+            hoisted,
+            lens,
+        })
     }
 
-    /// Evaluates; on an argument error (impossible: every length is fixed when the model is
-    /// loaded) the outputs are NaN, which the driver reports as a blow-up.
+    /// Evaluates; on an argument of the wrong length (impossible through `LoadedModel`, whose
+    /// lengths are fixed when the model is loaded) the outputs are NaN, which the driver
+    /// reports as a blow-up.
     #[inline]
     fn eval(&self, state: &[f64], target: &[f64], gains: &[f64], out: &mut [f64]) {
-        if self
-            .kernel
-            .eval(&self.hoisted, state, target, gains, out)
-            .is_err()
+        let h = &self.hoisted[..];
+        let [nh, ns, nt, ng, no] = self.lens;
+        if h.len() != nh
+            || state.len() != ns
+            || target.len() != nt
+            || gains.len() != ng
+            || out.len() != no
         {
-            out.iter_mut().for_each(|v| *v = f64::NAN);
+            return nan(out);
+        }
+        // SAFETY: every length was just compared with what the kernel expects (`hoisted`
+        // comes from `kernel.hoist`, whose length is the first `hoist`'s); `raw` belongs to
+        // `kernel`, alive as long as `self`.
+        unsafe {
+            match self.raw {
+                Some(f) => f(
+                    h.as_ptr(),
+                    state.as_ptr(),
+                    target.as_ptr(),
+                    gains.as_ptr(),
+                    out.as_mut_ptr(),
+                ),
+                None => self.kernel.eval_unchecked(h, state, target, gains, out),
+            }
         }
     }
+}
+
+#[cold]
+#[inline(never)]
+fn nan(out: &mut [f64]) {
+    out.iter_mut().for_each(|v| *v = f64::NAN);
 }
 
 /// The compiled functions of a model.

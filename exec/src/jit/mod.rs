@@ -14,6 +14,12 @@
 //!   operations lane by lane; calls are made per lane), then the odd last lane in scalars.
 //!   Instructions that read no state (targets, gains, hoisted values, constants and what
 //!   depends on them alone) are computed once before the loop.
+//!
+//! For speed: the loads of the inputs are marked pure (see `load_flags`), so Cranelift places
+//! them at their uses instead of loading everything up front and spilling; `x + (−y)` is
+//! emitted as `x − y` and `x − (−y)` as `x + y` (the same IEEE operations); and
+//! [`Kernel::raw_eval`] hands out the `eval` function itself, which
+//! [`LoadedModel`](crate::LoadedModel) calls directly after comparing the lengths.
 
 use crate::{Common, Dims, ExecError, Kernel, Op, Tape};
 use cranelift_codegen::ir::condcodes::IntCC;
@@ -27,7 +33,7 @@ use cranelift_jit::{JITBuilder, JITModule};
 use cranelift_module::Module;
 use lasalle_codegen::ir::Rational;
 
-type EvalFn = unsafe extern "C" fn(*const f64, *const f64, *const f64, *const f64, *mut f64);
+type EvalFn = crate::RawEval;
 type LanesFn =
     unsafe extern "C" fn(usize, *const f64, *const f64, *const f64, *const f64, *mut f64);
 
@@ -106,6 +112,9 @@ impl JitKernel {
         set(&mut flags, "use_colocated_libcalls", "false")?;
         set(&mut flags, "is_pic", "false")?;
         set(&mut flags, "opt_level", "speed")?;
+        // The IR is built by this module from validated tapes: verify it in debug builds only.
+        let verify = if cfg!(debug_assertions) { "true" } else { "false" };
+        set(&mut flags, "enable_verifier", verify)?;
         let isa = cranelift_native::builder()
             .map_err(jit_err)?
             .finish(settings::Flags::new(flags))
@@ -182,6 +191,14 @@ impl JitKernel {
                     values: vec![None; tape.body.len()],
                     vectors: vec![None; tape.body.len()],
                     vector: false,
+                    negated: tape
+                        .body
+                        .iter()
+                        .map(|op| match *op {
+                            Op::Neg(y) => Some(y),
+                            _ => None,
+                        })
+                        .collect(),
                     math: Math::new(module),
                 };
                 match k {
@@ -232,6 +249,10 @@ struct Emit<'a> {
     vectors: Vec<Option<Value>>,
     /// Emitting the two-lane loop.
     vector: bool,
+    /// `Some(y)` for the registers that are `Neg(y)`: `x + (−y)` is emitted as `x − y` and
+    /// `x − (−y)` as `x + y`, the same IEEE operations (the negation, if unused otherwise, is
+    /// then dead and not emitted).
+    negated: Vec<Option<crate::Reg>>,
     math: Math,
 }
 
@@ -245,14 +266,23 @@ fn offset(i: usize) -> Result<i32, ExecError> {
         .ok_or_else(|| ExecError::Jit(format!("index {i} too large for an immediate offset")))
 }
 
-/// Loads and stores of f64 (8-byte aligned, in bounds).
+/// Stores of f64 (8-byte aligned, in bounds).
 fn scalar_flags() -> MemFlagsData {
     MemFlagsData::trusted()
 }
 
-/// Loads and stores of two lanes: in bounds but only 8-byte aligned.
+/// Stores of two lanes: in bounds but only 8-byte aligned.
 fn vector_flags() -> MemFlagsData {
     MemFlagsData::new().with_notrap()
+}
+
+/// Loads of the inputs. They are in bounds (`notrap`), and the inputs are shared slices that
+/// nothing writes during a call (`out` is a `&mut` slice, so it cannot overlap them):
+/// `readonly` + `can_move` make the loads pure for Cranelift's e-graph, which then places each
+/// load next to its first use (or folds it into the instruction as a memory operand) instead
+/// of issuing every load up front and spilling the values.
+fn load_flags(f: MemFlagsData) -> MemFlagsData {
+    f.with_readonly().with_can_move()
 }
 
 impl Emit<'_> {
@@ -268,7 +298,7 @@ impl Emit<'_> {
 
     fn load(&mut self, base: Value, i: usize) -> Result<Value, ExecError> {
         let off = offset(i)?;
-        Ok(self.b.ins().load(types::F64, scalar_flags(), base, off))
+        Ok(self.b.ins().load(types::F64, load_flags(scalar_flags()), base, off))
     }
 
     /// A constant in the current mode.
@@ -356,14 +386,31 @@ impl Emit<'_> {
                 return Err(ExecError::Jit("a parameter in the body".into()));
             }
             Op::Const(c) => self.constant(c),
-            Op::Add(a, c) => {
-                let (x, y) = (v(self, a), v(self, c));
-                self.b.ins().fadd(x, y)
-            }
-            Op::Sub(a, c) => {
-                let (x, y) = (v(self, a), v(self, c));
-                self.b.ins().fsub(x, y)
-            }
+            Op::Add(a, c) => match (self.negated[a.index()], self.negated[c.index()]) {
+                (_, Some(y)) => {
+                    let (x, y) = (v(self, a), v(self, y));
+                    self.b.ins().fsub(x, y)
+                }
+                (Some(y), None) => {
+                    // −y + x = x − y: IEEE addition is commutative
+                    let (x, y) = (v(self, c), v(self, y));
+                    self.b.ins().fsub(x, y)
+                }
+                (None, None) => {
+                    let (x, y) = (v(self, a), v(self, c));
+                    self.b.ins().fadd(x, y)
+                }
+            },
+            Op::Sub(a, c) => match self.negated[c.index()] {
+                Some(y) => {
+                    let (x, y) = (v(self, a), v(self, y));
+                    self.b.ins().fadd(x, y)
+                }
+                None => {
+                    let (x, y) = (v(self, a), v(self, c));
+                    self.b.ins().fsub(x, y)
+                }
+            },
             Op::Mul(a, c) => {
                 let (x, y) = (v(self, a), v(self, c));
                 self.b.ins().fmul(x, y)
@@ -459,7 +506,7 @@ impl Emit<'_> {
                 let v = self.op(op, args, &mut |e, c| {
                     let at = e.b.ins().imul_imm_s(kb, c as i64);
                     let addr = e.b.ins().iadd(state, at);
-                    Ok(e.b.ins().load(ty, flags, addr, 0))
+                    Ok(e.b.ins().load(ty, load_flags(flags), addr, 0))
                 })?;
                 if self.vector {
                     self.vectors[i] = Some(v);
@@ -561,6 +608,30 @@ impl Kernel for JitKernel {
             )
         };
         Ok(())
+    }
+
+    unsafe fn eval_unchecked(
+        &self,
+        hoisted: &[f64],
+        state: &[f64],
+        target: &[f64],
+        gains: &[f64],
+        out: &mut [f64],
+    ) {
+        // SAFETY: the caller guarantees the lengths `eval` checks.
+        unsafe {
+            (self.eval)(
+                hoisted.as_ptr(),
+                state.as_ptr(),
+                target.as_ptr(),
+                gains.as_ptr(),
+                out.as_mut_ptr(),
+            )
+        }
+    }
+
+    fn raw_eval(&self) -> Option<crate::RawEval> {
+        Some(self.eval)
     }
 
     fn eval_lanes(
