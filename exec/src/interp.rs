@@ -256,7 +256,12 @@ impl Interpreter {
         };
         // The products used once, by a sum: computed in the sum's `MulAdd`.
         let mut uses = vec![0u32; tape.body.len()];
-        for r in tape.body.iter().flat_map(Op::operands).chain(tape.outputs.iter().copied()) {
+        for r in tape
+            .body
+            .iter()
+            .flat_map(Op::operands)
+            .chain(tape.outputs.iter().copied())
+        {
             uses[r.index()] += 1;
         }
         // …and the negations used once, by a sum or as what a difference subtracts:
@@ -386,7 +391,8 @@ impl Interpreter {
                     "decoded instruction {i} reads a later slot"
                 ))));
             }
-            if ins.code == Code::Powf && (ins.b as usize >= dec.rationals.len() || ins.b >= 1 << 24) {
+            if ins.code == Code::Powf && (ins.b as usize >= dec.rationals.len() || ins.b >= 1 << 24)
+            {
                 return Err(ExecError::Tape(TapeError::Malformed("bad exponent".into())));
             }
         }
@@ -415,7 +421,11 @@ impl Interpreter {
                 }),
             }
         }
-        let outputs: Vec<u32> = tape.outputs.iter().map(|r| place(slots[r.index()])).collect();
+        let outputs: Vec<u32> = tape
+            .outputs
+            .iter()
+            .map(|r| place(slots[r.index()]))
+            .collect();
         if outputs.iter().any(|&s| s as usize >= n_slots) {
             return Err(ExecError::Tape(TapeError::Malformed(
                 "an output past the slots".into(),
@@ -531,7 +541,11 @@ impl Interpreter {
         // inputs: the state is already structure of arrays; the rest is shared by the lanes
         let (head, rest) = w.split_at_mut(state.len());
         head.copy_from_slice(state);
-        let shared = target.iter().chain(gains).chain(hoisted).chain(&self.consts);
+        let shared = target
+            .iter()
+            .chain(gains)
+            .chain(hoisted)
+            .chain(&self.consts);
         for (lanes, &v) in rest.chunks_exact_mut(k).zip(shared) {
             lanes.fill(v);
         }

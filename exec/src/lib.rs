@@ -124,8 +124,7 @@ pub trait Kernel: Send + Sync {
 
 /// The code of [`Kernel::eval`] as a function of the start pointers of `hoisted`, `state`,
 /// `target`, `gains` and `out` (see [`Kernel::raw_eval`]).
-pub type RawEval =
-    unsafe extern "C" fn(*const f64, *const f64, *const f64, *const f64, *mut f64);
+pub type RawEval = unsafe extern "C" fn(*const f64, *const f64, *const f64, *const f64, *mut f64);
 
 /// Which back end compiles a tape.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

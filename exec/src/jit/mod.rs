@@ -113,7 +113,11 @@ impl JitKernel {
         set(&mut flags, "is_pic", "false")?;
         set(&mut flags, "opt_level", "speed")?;
         // The IR is built by this module from validated tapes: verify it in debug builds only.
-        let verify = if cfg!(debug_assertions) { "true" } else { "false" };
+        let verify = if cfg!(debug_assertions) {
+            "true"
+        } else {
+            "false"
+        };
         set(&mut flags, "enable_verifier", verify)?;
         let isa = cranelift_native::builder()
             .map_err(jit_err)?
@@ -298,7 +302,10 @@ impl Emit<'_> {
 
     fn load(&mut self, base: Value, i: usize) -> Result<Value, ExecError> {
         let off = offset(i)?;
-        Ok(self.b.ins().load(types::F64, load_flags(scalar_flags()), base, off))
+        Ok(self
+            .b
+            .ins()
+            .load(types::F64, load_flags(scalar_flags()), base, off))
     }
 
     /// A constant in the current mode.
