@@ -12,7 +12,8 @@
 //! - `load/<model>`: reading nothing, parsing, deriving, checking every invariant and compiling
 //!   every function of the model with the JIT (what `lasalle run model.lsl` pays before its
 //!   first step);
-//! - `run/rigid_body_1e5/{emitted,jit}`: 10⁵ feedback-Euler steps through `integrate`.
+//! - `run/{rigid_body,kepler}_1e5/{emitted,jit}`: 10⁵ feedback-Euler steps through `integrate`,
+//!   where each evaluation waits for the previous one (as in every integration).
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -156,6 +157,47 @@ fn run(c: &mut Criterion) {
             integrate(&mut ExplicitRk::euler(), &fb, &y0, 0.0, 10.0, 1e-4, &mut ())
                 .unwrap()
                 .x[0]
+        })
+    });
+    g.finish();
+
+    // Kepler, the paper's step, 10⁵ feedback-Euler steps: each evaluation waits for the last
+    let mut g = c.benchmark_group("run/kepler_1e5");
+    g.sample_size(10).measurement_time(Duration::from_secs(5));
+    let m = models::kepler::Kepler::<f64>::default();
+    let x0 = m.point_paper();
+    g.bench_function("emitted", |b| {
+        b.iter(|| {
+            let fb = FeedbackField::from_initial(&m, &x0, [4.0, 2.0]);
+            integrate(
+                &mut ExplicitRk::euler(),
+                &fb,
+                &x0,
+                0.0,
+                500.0,
+                0.005,
+                &mut (),
+            )
+            .unwrap()
+            .x[0]
+        })
+    });
+    let l = loaded("kepler", Backend::Jit);
+    let y0 = x0.to_vec();
+    g.bench_function("jit", |b| {
+        b.iter(|| {
+            let fb = FeedbackField::from_initial(&l, &y0, vec![4.0, 2.0]);
+            integrate(
+                &mut ExplicitRk::euler(),
+                &fb,
+                &y0,
+                0.0,
+                500.0,
+                0.005,
+                &mut (),
+            )
+            .unwrap()
+            .x[0]
         })
     });
     g.finish();
