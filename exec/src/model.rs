@@ -433,9 +433,17 @@ impl Invariants<f64, Vec<f64>, Vec<f64>> for LoadedModel {
 
     fn invariants_jacobian(&self, x: &Vec<f64>, jac: &mut Vec<Vec<f64>>) {
         // the tape writes Df row-major; the rows are separate vectors
+        // (no allocation for Jacobians up to 512 entries: projection calls this every step)
         let n = x.len();
-        let mut flat = vec![0.0; jac.len() * n];
-        self.kernels.jacobian.eval(x, &[], &[], &mut flat);
+        let mut stack = [0.0; 512];
+        let mut heap;
+        let flat: &mut [f64] = if jac.len() * n <= stack.len() {
+            &mut stack[..jac.len() * n]
+        } else {
+            heap = vec![0.0; jac.len() * n];
+            &mut heap
+        };
+        self.kernels.jacobian.eval(x, &[], &[], flat);
         for (row, values) in jac.iter_mut().zip(flat.chunks_exact(n.max(1))) {
             row.copy_from_slice(values);
         }
