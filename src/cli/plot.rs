@@ -16,7 +16,7 @@ use super::CliResult;
 /// How a series is drawn.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Style {
-    /// A polyline through the points.
+    /// A polyline through the points; a non-finite point breaks it (pen up).
     Line,
     /// A small dot at each point (orbits sampled at irregular phases).
     Dots,
@@ -343,17 +343,39 @@ where
         .map_err(|e| e.to_string())?;
     for s in &chart.series {
         let color = PALETTE[s.color % PALETTE.len()];
-        let pts =
-            s.x.iter()
-                .zip(&s.y)
-                .filter(|(x, y)| x.is_finite() && y.is_finite())
-                .map(move |(&x, &y)| (x, y.max(y_floor)));
+        let point = move |(&x, &y): (&f64, &f64)| (x, y.max(y_floor));
+        let finite = |(x, y): &(&f64, &f64)| x.is_finite() && y.is_finite();
         let anno = match s.style {
-            Style::Line => ctx
-                .draw_series(LineSeries::new(pts, color.stroke_width(1)))
-                .map_err(|e| e.to_string())?,
+            // a non-finite point lifts the pen: each finite run is its own polyline
+            Style::Line => {
+                let pts: Vec<Option<(f64, f64)>> =
+                    s.x.iter()
+                        .zip(&s.y)
+                        .map(|p| finite(&p).then(|| point(p)))
+                        .collect();
+                let mut runs = pts.split(Option::is_none).filter(|run| !run.is_empty());
+                let first = runs.next().unwrap_or_default();
+                for run in runs {
+                    ctx.draw_series(LineSeries::new(
+                        run.iter().flatten().copied(),
+                        color.stroke_width(1),
+                    ))
+                    .map_err(|e| e.to_string())?;
+                }
+                // the labelled run last: its legend entry borrows the chart
+                ctx.draw_series(LineSeries::new(
+                    first.iter().flatten().copied(),
+                    color.stroke_width(1),
+                ))
+                .map_err(|e| e.to_string())?
+            }
             Style::Dots => ctx
-                .draw_series(pts.map(|p| Circle::new(p, 1, color.filled())))
+                .draw_series(
+                    s.x.iter()
+                        .zip(&s.y)
+                        .filter(finite)
+                        .map(|p| Circle::new(point(p), 1, color.filled())),
+                )
                 .map_err(|e| e.to_string())?,
         };
         if !s.label.is_empty() {

@@ -194,6 +194,21 @@ fn figures(dir: &Path, title: &str, traces: &[Trace], closed: &Extremal) -> CliR
         );
     }
     write_figure(dir, "fig_p", &[c], (1, 1), (900, 500))?;
+    let p: Vec<[f64; 3]> = shown
+        .iter()
+        .map(|&i| {
+            let x = reference.state(i);
+            [x[0], x[1], x[2]]
+        })
+        .collect();
+    let p_dots: Vec<[f64; 3]> = t_dots.iter().map(|&s| closed.p(s)).collect();
+    write_figure(
+        dir,
+        "fig_sphere",
+        &[sphere_chart(title, &p, &p_dots)],
+        (1, 1),
+        (640, 640),
+    )?;
     for figure in [
         (
             "fig_orthogonality",
@@ -223,4 +238,81 @@ fn figures(dir: &Path, title: &str, traces: &[Trace], closed: &Extremal) -> CliR
         error_figure(dir, figure, traces, &METHODS)?;
     }
     Ok(())
+}
+
+/// MATLAB's default `plot3` view (azimuth −37.5°, elevation 30°), as in Appendix C's (b), (d),
+/// (f) panels: the unit vector towards the viewer and the screen's right and up directions.
+fn matlab_view() -> [[f64; 3]; 3] {
+    let (az, el) = ((-37.5f64).to_radians(), 30f64.to_radians());
+    [
+        [el.cos() * az.sin(), -el.cos() * az.cos(), el.sin()],
+        [az.cos(), az.sin(), 0.0],
+        [-el.sin() * az.sin(), el.sin() * az.cos(), el.cos()],
+    ]
+}
+
+/// The curve P(t) on its Casimir sphere |P| = |P(0)| seen from MATLAB's default viewpoint
+/// (orthographic): the sphere's outline and the front halves of the three coordinate great
+/// circles, the integrated curve (solid in front, dotted behind the sphere) and the closed form
+/// (dots).
+fn sphere_chart(title: &str, p: &[[f64; 3]], closed: &[[f64; 3]]) -> Chart {
+    let [toward, right, up] = matlab_view();
+    let dot = |a: &[f64; 3], b: &[f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let rho = p.first().map_or(1.0, |x| dot(x, x).sqrt());
+    let mut c = Chart::new(
+        &format!("P(t) on the Casimir sphere |P| = {rho:.4}, {title}"),
+        "screen x (view az −37.5°, el 30°)",
+        "screen y",
+        false,
+    );
+    c.equal_aspect = true;
+    let circle = |f: &dyn Fn(f64) -> [f64; 3]| -> Vec<[f64; 3]> {
+        (0..=360).map(|i| f((i as f64).to_radians())).collect()
+    };
+    // the outline: the great circle orthogonal to the line of sight
+    let outline =
+        circle(&|a| std::array::from_fn(|k| rho * (a.cos() * right[k] + a.sin() * up[k])));
+    c.add(
+        "",
+        outline.iter().map(|x| dot(x, &right)).collect(),
+        outline.iter().map(|x| dot(x, &up)).collect(),
+        5,
+        Style::Line,
+    );
+    // front halves of the coordinate great circles, pen up behind the sphere
+    let project_front = |pts: &[[f64; 3]]| -> (Vec<f64>, Vec<f64>) {
+        pts.iter()
+            .map(|x| {
+                if dot(x, &toward) >= 0.0 {
+                    (dot(x, &right), dot(x, &up))
+                } else {
+                    (f64::NAN, f64::NAN)
+                }
+            })
+            .unzip()
+    };
+    for k in 0..3 {
+        let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+        let great = circle(&|a| {
+            let mut x = [0.0; 3];
+            x[i] = rho * a.cos();
+            x[j] = rho * a.sin();
+            x
+        });
+        let sparse: Vec<[f64; 3]> = great.into_iter().step_by(3).collect();
+        let (x, y) = project_front(&sparse);
+        c.add("", x, y, 5, Style::Dots);
+    }
+    let (x, y) = project_front(p);
+    c.add("DOPRI5 (front)", x, y, 0, Style::Line);
+    let (x, y): (Vec<f64>, Vec<f64>) = p
+        .iter()
+        .filter(|x| dot(x, &toward) < 0.0)
+        .step_by(4)
+        .map(|x| (dot(x, &right), dot(x, &up)))
+        .unzip();
+    c.add("DOPRI5 (behind)", x, y, 4, Style::Dots);
+    let (x, y): (Vec<f64>, Vec<f64>) = closed.iter().map(|x| (dot(x, &right), dot(x, &up))).unzip();
+    c.add("closed form", x, y, 3, Style::Dots);
+    c
 }
