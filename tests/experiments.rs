@@ -16,6 +16,7 @@ use lasalle::{
     gauss_newton_norm, integrate, DormandPrince, ExplicitRk, FeedbackField, Field, Invariants,
     Lyapunov, Projection, Recorder, RigidBodySplitting, Stepper, StormerVerlet,
 };
+use lasalle_testkit::Rng;
 
 #[path = "../benches/handwritten/mod.rs"]
 mod handwritten;
@@ -59,19 +60,6 @@ fn method<'a>(s: &'a serde_json::Value, name: &str) -> &'a serde_json::Value {
 
 fn err(m: &serde_json::Value, block: &str, which: &str) -> f64 {
     m["invariant_errors"][block][which].as_f64().unwrap()
-}
-
-/// SplitMix64, so failures reproduce.
-struct Rng(u64);
-impl Rng {
-    fn uniform(&mut self, a: f64, b: f64) -> f64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^= z >> 31;
-        a + (b - a) * ((z >> 11) as f64 / (1u64 << 53) as f64)
-    }
 }
 
 /// Runs `stepper` on `field` and records the model's invariant errors every `every` steps.
@@ -119,7 +107,7 @@ where
 /// generated feedback fields at random states off the target set.
 #[test]
 fn handwritten_baseline_matches_generated_fields() {
-    let mut rng = Rng(7);
+    let mut rng = Rng::new(7);
     let rb = RigidBody::default();
     let kp = Kepler::default();
     for _ in 0..500 {

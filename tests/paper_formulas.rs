@@ -5,26 +5,11 @@
 
 use lasalle::models::{kepler::Kepler, perturbed_kepler::PerturbedKepler, rigid_body::RigidBody};
 use lasalle::{Field, Invariants, Lyapunov};
+use lasalle_testkit::Rng;
 use nalgebra::{Matrix3, Vector3};
 
 const SAMPLES: usize = 1000;
 const REL: f64 = 1e-12;
-
-/// SplitMix64, so failures reproduce.
-struct Rng(u64);
-impl Rng {
-    fn uniform(&mut self, a: f64, b: f64) -> f64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^= z >> 31;
-        a + (b - a) * ((z >> 11) as f64 / (1u64 << 53) as f64)
-    }
-    fn array<const N: usize>(&mut self, a: f64, b: f64) -> [f64; N] {
-        std::array::from_fn(|_| self.uniform(a, b))
-    }
-}
 
 fn assert_close(what: &str, got: &[f64], want: &[f64], rel: f64) {
     let scale = want.iter().fold(0.0f64, |m, w| m.max(w.abs())).max(1e-300);
@@ -74,7 +59,7 @@ fn kepler_matches_the_paper() {
     let m = Kepler::<f64>::default();
     let (k1, k2) = (4.0, 2.0);
     let mu = m.mu;
-    let mut rng = Rng(1);
+    let mut rng = Rng::new(1);
     for _ in 0..SAMPLES {
         let x0: [f64; 6] = rng.array(-1.5, 1.5);
         let x: [f64; 6] = rng.array(-1.5, 1.5);
@@ -132,7 +117,7 @@ fn perturbed_kepler_matches_the_paper() {
     let (mu, delta) = (m.mu, m.delta);
     let u = |r: f64| -mu / r - delta / r.powi(3);
     let du = |r: f64| mu / r.powi(2) + 3.0 * delta / r.powi(4);
-    let mut rng = Rng(2);
+    let mut rng = Rng::new(2);
     for _ in 0..SAMPLES {
         let x0: [f64; 6] = rng.array(-1.5, 1.5);
         let x: [f64; 6] = rng.array(-1.5, 1.5);
@@ -177,7 +162,7 @@ fn rigid_body_matches_the_paper() {
     let inertia = Matrix3::from_diagonal(&Vector3::from_column_slice(&m.i));
     let (k0, k1, k2) = (50.0, 100.0, 50.0);
     let hat = |w: &Vector3<f64>| Matrix3::new(0.0, -w[2], w[1], w[2], 0.0, -w[0], -w[1], w[0], 0.0);
-    let mut rng = Rng(3);
+    let mut rng = Rng::new(3);
     for _ in 0..SAMPLES {
         let x0: [f64; 12] = rng.array(-1.5, 1.5);
         let x: [f64; 12] = rng.array(-1.5, 1.5);

@@ -18,23 +18,10 @@ use lasalle::models::{
     so3_type_iii::So3TypeIii,
 };
 use lasalle::{Control, DormandPrince, DormandPrinceOptions, Driver, Field, Invariants};
+use lasalle_testkit::Rng;
 
 const SAMPLES: usize = 500;
 const REL: f64 = 1e-12;
-
-/// xorshift64*, so failures reproduce.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
-    }
-    fn uniform(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * ((self.next() >> 11) as f64 / (1u64 << 53) as f64)
-    }
-}
 
 type Mat = [[f64; 3]; 3];
 
@@ -310,7 +297,7 @@ const TYPES: [Type; 4] = [Type::I, Type::IIa, Type::IIb, Type::III];
 
 #[test]
 fn fields_are_the_thesis_extremal_equations_with_reconstruction() {
-    let mut rng = Rng(0x5eed_0003_711a_eb44);
+    let mut rng = Rng::new(0x5eed_0003_711a_eb44);
     for ty in TYPES {
         for c in parameter_sets(ty, &mut rng) {
             with_model!(ty, c, |m| {
@@ -330,7 +317,7 @@ fn fields_are_the_thesis_extremal_equations_with_reconstruction() {
 
 #[test]
 fn invariants_are_h_orthogonality_spatial_momentum_and_casimir() {
-    let mut rng = Rng(0x0bad_5eed_c0ff_ee11);
+    let mut rng = Rng::new(0x0bad_5eed_c0ff_ee11);
     for ty in TYPES {
         for c in parameter_sets(ty, &mut rng) {
             with_model!(ty, c, |m| {
@@ -404,7 +391,7 @@ fn drift(ty: Type, c: [f64; 3], x0: &[f64; 12], t_end: f64) -> ([f64; 4], [f64; 
 
 #[test]
 fn appendix_b_cases_conserve_h_casimir_spatial_momentum_and_orthogonality() {
-    let mut rng = Rng(0xc0de_0000_0000_0019);
+    let mut rng = Rng::new(0xc0de_0000_0000_0019);
     for case in &CASES {
         // g(0) = I as in the thesis, and a random rotation
         let g_random = unpack(&random_state(&mut rng)).1;

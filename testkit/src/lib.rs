@@ -1,0 +1,94 @@
+//! What the workspace's tests, fuzz example and benches share (a dev-dependency only).
+//!
+//! [`Rng`] is the one random generator of the tests: SplitMix64 (Steele, Lea & Flood 2014),
+//! seeded explicitly, so every failure reproduces from the seed printed with it. The library
+//! code that samples (the generator's numerical conservation check) has its own generator,
+//! `lasalle_codegen`'s `check::sampling::Rng`, because its verdicts are part of the product.
+
+/// SplitMix64: a small, fast, seeded generator with full 64-bit output.
+#[derive(Clone, Debug)]
+pub struct Rng(u64);
+
+impl Rng {
+    /// A generator from a seed (any value, 0 included).
+    pub fn new(seed: u64) -> Self {
+        Rng(seed)
+    }
+
+    /// The next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1), on the 2⁻⁵³ grid.
+    pub fn unit(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Uniform in [a, b).
+    pub fn uniform(&mut self, a: f64, b: f64) -> f64 {
+        a + (b - a) * self.unit()
+    }
+
+    /// N values uniform in [a, b).
+    pub fn array<const N: usize>(&mut self, a: f64, b: f64) -> [f64; N] {
+        std::array::from_fn(|_| self.uniform(a, b))
+    }
+
+    /// Uniform in 0..n (n > 0; the modulo bias, below 2⁻⁵⁰ for the small n of tests, is
+    /// irrelevant here).
+    pub fn below(&mut self, n: usize) -> usize {
+        assert!(n > 0, "Rng::below(0)");
+        (self.next_u64() % n as u64) as usize
+    }
+
+    /// A uniformly chosen element of a non-empty slice.
+    pub fn pick<'a, T>(&mut self, xs: &'a [T]) -> &'a T {
+        &xs[self.below(xs.len())]
+    }
+
+    /// True with probability p.
+    pub fn chance(&mut self, p: f64) -> bool {
+        self.unit() < p
+    }
+
+    /// ±1 with equal probability.
+    pub fn sign(&mut self) -> f64 {
+        if self.next_u64() & 1 == 0 {
+            1.0
+        } else {
+            -1.0
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Rng;
+
+    #[test]
+    fn splitmix64_reference_values() {
+        // the first outputs for seed 1234567 of the reference implementation
+        // (https://prng.di.unimi.it/splitmix64.c)
+        let mut r = Rng::new(1234567);
+        assert_eq!(r.next_u64(), 6457827717110365317);
+        assert_eq!(r.next_u64(), 3203168211198807973);
+        assert_eq!(r.next_u64(), 9817491932198370423);
+    }
+
+    #[test]
+    fn ranges_hold() {
+        let mut r = Rng::new(0);
+        for _ in 0..10_000 {
+            let u = r.uniform(-2.0, 3.0);
+            assert!((-2.0..3.0).contains(&u));
+            assert!(r.below(7) < 7);
+        }
+        let mean = (0..100_000).map(|_| r.unit()).sum::<f64>() / 1e5;
+        assert!((mean - 0.5).abs() < 0.005, "mean {mean}");
+    }
+}
