@@ -402,3 +402,54 @@ fn sweep_shards_merge_to_the_whole_sweep() {
     ]);
     assert!(String::from_utf8_lossy(&o.stderr).contains("row 1 is missing"));
 }
+
+/// A table is CSV a reader can parse: matrix component names (`g[0,1]`) and failure
+/// messages are quoted, so every row has as many fields as the header.
+#[test]
+fn sweep_tables_quote_fields_with_commas() {
+    let dir = scratch("open-world-sweep-quoting");
+    let out = dir.join("rb.csv");
+    let o = lasalle(&[
+        "sweep",
+        "so3_type_i",
+        "--grid",
+        // c₁ = 10⁻³⁰⁰: the second run fails, with a message full of commas
+        "c1=2,1e-300",
+        "--t-end",
+        "1",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // RFC 4180 fields of one line (no quoted line breaks in these tables)
+    let fields = |line: &str| -> Vec<String> {
+        let (mut fields, mut field, mut quoted) = (Vec::new(), String::new(), false);
+        let mut chars = line.chars().peekable();
+        while let Some(c) = chars.next() {
+            match c {
+                '"' if quoted && chars.peek() == Some(&'"') => {
+                    field.push('"');
+                    chars.next();
+                }
+                '"' => quoted = !quoted,
+                ',' if !quoted => fields.push(std::mem::take(&mut field)),
+                c => field.push(c),
+            }
+        }
+        fields.push(field);
+        fields
+    };
+    let text = std::fs::read_to_string(&out).unwrap();
+    let rows: Vec<Vec<String>> = text.lines().map(fields).collect();
+    assert_eq!(rows.len(), 3, "{text}");
+    assert!(rows[0].iter().any(|h| h == "g[0,1](T)"), "{:?}", rows[0]);
+    for row in &rows {
+        assert_eq!(row.len(), rows[0].len(), "{row:?}");
+    }
+    assert_eq!(rows[1].last().unwrap(), "", "the first run succeeds");
+    assert!(
+        rows[2].last().unwrap().contains("rejected steps"),
+        "{:?}",
+        rows[2]
+    );
+}

@@ -1,6 +1,7 @@
 //! Dumps of a [`NormalForm`]: JSON, CSV, a plain-text table and Rust code.
 
 use crate::normal_form::{NormalForm, Value};
+use lasalle_runtime::Csv;
 use std::fmt::Write;
 
 fn exps(e: &[u32]) -> String {
@@ -72,15 +73,23 @@ impl NormalForm {
     /// (exponents of Q₁…Q_n, P₁…P_n), `divisor` (exponents = m, value = m·ω, degree = first
     /// order met), `resonant` (exponents of x then y; value = Re, lo = Im).
     pub fn to_csv(&self) -> String {
-        let mut s = String::from("section,name,exponents,degree,value,lo,error\n");
-        let row = |s: &mut String, sec: &str, name: &str, e: &str, deg: String, v: &Value| {
-            let _ = writeln!(
-                s,
-                "{sec},{name},{e},{deg},{:e},{:e},{}",
-                v.value,
-                v.lo,
-                v.error.map_or(String::new(), |x| format!("{x:e}"))
-            );
+        let mut s = Csv::new(Vec::new());
+        let io = "writing to memory does not fail";
+        s.record([
+            "section",
+            "name",
+            "exponents",
+            "degree",
+            "value",
+            "lo",
+            "error",
+        ])
+        .expect(io);
+        let row = |s: &mut Csv<Vec<u8>>, sec: &str, name: &str, e: &str, deg: String, v: &Value| {
+            let (value, lo) = (format!("{:e}", v.value), format!("{:e}", v.lo));
+            let error = v.error.map_or(String::new(), |x| format!("{x:e}"));
+            s.record([sec, name, e, &deg, &value, &lo, &error])
+                .expect(io);
         };
         for (name, v) in self.coordinates.iter().zip(&self.equilibrium) {
             row(&mut s, "equilibrium", name, "", String::new(), v);
@@ -153,7 +162,7 @@ impl NormalForm {
             let deg = (r.x.iter().sum::<u32>() + r.y.iter().sum::<u32>()).to_string();
             row(&mut s, "resonant", "x^a y^b", &e, deg, &v);
         }
-        s
+        String::from_utf8(s.into_inner().expect(io)).expect("the fields are UTF-8")
     }
 
     /// A human-readable report.

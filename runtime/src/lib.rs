@@ -12,7 +12,7 @@
 //!   feedback integrator; [`gains`](crate::scaled_gains) selection ([`GainPolicy`],
 //!   [`AdaptiveGain`]);
 //! - [`Observer`]s ([`Recorder`] of states and invariant errors, [`Stride`], [`StopWhen`]) and
-//!   CSV [`write_csv`];
+//!   CSV ([`Csv`], [`write_csv`]);
 //! - [`elliptic`]: Jacobi elliptic functions [`ellipj`] (sn, cn, dn, am; parameter m = k²) and
 //!   elliptic integrals of the first kind [`ellipk`], [`ellipf`].
 //!
@@ -58,7 +58,7 @@ pub use gains::{
 pub use nalgebra;
 pub use num_traits;
 pub use observe::{sample_capacity, Control, Observer, Recorder, StateRecorder, StopWhen, Stride};
-pub use output::{component_names, write_csv};
+pub use output::{component_names, write_csv, Csv};
 pub use params::{ParamError, Parameters};
 pub use state::State;
 pub use steppers::{

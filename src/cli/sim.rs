@@ -15,7 +15,7 @@
 //! counters, and, if the integration blew up, the [`StepError`] with its time and state.
 
 use std::fmt;
-use std::io::{IsTerminal, Write};
+use std::io::IsTerminal;
 use std::marker::PhantomData;
 use std::path::Path;
 use std::str::FromStr;
@@ -24,7 +24,7 @@ use std::time::Instant;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lasalle::exec::{Taylor, TaylorOptions};
 use lasalle::{
-    component_names, sample_capacity, AdaptiveGain, Control, Declared, DormandPrince, Driver,
+    component_names, sample_capacity, AdaptiveGain, Control, Csv, Declared, DormandPrince, Driver,
     ExplicitRk, FeedbackField, Field, GainPolicy, Invariants, LoadedModel, Lyapunov, ModelInfo,
     Observer, Parameters, Projection, Recorder, RigidBodySplitting, State, StepError, Stepper,
     StormerVerlet, VerletVariant,
@@ -466,27 +466,19 @@ impl Trace {
     pub fn write_csv(&self, path: &Path) -> CliResult {
         let file = std::fs::File::create(path)
             .map_err(|e| format!("cannot create {}: {e}", path.display()))?;
-        let mut w = std::io::BufWriter::new(file);
-        write!(w, "t")?;
-        for n in &self.state_names {
-            write!(w, ",{n}")?;
-        }
-        for b in &self.blocks {
-            write!(w, ",|Δ{b}|")?;
-        }
-        writeln!(w)?;
+        let mut csv = Csv::new(std::io::BufWriter::new(file));
+        let header = std::iter::once("t".to_string())
+            .chain(self.state_names.iter().cloned())
+            .chain(self.blocks.iter().map(|b| format!("|Δ{b}|")));
+        csv.record(header)?;
         let nb = self.blocks.len();
         for i in 0..self.len() {
-            write!(w, "{}", self.t[i])?;
-            for v in self.state(i) {
-                write!(w, ",{v}")?;
-            }
-            for e in &self.errors[i * nb..(i + 1) * nb] {
-                write!(w, ",{e}")?;
-            }
-            writeln!(w)?;
+            let row = std::iter::once(&self.t[i])
+                .chain(self.state(i))
+                .chain(&self.errors[i * nb..(i + 1) * nb]);
+            csv.record(row)?;
         }
-        w.flush()?;
+        csv.into_inner()?;
         Ok(())
     }
 

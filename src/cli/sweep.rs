@@ -224,7 +224,8 @@ fn cells(index: usize, row: &[(String, f64)], t: &Trace) -> Vec<String> {
     c.push(
         t.failure
             .as_ref()
-            .map(|e| format!("\"{}\"", e.to_string().replace('"', "'")))
+            // one line per row (sweep-merge reads lines); the table writer quotes it
+            .map(|e| e.to_string().lines().collect::<Vec<_>>().join("; "))
             .unwrap_or_default(),
     );
     c
@@ -278,11 +279,12 @@ pub fn run(args: &SweepArgs) -> CliResult {
             )
             .collect()
     });
-    let mut table = header.join(",") + "\n";
+    let mut table = lasalle::Csv::new(Vec::new());
+    table.record(&header)?;
     for r in results {
-        table.push_str(&r?.join(","));
-        table.push('\n');
+        table.record(&r?)?;
     }
+    let table = table.into_inner()?;
     if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
