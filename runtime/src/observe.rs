@@ -66,14 +66,47 @@ impl<T: Copy, X: ?Sized, A: Observer<T, X>, B: Observer<T, X>> Observer<T, X> fo
     }
 }
 
+/// The sampling rule every sampling observer shares: steps 0, n, 2n, … and, at the end, the
+/// final step if it was not sampled already.
+#[derive(Clone, Copy, Debug)]
+struct Every {
+    n: u64,
+    last: Option<u64>,
+}
+
+impl Every {
+    /// Every `n`-th step (0 is treated as 1).
+    fn new(n: u64) -> Self {
+        Every {
+            n: n.max(1),
+            last: None,
+        }
+    }
+
+    /// Is this step sampled? (Call once per observation.)
+    fn due(&mut self, step: u64) -> bool {
+        let due = step % self.n == 0;
+        if due {
+            self.last = Some(step);
+        }
+        due
+    }
+
+    /// Is the final step still to be sampled? (Call once, from `finish`.)
+    fn final_due(&mut self, step: u64) -> bool {
+        let due = self.last != Some(step);
+        self.last = Some(step);
+        due
+    }
+}
+
 /// Forwards every `every`-th observation (steps 0, n, 2n, …) and, at the end, the final state
 /// if it was not forwarded already.
 #[derive(Clone, Debug)]
 pub struct Stride<O> {
     /// The wrapped observer.
     pub inner: O,
-    every: u64,
-    last: Option<u64>,
+    every: Every,
 }
 
 impl<O> Stride<O> {
@@ -81,16 +114,14 @@ impl<O> Stride<O> {
     pub fn new(inner: O, every: u64) -> Self {
         Stride {
             inner,
-            every: every.max(1),
-            last: None,
+            every: Every::new(every),
         }
     }
 }
 
 impl<T: Copy, X: ?Sized, O: Observer<T, X>> Observer<T, X> for Stride<O> {
     fn observe(&mut self, step: u64, t: T, x: &X) -> Control {
-        if step % self.every == 0 {
-            self.last = Some(step);
+        if self.every.due(step) {
             self.inner.observe(step, t, x)
         } else {
             Control::Continue
@@ -98,8 +129,7 @@ impl<T: Copy, X: ?Sized, O: Observer<T, X>> Observer<T, X> for Stride<O> {
     }
 
     fn finish(&mut self, step: u64, t: T, x: &X) {
-        if self.last != Some(step) {
-            self.last = Some(step);
+        if self.every.final_due(step) {
             // the integration is over: a stop request is moot
             let _ = self.inner.observe(step, t, x);
         }
@@ -146,8 +176,7 @@ pub struct StateRecorder<T, X> {
     pub t: Vec<T>,
     /// Sampled states.
     pub x: Vec<X>,
-    every: u64,
-    last: Option<u64>,
+    every: Every,
 }
 
 impl<T: Copy, X: Clone> StateRecorder<T, X> {
@@ -156,8 +185,7 @@ impl<T: Copy, X: Clone> StateRecorder<T, X> {
         StateRecorder {
             t: Vec::with_capacity(capacity),
             x: Vec::with_capacity(capacity),
-            every: every.max(1),
-            last: None,
+            every: Every::new(every),
         }
     }
 
@@ -171,8 +199,7 @@ impl<T: Copy, X: Clone> StateRecorder<T, X> {
         self.t.is_empty()
     }
 
-    fn push(&mut self, step: u64, t: T, x: &X) {
-        self.last = Some(step);
+    fn push(&mut self, t: T, x: &X) {
         self.t.push(t);
         self.x.push(x.clone());
     }
@@ -180,15 +207,15 @@ impl<T: Copy, X: Clone> StateRecorder<T, X> {
 
 impl<T: Copy, X: Clone> Observer<T, X> for StateRecorder<T, X> {
     fn observe(&mut self, step: u64, t: T, x: &X) -> Control {
-        if step % self.every == 0 {
-            self.push(step, t, x);
+        if self.every.due(step) {
+            self.push(t, x);
         }
         Control::Continue
     }
 
     fn finish(&mut self, step: u64, t: T, x: &X) {
-        if self.last != Some(step) {
-            self.push(step, t, x);
+        if self.every.final_due(step) {
+            self.push(t, x);
         }
     }
 }
@@ -211,8 +238,7 @@ pub struct Recorder<'m, Mdl: ?Sized, T, X, F> {
     /// Scratch for f(x) at a sample.
     f: F,
     blocks: Vec<(&'static str, Range<usize>)>,
-    every: u64,
-    last: Option<u64>,
+    every: Every,
     /// Sample times.
     pub t: Vec<T>,
     /// Sampled states.
@@ -259,8 +285,7 @@ where
             f: target.clone(),
             target,
             blocks,
-            every: every.max(1),
-            last: None,
+            every: Every::new(every),
             t: Vec::with_capacity(capacity),
             x: Vec::with_capacity(capacity),
             errors: Vec::with_capacity(capacity * nb),
@@ -315,8 +340,7 @@ where
         self.blocks.iter().position(|(n, _)| *n == name)
     }
 
-    fn push(&mut self, step: u64, t: T, x: &X) {
-        self.last = Some(step);
+    fn push(&mut self, t: T, x: &X) {
         self.model.invariants(x, &mut self.f);
         self.t.push(t);
         self.x.push(x.clone());
@@ -339,15 +363,15 @@ where
     F: State<T>,
 {
     fn observe(&mut self, step: u64, t: T, x: &X) -> Control {
-        if step % self.every == 0 {
-            self.push(step, t, x);
+        if self.every.due(step) {
+            self.push(t, x);
         }
         Control::Continue
     }
 
     fn finish(&mut self, step: u64, t: T, x: &X) {
-        if self.last != Some(step) {
-            self.push(step, t, x);
+        if self.every.final_due(step) {
+            self.push(t, x);
         }
     }
 }
