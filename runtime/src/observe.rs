@@ -66,30 +66,36 @@ impl<T: Copy, X: ?Sized, A: Observer<T, X>, B: Observer<T, X>> Observer<T, X> fo
     }
 }
 
-/// The sampling rule every sampling observer shares: steps 0, n, 2n, … and, at the end, the
-/// final step if it was not sampled already.
+/// The sampling rule every sampling observer shares: observations 0, n, 2n, … (the driver's
+/// steps 0, n, 2n, …) and, at the end, the final step if it was not sampled already. It counts
+/// down instead of dividing, so the hot loop of a run has no integer division.
 #[derive(Clone, Copy, Debug)]
 struct Every {
     n: u64,
+    countdown: u64,
     last: Option<u64>,
 }
 
 impl Every {
-    /// Every `n`-th step (0 is treated as 1).
+    /// Every `n`-th observation (0 is treated as 1).
     fn new(n: u64) -> Self {
         Every {
             n: n.max(1),
+            countdown: 0,
             last: None,
         }
     }
 
-    /// Is this step sampled? (Call once per observation.)
+    /// Is this observation sampled? (Call once per observation.)
+    #[inline]
     fn due(&mut self, step: u64) -> bool {
-        let due = step % self.n == 0;
-        if due {
-            self.last = Some(step);
+        if self.countdown > 1 {
+            self.countdown -= 1;
+            return false;
         }
-        due
+        self.countdown = self.n;
+        self.last = Some(step);
+        true
     }
 
     /// Is the final step still to be sampled? (Call once, from `finish`.)
@@ -100,7 +106,7 @@ impl Every {
     }
 }
 
-/// Forwards every `every`-th observation (steps 0, n, 2n, …) and, at the end, the final state
+/// Forwards every `every`-th observation (steps 0, n, 2n, … of a run) and, at the end, the final state
 /// if it was not forwarded already.
 #[derive(Clone, Debug)]
 pub struct Stride<O> {

@@ -27,7 +27,7 @@ use lasalle::{
     component_names, sample_capacity, AdaptiveGain, Control, Csv, Declared, DormandPrince, Driver,
     ExplicitRk, FeedbackField, Field, GainPolicy, Invariants, LoadedModel, Lyapunov, ModelInfo,
     Observer, Parameters, Projection, Recorder, RigidBodySplitting, State, StepError, Stepper,
-    StormerVerlet, VerletVariant,
+    StormerVerlet, Stride, VerletVariant,
 };
 use serde_json::json;
 
@@ -549,24 +549,18 @@ pub fn progress_bar(enabled: bool, label: &str) -> ProgressBar {
     bar
 }
 
-/// Forwards every `every`-th step to `inner` (counting down, so the hot loop has no integer
-/// division) and moves the progress bar every 2¹⁶ steps.
-struct Sampler<'o, O> {
+/// Moves the progress bar, about every 2¹⁶ steps, on the way to `inner`.
+struct Progress<'o, O> {
     inner: &'o mut O,
     bar: &'o ProgressBar,
     t_end: f64,
     every: u64,
-    countdown: u64,
 }
 
-impl<O: Observer<f64, X>, X: ?Sized> Observer<f64, X> for Sampler<'_, O> {
+impl<O: Observer<f64, X>, X: ?Sized> Observer<f64, X> for Progress<'_, O> {
     #[inline]
     fn observe(&mut self, step: u64, t: f64, x: &X) -> Control {
-        if self.countdown > 1 {
-            self.countdown -= 1;
-            return Control::Continue;
-        }
-        self.countdown = self.every;
+        // only every `every`-th step gets here (a Stride): one of them per 2¹⁶ steps
         if step & 0xffff < self.every {
             self.bar.set_position((t / self.t_end * 1000.0) as u64);
         }
@@ -600,7 +594,7 @@ where
     fn visit<S: Stepper<f64, X, F> + Stats>(self, mut stepper: S) -> Trace {
         let spec = self.spec;
         let every = spec.record_every();
-        // the sampler forwards every `every`-th step; the recorder keeps all it is given
+        // the stride forwards every `every`-th step; the recorder keeps all it is given
         let mut rec = Recorder::new(
             self.model,
             &self.x0,
@@ -621,13 +615,15 @@ where
         driver = driver.guard(1, move |x: &X| {
             model.check_guards(x, h).map(|g| g.to_string())
         });
-        let mut obs = Sampler {
-            inner: &mut rec,
-            bar: &bar,
-            t_end: spec.t_end,
+        let mut obs = Stride::new(
+            Progress {
+                inner: &mut rec,
+                bar: &bar,
+                t_end: spec.t_end,
+                every,
+            },
             every,
-            countdown: 0,
-        };
+        );
         let start = Instant::now();
         let result = driver.run(&mut stepper, self.field, &self.x0, &mut obs);
         let wall_seconds = start.elapsed().as_secs_f64();
