@@ -53,7 +53,7 @@ pub use field::{
 };
 pub use gains::{
     gauss_newton_hessian, gauss_newton_norm, gauss_newton_trace, scaled_gains,
-    symmetric_spectral_norm, AdaptiveGain, GainError, GainPolicy,
+    step_gain_target, symmetric_spectral_norm, AdaptiveGain, GainError, GainPolicy,
 };
 pub use nalgebra;
 pub use num_traits;

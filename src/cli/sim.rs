@@ -24,10 +24,10 @@ use std::time::Instant;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lasalle::exec::{Taylor, TaylorOptions};
 use lasalle::{
-    component_names, sample_capacity, AdaptiveGain, Control, Declared, DormandPrince, Driver,
-    ExplicitRk, FeedbackField, Field, GainPolicy, Invariants, LoadedModel, Lyapunov, ModelInfo,
-    Observer, Parameters, Projection, Recorder, RigidBodySplitting, State, StepError, Stepper,
-    StormerVerlet, VerletVariant,
+    component_names, sample_capacity, scaled_gains, step_gain_target, AdaptiveGain, Control,
+    Declared, DormandPrince, Driver, ExplicitRk, FeedbackField, Field, GainPolicy, Invariants,
+    LoadedModel, Lyapunov, ModelInfo, Observer, Parameters, Projection, Recorder,
+    RigidBodySplitting, State, StepError, Stepper, StormerVerlet, VerletVariant,
 };
 use serde_json::json;
 
@@ -56,6 +56,16 @@ pub enum Base {
 
 impl Base {
     const ALL: [Base; 4] = [Base::Euler, Base::Heun, Base::Rk4, Base::Dopri5];
+
+    /// The order of the method (of the propagated solution for `dopri5`).
+    fn order(self) -> u32 {
+        match self {
+            Base::Euler => 1,
+            Base::Heun => 2,
+            Base::Rk4 => 4,
+            Base::Dopri5 => 5,
+        }
+    }
 
     fn name(self) -> &'static str {
         match self {
@@ -284,6 +294,13 @@ impl RunSpec {
         if !self.method.is_feedback() && self.gains != GainPolicy::ModelDefault {
             return Err(format!(
                 "--gains applies to feedback methods only, not to `{}`",
+                self.method
+            ));
+        }
+        if matches!(self.gains, GainPolicy::Step { .. }) && !adaptive {
+            return Err(format!(
+                "--gains step follows the step of an adaptive method (feedback-dopri5, \
+                 feedback-taylor); `{}` takes fixed steps: use --gains adaptive",
                 self.method
             ));
         }
@@ -693,12 +710,14 @@ where
     }
 }
 
-/// Wraps the base stepper in the periodic adaptive gain (Bae & Chang).
+/// Wraps the base stepper in the periodic adaptive gain (Bae & Chang) or the step-tracking
+/// gain, as [`GainPlan::adapt`] says.
 struct Adapt<V, K> {
     inner: V,
     unit: K,
     every: u64,
     c: f64,
+    safety: f64,
 }
 
 impl<'a, Mdl, V, X, FV, K> Visit<FeedbackField<'a, Mdl, FV, K>, X> for Adapt<V, K>
@@ -716,7 +735,11 @@ where
         S: Stepper<f64, X, FeedbackField<'a, Mdl, FV, K>> + Stats,
     {
         self.inner
-            .visit(AdaptiveGain::new(stepper, self.unit, self.every).c(self.c))
+            .visit(
+                AdaptiveGain::new(stepper, self.unit, self.every)
+                    .c(self.c)
+                    .safety(self.safety),
+            )
     }
 }
 
@@ -778,28 +801,14 @@ where
             Ok(with_base(b, spec, visit))
         }
         Method::Feedback(b) => {
-            let gains: K = spec.gains.initial_gains(model, x0, spec.dt).map_err(|e| {
-                format!(
-                    "{e} (model `{name}` has gains {})",
-                    model.gain_names().join(", ")
-                )
-            })?;
-            let fb = FeedbackField::from_initial(model, x0, gains.clone());
+            let plan: GainPlan<K> = plan_gains(model, x0, spec, b.order())?;
+            let fb = FeedbackField::from_initial(model, x0, plan.initial.clone());
             let inner = drive(model, &fb, x0, spec);
-            let mut trace = match spec.gains {
-                GainPolicy::Adaptive { every, c } => with_base(
-                    b,
-                    spec,
-                    Adapt {
-                        inner,
-                        unit: K::filled(K::len_for(gains.len()), 1.0),
-                        every,
-                        c,
-                    },
-                ),
-                _ => with_base(b, spec, inner),
+            let mut trace = match plan.adapt(inner) {
+                Ok(adapt) => with_base(b, spec, adapt),
+                Err(inner) => with_base(b, spec, inner),
             };
-            trace.gains_initial = Some(gains.as_ref().to_vec());
+            trace.gains_initial = Some(plan.initial.as_ref().to_vec());
             trace.gains_final = Some(fb.gains().as_ref().to_vec());
             Ok(trace)
         }
@@ -878,28 +887,87 @@ pub fn simulate_loaded(
     if !feedback {
         return Ok(drive(model, model, x0, spec).visit(taylor));
     }
-    let gains: Vec<f64> = spec.gains.initial_gains(model, x0, spec.dt).map_err(|e| {
+    let order = <Taylor as Stepper<f64, Vec<f64>, LoadedModel>>::order(&taylor);
+    let plan: GainPlan<Vec<f64>> = plan_gains(model, x0, spec, order)?;
+    let fb = FeedbackField::from_initial(model, x0, plan.initial.clone());
+    let inner = drive(model, &fb, x0, spec);
+    let mut trace = match plan.adapt(inner) {
+        Ok(adapt) => adapt.visit(taylor),
+        Err(inner) => inner.visit(taylor),
+    };
+    trace.gains_initial = Some(plan.initial);
+    trace.gains_final = Some(fb.gains());
+    Ok(trace)
+}
+
+/// The gains of a feedback run: the initial ones and, for the adaptive policies, how the
+/// [`AdaptiveGain`] wrapper keeps choosing them.
+struct GainPlan<K> {
+    initial: K,
+    /// (re-estimation period, c, safety factor) of the wrapper.
+    adapt: Option<(u64, f64, f64)>,
+}
+
+impl<K: State<f64>> GainPlan<K> {
+    /// `inner` wrapped in the adaptive gain (`Ok`), or `inner` itself for fixed gains (`Err`).
+    fn adapt<V>(&self, inner: V) -> Result<Adapt<V, K>, V> {
+        match self.adapt {
+            Some((every, c, safety)) => Ok(Adapt {
+                inner,
+                unit: K::filled(K::len_for(self.initial.len()), 1.0),
+                every,
+                c,
+                safety,
+            }),
+            None => Err(inner),
+        }
+    }
+}
+
+/// Resolves `spec.gains` for a feedback method of order `order`: `auto` by whether the method
+/// is adaptive, `step` to the target h·k·L = [`step_gain_target`] with the tolerance `--rtol`.
+fn plan_gains<Mdl, X, FV, K>(
+    model: &Mdl,
+    x0: &X,
+    spec: &RunSpec,
+    order: u32,
+) -> Result<GainPlan<K>, String>
+where
+    Mdl: RunModel<X, FV, K>,
+    X: State<f64>,
+    FV: State<f64>,
+    K: State<f64>,
+{
+    let located = |e: lasalle::GainError| {
         format!(
             "{e} (model `{}` has gains {})",
             model.model_name(),
             model.gain_names().join(", ")
         )
-    })?;
-    let fb = FeedbackField::from_initial(model, x0, gains.clone());
-    let inner = drive(model, &fb, x0, spec);
-    let mut trace = match spec.gains {
-        GainPolicy::Adaptive { every, c } => Adapt {
-            inner,
-            unit: vec![1.0; gains.len()],
-            every,
-            c,
-        }
-        .visit(taylor),
-        _ => inner.visit(taylor),
     };
-    trace.gains_initial = Some(gains.clone());
-    trace.gains_final = Some(fb.gains());
-    Ok(trace)
+    match spec.gains.clone().resolve(spec.method.is_adaptive()) {
+        GainPolicy::Step { c, every } => {
+            let target = step_gain_target(c, spec.rtol, order);
+            let unit = K::filled(K::len_for(model.gain_names().len()), 1.0);
+            // the first step is --dt; the wrapper rescales to the step actually proposed
+            let initial = scaled_gains(model, x0, &unit, spec.dt, target)
+                .map_err(|e| located(e) + "; --gains step needs a first step --dt > 0")?;
+            Ok(GainPlan {
+                initial,
+                adapt: Some((every, target, 1.0)),
+            })
+        }
+        policy => {
+            let initial = policy
+                .initial_gains(model, x0, spec.dt)
+                .map_err(located)?;
+            let adapt = match policy {
+                GainPolicy::Adaptive { every, c } => Some((every, c, 0.8)),
+                _ => None,
+            };
+            Ok(GainPlan { initial, adapt })
+        }
+    }
 }
 
 /// Applies `name=v1,v2,…` to the model's parameters.
