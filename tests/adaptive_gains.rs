@@ -7,8 +7,8 @@
 
 use lasalle::exec::{Taylor, TaylorOptions};
 use lasalle::{
-    integrate, scaled_gains, step_gain_target, AdaptiveGain, Backend, DormandPrince,
-    FeedbackField, Invariants, LoadedModel, ModelInfo, Parameters, StepError, Stepper,
+    integrate, scaled_gains, step_gain_target, AdaptiveGain, Backend, DormandPrince, FeedbackField,
+    Invariants, LoadedModel, ModelInfo, Parameters, StepError, Stepper,
 };
 
 /// The model file `models/<stem>.lsl` on the JIT and its `paper` point.
@@ -143,7 +143,10 @@ fn step_gain_pulls_a_perturbed_state_back() {
     let dp = || DormandPrince::<f64, Vec<f64>>::with_tolerances(TOL, TOL);
     let s = integrate(&mut dp(), &m, &start, 0.0, t_end, 0.01, &mut ()).expect("plain");
     let plain_err = worst_error(&m, &x0, &s.x);
-    assert!(plain_err > 1e-7, "plain DOPRI5 lost the offset: {plain_err:e}");
+    assert!(
+        plain_err > 1e-7,
+        "plain DOPRI5 lost the offset: {plain_err:e}"
+    );
     let (_, f_err) = feedback(&m, &x0, &start, t_end, (TOL, 5), dp());
     assert!(f_err < 1e-9, "feedback-DOPRI5 did not pull back: {f_err:e}");
     let taylor = Taylor::for_model(&m, TaylorOptions::with_tol(TOL)).expect("taylor");

@@ -17,8 +17,14 @@
 //! gain). The fixed gain is only safe when L varies little along the solution: on the e = 0.8
 //! Kepler orbit L grows ~7× from periapsis to apoapsis (|∂L/∂v| = |x|), so c = 1 at the
 //! periapsis gives h·L ≈ 6.8 > 2 at the apoapsis and feedback-Euler loses the integrals
-//! (runtime/tests/feedback.rs); the adaptive gain has no such problem. L is computed by power iteration ([`gauss_newton_norm`]); the trace of H_GN is a
-//! cheap upper bound ([`gauss_newton_trace`]). These formulas assume the default form of V.
+//! (runtime/tests/feedback.rs); the adaptive gain has no such problem. L is computed by power
+//! iteration ([`gauss_newton_norm`]); the trace of H_GN is a cheap upper bound
+//! ([`gauss_newton_trace`]). These formulas assume the default form of V.
+//!
+//! Adaptive methods (DOPRI5, Taylor) choose h themselves; [`AdaptiveGain`] then follows the
+//! proposed step, and the step-tracking target h·L = c·tol^(1/p) ([`step_gain_target`],
+//! `--gains step`, what `auto` picks for them) keeps their step counts within a few per cent of
+//! the plain methods' (docs/performance.md).
 
 use std::str::FromStr;
 

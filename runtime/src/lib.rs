@@ -52,8 +52,8 @@ pub use field::{
     Slot,
 };
 pub use gains::{
-    gauss_newton_hessian, gauss_newton_norm, gauss_newton_trace, scaled_gains,
-    step_gain_target, symmetric_spectral_norm, AdaptiveGain, GainError, GainPolicy,
+    gauss_newton_hessian, gauss_newton_norm, gauss_newton_trace, scaled_gains, step_gain_target,
+    symmetric_spectral_norm, AdaptiveGain, GainError, GainPolicy,
 };
 pub use nalgebra;
 pub use num_traits;

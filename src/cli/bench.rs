@@ -66,10 +66,10 @@ pub fn run(args: &BenchEvalArgs) -> CliResult {
     let d = lasalle_codegen::derive::derive(&mut model);
     lasalle_codegen::check::check(&mut model, &d).map_err(|e| e.to_string())?;
     let tapes = ModelTapes::new(&model, &d).map_err(|e| e.to_string())?;
-    let kernel = Backend::Jit.compile(&tapes.feedback).map_err(|e| e.to_string())?;
-    let hoisted = kernel
-        .hoist(loaded.params())
+    let kernel = Backend::Jit
+        .compile(&tapes.feedback)
         .map_err(|e| e.to_string())?;
+    let hoisted = kernel.hoist(loaded.params()).map_err(|e| e.to_string())?;
     let (n, m) = (x0.len(), kernel.n_outputs());
 
     let mut results = serde_json::Map::new();

@@ -1,5 +1,5 @@
 //! `lasalle run <model> --method <m> [--dt h] [--t-end T] [--param k=v] [--init p] [--gains g]
-//! [--out dir]`: one integration, written as `trace.csv` (t, state, each invariant's error) and
+//! [--json] [--out dir]`: one integration, written as `trace.csv` (t, state, each invariant's error) and
 //! `summary.json` (counters, wall time, final and maximal errors, failure).
 
 use std::path::PathBuf;
@@ -40,8 +40,9 @@ pub struct RunArgs {
     /// point) or the flat state as comma-separated numbers.
     #[arg(long, allow_hyphen_values = true)]
     pub init: Option<String>,
-    /// Gains of feedback methods: default (the preset's, else the model's), auto
-    /// (= adaptive), fixed[:c], adaptive[:m[:c]], or k1,k2,…
+    /// Gains of feedback methods: default (the preset's, else the model's), auto (adaptive for
+    /// fixed-step methods, step for dopri5 and taylor), fixed[:c], adaptive[:m[:c]],
+    /// step[:c[:m]] (h·k·L = c·rtol^(1/p) at every step of an adaptive method), or k1,k2,…
     #[arg(long, default_value = "default", allow_hyphen_values = true)]
     pub gains: String,
     /// Projection tolerance on |f(x) − f(x₀)|₂ (default: dt, as the paper's TolFun).

@@ -761,12 +761,11 @@ where
     where
         S: Stepper<f64, X, FeedbackField<'a, Mdl, FV, K>> + Stats,
     {
-        self.inner
-            .visit(
-                AdaptiveGain::new(stepper, self.unit, self.every)
-                    .c(self.c)
-                    .safety(self.safety),
-            )
+        self.inner.visit(
+            AdaptiveGain::new(stepper, self.unit, self.every)
+                .c(self.c)
+                .safety(self.safety),
+        )
     }
 }
 
@@ -985,9 +984,7 @@ where
             })
         }
         policy => {
-            let initial = policy
-                .initial_gains(model, x0, spec.dt)
-                .map_err(located)?;
+            let initial = policy.initial_gains(model, x0, spec.dt).map_err(located)?;
             let adapt = match policy {
                 GainPolicy::Adaptive { every, c } => Some((every, c, 0.8)),
                 _ => None,
