@@ -156,7 +156,8 @@ def lasalle_run(exe, model, method, t_end, tol=None, dt=None, gains=None, out_di
         "cpu": s["cpu_seconds"],
         "steps": s["steps"],
         "error": err,
-        "failure": s["failure"]["message"] if s.get("failure") else None,
+        # the message without the state it names
+        "failure": s["failure"]["message"].split("; state")[0] if s.get("failure") else None,
     }
 
 
