@@ -154,3 +154,82 @@ fn step_gain_pulls_a_perturbed_state_back() {
     let (_, t_err) = feedback(&m, &x0, &start, t_end, (TOL, order), taylor);
     assert!(t_err < 1e-9, "feedback-Taylor did not pull back: {t_err:e}");
 }
+
+/// Runs the `lasalle` binary; returns its output.
+fn lasalle(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_lasalle"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run lasalle")
+}
+
+/// `lasalle run --gains auto` picks the step-tracking gain for feedback-DOPRI5 (the plain step
+/// count within 1.25×, a smaller error) and `--json` prints the summary with the CPU time.
+#[test]
+fn cli_auto_gains_and_json_summary() {
+    let out = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("adaptive-gains-cli");
+    let run = |method: &str, gains: &[&str]| -> serde_json::Value {
+        let mut args = vec!["run", "rigid-body", "-m", method, "--rtol", "1e-10"];
+        args.extend(["--atol", "1e-10", "--t-end", "200", "--json", "--out"]);
+        args.push(out.to_str().unwrap());
+        args.extend(gains);
+        let o = lasalle(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        serde_json::from_str(String::from_utf8_lossy(&o.stdout).trim()).expect("one JSON line")
+    };
+    let worst = |s: &serde_json::Value| {
+        s["invariant_errors"]
+            .as_object()
+            .unwrap()
+            .values()
+            .map(|e| e["final"].as_f64().unwrap())
+            .fold(0.0, f64::max)
+    };
+    let plain = run("dopri5", &[]);
+    let fb = run("feedback-dopri5", &["--gains", "auto"]);
+    let (p, f) = (
+        plain["steps"].as_u64().unwrap(),
+        fb["steps"].as_u64().unwrap(),
+    );
+    assert!(f as f64 <= 1.25 * p as f64, "steps {f} vs plain {p}");
+    assert!(
+        worst(&fb) < worst(&plain),
+        "{} vs {}",
+        worst(&fb),
+        worst(&plain)
+    );
+    assert!(fb["cpu_seconds"].as_f64().unwrap() > 0.0);
+    assert_eq!(fb["rtol"].as_f64(), Some(1e-10));
+}
+
+/// `--gains step` follows an adaptive method's step: refused, with a message, for fixed steps.
+#[test]
+fn cli_step_gains_need_an_adaptive_method() {
+    let o = lasalle(&[
+        "run",
+        "kepler",
+        "-m",
+        "feedback-rk4",
+        "--gains",
+        "step",
+        "-q",
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("adaptive method"), "{err}");
+}
+
+/// `lasalle bench-eval` prints ns per state for 1 and 8 lanes.
+#[test]
+fn cli_bench_eval_prints_ns_per_state() {
+    let o = lasalle(&["bench-eval", "kepler", "--lanes", "1,8", "--repeat", "1"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
+    for k in ["1", "8"] {
+        let ns = v["ns_per_state"][k].as_f64().expect("a number");
+        assert!(ns > 0.0 && ns.is_finite(), "{k}: {ns}");
+    }
+    let bad = lasalle(&["bench-eval", "kepler", "--lanes", "0"]);
+    assert!(!bad.status.success());
+}
