@@ -6,10 +6,10 @@
 //! ([`lasalle_exec::LoadedModel`]) or one compiled ahead of time (the experiments use those) —
 //! and builds the stepper for the method by composing [`Visit`]ors (`projection-` wraps the
 //! base stepper in a [`Projection`], `feedback-` integrates the [`FeedbackField`],
-//! `--gains adaptive` wraps the stepper in an [`AdaptiveGain`]), so the inner loop is static
-//! code for each (storage, method) pair. Methods that need structure the model does not declare
-//! fail with a message ("method `stormer-verlet-a` needs a partitioned model"); the model's
-//! guards stop a run that leaves its domain.
+//! `--gains adaptive` and `--gains step` wrap the stepper in an [`AdaptiveGain`]), so the inner
+//! loop is static code for each (storage, method) pair. Methods that need structure the model
+//! does not declare fail with a message ("method `stormer-verlet-a` needs a partitioned
+//! model"); the model's guards stop a run that leaves its domain.
 //!
 //! The result is a [`Trace`]: sampled times, states and invariant errors, wall time and
 //! counters, and, if the integration blew up, the [`StepError`] with its time and state.
