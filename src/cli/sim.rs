@@ -738,7 +738,7 @@ where
 }
 
 /// Wraps the base stepper in the periodic adaptive gain (Bae & Chang) or the step-tracking
-/// gain, as [`GainPlan::adapt`] says.
+/// gain, as [`GainPlan::wrap`] says.
 struct Adapt<V, K> {
     inner: V,
     unit: K,
@@ -830,9 +830,9 @@ where
             let plan: GainPlan<K> = plan_gains(model, x0, spec, b.order())?;
             let fb = FeedbackField::from_initial(model, x0, plan.initial.clone());
             let inner = drive(model, &fb, x0, spec);
-            let mut trace = match plan.adapt(inner) {
-                Ok(adapt) => with_base(b, spec, adapt),
-                Err(inner) => with_base(b, spec, inner),
+            let mut trace = match plan.wrap(inner) {
+                Gained::Adaptive(adapt) => with_base(b, spec, adapt),
+                Gained::Fixed(inner) => with_base(b, spec, inner),
             };
             trace.gains_initial = Some(plan.initial.as_ref().to_vec());
             trace.gains_final = Some(fb.gains().as_ref().to_vec());
@@ -917,9 +917,9 @@ pub fn simulate_loaded(
     let plan: GainPlan<Vec<f64>> = plan_gains(model, x0, spec, order)?;
     let fb = FeedbackField::from_initial(model, x0, plan.initial.clone());
     let inner = drive(model, &fb, x0, spec);
-    let mut trace = match plan.adapt(inner) {
-        Ok(adapt) => adapt.visit(taylor),
-        Err(inner) => inner.visit(taylor),
+    let mut trace = match plan.wrap(inner) {
+        Gained::Adaptive(adapt) => adapt.visit(taylor),
+        Gained::Fixed(inner) => inner.visit(taylor),
     };
     trace.gains_initial = Some(plan.initial);
     trace.gains_final = Some(fb.gains());
@@ -934,18 +934,24 @@ struct GainPlan<K> {
     adapt: Option<(u64, f64, f64)>,
 }
 
+/// The innermost visitor of a feedback run, wrapped in the adaptive gain or not.
+enum Gained<V, K> {
+    Adaptive(Adapt<V, K>),
+    Fixed(V),
+}
+
 impl<K: State<f64>> GainPlan<K> {
-    /// `inner` wrapped in the adaptive gain (`Ok`), or `inner` itself for fixed gains (`Err`).
-    fn adapt<V>(&self, inner: V) -> Result<Adapt<V, K>, V> {
+    /// `inner` wrapped in the adaptive gain if the plan has one.
+    fn wrap<V>(&self, inner: V) -> Gained<V, K> {
         match self.adapt {
-            Some((every, c, safety)) => Ok(Adapt {
+            Some((every, c, safety)) => Gained::Adaptive(Adapt {
                 inner,
                 unit: K::filled(K::len_for(self.initial.len()), 1.0),
                 every,
                 c,
                 safety,
             }),
-            None => Err(inner),
+            None => Gained::Fixed(inner),
         }
     }
 }
