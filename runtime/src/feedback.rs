@@ -89,6 +89,18 @@ impl<'a, Mdl: ?Sized, F, K: Clone> FeedbackField<'a, Mdl, F, K> {
         *self.gains.borrow_mut() = gains;
     }
 
+    /// Sets the gains to `unit · alpha` in place (no allocation; `unit` must have the length of
+    /// the gains).
+    pub fn set_scaled_gains<T: Float>(&self, unit: &K, alpha: T)
+    where
+        K: State<T>,
+    {
+        let mut gains = self.gains.borrow_mut();
+        for (k, u) in gains.as_mut().iter_mut().zip(unit.as_ref()) {
+            *k = *u * alpha;
+        }
+    }
+
     /// V(x) with the current target and gains.
     pub fn lyapunov<T: Float, X: State<T>>(&self, x: &X) -> T
     where

@@ -17,8 +17,14 @@
 //! gain). The fixed gain is only safe when L varies little along the solution: on the e = 0.8
 //! Kepler orbit L grows ~7× from periapsis to apoapsis (|∂L/∂v| = |x|), so c = 1 at the
 //! periapsis gives h·L ≈ 6.8 > 2 at the apoapsis and feedback-Euler loses the integrals
-//! (runtime/tests/feedback.rs); the adaptive gain has no such problem. L is computed by power iteration ([`gauss_newton_norm`]); the trace of H_GN is a
-//! cheap upper bound ([`gauss_newton_trace`]). These formulas assume the default form of V.
+//! (runtime/tests/feedback.rs); the adaptive gain has no such problem. L is computed by power
+//! iteration ([`gauss_newton_norm`]); the trace of H_GN is a cheap upper bound
+//! ([`gauss_newton_trace`]). These formulas assume the default form of V.
+//!
+//! Adaptive methods (DOPRI5, Taylor) choose h themselves; [`AdaptiveGain`] then follows the
+//! proposed step, and the step-tracking target h·L = c·tol^(1/p) ([`step_gain_target`],
+//! `--gains step`, what `auto` picks for them) keeps their step counts within a few per cent of
+//! the plain methods' (docs/performance.md).
 
 use std::str::FromStr;
 
@@ -156,7 +162,7 @@ pub enum GainError {
         got: usize,
     },
     /// A gain specification that does not parse.
-    #[error("invalid gain specification `{0}`: expected `default`, `auto`, `fixed[:c]`, `adaptive[:m[:c]]` or `k1,k2,...`")]
+    #[error("invalid gain specification `{0}`: expected `default`, `auto`, `fixed[:c]`, `adaptive[:m[:c]]`, `step[:c[:m]]` or `k1,k2,...`")]
     Parse(String),
     /// A non-positive or non-finite step size, or c outside (0, 2).
     #[error("invalid gain parameter: {0}")]
@@ -195,11 +201,20 @@ where
     Ok(gains)
 }
 
-/// A stepper wrapper for feedback fields that re-chooses the gains every `every` steps as
-/// `unit · safety·c/(h·L(x))` at the current state (the periodic adaptive gain of Bae & Chang),
-/// writing them into the [`FeedbackField`] through [`FeedbackField::set_gains`].
+/// A stepper wrapper for feedback fields that keeps h·‖∇²V‖₂ at a fixed target: before every
+/// step of size h it sets the gains to `unit · safety·c/(h·L)`, where L = ‖H_GN‖₂ for the
+/// `unit` gains is re-estimated at the current state every `every` steps (the periodic
+/// adaptive gain of Bae & Chang), writing them into the [`FeedbackField`].
 ///
-/// If L is degenerate at some state the previous gains are kept.
+/// For a fixed-step method h never changes and the gains change only when L is re-estimated.
+/// For an adaptive method (DOPRI5, Taylor) h is the step the method proposes, so the gains
+/// follow the step: the feedback's stiffest rate k·L stays at safety·c/h, inside the stability
+/// region of any explicit method whose real stability interval exceeds safety·c (Euler 2,
+/// RK4 2.79, DOPRI5 3.31, Taylor of order p ≥ 4 wider still), and the step is left to the
+/// accuracy of the smooth part of the solution — see docs/performance.md for the measured
+/// step counts. A step that the method shrinks after rejecting it is stiffer-safe (smaller h).
+///
+/// If L is degenerate at some state the previous estimate is kept.
 #[derive(Clone, Debug)]
 pub struct AdaptiveGain<S, T, K> {
     base: S,
@@ -209,6 +224,8 @@ pub struct AdaptiveGain<S, T, K> {
     every: u64,
     steps: u64,
     last_norm: T,
+    /// The step the current gains were set for (NaN: set them at the next step).
+    gains_for_h: T,
 }
 
 impl<S, T: Float, K> AdaptiveGain<S, T, K> {
@@ -223,6 +240,7 @@ impl<S, T: Float, K> AdaptiveGain<S, T, K> {
             every: every.max(1),
             steps: 0,
             last_norm: T::nan(),
+            gains_for_h: T::nan(),
         }
     }
 
@@ -265,14 +283,18 @@ where
         x: &mut X,
         h: T,
     ) -> Result<StepOutcome<T>, StepError> {
-        if self.steps % self.every == 0 && h > T::zero() {
-            let l = gauss_newton_norm(field.model(), x, self.unit.as_ref());
-            if l > T::zero() && l.is_finite() {
-                self.last_norm = l;
-                let alpha = self.safety * self.c / (h * l);
-                let mut gains = self.unit.clone();
-                gains.as_mut().iter_mut().for_each(|k| *k = *k * alpha);
-                field.set_gains(gains);
+        if h > T::zero() {
+            if self.steps % self.every == 0 {
+                let l = gauss_newton_norm(field.model(), x, self.unit.as_ref());
+                if l > T::zero() && l.is_finite() {
+                    self.last_norm = l;
+                    self.gains_for_h = T::nan();
+                }
+            }
+            // NaN never compares equal: the gains are (re)set after a new estimate of L
+            if h != self.gains_for_h && self.last_norm > T::zero() {
+                field.set_scaled_gains(&self.unit, self.safety * self.c / (h * self.last_norm));
+                self.gains_for_h = h;
             }
         }
         self.steps += 1;
@@ -291,10 +313,37 @@ where
         self.base.is_adaptive()
     }
 
+    fn initial_step(
+        &mut self,
+        field: &FeedbackField<'a, Mdl, F, K>,
+        t0: T,
+        x0: &X,
+        t_end: T,
+    ) -> Option<T> {
+        self.base.initial_step(field, t0, x0, t_end)
+    }
+
     fn reset(&mut self) {
         self.steps = 0;
+        self.gains_for_h = T::nan();
         self.base.reset()
     }
+}
+
+/// The target of h·k·L for the step-tracking gain of an adaptive method of order `order` at
+/// tolerance `tol`: `c · tol^(1/order)`.
+///
+/// An adaptive method picks h ≈ τ·tol^(1/p), where τ is the time over which the solution
+/// changes by O(1); the target makes the feedback's stiffest rate k·L = c/τ — the time scale
+/// of the solution, not of the step. For Runge–Kutta methods this is what keeps the step
+/// count: their internal stages leave the invariant set by O(h²), so the local error picks up
+/// terms (h·k·L)^j·h^(p+1−j) that dominate the method's own h^(p+1) unless h·k·L ≲ tol^(1/p)
+/// (order reduction on stiff problems, Hairer & Wanner, *Solving ODEs II*, §IV.15). For the
+/// Taylor method with Jorba & Zou's order p = ⌈−½ ln ε + 1⌉, tol^(1/p) ≈ e⁻² is the same
+/// constant at every tolerance. Measurements (docs/performance.md): c = 2 costs at most a few
+/// per cent more steps than the plain method.
+pub fn step_gain_target(c: f64, tol: f64, order: u32) -> f64 {
+    c * tol.powf(1.0 / f64::from(order.max(1)))
 }
 
 /// How to choose the gains of a feedback integrator (the CLI's `--gains`).
@@ -302,14 +351,17 @@ where
 /// | text | policy |
 /// | --- | --- |
 /// | `default` | the gains written in the model file ([`ModelInfo::default_gain_values`]) |
-/// | `auto` | same as `adaptive` (m = 100, c = 1): the safe automatic choice |
+/// | `auto` | `adaptive` (m = 100, c = 1) for fixed-step methods, `step` (c = 2, m = 10) for adaptive ones ([`GainPolicy::resolve`]) |
 /// | `fixed`, `fixed:c` | [`scaled_gains`] at x₀ with unit gains and c (default 1) |
 /// | `adaptive`, `adaptive:m`, `adaptive:m:c` | [`AdaptiveGain`] every m steps (default 100), c (default 1) |
+/// | `step`, `step:c`, `step:c:m` | adaptive methods: [`AdaptiveGain`] with h·k·L = [`step_gain_target`]`(c, tol, p)` at every step, L every m steps (defaults c = 2, m = 10) |
 /// | `k1,k2,…` | these gains |
 #[derive(Clone, Debug, PartialEq)]
 pub enum GainPolicy {
     /// The model file's default gains.
     ModelDefault,
+    /// `Adaptive` or `Step` according to the method ([`GainPolicy::resolve`]).
+    Auto,
     /// The scaled fixed gain c/(h·L) at x₀ times unit gains.
     Scaled {
         /// The target h·L, in (0, 2).
@@ -321,6 +373,13 @@ pub enum GainPolicy {
         every: u64,
         /// The target h·L, in (0, 2).
         c: f64,
+    },
+    /// The step-tracking gain of adaptive methods: h·k·L = c·tol^(1/p) at every step.
+    Step {
+        /// The factor c of [`step_gain_target`] (positive).
+        c: f64,
+        /// Re-estimation period of L in steps.
+        every: u64,
     },
     /// Explicit gains.
     Explicit(Vec<f64>),
@@ -344,7 +403,24 @@ impl FromStr for GainPolicy {
         let rest: Vec<&str> = parts.collect();
         match head {
             "default" | "model" if rest.is_empty() => Ok(GainPolicy::ModelDefault),
-            "auto" if rest.is_empty() => Ok(GainPolicy::Adaptive { every: 100, c: 1.0 }),
+            "auto" if rest.is_empty() => Ok(GainPolicy::Auto),
+            "step" => {
+                let c = match rest.first() {
+                    None => 2.0,
+                    Some(c) => match num(c)? {
+                        c if c > 0.0 && c.is_finite() => c,
+                        c => return Err(GainError::Invalid(format!("c = {c} is not positive"))),
+                    },
+                };
+                let every = match rest.get(1) {
+                    None => 10,
+                    Some(m) => m.trim().parse::<u64>().map_err(|_| bad())?,
+                };
+                if rest.len() > 2 {
+                    return Err(bad());
+                }
+                Ok(GainPolicy::Step { c, every })
+            }
             "fixed" => match rest.as_slice() {
                 [] => Ok(GainPolicy::Scaled { c: 1.0 }),
                 [c] => Ok(GainPolicy::Scaled {
@@ -381,8 +457,19 @@ impl FromStr for GainPolicy {
 }
 
 impl GainPolicy {
-    /// The gains to start with at x₀ for step size h (for `Adaptive`, the scaled gains at x₀;
-    /// wrap the stepper in [`AdaptiveGain`] to keep adapting them).
+    /// `Auto` made concrete for a method that does (`adaptive_method`) or does not choose its
+    /// own steps; other policies unchanged.
+    pub fn resolve(self, adaptive_method: bool) -> GainPolicy {
+        match self {
+            GainPolicy::Auto if adaptive_method => GainPolicy::Step { c: 2.0, every: 10 },
+            GainPolicy::Auto => GainPolicy::Adaptive { every: 100, c: 1.0 },
+            other => other,
+        }
+    }
+
+    /// The gains to start with at x₀ for step size h (for `Adaptive` and `Auto`, the scaled
+    /// gains at x₀; wrap the stepper in [`AdaptiveGain`] to keep adapting them). `Step` needs
+    /// the method's tolerance and order: use [`scaled_gains`] with [`step_gain_target`].
     pub fn initial_gains<Mdl, T, X, F, K>(&self, model: &Mdl, x0: &X, h: T) -> Result<K, GainError>
     where
         Mdl: Lyapunov<T, X, F, K> + ModelInfo + ?Sized,
@@ -412,6 +499,11 @@ impl GainPolicy {
                 let unit = K::filled(K::len_for(g), T::one());
                 scaled_gains(model, x0, &unit, h, lit(*c))
             }
+            GainPolicy::Auto => GainPolicy::Auto.resolve(false).initial_gains(model, x0, h),
+            GainPolicy::Step { .. } => Err(GainError::Invalid(
+                "the step-tracking gain needs the method's tolerance and order (step_gain_target)"
+                    .to_string(),
+            )),
         }
     }
 }
@@ -442,10 +534,20 @@ mod tests {
             "default".parse::<GainPolicy>().unwrap(),
             GainPolicy::ModelDefault
         );
+        assert_eq!("auto".parse::<GainPolicy>().unwrap(), GainPolicy::Auto);
         assert_eq!(
-            "auto".parse::<GainPolicy>().unwrap(),
+            GainPolicy::Auto.resolve(false),
             GainPolicy::Adaptive { every: 100, c: 1.0 }
         );
+        assert_eq!(
+            GainPolicy::Auto.resolve(true),
+            GainPolicy::Step { c: 2.0, every: 10 }
+        );
+        assert_eq!(
+            "step:0.5:3".parse::<GainPolicy>().unwrap(),
+            GainPolicy::Step { c: 0.5, every: 3 }
+        );
+        assert!("step:-1".parse::<GainPolicy>().is_err());
         assert_eq!(
             "fixed:0.5".parse::<GainPolicy>().unwrap(),
             GainPolicy::Scaled { c: 0.5 }

@@ -52,7 +52,7 @@ pub use field::{
     Slot,
 };
 pub use gains::{
-    gauss_newton_hessian, gauss_newton_norm, gauss_newton_trace, scaled_gains,
+    gauss_newton_hessian, gauss_newton_norm, gauss_newton_trace, scaled_gains, step_gain_target,
     symmetric_spectral_norm, AdaptiveGain, GainError, GainPolicy,
 };
 pub use nalgebra;

@@ -1,5 +1,6 @@
 //! Subcommands. Each lives in its own module; this file only parses arguments and dispatches.
 
+mod bench;
 mod experiment;
 mod gen;
 mod load;
@@ -42,6 +43,9 @@ enum Command {
     /// Equilibria of a Lie–Poisson model and their stability (energy–Casimir, linearisation),
     /// on a Casimir level and over a range of levels.
     Stability(stability::StabilityArgs),
+    /// CPU time of the JIT-compiled feedback field per state, one and k states per call, as
+    /// one JSON line (for benchmarks against other integrators).
+    BenchEval(bench::BenchEvalArgs),
 }
 
 /// Parses the command line and runs the subcommand.
@@ -54,5 +58,6 @@ pub fn main() -> CliResult {
         Command::Sweep(args) => sweep::run(&args),
         Command::SweepMerge(args) => sweep::merge(&args),
         Command::Stability(args) => stability::run(&args),
+        Command::BenchEval(args) => bench::run(&args),
     }
 }

@@ -1,5 +1,5 @@
 //! `lasalle run <model> --method <m> [--dt h] [--t-end T] [--param k=v] [--init p] [--gains g]
-//! [--out dir]`: one integration, written as `trace.csv` (t, state, each invariant's error) and
+//! [--json] [--out dir]`: one integration, written as `trace.csv` (t, state, each invariant's error) and
 //! `summary.json` (counters, wall time, final and maximal errors, failure).
 
 use std::path::PathBuf;
@@ -40,8 +40,9 @@ pub struct RunArgs {
     /// point) or the flat state as comma-separated numbers.
     #[arg(long, allow_hyphen_values = true)]
     pub init: Option<String>,
-    /// Gains of feedback methods: default (the preset's, else the model's), auto
-    /// (= adaptive), fixed[:c], adaptive[:m[:c]], or k1,k2,…
+    /// Gains of feedback methods: default (the preset's, else the model's), auto (adaptive for
+    /// fixed-step methods, step for dopri5 and taylor), fixed[:c], adaptive[:m[:c]],
+    /// step[:c[:m]] (h·k·L = c·rtol^(1/p) at every step of an adaptive method), or k1,k2,…
     #[arg(long, default_value = "default", allow_hyphen_values = true)]
     pub gains: String,
     /// Projection tolerance on |f(x) − f(x₀)|₂ (default: dt, as the paper's TolFun).
@@ -70,6 +71,10 @@ pub struct RunArgs {
     /// No progress bar and no report on standard output.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Print the summary (counters, CPU and wall time, invariant errors) as one JSON line on
+    /// standard output instead of the report (for scripts; implies --quiet).
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// The preset `--preset` names, or the model's first one.
@@ -154,7 +159,7 @@ pub fn run(args: &RunArgs) -> CliResult {
     spec.rtol = args.rtol;
     spec.atol = args.atol;
     spec.every = args.every.or(preset.and_then(|p| p.every)).unwrap_or(0);
-    spec.progress = !args.quiet;
+    spec.progress = !(args.quiet || args.json);
     spec.max_steps = args.max_steps;
     let trace = simulate_loaded(&model, &x0, &spec)?;
     let name = model.model_name();
@@ -173,6 +178,10 @@ pub fn run(args: &RunArgs) -> CliResult {
     summary["load_seconds"] = model.load_time().as_secs_f64().into();
     summary["dt"] = dt.into();
     summary["t_end"] = spec.t_end.into();
+    if method.is_adaptive() {
+        summary["rtol"] = spec.rtol.into();
+        summary["atol"] = spec.atol.into();
+    }
     summary["x0"] = x0.clone().into();
     if method.is_feedback() {
         summary["gain_policy"] = args.gains.clone().into();
@@ -184,6 +193,9 @@ pub fn run(args: &RunArgs) -> CliResult {
         dir.join("summary.json"),
         serde_json::to_string_pretty(&summary)? + "\n",
     )?;
+    if args.json {
+        println!("{summary}");
+    }
     if let Some(e) = &trace.failure {
         return Err(format!(
             "{method} on `{name}` stopped: {e}\n(samples up to the failure are in {})",
@@ -191,7 +203,7 @@ pub fn run(args: &RunArgs) -> CliResult {
         )
         .into());
     }
-    if !args.quiet {
+    if !(args.quiet || args.json) {
         println!(
             "{name} {method} dt = {dt} to t = {}: {} steps, {} evaluations, {:.3} s (model loaded in {:.1} ms)",
             spec.t_end,

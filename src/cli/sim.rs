@@ -6,10 +6,10 @@
 //! ([`lasalle_exec::LoadedModel`]) or one compiled ahead of time (the experiments use those) —
 //! and builds the stepper for the method by composing [`Visit`]ors (`projection-` wraps the
 //! base stepper in a [`Projection`], `feedback-` integrates the [`FeedbackField`],
-//! `--gains adaptive` wraps the stepper in an [`AdaptiveGain`]), so the inner loop is static
-//! code for each (storage, method) pair. Methods that need structure the model does not declare
-//! fail with a message ("method `stormer-verlet-a` needs a partitioned model"); the model's
-//! guards stop a run that leaves its domain.
+//! `--gains adaptive` and `--gains step` wrap the stepper in an [`AdaptiveGain`]), so the inner
+//! loop is static code for each (storage, method) pair. Methods that need structure the model
+//! does not declare fail with a message ("method `stormer-verlet-a` needs a partitioned
+//! model"); the model's guards stop a run that leaves its domain.
 //!
 //! The result is a [`Trace`]: sampled times, states and invariant errors, wall time and
 //! counters, and, if the integration blew up, the [`StepError`] with its time and state.
@@ -24,10 +24,10 @@ use std::time::Instant;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lasalle::exec::{Taylor, TaylorOptions};
 use lasalle::{
-    component_names, sample_capacity, AdaptiveGain, Control, Csv, Declared, DormandPrince, Driver,
-    ExplicitRk, FeedbackField, Field, GainPolicy, Invariants, LoadedModel, Lyapunov, ModelInfo,
-    Observer, Parameters, Projection, Recorder, RigidBodySplitting, State, StepError, Stepper,
-    StormerVerlet, Stride, VerletVariant,
+    component_names, sample_capacity, scaled_gains, step_gain_target, AdaptiveGain, Control,
+    Csv, Declared, DormandPrince, Driver, ExplicitRk, FeedbackField, Field, GainPolicy, Invariants,
+    LoadedModel, Lyapunov, ModelInfo, Observer, Parameters, Projection, Recorder,
+    RigidBodySplitting, State, StepError, Stepper, StormerVerlet, Stride, VerletVariant,
 };
 use serde_json::json;
 
@@ -56,6 +56,16 @@ pub enum Base {
 
 impl Base {
     const ALL: [Base; 4] = [Base::Euler, Base::Heun, Base::Rk4, Base::Dopri5];
+
+    /// The order of the method (of the propagated solution for `dopri5`).
+    fn order(self) -> u32 {
+        match self {
+            Base::Euler => 1,
+            Base::Heun => 2,
+            Base::Rk4 => 4,
+            Base::Dopri5 => 5,
+        }
+    }
 
     fn name(self) -> &'static str {
         match self {
@@ -287,6 +297,13 @@ impl RunSpec {
                 self.method
             ));
         }
+        if matches!(self.gains, GainPolicy::Step { .. }) && !adaptive {
+            return Err(format!(
+                "--gains step follows the step of an adaptive method (feedback-dopri5, \
+                 feedback-taylor); `{}` takes fixed steps: use --gains adaptive",
+                self.method
+            ));
+        }
         Ok(())
     }
 }
@@ -367,6 +384,9 @@ pub struct Trace {
     pub errors: Vec<f64>,
     /// Wall-clock time of the integration (including the sampling), in seconds.
     pub wall_seconds: f64,
+    /// CPU time of the process during the integration, in seconds (None where the platform
+    /// has no process clock).
+    pub cpu_seconds: Option<f64>,
     /// Accepted steps.
     pub steps: u64,
     /// Field evaluations reported by the stepper.
@@ -509,6 +529,7 @@ impl Trace {
             "evaluations": self.evaluations,
             "rejections": self.rejections,
             "wall_seconds": self.wall_seconds,
+            "cpu_seconds": self.cpu_seconds,
             "samples": self.len(),
             "record_every": self.every,
             "invariant_errors": invariants,
@@ -523,6 +544,25 @@ impl Trace {
             })),
         })
     }
+}
+
+/// The CPU time the process has used, in seconds (`CLOCK_PROCESS_CPUTIME_ID`, the clock of
+/// Python's `time.process_time`, so that benchmarks against Python libraries compare alike).
+#[cfg(unix)]
+pub fn process_cpu_seconds() -> Option<f64> {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid, writable timespec; the call only writes it.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) };
+    (rc == 0).then_some(ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9)
+}
+
+/// No process clock on this platform.
+#[cfg(not(unix))]
+pub fn process_cpu_seconds() -> Option<f64> {
+    None
 }
 
 /// A finite number as JSON, anything else as a string (JSON has no NaN).
@@ -624,9 +664,12 @@ where
             },
             every,
         );
-        let start = Instant::now();
+        let (start, cpu_start) = (Instant::now(), process_cpu_seconds());
         let result = driver.run(&mut stepper, self.field, &self.x0, &mut obs);
         let wall_seconds = start.elapsed().as_secs_f64();
+        let cpu_seconds = process_cpu_seconds()
+            .zip(cpu_start)
+            .map(|(end, start)| end - start);
         bar.finish_and_clear();
         let mut names = component_names(self.model.state_slots());
         names.resize_with(self.x0.len(), String::new);
@@ -647,6 +690,7 @@ where
             t: rec.t,
             errors: rec.errors,
             wall_seconds,
+            cpu_seconds,
             steps,
             evaluations,
             rejections,
@@ -681,12 +725,14 @@ where
     }
 }
 
-/// Wraps the base stepper in the periodic adaptive gain (Bae & Chang).
+/// Wraps the base stepper in the periodic adaptive gain (Bae & Chang) or the step-tracking
+/// gain, as [`GainPlan::wrap`] says.
 struct Adapt<V, K> {
     inner: V,
     unit: K,
     every: u64,
     c: f64,
+    safety: f64,
 }
 
 impl<'a, Mdl, V, X, FV, K> Visit<FeedbackField<'a, Mdl, FV, K>, X> for Adapt<V, K>
@@ -703,8 +749,11 @@ where
     where
         S: Stepper<f64, X, FeedbackField<'a, Mdl, FV, K>> + Stats,
     {
-        self.inner
-            .visit(AdaptiveGain::new(stepper, self.unit, self.every).c(self.c))
+        self.inner.visit(
+            AdaptiveGain::new(stepper, self.unit, self.every)
+                .c(self.c)
+                .safety(self.safety),
+        )
     }
 }
 
@@ -766,28 +815,14 @@ where
             Ok(with_base(b, spec, visit))
         }
         Method::Feedback(b) => {
-            let gains: K = spec.gains.initial_gains(model, x0, spec.dt).map_err(|e| {
-                format!(
-                    "{e} (model `{name}` has gains {})",
-                    model.gain_names().join(", ")
-                )
-            })?;
-            let fb = FeedbackField::from_initial(model, x0, gains.clone());
+            let plan: GainPlan<K> = plan_gains(model, x0, spec, b.order())?;
+            let fb = FeedbackField::from_initial(model, x0, plan.initial.clone());
             let inner = drive(model, &fb, x0, spec);
-            let mut trace = match spec.gains {
-                GainPolicy::Adaptive { every, c } => with_base(
-                    b,
-                    spec,
-                    Adapt {
-                        inner,
-                        unit: K::filled(K::len_for(gains.len()), 1.0),
-                        every,
-                        c,
-                    },
-                ),
-                _ => with_base(b, spec, inner),
+            let mut trace = match plan.wrap(inner) {
+                Gained::Adaptive(adapt) => with_base(b, spec, adapt),
+                Gained::Fixed(inner) => with_base(b, spec, inner),
             };
-            trace.gains_initial = Some(gains.as_ref().to_vec());
+            trace.gains_initial = Some(plan.initial.as_ref().to_vec());
             trace.gains_final = Some(fb.gains().as_ref().to_vec());
             Ok(trace)
         }
@@ -866,28 +901,91 @@ pub fn simulate_loaded(
     if !feedback {
         return Ok(drive(model, model, x0, spec).visit(taylor));
     }
-    let gains: Vec<f64> = spec.gains.initial_gains(model, x0, spec.dt).map_err(|e| {
+    let order = <Taylor as Stepper<f64, Vec<f64>, LoadedModel>>::order(&taylor);
+    let plan: GainPlan<Vec<f64>> = plan_gains(model, x0, spec, order)?;
+    let fb = FeedbackField::from_initial(model, x0, plan.initial.clone());
+    let inner = drive(model, &fb, x0, spec);
+    let mut trace = match plan.wrap(inner) {
+        Gained::Adaptive(adapt) => adapt.visit(taylor),
+        Gained::Fixed(inner) => inner.visit(taylor),
+    };
+    trace.gains_initial = Some(plan.initial);
+    trace.gains_final = Some(fb.gains());
+    Ok(trace)
+}
+
+/// The gains of a feedback run: the initial ones and, for the adaptive policies, how the
+/// [`AdaptiveGain`] wrapper keeps choosing them.
+struct GainPlan<K> {
+    initial: K,
+    /// (re-estimation period, c, safety factor) of the wrapper.
+    adapt: Option<(u64, f64, f64)>,
+}
+
+/// The innermost visitor of a feedback run, wrapped in the adaptive gain or not.
+enum Gained<V, K> {
+    Adaptive(Adapt<V, K>),
+    Fixed(V),
+}
+
+impl<K: State<f64>> GainPlan<K> {
+    /// `inner` wrapped in the adaptive gain if the plan has one.
+    fn wrap<V>(&self, inner: V) -> Gained<V, K> {
+        match self.adapt {
+            Some((every, c, safety)) => Gained::Adaptive(Adapt {
+                inner,
+                unit: K::filled(K::len_for(self.initial.len()), 1.0),
+                every,
+                c,
+                safety,
+            }),
+            None => Gained::Fixed(inner),
+        }
+    }
+}
+
+/// Resolves `spec.gains` for a feedback method of order `order`: `auto` by whether the method
+/// is adaptive, `step` to the target h·k·L = [`step_gain_target`] with the tolerance `--rtol`.
+fn plan_gains<Mdl, X, FV, K>(
+    model: &Mdl,
+    x0: &X,
+    spec: &RunSpec,
+    order: u32,
+) -> Result<GainPlan<K>, String>
+where
+    Mdl: RunModel<X, FV, K>,
+    X: State<f64>,
+    FV: State<f64>,
+    K: State<f64>,
+{
+    let located = |e: lasalle::GainError| {
         format!(
             "{e} (model `{}` has gains {})",
             model.model_name(),
             model.gain_names().join(", ")
         )
-    })?;
-    let fb = FeedbackField::from_initial(model, x0, gains.clone());
-    let inner = drive(model, &fb, x0, spec);
-    let mut trace = match spec.gains {
-        GainPolicy::Adaptive { every, c } => Adapt {
-            inner,
-            unit: vec![1.0; gains.len()],
-            every,
-            c,
-        }
-        .visit(taylor),
-        _ => inner.visit(taylor),
     };
-    trace.gains_initial = Some(gains.clone());
-    trace.gains_final = Some(fb.gains());
-    Ok(trace)
+    match spec.gains.clone().resolve(spec.method.is_adaptive()) {
+        GainPolicy::Step { c, every } => {
+            let target = step_gain_target(c, spec.rtol, order);
+            let unit = K::filled(K::len_for(model.gain_names().len()), 1.0);
+            // the first step is --dt; the wrapper rescales to the step actually proposed
+            let initial = scaled_gains(model, x0, &unit, spec.dt, target)
+                .map_err(|e| located(e) + "; --gains step needs a first step --dt > 0")?;
+            Ok(GainPlan {
+                initial,
+                adapt: Some((every, target, 1.0)),
+            })
+        }
+        policy => {
+            let initial = policy.initial_gains(model, x0, spec.dt).map_err(located)?;
+            let adapt = match policy {
+                GainPolicy::Adaptive { every, c } => Some((every, c, 0.8)),
+                _ => None,
+            };
+            Ok(GainPlan { initial, adapt })
+        }
+    }
 }
 
 /// Applies `name=v1,v2,…` to the model's parameters.

@@ -1,5 +1,6 @@
-//! `lasalle experiment <rigid-body|kepler|perturbed-kepler|gains|all>`: the paper's §4
-//! experiments (Chang, Jiménez & Perlmutter 2016, Figs. 1–10) and the gain study.
+//! `lasalle experiment <name>`: the paper's §4 experiments (rigid-body, kepler,
+//! perturbed-kepler; Chang, Jiménez & Perlmutter 2016, Figs. 1–10), the gain study (gains), the
+//! gains of adaptive methods (adaptive-gains) and the thesis' SO(3) systems (so3).
 //!
 //! Each experiment runs its methods through the same core as `lasalle run`
 //! ([`super::sim::simulate`]) and writes into `--out` (default `out/experiment-<name>/`):
@@ -7,6 +8,7 @@
 //! the command that regenerates them), `summary.json`, and the figures `figN_*.svg` / `.png`.
 //! `--t-end` / `--periods` shorten the runs (the tests use that).
 
+mod adaptive_gains;
 mod gains;
 mod kepler;
 mod perturbed_kepler;
@@ -26,7 +28,8 @@ use super::CliResult;
 #[derive(Args, Debug, Clone)]
 pub struct ExperimentArgs {
     /// rigid-body (Figs. 1–4), kepler (Figs. 5–7), perturbed-kepler (Figs. 8–10), gains (the
-    /// gain study), so3 (the thesis' four extremal systems with reconstruction), or all.
+    /// gain study), adaptive-gains (gains for DOPRI5 and Taylor; not part of `all`), so3 (the
+    /// thesis' four extremal systems with reconstruction), or all.
     pub name: String,
     /// Output directory (default: out/experiment-<name>/).
     #[arg(long)]
@@ -73,6 +76,7 @@ impl Paper {
 enum Which {
     Paper(Paper),
     Gains,
+    AdaptiveGains,
     So3,
     All,
 }
@@ -81,6 +85,7 @@ enum Which {
 pub fn run(args: &ExperimentArgs) -> CliResult {
     let which = match args.name.as_str() {
         "gains" | "gain" => Which::Gains,
+        "adaptive-gains" => Which::AdaptiveGains,
         "so3" => Which::So3,
         "all" => Which::All,
         other => Which::Paper(
@@ -89,7 +94,7 @@ pub fn run(args: &ExperimentArgs) -> CliResult {
                 .find(|p| normalise(p.name()) == normalise(other))
                 .ok_or_else(|| {
                     format!(
-                        "unknown experiment `{other}`; experiments: rigid-body, kepler, perturbed-kepler, gains, so3, all (use `lasalle run {other}` to integrate a model)"
+                        "unknown experiment `{other}`; experiments: rigid-body, kepler, perturbed-kepler, gains, adaptive-gains, so3, all (use `lasalle run {other}` to integrate a model)"
                     )
                 })?,
         ),
@@ -109,6 +114,7 @@ pub fn run(args: &ExperimentArgs) -> CliResult {
     match which {
         Which::Paper(p) => run_one(args, p),
         Which::Gains => gains::run(args, &out_dir(args, "gains")?),
+        Which::AdaptiveGains => adaptive_gains::run(args, &out_dir(args, "adaptive-gains")?),
         Which::So3 => so3::run(args, &out_dir(args, "so3")?),
         Which::All => {
             for p in Paper::ALL {

@@ -1,0 +1,121 @@
+//! `lasalle bench-eval <model> [--lanes 1,4,8]`: the CPU time of the JIT-compiled feedback field
+//! X − ∇V per state, one state per call and k states per call (structure of arrays,
+//! `Kernel::eval_lanes`), printed as one JSON line — the counterpart of heyoka's batched
+//! `make_cfunc` in `scripts/heyoka/bench.py`.
+
+use std::hint::black_box;
+
+use clap::Args;
+use lasalle::exec::Backend;
+use lasalle::{Invariants, ModelInfo, Parameters};
+use lasalle_codegen::tape::ModelTapes;
+use serde_json::json;
+
+use super::load::{load, model_text};
+use super::sim::{parse_numbers, process_cpu_seconds};
+use super::CliResult;
+
+/// Arguments of `lasalle bench-eval`.
+#[derive(Args, Debug)]
+pub struct BenchEvalArgs {
+    /// The model: a path to a model file or the name of a built-in model.
+    pub model: String,
+    /// Lane counts k to time (1 = one state per call with `eval`).
+    #[arg(long, default_value = "1,4,8")]
+    pub lanes: String,
+    /// States per sweep (rounded up to a multiple of every k).
+    #[arg(long, default_value_t = 1024)]
+    pub states: usize,
+    /// Repetitions; the fastest is reported.
+    #[arg(long, default_value_t = 5)]
+    pub repeat: usize,
+    /// CPU seconds per repetition (at least).
+    #[arg(long, default_value_t = 0.2)]
+    pub seconds: f64,
+}
+
+/// Runs `lasalle bench-eval`.
+pub fn run(args: &BenchEvalArgs) -> CliResult {
+    let lanes: Vec<usize> = parse_numbers(&args.lanes)
+        .map_err(|e| format!("invalid --lanes: {e}"))?
+        .into_iter()
+        .map(|k| {
+            if k >= 1.0 && k.fract() == 0.0 && k <= 64.0 {
+                Ok(k as usize)
+            } else {
+                Err(format!("invalid --lanes: {k} is not an integer in 1..=64"))
+            }
+        })
+        .collect::<Result<_, _>>()?;
+    if args.states == 0 || args.repeat == 0 || !(args.seconds > 0.0 && args.seconds.is_finite()) {
+        return Err("--states, --repeat and --seconds must be positive".into());
+    }
+    process_cpu_seconds().ok_or("no process CPU clock on this platform")?;
+    let (shown, stem, text) = model_text(&args.model)?;
+    let (loaded, _) = load(&args.model, Backend::Jit)?;
+    let x0 = loaded
+        .point_names()
+        .first()
+        .and_then(|p| loaded.point(p))
+        .ok_or_else(|| format!("model `{shown}` has no named point to evaluate at"))?;
+    let mut target = vec![0.0; loaded.invariant_dim()];
+    loaded.invariants(&x0, &mut target);
+    let gains = loaded.default_gain_values().to_vec();
+
+    let mut model = lasalle_codegen::lower_source(&shown, &text).map_err(|e| e.to_string())?;
+    let d = lasalle_codegen::derive::derive(&mut model);
+    lasalle_codegen::check::check(&mut model, &d).map_err(|e| e.to_string())?;
+    let tapes = ModelTapes::new(&model, &d).map_err(|e| e.to_string())?;
+    let kernel = Backend::Jit
+        .compile(&tapes.feedback)
+        .map_err(|e| e.to_string())?;
+    let hoisted = kernel.hoist(loaded.params()).map_err(|e| e.to_string())?;
+    let (n, m) = (x0.len(), kernel.n_outputs());
+
+    let mut results = serde_json::Map::new();
+    for &k in &lanes {
+        let calls = args.states.div_ceil(k);
+        // states near x₀ (each lane a little different), structure of arrays per call
+        let mut xs = vec![0.0; calls * n * k];
+        for c in 0..calls {
+            for (i, xi) in x0.iter().enumerate() {
+                for l in 0..k {
+                    let s = (c * k + l) as f64 / (calls * k) as f64;
+                    xs[(c * n + i) * k + l] = xi * (1.0 + 1e-3 * s);
+                }
+            }
+        }
+        let mut out = vec![0.0; m * k];
+        let mut sweep = || -> CliResult {
+            for x in xs.chunks_exact(n * k) {
+                if k == 1 {
+                    kernel.eval(&hoisted, black_box(x), &target, &gains, &mut out)?;
+                } else {
+                    kernel.eval_lanes(k, &hoisted, black_box(x), &target, &gains, &mut out)?;
+                }
+                black_box(&out);
+            }
+            Ok(())
+        };
+        sweep()?; // warm up
+        let mut best = f64::INFINITY;
+        for _ in 0..args.repeat {
+            let (start, mut sweeps) = (process_cpu_seconds().unwrap_or(0.0), 0u64);
+            let mut elapsed = 0.0;
+            while elapsed < args.seconds {
+                sweep()?;
+                sweeps += 1;
+                elapsed = process_cpu_seconds().unwrap_or(0.0) - start;
+            }
+            best = best.min(elapsed / (sweeps as f64 * (calls * k) as f64));
+        }
+        results.insert(k.to_string(), json!(best * 1e9));
+    }
+    let report = json!({
+        "model": stem,
+        "what": "feedback field X - grad V, JIT, CPU ns per state (fastest of the repetitions)",
+        "ns_per_state": results,
+    });
+    println!("{report}");
+    Ok(())
+}
