@@ -467,10 +467,13 @@ fn q_of(ab: [f64; 2]) -> Mat2 {
     [[(1.0 + a) / 2.0, b / 2.0], [b / 2.0, (1.0 - a) / 2.0]]
 }
 
-/// A Lyapunov function to analyse: the quadratic yᵀPy or a named scalar `let` of the model.
+/// A Lyapunov function to analyse.
 #[derive(Clone, Copy, Debug)]
-enum Function<'a> {
+pub enum Lyapunov<'a> {
+    /// V = yᵀPy, y = x − xₑ.
     Quadratic(Mat2),
+    /// The model's scalar `let` of this name (e.g. `energy`): its star-shaped sublevel
+    /// component around the equilibrium (V must vanish there and increase along rays near it).
     Let(&'a str),
 }
 
@@ -672,7 +675,7 @@ impl PlanarSystem {
         self.xe
     }
 
-    /// The names of the model's scalar `let`s (candidates for [`PlanarSystem::estimate_let`]).
+    /// The names of the model's scalar `let`s (candidates for [`Lyapunov::Let`]).
     pub fn scalar_lets(&self) -> Vec<String> {
         self.lets.iter().map(|(n, _)| n.clone()).collect()
     }
@@ -860,16 +863,11 @@ impl PlanarSystem {
         (check, area)
     }
 
-    fn estimate_of(&self, function: Function, radius: f64, opts: &Options) -> Result<Estimate, AttractionError> {
-        // a `let` needs its derivatives in an extended graph
-        let (sys, c, p);
-        match function {
-            Function::Quadratic(pm) => {
-                sys = None;
-                c = self.quadratic;
-                p = pm;
-            }
-            Function::Let(name) => {
+    /// The candidate's nodes (in an extended copy of the system for a `let`) and P.
+    fn prepare(&self, function: Lyapunov) -> Result<(Option<PlanarSystem>, Candidate, Mat2), AttractionError> {
+        Ok(match function {
+            Lyapunov::Quadratic(p) => (None, self.quadratic, p),
+            Lyapunov::Let(name) => {
                 let v = self
                     .lets
                     .iter()
@@ -880,17 +878,22 @@ impl PlanarSystem {
                         known: self.scalar_lets(),
                     })?;
                 let mut ext = self.clone();
-                c = candidate(&mut ext.graph, v, self.field);
-                sys = Some(ext);
-                p = [[0.0; 2]; 2];
+                let c = candidate(&mut ext.graph, v, self.field);
+                (Some(ext), c, [[0.0; 2]; 2])
             }
-        }
+        })
+    }
+
+    /// The estimate {V < ℓ*} (its star-shaped component around xₑ), searched within `radius`.
+    pub fn estimate(&self, function: Lyapunov, radius: f64, opts: &Options) -> Result<Estimate, AttractionError> {
+        opts.validate()?;
+        let (sys, c, p) = self.prepare(function)?;
         let s = sys.as_ref().unwrap_or(self);
         let best = s.level(&c, p, radius, opts);
         let (check, polar_area) = s.check(&c, p, best.level, radius, opts);
         let area = match function {
-            Function::Quadratic(pm) => PI * best.level / det(pm).sqrt(),
-            Function::Let(_) => polar_area,
+            Lyapunov::Quadratic(pm) => PI * best.level / det(pm).sqrt(),
+            Lyapunov::Let(_) => polar_area,
         };
         Ok(Estimate {
             level: best.level,
@@ -901,17 +904,14 @@ impl PlanarSystem {
         })
     }
 
-    /// The estimate {V < ℓ*} for V = yᵀPy.
-    pub fn estimate_quadratic(&self, p: Mat2, radius: f64, opts: &Options) -> Result<Estimate, AttractionError> {
-        opts.validate()?;
-        self.estimate_of(Function::Quadratic(p), radius, opts)
-    }
-
-    /// The estimate for V = the model's scalar `let name` (its star-shaped sublevel component
-    /// around the equilibrium; V must vanish there and increase along rays near it).
-    pub fn estimate_let(&self, name: &str, radius: f64, opts: &Options) -> Result<Estimate, AttractionError> {
-        opts.validate()?;
-        self.estimate_of(Function::Let(name), radius, opts)
+    /// `n` points of the boundary of the component of {V < level} around xₑ (within `radius`).
+    pub fn boundary(&self, function: Lyapunov, level: f64, radius: f64, n: usize) -> Result<Vec<[f64; 2]>, AttractionError> {
+        let (sys, c, p) = self.prepare(function)?;
+        let s = sys.as_ref().unwrap_or(self);
+        Ok(Self::dirs(n)
+            .into_iter()
+            .map(|u| s.point(u, s.boundary_radius(&c, p, u, level, radius)))
+            .collect())
     }
 
     fn ray_table(&self, radius: f64, opts: &Options) -> RayTable {
@@ -1002,7 +1002,7 @@ impl PlanarSystem {
             Ok(QuadraticEstimate {
                 p,
                 q,
-                estimate: self.estimate_of(Function::Quadratic(p), radius, opts)?,
+                estimate: self.estimate(Lyapunov::Quadratic(p), radius, opts)?,
             })
         };
         Ok(Analysis {
@@ -1136,7 +1136,9 @@ pub fn saddles_with_manifolds(
         .map(|(x, eig, v)| {
             let branch = |s: f64| {
                 let x0 = [x[0] + s * 1e-6 * radius * v[0], x[1] + s * 1e-6 * radius * v[1]];
-                trajectory(model, x0, 200.0, true, sys.xe, radius)
+                let mut path = vec![x];
+                path.extend(trajectory(model, x0, 200.0, true, sys.xe, radius)?);
+                Ok::<_, String>(path)
             };
             Ok(Saddle {
                 x,
@@ -1145,4 +1147,27 @@ pub fn saddles_with_manifolds(
             })
         })
         .collect()
+}
+
+/// The distance from `centre` along the unit vector `u` to the nearest crossing of a branch
+/// of the saddles' stable manifolds: where the true domain's boundary lies in that direction
+/// (when the stable manifolds bound it, as for the Duffing equation).
+pub fn manifold_distance(saddles: &[Saddle], centre: [f64; 2], u: [f64; 2]) -> Option<f64> {
+    let cross = |a: [f64; 2], b: [f64; 2]| a[0] * b[1] - a[1] * b[0];
+    let mut best: Option<f64> = None;
+    for branch in saddles.iter().flat_map(|s| s.stable_manifold.iter()) {
+        for w in branch.windows(2) {
+            let (a, d) = (w[0], [w[1][0] - w[0][0], w[1][1] - w[0][1]]);
+            let denom = cross(u, d);
+            if denom == 0.0 {
+                continue;
+            }
+            let ac = [a[0] - centre[0], a[1] - centre[1]];
+            let (t, s) = (cross(ac, d) / denom, cross(ac, u) / denom);
+            if t > 0.0 && (0.0..=1.0).contains(&s) && best.is_none_or(|b| t < b) {
+                best = Some(t);
+            }
+        }
+    }
+    best
 }
