@@ -188,7 +188,10 @@ pub fn run(
         "V", "ℓ*", "area", "limited by"
     );
     row("optimal quadratic yᵀPy", &analysis.optimal.estimate);
-    row("Lyapunov equation, Q = I", &analysis.lyapunov_equation.estimate);
+    row(
+        "Lyapunov equation, Q = I",
+        &analysis.lyapunov_equation.estimate,
+    );
     if let Some((n, e)) = &by_let {
         row(&format!("`let {n}`"), e);
     }
@@ -229,7 +232,9 @@ pub fn run(
                 u[0],
                 u[1],
                 r,
-                m.map_or("beyond the search radius".to_string(), |d| format!("{d:.4}"))
+                m.map_or("beyond the search radius".to_string(), |d| format!(
+                    "{d:.4}"
+                ))
             );
         }
     }
@@ -323,7 +328,11 @@ fn plot(
         );
     }
     for (k, b) in saddles.iter().flat_map(|s| &s.stable_manifold).enumerate() {
-        let label = if k == 0 { "stable manifolds of the saddles" } else { "" };
+        let label = if k == 0 {
+            "stable manifolds of the saddles"
+        } else {
+            ""
+        };
         curve(&mut chart, label, b, 5, Style::Line);
     }
     // V̇ = 0 for the optimal P: sign changes on a grid
@@ -354,7 +363,7 @@ fn plot(
             .collect()
     };
     curve(
-            &mut chart,
+        &mut chart,
         &format!("optimal quadratic, area {:.2}", o.estimate.area),
         &ellipse(o.p, o.estimate.level),
         0,
@@ -362,7 +371,7 @@ fn plot(
     );
     let l = &analysis.lyapunov_equation;
     curve(
-            &mut chart,
+        &mut chart,
         &format!("Lyapunov equation Q = I, area {:.2}", l.estimate.area),
         &ellipse(l.p, l.estimate.level),
         1,
@@ -371,7 +380,13 @@ fn plot(
     if let Some((name, e)) = by_let {
         let mut b = sys.boundary(Lyapunov::Let(name), e.level, analysis.radius, 720)?;
         b.push(b[0]);
-        curve(&mut chart, &format!("{name} < {:.4}, area {:.2}", e.level, e.area), &b, 2, Style::Line);
+        curve(
+            &mut chart,
+            &format!("{name} < {:.4}, area {:.2}", e.level, e.area),
+            &b,
+            2,
+            Style::Line,
+        );
     }
     write_figure(dir, name, &[chart], (1, 1), (900, 900))
 }

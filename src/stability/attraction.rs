@@ -430,7 +430,10 @@ pub fn lyapunov_equation(a: Mat2, q: Mat2) -> Mat2 {
         2.0 * a[1][1],
     );
     let rhs = Vector3::new(-q[0][0], -q[0][1], -q[1][1]);
-    let p = m.lu().solve(&rhs).unwrap_or_else(|| Vector3::repeat(f64::NAN));
+    let p = m
+        .lu()
+        .solve(&rhs)
+        .unwrap_or_else(|| Vector3::repeat(f64::NAN));
     [[p[0], p[1]], [p[1], p[2]]]
 }
 
@@ -531,7 +534,8 @@ fn nelder_mead(
         .into_iter()
         .map(|x| (x, -f(x)))
         .collect();
-    let lerp = |a: [f64; 2], b: [f64; 2], t: f64| [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
+    let lerp =
+        |a: [f64; 2], b: [f64; 2], t: f64| [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
     for _ in 0..iterations {
         s.sort_by(|a, b| a.1.total_cmp(&b.1));
         let size = (1..3)
@@ -615,7 +619,12 @@ impl PlanarSystem {
         let mut jac = [[field[0]; 2]; 2];
         for (i, row) in jac.iter_mut().enumerate() {
             for (j, entry) in row.iter_mut().enumerate() {
-                *entry = diff(&mut graph, field[i], Input::State(j as u32), &mut HashMap::new());
+                *entry = diff(
+                    &mut graph,
+                    field[i],
+                    Input::State(j as u32),
+                    &mut HashMap::new(),
+                );
             }
         }
         // V = yᵀPy, V̇ = 2yᵀP f(x), y = x − xₑ, with P as symbols
@@ -700,7 +709,12 @@ impl PlanarSystem {
 
     /// The Jacobian of f at x (symbolic derivatives of the model's field).
     pub fn jacobian(&self, x: [f64; 2]) -> Mat2 {
-        let ids = [self.jac[0][0], self.jac[0][1], self.jac[1][0], self.jac[1][1]];
+        let ids = [
+            self.jac[0][0],
+            self.jac[0][1],
+            self.jac[1][0],
+            self.jac[1][1],
+        ];
         let v = self.eval(&ids, x, [[0.0; 2]; 2], |c| c);
         [[v[0], v[1]], [v[2], v[3]]]
     }
@@ -824,7 +838,14 @@ impl PlanarSystem {
     }
 
     /// Re-samples {V < ℓ}: 2·rays directions × 80 radii inside, and the boundary.
-    fn check(&self, c: &Candidate, p: Mat2, level: f64, radius: f64, opts: &Options) -> (Check, f64) {
+    fn check(
+        &self,
+        c: &Candidate,
+        p: Mat2,
+        level: f64,
+        radius: f64,
+        opts: &Options,
+    ) -> (Check, f64) {
         let dirs = Self::dirs(2 * opts.rays);
         let mut check = Check {
             samples: 0,
@@ -845,7 +866,8 @@ impl PlanarSystem {
                 let s = self.eval(&[c.vdot, c.lie[0], c.lie[1]], x, p, Scaled::from_f64);
                 let rel = s[0].v / s[0].m.max(f64::MIN_POSITIVE);
                 if k == samples {
-                    check.boundary_min_relative_vdot = check.boundary_min_relative_vdot.min(rel.abs());
+                    check.boundary_min_relative_vdot =
+                        check.boundary_min_relative_vdot.min(rel.abs());
                     continue;
                 }
                 check.samples += 1;
@@ -864,7 +886,10 @@ impl PlanarSystem {
     }
 
     /// The candidate's nodes (in an extended copy of the system for a `let`) and P.
-    fn prepare(&self, function: Lyapunov) -> Result<(Option<PlanarSystem>, Candidate, Mat2), AttractionError> {
+    fn prepare(
+        &self,
+        function: Lyapunov,
+    ) -> Result<(Option<PlanarSystem>, Candidate, Mat2), AttractionError> {
         Ok(match function {
             Lyapunov::Quadratic(p) => (None, self.quadratic, p),
             Lyapunov::Let(name) => {
@@ -885,7 +910,12 @@ impl PlanarSystem {
     }
 
     /// The estimate {V < ℓ*} (its star-shaped component around xₑ), searched within `radius`.
-    pub fn estimate(&self, function: Lyapunov, radius: f64, opts: &Options) -> Result<Estimate, AttractionError> {
+    pub fn estimate(
+        &self,
+        function: Lyapunov,
+        radius: f64,
+        opts: &Options,
+    ) -> Result<Estimate, AttractionError> {
         opts.validate()?;
         let (sys, c, p) = self.prepare(function)?;
         let s = sys.as_ref().unwrap_or(self);
@@ -905,7 +935,13 @@ impl PlanarSystem {
     }
 
     /// `n` points of the boundary of the component of {V < level} around xₑ (within `radius`).
-    pub fn boundary(&self, function: Lyapunov, level: f64, radius: f64, n: usize) -> Result<Vec<[f64; 2]>, AttractionError> {
+    pub fn boundary(
+        &self,
+        function: Lyapunov,
+        level: f64,
+        radius: f64,
+        n: usize,
+    ) -> Result<Vec<[f64; 2]>, AttractionError> {
         let (sys, c, p) = self.prepare(function)?;
         let s = sys.as_ref().unwrap_or(self);
         Ok(Self::dirs(n)
@@ -922,7 +958,12 @@ impl PlanarSystem {
         let mut coef = Vec::with_capacity(dirs.len() * radii.len());
         for &u in &dirs {
             for &r in &radii {
-                let s = self.eval(&self.coefficients, self.point(u, r), [[0.0; 2]; 2], Scaled::from_f64);
+                let s = self.eval(
+                    &self.coefficients,
+                    self.point(u, r),
+                    [[0.0; 2]; 2],
+                    Scaled::from_f64,
+                );
                 coef.push([s[0], s[1], s[2]]);
             }
         }
@@ -1065,7 +1106,11 @@ impl PlanarSystem {
                 let (ls, lu) = (eig[0].0, eig[1].0);
                 let v1 = [j[0][1], ls - j[0][0]];
                 let v2 = [ls - j[1][1], j[1][0]];
-                let v = if v1[0].hypot(v1[1]) >= v2[0].hypot(v2[1]) { v1 } else { v2 };
+                let v = if v1[0].hypot(v1[1]) >= v2[0].hypot(v2[1]) {
+                    v1
+                } else {
+                    v2
+                };
                 let n = v[0].hypot(v[1]);
                 Some((x, [ls, lu], [v[0] / n, v[1] / n]))
             })
@@ -1135,7 +1180,10 @@ pub fn saddles_with_manifolds(
         .into_iter()
         .map(|(x, eig, v)| {
             let branch = |s: f64| {
-                let x0 = [x[0] + s * 1e-6 * radius * v[0], x[1] + s * 1e-6 * radius * v[1]];
+                let x0 = [
+                    x[0] + s * 1e-6 * radius * v[0],
+                    x[1] + s * 1e-6 * radius * v[1],
+                ];
                 let mut path = vec![x];
                 path.extend(trajectory(model, x0, 200.0, true, sys.xe, radius)?);
                 Ok::<_, String>(path)
