@@ -130,8 +130,8 @@ fn optimum_reproduces_the_report() {
     assert!(e.area > 50.0 && e.area < 0.35 * area, "{}", e.area);
 }
 
-/// The paper's P itself (P₁₂ = ¼: ½x₁² + ½x₁x₂ + ¼x₂² < 12.5, its (37)): V̇ = x₁²(−½ + 0.02x₁²
-/// + 0.02x₁x₂) vanishes on the x₂ axis, so the estimate needs LaSalle's principle, which the
+/// The paper's P itself (P₁₂ = ¼: ½x₁² + ½x₁x₂ + ¼x₂² < 12.5, its (37)):
+/// V̇ = x₁²(−½ + 0.02x₁² + 0.02x₁x₂) vanishes on the x₂ axis, so the estimate needs LaSalle's principle, which the
 /// analysis certifies (the flow leaves {x₁ = 0}). ℓ* checked by hand and by sampling V̇ from
 /// the compiled field: negative inside, zero at the contact, positive just outside it.
 #[test]

@@ -561,9 +561,9 @@ fn nelder_mead(
                 s[2] = (xc, fc);
             } else {
                 let best = s[0].0;
-                for k in 1..3 {
-                    let x = lerp(best, s[k].0, 0.5);
-                    s[k] = (x, -f(x));
+                for vertex in s.iter_mut().skip(1) {
+                    let x = lerp(best, vertex.0, 0.5);
+                    *vertex = (x, -f(x));
                 }
             }
         }
@@ -665,7 +665,7 @@ impl PlanarSystem {
         let f = sys.field(sys.xe);
         let residual = f[0].hypot(f[1]);
         let size = sys.xe[0].hypot(sys.xe[1]).max(1.0);
-        if !(residual <= 1e-10 * size) {
+        if residual.is_nan() || residual > 1e-10 * size {
             return Err(AttractionError::NotEquilibrium {
                 x: xe.to_vec(),
                 residual,
