@@ -291,3 +291,31 @@ fn errors() {
     let e = err(PlanarSystem::new(l.model(), l.params(), &[0.0, 0.0, 0.0]));
     assert!(e.contains("planar"), "{e}");
 }
+
+/// `lasalle stability models/duffing.lsl --json` selects this analysis by the model's
+/// structure (no Hamiltonian, planar, an asymptotically stable named point) and prints the
+/// optimum; `--plot` into a missing directory is refused before any work.
+#[test]
+fn command_line() {
+    let run = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_lasalle"))
+            .args(args)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .expect("run lasalle")
+    };
+    let out = run(&["stability", "models/duffing.lsl", "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let area = json["analysis"]["optimal"]["estimate"]["area"].as_f64().unwrap();
+    assert!((area / (50.0 * PI) - 1.0).abs() < 1e-5, "{area}");
+    let energy = json["lyapunov_let"]["estimate"]["level"].as_f64().unwrap();
+    assert!((energy - 6.25).abs() < 1e-9);
+    assert_eq!(json["saddles"].as_array().unwrap().len(), 2);
+    let out = run(&["stability", "duffing", "--at", "5,0"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("not asymptotically stable"));
+    let out = run(&["stability", "duffing", "--plot", "no/such/dir/f.svg"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no/such/dir"));
+}
