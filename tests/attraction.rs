@@ -130,6 +130,27 @@ fn optimum_reproduces_the_report() {
     assert!(e.area > 50.0 && e.area < 0.35 * area, "{}", e.area);
 }
 
+/// Other parameters (ε₁ = 0.5, ε₂ = 0.1): the optimum is no longer at the saddles (it touches
+/// V̇ = 0 at (2.73, 0.60), the saddles are at (±√10, 0)); its area agrees with an independent
+/// brute-force search (the closed form of `level_by_hand` on a 41 × 72 polar grid of trace-1 Q,
+/// refined on a 21 × 21 grid; Python, docs/stability.md): 34.00083.
+#[test]
+fn optimum_for_other_parameters() {
+    let mut m = duffing();
+    m.set_param("eps1", &[0.5]).unwrap();
+    m.set_param("eps2", &[0.1]).unwrap();
+    let a = system(&m).analyse(&Options::default()).unwrap();
+    let o = &a.optimal;
+    assert!(
+        (o.estimate.area - 34.00083).abs() < 2e-4,
+        "{}",
+        o.estimate.area
+    );
+    let by_hand = level_by_hand(o.p, 0.5, 0.1);
+    assert!((o.estimate.level / by_hand - 1.0).abs() < 1e-6);
+    assert!(o.estimate.check.holds());
+}
+
 /// The paper's P itself (P₁₂ = ¼: ½x₁² + ½x₁x₂ + ¼x₂² < 12.5, its (37)):
 /// V̇ = x₁²(−½ + 0.02x₁² + 0.02x₁x₂) vanishes on the x₂ axis, so the estimate needs LaSalle's principle, which the
 /// analysis certifies (the flow leaves {x₁ = 0}). ℓ* checked by hand and by sampling V̇ from
@@ -289,7 +310,10 @@ fn errors() {
     assert!(sys.analyse(&bad).is_err());
     let l = LoadedModel::from_source("lasalle.lsl", LASALLE, Backend::Jit).unwrap();
     let e = err(PlanarSystem::new(l.model(), l.params(), &[0.0, 0.0, 0.0]));
-    assert!(e.contains("planar"), "{e}");
+    assert!(
+        e.contains("planar fields without Hamiltonian structure"),
+        "{e}"
+    );
 }
 
 /// `lasalle stability models/duffing.lsl --json` selects this analysis by the model's
@@ -305,9 +329,15 @@ fn command_line() {
             .expect("run lasalle")
     };
     let out = run(&["stability", "models/duffing.lsl", "--json"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let area = json["analysis"]["optimal"]["estimate"]["area"].as_f64().unwrap();
+    let area = json["analysis"]["optimal"]["estimate"]["area"]
+        .as_f64()
+        .unwrap();
     assert!((area / (50.0 * PI) - 1.0).abs() < 1e-5, "{area}");
     let energy = json["lyapunov_let"]["estimate"]["level"].as_f64().unwrap();
     assert!((energy - 6.25).abs() < 1e-9);

@@ -94,7 +94,8 @@ impl fmt::Display for AttractionError {
         match self {
             AttractionError::NotPlanar { model, dim } => write!(
                 f,
-                "the domain-of-attraction analysis handles planar fields; `{model}` has {dim} state components"
+                "`stability` analyses Lie–Poisson models (structure lie_poisson_so3) and the domain of \
+                 attraction of planar fields without Hamiltonian structure; `{model}` has {dim} state components"
             ),
             AttractionError::NotEquilibrium { x, residual } => {
                 write!(f, "{x:?} is not an equilibrium: |f(x)| = {residual:.3e}")
