@@ -308,6 +308,14 @@ fn errors() {
         ..Options::default()
     };
     assert!(sys.analyse(&bad).is_err());
+    let e = sys
+        .estimate(
+            Lyapunov::Quadratic([[1.0, 0.0], [0.0, 1.0]]),
+            -1.0,
+            &Options::default(),
+        )
+        .unwrap_err();
+    assert!(e.to_string().contains("search radius"), "{e}");
     let l = LoadedModel::from_source("lasalle.lsl", LASALLE, Backend::Jit).unwrap();
     let e = err(PlanarSystem::new(l.model(), l.params(), &[0.0, 0.0, 0.0]));
     assert!(

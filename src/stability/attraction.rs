@@ -159,6 +159,17 @@ impl Default for Options {
     }
 }
 
+/// A search radius must be a positive number.
+fn check_radius(r: f64) -> Result<(), AttractionError> {
+    if r.is_finite() && r > 0.0 {
+        Ok(())
+    } else {
+        Err(AttractionError::BadOption(format!(
+            "the search radius must be a positive number, got {r}"
+        )))
+    }
+}
+
 impl Options {
     fn validate(&self) -> Result<(), AttractionError> {
         if self.rays < 8 || self.radii < 8 {
@@ -167,12 +178,7 @@ impl Options {
                 self.rays, self.radii
             )));
         }
-        match self.radius {
-            Some(r) if !(r.is_finite() && r > 0.0) => Err(AttractionError::BadOption(format!(
-                "the search radius must be a positive number, got {r}"
-            ))),
-            _ => Ok(()),
-        }
+        self.radius.map_or(Ok(()), check_radius)
     }
 }
 
@@ -918,6 +924,7 @@ impl PlanarSystem {
         opts: &Options,
     ) -> Result<Estimate, AttractionError> {
         opts.validate()?;
+        check_radius(radius)?;
         let (sys, c, p) = self.prepare(function)?;
         let s = sys.as_ref().unwrap_or(self);
         let best = s.level(&c, p, radius, opts);
@@ -943,6 +950,7 @@ impl PlanarSystem {
         radius: f64,
         n: usize,
     ) -> Result<Vec<[f64; 2]>, AttractionError> {
+        check_radius(radius)?;
         let (sys, c, p) = self.prepare(function)?;
         let s = sys.as_ref().unwrap_or(self);
         Ok(Self::dirs(n)
