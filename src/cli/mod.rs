@@ -1,5 +1,6 @@
 //! Subcommands. Each lives in its own module; this file only parses arguments and dispatches.
 
+mod attraction;
 mod bench;
 mod experiment;
 mod gen;

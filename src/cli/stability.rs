@@ -40,6 +40,9 @@ pub struct StabilityArgs {
     /// How the model's functions run (the analysis itself evaluates the symbolic derivatives).
     #[arg(long, value_enum, default_value_t)]
     pub backend: BackendArg,
+    /// Dissipative planar models: domain-of-attraction options.
+    #[command(flatten)]
+    pub attraction: super::attraction::AttractionArgs,
 }
 
 fn fmt_p(p: [f64; 3]) -> String {
@@ -147,7 +150,16 @@ pub fn run(args: &StabilityArgs) -> CliResult {
         Some(Structure::Canonical { .. }) => {
             return Err(StabilityError::CanonicalNotYet { model: name }.into())
         }
-        None => return Err(StabilityError::NoStructure { model: name }.into()),
+        // no Hamiltonian structure: the domain of attraction of a dissipative planar field
+        None => {
+            return super::attraction::run(
+                &model,
+                &stem,
+                args.at.as_deref(),
+                args.json,
+                &args.attraction,
+            )
+        }
     };
     let sys = stability::system(&model)?;
     let opts = Options::default();

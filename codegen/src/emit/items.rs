@@ -42,6 +42,12 @@ impl Emitter<'_> {
         let model = self.model;
         let points = self.point_fns();
         let (ty, n, m, ng) = (&self.ty, u(self.n), u(self.m), u(self.gains()));
+        // no invariants (a dissipative field): an empty array, no zero-length repeat
+        let targets_init = if self.m == 0 {
+            quote!(let mut f: [T; 0] = [];)
+        } else {
+            quote!(let mut f = [T::zero(); #m];)
+        };
         let fields: Vec<_> = self
             .leaves
             .fields
@@ -143,7 +149,7 @@ impl Emitter<'_> {
 
                 /// The target f(x₀) of the feedback field: the invariants at the initial state.
                 pub fn targets(&self, x0: &[T; #n]) -> [T; #m] {
-                    let mut f = [T::zero(); #m];
+                    #targets_init
                     self.invariants(x0, &mut f);
                     f
                 }

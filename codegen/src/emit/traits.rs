@@ -104,11 +104,17 @@ impl Emitter<'_> {
             quote!()
         };
         let (ix, jx) = (inv.arg("x", is_state), jac.arg("x", is_state));
+        // a model without invariants (a dissipative field) writes nothing into f and Df
+        let (f, df) = if self.m == 0 {
+            (quote!(_f), quote!(_jac))
+        } else {
+            (quote!(f), quote!(jac))
+        };
         let (inv_tokens, jac_tokens) = (&inv.tokens, &jac.tokens);
         let tokens = quote! {
             impl<T: Float> Invariants<T, [T; #n], [T; #m]> for #ty<T> {
-                fn invariants(&self, #ix: &[T; #n], f: &mut [T; #m]) { #inv_tokens }
-                fn invariants_jacobian(&self, #jx: &[T; #n], jac: &mut [[T; #n]; #m]) {
+                fn invariants(&self, #ix: &[T; #n], #f: &mut [T; #m]) { #inv_tokens }
+                fn invariants_jacobian(&self, #jx: &[T; #n], #df: &mut [[T; #n]; #m]) {
                     #jac_init
                     #jac_tokens
                 }
