@@ -3,8 +3,10 @@
 
 mod body;
 mod items;
+mod lanes;
 mod leaves;
 pub(crate) mod names;
+mod taylor;
 mod traits;
 
 pub use names::snake;
@@ -169,6 +171,9 @@ pub fn emit(
     let declared = e.declared_impl();
     let struct_items = e.struct_items();
     let (accessors, info, parameters) = (e.accessors(), e.model_info_impl(), e.parameters_impl());
+    let tapes = crate::tape::ModelTapes::new(model, d)
+        .map_err(|err| crate::Error::Internal(format!("the tapes of `{}`: {err}", model.name)))?;
+    let tape_items = e.tape_items(&tapes)?;
 
     let g = &model.graph;
     let stats = Stats {
@@ -194,6 +199,7 @@ pub fn emit(
         #declared
         #info
         #parameters
+        #tape_items
     };
     Ok(Emitted {
         items,
