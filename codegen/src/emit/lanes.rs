@@ -24,29 +24,33 @@ use super::taylor::{f64_lit, op_expr};
 use crate::tape::{ModelTapes, Op, Tape};
 use std::fmt::Write;
 
-/// The `<Model>Lanes` struct, its methods, and `<Model>::lanes`.
+/// The `<Model>Lanes` struct, its methods, and `<Model>::lanes`, formatted.
 pub(super) fn lanes_items(ty: &str, tapes: &ModelTapes) -> String {
     let all = tapes.all();
-    let mut s = String::new();
     let fields: String = all
         .iter()
         .map(|(name, tape)| format!("    {name}: [f64; {}],\n", tape.hoisted.len()))
         .collect();
     let inits: String = all
         .iter()
-        .map(|(name, _)| format!("{name}: hoist_{name}(&p), "))
+        .map(|(name, _)| format!("            {name}: hoist_{name}(&p),\n"))
         .collect();
-    let _ = writeln!(
-        s,
-        "/// The model's functions for K states per call (structure of arrays), with the parameter-only\n\
-         /// values computed once: see `{ty}::lanes`.\n\
-         #[derive(Clone, Debug)]\n\
-         pub struct {ty}Lanes {{\n{fields}}}\n\
-         impl<T: Float> {ty}<T> {{\n\
-         /// The batched functions with the current parameters (their preludes run now).\n\
-         pub fn lanes(&self) -> {ty}Lanes {{ let p = self.slot_values(); {ty}Lanes {{ {inits} }} }}\n\
-         }}\n\
-         impl {ty}Lanes {{"
+    let mut s = format!(
+        "/// The model's functions for K states per call (structure of arrays), with the
+/// parameter-only values computed once: see `{ty}::lanes`.
+#[derive(Clone, Debug)]
+pub struct {ty}Lanes {{
+{fields}}}
+impl<T: Float> {ty}<T> {{
+    /// The batched functions with the current parameters (their preludes run now).
+    pub fn lanes(&self) -> {ty}Lanes {{
+        let p = self.slot_values();
+        {ty}Lanes {{
+{inits}        }}
+    }}
+}}
+impl {ty}Lanes {{
+"
     );
     for (name, tape) in &all {
         s.push_str(&lanes_fn(name, tape));
@@ -60,16 +64,24 @@ fn lanes_fn(name: &str, tape: &Tape) -> String {
     let d = tape.dims;
     let (n, nout) = (d.state, tape.outputs.len());
     let inputs = if d.targets + d.gains > 0 {
-        format!("target: &[f64; {}], gains: &[f64; {}], ", d.targets, d.gains)
+        format!(
+            "\n        target: &[f64; {}],\n        gains: &[f64; {}],",
+            d.targets, d.gains
+        )
     } else {
         String::new()
     };
     let mut s = format!(
-        "/// `{name}` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j of lane l;\n\
-         /// each lane equals the scalar function bitwise.\n\
-         #[allow(unused_variables, clippy::all)]\n\
-         pub fn {name}<const K: usize>(&self, x: &[[f64; K]; {n}], {inputs}out: &mut [[f64; K]; {nout}]) {{\n\
-         let h = &self.{name};\n"
+        "    /// `{name}` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+    /// of lane l; each lane equals the scalar function bitwise.
+    #[allow(unused_variables, clippy::all)]
+    pub fn {name}<const K: usize>(
+        &self,
+        x: &[[f64; K]; {n}],{inputs}
+        out: &mut [[f64; K]; {nout}],
+    ) {{
+        let h = &self.{name};
+"
     );
     for (i, op) in tape.body.iter().enumerate() {
         let e = match *op {
@@ -84,11 +96,11 @@ fn lanes_fn(name: &str, tape: &Tape) -> String {
                 op_expr(op, |r| format!("r{}[l]", r.0))
             ),
         };
-        let _ = writeln!(s, "let r{i}: [f64; K] = {e};");
+        let _ = writeln!(s, "        let r{i}: [f64; K] = {e};");
     }
     for (j, r) in tape.outputs.iter().enumerate() {
-        let _ = writeln!(s, "out[{j}] = r{};", r.0);
+        let _ = writeln!(s, "        out[{j}] = r{};", r.0);
     }
-    s.push_str("}\n");
+    s.push_str("    }\n");
     s
 }

@@ -66,6 +66,10 @@ pub struct Emitted {
     pub summary: String,
     /// Operation counts.
     pub stats: Stats,
+    /// The kernels emitted from the tapes (Taylor kernels and lanes), already formatted: to
+    /// append to the formatted items (they are large, straight-line code that would dominate
+    /// the time of formatting).
+    pub tape_code: String,
 }
 
 /// An index or size as an unsuffixed literal (`3`, not `3usize`).
@@ -173,7 +177,7 @@ pub fn emit(
     let (accessors, info, parameters) = (e.accessors(), e.model_info_impl(), e.parameters_impl());
     let tapes = crate::tape::ModelTapes::new(model, d)
         .map_err(|err| crate::Error::Internal(format!("the tapes of `{}`: {err}", model.name)))?;
-    let tape_items = e.tape_items(&tapes)?;
+    let tape_code = e.tape_items(&tapes)?;
 
     let g = &model.graph;
     let stats = Stats {
@@ -199,12 +203,12 @@ pub fn emit(
         #declared
         #info
         #parameters
-        #tape_items
     };
     Ok(Emitted {
         items,
         summary: summary(model, d, conservation, &stats),
         stats,
+        tape_code,
     })
 }
 

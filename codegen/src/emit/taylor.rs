@@ -10,8 +10,10 @@
 //! the Taylor kernels run the lowering of [`TaylorProgram`] with the recurrence functions
 //! of `lasalle_runtime::taylor::rec`, exactly as `lasalle_exec::TaylorTape` interprets it.
 //!
-//! The items are written as text and parsed: they are straight-line code over numbered
-//! registers and table rows (`t[12][k]`), in which readable names would not help.
+//! The items are written as formatted text and appended to the formatted items: they are
+//! straight-line code over numbered registers and table rows (`t[12][k]`), in which readable
+//! names would not help, and formatting them with `prettyplease` would take most of the
+//! generation time of a large model (5× the rest for 20 000 `let`s).
 //!
 //! # The emitted Taylor kernel
 //!
@@ -73,13 +75,12 @@ pub(super) fn op_expr(op: &Op, r: impl Fn(crate::tape::Reg) -> String) -> String
 /// The function `hoist_<name>(p: &[f64; P]) -> [f64; H]`: the tape's prelude (parameters →
 /// hoisted values), f64 op for f64 op as `Tape::hoist`.
 fn hoist_fn(name: &str, tape: &Tape) -> String {
-    let mut s = String::new();
     let (np, nh) = (tape.dims.params, tape.hoisted.len());
-    let _ = writeln!(
-        s,
-        "/// The parameter-only values of `{name}` (the prelude of its tape), from the parameter slots.\n\
-         #[allow(unused_variables, clippy::all)]\n\
-         fn hoist_{name}(p: &[f64; {np}]) -> [f64; {nh}] {{"
+    let mut s = format!(
+        "/// The parameter-only values of `{name}` (the prelude of its tape) from the parameter slots.
+#[allow(unused_variables, clippy::all)]
+fn hoist_{name}(p: &[f64; {np}]) -> [f64; {nh}] {{
+"
     );
     for (i, op) in tape.prelude.iter().enumerate() {
         let e = match *op {
@@ -95,41 +96,45 @@ fn hoist_fn(name: &str, tape: &Tape) -> String {
 }
 
 impl Emitter<'_> {
-    /// The kernels built from the tapes: the hoisting functions, the parameter slots as f64,
-    /// the Taylor kernels and the lanes.
-    pub fn tape_items(&mut self, tapes: &ModelTapes) -> crate::Result<TokenStream> {
+    /// The kernels built from the tapes, formatted: the parameter slots as f64, the hoisting
+    /// functions, the Taylor kernels and the lanes.
+    pub fn tape_items(&mut self, tapes: &ModelTapes) -> crate::Result<String> {
         let ty = self.ty.to_string();
         let np = self.model.param_slots();
-        let mut s = String::new();
         let slots: Vec<String> = (0..np)
             .map(|k| {
                 let e = self.leaves.input(Input::Param(k as u32)).1.to_string();
-                format!("{e}.to_f64().unwrap_or(f64::NAN)")
+                format!("{}.to_f64().unwrap_or(f64::NAN)", e.replace(' ', ""))
             })
             .collect();
-        let _ = writeln!(
-            s,
-            "impl<T: Float> {ty}<T> {{\n\
-             /// The parameter slots as f64, in the order of `PARAMS` (matrices column-major).\n\
-             pub fn slot_values(&self) -> [f64; {np}] {{ [{}] }}\n\
-             /// The adaptive Taylor integrator (Jorba & Zou; `lasalle_runtime::taylor`) of the field and of X − ∇V,\n\
-             /// over this model's emitted kernels.\n\
-             pub fn taylor(&self, opts: lasalle_runtime::TaylorOptions) -> Result<lasalle_runtime::Taylor<Self>, lasalle_runtime::TaylorError> {{\n\
-                 lasalle_runtime::Taylor::new(taylor_kernels(self), opts)\n\
-             }}\n\
-             }}",
-            slots.join(", ")
+        let mut s = format!(
+            "impl<T: Float> {ty}<T> {{
+    /// The parameter slots as f64, in the order of `PARAMS` (matrices column-major).
+    pub fn slot_values(&self) -> [f64; {np}] {{
+        [{slots}]
+    }}
+    /// The adaptive Taylor integrator (Jorba & Zou; `lasalle_runtime::taylor`) of the field
+    /// and of X − ∇V over this model's emitted kernels.
+    pub fn taylor(
+        &self,
+        opts: lasalle_runtime::TaylorOptions,
+    ) -> Result<lasalle_runtime::Taylor<Self>, lasalle_runtime::TaylorError> {{
+        lasalle_runtime::Taylor::new(taylor_kernels(self), opts)
+    }}
+}}
+/// The emitted Taylor kernels of the field and of X − ∇V.
+fn taylor_kernels<T: Float>(m: &{ty}<T>) -> lasalle_runtime::TaylorKernels<{ty}<T>> {{
+    lasalle_runtime::TaylorKernels {{
+        field: Box::new({ty}TaylorField::new(m)),
+        feedback: Box::new({ty}TaylorFeedback::new(m)),
+    }}
+}}
+",
+            slots = slots.join(", ")
         );
         for (name, tape) in tapes.all() {
             s.push_str(&hoist_fn(name, tape));
         }
-        let _ = writeln!(
-            s,
-            "/// The emitted Taylor kernels of the field and of X − ∇V.\n\
-             fn taylor_kernels<T: Float>(m: &{ty}<T>) -> lasalle_runtime::TaylorKernels<{ty}<T>> {{\n\
-                 lasalle_runtime::TaylorKernels {{ field: Box::new({ty}TaylorField::new(m)), feedback: Box::new({ty}TaylorFeedback::new(m)) }}\n\
-             }}"
-        );
         let field = TaylorProgram::new(&tapes.field).map_err(internal)?;
         let feedback = TaylorProgram::new(&tapes.feedback).map_err(internal)?;
         s.push_str(&self.taylor_kernel(
@@ -147,8 +152,7 @@ impl Emitter<'_> {
             &feedback,
         ));
         s.push_str(&super::lanes::lanes_items(&ty, tapes));
-        s.parse()
-            .map_err(|e| crate::Error::Internal(format!("emitted tape kernels do not parse: {e}")))
+        Ok(s)
     }
 
     /// The `TaylorKernel` hook of the `Declared` impl.
@@ -179,24 +183,28 @@ impl Emitter<'_> {
             d.gains,
             program.rows,
         );
+        let indent = |line: String| {
+            line.lines()
+                .map(|l| format!("                {l}\n"))
+                .collect::<String>()
+        };
         let mut zeroth = String::new();
         let mut higher = String::new();
         for &(rec, constant) in &program.recs {
-            zeroth.push_str(&zeroth_line(rec));
+            zeroth.push_str(&indent(zeroth_line(rec)));
             if !constant {
-                higher.push_str(&coefficient_line(rec));
+                higher.push_str(&indent(coefficient_line(rec)));
             }
         }
         let outputs: String = program
             .outputs
             .iter()
             .enumerate()
-            .map(|(i, o)| format!("t[{i}][k + 1] = t[{o}][k] * inv;\n"))
+            .map(|(i, o)| format!("            t[{i}][k + 1] = t[{o}][k] * inv;\n"))
             .collect();
         format!(
-            r#"
-/// The Taylor-coefficient kernel of {what} (`lasalle_runtime::TaylorKernel`): the recurrences of its
-/// tape, {rows} rows of orders 0..=`lasalle_runtime::taylor::EMITTED_MAX_ORDER`, allocated once.
+            r#"/// The Taylor-coefficient kernel of {what} (`lasalle_runtime::TaylorKernel`): the recurrences
+/// of its tape, {rows} rows of orders 0..=`EMITTED_MAX_ORDER`, allocated once.
 pub struct {st} {{
     params: [f64; {np}],
     hoisted: [f64; {nh}],
@@ -213,12 +221,23 @@ impl {st} {{
             .into_boxed_slice()
             .try_into()
             .expect("{rows} rows");
-        {st} {{ params, hoisted: hoist_{hoist}(&params), target: [0.0; {nt}], gains: [0.0; {ng}], t, order: 0 }}
+        {st} {{
+            params,
+            hoisted: hoist_{hoist}(&params),
+            target: [0.0; {nt}],
+            gains: [0.0; {ng}],
+            t,
+            order: 0,
+        }}
     }}
 }}
 impl<T: Float> lasalle_runtime::TaylorKernel<{ty}<T>> for {st} {{
-    fn dim(&self) -> usize {{ {n} }}
-    fn max_order(&self) -> usize {{ lasalle_runtime::taylor::EMITTED_MAX_ORDER }}
+    fn dim(&self) -> usize {{
+        {n}
+    }}
+    fn max_order(&self) -> usize {{
+        lasalle_runtime::taylor::EMITTED_MAX_ORDER
+    }}
     fn sync(&mut self, m: &{ty}<T>) -> Result<(), lasalle_runtime::StepError> {{
         let params = m.slot_values();
         if params != self.params {{
@@ -227,10 +246,17 @@ impl<T: Float> lasalle_runtime::TaylorKernel<{ty}<T>> for {st} {{
         }}
         Ok(())
     }}
-    fn set_inputs(&mut self, target: &[f64], gains: &[f64]) -> Result<(), lasalle_runtime::StepError> {{
+    fn set_inputs(
+        &mut self,
+        target: &[f64],
+        gains: &[f64],
+    ) -> Result<(), lasalle_runtime::StepError> {{
         if target.len() != {nt} || gains.len() != {ng} {{
             return Err(lasalle_runtime::StepError::InvalidInput(format!(
-                "{st} takes {nt} targets and {ng} gains, got {{}} and {{}}", target.len(), gains.len())));
+                "{st} takes {nt} targets and {ng} gains, got {{}} and {{}}",
+                target.len(),
+                gains.len()
+            )));
         }}
         self.target.copy_from_slice(target);
         self.gains.copy_from_slice(gains);
@@ -238,7 +264,8 @@ impl<T: Float> lasalle_runtime::TaylorKernel<{ty}<T>> for {st} {{
     }}
     #[allow(unused_variables, clippy::all)]
     fn compute(&mut self, x: &[f64], order: usize) {{
-        let order = order.min(lasalle_runtime::taylor::EMITTED_MAX_ORDER);
+        use lasalle_runtime::taylor::{{rec, EMITTED_MAX_ORDER}};
+        let order = order.min(EMITTED_MAX_ORDER);
         self.order = order;
         let {st} {{ hoisted, target, gains, t, .. }} = self;
         let t = &mut **t;
@@ -309,7 +336,7 @@ fn zeroth_line(r: Rec) -> String {
 
 /// Order k ≥ 1 of a non-constant recurrence, by `lasalle_runtime::taylor::rec`.
 fn coefficient_line(r: Rec) -> String {
-    const REC: &str = "lasalle_runtime::taylor::rec";
+    const REC: &str = "rec";
     let (d, e) = match r {
         Rec::Leaf { .. } => return String::new(),
         Rec::Add { d, a, b } => (d, format!("t[{a}][k] + t[{b}][k]")),
