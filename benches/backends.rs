@@ -136,7 +136,8 @@ fn tapes(stem: &str) -> lasalle_codegen::tape::ModelTapes {
         .iter()
         .find(|(s, _)| *s == stem)
         .expect("a model of models/");
-    let mut model = lasalle_codegen::lower_source(&format!("models/{stem}.lsl"), text).expect("lowers");
+    let mut model =
+        lasalle_codegen::lower_source(&format!("models/{stem}.lsl"), text).expect("lowers");
     let d = lasalle_codegen::derive::derive(&mut model);
     lasalle_codegen::check::check(&mut model, &d).expect("checks");
     lasalle_codegen::tape::ModelTapes::new(&model, &d).expect("tapes")
@@ -184,7 +185,13 @@ macro_rules! lanes_bench {
 fn lanes(c: &mut Criterion) {
     lanes_bench!(c, "rigid_body", models::rigid_body::RigidBody<f64>, 4, 8);
     lanes_bench!(c, "kepler", models::kepler::Kepler<f64>, 4, 8);
-    lanes_bench!(c, "perturbed_kepler", models::perturbed_kepler::PerturbedKepler<f64>, 4, 8);
+    lanes_bench!(
+        c,
+        "perturbed_kepler",
+        models::perturbed_kepler::PerturbedKepler<f64>,
+        4,
+        8
+    );
 }
 
 fn load(c: &mut Criterion) {

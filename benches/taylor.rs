@@ -22,12 +22,14 @@ const MIN_CPU: Duration = Duration::from_millis(500);
 /// The CPU time of this process (user + system), from `/proc/self/stat`; the wall clock
 /// elsewhere.
 fn cpu_time() -> Duration {
-    let ticks = std::fs::read_to_string("/proc/self/stat").ok().and_then(|s| {
-        // fields after the command name (which is in parentheses): utime and stime are 14, 15
-        let rest = &s[s.rfind(')')? + 2..];
-        let f: Vec<&str> = rest.split_whitespace().collect();
-        Some(f.get(11)?.parse::<u64>().ok()? + f.get(12)?.parse::<u64>().ok()?)
-    });
+    let ticks = std::fs::read_to_string("/proc/self/stat")
+        .ok()
+        .and_then(|s| {
+            // fields after the command name (which is in parentheses): utime and stime are 14, 15
+            let rest = &s[s.rfind(')')? + 2..];
+            let f: Vec<&str> = rest.split_whitespace().collect();
+            Some(f.get(11)?.parse::<u64>().ok()? + f.get(12)?.parse::<u64>().ok()?)
+        });
     match ticks {
         // the kernel's USER_HZ is 100 on every Linux architecture Rust supports
         Some(t) => Duration::from_millis(t * 10),
@@ -98,7 +100,8 @@ macro_rules! run {
             (end.steps, max_error(&a, &b))
         });
         report($what, "tape", tape);
-        let order = Stepper::<f64, [f64; <$ty>::N], $ty>::order(&sys.taylor(opts).expect("kernels"));
+        let order =
+            Stepper::<f64, [f64; <$ty>::N], $ty>::order(&sys.taylor(opts).expect("kernels"));
         println!("{:<26} order {order}", "");
     }};
 }
@@ -106,6 +109,11 @@ macro_rules! run {
 fn main() {
     // `cargo bench` passes `--bench`; any other argument selects nothing here
     let period = 2.0 * std::f64::consts::PI * 5f64.powf(1.5);
-    run!("kepler e=0.8, 1000 periods", Kepler<f64>, "kepler", 1000.0 * period);
+    run!(
+        "kepler e=0.8, 1000 periods",
+        Kepler<f64>,
+        "kepler",
+        1000.0 * period
+    );
     run!("rigid body, t = 1000", RigidBody<f64>, "rigid_body", 1000.0);
 }

@@ -43,7 +43,12 @@ fn rng() -> impl FnMut() -> f64 {
 }
 
 /// The emitted kernel against the interpreted one at `x`, to order 20: every coefficient.
-fn same_coefficients<M>(what: &str, emitted: &mut dyn TaylorKernel<M>, tape: &mut TaylorTape, x: &[f64]) {
+fn same_coefficients<M>(
+    what: &str,
+    emitted: &mut dyn TaylorKernel<M>,
+    tape: &mut TaylorTape,
+    x: &[f64],
+) {
     let order = 20;
     emitted.compute(x, order);
     tape.compute(x, order);
@@ -51,7 +56,10 @@ fn same_coefficients<M>(what: &str, emitted: &mut dyn TaylorKernel<M>, tape: &mu
         let (a, b) = (emitted.coefficients(i), tape.state_coefficients(i));
         assert_eq!(a.len(), order + 1);
         for (k, (&u, &v)) in a.iter().zip(b).enumerate() {
-            assert!(same(u, v), "{what}: x_{i}^[{k}] at {x:?}: emitted {u:e}, tape {v:e}");
+            assert!(
+                same(u, v),
+                "{what}: x_{i}^[{k}] at {x:?}: emitted {u:e}, tape {v:e}"
+            );
         }
     }
 }
@@ -60,7 +68,11 @@ fn same_coefficients<M>(what: &str, emitted: &mut dyn TaylorKernel<M>, tape: &mu
 fn same_lane<const K: usize>(what: &str, lanes: &[[f64; K]], l: usize, scalar: &[f64]) {
     assert_eq!(lanes.len(), scalar.len(), "{what}");
     for (j, (row, &s)) in lanes.iter().zip(scalar).enumerate() {
-        assert!(same(row[l], s), "{what}[{j}] lane {l}: {:e} vs scalar {s:e}", row[l]);
+        assert!(
+            same(row[l], s),
+            "{what}[{j}] lane {l}: {:e} vs scalar {s:e}",
+            row[l]
+        );
     }
 }
 
@@ -273,7 +285,10 @@ fn compiled_and_loaded_taylor_integrate_alike() {
     for (u, v) in a.x.iter().zip(&b.x) {
         assert!(same(*u, *v), "{:?} vs {:?}", a.x, b.x);
     }
-    let (mut f0, mut f1) = ([0.0; kepler::Kepler::<f64>::M], [0.0; kepler::Kepler::<f64>::M]);
+    let (mut f0, mut f1) = (
+        [0.0; kepler::Kepler::<f64>::M],
+        [0.0; kepler::Kepler::<f64>::M],
+    );
     sys.invariants(&x0, &mut f0);
     sys.invariants(&a.x, &mut f1);
     for (u, v) in f0.iter().zip(&f1) {

@@ -4,7 +4,7 @@
 //! `cargo bench -p lasalle-exec --bench taylor` (ns per step).
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
-use lasalle_exec::{Backend, LoadedModel, Taylor, TaylorOptions};
+use lasalle_exec::{Backend, LoadedModel, TaylorOptions};
 use lasalle_runtime::{Parameters, Stepper};
 use std::time::Duration;
 

@@ -31,10 +31,10 @@
 use lasalle_codegen::derive;
 use lasalle_codegen::tape::taylor::{Leaf, PowZero, Rec, TaylorProgram};
 use lasalle_codegen::tape::{expect_len, ModelTapes, Tape, TapeError};
+use lasalle_runtime::taylor::rec;
 pub use lasalle_runtime::taylor::{
     jorba_zou_step, order_for_tolerance, TaylorField, TaylorKernel, TaylorKernels, TaylorOptions,
 };
-use lasalle_runtime::taylor::rec;
 use lasalle_runtime::StepError;
 
 use crate::LoadedModel;

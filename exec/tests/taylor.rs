@@ -498,7 +498,8 @@ fn feedback_field() {
     let t_end = 10.0 * 70.2481;
     let mut a = m.taylor(TaylorOptions::with_tol(1e-15)).unwrap();
     let end_a = integrate(&mut a, &fb, &x0, 0.0, t_end, 0.0, &mut ()).unwrap();
-    let mut b = m.taylor(TaylorOptions::with_tol(1e-15))
+    let mut b = m
+        .taylor(TaylorOptions::with_tol(1e-15))
         .unwrap()
         .with_field(TaylorField::Feedback {
             target: fb.target().clone(),
@@ -536,7 +537,10 @@ fn dense_output_against_steps() {
     let out = taylor.step(&m, 0.0, &mut x, 10.0).unwrap();
     let h = out.h_taken;
     assert!(h < 10.0 && h > 0.1, "h = {h}");
-    assert_eq!(DenseOutput::<f64, Vec<f64>>::dense_interval(&taylor), Some((0.0, h)));
+    assert_eq!(
+        DenseOutput::<f64, Vec<f64>>::dense_interval(&taylor),
+        Some((0.0, h))
+    );
     let mut y = vec![0.0; 2];
     assert!(taylor.interpolate(h, &mut y));
     assert_eq!(y, x);
@@ -604,7 +608,8 @@ fn no_allocation_per_step() {
             gains: vec![4.0, 2.0],
         },
     ] {
-        let mut taylor = m.taylor(TaylorOptions::with_tol(1e-15))
+        let mut taylor = m
+            .taylor(TaylorOptions::with_tol(1e-15))
             .unwrap()
             .with_field(mode)
             .unwrap();

@@ -64,9 +64,9 @@ pub use observe::{sample_capacity, Control, Observer, Recorder, StateRecorder, S
 pub use output::{component_names, write_csv};
 pub use params::{ParamError, Parameters};
 pub use state::State;
-pub use taylor::{Taylor, TaylorError, TaylorField, TaylorKernel, TaylorKernels, TaylorOptions};
 pub use steppers::{
     pivoted_cholesky_solve, DenseOutput, DormandPrince, DormandPrinceOptions, Euler, ExplicitRk,
     Heun, Projection, RigidBodySplitting, Rk4, StepOutcome, Stepper, StormerVerlet, Tableau,
     VerletVariant,
 };
+pub use taylor::{Taylor, TaylorError, TaylorField, TaylorKernel, TaylorKernels, TaylorOptions};

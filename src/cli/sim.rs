@@ -24,9 +24,9 @@ use std::time::Instant;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lasalle::{
     component_names, sample_capacity, AdaptiveGain, Control, Declared, DormandPrince, Driver,
-    ExplicitRk, FeedbackField, Field, GainPolicy, Invariants, Lyapunov, ModelInfo,
-    Observer, Parameters, Projection, Recorder, RigidBodySplitting, State, StepError, Stepper,
-    StormerVerlet, Taylor, TaylorOptions, VerletVariant,
+    ExplicitRk, FeedbackField, Field, GainPolicy, Invariants, Lyapunov, ModelInfo, Observer,
+    Parameters, Projection, Recorder, RigidBodySplitting, State, StepError, Stepper, StormerVerlet,
+    Taylor, TaylorOptions, VerletVariant,
 };
 use serde_json::json;
 

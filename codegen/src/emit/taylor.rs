@@ -39,7 +39,12 @@ pub(super) fn f64_lit(x: f64) -> String {
     if x.is_nan() {
         "f64::NAN".into()
     } else if x.is_infinite() {
-        if x > 0.0 { "f64::INFINITY" } else { "f64::NEG_INFINITY" }.into()
+        if x > 0.0 {
+            "f64::INFINITY"
+        } else {
+            "f64::NEG_INFINITY"
+        }
+        .into()
     } else if x.is_sign_negative() {
         format!("(-{:?}_f64)", -x)
     } else {
@@ -251,7 +256,7 @@ impl<T: Float> lasalle_runtime::TaylorKernel<{ty}<T>> for {st} {{
         target: &[f64],
         gains: &[f64],
     ) -> Result<(), lasalle_runtime::StepError> {{
-        if target.len() != {nt} || gains.len() != {ng} {{
+        if target.len() != self.target.len() || gains.len() != self.gains.len() {{
             return Err(lasalle_runtime::StepError::InvalidInput(format!(
                 "{st} takes {nt} targets and {ng} gains, got {{}} and {{}}",
                 target.len(),
@@ -311,9 +316,7 @@ fn zeroth_line(r: Rec) -> String {
         Rec::Mul { d, a, b } => (d, format!("{} * {}", z(a), z(b))),
         Rec::Scale { d, a, c } => (d, format!("{} * {}", z(a), z(c))),
         Rec::Square { d, a } => (d, format!("{} * {}", z(a), z(a))),
-        Rec::Div { d, a, b } | Rec::DivConst { d, a, c: b } => {
-            (d, format!("{} / {}", z(a), z(b)))
-        }
+        Rec::Div { d, a, b } | Rec::DivConst { d, a, c: b } => (d, format!("{} / {}", z(a), z(b))),
         Rec::Pow { d, a, zero, .. } => (
             d,
             match zero {

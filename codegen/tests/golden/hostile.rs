@@ -439,7 +439,7 @@ pub mod hostile {
             target: &[f64],
             gains: &[f64],
         ) -> Result<(), lasalle_runtime::StepError> {
-            if target.len() != 0 || gains.len() != 0 {
+            if target.len() != self.target.len() || gains.len() != self.gains.len() {
                 return Err(lasalle_runtime::StepError::InvalidInput(format!(
                     "HostileTaylorField takes 0 targets and 0 gains, got {} and {}",
                     target.len(),
@@ -544,7 +544,7 @@ pub mod hostile {
             target: &[f64],
             gains: &[f64],
         ) -> Result<(), lasalle_runtime::StepError> {
-            if target.len() != 2 || gains.len() != 2 {
+            if target.len() != self.target.len() || gains.len() != self.gains.len() {
                 return Err(lasalle_runtime::StepError::InvalidInput(format!(
                     "HostileTaylorFeedback takes 2 targets and 2 gains, got {} and {}",
                     target.len(),

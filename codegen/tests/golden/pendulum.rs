@@ -431,7 +431,7 @@ pub mod pendulum {
             target: &[f64],
             gains: &[f64],
         ) -> Result<(), lasalle_runtime::StepError> {
-            if target.len() != 0 || gains.len() != 0 {
+            if target.len() != self.target.len() || gains.len() != self.gains.len() {
                 return Err(lasalle_runtime::StepError::InvalidInput(format!(
                     "PendulumTaylorField takes 0 targets and 0 gains, got {} and {}",
                     target.len(),
@@ -527,7 +527,7 @@ pub mod pendulum {
             target: &[f64],
             gains: &[f64],
         ) -> Result<(), lasalle_runtime::StepError> {
-            if target.len() != 1 || gains.len() != 1 {
+            if target.len() != self.target.len() || gains.len() != self.gains.len() {
                 return Err(lasalle_runtime::StepError::InvalidInput(format!(
                     "PendulumTaylorFeedback takes 1 targets and 1 gains, got {} and {}",
                     target.len(),
