@@ -3,7 +3,11 @@
 //!   coefficients that the interpreted `lasalle_exec::TaylorTape` computes, bitwise, at random
 //!   states, and the compiled and loaded Taylor integrators take the same steps;
 //! - every batched function (`<Model>Lanes`, K = 4 and 8) equals the scalar emitted function
-//!   (or the tape, for the Hamiltonian, which has no scalar function) lane by lane, bitwise.
+//!   (or the tape, for the Hamiltonian, which has no scalar function) lane by lane, bitwise;
+//! - a compiled Taylor step, plain or feedback, allocates nothing.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
 
 use lasalle::models;
 use lasalle::{Backend, LoadedModel};
@@ -11,6 +15,34 @@ use lasalle_codegen::tape::{ModelTapes, Tape};
 use lasalle_exec::TaylorTape;
 use lasalle_runtime::taylor::{TaylorKernel, EMITTED_MAX_ORDER};
 use lasalle_runtime::{Field, Invariants, Lyapunov, Partitioned};
+
+/// Counts this thread's allocations.
+struct Counting;
+
+thread_local! {
+    static ALLOCS: Cell<u64> = const { Cell::new(0) };
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCS.with(|c| c.set(c.get() + 1));
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        ALLOCS.with(|c| c.set(c.get() + 1));
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn allocations() -> u64 {
+    ALLOCS.with(|c| c.get())
+}
 
 fn same(a: f64, b: f64) -> bool {
     a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
@@ -294,4 +326,28 @@ fn compiled_and_loaded_taylor_integrate_alike() {
     for (u, v) in f0.iter().zip(&f1) {
         assert!((u - v).abs() < 1e-12, "invariants {f0:?} → {f1:?}");
     }
+}
+
+/// Steps of the compiled rigid body's Taylor integrator, on X and on X − ∇V through a
+/// `FeedbackField` with array gains, allocate nothing (the kernels' tables are allocated when
+/// the integrator is built).
+#[test]
+fn compiled_taylor_steps_do_not_allocate() {
+    use lasalle_runtime::{FeedbackField, Stepper, TaylorOptions};
+    let sys = rb::RigidBody::default();
+    let x0 = sys.point_paper();
+    let fb = FeedbackField::from_initial(&sys, &x0, rb::RigidBody::default_gains());
+    let mut taylor = sys.taylor(TaylorOptions::with_tol(1e-15)).unwrap();
+    let mut x = x0;
+    // the first steps (no allocation expected either, but outside the count)
+    taylor.step(&sys, 0.0, &mut x, 0.1).unwrap();
+    taylor.step(&fb, 0.0, &mut x, 0.1).unwrap();
+    let before = allocations();
+    for k in 0..10 {
+        let t = 0.1 * f64::from(k);
+        taylor.step(&sys, t, &mut x, 0.1).unwrap();
+        taylor.step(&fb, t, &mut x, 0.1).unwrap();
+    }
+    assert_eq!(allocations(), before, "allocations in 20 steps");
+    assert!(x.iter().all(|v| v.is_finite()));
 }
