@@ -4,7 +4,7 @@
 //! output, feedback mode; the recurrences and the step control are documented there).
 //!
 //! The tape is lowered to recurrences by [`TaylorProgram`]; compiled models run the same
-//! program as emitted Rust, and the two agree bitwise (`tests/taylor_emitted.rs` in the root
+//! program as emitted Rust, and the two agree bitwise (`tests/tape_kernels.rs` in the root
 //! crate).
 //!
 //! # Use
