@@ -5,10 +5,15 @@
 //! ```sh
 //! cargo bench --bench backends                    # everything (~3 minutes)
 //! cargo bench --bench backends -- feedback/kepler # one model
+//! cargo bench --bench backends -- lanes/          # batched X − ∇V
 //! ```
 //!
 //! - `feedback/<model>/{emitted,jit,interpreter}`: one evaluation of X − ∇V at a state off the
 //!   target set, through the runtime trait (`Lyapunov::feedback_field`) as a stepper calls it;
+//! - `lanes/<model>/{emitted,jit}_k{4,8}`: X − ∇V for K states per call (structure of
+//!   arrays) for the three paper models: `<Model>Lanes::feedback::<K>` emitted from the tape,
+//!   and the JIT's `Kernel::eval_lanes`; the throughput is in states, so Criterion's
+//!   `thrpt` is states per second and the time per state is the time over K;
 //! - `load/<model>`: reading nothing, parsing, deriving, checking every invariant and compiling
 //!   every function of the model with the JIT (what `lasalle run model.lsl` pays before its
 //!   first step);
@@ -18,7 +23,7 @@
 use std::hint::black_box;
 use std::time::Duration;
 
-use criterion::{criterion_group, criterion_main, Criterion};
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use lasalle::models;
 use lasalle::{integrate, Backend, ExplicitRk, FeedbackField, LoadedModel, Lyapunov, MODEL_FILES};
 
@@ -125,6 +130,70 @@ fn feedback(c: &mut Criterion) {
     );
 }
 
+/// The tapes of a model of `models/`, as the emitted code is generated.
+fn tapes(stem: &str) -> lasalle_codegen::tape::ModelTapes {
+    let (_, text) = MODEL_FILES
+        .iter()
+        .find(|(s, _)| *s == stem)
+        .expect("a model of models/");
+    let mut model =
+        lasalle_codegen::lower_source(&format!("models/{stem}.lsl"), text).expect("lowers");
+    let d = lasalle_codegen::derive::derive(&mut model);
+    lasalle_codegen::check::check(&mut model, &d).expect("checks");
+    lasalle_codegen::tape::ModelTapes::new(&model, &d).expect("tapes")
+}
+
+macro_rules! lanes_bench {
+    ($c:expr, $stem:literal, $ty:ty, $($k:literal),*) => {{
+        const N: usize = <$ty>::N;
+        let m = <$ty>::default();
+        let x0 = m.point_paper();
+        let target = m.targets(&x0);
+        let gains = <$ty>::default_gains();
+        let lanes = m.lanes();
+        let jit = Backend::Jit.compile(&tapes($stem).feedback).expect("compiles");
+        let hoisted = jit.hoist(&m.slot_values()).expect("hoists");
+        let mut g = $c.benchmark_group(concat!("lanes/", $stem));
+        $({
+            const K: usize = $k;
+            // K states off the target set, component i of lane l at x[i][l]
+            let x: [[f64; K]; N] = std::array::from_fn(|i| {
+                std::array::from_fn(|l| perturbed(&x0)[i] + 1e-4 * l as f64)
+            });
+            g.throughput(Throughput::Elements(K as u64));
+            g.bench_function(concat!("emitted_k", $k), |b| {
+                let mut out = [[0.0; K]; N];
+                b.iter(|| {
+                    black_box(&lanes).feedback(black_box(&x), &target, &gains, &mut out);
+                    black_box(out[0][0])
+                })
+            });
+            g.bench_function(concat!("jit_k", $k), |b| {
+                let flat = x.as_flattened();
+                let mut out = vec![0.0; N * K];
+                b.iter(|| {
+                    jit.eval_lanes(K, &hoisted, black_box(flat), &target, &gains, &mut out)
+                        .expect("lengths");
+                    black_box(out[0])
+                })
+            });
+        })*
+        g.finish();
+    }};
+}
+
+fn lanes(c: &mut Criterion) {
+    lanes_bench!(c, "rigid_body", models::rigid_body::RigidBody<f64>, 4, 8);
+    lanes_bench!(c, "kepler", models::kepler::Kepler<f64>, 4, 8);
+    lanes_bench!(
+        c,
+        "perturbed_kepler",
+        models::perturbed_kepler::PerturbedKepler<f64>,
+        4,
+        8
+    );
+}
+
 fn load(c: &mut Criterion) {
     let mut g = c.benchmark_group("load");
     g.sample_size(10);
@@ -203,5 +272,5 @@ fn run(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, feedback, load, run);
+criterion_group!(benches, feedback, lanes, load, run);
 criterion_main!(benches);

@@ -93,7 +93,8 @@ pub fn generate_source(path: &str, text: &str) -> Result<GeneratedModel> {
     emit::check_finite(&model, &derivatives)?;
     let conservation = check::check(&mut model, &derivatives)?;
     let emitted = emit::emit(&model, &derivatives, &conservation)?;
-    let code = emit::format(&emitted.items)?;
+    let mut code = emit::format(&emitted.items)?;
+    code.push_str(&emitted.tape_code);
     let module = emit::snake(
         &Path::new(path)
             .file_stem()

@@ -4,7 +4,7 @@
 //! `cargo bench -p lasalle-exec --bench taylor` (ns per step).
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
-use lasalle_exec::{Backend, LoadedModel, Taylor, TaylorOptions};
+use lasalle_exec::{Backend, LoadedModel, TaylorOptions};
 use lasalle_runtime::{Parameters, Stepper};
 use std::time::Duration;
 
@@ -20,7 +20,7 @@ fn steps(c: &mut Criterion) {
         let m = model(name);
         let x0 = m.point("paper").expect("point paper");
         for tol in [1e-15, 1e-10] {
-            let mut taylor = Taylor::for_model(&m, TaylorOptions::with_tol(tol)).expect("taylor");
+            let mut taylor = m.taylor(TaylorOptions::with_tol(tol)).expect("taylor");
             let label = format!(
                 "{name}/tol={tol:e}/p={}",
                 Stepper::<f64, Vec<f64>, LoadedModel>::order(&taylor)

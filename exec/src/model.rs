@@ -610,6 +610,15 @@ impl Declared<f64, Vec<f64>> for LoadedModel {
         self.kernels.partition.as_ref().map(|_| self as _)
     }
 
+    /// The interpreted kernels ([`crate::TaylorTape`]) of the field and of X − ∇V.
+    fn taylor_kernels(
+        &self,
+        max_order: u32,
+    ) -> Result<lasalle_runtime::TaylorKernels<Self>, lasalle_runtime::TaylorError> {
+        self.taylor_tapes(max_order)
+            .map_err(|e| lasalle_runtime::TaylorError(e.to_string()))
+    }
+
     fn rigid_body_splitting(&self) -> Option<RigidBodySplitting<f64>> {
         self.model.splitting.as_ref().map(|s| match s {
             Splitting::RigidBody { inertia } => {

@@ -18,7 +18,7 @@ use std::cell::Cell;
 use lasalle_codegen::ir::{Rational, Scalar};
 use lasalle_codegen::tape::{ModelTapes, Tape};
 use lasalle_exec::taylor::{jorba_zou_step, order_for_tolerance};
-use lasalle_exec::{Backend, LoadedModel, Taylor, TaylorField, TaylorOptions, TaylorTape};
+use lasalle_exec::{Backend, LoadedModel, TaylorField, TaylorOptions, TaylorTape};
 use lasalle_runtime::{
     integrate, DenseOutput, Driver, FeedbackField, Field, Invariants, Parameters, Stepper,
 };
@@ -74,8 +74,7 @@ fn tapes(text: &str) -> (ModelTapes, Vec<f64>) {
 
 /// x^[0..=order] per component of the field tape at `x`.
 fn coefficients(tape: &Tape, params: &[f64], x: &[f64], order: usize) -> Vec<Vec<f64>> {
-    let hoisted = tape.hoist(params).unwrap();
-    let mut tt = TaylorTape::new(tape, &hoisted, order as u32).unwrap();
+    let mut tt = TaylorTape::new(tape, params, order as u32).unwrap();
     tt.compute(x, order);
     (0..x.len())
         .map(|i| tt.state_coefficients(i).to_vec())
@@ -443,7 +442,7 @@ fn jorba_zou_order_and_step() {
 fn harmonic_oscillator_100_periods() {
     let m = LoadedModel::from_source("osc.lsl", OSC, Backend::Interpreter).unwrap();
     let x0 = m.point("start").unwrap();
-    let mut taylor = Taylor::for_model(&m, TaylorOptions::with_tol(1e-15)).unwrap();
+    let mut taylor = m.taylor(TaylorOptions::with_tol(1e-15)).unwrap();
     let t_end = 100.0 * std::f64::consts::PI; // 100 periods of w = 2
     let end = integrate(&mut taylor, &m, &x0, 0.0, t_end, 0.0, &mut ()).unwrap();
     let mut f0 = vec![0.0];
@@ -473,7 +472,7 @@ fn kepler_eccentric_orbit() {
     let x0 = m.point("paper").unwrap();
     let period = 2.0 * std::f64::consts::PI * 5f64.powf(1.5);
     for (tol, periods, close) in [(1e-15, 10.0, 1e-10), (f64::EPSILON, 100.0, 1e-9)] {
-        let mut taylor = Taylor::for_model(&m, TaylorOptions::with_tol(tol)).unwrap();
+        let mut taylor = m.taylor(TaylorOptions::with_tol(tol)).unwrap();
         let end = integrate(&mut taylor, &m, &x0, 0.0, periods * period, 0.0, &mut ()).unwrap();
         let mut f0 = vec![0.0; 6];
         let mut f1 = vec![0.0; 6];
@@ -497,9 +496,10 @@ fn feedback_field() {
     let x0 = m.point("paper").unwrap();
     let fb = FeedbackField::from_initial(&m, &x0, vec![4.0, 2.0]);
     let t_end = 10.0 * 70.2481;
-    let mut a = Taylor::for_model(&m, TaylorOptions::with_tol(1e-15)).unwrap();
+    let mut a = m.taylor(TaylorOptions::with_tol(1e-15)).unwrap();
     let end_a = integrate(&mut a, &fb, &x0, 0.0, t_end, 0.0, &mut ()).unwrap();
-    let mut b = Taylor::for_model(&m, TaylorOptions::with_tol(1e-15))
+    let mut b = m
+        .taylor(TaylorOptions::with_tol(1e-15))
         .unwrap()
         .with_field(TaylorField::Feedback {
             target: fb.target().clone(),
@@ -531,13 +531,16 @@ fn feedback_field() {
 fn dense_output_against_steps() {
     let m = LoadedModel::from_source("osc.lsl", OSC, Backend::Interpreter).unwrap();
     let x0 = m.point("start").unwrap();
-    let mut taylor = Taylor::for_model(&m, TaylorOptions::with_tol(1e-15)).unwrap();
-    assert_eq!(taylor.dense_interval(), None);
+    let mut taylor = m.taylor(TaylorOptions::with_tol(1e-15)).unwrap();
+    assert_eq!(DenseOutput::<f64, Vec<f64>>::dense_interval(&taylor), None);
     let mut x = x0.clone();
     let out = taylor.step(&m, 0.0, &mut x, 10.0).unwrap();
     let h = out.h_taken;
     assert!(h < 10.0 && h > 0.1, "h = {h}");
-    assert_eq!(taylor.dense_interval(), Some((0.0, h)));
+    assert_eq!(
+        DenseOutput::<f64, Vec<f64>>::dense_interval(&taylor),
+        Some((0.0, h))
+    );
     let mut y = vec![0.0; 2];
     assert!(taylor.interpolate(h, &mut y));
     assert_eq!(y, x);
@@ -548,7 +551,7 @@ fn dense_output_against_steps() {
         assert!(taylor.interpolate(s, &mut y));
         let q = q0 * (w * s).cos() + p0 / w * (w * s).sin();
         assert!((y[0] - q).abs() <= 1e-15, "θ = {theta}: {}", y[0] - q);
-        let mut fresh = Taylor::for_model(&m, TaylorOptions::with_tol(1e-15)).unwrap();
+        let mut fresh = m.taylor(TaylorOptions::with_tol(1e-15)).unwrap();
         let mut z = x0.clone();
         let o = fresh.step(&m, 0.0, &mut z, s).unwrap();
         assert_eq!(o.h_taken, s);
@@ -557,7 +560,7 @@ fn dense_output_against_steps() {
     // through the driver: output times between steps
     let times: Vec<f64> = (0..=40).map(|i| i as f64 * 0.25).collect();
     let mut got = Vec::new();
-    let mut fresh = Taylor::for_model(&m, TaylorOptions::with_tol(1e-15)).unwrap();
+    let mut fresh = m.taylor(TaylorOptions::with_tol(1e-15)).unwrap();
     Driver::new(0.0, 10.0, 0.0)
         .run_dense(
             &mut fresh,
@@ -582,7 +585,7 @@ fn dense_output_against_steps() {
 fn parameter_change() {
     let mut m = LoadedModel::from_source("osc.lsl", OSC, Backend::Interpreter).unwrap();
     let x0 = m.point("start").unwrap();
-    let mut taylor = Taylor::for_model(&m, TaylorOptions::with_tol(1e-15)).unwrap();
+    let mut taylor = m.taylor(TaylorOptions::with_tol(1e-15)).unwrap();
     m.set_param("w", &[3.0]).unwrap();
     let end = integrate(&mut taylor, &m, &x0, 0.0, 1.0, 0.0, &mut ()).unwrap();
     let q = 0.3 * 3f64.cos() - 0.8 / 3.0 * 3f64.sin();
@@ -605,7 +608,8 @@ fn no_allocation_per_step() {
             gains: vec![4.0, 2.0],
         },
     ] {
-        let mut taylor = Taylor::for_model(&m, TaylorOptions::with_tol(1e-15))
+        let mut taylor = m
+            .taylor(TaylorOptions::with_tol(1e-15))
             .unwrap()
             .with_field(mode)
             .unwrap();
@@ -640,9 +644,9 @@ fn rejects_bad_options() {
             ..Default::default()
         },
     ] {
-        assert!(Taylor::for_model(&m, opts).is_err(), "{opts:?}");
+        assert!(m.taylor(opts).is_err(), "{opts:?}");
     }
-    let mut taylor = Taylor::for_model(&m, TaylorOptions::default()).unwrap();
+    let mut taylor = m.taylor(TaylorOptions::default()).unwrap();
     let mut x = vec![1.0, 2.0, 3.0];
     assert!(taylor.step(&m, 0.0, &mut x, 0.1).is_err());
     assert!(taylor
@@ -664,7 +668,7 @@ fn timed_run(
 ) -> (f64, u64, Vec<f64>, Vec<f64>, Vec<f64>) {
     let m = LoadedModel::from_source(name, &model_text(name), Backend::Jit).unwrap();
     let x0 = m.point(point).unwrap();
-    let mut taylor = Taylor::for_model(&m, TaylorOptions::with_tol(tol)).unwrap();
+    let mut taylor = m.taylor(TaylorOptions::with_tol(tol)).unwrap();
     let start = std::time::Instant::now();
     let end = integrate(&mut taylor, &m, &x0, 0.0, t_end, 0.0, &mut ()).unwrap();
     let secs = start.elapsed().as_secs_f64();

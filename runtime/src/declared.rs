@@ -7,6 +7,7 @@ use num_traits::Float;
 use crate::field::Partitioned;
 use crate::state::State;
 use crate::steppers::RigidBodySplitting;
+use crate::taylor::{TaylorError, TaylorKernels};
 
 /// A run preset (`run paper { method = feedback_euler; dt = 0.005; … }`): the settings a run uses
 /// unless the caller overrides them. Every setting is optional.
@@ -99,5 +100,16 @@ pub trait Declared<T: Float, X: State<T>> {
     /// `splitting rigid_body(R, Omega, I);`, with its current moments of inertia.
     fn rigid_body_splitting(&self) -> Option<RigidBodySplitting<T>> {
         None
+    }
+
+    /// The Taylor-coefficient kernels of the field and of X − ∇V with the model's current
+    /// parameters, for orders up to at least `max_order`, to drive with [`crate::Taylor::new`].
+    /// Compiled and loaded models have them; the default is an error.
+    fn taylor_kernels(&self, max_order: u32) -> Result<TaylorKernels<Self>, TaylorError>
+    where
+        Self: Sized,
+    {
+        let _ = max_order;
+        Err(TaylorError("the model has no Taylor kernels".into()))
     }
 }

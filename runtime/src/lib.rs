@@ -11,6 +11,8 @@
 //! - [`FeedbackField`]: the feedback integrator's field X − ∇V, so any stepper becomes a
 //!   feedback integrator; [`gains`](crate::scaled_gains) selection ([`GainPolicy`],
 //!   [`AdaptiveGain`]);
+//! - [`Taylor`]: the adaptive Taylor method (Jorba & Zou), over coefficient
+//!   [`TaylorKernel`]s that interpreted and emitted models provide;
 //! - [`Observer`]s ([`Recorder`] of states and invariant errors, [`Stride`], [`StopWhen`]) and
 //!   CSV ([`Csv`], [`write_csv`]);
 //! - [`elliptic`]: Jacobi elliptic functions [`ellipj`] (sn, cn, dn, am; parameter m = k²) and
@@ -41,6 +43,7 @@ mod output;
 mod params;
 pub mod state;
 pub mod steppers;
+pub mod taylor;
 
 pub use declared::{Declared, GuardFailure, Preset};
 pub use driver::{integrate, Driver, GuardFn, Summary};
@@ -66,3 +69,4 @@ pub use steppers::{
     Heun, Projection, RigidBodySplitting, Rk4, StepOutcome, Stepper, StormerVerlet, Tableau,
     VerletVariant,
 };
+pub use taylor::{Taylor, TaylorError, TaylorField, TaylorKernel, TaylorKernels, TaylorOptions};

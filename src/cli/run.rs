@@ -8,7 +8,7 @@ use clap::Args;
 use lasalle::{Declared, GainPolicy, ModelInfo, Parameters, Preset};
 
 use super::load::{load, BackendArg};
-use super::sim::{apply_param, initial_state, simulate_loaded, Method, RunSpec};
+use super::sim::{apply_param, initial_state, simulate, Method, RunSpec};
 use super::CliResult;
 
 /// Arguments of `lasalle run`.
@@ -161,7 +161,7 @@ pub fn run(args: &RunArgs) -> CliResult {
     spec.every = args.every.or(preset.and_then(|p| p.every)).unwrap_or(0);
     spec.progress = !(args.quiet || args.json);
     spec.max_steps = args.max_steps;
-    let trace = simulate_loaded(&model, &x0, &spec)?;
+    let trace = simulate(&model, &x0, &spec)?;
     let name = model.model_name();
 
     let dir = args

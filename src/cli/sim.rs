@@ -22,12 +22,11 @@ use std::str::FromStr;
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use lasalle::exec::{Taylor, TaylorOptions};
 use lasalle::{
     component_names, sample_capacity, scaled_gains, step_gain_target, AdaptiveGain, Control,
     Csv, Declared, DormandPrince, Driver, ExplicitRk, FeedbackField, Field, GainPolicy, Invariants,
-    LoadedModel, Lyapunov, ModelInfo, Observer, Parameters, Projection, Recorder,
-    RigidBodySplitting, State, StepError, Stepper, StormerVerlet, Stride, VerletVariant,
+    Lyapunov, ModelInfo, Observer, Parameters, Projection, Recorder, RigidBodySplitting, State,
+    StepError, Stepper, StormerVerlet, Stride, Taylor, TaylorOptions, VerletVariant,
 };
 use serde_json::json;
 
@@ -91,7 +90,8 @@ pub enum Method {
     /// The three-rotation splitting of the free rigid body (GNI §VII.5).
     Splitting,
     /// The Taylor method of adaptive order and step (Jorba & Zou 2005) with tolerance
-    /// `--rtol`, on X or (`feedback`) on X − ∇V; models loaded from their files only.
+    /// `--rtol`, on X or (`feedback`) on X − ∇V, over the model's Taylor kernels (emitted
+    /// for compiled models, the interpreted tape for loaded ones).
     Taylor {
         /// On the feedback field X − ∇V.
         feedback: bool,
@@ -320,7 +320,7 @@ pub trait Stats {
 impl<const S: usize, X> Stats for ExplicitRk<f64, S, X> {}
 impl<X> Stats for DormandPrince<f64, X> {}
 impl<X> Stats for StormerVerlet<X> {}
-impl Stats for Taylor {}
+impl<M: ?Sized> Stats for Taylor<M> {}
 impl Stats for RigidBodySplitting<f64> {}
 
 impl<F: State<f64>, S: Stats, X: State<f64>> Stats for Projection<f64, F, S, X> {
@@ -814,18 +814,7 @@ where
             };
             Ok(with_base(b, spec, visit))
         }
-        Method::Feedback(b) => {
-            let plan: GainPlan<K> = plan_gains(model, x0, spec, b.order())?;
-            let fb = FeedbackField::from_initial(model, x0, plan.initial.clone());
-            let inner = drive(model, &fb, x0, spec);
-            let mut trace = match plan.wrap(inner) {
-                Gained::Adaptive(adapt) => with_base(b, spec, adapt),
-                Gained::Fixed(inner) => with_base(b, spec, inner),
-            };
-            trace.gains_initial = Some(plan.initial.as_ref().to_vec());
-            trace.gains_final = Some(fb.gains().as_ref().to_vec());
-            Ok(trace)
-        }
+        Method::Feedback(b) => feedback_run(model, x0, spec, FeedbackStepper::Base(b)),
         Method::StormerVerlet(variant) => {
             let halves = model.partitioned().ok_or_else(|| {
                 format!(
@@ -847,11 +836,85 @@ where
             })?;
             Ok(drive(model, model, x0, spec).visit(splitting))
         }
-        Method::Taylor { .. } => Err(format!(
-            "method `{}` runs on models loaded from their files (`lasalle run model.lsl`)",
-            spec.method
-        )),
+        Method::Taylor { feedback } => {
+            let taylor = taylor(model, spec)?;
+            if feedback {
+                feedback_run(model, x0, spec, FeedbackStepper::Taylor(taylor))
+            } else {
+                Ok(drive(model, model, x0, spec).visit(taylor))
+            }
+        }
     }
+}
+
+/// The Taylor integrator of `model` with tolerance `--rtol`, over its kernels
+/// ([`Declared::taylor_kernels`]).
+fn taylor<Mdl, X, FV, K>(model: &Mdl, spec: &RunSpec) -> Result<Taylor<Mdl>, String>
+where
+    Mdl: RunModel<X, FV, K>,
+    X: State<f64>,
+    FV: State<f64>,
+    K: State<f64>,
+{
+    let opts = TaylorOptions::with_tol(spec.rtol);
+    let bad = |e: &dyn fmt::Display| format!("method `{}`: {e}", spec.method);
+    let order = opts.checked_order().map_err(|e| bad(&e))?;
+    let kernels = model.taylor_kernels(order).map_err(|e| bad(&e))?;
+    Taylor::new(kernels, opts).map_err(|e| bad(&e))
+}
+
+/// The stepper of a feedback run.
+enum FeedbackStepper<Mdl> {
+    /// An explicit Runge–Kutta method.
+    Base(Base),
+    /// The Taylor method.
+    Taylor(Taylor<Mdl>),
+}
+
+impl<Mdl> FeedbackStepper<Mdl> {
+    /// Hands `visit` the stepper.
+    fn visit<F, X, V>(self, spec: &RunSpec, visit: V) -> V::Out
+    where
+        F: Field<f64, X> + ?Sized,
+        X: State<f64>,
+        V: Visit<F, X>,
+        Taylor<Mdl>: Stepper<f64, X, F>,
+    {
+        match self {
+            FeedbackStepper::Base(b) => with_base(b, spec, visit),
+            FeedbackStepper::Taylor(t) => visit.visit(t),
+        }
+    }
+}
+
+/// A run on the feedback field X − ∇V with the gains of `spec` (adapted along the run if it
+/// says so).
+fn feedback_run<Mdl, X, FV, K>(
+    model: &Mdl,
+    x0: &X,
+    spec: &RunSpec,
+    stepper: FeedbackStepper<Mdl>,
+) -> Result<Trace, String>
+where
+    Mdl: RunModel<X, FV, K>,
+    X: State<f64>,
+    FV: State<f64>,
+    K: State<f64>,
+{
+    let order = match &stepper {
+        FeedbackStepper::Base(b) => b.order(),
+        FeedbackStepper::Taylor(t) => <Taylor<Mdl> as Stepper<f64, X, Mdl>>::order(t),
+    };
+    let plan: GainPlan<K> = plan_gains(model, x0, spec, order)?;
+    let fb = FeedbackField::from_initial(model, x0, plan.initial.clone());
+    let inner = drive(model, &fb, x0, spec);
+    let mut trace = match plan.wrap(inner) {
+        Gained::Adaptive(adapt) => stepper.visit(spec, adapt),
+        Gained::Fixed(inner) => stepper.visit(spec, inner),
+    };
+    trace.gains_initial = Some(plan.initial.as_ref().to_vec());
+    trace.gains_final = Some(fb.gains().as_ref().to_vec());
+    Ok(trace)
 }
 
 /// Checks the spec and the initial state (finite, inside the model's guards, where the field
@@ -883,35 +946,6 @@ where
         ));
     }
     Ok(f)
-}
-
-/// [`simulate`] for a model loaded from its file, which also offers the Taylor method (built
-/// from the model's tapes, tolerance `--rtol`).
-pub fn simulate_loaded(
-    model: &LoadedModel,
-    x0: &Vec<f64>,
-    spec: &RunSpec,
-) -> Result<Trace, String> {
-    let Method::Taylor { feedback } = spec.method else {
-        return simulate(model, x0, spec);
-    };
-    check_start(model, x0, spec)?;
-    let taylor =
-        Taylor::for_model(model, TaylorOptions::with_tol(spec.rtol)).map_err(|e| e.to_string())?;
-    if !feedback {
-        return Ok(drive(model, model, x0, spec).visit(taylor));
-    }
-    let order = <Taylor as Stepper<f64, Vec<f64>, LoadedModel>>::order(&taylor);
-    let plan: GainPlan<Vec<f64>> = plan_gains(model, x0, spec, order)?;
-    let fb = FeedbackField::from_initial(model, x0, plan.initial.clone());
-    let inner = drive(model, &fb, x0, spec);
-    let mut trace = match plan.wrap(inner) {
-        Gained::Adaptive(adapt) => adapt.visit(taylor),
-        Gained::Fixed(inner) => inner.visit(taylor),
-    };
-    trace.gains_initial = Some(plan.initial);
-    trace.gains_final = Some(fb.gains());
-    Ok(trace)
 }
 
 /// The gains of a feedback run: the initial ones and, for the adaptive policies, how the

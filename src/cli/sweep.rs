@@ -13,7 +13,7 @@ use lasalle::{Backend, LoadedModel, ModelInfo, Parameters};
 use rayon::prelude::*;
 
 use super::load::{model_text, BackendArg};
-use super::sim::{initial_state, simulate_loaded, Method, RunSpec, Trace};
+use super::sim::{initial_state, simulate, Method, RunSpec, Trace};
 use super::CliResult;
 
 /// Arguments of `lasalle sweep`.
@@ -205,7 +205,7 @@ fn run_row(
     let mut spec = RunSpec::new(method, args.dt, args.t_end);
     (spec.rtol, spec.atol) = (args.tol, args.tol);
     spec.every = u64::MAX; // the initial and the final state
-    let trace = simulate_loaded(model, &x0, &spec).map_err(|e| format!("row {index}: {e}"))?;
+    let trace = simulate(model, &x0, &spec).map_err(|e| format!("row {index}: {e}"))?;
     Ok(cells(index, row, &trace))
 }
 

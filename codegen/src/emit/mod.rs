@@ -3,8 +3,10 @@
 
 mod body;
 mod items;
+mod lanes;
 mod leaves;
 pub(crate) mod names;
+mod taylor;
 mod traits;
 
 pub use names::snake;
@@ -64,6 +66,10 @@ pub struct Emitted {
     pub summary: String,
     /// Operation counts.
     pub stats: Stats,
+    /// The kernels emitted from the tapes (Taylor kernels and lanes), already formatted: to
+    /// append to the formatted items (they are large, straight-line code that would dominate
+    /// the time of formatting).
+    pub tape_code: String,
 }
 
 /// An index or size as an unsuffixed literal (`3`, not `3usize`).
@@ -169,6 +175,9 @@ pub fn emit(
     let declared = e.declared_impl();
     let struct_items = e.struct_items();
     let (accessors, info, parameters) = (e.accessors(), e.model_info_impl(), e.parameters_impl());
+    let tapes = crate::tape::ModelTapes::new(model, d)
+        .map_err(|err| crate::Error::Internal(format!("the tapes of `{}`: {err}", model.name)))?;
+    let tape_code = e.tape_items(&tapes)?;
 
     let g = &model.graph;
     let stats = Stats {
@@ -199,6 +208,7 @@ pub fn emit(
         items,
         summary: summary(model, d, conservation, &stats),
         stats,
+        tape_code,
     })
 }
 

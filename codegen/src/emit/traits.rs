@@ -323,12 +323,14 @@ impl Emitter<'_> {
             }
             None => TokenStream::new(),
         };
+        let taylor = self.taylor_hook();
         quote! {
             impl<T: Float> Declared<T, [T; #n]> for #ty<T> {
                 #presets
                 #guards
                 #partitioned
                 #splitting
+                #taylor
             }
         }
     }

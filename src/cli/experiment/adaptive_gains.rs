@@ -13,7 +13,7 @@ use lasalle::{Backend, GainPolicy, Parameters};
 use serde_json::json;
 
 use super::super::load::load;
-use super::super::sim::{num, simulate_loaded, Base, Method, RunSpec, Trace};
+use super::super::sim::{num, simulate, Base, Method, RunSpec, Trace};
 use super::{command_line, error_figure, sci, ExperimentArgs, Table};
 use crate::cli::CliResult;
 
@@ -100,14 +100,14 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
                     s.progress = !args.quiet;
                     s
                 };
-                let p = simulate_loaded(
+                let p = simulate(
                     &model,
                     &x0,
                     &spec(plain, GainPolicy::ModelDefault, u64::MAX),
                 )?;
-                let a = simulate_loaded(&model, &x0, &spec(feedback, GainPolicy::Auto, u64::MAX))?;
+                let a = simulate(&model, &x0, &spec(feedback, GainPolicy::Auto, u64::MAX))?;
                 let budget = 10 * p.steps.max(1);
-                let d = simulate_loaded(
+                let d = simulate(
                     &model,
                     &x0,
                     &spec(feedback, GainPolicy::ModelDefault, budget),

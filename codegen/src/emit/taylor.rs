@@ -1,0 +1,367 @@
+//! Emitted f64 kernels generated from the model's tapes ([`ModelTapes`]) rather than from the
+//! symbolic graph: the Taylor-coefficient kernels of the field and of X − ∇V
+//! (`<Model>TaylorField`, `<Model>TaylorFeedback`, see [`lasalle_runtime::taylor`]) and the
+//! batched evaluation of every function for K states per call (`<Model>Lanes`, see
+//! [`super::lanes`]).
+//!
+//! Both start from the tapes so that they compute what the tape interpreter and the JIT
+//! compute, bitwise: the tape is lowered exactly as the emitter writes the scalar functions
+//! (see [`crate::tape`]), so each lane of a batch equals the scalar emitted function, and
+//! the Taylor kernels run the lowering of [`TaylorProgram`] with the recurrence functions
+//! of `lasalle_runtime::taylor::rec`, exactly as `lasalle_exec::TaylorTape` interprets it.
+//!
+//! The items are written as formatted text and appended to the formatted items: they are
+//! straight-line code over numbered registers and table rows (`t[12][k]`), in which readable
+//! names would not help, and formatting them with `prettyplease` would take most of the
+//! generation time of a large model (5× the rest for 20 000 `let`s).
+//!
+//! # The emitted Taylor kernel
+//!
+//! A struct per field holding the parameter slots it was hoisted for, the hoisted values, the
+//! targets and gains (X − ∇V), and the coefficient table `Box<[[f64; P + 1]; ROWS]>` with
+//! P = [`lasalle_runtime::taylor::EMITTED_MAX_ORDER`], allocated once in `new`. `compute`
+//! is one loop over the order k; inside it, order 0 is the straight-line f64 code of every
+//! recurrence and order k ≥ 1 a call of the recurrence function per non-constant
+//! instruction, on constant row indices.
+//!
+//! [`lasalle_runtime::taylor`]: https://docs.rs/lasalle-runtime
+//! [`lasalle_runtime::taylor::EMITTED_MAX_ORDER`]: https://docs.rs/lasalle-runtime
+
+use super::Emitter;
+use crate::ir::Input;
+use crate::tape::taylor::{Leaf, PowZero, Rec, TaylorProgram};
+use crate::tape::{ModelTapes, Op, Tape};
+use proc_macro2::TokenStream;
+use std::fmt::Write;
+
+/// An f64 literal that reads back to the same bits (`2.5_f64`, `(-1e-7_f64)`).
+pub(super) fn f64_lit(x: f64) -> String {
+    if x.is_nan() {
+        "f64::NAN".into()
+    } else if x.is_infinite() {
+        if x > 0.0 {
+            "f64::INFINITY"
+        } else {
+            "f64::NEG_INFINITY"
+        }
+        .into()
+    } else if x.is_sign_negative() {
+        format!("(-{:?}_f64)", -x)
+    } else {
+        format!("{x:?}_f64")
+    }
+}
+
+/// The f64 expression of a non-leaf tape instruction over the operand expressions `r(reg)`.
+pub(super) fn op_expr(op: &Op, r: impl Fn(crate::tape::Reg) -> String) -> String {
+    match *op {
+        Op::Add(a, b) => format!("{} + {}", r(a), r(b)),
+        Op::Sub(a, b) => format!("{} - {}", r(a), r(b)),
+        Op::Mul(a, b) => format!("{} * {}", r(a), r(b)),
+        Op::Div(a, b) => format!("{} / {}", r(a), r(b)),
+        Op::Neg(a) => format!("-{}", r(a)),
+        Op::Powi(a, n) => format!("{}.powi({n})", r(a)),
+        Op::Sqrt(a) => format!("{}.sqrt()", r(a)),
+        Op::Cbrt(a) => format!("{}.cbrt()", r(a)),
+        Op::Powf(a, p) => format!("{}.powf({})", r(a), f64_lit(p.to_f64())),
+        Op::Exp(a) => format!("{}.exp()", r(a)),
+        Op::Ln(a) => format!("{}.ln()", r(a)),
+        Op::Sin(a) => format!("{}.sin()", r(a)),
+        Op::Cos(a) => format!("{}.cos()", r(a)),
+        Op::State(_)
+        | Op::Param(_)
+        | Op::Target(_)
+        | Op::Gain(_)
+        | Op::Hoisted(_)
+        | Op::Const(_) => unreachable!("leaves are rendered by the caller"),
+    }
+}
+
+/// The function `hoist_<name>(p: &[f64; P]) -> [f64; H]`: the tape's prelude (parameters →
+/// hoisted values), f64 op for f64 op as `Tape::hoist`.
+fn hoist_fn(name: &str, tape: &Tape) -> String {
+    let (np, nh) = (tape.dims.params, tape.hoisted.len());
+    let mut s = format!(
+        "/// The parameter-only values of `{name}` (the prelude of its tape) from the parameter slots.
+#[allow(unused_variables, clippy::all)]
+fn hoist_{name}(p: &[f64; {np}]) -> [f64; {nh}] {{
+"
+    );
+    for (i, op) in tape.prelude.iter().enumerate() {
+        let e = match *op {
+            Op::Param(k) => format!("p[{k}]"),
+            Op::Const(c) => f64_lit(c),
+            _ => op_expr(op, |r| format!("p{}", r.0)),
+        };
+        let _ = writeln!(s, "    let p{i}: f64 = {e};");
+    }
+    let hs: Vec<String> = tape.hoisted.iter().map(|r| format!("p{}", r.0)).collect();
+    let _ = writeln!(s, "    [{}]\n}}", hs.join(", "));
+    s
+}
+
+impl Emitter<'_> {
+    /// The kernels built from the tapes, formatted: the parameter slots as f64, the hoisting
+    /// functions, the Taylor kernels and the lanes.
+    pub fn tape_items(&mut self, tapes: &ModelTapes) -> crate::Result<String> {
+        let ty = self.ty.to_string();
+        let np = self.model.param_slots();
+        let slots: Vec<String> = (0..np)
+            .map(|k| {
+                let e = self.leaves.input(Input::Param(k as u32)).1.to_string();
+                format!("{}.to_f64().unwrap_or(f64::NAN)", e.replace(' ', ""))
+            })
+            .collect();
+        let mut s = format!(
+            "impl<T: Float> {ty}<T> {{
+    /// The parameter slots as f64, in the order of `PARAMS` (matrices column-major).
+    pub fn slot_values(&self) -> [f64; {np}] {{
+        [{slots}]
+    }}
+    /// The adaptive Taylor integrator (Jorba & Zou; `lasalle_runtime::taylor`) of the field
+    /// and of X − ∇V over this model's emitted kernels.
+    pub fn taylor(
+        &self,
+        opts: lasalle_runtime::TaylorOptions,
+    ) -> Result<lasalle_runtime::Taylor<Self>, lasalle_runtime::TaylorError> {{
+        lasalle_runtime::Taylor::new(taylor_kernels(self), opts)
+    }}
+}}
+/// The emitted Taylor kernels of the field and of X − ∇V.
+fn taylor_kernels<T: Float>(m: &{ty}<T>) -> lasalle_runtime::TaylorKernels<{ty}<T>> {{
+    lasalle_runtime::TaylorKernels {{
+        field: Box::new({ty}TaylorField::new(m)),
+        feedback: Box::new({ty}TaylorFeedback::new(m)),
+    }}
+}}
+",
+            slots = slots.join(", ")
+        );
+        for (name, tape) in tapes.all() {
+            s.push_str(&hoist_fn(name, tape));
+        }
+        let field = TaylorProgram::new(&tapes.field).map_err(internal)?;
+        let feedback = TaylorProgram::new(&tapes.feedback).map_err(internal)?;
+        s.push_str(&self.taylor_kernel(
+            &format!("{ty}TaylorField"),
+            "field",
+            "X",
+            &tapes.field,
+            &field,
+        ));
+        s.push_str(&self.taylor_kernel(
+            &format!("{ty}TaylorFeedback"),
+            "feedback",
+            "X − ∇V",
+            &tapes.feedback,
+            &feedback,
+        ));
+        s.push_str(&super::lanes::lanes_items(&ty, tapes));
+        Ok(s)
+    }
+
+    /// The `TaylorKernel` hook of the `Declared` impl.
+    pub fn taylor_hook(&self) -> TokenStream {
+        quote::quote! {
+            fn taylor_kernels(&self, _max_order: u32) -> Result<lasalle_runtime::TaylorKernels<Self>, lasalle_runtime::TaylorError> {
+                Ok(taylor_kernels(self))
+            }
+        }
+    }
+
+    /// One Taylor kernel struct and its `TaylorKernel` impl.
+    fn taylor_kernel(
+        &self,
+        st: &str,
+        hoist: &str,
+        what: &str,
+        tape: &Tape,
+        program: &TaylorProgram,
+    ) -> String {
+        let ty = self.ty.to_string();
+        let d = tape.dims;
+        let (n, np, nh, nt, ng, rows) = (
+            d.state,
+            d.params,
+            tape.hoisted.len(),
+            d.targets,
+            d.gains,
+            program.rows,
+        );
+        let indent = |line: String| {
+            line.lines()
+                .map(|l| format!("                {l}\n"))
+                .collect::<String>()
+        };
+        let mut zeroth = String::new();
+        let mut higher = String::new();
+        for &(rec, constant) in &program.recs {
+            zeroth.push_str(&indent(zeroth_line(rec)));
+            if !constant {
+                higher.push_str(&indent(coefficient_line(rec)));
+            }
+        }
+        let outputs: String = program
+            .outputs
+            .iter()
+            .enumerate()
+            .map(|(i, o)| format!("            t[{i}][k + 1] = t[{o}][k] * inv;\n"))
+            .collect();
+        format!(
+            r#"/// The Taylor-coefficient kernel of {what} (`lasalle_runtime::TaylorKernel`): the recurrences
+/// of its tape, {rows} rows of orders 0..=`EMITTED_MAX_ORDER`, allocated once.
+pub struct {st} {{
+    params: [f64; {np}],
+    hoisted: [f64; {nh}],
+    target: [f64; {nt}],
+    gains: [f64; {ng}],
+    t: Box<[[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; {rows}]>,
+    order: usize,
+}}
+impl {st} {{
+    /// The kernel with the parameters of `m`; targets and gains 0.
+    pub fn new<T: Float>(m: &{ty}<T>) -> Self {{
+        let params = m.slot_values();
+        let t = vec![[0.0; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; {rows}]
+            .into_boxed_slice()
+            .try_into()
+            .expect("{rows} rows");
+        {st} {{
+            params,
+            hoisted: hoist_{hoist}(&params),
+            target: [0.0; {nt}],
+            gains: [0.0; {ng}],
+            t,
+            order: 0,
+        }}
+    }}
+}}
+impl<T: Float> lasalle_runtime::TaylorKernel<{ty}<T>> for {st} {{
+    fn dim(&self) -> usize {{
+        {n}
+    }}
+    fn max_order(&self) -> usize {{
+        lasalle_runtime::taylor::EMITTED_MAX_ORDER
+    }}
+    fn sync(&mut self, m: &{ty}<T>) -> Result<(), lasalle_runtime::StepError> {{
+        let params = m.slot_values();
+        if params != self.params {{
+            self.params = params;
+            self.hoisted = hoist_{hoist}(&params);
+        }}
+        Ok(())
+    }}
+    fn set_inputs(
+        &mut self,
+        target: &[f64],
+        gains: &[f64],
+    ) -> Result<(), lasalle_runtime::StepError> {{
+        if target.len() != self.target.len() || gains.len() != self.gains.len() {{
+            return Err(lasalle_runtime::StepError::InvalidInput(format!(
+                "{st} takes {nt} targets and {ng} gains, got {{}} and {{}}",
+                target.len(),
+                gains.len()
+            )));
+        }}
+        self.target.copy_from_slice(target);
+        self.gains.copy_from_slice(gains);
+        Ok(())
+    }}
+    #[allow(unused_variables, clippy::all)]
+    fn compute(&mut self, x: &[f64], order: usize) {{
+        use lasalle_runtime::taylor::{{rec, EMITTED_MAX_ORDER}};
+        let order = order.min(EMITTED_MAX_ORDER);
+        self.order = order;
+        let {st} {{ hoisted, target, gains, t, .. }} = self;
+        let t = &mut **t;
+        for (row, xi) in t.iter_mut().zip(&x[..{n}]) {{
+            row[0] = *xi;
+        }}
+        for k in 0..order {{
+            if k == 0 {{
+{zeroth}            }} else {{
+{higher}            }}
+            let inv = 1.0 / (k as f64 + 1.0);
+{outputs}        }}
+    }}
+    fn coefficients(&self, i: usize) -> &[f64] {{
+        &self.t[i][..=self.order]
+    }}
+}}
+"#
+        )
+    }
+}
+
+fn internal(e: crate::tape::TapeError) -> crate::Error {
+    crate::Error::Internal(format!("the tape of the field: {e}"))
+}
+
+/// Order 0 of a recurrence: the f64 operation of the tape.
+fn zeroth_line(r: Rec) -> String {
+    let z = |row: usize| format!("t[{row}][0]");
+    let (d, e) = match r {
+        Rec::Leaf { d, leaf } => (
+            d,
+            match leaf {
+                Leaf::Const(c) => f64_lit(c),
+                Leaf::Hoisted(k) => format!("hoisted[{k}]"),
+                Leaf::Target(k) => format!("target[{k}]"),
+                Leaf::Gain(k) => format!("gains[{k}]"),
+            },
+        ),
+        Rec::Add { d, a, b } => (d, format!("{} + {}", z(a), z(b))),
+        Rec::Sub { d, a, b } => (d, format!("{} - {}", z(a), z(b))),
+        Rec::Neg { d, a } => (d, format!("-{}", z(a))),
+        Rec::Mul { d, a, b } => (d, format!("{} * {}", z(a), z(b))),
+        Rec::Scale { d, a, c } => (d, format!("{} * {}", z(a), z(c))),
+        Rec::Square { d, a } => (d, format!("{} * {}", z(a), z(a))),
+        Rec::Div { d, a, b } | Rec::DivConst { d, a, c: b } => (d, format!("{} / {}", z(a), z(b))),
+        Rec::Pow { d, a, zero, .. } => (
+            d,
+            match zero {
+                PowZero::Cbrt => format!("{}.cbrt()", z(a)),
+                PowZero::Powf(p) => format!("{}.powf({})", z(a), f64_lit(p)),
+            },
+        ),
+        Rec::Sqrt { d, a } => (d, format!("{}.sqrt()", z(a))),
+        Rec::Exp { d, a } => (d, format!("{}.exp()", z(a))),
+        Rec::Ln { d, a } => (d, format!("{}.ln()", z(a))),
+        Rec::SinCos { s, c, a } => {
+            return format!(
+                "let (s, c) = {}.sin_cos();\nt[{s}][0] = s;\nt[{c}][0] = c;\n",
+                z(a)
+            )
+        }
+    };
+    format!("t[{d}][0] = {e};\n")
+}
+
+/// Order k ≥ 1 of a non-constant recurrence, by `lasalle_runtime::taylor::rec`.
+fn coefficient_line(r: Rec) -> String {
+    const REC: &str = "rec";
+    let (d, e) = match r {
+        Rec::Leaf { .. } => return String::new(),
+        Rec::Add { d, a, b } => (d, format!("t[{a}][k] + t[{b}][k]")),
+        Rec::Sub { d, a, b } => (d, format!("t[{a}][k] - t[{b}][k]")),
+        Rec::Neg { d, a } => (d, format!("-t[{a}][k]")),
+        Rec::Mul { d, a, b } => (d, format!("{REC}::mul(&t[{a}], &t[{b}], k)")),
+        Rec::Scale { d, a, c } => (d, format!("t[{a}][k] * t[{c}][0]")),
+        Rec::Square { d, a } => (d, format!("{REC}::square(&t[{a}], k)")),
+        Rec::Div { d, a, b } => (d, format!("{REC}::div(&t[{a}], &t[{b}], &t[{d}], k)")),
+        Rec::DivConst { d, a, c } => (d, format!("t[{a}][k] / t[{c}][0]")),
+        Rec::Pow { d, a, alpha, .. } => (
+            d,
+            format!("{REC}::pow(&t[{a}], &t[{d}], {}, k)", f64_lit(alpha)),
+        ),
+        Rec::Sqrt { d, a } => (d, format!("{REC}::sqrt(&t[{a}], &t[{d}], k)")),
+        Rec::Exp { d, a } => (d, format!("{REC}::exp(&t[{a}], &t[{d}], k)")),
+        Rec::Ln { d, a } => (d, format!("{REC}::ln(&t[{a}], &t[{d}], k)")),
+        Rec::SinCos { s, c, a } => {
+            return format!(
+                "let (s, c) = {REC}::sin_cos(&t[{a}], &t[{s}], &t[{c}], k);\nt[{s}][k] = s;\nt[{c}][k] = c;\n"
+            )
+        }
+    };
+    format!("t[{d}][k] = {e};\n")
+}

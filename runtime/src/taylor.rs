@@ -1,0 +1,658 @@
+//! The adaptive Taylor integrator (Jorba & Zou 2005; as heyoka's `taylor_adaptive`), generic
+//! over where the Taylor coefficients come from.
+//!
+//! # Split: a driver and coefficient kernels
+//!
+//! A Taylor step has two parts:
+//! - the **coefficients** x^\[0..=p\] of the solution through the current state, by the
+//!   automatic-differentiation recurrences of the field's operations ([`TaylorKernel`]);
+//! - the **driver** ([`Taylor`]): the order from the tolerance, Jorba & Zou's step from the
+//!   last two coefficients, the new state by Horner's scheme, the dense output from the same
+//!   polynomial, the choice between the field X and the feedback field X − ∇V, and the
+//!   [`Stepper`] and [`DenseOutput`] implementations.
+//!
+//! The driver is written once, here; a kernel exists per kind of model:
+//! - `lasalle_exec::TaylorTape` interprets the recurrences over a model's tape (models loaded
+//!   at run time);
+//! - the emitted Rust of a compiled model has one kernel type per field (`<Model>TaylorField`,
+//!   `<Model>TaylorFeedback`): the same recurrences as straight-line code per tape
+//!   instruction inside a loop over the order, on a fixed table allocated once.
+//!
+//! Both run the same lowering of the tape into recurrences (`lasalle_codegen::tape::taylor`)
+//! and the same recurrence functions ([`rec`]), in the same order, so they agree bitwise.
+//! The kernel behind a driver is a `Box<dyn TaylorKernel<M>>`: one virtual call per step
+//! (the step itself costs about p²/2 field evaluations), and one driver type per model type.
+//!
+//! # Taylor coefficients by automatic differentiation
+//!
+//! For ẋ = X(x), the normalised Taylor coefficients x^\[k\] = x⁽ᵏ⁾(t₀)/k! of the solution through
+//! x(t₀) = x₀ follow from x^\[0\] = x₀ and
+//!
+//! ```text
+//! x^[k+1] = X(x)^[k] / (k + 1),
+//! ```
+//!
+//! where X(x)^\[k\] is the k-th coefficient of the composite function t ↦ X(x(t)), computed
+//! instruction by instruction along the field's tape from the coefficients 0..=k of the
+//! instruction's operands (Moore 1966; Griewank & Walther, *Evaluating Derivatives*, 2nd ed.,
+//! ch. 13; Jorba & Zou 2005). With a, b the operands and u the result of an instruction (all
+//! normalised coefficients, k ≥ 1; the order-0 value is the instruction's own f64 operation,
+//! so order 0 is the tape's value):
+//!
+//! | op | recurrence |
+//! | --- | --- |
+//! | u = a ± b | u^\[k\] = a^\[k\] ± b^\[k\] |
+//! | u = a·b | u^\[k\] = Σ_{j=0}^{k} a^\[j\] b^\[k−j\] (Cauchy product; a·c for a constant c is a scaling) |
+//! | u = a/b | u^\[k\] = (a^\[k\] − Σ_{j=1}^{k} b^\[j\] u^\[k−j\]) / b^\[0\] |
+//! | u = aⁿ, n ∈ ℕ | binary exponentiation by Cauchy products (squares and products, as `f64::powi`), so a^\[0\] = 0 is fine |
+//! | u = a⁻ⁿ | the chain for aⁿ, then 1/aⁿ by the division recurrence |
+//! | u = a^α (Powf, ∛) | u^\[k\] = 1/(k a^\[0\]) Σ_{j=0}^{k−1} (α(k−j) − j) a^\[k−j\] u^\[j\] (from a u' = α a' u) |
+//! | u = √a | u^\[k\] = (a^\[k\] − Σ_{j=1}^{k−1} u^\[j\] u^\[k−j\]) / (2 u^\[0\]) (from u² = a) |
+//! | u = eᵃ | u^\[k\] = (1/k) Σ_{j=1}^{k} j a^\[j\] u^\[k−j\] (from u' = a' u) |
+//! | u = ln a | u^\[k\] = (a^\[k\] − (1/k) Σ_{j=1}^{k−1} j u^\[j\] a^\[k−j\]) / a^\[0\] (from a u' = a') |
+//! | s = sin a, c = cos a | s^\[k\] = (1/k) Σ_{j=1}^{k} j a^\[j\] c^\[k−j\], c^\[k\] = −(1/k) Σ_{j=1}^{k} j a^\[j\] s^\[k−j\] |
+//!
+//! Leaves other than the state (constants, hoisted parameter values, targets, gains) and every
+//! instruction whose operands are all such leaves are constant along the solution: only their
+//! order-0 value is computed, their higher coefficients stay 0. Sine and cosine are always
+//! computed together. A step to order p costs Σ_{k<p} O(k) per nonlinear instruction, i.e.
+//! about p²/2 times a field evaluation.
+//!
+//! # Order and step size (Jorba & Zou 2005)
+//!
+//! Following Jorba & Zou, *A software package for the numerical integration of ODEs by means of
+//! high-order Taylor methods*, Experimental Mathematics 14(1) (2005) 99–117 (their step size
+//! and order control), with equal absolute and relative tolerances ε (as heyoka's
+//! `taylor_adaptive` does):
+//! - the order is p = ⌈−½ ln ε + 1⌉ (fixed for a given ε; 19 for ε = 10⁻¹⁵, 20 for the double
+//!   precision ε ≈ 2.2·10⁻¹⁶), see [`order_for_tolerance`];
+//! - with m = ‖x₀‖∞, the tolerance is absolute when m ≤ 1 and relative otherwise
+//!   (ε_r m > ε_a ⇔ m > 1): the radius estimates are
+//!   ρ_j = (c / ‖x^\[j\]‖∞)^{1/j}, c = 1 (absolute) or m (relative), for j = p − 1 and j = p,
+//!   ρ = min(ρ_{p−1}, ρ_p);
+//! - the step is h = ρ / e² · exp(−0.7/(p − 1)) (the `exp(−0.7/(p−1))` safety factor of
+//!   Jorba & Zou, also used by heyoka).
+//!
+//! The last two terms of the series are then about ε c in size (for ρ the radius of
+//! convergence of an analytic solution, ‖x^\[j\]‖ h^j ≈ (h/ρ)^j ≤ e^{−2j}): this is a heuristic
+//! error control, not a bound. Steps are never rejected. The new state is the Taylor
+//! polynomial evaluated at h by Horner's scheme, and the same polynomial is the dense output on
+//! [t, t + h] ([`DenseOutput`]).
+
+use crate::error::StepError;
+use crate::feedback::FeedbackField;
+use crate::state::State;
+use crate::steppers::{DenseOutput, StepOutcome, Stepper};
+
+/// The largest order of the emitted kernels of compiled models (their coefficient table has
+/// this many + 1 columns). Jorba & Zou's order is 20 at the f64 precision, so this bounds the
+/// tolerance only far below what f64 can reach.
+pub const EMITTED_MAX_ORDER: usize = 32;
+
+/// Invalid options of a Taylor integrator, or a kernel that cannot serve them.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("invalid Taylor option: {0}")]
+pub struct TaylorError(pub String);
+
+/// The Taylor coefficients of the solution of one field, for [`Taylor`].
+///
+/// `compute` fills, for a state x, the normalised coefficients x^\[0..=order\] of the solution
+/// through x (x^\[0\] = x); `coefficients(i)` reads component i's. A kernel allocates nothing
+/// after construction. `M` is the model the kernel belongs to: [`TaylorKernel::sync`] reads
+/// its parameters.
+pub trait TaylorKernel<M: ?Sized>: Send {
+    /// The state dimension N.
+    fn dim(&self) -> usize;
+
+    /// The largest order [`TaylorKernel::compute`] accepts.
+    fn max_order(&self) -> usize;
+
+    /// Brings the parameter-dependent values (the tape's prelude) up to date with `model`'s
+    /// parameters; cheap when they did not change. Called before every step.
+    fn sync(&mut self, model: &M) -> Result<(), StepError>;
+
+    /// Sets the targets f(x₀) and the gains of a feedback field X − ∇V (a plain field reads
+    /// none and accepts empty slices). No allocation.
+    fn set_inputs(&mut self, target: &[f64], gains: &[f64]) -> Result<(), StepError>;
+
+    /// Computes x^\[0..=order\] of the solution through `x` (`x.len() == dim()`,
+    /// `order ≤ max_order()`).
+    fn compute(&mut self, x: &[f64], order: usize);
+
+    /// Component i's coefficients x_i^\[0..=order\] from the last [`TaylorKernel::compute`].
+    fn coefficients(&self, i: usize) -> &[f64];
+}
+
+/// Jorba & Zou's order for a tolerance ε: p = ⌈−½ ln ε + 1⌉ (at least 2).
+///
+/// 19 for ε = 10⁻¹⁵, 20 for `f64::EPSILON`, 11 for 10⁻⁸.
+pub fn order_for_tolerance(tol: f64) -> u32 {
+    let p = (-0.5 * tol.ln() + 1.0).ceil();
+    if p.is_finite() {
+        p.clamp(2.0, 1000.0) as u32
+    } else {
+        2
+    }
+}
+
+/// Jorba & Zou's step size (see the [module docs](self)) from the state norm m = ‖x^\[0\]‖∞ and
+/// the norms of the last two coefficients, ‖x^\[p−1\]‖∞ and ‖x^\[p\]‖∞. `+∞` if both norms are 0
+/// (a polynomial solution of degree < p − 1: any step is exact).
+pub fn jorba_zou_step(order: u32, state_norm: f64, norm_pm1: f64, norm_p: f64) -> f64 {
+    let p = f64::from(order.max(2));
+    let c = if state_norm > 1.0 { state_norm } else { 1.0 };
+    let rho_pm1 = (c / norm_pm1).powf(1.0 / (p - 1.0));
+    let rho_p = (c / norm_p).powf(1.0 / p);
+    let rho = rho_pm1.min(rho_p);
+    rho * (-0.7 / (p - 1.0)).exp() / (std::f64::consts::E * std::f64::consts::E)
+}
+
+/// The recurrences of the table in the [module docs](self), one function per operation: the
+/// coefficient of order k ≥ 1 of the result, from rows of normalised coefficients (`a`, `b`
+/// the operands, `u` the result's row with orders 0..k already filled).
+///
+/// Every kernel calls these, so that interpreted and emitted kernels round alike.
+pub mod rec {
+    /// Σ_{j=lo}^{hi} a^\[j\] b^\[k−j\].
+    #[inline(always)]
+    pub fn cauchy(a: &[f64], b: &[f64], k: usize, lo: usize, hi: usize) -> f64 {
+        if lo > hi {
+            return 0.0;
+        }
+        let ra = &a[lo..=hi];
+        let rb = &b[k - hi..=k - lo];
+        ra.iter().zip(rb.iter().rev()).map(|(x, y)| x * y).sum()
+    }
+
+    /// Σ_{j=1}^{k} j a^\[j\] b^\[k−j\] (the weighted product of the exp and sin/cos recurrences).
+    #[inline(always)]
+    fn weighted(a: &[f64], b: &[f64], k: usize) -> f64 {
+        let ra = &a[1..=k];
+        let rb = &b[..k];
+        ra.iter()
+            .zip(rb.iter().rev())
+            .enumerate()
+            .map(|(j, (x, y))| (j + 1) as f64 * x * y)
+            .sum()
+    }
+
+    /// (a·b)^\[k\]: the Cauchy product.
+    #[inline(always)]
+    pub fn mul(a: &[f64], b: &[f64], k: usize) -> f64 {
+        cauchy(a, b, k, 0, k)
+    }
+
+    /// (a²)^\[k\] = 2 Σ_{j<k/2} a^\[j\] a^\[k−j\] (+ a^\[k/2\]² for even k).
+    #[inline(always)]
+    pub fn square(a: &[f64], k: usize) -> f64 {
+        let half = (k - 1) / 2; // the largest j < k/2
+        let mut s = 2.0 * cauchy(a, a, k, 0, half);
+        if k % 2 == 0 {
+            s += a[k / 2] * a[k / 2];
+        }
+        s
+    }
+
+    /// (a/b)^\[k\] = (a^\[k\] − Σ_{j=1}^{k} b^\[j\] u^\[k−j\]) / b^\[0\].
+    #[inline(always)]
+    pub fn div(a: &[f64], b: &[f64], u: &[f64], k: usize) -> f64 {
+        (a[k] - cauchy(b, u, k, 1, k)) / b[0]
+    }
+
+    /// (a^α)^\[k\] = 1/(k a^\[0\]) Σ_{j=0}^{k−1} (α(k−j) − j) a^\[k−j\] u^\[j\].
+    #[inline(always)]
+    pub fn pow(a: &[f64], u: &[f64], alpha: f64, k: usize) -> f64 {
+        let kf = k as f64;
+        let ra = &a[1..=k];
+        let ru = &u[..k];
+        let s: f64 = ru
+            .iter()
+            .zip(ra.iter().rev())
+            .enumerate()
+            .map(|(j, (u, x))| (alpha * (kf - j as f64) - j as f64) * x * u)
+            .sum();
+        s / (kf * a[0])
+    }
+
+    /// (√a)^\[k\] = (a^\[k\] − Σ_{j=1}^{k−1} u^\[j\] u^\[k−j\]) / (2 u^\[0\]), the sum folded in half.
+    #[inline(always)]
+    pub fn sqrt(a: &[f64], u: &[f64], k: usize) -> f64 {
+        let mut s = 0.0;
+        if k >= 2 {
+            let half = (k - 1) / 2; // the largest j < k/2
+            s = 2.0 * cauchy(u, u, k, 1, half);
+            if k % 2 == 0 {
+                s += u[k / 2] * u[k / 2];
+            }
+        }
+        (a[k] - s) / (2.0 * u[0])
+    }
+
+    /// (eᵃ)^\[k\] = (1/k) Σ_{j=1}^{k} j a^\[j\] u^\[k−j\].
+    #[inline(always)]
+    pub fn exp(a: &[f64], u: &[f64], k: usize) -> f64 {
+        weighted(a, u, k) / k as f64
+    }
+
+    /// (ln a)^\[k\] = (a^\[k\] − (1/k) Σ_{j=1}^{k−1} j u^\[j\] a^\[k−j\]) / a^\[0\].
+    #[inline(always)]
+    pub fn ln(a: &[f64], u: &[f64], k: usize) -> f64 {
+        let s = if k >= 2 {
+            let ru = &u[1..k];
+            let ra = &a[1..k];
+            ru.iter()
+                .zip(ra.iter().rev())
+                .enumerate()
+                .map(|(j, (u, x))| (j + 1) as f64 * u * x)
+                .sum()
+        } else {
+            0.0
+        };
+        (a[k] - s / k as f64) / a[0]
+    }
+
+    /// ((sin a)^\[k\], (cos a)^\[k\]) from the rows `s`, `c` of sin a and cos a.
+    #[inline(always)]
+    pub fn sin_cos(a: &[f64], s: &[f64], c: &[f64], k: usize) -> (f64, f64) {
+        let kf = k as f64;
+        (weighted(a, c, k) / kf, -weighted(a, s, k) / kf)
+    }
+}
+
+/// Options of [`Taylor`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TaylorOptions {
+    /// The tolerance ε, absolute for ‖x‖∞ ≤ 1 and relative above (default `1e-15`).
+    pub tol: f64,
+    /// The order p; `None` (default) for Jorba & Zou's ⌈−½ ln ε + 1⌉.
+    pub order: Option<u32>,
+    /// The largest step (default `+∞`).
+    pub h_max: f64,
+}
+
+impl Default for TaylorOptions {
+    fn default() -> Self {
+        TaylorOptions {
+            tol: 1e-15,
+            order: None,
+            h_max: f64::INFINITY,
+        }
+    }
+}
+
+impl TaylorOptions {
+    /// The defaults with tolerance `tol`.
+    pub fn with_tol(tol: f64) -> Self {
+        TaylorOptions {
+            tol,
+            ..Default::default()
+        }
+    }
+
+    /// The order these options ask for, after checking them.
+    pub fn checked_order(&self) -> Result<u32, TaylorError> {
+        if !(self.tol > 0.0 && self.tol < 1.0) {
+            return Err(TaylorError(format!(
+                "the tolerance must lie in (0, 1), got {}",
+                self.tol
+            )));
+        }
+        if self.h_max.is_nan() || self.h_max <= 0.0 {
+            return Err(TaylorError(format!(
+                "h_max must be positive, got {}",
+                self.h_max
+            )));
+        }
+        let order = self.order.unwrap_or_else(|| order_for_tolerance(self.tol));
+        if !(2..=1000).contains(&order) {
+            return Err(TaylorError(format!(
+                "the order must lie in 2..=1000, got {order}"
+            )));
+        }
+        Ok(order)
+    }
+}
+
+/// Which field [`Taylor`] integrates as a `Stepper<f64, X, M>` (with the model itself as the
+/// field argument).
+#[derive(Clone, Debug, PartialEq)]
+pub enum TaylorField {
+    /// The model's field X.
+    Plain,
+    /// The feedback field X − ∇V with the target f(x₀) (M values) and the gains.
+    Feedback {
+        /// f(x₀).
+        target: Vec<f64>,
+        /// The gains, one per declared gain.
+        gains: Vec<f64>,
+    },
+}
+
+/// Which kernel holds the last step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Which {
+    Field,
+    Feedback,
+}
+
+/// A model's two Taylor kernels: its field X and its feedback field X − ∇V.
+pub struct TaylorKernels<M: ?Sized> {
+    /// The kernel of X.
+    pub field: Box<dyn TaylorKernel<M>>,
+    /// The kernel of X − ∇V (reads targets and gains).
+    pub feedback: Box<dyn TaylorKernel<M>>,
+}
+
+/// Adaptive Taylor integrator (Jorba & Zou 2005; heyoka) of a model's field X and feedback
+/// field X − ∇V, over the model's [`TaylorKernel`]s; see the [module docs](self).
+///
+/// - `Stepper<f64, X, M>`: integrates X, or X − ∇V with the stepper's own target and gains
+///   ([`Taylor::set_field`]); never allocates in a step.
+/// - `Stepper<f64, X, FeedbackField<M, FV, G>>`: integrates X − ∇V with the feedback field's
+///   target and current gains (read every step; [`FeedbackField::gains`] hands out a copy,
+///   an allocation per step for `Vec` gains, none for arrays).
+///
+/// The model passed to `step` must be the one the kernels were made for; a change of its
+/// parameters is picked up at the next step ([`TaylorKernel::sync`]).
+pub struct Taylor<M: ?Sized> {
+    opts: TaylorOptions,
+    order: u32,
+    field: Box<dyn TaylorKernel<M>>,
+    feedback: Box<dyn TaylorKernel<M>>,
+    mode: TaylorField,
+    /// The last accepted step (t, h) and the kernel holding its expansion.
+    last: Option<(f64, f64, Which)>,
+}
+
+impl<M: ?Sized> std::fmt::Debug for Taylor<M> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Taylor")
+            .field("opts", &self.opts)
+            .field("order", &self.order)
+            .field("mode", &self.mode)
+            .field("last", &self.last)
+            .finish_non_exhaustive()
+    }
+}
+
+impl<M: ?Sized> Taylor<M> {
+    /// The integrator over `kernels` (mode [`TaylorField::Plain`]); fails on invalid options,
+    /// an order above the kernels' largest, or kernels of different dimensions.
+    pub fn new(kernels: TaylorKernels<M>, opts: TaylorOptions) -> Result<Taylor<M>, TaylorError> {
+        let order = opts.checked_order()?;
+        let TaylorKernels { field, feedback } = kernels;
+        let max = field.max_order().min(feedback.max_order());
+        if order as usize > max {
+            return Err(TaylorError(format!(
+                "order {order} exceeds the kernels' largest order {max}"
+            )));
+        }
+        if field.dim() != feedback.dim() {
+            return Err(TaylorError(
+                "the field and feedback kernels have different state dimensions".into(),
+            ));
+        }
+        Ok(Taylor {
+            opts,
+            order,
+            field,
+            feedback,
+            mode: TaylorField::Plain,
+            last: None,
+        })
+    }
+
+    /// Chooses the field of the `Stepper<f64, X, M>` implementation.
+    pub fn set_field(&mut self, mode: TaylorField) -> Result<(), StepError> {
+        if let TaylorField::Feedback { target, gains } = &mode {
+            self.feedback.set_inputs(target, gains)?;
+        }
+        self.mode = mode;
+        self.last = None;
+        Ok(())
+    }
+
+    /// [`Taylor::set_field`] returning `self`.
+    pub fn with_field(mut self, mode: TaylorField) -> Result<Taylor<M>, StepError> {
+        self.set_field(mode)?;
+        Ok(self)
+    }
+
+    /// The field integrated as a `Stepper<f64, X, M>`.
+    pub fn field(&self) -> &TaylorField {
+        &self.mode
+    }
+
+    /// The options.
+    pub fn options(&self) -> TaylorOptions {
+        self.opts
+    }
+
+    /// The kernel of the field X.
+    pub fn field_kernel(&mut self) -> &mut dyn TaylorKernel<M> {
+        &mut *self.field
+    }
+
+    /// The kernel of the feedback field X − ∇V.
+    pub fn feedback_kernel(&mut self) -> &mut dyn TaylorKernel<M> {
+        &mut *self.feedback
+    }
+
+    /// The coefficients x^\[0..=p\] of component `i` of the last accepted step's expansion
+    /// (about its initial point), if there was one.
+    pub fn last_coefficients(&self, i: usize) -> Option<&[f64]> {
+        let (_, _, which) = self.last?;
+        Some(self.kernel(which).coefficients(i))
+    }
+
+    fn kernel(&self, which: Which) -> &dyn TaylorKernel<M> {
+        match which {
+            Which::Field => &*self.field,
+            Which::Feedback => &*self.feedback,
+        }
+    }
+
+    fn which(&self) -> Which {
+        match self.mode {
+            TaylorField::Plain => Which::Field,
+            TaylorField::Feedback { .. } => Which::Feedback,
+        }
+    }
+
+    /// Coefficients at `x` in kernel `which`, and Jorba–Zou's step.
+    fn expand(&mut self, which: Which, x: &[f64]) -> f64 {
+        let p = self.order as usize;
+        let kernel = match which {
+            Which::Field => &mut *self.field,
+            Which::Feedback => &mut *self.feedback,
+        };
+        kernel.compute(x, p);
+        let norm = |k: usize| {
+            (0..kernel.dim())
+                .map(|i| kernel.coefficients(i)[k].abs())
+                .fold(0.0, f64::max)
+        };
+        jorba_zou_step(self.order, norm(0), norm(p - 1), norm(p))
+    }
+
+    /// Horner's scheme for the polynomial of the last expansion in `which` at `s`.
+    fn evaluate(&self, which: Which, s: f64, out: &mut [f64]) {
+        let kernel = self.kernel(which);
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = kernel
+                .coefficients(i)
+                .iter()
+                .rev()
+                .fold(0.0, |acc, &ck| acc * s + ck);
+        }
+    }
+
+    fn check_dim(&self, x: &[f64]) -> Result<(), StepError> {
+        let n = self.field.dim();
+        if x.len() != n {
+            return Err(StepError::InvalidInput(format!(
+                "the state has {} components, the model {n}",
+                x.len()
+            )));
+        }
+        Ok(())
+    }
+
+    /// One step of at most `h` in kernel `which`.
+    fn advance(
+        &mut self,
+        which: Which,
+        t: f64,
+        x: &mut [f64],
+        h: f64,
+    ) -> Result<StepOutcome<f64>, StepError> {
+        self.check_dim(x)?;
+        if h.is_nan() || h <= 0.0 {
+            return Err(StepError::InvalidInput(format!(
+                "step size must be positive, got {h}"
+            )));
+        }
+        let h_jz = self.expand(which, x);
+        if h_jz.is_nan() {
+            return Err(StepError::NonFinite {
+                what: "field",
+                t,
+                h,
+                state: x.to_vec(),
+            });
+        }
+        let h_own = h_jz.min(self.opts.h_max);
+        let h_taken = h.min(h_own);
+        // Horner into x; the coefficients stay in the kernel for the dense output
+        self.evaluate(which, h_taken, x);
+        self.last = Some((t, h_taken, which));
+        let h_next = if h_own.is_finite() { h_own } else { h };
+        Ok(StepOutcome {
+            h_taken,
+            h_next,
+            rejections: 0,
+            evaluations: self.order,
+        })
+    }
+
+    fn initial(&mut self, which: Which, t0: f64, x0: &[f64], t_end: f64) -> Option<f64> {
+        self.check_dim(x0).ok()?;
+        let h = self.expand(which, x0).min(self.opts.h_max);
+        let span = t_end - t0;
+        let h = if span > 0.0 { h.min(span) } else { h };
+        (h > 0.0 && h.is_finite()).then_some(h)
+    }
+
+    /// Syncs both kernels with the model's parameters.
+    fn sync(&mut self, model: &M) -> Result<(), StepError> {
+        self.field.sync(model)?;
+        self.feedback.sync(model)
+    }
+}
+
+impl<M: ?Sized, X: State<f64>> Stepper<f64, X, M> for Taylor<M> {
+    /// A Taylor step of the field chosen by [`Taylor::set_field`]: the Jorba–Zou step, or `h`
+    /// if smaller. Never rejects; `evaluations` reports the order p (each order is one sweep
+    /// of the recurrences).
+    fn step(
+        &mut self,
+        model: &M,
+        t: f64,
+        x: &mut X,
+        h: f64,
+    ) -> Result<StepOutcome<f64>, StepError> {
+        self.sync(model)?;
+        let which = self.which();
+        self.advance(which, t, x.as_mut(), h)
+    }
+
+    fn order(&self) -> u32 {
+        self.order
+    }
+
+    fn name(&self) -> String {
+        format!("taylor({})", self.order)
+    }
+
+    fn is_adaptive(&self) -> bool {
+        true
+    }
+
+    fn initial_step(&mut self, model: &M, t0: f64, x0: &X, t_end: f64) -> Option<f64> {
+        self.sync(model).ok()?;
+        let which = self.which();
+        self.initial(which, t0, x0.as_ref(), t_end)
+    }
+
+    fn reset(&mut self) {
+        self.last = None;
+    }
+}
+
+impl<M: ?Sized, X: State<f64>, FV: State<f64>, G: State<f64>>
+    Stepper<f64, X, FeedbackField<'_, M, FV, G>> for Taylor<M>
+{
+    /// A Taylor step of X − ∇V with the feedback field's target and current gains.
+    fn step(
+        &mut self,
+        fb: &FeedbackField<'_, M, FV, G>,
+        t: f64,
+        x: &mut X,
+        h: f64,
+    ) -> Result<StepOutcome<f64>, StepError> {
+        self.sync(fb.model())?;
+        self.feedback
+            .set_inputs(fb.target().as_ref(), fb.gains().as_ref())?;
+        self.advance(Which::Feedback, t, x.as_mut(), h)
+    }
+
+    fn order(&self) -> u32 {
+        self.order
+    }
+
+    fn name(&self) -> String {
+        format!("taylor({})", self.order)
+    }
+
+    fn is_adaptive(&self) -> bool {
+        true
+    }
+
+    fn initial_step(
+        &mut self,
+        fb: &FeedbackField<'_, M, FV, G>,
+        t0: f64,
+        x0: &X,
+        t_end: f64,
+    ) -> Option<f64> {
+        self.sync(fb.model()).ok()?;
+        self.feedback
+            .set_inputs(fb.target().as_ref(), fb.gains().as_ref())
+            .ok()?;
+        self.initial(Which::Feedback, t0, x0.as_ref(), t_end)
+    }
+
+    fn reset(&mut self) {
+        self.last = None;
+    }
+}
+
+impl<M: ?Sized, X: State<f64>> DenseOutput<f64, X> for Taylor<M> {
+    fn dense_interval(&self) -> Option<(f64, f64)> {
+        self.last.map(|(t, h, _)| (t, t + h))
+    }
+
+    /// The Taylor polynomial of the last step at t − t_old, by Horner's scheme.
+    fn interpolate(&self, t: f64, out: &mut X) -> bool {
+        let Some((t0, h, which)) = self.last else {
+            return false;
+        };
+        let s = t - t0;
+        let slack = 1e-9 * h.abs().max(f64::MIN_POSITIVE);
+        if !(s >= -slack && s <= h + slack) || out.len() != self.field.dim() {
+            return false;
+        }
+        self.evaluate(which, s, out.as_mut());
+        true
+    }
+}
