@@ -697,7 +697,7 @@ fn run_rejects_bad_arguments() {
         ),
         (
             &["run", "pendulum"],
-            "no model `pendulum`: give a path to a model file (`my_model.lsl`) or one of the built-in models: coupled_oscillators, cr3bp, cr3bp_spatial, kepler,",
+            "no model `pendulum`: give a path to a model file (`my_model.lsl`) or one of the built-in models: coupled_oscillators, cr3bp, cr3bp_spatial,",
         ),
         (
             &["run", "kepler", "-m", "leapfrog"],
