@@ -27,8 +27,9 @@ pub mod ir;
 pub mod model;
 pub mod parse;
 pub mod tape;
+pub mod vocabulary;
 
-pub use error::{Diagnostic, Error, Result, Source, Span};
+pub use error::{Diagnostic, DiagnosticKind, Error, Result, Source, Span};
 pub use model::Model;
 
 use std::path::{Path, PathBuf};

@@ -45,7 +45,7 @@
 //! loop over the lanes, which the compiler vectorises.
 
 use crate::{Common, Dims, ExecError, Kernel, Op, Reg, Tape, TapeError};
-use lasalle_codegen::ir::{Rational, Scalar};
+use lasalle_codegen::ir::{Func, Func2, Rational, Scalar};
 use std::cell::Cell;
 use std::mem::MaybeUninit;
 
@@ -85,11 +85,29 @@ enum Code {
     Ln,
     Sin,
     Cos,
+    /// K(a)
+    EllipK,
+    /// sn(a | b), cn(a | b), dn(a | b), F(a | b)
+    Sn,
+    Cn,
+    Dn,
+    EllipF,
     /// `b` indexes [`Interpreter::rationals`], not a slot.
     Powf,
     /// `a·b + c`: a product whose one use is this sum (`Add(Mul(a, b), c)` or
     /// `Add(c, Mul(a, b))`, the same IEEE sum), two roundings as in the tape, never fused.
     MulAdd,
+}
+
+impl Code {
+    fn of(f: Func2) -> Code {
+        match f {
+            Func2::Sn => Code::Sn,
+            Func2::Cn => Code::Cn,
+            Func2::Dn => Code::Dn,
+            Func2::EllipF => Code::EllipF,
+        }
+    }
 }
 
 /// A decoded instruction: `slot[first + i] = code(slot[a], slot[b])` (`b` unused by unary
@@ -341,6 +359,8 @@ impl Interpreter {
                         Op::Ln(a) => (Code::Ln, s(a), s(a)),
                         Op::Sin(a) => (Code::Sin, s(a), s(a)),
                         Op::Cos(a) => (Code::Cos, s(a), s(a)),
+                        Op::EllipK(a) => (Code::EllipK, s(a), s(a)),
+                        Op::Func2(f, a, b) => (Code::of(f), s(a), s(b)),
                         Op::Powf(a, p) => {
                             dec.rationals.push(p);
                             (Code::Powf, s(a), Slot::Fixed(dec.rationals.len() - 1))
@@ -519,6 +539,11 @@ impl Interpreter {
             Code::Ln => x.ln(),
             Code::Sin => x.sin(),
             Code::Cos => x.cos(),
+            Code::EllipK => Func::EllipK.apply(x),
+            Code::Sn => Func2::Sn.apply(x, y),
+            Code::Cn => Func2::Cn.apply(x, y),
+            Code::Dn => Func2::Dn.apply(x, y),
+            Code::EllipF => Func2::EllipF.apply(x, y),
             Code::Powf => powf(x, self.rationals[s.b as usize]),
             Code::Add | Code::Sub | Code::Mul | Code::Neg | Code::MulAdd => {
                 unreachable!("decoded: these take the straight path")
@@ -572,6 +597,11 @@ impl Interpreter {
                 Code::Ln => map1(dst, a, f64::ln),
                 Code::Sin => map1(dst, a, f64::sin),
                 Code::Cos => map1(dst, a, f64::cos),
+                Code::EllipK => map1(dst, a, |x| Func::EllipK.apply(x)),
+                Code::Sn => map2(dst, a, lane(ins.b), |x, m| Func2::Sn.apply(x, m)),
+                Code::Cn => map2(dst, a, lane(ins.b), |x, m| Func2::Cn.apply(x, m)),
+                Code::Dn => map2(dst, a, lane(ins.b), |x, m| Func2::Dn.apply(x, m)),
+                Code::EllipF => map2(dst, a, lane(ins.b), |x, m| Func2::EllipF.apply(x, m)),
                 Code::Powf => {
                     let p = self.rationals[ins.b as usize];
                     map1(dst, a, |x| powf(x, p))

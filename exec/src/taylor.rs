@@ -30,12 +30,16 @@
 //! | u = eᵃ | u^\[k\] = (1/k) Σ_{j=1}^{k} j a^\[j\] u^\[k−j\] (from u' = a' u) |
 //! | u = ln a | u^\[k\] = (a^\[k\] − (1/k) Σ_{j=1}^{k−1} j u^\[j\] a^\[k−j\]) / a^\[0\] (from a u' = a') |
 //! | s = sin a, c = cos a | s^\[k\] = (1/k) Σ_{j=1}^{k} j a^\[j\] c^\[k−j\], c^\[k\] = −(1/k) Σ_{j=1}^{k} j a^\[j\] s^\[k−j\] |
+//! | s, c, d = sn, cn, dn (a \| m), m constant | s^\[k\] = (1/k) Σ_{j=1}^{k} j a^\[j\] (cd)^\[k−j\], c^\[k\] = −(1/k) Σ j a^\[j\] (sd)^\[k−j\], d^\[k\] = −(m/k) Σ j a^\[j\] (sc)^\[k−j\], the products cd, sd, sc by Cauchy products (from s' = c d a', c' = −s d a', d' = −m s c a') |
 //!
 //! Leaves other than the state (constants, hoisted parameter values, targets, gains) and every
 //! instruction whose operands are all such leaves are constant along the solution: only their
 //! order-0 value is computed, their higher coefficients stay 0. Sine and cosine are always
 //! computed together (a tape with only `Sin(a)` gets an internal cosine row); a tape with both
-//! `Sin(a)` and `Cos(a)` computes the pair once.
+//! `Sin(a)` and `Cos(a)` computes the pair once. Likewise sn, cn, dn of one (a | m) are one
+//! triple, with one `ellipj` call at order 0 (their parameter m must be constant along the
+//! solution, as the model language guarantees); K(m) and F(φ | m) must be constant along the
+//! solution ([`TaylorError::Unsupported`] otherwise).
 //!
 //! The coefficients live in one table of `rows × (p_max + 1)` f64 (one row per state component,
 //! per tape register that is not a state leaf, and per internal row: the cosine partner, the
@@ -86,6 +90,7 @@
 //! and gains held by the stepper ([`TaylorField::Feedback`]).
 
 use lasalle_codegen::derive;
+use lasalle_codegen::ir::{Func, Func2};
 use lasalle_codegen::tape::{ModelTapes, Op, Reg, Tape, TapeError};
 use lasalle_runtime::{DenseOutput, FeedbackField, StepError, StepOutcome, Stepper};
 
@@ -108,6 +113,10 @@ pub enum TaylorError {
         /// State dimension of the tape.
         state: usize,
     },
+    /// A function the Taylor recurrences do not cover (an elliptic function whose parameter,
+    /// or K's or F's argument, varies along the solution; the model language never writes one).
+    #[error("the Taylor integrator does not support {0}")]
+    Unsupported(String),
     /// An invalid option (tolerance, order or largest step).
     #[error("invalid Taylor option: {0}")]
     Option(String),
@@ -212,6 +221,21 @@ enum Inst {
         c: usize,
         a: usize,
     },
+    /// sn, cn, dn of (a | m) with m constant along the solution, and the products cn·dn,
+    /// sn·dn, sn·cn their recurrences read: the six rows `s + i·stride`, i = 0..6, in this
+    /// order.
+    Jacobi {
+        s: usize,
+        stride: usize,
+        a: usize,
+        m: usize,
+    },
+    /// K(a) or F(a | m) of operands constant along the solution (order 0 only).
+    Elliptic {
+        d: usize,
+        a: usize,
+        m: Option<usize>,
+    },
 }
 
 /// Sources of the order-0 value of a leaf.
@@ -285,6 +309,8 @@ impl TaylorTape {
         // the registers computing sin and cos of each operand, to pair them
         let mut sin_of = std::collections::HashMap::new();
         let mut cos_of = std::collections::HashMap::new();
+        // …and sn, cn, dn of each (u, m)
+        let mut jacobi_of = std::collections::HashMap::<(Reg, Reg), [Option<usize>; 3]>::new();
         for (i, op) in tape.body.iter().enumerate() {
             match *op {
                 Op::Sin(a) => {
@@ -292,6 +318,9 @@ impl TaylorTape {
                 }
                 Op::Cos(a) => {
                     cos_of.entry(a).or_insert(i);
+                }
+                Op::Func2(f @ (Func2::Sn | Func2::Cn | Func2::Dn), u, m) => {
+                    jacobi_of.entry((u, m)).or_default()[f as usize].get_or_insert(i);
                 }
                 _ => {}
             }
@@ -395,6 +424,47 @@ impl TaylorTape {
                     constant[i] = all_const;
                     continue;
                 }
+                Op::Func2(Func2::Sn | Func2::Cn | Func2::Dn, x, m) => {
+                    if !is_const(m) {
+                        return Err(TaylorError::Unsupported(
+                            "sn, cn, dn with a parameter m that varies along the solution".into(),
+                        ));
+                    }
+                    let s = b.row();
+                    for _ in 1..6 {
+                        b.row();
+                    }
+                    let inst = Inst::Jacobi {
+                        s,
+                        stride,
+                        a: row(x),
+                        m: row(m),
+                    };
+                    b.push(inst, all_const);
+                    for (k, j) in jacobi_of[&(x, m)].iter().enumerate() {
+                        if let Some(&j) = j.as_ref() {
+                            row_of[j] = s + k * stride;
+                        }
+                    }
+                    constant[i] = all_const;
+                    continue;
+                }
+                Op::EllipK(_) | Op::Func2(Func2::EllipF, ..) if !all_const => {
+                    return Err(TaylorError::Unsupported(format!(
+                        "{} of an argument that varies along the solution",
+                        if matches!(op, Op::EllipK(_)) { "K(m)" } else { "F(φ | m)" }
+                    )));
+                }
+                Op::EllipK(x) => b.inst(true, |d| Inst::Elliptic {
+                    d,
+                    a: row(x),
+                    m: None,
+                }),
+                Op::Func2(Func2::EllipF, x, m) => b.inst(true, |d| Inst::Elliptic {
+                    d,
+                    a: row(x),
+                    m: Some(row(m)),
+                }),
                 Op::State(_)
                 | Op::Param(_)
                 | Op::Const(_)
@@ -625,6 +695,14 @@ fn zeroth(t: &mut [f64], inst: Inst, hoisted: &[f64], target: &[f64], gains: &[f
             t[s] = sa;
             t[c] = ca;
         }
+        Inst::Jacobi { s, stride, a, m } => {
+            let [sn, cn, dn] = [Func2::Sn, Func2::Cn, Func2::Dn].map(|f| f.apply(t[a], t[m]));
+            for (i, v) in [sn, cn, dn, cn * dn, sn * dn, sn * cn].into_iter().enumerate() {
+                t[s + i * stride] = v;
+            }
+        }
+        Inst::Elliptic { d, a, m: None } => t[d] = Func::EllipK.apply(t[a]),
+        Inst::Elliptic { d, a, m: Some(m) } => t[d] = Func2::EllipF.apply(t[a], t[m]),
     }
 }
 
@@ -722,6 +800,21 @@ fn coefficient(t: &mut [f64], inst: Inst, k: usize) {
             t[s + k] = sk;
             t[c + k] = ck;
         }
+        Inst::Jacobi { s, stride, a, m } => {
+            // s' = c d a', c' = −s d a', d' = −m s c a' (m constant), then the products
+            let [c, d, cd, sd, sc] = [1, 2, 3, 4, 5].map(|i| s + i * stride);
+            let kf = k as f64;
+            let sk = weighted(t, a, cd, k) / kf;
+            let ck = -weighted(t, a, sd, k) / kf;
+            let dk = -t[m] * weighted(t, a, sc, k) / kf;
+            t[s + k] = sk;
+            t[c + k] = ck;
+            t[d + k] = dk;
+            t[cd + k] = cauchy(t, c, d, k, 0, k);
+            t[sd + k] = cauchy(t, s, d, k, 0, k);
+            t[sc + k] = cauchy(t, s, c, k, 0, k);
+        }
+        Inst::Elliptic { .. } => {} // constant along the solution
     }
 }
 

@@ -18,6 +18,9 @@
 //! | [`ellipkm1`]`(m₁)` | K(1 − m₁) = K′(m₁) | the same, from m₁ directly |
 //! | [`ellipf`]`(φ, m)` | F(φ \| m) = ∫₀^φ dθ / √(1 − m sin²θ) | Carlson's R_F |
 //!
+//! [`generic`] has sn, cn, dn, K and F over any `num_traits::Float` (computed in `f64`), for
+//! code generated from models that call them (`sn(u, m)` in a model file, see docs/dsl.md).
+//!
 //! # Domain and invalid input
 //!
 //! All functions accept 0 ≤ m ≤ 1 (including both ends exactly) and finite arguments. They
@@ -53,6 +56,8 @@
 //!
 //! These are `f64`-only: the compensated (fused multiply–add) steps that give the accuracy
 //! above are specific to binary64.
+
+pub mod generic;
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 

@@ -58,7 +58,7 @@ mod model;
 
 pub use model::{ModelTapes, Partition};
 
-use crate::ir::{Func, Graph, Id, Input, Node, Rational, Scalar};
+use crate::ir::{Func, Func2, Graph, Id, Input, Node, Rational, Scalar};
 use std::collections::{HashMap, HashSet};
 use std::fmt;
 
@@ -114,6 +114,11 @@ pub enum Op {
     Sin(Reg),
     /// cos a
     Cos(Reg),
+    /// K(m), as `lasalle_runtime::elliptic::ellipk`
+    EllipK(Reg),
+    /// f(x, m) of [`Func2`]: sn, cn, dn (one `ellipj` call each) or F, as
+    /// `lasalle_runtime::elliptic`
+    Func2(Func2, Reg, Reg),
 }
 
 impl Op {
@@ -126,7 +131,9 @@ impl Op {
             | Op::Gain(_)
             | Op::Hoisted(_)
             | Op::Const(_) => (None, None),
-            Op::Add(a, b) | Op::Sub(a, b) | Op::Mul(a, b) | Op::Div(a, b) => (Some(a), Some(b)),
+            Op::Add(a, b) | Op::Sub(a, b) | Op::Mul(a, b) | Op::Div(a, b) | Op::Func2(_, a, b) => {
+                (Some(a), Some(b))
+            }
             Op::Neg(a)
             | Op::Powi(a, _)
             | Op::Sqrt(a)
@@ -135,7 +142,8 @@ impl Op {
             | Op::Exp(a)
             | Op::Ln(a)
             | Op::Sin(a)
-            | Op::Cos(a) => (Some(a), None),
+            | Op::Cos(a)
+            | Op::EllipK(a) => (Some(a), None),
         };
         a.into_iter().chain(b)
     }
@@ -167,6 +175,8 @@ impl Op {
             Op::Ln(a) => (16, r(a), 0),
             Op::Sin(a) => (17, r(a), 0),
             Op::Cos(a) => (18, r(a), 0),
+            Op::EllipK(a) => (19, r(a), 0),
+            Op::Func2(f, a, b) => (20 + f as u8, r(a), r(b)),
         }
     }
 }
@@ -425,6 +435,8 @@ fn run<S: Scalar>(ops: &[Op], leaf: impl Fn(Op) -> S) -> Vec<S> {
             Op::Ln(a) => r(a).ln(),
             Op::Sin(a) => r(a).sin(),
             Op::Cos(a) => r(a).cos(),
+            Op::EllipK(a) => r(a).ellipk(),
+            Op::Func2(f, a, b) => f.eval(r(a), r(b)),
             leaf_op => leaf(leaf_op),
         };
         regs.push(v);
@@ -681,8 +693,13 @@ impl Lowering<'_> {
                     Func::Ln => Op::Ln,
                     Func::Sin => Op::Sin,
                     Func::Cos => Op::Cos,
+                    Func::EllipK => Op::EllipK,
                 };
                 self.s.un(a, make)
+            }
+            &Node::Func2(f, [x, m]) => {
+                let (x, m) = (self.reference(x)?, self.reference(m)?);
+                self.s.inst(&[x, m], |r| Op::Func2(f, r[0], r[1]))
             }
         }
     }

@@ -4,8 +4,9 @@
 //! (IEEE, correctly rounded, never fused or reassociated by Cranelift); `Powi` is expanded
 //! inline by the binary exponentiation of
 //! [`lasalle_codegen::tape::powi`]; `cbrt`, `exp`, `ln`, `sin`, `cos` and
-//! `powf` call `extern "C"` wrappers of the `std` functions, so results are bitwise those of
-//! the interpreter and of the emitted Rust.
+//! `powf` call `extern "C"` wrappers of the `std` functions, and the elliptic functions
+//! (K, sn, cn, dn, F) wrappers of `lasalle_runtime::elliptic`'s, so results are bitwise those
+//! of the interpreter and of the emitted Rust.
 //!
 //! Two functions are compiled per tape:
 //! - `eval(hoisted, state, target, gains, out)` for one state;
@@ -31,7 +32,7 @@ use cranelift_codegen::settings::{self, Configurable};
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::{JITBuilder, JITModule};
 use cranelift_module::Module;
-use lasalle_codegen::ir::Rational;
+use lasalle_codegen::ir::{Func, Func2, Rational};
 
 type EvalFn = crate::RawEval;
 type LanesFn =
@@ -51,6 +52,21 @@ extern "C" fn call_sin(x: f64) -> f64 {
 }
 extern "C" fn call_cos(x: f64) -> f64 {
     x.cos()
+}
+extern "C" fn call_ellipk(m: f64) -> f64 {
+    Func::EllipK.apply(m)
+}
+extern "C" fn call_sn(u: f64, m: f64) -> f64 {
+    Func2::Sn.apply(u, m)
+}
+extern "C" fn call_cn(u: f64, m: f64) -> f64 {
+    Func2::Cn.apply(u, m)
+}
+extern "C" fn call_dn(u: f64, m: f64) -> f64 {
+    Func2::Dn.apply(u, m)
+}
+extern "C" fn call_ellipf(phi: f64, m: f64) -> f64 {
+    Func2::EllipF.apply(phi, m)
 }
 extern "C" fn call_powf(x: f64, num: i32, den: i32) -> f64 {
     crate::interp::powf(x, Rational { num, den })
@@ -224,6 +240,7 @@ impl JitKernel {
 /// Signatures of the math wrappers.
 struct Math {
     unary: Signature,
+    binary: Signature,
     powf: Signature,
 }
 
@@ -232,6 +249,8 @@ impl Math {
         let mut unary = module.make_signature();
         unary.params.push(AbiParam::new(types::F64));
         unary.returns.push(AbiParam::new(types::F64));
+        let mut binary = unary.clone();
+        binary.params.push(AbiParam::new(types::F64));
         let mut powf = module.make_signature();
         powf.params.extend([
             AbiParam::new(types::F64),
@@ -239,7 +258,11 @@ impl Math {
             AbiParam::new(types::I32),
         ]);
         powf.returns.push(AbiParam::new(types::F64));
-        Math { unary, powf }
+        Math {
+            unary,
+            binary,
+            powf,
+        }
     }
 }
 
@@ -347,6 +370,22 @@ impl Emit<'_> {
         self.call_lanes(f as *const () as usize, &sig, x, &[])
     }
 
+    /// Calls a scalar wrapper of two arguments, lane by lane in the vector loop.
+    fn binary(&mut self, f: extern "C" fn(f64, f64) -> f64, x: Value, y: Value) -> Value {
+        let (f, sig) = (f as *const () as usize, self.math.binary.clone());
+        if !self.vector {
+            return self.call(f, sig, &[x, y]);
+        }
+        let mut lanes = [x; 2];
+        for (lane, r) in lanes.iter_mut().enumerate() {
+            let xl = self.b.ins().extractlane(x, lane as u8);
+            let yl = self.b.ins().extractlane(y, lane as u8);
+            *r = self.call(f, sig.clone(), &[xl, yl]);
+        }
+        let v = self.b.ins().splat(F64X2, lanes[0]);
+        self.b.ins().insertlane(v, lanes[1], 1)
+    }
+
     /// xⁿ by binary exponentiation (`lasalle_codegen::tape::powi`).
     fn powi(&mut self, x: Value, n: i32) -> Value {
         let mut bits = n.unsigned_abs();
@@ -443,6 +482,17 @@ impl Emit<'_> {
             Op::Ln(a) => self.unary(call_ln, v(self, a)),
             Op::Sin(a) => self.unary(call_sin, v(self, a)),
             Op::Cos(a) => self.unary(call_cos, v(self, a)),
+            Op::EllipK(a) => self.unary(call_ellipk, v(self, a)),
+            Op::Func2(f, a, m) => {
+                let call = match f {
+                    Func2::Sn => call_sn,
+                    Func2::Cn => call_cn,
+                    Func2::Dn => call_dn,
+                    Func2::EllipF => call_ellipf,
+                };
+                let (x, m) = (v(self, a), v(self, m));
+                self.binary(call, x, m)
+            }
             Op::Powf(a, p) => {
                 let x = v(self, a);
                 let num = self.b.ins().iconst(types::I32, i64::from(p.num));
