@@ -6,8 +6,8 @@ use lasalle::elliptic::{ellipf, ellipj, ellipk};
 use lasalle::models::pendulum_closed_form::PendulumClosedForm;
 use lasalle::models::so3_type_iii::So3TypeIii;
 use lasalle::{
-    integrate, Backend, Control, DormandPrince, DormandPrinceOptions, Driver, Field,
-    Invariants, LoadedModel, Parameters,
+    integrate, Backend, Control, DormandPrince, DormandPrinceOptions, Driver, Field, Invariants,
+    LoadedModel, Parameters,
 };
 
 fn tight() -> DormandPrinceOptions<f64> {
@@ -50,7 +50,9 @@ fn pendulum_closed_form_solves_the_pendulum() {
         let x = end.x;
         let j = ellipj(t, m);
         let theta = 2.0 * (k * j.sn).asin();
-        worst[0] = worst[0].max((x[1] - theta).abs()).max((x[2] - 2.0 * k * j.cn).abs());
+        worst[0] = worst[0]
+            .max((x[1] - theta).abs())
+            .max((x[2] - 2.0 * k * j.cn).abs());
         // the identity: the model's θ'' = ω' equals −sin θ on the closed form
         let mut dx = [0.0; 6];
         sys.field(&[t, theta, 2.0 * k * j.cn, 0.0, 0.0, 0.0], &mut dx);
@@ -68,8 +70,14 @@ fn pendulum_closed_form_solves_the_pendulum() {
         .unwrap();
         worst[2] = worst[2].max((p.x[0] - x[1]).abs());
     }
-    println!("pendulum: model vs closed form {:.1e}, ω' + sin θ {:.1e}, model vs pendulum {:.1e}", worst[0], worst[1], worst[2]);
-    assert!(worst[0] < 1e-10 && worst[1] < 1e-14 && worst[2] < 1e-10, "{worst:?}");
+    println!(
+        "pendulum: model vs closed form {:.1e}, ω' + sin θ {:.1e}, model vs pendulum {:.1e}",
+        worst[0], worst[1], worst[2]
+    );
+    assert!(
+        worst[0] < 1e-10 && worst[1] < 1e-14 && worst[2] < 1e-10,
+        "{worst:?}"
+    );
 }
 
 /// The generated invariants' Jacobian (∂/∂t of cn, F, sd, …) against central differences,
@@ -106,7 +114,14 @@ fn pendulum_closed_form_derivatives() {
         let j = ellipj(t, m);
         assert!((jac[0][0] - 2.0 * sys.k * j.sn * j.dn).abs() < 1e-15);
         // the invariants vanish on the closed form
-        let on = [t, 0.0, 2.0 * sys.k * j.cn, ellipf(t, m), j.sn / j.dn, t / ellipk(m)];
+        let on = [
+            t,
+            0.0,
+            2.0 * sys.k * j.cn,
+            ellipf(t, m),
+            j.sn / j.dn,
+            t / ellipk(m),
+        ];
         assert!(f(&on).iter().all(|v| v.abs() < 1e-15), "{:?}", f(&on));
     }
 }
@@ -114,7 +129,10 @@ fn pendulum_closed_form_derivatives() {
 /// The model text of docs/so3.md's "A closed form as a model expression".
 fn euler_top_text() -> String {
     let doc = include_str!("../docs/so3.md");
-    let start = doc.find("```lsl\nmodel EulerTopClosedForm").expect("the model in docs/so3.md") + 7;
+    let start = doc
+        .find("```lsl\nmodel EulerTopClosedForm")
+        .expect("the model in docs/so3.md")
+        + 7;
     let end = start + doc[start..].find("```").expect("closed");
     doc[start..end].to_string()
 }

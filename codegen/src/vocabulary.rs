@@ -76,12 +76,21 @@ const fn func(f: Func, call: &'static str, doc: &'static str, derivative: &'stat
 
 const JACOBI: &str = "scalars u, m → scalar";
 
-const fn jacobi(f: Func2, call: &'static str, doc: &'static str, derivative: &'static str) -> Builtin {
+const fn jacobi(
+    f: Func2,
+    call: &'static str,
+    doc: &'static str,
+    derivative: &'static str,
+) -> Builtin {
     Builtin {
         name: f.name(),
         call,
         arity: Arity::Exactly(2),
-        shapes: JACOBI,
+        shapes: if matches!(f, Func2::EllipF) {
+            "scalars φ, m → scalar"
+        } else {
+            JACOBI
+        },
         doc,
         derivative,
         lowering: Lowering::Func2(f),
@@ -294,7 +303,10 @@ pub const KEYWORDS: &[Keyword] = &[
     item("let", "a named subexpression"),
     item("d/dt", "the equation of a state variable"),
     item("integral", "a first integral, checked to be conserved"),
-    item("constraint", "a manifold condition f₀ = 0, checked to be invariant"),
+    item(
+        "constraint",
+        "a manifold condition f₀ = 0, checked to be invariant",
+    ),
     Keyword {
         name: "gain",
         starts_item: false,
@@ -319,11 +331,17 @@ pub fn is_reserved(name: &str) -> bool {
 
 /// The function table of `docs/dsl.md`.
 pub fn functions_markdown() -> String {
-    let mut out = String::from("| function | shapes | value | derivative |\n| --- | --- | --- | --- |\n");
+    let mut out =
+        String::from("| function | shapes | value | derivative |\n| --- | --- | --- | --- |\n");
+    // `|` inside a cell (sn(u | m)) is written `\|`
+    let cell = |s: &str| s.replace('|', "\\|");
     for b in BUILTINS {
         out.push_str(&format!(
             "| `{}` | {} | {} | {} |\n",
-            b.call, b.shapes, b.doc, b.derivative
+            b.call,
+            cell(b.shapes),
+            cell(b.doc),
+            cell(b.derivative)
         ));
     }
     out

@@ -452,7 +452,11 @@ impl TaylorTape {
                 Op::EllipK(_) | Op::Func2(Func2::EllipF, ..) if !all_const => {
                     return Err(TaylorError::Unsupported(format!(
                         "{} of an argument that varies along the solution",
-                        if matches!(op, Op::EllipK(_)) { "K(m)" } else { "F(φ | m)" }
+                        if matches!(op, Op::EllipK(_)) {
+                            "K(m)"
+                        } else {
+                            "F(φ | m)"
+                        }
                     )));
                 }
                 Op::EllipK(x) => b.inst(true, |d| Inst::Elliptic {
@@ -697,7 +701,10 @@ fn zeroth(t: &mut [f64], inst: Inst, hoisted: &[f64], target: &[f64], gains: &[f
         }
         Inst::Jacobi { s, stride, a, m } => {
             let [sn, cn, dn] = [Func2::Sn, Func2::Cn, Func2::Dn].map(|f| f.apply(t[a], t[m]));
-            for (i, v) in [sn, cn, dn, cn * dn, sn * dn, sn * cn].into_iter().enumerate() {
+            for (i, v) in [sn, cn, dn, cn * dn, sn * dn, sn * cn]
+                .into_iter()
+                .enumerate()
+            {
                 t[s + i * stride] = v;
             }
         }

@@ -260,7 +260,11 @@ impl Gen {
             18 => format!("{}[{}]", self.vector(d - 1), self.rng.below(3)),
             19 => format!("trace(hat(x) * hat({}))", self.vector(d - 1)),
             20 => format!("(a * {} + a * {})", s(self), s(self)),
-            22 => format!("{}({}, {m})", ["sn", "cn", "dn"][self.rng.below(3)], s(self)),
+            22 => format!(
+                "{}({}, {m})",
+                ["sn", "cn", "dn"][self.rng.below(3)],
+                s(self)
+            ),
             23 => {
                 let quotients = ["ns", "nc", "nd", "sc", "sd", "cs", "cd", "ds", "dc"];
                 format!("{}({}, {m})", quotients[self.rng.below(9)], s(self))

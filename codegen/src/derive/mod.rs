@@ -88,7 +88,6 @@ fn local_pow(g: &mut Graph, b: Id, e: Rational) -> Id {
     g.mul(&[c, p])
 }
 
-
 /// The gradient of `root` with respect to `vars` in reverse mode: one backward sweep over the
 /// DAG accumulates the adjoint of every node, so the gradient costs a small constant times
 /// the function, whatever the number of variables.
@@ -156,6 +155,7 @@ pub fn gradient(g: &mut Graph, root: Id, vars: &[Input]) -> Vec<Id> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ir::Func;
 
     /// d/dx of x³·sin(x) at x = 0.7, forward and reverse, against the hand derivative.
     #[test]

@@ -129,8 +129,6 @@ impl Scalar for f64 {
     }
 }
 
-
-
 impl Func {
     /// The function over any [`Scalar`].
     pub fn eval<S: Scalar>(self, a: &S) -> S {

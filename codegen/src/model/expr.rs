@@ -4,8 +4,8 @@ use super::lower::{Ctx, Kind, Lowerer, Symbol, L};
 use super::{Shape, Value};
 use crate::error::{Diagnostic, DiagnosticKind};
 use crate::ir::{Func2, Graph, Id, Input, Node, Rational};
-use crate::vocabulary::{self, Builtin, Lowering, BUILTINS};
 use crate::parse::ast::*;
+use crate::vocabulary::{self, Builtin, Lowering, BUILTINS};
 
 /// Products with this many operators or more are multiplied at once (see [`Lowerer::chain`]).
 const LONG_CHAIN: usize = 32;

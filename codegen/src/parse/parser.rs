@@ -22,7 +22,6 @@ use super::ast::*;
 use super::lexer::{Tok, Token};
 use crate::error::{Diagnostic, Span};
 
-
 /// The parser state: a token list and a cursor.
 pub struct Parser {
     tokens: Vec<Token>,
