@@ -31,15 +31,17 @@
 //! | u = ln a | u^\[k\] = (a^\[k\] − (1/k) Σ_{j=1}^{k−1} j u^\[j\] a^\[k−j\]) / a^\[0\] (from a u' = a') |
 //! | s = sin a, c = cos a | s^\[k\] = (1/k) Σ_{j=1}^{k} j a^\[j\] c^\[k−j\], c^\[k\] = −(1/k) Σ_{j=1}^{k} j a^\[j\] s^\[k−j\] |
 //! | s, c, d = sn, cn, dn (a \| m), m constant | s^\[k\] = (1/k) Σ_{j=1}^{k} j a^\[j\] (cd)^\[k−j\], c^\[k\] = −(1/k) Σ j a^\[j\] (sd)^\[k−j\], d^\[k\] = −(m/k) Σ j a^\[j\] (sc)^\[k−j\], the products cd, sd, sc by Cauchy products (from s' = c d a', c' = −s d a', d' = −m s c a') |
+//! | u = F(a \| m), m constant | u^\[k\] = (1/k) Σ_{j=1}^{k} j a^\[j\] w^\[k−j\], w = (1 − m sin²a)^(−1/2) by the rows above |
 //!
 //! Leaves other than the state (constants, hoisted parameter values, targets, gains) and every
 //! instruction whose operands are all such leaves are constant along the solution: only their
 //! order-0 value is computed, their higher coefficients stay 0. Sine and cosine are always
 //! computed together (a tape with only `Sin(a)` gets an internal cosine row); a tape with both
 //! `Sin(a)` and `Cos(a)` computes the pair once. Likewise sn, cn, dn of one (a | m) are one
-//! triple, with one `ellipj` call at order 0 (their parameter m must be constant along the
-//! solution, as the model language guarantees); K(m) and F(φ | m) must be constant along the
-//! solution ([`TaylorError::Unsupported`] otherwise).
+//! triple, with one `ellipj` call at order 0; F(φ | m) has u' = w φ' with internal rows for
+//! sin φ, cos φ, sin²φ, 1 − m sin²φ and w = (1 − m sin²φ)^(−1/2). The parameter m of every
+//! elliptic function must be constant along the solution, as the model language guarantees
+//! ([`TaylorError::Unsupported`] otherwise).
 //!
 //! The coefficients live in one table of `rows × (p_max + 1)` f64 (one row per state component,
 //! per tape register that is not a state leaf, and per internal row: the cosine partner, the
@@ -113,8 +115,8 @@ pub enum TaylorError {
         /// State dimension of the tape.
         state: usize,
     },
-    /// A function the Taylor recurrences do not cover (an elliptic function whose parameter,
-    /// or K's or F's argument, varies along the solution; the model language never writes one).
+    /// A function the Taylor recurrences do not cover (an elliptic function whose parameter m
+    /// varies along the solution; the model language never writes one).
     #[error("the Taylor integrator does not support {0}")]
     Unsupported(String),
     /// An invalid option (tolerance, order or largest step).
@@ -230,11 +232,17 @@ enum Inst {
         a: usize,
         m: usize,
     },
-    /// K(a) or F(a | m) of operands constant along the solution (order 0 only).
-    Elliptic {
+    /// K(a), a constant along the solution (order 0 only).
+    EllipK {
         d: usize,
         a: usize,
-        m: Option<usize>,
+    },
+    /// F(a | m), m constant, from the row w = 1/√(1 − m sin²a) of F′: u' = w a'.
+    EllipF {
+        d: usize,
+        a: usize,
+        m: usize,
+        w: usize,
     },
 }
 
@@ -449,26 +457,34 @@ impl TaylorTape {
                     constant[i] = all_const;
                     continue;
                 }
-                Op::EllipK(_) | Op::Func2(Func2::EllipF, ..) if !all_const => {
-                    return Err(TaylorError::Unsupported(format!(
-                        "{} of an argument that varies along the solution",
-                        if matches!(op, Op::EllipK(_)) {
-                            "K(m)"
-                        } else {
-                            "F(φ | m)"
-                        }
-                    )));
+                Op::EllipK(x) if all_const => b.inst(true, |d| Inst::EllipK { d, a: row(x) }),
+                Op::EllipK(_) => {
+                    return Err(TaylorError::Unsupported(
+                        "K(m) of a parameter m that varies along the solution".into(),
+                    ))
                 }
-                Op::EllipK(x) => b.inst(true, |d| Inst::Elliptic {
-                    d,
-                    a: row(x),
-                    m: None,
-                }),
-                Op::Func2(Func2::EllipF, x, m) => b.inst(true, |d| Inst::Elliptic {
-                    d,
-                    a: row(x),
-                    m: Some(row(m)),
-                }),
+                Op::Func2(Func2::EllipF, _, m) if !is_const(m) => {
+                    return Err(TaylorError::Unsupported(
+                        "F(φ | m) with a parameter m that varies along the solution".into(),
+                    ))
+                }
+                Op::Func2(Func2::EllipF, x, m) => {
+                    // w = (1 − m sin²φ)^(−1/2) by the sine, square, scaling and power rows
+                    let (a, m) = (row(x), row(m));
+                    let (s, c) = (b.row(), b.row());
+                    b.push(Inst::SinCos { s, c, a }, all_const);
+                    let q = b.inst(all_const, |d| Inst::Square { d, a: s });
+                    let mq = b.inst(all_const, |d| Inst::Scale { d, a: q, c: m });
+                    let one = b.one();
+                    let r = b.inst(all_const, |d| Inst::Sub { d, a: one, b: mq });
+                    let w = b.inst(all_const, |d| Inst::Pow {
+                        d,
+                        a: r,
+                        alpha: -0.5,
+                        zero: PowZero::Powf(-0.5),
+                    });
+                    b.inst(all_const, |d| Inst::EllipF { d, a, m, w })
+                }
                 Op::State(_)
                 | Op::Param(_)
                 | Op::Const(_)
@@ -708,8 +724,8 @@ fn zeroth(t: &mut [f64], inst: Inst, hoisted: &[f64], target: &[f64], gains: &[f
                 t[s + i * stride] = v;
             }
         }
-        Inst::Elliptic { d, a, m: None } => t[d] = Func::EllipK.apply(t[a]),
-        Inst::Elliptic { d, a, m: Some(m) } => t[d] = Func2::EllipF.apply(t[a], t[m]),
+        Inst::EllipK { d, a } => t[d] = Func::EllipK.apply(t[a]),
+        Inst::EllipF { d, a, m, .. } => t[d] = Func2::EllipF.apply(t[a], t[m]),
     }
 }
 
@@ -821,7 +837,8 @@ fn coefficient(t: &mut [f64], inst: Inst, k: usize) {
             t[sd + k] = cauchy(t, s, d, k, 0, k);
             t[sc + k] = cauchy(t, s, c, k, 0, k);
         }
-        Inst::Elliptic { .. } => {} // constant along the solution
+        Inst::EllipK { .. } => {} // constant along the solution
+        Inst::EllipF { d, a, w, .. } => t[d + k] = weighted(t, a, w, k) / k as f64,
     }
 }
 
