@@ -6,6 +6,7 @@
 //! implements the traits of `lasalle-runtime`.
 //!
 //! Pipeline: [`parse`] → [`model`] (lowering onto [`ir`]) → [`derive`](mod@derive) → [`check`] → [`emit`].
+//! The language's built-in functions and keywords are declared once, in [`vocabulary`].
 //!
 //! In a build script:
 //!

@@ -24,6 +24,9 @@
 //! functions) between runs of it. Every value is therefore the IEEE operation or `std` call of
 //! the tape on the same operands: the results are bitwise those of the tape, except that a NaN
 //! may come out with the other sign bit (see `Fast`; the tests count every NaN as equal).
+//! sn, cn and dn of one (u | m) share one `ellipj` call when no other (u | m) is evaluated
+//! between them (the one-state loop remembers the last arguments; the values are those of
+//! separate calls).
 //!
 //! # Safety of the unchecked loop
 //!
@@ -46,6 +49,7 @@
 
 use crate::{Common, Dims, ExecError, Kernel, Op, Reg, Tape, TapeError};
 use lasalle_codegen::ir::{Func, Func2, Rational, Scalar};
+use lasalle_runtime::elliptic::{ellipj, Jacobi};
 use std::cell::Cell;
 use std::mem::MaybeUninit;
 
@@ -513,12 +517,13 @@ impl Interpreter {
             };
             let mut dst = w.add(self.first);
             let mut done = 0;
+            let mut jacobi = None;
             for s in &self.specials {
                 dst = straight(done, s.fast_end, dst);
                 done = s.fast_end;
                 // `b` is a slot unless the exponent's index (Powf)
                 let y = if s.code == Code::Powf { 0.0 } else { r(s.b) };
-                *dst = self.special(s, r(s.a), y);
+                *dst = self.special(s, r(s.a), y, &mut jacobi);
                 dst = dst.add(1);
             }
             straight(done, self.fast.len(), dst);
@@ -528,9 +533,10 @@ impl Interpreter {
         }
     }
 
-    /// An instruction off the straight path.
+    /// An instruction off the straight path. `jacobi` holds the arguments and values of the
+    /// last `ellipj` call of this evaluation, so sn, cn, dn of one (u | m) share it.
     #[inline(never)]
-    fn special(&self, s: &Special, x: f64, y: f64) -> f64 {
+    fn special(&self, s: &Special, x: f64, y: f64, jacobi: &mut Option<(u64, u64, Jacobi)>) -> f64 {
         match s.code {
             Code::Div => x / y,
             Code::Sqrt => x.sqrt(),
@@ -540,9 +546,22 @@ impl Interpreter {
             Code::Sin => x.sin(),
             Code::Cos => x.cos(),
             Code::EllipK => Func::EllipK.apply(x),
-            Code::Sn => Func2::Sn.apply(x, y),
-            Code::Cn => Func2::Cn.apply(x, y),
-            Code::Dn => Func2::Dn.apply(x, y),
+            Code::Sn | Code::Cn | Code::Dn => {
+                let key = (x.to_bits(), y.to_bits());
+                let j = match *jacobi {
+                    Some((u, m, j)) if (u, m) == key => j,
+                    _ => {
+                        let j = ellipj(x, y);
+                        *jacobi = Some((key.0, key.1, j));
+                        j
+                    }
+                };
+                match s.code {
+                    Code::Sn => j.sn,
+                    Code::Cn => j.cn,
+                    _ => j.dn,
+                }
+            }
             Code::EllipF => Func2::EllipF.apply(x, y),
             Code::Powf => powf(x, self.rationals[s.b as usize]),
             Code::Add | Code::Sub | Code::Mul | Code::Neg | Code::MulAdd => {

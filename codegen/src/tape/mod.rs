@@ -25,7 +25,7 @@
 //!
 //! Hence, for every op, evaluating the tape in f64 is **bitwise** equal to the emitted Rust
 //! evaluated in f64: each tape instruction is one IEEE operation or one call of the same `std`
-//! function the emitted code calls (`x - y` and `x + (-y)` are the same IEEE operation, so a
+//! function (or `lasalle_runtime::elliptic` kernel, for K, sn, cn, dn, F) the emitted code calls (`x - y` and `x + (-y)` are the same IEEE operation, so a
 //! negative term may be subtracted or added negated; `Powi` is the binary exponentiation that
 //! `f64::powi` performs, see [`powi`]). For bitwise equality the builder must start from the
 //! graph the emitter starts from (the model after `check::check`) and lower the functions in
