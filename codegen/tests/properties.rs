@@ -2,7 +2,7 @@
 //! simplification preserve values, symbolic derivatives agree with finite differences, and
 //! emission is deterministic. The expressions use every scalar function of the language,
 //! the Jacobi elliptic functions, quotients and F included (their values from
-//! `lasalle_runtime::elliptic`, m ∈ {0, 0.3, 0.81, 1}).
+//! `lasalle_elliptic`, m ∈ {0, 0.3, 0.81, 1}).
 
 use std::collections::HashMap;
 
@@ -43,7 +43,7 @@ fn expr(r: &mut Rng, x: f64, y: f64, depth: u32) -> (String, f64) {
     let pos = |s: &str, v: f64| (format!("(1 + ({s})^2)"), 1.0 + v * v);
     // elliptic functions: a parameter m from a few constants, both ends included
     let m = [0.0, 0.3, 0.81, 1.0][r.below(4) as usize];
-    let j = lasalle_runtime::elliptic::ellipj(va, m);
+    let j = lasalle_elliptic::ellipj(va, m);
     match r.below(16) {
         0 => (format!("({a} + {b})"), va + vb),
         1 => (format!("({a} - {b})"), va - vb),
@@ -83,7 +83,7 @@ fn expr(r: &mut Rng, x: f64, y: f64, depth: u32) -> (String, f64) {
         },
         _ => {
             let m = m.min(0.9); // F(φ | 1) is infinite at φ = ±π/2
-            let f = lasalle_runtime::elliptic::ellipf(va, m);
+            let f = lasalle_elliptic::ellipf(va, m);
             (format!("ellipf({a}, {m})"), f)
         }
     }

@@ -220,7 +220,7 @@ fn constant_elliptic_calls_fold() {
     let text =
         "model M { state x: scalar; param K = ellipk(0.5); d/dt x = K * sn(ellipk(0.5), 0.5); }";
     let m = lower_source("f.lsl", text).unwrap();
-    let k = lasalle_runtime::elliptic::ellipk(0.5);
+    let k = lasalle_elliptic::ellipk(0.5);
     assert_eq!(m.default_params(), vec![k]);
     // sn(K | m) = 1 folded to a number, times the parameter K
     let v = m.graph.eval_f64(&[m.field[0]], &mut |_| k)[0];

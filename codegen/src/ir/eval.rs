@@ -118,14 +118,14 @@ impl Scalar for f64 {
         f64::cos(*self)
     }
     fn jacobi(&self, m: &Self) -> [Self; 3] {
-        let j = lasalle_runtime::elliptic::ellipj(*self, *m);
+        let j = lasalle_elliptic::ellipj(*self, *m);
         [j.sn, j.cn, j.dn]
     }
     fn ellipk(&self) -> Self {
-        lasalle_runtime::elliptic::ellipk(*self)
+        lasalle_elliptic::ellipk(*self)
     }
     fn ellipf(&self, m: &Self) -> Self {
-        lasalle_runtime::elliptic::ellipf(*self, *m)
+        lasalle_elliptic::ellipf(*self, *m)
     }
 }
 

@@ -2,14 +2,15 @@
 //! value in f64 and its local derivative (the derivative rules live here, next to the
 //! definitions; `derive` applies them through the chain rule).
 //!
-//! The elliptic functions take the **parameter m = k²** (A&S 16–17), as
-//! `lasalle_runtime::elliptic` does, and are evaluated by its kernels. Their derivatives are
-//! taken with respect to the first argument only: ∂/∂m involves the incomplete integral of
-//! the second kind and is not implemented, so the DSL refuses a parameter m that depends on
-//! the state (the only variables derivatives are taken for), see `model::expr`.
+//! The elliptic functions take the **parameter m = k²** (A&S 16–17), as `lasalle_elliptic`
+//! (re-exported as `lasalle_runtime::elliptic`) does, and are evaluated by its kernels.
+//! Their derivatives are taken with respect to the first argument only: ∂/∂m involves the
+//! incomplete integral of the second kind and is not implemented, so the DSL refuses a
+//! parameter m that depends on the state (the only variables derivatives are taken for), see
+//! `model::expr`.
 
 use super::{Graph, Id, Rational};
-use lasalle_runtime::elliptic::{ellipf, ellipj, ellipk};
+use lasalle_elliptic::{ellipf, ellipj, ellipk};
 
 /// Functions of one argument.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -105,8 +106,8 @@ impl Func2 {
         }
     }
 
-    /// ∂f/∂x for the node `f(x, m)` (m held fixed):
-    /// sn′ = cn dn, cn′ = −sn dn, dn′ = −m sn cn (A&S 16.16), F′ = 1/√(1 − m sin²φ) (A&S 17.2).
+    /// ∂f/∂x for the node `f(x, m)` (m held fixed): sn′ = cn dn, cn′ = −sn dn,
+    /// dn′ = −m sn cn (A&S 16.16), F′ = 1/√(1 − m sin²φ) (A&S 17.2).
     pub fn derivative(self, g: &mut Graph, x: Id, m: Id) -> Id {
         let jacobi = |g: &mut Graph, f| g.func2(f, x, m);
         match self {

@@ -1,9 +1,9 @@
 //! The elliptic functions over any [`Float`], as generated code calls them
 //! (`lasalle_runtime::elliptic::generic::sn(u, m)`): computed in `f64` by the kernels of
-//! [`super`], so for `T = f64` they are exactly [`ellipj`]'s, [`ellipk`]'s and [`ellipf`]'s
-//! values. Parameter m = k², 0 ≤ m ≤ 1; NaN outside (see the [module docs](super)).
+//! this crate, so for `T = f64` they are exactly [`ellipj`]'s, [`ellipk`]'s and [`ellipf`]'s
+//! values. Parameter m = k², 0 ≤ m ≤ 1; NaN outside (see the [crate docs](crate)).
 
-use super::{ellipf as ellipf64, ellipj, ellipk as ellipk64};
+use crate::{ellipf as ellipf64, ellipj, ellipk as ellipk64};
 use num_traits::Float;
 
 fn f64_of<T: Float>(x: T) -> f64 {
