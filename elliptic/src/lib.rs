@@ -59,6 +59,8 @@
 //! above are specific to binary64.
 
 #![warn(missing_docs)]
+// `!(a > b)` is the NaN-aware test the kernels mean (stop, or reject, on NaN too).
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod generic;
 
