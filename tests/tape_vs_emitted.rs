@@ -151,6 +151,7 @@ check_model!(coupled_oscillators, "coupled_oscillators.lsl", models::coupled_osc
 check_model!(cr3bp, "cr3bp.lsl", models::cr3bp::CR3BP, partitioned: false);
 check_model!(duffing, "duffing.lsl", models::duffing::Duffing, partitioned: false);
 check_model!(kepler, "kepler.lsl", models::kepler::Kepler, partitioned: true);
+check_model!(pendulum_closed_form, "pendulum_closed_form.lsl", models::pendulum_closed_form::PendulumClosedForm, partitioned: true);
 check_model!(perturbed_kepler, "perturbed_kepler.lsl", models::perturbed_kepler::PerturbedKepler, partitioned: true);
 check_model!(rigid_body, "rigid_body.lsl", models::rigid_body::RigidBody, partitioned: false);
 check_model!(so3_type_i, "so3_type_i.lsl", models::so3_type_i::So3TypeI, partitioned: false);

@@ -44,7 +44,7 @@ fn expr(r: &mut Rng, names: &[String], depth: u32) -> String {
     }
     let a = expr(r, names, depth - 1);
     let b = expr(r, names, depth - 1);
-    match r.below(12) {
+    match r.below(14) {
         0 => format!("{a} + {b}"),
         1 => format!("{a} - {b}"),
         2 => format!("({a}) * ({b})"),
@@ -59,6 +59,23 @@ fn expr(r: &mut Rng, names: &[String], depth: u32) -> String {
         8 => format!("dot([{a}, {b}], [{b}, {a}])"),
         9 => format!("cross([{a}, {b}, 1], [1, {a}, {b}])[{}]", r.below(3)),
         10 => format!("trace(hat([{a}, {b}, 0]) * transpose(hat([1, {a}, {b}])))"),
+        // elliptic functions; a parameter m that depends on the state or lies outside [0, 1]
+        // is a located error, which the fuzzer checks too
+        12 | 13 => {
+            let m = if r.chance(25) {
+                b
+            } else {
+                r.pick(&["0", "0.5", "1"]).to_string()
+            };
+            let f = r.pick(&[
+                "sn", "cn", "dn", "ns", "nc", "nd", "sc", "sd", "cs", "cd", "ds", "dc", "ellipf",
+            ]);
+            if r.chance(10) {
+                format!("ellipk({m})")
+            } else {
+                format!("{f}({a}, {m})")
+            }
+        }
         _ => format!("({a} + {b} + {a} * {b})"),
     }
 }

@@ -65,9 +65,39 @@ impl Span {
     }
 }
 
+/// What kind of problem a [`Diagnostic`] reports, for code that reacts to it (a message's text
+/// is for people and may change).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum DiagnosticKind {
+    /// The text does not parse (lexer or parser).
+    Syntax,
+    /// A name that is not declared, or a function that does not exist.
+    UnknownName,
+    /// A declared name used where it may not be (a gain outside `lyapunov`, a state variable
+    /// in a parameter's default).
+    NotAllowedHere,
+    /// A keyword or built-in function used as a name.
+    Reserved,
+    /// A constant that is not finite (`1/0`, `log(0)`, `1e400`).
+    NotFinite,
+    /// A parameter m of an elliptic function that depends on the state (derivatives in m are
+    /// not implemented).
+    StateDependentParameter,
+    /// A check of the model's claims failed: an invariant the field does not conserve, an
+    /// explicit Lyapunov function that is not one.
+    FailedCheck,
+    /// A use of a definition that failed: already reported at the definition, never shown.
+    AlreadyReported,
+    /// Any other problem in the model (shapes, arity, duplicates, structure, …).
+    Invalid,
+}
+
 /// One problem found in a model, with where it is and what to do about it.
 #[derive(Clone, Debug)]
 pub struct Diagnostic {
+    /// What kind of problem it is.
+    pub kind: DiagnosticKind,
     /// What is wrong, lowercase, no trailing period.
     pub message: String,
     /// Where; `None` for problems that concern no particular line.
@@ -77,13 +107,25 @@ pub struct Diagnostic {
 }
 
 impl Diagnostic {
-    /// An error at `span`.
+    /// An error at `span`, of kind [`DiagnosticKind::Invalid`] (see [`Diagnostic::kind`]).
     pub fn new(span: &Span, message: impl Into<String>) -> Self {
         Diagnostic {
+            kind: DiagnosticKind::Invalid,
             message: message.into(),
             span: Some(span.clone()),
             help: None,
         }
+    }
+
+    /// The use at `span` of a definition whose error was reported already.
+    pub fn already_reported(span: &Span) -> Self {
+        Diagnostic::new(span, "(already reported)").kind(DiagnosticKind::AlreadyReported)
+    }
+
+    /// Sets the kind.
+    pub fn kind(mut self, kind: DiagnosticKind) -> Self {
+        self.kind = kind;
+        self
     }
 
     /// Adds a help line.

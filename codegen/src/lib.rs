@@ -6,6 +6,7 @@
 //! implements the traits of `lasalle-runtime`.
 //!
 //! Pipeline: [`parse`] → [`model`] (lowering onto [`ir`]) → [`derive`](mod@derive) → [`check`] → [`emit`].
+//! The language's built-in functions and keywords are declared once, in [`vocabulary`].
 //!
 //! In a build script:
 //!
@@ -27,8 +28,9 @@ pub mod ir;
 pub mod model;
 pub mod parse;
 pub mod tape;
+pub mod vocabulary;
 
-pub use error::{Diagnostic, Error, Result, Source, Span};
+pub use error::{Diagnostic, DiagnosticKind, Error, Result, Source, Span};
 pub use model::Model;
 
 use std::path::{Path, PathBuf};

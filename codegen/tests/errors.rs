@@ -1,6 +1,6 @@
 //! Every malformed model fails with a message that names file:line:col; no input panics.
 
-use lasalle_codegen::generate_source;
+use lasalle_codegen::{generate_source, DiagnosticKind};
 
 const KEPLER: &str = include_str!("../../models/kepler.lsl");
 
@@ -9,6 +9,14 @@ fn error_of(text: &str) -> String {
     match generate_source("models/test.lsl", text) {
         Ok(_) => panic!("expected an error for:\n{text}"),
         Err(e) => e.to_string(),
+    }
+}
+
+/// The kinds of the diagnostics `text` fails with.
+fn kinds_of(text: &str) -> Vec<DiagnosticKind> {
+    match generate_source("models/test.lsl", text) {
+        Ok(_) => panic!("expected an error for:\n{text}"),
+        Err(e) => e.diagnostics().iter().map(|d| d.kind).collect(),
     }
 }
 
@@ -96,6 +104,7 @@ fn an_integral_that_is_not_conserved_is_named() {
         msg.contains("at x = (x = ["),
         "the message shows the state: {msg}"
     );
+    assert_eq!(kinds_of(&text), [DiagnosticKind::FailedCheck]);
 }
 
 #[test]
@@ -110,6 +119,7 @@ fn a_constraint_the_field_leaves_is_named() {
         msg.contains("constraint `sphere` is not conserved"),
         "{msg}"
     );
+    assert_eq!(kinds_of(&text), [DiagnosticKind::FailedCheck]);
 }
 
 #[test]
@@ -141,6 +151,7 @@ fn parameters_that_map_to_one_rust_field() {
 fn gains_and_targets_only_in_lyapunov() {
     let text = KEPLER.replace("d/dt x = v;", "d/dt x = k1 * v;");
     assert_error(&text, 9, 14, &["gain `k1` cannot be used here"]);
+    assert_eq!(kinds_of(&text), [DiagnosticKind::NotAllowedHere]);
 }
 
 #[test]
@@ -154,6 +165,7 @@ fn all_errors_are_reported_at_once() {
         "{msg}"
     );
     assert!(msg.contains("aborting due to 2 errors"), "{msg}");
+    assert_eq!(kinds_of(&text), [DiagnosticKind::UnknownName; 2]);
 }
 
 #[test]
@@ -167,6 +179,7 @@ fn explicit_lyapunov_must_vanish_on_the_invariant_set() {
         msg.contains("V does not vanish on the invariant set"),
         "{msg}"
     );
+    assert_eq!(kinds_of(&text), [DiagnosticKind::FailedCheck]);
 }
 
 #[test]

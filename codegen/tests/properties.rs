@@ -1,6 +1,8 @@
 //! Properties of the symbolic core on random expressions (deterministic seeds): lowering and
 //! simplification preserve values, symbolic derivatives agree with finite differences, and
-//! emission is deterministic.
+//! emission is deterministic. The expressions use every scalar function of the language,
+//! the Jacobi elliptic functions, quotients and F included (their values from
+//! `lasalle_elliptic`, m ∈ {0, 0.3, 0.81, 1}).
 
 use std::collections::HashMap;
 
@@ -39,7 +41,10 @@ fn expr(r: &mut Rng, x: f64, y: f64, depth: u32) -> (String, f64) {
     let (a, va) = expr(r, x, y, depth - 1);
     let (b, vb) = expr(r, x, y, depth - 1);
     let pos = |s: &str, v: f64| (format!("(1 + ({s})^2)"), 1.0 + v * v);
-    match r.below(11) {
+    // elliptic functions: a parameter m from a few constants, both ends included
+    let m = [0.0, 0.3, 0.81, 1.0][r.below(4) as usize];
+    let j = lasalle_elliptic::ellipj(va, m);
+    match r.below(16) {
         0 => (format!("({a} + {b})"), va + vb),
         1 => (format!("({a} - {b})"), va - vb),
         2 => (format!("({a} * {b})"), va * vb),
@@ -66,7 +71,21 @@ fn expr(r: &mut Rng, x: f64, y: f64, depth: u32) -> (String, f64) {
         }
         8 => (format!("exp(({a}) / 4)"), (va / 4.0).exp()),
         9 => (format!("sin({a})"), va.sin()),
-        _ => (format!("cos({a})"), va.cos()),
+        10 => (format!("cos({a})"), va.cos()),
+        11 => (format!("sn({a}, {m})"), j.sn),
+        12 => (format!("cn({a}, {m})"), j.cn),
+        13 => (format!("dn({a}, {m})"), j.dn),
+        // the quotients whose denominator dn ≥ √(1 − m) stays away from 0 for m < 1
+        14 => match r.below(3) {
+            0 => (format!("nd({a}, {m})"), 1.0 / j.dn),
+            1 => (format!("sd({a}, {m})"), j.sn / j.dn),
+            _ => (format!("cd({a}, {m})"), j.cn / j.dn),
+        },
+        _ => {
+            let m = m.min(0.9); // F(φ | 1) is infinite at φ = ±π/2
+            let f = lasalle_elliptic::ellipf(va, m);
+            (format!("ellipf({a}, {m})"), f)
+        }
     }
 }
 

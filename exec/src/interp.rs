@@ -24,6 +24,9 @@
 //! functions) between runs of it. Every value is therefore the IEEE operation or `std` call of
 //! the tape on the same operands: the results are bitwise those of the tape, except that a NaN
 //! may come out with the other sign bit (see `Fast`; the tests count every NaN as equal).
+//! sn, cn and dn of one (u | m) share one `ellipj` call when no other (u | m) is evaluated
+//! between them (the one-state loop remembers the last arguments; the values are those of
+//! separate calls).
 //!
 //! # Safety of the unchecked loop
 //!
@@ -45,7 +48,8 @@
 //! loop over the lanes, which the compiler vectorises.
 
 use crate::{Common, Dims, ExecError, Kernel, Op, Reg, Tape, TapeError};
-use lasalle_codegen::ir::{Rational, Scalar};
+use lasalle_codegen::ir::{Func, Func2, Rational, Scalar};
+use lasalle_runtime::elliptic::{ellipj, Jacobi};
 use std::cell::Cell;
 use std::mem::MaybeUninit;
 
@@ -85,11 +89,29 @@ enum Code {
     Ln,
     Sin,
     Cos,
+    /// K(a)
+    EllipK,
+    /// sn(a | b), cn(a | b), dn(a | b), F(a | b)
+    Sn,
+    Cn,
+    Dn,
+    EllipF,
     /// `b` indexes [`Interpreter::rationals`], not a slot.
     Powf,
     /// `a·b + c`: a product whose one use is this sum (`Add(Mul(a, b), c)` or
     /// `Add(c, Mul(a, b))`, the same IEEE sum), two roundings as in the tape, never fused.
     MulAdd,
+}
+
+impl Code {
+    fn of(f: Func2) -> Code {
+        match f {
+            Func2::Sn => Code::Sn,
+            Func2::Cn => Code::Cn,
+            Func2::Dn => Code::Dn,
+            Func2::EllipF => Code::EllipF,
+        }
+    }
 }
 
 /// A decoded instruction: `slot[first + i] = code(slot[a], slot[b])` (`b` unused by unary
@@ -341,6 +363,8 @@ impl Interpreter {
                         Op::Ln(a) => (Code::Ln, s(a), s(a)),
                         Op::Sin(a) => (Code::Sin, s(a), s(a)),
                         Op::Cos(a) => (Code::Cos, s(a), s(a)),
+                        Op::EllipK(a) => (Code::EllipK, s(a), s(a)),
+                        Op::Func2(f, a, b) => (Code::of(f), s(a), s(b)),
                         Op::Powf(a, p) => {
                             dec.rationals.push(p);
                             (Code::Powf, s(a), Slot::Fixed(dec.rationals.len() - 1))
@@ -493,12 +517,13 @@ impl Interpreter {
             };
             let mut dst = w.add(self.first);
             let mut done = 0;
+            let mut jacobi = None;
             for s in &self.specials {
                 dst = straight(done, s.fast_end, dst);
                 done = s.fast_end;
                 // `b` is a slot unless the exponent's index (Powf)
                 let y = if s.code == Code::Powf { 0.0 } else { r(s.b) };
-                *dst = self.special(s, r(s.a), y);
+                *dst = self.special(s, r(s.a), y, &mut jacobi);
                 dst = dst.add(1);
             }
             straight(done, self.fast.len(), dst);
@@ -508,9 +533,10 @@ impl Interpreter {
         }
     }
 
-    /// An instruction off the straight path.
+    /// An instruction off the straight path. `jacobi` holds the arguments and values of the
+    /// last `ellipj` call of this evaluation, so sn, cn, dn of one (u | m) share it.
     #[inline(never)]
-    fn special(&self, s: &Special, x: f64, y: f64) -> f64 {
+    fn special(&self, s: &Special, x: f64, y: f64, jacobi: &mut Option<(u64, u64, Jacobi)>) -> f64 {
         match s.code {
             Code::Div => x / y,
             Code::Sqrt => x.sqrt(),
@@ -519,6 +545,24 @@ impl Interpreter {
             Code::Ln => x.ln(),
             Code::Sin => x.sin(),
             Code::Cos => x.cos(),
+            Code::EllipK => Func::EllipK.apply(x),
+            Code::Sn | Code::Cn | Code::Dn => {
+                let key = (x.to_bits(), y.to_bits());
+                let j = match *jacobi {
+                    Some((u, m, j)) if (u, m) == key => j,
+                    _ => {
+                        let j = ellipj(x, y);
+                        *jacobi = Some((key.0, key.1, j));
+                        j
+                    }
+                };
+                match s.code {
+                    Code::Sn => j.sn,
+                    Code::Cn => j.cn,
+                    _ => j.dn,
+                }
+            }
+            Code::EllipF => Func2::EllipF.apply(x, y),
             Code::Powf => powf(x, self.rationals[s.b as usize]),
             Code::Add | Code::Sub | Code::Mul | Code::Neg | Code::MulAdd => {
                 unreachable!("decoded: these take the straight path")
@@ -572,6 +616,11 @@ impl Interpreter {
                 Code::Ln => map1(dst, a, f64::ln),
                 Code::Sin => map1(dst, a, f64::sin),
                 Code::Cos => map1(dst, a, f64::cos),
+                Code::EllipK => map1(dst, a, |x| Func::EllipK.apply(x)),
+                Code::Sn => map2(dst, a, lane(ins.b), |x, m| Func2::Sn.apply(x, m)),
+                Code::Cn => map2(dst, a, lane(ins.b), |x, m| Func2::Cn.apply(x, m)),
+                Code::Dn => map2(dst, a, lane(ins.b), |x, m| Func2::Dn.apply(x, m)),
+                Code::EllipF => map2(dst, a, lane(ins.b), |x, m| Func2::EllipF.apply(x, m)),
                 Code::Powf => {
                     let p = self.rationals[ins.b as usize];
                     map1(dst, a, |x| powf(x, p))

@@ -257,6 +257,16 @@ fn zeroth(t: &mut [f64], s: usize, r: Rec, hoisted: &[f64], target: &[f64], gain
             t[rs * s] = sa;
             t[c * s] = ca;
         }
+        Rec::Jacobi { rows, a, m } => {
+            let j = lasalle_runtime::elliptic::ellipj(t[a * s], t[m * s]);
+            for (r, v) in rows.into_iter().zip([j.sn, j.cn, j.dn, j.cn * j.dn, j.sn * j.dn, j.sn * j.cn]) {
+                t[r * s] = v;
+            }
+        }
+        Rec::EllipK { d, a } => t[d * s] = lasalle_runtime::elliptic::ellipk(t[a * s]),
+        Rec::EllipF { d, a, m, .. } => {
+            t[d * s] = lasalle_runtime::elliptic::ellipf(t[a * s], t[m * s])
+        }
     }
 }
 
@@ -283,6 +293,20 @@ fn coefficient(t: &mut [f64], s: usize, r: Rec, k: usize) {
             t[c * s + k] = ck;
             return;
         }
+        Rec::Jacobi { rows, a, m } => {
+            let [sn, cn, dn, cd, sd, sc] = rows;
+            let (r, m) = (|i| row(t, s, i), t[m * s]);
+            let (sk, ck, dk) = rec::jacobi(r(a), r(cd), r(sd), r(sc), m, k);
+            t[sn * s + k] = sk;
+            t[cn * s + k] = ck;
+            t[dn * s + k] = dk;
+            t[cd * s + k] = rec::mul(row(t, s, cn), row(t, s, dn), k);
+            t[sd * s + k] = rec::mul(row(t, s, sn), row(t, s, dn), k);
+            t[sc * s + k] = rec::mul(row(t, s, sn), row(t, s, cn), k);
+            return;
+        }
+        Rec::EllipK { .. } => return, // constant along the solution
+        Rec::EllipF { d, a, w, .. } => (d, rec::chain(row(t, s, a), row(t, s, w), k)),
     };
     t[d * s + k] = v;
 }

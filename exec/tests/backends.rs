@@ -235,7 +235,11 @@ impl Gen {
             };
         }
         let s = |g: &mut Gen| g.scalar(d - 1);
-        match self.rng.below(22) {
+        // the parameter m of the elliptic functions: parameters and numbers only
+        let m = ["0", "0.5", "1", "(a^2 / (1 + a^2))"][self.rng.below(4)];
+        // K and F are infinite at m = 1 (beyond φ = π/2): a non-finite constant is refused
+        let m_below_1 = if m == "1" { "0.99" } else { m };
+        match self.rng.below(26) {
             0 | 1 => format!("({} + {})", s(self), s(self)),
             2 | 3 => format!("({} - {})", s(self), s(self)),
             4 | 5 => format!("({} * {})", s(self), s(self)),
@@ -258,6 +262,17 @@ impl Gen {
             18 => format!("{}[{}]", self.vector(d - 1), self.rng.below(3)),
             19 => format!("trace(hat(x) * hat({}))", self.vector(d - 1)),
             20 => format!("(a * {} + a * {})", s(self), s(self)),
+            22 => format!(
+                "{}({}, {m})",
+                ["sn", "cn", "dn"][self.rng.below(3)],
+                s(self)
+            ),
+            23 => {
+                let quotients = ["ns", "nc", "nd", "sc", "sd", "cs", "cd", "ds", "dc"];
+                format!("{}({}, {m})", quotients[self.rng.below(9)], s(self))
+            }
+            24 => format!("ellipf({}, {m_below_1})", s(self)),
+            25 => format!("(ellipk({m_below_1}) * {})", s(self)),
             _ => format!("(x[0] * {} * y / x[1])", s(self)),
         }
     }

@@ -6,7 +6,7 @@
 use crate::error::NormalFormError;
 use crate::hamiltonian::HamiltonianFn;
 use crate::normal_form::{normalize, NormalForm, Options, Point};
-use lasalle_codegen::ir::{Id, Input, Scalar};
+use lasalle_codegen::ir::{Func, Id, Input, Node, Scalar};
 use lasalle_codegen::model::{Model, Structure};
 use std::path::Path;
 
@@ -38,6 +38,14 @@ impl<'a> ModelHamiltonian<'a> {
                 )))
             }
         };
+        let g = &model.graph;
+        let elliptic = |id| matches!(g.node(id), Node::Func2(..) | Node::Func(Func::EllipK, _));
+        if g.reachable(&[ham.h]).into_iter().any(elliptic) {
+            return Err(NormalFormError::Model(format!(
+                "model `{}`: the Hamiltonian calls elliptic functions (sn, cn, dn, their quotients, ellipk, ellipf), which normal forms do not expand into series",
+                model.name
+            )));
+        }
         let n = q.len();
         if p.len() != n || model.dim() != 2 * n {
             return Err(NormalFormError::Model(format!(

@@ -116,3 +116,19 @@ fn a_point_that_is_not_an_equilibrium() {
         Err(NormalFormError::Invalid(_))
     ));
 }
+
+/// A Hamiltonian that calls an elliptic function is refused before any series is formed
+/// (jets have no elliptic functions).
+#[test]
+fn elliptic_functions_are_refused() {
+    let text = "model Ell { state q: scalar, p: scalar; param m = 0.5;
+        hamiltonian H = p^2/2 + q^2/2 + sn(q, m)^4; structure canonical(q, p); }";
+    let model = lasalle_codegen::lower_source("ell.lsl", text).unwrap();
+    let e = lasalle_normal_form::ModelHamiltonian::new(&model, &[])
+        .err()
+        .expect("refused");
+    assert!(
+        matches!(&e, NormalFormError::Model(m) if m.contains("elliptic functions")),
+        "{e}"
+    );
+}

@@ -33,7 +33,7 @@
 
 mod declared;
 mod driver;
-pub mod elliptic;
+pub use lasalle_elliptic as elliptic;
 mod error;
 mod feedback;
 mod field;

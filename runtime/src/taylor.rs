@@ -51,6 +51,8 @@
 //! | u = eᵃ | u^\[k\] = (1/k) Σ_{j=1}^{k} j a^\[j\] u^\[k−j\] (from u' = a' u) |
 //! | u = ln a | u^\[k\] = (a^\[k\] − (1/k) Σ_{j=1}^{k−1} j u^\[j\] a^\[k−j\]) / a^\[0\] (from a u' = a') |
 //! | s = sin a, c = cos a | s^\[k\] = (1/k) Σ_{j=1}^{k} j a^\[j\] c^\[k−j\], c^\[k\] = −(1/k) Σ_{j=1}^{k} j a^\[j\] s^\[k−j\] |
+//! | s, c, d = sn, cn, dn (a \| m), m constant | s^\[k\] = (1/k) Σ_{j=1}^{k} j a^\[j\] (cd)^\[k−j\], c^\[k\] = −(1/k) Σ j a^\[j\] (sd)^\[k−j\], d^\[k\] = −(m/k) Σ j a^\[j\] (sc)^\[k−j\]; the products cd, sd, sc by Cauchy products (from s′ = c d a′, c′ = −s d a′, d′ = −m s c a′) |
+//! | u = F(a \| m), m constant | u^\[k\] = (1/k) Σ_{j=1}^{k} j a^\[j\] w^\[k−j\], w = (1 − m sin²a)^(−1/2) by the rows above |
 //!
 //! Leaves other than the state (constants, hoisted parameter values, targets, gains) and every
 //! instruction whose operands are all such leaves are constant along the solution: only their
@@ -256,6 +258,25 @@ pub mod rec {
     pub fn sin_cos(a: &[f64], s: &[f64], c: &[f64], k: usize) -> (f64, f64) {
         let kf = k as f64;
         (weighted(a, c, k) / kf, -weighted(a, s, k) / kf)
+    }
+
+    /// u^\[k\] for u′ = w a′: (1/k) Σ_{j=1}^{k} j a^\[j\] w^\[k−j\] (F(φ | m) with w its
+    /// derivative 1/√(1 − m sin²φ)).
+    #[inline(always)]
+    pub fn chain(a: &[f64], w: &[f64], k: usize) -> f64 {
+        weighted(a, w, k) / k as f64
+    }
+
+    /// ((sn a)^\[k\], (cn a)^\[k\], (dn a)^\[k\]) for the parameter m (constant), from the rows
+    /// of the products cn·dn, sn·dn, sn·cn: s′ = c d a′, c′ = −s d a′, d′ = −m s c a′.
+    #[inline(always)]
+    pub fn jacobi(a: &[f64], cd: &[f64], sd: &[f64], sc: &[f64], m: f64, k: usize) -> (f64, f64, f64) {
+        let kf = k as f64;
+        (
+            weighted(a, cd, k) / kf,
+            -weighted(a, sd, k) / kf,
+            -m * weighted(a, sc, k) / kf,
+        )
     }
 }
 

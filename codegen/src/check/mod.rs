@@ -9,7 +9,7 @@ mod prove;
 mod sampling;
 
 use crate::derive::Derivatives;
-use crate::error::{Diagnostic, Error};
+use crate::error::{Diagnostic, DiagnosticKind, Error};
 use crate::ir::Input;
 use crate::model::{InvariantKind, Model};
 use sampling::{project_onto, Rng};
@@ -209,7 +209,8 @@ pub fn check(model: &mut Model, d: &Derivatives) -> Result<Vec<Conservation>, Er
                         state_string(model, &x)
                     ),
                 )
-                .help(help),
+                .help(help)
+                .kind(DiagnosticKind::FailedCheck),
             );
         } else if samples < SAMPLES / 2 {
             errors.push(Diagnostic::new(&f.span, format!(
@@ -301,7 +302,7 @@ fn check_lyapunov(
             return Err(Diagnostic::new(span, format!(
                 "V does not vanish on the invariant set: V = {v0:.3e} at x = {} with f(x₀) = f(x)",
                 state_string(model, &x)
-            )).help("V must vanish exactly where f(x) = f(x₀) (and the constraints hold), e.g. k/2 * norm(f - target(f))^2"));
+            )).help("V must vanish exactly where f(x) = f(x₀) (and the constraints hold), e.g. k/2 * norm(f - target(f))^2").kind(DiagnosticKind::FailedCheck));
         }
         if v1 < -TOLERANCE * scale1 {
             return Err(Diagnostic::new(
@@ -311,7 +312,8 @@ fn check_lyapunov(
                     state_string(model, &x)
                 ),
             )
-            .help("V must be ≥ 0, e.g. a sum of k/2 * norm(f - target(f))^2 with k ≥ 0"));
+            .help("V must be ≥ 0, e.g. a sum of k/2 * norm(f - target(f))^2 with k ≥ 0")
+            .kind(DiagnosticKind::FailedCheck));
         }
     }
     Ok(())

@@ -1,7 +1,12 @@
 //! Stage 3: derivatives. Forward-mode symbolic derivatives (for Jacobians and canonical
 //! equations) and reverse-mode gradients (for ∇V, whose cost must stay a small multiple of V's).
+//!
+//! The parameters m of the elliptic functions (sn(u | m), K(m), …) are held fixed: their
+//! derivatives are not implemented (they need the integral of the second kind, DLMF 19.4,
+//! 22.16), and none is needed, because lowering refuses a parameter m that depends on the
+//! state and derivatives are taken with respect to the state only.
 
-use crate::ir::{Func, Graph, Id, Input, Node, Rational};
+use crate::ir::{Graph, Id, Input, Node, Rational};
 use std::collections::HashMap;
 
 /// ∂(root)/∂(var), memoised in `memo` (one memo per variable).
@@ -40,11 +45,18 @@ pub fn diff(g: &mut Graph, root: Id, var: Input, memo: &mut HashMap<Id, Id>) -> 
             }
             Node::Func(f, a) => {
                 let da = memo[&a];
-                if g.as_num(da) == Some(0.0) {
-                    da
+                match f.derivative(g, id, a) {
+                    Some(local) if g.as_num(da) != Some(0.0) => g.mul(&[local, da]),
+                    _ => g.num(0.0), // a parameter m is held fixed (module docs)
+                }
+            }
+            Node::Func2(f, [x, m]) => {
+                let dx = memo[&x];
+                if g.as_num(dx) == Some(0.0) {
+                    dx
                 } else {
-                    let local = local_func(g, id, f, a);
-                    g.mul(&[local, da])
+                    let local = f.derivative(g, x, m);
+                    g.mul(&[local, dx])
                 }
             }
         };
@@ -74,19 +86,6 @@ fn local_pow(g: &mut Graph, b: Id, e: Rational) -> Id {
         }
     };
     g.mul(&[c, p])
-}
-
-/// f′(a) for the node `id = f(a)`.
-fn local_func(g: &mut Graph, id: Id, f: Func, a: Id) -> Id {
-    match f {
-        Func::Exp => id,
-        Func::Ln => g.pow(a, Rational::int(-1)),
-        Func::Sin => g.func(Func::Cos, a),
-        Func::Cos => {
-            let s = g.func(Func::Sin, a);
-            g.neg(s)
-        }
-    }
 }
 
 /// The gradient of `root` with respect to `vars` in reverse mode: one backward sweep over the
@@ -130,9 +129,16 @@ pub fn gradient(g: &mut Graph, root: Id, vars: &[Input]) -> Vec<Id> {
                 push(b, t, &mut contributions);
             }
             Node::Func(f, a) => {
-                let local = local_func(g, id, f, a);
+                if let Some(local) = f.derivative(g, id, a) {
+                    let t = g.mul(&[adj, local]);
+                    push(a, t, &mut contributions);
+                }
+            }
+            Node::Func2(f, [x, m]) => {
+                // m is held fixed (module docs): no adjoint flows into it
+                let local = f.derivative(g, x, m);
                 let t = g.mul(&[adj, local]);
-                push(a, t, &mut contributions);
+                push(x, t, &mut contributions);
             }
         }
     }
@@ -149,6 +155,7 @@ pub fn gradient(g: &mut Graph, root: Id, vars: &[Input]) -> Vec<Id> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ir::Func;
 
     /// d/dx of x³·sin(x) at x = 0.7, forward and reverse, against the hand derivative.
     #[test]

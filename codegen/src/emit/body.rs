@@ -267,8 +267,17 @@ impl Writer<'_> {
                     Func::Ln => quote!(#a.ln()),
                     Func::Sin => quote!(#a.sin()),
                     Func::Cos => quote!(#a.cos()),
+                    Func::EllipK => quote!(lasalle_runtime::elliptic::generic::ellipk(#a)),
                 };
                 (ts, Prec::Atom)
+            }
+            Node::Func2(f, [x, m]) => {
+                let (x, m) = (self.reference(*x).0, self.reference(*m).0);
+                let name = format_ident!("{}", f.name());
+                (
+                    quote!(lasalle_runtime::elliptic::generic::#name(#x, #m)),
+                    Prec::Atom,
+                )
             }
         }
     }

@@ -28,7 +28,7 @@
 //! [`lasalle_runtime::taylor::EMITTED_MAX_ORDER`]: https://docs.rs/lasalle-runtime
 
 use super::Emitter;
-use crate::ir::Input;
+use crate::ir::{Func2, Input};
 use crate::tape::taylor::{Leaf, PowZero, Rec, TaylorProgram};
 use crate::tape::{ModelTapes, Op, Tape};
 use proc_macro2::TokenStream;
@@ -46,7 +46,7 @@ pub(super) fn f64_lit(x: f64) -> String {
         }
         .into()
     } else if x.is_sign_negative() {
-        format!("(-{:?}_f64)", -x)
+        format!("-{:?}_f64", -x)
     } else {
         format!("{x:?}_f64")
     }
@@ -68,6 +68,16 @@ pub(super) fn op_expr(op: &Op, r: impl Fn(crate::tape::Reg) -> String) -> String
         Op::Ln(a) => format!("{}.ln()", r(a)),
         Op::Sin(a) => format!("{}.sin()", r(a)),
         Op::Cos(a) => format!("{}.cos()", r(a)),
+        Op::EllipK(m) => format!("lasalle_runtime::elliptic::ellipk({})", r(m)),
+        Op::Func2(Func2::EllipF, a, m) => {
+            format!("lasalle_runtime::elliptic::ellipf({}, {})", r(a), r(m))
+        }
+        Op::Func2(f, a, m) => format!(
+            "lasalle_runtime::elliptic::ellipj({}, {}).{}",
+            r(a),
+            r(m),
+            f.name()
+        ),
         Op::State(_)
         | Op::Param(_)
         | Op::Target(_)
@@ -333,6 +343,24 @@ fn zeroth_line(r: Rec) -> String {
                 z(a)
             )
         }
+        Rec::Jacobi {
+            rows: [sn, cn, dn, cd, sd, sc],
+            a,
+            m,
+        } => {
+            return format!(
+                "let j = lasalle_runtime::elliptic::ellipj({}, {});\n\
+                 t[{sn}][0] = j.sn;\nt[{cn}][0] = j.cn;\nt[{dn}][0] = j.dn;\n\
+                 t[{cd}][0] = j.cn * j.dn;\nt[{sd}][0] = j.sn * j.dn;\nt[{sc}][0] = j.sn * j.cn;\n",
+                z(a),
+                z(m)
+            )
+        }
+        Rec::EllipK { d, a } => (d, format!("lasalle_runtime::elliptic::ellipk({})", z(a))),
+        Rec::EllipF { d, a, m, .. } => (
+            d,
+            format!("lasalle_runtime::elliptic::ellipf({}, {})", z(a), z(m)),
+        ),
     };
     format!("t[{d}][0] = {e};\n")
 }
@@ -362,6 +390,21 @@ fn coefficient_line(r: Rec) -> String {
                 "let (s, c) = {REC}::sin_cos(&t[{a}], &t[{s}], &t[{c}], k);\nt[{s}][k] = s;\nt[{c}][k] = c;\n"
             )
         }
+        Rec::Jacobi {
+            rows: [sn, cn, dn, cd, sd, sc],
+            a,
+            m,
+        } => {
+            return format!(
+                "let (s, c, d) = {REC}::jacobi(&t[{a}], &t[{cd}], &t[{sd}], &t[{sc}], t[{m}][0], k);\n\
+                 t[{sn}][k] = s;\nt[{cn}][k] = c;\nt[{dn}][k] = d;\n\
+                 t[{cd}][k] = {REC}::mul(&t[{cn}], &t[{dn}], k);\n\
+                 t[{sd}][k] = {REC}::mul(&t[{sn}], &t[{dn}], k);\n\
+                 t[{sc}][k] = {REC}::mul(&t[{sn}], &t[{cn}], k);\n"
+            )
+        }
+        Rec::EllipK { .. } => return String::new(),
+        Rec::EllipF { d, a, w, .. } => (d, format!("{REC}::chain(&t[{a}], &t[{w}], k)")),
     };
     format!("t[{d}][k] = {e};\n")
 }

@@ -28,7 +28,7 @@ impl Graph {
                 };
                 mults + u64::from(e.num < 0) + u64::from(!e.is_int())
             }
-            Node::Func(..) => 1,
+            Node::Func(..) | Node::Func2(..) => 1,
         }
     }
 

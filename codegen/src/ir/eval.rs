@@ -1,7 +1,7 @@
 //! Evaluation of the DAG over any number-like type: f64 for checks, truncated power series
 //! for Taylor expansion (normal forms), intervals or jets later.
 
-use super::{Graph, Id, Input, Node, Rational};
+use super::{Func, Func2, Graph, Id, Input, Node, Rational};
 
 /// What the DAG needs from a value type to be evaluated over it.
 ///
@@ -28,6 +28,22 @@ pub trait Scalar: Clone {
     fn sin(&self) -> Self;
     /// cos(self)
     fn cos(&self) -> Self;
+    /// sn, cn, dn of (self | m), parameter m = k².
+    ///
+    /// The default is NaN: a type without elliptic functions. The truncated series of the
+    /// normal-form crate have none, and it refuses models that call them before evaluating.
+    fn jacobi(&self, _m: &Self) -> [Self; 3] {
+        let nan = Self::from_f64(f64::NAN);
+        [nan.clone(), nan.clone(), nan]
+    }
+    /// K(self), parameter m = self (default NaN, as [`Scalar::jacobi`]).
+    fn ellipk(&self) -> Self {
+        Self::from_f64(f64::NAN)
+    }
+    /// F(self | m), parameter m (default NaN, as [`Scalar::jacobi`]).
+    fn ellipf(&self, _m: &Self) -> Self {
+        Self::from_f64(f64::NAN)
+    }
     /// −self
     fn neg(&self) -> Self {
         self.mul(&Self::from_f64(-1.0))
@@ -101,6 +117,46 @@ impl Scalar for f64 {
     fn cos(&self) -> Self {
         f64::cos(*self)
     }
+    fn jacobi(&self, m: &Self) -> [Self; 3] {
+        let j = lasalle_elliptic::ellipj(*self, *m);
+        [j.sn, j.cn, j.dn]
+    }
+    fn ellipk(&self) -> Self {
+        lasalle_elliptic::ellipk(*self)
+    }
+    fn ellipf(&self, m: &Self) -> Self {
+        lasalle_elliptic::ellipf(*self, *m)
+    }
+}
+
+impl Func {
+    /// The function over any [`Scalar`].
+    pub fn eval<S: Scalar>(self, a: &S) -> S {
+        match self {
+            Func::Exp => a.exp(),
+            Func::Ln => a.ln(),
+            Func::Sin => a.sin(),
+            Func::Cos => a.cos(),
+            Func::EllipK => a.ellipk(),
+        }
+    }
+}
+
+impl Func2 {
+    /// The function over any [`Scalar`].
+    pub fn eval<S: Scalar>(self, x: &S, m: &S) -> S {
+        match self {
+            Func2::Sn | Func2::Cn | Func2::Dn => {
+                let [sn, cn, dn] = x.jacobi(m);
+                match self {
+                    Func2::Sn => sn,
+                    Func2::Cn => cn,
+                    _ => dn,
+                }
+            }
+            Func2::EllipF => x.ellipf(m),
+        }
+    }
 }
 
 impl Graph {
@@ -120,15 +176,8 @@ impl Graph {
                 Node::Mul(c) => c[1..].iter().fold(v(&c[0]).clone(), |acc, k| acc.mul(v(k))),
                 Node::Pow(b, e) if e.is_int() => v(b).powi(e.num),
                 Node::Pow(b, e) => v(b).powf(*e),
-                Node::Func(f, a) => {
-                    let a = v(a);
-                    match f {
-                        super::Func::Exp => a.exp(),
-                        super::Func::Ln => a.ln(),
-                        super::Func::Sin => a.sin(),
-                        super::Func::Cos => a.cos(),
-                    }
-                }
+                Node::Func(f, a) => f.eval(v(a)),
+                Node::Func2(f, [x, m]) => f.eval(v(x), v(m)),
             };
             slot[id.index()] = values.len();
             values.push(value);
@@ -185,11 +234,20 @@ impl Graph {
                     let (av, am) = (val[a.index()], mag[a.index()]);
                     let v = f.apply(av);
                     let m = match f {
-                        super::Func::Exp => v.abs() * am.max(1.0),
-                        super::Func::Ln => v.abs().max(am / av.abs()),
-                        super::Func::Sin | super::Func::Cos => v.abs().max(am),
+                        Func::Exp => v.abs() * am.max(1.0),
+                        Func::Ln => v.abs().max(am / av.abs()),
+                        Func::Sin | Func::Cos => v.abs().max(am),
+                        // K grows like ½ ln(16/(1 − m)): bounded by its value and the input's
+                        Func::EllipK => v.abs().max(am),
                     };
                     (v, m)
+                }
+                Node::Func2(f, [x, m]) => {
+                    let (xv, xm) = (val[x.index()], mag[x.index()]);
+                    let v = f.apply(xv, val[m.index()]);
+                    // |sn|, |cn|, |dn| ≤ 1 with slopes ≤ 1; F grows at most like its argument
+                    // times 1/√(1 − m) — the scale of the argument carries the rounding.
+                    (v, v.abs().max(xm))
                 }
             };
             val[id.index()] = v;

@@ -97,6 +97,7 @@ impl Graph {
                 let a = memo[&a];
                 self.func(f, a)
             }
+            Node::Func2(f, [x, m]) => self.func2(f, memo[&x], memo[&m]),
         };
         Some(result)
     }

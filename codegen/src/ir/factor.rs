@@ -211,6 +211,7 @@ impl Graph {
                     }
                     Node::Pow(b2, e) => self.intern(Node::Pow(new[&b2], e)),
                     Node::Func(f, x) => self.intern(Node::Func(f, new[&x])),
+                    Node::Func2(f, [x, m]) => self.intern(Node::Func2(f, [new[&x], new[&m]])),
                 };
                 new.insert(id, rebuilt);
             }

@@ -18,9 +18,11 @@ mod count;
 mod eval;
 mod expand;
 mod factor;
+mod func;
 
 pub use count::OpCount;
 pub use eval::Scalar;
+pub use func::{Func, Func2};
 
 use std::collections::HashMap;
 use std::fmt;
@@ -133,40 +135,6 @@ impl fmt::Display for Rational {
     }
 }
 
-/// Elementary functions of one argument.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Func {
-    /// eˣ
-    Exp,
-    /// natural logarithm
-    Ln,
-    /// sine
-    Sin,
-    /// cosine
-    Cos,
-}
-
-impl Func {
-    /// The name used in model files.
-    pub fn name(self) -> &'static str {
-        match self {
-            Func::Exp => "exp",
-            Func::Ln => "log",
-            Func::Sin => "sin",
-            Func::Cos => "cos",
-        }
-    }
-    /// Applies the function to an f64.
-    pub fn apply(self, x: f64) -> f64 {
-        match self {
-            Func::Exp => x.exp(),
-            Func::Ln => x.ln(),
-            Func::Sin => x.sin(),
-            Func::Cos => x.cos(),
-        }
-    }
-}
-
 /// One node of the DAG. Numbers are stored by their bits so nodes can be hashed.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub enum Node {
@@ -183,6 +151,8 @@ pub enum Node {
     Pow(Id, Rational),
     /// f(x).
     Func(Func, Id),
+    /// f(x, m): the elliptic functions, parameter m second.
+    Func2(Func2, [Id; 2]),
 }
 
 /// The arena of interned nodes.
@@ -441,6 +411,17 @@ impl Graph {
         }
     }
 
+    /// f(x, m), folded on numbers.
+    pub fn func2(&mut self, f: Func2, x: Id, m: Id) -> Id {
+        if let (Some(xv), Some(mv)) = (self.as_num(x), self.as_num(m)) {
+            let v = f.apply(xv, mv);
+            if v.is_finite() {
+                return self.num(v);
+            }
+        }
+        self.intern(Node::Func2(f, [x, m]))
+    }
+
     /// The `roots` with every input `i` replaced by `rename(i)`, rebuilt through the smart
     /// constructors (in topological order, so deep expressions cannot overflow the stack).
     pub fn rename_inputs(&mut self, roots: &[Id], rename: impl Fn(Input) -> Input) -> Vec<Id> {
@@ -459,6 +440,7 @@ impl Graph {
                 }
                 Node::Pow(b, e) => self.pow(new[&b], e),
                 Node::Func(f, a) => self.func(f, new[&a]),
+                Node::Func2(f, [x, m]) => self.func2(f, new[&x], new[&m]),
             };
             new.insert(id, n);
         }
@@ -471,6 +453,7 @@ impl Graph {
             Node::Num(_) | Node::Input(_) => &[],
             Node::Add(c) | Node::Mul(c) => c,
             Node::Pow(b, _) | Node::Func(_, b) => std::slice::from_ref(b),
+            Node::Func2(_, args) => args,
         }
     }
 
@@ -517,6 +500,7 @@ impl Graph {
                 Node::Mul(c) => Node::Mul(c.iter().map(|k| new[k]).collect()),
                 Node::Pow(b, e) => Node::Pow(new[&b], e),
                 Node::Func(f, a) => Node::Func(f, new[&a]),
+                Node::Func2(f, [x, m]) => Node::Func2(f, [new[&x], new[&m]]),
                 leaf => leaf,
             };
             let rebuilt = match rewrite(self, &node) {
@@ -527,6 +511,7 @@ impl Graph {
                     Node::Mul(c) => self.mul(&c),
                     Node::Pow(b, e) => self.pow(b, e),
                     Node::Func(f, a) => self.func(f, a),
+                    Node::Func2(f, [x, m]) => self.func2(f, x, m),
                 },
             };
             new.insert(id, rebuilt);
@@ -565,6 +550,9 @@ impl Graph {
                 }
             ),
             Node::Func(f, a) => format!("{}({})", f.name(), self.display(*a)),
+            Node::Func2(f, [x, m]) => {
+                format!("{}({}, {})", f.name(), self.display(*x), self.display(*m))
+            }
         }
     }
 }

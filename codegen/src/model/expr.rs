@@ -1,10 +1,11 @@
 //! Lowering of expressions: names, operators, calls, with their shapes checked.
 
-use super::lower::{Ctx, Kind, Lowerer, Symbol, FUNCTIONS, L, POISONED};
+use super::lower::{Ctx, Kind, Lowerer, Symbol, L};
 use super::{Shape, Value};
-use crate::error::Diagnostic;
-use crate::ir::{Func, Graph, Id, Input, Node, Rational};
+use crate::error::{Diagnostic, DiagnosticKind};
+use crate::ir::{Func2, Graph, Id, Input, Node, Rational};
 use crate::parse::ast::*;
+use crate::vocabulary::{self, Builtin, Lowering, BUILTINS};
 
 /// Products with this many operators or more are multiplied at once (see [`Lowerer::chain`]).
 const LONG_CHAIN: usize = 32;
@@ -32,20 +33,23 @@ impl Lowerer {
                             name.name
                         ),
                     )
-                    .help(help));
+                    .help(help)
+                    .kind(DiagnosticKind::NotAllowedHere));
                 }
                 Ok(sym.clone())
             }
             None if self.poisoned.contains(&name.name) => {
-                Err(Diagnostic::new(&name.span, POISONED))
+                Err(Diagnostic::already_reported(&name.span))
             }
             None if self.gain_names.contains(&name.name) => Err(Diagnostic::new(
                 &name.span,
                 format!("gain `{}` cannot be used here", name.name),
             )
-            .help("gains may appear only in `lyapunov`")),
+            .help("gains may appear only in `lyapunov`")
+            .kind(DiagnosticKind::NotAllowedHere)),
             None => {
-                let mut d = Diagnostic::new(&name.span, format!("unknown symbol `{}`", name.name));
+                let mut d = Diagnostic::new(&name.span, format!("unknown symbol `{}`", name.name))
+                    .kind(DiagnosticKind::UnknownName);
                 if let Some(s) = self.suggest(&name.name) {
                     d = d.help(format!("did you mean `{s}`?"));
                 } else {
@@ -87,8 +91,10 @@ impl Lowerer {
 
     pub(super) fn constant(&mut self, e: &Expr, what: &str) -> L<f64> {
         let v = self.expr(e, Ctx::Constant).map_err(|d| {
-            if d.message.contains("cannot be used here") || d.message.starts_with("unknown symbol")
-            {
+            if matches!(
+                d.kind,
+                DiagnosticKind::NotAllowedHere | DiagnosticKind::UnknownName
+            ) {
                 Diagnostic::new(&e.span, format!("{what} must be a constant number"))
                     .help("write a number, e.g. `2` or `1/2`")
             } else {
@@ -148,7 +154,8 @@ impl Lowerer {
                     &e.span,
                     format!("constant expression `{text}` is not finite (it is {x})"),
                 )
-                .help("generated code computes in finite floating point: check for a division by zero, the log or square root of a non-positive number, or a number beyond ±1.8e308"))
+                .help("generated code computes in finite floating point: check for a division by zero, the log or square root of a non-positive number, or a number beyond ±1.8e308")
+                .kind(DiagnosticKind::NotFinite))
             }
         }
     }
@@ -168,6 +175,7 @@ impl Lowerer {
                 Node::Pow(b, r) if r.is_int() => c(b).map(|x| x.powi(r.num)),
                 Node::Pow(b, r) => c(b).map(|x| x.powf(r.to_f64())),
                 Node::Func(f, a) => c(a).map(|x| f.apply(x)),
+                Node::Func2(f, [x, m]) => c(x).zip(c(m)).map(|(x, m)| f.apply(x, m)),
             };
             if matches!(self.g.node(id), Node::Num(_)) && value.is_some_and(|x| !x.is_finite()) {
                 bad = value;
@@ -493,39 +501,114 @@ impl Lowerer {
         })
     }
 
+    /// A call of a built-in function (see [`vocabulary::BUILTINS`]).
     pub(super) fn call(&mut self, f: &Ident, args: &[Expr], e: &Expr, ctx: Ctx) -> L<Value> {
-        let arity = |n: usize| -> L<()> {
-            if args.len() == n {
-                Ok(())
-            } else {
-                Err(Diagnostic::new(
-                    &e.span,
-                    format!(
-                        "`{}` takes {n} argument{}, {} given",
-                        f.name,
-                        if n == 1 { "" } else { "s" },
-                        args.len()
-                    ),
-                ))
-            }
+        let Some(builtin) = vocabulary::builtin(&f.name) else {
+            let near = BUILTINS
+                .iter()
+                .map(|b| b.name)
+                .min_by_key(|k| edit_distance(k, &f.name))
+                .filter(|k| edit_distance(k, &f.name) <= 2);
+            let names: Vec<&str> = BUILTINS.iter().map(|b| b.name).collect();
+            return Err(
+                Diagnostic::new(&f.span, format!("unknown function `{}`", f.name))
+                    .help(match near {
+                        Some(k) => format!("did you mean `{k}`?"),
+                        None => format!("known functions: {}", names.join(", ")),
+                    })
+                    .kind(DiagnosticKind::UnknownName),
+            );
         };
-        match f.name.as_str() {
-            "sqrt" | "exp" | "log" | "sin" | "cos" => {
-                arity(1)?;
-                let v = self.expr(&args[0], ctx)?;
-                let x =
-                    self.expect_scalar(&v, &args[0], &format!("the argument of `{}`", f.name))?;
-                let y = match f.name.as_str() {
-                    "sqrt" => self.g.sqrt(x),
-                    "exp" => self.g.func(Func::Exp, x),
-                    "log" => self.g.func(Func::Ln, x),
-                    "sin" => self.g.func(Func::Sin, x),
-                    _ => self.g.func(Func::Cos, x),
-                };
-                Ok(Value::scalar(y))
+        if !builtin.arity.accepts(args.len()) {
+            let (at_least, n) = match builtin.arity {
+                vocabulary::Arity::Exactly(n) => ("", n),
+                vocabulary::Arity::AtLeast(n) => ("at least ", n),
+            };
+            return Err(Diagnostic::new(
+                &e.span,
+                format!(
+                    "`{}` takes {at_least}{n} argument{}, {} given",
+                    f.name,
+                    if n == 1 { "" } else { "s" },
+                    args.len()
+                ),
+            )
+            .help(format!("write `{}`", builtin.call)));
+        }
+        let y = match builtin.lowering {
+            Lowering::Sqrt => {
+                let x = self.scalar_argument(builtin, args, 0, ctx)?;
+                self.g.sqrt(x)
             }
+            Lowering::Func(func) => {
+                let x = self.scalar_argument(builtin, args, 0, ctx)?;
+                if func.takes_parameter() {
+                    self.elliptic_parameter(builtin, &args[0], x)?;
+                }
+                self.g.func(func, x)
+            }
+            Lowering::Func2(func) => {
+                let (x, m) = self.elliptic_arguments(builtin, args, ctx)?;
+                self.g.func2(func, x, m)
+            }
+            Lowering::Quotient(p, q) => {
+                let (u, m) = self.elliptic_arguments(builtin, args, ctx)?;
+                let part = |g: &mut Graph, f: Option<Func2>| match f {
+                    Some(f) => g.func2(f, u, m),
+                    None => g.num(1.0),
+                };
+                let (p, q) = (part(&mut self.g, p), part(&mut self.g, q));
+                self.g.div(p, q)
+            }
+            Lowering::Structural => return self.structural(f, args, e, ctx),
+        };
+        Ok(Value::scalar(y))
+    }
+
+    /// The `k`-th argument of a scalar built-in.
+    fn scalar_argument(&mut self, b: &Builtin, args: &[Expr], k: usize, ctx: Ctx) -> L<Id> {
+        let v = self.expr(&args[k], ctx)?;
+        let what = if args.len() == 1 {
+            format!("the argument of `{}`", b.name)
+        } else {
+            format!("argument {} of `{}`", k + 1, b.name)
+        };
+        self.expect_scalar(&v, &args[k], &what)
+    }
+
+    /// (x, m) of an elliptic function, m checked as [`Lowerer::elliptic_parameter`] does.
+    fn elliptic_arguments(&mut self, b: &Builtin, args: &[Expr], ctx: Ctx) -> L<(Id, Id)> {
+        let x = self.scalar_argument(b, args, 0, ctx)?;
+        let m = self.scalar_argument(b, args, 1, ctx)?;
+        self.elliptic_parameter(b, &args[1], m)?;
+        Ok((x, m))
+    }
+
+    /// The parameter m = k² of an elliptic function must not depend on the state (its
+    /// derivatives are not implemented, see `derive`), and a constant m must lie in [0, 1].
+    fn elliptic_parameter(&self, b: &Builtin, arg: &Expr, m: Id) -> L<()> {
+        if self.g.depends_on(m, |i| matches!(i, Input::State(_))) {
+            return Err(Diagnostic::new(
+                &arg.span,
+                format!("the parameter m of `{}` depends on the state", b.name),
+            )
+            .help("build m = k² from parameters and numbers: the generator differentiates with respect to the state, and derivatives in m (which need elliptic integrals of the second kind) are not implemented")
+            .kind(DiagnosticKind::StateDependentParameter));
+        }
+        match self.g.as_num(m) {
+            Some(v) if !(0.0..=1.0).contains(&v) => Err(Diagnostic::new(
+                &arg.span,
+                format!("the parameter m of `{}` is {v}, outside [0, 1]", b.name),
+            )
+            .help("m is the parameter k² (not the modulus k), 0 ≤ m ≤ 1")),
+            _ => Ok(()),
+        }
+    }
+
+    /// The built-ins with their own lowering ([`Lowering::Structural`]); the arity is checked.
+    fn structural(&mut self, f: &Ident, args: &[Expr], e: &Expr, ctx: Ctx) -> L<Value> {
+        match f.name.as_str() {
             "norm" => {
-                arity(1)?;
                 let v = self.expr(&args[0], ctx)?;
                 let sq: Vec<Id> = v
                     .ids
@@ -536,7 +619,6 @@ impl Lowerer {
                 Ok(Value::scalar(self.g.sqrt(s)))
             }
             "dot" => {
-                arity(2)?;
                 let a = self.expr(&args[0], ctx)?;
                 let b = self.expr(&args[1], ctx)?;
                 if a.shape != b.shape || !matches!(a.shape, Shape::Vector(_)) {
@@ -557,7 +639,6 @@ impl Lowerer {
                 Ok(Value::scalar(self.g.add(&terms)))
             }
             "cross" => {
-                arity(2)?;
                 let a = self.expr(&args[0], ctx)?;
                 let b = self.expr(&args[1], ctx)?;
                 for (v, arg) in [(&a, &args[0]), (&b, &args[1])] {
@@ -575,7 +656,6 @@ impl Lowerer {
                 })
             }
             "hat" => {
-                arity(1)?;
                 let a = self.expr(&args[0], ctx)?;
                 if a.shape != Shape::Vector(3) {
                     return Err(Diagnostic::new(
@@ -600,7 +680,6 @@ impl Lowerer {
                 })
             }
             "transpose" => {
-                arity(1)?;
                 let a = self.expr(&args[0], ctx)?;
                 let (r, c) = a.shape.dims();
                 let ids = (0..r)
@@ -617,7 +696,6 @@ impl Lowerer {
                 })
             }
             "trace" => {
-                arity(1)?;
                 let a = self.expr(&args[0], ctx)?;
                 let (r, c) = a.shape.dims();
                 if r != c || !matches!(a.shape, Shape::Matrix(..)) {
@@ -630,12 +708,10 @@ impl Lowerer {
                 Ok(Value::scalar(self.g.add(&d)))
             }
             "inv" => {
-                arity(1)?;
                 let a = self.expr(&args[0], ctx)?;
                 self.inverse(&a, &args[0])
             }
             "eye" => {
-                arity(1)?;
                 let n = self.constant(&args[0], "the size of `eye`")?;
                 if n.fract() != 0.0 || !(1.0..=64.0).contains(&n) {
                     return Err(Diagnostic::new(
@@ -662,7 +738,6 @@ impl Lowerer {
                     )
                     .help("target(f) is the value f(x₀) of an invariant at the initial point"));
                 }
-                arity(1)?;
                 let ExprKind::Name(name) = &args[0].kind else {
                     return Err(Diagnostic::new(
                         &args[0].span,
@@ -682,18 +757,10 @@ impl Lowerer {
                 }
                 self.target_of(name)
             }
-            other => {
-                let mut d = Diagnostic::new(&f.span, format!("unknown function `{other}`"));
-                let near = FUNCTIONS
-                    .iter()
-                    .min_by_key(|k| edit_distance(k, other))
-                    .filter(|k| edit_distance(k, other) <= 2);
-                d = d.help(match near {
-                    Some(k) => format!("did you mean `{k}`?"),
-                    None => format!("known functions: {}", FUNCTIONS.join(", ")),
-                });
-                Err(d)
-            }
+            other => Err(Diagnostic::new(
+                &f.span,
+                format!("internal error: built-in `{other}` has no lowering"),
+            )),
         }
     }
 

@@ -1,7 +1,7 @@
 //! Lowering: resolves names, checks shapes and builds the DAG for every expression.
 
 use super::*;
-use crate::error::{Diagnostic, Error};
+use crate::error::{Diagnostic, DiagnosticKind, Error};
 use crate::ir::{Input, Node, Rational};
 use crate::parse::ast::*;
 use std::collections::HashMap;
@@ -48,43 +48,6 @@ pub(super) enum Ctx {
     Lyapunov,
 }
 
-/// The message of an error that repeats an earlier one (a use of a failed definition).
-pub(super) const POISONED: &str = "(already reported)";
-
-pub(super) const FUNCTIONS: &[&str] = &[
-    "sqrt",
-    "exp",
-    "log",
-    "sin",
-    "cos",
-    "norm",
-    "dot",
-    "cross",
-    "hat",
-    "transpose",
-    "trace",
-    "inv",
-    "eye",
-    "diag",
-    "target",
-];
-const KEYWORDS: &[&str] = &[
-    "model",
-    "state",
-    "param",
-    "let",
-    "integral",
-    "constraint",
-    "gain",
-    "lyapunov",
-    "hamiltonian",
-    "structure",
-    "point",
-    "run",
-    "guard",
-    "splitting",
-];
-
 pub(super) struct Lowerer {
     pub(super) source: Arc<Source>,
     pub(super) g: Graph,
@@ -128,7 +91,7 @@ pub fn lower(ast: &ModelAst, source: Arc<Source>) -> Result<Model, Error> {
 
 impl Lowerer {
     fn declare(&mut self, name: &Ident, kind: Kind, value: Value) {
-        if KEYWORDS.contains(&name.name.as_str()) || FUNCTIONS.contains(&name.name.as_str()) {
+        if crate::vocabulary::is_reserved(&name.name) {
             self.errors.push(
                 Diagnostic::new(
                     &name.span,
@@ -138,7 +101,8 @@ impl Lowerer {
                         kind.describe()
                     ),
                 )
-                .help("choose another name"),
+                .help("choose another name")
+                .kind(DiagnosticKind::Reserved),
             );
             return;
         }
@@ -366,7 +330,7 @@ impl Lowerer {
                 }
             };
             if let Err(d) = result {
-                if d.message != POISONED {
+                if d.kind != DiagnosticKind::AlreadyReported {
                     self.errors.push(d);
                 }
             }
@@ -382,7 +346,8 @@ impl Lowerer {
                         &span,
                         format!("the equations of this structure have a constant that is not finite ({x})"),
                     )
-                    .help("they are derivatives of the Hamiltonian: rescale constants near ±1.8e308")),
+                    .help("they are derivatives of the Hamiltonian: rescale constants near ±1.8e308")
+                    .kind(DiagnosticKind::NotFinite)),
                     None => Ok(s),
                 });
                 match result {

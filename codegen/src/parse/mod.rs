@@ -9,6 +9,7 @@ use std::sync::Arc;
 
 /// Parses a model file's text.
 pub fn parse(source: &Arc<Source>) -> Result<ast::ModelAst, Diagnostic> {
-    let tokens = lexer::lex(source)?;
-    parser::Parser::new(tokens).model()
+    let syntax = |d: Diagnostic| d.kind(crate::DiagnosticKind::Syntax);
+    let tokens = lexer::lex(source).map_err(syntax)?;
+    parser::Parser::new(tokens).model().map_err(syntax)
 }

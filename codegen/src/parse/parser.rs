@@ -22,23 +22,6 @@ use super::ast::*;
 use super::lexer::{Tok, Token};
 use crate::error::{Diagnostic, Span};
 
-/// Keywords that start an item, for "expected one of" messages.
-const ITEM_KEYWORDS: &[&str] = &[
-    "state",
-    "param",
-    "let",
-    "d/dt",
-    "integral",
-    "constraint",
-    "lyapunov",
-    "hamiltonian",
-    "structure",
-    "point",
-    "run",
-    "guard",
-    "splitting",
-];
-
 /// The parser state: a token list and a cursor.
 pub struct Parser {
     tokens: Vec<Token>,
@@ -358,7 +341,11 @@ impl Parser {
     }
 
     fn expected_item(&self) -> Diagnostic {
-        let list: Vec<String> = ITEM_KEYWORDS.iter().map(|k| format!("`{k}`")).collect();
+        let list: Vec<String> = crate::vocabulary::KEYWORDS
+            .iter()
+            .filter(|k| k.starts_item)
+            .map(|k| format!("`{}`", k.name))
+            .collect();
         self.unexpected(&format!("one of {}", list.join(", ")))
     }
 

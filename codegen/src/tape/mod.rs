@@ -25,7 +25,7 @@
 //!
 //! Hence, for every op, evaluating the tape in f64 is **bitwise** equal to the emitted Rust
 //! evaluated in f64: each tape instruction is one IEEE operation or one call of the same `std`
-//! function the emitted code calls (`x - y` and `x + (-y)` are the same IEEE operation, so a
+//! function (or `lasalle_runtime::elliptic` kernel, for K, sn, cn, dn, F) the emitted code calls (`x - y` and `x + (-y)` are the same IEEE operation, so a
 //! negative term may be subtracted or added negated; `Powi` is the binary exponentiation that
 //! `f64::powi` performs, see [`powi`]). For bitwise equality the builder must start from the
 //! graph the emitter starts from (the model after `check::check`) and lower the functions in
@@ -59,7 +59,7 @@ pub mod taylor;
 
 pub use model::{ModelTapes, Partition};
 
-use crate::ir::{Func, Graph, Id, Input, Node, Rational, Scalar};
+use crate::ir::{Func, Func2, Graph, Id, Input, Node, Rational, Scalar};
 use std::collections::{HashMap, HashSet};
 use std::fmt;
 
@@ -115,6 +115,11 @@ pub enum Op {
     Sin(Reg),
     /// cos a
     Cos(Reg),
+    /// K(m), as `lasalle_runtime::elliptic::ellipk`
+    EllipK(Reg),
+    /// f(x, m) of [`Func2`]: sn, cn, dn (one `ellipj` call each) or F, as
+    /// `lasalle_runtime::elliptic`
+    Func2(Func2, Reg, Reg),
 }
 
 impl Op {
@@ -127,7 +132,9 @@ impl Op {
             | Op::Gain(_)
             | Op::Hoisted(_)
             | Op::Const(_) => (None, None),
-            Op::Add(a, b) | Op::Sub(a, b) | Op::Mul(a, b) | Op::Div(a, b) => (Some(a), Some(b)),
+            Op::Add(a, b) | Op::Sub(a, b) | Op::Mul(a, b) | Op::Div(a, b) | Op::Func2(_, a, b) => {
+                (Some(a), Some(b))
+            }
             Op::Neg(a)
             | Op::Powi(a, _)
             | Op::Sqrt(a)
@@ -136,7 +143,8 @@ impl Op {
             | Op::Exp(a)
             | Op::Ln(a)
             | Op::Sin(a)
-            | Op::Cos(a) => (Some(a), None),
+            | Op::Cos(a)
+            | Op::EllipK(a) => (Some(a), None),
         };
         a.into_iter().chain(b)
     }
@@ -168,6 +176,8 @@ impl Op {
             Op::Ln(a) => (16, r(a), 0),
             Op::Sin(a) => (17, r(a), 0),
             Op::Cos(a) => (18, r(a), 0),
+            Op::EllipK(a) => (19, r(a), 0),
+            Op::Func2(f, a, b) => (20 + f as u8, r(a), r(b)),
         }
     }
 }
@@ -426,6 +436,8 @@ fn run<S: Scalar>(ops: &[Op], leaf: impl Fn(Op) -> S) -> Vec<S> {
             Op::Ln(a) => r(a).ln(),
             Op::Sin(a) => r(a).sin(),
             Op::Cos(a) => r(a).cos(),
+            Op::EllipK(a) => r(a).ellipk(),
+            Op::Func2(f, a, b) => f.eval(r(a), r(b)),
             leaf_op => leaf(leaf_op),
         };
         regs.push(v);
@@ -682,8 +694,13 @@ impl Lowering<'_> {
                     Func::Ln => Op::Ln,
                     Func::Sin => Op::Sin,
                     Func::Cos => Op::Cos,
+                    Func::EllipK => Op::EllipK,
                 };
                 self.s.un(a, make)
+            }
+            &Node::Func2(f, [x, m]) => {
+                let (x, m) = (self.reference(x)?, self.reference(m)?);
+                self.s.inst(&[x, m], |r| Op::Func2(f, r[0], r[1]))
             }
         }
     }

@@ -8,12 +8,17 @@
 //! `powi`, the constant 1). Sine and cosine of the same operand share one [`Rec::SinCos`].
 //! `powi` is expanded into the squares and products `f64::powi` performs ([`super::powi`]),
 //! then 1/· by the division recurrence for a negative exponent, so the order-0 values are the
-//! tape's bitwise and a base with a^\[0\] = 0 is fine for a positive exponent.
+//! tape's bitwise and a base with a^\[0\] = 0 is fine for a positive exponent. sn, cn, dn of
+//! one (u | m) share one [`Rec::Jacobi`] (with the products cn·dn, sn·dn, sn·cn their
+//! recurrences read); F(φ | m) gets rows for sin φ, cos φ, sin²φ, m sin²φ, 1 − m sin²φ and
+//! w = (1 − m sin²φ)^(−1/2), F′ = w φ′. The parameter m must be constant along the solution,
+//! as the model language guarantees.
 //!
 //! An instruction whose operands are all constant along the solution (leaves other than the
 //! state, and instructions of those) is marked `constant`: only its order 0 is computed.
 
 use super::{Op, Reg, Tape, TapeError};
+use crate::ir::Func2;
 use std::collections::HashMap;
 
 /// One recurrence; the fields are row indices (`d` the result).
@@ -135,6 +140,34 @@ pub enum Rec {
         /// Operand.
         a: usize,
     },
+    /// sn, cn, dn of (a | m) together, m constant along the solution, with the products
+    /// cn·dn, sn·dn, sn·cn their recurrences read (s' = c d a', c' = −s d a', d' = −m s c a').
+    Jacobi {
+        /// Rows of sn, cn, dn, cn·dn, sn·dn, sn·cn, in this order.
+        rows: [usize; 6],
+        /// Operand.
+        a: usize,
+        /// The parameter's row (constant).
+        m: usize,
+    },
+    /// K(a), a constant along the solution (order 0 only).
+    EllipK {
+        /// Result row.
+        d: usize,
+        /// Operand.
+        a: usize,
+    },
+    /// F(a | m), m constant: u' = w a' with w = (1 − m sin²a)^(−1/2) computed by earlier rows.
+    EllipF {
+        /// Result row.
+        d: usize,
+        /// Operand.
+        a: usize,
+        /// The parameter's row (constant).
+        m: usize,
+        /// The row of w.
+        w: usize,
+    },
 }
 
 /// Sources of the order-0 value of a leaf.
@@ -193,6 +226,8 @@ impl TaylorProgram {
         // the registers computing sin and cos of each operand, to pair them
         let mut sin_of = HashMap::new();
         let mut cos_of = HashMap::new();
+        // …and sn, cn, dn of each (u, m), to compute them as one triple
+        let mut jacobi_of = HashMap::<(Reg, Reg), [Option<usize>; 3]>::new();
         for (i, op) in tape.body.iter().enumerate() {
             match *op {
                 Op::Sin(a) => {
@@ -200,6 +235,9 @@ impl TaylorProgram {
                 }
                 Op::Cos(a) => {
                     cos_of.entry(a).or_insert(i);
+                }
+                Op::Func2(f @ (Func2::Sn | Func2::Cn | Func2::Dn), u, m) => {
+                    jacobi_of.entry((u, m)).or_default()[f as usize].get_or_insert(i);
                 }
                 _ => {}
             }
@@ -297,6 +335,49 @@ impl TaylorProgram {
                     }
                     constant[i] = all_const;
                     continue;
+                }
+                Op::Func2(_, _, m) | Op::EllipK(m) if !is_const(m) => {
+                    return Err(TapeError::Malformed(
+                        "an elliptic function whose parameter m varies along the solution (the \
+                         model language never writes one)"
+                            .into(),
+                    ))
+                }
+                Op::Func2(Func2::Sn | Func2::Cn | Func2::Dn, x, m) => {
+                    let rows = std::array::from_fn(|_| b.row());
+                    b.recs.push((
+                        Rec::Jacobi {
+                            rows,
+                            a: row(x),
+                            m: row(m),
+                        },
+                        all_const,
+                    ));
+                    for (k, j) in jacobi_of[&(x, m)].iter().enumerate() {
+                        if let Some(&j) = j.as_ref() {
+                            row_of[j] = rows[k];
+                        }
+                    }
+                    constant[i] = all_const;
+                    continue;
+                }
+                Op::EllipK(x) => b.rec(true, |d| Rec::EllipK { d, a: row(x) }),
+                Op::Func2(Func2::EllipF, x, m) => {
+                    // w = (1 − m sin²φ)^(−1/2) by the sine, square, scaling and power rows
+                    let (a, m) = (row(x), row(m));
+                    let (s, c) = (b.row(), b.row());
+                    b.recs.push((Rec::SinCos { s, c, a }, all_const));
+                    let q = b.rec(all_const, |d| Rec::Square { d, a: s });
+                    let mq = b.rec(all_const, |d| Rec::Scale { d, a: q, c: m });
+                    let one = b.one();
+                    let r = b.rec(all_const, |d| Rec::Sub { d, a: one, b: mq });
+                    let w = b.rec(all_const, |d| Rec::Pow {
+                        d,
+                        a: r,
+                        alpha: -0.5,
+                        zero: PowZero::Powf(-0.5),
+                    });
+                    b.rec(all_const, |d| Rec::EllipF { d, a, m, w })
                 }
                 Op::State(_)
                 | Op::Param(_)

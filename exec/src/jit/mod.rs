@@ -4,8 +4,10 @@
 //! (IEEE, correctly rounded, never fused or reassociated by Cranelift); `Powi` is expanded
 //! inline by the binary exponentiation of
 //! [`lasalle_codegen::tape::powi`]; `cbrt`, `exp`, `ln`, `sin`, `cos` and
-//! `powf` call `extern "C"` wrappers of the `std` functions, so results are bitwise those of
-//! the interpreter and of the emitted Rust.
+//! `powf` call `extern "C"` wrappers of the `std` functions, and the elliptic functions
+//! (K, sn, cn, dn, F) wrappers of `lasalle_runtime::elliptic`'s, so results are bitwise those
+//! of the interpreter and of the emitted Rust. sn, cn and dn go through a per-call cache of the
+//! last `ellipj` arguments and values (a stack slot), so those of one (u | m) cost one call.
 //!
 //! Two functions are compiled per tape:
 //! - `eval(hoisted, state, target, gains, out)` for one state;
@@ -25,13 +27,15 @@ use crate::{Common, Dims, ExecError, Kernel, Op, Tape};
 use cranelift_codegen::ir::condcodes::IntCC;
 use cranelift_codegen::ir::immediates::Ieee64;
 use cranelift_codegen::ir::{
-    types, AbiParam, BlockArg, InstBuilder, MemFlagsData, Signature, Value,
+    types, AbiParam, BlockArg, InstBuilder, MemFlagsData, Signature, StackSlotData, StackSlotKind,
+    Value,
 };
 use cranelift_codegen::settings::{self, Configurable};
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::{JITBuilder, JITModule};
 use cranelift_module::Module;
-use lasalle_codegen::ir::Rational;
+use lasalle_codegen::ir::{Func, Func2, Rational};
+use lasalle_runtime::elliptic::ellipj;
 
 type EvalFn = crate::RawEval;
 type LanesFn =
@@ -51,6 +55,27 @@ extern "C" fn call_sin(x: f64) -> f64 {
 }
 extern "C" fn call_cos(x: f64) -> f64 {
     x.cos()
+}
+extern "C" fn call_ellipk(m: f64) -> f64 {
+    Func::EllipK.apply(m)
+}
+/// sn, cn or dn (`which` = 0, 1, 2) of (u | m), through the compiled function's cache
+/// `[u, m, sn, cn, dn]` of its last `ellipj` call: sn, cn, dn of one (u | m) cost one call
+/// (keyed by the bits of u and m, so the values are those of separate calls).
+///
+/// # Safety
+/// `cache` points to 5 writable, initialised f64 that nothing else accesses during the call.
+unsafe extern "C" fn call_jacobi(u: f64, m: f64, which: i32, cache: *mut [f64; 5]) -> f64 {
+    // SAFETY: the caller's stack slot, see above
+    let c = unsafe { &mut *cache };
+    if c[0].to_bits() != u.to_bits() || c[1].to_bits() != m.to_bits() {
+        let j = ellipj(u, m);
+        *c = [u, m, j.sn, j.cn, j.dn];
+    }
+    c[2 + (which as usize).min(2)]
+}
+extern "C" fn call_ellipf(phi: f64, m: f64) -> f64 {
+    Func2::EllipF.apply(phi, m)
 }
 extern "C" fn call_powf(x: f64, num: i32, den: i32) -> f64 {
     crate::interp::powf(x, Rational { num, den })
@@ -204,7 +229,22 @@ impl JitKernel {
                         })
                         .collect(),
                     math: Math::new(module),
+                    jacobi_cache: None,
                 };
+                let jacobi =
+                    |op: &Op| matches!(op, Op::Func2(Func2::Sn | Func2::Cn | Func2::Dn, ..));
+                if tape.body.iter().any(jacobi) {
+                    let slot = e.b.create_sized_stack_slot(StackSlotData::new(
+                        StackSlotKind::ExplicitSlot,
+                        40,
+                        3,
+                    ));
+                    let nan = e.b.ins().f64const(Ieee64::with_bits(f64::NAN.to_bits()));
+                    for i in 0..5 {
+                        e.b.ins().stack_store(ptr, nan, slot, 8 * i);
+                    }
+                    e.jacobi_cache = Some(e.b.ins().stack_addr(ptr, slot, 0));
+                }
                 match k {
                     None => e.scalar(tape, &args)?,
                     Some(k) => e.lanes(tape, &args, k)?,
@@ -224,7 +264,9 @@ impl JitKernel {
 /// Signatures of the math wrappers.
 struct Math {
     unary: Signature,
+    binary: Signature,
     powf: Signature,
+    jacobi: Signature,
 }
 
 impl Math {
@@ -232,6 +274,8 @@ impl Math {
         let mut unary = module.make_signature();
         unary.params.push(AbiParam::new(types::F64));
         unary.returns.push(AbiParam::new(types::F64));
+        let mut binary = unary.clone();
+        binary.params.push(AbiParam::new(types::F64));
         let mut powf = module.make_signature();
         powf.params.extend([
             AbiParam::new(types::F64),
@@ -239,7 +283,17 @@ impl Math {
             AbiParam::new(types::I32),
         ]);
         powf.returns.push(AbiParam::new(types::F64));
-        Math { unary, powf }
+        let mut jacobi = binary.clone();
+        let ptr = module.target_config().pointer_type();
+        jacobi
+            .params
+            .extend([AbiParam::new(types::I32), AbiParam::new(ptr)]);
+        Math {
+            unary,
+            binary,
+            powf,
+            jacobi,
+        }
     }
 }
 
@@ -258,6 +312,9 @@ struct Emit<'a> {
     /// then dead and not emitted).
     negated: Vec<Option<crate::Reg>>,
     math: Math,
+    /// The address of the `[u, m, sn, cn, dn]` cache of `call_jacobi` (a stack slot filled
+    /// with NaN on entry), if the tape has sn, cn or dn.
+    jacobi_cache: Option<Value>,
 }
 
 /// Two lanes per vector: SSE2 on x86-64, NEON on aarch64.
@@ -345,6 +402,22 @@ impl Emit<'_> {
     fn unary(&mut self, f: extern "C" fn(f64) -> f64, x: Value) -> Value {
         let sig = self.math.unary.clone();
         self.call_lanes(f as *const () as usize, &sig, x, &[])
+    }
+
+    /// Calls a scalar wrapper of two arguments, lane by lane in the vector loop.
+    fn binary(&mut self, f: extern "C" fn(f64, f64) -> f64, x: Value, y: Value) -> Value {
+        let (f, sig) = (f as *const () as usize, self.math.binary.clone());
+        if !self.vector {
+            return self.call(f, sig, &[x, y]);
+        }
+        let mut lanes = [x; 2];
+        for (lane, r) in lanes.iter_mut().enumerate() {
+            let xl = self.b.ins().extractlane(x, lane as u8);
+            let yl = self.b.ins().extractlane(y, lane as u8);
+            *r = self.call(f, sig.clone(), &[xl, yl]);
+        }
+        let v = self.b.ins().splat(F64X2, lanes[0]);
+        self.b.ins().insertlane(v, lanes[1], 1)
     }
 
     /// xⁿ by binary exponentiation (`lasalle_codegen::tape::powi`).
@@ -443,6 +516,31 @@ impl Emit<'_> {
             Op::Ln(a) => self.unary(call_ln, v(self, a)),
             Op::Sin(a) => self.unary(call_sin, v(self, a)),
             Op::Cos(a) => self.unary(call_cos, v(self, a)),
+            Op::EllipK(a) => self.unary(call_ellipk, v(self, a)),
+            Op::Func2(Func2::EllipF, a, m) => {
+                let (x, m) = (v(self, a), v(self, m));
+                self.binary(call_ellipf, x, m)
+            }
+            Op::Func2(f, a, m) => {
+                let (x, m) = (v(self, a), v(self, m));
+                let which = self.b.ins().iconst(types::I32, f as i64);
+                let cache = self.jacobi_cache.ok_or_else(|| {
+                    ExecError::Jit("sn, cn or dn without the ellipj cache".into())
+                })?;
+                let (f, sig) = (call_jacobi as *const () as usize, self.math.jacobi.clone());
+                if !self.vector {
+                    self.call(f, sig, &[x, m, which, cache])
+                } else {
+                    let mut lanes = [x; 2];
+                    for (lane, r) in lanes.iter_mut().enumerate() {
+                        let xl = self.b.ins().extractlane(x, lane as u8);
+                        let ml = self.b.ins().extractlane(m, lane as u8);
+                        *r = self.call(f, sig.clone(), &[xl, ml, which, cache]);
+                    }
+                    let v = self.b.ins().splat(F64X2, lanes[0]);
+                    self.b.ins().insertlane(v, lanes[1], 1)
+                }
+            }
             Op::Powf(a, p) => {
                 let x = v(self, a);
                 let num = self.b.ins().iconst(types::I32, i64::from(p.num));

@@ -1,4 +1,5 @@
-//! Jacobi elliptic functions and elliptic integrals of the first kind, in `f64`.
+//! Jacobi elliptic functions and elliptic integrals of the first kind, in `f64`
+//! (`lasalle_runtime::elliptic` re-exports this crate).
 //!
 //! # Parameter convention: m = k²
 //!
@@ -17,6 +18,9 @@
 //! | [`ellipk`]`(m)` | K(m) = F(π/2 \| m) | arithmetic–geometric mean |
 //! | [`ellipkm1`]`(m₁)` | K(1 − m₁) = K′(m₁) | the same, from m₁ directly |
 //! | [`ellipf`]`(φ, m)` | F(φ \| m) = ∫₀^φ dθ / √(1 − m sin²θ) | Carlson's R_F |
+//!
+//! [`generic`] has sn, cn, dn, K and F over any `num_traits::Float` (computed in `f64`), for
+//! code generated from models that call them (`sn(u, m)` in a model file, see docs/dsl.md).
 //!
 //! # Domain and invalid input
 //!
@@ -53,6 +57,12 @@
 //!
 //! These are `f64`-only: the compensated (fused multiply–add) steps that give the accuracy
 //! above are specific to binary64.
+
+#![warn(missing_docs)]
+// `!(a > b)` is the NaN-aware test the kernels mean (stop, or reject, on NaN too).
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+pub mod generic;
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
@@ -177,7 +187,7 @@ impl Jacobi {
 /// (1 − m below ~10⁻¹⁶, or not representable as `1.0 - m`) use [`ellipj_m1`].
 ///
 /// ```
-/// use lasalle_runtime::ellipj;
+/// use lasalle_elliptic::ellipj;
 /// let j = ellipj(0.5, 0.3);
 /// assert!((j.sn * j.sn + j.cn * j.cn - 1.0).abs() < 1e-15);
 /// assert!((j.dn * j.dn + 0.3 * j.sn * j.sn - 1.0).abs() < 1e-15);
@@ -202,7 +212,7 @@ pub fn ellipj(u: f64, m: f64) -> Jacobi {
 /// Returns [`Jacobi::NAN`] if m₁ ∉ [0, 1] or u or m₁ is not finite.
 ///
 /// ```
-/// use lasalle_runtime::{ellipj, ellipj_m1};
+/// use lasalle_elliptic::{ellipj, ellipj_m1};
 /// let (a, b) = (ellipj_m1(3.0, 0.25), ellipj(3.0, 0.75));
 /// assert!((a.sn - b.sn).abs() < 1e-15 && (a.dn - b.dn).abs() < 1e-15);
 /// ```
@@ -225,7 +235,7 @@ pub fn ellipj_m1(u: f64, m1: f64) -> Jacobi {
 /// Returns NaN if m ∉ [0, 1] or m is NaN.
 ///
 /// ```
-/// use lasalle_runtime::ellipk;
+/// use lasalle_elliptic::ellipk;
 /// assert_eq!(ellipk(0.0), std::f64::consts::FRAC_PI_2);
 /// assert!((ellipk(0.5) - 1.854_074_677_301_372).abs() < 1e-15);
 /// assert_eq!(ellipk(1.0), f64::INFINITY);
@@ -248,7 +258,7 @@ pub fn ellipk(m: f64) -> f64 {
 /// Returns NaN if m₁ ∉ [0, 1] or m₁ is NaN.
 ///
 /// ```
-/// use lasalle_runtime::{ellipk, ellipkm1};
+/// use lasalle_elliptic::{ellipk, ellipkm1};
 /// assert!((ellipkm1(0.1) - ellipk(0.9)).abs() < 1e-15);
 /// // K(1 − 10⁻³⁰) ≈ ½ ln(16·10³⁰), where 1 − 10⁻³⁰ is not representable:
 /// assert!((ellipkm1(1e-30) - 0.5 * (16e30f64).ln()).abs() < 1e-13);
@@ -279,7 +289,7 @@ pub fn ellipkm1(m1: f64) -> f64 {
 /// Returns NaN if m ∉ [0, 1] or φ or m is not finite.
 ///
 /// ```
-/// use lasalle_runtime::{ellipf, ellipj};
+/// use lasalle_elliptic::{ellipf, ellipj};
 /// let u = ellipf(1.0, 0.7);
 /// assert!((ellipj(u, 0.7).am - 1.0).abs() < 1e-15);
 /// assert!((ellipf(0.5, 1.0) - 0.5f64.sin().atanh()).abs() < 1e-15);
