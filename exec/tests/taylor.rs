@@ -736,7 +736,7 @@ fn elliptic_functions_closed_form() {
             t / ellipk(mm),
         ]
     };
-    let mut taylor = Taylor::for_model(&m, TaylorOptions::with_tol(1e-15)).unwrap();
+    let mut taylor = m.taylor(TaylorOptions::with_tol(1e-15)).unwrap();
     let end = integrate(&mut taylor, &m, &x0, 0.0, t_end, 0.0, &mut ()).unwrap();
     let err_taylor = max_diff(&end.x, &exact(t_end));
     assert!(err_taylor < 1e-12, "Taylor vs closed form: {err_taylor:e}");
@@ -754,7 +754,7 @@ fn elliptic_functions_closed_form() {
         d/dt t = 1; d/dt u = ellipf(2 * t, m); d/dt v = sn(t * t, m) * cd(u, 0.3); }";
     let f = LoadedModel::from_source("f.lsl", text, Backend::Interpreter).unwrap();
     let x0 = vec![0.0, 0.0, 0.0];
-    let mut taylor = Taylor::for_model(&f, TaylorOptions::with_tol(1e-15)).unwrap();
+    let mut taylor = f.taylor(TaylorOptions::with_tol(1e-15)).unwrap();
     let a = integrate(&mut taylor, &f, &x0, 0.0, 3.0, 0.0, &mut ()).unwrap();
     let mut dp = lasalle_runtime::DormandPrince::new(lasalle_runtime::DormandPrinceOptions {
         rtol: 1e-13,
