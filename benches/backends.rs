@@ -8,7 +8,8 @@
 //! ```
 //!
 //! - `feedback/<model>/{emitted,jit,interpreter}`: one evaluation of X − ∇V at a state off the
-//!   target set, through the runtime trait (`Lyapunov::feedback_field`) as a stepper calls it;
+//!   target set, through the runtime trait (`Lyapunov::feedback_field`) as a stepper calls it
+//!   (the emitted code on the prepared model, `model.prepare()`, as a run uses it);
 //! - `load/<model>`: reading nothing, parsing, deriving, checking every invariant and compiling
 //!   every function of the model with the JIT (what `lasalle run model.lsl` pays before its
 //!   first step);
@@ -46,10 +47,11 @@ macro_rules! feedback_bench {
         let gains = <$ty>::default_gains();
         let x: [f64; <$ty>::N] = perturbed(&x0).try_into().unwrap();
         let mut g = $c.benchmark_group(concat!("feedback/", $stem));
+        let prepared = m.prepare();
         g.bench_function("emitted", |b| {
             let mut dx = [0.0; <$ty>::N];
             b.iter(|| {
-                black_box(&m).feedback_field(
+                black_box(&prepared).feedback_field(
                     black_box(&x),
                     black_box(&target),
                     black_box(&gains),
@@ -139,7 +141,7 @@ fn load(c: &mut Criterion) {
 fn run(c: &mut Criterion) {
     let mut g = c.benchmark_group("run/rigid_body_1e5");
     g.sample_size(10).measurement_time(Duration::from_secs(5));
-    let m = models::rigid_body::RigidBody::<f64>::default();
+    let m = models::rigid_body::RigidBody::<f64>::default().prepare();
     let x0 = m.point_paper();
     g.bench_function("emitted", |b| {
         b.iter(|| {
@@ -164,7 +166,7 @@ fn run(c: &mut Criterion) {
     // Kepler, the paper's step, 10⁵ feedback-Euler steps: each evaluation waits for the last
     let mut g = c.benchmark_group("run/kepler_1e5");
     g.sample_size(10).measurement_time(Duration::from_secs(5));
-    let m = models::kepler::Kepler::<f64>::default();
+    let m = models::kepler::Kepler::<f64>::default().prepare();
     let x0 = m.point_paper();
     g.bench_function("emitted", |b| {
         b.iter(|| {

@@ -72,6 +72,28 @@ fn the_golden_code_runs() {
 }
 
 #[test]
+fn the_prepared_model_computes_what_the_model_computes_and_follows_set_param() {
+    use lasalle_runtime::{Field, Lyapunov, Parameters};
+    use pendulum_generated::pendulum::Pendulum;
+    let mut m = Pendulum::<f64>::default();
+    m.l = 2.0;
+    let p = m.prepare();
+    let x = [0.5, -0.25];
+    let (target, gains) = ([-1.0], [2.0]);
+    let (mut a, mut b) = ([0.0; 2], [0.0; 2]);
+    m.feedback_field(&x, &target, &gains, &mut a);
+    p.feedback_field(&x, &target, &gains, &mut b);
+    assert_eq!(a, b);
+    assert_eq!(p.l, 2.0); // the parameters, through Deref
+                          // set_param prepares again: the cached −g/l follows l
+    let mut p = p;
+    p.set_param("l", &[4.0]).unwrap();
+    p.field(&x, &mut a);
+    assert_eq!(a[1], -(9.81 / 4.0) * 0.5f64.sin());
+    assert_eq!(p.param("l"), Some(vec![4.0]));
+}
+
+#[test]
 fn the_hostile_code_runs() {
     use hostile_generated::hostile::Hostile;
     use lasalle_runtime::{Field, Invariants, Parameters};

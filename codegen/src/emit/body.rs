@@ -6,14 +6,25 @@ use super::names::Scope;
 use crate::ir::{Func, Graph, Id, Input, Node, Rational};
 use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use super::leaves::Leaves;
+use super::prepared::Prepared;
 
-/// One assignment of the function: `place = value;`, optionally under a note.
+/// What a function does with one of its values.
+pub enum Place {
+    /// `place = value;`, e.g. `dx[3] = …;`.
+    Assign(TokenStream),
+    /// The function's tail expression (the last output).
+    Return,
+    /// `let name = value;` ([`Body::bound`] holds the identifiers, made unique).
+    Let(String),
+}
+
+/// One value of the function, optionally under a note.
 pub struct Output {
-    /// The place written, e.g. `dx[3]`; empty for the function's return value (last output).
-    pub place: TokenStream,
+    /// Where it goes.
+    pub place: Place,
     /// The value.
     pub id: Id,
     /// A comment line shown above it (shown once for consecutive equal notes).
@@ -39,6 +50,7 @@ enum Prec {
 struct Writer<'a> {
     g: &'a Graph,
     named: HashMap<Id, TokenStream>,
+    parameter_only: &'a HashSet<Id>,
     scope: Scope,
 }
 
@@ -50,6 +62,8 @@ pub struct Body {
     pub ops: u64,
     /// The inputs it reads.
     inputs: Vec<Input>,
+    /// The identifiers of the [`Place::Let`] outputs, in order.
+    pub bound: Vec<TokenStream>,
 }
 
 impl Body {
@@ -64,13 +78,45 @@ impl Body {
     }
 }
 
+/// Where a function's parameter-only values come from.
+pub enum Hoisting<'h> {
+    /// A per-call function of the prepared model: the maximal parameter-only subexpressions
+    /// are fields of the prepared model (`self.<name>`), registered in the [`Prepared`] list.
+    Read(&'h mut Prepared),
+    /// A function of the parameters alone (a named point), computed in place.
+    Inline,
+    /// The body of `prepare()`: the outputs are parameter-only values of the graph as the
+    /// functions rewrote it, computed as they are (no rewriting, or the values would differ
+    /// from the tapes' preludes).
+    Prepare,
+}
+
 /// The statements of a function computing `outputs`, with `reserved` names (arguments) taken.
-/// The outputs are first rewritten for emission (factored sums, shared products) in `g`.
-pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str]) -> Body {
-    let roots = g.optimize_for_emission(&outputs.iter().map(|o| o.id).collect::<Vec<_>>());
-    let ops = g.op_count(&roots).dag;
+/// Except in [`Hoisting::Prepare`], the outputs are first rewritten for emission (factored
+/// sums, shared roots and reciprocals, grouped parameter-only factors, shared products) in
+/// `g`.
+pub fn body(
+    g: &mut Graph,
+    leaves: &Leaves,
+    outputs: &[Output],
+    reserved: &[&str],
+    mut hoisting: Hoisting,
+) -> Body {
+    let ids: Vec<Id> = outputs.iter().map(|o| o.id).collect();
+    let roots = match hoisting {
+        Hoisting::Prepare => ids,
+        _ => g.optimize_for_emission(&ids),
+    };
     let g: &Graph = g;
-    let order = g.reachable(&roots);
+    let parameter_only = g.parameter_only(&g.reachable(&roots));
+    let read = matches!(hoisting, Hoisting::Read(_));
+    let hoisted = |id: Id| read && parameter_only.contains(&id) && !g.children(id).is_empty();
+    let order = reachable_until(g, &roots, hoisted);
+    let ops = order
+        .iter()
+        .filter(|&&id| !hoisted(id))
+        .map(|&id| g.node_ops(id))
+        .sum();
     let inputs: Vec<Input> = order
         .iter()
         .filter_map(|&id| match g.node(id) {
@@ -79,9 +125,15 @@ pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str
         })
         .collect();
     let mut uses: HashMap<Id, usize> = HashMap::new();
-    for &id in &order {
+    for &id in order.iter().filter(|&&id| !hoisted(id)) {
+        // A parameter-only product divides by its negative powers: it uses their bases.
+        let divides = parameter_only.contains(&id) && matches!(g.node(id), Node::Mul(_));
         for &c in g.children(id) {
-            *uses.entry(c).or_default() += 1;
+            let used = match *g.node(c) {
+                Node::Pow(b, e) if divides && e.num < 0 => b,
+                _ => c,
+            };
+            *uses.entry(used).or_default() += 1;
         }
     }
     for r in &roots {
@@ -90,6 +142,7 @@ pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str
     let mut w = Writer {
         g,
         named: HashMap::new(),
+        parameter_only: &parameter_only,
         scope: Scope::with(reserved),
     };
     // A local `lit` would shadow the function that writes literals (`lit::<T>(2.0)`);
@@ -97,7 +150,7 @@ pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str
     w.scope.take("lit");
     w.scope.take("partial_sum");
     let mut stmts = Vec::new();
-    // Leaves, each read once.
+    // Leaves, each read once, then the prepared values.
     for &id in &order {
         if let Node::Input(i) = g.node(id) {
             let (name, source) = leaves.input(*i);
@@ -112,28 +165,46 @@ pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str
             w.named.insert(id, quote!(#ident));
         }
     }
+    if let Hoisting::Read(prepared) = &mut hoisting {
+        for &id in order.iter().filter(|&&id| hoisted(id)) {
+            let field = format_ident!("{}", prepared.field(g, leaves, id));
+            let ident = format_ident!("{}", w.scope.fresh(&field.to_string()));
+            stmts.push(quote!(let #ident = self.#field;));
+            w.named.insert(id, quote!(#ident));
+        }
+    }
+    // Values bound by name (the fields of `prepare()`).
+    let bound: HashMap<Id, &str> = outputs
+        .iter()
+        .zip(&roots)
+        .filter_map(|(o, &r)| match &o.place {
+            Place::Let(name) => Some((r, name.as_str())),
+            _ => None,
+        })
+        .collect();
     // Shared or named subexpressions become temporaries, in topological order.
     let mut temp = 0usize;
     let mut last_note: Option<String> = None;
     for &id in &order {
-        if matches!(g.node(id), Node::Num(_) | Node::Input(_)) {
+        if matches!(g.node(id), Node::Num(_) | Node::Input(_)) || hoisted(id) {
             continue;
         }
         let shared = uses.get(&id).copied().unwrap_or(0) >= 2;
         let let_name = leaves.let_name(id);
-        // A square root whose powers are needed elsewhere is named so `r.powi(3)` can reuse it.
-        if !(shared || let_name.is_some()) {
+        let bound_name = bound.get(&id);
+        if !(shared || let_name.is_some() || bound_name.is_some()) {
             continue;
         }
-        let name = match let_name {
-            Some((n, note_text)) => {
+        let name = match (bound_name, let_name) {
+            (Some(name), _) => w.scope.fresh(name),
+            (None, Some((n, note_text))) => {
                 if last_note.as_deref() != Some(note_text) {
                     stmts.push(note(note_text));
                     last_note = Some(note_text.clone());
                 }
                 w.scope.fresh(n)
             }
-            None => {
+            (None, None) => {
                 temp += 1;
                 w.scope.fresh(&format!("t{temp}"))
             }
@@ -144,6 +215,7 @@ pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str
         w.named.insert(id, quote!(#ident));
     }
     // Outputs.
+    let mut bound_idents = Vec::new();
     for (o, &root) in outputs.iter().zip(&roots) {
         if let Some(n) = &o.note {
             if last_note.as_deref() != Some(n) {
@@ -152,18 +224,33 @@ pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str
             }
         }
         let value = w.reference(root).0;
-        let place = &o.place;
-        if place.is_empty() {
-            stmts.push(value); // the function's tail expression
-        } else {
-            stmts.push(quote!(#place = #value;));
+        match &o.place {
+            Place::Assign(place) => stmts.push(quote!(#place = #value;)),
+            Place::Return => stmts.push(value), // the function's tail expression
+            Place::Let(_) => bound_idents.push(value),
         }
     }
     Body {
         tokens: quote!(#(#stmts)*),
         ops,
         inputs,
+        bound: bound_idents,
     }
+}
+
+/// The nodes reachable from `roots` without going below a node where `stop` holds (those are
+/// included), in ascending (topological) order.
+fn reachable_until(g: &Graph, roots: &[Id], stop: impl Fn(Id) -> bool) -> Vec<Id> {
+    let mut seen: HashSet<Id> = HashSet::new();
+    let mut stack: Vec<Id> = roots.to_vec();
+    while let Some(id) = stack.pop() {
+        if seen.insert(id) && !stop(id) {
+            stack.extend_from_slice(g.children(id));
+        }
+    }
+    let mut out: Vec<Id> = seen.into_iter().collect();
+    out.sort_unstable();
+    out
 }
 
 /// Longest sum written as one expression; longer ones are split into partial sums.
@@ -355,16 +442,22 @@ impl Writer<'_> {
         }
     }
 
-    /// c · Π factors, with negative powers written as divisions.
+    /// c · Π factors, with negative powers written as divisions, unless the factor is a value
+    /// of its own (a temporary, or a parameter-only value computed once) that the product
+    /// multiplies; in a parameter-only product always as divisions, so that a parameter-only
+    /// value does not depend on the function it is computed for (the tapes' preludes compute
+    /// it the same way: see `tape::Lowering::product_with`).
     fn product_with(&self, c: f64, factors: &[Id]) -> (TokenStream, Prec) {
         let mut num: Vec<TokenStream> = Vec::new();
         let mut den: Vec<TokenStream> = Vec::new();
         if c != 1.0 {
             num.push(literal(c));
         }
+        let parameter_only = factors.iter().all(|f| self.parameter_only.contains(f));
         for &f in factors {
+            let own_value = self.named.contains_key(&f) || self.parameter_only.contains(&f);
             match self.g.node(f) {
-                Node::Pow(b, e) if e.num < 0 && !self.named.contains_key(&f) => {
+                Node::Pow(b, e) if e.num < 0 && (parameter_only || !own_value) => {
                     let pos = Rational {
                         num: -e.num,
                         den: e.den,

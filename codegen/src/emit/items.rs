@@ -1,7 +1,7 @@
 //! The model's own items: the parameter struct, its inherent methods (gains, targets, named
 //! points, nalgebra views of the state), and the `ModelInfo` and `Parameters` impls.
 
-use super::body::{literal, Output};
+use super::body::{literal, Output, Place};
 use super::names::{snake, Scope};
 use super::{note_for, u, Emitter};
 use crate::model::{InvariantKind, Shape};
@@ -169,13 +169,13 @@ impl Emitter<'_> {
                     .map(|(k, &id)| {
                         let k = u(k);
                         Output {
-                            place: quote!(out[#k]),
+                            place: Place::Assign(quote!(out[#k])),
                             id,
                             note: None,
                         }
                     })
                     .collect();
-                let body = self.body(&outputs, &["out"]).tokens;
+                let body = self.inline_body(&outputs, &["out"]).tokens;
                 let doc = format!(" The point `{}` ({}).", pt.name, note_for(model, &pt.span));
                 quote! {
                     #[doc = #doc]
@@ -276,6 +276,23 @@ impl Emitter<'_> {
             .gains
             .iter()
             .map(|k| Literal::f64_unsuffixed(k.default));
+        let prep = &self.prepared_ty;
+        let info_impls = [
+            (quote!(#ty<T>), quote!(Self)),
+            (quote!(#prep<T>), quote!(#ty::<T>)),
+        ]
+        .map(|(target, consts)| {
+            quote! {
+                impl<T> ModelInfo for #target {
+                    fn model_name(&self) -> &'static str { #consts::NAME }
+                    fn state_slots(&self) -> &'static [Slot] { #consts::STATE }
+                    fn invariant_infos(&self) -> &'static [InvariantInfo] { #consts::INVARIANTS }
+                    fn gain_names(&self) -> &'static [&'static str] { #consts::GAIN_NAMES }
+                    fn default_gain_values(&self) -> &'static [f64] { #consts::DEFAULT_GAINS }
+                    fn param_slots(&self) -> &'static [Slot] { #consts::PARAMS }
+                }
+            }
+        });
         quote! {
             impl<T> #ty<T> {
                 /// The model's name.
@@ -292,14 +309,7 @@ impl Emitter<'_> {
                 pub const PARAMS: &'static [Slot] = &[#(#param_slots),*];
             }
 
-            impl<T> ModelInfo for #ty<T> {
-                fn model_name(&self) -> &'static str { Self::NAME }
-                fn state_slots(&self) -> &'static [Slot] { Self::STATE }
-                fn invariant_infos(&self) -> &'static [InvariantInfo] { Self::INVARIANTS }
-                fn gain_names(&self) -> &'static [&'static str] { Self::GAIN_NAMES }
-                fn default_gain_values(&self) -> &'static [f64] { Self::DEFAULT_GAINS }
-                fn param_slots(&self) -> &'static [Slot] { Self::PARAMS }
-            }
+            #(#info_impls)*
         }
     }
 
@@ -416,6 +426,7 @@ impl Emitter<'_> {
                 }
             }
         };
+        let prep = &self.prepared_ty;
         quote! {
             impl Parameters for #ty<f64> {
                 #set_param
@@ -424,6 +435,27 @@ impl Emitter<'_> {
                     &[#(#point_names),*]
                 }
                 #point
+            }
+
+            /// Setting a parameter prepares the model again.
+            impl Parameters for #prep<f64> {
+                fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
+                    self.model.set_param(name, values)?;
+                    *self = self.model.prepare();
+                    Ok(())
+                }
+
+                fn param(&self, name: &str) -> Option<Vec<f64>> {
+                    self.model.param(name)
+                }
+
+                fn point_names(&self) -> &'static [&'static str] {
+                    self.model.point_names()
+                }
+
+                fn point(&self, name: &str) -> Option<Vec<f64>> {
+                    self.model.point(name)
+                }
             }
         }
     }

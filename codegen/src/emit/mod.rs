@@ -1,10 +1,38 @@
 //! Stage 5: emission. Builds the Rust items of a model with `quote`, formats them with
 //! `prettyplease`, and turns the note markers into comments that point at the model file.
+//!
+//! # Work done once
+//!
+//! The emitted functions do per call only what depends on the state, the targets or the gains:
+//!
+//! - Before a function is written its outputs are rewritten by
+//!   [`Graph::optimize_for_emission`](crate::ir::Graph::optimize_for_emission): common factors
+//!   out of sums, one square root and one reciprocal per base with two or more negative powers
+//!   (`r = s.sqrt()`, `1/r`, then `1/r³ = (1/r)³`), parameter-only factors of a product grouped
+//!   (`−3μ·x/m → (−3μ/m)·x`), repeated sub-products shared. A reciprocal replaces divisions only
+//!   where it is a value of its own (used twice or more, or parameter-only); a lone `a / b` stays
+//!   a division.
+//! - The maximal parameter-only subexpressions of each function are fields of the prepared
+//!   model `<Model>Prepared` (module `prepared`), computed once by `<Model>::prepare()`; inside
+//!   them negative powers are always divisions, so a field rounds the same for every function.
+//!   The trait impls with the real bodies are on the prepared model; the model's own impls
+//!   prepare and delegate (`#[inline]`, so a call computes only the fields it reads).
+//!
+//! Why a companion and not a cache in the model: the parameters stay public fields
+//! (`model.c1 = …`), and a cache next to them would go stale on such an assignment. The
+//! prepared model is immutable (private fields, `Deref` to the model for reading), so it is
+//! always consistent with the parameters it was made from; `Parameters::set_param` on it
+//! prepares again.
+//!
+//! The tapes (`crate::tape`) are lowered from the same rewritten graph with the same rules
+//! (their prelude is the prepared fields' computation), so the emitted Rust, the JIT and the
+//! interpreter stay bitwise equal (`tests/tape_vs_emitted.rs`).
 
 mod body;
 mod items;
 mod leaves;
 pub(crate) mod names;
+mod prepared;
 mod traits;
 
 pub use names::snake;
@@ -13,8 +41,9 @@ use crate::check::{Conservation, Verdict};
 use crate::derive::Derivatives;
 use crate::ir::{Graph, OpCount};
 use crate::model::{InvariantKind, Model};
-use body::{Body, Output};
+use body::{Body, Hoisting, Output};
 use leaves::Leaves;
+use prepared::Prepared;
 use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
 
@@ -122,19 +151,26 @@ pub(crate) struct Emitter<'a> {
     d: &'a Derivatives,
     graph: Graph,
     leaves: Leaves<'a>,
+    /// The parameter-only values the functions read, fields of the prepared model.
+    prepared: Prepared,
     ty: proc_macro2::Ident,
+    prepared_ty: proc_macro2::Ident,
     n: usize,
     m: usize,
 }
 
 impl<'a> Emitter<'a> {
     fn new(model: &'a Model, d: &'a Derivatives) -> crate::Result<Self> {
+        let leaves = Leaves::new(model)?;
+        let params: Vec<&str> = leaves.fields.iter().map(String::as_str).collect();
         Ok(Emitter {
             model,
             d,
             graph: model.graph.clone(),
-            leaves: Leaves::new(model)?,
+            prepared: Prepared::new(&params),
+            leaves,
             ty: format_ident!("{}", model.name),
+            prepared_ty: format_ident!("{}Prepared", model.name),
             n: model.dim(),
             m: model.invariant_dim(),
         })
@@ -145,9 +181,22 @@ impl<'a> Emitter<'a> {
         self.model.gains.len()
     }
 
-    /// A function body computing `outputs` (see [`body::body`]).
+    /// The body of a per-call function of the prepared model computing `outputs` (see
+    /// [`body::body`]).
     fn body(&mut self, outputs: &[Output], reserved: &[&str]) -> Body {
-        body::body(&mut self.graph, &self.leaves, outputs, reserved)
+        let hoisting = Hoisting::Read(&mut self.prepared);
+        body::body(&mut self.graph, &self.leaves, outputs, reserved, hoisting)
+    }
+
+    /// The body of a function of the parameters alone, computing `outputs` in place.
+    fn inline_body(&mut self, outputs: &[Output], reserved: &[&str]) -> Body {
+        body::body(
+            &mut self.graph,
+            &self.leaves,
+            outputs,
+            reserved,
+            Hoisting::Inline,
+        )
     }
 }
 
@@ -167,6 +216,7 @@ pub fn emit(
     let (lyapunov, [v_ops, grad_ops, fb_ops]) = e.lyapunov_impl();
     let partitioned = e.partitioned_impl();
     let declared = e.declared_impl();
+    let prepared = e.prepared_items();
     let struct_items = e.struct_items();
     let (accessors, info, parameters) = (e.accessors(), e.model_info_impl(), e.parameters_impl());
 
@@ -181,11 +231,14 @@ pub fn emit(
     };
     let items = quote! {
         #[allow(unused_imports)]
+        use core::ops::Deref;
+        #[allow(unused_imports)]
         use lasalle_runtime::num_traits::{Float, One, Zero};
         #[allow(unused_imports)]
         use lasalle_runtime::{lit, nalgebra, Declared, Field, GuardFailure, InvariantInfo, InvariantKind, Invariants, Lyapunov, ModelInfo, ParamError, Parameters, Partitioned, Preset, RigidBodySplitting, Shape, Slot};
 
         #struct_items
+        #prepared
         #accessors
         #field
         #invariants

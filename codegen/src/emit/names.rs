@@ -44,6 +44,7 @@ const EMITTED_NAMES: &[&str] = &[
     "String",
     "ToString",
     "Default",
+    "Deref",
     "Clone",
     "Copy",
     "Debug",

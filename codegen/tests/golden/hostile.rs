@@ -17,6 +17,8 @@
 pub mod hostile {
     #![allow(clippy::approx_constant)]
     #[allow(unused_imports)]
+    use core::ops::Deref;
+    #[allow(unused_imports)]
     use lasalle_runtime::num_traits::{Float, One, Zero};
     #[allow(unused_imports)]
     use lasalle_runtime::{
@@ -68,6 +70,26 @@ pub mod hostile {
             out
         }
     }
+    /// The model `Hostile` with its parameter-only values computed once ([`Hostile::prepare`]): the functions of the runtime's traits read them instead of recomputing them at every call. Immutable: to change a parameter, change the model and prepare it again, or call `Parameters::set_param`, which prepares again.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct HostilePrepared<T = f64> {
+        model: Hostile<T>,
+    }
+    impl<T> Deref for HostilePrepared<T> {
+        type Target = Hostile<T>;
+        fn deref(&self) -> &Hostile<T> {
+            &self.model
+        }
+    }
+    impl<T: Float> Hostile<T> {
+        /// The model with its parameter-only values computed, for runs: its trait
+        /// functions do less work per call than the model's own, which prepare on
+        /// every call.
+        #[inline]
+        pub fn prepare(&self) -> HostilePrepared<T> {
+            HostilePrepared { model: *self }
+        }
+    }
     impl<T: Float + nalgebra::Scalar> Hostile<T> {
         /// The state component `fn` of a flat state.
         pub fn fn_(x: &[T; 6]) -> T {
@@ -101,7 +123,7 @@ pub mod hostile {
             x[5]
         }
     }
-    impl<T: Float> Field<T, [T; 6]> for Hostile<T> {
+    impl<T: Float> Field<T, [T; 6]> for HostilePrepared<T> {
         fn field(&self, x: &[T; 6], dx: &mut [T; 6]) {
             let fn_ = x[0];
             let self_ = x[1];
@@ -126,7 +148,13 @@ pub mod hostile {
             dx[5] = -x_2;
         }
     }
-    impl<T: Float> Invariants<T, [T; 6], [T; 2]> for Hostile<T> {
+    impl<T: Float> Field<T, [T; 6]> for Hostile<T> {
+        #[inline]
+        fn field(&self, x: &[T; 6], dx: &mut [T; 6]) {
+            self.prepare().field(x, dx)
+        }
+    }
+    impl<T: Float> Invariants<T, [T; 6], [T; 2]> for HostilePrepared<T> {
         fn invariants(&self, x: &[T; 6], f: &mut [T; 2]) {
             let fn_ = x[0];
             let self_ = x[1];
@@ -151,7 +179,17 @@ pub mod hostile {
             jac[1][3] = lit::<T>(2.0) * type_1;
         }
     }
-    impl<T: Float> Lyapunov<T, [T; 6], [T; 2], [T; 2]> for Hostile<T> {
+    impl<T: Float> Invariants<T, [T; 6], [T; 2]> for Hostile<T> {
+        #[inline]
+        fn invariants(&self, x: &[T; 6], f: &mut [T; 2]) {
+            self.prepare().invariants(x, f)
+        }
+        #[inline]
+        fn invariants_jacobian(&self, x: &[T; 6], jac: &mut [[T; 6]; 2]) {
+            self.prepare().invariants_jacobian(x, jac)
+        }
+    }
+    impl<T: Float> Lyapunov<T, [T; 6], [T; 2], [T; 2]> for HostilePrepared<T> {
         fn lyapunov(&self, x: &[T; 6], target: &[T; 2], gains: &[T; 2]) -> T {
             let fn_ = x[0];
             let self_ = x[1];
@@ -233,6 +271,33 @@ pub mod hostile {
             dx[5] = -x_2;
         }
     }
+    impl<T: Float> Lyapunov<T, [T; 6], [T; 2], [T; 2]> for Hostile<T> {
+        #[inline]
+        fn lyapunov(&self, x: &[T; 6], target: &[T; 2], gains: &[T; 2]) -> T {
+            self.prepare().lyapunov(x, target, gains)
+        }
+        #[inline]
+        fn lyapunov_gradient(
+            &self,
+            x: &[T; 6],
+            target: &[T; 2],
+            gains: &[T; 2],
+            grad: &mut [T; 6],
+        ) {
+            self.prepare().lyapunov_gradient(x, target, gains, grad)
+        }
+        #[inline]
+        fn feedback_field(
+            &self,
+            x: &[T; 6],
+            target: &[T; 2],
+            gains: &[T; 2],
+            dx: &mut [T; 6],
+        ) {
+            self.prepare().feedback_field(x, target, gains, dx)
+        }
+    }
+    impl<T: Float> Declared<T, [T; 6]> for HostilePrepared<T> {}
     impl<T: Float> Declared<T, [T; 6]> for Hostile<T> {}
     impl<T> Hostile<T> {
         /// The model's name.
@@ -313,6 +378,26 @@ pub mod hostile {
             Self::PARAMS
         }
     }
+    impl<T> ModelInfo for HostilePrepared<T> {
+        fn model_name(&self) -> &'static str {
+            Hostile::<T>::NAME
+        }
+        fn state_slots(&self) -> &'static [Slot] {
+            Hostile::<T>::STATE
+        }
+        fn invariant_infos(&self) -> &'static [InvariantInfo] {
+            Hostile::<T>::INVARIANTS
+        }
+        fn gain_names(&self) -> &'static [&'static str] {
+            Hostile::<T>::GAIN_NAMES
+        }
+        fn default_gain_values(&self) -> &'static [f64] {
+            Hostile::<T>::DEFAULT_GAINS
+        }
+        fn param_slots(&self) -> &'static [Slot] {
+            Hostile::<T>::PARAMS
+        }
+    }
     impl Parameters for Hostile<f64> {
         fn set_param(&mut self, name: &str, _values: &[f64]) -> Result<(), ParamError> {
             Err(ParamError::Unknown {
@@ -331,6 +416,23 @@ pub mod hostile {
                 "start" => Some(self.point_start().to_vec()),
                 _ => None,
             }
+        }
+    }
+    /// Setting a parameter prepares the model again.
+    impl Parameters for HostilePrepared<f64> {
+        fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
+            self.model.set_param(name, values)?;
+            *self = self.model.prepare();
+            Ok(())
+        }
+        fn param(&self, name: &str) -> Option<Vec<f64>> {
+            self.model.param(name)
+        }
+        fn point_names(&self) -> &'static [&'static str] {
+            self.model.point_names()
+        }
+        fn point(&self, name: &str) -> Option<Vec<f64>> {
+            self.model.point(name)
         }
     }
 }

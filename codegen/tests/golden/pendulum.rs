@@ -11,9 +11,11 @@
 ///
 /// The field is partitioned (q̇ = a(p), ṗ = b(q)): Störmer–Verlet applies.
 ///
-/// Operations (as a tree → after CSE → as emitted): X 5 → 5 → 5, f 8 → 8 → 8, Df 4 → 4 → 4, V 13 → 13 → 13, ∇V 28 → 17 → 15, X − ∇V 37 → 24 → 20.
+/// Operations (as a tree → after CSE → as emitted): X 5 → 5 → 2, f 8 → 8 → 5, Df 4 → 4 → 2, V 13 → 13 → 10, ∇V 28 → 17 → 12, X − ∇V 37 → 24 → 16.
 pub mod pendulum {
     #![allow(clippy::approx_constant)]
+    #[allow(unused_imports)]
+    use core::ops::Deref;
     #[allow(unused_imports)]
     use lasalle_runtime::num_traits::{Float, One, Zero};
     #[allow(unused_imports)]
@@ -65,6 +67,36 @@ pub mod pendulum {
             out
         }
     }
+    /// The model `Pendulum` with its parameter-only values computed once ([`Pendulum::prepare`]): the functions of the runtime's traits read them instead of recomputing them at every call. Immutable: to change a parameter, change the model and prepare it again, or call `Parameters::set_param`, which prepares again.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct PendulumPrepared<T = f64> {
+        model: Pendulum<T>,
+        neg_g_inv_l: T,
+        k: T,
+    }
+    impl<T> Deref for PendulumPrepared<T> {
+        type Target = Pendulum<T>;
+        fn deref(&self) -> &Pendulum<T> {
+            &self.model
+        }
+    }
+    impl<T: Float> Pendulum<T> {
+        /// The model with its parameter-only values computed, for runs: its trait
+        /// functions do less work per call than the model's own, which prepare on
+        /// every call.
+        #[inline]
+        pub fn prepare(&self) -> PendulumPrepared<T> {
+            let g = self.g;
+            let l = self.l;
+            let k = g / l;
+            let neg_g_inv_l = -(g / l);
+            PendulumPrepared {
+                model: *self,
+                neg_g_inv_l,
+                k,
+            }
+        }
+    }
     impl<T: Float + nalgebra::Scalar> Pendulum<T> {
         /// The state component `theta` of a flat state.
         pub fn theta(x: &[T; 2]) -> T {
@@ -75,48 +107,60 @@ pub mod pendulum {
             x[1]
         }
     }
-    impl<T: Float> Field<T, [T; 2]> for Pendulum<T> {
+    impl<T: Float> Field<T, [T; 2]> for PendulumPrepared<T> {
         fn field(&self, x: &[T; 2], dx: &mut [T; 2]) {
             let theta = x[0];
             let omega = x[1];
-            let g = self.g;
-            let l = self.l;
+            let neg_g_inv_l = self.neg_g_inv_l;
             // pendulum.lsl:8: d/dt theta = omega;
             dx[0] = omega;
             // pendulum.lsl:9: d/dt omega = -k * sin(theta);
-            dx[1] = -(g * theta.sin() / l);
+            dx[1] = neg_g_inv_l * theta.sin();
         }
     }
-    impl<T: Float> Invariants<T, [T; 2], [T; 1]> for Pendulum<T> {
+    impl<T: Float> Field<T, [T; 2]> for Pendulum<T> {
+        #[inline]
+        fn field(&self, x: &[T; 2], dx: &mut [T; 2]) {
+            self.prepare().field(x, dx)
+        }
+    }
+    impl<T: Float> Invariants<T, [T; 2], [T; 1]> for PendulumPrepared<T> {
         fn invariants(&self, x: &[T; 2], f: &mut [T; 1]) {
             let theta = x[0];
             let omega = x[1];
-            let g = self.g;
-            let l = self.l;
+            let neg_g_inv_l = self.neg_g_inv_l;
             // pendulum.lsl:11: integral E = omega^2 / 2 - k * cos(theta) gain 2;
-            f[0] = lit::<T>(0.5) * (omega * omega) - g * theta.cos() / l;
+            f[0] = lit::<T>(0.5) * (omega * omega) + neg_g_inv_l * theta.cos();
         }
         fn invariants_jacobian(&self, x: &[T; 2], jac: &mut [[T; 2]; 1]) {
             let theta = x[0];
             let omega = x[1];
-            let g = self.g;
-            let l = self.l;
+            let k = self.k;
             // pendulum.lsl:11: integral E = omega^2 / 2 - k * cos(theta) gain 2;
-            jac[0][0] = g * theta.sin() / l;
+            jac[0][0] = k * theta.sin();
             jac[0][1] = omega;
         }
     }
-    impl<T: Float> Lyapunov<T, [T; 2], [T; 1], [T; 1]> for Pendulum<T> {
+    impl<T: Float> Invariants<T, [T; 2], [T; 1]> for Pendulum<T> {
+        #[inline]
+        fn invariants(&self, x: &[T; 2], f: &mut [T; 1]) {
+            self.prepare().invariants(x, f)
+        }
+        #[inline]
+        fn invariants_jacobian(&self, x: &[T; 2], jac: &mut [[T; 2]; 1]) {
+            self.prepare().invariants_jacobian(x, jac)
+        }
+    }
+    impl<T: Float> Lyapunov<T, [T; 2], [T; 1], [T; 1]> for PendulumPrepared<T> {
         fn lyapunov(&self, x: &[T; 2], target: &[T; 1], gains: &[T; 1]) -> T {
             let theta = x[0];
             let omega = x[1];
-            let g = self.g;
-            let l = self.l;
             let k_e = gains[0];
             let e_0 = target[0];
+            let neg_g_inv_l = self.neg_g_inv_l;
             // pendulum.lsl: V = Σ k/2 |f − f(x₀)|² over the invariants
             lit::<T>(0.5) * k_e
-                * (lit::<T>(0.5) * (omega * omega) - g * theta.cos() / l - e_0).powi(2)
+                * (lit::<T>(0.5) * (omega * omega) + neg_g_inv_l * theta.cos() - e_0).powi(2)
         }
         fn lyapunov_gradient(
             &self,
@@ -127,13 +171,12 @@ pub mod pendulum {
         ) {
             let theta = x[0];
             let omega = x[1];
-            let g = self.g;
-            let l = self.l;
             let k_e = gains[0];
             let e_0 = target[0];
-            // pendulum.lsl:7: let k = g / l;
-            let k = g / l;
-            let t1 = k_e * (lit::<T>(0.5) * (omega * omega) - k * theta.cos() - e_0);
+            let k = self.k;
+            let neg_g_inv_l = self.neg_g_inv_l;
+            let t1 = k_e
+                * (lit::<T>(0.5) * (omega * omega) + neg_g_inv_l * theta.cos() - e_0);
             // ∂V/∂x[0] (theta)
             grad[0] = k * theta.sin() * t1;
             // ∂V/∂x[1] (omega)
@@ -148,23 +191,47 @@ pub mod pendulum {
         ) {
             let theta = x[0];
             let omega = x[1];
-            let g = self.g;
-            let l = self.l;
             let k_e = gains[0];
             let e_0 = target[0];
-            // pendulum.lsl:7: let k = g / l;
-            let k = g / l;
-            let t1 = k_e * (lit::<T>(0.5) * (omega * omega) - k * theta.cos() - e_0);
-            let t2 = k * theta.sin();
+            let neg_g_inv_l = self.neg_g_inv_l;
+            let t1 = theta.sin();
+            let t2 = k_e
+                * (lit::<T>(0.5) * (omega * omega) + neg_g_inv_l * theta.cos() - e_0);
             // pendulum.lsl:8: d/dt theta = omega; − ∂V/∂x[0]
-            dx[0] = omega - t1 * t2;
+            dx[0] = omega + neg_g_inv_l * t1 * t2;
             // pendulum.lsl:9: d/dt omega = -k * sin(theta); − ∂V/∂x[1]
-            dx[1] = -t2 - omega * t1;
+            dx[1] = neg_g_inv_l * t1 - omega * t2;
         }
     }
-    impl<T: Float> Partitioned<T, [T; 2]> for Pendulum<T> {
+    impl<T: Float> Lyapunov<T, [T; 2], [T; 1], [T; 1]> for Pendulum<T> {
+        #[inline]
+        fn lyapunov(&self, x: &[T; 2], target: &[T; 1], gains: &[T; 1]) -> T {
+            self.prepare().lyapunov(x, target, gains)
+        }
+        #[inline]
+        fn lyapunov_gradient(
+            &self,
+            x: &[T; 2],
+            target: &[T; 1],
+            gains: &[T; 1],
+            grad: &mut [T; 2],
+        ) {
+            self.prepare().lyapunov_gradient(x, target, gains, grad)
+        }
+        #[inline]
+        fn feedback_field(
+            &self,
+            x: &[T; 2],
+            target: &[T; 1],
+            gains: &[T; 1],
+            dx: &mut [T; 2],
+        ) {
+            self.prepare().feedback_field(x, target, gains, dx)
+        }
+    }
+    impl<T: Float> Partitioned<T, [T; 2]> for PendulumPrepared<T> {
         fn is_q(&self) -> &[bool] {
-            &[true, false]
+            self.model.is_q()
         }
         fn field_q(&self, x: &[T; 2], dx: &mut [T; 2]) {
             let omega = x[1];
@@ -173,10 +240,27 @@ pub mod pendulum {
         }
         fn field_p(&self, x: &[T; 2], dx: &mut [T; 2]) {
             let theta = x[0];
-            let g = self.g;
-            let l = self.l;
+            let neg_g_inv_l = self.neg_g_inv_l;
             // pendulum.lsl:9: d/dt omega = -k * sin(theta);
-            dx[1] = -(g * theta.sin() / l);
+            dx[1] = neg_g_inv_l * theta.sin();
+        }
+    }
+    impl<T: Float> Partitioned<T, [T; 2]> for Pendulum<T> {
+        fn is_q(&self) -> &[bool] {
+            &[true, false]
+        }
+        #[inline]
+        fn field_q(&self, x: &[T; 2], dx: &mut [T; 2]) {
+            self.prepare().field_q(x, dx)
+        }
+        #[inline]
+        fn field_p(&self, x: &[T; 2], dx: &mut [T; 2]) {
+            self.prepare().field_p(x, dx)
+        }
+    }
+    impl<T: Float> Declared<T, [T; 2]> for PendulumPrepared<T> {
+        fn partitioned(&self) -> Option<&dyn Partitioned<T, [T; 2]>> {
+            Some(self)
         }
     }
     impl<T: Float> Declared<T, [T; 2]> for Pendulum<T> {
@@ -250,6 +334,26 @@ pub mod pendulum {
             Self::PARAMS
         }
     }
+    impl<T> ModelInfo for PendulumPrepared<T> {
+        fn model_name(&self) -> &'static str {
+            Pendulum::<T>::NAME
+        }
+        fn state_slots(&self) -> &'static [Slot] {
+            Pendulum::<T>::STATE
+        }
+        fn invariant_infos(&self) -> &'static [InvariantInfo] {
+            Pendulum::<T>::INVARIANTS
+        }
+        fn gain_names(&self) -> &'static [&'static str] {
+            Pendulum::<T>::GAIN_NAMES
+        }
+        fn default_gain_values(&self) -> &'static [f64] {
+            Pendulum::<T>::DEFAULT_GAINS
+        }
+        fn param_slots(&self) -> &'static [Slot] {
+            Pendulum::<T>::PARAMS
+        }
+    }
     impl Parameters for Pendulum<f64> {
         fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
             match name {
@@ -298,6 +402,23 @@ pub mod pendulum {
                 "rest" => Some(self.point_rest().to_vec()),
                 _ => None,
             }
+        }
+    }
+    /// Setting a parameter prepares the model again.
+    impl Parameters for PendulumPrepared<f64> {
+        fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
+            self.model.set_param(name, values)?;
+            *self = self.model.prepare();
+            Ok(())
+        }
+        fn param(&self, name: &str) -> Option<Vec<f64>> {
+            self.model.param(name)
+        }
+        fn point_names(&self) -> &'static [&'static str] {
+            self.model.point_names()
+        }
+        fn point(&self, name: &str) -> Option<Vec<f64>> {
+            self.model.point(name)
         }
     }
 }

@@ -1,0 +1,171 @@
+//! The prepared model: the parameter-only values of every function, computed once per
+//! parameter set.
+//!
+//! Each per-call function reads the maximal parameter-only subexpressions it needs (`1/I₀`,
+//! `(I₁ − I₂)/I₀`, `g/l`) from fields of `<Model>Prepared`, which `<Model>::prepare()` fills.
+//! A field is named after what it holds where that is short (`inv_i_0`, `i_1_minus_i_2`, a
+//! `let` name), else `p1`, `p2`, ….
+
+use super::body::{Hoisting, Output, Place};
+use super::leaves::Leaves;
+use super::names::Scope;
+use super::Emitter;
+use crate::ir::{Graph, Id, Node};
+use proc_macro2::TokenStream;
+use quote::{format_ident, quote};
+use std::collections::HashMap;
+
+/// The fields of the prepared model, registered as the functions are emitted.
+pub struct Prepared {
+    fields: Vec<(Id, String)>,
+    index: HashMap<Id, usize>,
+    scope: Scope,
+}
+
+impl Prepared {
+    /// An empty list; `taken` are names the prepared struct may not use (its `model` field,
+    /// and the parameters, which `Deref` reaches through it).
+    pub fn new(taken: &[&str]) -> Self {
+        let mut scope = Scope::with(taken);
+        scope.take("model");
+        Prepared {
+            fields: Vec::new(),
+            index: HashMap::new(),
+            scope,
+        }
+    }
+
+    /// The field holding the value of `id`, registered on first use.
+    pub fn field(&mut self, g: &Graph, leaves: &Leaves, id: Id) -> String {
+        if let Some(&k) = self.index.get(&id) {
+            return self.fields[k].1.clone();
+        }
+        let base = describe(g, leaves, id).unwrap_or_else(|| format!("p{}", self.fields.len() + 1));
+        let name = self.scope.fresh(&base);
+        self.index.insert(id, self.fields.len());
+        self.fields.push((id, name.clone()));
+        name
+    }
+}
+
+/// Longest name made from what a value holds; longer ones are numbered.
+const MAX_NAME: usize = 24;
+
+/// A name for a parameter-only value from its expression: `inv_i_0`, `sqrt_mu`,
+/// `i_1_minus_i_2`, `half_g`, or a `let` name.
+fn describe(g: &Graph, leaves: &Leaves, id: Id) -> Option<String> {
+    if let Some((name, _)) = leaves.let_name(id) {
+        return Some(name.clone());
+    }
+    let name = match g.node(id) {
+        Node::Num(_) => return None,
+        Node::Input(i) => leaves.input(*i).0,
+        &Node::Pow(b, e) => {
+            let b = describe(g, leaves, b)?;
+            match (e.num, e.den) {
+                (-1, 1) => format!("inv_{b}"),
+                (1, 2) => format!("sqrt_{b}"),
+                (-1, 2) => format!("inv_sqrt_{b}"),
+                (2, 1) => format!("{b}_sq"),
+                (n, 1) if n > 0 => format!("{b}_pow{n}"),
+                (n, 1) => format!("inv_{b}_pow{}", -n),
+                _ => return None,
+            }
+        }
+        Node::Mul(fs) => {
+            let (prefix, rest) = match g.as_num(fs[0]) {
+                Some(-1.0) => ("neg_", &fs[1..]),
+                Some(0.5) => ("half_", &fs[1..]),
+                Some(2.0) => ("twice_", &fs[1..]),
+                Some(_) => return None,
+                None => ("", &fs[..]),
+            };
+            let parts: Option<Vec<String>> = rest.iter().map(|&f| describe(g, leaves, f)).collect();
+            format!("{prefix}{}", parts?.join("_"))
+        }
+        Node::Add(ts) if ts.len() == 2 => {
+            let a = describe(g, leaves, ts[0])?;
+            match g.node(ts[1]) {
+                Node::Mul(fs) if fs.len() == 2 && g.as_num(fs[0]) == Some(-1.0) => {
+                    format!("{a}_minus_{}", describe(g, leaves, fs[1])?)
+                }
+                _ => format!("{a}_plus_{}", describe(g, leaves, ts[1])?),
+            }
+        }
+        Node::Add(_) => return None,
+        &Node::Func(f, a) => format!("{}_{}", f.name(), describe(g, leaves, a)?),
+    };
+    (name.len() <= MAX_NAME).then_some(name)
+}
+
+impl Emitter<'_> {
+    /// `<Model>Prepared`, `Deref` to the model, and `<Model>::prepare()`.
+    pub fn prepared_items(&mut self) -> TokenStream {
+        let (ty, prep) = (&self.ty, &self.prepared_ty);
+        let outputs: Vec<Output> = self
+            .prepared
+            .fields
+            .iter()
+            .map(|(id, name)| Output {
+                place: Place::Let(name.clone()),
+                id: *id,
+                note: None,
+            })
+            .collect();
+        let body = super::body::body(
+            &mut self.graph,
+            &self.leaves,
+            &outputs,
+            &["model"],
+            Hoisting::Prepare,
+        );
+        let names: Vec<_> = self
+            .prepared
+            .fields
+            .iter()
+            .map(|(_, name)| format_ident!("{}", name))
+            .collect();
+        let inits = names.iter().zip(&body.bound).map(|(name, value)| {
+            if *name == value.to_string() {
+                quote!(#name)
+            } else {
+                quote!(#name: #value)
+            }
+        });
+        let struct_doc = format!(
+            " The model `{}` with its parameter-only values computed once ([`{ty}::prepare`]): \
+             the functions of the runtime's traits read them instead of recomputing them at \
+             every call. Immutable: to change a parameter, change the model and prepare it \
+             again, or call `Parameters::set_param`, which prepares again.",
+            self.model.name
+        );
+        let body_tokens = &body.tokens;
+        quote! {
+            #[doc = #struct_doc]
+            #[derive(Clone, Copy, Debug, PartialEq)]
+            pub struct #prep<T = f64> {
+                model: #ty<T>,
+                #(#names: T,)*
+            }
+
+            impl<T> Deref for #prep<T> {
+                type Target = #ty<T>;
+
+                fn deref(&self) -> &#ty<T> {
+                    &self.model
+                }
+            }
+
+            impl<T: Float> #ty<T> {
+                /// The model with its parameter-only values computed, for runs: its trait
+                /// functions do less work per call than the model's own, which prepare on
+                /// every call.
+                #[inline]
+                pub fn prepare(&self) -> #prep<T> {
+                    #body_tokens
+                    #prep { model: *self, #(#inits,)* }
+                }
+            }
+        }
+    }
+}
