@@ -79,6 +79,8 @@ pub struct GeneratedModel {
     pub summary: String,
     /// The formatted items (struct and impls).
     pub code: String,
+    /// The same items as token text (with the note markers), to build modules from.
+    items: String,
     /// Statistics.
     pub report: Report,
     /// The model file.
@@ -113,8 +115,35 @@ pub fn generate_source(path: &str, text: &str) -> Result<GeneratedModel> {
             lines: code.lines().count(),
         },
         code,
+        items: emitted.items.to_string(),
         path: PathBuf::from(path),
     })
+}
+
+impl GeneratedModel {
+    /// `pub mod <module> { … }` with the summary as its docs.
+    fn module_tokens(&self) -> proc_macro2::TokenStream {
+        let docs = self.summary.lines().map(|line| {
+            if line.is_empty() {
+                String::new()
+            } else {
+                format!(" {line}")
+            }
+        });
+        let name = quote::format_ident!("{}", self.module);
+        let items: proc_macro2::TokenStream = self
+            .items
+            .parse()
+            .expect("the items parsed when they were generated");
+        quote::quote! {
+            #(#[doc = #docs])*
+            pub mod #name {
+                // Literals come from the model file, which may write 3.14 for a reason.
+                #![allow(clippy::approx_constant)]
+                #items
+            }
+        }
+    }
 }
 
 /// Generates the code of a model file.
@@ -140,28 +169,10 @@ const HEADER: &str =
 impl Generated {
     /// One Rust file holding a `pub mod <model>` per model, to `include!` in a crate.
     pub fn module_file(&self) -> String {
-        let mut out = String::from(HEADER);
-        for m in &self.models {
-            out.push('\n');
-            for line in m.summary.lines() {
-                out.push_str(&format!(
-                    "///{}{line}\n",
-                    if line.is_empty() { "" } else { " " }
-                ));
-            }
-            out.push_str(&format!("pub mod {} {{\n", m.module));
-            // Literals come from the model file, which may write 3.14 for a reason.
-            out.push_str("    #![allow(clippy::approx_constant)]\n");
-            for line in m.code.lines() {
-                if line.is_empty() {
-                    out.push('\n');
-                } else {
-                    out.push_str(&format!("    {line}\n"));
-                }
-            }
-            out.push_str("}\n");
-        }
-        out
+        let modules = self.models.iter().map(GeneratedModel::module_tokens);
+        let file = emit::format(&quote::quote!(#(#modules)*))
+            .expect("the items of every model parsed when they were generated");
+        format!("{HEADER}\n{file}")
     }
 
     /// A standalone `lib.rs`: crate docs and the models as modules.

@@ -9,7 +9,7 @@ use quote::{format_ident, quote};
 use std::collections::{HashMap, HashSet};
 
 use super::leaves::Leaves;
-use super::prepared::Prepared;
+use super::prepared::{describe, Prepared};
 
 /// What a function does with one of its values.
 pub enum Place {
@@ -17,8 +17,10 @@ pub enum Place {
     Assign(TokenStream),
     /// The function's tail expression (the last output).
     Return,
-    /// `let name = value;` ([`Body::bound`] holds the identifiers, made unique).
+    /// `let name = value;` ([`Body::values`] holds the identifiers, made unique).
     Let(String),
+    /// An element of an array the caller writes ([`Body::values`] holds the expressions).
+    Element,
 }
 
 /// One value of the function, optionally under a note.
@@ -62,8 +64,9 @@ pub struct Body {
     pub ops: u64,
     /// The inputs it reads.
     inputs: Vec<Input>,
-    /// The identifiers of the [`Place::Let`] outputs, in order.
-    pub bound: Vec<TokenStream>,
+    /// The identifiers of the [`Place::Let`] outputs and the expressions of the
+    /// [`Place::Element`] outputs, in order.
+    pub values: Vec<TokenStream>,
 }
 
 impl Body {
@@ -110,7 +113,17 @@ pub fn body(
     let g: &Graph = g;
     let parameter_only = g.parameter_only(&g.reachable(&roots));
     let read = matches!(hoisting, Hoisting::Read(_));
-    let hoisted = |id: Id| read && parameter_only.contains(&id) && !g.children(id).is_empty();
+    // A negation −a of a sum's term is written as a subtraction (`Writer::signed`).
+    let negated = |id: Id| match g.node(id) {
+        Node::Mul(fs) if fs.len() == 2 && g.as_num(fs[0]) == Some(-1.0) => Some(fs[1]),
+        _ => None,
+    };
+    // The parameter-only values read from the prepared model: not the leaves, and not −μ.
+    let hoisted = |id: Id| {
+        read && parameter_only.contains(&id)
+            && !g.children(id).is_empty()
+            && negated(id).is_none_or(|a| !g.children(a).is_empty())
+    };
     let order = reachable_until(g, &roots, hoisted);
     let ops = order
         .iter()
@@ -125,19 +138,32 @@ pub fn body(
         })
         .collect();
     let mut uses: HashMap<Id, usize> = HashMap::new();
+    let mut term_uses: HashMap<Id, usize> = HashMap::new();
     for &id in order.iter().filter(|&&id| !hoisted(id)) {
         // A parameter-only product divides by its negative powers: it uses their bases.
         let divides = parameter_only.contains(&id) && matches!(g.node(id), Node::Mul(_));
+        let sum = matches!(g.node(id), Node::Add(_));
         for &c in g.children(id) {
             let used = match *g.node(c) {
                 Node::Pow(b, e) if divides && e.num < 0 => b,
                 _ => c,
             };
             *uses.entry(used).or_default() += 1;
+            if sum && negated(c).is_some() && !hoisted(c) {
+                *term_uses.entry(c).or_default() += 1;
+            }
         }
     }
     for r in &roots {
         *uses.entry(*r).or_default() += 1;
+    }
+    // A sum subtracts a negated term −a: it uses a, and −a is a value only if something else
+    // uses it.
+    for (&c, &terms) in &term_uses {
+        let a = negated(c).expect("a negation");
+        let other = uses[&c] - terms;
+        uses.insert(c, other);
+        *uses.entry(a).or_default() += if other > 0 { terms } else { terms - 1 };
     }
     let mut w = Writer {
         g,
@@ -150,9 +176,36 @@ pub fn body(
     w.scope.take("lit");
     w.scope.take("partial_sum");
     let mut stmts = Vec::new();
-    // Leaves, each read once, then the prepared values.
+    // Leaves, each read once: the array arguments destructured (`let [theta, omega] = *x;`),
+    // the parameters one by one; then the prepared values.
+    let mut arrays: Vec<(&str, Vec<Option<proc_macro2::Ident>>)> = Vec::new();
+    for &id in &order {
+        let Node::Input(i) = g.node(id) else {
+            continue;
+        };
+        if let Some((array, k, len)) = leaves.array(*i) {
+            let ident = format_ident!("{}", w.scope.fresh(&leaves.input(*i).0));
+            let slots = match arrays.iter().position(|(a, _)| *a == array) {
+                Some(p) => &mut arrays[p].1,
+                None => {
+                    arrays.push((array, vec![None; len]));
+                    &mut arrays.last_mut().expect("pushed").1
+                }
+            };
+            slots[k] = Some(ident.clone());
+            w.named.insert(id, quote!(#ident));
+        }
+    }
+    for (array, slots) in &arrays {
+        let pattern = array_pattern(slots);
+        let array = format_ident!("{}", array);
+        stmts.push(quote!(let [#pattern] = *#array;));
+    }
     for &id in &order {
         if let Node::Input(i) = g.node(id) {
+            if leaves.array(*i).is_some() {
+                continue;
+            }
             let (name, source) = leaves.input(*i);
             if source.to_string() == name {
                 // an argument read as it is (the step size of a guard): no copy
@@ -204,10 +257,13 @@ pub fn body(
                 }
                 w.scope.fresh(n)
             }
-            (None, None) => {
-                temp += 1;
-                w.scope.fresh(&format!("t{temp}"))
-            }
+            (None, None) => match describe(g, leaves, id) {
+                Some(name) => w.scope.fresh(&name),
+                None => {
+                    temp += 1;
+                    w.scope.fresh(&format!("t{temp}"))
+                }
+            },
         };
         let value = w.render(id).0;
         let ident = format_ident!("{}", name);
@@ -215,7 +271,7 @@ pub fn body(
         w.named.insert(id, quote!(#ident));
     }
     // Outputs.
-    let mut bound_idents = Vec::new();
+    let mut values = Vec::new();
     for (o, &root) in outputs.iter().zip(&roots) {
         if let Some(n) = &o.note {
             if last_note.as_deref() != Some(n) {
@@ -227,14 +283,37 @@ pub fn body(
         match &o.place {
             Place::Assign(place) => stmts.push(quote!(#place = #value;)),
             Place::Return => stmts.push(value), // the function's tail expression
-            Place::Let(_) => bound_idents.push(value),
+            Place::Let(_) | Place::Element => values.push(value),
         }
     }
     Body {
         tokens: quote!(#(#stmts)*),
         ops,
         inputs,
-        bound: bound_idents,
+        values,
+    }
+}
+
+/// The pattern of a destructured array, `_` for the unused components and `..` for the
+/// longest run of them at the end (or else at the start): `theta, _, ..`.
+fn array_pattern(slots: &[Option<proc_macro2::Ident>]) -> TokenStream {
+    let trailing = slots.iter().rev().take_while(|s| s.is_none()).count();
+    let leading = slots.iter().take_while(|s| s.is_none()).count();
+    let (start, end) = if trailing >= 2 || (trailing > 0 && trailing >= leading) {
+        (0, slots.len() - trailing)
+    } else if leading >= 2 {
+        (leading, slots.len())
+    } else {
+        (0, slots.len())
+    };
+    let names = slots[start..end].iter().map(|s| match s {
+        Some(ident) => quote!(#ident),
+        None => quote!(_),
+    });
+    match (start > 0, end < slots.len()) {
+        (true, _) => quote!(.., #(#names),*),
+        (_, true) => quote!(#(#names,)* ..),
+        _ => quote!(#(#names),*),
     }
 }
 
@@ -360,8 +439,17 @@ impl Writer<'_> {
         }
     }
 
-    /// A term's sign and magnitude: `−3xy → (true, 3xy)`.
+    /// A term's sign and magnitude: `−3xy → (true, 3xy)`. A negation `−a` is subtracted even
+    /// when it has a name of its own (`b - a`, not `b + neg_a`: the same IEEE operation).
     fn signed(&self, id: Id) -> (bool, TokenStream, Prec) {
+        // (A named parameter-only value is read, not recomputed: its parts may not be bound.)
+        let read = self.named.contains_key(&id) && self.parameter_only.contains(&id);
+        if let Node::Mul(fs) = self.g.node(id) {
+            if fs.len() == 2 && self.g.as_num(fs[0]) == Some(-1.0) && !read {
+                let (ts, p) = self.reference(fs[1]);
+                return (true, ts, p);
+            }
+        }
         if !self.named.contains_key(&id) {
             match self.g.node(id) {
                 Node::Num(b) if f64::from_bits(*b) < 0.0 => {

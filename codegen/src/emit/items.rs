@@ -165,24 +165,20 @@ impl Emitter<'_> {
                 let outputs: Vec<Output> = pt
                     .values
                     .iter()
-                    .enumerate()
-                    .map(|(k, &id)| {
-                        let k = u(k);
-                        Output {
-                            place: Place::Assign(quote!(out[#k])),
-                            id,
-                            note: None,
-                        }
+                    .map(|&id| Output {
+                        place: Place::Element,
+                        id,
+                        note: None,
                     })
                     .collect();
-                let body = self.inline_body(&outputs, &["out"]).tokens;
+                let body = self.inline_body(&outputs, &[]);
+                let (tokens, values) = (&body.tokens, &body.values);
                 let doc = format!(" The point `{}` ({}).", pt.name, note_for(model, &pt.span));
                 quote! {
                     #[doc = #doc]
                     pub fn #fname(&self) -> [T; #n] {
-                        let mut out = [T::zero(); #n];
-                        #body
-                        out
+                        #tokens
+                        [#(#values),*]
                     }
                 }
             })
@@ -221,22 +217,26 @@ impl Emitter<'_> {
                     }
                 }
                 _ => {
-                    let doc = format!(" The state block `{}` ({}) of a flat state, as a nalgebra view.", s.name, s.shape);
+                    let doc = format!(
+                        " The state block `{}` ({}) of a flat state, as a nalgebra view.",
+                        s.name, s.shape
+                    );
                     quote! {
                         #[doc = #doc]
-                        pub fn #get(x: &[T; #n]) -> nalgebra::MatrixView<'_, T, nalgebra::#rd, nalgebra::#cd> {
-                            nalgebra::MatrixView::<'_, T, nalgebra::#rd, nalgebra::#cd>::from_slice(&x[#a..#b])
+                        pub fn #get(x: &[T; #n]) -> MatrixView<'_, T, #rd, #cd> {
+                            MatrixView::from_slice_generic(&x[#a..#b], #rd, #cd)
                         }
+
                         #[doc = #doc]
-                        pub fn #get_mut(x: &mut [T; #n]) -> nalgebra::MatrixViewMut<'_, T, nalgebra::#rd, nalgebra::#cd> {
-                            nalgebra::MatrixViewMut::<'_, T, nalgebra::#rd, nalgebra::#cd>::from_slice(&mut x[#a..#b])
+                        pub fn #get_mut(x: &mut [T; #n]) -> MatrixViewMut<'_, T, #rd, #cd> {
+                            MatrixViewMut::from_slice_generic(&mut x[#a..#b], #rd, #cd)
                         }
                     }
                 }
             }
         });
         quote! {
-            impl<T: Float + nalgebra::Scalar> #ty<T> {
+            impl<T: Float + Scalar> #ty<T> {
                 #(#accessors)*
             }
         }

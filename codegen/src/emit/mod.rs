@@ -229,14 +229,7 @@ pub fn emit(
         lyapunov_gradient: Ops::new(g.op_count(&d.lyapunov_gradient), grad_ops),
         feedback_field: Ops::new(g.op_count(&d.feedback), fb_ops),
     };
-    let items = quote! {
-        #[allow(unused_imports)]
-        use core::ops::Deref;
-        #[allow(unused_imports)]
-        use lasalle_runtime::num_traits::{Float, One, Zero};
-        #[allow(unused_imports)]
-        use lasalle_runtime::{lit, nalgebra, Declared, Field, GuardFailure, InvariantInfo, InvariantKind, Invariants, Lyapunov, ModelInfo, ParamError, Parameters, Partitioned, Preset, RigidBodySplitting, Shape, Slot};
-
+    let body = quote! {
         #struct_items
         #prepared
         #accessors
@@ -248,11 +241,79 @@ pub fn emit(
         #info
         #parameters
     };
+    let imports = imports(&body);
+    let items = quote! {
+        #imports
+        #body
+    };
     Ok(Emitted {
         items,
         summary: summary(model, d, conservation, &stats),
         stats,
     })
+}
+
+/// The names the emitted items may use, with the path each is imported from.
+const IMPORTABLE: &[(&str, &str)] = &[
+    ("Deref", "core::ops"),
+    ("Float", "lasalle_runtime::num_traits"),
+    ("MatrixView", "lasalle_runtime::nalgebra"),
+    ("MatrixViewMut", "lasalle_runtime::nalgebra"),
+    ("Scalar", "lasalle_runtime::nalgebra"),
+    ("lit", "lasalle_runtime"),
+    ("Declared", "lasalle_runtime"),
+    ("Field", "lasalle_runtime"),
+    ("GuardFailure", "lasalle_runtime"),
+    ("InvariantInfo", "lasalle_runtime"),
+    ("InvariantKind", "lasalle_runtime"),
+    ("Invariants", "lasalle_runtime"),
+    ("Lyapunov", "lasalle_runtime"),
+    ("ModelInfo", "lasalle_runtime"),
+    ("ParamError", "lasalle_runtime"),
+    ("Parameters", "lasalle_runtime"),
+    ("Partitioned", "lasalle_runtime"),
+    ("Preset", "lasalle_runtime"),
+    ("RigidBodySplitting", "lasalle_runtime"),
+    ("Shape", "lasalle_runtime"),
+    ("Slot", "lasalle_runtime"),
+];
+
+/// The `use` items for the names `items` uses: [`IMPORTABLE`] names, and nalgebra's
+/// dimension types `U1`, `U2`, … of the state views. One `use` per path, names sorted.
+fn imports(items: &TokenStream) -> TokenStream {
+    fn idents(ts: &TokenStream, out: &mut std::collections::BTreeSet<String>) {
+        for tt in ts.clone() {
+            match tt {
+                proc_macro2::TokenTree::Ident(i) => {
+                    out.insert(i.to_string());
+                }
+                proc_macro2::TokenTree::Group(g) => idents(&g.stream(), out),
+                _ => {}
+            }
+        }
+    }
+    let mut used = std::collections::BTreeSet::new();
+    idents(items, &mut used);
+    let dims = used
+        .iter()
+        .filter(|n| names::is_dimension(n))
+        .map(|n| (n.as_str(), "lasalle_runtime::nalgebra"));
+    let mut by_path: std::collections::BTreeMap<&str, Vec<&str>> = Default::default();
+    for (name, path) in IMPORTABLE
+        .iter()
+        .copied()
+        .filter(|(n, _)| used.contains(*n))
+        .chain(dims)
+    {
+        by_path.entry(path).or_default().push(name);
+    }
+    let uses = by_path.into_iter().map(|(path, mut names)| {
+        names.sort_unstable();
+        let path: TokenStream = path.parse().expect("a path");
+        let names = names.iter().map(|n| format_ident!("{}", n));
+        quote!(use #path::{#(#names),*};)
+    });
+    quote!(#(#uses)*)
 }
 
 /// Fails with a located error if a number the emitted code would contain is ±∞ or NaN: a
@@ -373,7 +434,32 @@ pub fn format(items: &TokenStream) -> crate::Result<String> {
     let file: syn::File = syn::parse2(items.clone())
         .map_err(|e| crate::Error::Internal(format!("emitted code does not parse: {e}")))?;
     let text = prettyplease::unparse(&file);
-    Ok(replace_notes(&text))
+    Ok(separate_items(&replace_notes(&text)))
+}
+
+/// A blank line between consecutive items (prettyplease writes none): before a line that
+/// starts an item, its docs or attributes, right after an item that ended at the same
+/// indentation (`}` or `;`).
+fn separate_items(text: &str) -> String {
+    const STARTS: &[&str] = &[
+        "pub ", "impl", "fn ", "#[", "///", "const ", "type ", "mod ", "struct ", "trait ",
+    ];
+    let indent = |l: &str| l.len() - l.trim_start().len();
+    let mut out = String::with_capacity(text.len() + text.len() / 16);
+    let mut prev: Option<&str> = None;
+    for line in text.lines() {
+        if let Some(p) = prev {
+            let (pt, lt) = (p.trim(), line.trim_start());
+            let ended = pt == "}" || pt.ends_with(';');
+            if ended && indent(p) == indent(line) && STARTS.iter().any(|s| lt.starts_with(s)) {
+                out.push('\n');
+            }
+        }
+        out.push_str(line);
+        out.push('\n');
+        prev = Some(line);
+    }
+    out
 }
 
 fn replace_notes(text: &str) -> String {

@@ -3,8 +3,8 @@
 //!
 //! Each per-call function reads the maximal parameter-only subexpressions it needs (`1/I₀`,
 //! `(I₁ − I₂)/I₀`, `g/l`) from fields of `<Model>Prepared`, which `<Model>::prepare()` fills.
-//! A field is named after what it holds where that is short (`inv_i_0`, `i_1_minus_i_2`, a
-//! `let` name), else `p1`, `p2`, ….
+//! A field is named after what it holds where that is short (`inv_i_0`, `i_1_minus_i_2_over_i_0`,
+//! a `let` name), else `p1`, `p2`, ….
 
 use super::body::{Hoisting, Output, Place};
 use super::leaves::Leaves;
@@ -49,15 +49,16 @@ impl Prepared {
 }
 
 /// Longest name made from what a value holds; longer ones are numbered.
-const MAX_NAME: usize = 24;
+pub const MAX_NAME: usize = 24;
 
-/// A name for a parameter-only value from its expression: `inv_i_0`, `sqrt_mu`,
-/// `i_1_minus_i_2`, `half_g`, or a `let` name.
-fn describe(g: &Graph, leaves: &Leaves, id: Id) -> Option<String> {
+/// A name for a value from its expression, if one is at most [`MAX_NAME`] long: `inv_r`,
+/// `sqrt_mu`, `i_1_minus_i_2_over_i_0`, `half_g`, `mu_k2`, or a `let` name.
+pub fn describe(g: &Graph, leaves: &Leaves, id: Id) -> Option<String> {
     if let Some((name, _)) = leaves.let_name(id) {
         return Some(name.clone());
     }
     let name = match g.node(id) {
+        Node::Num(_) if g.as_num(id) == Some(1.0) => "one".to_string(),
         Node::Num(_) => return None,
         Node::Input(i) => leaves.input(*i).0,
         &Node::Pow(b, e) => {
@@ -80,16 +81,42 @@ fn describe(g: &Graph, leaves: &Leaves, id: Id) -> Option<String> {
                 Some(_) => return None,
                 None => ("", &fs[..]),
             };
-            let parts: Option<Vec<String>> = rest.iter().map(|&f| describe(g, leaves, f)).collect();
-            format!("{prefix}{}", parts?.join("_"))
+            // numerator factors, then `over` and the bases of the reciprocals: `g_over_l`
+            let (mut num, mut den) = (Vec::new(), Vec::new());
+            for &f in rest {
+                match *g.node(f) {
+                    Node::Pow(b, e) if e == crate::ir::Rational::int(-1) => {
+                        den.push(describe(g, leaves, b)?)
+                    }
+                    _ => num.push(describe(g, leaves, f)?),
+                }
+            }
+            match (num.is_empty(), den.is_empty()) {
+                (_, true) => format!("{prefix}{}", num.join("_")),
+                (true, false) => format!("{prefix}inv_{}", den.join("_")),
+                (false, false) => format!("{prefix}{}_over_{}", num.join("_"), den.join("_")),
+            }
         }
         Node::Add(ts) if ts.len() == 2 => {
-            let a = describe(g, leaves, ts[0])?;
-            match g.node(ts[1]) {
-                Node::Mul(fs) if fs.len() == 2 && g.as_num(fs[0]) == Some(-1.0) => {
-                    format!("{a}_minus_{}", describe(g, leaves, fs[1])?)
+            // the positive term first: `one_minus_mu`, not `neg_mu_plus_one`
+            let negative = |t: Id| match g.node(t) {
+                Node::Mul(fs) => g.as_num(fs[0]).is_some_and(|c| c < 0.0),
+                _ => g.as_num(t).is_some_and(|c| c < 0.0),
+            };
+            let (first, second) = if negative(ts[0]) && !negative(ts[1]) {
+                (ts[1], ts[0])
+            } else {
+                (ts[0], ts[1])
+            };
+            let a = describe(g, leaves, first)?;
+            match g.node(second) {
+                Node::Mul(fs) if g.as_num(fs[0]) == Some(-1.0) => {
+                    let rest: Option<Vec<String>> =
+                        fs[1..].iter().map(|&f| describe(g, leaves, f)).collect();
+                    format!("{a}_minus_{}", rest?.join("_"))
                 }
-                _ => format!("{a}_plus_{}", describe(g, leaves, ts[1])?),
+                _ if g.as_num(second) == Some(-1.0) => format!("{a}_minus_one"),
+                _ => format!("{a}_plus_{}", describe(g, leaves, second)?),
             }
         }
         Node::Add(_) => return None,
@@ -125,7 +152,7 @@ impl Emitter<'_> {
             .iter()
             .map(|(_, name)| format_ident!("{}", name))
             .collect();
-        let inits = names.iter().zip(&body.bound).map(|(name, value)| {
+        let inits = names.iter().zip(&body.values).map(|(name, value)| {
             if *name == value.to_string() {
                 quote!(#name)
             } else {

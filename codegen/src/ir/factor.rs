@@ -15,6 +15,8 @@
 //! - Products share sub-products: when the pair `a·b` occurs in several products, it becomes
 //!   one node used by all of them (hash-consed products are flat, so this sharing is not
 //!   automatic).
+//! - Sums share sub-sums: a sum that holds all the terms of another sum of the function uses
+//!   it (`a + b − c` with `a + b` computed anyway is `(a + b) − c`).
 
 use super::{Graph, Id, Node, Rational};
 use std::cmp::Reverse;
@@ -26,7 +28,67 @@ impl Graph {
         let factored = self.factor_sums(roots);
         let roots = self.share_roots(&factored);
         let split = self.split_parameter_products(&roots);
-        self.share_products(&split)
+        let shared = self.share_products(&split);
+        self.share_sums(&shared)
+    }
+
+    /// A sum that holds every term of another sum of the function is written with it:
+    /// `t = a + b` and `a + b − c` become `t` and `t − c`, so the sum `a + b` is computed once.
+    /// Among the candidates the largest is taken; only sums that themselves contain no other
+    /// sum are candidates (so the one used is the node the function computes).
+    pub fn share_sums(&mut self, roots: &[Id]) -> Vec<Id> {
+        let order = self.reachable(roots);
+        // Sums with two or more terms, by their smallest term.
+        let mut by_first: HashMap<Id, Vec<Id>> = HashMap::new();
+        for &id in &order {
+            if let Node::Add(ts) = self.node(id) {
+                if let Some(&first) = ts.iter().min() {
+                    by_first.entry(first).or_default().push(id);
+                }
+            }
+        }
+        let terms = |g: &Graph, id: Id| match g.node(id) {
+            Node::Add(ts) => ts.to_vec(),
+            _ => Vec::new(),
+        };
+        // The largest sum whose terms are a proper subset of the terms of `sum`.
+        let largest_within = |g: &Graph, sum: Id| -> Option<Id> {
+            let ts = terms(g, sum);
+            let held: HashSet<Id> = ts.iter().copied().collect();
+            ts.iter()
+                .filter_map(|t| by_first.get(t))
+                .flatten()
+                .copied()
+                .filter(|&a| {
+                    let inner = terms(g, a);
+                    a != sum && inner.len() < ts.len() && inner.iter().all(|t| held.contains(t))
+                })
+                .max_by_key(|&a| (terms(g, a).len(), Reverse(a)))
+        };
+        let minimal: HashSet<Id> = by_first
+            .values()
+            .flatten()
+            .copied()
+            .filter(|&a| largest_within(self, a).is_none())
+            .collect();
+        self.rebuild_raw(roots, &order, |g, old, node| {
+            let Node::Add(new_terms) = node else {
+                return None;
+            };
+            let old_terms = terms(g, old);
+            let inner = largest_within(g, old).filter(|a| minimal.contains(a))?;
+            let inner_terms = terms(g, inner);
+            // The rebuilt inner sum, from the rebuilt terms at the same positions.
+            let mapped = |t: &Id| new_terms[old_terms.iter().position(|o| o == t).expect("held")];
+            let inner = g.raw_sum(inner_terms.iter().map(mapped).collect());
+            let mut rest: Vec<Id> = old_terms
+                .iter()
+                .filter(|t| !inner_terms.contains(t))
+                .map(mapped)
+                .collect();
+            rest.insert(0, inner);
+            Some(g.raw_sum(rest))
+        })
     }
 
     /// One square root and one reciprocal per base (see the module docs): for every base b
@@ -88,8 +150,8 @@ impl Graph {
 
     /// Groups the parameter-only factors of every product that also has other factors into one
     /// node (`c·μ·x·y → (c·μ)·x·y`), and likewise the parameter-only terms of sums, when the
-    /// group has two or more members: the group is one value computed once per parameter set
-    /// (see [`Graph::parameter_only`]).
+    /// group has two or more members (a negation −μ alone is not grouped): the group is one
+    /// value computed once per parameter set (see [`Graph::parameter_only`]).
     pub fn split_parameter_products(&mut self, roots: &[Id]) -> Vec<Id> {
         let order = self.reachable(roots);
         // Parameter-only nodes of the rebuilt graph, filled bottom-up.
@@ -107,7 +169,11 @@ impl Graph {
                             g.raw_product(ids)
                         }
                     };
-                    if params.len() >= 2 && !rest.is_empty() {
+                    // −μ alone is no work to save: `x − μ·y` needs no separate −μ.
+                    let negation = !sum
+                        && params.len() == 2
+                        && params.iter().any(|&p| g.as_num(p) == Some(-1.0));
+                    if params.len() >= 2 && !rest.is_empty() && !negation {
                         let params = group(g, params);
                         parameter_only.insert(params);
                         rest.push(params);

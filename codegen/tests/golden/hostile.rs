@@ -16,22 +16,21 @@
 /// Operations (as a tree → after CSE → as emitted): X 13 → 9 → 9, f 6 → 6 → 6, Df 4 → 4 → 4, V 17 → 17 → 17, ∇V 32 → 22 → 20, X − ∇V 49 → 34 → 32.
 pub mod hostile {
     #![allow(clippy::approx_constant)]
-    #[allow(unused_imports)]
     use core::ops::Deref;
-    #[allow(unused_imports)]
-    use lasalle_runtime::num_traits::{Float, One, Zero};
-    #[allow(unused_imports)]
     use lasalle_runtime::{
-        lit, nalgebra, Declared, Field, GuardFailure, InvariantInfo, InvariantKind,
-        Invariants, Lyapunov, ModelInfo, ParamError, Parameters, Partitioned, Preset,
-        RigidBodySplitting, Shape, Slot,
+        Declared, Field, InvariantInfo, InvariantKind, Invariants, Lyapunov, ModelInfo,
+        ParamError, Parameters, Shape, Slot, lit,
     };
+    use lasalle_runtime::nalgebra::{MatrixView, MatrixViewMut, Scalar, U1, U2};
+    use lasalle_runtime::num_traits::Float;
+
     /// Parameters of the model `Hostile`: state dimension N = 6, invariant components M = 2, gains G = 2.
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct Hostile<T = f64> {
         /// The model has no parameters; this marker carries the number type `T`.
         pub _marker: core::marker::PhantomData<T>,
     }
+
     impl<T: Float> Default for Hostile<T> {
         fn default() -> Self {
             Hostile {
@@ -39,48 +38,51 @@ pub mod hostile {
             }
         }
     }
+
     impl<T> Hostile<T> {
         /// Dimension N of the flat state.
         pub const N: usize = 6;
+
         /// Number M of stacked invariant components.
         pub const M: usize = 2;
+
         /// Number G of gains.
         pub const G: usize = 2;
     }
+
     impl<T: Float> Hostile<T> {
         /// The gains as written in the model file.
         pub fn default_gains() -> [T; 2] {
             [T::one(), T::one()]
         }
+
         /// The target f(x₀) of the feedback field: the invariants at the initial state.
         pub fn targets(&self, x0: &[T; 6]) -> [T; 2] {
             let mut f = [T::zero(); 2];
             self.invariants(x0, &mut f);
             f
         }
+
         /// The point `start` (hostile.lsl:15: point start { fn = 1; self = 0; type = [1, 0]; x = 0; x_mut = 1; }).
         pub fn point_start(&self) -> [T; 6] {
-            let mut out = [T::zero(); 6];
-            out[0] = T::one();
-            out[1] = T::zero();
-            out[2] = T::one();
-            out[3] = T::zero();
-            out[4] = T::zero();
-            out[5] = T::one();
-            out
+            [T::one(), T::zero(), T::one(), T::zero(), T::zero(), T::one()]
         }
     }
+
     /// The model `Hostile` with its parameter-only values computed once ([`Hostile::prepare`]): the functions of the runtime's traits read them instead of recomputing them at every call. Immutable: to change a parameter, change the model and prepare it again, or call `Parameters::set_param`, which prepares again.
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct HostilePrepared<T = f64> {
         model: Hostile<T>,
     }
+
     impl<T> Deref for HostilePrepared<T> {
         type Target = Hostile<T>;
+
         fn deref(&self) -> &Hostile<T> {
             &self.model
         }
     }
+
     impl<T: Float> Hostile<T> {
         /// The model with its parameter-only values computed, for runs: its trait
         /// functions do less work per call than the model's own, which prepare on
@@ -90,47 +92,42 @@ pub mod hostile {
             HostilePrepared { model: *self }
         }
     }
-    impl<T: Float + nalgebra::Scalar> Hostile<T> {
+
+    impl<T: Float + Scalar> Hostile<T> {
         /// The state component `fn` of a flat state.
         pub fn fn_(x: &[T; 6]) -> T {
             x[0]
         }
+
         /// The state component `self` of a flat state.
         pub fn self_(x: &[T; 6]) -> T {
             x[1]
         }
+
         /// The state block `type` (vec2) of a flat state, as a nalgebra view.
-        pub fn type_(x: &[T; 6]) -> nalgebra::MatrixView<'_, T, nalgebra::U2, nalgebra::U1> {
-            nalgebra::MatrixView::<'_, T, nalgebra::U2, nalgebra::U1>::from_slice(&x[2..4])
+        pub fn type_(x: &[T; 6]) -> MatrixView<'_, T, U2, U1> {
+            MatrixView::from_slice_generic(&x[2..4], U2, U1)
         }
+
         /// The state block `type` (vec2) of a flat state, as a nalgebra view.
-        pub fn type_mut(
-            x: &mut [T; 6],
-        ) -> nalgebra::MatrixViewMut<'_, T, nalgebra::U2, nalgebra::U1> {
-            nalgebra::MatrixViewMut::<
-                '_,
-                T,
-                nalgebra::U2,
-                nalgebra::U1,
-            >::from_slice(&mut x[2..4])
+        pub fn type_mut(x: &mut [T; 6]) -> MatrixViewMut<'_, T, U2, U1> {
+            MatrixViewMut::from_slice_generic(&mut x[2..4], U2, U1)
         }
+
         /// The state component `x` of a flat state.
         pub fn x(x: &[T; 6]) -> T {
             x[4]
         }
+
         /// The state component `x_mut` of a flat state.
         pub fn x_mut_2(x: &[T; 6]) -> T {
             x[5]
         }
     }
+
     impl<T: Float> Field<T, [T; 6]> for HostilePrepared<T> {
         fn field(&self, x: &[T; 6], dx: &mut [T; 6]) {
-            let fn_ = x[0];
-            let self_ = x[1];
-            let type_0 = x[2];
-            let type_1 = x[3];
-            let x_2 = x[4];
-            let x_mut = x[5];
+            let [fn_, self_, type_0, type_1, x_2, x_mut] = *x;
             // hostile.lsl:6: let T = 1 + lit^2;
             let t = T::one() + (type_0 * type_0) * (x_2 * x_2);
             // hostile.lsl:7: let _ = self * T;
@@ -148,29 +145,26 @@ pub mod hostile {
             dx[5] = -x_2;
         }
     }
+
     impl<T: Float> Field<T, [T; 6]> for Hostile<T> {
         #[inline]
         fn field(&self, x: &[T; 6], dx: &mut [T; 6]) {
             self.prepare().field(x, dx)
         }
     }
+
     impl<T: Float> Invariants<T, [T; 6], [T; 2]> for HostilePrepared<T> {
         fn invariants(&self, x: &[T; 6], f: &mut [T; 2]) {
-            let fn_ = x[0];
-            let self_ = x[1];
-            let type_0 = x[2];
-            let type_1 = x[3];
+            let [fn_, self_, type_0, type_1, ..] = *x;
             // hostile.lsl:13: integral E = fn^2 + self^2;
             f[0] = fn_ * fn_ + self_ * self_;
             // hostile.lsl:14: integral F = dot(type, type);
             f[1] = type_0 * type_0 + type_1 * type_1;
         }
+
         fn invariants_jacobian(&self, x: &[T; 6], jac: &mut [[T; 6]; 2]) {
             *jac = [[T::zero(); 6]; 2];
-            let fn_ = x[0];
-            let self_ = x[1];
-            let type_0 = x[2];
-            let type_1 = x[3];
+            let [fn_, self_, type_0, type_1, ..] = *x;
             // hostile.lsl:13: integral E = fn^2 + self^2;
             jac[0][0] = lit::<T>(2.0) * fn_;
             jac[0][1] = lit::<T>(2.0) * self_;
@@ -179,30 +173,29 @@ pub mod hostile {
             jac[1][3] = lit::<T>(2.0) * type_1;
         }
     }
+
     impl<T: Float> Invariants<T, [T; 6], [T; 2]> for Hostile<T> {
         #[inline]
         fn invariants(&self, x: &[T; 6], f: &mut [T; 2]) {
             self.prepare().invariants(x, f)
         }
+
         #[inline]
         fn invariants_jacobian(&self, x: &[T; 6], jac: &mut [[T; 6]; 2]) {
             self.prepare().invariants_jacobian(x, jac)
         }
     }
+
     impl<T: Float> Lyapunov<T, [T; 6], [T; 2], [T; 2]> for HostilePrepared<T> {
         fn lyapunov(&self, x: &[T; 6], target: &[T; 2], gains: &[T; 2]) -> T {
-            let fn_ = x[0];
-            let self_ = x[1];
-            let type_0 = x[2];
-            let type_1 = x[3];
-            let k_e = gains[0];
-            let k_f = gains[1];
-            let e_0 = target[0];
-            let f_0 = target[1];
+            let [fn_, self_, type_0, type_1, ..] = *x;
+            let [k_e, k_f] = *gains;
+            let [e_0, f_0] = *target;
             // hostile.lsl: V = Σ k/2 |f − f(x₀)|² over the invariants
             lit::<T>(0.5) * k_e * (fn_ * fn_ + self_ * self_ - e_0).powi(2)
                 + lit::<T>(0.5) * k_f * (type_0 * type_0 + type_1 * type_1 - f_0).powi(2)
         }
+
         fn lyapunov_gradient(
             &self,
             x: &[T; 6],
@@ -210,14 +203,9 @@ pub mod hostile {
             gains: &[T; 2],
             grad: &mut [T; 6],
         ) {
-            let fn_ = x[0];
-            let self_ = x[1];
-            let type_0 = x[2];
-            let type_1 = x[3];
-            let k_e = gains[0];
-            let k_f = gains[1];
-            let e_0 = target[0];
-            let f_0 = target[1];
+            let [fn_, self_, type_0, type_1, ..] = *x;
+            let [k_e, k_f] = *gains;
+            let [e_0, f_0] = *target;
             let t1 = k_f * (type_0 * type_0 + type_1 * type_1 - f_0);
             let t2 = k_e * (fn_ * fn_ + self_ * self_ - e_0);
             // ∂V/∂x[0] (fn)
@@ -233,6 +221,7 @@ pub mod hostile {
             // ∂V/∂x[5] (x_mut)
             grad[5] = T::zero();
         }
+
         fn feedback_field(
             &self,
             x: &[T; 6],
@@ -240,42 +229,37 @@ pub mod hostile {
             gains: &[T; 2],
             dx: &mut [T; 6],
         ) {
-            let fn_ = x[0];
-            let self_ = x[1];
-            let type_0 = x[2];
-            let type_1 = x[3];
-            let x_2 = x[4];
-            let x_mut = x[5];
-            let k_e = gains[0];
-            let k_f = gains[1];
-            let e_0 = target[0];
-            let f_0 = target[1];
-            let t1 = type_0 * type_0;
+            let [fn_, self_, type_0, type_1, x_2, x_mut] = *x;
+            let [k_e, k_f] = *gains;
+            let [e_0, f_0] = *target;
+            let type_0_sq = type_0 * type_0;
             // hostile.lsl:6: let T = 1 + lit^2;
-            let t = T::one() + t1 * (x_2 * x_2);
+            let t = T::one() + type_0_sq * (x_2 * x_2);
             // hostile.lsl:7: let _ = self * T;
             let v_ = self_ * t;
-            let t2 = k_f * (t1 + type_1 * type_1 - f_0);
-            let t3 = k_e * (fn_ * fn_ + self_ * self_ - e_0);
+            let t1 = k_f * (type_0_sq + type_1 * type_1 - f_0);
+            let t2 = k_e * (fn_ * fn_ + self_ * self_ - e_0);
             // hostile.lsl:8: d/dt fn = _; − ∂V/∂x[0]
-            dx[0] = v_ - lit::<T>(2.0) * fn_ * t3;
+            dx[0] = v_ - lit::<T>(2.0) * fn_ * t2;
             // hostile.lsl:9: d/dt self = -fn * T; − ∂V/∂x[1]
-            dx[1] = -fn_ * t - lit::<T>(2.0) * self_ * t3;
+            dx[1] = -fn_ * t - lit::<T>(2.0) * self_ * t2;
             // hostile.lsl:10: d/dt type = [type[1], -type[0]]; − ∂V/∂x[2]
-            dx[2] = type_1 - lit::<T>(2.0) * type_0 * t2;
+            dx[2] = type_1 - lit::<T>(2.0) * type_0 * t1;
             // hostile.lsl:10: d/dt type = [type[1], -type[0]]; − ∂V/∂x[3]
-            dx[3] = -type_0 - lit::<T>(2.0) * type_1 * t2;
+            dx[3] = -type_0 - lit::<T>(2.0) * type_1 * t1;
             // hostile.lsl:11: d/dt x = x_mut; − ∂V/∂x[4]
             dx[4] = x_mut;
             // hostile.lsl:12: d/dt x_mut = -x; − ∂V/∂x[5]
             dx[5] = -x_2;
         }
     }
+
     impl<T: Float> Lyapunov<T, [T; 6], [T; 2], [T; 2]> for Hostile<T> {
         #[inline]
         fn lyapunov(&self, x: &[T; 6], target: &[T; 2], gains: &[T; 2]) -> T {
             self.prepare().lyapunov(x, target, gains)
         }
+
         #[inline]
         fn lyapunov_gradient(
             &self,
@@ -286,6 +270,7 @@ pub mod hostile {
         ) {
             self.prepare().lyapunov_gradient(x, target, gains, grad)
         }
+
         #[inline]
         fn feedback_field(
             &self,
@@ -297,11 +282,13 @@ pub mod hostile {
             self.prepare().feedback_field(x, target, gains, dx)
         }
     }
+
     impl<T: Float> Declared<T, [T; 6]> for HostilePrepared<T> {}
     impl<T: Float> Declared<T, [T; 6]> for Hostile<T> {}
     impl<T> Hostile<T> {
         /// The model's name.
         pub const NAME: &'static str = "Hostile";
+
         /// The state variables with their offsets in the flat state.
         pub const STATE: &'static [Slot] = &[
             Slot {
@@ -330,6 +317,7 @@ pub mod hostile {
                 offset: 5,
             },
         ];
+
         /// The invariants with their offsets in the stacked f.
         pub const INVARIANTS: &'static [InvariantInfo] = &[
             InvariantInfo {
@@ -351,53 +339,69 @@ pub mod hostile {
                 gain: 1,
             },
         ];
+
         /// The names of the gains.
         pub const GAIN_NAMES: &'static [&'static str] = &["k_E", "k_F"];
+
         /// The gains as written in the model file.
         pub const DEFAULT_GAINS: &'static [f64] = &[1.0, 1.0];
+
         /// The parameters with their offsets in the parameter slots.
         pub const PARAMS: &'static [Slot] = &[];
     }
+
     impl<T> ModelInfo for Hostile<T> {
         fn model_name(&self) -> &'static str {
             Self::NAME
         }
+
         fn state_slots(&self) -> &'static [Slot] {
             Self::STATE
         }
+
         fn invariant_infos(&self) -> &'static [InvariantInfo] {
             Self::INVARIANTS
         }
+
         fn gain_names(&self) -> &'static [&'static str] {
             Self::GAIN_NAMES
         }
+
         fn default_gain_values(&self) -> &'static [f64] {
             Self::DEFAULT_GAINS
         }
+
         fn param_slots(&self) -> &'static [Slot] {
             Self::PARAMS
         }
     }
+
     impl<T> ModelInfo for HostilePrepared<T> {
         fn model_name(&self) -> &'static str {
             Hostile::<T>::NAME
         }
+
         fn state_slots(&self) -> &'static [Slot] {
             Hostile::<T>::STATE
         }
+
         fn invariant_infos(&self) -> &'static [InvariantInfo] {
             Hostile::<T>::INVARIANTS
         }
+
         fn gain_names(&self) -> &'static [&'static str] {
             Hostile::<T>::GAIN_NAMES
         }
+
         fn default_gain_values(&self) -> &'static [f64] {
             Hostile::<T>::DEFAULT_GAINS
         }
+
         fn param_slots(&self) -> &'static [Slot] {
             Hostile::<T>::PARAMS
         }
     }
+
     impl Parameters for Hostile<f64> {
         fn set_param(&mut self, name: &str, _values: &[f64]) -> Result<(), ParamError> {
             Err(ParamError::Unknown {
@@ -405,12 +409,15 @@ pub mod hostile {
                 known: "(none)".to_string(),
             })
         }
+
         fn param(&self, _name: &str) -> Option<Vec<f64>> {
             None
         }
+
         fn point_names(&self) -> &'static [&'static str] {
             &["start"]
         }
+
         fn point(&self, name: &str) -> Option<Vec<f64>> {
             match name {
                 "start" => Some(self.point_start().to_vec()),
@@ -418,6 +425,7 @@ pub mod hostile {
             }
         }
     }
+
     /// Setting a parameter prepares the model again.
     impl Parameters for HostilePrepared<f64> {
         fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
@@ -425,12 +433,15 @@ pub mod hostile {
             *self = self.model.prepare();
             Ok(())
         }
+
         fn param(&self, name: &str) -> Option<Vec<f64>> {
             self.model.param(name)
         }
+
         fn point_names(&self) -> &'static [&'static str] {
             self.model.point_names()
         }
+
         fn point(&self, name: &str) -> Option<Vec<f64>> {
             self.model.point(name)
         }

@@ -14,16 +14,14 @@
 /// Operations (as a tree → after CSE → as emitted): X 5 → 5 → 2, f 8 → 8 → 5, Df 4 → 4 → 2, V 13 → 13 → 10, ∇V 28 → 17 → 12, X − ∇V 37 → 24 → 16.
 pub mod pendulum {
     #![allow(clippy::approx_constant)]
-    #[allow(unused_imports)]
     use core::ops::Deref;
-    #[allow(unused_imports)]
-    use lasalle_runtime::num_traits::{Float, One, Zero};
-    #[allow(unused_imports)]
     use lasalle_runtime::{
-        lit, nalgebra, Declared, Field, GuardFailure, InvariantInfo, InvariantKind,
-        Invariants, Lyapunov, ModelInfo, ParamError, Parameters, Partitioned, Preset,
-        RigidBodySplitting, Shape, Slot,
+        Declared, Field, InvariantInfo, InvariantKind, Invariants, Lyapunov, ModelInfo,
+        ParamError, Parameters, Partitioned, Shape, Slot, lit,
     };
+    use lasalle_runtime::nalgebra::Scalar;
+    use lasalle_runtime::num_traits::Float;
+
     /// Parameters of the model `Pendulum`: state dimension N = 2, invariant components M = 1, gains G = 1.
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct Pendulum<T = f64> {
@@ -32,6 +30,7 @@ pub mod pendulum {
         /// `l` (scalar), default 1: `param l = 1.0;`
         pub l: T,
     }
+
     impl<T: Float> Default for Pendulum<T> {
         fn default() -> Self {
             Pendulum {
@@ -40,46 +39,53 @@ pub mod pendulum {
             }
         }
     }
+
     impl<T> Pendulum<T> {
         /// Dimension N of the flat state.
         pub const N: usize = 2;
+
         /// Number M of stacked invariant components.
         pub const M: usize = 1;
+
         /// Number G of gains.
         pub const G: usize = 1;
     }
+
     impl<T: Float> Pendulum<T> {
         /// The gains as written in the model file.
         pub fn default_gains() -> [T; 1] {
             [lit::<T>(2.0)]
         }
+
         /// The target f(x₀) of the feedback field: the invariants at the initial state.
         pub fn targets(&self, x0: &[T; 2]) -> [T; 1] {
             let mut f = [T::zero(); 1];
             self.invariants(x0, &mut f);
             f
         }
+
         /// The point `rest` (pendulum.lsl:13: point rest { theta = 0; omega = 0; }).
         pub fn point_rest(&self) -> [T; 2] {
-            let mut out = [T::zero(); 2];
-            out[0] = T::zero();
-            out[1] = T::zero();
-            out
+            [T::zero(), T::zero()]
         }
     }
+
     /// The model `Pendulum` with its parameter-only values computed once ([`Pendulum::prepare`]): the functions of the runtime's traits read them instead of recomputing them at every call. Immutable: to change a parameter, change the model and prepare it again, or call `Parameters::set_param`, which prepares again.
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct PendulumPrepared<T = f64> {
         model: Pendulum<T>,
-        neg_g_inv_l: T,
+        neg_g_over_l: T,
         k: T,
     }
+
     impl<T> Deref for PendulumPrepared<T> {
         type Target = Pendulum<T>;
+
         fn deref(&self) -> &Pendulum<T> {
             &self.model
         }
     }
+
     impl<T: Float> Pendulum<T> {
         /// The model with its parameter-only values computed, for runs: its trait
         /// functions do less work per call than the model's own, which prepare on
@@ -89,79 +95,86 @@ pub mod pendulum {
             let g = self.g;
             let l = self.l;
             let k = g / l;
-            let neg_g_inv_l = -(g / l);
+            let neg_g_over_l = -(g / l);
             PendulumPrepared {
                 model: *self,
-                neg_g_inv_l,
+                neg_g_over_l,
                 k,
             }
         }
     }
-    impl<T: Float + nalgebra::Scalar> Pendulum<T> {
+
+    impl<T: Float + Scalar> Pendulum<T> {
         /// The state component `theta` of a flat state.
         pub fn theta(x: &[T; 2]) -> T {
             x[0]
         }
+
         /// The state component `omega` of a flat state.
         pub fn omega(x: &[T; 2]) -> T {
             x[1]
         }
     }
+
     impl<T: Float> Field<T, [T; 2]> for PendulumPrepared<T> {
         fn field(&self, x: &[T; 2], dx: &mut [T; 2]) {
-            let theta = x[0];
-            let omega = x[1];
-            let neg_g_inv_l = self.neg_g_inv_l;
+            let [theta, omega] = *x;
+            let neg_g_over_l = self.neg_g_over_l;
             // pendulum.lsl:8: d/dt theta = omega;
             dx[0] = omega;
             // pendulum.lsl:9: d/dt omega = -k * sin(theta);
-            dx[1] = neg_g_inv_l * theta.sin();
+            dx[1] = neg_g_over_l * theta.sin();
         }
     }
+
     impl<T: Float> Field<T, [T; 2]> for Pendulum<T> {
         #[inline]
         fn field(&self, x: &[T; 2], dx: &mut [T; 2]) {
             self.prepare().field(x, dx)
         }
     }
+
     impl<T: Float> Invariants<T, [T; 2], [T; 1]> for PendulumPrepared<T> {
         fn invariants(&self, x: &[T; 2], f: &mut [T; 1]) {
-            let theta = x[0];
-            let omega = x[1];
-            let neg_g_inv_l = self.neg_g_inv_l;
+            let [theta, omega] = *x;
+            let neg_g_over_l = self.neg_g_over_l;
             // pendulum.lsl:11: integral E = omega^2 / 2 - k * cos(theta) gain 2;
-            f[0] = lit::<T>(0.5) * (omega * omega) + neg_g_inv_l * theta.cos();
+            f[0] = lit::<T>(0.5) * (omega * omega) + neg_g_over_l * theta.cos();
         }
+
         fn invariants_jacobian(&self, x: &[T; 2], jac: &mut [[T; 2]; 1]) {
-            let theta = x[0];
-            let omega = x[1];
+            let [theta, omega] = *x;
             let k = self.k;
             // pendulum.lsl:11: integral E = omega^2 / 2 - k * cos(theta) gain 2;
             jac[0][0] = k * theta.sin();
             jac[0][1] = omega;
         }
     }
+
     impl<T: Float> Invariants<T, [T; 2], [T; 1]> for Pendulum<T> {
         #[inline]
         fn invariants(&self, x: &[T; 2], f: &mut [T; 1]) {
             self.prepare().invariants(x, f)
         }
+
         #[inline]
         fn invariants_jacobian(&self, x: &[T; 2], jac: &mut [[T; 2]; 1]) {
             self.prepare().invariants_jacobian(x, jac)
         }
     }
+
     impl<T: Float> Lyapunov<T, [T; 2], [T; 1], [T; 1]> for PendulumPrepared<T> {
         fn lyapunov(&self, x: &[T; 2], target: &[T; 1], gains: &[T; 1]) -> T {
-            let theta = x[0];
-            let omega = x[1];
-            let k_e = gains[0];
-            let e_0 = target[0];
-            let neg_g_inv_l = self.neg_g_inv_l;
+            let [theta, omega] = *x;
+            let [k_e] = *gains;
+            let [e_0] = *target;
+            let neg_g_over_l = self.neg_g_over_l;
             // pendulum.lsl: V = Σ k/2 |f − f(x₀)|² over the invariants
             lit::<T>(0.5) * k_e
-                * (lit::<T>(0.5) * (omega * omega) + neg_g_inv_l * theta.cos() - e_0).powi(2)
+                * (lit::<T>(0.5) * (omega * omega) + neg_g_over_l * theta.cos() - e_0)
+                    .powi(2)
         }
+
         fn lyapunov_gradient(
             &self,
             x: &[T; 2],
@@ -169,19 +182,19 @@ pub mod pendulum {
             gains: &[T; 1],
             grad: &mut [T; 2],
         ) {
-            let theta = x[0];
-            let omega = x[1];
-            let k_e = gains[0];
-            let e_0 = target[0];
+            let [theta, omega] = *x;
+            let [k_e] = *gains;
+            let [e_0] = *target;
             let k = self.k;
-            let neg_g_inv_l = self.neg_g_inv_l;
+            let neg_g_over_l = self.neg_g_over_l;
             let t1 = k_e
-                * (lit::<T>(0.5) * (omega * omega) + neg_g_inv_l * theta.cos() - e_0);
+                * (lit::<T>(0.5) * (omega * omega) + neg_g_over_l * theta.cos() - e_0);
             // ∂V/∂x[0] (theta)
             grad[0] = k * theta.sin() * t1;
             // ∂V/∂x[1] (omega)
             grad[1] = omega * t1;
         }
+
         fn feedback_field(
             &self,
             x: &[T; 2],
@@ -189,25 +202,26 @@ pub mod pendulum {
             gains: &[T; 1],
             dx: &mut [T; 2],
         ) {
-            let theta = x[0];
-            let omega = x[1];
-            let k_e = gains[0];
-            let e_0 = target[0];
-            let neg_g_inv_l = self.neg_g_inv_l;
-            let t1 = theta.sin();
-            let t2 = k_e
-                * (lit::<T>(0.5) * (omega * omega) + neg_g_inv_l * theta.cos() - e_0);
+            let [theta, omega] = *x;
+            let [k_e] = *gains;
+            let [e_0] = *target;
+            let neg_g_over_l = self.neg_g_over_l;
+            let sin_theta = theta.sin();
+            let t1 = k_e
+                * (lit::<T>(0.5) * (omega * omega) + neg_g_over_l * theta.cos() - e_0);
             // pendulum.lsl:8: d/dt theta = omega; − ∂V/∂x[0]
-            dx[0] = omega + neg_g_inv_l * t1 * t2;
+            dx[0] = omega + neg_g_over_l * sin_theta * t1;
             // pendulum.lsl:9: d/dt omega = -k * sin(theta); − ∂V/∂x[1]
-            dx[1] = neg_g_inv_l * t1 - omega * t2;
+            dx[1] = neg_g_over_l * sin_theta - omega * t1;
         }
     }
+
     impl<T: Float> Lyapunov<T, [T; 2], [T; 1], [T; 1]> for Pendulum<T> {
         #[inline]
         fn lyapunov(&self, x: &[T; 2], target: &[T; 1], gains: &[T; 1]) -> T {
             self.prepare().lyapunov(x, target, gains)
         }
+
         #[inline]
         fn lyapunov_gradient(
             &self,
@@ -218,6 +232,7 @@ pub mod pendulum {
         ) {
             self.prepare().lyapunov_gradient(x, target, gains, grad)
         }
+
         #[inline]
         fn feedback_field(
             &self,
@@ -229,48 +244,58 @@ pub mod pendulum {
             self.prepare().feedback_field(x, target, gains, dx)
         }
     }
+
     impl<T: Float> Partitioned<T, [T; 2]> for PendulumPrepared<T> {
         fn is_q(&self) -> &[bool] {
             self.model.is_q()
         }
+
         fn field_q(&self, x: &[T; 2], dx: &mut [T; 2]) {
-            let omega = x[1];
+            let [_, omega] = *x;
             // pendulum.lsl:8: d/dt theta = omega;
             dx[0] = omega;
         }
+
         fn field_p(&self, x: &[T; 2], dx: &mut [T; 2]) {
-            let theta = x[0];
-            let neg_g_inv_l = self.neg_g_inv_l;
+            let [theta, ..] = *x;
+            let neg_g_over_l = self.neg_g_over_l;
             // pendulum.lsl:9: d/dt omega = -k * sin(theta);
-            dx[1] = neg_g_inv_l * theta.sin();
+            dx[1] = neg_g_over_l * theta.sin();
         }
     }
+
     impl<T: Float> Partitioned<T, [T; 2]> for Pendulum<T> {
         fn is_q(&self) -> &[bool] {
             &[true, false]
         }
+
         #[inline]
         fn field_q(&self, x: &[T; 2], dx: &mut [T; 2]) {
             self.prepare().field_q(x, dx)
         }
+
         #[inline]
         fn field_p(&self, x: &[T; 2], dx: &mut [T; 2]) {
             self.prepare().field_p(x, dx)
         }
     }
+
     impl<T: Float> Declared<T, [T; 2]> for PendulumPrepared<T> {
         fn partitioned(&self) -> Option<&dyn Partitioned<T, [T; 2]>> {
             Some(self)
         }
     }
+
     impl<T: Float> Declared<T, [T; 2]> for Pendulum<T> {
         fn partitioned(&self) -> Option<&dyn Partitioned<T, [T; 2]>> {
             Some(self)
         }
     }
+
     impl<T> Pendulum<T> {
         /// The model's name.
         pub const NAME: &'static str = "Pendulum";
+
         /// The state variables with their offsets in the flat state.
         pub const STATE: &'static [Slot] = &[
             Slot {
@@ -284,6 +309,7 @@ pub mod pendulum {
                 offset: 1,
             },
         ];
+
         /// The invariants with their offsets in the stacked f.
         pub const INVARIANTS: &'static [InvariantInfo] = &[
             InvariantInfo {
@@ -296,10 +322,13 @@ pub mod pendulum {
                 gain: 0,
             },
         ];
+
         /// The names of the gains.
         pub const GAIN_NAMES: &'static [&'static str] = &["k_E"];
+
         /// The gains as written in the model file.
         pub const DEFAULT_GAINS: &'static [f64] = &[2.0];
+
         /// The parameters with their offsets in the parameter slots.
         pub const PARAMS: &'static [Slot] = &[
             Slot {
@@ -314,46 +343,59 @@ pub mod pendulum {
             },
         ];
     }
+
     impl<T> ModelInfo for Pendulum<T> {
         fn model_name(&self) -> &'static str {
             Self::NAME
         }
+
         fn state_slots(&self) -> &'static [Slot] {
             Self::STATE
         }
+
         fn invariant_infos(&self) -> &'static [InvariantInfo] {
             Self::INVARIANTS
         }
+
         fn gain_names(&self) -> &'static [&'static str] {
             Self::GAIN_NAMES
         }
+
         fn default_gain_values(&self) -> &'static [f64] {
             Self::DEFAULT_GAINS
         }
+
         fn param_slots(&self) -> &'static [Slot] {
             Self::PARAMS
         }
     }
+
     impl<T> ModelInfo for PendulumPrepared<T> {
         fn model_name(&self) -> &'static str {
             Pendulum::<T>::NAME
         }
+
         fn state_slots(&self) -> &'static [Slot] {
             Pendulum::<T>::STATE
         }
+
         fn invariant_infos(&self) -> &'static [InvariantInfo] {
             Pendulum::<T>::INVARIANTS
         }
+
         fn gain_names(&self) -> &'static [&'static str] {
             Pendulum::<T>::GAIN_NAMES
         }
+
         fn default_gain_values(&self) -> &'static [f64] {
             Pendulum::<T>::DEFAULT_GAINS
         }
+
         fn param_slots(&self) -> &'static [Slot] {
             Pendulum::<T>::PARAMS
         }
     }
+
     impl Parameters for Pendulum<f64> {
         fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
             match name {
@@ -387,6 +429,7 @@ pub mod pendulum {
                 }
             }
         }
+
         fn param(&self, name: &str) -> Option<Vec<f64>> {
             match name {
                 "g" => Some(vec![self.g]),
@@ -394,9 +437,11 @@ pub mod pendulum {
                 _ => None,
             }
         }
+
         fn point_names(&self) -> &'static [&'static str] {
             &["rest"]
         }
+
         fn point(&self, name: &str) -> Option<Vec<f64>> {
             match name {
                 "rest" => Some(self.point_rest().to_vec()),
@@ -404,6 +449,7 @@ pub mod pendulum {
             }
         }
     }
+
     /// Setting a parameter prepares the model again.
     impl Parameters for PendulumPrepared<f64> {
         fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
@@ -411,12 +457,15 @@ pub mod pendulum {
             *self = self.model.prepare();
             Ok(())
         }
+
         fn param(&self, name: &str) -> Option<Vec<f64>> {
             self.model.param(name)
         }
+
         fn point_names(&self) -> &'static [&'static str] {
             self.model.point_names()
         }
+
         fn point(&self, name: &str) -> Option<Vec<f64>> {
             self.model.point(name)
         }
