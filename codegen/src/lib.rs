@@ -73,6 +73,8 @@ pub struct Report {
 /// One generated model.
 #[derive(Clone, Debug)]
 pub struct GeneratedModel {
+    /// The model's name as declared (`model RigidBody { … }`).
+    pub name: String,
     /// Module name (the file stem, snake_case).
     pub module: String,
     /// Module docs.
@@ -105,6 +107,7 @@ pub fn generate_source(path: &str, text: &str) -> Result<GeneratedModel> {
     // `fn.lsl`, `self.lsl`, `1d.lsl`, `_.lsl` still name a valid module: `fn_`, `self_`, `v1d`, `v_`.
     let module = emit::names::identifier(&module);
     Ok(GeneratedModel {
+        name: model.name.clone(),
         module,
         summary: emitted.summary,
         report: Report {
