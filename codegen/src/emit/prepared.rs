@@ -54,15 +54,24 @@ pub const MAX_NAME: usize = 24;
 /// A name for a value from its expression, if one is at most [`MAX_NAME`] long: `inv_r`,
 /// `sqrt_mu`, `i_1_minus_i_2_over_i_0`, `half_g`, `mu_k2`, or a `let` name.
 pub fn describe(g: &Graph, leaves: &Leaves, id: Id) -> Option<String> {
+    describe_within(g, leaves, id, MAX_DEPTH)
+}
+
+/// How deep [`describe`] looks into an expression (a longer name would not fit anyway).
+const MAX_DEPTH: usize = 4;
+
+fn describe_within(g: &Graph, leaves: &Leaves, id: Id, depth: usize) -> Option<String> {
     if let Some((name, _)) = leaves.let_name(id) {
         return Some(name.clone());
     }
+    let depth = depth.checked_sub(1)?;
+    let describe = |id: Id| describe_within(g, leaves, id, depth);
     let name = match g.node(id) {
         Node::Num(_) if g.as_num(id) == Some(1.0) => "one".to_string(),
         Node::Num(_) => return None,
         Node::Input(i) => leaves.input(*i).0,
         &Node::Pow(b, e) => {
-            let b = describe(g, leaves, b)?;
+            let b = describe(b)?;
             match (e.num, e.den) {
                 (-1, 1) => format!("inv_{b}"),
                 (1, 2) => format!("sqrt_{b}"),
@@ -85,10 +94,8 @@ pub fn describe(g: &Graph, leaves: &Leaves, id: Id) -> Option<String> {
             let (mut num, mut den) = (Vec::new(), Vec::new());
             for &f in rest {
                 match *g.node(f) {
-                    Node::Pow(b, e) if e == crate::ir::Rational::int(-1) => {
-                        den.push(describe(g, leaves, b)?)
-                    }
-                    _ => num.push(describe(g, leaves, f)?),
+                    Node::Pow(b, e) if e == crate::ir::Rational::int(-1) => den.push(describe(b)?),
+                    _ => num.push(describe(f)?),
                 }
             }
             match (num.is_empty(), den.is_empty()) {
@@ -108,19 +115,18 @@ pub fn describe(g: &Graph, leaves: &Leaves, id: Id) -> Option<String> {
             } else {
                 (ts[0], ts[1])
             };
-            let a = describe(g, leaves, first)?;
+            let a = describe(first)?;
             match g.node(second) {
                 Node::Mul(fs) if g.as_num(fs[0]) == Some(-1.0) => {
-                    let rest: Option<Vec<String>> =
-                        fs[1..].iter().map(|&f| describe(g, leaves, f)).collect();
+                    let rest: Option<Vec<String>> = fs[1..].iter().map(|&f| describe(f)).collect();
                     format!("{a}_minus_{}", rest?.join("_"))
                 }
                 _ if g.as_num(second) == Some(-1.0) => format!("{a}_minus_one"),
-                _ => format!("{a}_plus_{}", describe(g, leaves, second)?),
+                _ => format!("{a}_plus_{}", describe(second)?),
             }
         }
         Node::Add(_) => return None,
-        &Node::Func(f, a) => format!("{}_{}", f.name(), describe(g, leaves, a)?),
+        &Node::Func(f, a) => format!("{}_{}", f.name(), describe(a)?),
     };
     (name.len() <= MAX_NAME).then_some(name)
 }
