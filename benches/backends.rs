@@ -9,7 +9,8 @@
 //! ```
 //!
 //! - `feedback/<model>/{emitted,jit,interpreter}`: one evaluation of X − ∇V at a state off the
-//!   target set, through the runtime trait (`Lyapunov::feedback_field`) as a stepper calls it;
+//!   target set, through the runtime trait (`Lyapunov::feedback_field`) as a stepper calls it
+//!   (the emitted code on the prepared model, `model.prepare()`, as a run uses it);
 //! - `lanes/<model>/{emitted,jit}_k{4,8}`: X − ∇V for K states per call (structure of
 //!   arrays) for the three paper models: `<Model>Lanes::feedback::<K>` emitted from the tape,
 //!   and the JIT's `Kernel::eval_lanes`; the throughput is in states, so Criterion's
@@ -51,10 +52,11 @@ macro_rules! feedback_bench {
         let gains = <$ty>::default_gains();
         let x: [f64; <$ty>::N] = perturbed(&x0).try_into().unwrap();
         let mut g = $c.benchmark_group(concat!("feedback/", $stem));
+        let prepared = m.prepare();
         g.bench_function("emitted", |b| {
             let mut dx = [0.0; <$ty>::N];
             b.iter(|| {
-                black_box(&m).feedback_field(
+                black_box(&prepared).feedback_field(
                     black_box(&x),
                     black_box(&target),
                     black_box(&gains),
@@ -208,7 +210,7 @@ fn load(c: &mut Criterion) {
 fn run(c: &mut Criterion) {
     let mut g = c.benchmark_group("run/rigid_body_1e5");
     g.sample_size(10).measurement_time(Duration::from_secs(5));
-    let m = models::rigid_body::RigidBody::<f64>::default();
+    let m = models::rigid_body::RigidBody::<f64>::default().prepare();
     let x0 = m.point_paper();
     g.bench_function("emitted", |b| {
         b.iter(|| {
@@ -233,7 +235,7 @@ fn run(c: &mut Criterion) {
     // Kepler, the paper's step, 10⁵ feedback-Euler steps: each evaluation waits for the last
     let mut g = c.benchmark_group("run/kepler_1e5");
     g.sample_size(10).measurement_time(Duration::from_secs(5));
-    let m = models::kepler::Kepler::<f64>::default();
+    let m = models::kepler::Kepler::<f64>::default().prepare();
     let x0 = m.point_paper();
     g.bench_function("emitted", |b| {
         b.iter(|| {

@@ -5,10 +5,13 @@
 //! cargo bench --bench feedback -- field/       # ns per feedback-field evaluation only
 //! ```
 //!
-//! - `field/<model>/{generated,hand}`: one evaluation of X − ∇V at a state off the target set
-//!   (so every term of ∇V is live), inputs through `black_box`;
+//! - `field/<model>/{prepared,generated,hand}`: one evaluation of X − ∇V at a state off the
+//!   target set (so every term of ∇V is live), inputs through `black_box`: `prepared` on the
+//!   prepared model (`model.prepare()`, parameter-only values computed once, as a run uses
+//!   it), `generated` on the model itself (which prepares the values it needs on every call);
 //! - `run/rigid_body_1e7/{generated,hand}`: the paper's rigid-body experiment, 10⁷
-//!   feedback-Euler steps of Δt = 1e-4, as a plain loop x ← x + h·(X − ∇V)(x);
+//!   feedback-Euler steps of Δt = 1e-4, as a plain loop x ← x + h·(X − ∇V)(x), the generated
+//!   field on the prepared model;
 //! - `run/rigid_body_1e7/driver`: the same steps through the runtime's `integrate` with
 //!   `ExplicitRk::euler()` and a `FeedbackField` (blow-up checks and the observer call per step).
 
@@ -45,6 +48,19 @@ fn fields(c: &mut Criterion) {
     let gains = RigidBody::<f64>::default_gains();
     let x = rigid_body_state();
     let mut g = c.benchmark_group("field/rigid_body");
+    let prepared = rb.prepare();
+    g.bench_function("prepared", |b| {
+        let mut dx = [0.0; 12];
+        b.iter(|| {
+            black_box(&prepared).feedback_field(
+                black_box(&x),
+                black_box(&target),
+                black_box(&gains),
+                &mut dx,
+            );
+            black_box(dx)
+        })
+    });
     g.bench_function("generated", |b| {
         let mut dx = [0.0; 12];
         b.iter(|| {
@@ -81,6 +97,19 @@ fn fields(c: &mut Criterion) {
     let gains = Kepler::<f64>::default_gains();
     let s = kepler_state();
     let mut g = c.benchmark_group("field/kepler");
+    let prepared = kp.prepare();
+    g.bench_function("prepared", |b| {
+        let mut ds = [0.0; 6];
+        b.iter(|| {
+            black_box(&prepared).feedback_field(
+                black_box(&s),
+                black_box(&target),
+                black_box(&gains),
+                &mut ds,
+            );
+            black_box(ds)
+        })
+    });
     g.bench_function("generated", |b| {
         let mut ds = [0.0; 6];
         b.iter(|| {
@@ -129,7 +158,11 @@ fn runs(c: &mut Criterion) {
         .measurement_time(Duration::from_secs(8));
     g.bench_function("generated", |b| {
         b.iter(|| {
-            let (m, tg, k) = (black_box(&rb), black_box(&target), black_box(&gains));
+            let (m, tg, k) = (
+                black_box(&rb).prepare(),
+                black_box(&target),
+                black_box(&gains),
+            );
             let mut x = black_box(x0);
             let mut dx = [0.0; 12];
             for _ in 0..STEPS {
@@ -158,7 +191,8 @@ fn runs(c: &mut Criterion) {
     });
     g.bench_function("driver", |b| {
         b.iter(|| {
-            let fb = FeedbackField::from_initial(black_box(&rb), &x0, gains);
+            let model = black_box(&rb).prepare();
+            let fb = FeedbackField::from_initial(&model, &x0, gains);
             let end = integrate(
                 &mut ExplicitRk::euler(),
                 &fb,

@@ -75,12 +75,19 @@ pub struct Report {
 /// One generated model.
 #[derive(Clone, Debug)]
 pub struct GeneratedModel {
+    /// The model's name as declared (`model RigidBody { … }`).
+    pub name: String,
     /// Module name (the file stem, snake_case).
     pub module: String,
     /// Module docs.
     pub summary: String,
     /// The formatted items (struct and impls).
     pub code: String,
+    /// The same items as token text (with the note markers), to build modules from.
+    items: String,
+    /// The kernels emitted from the tapes (Taylor kernels, lanes), formatted when generated:
+    /// straight-line code too large to go through the formatter again in every module file.
+    tape_code: String,
     /// Statistics.
     pub report: Report,
     /// The model file.
@@ -106,6 +113,7 @@ pub fn generate_source(path: &str, text: &str) -> Result<GeneratedModel> {
     // `fn.lsl`, `self.lsl`, `1d.lsl`, `_.lsl` still name a valid module: `fn_`, `self_`, `v1d`, `v_`.
     let module = emit::names::identifier(&module);
     Ok(GeneratedModel {
+        name: model.name.clone(),
         module,
         summary: emitted.summary,
         report: Report {
@@ -116,8 +124,57 @@ pub fn generate_source(path: &str, text: &str) -> Result<GeneratedModel> {
             lines: code.lines().count(),
         },
         code,
+        items: emitted.items.to_string(),
+        tape_code: emitted.tape_code,
         path: PathBuf::from(path),
     })
+}
+
+impl GeneratedModel {
+    /// `pub mod <module> { … }` with the summary as its docs, formatted, the tape kernels at
+    /// the end of the module.
+    fn module_text(&self) -> String {
+        let mut text = emit::format(&self.module_tokens())
+            .expect("the items of every model parsed when they were generated");
+        let end = text.trim_end().len() - 1; // the module's closing brace
+        let kernels: String = self
+            .tape_code
+            .lines()
+            .map(|l| {
+                if l.is_empty() {
+                    "\n".to_string()
+                } else {
+                    format!("    {l}\n")
+                }
+            })
+            .collect();
+        text.insert_str(end, &kernels);
+        text
+    }
+
+    /// `pub mod <module> { … }` with the summary as its docs.
+    fn module_tokens(&self) -> proc_macro2::TokenStream {
+        let docs = self.summary.lines().map(|line| {
+            if line.is_empty() {
+                String::new()
+            } else {
+                format!(" {line}")
+            }
+        });
+        let name = quote::format_ident!("{}", self.module);
+        let items: proc_macro2::TokenStream = self
+            .items
+            .parse()
+            .expect("the items parsed when they were generated");
+        quote::quote! {
+            #(#[doc = #docs])*
+            pub mod #name {
+                // Literals come from the model file, which may write 3.14 for a reason.
+                #![allow(clippy::approx_constant)]
+                #items
+            }
+        }
+    }
 }
 
 /// Generates the code of a model file.
@@ -143,28 +200,12 @@ const HEADER: &str =
 impl Generated {
     /// One Rust file holding a `pub mod <model>` per model, to `include!` in a crate.
     pub fn module_file(&self) -> String {
-        let mut out = String::from(HEADER);
-        for m in &self.models {
-            out.push('\n');
-            for line in m.summary.lines() {
-                out.push_str(&format!(
-                    "///{}{line}\n",
-                    if line.is_empty() { "" } else { " " }
-                ));
-            }
-            out.push_str(&format!("pub mod {} {{\n", m.module));
-            // Literals come from the model file, which may write 3.14 for a reason.
-            out.push_str("    #![allow(clippy::approx_constant)]\n");
-            for line in m.code.lines() {
-                if line.is_empty() {
-                    out.push('\n');
-                } else {
-                    out.push_str(&format!("    {line}\n"));
-                }
-            }
-            out.push_str("}\n");
-        }
-        out
+        let modules: Vec<String> = self
+            .models
+            .iter()
+            .map(GeneratedModel::module_text)
+            .collect();
+        format!("{HEADER}\n{}", modules.join("\n"))
     }
 
     /// A standalone `lib.rs`: crate docs and the models as modules.

@@ -259,7 +259,10 @@ fn zeroth(t: &mut [f64], s: usize, r: Rec, hoisted: &[f64], target: &[f64], gain
         }
         Rec::Jacobi { rows, a, m } => {
             let j = lasalle_runtime::elliptic::ellipj(t[a * s], t[m * s]);
-            for (r, v) in rows.into_iter().zip([j.sn, j.cn, j.dn, j.cn * j.dn, j.sn * j.dn, j.sn * j.cn]) {
+            for (r, v) in
+                rows.into_iter()
+                    .zip([j.sn, j.cn, j.dn, j.cn * j.dn, j.sn * j.dn, j.sn * j.cn])
+            {
                 t[r * s] = v;
             }
         }

@@ -270,7 +270,14 @@ pub mod rec {
     /// ((sn a)^\[k\], (cn a)^\[k\], (dn a)^\[k\]) for the parameter m (constant), from the rows
     /// of the products cn·dn, sn·dn, sn·cn: s′ = c d a′, c′ = −s d a′, d′ = −m s c a′.
     #[inline(always)]
-    pub fn jacobi(a: &[f64], cd: &[f64], sd: &[f64], sc: &[f64], m: f64, k: usize) -> (f64, f64, f64) {
+    pub fn jacobi(
+        a: &[f64],
+        cd: &[f64],
+        sd: &[f64],
+        sc: &[f64],
+        m: f64,
+        k: usize,
+    ) -> (f64, f64, f64) {
         let kf = k as f64;
         (
             weighted(a, cd, k) / kf,

@@ -23,8 +23,8 @@ use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lasalle::{
-    component_names, sample_capacity, scaled_gains, step_gain_target, AdaptiveGain, Control,
-    Csv, Declared, DormandPrince, Driver, ExplicitRk, FeedbackField, Field, GainPolicy, Invariants,
+    component_names, sample_capacity, scaled_gains, step_gain_target, AdaptiveGain, Control, Csv,
+    Declared, DormandPrince, Driver, ExplicitRk, FeedbackField, Field, GainPolicy, Invariants,
     Lyapunov, ModelInfo, Observer, Parameters, Projection, Recorder, RigidBodySplitting, State,
     StepError, Stepper, StormerVerlet, Stride, Taylor, TaylorOptions, VerletVariant,
 };

@@ -6,14 +6,27 @@ use super::names::Scope;
 use crate::ir::{Func, Graph, Id, Input, Node, Rational};
 use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use super::leaves::Leaves;
+use super::prepared::{describe, Prepared};
 
-/// One assignment of the function: `place = value;`, optionally under a note.
+/// What a function does with one of its values.
+pub enum Place {
+    /// `place = value;`, e.g. `dx[3] = …;`.
+    Assign(TokenStream),
+    /// The function's tail expression (the last output).
+    Return,
+    /// `let name = value;` ([`Body::values`] holds the identifiers, made unique).
+    Let(String),
+    /// An element of an array the caller writes ([`Body::values`] holds the expressions).
+    Element,
+}
+
+/// One value of the function, optionally under a note.
 pub struct Output {
-    /// The place written, e.g. `dx[3]`; empty for the function's return value (last output).
-    pub place: TokenStream,
+    /// Where it goes.
+    pub place: Place,
     /// The value.
     pub id: Id,
     /// A comment line shown above it (shown once for consecutive equal notes).
@@ -39,6 +52,7 @@ enum Prec {
 struct Writer<'a> {
     g: &'a Graph,
     named: HashMap<Id, TokenStream>,
+    parameter_only: &'a HashSet<Id>,
     scope: Scope,
 }
 
@@ -50,6 +64,9 @@ pub struct Body {
     pub ops: u64,
     /// The inputs it reads.
     inputs: Vec<Input>,
+    /// The identifiers of the [`Place::Let`] outputs and the expressions of the
+    /// [`Place::Element`] outputs, in order.
+    pub values: Vec<TokenStream>,
 }
 
 impl Body {
@@ -64,13 +81,55 @@ impl Body {
     }
 }
 
+/// Where a function's parameter-only values come from.
+pub enum Hoisting<'h> {
+    /// A per-call function of the prepared model: the maximal parameter-only subexpressions
+    /// are fields of the prepared model (`self.<name>`), registered in the [`Prepared`] list.
+    Read(&'h mut Prepared),
+    /// A function of the parameters alone (a named point), computed in place.
+    Inline,
+    /// The body of `prepare()`: the outputs are parameter-only values of the graph as the
+    /// functions rewrote it, computed as they are (no rewriting, or the values would differ
+    /// from the tapes' preludes).
+    Prepare,
+}
+
 /// The statements of a function computing `outputs`, with `reserved` names (arguments) taken.
-/// The outputs are first rewritten for emission (factored sums, shared products) in `g`.
-pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str]) -> Body {
-    let roots = g.optimize_for_emission(&outputs.iter().map(|o| o.id).collect::<Vec<_>>());
-    let ops = g.op_count(&roots).dag;
+/// Except in [`Hoisting::Prepare`], the outputs are first rewritten for emission (factored
+/// sums, shared roots and reciprocals, grouped parameter-only factors, shared products) in
+/// `g`.
+pub fn body(
+    g: &mut Graph,
+    leaves: &Leaves,
+    outputs: &[Output],
+    reserved: &[&str],
+    mut hoisting: Hoisting,
+) -> Body {
+    let ids: Vec<Id> = outputs.iter().map(|o| o.id).collect();
+    let roots = match hoisting {
+        Hoisting::Prepare => ids,
+        _ => g.optimize_for_emission(&ids),
+    };
     let g: &Graph = g;
-    let order = g.reachable(&roots);
+    let parameter_only = g.parameter_only(&g.reachable(&roots));
+    let read = matches!(hoisting, Hoisting::Read(_));
+    // A negation −a of a sum's term is written as a subtraction (`Writer::signed`).
+    let negated = |id: Id| match g.node(id) {
+        Node::Mul(fs) if fs.len() == 2 && g.as_num(fs[0]) == Some(-1.0) => Some(fs[1]),
+        _ => None,
+    };
+    // The parameter-only values read from the prepared model: not the leaves, and not −μ.
+    let hoisted = |id: Id| {
+        read && parameter_only.contains(&id)
+            && !g.children(id).is_empty()
+            && negated(id).is_none_or(|a| !g.children(a).is_empty())
+    };
+    let order = reachable_until(g, &roots, hoisted);
+    let ops = order
+        .iter()
+        .filter(|&&id| !hoisted(id))
+        .map(|&id| g.node_ops(id))
+        .sum();
     let inputs: Vec<Input> = order
         .iter()
         .filter_map(|&id| match g.node(id) {
@@ -79,17 +138,37 @@ pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str
         })
         .collect();
     let mut uses: HashMap<Id, usize> = HashMap::new();
-    for &id in &order {
+    let mut term_uses: HashMap<Id, usize> = HashMap::new();
+    for &id in order.iter().filter(|&&id| !hoisted(id)) {
+        // A parameter-only product divides by its negative powers: it uses their bases.
+        let divides = parameter_only.contains(&id) && matches!(g.node(id), Node::Mul(_));
+        let sum = matches!(g.node(id), Node::Add(_));
         for &c in g.children(id) {
-            *uses.entry(c).or_default() += 1;
+            let used = match *g.node(c) {
+                Node::Pow(b, e) if divides && e.num < 0 => b,
+                _ => c,
+            };
+            *uses.entry(used).or_default() += 1;
+            if sum && negated(c).is_some() && !hoisted(c) {
+                *term_uses.entry(c).or_default() += 1;
+            }
         }
     }
     for r in &roots {
         *uses.entry(*r).or_default() += 1;
     }
+    // A sum subtracts a negated term −a: it uses a, and −a is a value only if something else
+    // uses it.
+    for (&c, &terms) in &term_uses {
+        let a = negated(c).expect("a negation");
+        let other = uses[&c] - terms;
+        uses.insert(c, other);
+        *uses.entry(a).or_default() += if other > 0 { terms } else { terms - 1 };
+    }
     let mut w = Writer {
         g,
         named: HashMap::new(),
+        parameter_only: &parameter_only,
         scope: Scope::with(reserved),
     };
     // A local `lit` would shadow the function that writes literals (`lit::<T>(2.0)`);
@@ -97,9 +176,36 @@ pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str
     w.scope.take("lit");
     w.scope.take("partial_sum");
     let mut stmts = Vec::new();
-    // Leaves, each read once.
+    // Leaves, each read once: the array arguments destructured (`let [theta, omega] = *x;`),
+    // the parameters one by one; then the prepared values.
+    let mut arrays: Vec<(&str, Vec<Option<proc_macro2::Ident>>)> = Vec::new();
+    for &id in &order {
+        let Node::Input(i) = g.node(id) else {
+            continue;
+        };
+        if let Some((array, k, len)) = leaves.array(*i) {
+            let ident = format_ident!("{}", w.scope.fresh(&leaves.input(*i).0));
+            let slots = match arrays.iter().position(|(a, _)| *a == array) {
+                Some(p) => &mut arrays[p].1,
+                None => {
+                    arrays.push((array, vec![None; len]));
+                    &mut arrays.last_mut().expect("pushed").1
+                }
+            };
+            slots[k] = Some(ident.clone());
+            w.named.insert(id, quote!(#ident));
+        }
+    }
+    for (array, slots) in &arrays {
+        let pattern = array_pattern(slots);
+        let array = format_ident!("{}", array);
+        stmts.push(quote!(let [#pattern] = *#array;));
+    }
     for &id in &order {
         if let Node::Input(i) = g.node(id) {
+            if leaves.array(*i).is_some() {
+                continue;
+            }
             let (name, source) = leaves.input(*i);
             if source.to_string() == name {
                 // an argument read as it is (the step size of a guard): no copy
@@ -112,31 +218,52 @@ pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str
             w.named.insert(id, quote!(#ident));
         }
     }
+    if let Hoisting::Read(prepared) = &mut hoisting {
+        for &id in order.iter().filter(|&&id| hoisted(id)) {
+            let field = format_ident!("{}", prepared.field(g, leaves, id));
+            let ident = format_ident!("{}", w.scope.fresh(&field.to_string()));
+            stmts.push(quote!(let #ident = self.#field;));
+            w.named.insert(id, quote!(#ident));
+        }
+    }
+    // Values bound by name (the fields of `prepare()`).
+    let bound: HashMap<Id, &str> = outputs
+        .iter()
+        .zip(&roots)
+        .filter_map(|(o, &r)| match &o.place {
+            Place::Let(name) => Some((r, name.as_str())),
+            _ => None,
+        })
+        .collect();
     // Shared or named subexpressions become temporaries, in topological order.
     let mut temp = 0usize;
     let mut last_note: Option<String> = None;
     for &id in &order {
-        if matches!(g.node(id), Node::Num(_) | Node::Input(_)) {
+        if matches!(g.node(id), Node::Num(_) | Node::Input(_)) || hoisted(id) {
             continue;
         }
         let shared = uses.get(&id).copied().unwrap_or(0) >= 2;
         let let_name = leaves.let_name(id);
-        // A square root whose powers are needed elsewhere is named so `r.powi(3)` can reuse it.
-        if !(shared || let_name.is_some()) {
+        let bound_name = bound.get(&id);
+        if !(shared || let_name.is_some() || bound_name.is_some()) {
             continue;
         }
-        let name = match let_name {
-            Some((n, note_text)) => {
+        let name = match (bound_name, let_name) {
+            (Some(name), _) => w.scope.fresh(name),
+            (None, Some((n, note_text))) => {
                 if last_note.as_deref() != Some(note_text) {
                     stmts.push(note(note_text));
                     last_note = Some(note_text.clone());
                 }
                 w.scope.fresh(n)
             }
-            None => {
-                temp += 1;
-                w.scope.fresh(&format!("t{temp}"))
-            }
+            (None, None) => match describe(g, leaves, id) {
+                Some(name) => w.scope.fresh(&name),
+                None => {
+                    temp += 1;
+                    w.scope.fresh(&format!("t{temp}"))
+                }
+            },
         };
         let value = w.render(id).0;
         let ident = format_ident!("{}", name);
@@ -144,6 +271,7 @@ pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str
         w.named.insert(id, quote!(#ident));
     }
     // Outputs.
+    let mut values = Vec::new();
     for (o, &root) in outputs.iter().zip(&roots) {
         if let Some(n) = &o.note {
             if last_note.as_deref() != Some(n) {
@@ -152,18 +280,56 @@ pub fn body(g: &mut Graph, leaves: &Leaves, outputs: &[Output], reserved: &[&str
             }
         }
         let value = w.reference(root).0;
-        let place = &o.place;
-        if place.is_empty() {
-            stmts.push(value); // the function's tail expression
-        } else {
-            stmts.push(quote!(#place = #value;));
+        match &o.place {
+            Place::Assign(place) => stmts.push(quote!(#place = #value;)),
+            Place::Return => stmts.push(value), // the function's tail expression
+            Place::Let(_) | Place::Element => values.push(value),
         }
     }
     Body {
         tokens: quote!(#(#stmts)*),
         ops,
         inputs,
+        values,
     }
+}
+
+/// The pattern of a destructured array, `_` for the unused components and `..` for the
+/// longest run of them at the end (or else at the start): `theta, _, ..`.
+fn array_pattern(slots: &[Option<proc_macro2::Ident>]) -> TokenStream {
+    let trailing = slots.iter().rev().take_while(|s| s.is_none()).count();
+    let leading = slots.iter().take_while(|s| s.is_none()).count();
+    let (start, end) = if trailing >= 2 || (trailing > 0 && trailing >= leading) {
+        (0, slots.len() - trailing)
+    } else if leading >= 2 {
+        (leading, slots.len())
+    } else {
+        (0, slots.len())
+    };
+    let names = slots[start..end].iter().map(|s| match s {
+        Some(ident) => quote!(#ident),
+        None => quote!(_),
+    });
+    match (start > 0, end < slots.len()) {
+        (true, _) => quote!(.., #(#names),*),
+        (_, true) => quote!(#(#names,)* ..),
+        _ => quote!(#(#names),*),
+    }
+}
+
+/// The nodes reachable from `roots` without going below a node where `stop` holds (those are
+/// included), in ascending (topological) order.
+fn reachable_until(g: &Graph, roots: &[Id], stop: impl Fn(Id) -> bool) -> Vec<Id> {
+    let mut seen: HashSet<Id> = HashSet::new();
+    let mut stack: Vec<Id> = roots.to_vec();
+    while let Some(id) = stack.pop() {
+        if seen.insert(id) && !stop(id) {
+            stack.extend_from_slice(g.children(id));
+        }
+    }
+    let mut out: Vec<Id> = seen.into_iter().collect();
+    out.sort_unstable();
+    out
 }
 
 /// Longest sum written as one expression; longer ones are split into partial sums.
@@ -282,8 +448,17 @@ impl Writer<'_> {
         }
     }
 
-    /// A term's sign and magnitude: `−3xy → (true, 3xy)`.
+    /// A term's sign and magnitude: `−3xy → (true, 3xy)`. A negation `−a` is subtracted even
+    /// when it has a name of its own (`b - a`, not `b + neg_a`: the same IEEE operation).
     fn signed(&self, id: Id) -> (bool, TokenStream, Prec) {
+        // (A named parameter-only value is read, not recomputed: its parts may not be bound.)
+        let read = self.named.contains_key(&id) && self.parameter_only.contains(&id);
+        if let Node::Mul(fs) = self.g.node(id) {
+            if fs.len() == 2 && self.g.as_num(fs[0]) == Some(-1.0) && !read {
+                let (ts, p) = self.reference(fs[1]);
+                return (true, ts, p);
+            }
+        }
         if !self.named.contains_key(&id) {
             match self.g.node(id) {
                 Node::Num(b) if f64::from_bits(*b) < 0.0 => {
@@ -364,16 +539,22 @@ impl Writer<'_> {
         }
     }
 
-    /// c · Π factors, with negative powers written as divisions.
+    /// c · Π factors, with negative powers written as divisions, unless the factor is a value
+    /// of its own (a temporary, or a parameter-only value computed once) that the product
+    /// multiplies; in a parameter-only product always as divisions, so that a parameter-only
+    /// value does not depend on the function it is computed for (the tapes' preludes compute
+    /// it the same way: see `tape::Lowering::product_with`).
     fn product_with(&self, c: f64, factors: &[Id]) -> (TokenStream, Prec) {
         let mut num: Vec<TokenStream> = Vec::new();
         let mut den: Vec<TokenStream> = Vec::new();
         if c != 1.0 {
             num.push(literal(c));
         }
+        let parameter_only = factors.iter().all(|f| self.parameter_only.contains(f));
         for &f in factors {
+            let own_value = self.named.contains_key(&f) || self.parameter_only.contains(&f);
             match self.g.node(f) {
-                Node::Pow(b, e) if e.num < 0 && !self.named.contains_key(&f) => {
+                Node::Pow(b, e) if e.num < 0 && (parameter_only || !own_value) => {
                     let pos = Rational {
                         num: -e.num,
                         den: e.den,

@@ -1,7 +1,7 @@
 //! The model's own items: the parameter struct, its inherent methods (gains, targets, named
 //! points, nalgebra views of the state), and the `ModelInfo` and `Parameters` impls.
 
-use super::body::{literal, Output};
+use super::body::{literal, Output, Place};
 use super::names::{snake, Scope};
 use super::{note_for, u, Emitter};
 use crate::model::{InvariantKind, Shape};
@@ -171,24 +171,20 @@ impl Emitter<'_> {
                 let outputs: Vec<Output> = pt
                     .values
                     .iter()
-                    .enumerate()
-                    .map(|(k, &id)| {
-                        let k = u(k);
-                        Output {
-                            place: quote!(out[#k]),
-                            id,
-                            note: None,
-                        }
+                    .map(|&id| Output {
+                        place: Place::Element,
+                        id,
+                        note: None,
                     })
                     .collect();
-                let body = self.body(&outputs, &["out"]).tokens;
+                let body = self.inline_body(&outputs, &[]);
+                let (tokens, values) = (&body.tokens, &body.values);
                 let doc = format!(" The point `{}` ({}).", pt.name, note_for(model, &pt.span));
                 quote! {
                     #[doc = #doc]
                     pub fn #fname(&self) -> [T; #n] {
-                        let mut out = [T::zero(); #n];
-                        #body
-                        out
+                        #tokens
+                        [#(#values),*]
                     }
                 }
             })
@@ -227,22 +223,26 @@ impl Emitter<'_> {
                     }
                 }
                 _ => {
-                    let doc = format!(" The state block `{}` ({}) of a flat state, as a nalgebra view.", s.name, s.shape);
+                    let doc = format!(
+                        " The state block `{}` ({}) of a flat state, as a nalgebra view.",
+                        s.name, s.shape
+                    );
                     quote! {
                         #[doc = #doc]
-                        pub fn #get(x: &[T; #n]) -> nalgebra::MatrixView<'_, T, nalgebra::#rd, nalgebra::#cd> {
-                            nalgebra::MatrixView::<'_, T, nalgebra::#rd, nalgebra::#cd>::from_slice(&x[#a..#b])
+                        pub fn #get(x: &[T; #n]) -> MatrixView<'_, T, #rd, #cd> {
+                            MatrixView::from_slice_generic(&x[#a..#b], #rd, #cd)
                         }
+
                         #[doc = #doc]
-                        pub fn #get_mut(x: &mut [T; #n]) -> nalgebra::MatrixViewMut<'_, T, nalgebra::#rd, nalgebra::#cd> {
-                            nalgebra::MatrixViewMut::<'_, T, nalgebra::#rd, nalgebra::#cd>::from_slice(&mut x[#a..#b])
+                        pub fn #get_mut(x: &mut [T; #n]) -> MatrixViewMut<'_, T, #rd, #cd> {
+                            MatrixViewMut::from_slice_generic(&mut x[#a..#b], #rd, #cd)
                         }
                     }
                 }
             }
         });
         quote! {
-            impl<T: Float + nalgebra::Scalar> #ty<T> {
+            impl<T: Float + Scalar> #ty<T> {
                 #(#accessors)*
             }
         }
@@ -282,6 +282,23 @@ impl Emitter<'_> {
             .gains
             .iter()
             .map(|k| Literal::f64_unsuffixed(k.default));
+        let prep = &self.prepared_ty;
+        let info_impls = [
+            (quote!(#ty<T>), quote!(Self)),
+            (quote!(#prep<T>), quote!(#ty::<T>)),
+        ]
+        .map(|(target, consts)| {
+            quote! {
+                impl<T> ModelInfo for #target {
+                    fn model_name(&self) -> &'static str { #consts::NAME }
+                    fn state_slots(&self) -> &'static [Slot] { #consts::STATE }
+                    fn invariant_infos(&self) -> &'static [InvariantInfo] { #consts::INVARIANTS }
+                    fn gain_names(&self) -> &'static [&'static str] { #consts::GAIN_NAMES }
+                    fn default_gain_values(&self) -> &'static [f64] { #consts::DEFAULT_GAINS }
+                    fn param_slots(&self) -> &'static [Slot] { #consts::PARAMS }
+                }
+            }
+        });
         quote! {
             impl<T> #ty<T> {
                 /// The model's name.
@@ -298,14 +315,7 @@ impl Emitter<'_> {
                 pub const PARAMS: &'static [Slot] = &[#(#param_slots),*];
             }
 
-            impl<T> ModelInfo for #ty<T> {
-                fn model_name(&self) -> &'static str { Self::NAME }
-                fn state_slots(&self) -> &'static [Slot] { Self::STATE }
-                fn invariant_infos(&self) -> &'static [InvariantInfo] { Self::INVARIANTS }
-                fn gain_names(&self) -> &'static [&'static str] { Self::GAIN_NAMES }
-                fn default_gain_values(&self) -> &'static [f64] { Self::DEFAULT_GAINS }
-                fn param_slots(&self) -> &'static [Slot] { Self::PARAMS }
-            }
+            #(#info_impls)*
         }
     }
 
@@ -422,6 +432,7 @@ impl Emitter<'_> {
                 }
             }
         };
+        let prep = &self.prepared_ty;
         quote! {
             impl Parameters for #ty<f64> {
                 #set_param
@@ -430,6 +441,27 @@ impl Emitter<'_> {
                     &[#(#point_names),*]
                 }
                 #point
+            }
+
+            /// Setting a parameter prepares the model again.
+            impl Parameters for #prep<f64> {
+                fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
+                    self.model.set_param(name, values)?;
+                    *self = self.model.prepare();
+                    Ok(())
+                }
+
+                fn param(&self, name: &str) -> Option<Vec<f64>> {
+                    self.model.param(name)
+                }
+
+                fn point_names(&self) -> &'static [&'static str] {
+                    self.model.point_names()
+                }
+
+                fn point(&self, name: &str) -> Option<Vec<f64>> {
+                    self.model.point(name)
+                }
             }
         }
     }

@@ -1,5 +1,5 @@
 //! How a function reads its leaves: state components, parameters, targets and gains, each
-//! under a readable name (`x_0`, `mu`, `l_0_2`, `k1`), and which nodes carry `let` names.
+//! under a readable name (`x_0`, `mu`, `r_0_2`, `k1`), and which nodes carry `let` names.
 
 use super::names::{identifier, snake, Scope};
 use super::{note_at, u, LineIndex};
@@ -18,12 +18,13 @@ pub struct Leaves<'a> {
     let_names: HashMap<Id, (String, String)>,
 }
 
-/// The name of component `j` of a block called `base`: `x_0`, `r_12` (row 1, column 2).
+/// The name of component `j` of a block called `base`: `x_0`, `r_1_2` (row 1, column 2; the
+/// separator keeps (1, 10) and (11, 0) apart).
 fn component(base: &str, shape: Shape, j: usize) -> String {
     match shape {
         Shape::Scalar => base.to_string(),
         Shape::Vector(_) => format!("{base}_{j}"),
-        Shape::Matrix(r, _) => format!("{base}_{}{}", j % r, j / r),
+        Shape::Matrix(r, _) => format!("{base}_{}_{}", j % r, j / r),
     }
 }
 
@@ -78,7 +79,7 @@ impl<'a> Leaves<'a> {
         self.let_names.get(&id)
     }
 
-    /// The name of state component k (`x_0`, `r_12`, `theta`).
+    /// The name of state component k (`x_0`, `r_1_2`, `theta`).
     pub fn state_name(&self, k: usize) -> String {
         let s = self
             .model
@@ -87,6 +88,18 @@ impl<'a> Leaves<'a> {
             .find(|s| (s.offset..s.offset + s.shape.len()).contains(&k))
             .expect("in range");
         component(&snake(&s.name), s.shape, k - s.offset)
+    }
+
+    /// For an input read from an array argument (state `x`, `target`, `gains`): the array's
+    /// name, the index and the array's length.
+    pub fn array(&self, i: Input) -> Option<(&'static str, usize, usize)> {
+        let m = self.model;
+        match i {
+            Input::State(k) => Some(("x", k as usize, m.dim())),
+            Input::Target(k) => Some(("target", k as usize, m.invariant_dim())),
+            Input::Gain(k) => Some(("gains", k as usize, m.gains.len())),
+            Input::Param(_) | Input::Symbol(_) => None,
+        }
     }
 
     /// The name of an input and the expression that reads it.
@@ -118,7 +131,7 @@ impl<'a> Leaves<'a> {
                         let (i, c) = (j % r, j / r);
                         let (iu, cu) = (u(i), u(c));
                         (
-                            format!("{}_{i}{c}", self.fields[pi]),
+                            format!("{}_{i}_{c}", self.fields[pi]),
                             quote!(self.#field[#iu][#cu]),
                         )
                     }

@@ -1,11 +1,39 @@
 //! Stage 5: emission. Builds the Rust items of a model with `quote`, formats them with
 //! `prettyplease`, and turns the note markers into comments that point at the model file.
+//!
+//! # Work done once
+//!
+//! The emitted functions do per call only what depends on the state, the targets or the gains:
+//!
+//! - Before a function is written its outputs are rewritten by
+//!   [`Graph::optimize_for_emission`](crate::ir::Graph::optimize_for_emission): common factors
+//!   out of sums, one square root and one reciprocal per base with two or more negative powers
+//!   (`r = s.sqrt()`, `1/r`, then `1/r³ = (1/r)³`), parameter-only factors of a product grouped
+//!   (`−3μ·x/m → (−3μ/m)·x`), repeated sub-products shared. A reciprocal replaces divisions only
+//!   where it is a value of its own (used twice or more, or parameter-only); a lone `a / b` stays
+//!   a division.
+//! - The maximal parameter-only subexpressions of each function are fields of the prepared
+//!   model `<Model>Prepared` (module `prepared`), computed once by `<Model>::prepare()`; inside
+//!   them negative powers are always divisions, so a field rounds the same for every function.
+//!   The trait impls with the real bodies are on the prepared model; the model's own impls
+//!   prepare and delegate (`#[inline]`, so a call computes only the fields it reads).
+//!
+//! Why a companion and not a cache in the model: the parameters stay public fields
+//! (`model.c1 = …`), and a cache next to them would go stale on such an assignment. The
+//! prepared model is immutable (private fields, `Deref` to the model for reading), so it is
+//! always consistent with the parameters it was made from; `Parameters::set_param` on it
+//! prepares again.
+//!
+//! The tapes (`crate::tape`) are lowered from the same rewritten graph with the same rules
+//! (their prelude is the prepared fields' computation), so the emitted Rust, the JIT and the
+//! interpreter stay bitwise equal (`tests/tape_vs_emitted.rs`).
 
 mod body;
 mod items;
 mod lanes;
 mod leaves;
 pub(crate) mod names;
+mod prepared;
 mod taylor;
 mod traits;
 
@@ -15,8 +43,9 @@ use crate::check::{Conservation, Verdict};
 use crate::derive::Derivatives;
 use crate::ir::{Graph, OpCount};
 use crate::model::{InvariantKind, Model};
-use body::{Body, Output};
+use body::{Body, Hoisting, Output};
 use leaves::Leaves;
+use prepared::Prepared;
 use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
 
@@ -128,19 +157,26 @@ pub(crate) struct Emitter<'a> {
     d: &'a Derivatives,
     graph: Graph,
     leaves: Leaves<'a>,
+    /// The parameter-only values the functions read, fields of the prepared model.
+    prepared: Prepared,
     ty: proc_macro2::Ident,
+    prepared_ty: proc_macro2::Ident,
     n: usize,
     m: usize,
 }
 
 impl<'a> Emitter<'a> {
     fn new(model: &'a Model, d: &'a Derivatives) -> crate::Result<Self> {
+        let leaves = Leaves::new(model)?;
+        let params: Vec<&str> = leaves.fields.iter().map(String::as_str).collect();
         Ok(Emitter {
             model,
             d,
             graph: model.graph.clone(),
-            leaves: Leaves::new(model)?,
+            prepared: Prepared::new(&params),
+            leaves,
             ty: format_ident!("{}", model.name),
+            prepared_ty: format_ident!("{}Prepared", model.name),
             n: model.dim(),
             m: model.invariant_dim(),
         })
@@ -151,9 +187,22 @@ impl<'a> Emitter<'a> {
         self.model.gains.len()
     }
 
-    /// A function body computing `outputs` (see [`body::body`]).
+    /// The body of a per-call function of the prepared model computing `outputs` (see
+    /// [`body::body`]).
     fn body(&mut self, outputs: &[Output], reserved: &[&str]) -> Body {
-        body::body(&mut self.graph, &self.leaves, outputs, reserved)
+        let hoisting = Hoisting::Read(&mut self.prepared);
+        body::body(&mut self.graph, &self.leaves, outputs, reserved, hoisting)
+    }
+
+    /// The body of a function of the parameters alone, computing `outputs` in place.
+    fn inline_body(&mut self, outputs: &[Output], reserved: &[&str]) -> Body {
+        body::body(
+            &mut self.graph,
+            &self.leaves,
+            outputs,
+            reserved,
+            Hoisting::Inline,
+        )
     }
 }
 
@@ -173,6 +222,7 @@ pub fn emit(
     let (lyapunov, [v_ops, grad_ops, fb_ops]) = e.lyapunov_impl();
     let partitioned = e.partitioned_impl();
     let declared = e.declared_impl();
+    let prepared = e.prepared_items();
     let struct_items = e.struct_items();
     let (accessors, info, parameters) = (e.accessors(), e.model_info_impl(), e.parameters_impl());
     let tapes = crate::tape::ModelTapes::new(model, d)
@@ -188,13 +238,9 @@ pub fn emit(
         lyapunov_gradient: Ops::new(g.op_count(&d.lyapunov_gradient), grad_ops),
         feedback_field: Ops::new(g.op_count(&d.feedback), fb_ops),
     };
-    let items = quote! {
-        #[allow(unused_imports)]
-        use lasalle_runtime::num_traits::{Float, One, Zero};
-        #[allow(unused_imports)]
-        use lasalle_runtime::{lit, nalgebra, Declared, Field, GuardFailure, InvariantInfo, InvariantKind, Invariants, Lyapunov, ModelInfo, ParamError, Parameters, Partitioned, Preset, RigidBodySplitting, Shape, Slot};
-
+    let body = quote! {
         #struct_items
+        #prepared
         #accessors
         #field
         #invariants
@@ -204,12 +250,80 @@ pub fn emit(
         #info
         #parameters
     };
+    let imports = imports(&body);
+    let items = quote! {
+        #imports
+        #body
+    };
     Ok(Emitted {
         items,
         summary: summary(model, d, conservation, &stats),
         stats,
         tape_code,
     })
+}
+
+/// The names the emitted items may use, with the path each is imported from.
+const IMPORTABLE: &[(&str, &str)] = &[
+    ("Deref", "core::ops"),
+    ("Float", "lasalle_runtime::num_traits"),
+    ("MatrixView", "lasalle_runtime::nalgebra"),
+    ("MatrixViewMut", "lasalle_runtime::nalgebra"),
+    ("Scalar", "lasalle_runtime::nalgebra"),
+    ("lit", "lasalle_runtime"),
+    ("Declared", "lasalle_runtime"),
+    ("Field", "lasalle_runtime"),
+    ("GuardFailure", "lasalle_runtime"),
+    ("InvariantInfo", "lasalle_runtime"),
+    ("InvariantKind", "lasalle_runtime"),
+    ("Invariants", "lasalle_runtime"),
+    ("Lyapunov", "lasalle_runtime"),
+    ("ModelInfo", "lasalle_runtime"),
+    ("ParamError", "lasalle_runtime"),
+    ("Parameters", "lasalle_runtime"),
+    ("Partitioned", "lasalle_runtime"),
+    ("Preset", "lasalle_runtime"),
+    ("RigidBodySplitting", "lasalle_runtime"),
+    ("Shape", "lasalle_runtime"),
+    ("Slot", "lasalle_runtime"),
+];
+
+/// The `use` items for the names `items` uses: [`IMPORTABLE`] names, and nalgebra's
+/// dimension types `U1`, `U2`, … of the state views. One `use` per path, names sorted.
+fn imports(items: &TokenStream) -> TokenStream {
+    fn idents(ts: &TokenStream, out: &mut std::collections::BTreeSet<String>) {
+        for tt in ts.clone() {
+            match tt {
+                proc_macro2::TokenTree::Ident(i) => {
+                    out.insert(i.to_string());
+                }
+                proc_macro2::TokenTree::Group(g) => idents(&g.stream(), out),
+                _ => {}
+            }
+        }
+    }
+    let mut used = std::collections::BTreeSet::new();
+    idents(items, &mut used);
+    let dims = used
+        .iter()
+        .filter(|n| names::is_dimension(n))
+        .map(|n| (n.as_str(), "lasalle_runtime::nalgebra"));
+    let mut by_path: std::collections::BTreeMap<&str, Vec<&str>> = Default::default();
+    for (name, path) in IMPORTABLE
+        .iter()
+        .copied()
+        .filter(|(n, _)| used.contains(*n))
+        .chain(dims)
+    {
+        by_path.entry(path).or_default().push(name);
+    }
+    let uses = by_path.into_iter().map(|(path, mut names)| {
+        names.sort_unstable();
+        let path: TokenStream = path.parse().expect("a path");
+        let names = names.iter().map(|n| format_ident!("{}", n));
+        quote!(use #path::{#(#names),*};)
+    });
+    quote!(#(#uses)*)
 }
 
 /// Fails with a located error if a number the emitted code would contain is ±∞ or NaN: a
@@ -330,7 +444,32 @@ pub fn format(items: &TokenStream) -> crate::Result<String> {
     let file: syn::File = syn::parse2(items.clone())
         .map_err(|e| crate::Error::Internal(format!("emitted code does not parse: {e}")))?;
     let text = prettyplease::unparse(&file);
-    Ok(replace_notes(&text))
+    Ok(separate_items(&replace_notes(&text)))
+}
+
+/// A blank line between consecutive items (prettyplease writes none): before a line that
+/// starts an item, its docs or attributes, right after an item that ended at the same
+/// indentation (`}` or `;`).
+fn separate_items(text: &str) -> String {
+    const STARTS: &[&str] = &[
+        "pub ", "impl", "fn ", "#[", "///", "const ", "type ", "mod ", "struct ", "trait ",
+    ];
+    let indent = |l: &str| l.len() - l.trim_start().len();
+    let mut out = String::with_capacity(text.len() + text.len() / 16);
+    let mut prev: Option<&str> = None;
+    for line in text.lines() {
+        if let Some(p) = prev {
+            let (pt, lt) = (p.trim(), line.trim_start());
+            let ended = pt == "}" || pt.ends_with(';');
+            if ended && indent(p) == indent(line) && STARTS.iter().any(|s| lt.starts_with(s)) {
+                out.push('\n');
+            }
+        }
+        out.push_str(line);
+        out.push('\n');
+        prev = Some(line);
+    }
+    out
 }
 
 fn replace_notes(text: &str) -> String {

@@ -20,6 +20,13 @@ const EMITTED_NAMES: &[&str] = &[
     "Zero",
     "lit",
     "nalgebra",
+    "MatrixView",
+    "MatrixViewMut",
+    "Scalar",
+    "GuardFailure",
+    "Declared",
+    "Preset",
+    "RigidBodySplitting",
     "Field",
     "InvariantInfo",
     "InvariantKind",
@@ -44,6 +51,7 @@ const EMITTED_NAMES: &[&str] = &[
     "String",
     "ToString",
     "Default",
+    "Deref",
     "Clone",
     "Copy",
     "Debug",
@@ -70,12 +78,18 @@ const EMITTED_NAMES: &[&str] = &[
     "str",
 ];
 
+/// Is `name` one of nalgebra's dimension types `U1`, `U2`, … (the state views use them)?
+pub fn is_dimension(name: &str) -> bool {
+    name.strip_prefix('U')
+        .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
+}
+
 /// Why `name` cannot be the Rust type of a model, if it cannot: a keyword, `_`, or a name the
 /// generated code itself uses.
 pub fn reserved_type_name(name: &str) -> Option<String> {
     if RUST_KEYWORDS.contains(&name) || name.chars().all(|c| c == '_') {
         Some(format!("`{name}` is a Rust keyword"))
-    } else if EMITTED_NAMES.contains(&name) {
+    } else if EMITTED_NAMES.contains(&name) || is_dimension(name) {
         Some(format!("the generated code uses the name `{name}` itself"))
     } else {
         None

@@ -1,7 +1,7 @@
 //! The runtime-trait impls of a model: `Field`, `Invariants`, `Lyapunov`, `Partitioned`,
 //! `Declared`.
 
-use super::body::{Body, Output};
+use super::body::{Body, Output, Place};
 use super::{file_name, note_for, u, Emitter};
 use crate::ir::{Id, Input};
 use crate::model::Splitting;
@@ -33,7 +33,7 @@ impl Emitter<'_> {
             .enumerate()
             .filter(|(k, _)| only(*k))
             .map(|(k, &id)| Output {
-                place: place("dx", k),
+                place: Place::Assign(place("dx", k)),
                 id,
                 note: Some(note_for(self.model, &self.model.field_spans[k])),
             })
@@ -51,17 +51,25 @@ impl Emitter<'_> {
         note_for(self.model, &f.span)
     }
 
-    /// `impl Field`, and the body's operation count.
+    /// `impl Field` for the prepared model and for the model (which prepares on every call),
+    /// and the body's operation count.
     pub fn field_impl(&mut self) -> (TokenStream, u64) {
         let outputs = self.field_outputs(&self.model.field, |_| true);
         let body = self.body(&outputs, &["x", "dx"]);
-        let (ty, n) = (&self.ty, u(self.n));
+        let (ty, prep, n) = (&self.ty, &self.prepared_ty, u(self.n));
         let x = body.arg("x", is_state);
         let tokens = &body.tokens;
         (
             quote! {
-                impl<T: Float> Field<T, [T; #n]> for #ty<T> {
+                impl<T: Float> Field<T, [T; #n]> for #prep<T> {
                     fn field(&self, #x: &[T; #n], dx: &mut [T; #n]) { #tokens }
+                }
+
+                impl<T: Float> Field<T, [T; #n]> for #ty<T> {
+                    #[inline]
+                    fn field(&self, x: &[T; #n], dx: &mut [T; #n]) {
+                        self.prepare().field(x, dx)
+                    }
                 }
             },
             body.ops,
@@ -75,7 +83,7 @@ impl Emitter<'_> {
             .iter()
             .enumerate()
             .map(|(k, &id)| Output {
-                place: place("f", k),
+                place: Place::Assign(place("f", k)),
                 id,
                 note: Some(self.invariant_note(k)),
             })
@@ -88,7 +96,7 @@ impl Emitter<'_> {
                 if self.model.graph.as_num(id) != Some(0.0) {
                     let (cu, iu) = (u(c), u(i));
                     jac_outputs.push(Output {
-                        place: quote!(jac[#cu][#iu]),
+                        place: Place::Assign(quote!(jac[#cu][#iu])),
                         id,
                         note: Some(self.invariant_note(c)),
                     });
@@ -97,7 +105,7 @@ impl Emitter<'_> {
             }
         }
         let jac = self.body(&jac_outputs, &["x", "jac"]);
-        let (ty, n, m) = (&self.ty, u(self.n), u(self.m));
+        let (ty, prep, n, m) = (&self.ty, &self.prepared_ty, u(self.n), u(self.m));
         let jac_init = if jac_outputs.len() < self.n * self.m {
             quote!(*jac = [[T::zero(); #n]; #m];)
         } else {
@@ -112,11 +120,24 @@ impl Emitter<'_> {
         };
         let (inv_tokens, jac_tokens) = (&inv.tokens, &jac.tokens);
         let tokens = quote! {
-            impl<T: Float> Invariants<T, [T; #n], [T; #m]> for #ty<T> {
+            impl<T: Float> Invariants<T, [T; #n], [T; #m]> for #prep<T> {
                 fn invariants(&self, #ix: &[T; #n], #f: &mut [T; #m]) { #inv_tokens }
+
                 fn invariants_jacobian(&self, #jx: &[T; #n], #df: &mut [[T; #n]; #m]) {
                     #jac_init
                     #jac_tokens
+                }
+            }
+
+            impl<T: Float> Invariants<T, [T; #n], [T; #m]> for #ty<T> {
+                #[inline]
+                fn invariants(&self, x: &[T; #n], f: &mut [T; #m]) {
+                    self.prepare().invariants(x, f)
+                }
+
+                #[inline]
+                fn invariants_jacobian(&self, x: &[T; #n], jac: &mut [[T; #n]; #m]) {
+                    self.prepare().invariants_jacobian(x, jac)
                 }
             }
         };
@@ -138,7 +159,7 @@ impl Emitter<'_> {
             });
         let v = self.body(
             &[Output {
-                place: TokenStream::new(),
+                place: Place::Return,
                 id: model.lyapunov,
                 note: Some(v_note),
             }],
@@ -150,7 +171,7 @@ impl Emitter<'_> {
             .iter()
             .enumerate()
             .map(|(k, &id)| Output {
-                place: place("grad", k),
+                place: Place::Assign(place("grad", k)),
                 id,
                 note: Some(format!("∂V/∂x[{k}] ({})", self.leaves.state_name(k))),
             })
@@ -162,7 +183,7 @@ impl Emitter<'_> {
             .iter()
             .enumerate()
             .map(|(k, &id)| Output {
-                place: place("dx", k),
+                place: Place::Assign(place("dx", k)),
                 id,
                 note: Some(format!(
                     "{} − ∂V/∂x[{k}]",
@@ -171,7 +192,8 @@ impl Emitter<'_> {
             })
             .collect();
         let fb = self.body(&fb_outputs, &["x", "target", "gains", "dx"]);
-        let (ty, n, m, ng) = (&self.ty, u(self.n), u(self.m), u(self.gains()));
+        let (ty, prep) = (&self.ty, &self.prepared_ty);
+        let (n, m, ng) = (u(self.n), u(self.m), u(self.gains()));
         let sig = |b: &Body| {
             (
                 b.arg("x", is_state),
@@ -182,12 +204,35 @@ impl Emitter<'_> {
         let ((vx, vt, vg), (gx, gt, gg), (fx, ft, fg)) = (sig(&v), sig(&grad), sig(&fb));
         let (v_tokens, grad_tokens, fb_tokens) = (&v.tokens, &grad.tokens, &fb.tokens);
         let tokens = quote! {
-            impl<T: Float> Lyapunov<T, [T; #n], [T; #m], [T; #ng]> for #ty<T> {
+            impl<T: Float> Lyapunov<T, [T; #n], [T; #m], [T; #ng]> for #prep<T> {
                 fn lyapunov(&self, #vx: &[T; #n], #vt: &[T; #m], #vg: &[T; #ng]) -> T {
                     #v_tokens
                 }
-                fn lyapunov_gradient(&self, #gx: &[T; #n], #gt: &[T; #m], #gg: &[T; #ng], grad: &mut [T; #n]) { #grad_tokens }
-                fn feedback_field(&self, #fx: &[T; #n], #ft: &[T; #m], #fg: &[T; #ng], dx: &mut [T; #n]) { #fb_tokens }
+
+                fn lyapunov_gradient(&self, #gx: &[T; #n], #gt: &[T; #m], #gg: &[T; #ng], grad: &mut [T; #n]) {
+                    #grad_tokens
+                }
+
+                fn feedback_field(&self, #fx: &[T; #n], #ft: &[T; #m], #fg: &[T; #ng], dx: &mut [T; #n]) {
+                    #fb_tokens
+                }
+            }
+
+            impl<T: Float> Lyapunov<T, [T; #n], [T; #m], [T; #ng]> for #ty<T> {
+                #[inline]
+                fn lyapunov(&self, x: &[T; #n], target: &[T; #m], gains: &[T; #ng]) -> T {
+                    self.prepare().lyapunov(x, target, gains)
+                }
+
+                #[inline]
+                fn lyapunov_gradient(&self, x: &[T; #n], target: &[T; #m], gains: &[T; #ng], grad: &mut [T; #n]) {
+                    self.prepare().lyapunov_gradient(x, target, gains, grad)
+                }
+
+                #[inline]
+                fn feedback_field(&self, x: &[T; #n], target: &[T; #m], gains: &[T; #ng], dx: &mut [T; #n]) {
+                    self.prepare().feedback_field(x, target, gains, dx)
+                }
             }
         };
         (tokens, [v.ops, grad.ops, fb.ops])
@@ -206,14 +251,34 @@ impl Emitter<'_> {
             &self.field_outputs(&self.model.field, |k| !is_q[k]),
             &["x", "dx"],
         );
-        let (ty, n) = (&self.ty, u(self.n));
+        let (ty, prep, n) = (&self.ty, &self.prepared_ty, u(self.n));
         let (qx, px) = (q.arg("x", is_state), p.arg("x", is_state));
         let (q_tokens, p_tokens) = (&q.tokens, &p.tokens);
         quote! {
-            impl<T: Float> Partitioned<T, [T; #n]> for #ty<T> {
-                fn is_q(&self) -> &[bool] { &[#(#is_q),*] }
+            impl<T: Float> Partitioned<T, [T; #n]> for #prep<T> {
+                fn is_q(&self) -> &[bool] {
+                    self.model.is_q()
+                }
+
                 fn field_q(&self, #qx: &[T; #n], dx: &mut [T; #n]) { #q_tokens }
+
                 fn field_p(&self, #px: &[T; #n], dx: &mut [T; #n]) { #p_tokens }
+            }
+
+            impl<T: Float> Partitioned<T, [T; #n]> for #ty<T> {
+                fn is_q(&self) -> &[bool] {
+                    &[#(#is_q),*]
+                }
+
+                #[inline]
+                fn field_q(&self, x: &[T; #n], dx: &mut [T; #n]) {
+                    self.prepare().field_q(x, dx)
+                }
+
+                #[inline]
+                fn field_p(&self, x: &[T; #n], dx: &mut [T; #n]) {
+                    self.prepare().field_p(x, dx)
+                }
             }
         }
     }
@@ -268,8 +333,8 @@ impl Emitter<'_> {
                 }
             }
         };
-        let guards = if model.guards.is_empty() {
-            TokenStream::new()
+        let (guards, guards_delegate) = if model.guards.is_empty() {
+            (TokenStream::new(), TokenStream::new())
         } else {
             let k = u(model.guards.len());
             let outputs: Vec<Output> = model
@@ -277,7 +342,7 @@ impl Emitter<'_> {
                 .iter()
                 .enumerate()
                 .map(|(i, g)| Output {
-                    place: place("margin", i),
+                    place: Place::Assign(place("margin", i)),
                     id: g.margin,
                     note: Some(note_for(model, &g.span)),
                 })
@@ -293,13 +358,21 @@ impl Emitter<'_> {
             let mut checks = checks.collect::<Vec<_>>().into_iter();
             let first = checks.next().expect("at least one guard");
             let rest = checks.map(|c| quote!(.or_else(|| #c)));
-            quote! {
-                fn check_guards(&self, #x: &[T; #n], #dt: T) -> Option<GuardFailure> {
-                    let mut margin = [T::zero(); #k];
-                    #tokens
-                    #first #(#rest)*
-                }
-            }
+            (
+                quote! {
+                    fn check_guards(&self, #x: &[T; #n], #dt: T) -> Option<GuardFailure> {
+                        let mut margin = [T::zero(); #k];
+                        #tokens
+                        #first #(#rest)*
+                    }
+                },
+                quote! {
+                    #[inline]
+                    fn check_guards(&self, x: &[T; #n], dt: T) -> Option<GuardFailure> {
+                        self.prepare().check_guards(x, dt)
+                    }
+                },
+            )
         };
         let partitioned = if self.d.partition.is_some() {
             quote! {
@@ -324,10 +397,37 @@ impl Emitter<'_> {
             None => TokenStream::new(),
         };
         let taylor = self.taylor_hook();
+        // The prepared model's declarations are the model's, but for the functions it computes.
+        let prep = &self.prepared_ty;
+        let prep_presets = if model.presets.is_empty() {
+            TokenStream::new()
+        } else {
+            quote! {
+                fn presets(&self) -> &'static [Preset] {
+                    self.model.presets()
+                }
+            }
+        };
+        let prep_splitting = if model.splitting.is_some() {
+            quote! {
+                fn rigid_body_splitting(&self) -> Option<RigidBodySplitting<T>> {
+                    self.model.rigid_body_splitting()
+                }
+            }
+        } else {
+            TokenStream::new()
+        };
         quote! {
+            impl<T: Float> Declared<T, [T; #n]> for #prep<T> {
+                #prep_presets
+                #guards
+                #partitioned
+                #prep_splitting
+            }
+
             impl<T: Float> Declared<T, [T; #n]> for #ty<T> {
                 #presets
-                #guards
+                #guards_delegate
                 #partitioned
                 #splitting
                 #taylor

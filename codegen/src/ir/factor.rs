@@ -1,20 +1,237 @@
-//! Rewrites for emission, applied after every check: they change rounding, not values.
+//! Rewrites for emission, applied after every check: they change rounding, not values. The
+//! emitted Rust (`emit::body`) and the tapes (`tape`) both write the rewritten graph, so
+//! they stay bitwise equal.
 //!
 //! - Sums are factored greedily: `k·a·x + k·b·x + c → k·x·(a + b) + c` (Horner-like), which
 //!   saves the multiplications a hand-written formula would not repeat.
+//! - Powers of one base share their square root and their reciprocal ([`Graph::share_roots`]):
+//!   when a function needs two or more negative powers of a base b (`1/r`, `1/r³` with
+//!   r = √b, or `1/b`, `1/b²`), it computes one reciprocal R (`1/√b` if any of the powers is a
+//!   half-integer, else `1/b`) and every negative power as a power of R by multiplications;
+//!   all half-integer powers come from one `√b`. A single negative power stays a division.
+//! - Parameter-only parts of products and sums are grouped ([`Graph::split_parameter_products`]):
+//!   `c·μ·x·y → (c·μ)·x·y`, `x + μ + 1 → x + (μ + 1)`, so that the group is one value computed
+//!   once per parameter set.
 //! - Products share sub-products: when the pair `a·b` occurs in several products, it becomes
 //!   one node used by all of them (hash-consed products are flat, so this sharing is not
 //!   automatic).
+//! - Sums share sub-sums: a sum that holds all the terms of another sum of the function uses
+//!   it (`a + b − c` with `a + b` computed anyway is `(a + b) − c`).
 
-use super::{Graph, Id, Node};
+use super::{Graph, Id, Node, Rational};
 use std::cmp::Reverse;
-use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 
 impl Graph {
     /// The roots rewritten by both passes, for emission.
     pub fn optimize_for_emission(&mut self, roots: &[Id]) -> Vec<Id> {
         let factored = self.factor_sums(roots);
-        self.share_products(&factored)
+        let roots = self.share_roots(&factored);
+        let split = self.split_parameter_products(&roots);
+        let shared = self.share_products(&split);
+        self.share_sums(&shared)
+    }
+
+    /// A sum that holds every term of another sum of the function is written with it:
+    /// `t = a + b` and `a + b − c` become `t` and `t − c`, so the sum `a + b` is computed once.
+    /// Among the candidates the largest is taken; only sums that themselves contain no other
+    /// sum are candidates (so the one used is the node the function computes).
+    pub fn share_sums(&mut self, roots: &[Id]) -> Vec<Id> {
+        let order = self.reachable(roots);
+        // Sums with two or more terms, by their smallest term.
+        let mut by_first: HashMap<Id, Vec<Id>> = HashMap::new();
+        for &id in &order {
+            if let Node::Add(ts) = self.node(id) {
+                if let Some(&first) = ts.iter().min() {
+                    by_first.entry(first).or_default().push(id);
+                }
+            }
+        }
+        let terms = |g: &Graph, id: Id| match g.node(id) {
+            Node::Add(ts) => ts.to_vec(),
+            _ => Vec::new(),
+        };
+        // The largest sum whose terms are a proper subset of the terms of `sum`.
+        let largest_within = |g: &Graph, sum: Id| -> Option<Id> {
+            let ts = terms(g, sum);
+            let held: HashSet<Id> = ts.iter().copied().collect();
+            ts.iter()
+                .filter_map(|t| by_first.get(t))
+                .flatten()
+                .copied()
+                .filter(|&a| {
+                    let inner = terms(g, a);
+                    a != sum && inner.len() < ts.len() && inner.iter().all(|t| held.contains(t))
+                })
+                .max_by_key(|&a| (terms(g, a).len(), Reverse(a)))
+        };
+        let minimal: HashSet<Id> = by_first
+            .values()
+            .flatten()
+            .copied()
+            .filter(|&a| largest_within(self, a).is_none())
+            .collect();
+        self.rebuild_raw(roots, &order, |g, old, node| {
+            let Node::Add(new_terms) = node else {
+                return None;
+            };
+            let old_terms = terms(g, old);
+            let inner = largest_within(g, old).filter(|a| minimal.contains(a))?;
+            let inner_terms = terms(g, inner);
+            // The rebuilt inner sum, from the rebuilt terms at the same positions.
+            let mapped = |t: &Id| new_terms[old_terms.iter().position(|o| o == t).expect("held")];
+            let inner = g.raw_sum(inner_terms.iter().map(mapped).collect());
+            let mut rest: Vec<Id> = old_terms
+                .iter()
+                .filter(|t| !inner_terms.contains(t))
+                .map(mapped)
+                .collect();
+            rest.insert(0, inner);
+            Some(g.raw_sum(rest))
+        })
+    }
+
+    /// One square root and one reciprocal per base (see the module docs): for every base b
+    /// with two or more negative powers among the nodes reachable from `roots`, R = 1/√b (if
+    /// one of b's powers is a half-integer) or R = 1/b, and b^(−k/2) = R^k, b^(−m) = R^(2m)
+    /// (or R^m). Half-integer powers of b are powers of one `√b`. Powers with another
+    /// denominator (∛b) are left alone.
+    ///
+    /// Rounding: R^k is k − 1 multiplications after one division, so it may differ from
+    /// `1 / b^(k/2)` by a few ulps (at most about k ulps); that is the price of replacing
+    /// divisions and square roots by multiplications, and it is why a lone negative power
+    /// stays a division.
+    pub fn share_roots(&mut self, roots: &[Id]) -> Vec<Id> {
+        let order = self.reachable(roots);
+        let mut exponents: HashMap<Id, Vec<Rational>> = HashMap::new();
+        for &id in &order {
+            if let Node::Pow(b, e) = *self.node(id) {
+                exponents.entry(b).or_default().push(e);
+            }
+        }
+        // Per base: (one of its powers is a half-integer, two or more are negative).
+        let plan: HashMap<Id, (bool, bool)> = exponents
+            .into_iter()
+            .map(|(b, es)| {
+                let half = es.iter().any(|e| e.den == 2);
+                let negative = es.iter().filter(|e| e.num < 0 && e.den <= 2).count() >= 2;
+                (b, (half, negative))
+            })
+            .collect();
+        self.rebuild_raw(roots, &order, |g, old, node| {
+            let (&Node::Pow(b, e), &Node::Pow(old_base, _)) = (node, g.node(old)) else {
+                return None;
+            };
+            let (half, negative) = plan[&old_base];
+            if e.den > 2 || (e.den == 1 && !negative) {
+                return None;
+            }
+            // bᵉ = base^k: base = √b, k = 2e if b has a half-integer power; else base = b, k = e.
+            let (base, k) = if half {
+                (
+                    g.intern(Node::Pow(b, Rational::new(1, 2))),
+                    e.num * (2 / e.den),
+                )
+            } else {
+                (b, e.num)
+            };
+            let power = |g: &mut Graph, base: Id, k: i32| match k {
+                1 => base,
+                k => g.intern(Node::Pow(base, Rational::int(k))),
+            };
+            Some(if k < 0 && negative {
+                let reciprocal = g.intern(Node::Pow(base, Rational::int(-1)));
+                power(g, reciprocal, k.checked_neg()?)
+            } else {
+                power(g, base, k)
+            })
+        })
+    }
+
+    /// Groups the parameter-only factors of every product that also has other factors into one
+    /// node (`c·μ·x·y → (c·μ)·x·y`), and likewise the parameter-only terms of sums, when the
+    /// group has two or more members (a negation −μ alone is not grouped): the group is one
+    /// value computed once per parameter set (see [`Graph::parameter_only`]).
+    pub fn split_parameter_products(&mut self, roots: &[Id]) -> Vec<Id> {
+        let order = self.reachable(roots);
+        // Parameter-only nodes of the rebuilt graph, filled bottom-up.
+        let mut parameter_only: HashSet<Id> = HashSet::new();
+        self.rebuild_raw(roots, &order, |g, _, node| {
+            let id = match node {
+                Node::Add(c) | Node::Mul(c) => {
+                    let (params, mut rest): (Vec<Id>, Vec<Id>) =
+                        c.iter().partition(|id| parameter_only.contains(id));
+                    let sum = matches!(node, Node::Add(_));
+                    let group = |g: &mut Graph, ids: Vec<Id>| {
+                        if sum {
+                            g.raw_sum(ids)
+                        } else {
+                            g.raw_product(ids)
+                        }
+                    };
+                    // −μ alone is no work to save: `x − μ·y` needs no separate −μ.
+                    let negation = !sum
+                        && params.len() == 2
+                        && params.iter().any(|&p| g.as_num(p) == Some(-1.0));
+                    if params.len() >= 2 && !rest.is_empty() && !negation {
+                        let params = group(g, params);
+                        parameter_only.insert(params);
+                        rest.push(params);
+                        group(g, rest)
+                    } else {
+                        g.intern_raw(node.clone())
+                    }
+                }
+                other => g.intern_raw(other.clone()),
+            };
+            let only = match g.node(id) {
+                Node::Num(_) | Node::Input(super::Input::Param(_)) => true,
+                Node::Input(_) => false,
+                _ => g.children(id).iter().all(|c| parameter_only.contains(c)),
+            };
+            if only {
+                parameter_only.insert(id);
+            }
+            Some(id)
+        })
+    }
+
+    /// Rebuilds `order` (the nodes reachable from `roots`, ascending) bottom-up without the
+    /// canonical constructors: `rewrite` sees each node's old Id and the node with its children
+    /// already rebuilt, and returns the new Id, or `None` to intern the node as it is.
+    fn rebuild_raw(
+        &mut self,
+        roots: &[Id],
+        order: &[Id],
+        mut rewrite: impl FnMut(&mut Graph, Id, &Node) -> Option<Id>,
+    ) -> Vec<Id> {
+        let mut new: HashMap<Id, Id> = HashMap::with_capacity(order.len());
+        for &id in order {
+            let node = match self.node(id).clone() {
+                Node::Add(c) => Node::Add(c.iter().map(|k| new[k]).collect()),
+                Node::Mul(c) => Node::Mul(c.iter().map(|k| new[k]).collect()),
+                Node::Pow(b, e) => Node::Pow(new[&b], e),
+                Node::Func(f, a) => Node::Func(f, new[&a]),
+                Node::Func2(f, [a, m]) => Node::Func2(f, [new[&a], new[&m]]),
+                leaf @ (Node::Num(_) | Node::Input(_)) => leaf,
+            };
+            let rebuilt = match rewrite(self, id, &node) {
+                Some(r) => r,
+                None => self.intern_raw(node),
+            };
+            new.insert(id, rebuilt);
+        }
+        roots.iter().map(|r| new[r]).collect()
+    }
+
+    /// Interns a node without simplification; products keep their coefficient first and their
+    /// other factors sorted ([`Graph::raw_product`]), sums keep their order.
+    fn intern_raw(&mut self, node: Node) -> Id {
+        match node {
+            Node::Mul(c) => self.raw_product(c.into_vec()),
+            Node::Add(c) => self.raw_sum(c.into_vec()),
+            other => self.intern(other),
+        }
     }
 
     /// Factors common factors out of every sum reachable from `roots`.
@@ -191,32 +408,25 @@ impl Graph {
             };
             let pair = self.intern(Node::Mul(vec![a, b].into()));
             // Rebuild: every product holding both a and b holds `pair` instead.
-            let mut new: HashMap<Id, Id> = HashMap::with_capacity(order.len());
-            for id in order {
-                let node = self.node(id).clone();
-                let rebuilt = match node {
-                    Node::Num(_) | Node::Input(_) => id,
-                    Node::Mul(c) if id != pair => {
-                        let mut c: Vec<Id> = c.iter().map(|k| new[k]).collect();
-                        if c.contains(&a) && c.contains(&b) {
-                            c.retain(|&x| x != a && x != b);
-                            c.push(pair);
-                        }
-                        self.raw_product(c)
-                    }
-                    Node::Mul(_) => id,
-                    Node::Add(c) => {
-                        let c: Vec<Id> = c.iter().map(|k| new[k]).collect();
-                        self.intern(Node::Add(c.into()))
-                    }
-                    Node::Pow(b2, e) => self.intern(Node::Pow(new[&b2], e)),
-                    Node::Func(f, x) => self.intern(Node::Func(f, new[&x])),
-                    Node::Func2(f, [x, m]) => self.intern(Node::Func2(f, [new[&x], new[&m]])),
-                };
-                new.insert(id, rebuilt);
-            }
-            roots = roots.iter().map(|r| new[r]).collect();
+            roots = self.rebuild_raw(&roots, &order, |g, old, node| match node {
+                Node::Mul(_) if old == pair => Some(pair),
+                Node::Mul(c) if c.contains(&a) && c.contains(&b) => {
+                    let mut c = c.to_vec();
+                    c.retain(|&x| x != a && x != b);
+                    c.push(pair);
+                    Some(g.raw_product(c))
+                }
+                _ => None,
+            });
         }
+    }
+
+    /// A sum node without flattening or reordering.
+    fn raw_sum(&mut self, terms: Vec<Id>) -> Id {
+        if terms.len() == 1 {
+            return terms[0];
+        }
+        self.intern(Node::Add(terms.into()))
     }
 
     /// A product node without flattening (its factors may be products themselves); the
@@ -237,7 +447,7 @@ impl Graph {
 
 #[cfg(test)]
 mod tests {
-    use crate::ir::{Graph, Input};
+    use crate::ir::{Graph, Input, Node, Rational};
 
     #[test]
     fn common_factors_come_out_of_sums() {
@@ -257,6 +467,81 @@ mod tests {
             })[0]
         };
         assert_eq!(v(&g, s), v(&g, f));
+    }
+
+    /// The number of nodes of each kind among those reachable: (square roots, reciprocals or
+    /// other negative powers).
+    fn roots_and_reciprocals(g: &Graph, roots: &[crate::ir::Id]) -> (usize, usize) {
+        let order = g.reachable(roots);
+        let count = |p: fn(crate::ir::Rational) -> bool| {
+            order
+                .iter()
+                .filter(|&&id| matches!(g.node(id), Node::Pow(_, e) if p(*e)))
+                .count()
+        };
+        (count(|e| e.den == 2), count(|e| e.num < 0))
+    }
+
+    #[test]
+    fn powers_of_one_radius_share_one_root_and_one_reciprocal() {
+        // μ/r + δ/r³ + μ/r⁴·x + 1/r⁵ with r² = x² + y²: before, three half-integer powers and
+        // four negative powers of r²; after, one √ and one 1/√, the rest multiplications.
+        let mut g = Graph::new();
+        let [x, y] = [0, 1].map(|i| g.input(Input::State(i)));
+        let [mu, delta] = [0, 1].map(|i| g.input(Input::Param(i)));
+        let (x2, y2) = (g.mul(&[x, x]), g.mul(&[y, y]));
+        let r2 = g.add(&[x2, y2]);
+        let p = |g: &mut Graph, num, den| g.pow(r2, Rational::new(num, den));
+        let terms = [
+            (mu, p(&mut g, -1, 2)),
+            (delta, p(&mut g, -3, 2)),
+            (x, p(&mut g, -2, 1)),
+            (delta, p(&mut g, -5, 2)),
+        ]
+        .map(|(a, b)| g.mul(&[a, b]));
+        let sum = g.add(&terms);
+        assert_eq!(roots_and_reciprocals(&g, &[sum]), (3, 4));
+        let shared = g.share_roots(&[sum]);
+        assert_eq!(roots_and_reciprocals(&g, &shared), (1, 1));
+        let value = |g: &Graph, id| {
+            g.eval_f64(&[id], &mut |i| match i {
+                Input::State(k) => [0.7, -1.3][k as usize],
+                Input::Param(k) => [1.5, 0.25][k as usize],
+                _ => 0.0,
+            })[0]
+        };
+        let (before, after) = (value(&g, sum), value(&g, shared[0]));
+        assert!((before - after).abs() <= 8.0 * f64::EPSILON * before.abs());
+    }
+
+    #[test]
+    fn a_single_negative_power_stays_a_division() {
+        let mut g = Graph::new();
+        let x = g.input(Input::State(0));
+        let r3 = g.pow(x, Rational::new(-3, 2));
+        let shared = g.share_roots(&[r3]);
+        assert_eq!(roots_and_reciprocals(&g, &shared), (1, 1));
+        assert!(matches!(g.node(shared[0]), Node::Pow(_, e) if e.num == -3));
+    }
+
+    #[test]
+    fn parameter_only_factors_are_grouped() {
+        // −3·μ·x/m ⇒ (−3·μ/m)·x: one multiplication per call
+        let mut g = Graph::new();
+        let x = g.input(Input::State(0));
+        let [mu, m] = [0, 1].map(|i| g.input(Input::Param(i)));
+        let c = g.num(-3.0);
+        let q = g.div(x, m);
+        let product = g.mul(&[c, mu, q]);
+        let split = g.split_parameter_products(&[product])[0];
+        let Node::Mul(fs) = g.node(split) else {
+            panic!("a product")
+        };
+        assert_eq!(fs.len(), 2);
+        let order = g.reachable(&[split]);
+        let only = g.parameter_only(&order);
+        assert_eq!(fs.iter().filter(|f| only.contains(f)).count(), 1);
+        assert!(fs.contains(&x));
     }
 
     #[test]

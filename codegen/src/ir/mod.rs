@@ -24,7 +24,7 @@ pub use count::OpCount;
 pub use eval::Scalar;
 pub use func::{Func, Func2};
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::fmt;
 
 /// Index of a node in a [`Graph`].
@@ -474,6 +474,24 @@ impl Graph {
             }
         }
         out.sort_unstable();
+        out
+    }
+
+    /// The nodes of `order` (ascending, as [`Graph::reachable`] returns it) whose value depends
+    /// on parameters and constants only: computed once per parameter set in the emitted code
+    /// and in a tape's prelude.
+    pub fn parameter_only(&self, order: &[Id]) -> HashSet<Id> {
+        let mut out = HashSet::new();
+        for &id in order {
+            let only = match self.node(id) {
+                Node::Num(_) | Node::Input(Input::Param(_)) => true,
+                Node::Input(_) => false,
+                _ => self.children(id).iter().all(|c| out.contains(c)),
+            };
+            if only {
+                out.insert(id);
+            }
+        }
         out
     }
 

@@ -12,14 +12,17 @@
 //! # Lowering
 //!
 //! [`TapeBuilder::build`] first runs the emitter's rewrites
-//! ([`Graph::optimize_for_emission`]: factored sums, shared sub-products), then writes each node
+//! ([`Graph::optimize_for_emission`]: factored sums, one root and one reciprocal per base,
+//! grouped parameter-only factors, shared sub-products), then writes each node
 //! exactly as `emit::body` renders it:
 //! - a sum is a left fold with the positive terms first (`a + b - c`, stable order); a term is
 //!   negative when it is a negative number or a product with a negative coefficient that is not
 //!   a shared temporary; a leading negative term is negated (`-c + a`);
 //! - a product `c·f₁·f₂·g₁⁻ⁿ` is the left fold `c * f₁ * f₂ / g₁ⁿ` (factors with a negative
-//!   exponent become divisions unless they are shared temporaries, which are multiplied); a
-//!   negative coefficient negates the product of its magnitude;
+//!   exponent become divisions unless they are values of their own, shared temporaries or
+//!   parameter-only values, which are multiplied; in a parameter-only product they are always
+//!   divisions, so a prelude value does not depend on the function); a negative coefficient
+//!   negates the product of its magnitude;
 //! - `xⁿ` is [`Op::Powi`], `x^(n/2)` is `Powi(Sqrt(x), n)`, `x^(1/3)` is [`Op::Cbrt`], other
 //!   rationals are [`Op::Powf`], and a lone negative power is `1 / x^|e|`.
 //!
@@ -605,6 +608,7 @@ impl TapeBuilder {
         let mut l = Lowering {
             g,
             dims: self.dims,
+            parameter_only: g.parameter_only(&order),
             named,
             memo: HashMap::new(),
             s: Sections::default(),
@@ -641,6 +645,8 @@ struct Lowering<'a> {
     dims: Dims,
     /// Nodes the emitter binds to a temporary (shared, or named by a `let`).
     named: HashSet<Id>,
+    /// Nodes computed once per parameter set.
+    parameter_only: HashSet<Id>,
     memo: HashMap<Id, Val>,
     s: Sections,
 }
@@ -752,16 +758,22 @@ impl Lowering<'_> {
         }
     }
 
-    /// c · Π factors, with unshared negative powers as divisions: `c * f1 * f2 / d1 / d2`.
+    /// c · Π factors, `c * f1 * f2 / d1 / d2`, as `Writer::product_with` writes it: a factor
+    /// with a negative exponent is a division, unless it is a value of its own (a shared
+    /// temporary, or a parameter-only value computed once) that the product multiplies; in a
+    /// parameter-only product it is always a division (so that a parameter-only value does not
+    /// depend on which of its parts the function happens to share).
     fn product_with(&mut self, c: f64, factors: &[Id]) -> Result<Val, TapeError> {
         let mut num = Vec::new();
         let mut den = Vec::new();
         if c != 1.0 {
             num.push(Val::Const(c));
         }
+        let parameter_only = factors.iter().all(|f| self.parameter_only.contains(f));
         for &f in factors {
+            let own_value = self.named.contains(&f) || self.parameter_only.contains(&f);
             match *self.g.node(f) {
-                Node::Pow(b, e) if e.num < 0 && !self.named.contains(&f) => {
+                Node::Pow(b, e) if e.num < 0 && (parameter_only || !own_value) => {
                     den.push(self.power_positive(b, negate(e))?);
                 }
                 _ => num.push(self.reference(f)?),

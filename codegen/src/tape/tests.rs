@@ -198,3 +198,59 @@ fn feedback_tapes_are_small() {
         assert!(t.body_ops() as u64 <= 2 * emitted + 8);
     }
 }
+
+#[test]
+fn divisions_by_parameters_move_to_the_prelude() {
+    // x0·x1·(p1 − p2)/p0 + x2/p0: the body multiplies by prepared values and divides by nothing
+    let mut g = Graph::new();
+    let [x0, x1, x2] = [0, 1, 2].map(|i| g.input(Input::State(i)));
+    let [p0, p1, p2] = [0, 1, 2].map(|i| g.input(Input::Param(i)));
+    let d = g.sub(p1, p2);
+    let a = g.mul(&[x0, x1, d]);
+    let a = g.div(a, p0);
+    let b = g.div(x2, p0);
+    let s = g.add(&[a, b]);
+    let tape = Tape::from_graph(&g, &[s], dims(3, 3)).unwrap();
+    assert!(
+        !tape.body.iter().any(|op| matches!(op, Op::Div(..))),
+        "{tape}"
+    );
+    assert!(
+        tape.prelude.iter().any(|op| matches!(op, Op::Div(..))),
+        "{tape}"
+    );
+    let (x, p) = ([0.3, -0.7, 1.9], [3.0, 2.0, 1.0]);
+    let got = tape.eval(&p, &x, &[], &[]).unwrap()[0];
+    let want = x[0] * x[1] * (p[1] - p[2]) / p[0] + x[2] / p[0];
+    assert!(
+        (got - want).abs() <= 4.0 * f64::EPSILON * want.abs(),
+        "{got} vs {want}"
+    );
+}
+
+#[test]
+fn one_square_root_and_one_division_per_radius() {
+    // μ·x/r³ + x/r with r = √(x² + y²): one Sqrt and one Div in the body
+    let mut g = Graph::new();
+    let [x, y] = [0, 1].map(|i| g.input(Input::State(i)));
+    let mu = g.input(Input::Param(0));
+    let (x2, y2) = (g.mul(&[x, x]), g.mul(&[y, y]));
+    let s = g.add(&[x2, y2]);
+    let r3 = g.pow(s, Rational::new(-3, 2));
+    let r1 = g.pow(s, Rational::new(-1, 2));
+    let a = g.mul(&[mu, x, r3]);
+    let b = g.mul(&[x, r1]);
+    let f = g.add(&[a, b]);
+    let tape = Tape::from_graph(&g, &[f], dims(2, 1)).unwrap();
+    let count = |p: fn(&Op) -> bool| tape.body.iter().filter(|op| p(op)).count();
+    assert_eq!(count(|op| matches!(op, Op::Sqrt(_))), 1, "{tape}");
+    assert_eq!(count(|op| matches!(op, Op::Div(..))), 1, "{tape}");
+    let (xv, yv, m) = (0.6_f64, -0.8_f64, 1.5);
+    let r = (xv * xv + yv * yv).sqrt();
+    let want = m * xv / r.powi(3) + xv / r;
+    let got = tape.eval(&[m], &[xv, yv], &[], &[]).unwrap()[0];
+    assert!(
+        (got - want).abs() <= 8.0 * f64::EPSILON * want.abs(),
+        "{got} vs {want}"
+    );
+}

@@ -11,17 +11,17 @@
 ///
 /// The field is partitioned (q̇ = a(p), ṗ = b(q)): Störmer–Verlet applies.
 ///
-/// Operations (as a tree → after CSE → as emitted): X 5 → 5 → 5, f 8 → 8 → 8, Df 4 → 4 → 4, V 13 → 13 → 13, ∇V 28 → 17 → 15, X − ∇V 37 → 24 → 20.
+/// Operations (as a tree → after CSE → as emitted): X 5 → 5 → 2, f 8 → 8 → 5, Df 4 → 4 → 2, V 13 → 13 → 10, ∇V 28 → 17 → 12, X − ∇V 37 → 24 → 16.
 pub mod pendulum {
     #![allow(clippy::approx_constant)]
-    #[allow(unused_imports)]
-    use lasalle_runtime::num_traits::{Float, One, Zero};
-    #[allow(unused_imports)]
+    use core::ops::Deref;
     use lasalle_runtime::{
-        lit, nalgebra, Declared, Field, GuardFailure, InvariantInfo, InvariantKind,
-        Invariants, Lyapunov, ModelInfo, ParamError, Parameters, Partitioned, Preset,
-        RigidBodySplitting, Shape, Slot,
+        Declared, Field, InvariantInfo, InvariantKind, Invariants, Lyapunov, ModelInfo,
+        ParamError, Parameters, Partitioned, Shape, Slot, lit,
     };
+    use lasalle_runtime::nalgebra::Scalar;
+    use lasalle_runtime::num_traits::Float;
+
     /// Parameters of the model `Pendulum`: state dimension N = 2, invariant components M = 1, gains G = 1.
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct Pendulum<T = f64> {
@@ -30,6 +30,7 @@ pub mod pendulum {
         /// `l` (scalar), default 1: `param l = 1.0;`
         pub l: T,
     }
+
     impl<T: Float> Default for Pendulum<T> {
         fn default() -> Self {
             Pendulum {
@@ -38,86 +39,142 @@ pub mod pendulum {
             }
         }
     }
+
     impl<T> Pendulum<T> {
         /// Dimension N of the flat state.
         pub const N: usize = 2;
+
         /// Number M of stacked invariant components.
         pub const M: usize = 1;
+
         /// Number G of gains.
         pub const G: usize = 1;
     }
+
     impl<T: Float> Pendulum<T> {
         /// The gains as written in the model file.
         pub fn default_gains() -> [T; 1] {
             [lit::<T>(2.0)]
         }
+
         /// The target f(x₀) of the feedback field: the invariants at the initial state.
         pub fn targets(&self, x0: &[T; 2]) -> [T; 1] {
             let mut f = [T::zero(); 1];
             self.invariants(x0, &mut f);
             f
         }
+
         /// The point `rest` (pendulum.lsl:13: point rest { theta = 0; omega = 0; }).
         pub fn point_rest(&self) -> [T; 2] {
-            let mut out = [T::zero(); 2];
-            out[0] = T::zero();
-            out[1] = T::zero();
-            out
+            [T::zero(), T::zero()]
         }
     }
-    impl<T: Float + nalgebra::Scalar> Pendulum<T> {
+
+    /// The model `Pendulum` with its parameter-only values computed once ([`Pendulum::prepare`]): the functions of the runtime's traits read them instead of recomputing them at every call. Immutable: to change a parameter, change the model and prepare it again, or call `Parameters::set_param`, which prepares again.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct PendulumPrepared<T = f64> {
+        model: Pendulum<T>,
+        neg_g_over_l: T,
+        k: T,
+    }
+
+    impl<T> Deref for PendulumPrepared<T> {
+        type Target = Pendulum<T>;
+
+        fn deref(&self) -> &Pendulum<T> {
+            &self.model
+        }
+    }
+
+    impl<T: Float> Pendulum<T> {
+        /// The model with its parameter-only values computed, for runs: its trait
+        /// functions do less work per call than the model's own, which prepare on
+        /// every call.
+        #[inline]
+        pub fn prepare(&self) -> PendulumPrepared<T> {
+            let g = self.g;
+            let l = self.l;
+            let k = g / l;
+            let neg_g_over_l = -(g / l);
+            PendulumPrepared {
+                model: *self,
+                neg_g_over_l,
+                k,
+            }
+        }
+    }
+
+    impl<T: Float + Scalar> Pendulum<T> {
         /// The state component `theta` of a flat state.
         pub fn theta(x: &[T; 2]) -> T {
             x[0]
         }
+
         /// The state component `omega` of a flat state.
         pub fn omega(x: &[T; 2]) -> T {
             x[1]
         }
     }
-    impl<T: Float> Field<T, [T; 2]> for Pendulum<T> {
+
+    impl<T: Float> Field<T, [T; 2]> for PendulumPrepared<T> {
         fn field(&self, x: &[T; 2], dx: &mut [T; 2]) {
-            let theta = x[0];
-            let omega = x[1];
-            let g = self.g;
-            let l = self.l;
+            let [theta, omega] = *x;
+            let neg_g_over_l = self.neg_g_over_l;
             // pendulum.lsl:8: d/dt theta = omega;
             dx[0] = omega;
             // pendulum.lsl:9: d/dt omega = -k * sin(theta);
-            dx[1] = -(g * theta.sin() / l);
+            dx[1] = neg_g_over_l * theta.sin();
         }
     }
-    impl<T: Float> Invariants<T, [T; 2], [T; 1]> for Pendulum<T> {
-        fn invariants(&self, x: &[T; 2], f: &mut [T; 1]) {
-            let theta = x[0];
-            let omega = x[1];
-            let g = self.g;
-            let l = self.l;
-            // pendulum.lsl:11: integral E = omega^2 / 2 - k * cos(theta) gain 2;
-            f[0] = lit::<T>(0.5) * (omega * omega) - g * theta.cos() / l;
+
+    impl<T: Float> Field<T, [T; 2]> for Pendulum<T> {
+        #[inline]
+        fn field(&self, x: &[T; 2], dx: &mut [T; 2]) {
+            self.prepare().field(x, dx)
         }
-        fn invariants_jacobian(&self, x: &[T; 2], jac: &mut [[T; 2]; 1]) {
-            let theta = x[0];
-            let omega = x[1];
-            let g = self.g;
-            let l = self.l;
+    }
+
+    impl<T: Float> Invariants<T, [T; 2], [T; 1]> for PendulumPrepared<T> {
+        fn invariants(&self, x: &[T; 2], f: &mut [T; 1]) {
+            let [theta, omega] = *x;
+            let neg_g_over_l = self.neg_g_over_l;
             // pendulum.lsl:11: integral E = omega^2 / 2 - k * cos(theta) gain 2;
-            jac[0][0] = g * theta.sin() / l;
+            f[0] = lit::<T>(0.5) * (omega * omega) + neg_g_over_l * theta.cos();
+        }
+
+        fn invariants_jacobian(&self, x: &[T; 2], jac: &mut [[T; 2]; 1]) {
+            let [theta, omega] = *x;
+            let k = self.k;
+            // pendulum.lsl:11: integral E = omega^2 / 2 - k * cos(theta) gain 2;
+            jac[0][0] = k * theta.sin();
             jac[0][1] = omega;
         }
     }
-    impl<T: Float> Lyapunov<T, [T; 2], [T; 1], [T; 1]> for Pendulum<T> {
+
+    impl<T: Float> Invariants<T, [T; 2], [T; 1]> for Pendulum<T> {
+        #[inline]
+        fn invariants(&self, x: &[T; 2], f: &mut [T; 1]) {
+            self.prepare().invariants(x, f)
+        }
+
+        #[inline]
+        fn invariants_jacobian(&self, x: &[T; 2], jac: &mut [[T; 2]; 1]) {
+            self.prepare().invariants_jacobian(x, jac)
+        }
+    }
+
+    impl<T: Float> Lyapunov<T, [T; 2], [T; 1], [T; 1]> for PendulumPrepared<T> {
         fn lyapunov(&self, x: &[T; 2], target: &[T; 1], gains: &[T; 1]) -> T {
-            let theta = x[0];
-            let omega = x[1];
-            let g = self.g;
-            let l = self.l;
-            let k_e = gains[0];
-            let e_0 = target[0];
+            let [theta, omega] = *x;
+            let [k_e] = *gains;
+            let [e_0] = *target;
+            let neg_g_over_l = self.neg_g_over_l;
             // pendulum.lsl: V = Σ k/2 |f − f(x₀)|² over the invariants
             lit::<T>(0.5) * k_e
-                * (lit::<T>(0.5) * (omega * omega) - g * theta.cos() / l - e_0).powi(2)
+                * (lit::<T>(0.5) * (omega * omega) + neg_g_over_l * theta.cos() - e_0)
+                    .powi(2)
         }
+
         fn lyapunov_gradient(
             &self,
             x: &[T; 2],
@@ -125,20 +182,19 @@ pub mod pendulum {
             gains: &[T; 1],
             grad: &mut [T; 2],
         ) {
-            let theta = x[0];
-            let omega = x[1];
-            let g = self.g;
-            let l = self.l;
-            let k_e = gains[0];
-            let e_0 = target[0];
-            // pendulum.lsl:7: let k = g / l;
-            let k = g / l;
-            let t1 = k_e * (lit::<T>(0.5) * (omega * omega) - k * theta.cos() - e_0);
+            let [theta, omega] = *x;
+            let [k_e] = *gains;
+            let [e_0] = *target;
+            let k = self.k;
+            let neg_g_over_l = self.neg_g_over_l;
+            let t1 = k_e
+                * (lit::<T>(0.5) * (omega * omega) + neg_g_over_l * theta.cos() - e_0);
             // ∂V/∂x[0] (theta)
             grad[0] = k * theta.sin() * t1;
             // ∂V/∂x[1] (omega)
             grad[1] = omega * t1;
         }
+
         fn feedback_field(
             &self,
             x: &[T; 2],
@@ -146,53 +202,100 @@ pub mod pendulum {
             gains: &[T; 1],
             dx: &mut [T; 2],
         ) {
-            let theta = x[0];
-            let omega = x[1];
-            let g = self.g;
-            let l = self.l;
-            let k_e = gains[0];
-            let e_0 = target[0];
-            // pendulum.lsl:7: let k = g / l;
-            let k = g / l;
-            let t1 = k_e * (lit::<T>(0.5) * (omega * omega) - k * theta.cos() - e_0);
-            let t2 = k * theta.sin();
+            let [theta, omega] = *x;
+            let [k_e] = *gains;
+            let [e_0] = *target;
+            let neg_g_over_l = self.neg_g_over_l;
+            let sin_theta = theta.sin();
+            let t1 = k_e
+                * (lit::<T>(0.5) * (omega * omega) + neg_g_over_l * theta.cos() - e_0);
             // pendulum.lsl:8: d/dt theta = omega; − ∂V/∂x[0]
-            dx[0] = omega - t1 * t2;
+            dx[0] = omega + neg_g_over_l * sin_theta * t1;
             // pendulum.lsl:9: d/dt omega = -k * sin(theta); − ∂V/∂x[1]
-            dx[1] = -t2 - omega * t1;
+            dx[1] = neg_g_over_l * sin_theta - omega * t1;
         }
     }
+
+    impl<T: Float> Lyapunov<T, [T; 2], [T; 1], [T; 1]> for Pendulum<T> {
+        #[inline]
+        fn lyapunov(&self, x: &[T; 2], target: &[T; 1], gains: &[T; 1]) -> T {
+            self.prepare().lyapunov(x, target, gains)
+        }
+
+        #[inline]
+        fn lyapunov_gradient(
+            &self,
+            x: &[T; 2],
+            target: &[T; 1],
+            gains: &[T; 1],
+            grad: &mut [T; 2],
+        ) {
+            self.prepare().lyapunov_gradient(x, target, gains, grad)
+        }
+
+        #[inline]
+        fn feedback_field(
+            &self,
+            x: &[T; 2],
+            target: &[T; 1],
+            gains: &[T; 1],
+            dx: &mut [T; 2],
+        ) {
+            self.prepare().feedback_field(x, target, gains, dx)
+        }
+    }
+
+    impl<T: Float> Partitioned<T, [T; 2]> for PendulumPrepared<T> {
+        fn is_q(&self) -> &[bool] {
+            self.model.is_q()
+        }
+
+        fn field_q(&self, x: &[T; 2], dx: &mut [T; 2]) {
+            let [_, omega] = *x;
+            // pendulum.lsl:8: d/dt theta = omega;
+            dx[0] = omega;
+        }
+
+        fn field_p(&self, x: &[T; 2], dx: &mut [T; 2]) {
+            let [theta, ..] = *x;
+            let neg_g_over_l = self.neg_g_over_l;
+            // pendulum.lsl:9: d/dt omega = -k * sin(theta);
+            dx[1] = neg_g_over_l * theta.sin();
+        }
+    }
+
     impl<T: Float> Partitioned<T, [T; 2]> for Pendulum<T> {
         fn is_q(&self) -> &[bool] {
             &[true, false]
         }
+
+        #[inline]
         fn field_q(&self, x: &[T; 2], dx: &mut [T; 2]) {
-            let omega = x[1];
-            // pendulum.lsl:8: d/dt theta = omega;
-            dx[0] = omega;
+            self.prepare().field_q(x, dx)
         }
+
+        #[inline]
         fn field_p(&self, x: &[T; 2], dx: &mut [T; 2]) {
-            let theta = x[0];
-            let g = self.g;
-            let l = self.l;
-            // pendulum.lsl:9: d/dt omega = -k * sin(theta);
-            dx[1] = -(g * theta.sin() / l);
+            self.prepare().field_p(x, dx)
         }
     }
+
+    impl<T: Float> Declared<T, [T; 2]> for PendulumPrepared<T> {
+        fn partitioned(&self) -> Option<&dyn Partitioned<T, [T; 2]>> {
+            Some(self)
+        }
+    }
+
     impl<T: Float> Declared<T, [T; 2]> for Pendulum<T> {
         fn partitioned(&self) -> Option<&dyn Partitioned<T, [T; 2]>> {
             Some(self)
         }
-        fn taylor_kernels(
-            &self,
-            _max_order: u32,
-        ) -> Result<lasalle_runtime::TaylorKernels<Self>, lasalle_runtime::TaylorError> {
-            Ok(taylor_kernels(self))
-        }
     }
+
     impl<T> Pendulum<T> {
         /// The model's name.
         pub const NAME: &'static str = "Pendulum";
+
         /// The state variables with their offsets in the flat state.
         pub const STATE: &'static [Slot] = &[
             Slot {
@@ -206,6 +309,7 @@ pub mod pendulum {
                 offset: 1,
             },
         ];
+
         /// The invariants with their offsets in the stacked f.
         pub const INVARIANTS: &'static [InvariantInfo] = &[
             InvariantInfo {
@@ -218,10 +322,13 @@ pub mod pendulum {
                 gain: 0,
             },
         ];
+
         /// The names of the gains.
         pub const GAIN_NAMES: &'static [&'static str] = &["k_E"];
+
         /// The gains as written in the model file.
         pub const DEFAULT_GAINS: &'static [f64] = &[2.0];
+
         /// The parameters with their offsets in the parameter slots.
         pub const PARAMS: &'static [Slot] = &[
             Slot {
@@ -236,26 +343,59 @@ pub mod pendulum {
             },
         ];
     }
+
     impl<T> ModelInfo for Pendulum<T> {
         fn model_name(&self) -> &'static str {
             Self::NAME
         }
+
         fn state_slots(&self) -> &'static [Slot] {
             Self::STATE
         }
+
         fn invariant_infos(&self) -> &'static [InvariantInfo] {
             Self::INVARIANTS
         }
+
         fn gain_names(&self) -> &'static [&'static str] {
             Self::GAIN_NAMES
         }
+
         fn default_gain_values(&self) -> &'static [f64] {
             Self::DEFAULT_GAINS
         }
+
         fn param_slots(&self) -> &'static [Slot] {
             Self::PARAMS
         }
     }
+
+    impl<T> ModelInfo for PendulumPrepared<T> {
+        fn model_name(&self) -> &'static str {
+            Pendulum::<T>::NAME
+        }
+
+        fn state_slots(&self) -> &'static [Slot] {
+            Pendulum::<T>::STATE
+        }
+
+        fn invariant_infos(&self) -> &'static [InvariantInfo] {
+            Pendulum::<T>::INVARIANTS
+        }
+
+        fn gain_names(&self) -> &'static [&'static str] {
+            Pendulum::<T>::GAIN_NAMES
+        }
+
+        fn default_gain_values(&self) -> &'static [f64] {
+            Pendulum::<T>::DEFAULT_GAINS
+        }
+
+        fn param_slots(&self) -> &'static [Slot] {
+            Pendulum::<T>::PARAMS
+        }
+    }
+
     impl Parameters for Pendulum<f64> {
         fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
             match name {
@@ -289,6 +429,7 @@ pub mod pendulum {
                 }
             }
         }
+
         fn param(&self, name: &str) -> Option<Vec<f64>> {
             match name {
                 "g" => Some(vec![self.g]),
@@ -296,9 +437,11 @@ pub mod pendulum {
                 _ => None,
             }
         }
+
         fn point_names(&self) -> &'static [&'static str] {
             &["rest"]
         }
+
         fn point(&self, name: &str) -> Option<Vec<f64>> {
             match name {
                 "rest" => Some(self.point_rest().to_vec()),
@@ -306,510 +449,25 @@ pub mod pendulum {
             }
         }
     }
-    impl<T: Float> Pendulum<T> {
-        /// The parameter slots as f64, in the order of `PARAMS` (matrices column-major).
-        pub fn slot_values(&self) -> [f64; 2] {
-            [self.g.to_f64().unwrap_or(f64::NAN), self.l.to_f64().unwrap_or(f64::NAN)]
-        }
-        /// The adaptive Taylor integrator (Jorba & Zou; `lasalle_runtime::taylor`) of the field
-        /// and of X − ∇V over this model's emitted kernels.
-        pub fn taylor(
-            &self,
-            opts: lasalle_runtime::TaylorOptions,
-        ) -> Result<lasalle_runtime::Taylor<Self>, lasalle_runtime::TaylorError> {
-            lasalle_runtime::Taylor::new(taylor_kernels(self), opts)
-        }
-    }
-    /// The emitted Taylor kernels of the field and of X − ∇V.
-    fn taylor_kernels<T: Float>(m: &Pendulum<T>) -> lasalle_runtime::TaylorKernels<Pendulum<T>> {
-        lasalle_runtime::TaylorKernels {
-            field: Box::new(PendulumTaylorField::new(m)),
-            feedback: Box::new(PendulumTaylorFeedback::new(m)),
-        }
-    }
-    /// The parameter-only values of `field` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_field(p: &[f64; 2]) -> [f64; 2] {
-        let p0: f64 = p[0];
-        let p1: f64 = p[1];
-        [p0, p1]
-    }
-    /// The parameter-only values of `invariants` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_invariants(p: &[f64; 2]) -> [f64; 2] {
-        let p0: f64 = p[0];
-        let p1: f64 = p[1];
-        [p0, p1]
-    }
-    /// The parameter-only values of `jacobian` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_jacobian(p: &[f64; 2]) -> [f64; 2] {
-        let p0: f64 = p[0];
-        let p1: f64 = p[1];
-        [p0, p1]
-    }
-    /// The parameter-only values of `lyapunov` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_lyapunov(p: &[f64; 2]) -> [f64; 2] {
-        let p0: f64 = p[0];
-        let p1: f64 = p[1];
-        [p0, p1]
-    }
-    /// The parameter-only values of `lyapunov_gradient` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_lyapunov_gradient(p: &[f64; 2]) -> [f64; 1] {
-        let p0: f64 = p[0];
-        let p1: f64 = p[1];
-        let p2: f64 = p0 / p1;
-        [p2]
-    }
-    /// The parameter-only values of `feedback` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_feedback(p: &[f64; 2]) -> [f64; 1] {
-        let p0: f64 = p[0];
-        let p1: f64 = p[1];
-        let p2: f64 = p0 / p1;
-        [p2]
-    }
-    /// The parameter-only values of `field_q` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_field_q(p: &[f64; 2]) -> [f64; 0] {
-        []
-    }
-    /// The parameter-only values of `field_p` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_field_p(p: &[f64; 2]) -> [f64; 2] {
-        let p0: f64 = p[0];
-        let p1: f64 = p[1];
-        [p0, p1]
-    }
-    /// The Taylor-coefficient kernel of X (`lasalle_runtime::TaylorKernel`): the recurrences
-    /// of its tape, 9 rows of orders 0..=`EMITTED_MAX_ORDER`, allocated once.
-    pub struct PendulumTaylorField {
-        params: [f64; 2],
-        hoisted: [f64; 2],
-        target: [f64; 0],
-        gains: [f64; 0],
-        t: Box<[[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 9]>,
-        order: usize,
-    }
-    impl PendulumTaylorField {
-        /// The kernel with the parameters of `m`; targets and gains 0.
-        pub fn new<T: Float>(m: &Pendulum<T>) -> Self {
-            let params = m.slot_values();
-            let t = vec![[0.0; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 9]
-                .into_boxed_slice()
-                .try_into()
-                .expect("9 rows");
-            PendulumTaylorField {
-                params,
-                hoisted: hoist_field(&params),
-                target: [0.0; 0],
-                gains: [0.0; 0],
-                t,
-                order: 0,
-            }
-        }
-    }
-    impl<T: Float> lasalle_runtime::TaylorKernel<Pendulum<T>> for PendulumTaylorField {
-        fn dim(&self) -> usize {
-            2
-        }
-        fn max_order(&self) -> usize {
-            lasalle_runtime::taylor::EMITTED_MAX_ORDER
-        }
-        fn sync(&mut self, m: &Pendulum<T>) -> Result<(), lasalle_runtime::StepError> {
-            let params = m.slot_values();
-            if params != self.params {
-                self.params = params;
-                self.hoisted = hoist_field(&params);
-            }
+
+    /// Setting a parameter prepares the model again.
+    impl Parameters for PendulumPrepared<f64> {
+        fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
+            self.model.set_param(name, values)?;
+            *self = self.model.prepare();
             Ok(())
         }
-        fn set_inputs(
-            &mut self,
-            target: &[f64],
-            gains: &[f64],
-        ) -> Result<(), lasalle_runtime::StepError> {
-            if target.len() != self.target.len() || gains.len() != self.gains.len() {
-                return Err(lasalle_runtime::StepError::InvalidInput(format!(
-                    "PendulumTaylorField takes 0 targets and 0 gains, got {} and {}",
-                    target.len(),
-                    gains.len()
-                )));
-            }
-            self.target.copy_from_slice(target);
-            self.gains.copy_from_slice(gains);
-            Ok(())
+
+        fn param(&self, name: &str) -> Option<Vec<f64>> {
+            self.model.param(name)
         }
-        #[allow(unused_variables, clippy::all)]
-        fn compute(&mut self, x: &[f64], order: usize) {
-            use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
-            let order = order.min(EMITTED_MAX_ORDER);
-            self.order = order;
-            let PendulumTaylorField { hoisted, target, gains, t, .. } = self;
-            let t = &mut **t;
-            for (row, xi) in t.iter_mut().zip(&x[..2]) {
-                row[0] = *xi;
-            }
-            for k in 0..order {
-                if k == 0 {
-                    let (s, c) = t[0][0].sin_cos();
-                    t[2][0] = s;
-                    t[3][0] = c;
-                    t[4][0] = hoisted[0];
-                    t[5][0] = t[2][0] * t[4][0];
-                    t[6][0] = hoisted[1];
-                    t[7][0] = t[5][0] / t[6][0];
-                    t[8][0] = -t[7][0];
-                } else {
-                    let (s, c) = rec::sin_cos(&t[0], &t[2], &t[3], k);
-                    t[2][k] = s;
-                    t[3][k] = c;
-                    t[5][k] = t[2][k] * t[4][0];
-                    t[7][k] = t[5][k] / t[6][0];
-                    t[8][k] = -t[7][k];
-                }
-                let inv = 1.0 / (k as f64 + 1.0);
-                t[0][k + 1] = t[1][k] * inv;
-                t[1][k + 1] = t[8][k] * inv;
-            }
+
+        fn point_names(&self) -> &'static [&'static str] {
+            self.model.point_names()
         }
-        fn coefficients(&self, i: usize) -> &[f64] {
-            &self.t[i][..=self.order]
-        }
-    }
-    /// The Taylor-coefficient kernel of X − ∇V (`lasalle_runtime::TaylorKernel`): the recurrences
-    /// of its tape, 20 rows of orders 0..=`EMITTED_MAX_ORDER`, allocated once.
-    pub struct PendulumTaylorFeedback {
-        params: [f64; 2],
-        hoisted: [f64; 1],
-        target: [f64; 1],
-        gains: [f64; 1],
-        t: Box<[[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 20]>,
-        order: usize,
-    }
-    impl PendulumTaylorFeedback {
-        /// The kernel with the parameters of `m`; targets and gains 0.
-        pub fn new<T: Float>(m: &Pendulum<T>) -> Self {
-            let params = m.slot_values();
-            let t = vec![[0.0; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 20]
-                .into_boxed_slice()
-                .try_into()
-                .expect("20 rows");
-            PendulumTaylorFeedback {
-                params,
-                hoisted: hoist_feedback(&params),
-                target: [0.0; 1],
-                gains: [0.0; 1],
-                t,
-                order: 0,
-            }
-        }
-    }
-    impl<T: Float> lasalle_runtime::TaylorKernel<Pendulum<T>> for PendulumTaylorFeedback {
-        fn dim(&self) -> usize {
-            2
-        }
-        fn max_order(&self) -> usize {
-            lasalle_runtime::taylor::EMITTED_MAX_ORDER
-        }
-        fn sync(&mut self, m: &Pendulum<T>) -> Result<(), lasalle_runtime::StepError> {
-            let params = m.slot_values();
-            if params != self.params {
-                self.params = params;
-                self.hoisted = hoist_feedback(&params);
-            }
-            Ok(())
-        }
-        fn set_inputs(
-            &mut self,
-            target: &[f64],
-            gains: &[f64],
-        ) -> Result<(), lasalle_runtime::StepError> {
-            if target.len() != self.target.len() || gains.len() != self.gains.len() {
-                return Err(lasalle_runtime::StepError::InvalidInput(format!(
-                    "PendulumTaylorFeedback takes 1 targets and 1 gains, got {} and {}",
-                    target.len(),
-                    gains.len()
-                )));
-            }
-            self.target.copy_from_slice(target);
-            self.gains.copy_from_slice(gains);
-            Ok(())
-        }
-        #[allow(unused_variables, clippy::all)]
-        fn compute(&mut self, x: &[f64], order: usize) {
-            use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
-            let order = order.min(EMITTED_MAX_ORDER);
-            self.order = order;
-            let PendulumTaylorFeedback { hoisted, target, gains, t, .. } = self;
-            let t = &mut **t;
-            for (row, xi) in t.iter_mut().zip(&x[..2]) {
-                row[0] = *xi;
-            }
-            for k in 0..order {
-                if k == 0 {
-                    t[2][0] = gains[0];
-                    t[3][0] = t[1][0] * t[1][0];
-                    t[4][0] = 0.5_f64;
-                    t[5][0] = t[3][0] * t[4][0];
-                    let (s, c) = t[0][0].sin_cos();
-                    t[6][0] = s;
-                    t[7][0] = c;
-                    t[8][0] = hoisted[0];
-                    t[9][0] = t[7][0] * t[8][0];
-                    t[10][0] = target[0];
-                    t[11][0] = t[5][0] - t[9][0];
-                    t[12][0] = t[11][0] - t[10][0];
-                    t[13][0] = t[12][0] * t[2][0];
-                    t[14][0] = t[6][0] * t[8][0];
-                    t[15][0] = t[13][0] * t[14][0];
-                    t[16][0] = t[1][0] - t[15][0];
-                    t[17][0] = t[1][0] * t[13][0];
-                    t[18][0] = -t[14][0];
-                    t[19][0] = t[18][0] - t[17][0];
-                } else {
-                    t[3][k] = rec::square(&t[1], k);
-                    t[5][k] = t[3][k] * t[4][0];
-                    let (s, c) = rec::sin_cos(&t[0], &t[6], &t[7], k);
-                    t[6][k] = s;
-                    t[7][k] = c;
-                    t[9][k] = t[7][k] * t[8][0];
-                    t[11][k] = t[5][k] - t[9][k];
-                    t[12][k] = t[11][k] - t[10][k];
-                    t[13][k] = t[12][k] * t[2][0];
-                    t[14][k] = t[6][k] * t[8][0];
-                    t[15][k] = rec::mul(&t[13], &t[14], k);
-                    t[16][k] = t[1][k] - t[15][k];
-                    t[17][k] = rec::mul(&t[1], &t[13], k);
-                    t[18][k] = -t[14][k];
-                    t[19][k] = t[18][k] - t[17][k];
-                }
-                let inv = 1.0 / (k as f64 + 1.0);
-                t[0][k + 1] = t[16][k] * inv;
-                t[1][k + 1] = t[19][k] * inv;
-            }
-        }
-        fn coefficients(&self, i: usize) -> &[f64] {
-            &self.t[i][..=self.order]
-        }
-    }
-    /// The model's functions for K states per call (structure of arrays), with the
-    /// parameter-only values computed once: see `Pendulum::lanes`.
-    #[derive(Clone, Debug)]
-    pub struct PendulumLanes {
-        field: [f64; 2],
-        invariants: [f64; 2],
-        jacobian: [f64; 2],
-        lyapunov: [f64; 2],
-        lyapunov_gradient: [f64; 1],
-        feedback: [f64; 1],
-        field_q: [f64; 0],
-        field_p: [f64; 2],
-    }
-    impl<T: Float> Pendulum<T> {
-        /// The batched functions with the current parameters (their preludes run now).
-        pub fn lanes(&self) -> PendulumLanes {
-            let p = self.slot_values();
-            PendulumLanes {
-                field: hoist_field(&p),
-                invariants: hoist_invariants(&p),
-                jacobian: hoist_jacobian(&p),
-                lyapunov: hoist_lyapunov(&p),
-                lyapunov_gradient: hoist_lyapunov_gradient(&p),
-                feedback: hoist_feedback(&p),
-                field_q: hoist_field_q(&p),
-                field_p: hoist_field_p(&p),
-            }
-        }
-    }
-    impl PendulumLanes {
-        /// `field` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn field<const K: usize>(
-            &self,
-            x: &[[f64; K]; 2],
-            out: &mut [[f64; K]; 2],
-        ) {
-            let h = &self.field;
-            let r0: [f64; K] = x[1];
-            let r1: [f64; K] = x[0];
-            let r2: [f64; K] = core::array::from_fn(|l| r1[l].sin());
-            let r3: [f64; K] = [h[0]; K];
-            let r4: [f64; K] = core::array::from_fn(|l| r3[l] * r2[l]);
-            let r5: [f64; K] = [h[1]; K];
-            let r6: [f64; K] = core::array::from_fn(|l| r4[l] / r5[l]);
-            let r7: [f64; K] = core::array::from_fn(|l| -r6[l]);
-            out[0] = r0;
-            out[1] = r7;
-        }
-        /// `invariants` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn invariants<const K: usize>(
-            &self,
-            x: &[[f64; K]; 2],
-            out: &mut [[f64; K]; 1],
-        ) {
-            let h = &self.invariants;
-            let r0: [f64; K] = x[1];
-            let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
-            let r2: [f64; K] = [0.5_f64; K];
-            let r3: [f64; K] = core::array::from_fn(|l| r2[l] * r1[l]);
-            let r4: [f64; K] = x[0];
-            let r5: [f64; K] = core::array::from_fn(|l| r4[l].cos());
-            let r6: [f64; K] = [h[0]; K];
-            let r7: [f64; K] = core::array::from_fn(|l| r6[l] * r5[l]);
-            let r8: [f64; K] = [h[1]; K];
-            let r9: [f64; K] = core::array::from_fn(|l| r7[l] / r8[l]);
-            let r10: [f64; K] = core::array::from_fn(|l| r3[l] - r9[l]);
-            out[0] = r10;
-        }
-        /// `jacobian` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn jacobian<const K: usize>(
-            &self,
-            x: &[[f64; K]; 2],
-            out: &mut [[f64; K]; 2],
-        ) {
-            let h = &self.jacobian;
-            let r0: [f64; K] = x[0];
-            let r1: [f64; K] = core::array::from_fn(|l| r0[l].sin());
-            let r2: [f64; K] = [h[0]; K];
-            let r3: [f64; K] = core::array::from_fn(|l| r2[l] * r1[l]);
-            let r4: [f64; K] = [h[1]; K];
-            let r5: [f64; K] = core::array::from_fn(|l| r3[l] / r4[l]);
-            let r6: [f64; K] = x[1];
-            out[0] = r5;
-            out[1] = r6;
-        }
-        /// `lyapunov` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn lyapunov<const K: usize>(
-            &self,
-            x: &[[f64; K]; 2],
-            target: &[f64; 1],
-            gains: &[f64; 1],
-            out: &mut [[f64; K]; 1],
-        ) {
-            let h = &self.lyapunov;
-            let r0: [f64; K] = [gains[0]; K];
-            let r1: [f64; K] = x[1];
-            let r2: [f64; K] = core::array::from_fn(|l| r1[l].powi(2));
-            let r3: [f64; K] = [0.5_f64; K];
-            let r4: [f64; K] = core::array::from_fn(|l| r3[l] * r2[l]);
-            let r5: [f64; K] = x[0];
-            let r6: [f64; K] = core::array::from_fn(|l| r5[l].cos());
-            let r7: [f64; K] = [h[0]; K];
-            let r8: [f64; K] = core::array::from_fn(|l| r7[l] * r6[l]);
-            let r9: [f64; K] = [h[1]; K];
-            let r10: [f64; K] = core::array::from_fn(|l| r8[l] / r9[l]);
-            let r11: [f64; K] = [target[0]; K];
-            let r12: [f64; K] = core::array::from_fn(|l| r4[l] - r10[l]);
-            let r13: [f64; K] = core::array::from_fn(|l| r12[l] - r11[l]);
-            let r14: [f64; K] = core::array::from_fn(|l| r13[l].powi(2));
-            let r15: [f64; K] = core::array::from_fn(|l| r3[l] * r0[l]);
-            let r16: [f64; K] = core::array::from_fn(|l| r15[l] * r14[l]);
-            out[0] = r16;
-        }
-        /// `lyapunov_gradient` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn lyapunov_gradient<const K: usize>(
-            &self,
-            x: &[[f64; K]; 2],
-            target: &[f64; 1],
-            gains: &[f64; 1],
-            out: &mut [[f64; K]; 2],
-        ) {
-            let h = &self.lyapunov_gradient;
-            let r0: [f64; K] = [gains[0]; K];
-            let r1: [f64; K] = x[1];
-            let r2: [f64; K] = core::array::from_fn(|l| r1[l].powi(2));
-            let r3: [f64; K] = [0.5_f64; K];
-            let r4: [f64; K] = core::array::from_fn(|l| r3[l] * r2[l]);
-            let r5: [f64; K] = x[0];
-            let r6: [f64; K] = core::array::from_fn(|l| r5[l].cos());
-            let r7: [f64; K] = [h[0]; K];
-            let r8: [f64; K] = core::array::from_fn(|l| r7[l] * r6[l]);
-            let r9: [f64; K] = [target[0]; K];
-            let r10: [f64; K] = core::array::from_fn(|l| r4[l] - r8[l]);
-            let r11: [f64; K] = core::array::from_fn(|l| r10[l] - r9[l]);
-            let r12: [f64; K] = core::array::from_fn(|l| r0[l] * r11[l]);
-            let r13: [f64; K] = core::array::from_fn(|l| r5[l].sin());
-            let r14: [f64; K] = core::array::from_fn(|l| r7[l] * r13[l]);
-            let r15: [f64; K] = core::array::from_fn(|l| r14[l] * r12[l]);
-            let r16: [f64; K] = core::array::from_fn(|l| r1[l] * r12[l]);
-            out[0] = r15;
-            out[1] = r16;
-        }
-        /// `feedback` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn feedback<const K: usize>(
-            &self,
-            x: &[[f64; K]; 2],
-            target: &[f64; 1],
-            gains: &[f64; 1],
-            out: &mut [[f64; K]; 2],
-        ) {
-            let h = &self.feedback;
-            let r0: [f64; K] = [gains[0]; K];
-            let r1: [f64; K] = x[1];
-            let r2: [f64; K] = core::array::from_fn(|l| r1[l].powi(2));
-            let r3: [f64; K] = [0.5_f64; K];
-            let r4: [f64; K] = core::array::from_fn(|l| r3[l] * r2[l]);
-            let r5: [f64; K] = x[0];
-            let r6: [f64; K] = core::array::from_fn(|l| r5[l].cos());
-            let r7: [f64; K] = [h[0]; K];
-            let r8: [f64; K] = core::array::from_fn(|l| r7[l] * r6[l]);
-            let r9: [f64; K] = [target[0]; K];
-            let r10: [f64; K] = core::array::from_fn(|l| r4[l] - r8[l]);
-            let r11: [f64; K] = core::array::from_fn(|l| r10[l] - r9[l]);
-            let r12: [f64; K] = core::array::from_fn(|l| r0[l] * r11[l]);
-            let r13: [f64; K] = core::array::from_fn(|l| r5[l].sin());
-            let r14: [f64; K] = core::array::from_fn(|l| r7[l] * r13[l]);
-            let r15: [f64; K] = core::array::from_fn(|l| r12[l] * r14[l]);
-            let r16: [f64; K] = core::array::from_fn(|l| r1[l] - r15[l]);
-            let r17: [f64; K] = core::array::from_fn(|l| r1[l] * r12[l]);
-            let r18: [f64; K] = core::array::from_fn(|l| -r14[l]);
-            let r19: [f64; K] = core::array::from_fn(|l| r18[l] - r17[l]);
-            out[0] = r16;
-            out[1] = r19;
-        }
-        /// `field_q` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn field_q<const K: usize>(
-            &self,
-            x: &[[f64; K]; 2],
-            out: &mut [[f64; K]; 1],
-        ) {
-            let h = &self.field_q;
-            let r0: [f64; K] = x[1];
-            out[0] = r0;
-        }
-        /// `field_p` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn field_p<const K: usize>(
-            &self,
-            x: &[[f64; K]; 2],
-            out: &mut [[f64; K]; 1],
-        ) {
-            let h = &self.field_p;
-            let r0: [f64; K] = x[0];
-            let r1: [f64; K] = core::array::from_fn(|l| r0[l].sin());
-            let r2: [f64; K] = [h[0]; K];
-            let r3: [f64; K] = core::array::from_fn(|l| r2[l] * r1[l]);
-            let r4: [f64; K] = [h[1]; K];
-            let r5: [f64; K] = core::array::from_fn(|l| r3[l] / r4[l]);
-            let r6: [f64; K] = core::array::from_fn(|l| -r5[l]);
-            out[0] = r6;
+
+        fn point(&self, name: &str) -> Option<Vec<f64>> {
+            self.model.point(name)
         }
     }
 }

@@ -177,7 +177,7 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
     );
     let mut json_all = serde_json::Map::new();
 
-    let rb = RigidBody::default();
+    let rb = RigidBody::default().prepare();
     let (s, j) = study(
         "free rigid body",
         &rb,
@@ -191,7 +191,7 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
     report.push_str(&s);
     json_all.insert("rigid-body".into(), j);
 
-    let kp = Kepler::default();
+    let kp = Kepler::default().prepare();
     let (s, j) = study(
         "Kepler (e = 0.8)",
         &kp,
@@ -206,7 +206,7 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
     report.push_str(&s);
     json_all.insert("kepler".into(), j);
 
-    let pk = PerturbedKepler::default();
+    let pk = PerturbedKepler::default().prepare();
     let x0 = pk.point_paper();
     let (s, j) = study(
         "perturbed Kepler (e = 0.6)",

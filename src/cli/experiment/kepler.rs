@@ -56,7 +56,7 @@ pub fn lrl(s: &[f64], mu: f64) -> [f64; 3] {
 
 /// Runs the experiment into `dir`.
 pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
-    let model = Kepler::default();
+    let model = Kepler::default().prepare();
     let x0 = model.point_paper();
     let dt = args.dt.unwrap_or(0.005);
     let periods = args.periods.unwrap_or(1000.0);

@@ -65,7 +65,7 @@ fn distance(a: &[f64], b: &[f64]) -> f64 {
 
 /// Runs the experiment into `dir`.
 pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
-    let model = PerturbedKepler::default();
+    let model = PerturbedKepler::default().prepare();
     let x0 = model.point_paper();
     let dt = args.dt.unwrap_or(0.03);
     let t_end = args.t_end.unwrap_or(200.0);

@@ -29,7 +29,7 @@ pub const PAPER_ENERGY_GAP: f64 = 1.767e-3;
 
 /// Runs the experiment into `dir`.
 pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
-    let model = RigidBody::default();
+    let model = RigidBody::default().prepare();
     let x0 = model.point_paper();
     let dt = args.dt.unwrap_or(1e-4);
     let t_end = args.t_end.unwrap_or(1000.0);
