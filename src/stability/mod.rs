@@ -22,6 +22,7 @@
 //! equilibria over a range of Casimir levels and reports, per branch, the ranges of ρ where each
 //! verdict holds, with the boundaries located by bisection.
 
+pub mod canonical;
 mod system;
 
 pub use system::{LiePoissonSystem, Local};
