@@ -76,9 +76,9 @@ fn bounds_hold_along_integrated_orbits_and_drift_scales_as_predicted() {
     assert_eq!(small.best_order, Some(6));
     assert!(small.orders[1].gradient.unwrap().lower > 50.0 * small.orders[0].gradient.unwrap().lower);
     // drift of Σ I over t ≤ 30 ∝ d0^e with e = N + 1 (measured 5.1 and 7.9 over 0.0025…0.01)
-    let e: Vec<(usize, f64, usize)> = report.drift_exponents.clone();
+    let e = report.drift_exponents.clone();
     assert_eq!(e.len(), 2);
-    for (n, fitted, predicted) in e {
+    for (n, fitted, predicted, _) in e {
         assert_eq!(predicted, n + 1);
         assert!((fitted - predicted as f64).abs() < 1.0, "N {n}: {fitted}");
     }

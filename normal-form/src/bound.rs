@@ -161,6 +161,29 @@ impl Bound {
     pub fn time(&self, rho0: f64, rho1: f64) -> Time {
         self.time_with(rho0, rho1, QUADRATURE_INTERVALS)
     }
+    /// An upper bound on ρ(t) for ρ(0) ≤ ρ₀: the ρ where the lower quadrature sum of
+    /// T(ρ₀, ρ) reaches t (bisection in log ρ to 1e-10 relative, rounded up), infinite if F
+    /// blows up first (T(ρ₀, 1e6·ρ₀) < t).
+    pub fn reach(&self, rho0: f64, t: f64) -> f64 {
+        let lower = |rho: f64| self.time(rho0, rho).lower;
+        let mut hi = 2.0 * rho0;
+        while lower(hi) < t {
+            hi *= 2.0;
+            if hi > 1e6 * rho0 {
+                return f64::INFINITY;
+            }
+        }
+        let mut lo = rho0;
+        while hi / lo - 1.0 > 1e-10 {
+            let mid = (lo * hi).sqrt();
+            if lower(mid) < t {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        hi
+    }
 }
 
 /// How distances from the equilibrium are measured.
@@ -360,4 +383,72 @@ pub fn tube_radii(
         at_rho1,
         samples: dirs.len(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::normal_form::RemainderPart;
+
+    fn bound(parts: &[(usize, f64)]) -> Bound {
+        let rem = Remainder {
+            degree: 12,
+            parts: parts
+                .iter()
+                .map(|&(degree, sum_abs)| RemainderPart {
+                    degree,
+                    terms: 1,
+                    sum_abs,
+                    radial: degree as f64 * sum_abs,
+                })
+                .collect(),
+        };
+        Bound::new(&rem, Norm::Gradient)
+    }
+
+    #[test]
+    fn quadrature_brackets_the_integral() {
+        // F = f ρ⁴ (s = 5): ∫ dρ/F = (ρ₀⁻³ − ρ₁⁻³)/(3f)
+        let b = bound(&[(5, 2.0)]);
+        let f = 5.0 * 2f64.powf(-2.0) * 2.0;
+        assert!((b.eval(0.1) - f * 1e-4).abs() < 1e-18);
+        let exact = (0.1f64.powi(-3) - 0.2f64.powi(-3)) / (3.0 * f);
+        let t = b.time(0.1, 0.2);
+        assert!(t.lower <= exact && exact <= t.upper, "{t:?} {exact}");
+        assert!(t.upper - t.lower < 1e-3 * exact);
+        // reach inverts it, from above
+        let rho = b.reach(0.1, exact);
+        assert!(rho >= 0.2 && rho < 0.2 * (1.0 + 1e-3), "{rho}");
+        // two terms: positive and increasing, so still bracketed against a fine midpoint rule
+        let b = bound(&[(5, 2.0), (6, 30.0)]);
+        let t = b.time(0.01, 0.05);
+        let k = 200_000;
+        let h = 0.04 / k as f64;
+        let mid: f64 = (0..k).map(|i| h / b.eval(0.01 + (i as f64 + 0.5) * h)).sum();
+        assert!(t.lower <= mid && mid <= t.upper, "{t:?} {mid}");
+        assert_eq!(bound(&[]).time(0.1, 0.2).lower, f64::INFINITY);
+    }
+
+    #[test]
+    fn radial_norm_is_at_least_root_two_sharper() {
+        let parts = [(5, 1.0), (6, 3.0), (7, 10.0)];
+        let rem = Remainder {
+            degree: 7,
+            parts: parts
+                .iter()
+                .map(|&(degree, sum_abs)| RemainderPart {
+                    degree,
+                    terms: 1,
+                    sum_abs,
+                    // worst case ||a| − |b|| = s
+                    radial: degree as f64 * sum_abs,
+                })
+                .collect(),
+        };
+        let (g, r) = (Bound::new(&rem, Norm::Gradient), Bound::new(&rem, Norm::Radial));
+        for rho in [1e-3, 0.1, 1.0] {
+            let ratio = g.eval(rho) / r.eval(rho);
+            assert!((ratio - std::f64::consts::SQRT_2).abs() < 1e-12, "{ratio}");
+        }
+    }
 }

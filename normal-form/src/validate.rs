@@ -4,6 +4,8 @@
 
 use crate::bound::{distance, point_at, Bound, Metric};
 use crate::error::NormalFormError;
+use crate::scalar::Real;
+use crate::Dd;
 use crate::hamiltonian::{taylor, HamiltonianFn};
 use crate::monomial::MonomialTable;
 use crate::normal_form::NormalForm;
@@ -156,10 +158,19 @@ pub struct TubeOrbit {
     pub rho_max: Vec<f64>,
     /// max over the samples of |Σ I_k(t) − Σ I_k(0)| = |ρ(t)² − ρ(0)²|/2, per chart.
     pub action_drift: Vec<f64>,
-    /// max over the samples of T⁺(ρ(0), max_{s≤t} ρ(s)) / t, T⁺ the upper quadrature sum
-    /// (64 intervals) of the chart's bound: the bound holds along the orbit iff this is ≤ 1.
+    /// max over the samples of T⁺(ρ(0), ρ_e(t)) / t, T⁺ the upper quadrature sum (64
+    /// intervals) of the chart's bound and ρ_e(t) the largest ρ so far with the integration
+    /// noise taken off (`ρ_e² = ρ(0)² + 2 max(0, (ρ_max² − ρ(0)²)/2 − noise(t))`): the bound
+    /// holds along the orbit, as far as the integration resolves, iff this is ≤ 1.
     pub worst_ratio: Vec<f64>,
+    /// The integration noise on Σ I_k: [`NOISE_FACTOR`] · max_t |H(t) − H(0)| / min_k ω_k
+    /// (H in double-double; it is conserved exactly, so its change is integration error, and
+    /// an error δI_k in the actions changes H by about ω_k δI_k).
+    pub noise: f64,
 }
+
+/// The safety factor of [`TubeOrbit::noise`].
+pub const NOISE_FACTOR: f64 = 10.0;
 
 /// Unit directions of initial points in the linear normal coordinates (Q, P): every action
 /// split `s` on the simplex grid of step `1/splits` (s_k ≥ 0, Σ s_k = 1) and every phase
@@ -282,10 +293,22 @@ pub fn tube_orbits<H: HamiltonianFn + ?Sized>(
             rho_start,
             action_drift: vec![0.0; charts.len()],
             worst_ratio: vec![0.0; charts.len()],
+            noise: 0.0,
         };
+        let energy = |z: &[f64]| -> Dd {
+            let zd: Vec<Dd> = z.iter().map(|&x| Dd::new(x)).collect();
+            h.eval(&zd)
+        };
+        let h0 = energy(&z0);
+        let omega_min = first
+            .frequencies_linear()
+            .into_iter()
+            .fold(f64::INFINITY, f64::min);
         let mut failure = None;
         orbit_with(h, &z0, &times, run.tol, &mut |t, z| {
             orbit.t_end = t;
+            let dh = (energy(z) - h0).to_f64().abs();
+            orbit.noise = orbit.noise.max(NOISE_FACTOR * dh / omega_min);
             for (c, (nf, bound)) in charts.iter().enumerate() {
                 let rho = match rho_of(nf, z) {
                     Ok(r) => r,
@@ -296,12 +319,12 @@ pub fn tube_orbits<H: HamiltonianFn + ?Sized>(
                 };
                 let r0 = orbit.rho_start[c];
                 orbit.action_drift[c] = orbit.action_drift[c].max(0.5 * (rho * rho - r0 * r0).abs());
-                if rho > orbit.rho_max[c] {
-                    orbit.rho_max[c] = rho;
-                    if t > 0.0 {
-                        let needed = bound.time_with(r0, rho, 64).upper;
-                        orbit.worst_ratio[c] = orbit.worst_ratio[c].max(needed / t);
-                    }
+                orbit.rho_max[c] = orbit.rho_max[c].max(rho);
+                let excess = 0.5 * (orbit.rho_max[c].powi(2) - r0 * r0) - orbit.noise;
+                if t > 0.0 && excess > 0.0 {
+                    let rho_e = (r0 * r0 + 2.0 * excess).sqrt();
+                    let needed = bound.time_with(r0, rho_e, 64).upper;
+                    orbit.worst_ratio[c] = orbit.worst_ratio[c].max(needed / t);
                 }
             }
             if distance(first, z, run.metric) > run.d1 {

@@ -8,6 +8,7 @@ mod plot;
 mod run;
 mod sim;
 mod stability;
+mod stability_figure;
 mod sweep;
 
 use clap::{Parser, Subcommand};

@@ -71,6 +71,9 @@ pub struct CanonicalArgs {
     /// With --validate: integrate to this time.
     #[arg(long, default_value_t = 200.0)]
     pub horizon: f64,
+    /// With --validate: write the figure `stability_time.svg`/`.png` into this directory.
+    #[arg(long, value_name = "DIR", requires = "validate")]
+    pub figure: Option<std::path::PathBuf>,
     /// Canonical models: print CSV (one row per tube and order).
     #[arg(long, conflicts_with = "json")]
     pub csv: bool,
@@ -229,7 +232,15 @@ fn run_canonical(args: &StabilityArgs, model: &lasalle_codegen::Model) -> CliRes
             ..Validation::default()
         }),
     };
+    if let Some(dir) = &c.figure {
+        if !dir.is_dir() {
+            return Err(format!("--figure {}: not a directory", dir.display()).into());
+        }
+    }
     let report = analyse(model, &params, &opts)?;
+    if let Some(dir) = &c.figure {
+        super::stability_figure::write(&report, dir)?;
+    }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else if c.csv {

@@ -132,6 +132,9 @@ pub struct Measured {
     pub worst_ratio: f64,
     /// max over the orbits of |Σ I(t) − Σ I(0)| in the normal coordinates of order N.
     pub action_drift: f64,
+    /// What the gradient bound allows for it over the horizon: (ρ⁺² − ρ₀²)/2 with ρ⁺ the
+    /// largest ρ reachable from ρ₀ by then ([`Bound::reach`]).
+    pub drift_bound: f64,
 }
 
 /// One tube.
@@ -160,6 +163,9 @@ pub struct TubeValidation {
     pub first_exit: Option<f64>,
     /// How many orbits left the outer tube.
     pub exits: usize,
+    /// The integration noise on Σ I, max over the orbits ([`TubeOrbit::noise`]): drifts
+    /// below it are not resolved.
+    pub noise: f64,
     /// Per order.
     pub measured: Vec<Measured>,
 }
@@ -183,9 +189,10 @@ pub struct CanonicalReport {
     pub metric: Metric,
     /// The tubes.
     pub tubes: Vec<Tube>,
-    /// With validation at ≥ 2 radii: per order, the fitted exponent e of drift ∝ d₀ᵉ and the
-    /// prediction (the lowest remainder degree, since dI/dt ≤ ρF(ρ) ~ ρ^{N+1}).
-    pub drift_exponents: Vec<(usize, f64, usize)>,
+    /// With validation: per order with ≥ 2 radii where the drift is above the integration
+    /// noise, the fitted exponent e of drift ∝ d₀ᵉ, the prediction (the lowest remainder
+    /// degree, since dI/dt ≤ ρF(ρ) ~ ρ^{N+1}) and the number of radii used.
+    pub drift_exponents: Vec<(usize, f64, usize, usize)>,
 }
 
 /// The default remainder degree for order N: min(2N, N + 8).
@@ -373,9 +380,19 @@ pub fn analyse(
                     phases: v.phases,
                 };
                 let orbits = tube_orbits(&h, &charts, &run).map_err(at)?;
-                let tv = summarize(&orbits, &orders, v.horizon);
+                let allowed: Vec<f64> = forms
+                    .iter()
+                    .zip(&rows)
+                    .map(|((_, b, _, _), r)| {
+                        let reach = b.reach(r.rho0, v.horizon);
+                        0.5 * (reach * reach - r.rho0 * r.rho0)
+                    })
+                    .collect();
+                let tv = summarize(&orbits, &orders, &allowed, v.horizon);
                 for (k, m) in tv.measured.iter().enumerate() {
-                    drift[k].push((d0, m.action_drift));
+                    if m.action_drift > tv.noise {
+                        drift[k].push((d0, m.action_drift));
+                    }
                 }
                 Some(tv)
             }
@@ -388,14 +405,15 @@ pub fn analyse(
             validation,
         });
     }
-    if o.validate.is_some() && o.tubes.len() >= 2 {
-        report.drift_exponents = orders
-            .iter()
-            .zip(&drift)
-            .zip(&forms)
-            .map(|((&n, pts), (_, b, _, _))| (n, fit_slope(pts), b.lowest_degree().unwrap_or(0)))
-            .collect();
-    }
+    report.drift_exponents = orders
+        .iter()
+        .zip(&drift)
+        .zip(&forms)
+        .filter(|((_, pts), _)| pts.len() >= 2)
+        .map(|((&n, pts), (_, b, _, _))| {
+            (n, fit_slope(pts), b.lowest_degree().unwrap_or(0), pts.len())
+        })
+        .collect();
     Ok(report)
 }
 
@@ -413,13 +431,19 @@ fn report_of(nf: &NormalForm, metric: Metric) -> CanonicalReport {
     }
 }
 
-fn summarize(orbits: &[TubeOrbit], orders: &[usize], horizon: f64) -> TubeValidation {
+fn summarize(
+    orbits: &[TubeOrbit],
+    orders: &[usize],
+    allowed: &[f64],
+    horizon: f64,
+) -> TubeValidation {
     let exits: Vec<f64> = orbits.iter().filter_map(|o| o.exit_time).collect();
     TubeValidation {
         orbits: orbits.len(),
         horizon,
         first_exit: exits.iter().copied().reduce(f64::min),
         exits: exits.len(),
+        noise: orbits.iter().map(|o| o.noise).fold(0.0, f64::max),
         measured: orders
             .iter()
             .enumerate()
@@ -427,6 +451,7 @@ fn summarize(orbits: &[TubeOrbit], orders: &[usize], horizon: f64) -> TubeValida
                 order,
                 worst_ratio: orbits.iter().map(|o| o.worst_ratio[k]).fold(0.0, f64::max),
                 action_drift: orbits.iter().map(|o| o.action_drift[k]).fold(0.0, f64::max),
+                drift_bound: allowed[k],
             })
             .collect(),
     }
@@ -515,18 +540,33 @@ impl CanonicalReport {
                 );
                 let _ = writeln!(
                     s,
-                    "  {:>3} {:>22} {:>22}",
-                    "N", "max T(ρ(0),max ρ)/t", "max |ΔΣI| (order N)"
+                    "  integration noise on ΣI (10·max|ΔH|/ω_min): {:.1e}; ratios ≤ 1: the bound holds beyond it",
+                    v.noise
+                );
+                let _ = writeln!(
+                    s,
+                    "  {:>3} {:>22} {:>22} {:>22}",
+                    "N", "max T(ρ(0),max ρ)/t", "max |ΔΣI| (order N)", "bound on |ΔΣI|"
                 );
                 for m in &v.measured {
-                    let _ = writeln!(s, "  {:>3} {:>22.3e} {:>22.3e}", m.order, m.worst_ratio, m.action_drift);
+                    let _ = writeln!(
+                        s,
+                        "  {:>3} {:>22.3e} {:>22.3e} {:>22.3e}",
+                        m.order, m.worst_ratio, m.action_drift, m.drift_bound
+                    );
                 }
             }
         }
         if !self.drift_exponents.is_empty() {
-            let _ = writeln!(s, "\nAction drift |ΔΣI| ∝ d0^e over the radii:");
-            for (n, e, low) in &self.drift_exponents {
-                let _ = writeln!(s, "  N = {n:>2}: fitted e = {e:.2}, predicted {low} (ΔI ≤ ρ F(ρ) t ~ ρ^{low})");
+            let _ = writeln!(
+                s,
+                "\nAction drift |ΔΣI| ∝ d0^e over the radii where it is above the integration noise:"
+            );
+            for (n, e, low, count) in &self.drift_exponents {
+                let _ = writeln!(
+                    s,
+                    "  N = {n:>2}: fitted e = {e:.2} ({count} radii), predicted {low} (ΔI ≤ ρ F(ρ) t ~ ρ^{low})"
+                );
             }
         }
         s
@@ -534,7 +574,7 @@ impl CanonicalReport {
     /// One row per (tube, order).
     pub fn to_csv(&self) -> String {
         let mut s = String::from(
-            "d0,d1,metric,order,remainder_degree,rho0,rho1,t_gradient,t_radial,best,first_exit,worst_ratio,action_drift\n",
+            "d0,d1,metric,order,remainder_degree,rho0,rho1,t_gradient,t_radial,best,first_exit,worst_ratio,action_drift,drift_bound\n",
         );
         let metric = serde_json::to_value(self.metric)
             .ok()
@@ -545,7 +585,7 @@ impl CanonicalReport {
                 let m = t.validation.as_ref().map(|v| &v.measured[k]);
                 let opt = |x: Option<f64>| x.map_or(String::new(), |x| format!("{x:e}"));
                 s.push_str(&format!(
-                    "{:e},{:e},{metric},{},{},{:e},{:e},{},{},{},{},{},{}\n",
+                    "{:e},{:e},{metric},{},{},{:e},{:e},{},{},{},{},{},{},{}\n",
                     t.d0,
                     t.d1,
                     r.order,
@@ -558,6 +598,7 @@ impl CanonicalReport {
                     opt(t.validation.as_ref().and_then(|v| v.first_exit)),
                     opt(m.map(|m| m.worst_ratio)),
                     opt(m.map(|m| m.action_drift)),
+                    opt(m.map(|m| m.drift_bound)),
                 ));
             }
         }
