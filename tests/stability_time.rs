@@ -74,7 +74,9 @@ fn bounds_hold_along_integrated_orbits_and_drift_scales_as_predicted() {
     // at the smallest radius the bound grows with the order: 2.6e2, 3.0e4
     let small = &report.tubes[2];
     assert_eq!(small.best_order, Some(6));
-    assert!(small.orders[1].gradient.unwrap().lower > 50.0 * small.orders[0].gradient.unwrap().lower);
+    assert!(
+        small.orders[1].gradient.unwrap().lower > 50.0 * small.orders[0].gradient.unwrap().lower
+    );
     // drift of Σ I over t ≤ 30 ∝ d0^e with e = N + 1 (measured 5.1 and 7.9 over 0.0025…0.01)
     let e = report.drift_exponents.clone();
     assert_eq!(e.len(), 2);
@@ -97,7 +99,11 @@ fn verdicts_at_l4() {
     }
     assert!((r.condition.unwrap() - 29.558).abs() < 1e-3);
     let r = run(1.02 * mu_routh(), &none).unwrap();
-    assert!(matches!(r.verdict, Verdict::LinearlyUnstable { .. }), "{:?}", r.verdict);
+    assert!(
+        matches!(r.verdict, Verdict::LinearlyUnstable { .. }),
+        "{:?}",
+        r.verdict
+    );
     // 1:2 resonance at μ ≈ 0.0242939
     let r = run(0.024293897, &none).unwrap();
     match &r.verdict {
@@ -108,11 +114,12 @@ fn verdicts_at_l4() {
 
 #[test]
 fn errors_are_located() {
-    let err = |tubes: &[(f64, f64)], metric, mu| {
-        run(mu, &options(tubes, 6, metric)).unwrap_err()
-    };
+    let err = |tubes: &[(f64, f64)], metric, mu| run(mu, &options(tubes, 6, metric)).unwrap_err();
     let e = err(&[(1e-3, 2e-3)], Metric::Euclidean, EARTH_MOON_MU);
-    assert!(e.contains("condition number 29.6") && e.contains("linear-normal"), "{e}");
+    assert!(
+        e.contains("condition number 29.6") && e.contains("linear-normal"),
+        "{e}"
+    );
     let e = err(&[(2e-3, 1e-3)], Metric::LinearNormal, EARTH_MOON_MU);
     assert!(e.contains("0 < d0 < d1"), "{e}");
     let e = err(&[(1e-3, 2e-3)], Metric::LinearNormal, 1.02 * mu_routh());

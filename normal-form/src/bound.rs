@@ -348,7 +348,9 @@ pub fn tube_radii(
     metric: Metric,
 ) -> Result<TubeRadii, NormalFormError> {
     let map = nf.to_normal_map.as_ref().ok_or_else(|| {
-        NormalFormError::Invalid("the normal form has no transformation to normal coordinates".into())
+        NormalFormError::Invalid(
+            "the normal form has no transformation to normal coordinates".into(),
+        )
     })?;
     let d = 2 * nf.n_dof;
     let rho = |u: &[f64], dist: f64| -> f64 {
@@ -365,7 +367,8 @@ pub fn tube_radii(
     let dirs = sphere_directions(d, SPHERE_SAMPLES);
     let extreme = |dist: f64, sign: f64| -> (Vec<f64>, f64) {
         let f = |u: &[f64]| sign * rho(u, dist);
-        let mut scored: Vec<(f64, usize)> = dirs.iter().enumerate().map(|(i, u)| (f(u), i)).collect();
+        let mut scored: Vec<(f64, usize)> =
+            dirs.iter().enumerate().map(|(i, u)| (f(u), i)).collect();
         scored.sort_by(|a, b| b.0.total_cmp(&a.0));
         scored
             .iter()
@@ -424,7 +427,9 @@ mod tests {
         let t = b.time(0.01, 0.05);
         let k = 200_000;
         let h = 0.04 / k as f64;
-        let mid: f64 = (0..k).map(|i| h / b.eval(0.01 + (i as f64 + 0.5) * h)).sum();
+        let mid: f64 = (0..k)
+            .map(|i| h / b.eval(0.01 + (i as f64 + 0.5) * h))
+            .sum();
         assert!(t.lower <= mid && mid <= t.upper, "{t:?} {mid}");
         assert_eq!(bound(&[]).time(0.1, 0.2).lower, f64::INFINITY);
     }
@@ -445,7 +450,10 @@ mod tests {
                 })
                 .collect(),
         };
-        let (g, r) = (Bound::new(&rem, Norm::Gradient), Bound::new(&rem, Norm::Radial));
+        let (g, r) = (
+            Bound::new(&rem, Norm::Gradient),
+            Bound::new(&rem, Norm::Radial),
+        );
         for rho in [1e-3, 0.1, 1.0] {
             let ratio = g.eval(rho) / r.eval(rho);
             assert!((ratio - std::f64::consts::SQRT_2).abs() < 1e-12, "{ratio}");

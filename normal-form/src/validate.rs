@@ -4,8 +4,6 @@
 
 use crate::bound::{distance, point_at, Bound, Metric};
 use crate::error::NormalFormError;
-use crate::scalar::Real;
-use crate::Dd;
 use crate::hamiltonian::{taylor, HamiltonianFn};
 use crate::monomial::MonomialTable;
 use crate::normal_form::NormalForm;
@@ -163,24 +161,21 @@ pub struct TubeOrbit {
     /// noise taken off (`ρ_e² = ρ(0)² + 2 max(0, (ρ_max² − ρ(0)²)/2 − noise(t))`): the bound
     /// holds along the orbit, as far as the integration resolves, iff this is ≤ 1.
     pub worst_ratio: Vec<f64>,
-    /// The integration noise on Σ I_k: [`NOISE_FACTOR`] · max_t |H(t) − H(0)| / min_k ω_k
-    /// (H in double-double; it is conserved exactly, so its change is integration error, and
-    /// an error δI_k in the actions changes H by about ω_k δI_k).
+    /// The integration noise on Σ I_k up to the end: max_{s≤t} of |W_f(s) − W_c(s)| with
+    /// `W = |A⁻¹(z − z_eq)|²/2` (Σ I_k in the linear normal coordinates) along this orbit
+    /// (rtol = atol = `tol`) and along a second one at [`COARSE_FACTOR`]·`tol`: DOPRI5's error
+    /// grows with the tolerance, so this overestimates the error of the first orbit.
     pub noise: f64,
 }
 
-/// The safety factor of [`TubeOrbit::noise`].
-pub const NOISE_FACTOR: f64 = 10.0;
+/// The tolerance of the comparison orbit of [`TubeOrbit::noise`], relative to `tol`.
+pub const COARSE_FACTOR: f64 = 10.0;
 
 /// Unit directions of initial points in the linear normal coordinates (Q, P): every action
 /// split `s` on the simplex grid of step `1/splits` (s_k ≥ 0, Σ s_k = 1) and every phase
 /// combination on a grid of `phases` angles per mode: `Q_k = √s_k cos φ_k`,
 /// `P_k = √s_k sin φ_k`. Modes with s_k = 0 get one phase only.
-pub fn split_phase_directions(
-    n: usize,
-    splits: usize,
-    phases: usize,
-) -> Vec<(Vec<f64>, Vec<f64>)> {
+pub fn split_phase_directions(n: usize, splits: usize, phases: usize) -> Vec<(Vec<f64>, Vec<f64>)> {
     fn simplex(n: usize, left: usize, cur: &mut Vec<usize>, out: &mut Vec<Vec<usize>>) {
         if cur.len() + 1 == n {
             cur.push(left);
@@ -295,20 +290,23 @@ pub fn tube_orbits<H: HamiltonianFn + ?Sized>(
             worst_ratio: vec![0.0; charts.len()],
             noise: 0.0,
         };
-        let energy = |z: &[f64]| -> Dd {
-            let zd: Vec<Dd> = z.iter().map(|&x| Dd::new(x)).collect();
-            h.eval(&zd)
-        };
-        let h0 = energy(&z0);
-        let omega_min = first
-            .frequencies_linear()
-            .into_iter()
-            .fold(f64::INFINITY, f64::min);
+        let linear_actions =
+            |z: &[f64]| 0.5 * first.to_linear_normal(z).iter().map(|x| x * x).sum::<f64>();
+        let mut coarse = Vec::with_capacity(times.len());
+        orbit_with(h, &z0, &times, COARSE_FACTOR * run.tol, &mut |_, z| {
+            coarse.push(linear_actions(z));
+            true
+        })?;
+        let mut sample = 0;
         let mut failure = None;
         orbit_with(h, &z0, &times, run.tol, &mut |t, z| {
             orbit.t_end = t;
-            let dh = (energy(z) - h0).to_f64().abs();
-            orbit.noise = orbit.noise.max(NOISE_FACTOR * dh / omega_min);
+            // the coarse orbit may have stopped earlier (integration failure): then the noise
+            // stays at its last value
+            if let Some(&c) = coarse.get(sample) {
+                orbit.noise = orbit.noise.max((linear_actions(z) - c).abs());
+            }
+            sample += 1;
             for (c, (nf, bound)) in charts.iter().enumerate() {
                 let rho = match rho_of(nf, z) {
                     Ok(r) => r,
@@ -318,7 +316,8 @@ pub fn tube_orbits<H: HamiltonianFn + ?Sized>(
                     }
                 };
                 let r0 = orbit.rho_start[c];
-                orbit.action_drift[c] = orbit.action_drift[c].max(0.5 * (rho * rho - r0 * r0).abs());
+                orbit.action_drift[c] =
+                    orbit.action_drift[c].max(0.5 * (rho * rho - r0 * r0).abs());
                 orbit.rho_max[c] = orbit.rho_max[c].max(rho);
                 let excess = 0.5 * (orbit.rho_max[c].powi(2) - r0 * r0) - orbit.noise;
                 if t > 0.0 && excess > 0.0 {

@@ -201,12 +201,19 @@ fn run_canonical(args: &StabilityArgs, model: &lasalle_codegen::Model) -> CliRes
         .iter()
         .map(|t| match parse_numbers(t) {
             Ok(v) if v.len() == 2 => Ok((v[0], v[1])),
-            Ok(v) => Err(format!("invalid --time-bound `{t}`: expected D0,D1, got {} numbers", v.len())),
+            Ok(v) => Err(format!(
+                "invalid --time-bound `{t}`: expected D0,D1, got {} numbers",
+                v.len()
+            )),
             Err(e) => Err(format!("invalid --time-bound `{t}`: {e}")),
         })
         .collect::<Result<Vec<_>, _>>()?;
     if !(c.horizon > 0.0 && c.horizon.is_finite()) {
-        return Err(format!("invalid --horizon {}: must be a positive finite time", c.horizon).into());
+        return Err(format!(
+            "invalid --horizon {}: must be a positive finite time",
+            c.horizon
+        )
+        .into());
     }
     if c.validate && tubes.is_empty() {
         return Err("--validate needs --time-bound D0,D1".into());

@@ -97,7 +97,9 @@ impl std::fmt::Display for Verdict {
                  D₄ = {d4:.6} ± {d4_error:.1e} ≠ 0, so invariant tori enclose the equilibrium on \
                  every nearby energy level)"
             ),
-            Verdict::NotDecided { why } => write!(f, "linearly stable (elliptic); not decided: {why}"),
+            Verdict::NotDecided { why } => {
+                write!(f, "linearly stable (elliptic); not decided: {why}")
+            }
         }
     }
 }
@@ -299,7 +301,10 @@ pub fn analyse(
                     }
                 } else {
                     Verdict::NotDecided {
-                        why: format!("D₄ = {:.3e} is zero within its error {err:.1e}", am.d4.value),
+                        why: format!(
+                            "D₄ = {:.3e} is zero within its error {err:.1e}",
+                            am.d4.value
+                        ),
                     }
                 }
             }
@@ -321,8 +326,14 @@ pub fn analyse(
             .remainder_degree
             .map_or(default_remainder_degree(n), |m| m.max(n + 1));
         let nf = normalize_model(model, params, &o.point, &options(n, Some(m))).map_err(at)?;
-        let bound = Bound::new(nf.remainder.as_ref().expect("remainder requested"), Norm::Gradient);
-        let radial = Bound::new(nf.remainder.as_ref().expect("remainder requested"), Norm::Radial);
+        let bound = Bound::new(
+            nf.remainder.as_ref().expect("remainder requested"),
+            Norm::Gradient,
+        );
+        let radial = Bound::new(
+            nf.remainder.as_ref().expect("remainder requested"),
+            Norm::Radial,
+        );
         forms.push((nf, bound, radial, m));
     }
     let h = ModelHamiltonian::new(model, params).map_err(at)?;
@@ -486,7 +497,11 @@ impl CanonicalReport {
     pub fn to_table(&self) -> String {
         use std::fmt::Write;
         let mut s = String::new();
-        let _ = writeln!(s, "{}: canonical Hamiltonian, equilibrium {:?}", self.model, self.equilibrium);
+        let _ = writeln!(
+            s,
+            "{}: canonical Hamiltonian, equilibrium {:?}",
+            self.model, self.equilibrium
+        );
         if !self.omega.is_empty() {
             let _ = writeln!(
                 s,
@@ -509,9 +524,9 @@ impl CanonicalReport {
                 "N", "M", "prec", "ρ0", "ρ1", "R≥", "T (gradient)", "T (radial)", "quad gap"
             );
             for r in &t.orders {
-                let gap = r
-                    .gradient
-                    .map_or(String::new(), |g| format!("{:.1e}", g.upper / g.lower - 1.0));
+                let gap = r.gradient.map_or(String::new(), |g| {
+                    format!("{:.1e}", g.upper / g.lower - 1.0)
+                });
                 let _ = writeln!(
                     s,
                     "  {:>3} {:>3} {:>5} {:>12.5e} {:>12.5e} {:>5} {:>16} {:>16} {:>9}{}",
@@ -524,7 +539,11 @@ impl CanonicalReport {
                     fmt_time(r.gradient),
                     fmt_time(r.radial),
                     gap,
-                    if Some(r.order) == t.best_order { "  ← best" } else { "" }
+                    if Some(r.order) == t.best_order {
+                        "  ← best"
+                    } else {
+                        ""
+                    }
                 );
             }
             if let Some(v) = &t.validation {
@@ -540,7 +559,7 @@ impl CanonicalReport {
                 );
                 let _ = writeln!(
                     s,
-                    "  integration noise on ΣI (10·max|ΔH|/ω_min): {:.1e}; ratios ≤ 1: the bound holds beyond it",
+                    "  integration noise on ΣI (this DOPRI5 run against one at 10× the tolerance): {:.1e}; ratios ≤ 1: the bound holds beyond it",
                     v.noise
                 );
                 let _ = writeln!(

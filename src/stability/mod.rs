@@ -41,7 +41,8 @@ pub enum StabilityError {
         /// Model name.
         model: String,
     },
-    /// A canonical Hamiltonian model: the normal-form based analysis is not implemented yet.
+    /// A canonical Hamiltonian model given to the Lie–Poisson analysis (its analysis is
+    /// [`canonical::analyse`]).
     CanonicalNotYet {
         /// Model name.
         model: String,
@@ -77,9 +78,9 @@ impl fmt::Display for StabilityError {
             ),
             StabilityError::CanonicalNotYet { model } => write!(
                 f,
-                "{SUPPORTED}; `{model}` is canonical (structure canonical(q, p)): the normal-form \
-                 based stability analysis of canonical equilibria is not implemented yet \
-                 (see `lasalle normal-form` for the Birkhoff normal form)"
+                "{SUPPORTED}; `{model}` is canonical (structure canonical(q, p)): its \
+                 equilibria are analysed by `stability::canonical::analyse` (the normal-form \
+                 verdicts and time bounds of `lasalle stability`)"
             ),
             StabilityError::Unsupported { model, why } => {
                 write!(f, "{SUPPORTED}; `{model}` cannot be analysed: {why}")
