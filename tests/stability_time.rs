@@ -60,7 +60,13 @@ fn bounds_hold_along_integrated_orbits_and_drift_scales_as_predicted() {
         // KAM-stable at Earth–Moon)
         assert!(v.first_exit.is_none_or(|e| e >= t), "d0 {}: {v:?}", tube.d0);
         for (r, m) in tube.orders.iter().zip(&v.measured) {
-            // dρ/dt ≤ F(ρ) along every orbit, in the normal coordinates of every order
+            // dρ/dt ≤ F(ρ) along every orbit, in the normal coordinates of every order (all
+            // resolved at these radii and orders)
+            assert!(
+                m.resolved,
+                "d0 {} N {}: {m:?} noise {}",
+                tube.d0, r.order, v.noise
+            );
             assert!(m.worst_ratio <= 1.0, "d0 {} N {}: {m:?}", tube.d0, r.order);
             let (g, rad) = (r.gradient.unwrap(), r.radial.unwrap());
             assert!(g.lower <= g.upper && g.upper < 1.01 * g.lower);
