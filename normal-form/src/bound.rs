@@ -60,7 +60,7 @@
 //!
 //! Rigorous, given exact coefficients: the comparison argument, the norm inequalities, and the
 //! quadrature bracket. Not rigorous: (i) H ∘ φ is truncated at degree M (the terms of degree
-//! > M are dropped; they are O(ρ^M) against O(ρᴺ), but no bound on them is computed);
+//! above M are dropped; they are O(ρ^M) against O(ρᴺ), but no bound on them is computed);
 //! (ii) the coordinates used are the maps truncated at degree M−1, not the exact conjugacy
 //! (the series need not converge; the difference is O(ρ^M)); (iii) the extrema ρ₀, ρ₁ over
 //! the spheres are found by sampling (1000 directions) and local refinement (40 projected
@@ -421,7 +421,7 @@ mod tests {
         assert!(t.upper - t.lower < 1e-3 * exact);
         // reach inverts it, from above
         let rho = b.reach(0.1, exact);
-        assert!(rho >= 0.2 && rho < 0.2 * (1.0 + 1e-3), "{rho}");
+        assert!((0.2..0.2 * (1.0 + 1e-3)).contains(&rho), "{rho}");
         // two terms: positive and increasing, so still bracketed against a fine midpoint rule
         let b = bound(&[(5, 2.0), (6, 30.0)]);
         let t = b.time(0.01, 0.05);
