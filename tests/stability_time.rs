@@ -136,3 +136,70 @@ fn errors_are_located() {
     let e = err(&[(3e-2, 6e-2)], Metric::LinearNormal, EARTH_MOON_MU);
     assert!(e.contains("too wide"), "{e}");
 }
+
+fn lasalle(args: &[&str]) -> (bool, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lasalle"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run lasalle");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn command_line() {
+    let (ok, out, err) = lasalle(&["stability", "models/cr3bp.lsl"]);
+    assert!(ok, "{err}");
+    assert!(
+        out.contains("Arnold–Moser") && out.contains("cond(A) = 29.558"),
+        "{out}"
+    );
+    let (ok, out, err) = lasalle(&[
+        "stability",
+        "models/cr3bp.lsl",
+        "--param",
+        "mu=0.01215058560962404",
+        "--metric",
+        "linear-normal",
+        "--time-bound",
+        "5e-3,1e-2",
+        "--order",
+        "6",
+        "--csv",
+    ]);
+    assert!(ok, "{err}");
+    let rows: Vec<&str> = out.lines().collect();
+    assert_eq!(rows.len(), 3, "{out}");
+    assert!(rows[0].starts_with("d0,d1,metric,order"));
+    // N = 6 is the best order here (T = 5.6e2 against 19 at N = 4)
+    assert!(rows[2].starts_with("5e-3,1e-2,linear-normal,6,12,") && rows[2].contains(",true,"));
+    let (ok, out, _) = lasalle(&[
+        "stability",
+        "models/cr3bp.lsl",
+        "--metric",
+        "linear-normal",
+        "--time-bound",
+        "5e-3,1e-2",
+        "--order",
+        "4",
+        "--json",
+    ]);
+    assert!(ok);
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["verdict"]["kind"], "stable-arnold-moser");
+    assert_eq!(v["tubes"][0]["best_order"], 4);
+    for (args, msg) in [
+        (&["--time-bound", "1e-3"][..], "expected D0,D1"),
+        (&["--time-bound", "1e-3,x"][..], "not a finite number"),
+        (&["--validate"][..], "--validate needs --time-bound"),
+        (&["--time-bound", "1e-3,2e-3"][..], "condition number 29.6"),
+    ] {
+        let all = [&["stability", "models/cr3bp.lsl"][..], args].concat();
+        let (ok, _, err) = lasalle(&all);
+        assert!(!ok && err.contains(msg), "{args:?}: {err}");
+    }
+}
