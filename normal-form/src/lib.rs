@@ -187,6 +187,7 @@
 //! without the vertical action equal to the planar model's).
 #![warn(missing_docs)]
 
+pub mod bound;
 mod complex;
 mod dd;
 mod emit;
@@ -215,8 +216,8 @@ pub use model::{normalize_model, normalize_model_file, ModelHamiltonian, ModelPo
 pub use monomial::{binomial, MonomialTable};
 pub use normal_form::{
     normalize, ActionTerm, ArnoldMoser, DegreeError, Diagnostics, ErrorEstimate, NormalForm,
-    Options, Point, PolyMap, Precision, Progress, ResonantTerm, SmallDivisor, Stage, Term, Timings,
-    Value, DEFAULT_MAX_RELATIVE_ERROR, MAX_ORDER,
+    Options, Point, PolyMap, Precision, Progress, Remainder, RemainderPart, ResonantTerm,
+    SmallDivisor, Stage, Term, Timings, Value, DEFAULT_MAX_RELATIVE_ERROR, MAX_ORDER,
 };
 pub use poly::Poly;
 pub use scalar::{Coeff, Real};

@@ -301,7 +301,8 @@ pub(crate) struct Divisor<R> {
 
 /// Output of the normalisation.
 pub(crate) struct LieOutput<R> {
-    /// Normalised Hamiltonian Z (in u), degrees 0 and 2…N.
+    /// Normalised Hamiltonian Z (in u), degrees 0 and 2…N, and the transformed but not
+    /// normalised degrees N+1…M.
     pub z: Poly<Complex<R>>,
     /// Generators G_r (index r; empty for r < 3 or zero).
     pub generators: Vec<Vec<Complex<R>>>,
@@ -320,8 +321,10 @@ pub(crate) fn canonical_m(m: &[i32], sigma: &[i8]) -> (Vec<i32>, bool) {
     (v, flip)
 }
 
-/// Runs the normalisation of `h` (complex, degrees ≥ 2, H₂ = Σ λ_k x_k y_k) to degree N.
-/// `omega_dd`: the frequencies in double-double (the divisors are formed from them);
+/// Runs the normalisation of `h` (complex, degrees ≥ 2, H₂ = Σ λ_k x_k y_k) to degree
+/// `order` = N: generators G₃…G_N, and H transformed up to the table's degree M ≥ N (the
+/// degrees N+1…M of the result are H ∘ φ_{G₃} ∘ … ∘ φ_{G_N} there, not normalised: the
+/// remainder). `omega_dd`: the frequencies in double-double (the divisors are formed from them);
 /// `is_resonant(m)` decides whether the term is kept (resonant normal form); it is only
 /// asked about canonical m; brackets with output degree ≤ `compensate_to` are accumulated in
 /// double-double ([`bracket_real_compensated`]); `on_degree(r)` is called before degree r is
@@ -329,6 +332,7 @@ pub(crate) fn canonical_m(m: &[i32], sigma: &[i8]) -> (Vec<i32>, bool) {
 #[allow(clippy::needless_range_loop)]
 pub(crate) fn normalize<R: Real>(
     mut h: Poly<Complex<R>>,
+    order: usize,
     omega_dd: &[Dd],
     sigma: &[i8],
     is_resonant: &dyn Fn(&[i32]) -> bool,
@@ -341,7 +345,7 @@ pub(crate) fn normalize<R: Real>(
     let mut generators = vec![Vec::new(); nmax + 1];
     let mut divisors: BTreeMap<Vec<i32>, Divisor<R>> = BTreeMap::new();
     h.set_part(1, Vec::new());
-    for r in 3..=nmax {
+    for r in 3..=order.min(nmax) {
         on_degree(r);
         let Some(hr) = h.part(r) else { continue };
         let hr = hr.to_vec();

@@ -159,6 +159,11 @@ pub struct Options {
     pub compensated_degree: usize,
     /// Called at each stage and before each degree of the Lie normalisation. Default: none.
     pub progress: Option<Progress>,
+    /// Also transform H to this degree M ≥ N without normalising beyond N, and keep the norms
+    /// of every term that is not a function of the actions ([`NormalForm::remainder`], the
+    /// input of [`crate::bound`]); the coordinate maps are then computed to degree M − 1.
+    /// Default: none.
+    pub remainder_degree: Option<usize>,
 }
 
 impl Default for Options {
@@ -177,6 +182,7 @@ impl Default for Options {
             basis_rotation: Vec::new(),
             compensated_degree: 12,
             progress: None,
+            remainder_degree: None,
         }
     }
 }
@@ -226,6 +232,11 @@ impl Options {
     /// Turns the coordinate transformation on or off.
     pub fn transform(mut self, t: bool) -> Self {
         self.transform = t;
+        self
+    }
+    /// Keeps the remainder up to degree `m` ([`Options::remainder_degree`]).
+    pub fn remainder_degree(mut self, m: usize) -> Self {
+        self.remainder_degree = Some(m);
         self
     }
 }
@@ -423,6 +434,33 @@ impl PolyMap {
     }
 }
 
+/// One degree s of the remainder R: the terms `c x^a y^b` of H in the complex normal
+/// coordinates with `a ≠ b` (not functions of the actions). With `|x_k| = |y_k| = √I_k` these
+/// two sums are what [`crate::bound`] needs.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct RemainderPart {
+    /// The degree s.
+    pub degree: usize,
+    /// Number of non-zero terms.
+    pub terms: usize,
+    /// Σ |c_ab|.
+    pub sum_abs: f64,
+    /// Σ ||a|₁ − |b|₁|·|c_ab| (terms with |a|₁ = |b|₁ exchange action between the modes but
+    /// do not change Σ I_k).
+    pub radial: f64,
+}
+
+/// Everything in H ∘ φ (H in the normal coordinates of order N) that is not a function of the
+/// actions, degrees 3…M: resonant terms of degree ≤ N (resonant mode) and all the
+/// non-action terms of degrees N+1…M.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Remainder {
+    /// M, the highest degree kept.
+    pub degree: usize,
+    /// The non-zero degrees, increasing.
+    pub parts: Vec<RemainderPart>,
+}
+
 /// A Birkhoff normal form and everything needed to use it.
 ///
 /// Conventions (see the crate docs): normal coordinates `(Q, P)` with
@@ -465,10 +503,14 @@ pub struct NormalForm {
     pub d4: Option<ArnoldMoser>,
     /// Checks and timings.
     pub diagnostics: Diagnostics,
-    /// (Q', P') as polynomials in (Q, P) = A⁻¹(z − z_eq), degree ≤ N−1.
+    /// The remainder (with [`Options::remainder_degree`]).
+    pub remainder: Option<Remainder>,
+    /// (Q', P') as polynomials in (Q, P) = A⁻¹(z − z_eq), degree ≤ N−1 (M−1 with
+    /// [`Options::remainder_degree`]).
     #[serde(skip)]
     pub to_normal_map: Option<PolyMap>,
-    /// (Q, P) as polynomials in (Q', P'), degree ≤ N−1; z = z_eq + A (Q, P).
+    /// (Q, P) as polynomials in (Q', P'), degree ≤ N−1 (M−1 with
+    /// [`Options::remainder_degree`]); z = z_eq + A (Q, P).
     #[serde(skip)]
     pub from_normal_map: Option<PolyMap>,
     /// A⁻¹
@@ -497,6 +539,7 @@ struct Raw<R> {
     generating_imag: f64,
     divisors: Vec<SmallDivisor>,
     d4: Option<[R; 4]>,
+    remainder: Option<Remainder>,
     to_normal: Option<Vec<Poly<R>>>,
     from_normal: Option<Vec<Poly<R>>>,
     transform_imag: f64,
@@ -621,6 +664,7 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(
     let n = h.n_dof();
     let d = 2 * n;
     let nmax = o.order;
+    let top = o.remainder_degree.unwrap_or(nmax).max(nmax);
     let (start, given) = match point {
         Point::Given(v) => (v, true),
         Point::Newton(v) => (v, false),
@@ -638,7 +682,7 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(
             gradient_norm: eq.initial_gradient,
         });
     }
-    let table = Arc::new(MonomialTable::new(d, nmax));
+    let table = Arc::new(MonomialTable::new(d, top));
     let hz = taylor(h, &eq.z, &table);
     if !hz.is_finite() {
         return Err(NormalFormError::NonFinite("the Taylor expansion"));
@@ -724,6 +768,7 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(
     let t = Instant::now();
     let out = lie::normalize(
         hc,
+        nmax,
         &lin_dd.omega,
         &lin.sigma,
         &is_res,
@@ -768,9 +813,36 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(
         hbar_imag = hbar_imag.max(dn.max_imag);
         degrees.push(dn);
     }
+    let mut remainder = o.remainder_degree.map(|_| Remainder {
+        degree: top,
+        parts: Vec::new(),
+    });
     for (k, i, zc) in out.z.terms() {
         let e = table.exponents(k, i);
-        if k >= 3 && e[..n] != e[n..] {
+        if k < 3 || e[..n] == e[n..] {
+            continue;
+        }
+        if let Some(rem) = remainder.as_mut() {
+            let c = zc.magnitude();
+            if c != 0.0 {
+                let split = |s: &[u8]| s.iter().map(|&x| x as i64).sum::<i64>();
+                let radial = (split(&e[..n]) - split(&e[n..])).unsigned_abs() as f64 * c;
+                match rem.parts.last_mut() {
+                    Some(p) if p.degree == k => {
+                        p.terms += 1;
+                        p.sum_abs += c;
+                        p.radial += radial;
+                    }
+                    _ => rem.parts.push(RemainderPart {
+                        degree: k,
+                        terms: 1,
+                        sum_abs: c,
+                        radial,
+                    }),
+                }
+            }
+        }
+        if k <= nmax {
             let (re, im) = zc.to_f64();
             resonant_terms.push(ResonantTerm {
                 x: e[..n].iter().map(|&x| x as u32).collect(),
@@ -834,7 +906,7 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(
     // transformations
     let (mut to_normal, mut from_normal, transform_imag) = (None, None, 0.0f64);
     if o.transform && nmax >= 2 {
-        let cap = nmax - 1;
+        let cap = top - 1;
         let fwd = lie::coordinate_maps(&table, &greal_parts, cap, true);
         let inv = lie::coordinate_maps(&table, &greal_parts, cap, false);
         // the generators in real form generate the same maps in (Q, P), since the
@@ -864,6 +936,7 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(
         generating_imag,
         divisors,
         d4,
+        remainder,
         to_normal,
         from_normal,
         transform_imag,
@@ -940,6 +1013,7 @@ fn assemble<R: Real, H: HamiltonianFn + ?Sized>(h: &H, raw: Raw<R>, o: &Options)
             timings: raw.timings,
             table_bytes: raw.table_bytes,
         },
+        remainder: raw.remainder,
         to_normal_map: map(raw.to_normal),
         from_normal_map: map(raw.from_normal),
         linear_inverse: to_f64_mat(&raw.ainv),
@@ -984,6 +1058,14 @@ fn validate_options(o: &Options) -> Result<(), NormalFormError> {
         if !(x > 0.0 && x <= 1.0) {
             return bad(format!(
                 "max_relative_error = {x}: must be in (0, 1] (or None for no check)"
+            ));
+        }
+    }
+    if let Some(m) = o.remainder_degree {
+        if m < o.order || m > MAX_ORDER {
+            return bad(format!(
+                "remainder_degree {m} outside {}…{MAX_ORDER} (at least the order)",
+                o.order
             ));
         }
     }
@@ -1093,6 +1175,7 @@ fn estimate_errors<H: HamiltonianFn + ?Sized>(
     let other_opts = Options {
         error_estimate: ErrorEstimate::None,
         transform: false,
+        remainder_degree: None,
         ..other_opts
     };
     Progress::report(&options.progress, Stage::Rerun(other_opts.precision));

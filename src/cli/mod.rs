@@ -10,6 +10,7 @@ mod plot;
 mod run;
 mod sim;
 mod stability;
+mod stability_figure;
 mod sweep;
 
 use clap::{Parser, Subcommand};
@@ -41,8 +42,9 @@ enum Command {
     Sweep(sweep::SweepArgs),
     /// Join the tables of a sharded sweep, checking that every row is there once.
     SweepMerge(sweep::MergeArgs),
-    /// Equilibria of a Lie–Poisson model and their stability (energy–Casimir, linearisation),
-    /// on a Casimir level and over a range of levels.
+    /// Stability of equilibria, the analysis chosen by the model's structure: Lie–Poisson
+    /// (energy–Casimir over Casimir levels), canonical (Arnold–Moser, time bounds for tubes
+    /// from the normal form), none (domains of attraction of a dissipative planar field).
     Stability(stability::StabilityArgs),
     /// CPU time of the JIT-compiled feedback field per state, one and k states per call, as
     /// one JSON line (for benchmarks against other integrators).

@@ -1,10 +1,15 @@
-//! `lasalle stability <model> [--param k=v …] [--casimir ρ | --at p1,p2,p3] [--range a:b]
-//! [--levels n] [--json]`: the equilibria of a Lie–Poisson model on a Casimir level (or at a
-//! given point) with their energy–Casimir / linear verdicts, and the verdict ranges of every
-//! branch of equilibria over a range of Casimir levels. See `docs/stability.md`.
+//! `lasalle stability <model> …`: one command, the analysis chosen by the model's structure
+//! (see `docs/stability.md`):
+//! - Lie–Poisson (`[--casimir ρ | --at p1,p2,p3] [--range a:b] [--levels n]`): the equilibria on
+//!   a Casimir level (or at a given point) with their energy–Casimir / linear verdicts, and the
+//!   verdict ranges of every branch of equilibria over a range of Casimir levels;
+//! - canonical (`[--time-bound d0,d1 …] [--order N] [--validate]`): the normal-form verdicts
+//!   and the time bounds of tubes around the equilibrium;
+//! - no Hamiltonian structure (`[--at x1,x2] [--plot FILE]`): domains of attraction of a
+//!   dissipative planar field.
 
 use clap::Args;
-use lasalle::stability::{self, Equilibrium, Family, Level, Options, StabilityError, Sweep};
+use lasalle::stability::{self, Equilibrium, Family, Level, Options, Sweep};
 use lasalle::{ModelInfo, Parameters};
 use lasalle_codegen::model::Structure;
 
@@ -24,8 +29,9 @@ pub struct StabilityArgs {
     /// first named point, else 1).
     #[arg(long, conflicts_with = "at")]
     pub casimir: Option<f64>,
-    /// Analyse this point instead (it must be an equilibrium): P1,P2,P3.
-    #[arg(long, allow_hyphen_values = true, value_name = "P1,P2,P3")]
+    /// Analyse this point instead (it must be an equilibrium): P1,P2,P3 for Lie–Poisson
+    /// models, x1,x2 for planar dissipative ones.
+    #[arg(long, allow_hyphen_values = true, value_name = "POINT")]
     pub at: Option<String>,
     /// The range of Casimir levels of the family summary, `a:b` (default: up to three times
     /// the largest of 1, |parameters| and the level).
@@ -43,6 +49,52 @@ pub struct StabilityArgs {
     /// Dissipative planar models: domain-of-attraction options.
     #[command(flatten)]
     pub attraction: super::attraction::AttractionArgs,
+    #[command(flatten)]
+    pub canonical: CanonicalArgs,
+}
+
+/// Arguments of `lasalle stability` for canonical models (see `docs/stability.md`).
+#[derive(Args, Debug)]
+pub struct CanonicalArgs {
+    /// Canonical models: bound the time to go from distance d0 to d1 of the equilibrium;
+    /// repeatable (one table per tube).
+    #[arg(long, value_name = "D0,D1")]
+    pub time_bound: Vec<String>,
+    /// Canonical models: the highest normal-form order N of the bounds (orders 4, 6, …, N).
+    #[arg(long, default_value_t = 12)]
+    pub order: usize,
+    /// Canonical models: the remainder degree M (default min(2N, N + 8) for each order N).
+    #[arg(long, value_name = "M")]
+    pub remainder_degree: Option<usize>,
+    /// Canonical models: how distances from the equilibrium are measured.
+    #[arg(long, value_enum, default_value = "euclidean")]
+    pub metric: MetricArg,
+    /// Canonical models: the equilibrium, a point of the model or a Newton start x1,x2,…
+    /// (default: the model's first point).
+    #[arg(long, allow_hyphen_values = true, value_name = "POINT|X1,X2,…")]
+    pub equilibrium: Option<String>,
+    /// Canonical models: integrate orbits from each inner sphere (all action splits and
+    /// phases) and compare with the bounds.
+    #[arg(long)]
+    pub validate: bool,
+    /// With --validate: integrate to this time.
+    #[arg(long, default_value_t = 200.0)]
+    pub horizon: f64,
+    /// With --validate: write the figure `stability_time.svg`/`.png` into this directory.
+    #[arg(long, value_name = "DIR", requires = "validate")]
+    pub figure: Option<std::path::PathBuf>,
+    /// Canonical models: print CSV (one row per tube and order).
+    #[arg(long, conflicts_with = "json")]
+    pub csv: bool,
+}
+
+/// `--metric`.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum MetricArg {
+    /// |x − x_eq| in the model's coordinates.
+    Euclidean,
+    /// |A⁻¹(x − x_eq)|: linear normal coordinates (the linear flow preserves it).
+    LinearNormal,
 }
 
 fn fmt_p(p: [f64; 3]) -> String {
@@ -136,20 +188,95 @@ fn print_sweep(s: &Sweep) {
     }
 }
 
+/// The canonical branch: normal-form verdicts and tube bounds.
+fn run_canonical(args: &StabilityArgs, model: &lasalle_codegen::Model) -> CliResult {
+    use lasalle::stability::canonical::{analyse, CanonicalOptions, Validation};
+    use lasalle_normal_form::bound::Metric;
+    use lasalle_normal_form::ModelPoint;
+    let c = &args.canonical;
+    let mut params = Vec::new();
+    for p in &args.param {
+        let (name, value) = p
+            .split_once('=')
+            .ok_or_else(|| format!("invalid --param `{p}`: expected `name=value`"))?;
+        let v = parse_numbers(value).map_err(|e| format!("invalid --param `{p}`: {e}"))?;
+        if v.len() != 1 {
+            return Err(format!("invalid --param `{p}`: one value per parameter here").into());
+        }
+        params.push((name.trim().to_string(), v[0]));
+    }
+    let tubes = c
+        .time_bound
+        .iter()
+        .map(|t| match parse_numbers(t) {
+            Ok(v) if v.len() == 2 => Ok((v[0], v[1])),
+            Ok(v) => Err(format!(
+                "invalid --time-bound `{t}`: expected D0,D1, got {} numbers",
+                v.len()
+            )),
+            Err(e) => Err(format!("invalid --time-bound `{t}`: {e}")),
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    if !(c.horizon > 0.0 && c.horizon.is_finite()) {
+        return Err(format!(
+            "invalid --horizon {}: must be a positive finite time",
+            c.horizon
+        )
+        .into());
+    }
+    if c.validate && tubes.is_empty() {
+        return Err("--validate needs --time-bound D0,D1".into());
+    }
+    let point = match &c.equilibrium {
+        None => ModelPoint::Auto,
+        Some(s) if s.contains(',') || s.parse::<f64>().is_ok() => ModelPoint::Values(
+            parse_numbers(s).map_err(|e| format!("invalid --equilibrium `{s}`: {e}"))?,
+        ),
+        Some(name) => ModelPoint::Named(name.clone()),
+    };
+    let opts = CanonicalOptions {
+        point,
+        tubes,
+        max_order: c.order,
+        remainder_degree: c.remainder_degree,
+        metric: match c.metric {
+            MetricArg::Euclidean => Metric::Euclidean,
+            MetricArg::LinearNormal => Metric::LinearNormal,
+        },
+        validate: c.validate.then(|| Validation {
+            horizon: c.horizon,
+            ..Validation::default()
+        }),
+    };
+    if let Some(dir) = &c.figure {
+        if !dir.is_dir() {
+            return Err(format!("--figure {}: not a directory", dir.display()).into());
+        }
+    }
+    let report = analyse(model, &params, &opts)?;
+    if let Some(dir) = &c.figure {
+        super::stability_figure::write(&report, dir)?;
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else if c.csv {
+        print!("{}", report.to_csv());
+    } else {
+        print!("{}", report.to_table());
+    }
+    Ok(())
+}
+
 /// Runs `lasalle stability`.
 pub fn run(args: &StabilityArgs) -> CliResult {
     let (mut model, stem) = load(&args.model, args.backend.into())?;
     for p in &args.param {
         apply_param(&mut model, p)?;
     }
-    // one match on the structure: the canonical branch is where the normal-form based
-    // analysis of canonical equilibria will go
-    let name = model.model().name.clone();
+    // one match on the structure chooses the analysis
     let p_index = match model.model().hamiltonian.as_ref().map(|h| &h.structure) {
         Some(Structure::LiePoissonSo3 { p }) => p.clone(),
-        Some(Structure::Canonical { .. }) => {
-            return Err(StabilityError::CanonicalNotYet { model: name }.into())
-        }
+        Some(Structure::Canonical { .. }) => return run_canonical(args, model.model()),
         // no Hamiltonian structure: the domain of attraction of a dissipative planar field
         None => {
             return super::attraction::run(

@@ -23,6 +23,7 @@
 //! verdict holds, with the boundaries located by bisection.
 
 pub mod attraction;
+pub mod canonical;
 mod system;
 
 pub use system::{LiePoissonSystem, Local};
@@ -41,8 +42,9 @@ pub enum StabilityError {
         /// Model name.
         model: String,
     },
-    /// A canonical Hamiltonian model: the normal-form based analysis is not implemented yet.
-    CanonicalNotYet {
+    /// A canonical Hamiltonian model given to the Lie–Poisson analysis (its analysis is
+    /// [`canonical::analyse`]).
+    Canonical {
         /// Model name.
         model: String,
     },
@@ -75,11 +77,11 @@ impl fmt::Display for StabilityError {
                 f,
                 "{SUPPORTED}; `{model}` has none (it declares no `hamiltonian H = …; structure …;`)"
             ),
-            StabilityError::CanonicalNotYet { model } => write!(
+            StabilityError::Canonical { model } => write!(
                 f,
-                "{SUPPORTED}; `{model}` is canonical (structure canonical(q, p)): the normal-form \
-                 based stability analysis of canonical equilibria is not implemented yet \
-                 (see `lasalle normal-form` for the Birkhoff normal form)"
+                "{SUPPORTED}; `{model}` is canonical (structure canonical(q, p)): its \
+                 equilibria are analysed by `stability::canonical::analyse` (the normal-form \
+                 verdicts and time bounds of `lasalle stability`)"
             ),
             StabilityError::Unsupported { model, why } => {
                 write!(f, "{SUPPORTED}; `{model}` cannot be analysed: {why}")

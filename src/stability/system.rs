@@ -75,7 +75,7 @@ impl LiePoissonSystem {
                 })
             }
             Structure::Canonical { .. } => {
-                return Err(StabilityError::CanonicalNotYet {
+                return Err(StabilityError::Canonical {
                     model: model.name.clone(),
                 })
             }
