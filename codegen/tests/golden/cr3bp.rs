@@ -384,6 +384,13 @@ pub mod cr3bp {
                 },
             ]
         }
+
+        fn taylor_kernels(
+            &self,
+            _max_order: u32,
+        ) -> Result<lasalle_runtime::TaylorKernels<Self>, lasalle_runtime::TaylorError> {
+            Ok(taylor_kernels(self))
+        }
     }
 
     impl<T> CR3BP<T> {
@@ -546,6 +553,851 @@ pub mod cr3bp {
 
         fn point(&self, name: &str) -> Option<Vec<f64>> {
             self.model.point(name)
+        }
+    }
+    impl<T: Float> CR3BP<T> {
+        /// The parameter slots as f64, in the order of `PARAMS` (matrices column-major).
+        pub fn slot_values(&self) -> [f64; 1] {
+            [self.mu.to_f64().unwrap_or(f64::NAN)]
+        }
+        /// The adaptive Taylor integrator (Jorba & Zou; `lasalle_runtime::taylor`) of the field
+        /// and of X − ∇V over this model's emitted kernels.
+        pub fn taylor(
+            &self,
+            opts: lasalle_runtime::TaylorOptions,
+        ) -> Result<lasalle_runtime::Taylor<Self>, lasalle_runtime::TaylorError> {
+            lasalle_runtime::Taylor::new(taylor_kernels(self), opts)
+        }
+    }
+    /// The emitted Taylor kernels of the field and of X − ∇V.
+    fn taylor_kernels<T: Float>(m: &CR3BP<T>) -> lasalle_runtime::TaylorKernels<CR3BP<T>> {
+        lasalle_runtime::TaylorKernels {
+            field: Box::new(CR3BPTaylorField::new(m)),
+            feedback: Box::new(CR3BPTaylorFeedback::new(m)),
+        }
+    }
+    /// The parameter-only values of `field` (the prelude of its tape) from the parameter slots.
+    #[allow(unused_variables, clippy::all)]
+    fn hoist_field(p: &[f64; 1]) -> [f64; 4] {
+        let p0: f64 = p[0];
+        let p1: f64 = 1.0_f64;
+        let p2: f64 = p1 - p0;
+        let p3: f64 = 0.5_f64;
+        let p4: f64 = p3 * p0;
+        let p5: f64 = p3 * p2;
+        [p0, p2, p4, p5]
+    }
+    /// The parameter-only values of `invariants` (the prelude of its tape) from the parameter slots.
+    #[allow(unused_variables, clippy::all)]
+    fn hoist_invariants(p: &[f64; 1]) -> [f64; 2] {
+        let p0: f64 = p[0];
+        let p1: f64 = 1.0_f64;
+        let p2: f64 = p1 - p0;
+        [p0, p2]
+    }
+    /// The parameter-only values of `jacobian` (the prelude of its tape) from the parameter slots.
+    #[allow(unused_variables, clippy::all)]
+    fn hoist_jacobian(p: &[f64; 1]) -> [f64; 2] {
+        let p0: f64 = p[0];
+        let p1: f64 = 1.0_f64;
+        let p2: f64 = p1 - p0;
+        [p0, p2]
+    }
+    /// The parameter-only values of `lyapunov` (the prelude of its tape) from the parameter slots.
+    #[allow(unused_variables, clippy::all)]
+    fn hoist_lyapunov(p: &[f64; 1]) -> [f64; 2] {
+        let p0: f64 = p[0];
+        let p1: f64 = 1.0_f64;
+        let p2: f64 = p1 - p0;
+        [p0, p2]
+    }
+    /// The parameter-only values of `lyapunov_gradient` (the prelude of its tape) from the parameter slots.
+    #[allow(unused_variables, clippy::all)]
+    fn hoist_lyapunov_gradient(p: &[f64; 1]) -> [f64; 4] {
+        let p0: f64 = p[0];
+        let p1: f64 = 1.0_f64;
+        let p2: f64 = p1 - p0;
+        let p3: f64 = 0.5_f64;
+        let p4: f64 = p3 * p0;
+        let p5: f64 = p3 * p2;
+        [p0, p2, p4, p5]
+    }
+    /// The parameter-only values of `feedback` (the prelude of its tape) from the parameter slots.
+    #[allow(unused_variables, clippy::all)]
+    fn hoist_feedback(p: &[f64; 1]) -> [f64; 4] {
+        let p0: f64 = p[0];
+        let p1: f64 = 1.0_f64;
+        let p2: f64 = p1 - p0;
+        let p3: f64 = 0.5_f64;
+        let p4: f64 = p3 * p0;
+        let p5: f64 = p3 * p2;
+        [p0, p2, p4, p5]
+    }
+    /// The parameter-only values of `hamiltonian` (the prelude of its tape) from the parameter slots.
+    #[allow(unused_variables, clippy::all)]
+    fn hoist_hamiltonian(p: &[f64; 1]) -> [f64; 2] {
+        let p0: f64 = p[0];
+        let p1: f64 = 1.0_f64;
+        let p2: f64 = p1 - p0;
+        [p0, p2]
+    }
+    /// The Taylor-coefficient kernel of X (`lasalle_runtime::TaylorKernel`): the recurrences
+    /// of its tape, 41 rows of orders 0..=`EMITTED_MAX_ORDER`, allocated once.
+    pub struct CR3BPTaylorField {
+        params: [f64; 1],
+        hoisted: [f64; 4],
+        target: [f64; 0],
+        gains: [f64; 0],
+        t: Box<[[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 41]>,
+        order: usize,
+    }
+    impl CR3BPTaylorField {
+        /// The kernel with the parameters of `m`; targets and gains 0.
+        pub fn new<T: Float>(m: &CR3BP<T>) -> Self {
+            let params = m.slot_values();
+            let t = vec![[0.0; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 41]
+                .into_boxed_slice()
+                .try_into()
+                .expect("41 rows");
+            CR3BPTaylorField {
+                params,
+                hoisted: hoist_field(&params),
+                target: [0.0; 0],
+                gains: [0.0; 0],
+                t,
+                order: 0,
+            }
+        }
+    }
+    impl<T: Float> lasalle_runtime::TaylorKernel<CR3BP<T>> for CR3BPTaylorField {
+        fn dim(&self) -> usize {
+            4
+        }
+        fn max_order(&self) -> usize {
+            lasalle_runtime::taylor::EMITTED_MAX_ORDER
+        }
+        fn sync(&mut self, m: &CR3BP<T>) -> Result<(), lasalle_runtime::StepError> {
+            let params = m.slot_values();
+            if params != self.params {
+                self.params = params;
+                self.hoisted = hoist_field(&params);
+            }
+            Ok(())
+        }
+        fn set_inputs(
+            &mut self,
+            target: &[f64],
+            gains: &[f64],
+        ) -> Result<(), lasalle_runtime::StepError> {
+            if target.len() != self.target.len() || gains.len() != self.gains.len() {
+                return Err(lasalle_runtime::StepError::InvalidInput(format!(
+                    "CR3BPTaylorField takes 0 targets and 0 gains, got {} and {}",
+                    target.len(),
+                    gains.len()
+                )));
+            }
+            self.target.copy_from_slice(target);
+            self.gains.copy_from_slice(gains);
+            Ok(())
+        }
+        #[allow(unused_variables, clippy::all)]
+        fn compute(&mut self, x: &[f64], order: usize) {
+            use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
+            let order = order.min(EMITTED_MAX_ORDER);
+            self.order = order;
+            let CR3BPTaylorField { hoisted, target, gains, t, .. } = self;
+            let t = &mut **t;
+            for (row, xi) in t.iter_mut().zip(&x[..4]) {
+                row[0] = *xi;
+            }
+            for k in 0..order {
+                if k == 0 {
+                    t[4][0] = hoisted[0];
+                    t[5][0] = t[0][0] + t[4][0];
+                    t[6][0] = t[1][0] * t[1][0];
+                    t[7][0] = t[5][0] * t[5][0];
+                    t[8][0] = t[7][0] + t[6][0];
+                    t[9][0] = t[8][0].sqrt();
+                    t[10][0] = hoisted[1];
+                    t[11][0] = t[0][0] - t[10][0];
+                    t[12][0] = t[11][0] * t[11][0];
+                    t[13][0] = t[6][0] + t[12][0];
+                    t[14][0] = t[13][0].sqrt();
+                    t[15][0] = t[14][0] * t[14][0];
+                    t[16][0] = t[14][0] * t[15][0];
+                    t[17][0] = 1.0_f64;
+                    t[18][0] = t[17][0] / t[16][0];
+                    t[19][0] = t[9][0] * t[9][0];
+                    t[20][0] = t[9][0] * t[19][0];
+                    t[21][0] = t[17][0] / t[20][0];
+                    t[22][0] = t[1][0] + t[2][0];
+                    t[23][0] = t[3][0] - t[0][0];
+                    t[24][0] = t[11][0] * t[4][0];
+                    t[25][0] = t[24][0] * t[18][0];
+                    t[26][0] = t[5][0] * t[10][0];
+                    t[27][0] = t[26][0] * t[21][0];
+                    t[28][0] = t[25][0] + t[27][0];
+                    t[29][0] = t[28][0] - t[3][0];
+                    t[30][0] = -t[29][0];
+                    t[31][0] = hoisted[2];
+                    t[32][0] = t[18][0] * t[31][0];
+                    t[33][0] = hoisted[3];
+                    t[34][0] = t[21][0] * t[33][0];
+                    t[35][0] = t[32][0] + t[34][0];
+                    t[36][0] = 2.0_f64;
+                    t[37][0] = t[1][0] * t[36][0];
+                    t[38][0] = t[37][0] * t[35][0];
+                    t[39][0] = t[2][0] + t[38][0];
+                    t[40][0] = -t[39][0];
+                } else {
+                    t[5][k] = t[0][k] + t[4][k];
+                    t[6][k] = rec::square(&t[1], k);
+                    t[7][k] = rec::square(&t[5], k);
+                    t[8][k] = t[7][k] + t[6][k];
+                    t[9][k] = rec::sqrt(&t[8], &t[9], k);
+                    t[11][k] = t[0][k] - t[10][k];
+                    t[12][k] = rec::square(&t[11], k);
+                    t[13][k] = t[6][k] + t[12][k];
+                    t[14][k] = rec::sqrt(&t[13], &t[14], k);
+                    t[15][k] = rec::square(&t[14], k);
+                    t[16][k] = rec::mul(&t[14], &t[15], k);
+                    t[18][k] = rec::div(&t[17], &t[16], &t[18], k);
+                    t[19][k] = rec::square(&t[9], k);
+                    t[20][k] = rec::mul(&t[9], &t[19], k);
+                    t[21][k] = rec::div(&t[17], &t[20], &t[21], k);
+                    t[22][k] = t[1][k] + t[2][k];
+                    t[23][k] = t[3][k] - t[0][k];
+                    t[24][k] = t[11][k] * t[4][0];
+                    t[25][k] = rec::mul(&t[24], &t[18], k);
+                    t[26][k] = t[5][k] * t[10][0];
+                    t[27][k] = rec::mul(&t[26], &t[21], k);
+                    t[28][k] = t[25][k] + t[27][k];
+                    t[29][k] = t[28][k] - t[3][k];
+                    t[30][k] = -t[29][k];
+                    t[32][k] = t[18][k] * t[31][0];
+                    t[34][k] = t[21][k] * t[33][0];
+                    t[35][k] = t[32][k] + t[34][k];
+                    t[37][k] = t[1][k] * t[36][0];
+                    t[38][k] = rec::mul(&t[37], &t[35], k);
+                    t[39][k] = t[2][k] + t[38][k];
+                    t[40][k] = -t[39][k];
+                }
+                let inv = 1.0 / (k as f64 + 1.0);
+                t[0][k + 1] = t[22][k] * inv;
+                t[1][k + 1] = t[23][k] * inv;
+                t[2][k + 1] = t[30][k] * inv;
+                t[3][k + 1] = t[40][k] * inv;
+            }
+        }
+        fn coefficients(&self, i: usize) -> &[f64] {
+            &self.t[i][..=self.order]
+        }
+    }
+    /// The Taylor-coefficient kernel of X − ∇V (`lasalle_runtime::TaylorKernel`): the recurrences
+    /// of its tape, 66 rows of orders 0..=`EMITTED_MAX_ORDER`, allocated once.
+    pub struct CR3BPTaylorFeedback {
+        params: [f64; 1],
+        hoisted: [f64; 4],
+        target: [f64; 1],
+        gains: [f64; 1],
+        t: Box<[[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 66]>,
+        order: usize,
+    }
+    impl CR3BPTaylorFeedback {
+        /// The kernel with the parameters of `m`; targets and gains 0.
+        pub fn new<T: Float>(m: &CR3BP<T>) -> Self {
+            let params = m.slot_values();
+            let t = vec![[0.0; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 66]
+                .into_boxed_slice()
+                .try_into()
+                .expect("66 rows");
+            CR3BPTaylorFeedback {
+                params,
+                hoisted: hoist_feedback(&params),
+                target: [0.0; 1],
+                gains: [0.0; 1],
+                t,
+                order: 0,
+            }
+        }
+    }
+    impl<T: Float> lasalle_runtime::TaylorKernel<CR3BP<T>> for CR3BPTaylorFeedback {
+        fn dim(&self) -> usize {
+            4
+        }
+        fn max_order(&self) -> usize {
+            lasalle_runtime::taylor::EMITTED_MAX_ORDER
+        }
+        fn sync(&mut self, m: &CR3BP<T>) -> Result<(), lasalle_runtime::StepError> {
+            let params = m.slot_values();
+            if params != self.params {
+                self.params = params;
+                self.hoisted = hoist_feedback(&params);
+            }
+            Ok(())
+        }
+        fn set_inputs(
+            &mut self,
+            target: &[f64],
+            gains: &[f64],
+        ) -> Result<(), lasalle_runtime::StepError> {
+            if target.len() != self.target.len() || gains.len() != self.gains.len() {
+                return Err(lasalle_runtime::StepError::InvalidInput(format!(
+                    "CR3BPTaylorFeedback takes 1 targets and 1 gains, got {} and {}",
+                    target.len(),
+                    gains.len()
+                )));
+            }
+            self.target.copy_from_slice(target);
+            self.gains.copy_from_slice(gains);
+            Ok(())
+        }
+        #[allow(unused_variables, clippy::all)]
+        fn compute(&mut self, x: &[f64], order: usize) {
+            use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
+            let order = order.min(EMITTED_MAX_ORDER);
+            self.order = order;
+            let CR3BPTaylorFeedback { hoisted, target, gains, t, .. } = self;
+            let t = &mut **t;
+            for (row, xi) in t.iter_mut().zip(&x[..4]) {
+                row[0] = *xi;
+            }
+            for k in 0..order {
+                if k == 0 {
+                    t[4][0] = hoisted[0];
+                    t[5][0] = t[0][0] + t[4][0];
+                    t[6][0] = t[1][0] * t[1][0];
+                    t[7][0] = t[5][0] * t[5][0];
+                    t[8][0] = t[7][0] + t[6][0];
+                    t[9][0] = t[8][0].sqrt();
+                    t[10][0] = hoisted[1];
+                    t[11][0] = t[0][0] - t[10][0];
+                    t[12][0] = t[11][0] * t[11][0];
+                    t[13][0] = t[6][0] + t[12][0];
+                    t[14][0] = t[13][0].sqrt();
+                    t[15][0] = t[3][0] - t[0][0];
+                    t[16][0] = t[1][0] + t[2][0];
+                    t[17][0] = 1.0_f64;
+                    t[18][0] = t[17][0] / t[9][0];
+                    t[19][0] = t[17][0] / t[14][0];
+                    t[20][0] = t[19][0] * t[19][0];
+                    t[21][0] = t[19][0] * t[20][0];
+                    t[22][0] = t[18][0] * t[18][0];
+                    t[23][0] = t[18][0] * t[22][0];
+                    t[24][0] = t[11][0] * t[4][0];
+                    t[25][0] = t[24][0] * t[21][0];
+                    t[26][0] = t[5][0] * t[10][0];
+                    t[27][0] = t[26][0] * t[23][0];
+                    t[28][0] = t[25][0] + t[27][0];
+                    t[29][0] = t[28][0] - t[3][0];
+                    t[30][0] = hoisted[2];
+                    t[31][0] = t[21][0] * t[30][0];
+                    t[32][0] = hoisted[3];
+                    t[33][0] = t[23][0] * t[32][0];
+                    t[34][0] = t[31][0] + t[33][0];
+                    t[35][0] = 2.0_f64;
+                    t[36][0] = t[1][0] * t[35][0];
+                    t[37][0] = t[36][0] * t[34][0];
+                    t[38][0] = t[2][0] + t[37][0];
+                    t[39][0] = gains[0];
+                    t[40][0] = t[2][0] * t[2][0];
+                    t[41][0] = t[3][0] * t[3][0];
+                    t[42][0] = t[40][0] + t[41][0];
+                    t[43][0] = 0.5_f64;
+                    t[44][0] = t[42][0] * t[43][0];
+                    t[45][0] = t[1][0] * t[2][0];
+                    t[46][0] = t[0][0] * t[3][0];
+                    t[47][0] = t[18][0] * t[10][0];
+                    t[48][0] = t[19][0] * t[4][0];
+                    t[49][0] = target[0];
+                    t[50][0] = t[44][0] + t[45][0];
+                    t[51][0] = t[50][0] - t[46][0];
+                    t[52][0] = t[51][0] - t[47][0];
+                    t[53][0] = t[52][0] - t[48][0];
+                    t[54][0] = t[53][0] - t[49][0];
+                    t[55][0] = t[54][0] * t[39][0];
+                    t[56][0] = t[29][0] * t[55][0];
+                    t[57][0] = t[16][0] - t[56][0];
+                    t[58][0] = t[38][0] * t[55][0];
+                    t[59][0] = t[15][0] - t[58][0];
+                    t[60][0] = t[16][0] * t[55][0];
+                    t[61][0] = -t[29][0];
+                    t[62][0] = t[61][0] - t[60][0];
+                    t[63][0] = t[15][0] * t[55][0];
+                    t[64][0] = -t[38][0];
+                    t[65][0] = t[64][0] - t[63][0];
+                } else {
+                    t[5][k] = t[0][k] + t[4][k];
+                    t[6][k] = rec::square(&t[1], k);
+                    t[7][k] = rec::square(&t[5], k);
+                    t[8][k] = t[7][k] + t[6][k];
+                    t[9][k] = rec::sqrt(&t[8], &t[9], k);
+                    t[11][k] = t[0][k] - t[10][k];
+                    t[12][k] = rec::square(&t[11], k);
+                    t[13][k] = t[6][k] + t[12][k];
+                    t[14][k] = rec::sqrt(&t[13], &t[14], k);
+                    t[15][k] = t[3][k] - t[0][k];
+                    t[16][k] = t[1][k] + t[2][k];
+                    t[18][k] = rec::div(&t[17], &t[9], &t[18], k);
+                    t[19][k] = rec::div(&t[17], &t[14], &t[19], k);
+                    t[20][k] = rec::square(&t[19], k);
+                    t[21][k] = rec::mul(&t[19], &t[20], k);
+                    t[22][k] = rec::square(&t[18], k);
+                    t[23][k] = rec::mul(&t[18], &t[22], k);
+                    t[24][k] = t[11][k] * t[4][0];
+                    t[25][k] = rec::mul(&t[24], &t[21], k);
+                    t[26][k] = t[5][k] * t[10][0];
+                    t[27][k] = rec::mul(&t[26], &t[23], k);
+                    t[28][k] = t[25][k] + t[27][k];
+                    t[29][k] = t[28][k] - t[3][k];
+                    t[31][k] = t[21][k] * t[30][0];
+                    t[33][k] = t[23][k] * t[32][0];
+                    t[34][k] = t[31][k] + t[33][k];
+                    t[36][k] = t[1][k] * t[35][0];
+                    t[37][k] = rec::mul(&t[36], &t[34], k);
+                    t[38][k] = t[2][k] + t[37][k];
+                    t[40][k] = rec::square(&t[2], k);
+                    t[41][k] = rec::square(&t[3], k);
+                    t[42][k] = t[40][k] + t[41][k];
+                    t[44][k] = t[42][k] * t[43][0];
+                    t[45][k] = rec::mul(&t[1], &t[2], k);
+                    t[46][k] = rec::mul(&t[0], &t[3], k);
+                    t[47][k] = t[18][k] * t[10][0];
+                    t[48][k] = t[19][k] * t[4][0];
+                    t[50][k] = t[44][k] + t[45][k];
+                    t[51][k] = t[50][k] - t[46][k];
+                    t[52][k] = t[51][k] - t[47][k];
+                    t[53][k] = t[52][k] - t[48][k];
+                    t[54][k] = t[53][k] - t[49][k];
+                    t[55][k] = t[54][k] * t[39][0];
+                    t[56][k] = rec::mul(&t[29], &t[55], k);
+                    t[57][k] = t[16][k] - t[56][k];
+                    t[58][k] = rec::mul(&t[38], &t[55], k);
+                    t[59][k] = t[15][k] - t[58][k];
+                    t[60][k] = rec::mul(&t[16], &t[55], k);
+                    t[61][k] = -t[29][k];
+                    t[62][k] = t[61][k] - t[60][k];
+                    t[63][k] = rec::mul(&t[15], &t[55], k);
+                    t[64][k] = -t[38][k];
+                    t[65][k] = t[64][k] - t[63][k];
+                }
+                let inv = 1.0 / (k as f64 + 1.0);
+                t[0][k + 1] = t[57][k] * inv;
+                t[1][k + 1] = t[59][k] * inv;
+                t[2][k + 1] = t[62][k] * inv;
+                t[3][k + 1] = t[65][k] * inv;
+            }
+        }
+        fn coefficients(&self, i: usize) -> &[f64] {
+            &self.t[i][..=self.order]
+        }
+    }
+    /// The model's functions for K states per call (structure of arrays), with the
+    /// parameter-only values computed once: see `CR3BP::lanes`.
+    #[derive(Clone, Debug)]
+    pub struct CR3BPLanes {
+        field: [f64; 4],
+        invariants: [f64; 2],
+        jacobian: [f64; 2],
+        lyapunov: [f64; 2],
+        lyapunov_gradient: [f64; 4],
+        feedback: [f64; 4],
+        hamiltonian: [f64; 2],
+    }
+    impl<T: Float> CR3BP<T> {
+        /// The batched functions with the current parameters (their preludes run now).
+        pub fn lanes(&self) -> CR3BPLanes {
+            let p = self.slot_values();
+            CR3BPLanes {
+                field: hoist_field(&p),
+                invariants: hoist_invariants(&p),
+                jacobian: hoist_jacobian(&p),
+                lyapunov: hoist_lyapunov(&p),
+                lyapunov_gradient: hoist_lyapunov_gradient(&p),
+                feedback: hoist_feedback(&p),
+                hamiltonian: hoist_hamiltonian(&p),
+            }
+        }
+    }
+    impl CR3BPLanes {
+        /// `field` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+        /// of lane l; each lane equals the scalar function bitwise.
+        #[allow(unused_variables, clippy::all)]
+        pub fn field<const K: usize>(
+            &self,
+            x: &[[f64; K]; 4],
+            out: &mut [[f64; K]; 4],
+        ) {
+            let h = &self.field;
+            let r0: [f64; K] = x[0];
+            let r1: [f64; K] = [h[0]; K];
+            let r2: [f64; K] = core::array::from_fn(|l| r0[l] + r1[l]);
+            let r3: [f64; K] = x[1];
+            let r4: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
+            let r5: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
+            let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r4[l]);
+            let r7: [f64; K] = core::array::from_fn(|l| r6[l].sqrt());
+            let r8: [f64; K] = [h[1]; K];
+            let r9: [f64; K] = core::array::from_fn(|l| r0[l] - r8[l]);
+            let r10: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
+            let r11: [f64; K] = core::array::from_fn(|l| r4[l] + r10[l]);
+            let r12: [f64; K] = core::array::from_fn(|l| r11[l].sqrt());
+            let r13: [f64; K] = core::array::from_fn(|l| r12[l].powi(3));
+            let r14: [f64; K] = [1.0_f64; K];
+            let r15: [f64; K] = core::array::from_fn(|l| r14[l] / r13[l]);
+            let r16: [f64; K] = core::array::from_fn(|l| r7[l].powi(3));
+            let r17: [f64; K] = core::array::from_fn(|l| r14[l] / r16[l]);
+            let r18: [f64; K] = x[2];
+            let r19: [f64; K] = core::array::from_fn(|l| r3[l] + r18[l]);
+            let r20: [f64; K] = x[3];
+            let r21: [f64; K] = core::array::from_fn(|l| r20[l] - r0[l]);
+            let r22: [f64; K] = core::array::from_fn(|l| r1[l] * r9[l]);
+            let r23: [f64; K] = core::array::from_fn(|l| r22[l] * r15[l]);
+            let r24: [f64; K] = core::array::from_fn(|l| r2[l] * r8[l]);
+            let r25: [f64; K] = core::array::from_fn(|l| r24[l] * r17[l]);
+            let r26: [f64; K] = core::array::from_fn(|l| r23[l] + r25[l]);
+            let r27: [f64; K] = core::array::from_fn(|l| r26[l] - r20[l]);
+            let r28: [f64; K] = core::array::from_fn(|l| -r27[l]);
+            let r29: [f64; K] = [h[2]; K];
+            let r30: [f64; K] = core::array::from_fn(|l| r15[l] * r29[l]);
+            let r31: [f64; K] = [h[3]; K];
+            let r32: [f64; K] = core::array::from_fn(|l| r17[l] * r31[l]);
+            let r33: [f64; K] = core::array::from_fn(|l| r30[l] + r32[l]);
+            let r34: [f64; K] = [2.0_f64; K];
+            let r35: [f64; K] = core::array::from_fn(|l| r34[l] * r3[l]);
+            let r36: [f64; K] = core::array::from_fn(|l| r35[l] * r33[l]);
+            let r37: [f64; K] = core::array::from_fn(|l| r18[l] + r36[l]);
+            let r38: [f64; K] = core::array::from_fn(|l| -r37[l]);
+            out[0] = r19;
+            out[1] = r21;
+            out[2] = r28;
+            out[3] = r38;
+        }
+        /// `invariants` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+        /// of lane l; each lane equals the scalar function bitwise.
+        #[allow(unused_variables, clippy::all)]
+        pub fn invariants<const K: usize>(
+            &self,
+            x: &[[f64; K]; 4],
+            out: &mut [[f64; K]; 1],
+        ) {
+            let h = &self.invariants;
+            let r0: [f64; K] = x[1];
+            let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
+            let r2: [f64; K] = x[0];
+            let r3: [f64; K] = [h[0]; K];
+            let r4: [f64; K] = core::array::from_fn(|l| r2[l] + r3[l]);
+            let r5: [f64; K] = core::array::from_fn(|l| r4[l].powi(2));
+            let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r1[l]);
+            let r7: [f64; K] = core::array::from_fn(|l| r6[l].sqrt());
+            let r8: [f64; K] = [h[1]; K];
+            let r9: [f64; K] = core::array::from_fn(|l| r2[l] - r8[l]);
+            let r10: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
+            let r11: [f64; K] = core::array::from_fn(|l| r1[l] + r10[l]);
+            let r12: [f64; K] = core::array::from_fn(|l| r11[l].sqrt());
+            let r13: [f64; K] = x[2];
+            let r14: [f64; K] = core::array::from_fn(|l| r13[l].powi(2));
+            let r15: [f64; K] = x[3];
+            let r16: [f64; K] = core::array::from_fn(|l| r15[l].powi(2));
+            let r17: [f64; K] = core::array::from_fn(|l| r14[l] + r16[l]);
+            let r18: [f64; K] = [0.5_f64; K];
+            let r19: [f64; K] = core::array::from_fn(|l| r18[l] * r17[l]);
+            let r20: [f64; K] = core::array::from_fn(|l| r0[l] * r13[l]);
+            let r21: [f64; K] = core::array::from_fn(|l| r2[l] * r15[l]);
+            let r22: [f64; K] = core::array::from_fn(|l| r8[l] / r7[l]);
+            let r23: [f64; K] = core::array::from_fn(|l| r3[l] / r12[l]);
+            let r24: [f64; K] = core::array::from_fn(|l| r19[l] + r20[l]);
+            let r25: [f64; K] = core::array::from_fn(|l| r24[l] - r21[l]);
+            let r26: [f64; K] = core::array::from_fn(|l| r25[l] - r22[l]);
+            let r27: [f64; K] = core::array::from_fn(|l| r26[l] - r23[l]);
+            out[0] = r27;
+        }
+        /// `jacobian` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+        /// of lane l; each lane equals the scalar function bitwise.
+        #[allow(unused_variables, clippy::all)]
+        pub fn jacobian<const K: usize>(
+            &self,
+            x: &[[f64; K]; 4],
+            out: &mut [[f64; K]; 4],
+        ) {
+            let h = &self.jacobian;
+            let r0: [f64; K] = x[0];
+            let r1: [f64; K] = [h[0]; K];
+            let r2: [f64; K] = core::array::from_fn(|l| r0[l] + r1[l]);
+            let r3: [f64; K] = x[1];
+            let r4: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
+            let r5: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
+            let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r4[l]);
+            let r7: [f64; K] = core::array::from_fn(|l| r6[l].sqrt());
+            let r8: [f64; K] = [h[1]; K];
+            let r9: [f64; K] = core::array::from_fn(|l| r0[l] - r8[l]);
+            let r10: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
+            let r11: [f64; K] = core::array::from_fn(|l| r4[l] + r10[l]);
+            let r12: [f64; K] = core::array::from_fn(|l| r11[l].sqrt());
+            let r13: [f64; K] = core::array::from_fn(|l| r12[l].powi(3));
+            let r14: [f64; K] = [1.0_f64; K];
+            let r15: [f64; K] = core::array::from_fn(|l| r14[l] / r13[l]);
+            let r16: [f64; K] = core::array::from_fn(|l| r7[l].powi(3));
+            let r17: [f64; K] = core::array::from_fn(|l| r14[l] / r16[l]);
+            let r18: [f64; K] = x[3];
+            let r19: [f64; K] = core::array::from_fn(|l| r1[l] * r9[l]);
+            let r20: [f64; K] = core::array::from_fn(|l| r19[l] * r15[l]);
+            let r21: [f64; K] = core::array::from_fn(|l| r2[l] * r8[l]);
+            let r22: [f64; K] = core::array::from_fn(|l| r21[l] * r17[l]);
+            let r23: [f64; K] = core::array::from_fn(|l| r20[l] + r22[l]);
+            let r24: [f64; K] = core::array::from_fn(|l| r23[l] - r18[l]);
+            let r25: [f64; K] = x[2];
+            let r26: [f64; K] = core::array::from_fn(|l| r1[l] * r15[l]);
+            let r27: [f64; K] = core::array::from_fn(|l| r8[l] * r17[l]);
+            let r28: [f64; K] = core::array::from_fn(|l| r26[l] + r27[l]);
+            let r29: [f64; K] = core::array::from_fn(|l| r3[l] * r28[l]);
+            let r30: [f64; K] = core::array::from_fn(|l| r25[l] + r29[l]);
+            let r31: [f64; K] = core::array::from_fn(|l| r3[l] + r25[l]);
+            let r32: [f64; K] = core::array::from_fn(|l| r18[l] - r0[l]);
+            out[0] = r24;
+            out[1] = r30;
+            out[2] = r31;
+            out[3] = r32;
+        }
+        /// `lyapunov` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+        /// of lane l; each lane equals the scalar function bitwise.
+        #[allow(unused_variables, clippy::all)]
+        pub fn lyapunov<const K: usize>(
+            &self,
+            x: &[[f64; K]; 4],
+            target: &[f64; 1],
+            gains: &[f64; 1],
+            out: &mut [[f64; K]; 1],
+        ) {
+            let h = &self.lyapunov;
+            let r0: [f64; K] = x[1];
+            let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
+            let r2: [f64; K] = x[0];
+            let r3: [f64; K] = [h[0]; K];
+            let r4: [f64; K] = core::array::from_fn(|l| r2[l] + r3[l]);
+            let r5: [f64; K] = core::array::from_fn(|l| r4[l].powi(2));
+            let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r1[l]);
+            let r7: [f64; K] = core::array::from_fn(|l| r6[l].sqrt());
+            let r8: [f64; K] = [h[1]; K];
+            let r9: [f64; K] = core::array::from_fn(|l| r2[l] - r8[l]);
+            let r10: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
+            let r11: [f64; K] = core::array::from_fn(|l| r1[l] + r10[l]);
+            let r12: [f64; K] = core::array::from_fn(|l| r11[l].sqrt());
+            let r13: [f64; K] = [gains[0]; K];
+            let r14: [f64; K] = x[2];
+            let r15: [f64; K] = core::array::from_fn(|l| r14[l].powi(2));
+            let r16: [f64; K] = x[3];
+            let r17: [f64; K] = core::array::from_fn(|l| r16[l].powi(2));
+            let r18: [f64; K] = core::array::from_fn(|l| r15[l] + r17[l]);
+            let r19: [f64; K] = [0.5_f64; K];
+            let r20: [f64; K] = core::array::from_fn(|l| r19[l] * r18[l]);
+            let r21: [f64; K] = core::array::from_fn(|l| r0[l] * r14[l]);
+            let r22: [f64; K] = core::array::from_fn(|l| r2[l] * r16[l]);
+            let r23: [f64; K] = core::array::from_fn(|l| r8[l] / r7[l]);
+            let r24: [f64; K] = core::array::from_fn(|l| r3[l] / r12[l]);
+            let r25: [f64; K] = [target[0]; K];
+            let r26: [f64; K] = core::array::from_fn(|l| r20[l] + r21[l]);
+            let r27: [f64; K] = core::array::from_fn(|l| r26[l] - r22[l]);
+            let r28: [f64; K] = core::array::from_fn(|l| r27[l] - r23[l]);
+            let r29: [f64; K] = core::array::from_fn(|l| r28[l] - r24[l]);
+            let r30: [f64; K] = core::array::from_fn(|l| r29[l] - r25[l]);
+            let r31: [f64; K] = core::array::from_fn(|l| r30[l].powi(2));
+            let r32: [f64; K] = core::array::from_fn(|l| r19[l] * r13[l]);
+            let r33: [f64; K] = core::array::from_fn(|l| r32[l] * r31[l]);
+            out[0] = r33;
+        }
+        /// `lyapunov_gradient` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+        /// of lane l; each lane equals the scalar function bitwise.
+        #[allow(unused_variables, clippy::all)]
+        pub fn lyapunov_gradient<const K: usize>(
+            &self,
+            x: &[[f64; K]; 4],
+            target: &[f64; 1],
+            gains: &[f64; 1],
+            out: &mut [[f64; K]; 4],
+        ) {
+            let h = &self.lyapunov_gradient;
+            let r0: [f64; K] = x[0];
+            let r1: [f64; K] = [h[0]; K];
+            let r2: [f64; K] = core::array::from_fn(|l| r0[l] + r1[l]);
+            let r3: [f64; K] = x[1];
+            let r4: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
+            let r5: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
+            let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r4[l]);
+            let r7: [f64; K] = core::array::from_fn(|l| r6[l].sqrt());
+            let r8: [f64; K] = [h[1]; K];
+            let r9: [f64; K] = core::array::from_fn(|l| r0[l] - r8[l]);
+            let r10: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
+            let r11: [f64; K] = core::array::from_fn(|l| r4[l] + r10[l]);
+            let r12: [f64; K] = core::array::from_fn(|l| r11[l].sqrt());
+            let r13: [f64; K] = [1.0_f64; K];
+            let r14: [f64; K] = core::array::from_fn(|l| r13[l] / r7[l]);
+            let r15: [f64; K] = core::array::from_fn(|l| r13[l] / r12[l]);
+            let r16: [f64; K] = core::array::from_fn(|l| r15[l].powi(3));
+            let r17: [f64; K] = core::array::from_fn(|l| r14[l].powi(3));
+            let r18: [f64; K] = [gains[0]; K];
+            let r19: [f64; K] = x[2];
+            let r20: [f64; K] = core::array::from_fn(|l| r19[l].powi(2));
+            let r21: [f64; K] = x[3];
+            let r22: [f64; K] = core::array::from_fn(|l| r21[l].powi(2));
+            let r23: [f64; K] = core::array::from_fn(|l| r20[l] + r22[l]);
+            let r24: [f64; K] = [0.5_f64; K];
+            let r25: [f64; K] = core::array::from_fn(|l| r24[l] * r23[l]);
+            let r26: [f64; K] = core::array::from_fn(|l| r3[l] * r19[l]);
+            let r27: [f64; K] = core::array::from_fn(|l| r0[l] * r21[l]);
+            let r28: [f64; K] = core::array::from_fn(|l| r8[l] * r14[l]);
+            let r29: [f64; K] = core::array::from_fn(|l| r1[l] * r15[l]);
+            let r30: [f64; K] = [target[0]; K];
+            let r31: [f64; K] = core::array::from_fn(|l| r25[l] + r26[l]);
+            let r32: [f64; K] = core::array::from_fn(|l| r31[l] - r27[l]);
+            let r33: [f64; K] = core::array::from_fn(|l| r32[l] - r28[l]);
+            let r34: [f64; K] = core::array::from_fn(|l| r33[l] - r29[l]);
+            let r35: [f64; K] = core::array::from_fn(|l| r34[l] - r30[l]);
+            let r36: [f64; K] = core::array::from_fn(|l| r18[l] * r35[l]);
+            let r37: [f64; K] = core::array::from_fn(|l| r1[l] * r9[l]);
+            let r38: [f64; K] = core::array::from_fn(|l| r37[l] * r16[l]);
+            let r39: [f64; K] = core::array::from_fn(|l| r2[l] * r8[l]);
+            let r40: [f64; K] = core::array::from_fn(|l| r39[l] * r17[l]);
+            let r41: [f64; K] = core::array::from_fn(|l| r38[l] + r40[l]);
+            let r42: [f64; K] = core::array::from_fn(|l| r41[l] - r21[l]);
+            let r43: [f64; K] = core::array::from_fn(|l| r42[l] * r36[l]);
+            let r44: [f64; K] = [h[2]; K];
+            let r45: [f64; K] = core::array::from_fn(|l| r44[l] * r16[l]);
+            let r46: [f64; K] = [h[3]; K];
+            let r47: [f64; K] = core::array::from_fn(|l| r46[l] * r17[l]);
+            let r48: [f64; K] = core::array::from_fn(|l| r45[l] + r47[l]);
+            let r49: [f64; K] = [2.0_f64; K];
+            let r50: [f64; K] = core::array::from_fn(|l| r49[l] * r3[l]);
+            let r51: [f64; K] = core::array::from_fn(|l| r50[l] * r48[l]);
+            let r52: [f64; K] = core::array::from_fn(|l| r19[l] + r51[l]);
+            let r53: [f64; K] = core::array::from_fn(|l| r52[l] * r36[l]);
+            let r54: [f64; K] = core::array::from_fn(|l| r3[l] + r19[l]);
+            let r55: [f64; K] = core::array::from_fn(|l| r54[l] * r36[l]);
+            let r56: [f64; K] = core::array::from_fn(|l| r21[l] - r0[l]);
+            let r57: [f64; K] = core::array::from_fn(|l| r56[l] * r36[l]);
+            out[0] = r43;
+            out[1] = r53;
+            out[2] = r55;
+            out[3] = r57;
+        }
+        /// `feedback` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+        /// of lane l; each lane equals the scalar function bitwise.
+        #[allow(unused_variables, clippy::all)]
+        pub fn feedback<const K: usize>(
+            &self,
+            x: &[[f64; K]; 4],
+            target: &[f64; 1],
+            gains: &[f64; 1],
+            out: &mut [[f64; K]; 4],
+        ) {
+            let h = &self.feedback;
+            let r0: [f64; K] = x[0];
+            let r1: [f64; K] = [h[0]; K];
+            let r2: [f64; K] = core::array::from_fn(|l| r0[l] + r1[l]);
+            let r3: [f64; K] = x[1];
+            let r4: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
+            let r5: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
+            let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r4[l]);
+            let r7: [f64; K] = core::array::from_fn(|l| r6[l].sqrt());
+            let r8: [f64; K] = [h[1]; K];
+            let r9: [f64; K] = core::array::from_fn(|l| r0[l] - r8[l]);
+            let r10: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
+            let r11: [f64; K] = core::array::from_fn(|l| r4[l] + r10[l]);
+            let r12: [f64; K] = core::array::from_fn(|l| r11[l].sqrt());
+            let r13: [f64; K] = x[3];
+            let r14: [f64; K] = core::array::from_fn(|l| r13[l] - r0[l]);
+            let r15: [f64; K] = x[2];
+            let r16: [f64; K] = core::array::from_fn(|l| r3[l] + r15[l]);
+            let r17: [f64; K] = [1.0_f64; K];
+            let r18: [f64; K] = core::array::from_fn(|l| r17[l] / r7[l]);
+            let r19: [f64; K] = core::array::from_fn(|l| r17[l] / r12[l]);
+            let r20: [f64; K] = core::array::from_fn(|l| r19[l].powi(3));
+            let r21: [f64; K] = core::array::from_fn(|l| r18[l].powi(3));
+            let r22: [f64; K] = core::array::from_fn(|l| r1[l] * r9[l]);
+            let r23: [f64; K] = core::array::from_fn(|l| r22[l] * r20[l]);
+            let r24: [f64; K] = core::array::from_fn(|l| r2[l] * r8[l]);
+            let r25: [f64; K] = core::array::from_fn(|l| r24[l] * r21[l]);
+            let r26: [f64; K] = core::array::from_fn(|l| r23[l] + r25[l]);
+            let r27: [f64; K] = core::array::from_fn(|l| r26[l] - r13[l]);
+            let r28: [f64; K] = [h[2]; K];
+            let r29: [f64; K] = core::array::from_fn(|l| r28[l] * r20[l]);
+            let r30: [f64; K] = [h[3]; K];
+            let r31: [f64; K] = core::array::from_fn(|l| r30[l] * r21[l]);
+            let r32: [f64; K] = core::array::from_fn(|l| r29[l] + r31[l]);
+            let r33: [f64; K] = [2.0_f64; K];
+            let r34: [f64; K] = core::array::from_fn(|l| r33[l] * r3[l]);
+            let r35: [f64; K] = core::array::from_fn(|l| r34[l] * r32[l]);
+            let r36: [f64; K] = core::array::from_fn(|l| r15[l] + r35[l]);
+            let r37: [f64; K] = [gains[0]; K];
+            let r38: [f64; K] = core::array::from_fn(|l| r15[l].powi(2));
+            let r39: [f64; K] = core::array::from_fn(|l| r13[l].powi(2));
+            let r40: [f64; K] = core::array::from_fn(|l| r38[l] + r39[l]);
+            let r41: [f64; K] = [0.5_f64; K];
+            let r42: [f64; K] = core::array::from_fn(|l| r41[l] * r40[l]);
+            let r43: [f64; K] = core::array::from_fn(|l| r3[l] * r15[l]);
+            let r44: [f64; K] = core::array::from_fn(|l| r0[l] * r13[l]);
+            let r45: [f64; K] = core::array::from_fn(|l| r8[l] * r18[l]);
+            let r46: [f64; K] = core::array::from_fn(|l| r1[l] * r19[l]);
+            let r47: [f64; K] = [target[0]; K];
+            let r48: [f64; K] = core::array::from_fn(|l| r42[l] + r43[l]);
+            let r49: [f64; K] = core::array::from_fn(|l| r48[l] - r44[l]);
+            let r50: [f64; K] = core::array::from_fn(|l| r49[l] - r45[l]);
+            let r51: [f64; K] = core::array::from_fn(|l| r50[l] - r46[l]);
+            let r52: [f64; K] = core::array::from_fn(|l| r51[l] - r47[l]);
+            let r53: [f64; K] = core::array::from_fn(|l| r37[l] * r52[l]);
+            let r54: [f64; K] = core::array::from_fn(|l| r27[l] * r53[l]);
+            let r55: [f64; K] = core::array::from_fn(|l| r16[l] - r54[l]);
+            let r56: [f64; K] = core::array::from_fn(|l| r36[l] * r53[l]);
+            let r57: [f64; K] = core::array::from_fn(|l| r14[l] - r56[l]);
+            let r58: [f64; K] = core::array::from_fn(|l| r16[l] * r53[l]);
+            let r59: [f64; K] = core::array::from_fn(|l| -r27[l]);
+            let r60: [f64; K] = core::array::from_fn(|l| r59[l] - r58[l]);
+            let r61: [f64; K] = core::array::from_fn(|l| r14[l] * r53[l]);
+            let r62: [f64; K] = core::array::from_fn(|l| -r36[l]);
+            let r63: [f64; K] = core::array::from_fn(|l| r62[l] - r61[l]);
+            out[0] = r55;
+            out[1] = r57;
+            out[2] = r60;
+            out[3] = r63;
+        }
+        /// `hamiltonian` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+        /// of lane l; each lane equals the scalar function bitwise.
+        #[allow(unused_variables, clippy::all)]
+        pub fn hamiltonian<const K: usize>(
+            &self,
+            x: &[[f64; K]; 4],
+            out: &mut [[f64; K]; 1],
+        ) {
+            let h = &self.hamiltonian;
+            let r0: [f64; K] = x[1];
+            let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
+            let r2: [f64; K] = x[0];
+            let r3: [f64; K] = [h[0]; K];
+            let r4: [f64; K] = core::array::from_fn(|l| r2[l] + r3[l]);
+            let r5: [f64; K] = core::array::from_fn(|l| r4[l].powi(2));
+            let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r1[l]);
+            let r7: [f64; K] = core::array::from_fn(|l| r6[l].sqrt());
+            let r8: [f64; K] = [h[1]; K];
+            let r9: [f64; K] = core::array::from_fn(|l| r2[l] - r8[l]);
+            let r10: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
+            let r11: [f64; K] = core::array::from_fn(|l| r1[l] + r10[l]);
+            let r12: [f64; K] = core::array::from_fn(|l| r11[l].sqrt());
+            let r13: [f64; K] = x[2];
+            let r14: [f64; K] = core::array::from_fn(|l| r13[l].powi(2));
+            let r15: [f64; K] = x[3];
+            let r16: [f64; K] = core::array::from_fn(|l| r15[l].powi(2));
+            let r17: [f64; K] = core::array::from_fn(|l| r14[l] + r16[l]);
+            let r18: [f64; K] = [0.5_f64; K];
+            let r19: [f64; K] = core::array::from_fn(|l| r18[l] * r17[l]);
+            let r20: [f64; K] = core::array::from_fn(|l| r0[l] * r13[l]);
+            let r21: [f64; K] = core::array::from_fn(|l| r2[l] * r15[l]);
+            let r22: [f64; K] = core::array::from_fn(|l| r8[l] / r7[l]);
+            let r23: [f64; K] = core::array::from_fn(|l| r3[l] / r12[l]);
+            let r24: [f64; K] = core::array::from_fn(|l| r19[l] + r20[l]);
+            let r25: [f64; K] = core::array::from_fn(|l| r24[l] - r21[l]);
+            let r26: [f64; K] = core::array::from_fn(|l| r25[l] - r22[l]);
+            let r27: [f64; K] = core::array::from_fn(|l| r26[l] - r23[l]);
+            out[0] = r27;
         }
     }
 }

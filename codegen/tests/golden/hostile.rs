@@ -284,7 +284,15 @@ pub mod hostile {
     }
 
     impl<T: Float> Declared<T, [T; 6]> for HostilePrepared<T> {}
-    impl<T: Float> Declared<T, [T; 6]> for Hostile<T> {}
+    impl<T: Float> Declared<T, [T; 6]> for Hostile<T> {
+        fn taylor_kernels(
+            &self,
+            _max_order: u32,
+        ) -> Result<lasalle_runtime::TaylorKernels<Self>, lasalle_runtime::TaylorError> {
+            Ok(taylor_kernels(self))
+        }
+    }
+
     impl<T> Hostile<T> {
         /// The model's name.
         pub const NAME: &'static str = "Hostile";
@@ -444,6 +452,570 @@ pub mod hostile {
 
         fn point(&self, name: &str) -> Option<Vec<f64>> {
             self.model.point(name)
+        }
+    }
+    impl<T: Float> Hostile<T> {
+        /// The parameter slots as f64, in the order of `PARAMS` (matrices column-major).
+        pub fn slot_values(&self) -> [f64; 0] {
+            []
+        }
+        /// The adaptive Taylor integrator (Jorba & Zou; `lasalle_runtime::taylor`) of the field
+        /// and of X − ∇V over this model's emitted kernels.
+        pub fn taylor(
+            &self,
+            opts: lasalle_runtime::TaylorOptions,
+        ) -> Result<lasalle_runtime::Taylor<Self>, lasalle_runtime::TaylorError> {
+            lasalle_runtime::Taylor::new(taylor_kernels(self), opts)
+        }
+    }
+    /// The emitted Taylor kernels of the field and of X − ∇V.
+    fn taylor_kernels<T: Float>(m: &Hostile<T>) -> lasalle_runtime::TaylorKernels<Hostile<T>> {
+        lasalle_runtime::TaylorKernels {
+            field: Box::new(HostileTaylorField::new(m)),
+            feedback: Box::new(HostileTaylorFeedback::new(m)),
+        }
+    }
+    /// The parameter-only values of `field` (the prelude of its tape) from the parameter slots.
+    #[allow(unused_variables, clippy::all)]
+    fn hoist_field(p: &[f64; 0]) -> [f64; 0] {
+        []
+    }
+    /// The parameter-only values of `invariants` (the prelude of its tape) from the parameter slots.
+    #[allow(unused_variables, clippy::all)]
+    fn hoist_invariants(p: &[f64; 0]) -> [f64; 0] {
+        []
+    }
+    /// The parameter-only values of `jacobian` (the prelude of its tape) from the parameter slots.
+    #[allow(unused_variables, clippy::all)]
+    fn hoist_jacobian(p: &[f64; 0]) -> [f64; 0] {
+        []
+    }
+    /// The parameter-only values of `lyapunov` (the prelude of its tape) from the parameter slots.
+    #[allow(unused_variables, clippy::all)]
+    fn hoist_lyapunov(p: &[f64; 0]) -> [f64; 0] {
+        []
+    }
+    /// The parameter-only values of `lyapunov_gradient` (the prelude of its tape) from the parameter slots.
+    #[allow(unused_variables, clippy::all)]
+    fn hoist_lyapunov_gradient(p: &[f64; 0]) -> [f64; 0] {
+        []
+    }
+    /// The parameter-only values of `feedback` (the prelude of its tape) from the parameter slots.
+    #[allow(unused_variables, clippy::all)]
+    fn hoist_feedback(p: &[f64; 0]) -> [f64; 0] {
+        []
+    }
+    /// The Taylor-coefficient kernel of X (`lasalle_runtime::TaylorKernel`): the recurrences
+    /// of its tape, 16 rows of orders 0..=`EMITTED_MAX_ORDER`, allocated once.
+    pub struct HostileTaylorField {
+        params: [f64; 0],
+        hoisted: [f64; 0],
+        target: [f64; 0],
+        gains: [f64; 0],
+        t: Box<[[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 16]>,
+        order: usize,
+    }
+    impl HostileTaylorField {
+        /// The kernel with the parameters of `m`; targets and gains 0.
+        pub fn new<T: Float>(m: &Hostile<T>) -> Self {
+            let params = m.slot_values();
+            let t = vec![[0.0; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 16]
+                .into_boxed_slice()
+                .try_into()
+                .expect("16 rows");
+            HostileTaylorField {
+                params,
+                hoisted: hoist_field(&params),
+                target: [0.0; 0],
+                gains: [0.0; 0],
+                t,
+                order: 0,
+            }
+        }
+    }
+    impl<T: Float> lasalle_runtime::TaylorKernel<Hostile<T>> for HostileTaylorField {
+        fn dim(&self) -> usize {
+            6
+        }
+        fn max_order(&self) -> usize {
+            lasalle_runtime::taylor::EMITTED_MAX_ORDER
+        }
+        fn sync(&mut self, m: &Hostile<T>) -> Result<(), lasalle_runtime::StepError> {
+            let params = m.slot_values();
+            if params != self.params {
+                self.params = params;
+                self.hoisted = hoist_field(&params);
+            }
+            Ok(())
+        }
+        fn set_inputs(
+            &mut self,
+            target: &[f64],
+            gains: &[f64],
+        ) -> Result<(), lasalle_runtime::StepError> {
+            if target.len() != self.target.len() || gains.len() != self.gains.len() {
+                return Err(lasalle_runtime::StepError::InvalidInput(format!(
+                    "HostileTaylorField takes 0 targets and 0 gains, got {} and {}",
+                    target.len(),
+                    gains.len()
+                )));
+            }
+            self.target.copy_from_slice(target);
+            self.gains.copy_from_slice(gains);
+            Ok(())
+        }
+        #[allow(unused_variables, clippy::all)]
+        fn compute(&mut self, x: &[f64], order: usize) {
+            use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
+            let order = order.min(EMITTED_MAX_ORDER);
+            self.order = order;
+            let HostileTaylorField { hoisted, target, gains, t, .. } = self;
+            let t = &mut **t;
+            for (row, xi) in t.iter_mut().zip(&x[..6]) {
+                row[0] = *xi;
+            }
+            for k in 0..order {
+                if k == 0 {
+                    t[6][0] = t[2][0] * t[2][0];
+                    t[7][0] = t[4][0] * t[4][0];
+                    t[8][0] = t[6][0] * t[7][0];
+                    t[9][0] = 1.0_f64;
+                    t[10][0] = t[9][0] + t[8][0];
+                    t[11][0] = t[1][0] * t[10][0];
+                    t[12][0] = t[0][0] * t[10][0];
+                    t[13][0] = -t[12][0];
+                    t[14][0] = -t[2][0];
+                    t[15][0] = -t[4][0];
+                } else {
+                    t[6][k] = rec::square(&t[2], k);
+                    t[7][k] = rec::square(&t[4], k);
+                    t[8][k] = rec::mul(&t[6], &t[7], k);
+                    t[10][k] = t[9][k] + t[8][k];
+                    t[11][k] = rec::mul(&t[1], &t[10], k);
+                    t[12][k] = rec::mul(&t[0], &t[10], k);
+                    t[13][k] = -t[12][k];
+                    t[14][k] = -t[2][k];
+                    t[15][k] = -t[4][k];
+                }
+                let inv = 1.0 / (k as f64 + 1.0);
+                t[0][k + 1] = t[11][k] * inv;
+                t[1][k + 1] = t[13][k] * inv;
+                t[2][k + 1] = t[3][k] * inv;
+                t[3][k + 1] = t[14][k] * inv;
+                t[4][k + 1] = t[5][k] * inv;
+                t[5][k + 1] = t[15][k] * inv;
+            }
+        }
+        fn coefficients(&self, i: usize) -> &[f64] {
+            &self.t[i][..=self.order]
+        }
+    }
+    /// The Taylor-coefficient kernel of X − ∇V (`lasalle_runtime::TaylorKernel`): the recurrences
+    /// of its tape, 42 rows of orders 0..=`EMITTED_MAX_ORDER`, allocated once.
+    pub struct HostileTaylorFeedback {
+        params: [f64; 0],
+        hoisted: [f64; 0],
+        target: [f64; 2],
+        gains: [f64; 2],
+        t: Box<[[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 42]>,
+        order: usize,
+    }
+    impl HostileTaylorFeedback {
+        /// The kernel with the parameters of `m`; targets and gains 0.
+        pub fn new<T: Float>(m: &Hostile<T>) -> Self {
+            let params = m.slot_values();
+            let t = vec![[0.0; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 42]
+                .into_boxed_slice()
+                .try_into()
+                .expect("42 rows");
+            HostileTaylorFeedback {
+                params,
+                hoisted: hoist_feedback(&params),
+                target: [0.0; 2],
+                gains: [0.0; 2],
+                t,
+                order: 0,
+            }
+        }
+    }
+    impl<T: Float> lasalle_runtime::TaylorKernel<Hostile<T>> for HostileTaylorFeedback {
+        fn dim(&self) -> usize {
+            6
+        }
+        fn max_order(&self) -> usize {
+            lasalle_runtime::taylor::EMITTED_MAX_ORDER
+        }
+        fn sync(&mut self, m: &Hostile<T>) -> Result<(), lasalle_runtime::StepError> {
+            let params = m.slot_values();
+            if params != self.params {
+                self.params = params;
+                self.hoisted = hoist_feedback(&params);
+            }
+            Ok(())
+        }
+        fn set_inputs(
+            &mut self,
+            target: &[f64],
+            gains: &[f64],
+        ) -> Result<(), lasalle_runtime::StepError> {
+            if target.len() != self.target.len() || gains.len() != self.gains.len() {
+                return Err(lasalle_runtime::StepError::InvalidInput(format!(
+                    "HostileTaylorFeedback takes 2 targets and 2 gains, got {} and {}",
+                    target.len(),
+                    gains.len()
+                )));
+            }
+            self.target.copy_from_slice(target);
+            self.gains.copy_from_slice(gains);
+            Ok(())
+        }
+        #[allow(unused_variables, clippy::all)]
+        fn compute(&mut self, x: &[f64], order: usize) {
+            use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
+            let order = order.min(EMITTED_MAX_ORDER);
+            self.order = order;
+            let HostileTaylorFeedback { hoisted, target, gains, t, .. } = self;
+            let t = &mut **t;
+            for (row, xi) in t.iter_mut().zip(&x[..6]) {
+                row[0] = *xi;
+            }
+            for k in 0..order {
+                if k == 0 {
+                    t[6][0] = t[2][0] * t[2][0];
+                    t[7][0] = t[4][0] * t[4][0];
+                    t[8][0] = t[6][0] * t[7][0];
+                    t[9][0] = 1.0_f64;
+                    t[10][0] = t[9][0] + t[8][0];
+                    t[11][0] = t[1][0] * t[10][0];
+                    t[12][0] = gains[1];
+                    t[13][0] = t[3][0] * t[3][0];
+                    t[14][0] = target[1];
+                    t[15][0] = t[6][0] + t[13][0];
+                    t[16][0] = t[15][0] - t[14][0];
+                    t[17][0] = t[16][0] * t[12][0];
+                    t[18][0] = gains[0];
+                    t[19][0] = t[0][0] * t[0][0];
+                    t[20][0] = t[1][0] * t[1][0];
+                    t[21][0] = target[0];
+                    t[22][0] = t[19][0] + t[20][0];
+                    t[23][0] = t[22][0] - t[21][0];
+                    t[24][0] = t[23][0] * t[18][0];
+                    t[25][0] = 2.0_f64;
+                    t[26][0] = t[0][0] * t[25][0];
+                    t[27][0] = t[26][0] * t[24][0];
+                    t[28][0] = t[11][0] - t[27][0];
+                    t[29][0] = t[0][0] * t[10][0];
+                    t[30][0] = t[1][0] * t[25][0];
+                    t[31][0] = t[30][0] * t[24][0];
+                    t[32][0] = -t[29][0];
+                    t[33][0] = t[32][0] - t[31][0];
+                    t[34][0] = t[2][0] * t[25][0];
+                    t[35][0] = t[34][0] * t[17][0];
+                    t[36][0] = t[3][0] - t[35][0];
+                    t[37][0] = t[3][0] * t[25][0];
+                    t[38][0] = t[37][0] * t[17][0];
+                    t[39][0] = -t[2][0];
+                    t[40][0] = t[39][0] - t[38][0];
+                    t[41][0] = -t[4][0];
+                } else {
+                    t[6][k] = rec::square(&t[2], k);
+                    t[7][k] = rec::square(&t[4], k);
+                    t[8][k] = rec::mul(&t[6], &t[7], k);
+                    t[10][k] = t[9][k] + t[8][k];
+                    t[11][k] = rec::mul(&t[1], &t[10], k);
+                    t[13][k] = rec::square(&t[3], k);
+                    t[15][k] = t[6][k] + t[13][k];
+                    t[16][k] = t[15][k] - t[14][k];
+                    t[17][k] = t[16][k] * t[12][0];
+                    t[19][k] = rec::square(&t[0], k);
+                    t[20][k] = rec::square(&t[1], k);
+                    t[22][k] = t[19][k] + t[20][k];
+                    t[23][k] = t[22][k] - t[21][k];
+                    t[24][k] = t[23][k] * t[18][0];
+                    t[26][k] = t[0][k] * t[25][0];
+                    t[27][k] = rec::mul(&t[26], &t[24], k);
+                    t[28][k] = t[11][k] - t[27][k];
+                    t[29][k] = rec::mul(&t[0], &t[10], k);
+                    t[30][k] = t[1][k] * t[25][0];
+                    t[31][k] = rec::mul(&t[30], &t[24], k);
+                    t[32][k] = -t[29][k];
+                    t[33][k] = t[32][k] - t[31][k];
+                    t[34][k] = t[2][k] * t[25][0];
+                    t[35][k] = rec::mul(&t[34], &t[17], k);
+                    t[36][k] = t[3][k] - t[35][k];
+                    t[37][k] = t[3][k] * t[25][0];
+                    t[38][k] = rec::mul(&t[37], &t[17], k);
+                    t[39][k] = -t[2][k];
+                    t[40][k] = t[39][k] - t[38][k];
+                    t[41][k] = -t[4][k];
+                }
+                let inv = 1.0 / (k as f64 + 1.0);
+                t[0][k + 1] = t[28][k] * inv;
+                t[1][k + 1] = t[33][k] * inv;
+                t[2][k + 1] = t[36][k] * inv;
+                t[3][k + 1] = t[40][k] * inv;
+                t[4][k + 1] = t[5][k] * inv;
+                t[5][k + 1] = t[41][k] * inv;
+            }
+        }
+        fn coefficients(&self, i: usize) -> &[f64] {
+            &self.t[i][..=self.order]
+        }
+    }
+    /// The model's functions for K states per call (structure of arrays), with the
+    /// parameter-only values computed once: see `Hostile::lanes`.
+    #[derive(Clone, Debug)]
+    pub struct HostileLanes {
+        field: [f64; 0],
+        invariants: [f64; 0],
+        jacobian: [f64; 0],
+        lyapunov: [f64; 0],
+        lyapunov_gradient: [f64; 0],
+        feedback: [f64; 0],
+    }
+    impl<T: Float> Hostile<T> {
+        /// The batched functions with the current parameters (their preludes run now).
+        pub fn lanes(&self) -> HostileLanes {
+            let p = self.slot_values();
+            HostileLanes {
+                field: hoist_field(&p),
+                invariants: hoist_invariants(&p),
+                jacobian: hoist_jacobian(&p),
+                lyapunov: hoist_lyapunov(&p),
+                lyapunov_gradient: hoist_lyapunov_gradient(&p),
+                feedback: hoist_feedback(&p),
+            }
+        }
+    }
+    impl HostileLanes {
+        /// `field` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+        /// of lane l; each lane equals the scalar function bitwise.
+        #[allow(unused_variables, clippy::all)]
+        pub fn field<const K: usize>(
+            &self,
+            x: &[[f64; K]; 6],
+            out: &mut [[f64; K]; 6],
+        ) {
+            let h = &self.field;
+            let r0: [f64; K] = x[2];
+            let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
+            let r2: [f64; K] = x[4];
+            let r3: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
+            let r4: [f64; K] = core::array::from_fn(|l| r1[l] * r3[l]);
+            let r5: [f64; K] = [1.0_f64; K];
+            let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r4[l]);
+            let r7: [f64; K] = x[1];
+            let r8: [f64; K] = core::array::from_fn(|l| r7[l] * r6[l]);
+            let r9: [f64; K] = x[0];
+            let r10: [f64; K] = core::array::from_fn(|l| r9[l] * r6[l]);
+            let r11: [f64; K] = core::array::from_fn(|l| -r10[l]);
+            let r12: [f64; K] = x[3];
+            let r13: [f64; K] = core::array::from_fn(|l| -r0[l]);
+            let r14: [f64; K] = x[5];
+            let r15: [f64; K] = core::array::from_fn(|l| -r2[l]);
+            out[0] = r8;
+            out[1] = r11;
+            out[2] = r12;
+            out[3] = r13;
+            out[4] = r14;
+            out[5] = r15;
+        }
+        /// `invariants` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+        /// of lane l; each lane equals the scalar function bitwise.
+        #[allow(unused_variables, clippy::all)]
+        pub fn invariants<const K: usize>(
+            &self,
+            x: &[[f64; K]; 6],
+            out: &mut [[f64; K]; 2],
+        ) {
+            let h = &self.invariants;
+            let r0: [f64; K] = x[0];
+            let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
+            let r2: [f64; K] = x[1];
+            let r3: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
+            let r4: [f64; K] = core::array::from_fn(|l| r1[l] + r3[l]);
+            let r5: [f64; K] = x[2];
+            let r6: [f64; K] = core::array::from_fn(|l| r5[l].powi(2));
+            let r7: [f64; K] = x[3];
+            let r8: [f64; K] = core::array::from_fn(|l| r7[l].powi(2));
+            let r9: [f64; K] = core::array::from_fn(|l| r6[l] + r8[l]);
+            out[0] = r4;
+            out[1] = r9;
+        }
+        /// `jacobian` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+        /// of lane l; each lane equals the scalar function bitwise.
+        #[allow(unused_variables, clippy::all)]
+        pub fn jacobian<const K: usize>(
+            &self,
+            x: &[[f64; K]; 6],
+            out: &mut [[f64; K]; 12],
+        ) {
+            let h = &self.jacobian;
+            let r0: [f64; K] = x[0];
+            let r1: [f64; K] = [2.0_f64; K];
+            let r2: [f64; K] = core::array::from_fn(|l| r1[l] * r0[l]);
+            let r3: [f64; K] = x[1];
+            let r4: [f64; K] = core::array::from_fn(|l| r1[l] * r3[l]);
+            let r5: [f64; K] = x[2];
+            let r6: [f64; K] = core::array::from_fn(|l| r1[l] * r5[l]);
+            let r7: [f64; K] = x[3];
+            let r8: [f64; K] = core::array::from_fn(|l| r1[l] * r7[l]);
+            let r9: [f64; K] = [0.0_f64; K];
+            out[0] = r2;
+            out[1] = r4;
+            out[2] = r9;
+            out[3] = r9;
+            out[4] = r9;
+            out[5] = r9;
+            out[6] = r9;
+            out[7] = r9;
+            out[8] = r6;
+            out[9] = r8;
+            out[10] = r9;
+            out[11] = r9;
+        }
+        /// `lyapunov` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+        /// of lane l; each lane equals the scalar function bitwise.
+        #[allow(unused_variables, clippy::all)]
+        pub fn lyapunov<const K: usize>(
+            &self,
+            x: &[[f64; K]; 6],
+            target: &[f64; 2],
+            gains: &[f64; 2],
+            out: &mut [[f64; K]; 1],
+        ) {
+            let h = &self.lyapunov;
+            let r0: [f64; K] = [gains[0]; K];
+            let r1: [f64; K] = x[0];
+            let r2: [f64; K] = core::array::from_fn(|l| r1[l].powi(2));
+            let r3: [f64; K] = x[1];
+            let r4: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
+            let r5: [f64; K] = [target[0]; K];
+            let r6: [f64; K] = core::array::from_fn(|l| r2[l] + r4[l]);
+            let r7: [f64; K] = core::array::from_fn(|l| r6[l] - r5[l]);
+            let r8: [f64; K] = core::array::from_fn(|l| r7[l].powi(2));
+            let r9: [f64; K] = [0.5_f64; K];
+            let r10: [f64; K] = core::array::from_fn(|l| r9[l] * r0[l]);
+            let r11: [f64; K] = core::array::from_fn(|l| r10[l] * r8[l]);
+            let r12: [f64; K] = [gains[1]; K];
+            let r13: [f64; K] = x[2];
+            let r14: [f64; K] = core::array::from_fn(|l| r13[l].powi(2));
+            let r15: [f64; K] = x[3];
+            let r16: [f64; K] = core::array::from_fn(|l| r15[l].powi(2));
+            let r17: [f64; K] = [target[1]; K];
+            let r18: [f64; K] = core::array::from_fn(|l| r14[l] + r16[l]);
+            let r19: [f64; K] = core::array::from_fn(|l| r18[l] - r17[l]);
+            let r20: [f64; K] = core::array::from_fn(|l| r19[l].powi(2));
+            let r21: [f64; K] = core::array::from_fn(|l| r9[l] * r12[l]);
+            let r22: [f64; K] = core::array::from_fn(|l| r21[l] * r20[l]);
+            let r23: [f64; K] = core::array::from_fn(|l| r11[l] + r22[l]);
+            out[0] = r23;
+        }
+        /// `lyapunov_gradient` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+        /// of lane l; each lane equals the scalar function bitwise.
+        #[allow(unused_variables, clippy::all)]
+        pub fn lyapunov_gradient<const K: usize>(
+            &self,
+            x: &[[f64; K]; 6],
+            target: &[f64; 2],
+            gains: &[f64; 2],
+            out: &mut [[f64; K]; 6],
+        ) {
+            let h = &self.lyapunov_gradient;
+            let r0: [f64; K] = [gains[1]; K];
+            let r1: [f64; K] = x[2];
+            let r2: [f64; K] = core::array::from_fn(|l| r1[l].powi(2));
+            let r3: [f64; K] = x[3];
+            let r4: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
+            let r5: [f64; K] = [target[1]; K];
+            let r6: [f64; K] = core::array::from_fn(|l| r2[l] + r4[l]);
+            let r7: [f64; K] = core::array::from_fn(|l| r6[l] - r5[l]);
+            let r8: [f64; K] = core::array::from_fn(|l| r0[l] * r7[l]);
+            let r9: [f64; K] = [gains[0]; K];
+            let r10: [f64; K] = x[0];
+            let r11: [f64; K] = core::array::from_fn(|l| r10[l].powi(2));
+            let r12: [f64; K] = x[1];
+            let r13: [f64; K] = core::array::from_fn(|l| r12[l].powi(2));
+            let r14: [f64; K] = [target[0]; K];
+            let r15: [f64; K] = core::array::from_fn(|l| r11[l] + r13[l]);
+            let r16: [f64; K] = core::array::from_fn(|l| r15[l] - r14[l]);
+            let r17: [f64; K] = core::array::from_fn(|l| r9[l] * r16[l]);
+            let r18: [f64; K] = [2.0_f64; K];
+            let r19: [f64; K] = core::array::from_fn(|l| r18[l] * r10[l]);
+            let r20: [f64; K] = core::array::from_fn(|l| r19[l] * r17[l]);
+            let r21: [f64; K] = core::array::from_fn(|l| r18[l] * r12[l]);
+            let r22: [f64; K] = core::array::from_fn(|l| r21[l] * r17[l]);
+            let r23: [f64; K] = core::array::from_fn(|l| r18[l] * r1[l]);
+            let r24: [f64; K] = core::array::from_fn(|l| r23[l] * r8[l]);
+            let r25: [f64; K] = core::array::from_fn(|l| r18[l] * r3[l]);
+            let r26: [f64; K] = core::array::from_fn(|l| r25[l] * r8[l]);
+            let r27: [f64; K] = [0.0_f64; K];
+            out[0] = r20;
+            out[1] = r22;
+            out[2] = r24;
+            out[3] = r26;
+            out[4] = r27;
+            out[5] = r27;
+        }
+        /// `feedback` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+        /// of lane l; each lane equals the scalar function bitwise.
+        #[allow(unused_variables, clippy::all)]
+        pub fn feedback<const K: usize>(
+            &self,
+            x: &[[f64; K]; 6],
+            target: &[f64; 2],
+            gains: &[f64; 2],
+            out: &mut [[f64; K]; 6],
+        ) {
+            let h = &self.feedback;
+            let r0: [f64; K] = x[2];
+            let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
+            let r2: [f64; K] = x[4];
+            let r3: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
+            let r4: [f64; K] = core::array::from_fn(|l| r1[l] * r3[l]);
+            let r5: [f64; K] = [1.0_f64; K];
+            let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r4[l]);
+            let r7: [f64; K] = x[1];
+            let r8: [f64; K] = core::array::from_fn(|l| r7[l] * r6[l]);
+            let r9: [f64; K] = [gains[1]; K];
+            let r10: [f64; K] = x[3];
+            let r11: [f64; K] = core::array::from_fn(|l| r10[l].powi(2));
+            let r12: [f64; K] = [target[1]; K];
+            let r13: [f64; K] = core::array::from_fn(|l| r1[l] + r11[l]);
+            let r14: [f64; K] = core::array::from_fn(|l| r13[l] - r12[l]);
+            let r15: [f64; K] = core::array::from_fn(|l| r9[l] * r14[l]);
+            let r16: [f64; K] = [gains[0]; K];
+            let r17: [f64; K] = x[0];
+            let r18: [f64; K] = core::array::from_fn(|l| r17[l].powi(2));
+            let r19: [f64; K] = core::array::from_fn(|l| r7[l].powi(2));
+            let r20: [f64; K] = [target[0]; K];
+            let r21: [f64; K] = core::array::from_fn(|l| r18[l] + r19[l]);
+            let r22: [f64; K] = core::array::from_fn(|l| r21[l] - r20[l]);
+            let r23: [f64; K] = core::array::from_fn(|l| r16[l] * r22[l]);
+            let r24: [f64; K] = [2.0_f64; K];
+            let r25: [f64; K] = core::array::from_fn(|l| r24[l] * r17[l]);
+            let r26: [f64; K] = core::array::from_fn(|l| r25[l] * r23[l]);
+            let r27: [f64; K] = core::array::from_fn(|l| r8[l] - r26[l]);
+            let r28: [f64; K] = core::array::from_fn(|l| r17[l] * r6[l]);
+            let r29: [f64; K] = core::array::from_fn(|l| r24[l] * r7[l]);
+            let r30: [f64; K] = core::array::from_fn(|l| r29[l] * r23[l]);
+            let r31: [f64; K] = core::array::from_fn(|l| -r28[l]);
+            let r32: [f64; K] = core::array::from_fn(|l| r31[l] - r30[l]);
+            let r33: [f64; K] = core::array::from_fn(|l| r24[l] * r0[l]);
+            let r34: [f64; K] = core::array::from_fn(|l| r33[l] * r15[l]);
+            let r35: [f64; K] = core::array::from_fn(|l| r10[l] - r34[l]);
+            let r36: [f64; K] = core::array::from_fn(|l| r24[l] * r10[l]);
+            let r37: [f64; K] = core::array::from_fn(|l| r36[l] * r15[l]);
+            let r38: [f64; K] = core::array::from_fn(|l| -r0[l]);
+            let r39: [f64; K] = core::array::from_fn(|l| r38[l] - r37[l]);
+            let r40: [f64; K] = x[5];
+            let r41: [f64; K] = core::array::from_fn(|l| -r2[l]);
+            out[0] = r27;
+            out[1] = r32;
+            out[2] = r35;
+            out[3] = r39;
+            out[4] = r40;
+            out[5] = r41;
         }
     }
 }

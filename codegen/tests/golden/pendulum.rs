@@ -290,6 +290,13 @@ pub mod pendulum {
         fn partitioned(&self) -> Option<&dyn Partitioned<T, [T; 2]>> {
             Some(self)
         }
+
+        fn taylor_kernels(
+            &self,
+            _max_order: u32,
+        ) -> Result<lasalle_runtime::TaylorKernels<Self>, lasalle_runtime::TaylorError> {
+            Ok(taylor_kernels(self))
+        }
     }
 
     impl<T> Pendulum<T> {
@@ -468,6 +475,506 @@ pub mod pendulum {
 
         fn point(&self, name: &str) -> Option<Vec<f64>> {
             self.model.point(name)
+        }
+    }
+    impl<T: Float> Pendulum<T> {
+        /// The parameter slots as f64, in the order of `PARAMS` (matrices column-major).
+        pub fn slot_values(&self) -> [f64; 2] {
+            [self.g.to_f64().unwrap_or(f64::NAN), self.l.to_f64().unwrap_or(f64::NAN)]
+        }
+        /// The adaptive Taylor integrator (Jorba & Zou; `lasalle_runtime::taylor`) of the field
+        /// and of X − ∇V over this model's emitted kernels.
+        pub fn taylor(
+            &self,
+            opts: lasalle_runtime::TaylorOptions,
+        ) -> Result<lasalle_runtime::Taylor<Self>, lasalle_runtime::TaylorError> {
+            lasalle_runtime::Taylor::new(taylor_kernels(self), opts)
+        }
+    }
+    /// The emitted Taylor kernels of the field and of X − ∇V.
+    fn taylor_kernels<T: Float>(m: &Pendulum<T>) -> lasalle_runtime::TaylorKernels<Pendulum<T>> {
+        lasalle_runtime::TaylorKernels {
+            field: Box::new(PendulumTaylorField::new(m)),
+            feedback: Box::new(PendulumTaylorFeedback::new(m)),
+        }
+    }
+    /// The parameter-only values of `field` (the prelude of its tape) from the parameter slots.
+    #[allow(unused_variables, clippy::all)]
+    fn hoist_field(p: &[f64; 2]) -> [f64; 1] {
+        let p0: f64 = p[0];
+        let p1: f64 = p[1];
+        let p2: f64 = p0 / p1;
+        let p3: f64 = -p2;
+        [p3]
+    }
+    /// The parameter-only values of `invariants` (the prelude of its tape) from the parameter slots.
+    #[allow(unused_variables, clippy::all)]
+    fn hoist_invariants(p: &[f64; 2]) -> [f64; 1] {
+        let p0: f64 = p[0];
+        let p1: f64 = p[1];
+        let p2: f64 = p0 / p1;
+        let p3: f64 = -p2;
+        [p3]
+    }
+    /// The parameter-only values of `jacobian` (the prelude of its tape) from the parameter slots.
+    #[allow(unused_variables, clippy::all)]
+    fn hoist_jacobian(p: &[f64; 2]) -> [f64; 1] {
+        let p0: f64 = p[0];
+        let p1: f64 = p[1];
+        let p2: f64 = p0 / p1;
+        [p2]
+    }
+    /// The parameter-only values of `lyapunov` (the prelude of its tape) from the parameter slots.
+    #[allow(unused_variables, clippy::all)]
+    fn hoist_lyapunov(p: &[f64; 2]) -> [f64; 1] {
+        let p0: f64 = p[0];
+        let p1: f64 = p[1];
+        let p2: f64 = p0 / p1;
+        let p3: f64 = -p2;
+        [p3]
+    }
+    /// The parameter-only values of `lyapunov_gradient` (the prelude of its tape) from the parameter slots.
+    #[allow(unused_variables, clippy::all)]
+    fn hoist_lyapunov_gradient(p: &[f64; 2]) -> [f64; 2] {
+        let p0: f64 = p[1];
+        let p1: f64 = 1.0_f64;
+        let p2: f64 = p1 / p0;
+        let p3: f64 = p[0];
+        let p4: f64 = p3 / p0;
+        let p5: f64 = -p4;
+        [p5, p4]
+    }
+    /// The parameter-only values of `feedback` (the prelude of its tape) from the parameter slots.
+    #[allow(unused_variables, clippy::all)]
+    fn hoist_feedback(p: &[f64; 2]) -> [f64; 1] {
+        let p0: f64 = p[0];
+        let p1: f64 = p[1];
+        let p2: f64 = p0 / p1;
+        let p3: f64 = -p2;
+        [p3]
+    }
+    /// The parameter-only values of `field_q` (the prelude of its tape) from the parameter slots.
+    #[allow(unused_variables, clippy::all)]
+    fn hoist_field_q(p: &[f64; 2]) -> [f64; 0] {
+        []
+    }
+    /// The parameter-only values of `field_p` (the prelude of its tape) from the parameter slots.
+    #[allow(unused_variables, clippy::all)]
+    fn hoist_field_p(p: &[f64; 2]) -> [f64; 1] {
+        let p0: f64 = p[0];
+        let p1: f64 = p[1];
+        let p2: f64 = p0 / p1;
+        let p3: f64 = -p2;
+        [p3]
+    }
+    /// The Taylor-coefficient kernel of X (`lasalle_runtime::TaylorKernel`): the recurrences
+    /// of its tape, 6 rows of orders 0..=`EMITTED_MAX_ORDER`, allocated once.
+    pub struct PendulumTaylorField {
+        params: [f64; 2],
+        hoisted: [f64; 1],
+        target: [f64; 0],
+        gains: [f64; 0],
+        t: Box<[[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 6]>,
+        order: usize,
+    }
+    impl PendulumTaylorField {
+        /// The kernel with the parameters of `m`; targets and gains 0.
+        pub fn new<T: Float>(m: &Pendulum<T>) -> Self {
+            let params = m.slot_values();
+            let t = vec![[0.0; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 6]
+                .into_boxed_slice()
+                .try_into()
+                .expect("6 rows");
+            PendulumTaylorField {
+                params,
+                hoisted: hoist_field(&params),
+                target: [0.0; 0],
+                gains: [0.0; 0],
+                t,
+                order: 0,
+            }
+        }
+    }
+    impl<T: Float> lasalle_runtime::TaylorKernel<Pendulum<T>> for PendulumTaylorField {
+        fn dim(&self) -> usize {
+            2
+        }
+        fn max_order(&self) -> usize {
+            lasalle_runtime::taylor::EMITTED_MAX_ORDER
+        }
+        fn sync(&mut self, m: &Pendulum<T>) -> Result<(), lasalle_runtime::StepError> {
+            let params = m.slot_values();
+            if params != self.params {
+                self.params = params;
+                self.hoisted = hoist_field(&params);
+            }
+            Ok(())
+        }
+        fn set_inputs(
+            &mut self,
+            target: &[f64],
+            gains: &[f64],
+        ) -> Result<(), lasalle_runtime::StepError> {
+            if target.len() != self.target.len() || gains.len() != self.gains.len() {
+                return Err(lasalle_runtime::StepError::InvalidInput(format!(
+                    "PendulumTaylorField takes 0 targets and 0 gains, got {} and {}",
+                    target.len(),
+                    gains.len()
+                )));
+            }
+            self.target.copy_from_slice(target);
+            self.gains.copy_from_slice(gains);
+            Ok(())
+        }
+        #[allow(unused_variables, clippy::all)]
+        fn compute(&mut self, x: &[f64], order: usize) {
+            use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
+            let order = order.min(EMITTED_MAX_ORDER);
+            self.order = order;
+            let PendulumTaylorField { hoisted, target, gains, t, .. } = self;
+            let t = &mut **t;
+            for (row, xi) in t.iter_mut().zip(&x[..2]) {
+                row[0] = *xi;
+            }
+            for k in 0..order {
+                if k == 0 {
+                    let (s, c) = t[0][0].sin_cos();
+                    t[2][0] = s;
+                    t[3][0] = c;
+                    t[4][0] = hoisted[0];
+                    t[5][0] = t[2][0] * t[4][0];
+                } else {
+                    let (s, c) = rec::sin_cos(&t[0], &t[2], &t[3], k);
+                    t[2][k] = s;
+                    t[3][k] = c;
+                    t[5][k] = t[2][k] * t[4][0];
+                }
+                let inv = 1.0 / (k as f64 + 1.0);
+                t[0][k + 1] = t[1][k] * inv;
+                t[1][k + 1] = t[5][k] * inv;
+            }
+        }
+        fn coefficients(&self, i: usize) -> &[f64] {
+            &self.t[i][..=self.order]
+        }
+    }
+    /// The Taylor-coefficient kernel of X − ∇V (`lasalle_runtime::TaylorKernel`): the recurrences
+    /// of its tape, 19 rows of orders 0..=`EMITTED_MAX_ORDER`, allocated once.
+    pub struct PendulumTaylorFeedback {
+        params: [f64; 2],
+        hoisted: [f64; 1],
+        target: [f64; 1],
+        gains: [f64; 1],
+        t: Box<[[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 19]>,
+        order: usize,
+    }
+    impl PendulumTaylorFeedback {
+        /// The kernel with the parameters of `m`; targets and gains 0.
+        pub fn new<T: Float>(m: &Pendulum<T>) -> Self {
+            let params = m.slot_values();
+            let t = vec![[0.0; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 19]
+                .into_boxed_slice()
+                .try_into()
+                .expect("19 rows");
+            PendulumTaylorFeedback {
+                params,
+                hoisted: hoist_feedback(&params),
+                target: [0.0; 1],
+                gains: [0.0; 1],
+                t,
+                order: 0,
+            }
+        }
+    }
+    impl<T: Float> lasalle_runtime::TaylorKernel<Pendulum<T>> for PendulumTaylorFeedback {
+        fn dim(&self) -> usize {
+            2
+        }
+        fn max_order(&self) -> usize {
+            lasalle_runtime::taylor::EMITTED_MAX_ORDER
+        }
+        fn sync(&mut self, m: &Pendulum<T>) -> Result<(), lasalle_runtime::StepError> {
+            let params = m.slot_values();
+            if params != self.params {
+                self.params = params;
+                self.hoisted = hoist_feedback(&params);
+            }
+            Ok(())
+        }
+        fn set_inputs(
+            &mut self,
+            target: &[f64],
+            gains: &[f64],
+        ) -> Result<(), lasalle_runtime::StepError> {
+            if target.len() != self.target.len() || gains.len() != self.gains.len() {
+                return Err(lasalle_runtime::StepError::InvalidInput(format!(
+                    "PendulumTaylorFeedback takes 1 targets and 1 gains, got {} and {}",
+                    target.len(),
+                    gains.len()
+                )));
+            }
+            self.target.copy_from_slice(target);
+            self.gains.copy_from_slice(gains);
+            Ok(())
+        }
+        #[allow(unused_variables, clippy::all)]
+        fn compute(&mut self, x: &[f64], order: usize) {
+            use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
+            let order = order.min(EMITTED_MAX_ORDER);
+            self.order = order;
+            let PendulumTaylorFeedback { hoisted, target, gains, t, .. } = self;
+            let t = &mut **t;
+            for (row, xi) in t.iter_mut().zip(&x[..2]) {
+                row[0] = *xi;
+            }
+            for k in 0..order {
+                if k == 0 {
+                    let (s, c) = t[0][0].sin_cos();
+                    t[2][0] = s;
+                    t[3][0] = c;
+                    t[4][0] = gains[0];
+                    t[5][0] = t[1][0] * t[1][0];
+                    t[6][0] = 0.5_f64;
+                    t[7][0] = t[5][0] * t[6][0];
+                    t[8][0] = hoisted[0];
+                    t[9][0] = t[3][0] * t[8][0];
+                    t[10][0] = target[0];
+                    t[11][0] = t[7][0] + t[9][0];
+                    t[12][0] = t[11][0] - t[10][0];
+                    t[13][0] = t[12][0] * t[4][0];
+                    t[14][0] = t[2][0] * t[8][0];
+                    t[15][0] = t[14][0] * t[13][0];
+                    t[16][0] = t[1][0] + t[15][0];
+                    t[17][0] = t[1][0] * t[13][0];
+                    t[18][0] = t[14][0] - t[17][0];
+                } else {
+                    let (s, c) = rec::sin_cos(&t[0], &t[2], &t[3], k);
+                    t[2][k] = s;
+                    t[3][k] = c;
+                    t[5][k] = rec::square(&t[1], k);
+                    t[7][k] = t[5][k] * t[6][0];
+                    t[9][k] = t[3][k] * t[8][0];
+                    t[11][k] = t[7][k] + t[9][k];
+                    t[12][k] = t[11][k] - t[10][k];
+                    t[13][k] = t[12][k] * t[4][0];
+                    t[14][k] = t[2][k] * t[8][0];
+                    t[15][k] = rec::mul(&t[14], &t[13], k);
+                    t[16][k] = t[1][k] + t[15][k];
+                    t[17][k] = rec::mul(&t[1], &t[13], k);
+                    t[18][k] = t[14][k] - t[17][k];
+                }
+                let inv = 1.0 / (k as f64 + 1.0);
+                t[0][k + 1] = t[16][k] * inv;
+                t[1][k + 1] = t[18][k] * inv;
+            }
+        }
+        fn coefficients(&self, i: usize) -> &[f64] {
+            &self.t[i][..=self.order]
+        }
+    }
+    /// The model's functions for K states per call (structure of arrays), with the
+    /// parameter-only values computed once: see `Pendulum::lanes`.
+    #[derive(Clone, Debug)]
+    pub struct PendulumLanes {
+        field: [f64; 1],
+        invariants: [f64; 1],
+        jacobian: [f64; 1],
+        lyapunov: [f64; 1],
+        lyapunov_gradient: [f64; 2],
+        feedback: [f64; 1],
+        field_q: [f64; 0],
+        field_p: [f64; 1],
+    }
+    impl<T: Float> Pendulum<T> {
+        /// The batched functions with the current parameters (their preludes run now).
+        pub fn lanes(&self) -> PendulumLanes {
+            let p = self.slot_values();
+            PendulumLanes {
+                field: hoist_field(&p),
+                invariants: hoist_invariants(&p),
+                jacobian: hoist_jacobian(&p),
+                lyapunov: hoist_lyapunov(&p),
+                lyapunov_gradient: hoist_lyapunov_gradient(&p),
+                feedback: hoist_feedback(&p),
+                field_q: hoist_field_q(&p),
+                field_p: hoist_field_p(&p),
+            }
+        }
+    }
+    impl PendulumLanes {
+        /// `field` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+        /// of lane l; each lane equals the scalar function bitwise.
+        #[allow(unused_variables, clippy::all)]
+        pub fn field<const K: usize>(
+            &self,
+            x: &[[f64; K]; 2],
+            out: &mut [[f64; K]; 2],
+        ) {
+            let h = &self.field;
+            let r0: [f64; K] = x[1];
+            let r1: [f64; K] = x[0];
+            let r2: [f64; K] = core::array::from_fn(|l| r1[l].sin());
+            let r3: [f64; K] = [h[0]; K];
+            let r4: [f64; K] = core::array::from_fn(|l| r3[l] * r2[l]);
+            out[0] = r0;
+            out[1] = r4;
+        }
+        /// `invariants` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+        /// of lane l; each lane equals the scalar function bitwise.
+        #[allow(unused_variables, clippy::all)]
+        pub fn invariants<const K: usize>(
+            &self,
+            x: &[[f64; K]; 2],
+            out: &mut [[f64; K]; 1],
+        ) {
+            let h = &self.invariants;
+            let r0: [f64; K] = x[1];
+            let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
+            let r2: [f64; K] = [0.5_f64; K];
+            let r3: [f64; K] = core::array::from_fn(|l| r2[l] * r1[l]);
+            let r4: [f64; K] = x[0];
+            let r5: [f64; K] = core::array::from_fn(|l| r4[l].cos());
+            let r6: [f64; K] = [h[0]; K];
+            let r7: [f64; K] = core::array::from_fn(|l| r6[l] * r5[l]);
+            let r8: [f64; K] = core::array::from_fn(|l| r3[l] + r7[l]);
+            out[0] = r8;
+        }
+        /// `jacobian` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+        /// of lane l; each lane equals the scalar function bitwise.
+        #[allow(unused_variables, clippy::all)]
+        pub fn jacobian<const K: usize>(
+            &self,
+            x: &[[f64; K]; 2],
+            out: &mut [[f64; K]; 2],
+        ) {
+            let h = &self.jacobian;
+            let r0: [f64; K] = x[0];
+            let r1: [f64; K] = core::array::from_fn(|l| r0[l].sin());
+            let r2: [f64; K] = [h[0]; K];
+            let r3: [f64; K] = core::array::from_fn(|l| r2[l] * r1[l]);
+            let r4: [f64; K] = x[1];
+            out[0] = r3;
+            out[1] = r4;
+        }
+        /// `lyapunov` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+        /// of lane l; each lane equals the scalar function bitwise.
+        #[allow(unused_variables, clippy::all)]
+        pub fn lyapunov<const K: usize>(
+            &self,
+            x: &[[f64; K]; 2],
+            target: &[f64; 1],
+            gains: &[f64; 1],
+            out: &mut [[f64; K]; 1],
+        ) {
+            let h = &self.lyapunov;
+            let r0: [f64; K] = [gains[0]; K];
+            let r1: [f64; K] = x[1];
+            let r2: [f64; K] = core::array::from_fn(|l| r1[l].powi(2));
+            let r3: [f64; K] = [0.5_f64; K];
+            let r4: [f64; K] = core::array::from_fn(|l| r3[l] * r2[l]);
+            let r5: [f64; K] = x[0];
+            let r6: [f64; K] = core::array::from_fn(|l| r5[l].cos());
+            let r7: [f64; K] = [h[0]; K];
+            let r8: [f64; K] = core::array::from_fn(|l| r7[l] * r6[l]);
+            let r9: [f64; K] = [target[0]; K];
+            let r10: [f64; K] = core::array::from_fn(|l| r4[l] + r8[l]);
+            let r11: [f64; K] = core::array::from_fn(|l| r10[l] - r9[l]);
+            let r12: [f64; K] = core::array::from_fn(|l| r11[l].powi(2));
+            let r13: [f64; K] = core::array::from_fn(|l| r3[l] * r0[l]);
+            let r14: [f64; K] = core::array::from_fn(|l| r13[l] * r12[l]);
+            out[0] = r14;
+        }
+        /// `lyapunov_gradient` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+        /// of lane l; each lane equals the scalar function bitwise.
+        #[allow(unused_variables, clippy::all)]
+        pub fn lyapunov_gradient<const K: usize>(
+            &self,
+            x: &[[f64; K]; 2],
+            target: &[f64; 1],
+            gains: &[f64; 1],
+            out: &mut [[f64; K]; 2],
+        ) {
+            let h = &self.lyapunov_gradient;
+            let r0: [f64; K] = [gains[0]; K];
+            let r1: [f64; K] = x[1];
+            let r2: [f64; K] = core::array::from_fn(|l| r1[l].powi(2));
+            let r3: [f64; K] = [0.5_f64; K];
+            let r4: [f64; K] = core::array::from_fn(|l| r3[l] * r2[l]);
+            let r5: [f64; K] = x[0];
+            let r6: [f64; K] = core::array::from_fn(|l| r5[l].cos());
+            let r7: [f64; K] = [h[0]; K];
+            let r8: [f64; K] = core::array::from_fn(|l| r7[l] * r6[l]);
+            let r9: [f64; K] = [target[0]; K];
+            let r10: [f64; K] = core::array::from_fn(|l| r4[l] + r8[l]);
+            let r11: [f64; K] = core::array::from_fn(|l| r10[l] - r9[l]);
+            let r12: [f64; K] = core::array::from_fn(|l| r0[l] * r11[l]);
+            let r13: [f64; K] = core::array::from_fn(|l| r5[l].sin());
+            let r14: [f64; K] = [h[1]; K];
+            let r15: [f64; K] = core::array::from_fn(|l| r14[l] * r13[l]);
+            let r16: [f64; K] = core::array::from_fn(|l| r15[l] * r12[l]);
+            let r17: [f64; K] = core::array::from_fn(|l| r1[l] * r12[l]);
+            out[0] = r16;
+            out[1] = r17;
+        }
+        /// `feedback` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+        /// of lane l; each lane equals the scalar function bitwise.
+        #[allow(unused_variables, clippy::all)]
+        pub fn feedback<const K: usize>(
+            &self,
+            x: &[[f64; K]; 2],
+            target: &[f64; 1],
+            gains: &[f64; 1],
+            out: &mut [[f64; K]; 2],
+        ) {
+            let h = &self.feedback;
+            let r0: [f64; K] = x[0];
+            let r1: [f64; K] = core::array::from_fn(|l| r0[l].sin());
+            let r2: [f64; K] = [gains[0]; K];
+            let r3: [f64; K] = x[1];
+            let r4: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
+            let r5: [f64; K] = [0.5_f64; K];
+            let r6: [f64; K] = core::array::from_fn(|l| r5[l] * r4[l]);
+            let r7: [f64; K] = core::array::from_fn(|l| r0[l].cos());
+            let r8: [f64; K] = [h[0]; K];
+            let r9: [f64; K] = core::array::from_fn(|l| r8[l] * r7[l]);
+            let r10: [f64; K] = [target[0]; K];
+            let r11: [f64; K] = core::array::from_fn(|l| r6[l] + r9[l]);
+            let r12: [f64; K] = core::array::from_fn(|l| r11[l] - r10[l]);
+            let r13: [f64; K] = core::array::from_fn(|l| r2[l] * r12[l]);
+            let r14: [f64; K] = core::array::from_fn(|l| r8[l] * r1[l]);
+            let r15: [f64; K] = core::array::from_fn(|l| r14[l] * r13[l]);
+            let r16: [f64; K] = core::array::from_fn(|l| r3[l] + r15[l]);
+            let r17: [f64; K] = core::array::from_fn(|l| r3[l] * r13[l]);
+            let r18: [f64; K] = core::array::from_fn(|l| r14[l] - r17[l]);
+            out[0] = r16;
+            out[1] = r18;
+        }
+        /// `field_q` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+        /// of lane l; each lane equals the scalar function bitwise.
+        #[allow(unused_variables, clippy::all)]
+        pub fn field_q<const K: usize>(
+            &self,
+            x: &[[f64; K]; 2],
+            out: &mut [[f64; K]; 1],
+        ) {
+            let h = &self.field_q;
+            let r0: [f64; K] = x[1];
+            out[0] = r0;
+        }
+        /// `field_p` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+        /// of lane l; each lane equals the scalar function bitwise.
+        #[allow(unused_variables, clippy::all)]
+        pub fn field_p<const K: usize>(
+            &self,
+            x: &[[f64; K]; 2],
+            out: &mut [[f64; K]; 1],
+        ) {
+            let h = &self.field_p;
+            let r0: [f64; K] = x[0];
+            let r1: [f64; K] = core::array::from_fn(|l| r0[l].sin());
+            let r2: [f64; K] = [h[0]; K];
+            let r3: [f64; K] = core::array::from_fn(|l| r2[l] * r1[l]);
+            out[0] = r3;
         }
     }
 }
