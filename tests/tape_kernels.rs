@@ -58,20 +58,10 @@ fn tapes(file: &str) -> (lasalle_codegen::Model, ModelTapes) {
     (model, tapes)
 }
 
-/// A xorshift generator of numbers in ±[0.5, 1.5).
+/// Numbers in ±[0.5, 1.5), from a fixed seed.
 fn rng() -> impl FnMut() -> f64 {
-    let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
-    move || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        let u = (seed >> 11) as f64 / (1u64 << 53) as f64;
-        if seed & 1 == 0 {
-            0.5 + u
-        } else {
-            -0.5 - u
-        }
-    }
+    let mut rng = lasalle_testkit::Rng::new(0x9e37_79b9_7f4a_7c15);
+    move || (0.5 + rng.unit()) * rng.sign()
 }
 
 /// The emitted kernel against the interpreted one at `x`, to order 20: every coefficient.

@@ -10,30 +10,11 @@
 
 use std::time::{Duration, Instant};
 
-/// A small deterministic generator (xorshift64*).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
-    }
-    fn pick<'a, T>(&mut self, xs: &'a [T]) -> &'a T {
-        &xs[self.below(xs.len())]
-    }
-    fn chance(&mut self, percent: u64) -> bool {
-        self.next() % 100 < percent
-    }
-}
+use lasalle_testkit::Rng;
 
 /// A random scalar expression over `names` (scalars), at most `depth` deep.
 fn expr(r: &mut Rng, names: &[String], depth: u32) -> String {
-    if depth == 0 || r.chance(25) {
+    if depth == 0 || r.chance(0.25) {
         return match r.below(4) {
             0 => format!("{}", r.below(5) as f64 * 0.5 + 0.5),
             1 => r
@@ -62,7 +43,7 @@ fn expr(r: &mut Rng, names: &[String], depth: u32) -> String {
         // elliptic functions; a parameter m that depends on the state or lies outside [0, 1]
         // is a located error, which the fuzzer checks too
         12 | 13 => {
-            let m = if r.chance(25) {
+            let m = if r.chance(0.25) {
                 b
             } else {
                 r.pick(&["0", "0.5", "1"]).to_string()
@@ -70,7 +51,7 @@ fn expr(r: &mut Rng, names: &[String], depth: u32) -> String {
             let f = r.pick(&[
                 "sn", "cn", "dn", "ns", "nc", "nd", "sc", "sd", "cs", "cd", "ds", "dc", "ellipf",
             ]);
-            if r.chance(10) {
+            if r.chance(0.1) {
                 format!("ellipk({m})")
             } else {
                 format!("{f}({a}, {m})")
@@ -106,7 +87,7 @@ fn model(r: &mut Rng) -> String {
         text.push_str(&format!("    let {l} = {};\n", expr(r, &names, 3)));
         names.push(l);
     }
-    if r.chance(30) {
+    if r.chance(0.3) {
         text.push_str(&format!(
             "    hamiltonian H = {};\n    structure lie_poisson_so3(w);\n",
             expr(r, &["w[0]".into(), "w[1]".into(), "w[2]".into()], 2)
@@ -117,17 +98,17 @@ fn model(r: &mut Rng) -> String {
     for i in 0..n {
         text.push_str(&format!("    d/dt s{i} = {};\n", expr(r, &names, 3)));
     }
-    if r.chance(50) {
+    if r.chance(0.5) {
         text.push_str(&format!(
             "    integral I = {} gain {};\n",
             expr(r, &names, 2),
             r.below(5)
         ));
     }
-    if r.chance(50) {
+    if r.chance(0.5) {
         text.push_str("    integral W = dot(w, w) / 2;\n");
     }
-    if r.chance(30) {
+    if r.chance(0.3) {
         text.push_str(&format!(
             "    guard g: {} > {};\n",
             expr(r, &names, 2),
@@ -139,7 +120,7 @@ fn model(r: &mut Rng) -> String {
         "    point p {{ {} w = [1, 0, 0]; }}\n",
         zeros.join(" ")
     ));
-    if r.chance(40) {
+    if r.chance(0.4) {
         text.push_str("    run p { method = feedback_rk4; dt = 0.01; t_end = 1; init = p; }\n");
     }
     text.push_str("}\n");
@@ -177,14 +158,14 @@ fn main() {
     let count: u64 = args.next().and_then(|a| a.parse().ok()).unwrap_or(1000);
     let seed: u64 = args.next().and_then(|a| a.parse().ok()).unwrap_or(1);
     let limit = Duration::from_secs(1);
-    let mut r = Rng(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1);
+    let mut r = Rng::new(seed);
     // the generator's errors are values; only panics are failures here
     std::panic::set_hook(Box::new(|_| {}));
     let start = Instant::now();
     let (mut ok, mut errors, mut slowest) = (0u64, 0u64, Duration::ZERO);
     for i in 0..count {
         let text = model(&mut r);
-        let text = if r.chance(50) {
+        let text = if r.chance(0.5) {
             mutate(&mut r, &text)
         } else {
             text

@@ -221,13 +221,8 @@ fn no_input_makes_the_generator_panic() {
     let replacements = [
         '(', ')', '[', ']', ';', '^', '*', '/', '-', '0', 'x', ' ', '{', '}', ',', '=',
     ];
-    let mut state = 12345u64;
-    let mut next = |n: usize| {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((state >> 33) as usize) % n.max(1)
-    };
+    let mut rng = lasalle_testkit::Rng::new(12345);
+    let mut next = |n: usize| rng.below(n.max(1));
     for text in &models {
         let chars: Vec<char> = text.chars().collect();
         for _ in 0..150 {

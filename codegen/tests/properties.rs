@@ -9,20 +9,7 @@ use std::collections::HashMap;
 use lasalle_codegen::derive::{derive, diff};
 use lasalle_codegen::ir::Input;
 use lasalle_codegen::{generate_source, lower_source};
-
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
-    }
-    fn below(&mut self, n: u64) -> u64 {
-        self.next() % n
-    }
-}
+use lasalle_testkit::Rng;
 
 /// A random expression in x and y with its value at (x, y), computed directly in f64 while
 /// it is built (an evaluator independent of the generator). Domains are kept safe: logarithms
@@ -104,7 +91,7 @@ fn eval_at(m: &lasalle_codegen::Model, id: lasalle_codegen::ir::Id, x: f64, y: f
 /// Lowering, folding and the canonical forms of the DAG keep the value of the expression.
 #[test]
 fn simplification_preserves_values() {
-    let mut r = Rng(0x1234_5678_9abc_def1);
+    let mut r = Rng::new(0x1234_5678_9abc_def1);
     let mut checked = 0;
     for _ in 0..400 {
         let (x, y) = (
@@ -136,7 +123,7 @@ fn simplification_preserves_values() {
 /// ∂f/∂x by the symbolic forward mode agrees with central differences of f.
 #[test]
 fn derivatives_match_finite_differences() {
-    let mut r = Rng(0xfeed_beef_cafe_f00d);
+    let mut r = Rng::new(0xfeed_beef_cafe_f00d);
     let mut checked = 0;
     for _ in 0..300 {
         let (x, y) = (
@@ -170,7 +157,7 @@ fn derivatives_match_finite_differences() {
 /// must not leak into the output), and the derivatives are the same DAG nodes.
 #[test]
 fn emission_is_deterministic() {
-    let mut r = Rng(42);
+    let mut r = Rng::new(42);
     for _ in 0..20 {
         let (e1, _) = expr(&mut r, 0.5, 0.5, 3);
         let (e2, _) = expr(&mut r, 0.5, 0.5, 3);

@@ -14,33 +14,12 @@ use lasalle_codegen::ir::{Id, Input};
 use lasalle_codegen::tape::{ModelTapes, Tape};
 use lasalle_codegen::Model;
 use lasalle_exec::Backend;
+use lasalle_testkit::Rng;
 
-/// xorshift64*: tiny, deterministic.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
-    }
-    /// Uniform in [0, 1).
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
-    }
-    /// ±[0.5, 1.5): away from 0, so |x| of a vec3 is ≥ 0.86 (Kepler's r).
-    fn component(&mut self) -> f64 {
-        let m = 0.5 + self.unit();
-        if self.next() & 1 == 0 {
-            m
-        } else {
-            -m
-        }
-    }
+/// ±[0.5, 1.5): away from 0, so |x| of a vec3 is ≥ 0.86 (Kepler's r).
+fn component(rng: &mut Rng) -> f64 {
+    let m = 0.5 + rng.unit();
+    m * rng.sign()
 }
 
 fn same(a: f64, b: f64) -> bool {
@@ -111,9 +90,9 @@ impl Case {
             .collect();
         let hoisted: Vec<Vec<f64>> = kernels.iter().map(|k| k.hoist(&params).unwrap()).collect();
         let states: Vec<Vec<f64>> = (0..samples)
-            .map(|_| (0..n).map(|_| rng.component()).collect())
+            .map(|_| (0..n).map(|_| component(rng)).collect())
             .collect();
-        let x0: Vec<f64> = (0..n).map(|_| rng.component()).collect();
+        let x0: Vec<f64> = (0..n).map(|_| component(rng)).collect();
         // The target f(x₀).
         let target = self.tapes.invariants.eval(&params, &x0, &[], &[]).unwrap();
         assert_eq!(target.len(), m);
@@ -327,7 +306,7 @@ impl Gen {
 
 fn random_cases(count: usize) -> Vec<Case> {
     let mut g = Gen {
-        rng: Rng(0x9e37_79b9_7f4a_7c15),
+        rng: Rng::new(0x9e37_79b9_7f4a_7c15),
         in_let: false,
     };
     (0..count)
@@ -341,7 +320,7 @@ fn random_cases(count: usize) -> Vec<Case> {
 }
 
 fn suite(backend: Backend) {
-    let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+    let mut rng = Rng::new(0x2545_f491_4f6c_dd1d);
     for case in model_cases() {
         case.run(backend, 200, &mut rng);
     }

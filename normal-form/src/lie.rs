@@ -465,15 +465,10 @@ mod tests {
 
     /// A real polynomial of degree `deg` in (Q₁, Q₂, P₁, P₂), in the complex coordinates.
     fn real_poly(table: &Arc<MonomialTable>, deg: usize, seed: u64) -> Vec<Complex<f64>> {
-        let mut x = seed;
+        let mut rng = lasalle_testkit::Rng::new(seed);
         let mut p: Poly<f64> = Poly::zero(table.clone());
         let part = (0..table.count(deg))
-            .map(|_| {
-                x = x
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-            })
+            .map(|_| rng.uniform(-0.5, 0.5))
             .collect();
         p.set_part(deg, part);
         // (Q, P) = C u

@@ -601,13 +601,8 @@ mod tests {
     #[test]
     fn pair_substitution_is_the_linear_substitution() {
         let tab = t(4, 7);
-        let mut x = 3u64;
-        let mut rnd = || {
-            x = x
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut rng = lasalle_testkit::Rng::new(3);
+        let mut rnd = || rng.uniform(-0.5, 0.5);
         let mut p: Poly<f64> = Poly::zero(tab.clone());
         for k in 0..=7 {
             let part = (0..tab.count(k)).map(|_| rnd()).collect();
