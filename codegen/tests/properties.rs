@@ -41,6 +41,9 @@ fn expr(r: &mut Rng, x: f64, y: f64, depth: u32) -> (String, f64) {
         }
         4 => {
             let n = r.below(5) as i32 - 2;
+            // no 1/0: a constant zero raised to a negative power is refused by the generator
+            // (a non-finite constant), and the reference would go on with ∞
+            let n = if va == 0.0 { n.abs() } else { n };
             let v = if n < 0 { 1.0 / va.powi(-n) } else { va.powi(n) };
             (format!("({a})^({n})"), v)
         }
