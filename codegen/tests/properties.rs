@@ -29,7 +29,7 @@ fn expr(r: &mut Rng, x: f64, y: f64, depth: u32) -> (String, f64) {
     let (b, vb) = expr(r, x, y, depth - 1);
     let pos = |s: &str, v: f64| (format!("(1 + ({s})^2)"), 1.0 + v * v);
     // elliptic functions: a parameter m from a few constants, both ends included
-    let m = [0.0, 0.3, 0.81, 1.0][r.below(4) as usize];
+    let m = [0.0, 0.3, 0.81, 1.0][r.below(4)];
     let j = lasalle_elliptic::ellipj(va, m);
     match r.below(16) {
         0 => (format!("({a} + {b})"), va + vb),

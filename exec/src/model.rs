@@ -25,12 +25,12 @@ use std::time::{Duration, Instant};
 
 use lasalle_codegen::check::Conservation;
 use lasalle_codegen::ir::Input;
-use lasalle_codegen::model::{Shape as ModelShape, Splitting, GUARD_STEP};
+use lasalle_codegen::model::{Splitting, GUARD_STEP};
 use lasalle_codegen::tape::{Dims, ModelTapes, Tape, TapeBuilder};
 use lasalle_codegen::{derive, Model};
 use lasalle_runtime::{
-    Declared, Field, GuardFailure, InvariantInfo, InvariantKind, Invariants, Lyapunov, ModelInfo,
-    ParamError, Parameters, Partitioned, Preset, RigidBodySplitting, Shape, Slot,
+    Declared, Field, GuardFailure, InvariantInfo, Invariants, Lyapunov, ModelInfo, ParamError,
+    Parameters, Partitioned, Preset, RigidBodySplitting, Shape, Slot,
 };
 
 use crate::{Backend, ExecError, Kernel};
@@ -184,14 +184,6 @@ fn leak_str(s: &str) -> &'static str {
     Box::leak(s.to_string().into_boxed_str())
 }
 
-fn shape(s: ModelShape) -> Shape {
-    match s {
-        ModelShape::Scalar => Shape::Scalar,
-        ModelShape::Vector(n) => Shape::Vector(n),
-        ModelShape::Matrix(r, c) => Shape::Matrix(r, c),
-    }
-}
-
 impl Info {
     fn new(model: &Model) -> Info {
         let slot = |name: &str, shape: Shape, offset: usize| Slot {
@@ -205,7 +197,7 @@ impl Info {
                 model
                     .state
                     .iter()
-                    .map(|s| slot(&s.name, shape(s.shape), s.offset))
+                    .map(|s| slot(&s.name, s.shape, s.offset))
                     .collect(),
             ),
             invariants: leak(
@@ -213,15 +205,8 @@ impl Info {
                     .invariants
                     .iter()
                     .map(|f| InvariantInfo {
-                        slot: slot(&f.name, shape(f.value.shape), f.offset),
-                        kind: match f.kind {
-                            lasalle_codegen::model::InvariantKind::Constraint => {
-                                InvariantKind::Constraint
-                            }
-                            lasalle_codegen::model::InvariantKind::Integral => {
-                                InvariantKind::Integral
-                            }
-                        },
+                        slot: slot(&f.name, f.value.shape, f.offset),
+                        kind: f.kind,
                         gain: f.gain,
                     })
                     .collect(),
@@ -236,7 +221,7 @@ impl Info {
                         let s = if p.diagonal {
                             Shape::Vector(p.slots())
                         } else {
-                            shape(p.shape)
+                            p.shape
                         };
                         slot(&p.name, s, p.offset)
                     })

@@ -29,52 +29,7 @@ pub trait Field<T, X: State<T>> {
     fn field(&self, x: &X, dx: &mut X);
 }
 
-/// Is the invariant a manifold condition (f₀) or a first integral (fᵢ, ∇fᵢ · X = 0)?
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum InvariantKind {
-    /// A constraint f₀: the motion stays on {f₀(x) = f₀(x₀)}.
-    Constraint,
-    /// A first integral: ∇f · X = 0 everywhere.
-    Integral,
-}
-
-/// The shape of a state variable, parameter or invariant.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Shape {
-    /// A scalar.
-    Scalar,
-    /// A column vector of this length.
-    Vector(usize),
-    /// A matrix (rows, columns), stored column-major like nalgebra.
-    Matrix(usize, usize),
-}
-
-impl Shape {
-    /// Number of scalar components.
-    pub const fn len(self) -> usize {
-        match self {
-            Shape::Scalar => 1,
-            Shape::Vector(n) => n,
-            Shape::Matrix(r, c) => r * c,
-        }
-    }
-
-    /// True for shapes without components (never produced by the generator).
-    pub const fn is_empty(self) -> bool {
-        self.len() == 0
-    }
-}
-
-impl std::fmt::Display for Shape {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Shape::Scalar => write!(f, "scalar"),
-            Shape::Vector(n) => write!(f, "vec{n}"),
-            Shape::Matrix(r, c) if r == c => write!(f, "mat{r}"),
-            Shape::Matrix(r, c) => write!(f, "mat{r}x{c}"),
-        }
-    }
-}
+pub use lasalle_layout::{InvariantKind, Shape};
 
 /// Where a named block (state variable, invariant) sits in a flat array.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -58,7 +58,7 @@ impl Emitter<'_> {
             let t: TokenStream = if p.diagonal {
                 format!("[T; {}]", p.slots())
             } else {
-                p.shape.rust_type()
+                rust_type(p.shape)
             }
             .parse()
             .expect("type");
@@ -464,5 +464,14 @@ impl Emitter<'_> {
                 }
             }
         }
+    }
+}
+
+/// The Rust type of a value of this shape over `T` (parameters, accessors).
+fn rust_type(shape: Shape) -> String {
+    match shape {
+        Shape::Scalar => "T".into(),
+        Shape::Vector(n) => format!("[T; {n}]"),
+        Shape::Matrix(r, c) => format!("[[T; {c}]; {r}]"),
     }
 }

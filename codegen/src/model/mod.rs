@@ -49,14 +49,7 @@ impl Param {
     }
 }
 
-/// Constraint f₀ or first integral.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum InvariantKind {
-    /// The motion stays on {f₀ = 0}.
-    Constraint,
-    /// ∇f · X = 0.
-    Integral,
-}
+pub use lasalle_layout::InvariantKind;
 
 /// A constraint or first integral, a block of the stacked f ∈ Rᴹ.
 #[derive(Clone, Debug)]
