@@ -11,6 +11,9 @@ use lasalle::{
     Invariants, LoadedModel, ModelInfo, Parameters, StepError, Stepper,
 };
 
+mod common;
+use common::lasalle;
+
 /// The model file `models/<stem>.lsl` on the JIT and its `paper` point.
 fn model(stem: &str) -> (LoadedModel, Vec<f64>) {
     let path = format!("{}/models/{stem}.lsl", env!("CARGO_MANIFEST_DIR"));
@@ -153,15 +156,6 @@ fn step_gain_pulls_a_perturbed_state_back() {
     let order = <Taylor as Stepper<f64, Vec<f64>, LoadedModel>>::order(&taylor);
     let (_, t_err) = feedback(&m, &x0, &start, t_end, (TOL, order), taylor);
     assert!(t_err < 1e-9, "feedback-Taylor did not pull back: {t_err:e}");
-}
-
-/// Runs the `lasalle` binary; returns its output.
-fn lasalle(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_lasalle"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("run lasalle")
 }
 
 /// `lasalle run --gains auto` picks the step-tracking gain for feedback-DOPRI5 (the plain step

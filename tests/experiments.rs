@@ -9,7 +9,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use std::path::PathBuf;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use lasalle::models::{kepler::Kepler, perturbed_kepler::PerturbedKepler, rigid_body::RigidBody};
 use lasalle::{
@@ -18,18 +18,14 @@ use lasalle::{
 };
 use lasalle_testkit::Rng;
 
+mod common;
+use common::lasalle;
+
 #[path = "../benches/handwritten/mod.rs"]
 mod handwritten;
 
 // ---------------------------------------------------------------------------------------------
 // helpers
-
-fn lasalle(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lasalle"))
-        .args(args)
-        .output()
-        .expect("the lasalle binary runs")
-}
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()

@@ -2,22 +2,12 @@
 
 use std::process::Command;
 
-fn lasalle(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_lasalle"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("run lasalle");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+mod common;
+use common::lasalle_text;
 
 #[test]
 fn earth_moon_json_has_deprit_d4() {
-    let (ok, out, err) = lasalle(&[
+    let (ok, out, err) = lasalle_text(&[
         "normal-form",
         "models/cr3bp.lsl",
         "--param",
@@ -45,7 +35,7 @@ fn earth_moon_json_has_deprit_d4() {
 
 #[test]
 fn errors_name_the_resonance_and_the_eigenvalues() {
-    let (ok, _, err) = lasalle(&[
+    let (ok, _, err) = lasalle_text(&[
         "normal-form",
         "models/cr3bp.lsl",
         "--param",
@@ -57,12 +47,12 @@ fn errors_name_the_resonance_and_the_eigenvalues() {
         !ok && err.contains("resonance m = (1, -2) at order 3"),
         "{err}"
     );
-    let (ok, _, err) = lasalle(&["normal-form", "models/cr3bp.lsl", "--param", "mu=0.05"]);
+    let (ok, _, err) = lasalle_text(&["normal-form", "models/cr3bp.lsl", "--param", "mu=0.05"]);
     assert!(
         !ok && err.contains("equilibrium is not elliptic") && err.contains("0.730149841692i"),
         "{err}"
     );
-    let (ok, _, err) = lasalle(&["normal-form", "models/kepler.lsl"]);
+    let (ok, _, err) = lasalle_text(&["normal-form", "models/kepler.lsl"]);
     assert!(!ok && err.contains("has no `hamiltonian`"), "{err}");
 }
 
@@ -77,7 +67,7 @@ fn scratch_dir(name: &str) -> std::path::PathBuf {
 #[test]
 fn a_repeated_frequency_is_a_1_1_resonance() {
     // issue 11, 5a: w2 = 1 makes both frequencies 1
-    let (ok, _, err) = lasalle(&[
+    let (ok, _, err) = lasalle_text(&[
         "normal-form",
         "models/coupled_oscillators.lsl",
         "--param",
@@ -94,7 +84,7 @@ fn a_repeated_frequency_is_a_1_1_resonance() {
             && !err.contains("not elliptic"),
         "{err}"
     );
-    let (ok, out, err) = lasalle(&[
+    let (ok, out, err) = lasalle_text(&[
         "normal-form",
         "coupled_oscillators",
         "--param",
@@ -112,7 +102,7 @@ fn a_repeated_frequency_is_a_1_1_resonance() {
         "{out}"
     );
     assert!(out.contains("(kept: resonant)"), "{out}");
-    let (ok, out, err) = lasalle(&[
+    let (ok, out, err) = lasalle_text(&[
         "normal-form",
         "coupled_oscillators",
         "--param",
@@ -162,7 +152,7 @@ fn numeric_options_are_validated_by_name() {
     ];
     for (extra, want) in cases {
         let args = [&["normal-form", "cr3bp"][..], extra].concat();
-        let (ok, out, err) = lasalle(&args);
+        let (ok, out, err) = lasalle_text(&args);
         assert!(!ok && err.contains(want), "{extra:?}: {err}");
         assert!(out.is_empty(), "{extra:?} printed {out}");
     }
@@ -171,7 +161,7 @@ fn numeric_options_are_validated_by_name() {
 #[test]
 fn f64_breakdown_at_earth_moon_is_detected() {
     // issue 11, 5c: from degree 18 an f64 coefficient (I1^9) has > 1e-3 relative error
-    let (ok, out, err) = lasalle(&[
+    let (ok, out, err) = lasalle_text(&[
         "normal-form",
         "cr3bp",
         "--order",
@@ -186,12 +176,12 @@ fn f64_breakdown_at_earth_moon_is_detected() {
         "{err}"
     );
     // auto (the default) switches to double-double and says so
-    let (ok, out, err) = lasalle(&["normal-form", "cr3bp", "--order", "20"]);
+    let (ok, out, err) = lasalle_text(&["normal-form", "cr3bp", "--order", "20"]);
     assert!(ok, "{err}");
     assert!(err.contains("recomputed in double-double"), "{err}");
     assert!(out.contains("(dd precision") && out.contains("recomputed in double-double"));
     // below the breakdown f64 stays
-    let (ok, out, err) = lasalle(&["normal-form", "cr3bp", "--order", "16"]);
+    let (ok, out, err) = lasalle_text(&["normal-form", "cr3bp", "--order", "16"]);
     assert!(
         ok && out.contains("(f64 precision") && !err.contains("note"),
         "{err}"
@@ -201,7 +191,7 @@ fn f64_breakdown_at_earth_moon_is_detected() {
 #[test]
 fn error_estimate_cost_is_stated_and_cheap_by_default() {
     // issue 11, 5d
-    let (ok, out, err) = lasalle(&["normal-form", "cr3bp", "--order", "16"]);
+    let (ok, out, err) = lasalle_text(&["normal-form", "cr3bp", "--order", "16"]);
     assert!(ok, "{err}");
     assert!(out.contains("normal planes rotated"), "{out}");
     let time = out
@@ -209,7 +199,7 @@ fn error_estimate_cost_is_stated_and_cheap_by_default() {
         .find(|l| l.starts_with("time:"))
         .expect("time line");
     assert!(time.contains("x the run"), "{time}");
-    let (ok, out, _) = lasalle(&[
+    let (ok, out, _) = lasalle_text(&[
         "normal-form",
         "cr3bp",
         "--order",
@@ -221,7 +211,7 @@ fn error_estimate_cost_is_stated_and_cheap_by_default() {
         ok && out.contains("errors estimated as |f64 - dd|"),
         "{out}"
     );
-    let (ok, out, _) = lasalle(&["normal-form", "--help"]);
+    let (ok, out, _) = lasalle_text(&["normal-form", "--help"]);
     assert!(ok && out.contains("3.3×"), "{out}");
 }
 
@@ -229,7 +219,7 @@ fn error_estimate_cost_is_stated_and_cheap_by_default() {
 fn no_progress_bar_when_stderr_is_not_a_terminal() {
     // issue 11, 5e: the bar is drawn only on a terminal (see also the library test of the
     // progress stages in normal-form/tests/progress.rs)
-    let (ok, _, err) = lasalle(&["normal-form", "cr3bp", "--order", "14"]);
+    let (ok, _, err) = lasalle_text(&["normal-form", "cr3bp", "--order", "14"]);
     assert!(ok);
     assert!(err.is_empty(), "stderr: {err:?}");
 }
@@ -265,7 +255,7 @@ fn bad_output_paths_fail_before_computing() {
     let dir = scratch_dir("paths");
     let missing = dir.join("no/such/dir/out.txt");
     let m = missing.to_string_lossy().into_owned();
-    let (ok, out, err) = lasalle(&["normal-form", "cr3bp", "--order", "24", "--out", &m]);
+    let (ok, out, err) = lasalle_text(&["normal-form", "cr3bp", "--order", "24", "--out", &m]);
     assert!(!ok && out.is_empty(), "{out}");
     assert!(
         err.contains(&format!("`--out {m}`")) && err.contains("does not exist"),
@@ -274,7 +264,8 @@ fn bad_output_paths_fail_before_computing() {
     // --emit-rust into a directory: nothing printed, nothing computed
     let d = dir.to_string_lossy().into_owned();
     let t = std::time::Instant::now();
-    let (ok, out, err) = lasalle(&["normal-form", "cr3bp", "--order", "30", "--emit-rust", &d]);
+    let (ok, out, err) =
+        lasalle_text(&["normal-form", "cr3bp", "--order", "30", "--emit-rust", &d]);
     assert!(!ok && out.is_empty(), "{out}");
     assert!(
         err.contains(&format!("`--emit-rust {d}`: is a directory")),
@@ -284,9 +275,9 @@ fn bad_output_paths_fail_before_computing() {
     // a good --out with a failing run leaves no empty file behind
     let file = dir.join("table.txt");
     let f = file.to_string_lossy().into_owned();
-    let (ok, _, _) = lasalle(&["normal-form", "cr3bp", "--param", "mu=0.05", "--out", &f]);
+    let (ok, _, _) = lasalle_text(&["normal-form", "cr3bp", "--param", "mu=0.05", "--out", &f]);
     assert!(!ok && !file.exists());
-    let (ok, out, err) = lasalle(&["normal-form", "cr3bp", "--order", "6", "--out", &f]);
+    let (ok, out, err) = lasalle_text(&["normal-form", "cr3bp", "--order", "6", "--out", &f]);
     assert!(ok && out.is_empty(), "{err}");
     assert!(std::fs::read_to_string(&file)
         .unwrap()
@@ -300,7 +291,7 @@ fn spatial_cr3bp_at_order_16_in_double_double() {
     // name `cr3bp_spatial` works as well, but the list of embedded models is fixed when the
     // binary is built)
     let t = std::time::Instant::now();
-    let (ok, out, err) = lasalle(&[
+    let (ok, out, err) = lasalle_text(&[
         "normal-form",
         "models/cr3bp_spatial.lsl",
         "--order",

@@ -4,7 +4,6 @@
 //! instead of `[f64; N]`).
 
 use std::path::PathBuf;
-use std::process::{Command, Output};
 
 use lasalle::models::{kepler::Kepler, rigid_body::RigidBody};
 use lasalle::{
@@ -12,18 +11,14 @@ use lasalle::{
     Projection, Recorder,
 };
 
+mod common;
+use common::lasalle;
+
 fn scratch(name: &str) -> PathBuf {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
-}
-
-fn lasalle(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lasalle"))
-        .args(args)
-        .output()
-        .expect("the lasalle binary runs")
 }
 
 /// Writes `text` to `<dir>/<file>`, runs `lasalle run` on it and returns the summary.

@@ -13,6 +13,9 @@ use lasalle_normal_form::bound::Metric;
 use lasalle_normal_form::validate::{deprit_d4, mu_routh, EARTH_MOON_MU};
 use lasalle_normal_form::ModelPoint;
 
+mod common;
+use common::lasalle_text;
+
 fn cr3bp() -> Model {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/cr3bp.lsl");
     lasalle_codegen::load_model(path).expect("models/cr3bp.lsl loads")
@@ -137,28 +140,15 @@ fn errors_are_located() {
     assert!(e.contains("too wide"), "{e}");
 }
 
-fn lasalle(args: &[&str]) -> (bool, String, String) {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lasalle"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("run lasalle");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
 #[test]
 fn command_line() {
-    let (ok, out, err) = lasalle(&["stability", "models/cr3bp.lsl"]);
+    let (ok, out, err) = lasalle_text(&["stability", "models/cr3bp.lsl"]);
     assert!(ok, "{err}");
     assert!(
         out.contains("Arnold–Moser") && out.contains("cond(A) = 29.558"),
         "{out}"
     );
-    let (ok, out, err) = lasalle(&[
+    let (ok, out, err) = lasalle_text(&[
         "stability",
         "models/cr3bp.lsl",
         "--param",
@@ -177,7 +167,7 @@ fn command_line() {
     assert!(rows[0].starts_with("d0,d1,metric,order"));
     // N = 6 is the best order here (T = 5.6e2 against 19 at N = 4)
     assert!(rows[2].starts_with("5e-3,1e-2,linear-normal,6,12,") && rows[2].contains(",true,"));
-    let (ok, out, _) = lasalle(&[
+    let (ok, out, _) = lasalle_text(&[
         "stability",
         "models/cr3bp.lsl",
         "--metric",
@@ -199,7 +189,7 @@ fn command_line() {
         (&["--time-bound", "1e-3,2e-3"][..], "condition number 29.6"),
     ] {
         let all = [&["stability", "models/cr3bp.lsl"][..], args].concat();
-        let (ok, _, err) = lasalle(&all);
+        let (ok, _, err) = lasalle_text(&all);
         assert!(!ok && err.contains(msg), "{args:?}: {err}");
     }
 }

@@ -44,20 +44,6 @@ fn allocations() -> u64 {
     ALLOCS.with(|c| c.get())
 }
 
-fn same(a: f64, b: f64) -> bool {
-    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
-}
-
-/// The tapes of a model file, built as `generate_file` builds the emitted code.
-fn tapes(file: &str) -> (lasalle_codegen::Model, ModelTapes) {
-    let path = format!("{}/models/{file}", env!("CARGO_MANIFEST_DIR"));
-    let mut model = lasalle_codegen::load_model(&path).unwrap();
-    let d = lasalle_codegen::derive::derive(&mut model);
-    lasalle_codegen::check::check(&mut model, &d).unwrap();
-    let tapes = ModelTapes::new(&model, &d).unwrap();
-    (model, tapes)
-}
-
 /// Numbers in ±[0.5, 1.5), from a fixed seed.
 fn rng() -> impl FnMut() -> f64 {
     let mut rng = lasalle_testkit::Rng::new(0x9e37_79b9_7f4a_7c15);
@@ -258,6 +244,9 @@ use models::{
     rigid_body as rb, so3_type_i as s1, so3_type_iia as s2a, so3_type_iib as s2b,
     so3_type_iii as s3,
 };
+
+mod common;
+use common::{same, tapes};
 
 lanes_of!(
     co::CoupledOscillators => co::CoupledOscillatorsLanes,

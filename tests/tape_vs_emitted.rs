@@ -2,23 +2,12 @@
 //! computes, bitwise: every function of every model in `models/`, at random states.
 
 use lasalle::models;
-use lasalle_codegen::tape::{ModelTapes, Tape};
+use lasalle_codegen::tape::Tape;
 use lasalle_exec::{Backend, Kernel};
 use lasalle_runtime::{Field, Invariants, Lyapunov, Partitioned};
 
-fn same(a: f64, b: f64) -> bool {
-    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
-}
-
-/// The tapes of a model file, built as `generate_file` builds the emitted code.
-fn tapes(file: &str) -> (lasalle_codegen::Model, ModelTapes) {
-    let path = format!("{}/models/{file}", env!("CARGO_MANIFEST_DIR"));
-    let mut model = lasalle_codegen::load_model(&path).unwrap();
-    let d = lasalle_codegen::derive::derive(&mut model);
-    lasalle_codegen::check::check(&mut model, &d).unwrap();
-    let tapes = ModelTapes::new(&model, &d).unwrap();
-    (model, tapes)
-}
+mod common;
+use common::{same, tapes};
 
 /// A tape with its kernel on every back end and their hoisted values.
 struct Compiled<'a> {

@@ -1,0 +1,43 @@
+//! What the end-to-end tests share (`mod common;` in each test file): running the `lasalle`
+//! binary, bitwise comparison of results, the tapes of a model file.
+
+// each test file uses some of these
+#![allow(dead_code)]
+
+use std::process::{Command, Output};
+
+use lasalle_codegen::tape::ModelTapes;
+
+/// Runs the `lasalle` binary (from the package root, as cargo runs the tests).
+pub fn lasalle(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lasalle"))
+        .args(args)
+        .output()
+        .expect("the lasalle binary runs")
+}
+
+/// Runs the `lasalle` binary: (success, standard output, standard error).
+pub fn lasalle_text(args: &[&str]) -> (bool, String, String) {
+    let out = lasalle(args);
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// The same f64, bit for bit (any NaN equals any NaN: NaN sign bits may differ between back
+/// ends).
+pub fn same(a: f64, b: f64) -> bool {
+    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+}
+
+/// The tapes of a model file of `models/`, built as `generate_file` builds the emitted code.
+pub fn tapes(file: &str) -> (lasalle_codegen::Model, ModelTapes) {
+    let path = format!("{}/models/{file}", env!("CARGO_MANIFEST_DIR"));
+    let mut model = lasalle_codegen::load_model(&path).unwrap();
+    let d = lasalle_codegen::derive::derive(&mut model);
+    lasalle_codegen::check::check(&mut model, &d).unwrap();
+    let tapes = ModelTapes::new(&model, &d).unwrap();
+    (model, tapes)
+}
