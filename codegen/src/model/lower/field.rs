@@ -1,8 +1,7 @@
 //! The field X(x): `d/dt` equations, and the check that every state component has one.
 
 use super::{Ctx, Kind, Lowerer, L};
-use crate::error::Diagnostic;
-use crate::error::Span;
+use crate::error::{Diagnostic, Span};
 use crate::ir::{Id, Input, Node};
 use crate::model::StateVar;
 use crate::parse::ast::*;

@@ -1,13 +1,43 @@
 //! The Hamiltonian route: `hamiltonian H = …` and a `structure` that turns H into equations.
 
+use super::items::Items;
 use super::{Ctx, Kind, Lowerer, L};
-use crate::error::Span;
-use crate::error::{Diagnostic, DiagnosticKind};
+use crate::error::{Diagnostic, DiagnosticKind, Span};
 use crate::ir::{Id, Input, Node, Rational};
 use crate::model::{Gain, Hamiltonian, Invariant, InvariantKind, Shape, Structure, Value};
 use crate::parse::ast::*;
 
 impl Lowerer {
+    /// `hamiltonian H = …;`: H is recorded, and is an automatic integral.
+    pub(super) fn hamiltonian_item(
+        &mut self,
+        name: &Ident,
+        e: &Expr,
+        span: &Span,
+        acc: &mut Items<'_>,
+    ) -> L<()> {
+        if acc.hamiltonian.is_some() {
+            Err(Diagnostic::new(&name.span, "a second `hamiltonian`")
+                .help("a model has one Hamiltonian"))
+        } else {
+            self.expr(e, Ctx::Model).and_then(|v| {
+                let h = self.expect_scalar(&v, e, "a Hamiltonian")?;
+                self.invariant(
+                    name,
+                    InvariantKind::Integral,
+                    v.clone(),
+                    None,
+                    true,
+                    span,
+                    &mut acc.invariants,
+                    &mut acc.gains,
+                )?;
+                acc.hamiltonian = Some((name.clone(), h, span.clone()));
+                Ok(())
+            })
+        }
+    }
+
     /// The Hamiltonian with its structure, from the `hamiltonian` and `structure` items;
     /// the structure's equations go into `field`.
     pub(super) fn hamiltonian_route(

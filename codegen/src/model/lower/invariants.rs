@@ -2,8 +2,7 @@
 //! explicit or Σ kᵢ/2 |fᵢ − fᵢ(x₀)|².
 
 use super::{Ctx, Kind, Lowerer, Symbol, L};
-use crate::error::Diagnostic;
-use crate::error::Span;
+use crate::error::{Diagnostic, Span};
 use crate::ir::{Id, Input, Rational};
 use crate::model::{Gain, Invariant, InvariantKind, Value};
 use crate::parse::ast::*;

@@ -1,9 +1,8 @@
 //! Pass 2: every item other than state and parameters, in file order (so that names are
 //! defined before they are used and problems are reported in the order they occur).
 
-use super::{Ctx, Kind, Lowerer, L};
-use crate::error::Span;
-use crate::error::{Diagnostic, DiagnosticKind};
+use super::{Ctx, Lowerer, L};
+use crate::error::{Diagnostic, DiagnosticKind, Span};
 use crate::ir::Id;
 use crate::model::{Binding, Gain, Guard, Invariant, InvariantKind, Point, Preset, StateVar};
 use crate::parse::ast::*;
@@ -62,21 +61,7 @@ impl Lowerer {
     fn item<'a>(&mut self, it: &'a Spanned, state: &[StateVar], acc: &mut Items<'a>) -> L<()> {
         match &it.item {
             Item::State(_) | Item::Param(..) => Ok(()),
-            Item::Let(name, e) => match self.expr(e, Ctx::Model) {
-                Ok(v) => {
-                    acc.lets.push(Binding {
-                        name: name.name.clone(),
-                        value: v.clone(),
-                        span: it.span.clone(),
-                    });
-                    self.declare(name, Kind::Let, v);
-                    Ok(())
-                }
-                Err(d) => {
-                    self.poisoned.insert(name.name.clone());
-                    Err(d)
-                }
-            },
+            Item::Let(name, e) => self.binding(name, e, &it.span, &mut acc.lets),
             Item::Derivative(name, e) => self.derivative(name, e, &it.span, &mut acc.field),
             Item::Invariant {
                 kind,
@@ -110,28 +95,7 @@ impl Lowerer {
                     Ok(())
                 }
             }
-            Item::Hamiltonian(name, e) => {
-                if acc.hamiltonian.is_some() {
-                    Err(Diagnostic::new(&name.span, "a second `hamiltonian`")
-                        .help("a model has one Hamiltonian"))
-                } else {
-                    self.expr(e, Ctx::Model).and_then(|v| {
-                        let h = self.expect_scalar(&v, e, "a Hamiltonian")?;
-                        self.invariant(
-                            name,
-                            InvariantKind::Integral,
-                            v.clone(),
-                            None,
-                            true,
-                            &it.span,
-                            &mut acc.invariants,
-                            &mut acc.gains,
-                        )?;
-                        acc.hamiltonian = Some((name.clone(), h, it.span.clone()));
-                        Ok(())
-                    })
-                }
-            }
+            Item::Hamiltonian(name, e) => self.hamiltonian_item(name, e, &it.span, acc),
             Item::Structure(s, span) => {
                 if acc.structure.is_some() {
                     Err(Diagnostic::new(span, "a second `structure`")
@@ -142,27 +106,7 @@ impl Lowerer {
                 }
             }
             Item::Point(name, values) => {
-                let method = crate::emit::snake(&name.name);
-                match acc
-                    .points
-                    .iter()
-                    .find(|p: &&Point| crate::emit::snake(&p.name) == method)
-                {
-                    Some(prev) => {
-                        let (line, _) = prev.span.line_col();
-                        Err(Diagnostic::new(
-                                &name.span,
-                                format!(
-                                    "point `{}` would be the method `point_{method}` of the point `{}` on line {line}",
-                                    name.name, prev.name
-                                ),
-                            )
-                            .help("give each point its own name"))
-                    }
-                    None => self
-                        .point(name, values, state, &it.span)
-                        .map(|p| acc.points.push(p)),
-                }
+                self.point_item(name, values, state, &it.span, &mut acc.points)
             }
             Item::Run(name, values) => self
                 .preset(name, values, &it.span)

@@ -1,13 +1,43 @@
 //! Named points: `point NAME { x = …; … }`, every state variable as parameters' expressions.
 
 use super::{Ctx, Lowerer, L};
-use crate::error::Diagnostic;
-use crate::error::Span;
+use crate::error::{Diagnostic, Span};
 use crate::ir::{Id, Input};
 use crate::model::{Point, StateVar};
 use crate::parse::ast::*;
 
 impl Lowerer {
+    /// `point NAME { … }`, refused when its method name would clash with an earlier point's.
+    pub(super) fn point_item(
+        &mut self,
+        name: &Ident,
+        values: &[(Ident, Expr)],
+        state: &[StateVar],
+        span: &Span,
+        points: &mut Vec<Point>,
+    ) -> L<()> {
+        let method = crate::emit::snake(&name.name);
+        match points
+            .iter()
+            .find(|p: &&Point| crate::emit::snake(&p.name) == method)
+        {
+            Some(prev) => {
+                let (line, _) = prev.span.line_col();
+                Err(Diagnostic::new(
+                    &name.span,
+                    format!(
+                        "point `{}` would be the method `point_{method}` of the point `{}` on line {line}",
+                        name.name, prev.name
+                    ),
+                )
+                .help("give each point its own name"))
+            }
+            None => self
+                .point(name, values, state, span)
+                .map(|p| points.push(p)),
+        }
+    }
+
     pub(super) fn point(
         &mut self,
         name: &Ident,
