@@ -2,10 +2,10 @@
 //!
 //! `Lowerer::model` is a short sequence of named passes, each in its own module: the model's
 //! name and the symbol table (`symbols`), state and parameters (`state`), every other item in
-//! file order (`items`, with `let` bindings in `lets`), the Hamiltonian route (`hamiltonian`), the check that every state
-//! component has an equation (`field`), V (`invariants`), then presets and the splitting.
-//! Points are in `points`; expressions are lowered in `model::expr`, presets, guards and
-//! splittings in `model::declare`.
+//! file order (`items`, with `let` bindings in `lets` and named points in `points`), the
+//! Hamiltonian route (`hamiltonian`), the check that every state component has an equation
+//! (`field`), V (`invariants`), then presets and the splitting. Expressions are lowered in
+//! `model::expr`; presets, guards and splittings in `model::declare`.
 
 mod field;
 mod hamiltonian;
