@@ -1,0 +1,77 @@
+//! The field X(x): `d/dt` equations, and the check that every state component has one.
+
+use super::{Ctx, Kind, Lowerer, L};
+use crate::error::{Diagnostic, Span};
+use crate::ir::{Id, Input, Node};
+use crate::model::StateVar;
+use crate::parse::ast::*;
+
+impl Lowerer {
+    pub(super) fn derivative(
+        &mut self,
+        name: &Ident,
+        e: &Expr,
+        span: &Span,
+        field: &mut [Option<(Id, Span)>],
+    ) -> L<()> {
+        let sym = self.lookup(name, Ctx::Model)?;
+        if sym.kind != Kind::State {
+            return Err(Diagnostic::new(
+                &name.span,
+                format!(
+                    "`{}` is a {}, not a state variable",
+                    name.name,
+                    sym.kind.describe()
+                ),
+            )
+            .help("`d/dt` takes a variable declared with `state`"));
+        }
+        let v = self.expr(e, Ctx::Model)?;
+        if v.shape != sym.value.shape {
+            return Err(Diagnostic::new(
+                &e.span,
+                format!(
+                    "d/dt {} is a {} but `{}` is a {}",
+                    name.name, v.shape, name.name, sym.value.shape
+                ),
+            )
+            .help("the right-hand side must have the state variable's shape"));
+        }
+        for (k, &state_id) in sym.value.ids.iter().enumerate() {
+            let Node::Input(Input::State(i)) = *self.g.node(state_id) else {
+                unreachable!("state ids are inputs")
+            };
+            let slot = &mut field[i as usize];
+            if let Some((_, prev)) = slot {
+                let (line, _) = prev.line_col();
+                return Err(Diagnostic::new(
+                    &name.span,
+                    format!("`{}` already has an equation", name.name),
+                )
+                .help(format!("see line {line}; keep one")));
+            }
+            *slot = Some((v.ids[k], span.clone()));
+        }
+        Ok(())
+    }
+
+    /// Every state component needs exactly one equation.
+    pub(super) fn check_equations(&mut self, state: &[StateVar], field: &[Option<(Id, Span)>]) {
+        for s in state {
+            if field[s.offset..s.offset + s.shape.len()]
+                .iter()
+                .any(Option::is_none)
+                && self.errors.is_empty()
+            {
+                self.errors.push(
+                    Diagnostic::new(&s.span, format!("state `{}` has no equation", s.name)).help(
+                        format!(
+                            "add `d/dt {} = …;` or a Hamiltonian with a structure that covers it",
+                            s.name
+                        ),
+                    ),
+                );
+            }
+        }
+    }
+}

@@ -1,0 +1,128 @@
+//! Pass 2: every item other than state and parameters, in file order (so that names are
+//! defined before they are used and problems are reported in the order they occur).
+
+use super::{Ctx, Lowerer, L};
+use crate::error::{Diagnostic, DiagnosticKind, Span};
+use crate::ir::Id;
+use crate::model::{Binding, Gain, Guard, Invariant, InvariantKind, Point, Preset, StateVar};
+use crate::parse::ast::*;
+
+/// What pass 2 collects, item by item.
+pub(super) struct Items<'a> {
+    /// For each state component, its equation and the span of the item that gives it.
+    pub(super) field: Vec<Option<(Id, Span)>>,
+    pub(super) invariants: Vec<Invariant>,
+    pub(super) gains: Vec<Gain>,
+    pub(super) lets: Vec<Binding>,
+    /// The `lyapunov` item: its name, expression and span.
+    pub(super) lyapunov: Option<(Ident, &'a Expr, Span)>,
+    /// The `hamiltonian` item: its name, H and span.
+    pub(super) hamiltonian: Option<(Ident, Id, Span)>,
+    pub(super) structure: Option<(&'a StructureDecl, Span)>,
+    pub(super) points: Vec<Point>,
+    pub(super) presets: Vec<Preset>,
+    pub(super) guards: Vec<Guard>,
+    /// The `splitting` item: its kind, arguments and span.
+    pub(super) splitting: Option<(&'a Ident, &'a Vec<Ident>, Span)>,
+}
+
+impl Lowerer {
+    /// Lowers every item but state and parameters, in order; the flat state has `n` components.
+    pub(super) fn items<'a>(
+        &mut self,
+        ast: &'a ModelAst,
+        state: &[StateVar],
+        n: usize,
+    ) -> Items<'a> {
+        let mut acc = Items {
+            field: vec![None; n],
+            invariants: Vec::new(),
+            gains: Vec::new(),
+            lets: Vec::new(),
+            lyapunov: None,
+            hamiltonian: None,
+            structure: None,
+            points: Vec::new(),
+            presets: Vec::new(),
+            guards: Vec::new(),
+            splitting: None,
+        };
+        for it in &ast.items {
+            if let Err(d) = self.item(it, state, &mut acc) {
+                if d.kind != DiagnosticKind::AlreadyReported {
+                    self.errors.push(d);
+                }
+            }
+        }
+        acc
+    }
+
+    /// One item of pass 2.
+    fn item<'a>(&mut self, it: &'a Spanned, state: &[StateVar], acc: &mut Items<'a>) -> L<()> {
+        match &it.item {
+            Item::State(_) | Item::Param(..) => Ok(()),
+            Item::Let(name, e) => self.binding(name, e, &it.span, &mut acc.lets),
+            Item::Derivative(name, e) => self.derivative(name, e, &it.span, &mut acc.field),
+            Item::Invariant {
+                kind,
+                name,
+                value,
+                gain,
+            } => {
+                let kind = match kind {
+                    InvariantDeclKind::Constraint => InvariantKind::Constraint,
+                    InvariantDeclKind::Integral => InvariantKind::Integral,
+                };
+                self.expr(value, Ctx::Model).and_then(|v| {
+                    self.invariant(
+                        name,
+                        kind,
+                        v,
+                        gain.as_ref(),
+                        false,
+                        &it.span,
+                        &mut acc.invariants,
+                        &mut acc.gains,
+                    )
+                })
+            }
+            Item::Lyapunov(name, e) => {
+                if let Some((prev, ..)) = &acc.lyapunov {
+                    Err(Diagnostic::new(&name.span, "a second `lyapunov` function")
+                        .help(format!("V is already defined as `{}`; keep one", prev.name)))
+                } else {
+                    acc.lyapunov = Some((name.clone(), e, it.span.clone()));
+                    Ok(())
+                }
+            }
+            Item::Hamiltonian(name, e) => self.hamiltonian_item(name, e, &it.span, acc),
+            Item::Structure(s, span) => {
+                if acc.structure.is_some() {
+                    Err(Diagnostic::new(span, "a second `structure`")
+                        .help("a model has one Poisson structure"))
+                } else {
+                    acc.structure = Some((s, it.span.clone()));
+                    Ok(())
+                }
+            }
+            Item::Point(name, values) => {
+                self.point_item(name, values, state, &it.span, &mut acc.points)
+            }
+            Item::Run(name, values) => self
+                .preset(name, values, &it.span)
+                .map(|p| acc.presets.push(p)),
+            Item::Guard { name, lhs, op, rhs } => self
+                .guard(name, lhs, *op, rhs, &it.span)
+                .map(|g| acc.guards.push(g)),
+            Item::Splitting(kind, args) => {
+                if acc.splitting.is_some() {
+                    Err(Diagnostic::new(&it.span, "a second `splitting`")
+                        .help("a model admits one structure-specific splitting"))
+                } else {
+                    acc.splitting = Some((kind, args, it.span.clone()));
+                    Ok(())
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,135 @@
+//! Pass 1: state variables and parameters, which may be used anywhere in the model.
+
+use super::{Ctx, Kind, Lowerer};
+use crate::error::Diagnostic;
+use crate::ir::Input;
+use crate::model::{Param, Shape, StateVar, Value};
+use crate::parse::ast::*;
+
+impl Lowerer {
+    /// Declares the state and the parameters in file order and notes the gains' names;
+    /// returns them with the dimension N of the flat state.
+    pub(super) fn state_and_params(
+        &mut self,
+        ast: &ModelAst,
+    ) -> (Vec<StateVar>, Vec<Param>, usize) {
+        let mut state = Vec::new();
+        let mut params: Vec<Param> = Vec::new();
+        let mut n = 0usize;
+        for it in &ast.items {
+            match &it.item {
+                Item::State(decls) => {
+                    for (name, ty) in decls {
+                        let Some(shape) = Shape::from_name(&ty.name) else {
+                            self.errors.push(
+                                Diagnostic::new(&ty.span, format!("unknown shape `{}`", ty.name))
+                                    .help(
+                                    "shapes are `scalar`, `vecN` (e.g. `vec3`), `matN` or `matRxC`",
+                                ),
+                            );
+                            continue;
+                        };
+                        let ids = (0..shape.len())
+                            .map(|k| self.g.input(Input::State((n + k) as u32)))
+                            .collect();
+                        self.declare(name, Kind::State, Value { shape, ids });
+                        state.push(StateVar {
+                            name: name.name.clone(),
+                            shape,
+                            offset: n,
+                            span: name.span.clone(),
+                        });
+                        n += shape.len();
+                    }
+                }
+                Item::Param(name, e) => {
+                    if let Some(p) = self.param(name, e, it) {
+                        params.push(p);
+                    }
+                }
+                Item::Invariant {
+                    gain: Some(GainDecl { name: Some(g), .. }),
+                    ..
+                } => {
+                    self.gain_names.insert(g.name.clone());
+                }
+                _ => {}
+            }
+        }
+        if state.is_empty() && self.errors.is_empty() {
+            self.errors.push(
+                Diagnostic::new(
+                    &ast.name.span,
+                    format!("model `{}` declares no state", ast.name.name),
+                )
+                .help("add e.g. `state x: vec3, v: vec3;`"),
+            );
+        }
+        (state, params, n)
+    }
+
+    pub(super) fn param(&mut self, name: &Ident, e: &Expr, it: &Spanned) -> Option<Param> {
+        let offset = self.param_defaults.len();
+        let (value, diagonal) = match &e.kind {
+            ExprKind::Call(f, args) if f.name == "diag" => {
+                (self.diag_args(args, e, Ctx::Constant), true)
+            }
+            _ => (self.expr(e, Ctx::Constant), false),
+        };
+        let value = match value {
+            Ok(v) => v,
+            Err(d) => {
+                self.errors.push(d);
+                return None;
+            }
+        };
+        let numbers: Option<Vec<f64>> = value.ids.iter().map(|&id| self.g.as_num(id)).collect();
+        let Some(numbers) = numbers else {
+            self.errors.push(
+                Diagnostic::new(&e.span, format!("default of parameter `{}` is not a constant", name.name))
+                    .help("parameter defaults are numbers, `[…]`, `diag(…)` or expressions of earlier parameters"),
+            );
+            return None;
+        };
+        let defaults: Vec<f64> = if diagonal {
+            let (r, _) = value.shape.dims();
+            (0..r).map(|i| numbers[i * r + i]).collect()
+        } else {
+            numbers
+        };
+        let mut slot = offset;
+        let ids = if diagonal {
+            let r = defaults.len();
+            let zero = self.g.num(0.0);
+            let mut ids = vec![zero; r * r];
+            for i in 0..r {
+                ids[i * r + i] = self.g.input(Input::Param((offset + i) as u32));
+            }
+            ids
+        } else {
+            (0..defaults.len())
+                .map(|_| {
+                    slot += 1;
+                    self.g.input(Input::Param((slot - 1) as u32))
+                })
+                .collect()
+        };
+        self.param_defaults.extend(&defaults);
+        self.declare(
+            name,
+            Kind::Param,
+            Value {
+                shape: value.shape,
+                ids,
+            },
+        );
+        Some(Param {
+            name: name.name.clone(),
+            shape: value.shape,
+            diagonal,
+            offset,
+            defaults,
+            span: it.span.clone(),
+        })
+    }
+}
