@@ -108,29 +108,8 @@ pub(super) fn run<R: Real, H: HamiltonianFn + ?Sized>(
     timings.linear = t.elapsed().as_secs_f64();
 
     // Assumption 1′
-    let omega_f: Vec<f64> = lin.omega.iter().map(|w| w.to_f64()).collect();
-    let mdot = |m: &[i32]| -> R {
-        m.iter()
-            .zip(&lin.omega)
-            .fold(R::zero(), |s, (&a, &w)| s + w.scale(a as f64))
-    };
-    if !o.resonant {
-        for m in integer_vectors(n, nmax) {
-            let v = mdot(&m);
-            // a monomial x^a y^b with a − b = m has degree ≥ |m|₁ of the same parity, and the
-            // Lie normalisation starts at degree 3: m first matters at this degree
-            let norm1: usize = m.iter().map(|x| x.unsigned_abs() as usize).sum();
-            let order = if norm1 < 3 { norm1 + 2 } else { norm1 };
-            if order <= nmax && v.abs().to_f64() < o.resonance_tol {
-                return Err(NormalFormError::Resonance {
-                    m,
-                    m_dot_omega: v.to_f64(),
-                    order,
-                    omega: omega_f,
-                });
-            }
-        }
-    }
+    check_nonresonant(n, nmax, &lin.omega, o)?;
+    let mdot = |m: &[i32]| m_dot_omega(m, &lin.omega);
     let tol = o.resonance_tol;
     let resonant_mode = o.resonant;
     let is_res = |m: &[i32]| resonant_mode && mdot(m).abs().to_f64() < tol;
@@ -235,20 +214,14 @@ pub(super) fn run<R: Real, H: HamiltonianFn + ?Sized>(
         .collect();
 
     // D4 (meaningless when resonant terms were kept: H̄ is then not a function of I alone)
-    let d4 = if n == 2 && nmax >= 4 && resonant_terms.is_empty() {
-        let get = |a: [u32; 2]| {
-            hbar.iter()
-                .find(|(e, _)| e[..] == a)
-                .map_or(R::zero(), |(_, v)| *v)
-        };
-        let (a, b, cc) = (get([2, 0]).scale(2.0), get([1, 1]), get([0, 2]).scale(2.0));
-        let nu1 = lin.omega[0].scale(lin.sigma[0] as f64);
-        let nu2 = lin.omega[1].scale(lin.sigma[1] as f64);
-        let d4 = a * nu2 * nu2 - (b * nu1 * nu2).scale(2.0) + cc * nu1 * nu1;
-        Some([a, b, cc, d4])
-    } else {
-        None
-    };
+    let d4 = twist_coefficients(
+        n,
+        nmax,
+        resonant_terms.is_empty(),
+        &hbar,
+        &lin.omega,
+        &lin.sigma,
+    );
 
     // generating function in real form: G(u) with u = C⁻¹ w
     let t = Instant::now();
@@ -314,4 +287,67 @@ pub(super) fn run<R: Real, H: HamiltonianFn + ?Sized>(
         timings,
         table_bytes: table.memory_bytes(),
     })
+}
+
+/// The Arnold–Moser twist coefficients `[A, B, C, D₄]` from H̄₄ (two degrees of freedom,
+/// order ≥ 4, no resonant terms kept), see [`super::ArnoldMoser`].
+fn twist_coefficients<R: Real>(
+    n: usize,
+    nmax: usize,
+    no_resonant_terms: bool,
+    hbar: &[(Vec<u32>, R)],
+    omega: &[R],
+    sigma: &[i8],
+) -> Option<[R; 4]> {
+    if n == 2 && nmax >= 4 && no_resonant_terms {
+        let get = |a: [u32; 2]| {
+            hbar.iter()
+                .find(|(e, _)| e[..] == a)
+                .map_or(R::zero(), |(_, v)| *v)
+        };
+        let (a, b, cc) = (get([2, 0]).scale(2.0), get([1, 1]), get([0, 2]).scale(2.0));
+        let nu1 = omega[0].scale(sigma[0] as f64);
+        let nu2 = omega[1].scale(sigma[1] as f64);
+        let d4 = a * nu2 * nu2 - (b * nu1 * nu2).scale(2.0) + cc * nu1 * nu1;
+        Some([a, b, cc, d4])
+    } else {
+        None
+    }
+}
+
+/// m·ω in the working precision.
+fn m_dot_omega<R: Real>(m: &[i32], omega: &[R]) -> R {
+    m.iter()
+        .zip(omega)
+        .fold(R::zero(), |s, (&a, &w)| s + w.scale(a as f64))
+}
+
+/// Assumption 1′: fails with [`NormalFormError::Resonance`] on the first m with
+/// |m·ω| < `resonance_tol` that matters up to order N (unless `resonant`).
+fn check_nonresonant<R: Real>(
+    n: usize,
+    nmax: usize,
+    omega: &[R],
+    o: &Options,
+) -> Result<(), NormalFormError> {
+    let omega_f: Vec<f64> = omega.iter().map(|w| w.to_f64()).collect();
+    let mdot = |m: &[i32]| m_dot_omega(m, omega);
+    if !o.resonant {
+        for m in integer_vectors(n, nmax) {
+            let v = mdot(&m);
+            // a monomial x^a y^b with a − b = m has degree ≥ |m|₁ of the same parity, and the
+            // Lie normalisation starts at degree 3: m first matters at this degree
+            let norm1: usize = m.iter().map(|x| x.unsigned_abs() as usize).sum();
+            let order = if norm1 < 3 { norm1 + 2 } else { norm1 };
+            if order <= nmax && v.abs().to_f64() < o.resonance_tol {
+                return Err(NormalFormError::Resonance {
+                    m,
+                    m_dot_omega: v.to_f64(),
+                    order,
+                    omega: omega_f,
+                });
+            }
+        }
+    }
+    Ok(())
 }
