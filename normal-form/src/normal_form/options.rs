@@ -1,6 +1,8 @@
 //! The options of [`normalize`](super::normalize): precision, progress stages, error
 //! estimate, point, and their validation.
 
+#[cfg(doc)]
+use super::{normalize, DegreeError, Diagnostics, NormalForm};
 use crate::error::NormalFormError;
 use serde::Serialize;
 use std::sync::Arc;
