@@ -6,43 +6,19 @@
 //!   (or the tape, for the Hamiltonian, which has no scalar function) lane by lane, bitwise;
 //! - a compiled Taylor step, plain or feedback, allocates nothing.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
 use lasalle::models;
 use lasalle::{Backend, LoadedModel};
 use lasalle_codegen::tape::{ModelTapes, Tape};
 use lasalle_exec::TaylorTape;
 use lasalle_runtime::taylor::{TaylorKernel, EMITTED_MAX_ORDER};
 use lasalle_runtime::{Field, Invariants, Lyapunov, Partitioned};
+use lasalle_testkit::{allocations, CountingAllocator};
 
-/// Counts this thread's allocations.
-struct Counting;
-
-thread_local! {
-    static ALLOCS: Cell<u64> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCS.with(|c| c.set(c.get() + 1));
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCS.with(|c| c.set(c.get() + 1));
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
+mod common;
+use common::{same, tapes};
 
 #[global_allocator]
-static GLOBAL: Counting = Counting;
-
-fn allocations() -> u64 {
-    ALLOCS.with(|c| c.get())
-}
+static GLOBAL: CountingAllocator = CountingAllocator;
 
 /// Numbers in ±[0.5, 1.5), from a fixed seed.
 fn rng() -> impl FnMut() -> f64 {
@@ -244,9 +220,6 @@ use models::{
     rigid_body as rb, so3_type_i as s1, so3_type_iia as s2a, so3_type_iib as s2b,
     so3_type_iii as s3,
 };
-
-mod common;
-use common::{same, tapes};
 
 lanes_of!(
     co::CoupledOscillators => co::CoupledOscillatorsLanes,

@@ -12,9 +12,6 @@
 //! - `#[ignore]`d timing runs (Kepler 1000 periods, rigid body t = 1000): `cargo test --release
 //!   -p lasalle-exec --test taylor -- --ignored --nocapture`.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
 use lasalle_codegen::ir::{Rational, Scalar};
 use lasalle_codegen::tape::{ModelTapes, Tape};
 use lasalle_exec::taylor::{jorba_zou_step, order_for_tolerance};
@@ -22,36 +19,13 @@ use lasalle_exec::{Backend, LoadedModel, TaylorField, TaylorOptions, TaylorTape}
 use lasalle_runtime::{
     integrate, DenseOutput, Driver, FeedbackField, Field, Invariants, Parameters, Stepper,
 };
+use lasalle_testkit::{allocations, CountingAllocator};
 
 // ---------------------------------------------------------------------------------------
 // Allocation counting (per thread: the test harness runs tests in parallel)
 
-struct Counting;
-
-thread_local! {
-    static ALLOCS: Cell<u64> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCS.with(|c| c.set(c.get() + 1));
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCS.with(|c| c.set(c.get() + 1));
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
-
-fn allocations() -> u64 {
-    ALLOCS.with(|c| c.get())
-}
+static GLOBAL: CountingAllocator = CountingAllocator;
 
 // ---------------------------------------------------------------------------------------
 // Helpers

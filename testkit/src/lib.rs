@@ -1,9 +1,43 @@
 //! What the workspace's tests, fuzz example and benches share (a dev-dependency only).
 //!
+//! [`CountingAllocator`] counts the allocations of the current thread, for tests that assert a
+//! hot loop allocates nothing (install it with `#[global_allocator]` in the test file).
+//!
 //! [`Rng`] is the one random generator of the tests: SplitMix64 (Steele, Lea & Flood 2014),
 //! seeded explicitly, so every failure reproduces from the seed printed with it. The library
 //! code that samples (the generator's numerical conservation check) has its own generator,
 //! `lasalle_codegen`'s `check::sampling::Rng`, because its verdicts are part of the product.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+thread_local! {
+    static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
+}
+
+/// The system allocator, counting this thread's allocations and reallocations:
+/// `#[global_allocator] static GLOBAL: CountingAllocator = CountingAllocator;`.
+pub struct CountingAllocator;
+
+// SAFETY: every call is forwarded to the system allocator unchanged.
+unsafe impl GlobalAlloc for CountingAllocator {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.with(|c| c.set(c.get() + 1));
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        ALLOCATIONS.with(|c| c.set(c.get() + 1));
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+/// The allocations of this thread so far (with [`CountingAllocator`] installed).
+pub fn allocations() -> u64 {
+    ALLOCATIONS.with(|c| c.get())
+}
 
 /// SplitMix64: a small, fast, seeded generator with full 64-bit output.
 #[derive(Clone, Debug)]
