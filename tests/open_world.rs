@@ -398,6 +398,74 @@ fn sweep_shards_merge_to_the_whole_sweep() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("row 1 is missing"));
 }
 
+/// Rows that share their parameters run together in lanes, and each gets the result it gets
+/// alone: a grid over initial-state components (some runs stop at Kepler's guard, which sends
+/// their group back to one run per row), run with `--lanes 8` and `--lanes 1`, gives the same
+/// table but for the wall time. An axis that names nothing in the model is an error.
+#[test]
+fn sweep_lanes_give_each_row_its_lone_result() {
+    let dir = scratch("open-world-sweep-lanes");
+    let table = |lanes: &str| -> Vec<String> {
+        let out = dir.join(format!("lanes{lanes}.csv"));
+        let o = lasalle(&[
+            "sweep",
+            "kepler",
+            "-m",
+            "rk4",
+            "--dt",
+            "0.01",
+            "--t-end",
+            "10",
+            "--grid",
+            "v[1]=0.01:1.3:12",
+            "--grid",
+            "x[0]=0.9,1",
+            "--grid",
+            "mu=1,1.2",
+            "--lanes",
+            lanes,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let text = std::fs::read_to_string(out).unwrap();
+        text.lines()
+            .map(|l| {
+                let c: Vec<&str> = l.split(',').collect();
+                [&c[..7], &c[8..]].concat().join(",") // all but wall_seconds
+            })
+            .collect()
+    };
+    let (alone, together) = (table("1"), table("8"));
+    assert_eq!(alone.len(), 49);
+    assert!(alone[0].starts_with("row,v[1],x[0],mu,"), "{}", alone[0]);
+    assert!(alone
+        .iter()
+        .any(|r| r.contains("guard `resolved` violated")));
+    assert!(
+        alone.iter().filter(|r| r.ends_with(',')).count() > 24,
+        "most runs succeed"
+    );
+    assert_eq!(alone, together);
+    let o = lasalle(&[
+        "sweep",
+        "kepler",
+        "--grid",
+        "w=1,2",
+        "--t-end",
+        "1",
+        "--out",
+        dir.join("bad.csv").to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success()
+            && err.contains("`w` is neither a parameter of `Kepler` nor a component of its state")
+            && err.contains("state components: x[0], x[1]"),
+        "{err}"
+    );
+}
+
 /// A table is CSV a reader can parse: matrix component names (`g[0,1]`) and failure
 /// messages are quoted, so every row has as many fields as the header.
 #[test]

@@ -26,12 +26,14 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod ensemble;
 pub mod interp;
 #[cfg(feature = "jit")]
 pub mod jit;
 pub mod model;
 pub mod taylor;
 
+pub use ensemble::{Lanes, PackError};
 pub use model::{LoadError, LoadedModel};
 pub use taylor::{Taylor, TaylorError, TaylorField, TaylorOptions, TaylorTape};
 

@@ -389,6 +389,11 @@ impl LoadedModel {
         self.info.presets.iter().find(|p| p.name == name)
     }
 
+    /// Does the model declare guards (`guard …;`)?
+    pub fn has_guards(&self) -> bool {
+        self.kernels.guards.is_some()
+    }
+
     /// Recomputes every kernel's parameter-only values after a parameter change.
     fn rehoist(&mut self) -> Result<(), ExecError> {
         let params = &self.params;
@@ -396,6 +401,16 @@ impl LoadedModel {
             c.hoisted = c.kernel.hoist(params)?;
         }
         Ok(())
+    }
+}
+
+impl LoadedModel {
+    /// The field at k states in lanes ([`crate::Lanes`]); NaN on lengths that do not fit.
+    pub(crate) fn field_lanes(&self, k: usize, x: &[f64], dx: &mut [f64]) {
+        let c = &self.kernels.field;
+        if c.kernel.eval_lanes(k, &c.hoisted, x, &[], &[], dx).is_err() {
+            nan(dx);
+        }
     }
 }
 

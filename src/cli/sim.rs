@@ -25,8 +25,9 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lasalle::{
     component_names, sample_capacity, scaled_gains, step_gain_target, AdaptiveGain, Control, Csv,
     Declared, DormandPrince, Driver, ExplicitRk, FeedbackField, Field, GainPolicy, Invariants,
-    Lyapunov, ModelInfo, Observer, Parameters, Projection, Recorder, RigidBodySplitting, State,
-    StepError, Stepper, StormerVerlet, Stride, Taylor, TaylorOptions, VerletVariant,
+    Lanes, LoadedModel, Lyapunov, ModelInfo, Observer, Parameters, Projection, Recorder,
+    RigidBodySplitting, State, StepError, Stepper, StormerVerlet, Stride, Taylor, TaylorOptions,
+    VerletVariant,
 };
 use serde_json::json;
 
@@ -671,35 +672,64 @@ where
             .zip(cpu_start)
             .map(|(end, start)| end - start);
         bar.finish_and_clear();
-        let mut names = component_names(self.model.state_slots());
-        names.resize_with(self.x0.len(), String::new);
-        let (steps, evaluations, rejections, failure) = match result {
-            Ok(s) => (s.steps, s.evaluations, s.rejections, None),
-            Err(e) => (0, 0, 0, Some(e)),
+        let counts = match result {
+            Ok(s) => Ok((s.steps, s.evaluations, s.rejections)),
+            Err(e) => Err(e),
         };
-        Trace {
-            method: spec.method.to_string(),
-            stepper: stepper.name(),
-            state_names: names,
-            blocks: rec.blocks().iter().map(|(n, _)| n.to_string()).collect(),
-            x: rec
-                .x
-                .iter()
-                .flat_map(|s| s.as_ref().iter().copied())
-                .collect(),
-            t: rec.t,
-            errors: rec.errors,
-            wall_seconds,
-            cpu_seconds,
-            steps,
-            evaluations,
-            rejections,
-            stats: stepper.stats(),
-            gains_initial: None,
-            gains_final: None,
-            failure,
-            every,
-        }
+        let stepper = (stepper.name(), stepper.stats());
+        trace(
+            self.model,
+            spec,
+            stepper,
+            rec,
+            (wall_seconds, cpu_seconds),
+            counts,
+        )
+    }
+}
+
+/// The [`Trace`] of a run: what `rec` recorded, with the run's counters (or its failure).
+fn trace<Mdl, X, FV>(
+    model: &Mdl,
+    spec: &RunSpec,
+    (stepper, stats): (String, Vec<(&'static str, f64)>),
+    rec: Recorder<'_, Mdl, f64, X, FV>,
+    (wall_seconds, cpu_seconds): (f64, Option<f64>),
+    counts: Result<(u64, u64, u64), StepError>,
+) -> Trace
+where
+    Mdl: Invariants<f64, X, FV> + ModelInfo + ?Sized,
+    X: State<f64>,
+    FV: State<f64>,
+{
+    let mut names = component_names(model.state_slots());
+    names.resize_with(model.state_dim(), String::new);
+    let ((steps, evaluations, rejections), failure) = match counts {
+        Ok(c) => (c, None),
+        Err(e) => ((0, 0, 0), Some(e)),
+    };
+    Trace {
+        method: spec.method.to_string(),
+        stepper,
+        state_names: names,
+        blocks: rec.blocks().iter().map(|(n, _)| n.to_string()).collect(),
+        x: rec
+            .x
+            .iter()
+            .flat_map(|s| s.as_ref().iter().copied())
+            .collect(),
+        t: rec.t,
+        errors: rec.errors,
+        wall_seconds,
+        cpu_seconds,
+        steps,
+        evaluations,
+        rejections,
+        stats,
+        gains_initial: None,
+        gains_final: None,
+        failure,
+        every: spec.record_every(),
     }
 }
 
@@ -844,6 +874,72 @@ where
                 Ok(drive(model, model, x0, spec).visit(taylor))
             }
         }
+    }
+}
+
+/// Integrates the states `x0s` of a loaded model together, in lanes ([`Lanes`]), as
+/// [`simulate`] integrates each alone: each trace equals the lone run's except for the wall
+/// and CPU time, the group's divided by the number of lanes. `None` where lanes do not apply —
+/// fewer than two states, a method other than a plain fixed-step Runge–Kutta method, samples
+/// between the first and the last state (`spec.every`), an initial state that [`simulate`]
+/// refuses, a run that fails (its guards or a blow-up stop every lane) — and then the caller
+/// runs each state alone, which gives each its own result.
+pub fn simulate_lanes(model: &LoadedModel, x0s: &[Vec<f64>], spec: &RunSpec) -> Option<Vec<Trace>> {
+    let Method::Plain(base @ (Base::Euler | Base::Heun | Base::Rk4)) = spec.method else {
+        return None;
+    };
+    if x0s.len() < 2
+        || spec.record_every() < spec.steps()
+        || x0s.iter().any(|x0| check_start(model, x0, spec).is_err())
+    {
+        return None;
+    }
+    let lanes = model.lanes(x0s.len());
+    with_base(base, spec, DriveLanes { lanes, x0s, spec })
+}
+
+/// The visitor of [`simulate_lanes`].
+struct DriveLanes<'a> {
+    lanes: Lanes<'a>,
+    x0s: &'a [Vec<f64>],
+    spec: &'a RunSpec,
+}
+
+impl<'a> Visit<Lanes<'a>, Vec<f64>> for DriveLanes<'a> {
+    type Out = Option<Vec<Trace>>;
+
+    fn visit<S: Stepper<f64, Vec<f64>, Lanes<'a>> + Stats>(self, mut stepper: S) -> Self::Out {
+        let (lanes, spec) = (self.lanes, self.spec);
+        let model = lanes.model();
+        let mut driver = Driver::new(0.0, spec.t_end, spec.dt).max_steps(spec.max_steps);
+        if model.has_guards() {
+            driver = driver.guard(1, move |x: &Vec<f64>| {
+                (0..lanes.k()).find_map(|l| {
+                    model
+                        .check_guards(&lanes.unpack(x, l), spec.dt)
+                        .map(|g| g.to_string())
+                })
+            });
+        }
+        let (start, cpu_start) = (Instant::now(), process_cpu_seconds());
+        let end = driver
+            .run(&mut stepper, &lanes, &lanes.pack(self.x0s).ok()?, &mut ())
+            .ok()?;
+        let k = lanes.k() as f64;
+        let wall = start.elapsed().as_secs_f64() / k;
+        let cpu = process_cpu_seconds()
+            .zip(cpu_start)
+            .map(|(end, start)| (end - start) / k);
+        let stepper = (stepper.name(), stepper.stats());
+        let traces = self.x0s.iter().enumerate().map(|(l, x0)| {
+            // the samples of the lone run with `every = u64::MAX`: the first and the last
+            let mut rec = Recorder::new(model, x0, spec.record_every(), 2);
+            rec.observe(0, 0.0, x0);
+            rec.finish(end.steps, end.t, &lanes.unpack(&end.x, l));
+            let counts = Ok((end.steps, end.evaluations, end.rejections));
+            trace(model, spec, stepper.clone(), rec, (wall, cpu), counts)
+        });
+        Some(traces.collect())
     }
 }
 

@@ -1,9 +1,13 @@
 //! `lasalle sweep <model> --grid name=a:b:n … [--shard i/n] --out table.csv`: one run per point
-//! of a parameter grid (or per row of a list), in parallel across the machine's cores, written
-//! as one table; `--shard i/n` runs every n-th row starting at i, so a cluster's array jobs
-//! (Slurm `--array=0-9` with `--shard $SLURM_ARRAY_TASK_ID/10`, PBS, `xargs -P`) split a sweep
-//! across machines, and `lasalle sweep-merge` joins the shards' tables, checking that every row
-//! is there exactly once.
+//! of a grid (or per row of a list) over parameters and initial-state components, in parallel
+//! across the machine's cores, written as one table; `--shard i/n` runs every n-th row starting
+//! at i, so a cluster's array jobs (Slurm `--array=0-9` with `--shard $SLURM_ARRAY_TASK_ID/10`,
+//! PBS, `xargs -P`) split a sweep across machines, and `lasalle sweep-merge` joins the shards'
+//! tables, checking that every row is there exactly once.
+//!
+//! Within a core, rows that share their parameters run together in lanes ([`simulate_lanes`],
+//! `--lanes`, plain fixed-step methods): one kernel call per stage for up to `--lanes` states,
+//! each row's result bitwise the one it gets alone.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -13,7 +17,7 @@ use lasalle::{Backend, LoadedModel, ModelInfo, Parameters};
 use rayon::prelude::*;
 
 use super::load::{model_text, BackendArg};
-use super::sim::{initial_state, simulate, Method, RunSpec, Trace};
+use super::sim::{initial_state, simulate, simulate_lanes, Method, RunSpec, Trace};
 use super::CliResult;
 
 /// Arguments of `lasalle sweep`.
@@ -21,12 +25,14 @@ use super::CliResult;
 pub struct SweepArgs {
     /// The model: a path to a model file or the name of a built-in model.
     pub model: String,
-    /// A parameter axis: `name=start:stop:count` (count values, ends included) or
-    /// `name=v1,v2,…`; repeatable, the grid is their Cartesian product.
+    /// An axis: `name=start:stop:count` (count values, ends included) or `name=v1,v2,…`, where
+    /// name is a scalar parameter or a component of the initial state as the trace names it
+    /// (`x`, `q[0]`, `R[0,1]`); repeatable, the grid is their Cartesian product.
     #[arg(long, value_name = "NAME=SPEC", allow_hyphen_values = true)]
     pub grid: Vec<String>,
-    /// A CSV file with one run per row; its header names parameters (scalar ones). Instead of,
-    /// or crossed with, `--grid`.
+    /// A CSV file with one run per row; its header names scalar parameters and state
+    /// components (without commas: give matrix components with `--grid`). Instead of, or
+    /// crossed with, `--grid`.
     #[arg(long, value_name = "FILE")]
     pub list: Option<PathBuf>,
     /// The method of every run.
@@ -51,6 +57,10 @@ pub struct SweepArgs {
     /// Threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Rows that share their parameters run this many at a time in lanes (methods euler, heun
+    /// and rk4; 1 runs every row alone). Results are the same either way.
+    #[arg(long, default_value_t = 8)]
+    pub lanes: usize,
     /// How the model's functions run.
     #[arg(long, value_enum, default_value_t)]
     pub backend: BackendArg,
@@ -180,18 +190,51 @@ fn rows(args: &SweepArgs) -> Result<Vec<Vec<(String, f64)>>, String> {
     Ok(rows)
 }
 
-/// One run of the sweep, as a table row.
-fn run_row(
+/// What a column of the sweep sets.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Column {
+    /// A scalar parameter.
+    Param,
+    /// Component i of the initial state.
+    State(usize),
+}
+
+/// What each column (in row order) names in the model.
+fn columns(model: &LoadedModel, row: &[(String, f64)]) -> Result<Vec<Column>, String> {
+    let components = lasalle::component_names(model.state_slots());
+    row.iter()
+        .map(|(name, _)| {
+            if model.param_slots().iter().any(|s| s.name == name) {
+                Ok(Column::Param)
+            } else if let Some(i) = components.iter().position(|c| c == name) {
+                Ok(Column::State(i))
+            } else {
+                let params: Vec<_> = model.param_slots().iter().map(|s| s.name).collect();
+                Err(format!(
+                    "`{name}` is neither a parameter of `{}` nor a component of its state; parameters: {}; state components: {}",
+                    model.model_name(),
+                    if params.is_empty() { "none".to_string() } else { params.join(", ") },
+                    components.join(", ")
+                ))
+            }
+        })
+        .collect()
+}
+
+/// Sets a row's parameters and returns its initial state.
+fn start(
     model: &mut LoadedModel,
     index: usize,
     row: &[(String, f64)],
+    columns: &[Column],
     args: &SweepArgs,
-    method: Method,
-) -> Result<Vec<String>, String> {
-    for (name, v) in row {
-        model
-            .set_param(name, &[*v])
-            .map_err(|e| format!("row {index}: {e}"))?;
+) -> Result<Vec<f64>, String> {
+    for ((name, v), c) in row.iter().zip(columns) {
+        if *c == Column::Param {
+            model
+                .set_param(name, &[*v])
+                .map_err(|e| format!("row {index}: {e}"))?;
+        }
     }
     let init = match &args.init {
         Some(i) => i.clone(),
@@ -201,12 +244,46 @@ fn run_row(
             .map(|p| p.to_string())
             .ok_or("the model has no named point: give --init x1,x2,…")?,
     };
-    let x0 = initial_state(model, &init).map_err(|e| format!("row {index}: {e}"))?;
-    let mut spec = RunSpec::new(method, args.dt, args.t_end);
-    (spec.rtol, spec.atol) = (args.tol, args.tol);
-    spec.every = u64::MAX; // the initial and the final state
-    let trace = simulate(model, &x0, &spec).map_err(|e| format!("row {index}: {e}"))?;
-    Ok(cells(index, row, &trace))
+    let mut x0 = initial_state(model, &init).map_err(|e| format!("row {index}: {e}"))?;
+    for ((_, v), c) in row.iter().zip(columns) {
+        if let Column::State(i) = *c {
+            x0[i] = *v;
+        }
+    }
+    Ok(x0)
+}
+
+/// The runs of a group of rows with the same parameters, as table rows: together in lanes
+/// where that applies, else one by one.
+fn run_group(
+    model: &mut LoadedModel,
+    group: &[(usize, &Vec<(String, f64)>)],
+    columns: &[Column],
+    args: &SweepArgs,
+    spec: &RunSpec,
+) -> Vec<Result<Vec<String>, String>> {
+    let starts: Result<Vec<Vec<f64>>, String> = group
+        .iter()
+        .map(|&(k, row)| start(model, k, row, columns, args))
+        .collect();
+    if let Some(traces) = starts
+        .ok()
+        .and_then(|x0s| simulate_lanes(model, &x0s, spec))
+    {
+        return group
+            .iter()
+            .zip(&traces)
+            .map(|(&(k, row), t)| Ok(cells(k, row, t)))
+            .collect();
+    }
+    group
+        .iter()
+        .map(|&(k, row)| {
+            let x0 = start(model, k, row, columns, args)?;
+            let trace = simulate(model, &x0, spec).map_err(|e| format!("row {k}: {e}"))?;
+            Ok(cells(k, row, &trace))
+        })
+        .collect()
 }
 
 fn cells(index: usize, row: &[(String, f64)], t: &Trace) -> Vec<String> {
@@ -256,33 +333,57 @@ pub fn run(args: &SweepArgs) -> CliResult {
             .map(|n| format!("{n}(T)")),
     );
     header.push("failure".to_string());
+    let columns = columns(&probe, &rows[0])?;
     drop(probe);
-
-    let mine: Vec<(usize, &Vec<(String, f64)>)> = rows
-        .iter()
-        .enumerate()
-        .filter(|(k, _)| k % shards == shard)
-        .collect();
+    let mut spec = RunSpec::new(method, args.dt, args.t_end);
+    (spec.rtol, spec.atol) = (args.tol, args.tol);
+    spec.every = u64::MAX; // the initial and the final state
+                           // this shard's rows, in groups of at most `--lanes` rows with the same parameters
+    let mut groups: Vec<Vec<(usize, &Vec<(String, f64)>)>> = Vec::new();
+    let mut open: BTreeMap<Vec<u64>, usize> = BTreeMap::new();
+    for (k, row) in rows.iter().enumerate().filter(|(k, _)| k % shards == shard) {
+        let params: Vec<u64> = row
+            .iter()
+            .zip(&columns)
+            .filter(|(_, c)| **c == Column::Param)
+            .map(|((_, v), _)| v.to_bits())
+            .collect();
+        match open.get(&params) {
+            Some(&g) if groups[g].len() < args.lanes.max(1) => groups[g].push((k, row)),
+            _ => {
+                open.insert(params, groups.len());
+                groups.push(vec![(k, row)]);
+            }
+        }
+    }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads.unwrap_or(0))
         .build()
         .map_err(|e| format!("cannot start threads: {e}"))?;
     let start = std::time::Instant::now();
-    let results: Vec<Result<Vec<String>, String>> = pool.install(|| {
-        mine.par_iter()
+    let results: Vec<Vec<Result<Vec<String>, String>>> = pool.install(|| {
+        groups
+            .par_iter()
             .map_init(
                 || LoadedModel::from_source(&path, &text, backend).map_err(|e| e.to_string()),
-                |model, &(k, row)| match model {
-                    Ok(m) => run_row(m, k, row, args, method),
-                    Err(e) => Err(e.clone()),
+                |model, group| match model {
+                    Ok(m) => run_group(m, group, &columns, args, &spec),
+                    Err(e) => vec![Err(e.clone()); group.len()],
                 },
             )
             .collect()
     });
+    let mut done: Vec<(usize, Result<Vec<String>, String>)> = groups
+        .iter()
+        .zip(results)
+        .flat_map(|(group, results)| group.iter().map(|&(k, _)| k).zip(results))
+        .collect();
+    done.sort_by_key(|(k, _)| *k);
+    let runs = done.len();
     let mut table = lasalle::Csv::new(Vec::new());
     table.record(&header)?;
-    for r in results {
-        table.record(&r?)?;
+    for (_, cells) in done {
+        table.record(&cells?)?;
     }
     let table = table.into_inner()?;
     if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -293,7 +394,7 @@ pub fn run(args: &SweepArgs) -> CliResult {
         .map_err(|e| format!("cannot write {}: {e}", args.out.display()))?;
     eprintln!(
         "sweep: {} of {} runs (shard {shard}/{shards}) in {:.2} s on {} threads → {}",
-        mine.len(),
+        runs,
         rows.len(),
         start.elapsed().as_secs_f64(),
         pool.current_num_threads(),
