@@ -7,7 +7,7 @@
 #![warn(missing_docs)]
 
 pub use lasalle_exec as exec;
-pub use lasalle_exec::{Backend, Lanes, LoadError, LoadedModel};
+pub use lasalle_exec::{Backend, FeedbackLanes, LaneField, Lanes, LoadError, LoadedModel};
 pub use lasalle_runtime::*;
 
 pub mod closed_forms;

@@ -401,17 +401,18 @@ fn sweep_shards_merge_to_the_whole_sweep() {
 /// Rows that share their parameters run together in lanes, and each gets the result it gets
 /// alone: a grid over initial-state components (some runs stop at Kepler's guard, which sends
 /// their group back to one run per row), run with `--lanes 8` and `--lanes 1`, gives the same
-/// table but for the wall time. An axis that names nothing in the model is an error.
+/// table but for the wall time, with the field and with the feedback field (each lane with
+/// its own targets). An axis that names nothing in the model is an error.
 #[test]
 fn sweep_lanes_give_each_row_its_lone_result() {
     let dir = scratch("open-world-sweep-lanes");
-    let table = |lanes: &str| -> Vec<String> {
-        let out = dir.join(format!("lanes{lanes}.csv"));
+    let table = |method: &str, lanes: &str| -> Vec<String> {
+        let out = dir.join(format!("{method}-{lanes}.csv"));
         let o = lasalle(&[
             "sweep",
             "kepler",
             "-m",
-            "rk4",
+            method,
             "--dt",
             "0.01",
             "--t-end",
@@ -436,17 +437,19 @@ fn sweep_lanes_give_each_row_its_lone_result() {
             })
             .collect()
     };
-    let (alone, together) = (table("1"), table("8"));
-    assert_eq!(alone.len(), 49);
-    assert!(alone[0].starts_with("row,v[1],x[0],mu,"), "{}", alone[0]);
-    assert!(alone
-        .iter()
-        .any(|r| r.contains("guard `resolved` violated")));
-    assert!(
-        alone.iter().filter(|r| r.ends_with(',')).count() > 24,
-        "most runs succeed"
-    );
-    assert_eq!(alone, together);
+    for method in ["rk4", "feedback-rk4"] {
+        let (alone, together) = (table(method, "1"), table(method, "8"));
+        assert_eq!(alone.len(), 49);
+        assert!(alone[0].starts_with("row,v[1],x[0],mu,"), "{}", alone[0]);
+        assert!(alone
+            .iter()
+            .any(|r| r.contains("guard `resolved` violated")));
+        assert!(
+            alone.iter().filter(|r| r.ends_with(',')).count() > 24,
+            "most runs succeed"
+        );
+        assert_eq!(alone, together, "{method}");
+    }
     let o = lasalle(&[
         "sweep",
         "kepler",

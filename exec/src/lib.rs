@@ -33,7 +33,7 @@ pub mod jit;
 pub mod model;
 pub mod taylor;
 
-pub use ensemble::{Lanes, PackError};
+pub use ensemble::{FeedbackLanes, LaneField, Lanes, PackError};
 pub use model::{LoadError, LoadedModel};
 pub use taylor::{Taylor, TaylorError, TaylorField, TaylorOptions, TaylorTape};
 

@@ -265,6 +265,9 @@ pub struct LoadedModel {
     backend: Backend,
     params: Vec<f64>,
     kernels: Kernels,
+    /// The tape of X − ∇V, for the lanes of feedback ensembles ([`crate::FeedbackLanes`]),
+    /// which compile it on demand.
+    feedback_tape: Tape,
     info: Info,
     load_time: Duration,
 }
@@ -336,6 +339,7 @@ impl LoadedModel {
             backend,
             params,
             kernels,
+            feedback_tape: tapes.feedback,
             info,
             load_time: start.elapsed(),
         })
@@ -387,6 +391,43 @@ impl LoadedModel {
     /// A preset by name.
     pub fn preset(&self, name: &str) -> Option<&'static Preset> {
         self.info.presets.iter().find(|p| p.name == name)
+    }
+
+    /// The tape of X − ∇V.
+    pub(crate) fn feedback_tape(&self) -> &Tape {
+        &self.feedback_tape
+    }
+
+    /// The guards at k states in lanes ([`crate::LaneField`]), `x` the first N·k components of
+    /// a state of the lanes: the first failure, in lane order, then guard order.
+    pub(crate) fn check_guards_lanes(&self, k: usize, x: &[f64], dt: f64) -> Option<GuardFailure> {
+        let guards = self.kernels.guards.as_ref()?;
+        let n = self.info.guards.len();
+        // after every step: no allocation for a few guards on up to 8 lanes
+        let mut stack = [0.0; 64];
+        let mut heap;
+        let margins: &mut [f64] = if n * k <= stack.len() {
+            &mut stack[..n * k]
+        } else {
+            heap = vec![0.0; n * k];
+            &mut heap
+        };
+        if guards
+            .kernel
+            .eval_lanes(k, &guards.hoisted, x, &[], &[dt], margins)
+            .is_err()
+        {
+            nan(margins);
+        }
+        (0..k).find_map(|l| {
+            self.info
+                .guards
+                .iter()
+                .enumerate()
+                .find_map(|(g, &(name, condition, strict))| {
+                    GuardFailure::check(name, condition, margins[g * k + l], strict)
+                })
+        })
     }
 
     /// Does the model declare guards (`guard …;`)?

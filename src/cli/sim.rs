@@ -25,7 +25,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lasalle::{
     component_names, sample_capacity, scaled_gains, step_gain_target, AdaptiveGain, Control, Csv,
     Declared, DormandPrince, Driver, ExplicitRk, FeedbackField, Field, GainPolicy, Invariants,
-    Lanes, LoadedModel, Lyapunov, ModelInfo, Observer, Parameters, Projection, Recorder,
+    LaneField, LoadedModel, Lyapunov, ModelInfo, Observer, Parameters, Projection, Recorder,
     RigidBodySplitting, State, StepError, Stepper, StormerVerlet, Stride, Taylor, TaylorOptions,
     VerletVariant,
 };
@@ -877,53 +877,83 @@ where
     }
 }
 
-/// Integrates the states `x0s` of a loaded model together, in lanes ([`Lanes`]), as
-/// [`simulate`] integrates each alone: each trace equals the lone run's except for the wall
-/// and CPU time, the group's divided by the number of lanes. `None` where lanes do not apply —
-/// fewer than two states, a method other than a plain fixed-step Runge–Kutta method, samples
-/// between the first and the last state (`spec.every`), an initial state that [`simulate`]
-/// refuses, a run that fails (its guards or a blow-up stop every lane) — and then the caller
-/// runs each state alone, which gives each its own result.
+/// Integrates the states `x0s` of a loaded model together, in lanes ([`lasalle::Lanes`],
+/// [`lasalle::FeedbackLanes`]), as [`simulate`] integrates each alone: each trace equals the lone run's
+/// except for the wall and CPU time, the group's divided by the number of lanes. `None` where
+/// lanes do not apply — fewer than two states, a method other than a fixed-step Runge–Kutta
+/// method on X or X − ∇V, gains that differ between the states or change during the run,
+/// samples between the first and the last state (`spec.every`), an initial state that
+/// [`simulate`] refuses, a run that fails (its guards or a blow-up stop every lane) — and then
+/// the caller runs each state alone, which gives each its own result.
 pub fn simulate_lanes(model: &LoadedModel, x0s: &[Vec<f64>], spec: &RunSpec) -> Option<Vec<Trace>> {
-    let Method::Plain(base @ (Base::Euler | Base::Heun | Base::Rk4)) = spec.method else {
+    let (Method::Plain(base) | Method::Feedback(base)) = spec.method else {
         return None;
     };
-    if x0s.len() < 2
+    if base == Base::Dopri5
+        || x0s.len() < 2
         || spec.record_every() < spec.steps()
         || x0s.iter().any(|x0| check_start(model, x0, spec).is_err())
     {
         return None;
     }
-    let lanes = model.lanes(x0s.len());
-    with_base(base, spec, DriveLanes { lanes, x0s, spec })
+    let k = x0s.len();
+    if !spec.method.is_feedback() {
+        return with_base(
+            base,
+            spec,
+            DriveLanes {
+                lanes: model.lanes(k),
+                x0s,
+                spec,
+            },
+        );
+    }
+    // one gain vector for all lanes, fixed during the run
+    let mut plans = x0s
+        .iter()
+        .map(|x0| plan_gains::<_, _, Vec<f64>, Vec<f64>>(model, x0, spec, base.order()).ok());
+    let plan = plans.next()??;
+    let same = |p: &GainPlan<Vec<f64>>| {
+        p.adapt.is_none()
+            && p.initial
+                .iter()
+                .zip(&plan.initial)
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+    };
+    if plan.adapt.is_some() || !plans.all(|p| p.as_ref().is_some_and(same)) {
+        return None;
+    }
+    let lanes = model.feedback_lanes(k, &plan.initial).ok()?;
+    let mut traces = with_base(base, spec, DriveLanes { lanes, x0s, spec })?;
+    for t in &mut traces {
+        t.gains_initial = Some(plan.initial.clone());
+        t.gains_final = Some(plan.initial.clone());
+    }
+    Some(traces)
 }
 
 /// The visitor of [`simulate_lanes`].
-struct DriveLanes<'a> {
-    lanes: Lanes<'a>,
+struct DriveLanes<'a, L> {
+    lanes: L,
     x0s: &'a [Vec<f64>],
     spec: &'a RunSpec,
 }
 
-impl<'a> Visit<Lanes<'a>, Vec<f64>> for DriveLanes<'a> {
+impl<L: LaneField> Visit<L, Vec<f64>> for DriveLanes<'_, L> {
     type Out = Option<Vec<Trace>>;
 
-    fn visit<S: Stepper<f64, Vec<f64>, Lanes<'a>> + Stats>(self, mut stepper: S) -> Self::Out {
-        let (lanes, spec) = (self.lanes, self.spec);
+    fn visit<S: Stepper<f64, Vec<f64>, L> + Stats>(self, mut stepper: S) -> Self::Out {
+        let (lanes, spec) = (&self.lanes, self.spec);
         let model = lanes.model();
         let mut driver = Driver::new(0.0, spec.t_end, spec.dt).max_steps(spec.max_steps);
         if model.has_guards() {
             driver = driver.guard(1, move |x: &Vec<f64>| {
-                (0..lanes.k()).find_map(|l| {
-                    model
-                        .check_guards(&lanes.unpack(x, l), spec.dt)
-                        .map(|g| g.to_string())
-                })
+                lanes.check_guards(x, spec.dt).map(|g| g.to_string())
             });
         }
         let (start, cpu_start) = (Instant::now(), process_cpu_seconds());
         let end = driver
-            .run(&mut stepper, &lanes, &lanes.pack(self.x0s).ok()?, &mut ())
+            .run(&mut stepper, lanes, &lanes.pack(self.x0s).ok()?, &mut ())
             .ok()?;
         let k = lanes.k() as f64;
         let wall = start.elapsed().as_secs_f64() / k;
