@@ -80,6 +80,9 @@ pub struct MergeArgs {
     pub out: PathBuf,
 }
 
+/// One run of the sweep: (column, value) pairs.
+type Row = Vec<(String, f64)>;
+
 /// `i/n`.
 fn parse_shard(text: &str) -> Result<(usize, usize), String> {
     let bad = || format!("invalid --shard `{text}`: expected `i/n` with 0 ≤ i < n, e.g. `3/10`");
@@ -131,8 +134,8 @@ fn parse_axis(text: &str) -> Result<(String, Vec<f64>), String> {
 }
 
 /// The rows of the sweep: for each run, (parameter, value) pairs.
-fn rows(args: &SweepArgs) -> Result<Vec<Vec<(String, f64)>>, String> {
-    let mut rows: Vec<Vec<(String, f64)>> = vec![Vec::new()];
+fn rows(args: &SweepArgs) -> Result<Vec<Row>, String> {
+    let mut rows: Vec<Row> = vec![Vec::new()];
     if let Some(path) = &args.list {
         let text = std::fs::read_to_string(path)
             .map_err(|e| format!("cannot read --list {}: {e}", path.display()))?;
@@ -257,7 +260,7 @@ fn start(
 /// where that applies, else one by one.
 fn run_group(
     model: &mut LoadedModel,
-    group: &[(usize, &Vec<(String, f64)>)],
+    group: &[(usize, &Row)],
     columns: &[Column],
     args: &SweepArgs,
     spec: &RunSpec,
@@ -339,7 +342,7 @@ pub fn run(args: &SweepArgs) -> CliResult {
     (spec.rtol, spec.atol) = (args.tol, args.tol);
     spec.every = u64::MAX; // the initial and the final state
                            // this shard's rows, in groups of at most `--lanes` rows with the same parameters
-    let mut groups: Vec<Vec<(usize, &Vec<(String, f64)>)>> = Vec::new();
+    let mut groups: Vec<Vec<(usize, &Row)>> = Vec::new();
     let mut open: BTreeMap<Vec<u64>, usize> = BTreeMap::new();
     for (k, row) in rows.iter().enumerate().filter(|(k, _)| k % shards == shard) {
         let params: Vec<u64> = row
