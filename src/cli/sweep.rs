@@ -11,6 +11,7 @@
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
+use std::sync::Mutex;
 
 use clap::Args;
 use lasalle::{Backend, LoadedModel, ModelInfo, Parameters};
@@ -364,16 +365,25 @@ pub fn run(args: &SweepArgs) -> CliResult {
         .build()
         .map_err(|e| format!("cannot start threads: {e}"))?;
     let start = std::time::Instant::now();
+    // one model per thread, loaded by its first group (`map_init` would load one per rayon
+    // job, which for short runs costs more than the runs)
+    let models: Vec<Mutex<Option<Result<LoadedModel, String>>>> = (0..pool.current_num_threads())
+        .map(|_| Mutex::new(None))
+        .collect();
     let results: Vec<Vec<Result<Vec<String>, String>>> = pool.install(|| {
         groups
             .par_iter()
-            .map_init(
-                || LoadedModel::from_source(&path, &text, backend).map_err(|e| e.to_string()),
-                |model, group| match model {
+            .map(|group| {
+                let slot = &models[rayon::current_thread_index().unwrap_or(0)];
+                let mut slot = slot.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+                let model = slot.get_or_insert_with(|| {
+                    LoadedModel::from_source(&path, &text, backend).map_err(|e| e.to_string())
+                });
+                match model {
                     Ok(m) => run_group(m, group, &columns, args, &spec),
                     Err(e) => vec![Err(e.clone()); group.len()],
-                },
-            )
+                }
+            })
             .collect()
     });
     let mut done: Vec<(usize, Result<Vec<String>, String>)> = groups
