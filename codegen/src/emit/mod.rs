@@ -444,7 +444,27 @@ pub fn format(items: &TokenStream) -> crate::Result<String> {
     let file: syn::File = syn::parse2(items.clone())
         .map_err(|e| crate::Error::Internal(format!("emitted code does not parse: {e}")))?;
     let text = prettyplease::unparse(&file);
-    Ok(separate_items(&replace_notes(&text)))
+    Ok(separate_items(&indent_wrapped_patterns(&replace_notes(&text))))
+}
+
+/// Indents the continuation lines of a destructuring `let [a, b, …] = *x;` that prettyplease
+/// wrapped at the line width: it continues the pattern at the indentation of the `let`, which
+/// reads as a new statement.
+fn indent_wrapped_patterns(text: &str) -> String {
+    let mut out = String::with_capacity(text.len() + text.len() / 64);
+    let mut open = false;
+    for line in text.lines() {
+        if open {
+            out.push_str("    ");
+            open = !line.contains("] = ");
+        } else {
+            let t = line.trim_start();
+            open = t.starts_with("let [") && !t.contains("] = ");
+        }
+        out.push_str(line);
+        out.push('\n');
+    }
+    out
 }
 
 /// A blank line between consecutive items (prettyplease writes none): before a line that

@@ -143,7 +143,7 @@ pub mod rigid_body {
     impl<T: Float> Field<T, [T; 12]> for RigidBodyPrepared<T> {
         fn field(&self, x: &[T; 12], dx: &mut [T; 12]) {
             let [r_0_0, r_1_0, r_2_0, r_0_1, r_1_1, r_2_1, r_0_2, r_1_2, r_2_2, omega_0,
-            omega_1, omega_2] = *x;
+                omega_1, omega_2] = *x;
             let i_1_minus_i_2_over_i_0 = self.i_1_minus_i_2_over_i_0;
             let i_2_minus_i_0_over_i_1 = self.i_2_minus_i_0_over_i_1;
             let i_0_minus_i_1_over_i_2 = self.i_0_minus_i_1_over_i_2;
@@ -174,7 +174,7 @@ pub mod rigid_body {
     impl<T: Float> Invariants<T, [T; 12], [T; 13]> for RigidBodyPrepared<T> {
         fn invariants(&self, x: &[T; 12], f: &mut [T; 13]) {
             let [r_0_0, r_1_0, r_2_0, r_0_1, r_1_1, r_2_1, r_0_2, r_1_2, r_2_2, omega_0,
-            omega_1, omega_2] = *x;
+                omega_1, omega_2] = *x;
             let i_0 = self.i[0];
             let i_1 = self.i[1];
             let i_2 = self.i[2];
@@ -207,7 +207,7 @@ pub mod rigid_body {
         fn invariants_jacobian(&self, x: &[T; 12], jac: &mut [[T; 12]; 13]) {
             *jac = [[T::zero(); 12]; 13];
             let [r_0_0, r_1_0, r_2_0, r_0_1, r_1_1, r_2_1, r_0_2, r_1_2, r_2_2, omega_0,
-            omega_1, omega_2] = *x;
+                omega_1, omega_2] = *x;
             let i_0 = self.i[0];
             let i_1 = self.i[1];
             let i_2 = self.i[2];
@@ -301,7 +301,7 @@ pub mod rigid_body {
     impl<T: Float> Lyapunov<T, [T; 12], [T; 13], [T; 3]> for RigidBodyPrepared<T> {
         fn lyapunov(&self, x: &[T; 12], target: &[T; 13], gains: &[T; 3]) -> T {
             let [r_0_0, r_1_0, r_2_0, r_0_1, r_1_1, r_2_1, r_0_2, r_1_2, r_2_2, omega_0,
-            omega_1, omega_2] = *x;
+                omega_1, omega_2] = *x;
             let [k0, k1, k2] = *gains;
             let [.., e_0, pi_0_0, pi_0_1, pi_0_2] = *target;
             let i_0 = self.i[0];
@@ -346,7 +346,7 @@ pub mod rigid_body {
             grad: &mut [T; 12],
         ) {
             let [r_0_0, r_1_0, r_2_0, r_0_1, r_1_1, r_2_1, r_0_2, r_1_2, r_2_2, omega_0,
-            omega_1, omega_2] = *x;
+                omega_1, omega_2] = *x;
             let [k0, k1, k2] = *gains;
             let [.., e_0, pi_0_0, pi_0_1, pi_0_2] = *target;
             let i_0 = self.i[0];
@@ -411,7 +411,7 @@ pub mod rigid_body {
             dx: &mut [T; 12],
         ) {
             let [r_0_0, r_1_0, r_2_0, r_0_1, r_1_1, r_2_1, r_0_2, r_1_2, r_2_2, omega_0,
-            omega_1, omega_2] = *x;
+                omega_1, omega_2] = *x;
             let [k0, k1, k2] = *gains;
             let [.., e_0, pi_0_0, pi_0_1, pi_0_2] = *target;
             let i_0 = self.i[0];
