@@ -138,11 +138,10 @@ fn tapes(stem: &str) -> lasalle_codegen::tape::ModelTapes {
         .iter()
         .find(|(s, _)| *s == stem)
         .expect("a model of models/");
-    let mut model =
-        lasalle_codegen::lower_source(&format!("models/{stem}.lsl"), text).expect("lowers");
-    let d = lasalle_codegen::derive::derive(&mut model);
-    lasalle_codegen::check::check(&mut model, &d).expect("checks");
-    lasalle_codegen::tape::ModelTapes::new(&model, &d).expect("tapes")
+    let model = lasalle_codegen::lower_source(&format!("models/{stem}.lsl"), text).expect("lowers");
+    let derived = lasalle_codegen::derive::derive(model);
+    lasalle_codegen::check::check(&derived).expect("checks");
+    lasalle_codegen::tape::ModelTapes::new(&derived).expect("tapes")
 }
 
 macro_rules! lanes_bench {

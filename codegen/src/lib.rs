@@ -5,7 +5,21 @@
 //! conservation of every declared integral) and emitted as plain, formatted Rust that
 //! implements the traits of `lasalle-runtime`.
 //!
-//! Pipeline: [`parse`] → [`model`] (lowering onto [`ir`]) → [`derive`](mod@derive) → [`check`] → [`emit`].
+//! Pipeline: [`parse`] → [`model`] (lowering onto [`ir`]) → [`derive`](mod@derive) → [`check`] → [`emit`],
+//! each stage a function of the previous stage's output type:
+//!
+//! ```text
+//! lower_source(path, text) -> Model          parse and lower onto one hash-consed graph
+//! derive::derive(Model)    -> Derived        Df, ∇f·X, ∇V, X − ∇V, the partition
+//! check::check(&Derived)   -> Checked<'_>    every invariant conserved, every constant finite
+//! emit::emit(&Checked)     -> Emitted        Rust items, statistics, the tape kernels
+//! ```
+//!
+//! Pure graph operations (derivatives [`ir::diff`] and [`ir::gradient`], evaluation,
+//! simplification) live in [`ir`], so lowering (Hamilton's equations need ∇H) never calls a
+//! later stage; what the field's structure is (partitioned or not) is asked of the model
+//! ([`Model::partition`]). Run-time back ends start from a [`derive::Derived`] model:
+//! [`tape::ModelTapes::new`].
 //! The language's built-in functions and keywords are declared once, in [`vocabulary`].
 //!
 //! In a build script:
@@ -97,11 +111,10 @@ pub struct GeneratedModel {
 /// Generates the code of one model text: the whole pipeline.
 pub fn generate_source(path: &str, text: &str) -> Result<GeneratedModel> {
     let start = Instant::now();
-    let mut model = lower_source(path, text)?;
-    let derivatives = derive::derive(&mut model);
-    emit::check_finite(&model, &derivatives)?;
-    let conservation = check::check(&mut model, &derivatives)?;
-    let emitted = emit::emit(&model, &derivatives, &conservation)?;
+    let derived = derive::derive(lower_source(path, text)?);
+    let checked = check::check(&derived)?;
+    let emitted = emit::emit(&checked)?;
+    let model = &derived.model;
     let mut code = emit::format(&emitted.items)?;
     code.push_str(&emitted.tape_code);
     let module = emit::snake(
@@ -118,7 +131,7 @@ pub fn generate_source(path: &str, text: &str) -> Result<GeneratedModel> {
         summary: emitted.summary,
         report: Report {
             stats: emitted.stats,
-            conservation,
+            conservation: checked.into_conservation(),
             time: start.elapsed(),
             bytes: code.len(),
             lines: code.lines().count(),

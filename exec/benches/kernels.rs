@@ -33,16 +33,16 @@ fn build(
     text: &str,
     backend: Backend,
 ) -> (lasalle_codegen::Model, ModelTapes, Vec<Box<dyn Kernel>>) {
-    let mut model = lasalle_codegen::lower_source(name, text).expect("model");
-    let d = lasalle_codegen::derive::derive(&mut model);
-    lasalle_codegen::check::check(&mut model, &d).expect("check");
-    let tapes = ModelTapes::new(&model, &d).expect("tapes");
+    let model = lasalle_codegen::lower_source(name, text).expect("model");
+    let derived = lasalle_codegen::derive::derive(model);
+    lasalle_codegen::check::check(&derived).expect("check");
+    let tapes = ModelTapes::new(&derived).expect("tapes");
     let kernels = tapes
         .all()
         .into_iter()
         .map(|(_, t)| backend.compile(t).expect("compile"))
         .collect();
-    (model, tapes, kernels)
+    (derived.model, tapes, kernels)
 }
 
 fn kernels(c: &mut Criterion) {

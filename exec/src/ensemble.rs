@@ -2,7 +2,7 @@
 //!
 //! [`Lanes`] is a loaded model's field X for k states at once, as a field of the runtime on the
 //! storage `Vec<f64>` in structure-of-arrays order (component i of state l at `i*k + l`, the
-//! layout of [`Kernel::eval_lanes`](crate::Kernel::eval_lanes)); [`FeedbackLanes`] is the
+//! layout of [`Kernel::eval_lanes`]); [`FeedbackLanes`] is the
 //! feedback field X − ∇V likewise. A fixed-step stepper of the runtime that combines states
 //! component by component — the explicit Runge–Kutta methods — then advances k independent
 //! solutions per step, **each bitwise equal to the run of that state alone**: the kernel's
@@ -18,7 +18,7 @@
 //! the targets c are components of the state with derivative zero (written −0.0, so that
 //! c + h·(−0.0) = c for every c, signed zeros included, with the non-negative weights of
 //! Euler, Heun and RK4), and the tape of X − ∇V reads them as state components (its
-//! [`Op::Target`](crate::Op::Target) instructions become [`Op::State`](crate::Op::State)), compiled
+//! [`Op::Target`] instructions become [`Op::State`]), compiled
 //! on demand by [`LoadedModel::feedback_lanes`]. The gains stay shared: an ensemble whose states
 //! need different gains runs one group per gain vector.
 //!

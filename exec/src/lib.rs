@@ -15,11 +15,10 @@
 //!
 //! let text = "model Osc { state q: scalar, p: scalar; param w = 2;
 //!             d/dt q = p; d/dt p = -w^2 * q; integral E = p^2/2 + w^2 * q^2/2; }";
-//! let mut model = lasalle_codegen::lower_source("osc.lsl", text).unwrap();
-//! let d = derive::derive(&mut model);
-//! let tapes = ModelTapes::new(&model, &d).unwrap();
+//! let derived = derive::derive(lasalle_codegen::lower_source("osc.lsl", text).unwrap());
+//! let tapes = ModelTapes::new(&derived).unwrap();
 //! let field = Backend::default().compile(&tapes.field).unwrap();
-//! let hoisted = field.hoist(&model.default_params()).unwrap();
+//! let hoisted = field.hoist(&derived.model.default_params()).unwrap();
 //! let mut dx = [0.0; 2];
 //! field.eval(&hoisted, &[1.0, 0.5], &[], &[], &mut dx).unwrap();
 //! assert_eq!(dx, [0.5, -4.0]);

@@ -24,10 +24,11 @@
 use std::time::{Duration, Instant};
 
 use lasalle_codegen::check::Conservation;
+use lasalle_codegen::derive::{self, Derived};
 use lasalle_codegen::ir::Input;
 use lasalle_codegen::model::{Splitting, GUARD_STEP};
 use lasalle_codegen::tape::{Dims, ModelTapes, Tape, TapeBuilder};
-use lasalle_codegen::{derive, Model};
+use lasalle_codegen::Model;
 use lasalle_runtime::{
     Declared, Field, GuardFailure, InvariantInfo, Invariants, Lyapunov, ModelInfo, ParamError,
     Parameters, Partitioned, Preset, RigidBodySplitting, Shape, Slot,
@@ -260,7 +261,7 @@ impl Info {
 
 /// A model compiled at run time from its file; see the [module docs](crate::model).
 pub struct LoadedModel {
-    model: Model,
+    derived: Derived,
     conservation: Vec<Conservation>,
     backend: Backend,
     params: Vec<f64>,
@@ -288,10 +289,10 @@ impl LoadedModel {
     /// file in messages.
     pub fn from_source(path: &str, text: &str, backend: Backend) -> Result<LoadedModel, LoadError> {
         let start = Instant::now();
-        let mut model = lasalle_codegen::lower_source(path, text)?;
-        let d = derive::derive(&mut model);
-        let conservation = lasalle_codegen::check::check(&mut model, &d)?;
-        let tapes = ModelTapes::new(&model, &d)?;
+        let derived = derive::derive(lasalle_codegen::lower_source(path, text)?);
+        let conservation = lasalle_codegen::check::check(&derived)?.into_conservation();
+        let tapes = ModelTapes::new(&derived)?;
+        let model = &derived.model;
         let params = model.default_params();
         let c = |tape: &Tape| Compiled::new(backend, tape, &params);
         let guards = if model.guards.is_empty() {
@@ -332,9 +333,9 @@ impl LoadedModel {
             },
             guards,
         };
-        let info = Info::new(&model);
+        let info = Info::new(model);
         Ok(LoadedModel {
-            model,
+            derived,
             conservation,
             backend,
             params,
@@ -360,7 +361,12 @@ impl LoadedModel {
 
     /// The lowered model (its DAG, names and declarations).
     pub fn model(&self) -> &Model {
-        &self.model
+        &self.derived.model
+    }
+
+    /// The model with its derivatives.
+    pub fn derived(&self) -> &Derived {
+        &self.derived
     }
 
     /// How each declared invariant was shown to be conserved.
@@ -380,7 +386,7 @@ impl LoadedModel {
 
     /// The dimension N of the state.
     pub fn dim(&self) -> usize {
-        self.model.dim()
+        self.derived.model.dim()
     }
 
     /// The current parameter slots.
@@ -464,7 +470,7 @@ impl Field<f64, Vec<f64>> for LoadedModel {
 
 impl Invariants<f64, Vec<f64>, Vec<f64>> for LoadedModel {
     fn invariant_dim(&self) -> usize {
-        self.model.invariant_dim()
+        self.derived.model.invariant_dim()
     }
 
     #[inline]
@@ -577,8 +583,9 @@ impl ModelInfo for LoadedModel {
 
 impl Parameters for LoadedModel {
     fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
-        let Some(p) = self.model.params.iter().find(|p| p.name == name) else {
+        let Some(p) = self.derived.model.params.iter().find(|p| p.name == name) else {
             let known: Vec<String> = self
+                .derived
                 .model
                 .params
                 .iter()
@@ -607,7 +614,7 @@ impl Parameters for LoadedModel {
     }
 
     fn param(&self, name: &str) -> Option<Vec<f64>> {
-        let p = self.model.params.iter().find(|p| p.name == name)?;
+        let p = self.derived.model.params.iter().find(|p| p.name == name)?;
         Some(self.params[p.offset..p.offset + p.slots()].to_vec())
     }
 
@@ -616,7 +623,7 @@ impl Parameters for LoadedModel {
     }
 
     fn point(&self, name: &str) -> Option<Vec<f64>> {
-        self.model.point_values(name, &self.params)
+        self.derived.model.point_values(name, &self.params)
     }
 }
 
@@ -661,7 +668,7 @@ impl Declared<f64, Vec<f64>> for LoadedModel {
     }
 
     fn rigid_body_splitting(&self) -> Option<RigidBodySplitting<f64>> {
-        self.model.splitting.as_ref().map(|s| match s {
+        self.derived.model.splitting.as_ref().map(|s| match s {
             Splitting::RigidBody { inertia } => {
                 RigidBodySplitting::new(inertia.map(|k| self.params[k as usize]))
             }

@@ -28,7 +28,6 @@
 //! `Stepper<f64, Vec<f64>, FeedbackField<LoadedModel, Vec<f64>, Vec<f64>>>`, or with the target
 //! and gains held by the stepper ([`TaylorField::Feedback`]).
 
-use lasalle_codegen::derive;
 use lasalle_codegen::tape::taylor::{Leaf, PowZero, Rec, TaylorProgram};
 use lasalle_codegen::tape::{expect_len, ModelTapes, Tape, TapeError};
 use lasalle_runtime::taylor::rec;
@@ -198,11 +197,9 @@ impl TaylorKernel<LoadedModel> for TaylorTape {
 
 impl LoadedModel {
     /// The Taylor kernels of the model's field and of X − ∇V, with its current parameters,
-    /// for orders up to `max_order`: rebuilds the model's tapes from [`LoadedModel::model`].
+    /// for orders up to `max_order`: lowers the model's tapes again.
     pub fn taylor_tapes(&self, max_order: u32) -> Result<TaylorKernels<LoadedModel>, TaylorError> {
-        let mut m = self.model().clone();
-        let d = derive::derive(&mut m);
-        let tapes = ModelTapes::new(&m, &d)?;
+        let tapes = ModelTapes::new(self.derived())?;
         Ok(TaylorKernels {
             field: Box::new(TaylorTape::new(&tapes.field, self.params(), max_order)?),
             feedback: Box::new(TaylorTape::new(&tapes.feedback, self.params(), max_order)?),

@@ -9,7 +9,7 @@
 //!   rounding errors accumulate (Σ|terms| through sums); for well-conditioned values this is a
 //!   few ulps.
 
-use lasalle_codegen::derive::{self, Derivatives};
+use lasalle_codegen::derive::{self, Derived};
 use lasalle_codegen::ir::{Id, Input};
 use lasalle_codegen::tape::{ModelTapes, Tape};
 use lasalle_codegen::Model;
@@ -35,12 +35,16 @@ struct Case {
 }
 
 impl Case {
-    fn new(name: &str, mut model: Model, checked: bool) -> Case {
-        let d: Derivatives = derive::derive(&mut model);
+    fn new(name: &str, model: Model, checked: bool) -> Case {
+        let derived = derive::derive(model);
         if checked {
-            lasalle_codegen::check::check(&mut model, &d).unwrap_or_else(|e| panic!("{name}: {e}"));
+            lasalle_codegen::check::check(&derived).unwrap_or_else(|e| panic!("{name}: {e}"));
         }
-        let tapes = ModelTapes::new(&model, &d).unwrap();
+        let tapes = ModelTapes::new(&derived).unwrap();
+        let Derived {
+            model,
+            derivatives: d,
+        } = derived;
         let mut roots = vec![
             ("field", model.field.clone()),
             ("invariants", model.invariant_ids()),

@@ -40,10 +40,11 @@ fn model_text(name: &str) -> String {
 
 /// The tapes of a model text (not checked: test models need not declare invariants).
 fn tapes(text: &str) -> (ModelTapes, Vec<f64>) {
-    let mut model = lasalle_codegen::lower_source("test.lsl", text).expect("model");
-    let d = lasalle_codegen::derive::derive(&mut model);
-    let tapes = ModelTapes::new(&model, &d).expect("tapes");
-    (tapes, model.default_params())
+    let derived = lasalle_codegen::derive::derive(
+        lasalle_codegen::lower_source("test.lsl", text).expect("model"),
+    );
+    let tapes = ModelTapes::new(&derived).expect("tapes");
+    (tapes, derived.model.default_params())
 }
 
 /// x^[0..=order] per component of the field tape at `x`.

@@ -62,10 +62,10 @@ pub fn run(args: &BenchEvalArgs) -> CliResult {
     loaded.invariants(&x0, &mut target);
     let gains = loaded.default_gain_values().to_vec();
 
-    let mut model = lasalle_codegen::lower_source(&shown, &text).map_err(|e| e.to_string())?;
-    let d = lasalle_codegen::derive::derive(&mut model);
-    lasalle_codegen::check::check(&mut model, &d).map_err(|e| e.to_string())?;
-    let tapes = ModelTapes::new(&model, &d).map_err(|e| e.to_string())?;
+    let model = lasalle_codegen::lower_source(&shown, &text).map_err(|e| e.to_string())?;
+    let derived = lasalle_codegen::derive::derive(model);
+    lasalle_codegen::check::check(&derived).map_err(|e| e.to_string())?;
+    let tapes = ModelTapes::new(&derived).map_err(|e| e.to_string())?;
     let kernel = Backend::Jit
         .compile(&tapes.feedback)
         .map_err(|e| e.to_string())?;

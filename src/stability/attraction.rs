@@ -33,7 +33,7 @@ use std::collections::HashMap;
 use std::f64::consts::PI;
 use std::fmt;
 
-use lasalle_codegen::derive::diff;
+use lasalle_codegen::ir::diff;
 use lasalle_codegen::ir::{Graph, Id, Input, Rational, Scalar};
 use lasalle_codegen::Model;
 use lasalle_exec::LoadedModel;

@@ -4,7 +4,7 @@
 
 use std::collections::HashMap;
 
-use lasalle_codegen::derive::diff;
+use lasalle_codegen::ir::diff;
 use lasalle_codegen::ir::{Graph, Id, Input};
 use lasalle_codegen::model::Structure;
 use lasalle_codegen::Model;

@@ -35,9 +35,9 @@ pub fn same(a: f64, b: f64) -> bool {
 /// The tapes of a model file of `models/`, built as `generate_file` builds the emitted code.
 pub fn tapes(file: &str) -> (lasalle_codegen::Model, ModelTapes) {
     let path = format!("{}/models/{file}", env!("CARGO_MANIFEST_DIR"));
-    let mut model = lasalle_codegen::load_model(&path).unwrap();
-    let d = lasalle_codegen::derive::derive(&mut model);
-    lasalle_codegen::check::check(&mut model, &d).unwrap();
-    let tapes = ModelTapes::new(&model, &d).unwrap();
-    (model, tapes)
+    let model = lasalle_codegen::load_model(&path).unwrap();
+    let derived = lasalle_codegen::derive::derive(model);
+    lasalle_codegen::check::check(&derived).unwrap();
+    let tapes = ModelTapes::new(&derived).unwrap();
+    (derived.model, tapes)
 }

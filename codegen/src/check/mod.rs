@@ -8,7 +8,7 @@
 mod prove;
 mod sampling;
 
-use crate::derive::Derivatives;
+use crate::derive::{Derivatives, Derived};
 use crate::error::{Diagnostic, DiagnosticKind, Error};
 use crate::ir::Input;
 use crate::model::{InvariantKind, Model};
@@ -122,6 +122,42 @@ fn sample(
     out
 }
 
+/// The output of stage 4: a derived model whose every declared invariant is shown to be
+/// conserved (how, per invariant, in [`Checked::conservation`]), with no non-finite constant.
+/// The input of [`emit`](crate::emit::emit).
+#[derive(Clone)]
+pub struct Checked<'d> {
+    derived: &'d Derived,
+    conservation: Vec<Conservation>,
+}
+
+impl<'d> Checked<'d> {
+    /// The derived model.
+    pub fn derived(&self) -> &'d Derived {
+        self.derived
+    }
+
+    /// The model.
+    pub fn model(&self) -> &'d Model {
+        &self.derived.model
+    }
+
+    /// Its derivatives.
+    pub fn derivatives(&self) -> &'d Derivatives {
+        &self.derived.derivatives
+    }
+
+    /// How each invariant was shown to be conserved, in declaration order.
+    pub fn conservation(&self) -> &[Conservation] {
+        &self.conservation
+    }
+
+    /// The verdicts, owned.
+    pub fn into_conservation(self) -> Vec<Conservation> {
+        self.conservation
+    }
+}
+
 /// Checks every invariant (and an explicit V); reports all failures at once.
 ///
 /// Constraints are checked together, on their common manifold (so `|x|² − 1` and `x · v` of a
@@ -129,7 +165,9 @@ fn sample(
 /// everywhere but is on that manifold is accepted as conserved on the constraint manifold
 /// ([`Verdict::OnConstraints`]): the feedback integrator keeps the motion near the manifold,
 /// where the integral is then kept too.
-pub fn check(model: &mut Model, d: &Derivatives) -> Result<Vec<Conservation>, Error> {
+pub fn check(derived: &Derived) -> Result<Checked<'_>, Error> {
+    let (model, d) = (&derived.model, &derived.derivatives);
+    check_finite(model, d)?;
     let params = model.default_params();
     let mut out = Vec::new();
     let mut errors = Vec::new();
@@ -239,7 +277,10 @@ pub fn check(model: &mut Model, d: &Derivatives) -> Result<Vec<Conservation>, Er
         }
     }
     if errors.is_empty() {
-        Ok(out)
+        Ok(Checked {
+            derived,
+            conservation: out,
+        })
     } else {
         Err(Error::Model(errors))
     }
@@ -336,4 +377,55 @@ fn state_string(model: &Model, x: &[f64]) -> String {
         })
         .collect();
     format!("({})", parts.join(", "))
+}
+
+/// Fails with a located error if a number the emitted code would contain is ±∞ or NaN: a
+/// derivative can overflow where the model's own constants did not (`d/dx 1e308·x² = 2e308·x`).
+/// [`check`] calls it first, so the message names the overflow rather than the conservation
+/// check that would trip on it.
+fn check_finite(model: &Model, d: &Derivatives) -> crate::Result<()> {
+    let g = &model.graph;
+    // Almost always there is no such number at all: one pass over the graph says so.
+    if (0..g.len()).all(|k| g.as_num(crate::ir::Id(k as u32)).is_none_or(f64::is_finite)) {
+        return Ok(());
+    }
+    let non_finite = |roots: &[crate::ir::Id]| {
+        g.reachable(roots)
+            .into_iter()
+            .find_map(|id| g.as_num(id).filter(|x| !x.is_finite()))
+    };
+    let mut groups: Vec<(Vec<crate::ir::Id>, &crate::Span)> = Vec::new();
+    for (k, span) in model.field_spans.iter().enumerate() {
+        groups.push((vec![model.field[k]], span));
+    }
+    for f in &model.invariants {
+        let rows = f.offset..f.offset + f.value.shape.len();
+        let mut ids = f.value.ids.clone();
+        ids.extend(d.jacobian[rows].iter().flatten());
+        groups.push((ids, &f.span));
+    }
+    let v_span = model
+        .lyapunov_span
+        .as_ref()
+        .or(model.invariants.first().map(|f| &f.span));
+    if let Some(span) = v_span {
+        let mut ids = vec![model.lyapunov];
+        ids.extend(&d.lyapunov_gradient);
+        ids.extend(&d.feedback);
+        groups.push((ids, span));
+    }
+    for p in &model.points {
+        groups.push((p.values.clone(), &p.span));
+    }
+    for (ids, span) in groups {
+        if let Some(x) = non_finite(&ids) {
+            return Err(crate::Diagnostic::new(
+                span,
+                format!("this item, or its derivative, has a constant that is not finite ({x})"),
+            )
+            .help("rescale the model: constants near ±1.8e308 overflow when combined or differentiated")
+            .into());
+        }
+    }
+    Ok(())
 }

@@ -15,12 +15,14 @@
 //! For example `x*5 + x` becomes `Mul[Num(6), x]`.
 
 mod count;
+mod diff;
 mod eval;
 mod expand;
 mod factor;
 mod func;
 
 pub use count::OpCount;
+pub use diff::{diff, gradient};
 pub use eval::Scalar;
 pub use func::{Func, Func2};
 

@@ -3,6 +3,7 @@
 mod declare;
 mod expr;
 mod lower;
+mod structure;
 mod value;
 
 pub use lower::lower;

@@ -1,7 +1,7 @@
 //! The tapes of every function of a model, built in the emitter's order.
 
 use super::{Dims, Tape, TapeBuilder, TapeError};
-use crate::derive::Derivatives;
+use crate::derive::{Derivatives, Derived};
 use crate::ir::Id;
 use crate::model::Model;
 
@@ -40,13 +40,13 @@ pub struct ModelTapes {
 }
 
 impl ModelTapes {
-    /// The tapes of `model` with its derivatives.
+    /// The tapes of a derived model (checked or not: checking adds nothing to the graph).
     ///
-    /// For results bitwise equal to the emitted Rust, pass the model as `emit::emit` sees it
-    /// (after `check::check`): the tapes are lowered from a copy of its graph in the emitter's
-    /// order (field, invariants, Jacobian, V, ∇V, X − ∇V, half-fields; H last, as the emitter
-    /// has no function for it).
-    pub fn new(model: &Model, d: &Derivatives) -> Result<ModelTapes, TapeError> {
+    /// The tapes are lowered from a copy of its graph in the emitter's order (field,
+    /// invariants, Jacobian, V, ∇V, X − ∇V, half-fields; H last, as the emitter has no function
+    /// for it), so their results are bitwise the emitted Rust's.
+    pub fn new(derived: &Derived) -> Result<ModelTapes, TapeError> {
+        let (model, d) = (&derived.model, &derived.derivatives);
         let dims = Dims {
             state: model.dim(),
             params: model.param_slots(),

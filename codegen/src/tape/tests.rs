@@ -126,10 +126,11 @@ fn model_tapes_agree_with_the_dag() {
     paths.sort();
     assert!(paths.len() >= 5);
     for path in paths {
-        let mut model = crate::load_model(&path).unwrap();
-        let d = crate::derive::derive(&mut model);
-        crate::check::check(&mut model, &d).unwrap();
-        let tapes = ModelTapes::new(&model, &d).unwrap();
+        let model = crate::load_model(&path).unwrap();
+        let derived = crate::derive::derive(model);
+        crate::check::check(&derived).unwrap();
+        let tapes = ModelTapes::new(&derived).unwrap();
+        let (model, d) = (&derived.model, &derived.derivatives);
         let params = model.default_params();
         let n = model.dim();
         let state: Vec<f64> = (0..n).map(|i| 0.4 + 0.37 * i as f64).collect();
@@ -181,10 +182,11 @@ fn feedback_tapes_are_small() {
         .collect();
     paths.sort();
     for path in paths {
-        let mut model = crate::load_model(&path).unwrap();
-        let d = crate::derive::derive(&mut model);
-        crate::check::check(&mut model, &d).unwrap();
-        let tapes = ModelTapes::new(&model, &d).unwrap();
+        let model = crate::load_model(&path).unwrap();
+        let derived = crate::derive::derive(model);
+        crate::check::check(&derived).unwrap();
+        let tapes = ModelTapes::new(&derived).unwrap();
+        let (model, d) = (&derived.model, &derived.derivatives);
         let t = &tapes.feedback;
         let emitted = model.graph.clone().op_count(&d.feedback).dag;
         println!(

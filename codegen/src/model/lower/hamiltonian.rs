@@ -145,7 +145,7 @@ impl Lowerer {
                     .chain(&p)
                     .map(|&i| Input::State(i as u32))
                     .collect();
-                let grad = crate::derive::gradient(&mut self.g, h, &vars);
+                let grad = crate::ir::gradient(&mut self.g, h, &vars);
                 let m = q.len();
                 for k in 0..m {
                     assign(q[k], grad[m + k], qn)?;
@@ -164,7 +164,7 @@ impl Lowerer {
                     .help("declare it `state P: vec3;`"));
                 }
                 let vars: Vec<Input> = p.iter().map(|&i| Input::State(i as u32)).collect();
-                let grad = crate::derive::gradient(&mut self.g, h, &vars);
+                let grad = crate::ir::gradient(&mut self.g, h, &vars);
                 let pv: Vec<Id> = p
                     .iter()
                     .map(|&i| self.g.input(Input::State(i as u32)))
