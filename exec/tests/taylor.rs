@@ -328,23 +328,25 @@ fn cauchy_coefficients(g: impl Fn(C) -> C, t0: f64, r: f64, n: usize, kmax: usiz
         .collect()
 }
 
+/// One-variable expressions covering every operation's recurrence (y' = g(t), t' = 1).
+const EXPRS: [&str; 10] = [
+    "sin(t) * cos(2*t) + t^2",             // Sin, Cos, Mul, Powi (square), Add
+    "exp(t/3) - log(t + 1)",               // Exp, Ln, Div by a constant, Sub
+    "(1 + t^2)^(1/2) + t^(3/2)",           // Sqrt, Powi(Sqrt)
+    "t^(1/3) + (2 + t)^(2/3) - t^(-3/4)",  // Cbrt, Powf
+    "t^(-3) + 1/(1 + t) + t^5 - t^7",      // 1/Powi, Div, Powi chains
+    "-(t * exp(c * t)) + c / t",           // Neg, hoisted constants, const / x
+    "sin(t)^2 + cos(t)^3 + sin(sin(t))",   // paired Sin/Cos, nested
+    "cos(t) * t - exp(log(t) * 2)",        // Cos alone
+    "(t^2 + c)^(-1/2) * sin(c * t) + c*c", // Powi(Sqrt) negative, constant products
+    "log(1 + t^4) / (2 + sin(t)) - t^(4/3)", // Div of two series, Powf
+];
+
 #[test]
 fn every_op_against_the_cauchy_integral() {
     // y' = g(t), t' = 1: y^[k+1] = g^[k] / (k + 1), g^[k] the coefficients of s ↦ g(t0 + s)
-    let exprs = [
-        "sin(t) * cos(2*t) + t^2",             // Sin, Cos, Mul, Powi (square), Add
-        "exp(t/3) - log(t + 1)",               // Exp, Ln, Div by a constant, Sub
-        "(1 + t^2)^(1/2) + t^(3/2)",           // Sqrt, Powi(Sqrt)
-        "t^(1/3) + (2 + t)^(2/3) - t^(-3/4)",  // Cbrt, Powf
-        "t^(-3) + 1/(1 + t) + t^5 - t^7",      // 1/Powi, Div, Powi chains
-        "-(t * exp(c * t)) + c / t",           // Neg, hoisted constants, const / x
-        "sin(t)^2 + cos(t)^3 + sin(sin(t))",   // paired Sin/Cos, nested
-        "cos(t) * t - exp(log(t) * 2)",        // Cos alone
-        "(t^2 + c)^(-1/2) * sin(c * t) + c*c", // Powi(Sqrt) negative, constant products
-        "log(1 + t^4) / (2 + sin(t)) - t^(4/3)", // Div of two series, Powf
-    ];
     let (t0, r, nodes, kmax) = (0.8, 0.3, 128, 14);
-    for expr in exprs {
+    for expr in EXPRS {
         let text = format!(
             "model E {{ state t: scalar, y: scalar; param c = 0.37;
                d/dt t = 1; d/dt y = {expr}; }}"
@@ -568,11 +570,16 @@ fn parameter_change() {
 }
 
 /// No allocation in a step (plain field and X − ∇V with the stepper's own target and gains),
-/// after the first.
+/// after the first, with either back end's kernels.
 #[test]
 fn no_allocation_per_step() {
-    let m = LoadedModel::from_source("kepler.lsl", &model_text("kepler"), Backend::Interpreter)
-        .unwrap();
+    for &backend in Backend::available() {
+        no_allocation_per_step_with(backend);
+    }
+}
+
+fn no_allocation_per_step_with(backend: Backend) {
+    let m = LoadedModel::from_source("kepler.lsl", &model_text("kepler"), backend).unwrap();
     let x0 = m.point("paper").unwrap();
     let mut target = vec![0.0; 6];
     m.invariants(&x0, &mut target);
@@ -750,4 +757,113 @@ fn elliptic_functions_closed_form() {
         Backend::Interpreter,
     )
     .is_err());
+}
+
+// ---------------------------------------------------------------------------------------
+// The compiled kernel (JIT back end)
+
+/// `JitTaylor` computes the interpreter's coefficients bitwise: every built-in model (field
+/// and X − ∇V, random targets and gains), every operation's recurrence (`EXPRS`) and the
+/// elliptic functions, at random states, for several orders; and a JIT-loaded model's
+/// integrator ends where the interpreted one does, bitwise. Every field compiles at p = 20
+/// (X − ∇V of the larger models exceeds `MAX_INSTRUCTIONS` at p ≥ 19 and is interpreted);
+/// prints the compile times.
+#[cfg(feature = "jit")]
+#[test]
+fn jit_kernel_agrees_with_the_tape_bitwise() {
+    use lasalle_exec::jit::taylor::JitTaylor;
+    use lasalle_runtime::TaylorKernel;
+    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+    let mut rand = move || {
+        seed = seed
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        0.25 + (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let same = |a: f64, b: f64| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+    let mut texts: Vec<(String, String)> =
+        std::fs::read_dir(format!("{}/../models", env!("CARGO_MANIFEST_DIR")))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "lsl"))
+            .map(|p| {
+                (
+                    p.display().to_string(),
+                    std::fs::read_to_string(&p).unwrap(),
+                )
+            })
+            .collect();
+    texts.sort();
+    assert!(texts.len() >= 10, "the built-in models");
+    for expr in EXPRS {
+        let text = format!(
+            "model E {{ state t: scalar, y: scalar; param c = 0.37;
+               d/dt t = 1; d/dt y = {expr}; }}"
+        );
+        texts.push((expr.to_string(), text));
+    }
+    texts.push((
+        "elliptic".into(),
+        "model F { state t: scalar, u: scalar, v: scalar; param m = 0.7;
+         d/dt t = 1; d/dt u = ellipf(2 * t, m) + ellipk(m) * t;
+         d/dt v = sn(t * t, m) * cd(u, 0.3) + dn(t, m); }"
+            .into(),
+    ));
+    for (name, text) in &texts {
+        let (tp, params) = tapes(text);
+        for (what, tape) in [("field", &tp.field), ("feedback", &tp.feedback)] {
+            let n = tape.dims.state;
+            let target: Vec<f64> = (0..tape.dims.targets).map(|_| rand()).collect();
+            let gains: Vec<f64> = (0..tape.dims.gains).map(|_| rand()).collect();
+            for order in [1u32, 7, 19, 20] {
+                let mut tt = TaylorTape::new(tape, &params, order).unwrap();
+                let start = std::time::Instant::now();
+                let Some(mut jt) = JitTaylor::new(tape, &params, order).unwrap() else {
+                    // too large to unroll: only X − ∇V of the larger models, at high orders
+                    assert!(
+                        what == "feedback" && order >= 19,
+                        "{name}: {what} at p = {order}"
+                    );
+                    continue;
+                };
+                if order == 20 {
+                    println!(
+                        "{name}: {what}: JIT kernel at p = 20 in {:?}",
+                        start.elapsed()
+                    );
+                }
+                TaylorKernel::<LoadedModel>::set_inputs(&mut tt, &target, &gains).unwrap();
+                jt.set_inputs(&target, &gains).unwrap();
+                for _ in 0..3 {
+                    let x: Vec<f64> = (0..n).map(|_| rand()).collect();
+                    tt.compute(&x, order as usize);
+                    jt.compute(&x, order as usize);
+                    for i in 0..n {
+                        let (a, b) = (tt.state_coefficients(i), jt.coefficients(i));
+                        assert_eq!(a.len(), b.len());
+                        for (k, (&a, &b)) in a.iter().zip(b).enumerate() {
+                            assert!(
+                                same(a, b),
+                                "{name}, p = {order}, x_{i}^[{k}]: {a:e} vs {b:e}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+    // the integrators of the two back ends end at the same point
+    let text = model_text("kepler");
+    let ends: Vec<Vec<f64>> = [Backend::Jit, Backend::Interpreter]
+        .into_iter()
+        .map(|b| {
+            let m = LoadedModel::from_source("kepler.lsl", &text, b).unwrap();
+            let x0 = m.point("paper").unwrap();
+            let mut taylor = m.taylor(TaylorOptions::with_tol(1e-15)).unwrap();
+            integrate(&mut taylor, &m, &x0, 0.0, 50.0, 0.0, &mut ())
+                .unwrap()
+                .x
+        })
+        .collect();
+    assert_eq!(ends[0], ends[1]);
 }

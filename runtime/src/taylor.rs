@@ -139,14 +139,42 @@ pub fn order_for_tolerance(tol: f64) -> u32 {
 
 /// Jorba & Zou's step size (see the [module docs](self)) from the state norm m = ‖x^\[0\]‖∞ and
 /// the norms of the last two coefficients, ‖x^\[p−1\]‖∞ and ‖x^\[p\]‖∞. `+∞` if both norms are 0
-/// (a polynomial solution of degree < p − 1: any step is exact).
+/// (a polynomial solution of degree < p − 1: any step is exact). [`JorbaZou`] keeps the
+/// order's constants for repeated use.
 pub fn jorba_zou_step(order: u32, state_norm: f64, norm_pm1: f64, norm_p: f64) -> f64 {
-    let p = f64::from(order.max(2));
-    let c = if state_norm > 1.0 { state_norm } else { 1.0 };
-    let rho_pm1 = (c / norm_pm1).powf(1.0 / (p - 1.0));
-    let rho_p = (c / norm_p).powf(1.0 / p);
-    let rho = rho_pm1.min(rho_p);
-    rho * (-0.7 / (p - 1.0)).exp() / (std::f64::consts::E * std::f64::consts::E)
+    JorbaZou::new(order).step(state_norm, norm_pm1, norm_p)
+}
+
+/// Jorba & Zou's step size for one order p, with its constants 1/(p − 1), 1/p and the
+/// safety factor exp(−0.7/(p − 1))/e² computed once (the driver calls [`JorbaZou::step`]
+/// every step: two `powf` remain).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct JorbaZou {
+    inv_pm1: f64,
+    inv_p: f64,
+    factor: f64,
+}
+
+impl JorbaZou {
+    /// The constants of order `order` (at least 2).
+    pub fn new(order: u32) -> JorbaZou {
+        let p = f64::from(order.max(2));
+        let e2 = std::f64::consts::E * std::f64::consts::E;
+        JorbaZou {
+            inv_pm1: 1.0 / (p - 1.0),
+            inv_p: 1.0 / p,
+            factor: (-0.7 / (p - 1.0)).exp() / e2,
+        }
+    }
+
+    /// The step from m = ‖x^\[0\]‖∞, ‖x^\[p−1\]‖∞ and ‖x^\[p\]‖∞ (see [`jorba_zou_step`]).
+    #[inline]
+    pub fn step(&self, state_norm: f64, norm_pm1: f64, norm_p: f64) -> f64 {
+        let c = if state_norm > 1.0 { state_norm } else { 1.0 };
+        let rho_pm1 = (c / norm_pm1).powf(self.inv_pm1);
+        let rho_p = (c / norm_p).powf(self.inv_p);
+        rho_pm1.min(rho_p) * self.factor
+    }
 }
 
 /// The recurrences of the table in the [module docs](self), one function per operation: the
@@ -385,6 +413,7 @@ pub struct TaylorKernels<M: ?Sized> {
 pub struct Taylor<M: ?Sized> {
     opts: TaylorOptions,
     order: u32,
+    control: JorbaZou,
     field: Box<dyn TaylorKernel<M>>,
     feedback: Box<dyn TaylorKernel<M>>,
     mode: TaylorField,
@@ -423,6 +452,7 @@ impl<M: ?Sized> Taylor<M> {
         Ok(Taylor {
             opts,
             order,
+            control: JorbaZou::new(order),
             field,
             feedback,
             mode: TaylorField::Plain,
@@ -495,12 +525,15 @@ impl<M: ?Sized> Taylor<M> {
             Which::Feedback => &mut *self.feedback,
         };
         kernel.compute(x, p);
-        let norm = |k: usize| {
-            (0..kernel.dim())
-                .map(|i| kernel.coefficients(i)[k].abs())
-                .fold(0.0, f64::max)
-        };
-        jorba_zou_step(self.order, norm(0), norm(p - 1), norm(p))
+        // the three norms in one pass over the components
+        let (mut n0, mut n1, mut n2) = (0.0f64, 0.0f64, 0.0f64);
+        for i in 0..kernel.dim() {
+            let c = kernel.coefficients(i);
+            n0 = n0.max(c[0].abs());
+            n1 = n1.max(c[p - 1].abs());
+            n2 = n2.max(c[p].abs());
+        }
+        self.control.step(n0, n1, n2)
     }
 
     /// Horner's scheme for the polynomial of the last expansion in `which` at `s`.
