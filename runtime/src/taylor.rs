@@ -42,7 +42,7 @@
 //! | op | recurrence |
 //! | --- | --- |
 //! | u = a ± b | u^\[k\] = a^\[k\] ± b^\[k\] |
-//! | u = a·b | u^\[k\] = Σ_{j=0}^{k} a^\[j\] b^\[k−j\] (Cauchy product; a·c for a constant c is a scaling) |
+//! | u = a·b | u^\[k\] = Σ_{j=0}^{k} a^\[j\] b^\[k−j\] (Cauchy product; a·c for a constant c is a scaling; summed with the newest terms last, see [`rec::mul`]) |
 //! | u = a/b | u^\[k\] = (a^\[k\] − Σ_{j=1}^{k} b^\[j\] u^\[k−j\]) / b^\[0\] |
 //! | u = aⁿ, n ∈ ℕ | binary exponentiation by Cauchy products (squares and products, as `f64::powi`), so a^\[0\] = 0 is fine |
 //! | u = a⁻ⁿ | the chain for aⁿ, then 1/aⁿ by the division recurrence |
@@ -206,17 +206,28 @@ pub mod rec {
             .sum()
     }
 
-    /// (a·b)^\[k\]: the Cauchy product.
+    /// (a·b)^\[k\]: the Cauchy product, summed as
+    /// (Σ_{j=1}^{k−1} a^\[j\] b^\[k−j\] + a^\[0\] b^\[k\]) + a^\[k\] b^\[0\].
+    ///
+    /// The order of summation puts the two terms with the newest coefficients (a^\[k\], b^\[k\],
+    /// computed just before at this order) last: the k − 1 older terms do not wait for them,
+    /// so the latency a step adds to the chain of dependent instructions is two additions,
+    /// not k (the same holds for [`square`] and [`pow`]; [`div`], [`sqrt`] and the weighted
+    /// sums already end with their newest term).
     #[inline(always)]
     pub fn mul(a: &[f64], b: &[f64], k: usize) -> f64 {
-        cauchy(a, b, k, 0, k)
+        if k == 0 {
+            return a[0] * b[0];
+        }
+        cauchy(a, b, k, 1, k - 1) + a[0] * b[k] + a[k] * b[0]
     }
 
-    /// (a²)^\[k\] = 2 Σ_{j<k/2} a^\[j\] a^\[k−j\] (+ a^\[k/2\]² for even k).
+    /// (a²)^\[k\] = 2 (Σ_{j=1}^{(k−1)/2} a^\[j\] a^\[k−j\] + a^\[0\] a^\[k\]) (+ a^\[k/2\]² for even
+    /// k), the newest term last as in [`mul`].
     #[inline(always)]
     pub fn square(a: &[f64], k: usize) -> f64 {
         let half = (k - 1) / 2; // the largest j < k/2
-        let mut s = 2.0 * cauchy(a, a, k, 0, half);
+        let mut s = 2.0 * (cauchy(a, a, k, 1, half) + a[0] * a[k]);
         if k % 2 == 0 {
             s += a[k / 2] * a[k / 2];
         }
@@ -229,19 +240,15 @@ pub mod rec {
         (a[k] - cauchy(b, u, k, 1, k)) / b[0]
     }
 
-    /// (a^α)^\[k\] = 1/(k a^\[0\]) Σ_{j=0}^{k−1} (α(k−j) − j) a^\[k−j\] u^\[j\].
+    /// (a^α)^\[k\] = 1/(k a^\[0\]) Σ_{j=0}^{k−1} (α(k−j) − j) a^\[k−j\] u^\[j\], summed over
+    /// j = 1..k−1 first and the term j = 0 (with the newest a^\[k\]) last, as in [`mul`].
     #[inline(always)]
     pub fn pow(a: &[f64], u: &[f64], alpha: f64, k: usize) -> f64 {
         let kf = k as f64;
-        let ra = &a[1..=k];
-        let ru = &u[..k];
-        let s: f64 = ru
-            .iter()
-            .zip(ra.iter().rev())
-            .enumerate()
-            .map(|(j, (u, x))| (alpha * (kf - j as f64) - j as f64) * x * u)
+        let s: f64 = (1..k)
+            .map(|j| (alpha * (kf - j as f64) - j as f64) * a[k - j] * u[j])
             .sum();
-        s / (kf * a[0])
+        (s + alpha * kf * a[k] * u[0]) / (kf * a[0])
     }
 
     /// (√a)^\[k\] = (a^\[k\] − Σ_{j=1}^{k−1} u^\[j\] u^\[k−j\]) / (2 u^\[0\]), the sum folded in half.
@@ -536,15 +543,23 @@ impl<M: ?Sized> Taylor<M> {
         self.control.step(n0, n1, n2)
     }
 
-    /// Horner's scheme for the polynomial of the last expansion in `which` at `s`.
+    /// Horner's scheme for the polynomial of the last expansion in `which` at `s`, four
+    /// components at a time (their multiply-add chains interleaved: each is p dependent steps).
     fn evaluate(&self, which: Which, s: f64, out: &mut [f64]) {
+        const LANES: usize = 4;
         let kernel = self.kernel(which);
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = kernel
-                .coefficients(i)
-                .iter()
-                .rev()
-                .fold(0.0, |acc, &ck| acc * s + ck);
+        for (chunk, outs) in out.chunks_mut(LANES).enumerate() {
+            let mut c: [&[f64]; LANES] = [&[]; LANES];
+            for (l, cl) in c.iter_mut().enumerate().take(outs.len()) {
+                *cl = kernel.coefficients(chunk * LANES + l);
+            }
+            let mut acc = [0.0; LANES];
+            for k in (0..c[0].len()).rev() {
+                for (a, cl) in acc.iter_mut().zip(&c).take(outs.len()) {
+                    *a = *a * s + cl[k];
+                }
+            }
+            outs.copy_from_slice(&acc[..outs.len()]);
         }
     }
 

@@ -58,8 +58,15 @@ type TaylorFn = unsafe extern "C" fn(*const f64, *const f64, *const f64, *const 
 /// not X − ∇V of Kepler (41 420) or the rigid body (68 153).
 pub const MAX_INSTRUCTIONS: usize = 20_000;
 
-/// Cranelift's optimisation level: its e-graph passes find nothing to improve in straight-line
-/// IEEE arithmetic (no reassociation, no fusion), and "none" compiles faster.
+/// How many of the last stored coefficients are reused as values instead of reloaded (the
+/// next recurrences usually read them: a store and a load back cost the store-forwarding
+/// latency on the critical path).
+const RECENT: usize = 4;
+
+/// Cranelift's optimisation level. Its e-graph passes find little to improve in straight-line
+/// IEEE arithmetic (no reassociation, no fusion), and what they do (sharing constants, moving
+/// loads) lengthens live ranges: "speed" made the Kepler kernel 1.2× and the rigid body's 1.5×
+/// slower than "none" (`--bench taylor`), and compiles slower.
 const OPT_LEVEL: &str = "none";
 
 extern "C" fn call_powf(x: f64, p: f64) -> f64 {
@@ -275,6 +282,7 @@ fn define(
             table,
             stride: p + 1,
             rows: vec![0; program.rows],
+            recent: Default::default(),
             zero,
             ellipj_out: None,
         };
@@ -314,6 +322,8 @@ struct Emit<'a> {
     stride: usize,
     /// How many orders of each row are in the table.
     rows: Vec<usize>,
+    /// The last values stored, (row, order, value), read back without a load.
+    recent: std::collections::VecDeque<(usize, usize, Value)>,
     /// The constant 0 (the higher coefficients of rows constant along the solution).
     zero: Value,
     /// The address of a 3-f64 stack slot for `call_ellipj`, once needed.
@@ -325,6 +335,9 @@ impl Emit<'_> {
     fn c(&mut self, r: usize, k: usize) -> Value {
         if k >= self.rows[r] {
             return self.zero;
+        }
+        if let Some(&(_, _, v)) = self.recent.iter().find(|&&(rr, kk, _)| rr == r && kk == k) {
+            return v;
         }
         let off = (r * self.stride + k) * 8;
         let off = i32::try_from(off).expect("table size checked in `define`");
@@ -342,6 +355,10 @@ impl Emit<'_> {
             .ins()
             .store(MemFlagsData::trusted(), v, self.table, off);
         self.rows[d] += 1;
+        if self.recent.len() == RECENT {
+            self.recent.pop_front();
+        }
+        self.recent.push_back((d, k, v));
     }
 
     fn fadd(&mut self, x: Value, y: Value) -> Value {
@@ -437,14 +454,30 @@ impl Emit<'_> {
         .expect("k ≥ 1 terms")
     }
 
-    /// (2 Σ_{j=lo}^{(k−1)/2} a^\[j\] a^\[k−j\]) + a^\[k/2\]² for even k (`rec::square`, and
-    /// `rec::sqrt`'s sum with lo = 1).
-    fn folded(&mut self, a: usize, k: usize, lo: usize) -> Value {
+    /// (Σ_{j=1}^{k−1} a^\[j\] b^\[k−j\] + a^\[0\] b^\[k\]) + a^\[k\] b^\[0\] (`rec::mul`).
+    fn mul(&mut self, a: usize, b: usize, k: usize) -> Value {
+        let s = self.cauchy(a, b, k, 1, k - 1);
+        let (x, y) = (self.c(a, 0), self.c(b, k));
+        let t = self.fmul(x, y);
+        let s = self.fadd(s, t);
+        let (x, y) = (self.c(a, k), self.c(b, 0));
+        let t = self.fmul(x, y);
+        self.fadd(s, t)
+    }
+
+    /// 2 (Σ_{j=lo}^{(k−1)/2} a^\[j\] a^\[k−j\] (+ a^\[0\] a^\[k\] if `newest`)) + a^\[k/2\]² for even
+    /// k: `rec::square` (lo = 1 with the newest term) and `rec::sqrt`'s sum (lo = 1 without).
+    fn folded(&mut self, a: usize, k: usize, newest: bool) -> Value {
         let half = (k - 1) / 2;
+        let mut s = self.cauchy(a, a, k, 1, half);
+        if newest {
+            let (x, y) = (self.c(a, 0), self.c(a, k));
+            let t = self.fmul(x, y);
+            s = self.fadd(s, t);
+        }
         let two = self.constant(2.0);
-        let s = self.cauchy(a, a, k, lo, half);
         let mut s = self.fmul(two, s);
-        if k % 2 == 0 {
+        if k.is_multiple_of(2) {
             let m = self.c(a, k / 2);
             let sq = self.fmul(m, m);
             s = self.fadd(s, sq);
@@ -611,12 +644,12 @@ impl Emit<'_> {
                 let x = self.c(a, k);
                 (d, self.fneg(x))
             }
-            Rec::Mul { d, a, b } => (d, self.cauchy(a, b, k, 0, k)),
+            Rec::Mul { d, a, b } => (d, self.mul(a, b, k)),
             Rec::Scale { d, a, c } => {
                 let (x, y) = (self.c(a, k), self.c(c, 0));
                 (d, self.fmul(x, y))
             }
-            Rec::Square { d, a } => (d, self.folded(a, k, 0)),
+            Rec::Square { d, a } => (d, self.folded(a, k, true)),
             Rec::Div { d, a, b } => {
                 let s = self.cauchy(b, d, k, 1, k);
                 let x = self.c(a, k);
@@ -629,15 +662,23 @@ impl Emit<'_> {
                 (d, self.fdiv(x, y))
             }
             Rec::Pow { d, a, alpha, .. } => {
-                // Σ_{j<k} (α(k−j) − j) a^[k−j] u^[j], the weights rounded as `rec::pow`'s
+                // Σ_{j=1}^{k−1} (α(k−j) − j) a^[k−j] u^[j], then the term j = 0, the weights
+                // rounded as `rec::pow`'s
                 let kf = k as f64;
-                let s = self
-                    .sum(0..k, |e, j| {
-                        let w = e.constant(alpha * (kf - j as f64) - j as f64);
-                        let x = e.c(a, k - j);
-                        (e.fmul(w, x), e.c(d, j))
-                    })
-                    .expect("k ≥ 1 terms");
+                let s = self.sum(1..k, |e, j| {
+                    let w = e.constant(alpha * (kf - j as f64) - j as f64);
+                    let x = e.c(a, k - j);
+                    (e.fmul(w, x), e.c(d, j))
+                });
+                let w = self.constant(alpha * kf);
+                let x = self.c(a, k);
+                let x = self.fmul(w, x);
+                let u0 = self.c(d, 0);
+                let t = self.fmul(x, u0);
+                let s = match s {
+                    Some(s) => self.fadd(s, t),
+                    None => t,
+                };
                 let kv = self.constant(kf);
                 let a0 = self.c(a, 0);
                 let den = self.fmul(kv, a0);
@@ -645,7 +686,7 @@ impl Emit<'_> {
             }
             Rec::Sqrt { d, a } => {
                 let s = if k >= 2 {
-                    self.folded(d, k, 1)
+                    self.folded(d, k, false)
                 } else {
                     self.zero
                 };
@@ -699,11 +740,11 @@ impl Emit<'_> {
                 self.push(sn, k, sk);
                 self.push(cn, k, ck);
                 self.push(dn, k, dk);
-                let v = self.cauchy(cn, dn, k, 0, k);
+                let v = self.mul(cn, dn, k);
                 self.push(cd, k, v);
-                let v = self.cauchy(sn, dn, k, 0, k);
+                let v = self.mul(sn, dn, k);
                 self.push(sd, k, v);
-                let v = self.cauchy(sn, cn, k, 0, k);
+                let v = self.mul(sn, cn, k);
                 self.push(sc, k, v);
                 return;
             }
