@@ -83,6 +83,7 @@
 
 use crate::error::StepError;
 use crate::feedback::FeedbackField;
+use crate::field::Lyapunov;
 use crate::state::State;
 use crate::steppers::{DenseOutput, StepOutcome, Stepper};
 
@@ -424,6 +425,9 @@ pub struct Taylor<M: ?Sized> {
     field: Box<dyn TaylorKernel<M>>,
     feedback: Box<dyn TaylorKernel<M>>,
     mode: TaylorField,
+    /// With a [`FeedbackField`]: the split step (a step of X, then a gradient step on V)
+    /// instead of the Taylor step of X − ∇V; see [`Taylor::set_split`].
+    split: bool,
     /// The last accepted step (t, h) and the kernel holding its expansion.
     last: Option<(f64, f64, Which)>,
 }
@@ -463,6 +467,7 @@ impl<M: ?Sized> Taylor<M> {
             field,
             feedback,
             mode: TaylorField::Plain,
+            split: false,
             last: None,
         })
     }
@@ -481,6 +486,37 @@ impl<M: ?Sized> Taylor<M> {
     pub fn with_field(mut self, mode: TaylorField) -> Result<Taylor<M>, StepError> {
         self.set_field(mode)?;
         Ok(self)
+    }
+
+    /// Chooses the step of the `Stepper<f64, X, FeedbackField<M, FV, G>>` implementation:
+    /// `false` (default) the Taylor step of X − ∇V; `true` the **split step**, the Lie
+    /// splitting of ẋ = X − ∇V into ẋ = X and ẋ = −∇V:
+    ///
+    /// ```text
+    /// x̃ = Taylor step of X from x over h (the plain kernel, Jorba–Zou's h),
+    /// x⁺ = x̃ − h ∇V(x̃)            (one explicit Euler step of the gradient flow)
+    /// ```
+    ///
+    /// with the feedback field's target and current gains K. Near the invariant set
+    /// ∇V(x) = Df(x)ᵀ K (f(x) − f(x₀)) is O(drift), so the gradient step costs one gradient
+    /// evaluation and perturbs the solution only by the drift it removes; its Jacobian is
+    /// I − h H, H = Dfᵀ K Df there, whose eigenvalues lie in [1 − θ, 1] for θ = h ‖H‖₂: a
+    /// contraction for 0 < θ < 2. The gains of `--gains auto` (adaptive methods: h k L = θ
+    /// with θ = 2·tol^(1/p)·… ≈ 0.3, `lasalle_runtime::gains::step_gain_target`) keep θ there
+    /// at every step. The splitting error is O(h²)·[X, ∇V], and [X, ∇V] = H X vanishes on the
+    /// invariant set (Df X = 0), so it is O(h² · drift). The dense output on a step is the
+    /// Taylor polynomial of X (without the gradient step, which moves the end point by
+    /// h ∇V = O(h · drift)). The gradient is computed into a fresh `X` per step (no allocation
+    /// for arrays; one for `Vec` states).
+    pub fn set_split(&mut self, split: bool) {
+        self.split = split;
+        self.last = None;
+    }
+
+    /// [`Taylor::set_split`] returning `self`.
+    pub fn with_split(mut self, split: bool) -> Taylor<M> {
+        self.set_split(split);
+        self
     }
 
     /// The field integrated as a `Stepper<f64, X, M>`.
@@ -665,10 +701,15 @@ impl<M: ?Sized, X: State<f64>> Stepper<f64, X, M> for Taylor<M> {
     }
 }
 
-impl<M: ?Sized, X: State<f64>, FV: State<f64>, G: State<f64>>
-    Stepper<f64, X, FeedbackField<'_, M, FV, G>> for Taylor<M>
+impl<M, X, FV, G> Stepper<f64, X, FeedbackField<'_, M, FV, G>> for Taylor<M>
+where
+    M: Lyapunov<f64, X, FV, G> + ?Sized,
+    X: State<f64>,
+    FV: State<f64>,
+    G: State<f64>,
 {
-    /// A Taylor step of X − ∇V with the feedback field's target and current gains.
+    /// A Taylor step of X − ∇V with the feedback field's target and current gains, or the
+    /// split step ([`Taylor::set_split`]).
     fn step(
         &mut self,
         fb: &FeedbackField<'_, M, FV, G>,
@@ -677,6 +718,24 @@ impl<M: ?Sized, X: State<f64>, FV: State<f64>, G: State<f64>>
         h: f64,
     ) -> Result<StepOutcome<f64>, StepError> {
         self.sync(fb.model())?;
+        if self.split {
+            let out = self.advance(Which::Field, t, x.as_mut(), h)?;
+            let mut grad = X::filled(X::len_for(x.len()), 0.0);
+            fb.model()
+                .lyapunov_gradient(x, fb.target(), &fb.gains(), &mut grad);
+            for (xi, gi) in x.as_mut().iter_mut().zip(grad.as_ref()) {
+                *xi -= out.h_taken * gi;
+            }
+            if !x.as_ref().iter().all(|v| v.is_finite()) {
+                return Err(StepError::NonFinite {
+                    what: "state",
+                    t,
+                    h: out.h_taken,
+                    state: x.as_ref().to_vec(),
+                });
+            }
+            return Ok(out);
+        }
         self.feedback
             .set_inputs(fb.target().as_ref(), fb.gains().as_ref())?;
         self.advance(Which::Feedback, t, x.as_mut(), h)
@@ -702,6 +761,9 @@ impl<M: ?Sized, X: State<f64>, FV: State<f64>, G: State<f64>>
         t_end: f64,
     ) -> Option<f64> {
         self.sync(fb.model()).ok()?;
+        if self.split {
+            return self.initial(Which::Field, t0, x0.as_ref(), t_end);
+        }
         self.feedback
             .set_inputs(fb.target().as_ref(), fb.gains().as_ref())
             .ok()?;
