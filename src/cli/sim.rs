@@ -307,7 +307,7 @@ impl RunSpec {
         if matches!(self.gains, GainPolicy::Step { .. }) && !adaptive {
             return Err(format!(
                 "--gains step follows the step of an adaptive method (feedback-dopri5, \
-                 feedback-taylor); `{}` takes fixed steps: use --gains adaptive",
+                 feedback-taylor, split-taylor); `{}` takes fixed steps: use --gains adaptive",
                 self.method
             ));
         }
