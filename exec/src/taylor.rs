@@ -5,7 +5,7 @@
 //!
 //! The tape is lowered to recurrences by [`TaylorProgram`]. With the JIT back end
 //! ([`LoadedModel::taylor_tapes`]) the program is compiled for the order p instead
-//! (`crate::jit::taylor::JitTaylor`, 1.5–2.7× faster per step, `cargo bench -p lasalle-exec
+//! (`crate::jit::taylor::JitTaylor`, 1.2–2.9× faster per step, `cargo bench -p lasalle-exec
 //! --bench taylor`), unless its unrolled code would be too large; compiled models run the same
 //! program as emitted Rust. All agree bitwise (`tests/tape_kernels.rs` in the root crate,
 //! `exec/tests/taylor.rs`).

@@ -6,19 +6,22 @@
 //! # Code shape: fully unrolled
 //!
 //! Like heyoka's default (non-compact) mode, the function is straight-line code: the loop
-//! over the orders k = 0..p and every Cauchy sum are unrolled, so each coefficient is one SSA
-//! value computed from the values of lower orders, with no index arithmetic, no dispatch and
-//! no loads other than the inputs. Only the coefficients of the state rows are stored (into the
-//! kernel's table, which [`TaylorKernel::coefficients`] reads). Rows constant along the
-//! solution have their higher coefficients as the constant 0, as in the interpreter's table.
+//! over the orders k = 0..p and every sum are unrolled, with no index arithmetic and no
+//! dispatch. Every coefficient is stored into one table (rows × (p + 1), row-major, the state
+//! rows first, which [`TaylorKernel::coefficients`] reads) at a constant offset, and read back
+//! by a load at its uses, emitted right before the product that consumes it so that x86 folds
+//! it into the multiplication: keeping all coefficients as SSA values instead made the
+//! register allocator spill them anyway, and compiled several times slower. The last few
+//! stored values are reused without a load. Rows constant along the solution
+//! have their higher coefficients as the constant 0, as in the interpreter's table.
 //!
-//! Unrolling costs code size quadratic in p: a nonlinear recurrence is about k² / 2 products
-//! over the orders k < p (≈ 180 at p = 19), so the function has about that many instructions
-//! per nonlinear row. [`JitTaylor::new`] refuses (and the caller falls back to the interpreter)
-//! above [`MAX_INSTRUCTIONS`] estimated instructions, which bounds the compile time; every
-//! model in `models/` is far below it at p = 20 (`load_time` test of `exec/tests/taylor.rs`).
-//! Loops over k would keep the code linear in p, but need index arithmetic and loads in every
-//! sum, i.e. what the interpreter already does without its dispatch.
+//! Unrolling costs code size quadratic in p: a nonlinear recurrence has about k terms at
+//! order k, ≈ p²/2 over the orders (≈ 22 bytes each), so Kepler's field is 39 KB of code at
+//! p = 19, the rigid body's 99 KB (more than the instruction cache: the compiled kernel is then
+//! only 1.2× the interpreter) and Kepler's X − ∇V 280 KB. [`JitTaylor::new`] refuses (and the
+//! caller falls back to the interpreter) above [`MAX_INSTRUCTIONS`] estimated instructions,
+//! which bounds the compile time to ≈ 20 ms. Loops over the sums would keep the code linear in
+//! p at the cost of a loop per sum (not done).
 //!
 //! # Bitwise agreement with the interpreter
 //!
@@ -29,7 +32,8 @@
 //! order-0 values through the same `std` and `lasalle_runtime::elliptic` functions (the
 //! `extern "C"` wrappers of the parent module and below). Cranelift neither fuses nor
 //! reassociates floating-point operations, so [`JitTaylor`] and [`TaylorTape`](crate::TaylorTape)
-//! agree bitwise (tested on every built-in model, field and X − ∇V).
+//! agree bitwise (`exec/tests/taylor.rs`: every model in `models/`, field and X − ∇V, every
+//! operation's recurrence, the elliptic functions).
 
 use super::{call_cbrt, call_cos, call_exp, call_ln, call_sin, jit_err, jit_module};
 use crate::taylor::{Inputs, TaylorError};
@@ -164,9 +168,12 @@ impl JitTaylor {
         }))
     }
 
-    /// An estimate of the instructions of the unrolled code at order p: per non-constant
-    /// recurrence and order k < p, the terms of its sums (about k for a Cauchy product or a
-    /// weighted sum, 3k for sn, cn, dn with their products), plus one per order for the rest.
+    /// An estimate of the IR instructions of the unrolled code at order p: the sums of the
+    /// non-constant recurrences, counted in half sums (a folded square or square-root sum is
+    /// one, a Cauchy product, quotient, power or weighted sum two, sin and cos four, sn, cn,
+    /// dn with their three products twelve); a full sum has about k terms at order k, so
+    /// p(p − 1)/2 over the orders, of four instructions each (two loads, a product, a sum);
+    /// plus one instruction per recurrence and order for the rest.
     pub fn instructions(program: &TaylorProgram, p: usize) -> usize {
         let sums = |r: &Rec| match r {
             Rec::Leaf { .. }
@@ -188,7 +195,7 @@ impl JitTaylor {
             .map(|(r, _)| sums(r))
             .sum();
         let all = program.recs.len() + program.dim;
-        // Σ_{k<p} k = p(p − 1)/2 terms of each sum, two instructions per term
+        // half sums × p(p − 1)/4 terms × 4 instructions
         per_order * p * (p - 1) + all * p
     }
 }
