@@ -38,9 +38,11 @@
 use super::{call_cbrt, call_cos, call_exp, call_ln, call_sin, jit_err, jit_module};
 use crate::taylor::{Inputs, TaylorError};
 use crate::ExecError;
+use cranelift_codegen::ir::condcodes::IntCC;
 use cranelift_codegen::ir::immediates::Ieee64;
 use cranelift_codegen::ir::{
-    types, AbiParam, InstBuilder, MemFlagsData, Signature, StackSlotData, StackSlotKind, Value,
+    types, AbiParam, BlockArg, InstBuilder, MemFlagsData, Signature, StackSlotData, StackSlotKind,
+    Value,
 };
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::JITModule;
@@ -66,6 +68,13 @@ pub const MAX_INSTRUCTIONS: usize = 20_000;
 /// next recurrences usually read them: a store and a load back cost the store-forwarding
 /// latency on the critical path).
 const RECENT: usize = 4;
+
+/// Above this estimated size (≈ 65 KB of unrolled code, twice the instruction cache) the
+/// Cauchy sums of at least [`LOOP_TERMS`] terms are loops (see `Emit::cauchy`).
+const UNROLL_LIMIT: usize = 10_000;
+
+/// The shortest Cauchy sum made a loop in programs above [`UNROLL_LIMIT`].
+const LOOP_TERMS: usize = 6;
 
 /// Cranelift's optimisation level. Its e-graph passes find little to improve in straight-line
 /// IEEE arithmetic (no reassociation, no fusion), and what they do (sharing constants, moving
@@ -289,6 +298,7 @@ fn define(
             table,
             stride: p + 1,
             rows: vec![0; program.rows],
+            loops: JitTaylor::instructions(program, p) > UNROLL_LIMIT,
             recent: Default::default(),
             zero,
             ellipj_out: None,
@@ -329,6 +339,8 @@ struct Emit<'a> {
     stride: usize,
     /// How many orders of each row are in the table.
     rows: Vec<usize>,
+    /// Long Cauchy sums as loops (programs above [`UNROLL_LIMIT`]).
+    loops: bool,
     /// The last values stored, (row, order, value), read back without a load.
     recent: std::collections::VecDeque<(usize, usize, Value)>,
     /// The constant 0 (the higher coefficients of rows constant along the solution).
@@ -436,10 +448,51 @@ impl Emit<'_> {
         acc
     }
 
-    /// Σ_{j=lo}^{hi} a^\[j\] b^\[k−j\] (`rec::cauchy`; 0 if lo > hi).
+    /// Σ_{j=lo}^{hi} a^\[j\] b^\[k−j\] (`rec::cauchy`; 0 if lo > hi): unrolled below
+    /// [`LOOP_TERMS`] terms, else the first term and then a loop over the rest (the same
+    /// operations in the same order, on the table).
     fn cauchy(&mut self, a: usize, b: usize, k: usize, lo: usize, hi: usize) -> Value {
-        self.sum(lo..=hi, |e, j| (e.c(a, j), e.c(b, k - j)))
-            .unwrap_or(self.zero)
+        let short = hi < lo + LOOP_TERMS - 1;
+        if !self.loops || short || self.rows[a] <= hi || self.rows[b] <= k - lo {
+            return self
+                .sum(lo..=hi, |e, j| (e.c(a, j), e.c(b, k - j)))
+                .unwrap_or(self.zero);
+        }
+        let (x, y) = (self.c(a, lo), self.c(b, k - lo));
+        let first = self.fmul(x, y);
+        let ptr = self.ptr;
+        let at = |e: &mut Self, r: usize, j: usize| {
+            let off = ((r * e.stride + j) * 8) as i64;
+            let off = e.b.ins().iconst(ptr, off);
+            e.b.ins().iadd(e.table, off)
+        };
+        let pa = at(self, a, lo + 1);
+        let pb = at(self, b, k - lo - 1);
+        let end = at(self, a, hi + 1);
+        let body = self.b.create_block();
+        let acc = self.b.append_block_param(body, types::F64);
+        let pa_v = self.b.append_block_param(body, ptr);
+        let pb_v = self.b.append_block_param(body, ptr);
+        let exit = self.b.create_block();
+        let result = self.b.append_block_param(exit, types::F64);
+        let args = [first, pa, pb].map(BlockArg::Value);
+        self.b.ins().jump(body, &args);
+        self.b.switch_to_block(body);
+        let flags = MemFlagsData::trusted();
+        let x = self.b.ins().load(types::F64, flags, pa_v, 0);
+        let y = self.b.ins().load(types::F64, flags, pb_v, 0);
+        let t = self.fmul(x, y);
+        let acc = self.fadd(acc, t);
+        let eight = self.b.ins().iconst(ptr, 8);
+        let pa_n = self.b.ins().iadd(pa_v, eight);
+        let pb_n = self.b.ins().isub(pb_v, eight);
+        let more = self.b.ins().icmp(IntCC::NotEqual, pa_n, end);
+        let again = [acc, pa_n, pb_n].map(BlockArg::Value);
+        self.b
+            .ins()
+            .brif(more, body, &again, exit, &[BlockArg::Value(acc)]);
+        self.b.switch_to_block(exit);
+        result
     }
 
     /// j·x for the weight j: exact and skipped for j = 1.
