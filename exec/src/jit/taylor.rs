@@ -17,11 +17,14 @@
 //!
 //! Unrolling costs code size quadratic in p: a nonlinear recurrence has about k terms at
 //! order k, ≈ p²/2 over the orders (≈ 22 bytes each), so Kepler's field is 39 KB of code at
-//! p = 19, the rigid body's 99 KB (more than the instruction cache: the compiled kernel is then
-//! only 1.2× the interpreter) and Kepler's X − ∇V 280 KB. [`JitTaylor::new`] refuses (and the
-//! caller falls back to the interpreter) above [`MAX_INSTRUCTIONS`] estimated instructions,
-//! which bounds the compile time to ≈ 20 ms. Loops over the sums would keep the code linear in
-//! p at the cost of a loop per sum (not done).
+//! p = 19, the rigid body's 99 KB and Kepler's X − ∇V 280 KB. Code that large runs from
+//! beyond the instruction cache, each instruction once per step: unrolled, the rigid body's
+//! kernel at p = 19 was only 1.2× the interpreter. So above `UNROLL_LIMIT` estimated
+//! instructions (≈ 65 KB) the Cauchy sums of six or more terms become loops (the first term,
+//! then the rest in order: the same operations), which made that kernel 1.3× faster
+//! (2.3 → 1.8 µs) and made Kepler's (39 KB, unrolled) 1.4× slower when tried there.
+//! [`JitTaylor::new`] refuses (and the caller falls back to the interpreter) above
+//! [`MAX_INSTRUCTIONS`] estimated instructions, which bounds the compile time to ≈ 20 ms.
 //!
 //! # Bitwise agreement with the interpreter
 //!
