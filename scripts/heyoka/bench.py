@@ -165,12 +165,12 @@ def lasalle_run(exe, model, method, t_end, tol=None, dt=None, gains=None, out_di
 # The plan: what to run
 
 
-TOLS = [1e-6, 1e-8, 1e-10, 1e-12, 1e-14, 1e-15, 1e-16]
+TOLS = [1e-6, 1e-8, 1e-10, 1e-12, 1e-14, 1e-15]
 
 
 def plan(quick):
     """(system, label, kind, parameter) for every integration."""
-    tols = [1e-8, 1e-12, 1e-15, 1e-16] if quick else TOLS
+    tols = [1e-8, 1e-12, 1e-15] if quick else TOLS
     steps = {
         # fixed steps: (euler, rk4) step sizes, each run costs at most ~1e7 steps
         "kepler": ([1e-2, 3e-3] if quick else [1e-2, 3e-3, 1e-3], [2e-2, 5e-3] if quick else [5e-2, 2e-2, 1e-2, 5e-3, 2e-3]),
@@ -182,6 +182,11 @@ def plan(quick):
             tasks.append((system, "heyoka taylor", "heyoka", tol))
             for m in ["dopri5", "feedback-dopri5", "taylor", "feedback-taylor", "split-taylor"]:
                 tasks.append((system, m, "lasalle-tol", tol))
+        # below 1e-15 only the Taylor methods (plain Taylor keeps Kepler's invariants to 1e-13
+        # from 1e-16 on; DOPRI5 cannot reach it)
+        tasks.append((system, "heyoka taylor", "heyoka", 1e-16))
+        for m in ["taylor", "split-taylor"]:
+            tasks.append((system, m, "lasalle-tol", 1e-16))
         euler_dts, rk4_dts = steps[system]
         for dt in euler_dts:
             for m in ["euler", "feedback-euler"]:
