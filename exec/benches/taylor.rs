@@ -1,5 +1,7 @@
 //! One Taylor step (coefficients to order p, Jorba–Zou step, Horner) per model at tol 1e-15
-//! and 1e-10: Kepler at its pericentre (e = 0.8) and the free rigid body.
+//! and 1e-10: Kepler at its pericentre (e = 0.8) and the free rigid body, with the compiled
+//! kernel (JIT back end, the default) and the interpreted one; and the coefficients alone
+//! (`kernel/…`), so that the driver's share is the difference.
 //!
 //! `cargo bench -p lasalle-exec --bench taylor` (ns per step).
 
@@ -8,30 +10,38 @@ use lasalle_exec::{Backend, LoadedModel, TaylorOptions};
 use lasalle_runtime::{Parameters, Stepper};
 use std::time::Duration;
 
-fn model(name: &str) -> LoadedModel {
+fn model(name: &str, backend: Backend) -> LoadedModel {
     let path = format!("{}/../models/{name}.lsl", env!("CARGO_MANIFEST_DIR"));
-    LoadedModel::load(path, Backend::Interpreter).expect("model")
+    LoadedModel::load(path, backend).expect("model")
 }
 
 fn steps(c: &mut Criterion) {
     let mut group = c.benchmark_group("taylor_step");
     group.measurement_time(Duration::from_secs(3));
     for name in ["kepler", "rigid_body"] {
-        let m = model(name);
-        let x0 = m.point("paper").expect("point paper");
-        for tol in [1e-15, 1e-10] {
-            let mut taylor = m.taylor(TaylorOptions::with_tol(tol)).expect("taylor");
-            let label = format!(
-                "{name}/tol={tol:e}/p={}",
-                Stepper::<f64, Vec<f64>, LoadedModel>::order(&taylor)
-            );
-            let mut x = x0.clone();
-            group.bench_function(label, |b| {
-                b.iter(|| {
-                    x.copy_from_slice(&x0);
-                    black_box(taylor.step(&m, 0.0, &mut x, 10.0).expect("step"));
-                })
-            });
+        for &backend in Backend::available() {
+            let m = model(name, backend);
+            let x0 = m.point("paper").expect("point paper");
+            for tol in [1e-15, 1e-10] {
+                let opts = TaylorOptions::with_tol(tol);
+                let mut taylor = m.taylor(opts).expect("taylor");
+                let p = Stepper::<f64, Vec<f64>, LoadedModel>::order(&taylor);
+                let label = format!("{name}/{backend:?}/tol={tol:e}/p={p}");
+                let mut x = x0.clone();
+                group.bench_function(format!("step/{label}"), |b| {
+                    b.iter(|| {
+                        x.copy_from_slice(&x0);
+                        black_box(taylor.step(&m, 0.0, &mut x, 10.0).expect("step"));
+                    })
+                });
+                let mut kernel = m.taylor_tapes(p).expect("kernels").field;
+                group.bench_function(format!("kernel/{label}"), |b| {
+                    b.iter(|| {
+                        kernel.compute(black_box(&x0), p as usize);
+                        black_box(kernel.coefficients(0)[p as usize]);
+                    })
+                });
+            }
         }
     }
     group.finish();

@@ -3,9 +3,12 @@
 //! [`lasalle_runtime::taylor::Taylor`] (order and step of Jorba & Zou, Horner update, dense
 //! output, feedback mode; the recurrences and the step control are documented there).
 //!
-//! The tape is lowered to recurrences by [`TaylorProgram`]; compiled models run the same
-//! program as emitted Rust, and the two agree bitwise (`tests/tape_kernels.rs` in the root
-//! crate).
+//! The tape is lowered to recurrences by [`TaylorProgram`]. With the JIT back end
+//! ([`LoadedModel::taylor_tapes`]) the program is compiled for the order p instead
+//! (`crate::jit::taylor::JitTaylor`, 1.2–2.9× faster per step, `cargo bench -p lasalle-exec
+//! --bench taylor`), unless its unrolled code would be too large; compiled models run the same
+//! program as emitted Rust. All agree bitwise (`tests/tape_kernels.rs` in the root crate,
+//! `exec/tests/taylor.rs`).
 //!
 //! # Use
 //!
@@ -53,6 +56,9 @@ pub enum TaylorError {
     /// An invalid option (tolerance, order or largest step).
     #[error(transparent)]
     Option(#[from] lasalle_runtime::TaylorError),
+    /// The JIT could not compile the recurrences.
+    #[error(transparent)]
+    Jit(#[from] crate::ExecError),
 }
 
 /// The Taylor-coefficient recurrences of one field tape ([`TaylorProgram`]) interpreted over
@@ -62,19 +68,66 @@ pub enum TaylorError {
 /// x^\[0..=p\] of the solution of ẋ = tape(x) through a state, without allocating.
 #[derive(Clone, Debug)]
 pub struct TaylorTape {
-    tape: Tape,
+    inputs: Inputs,
     program: TaylorProgram,
     max_order: usize,
     stride: usize,
     /// rows × (max_order + 1), row-major.
     table: Vec<f64>,
-    /// The parameters the hoisted values were computed for.
-    params: Vec<f64>,
-    hoisted: Vec<f64>,
-    target: Vec<f64>,
-    gains: Vec<f64>,
     /// The order of the last [`TaylorTape::compute`] (0 before any).
     order: usize,
+}
+
+/// The inputs of a Taylor kernel other than the state: the hoisted values of the tape's
+/// prelude (for the parameters they were computed for), the targets and the gains.
+#[derive(Clone, Debug)]
+pub(crate) struct Inputs {
+    tape: Tape,
+    params: Vec<f64>,
+    pub(crate) hoisted: Vec<f64>,
+    pub(crate) target: Vec<f64>,
+    pub(crate) gains: Vec<f64>,
+}
+
+impl Inputs {
+    /// The hoisted values of `tape` for `params`; targets and gains 0.
+    pub(crate) fn new(tape: &Tape, params: &[f64]) -> Result<Inputs, TaylorError> {
+        Ok(Inputs {
+            hoisted: tape.hoist(params)?,
+            tape: tape.clone(),
+            params: params.to_vec(),
+            target: vec![0.0; tape.dims.targets],
+            gains: vec![0.0; tape.dims.gains],
+        })
+    }
+
+    fn set_params(&mut self, params: &[f64]) -> Result<(), TaylorError> {
+        self.hoisted = self.tape.hoist(params)?;
+        self.params.clear();
+        self.params.extend_from_slice(params);
+        Ok(())
+    }
+
+    /// [`TaylorKernel::sync`]: reruns the prelude if the model's parameters changed.
+    pub(crate) fn sync(&mut self, model: &LoadedModel) -> Result<(), StepError> {
+        if model.params() == self.params.as_slice() {
+            return Ok(());
+        }
+        self.set_params(model.params())
+            .map_err(|e| StepError::InvalidInput(e.to_string()))
+    }
+
+    /// [`TaylorKernel::set_inputs`].
+    pub(crate) fn set_inputs(&mut self, target: &[f64], gains: &[f64]) -> Result<(), StepError> {
+        let check = |kind, expected, given| {
+            expect_len(kind, expected, given).map_err(|e| StepError::InvalidInput(e.to_string()))
+        };
+        check("target", self.target.len(), target.len())?;
+        check("gains", self.gains.len(), gains.len())?;
+        self.target.copy_from_slice(target);
+        self.gains.copy_from_slice(gains);
+        Ok(())
+    }
 }
 
 impl TaylorTape {
@@ -83,31 +136,24 @@ impl TaylorTape {
     /// X − ∇V) start at 0; set them with [`TaylorKernel::set_inputs`].
     pub fn new(tape: &Tape, params: &[f64], max_order: u32) -> Result<TaylorTape, TaylorError> {
         let program = TaylorProgram::new(tape)?;
-        let hoisted = tape.hoist(params)?;
+        let inputs = Inputs::new(tape, params)?;
         if max_order == 0 {
             return Err(lasalle_runtime::TaylorError("the order must be at least 1".into()).into());
         }
         let stride = max_order as usize + 1;
         Ok(TaylorTape {
             table: vec![0.0; program.rows * stride],
-            tape: tape.clone(),
+            inputs,
             program,
             max_order: max_order as usize,
             stride,
-            params: params.to_vec(),
-            hoisted,
-            target: vec![0.0; tape.dims.targets],
-            gains: vec![0.0; tape.dims.gains],
             order: 0,
         })
     }
 
     /// Recomputes the hoisted values for new parameter values.
     pub fn set_params(&mut self, params: &[f64]) -> Result<(), TaylorError> {
-        self.hoisted = self.tape.hoist(params)?;
-        self.params.clear();
-        self.params.extend_from_slice(params);
-        Ok(())
+        self.inputs.set_params(params)
     }
 
     /// Rows of the coefficient table (state components, registers and internal rows).
@@ -138,7 +184,8 @@ impl TaylorTape {
         for k in 0..order {
             for &(r, constant) in &self.program.recs {
                 if k == 0 {
-                    zeroth(t, stride, r, &self.hoisted, &self.target, &self.gains);
+                    let i = &self.inputs;
+                    zeroth(t, stride, r, &i.hoisted, &i.target, &i.gains);
                 } else if !constant {
                     coefficient(t, stride, r, k);
                 }
@@ -168,22 +215,11 @@ impl TaylorKernel<LoadedModel> for TaylorTape {
 
     /// Reruns the prelude if the model's parameters changed since the last call.
     fn sync(&mut self, model: &LoadedModel) -> Result<(), StepError> {
-        if model.params() == self.params.as_slice() {
-            return Ok(());
-        }
-        self.set_params(model.params())
-            .map_err(|e| StepError::InvalidInput(e.to_string()))
+        self.inputs.sync(model)
     }
 
     fn set_inputs(&mut self, target: &[f64], gains: &[f64]) -> Result<(), StepError> {
-        let check = |kind, expected, given| {
-            expect_len(kind, expected, given).map_err(|e| StepError::InvalidInput(e.to_string()))
-        };
-        check("target", self.target.len(), target.len())?;
-        check("gains", self.gains.len(), gains.len())?;
-        self.target.copy_from_slice(target);
-        self.gains.copy_from_slice(gains);
-        Ok(())
+        self.inputs.set_inputs(target, gains)
     }
 
     fn compute(&mut self, x: &[f64], order: usize) {
@@ -197,13 +233,33 @@ impl TaylorKernel<LoadedModel> for TaylorTape {
 
 impl LoadedModel {
     /// The Taylor kernels of the model's field and of X − ∇V, with its current parameters,
-    /// for orders up to `max_order`: lowers the model's tapes again.
+    /// for orders up to `max_order`, from the model's tapes (lowered again).
+    /// With the JIT back end (the default with the `jit` feature) the recurrences are compiled
+    /// for the order `max_order` (`lasalle_exec::jit::taylor::JitTaylor`), unless too large to
+    /// unroll; otherwise, and with the interpreter back end, they are interpreted
+    /// ([`TaylorTape`]). Both compute the same coefficients, bitwise.
     pub fn taylor_tapes(&self, max_order: u32) -> Result<TaylorKernels<LoadedModel>, TaylorError> {
         let tapes = ModelTapes::new(self.derived())?;
         Ok(TaylorKernels {
-            field: Box::new(TaylorTape::new(&tapes.field, self.params(), max_order)?),
-            feedback: Box::new(TaylorTape::new(&tapes.feedback, self.params(), max_order)?),
+            field: self.taylor_kernel(&tapes.field, max_order)?,
+            feedback: self.taylor_kernel(&tapes.feedback, max_order)?,
         })
+    }
+
+    /// The kernel of one field tape for this model's back end (see
+    /// [`LoadedModel::taylor_tapes`]).
+    fn taylor_kernel(
+        &self,
+        tape: &Tape,
+        max_order: u32,
+    ) -> Result<Box<dyn TaylorKernel<LoadedModel>>, TaylorError> {
+        #[cfg(feature = "jit")]
+        if self.backend() == crate::Backend::Jit {
+            if let Some(k) = crate::jit::taylor::JitTaylor::new(tape, self.params(), max_order)? {
+                return Ok(Box::new(k));
+            }
+        }
+        Ok(Box::new(TaylorTape::new(tape, self.params(), max_order)?))
     }
 
     /// The adaptive Taylor integrator of the model (mode [`TaylorField::Plain`]), its kernels

@@ -329,23 +329,25 @@ fn cauchy_coefficients(g: impl Fn(C) -> C, t0: f64, r: f64, n: usize, kmax: usiz
         .collect()
 }
 
+/// One-variable expressions covering every operation's recurrence (y' = g(t), t' = 1).
+const EXPRS: [&str; 10] = [
+    "sin(t) * cos(2*t) + t^2",             // Sin, Cos, Mul, Powi (square), Add
+    "exp(t/3) - log(t + 1)",               // Exp, Ln, Div by a constant, Sub
+    "(1 + t^2)^(1/2) + t^(3/2)",           // Sqrt, Powi(Sqrt)
+    "t^(1/3) + (2 + t)^(2/3) - t^(-3/4)",  // Cbrt, Powf
+    "t^(-3) + 1/(1 + t) + t^5 - t^7",      // 1/Powi, Div, Powi chains
+    "-(t * exp(c * t)) + c / t",           // Neg, hoisted constants, const / x
+    "sin(t)^2 + cos(t)^3 + sin(sin(t))",   // paired Sin/Cos, nested
+    "cos(t) * t - exp(log(t) * 2)",        // Cos alone
+    "(t^2 + c)^(-1/2) * sin(c * t) + c*c", // Powi(Sqrt) negative, constant products
+    "log(1 + t^4) / (2 + sin(t)) - t^(4/3)", // Div of two series, Powf
+];
+
 #[test]
 fn every_op_against_the_cauchy_integral() {
     // y' = g(t), t' = 1: y^[k+1] = g^[k] / (k + 1), g^[k] the coefficients of s ↦ g(t0 + s)
-    let exprs = [
-        "sin(t) * cos(2*t) + t^2",             // Sin, Cos, Mul, Powi (square), Add
-        "exp(t/3) - log(t + 1)",               // Exp, Ln, Div by a constant, Sub
-        "(1 + t^2)^(1/2) + t^(3/2)",           // Sqrt, Powi(Sqrt)
-        "t^(1/3) + (2 + t)^(2/3) - t^(-3/4)",  // Cbrt, Powf
-        "t^(-3) + 1/(1 + t) + t^5 - t^7",      // 1/Powi, Div, Powi chains
-        "-(t * exp(c * t)) + c / t",           // Neg, hoisted constants, const / x
-        "sin(t)^2 + cos(t)^3 + sin(sin(t))",   // paired Sin/Cos, nested
-        "cos(t) * t - exp(log(t) * 2)",        // Cos alone
-        "(t^2 + c)^(-1/2) * sin(c * t) + c*c", // Powi(Sqrt) negative, constant products
-        "log(1 + t^4) / (2 + sin(t)) - t^(4/3)", // Div of two series, Powf
-    ];
     let (t0, r, nodes, kmax) = (0.8, 0.3, 128, 14);
-    for expr in exprs {
+    for expr in EXPRS {
         let text = format!(
             "model E {{ state t: scalar, y: scalar; param c = 0.37;
                d/dt t = 1; d/dt y = {expr}; }}"
@@ -569,11 +571,16 @@ fn parameter_change() {
 }
 
 /// No allocation in a step (plain field and X − ∇V with the stepper's own target and gains),
-/// after the first.
+/// after the first, with either back end's kernels.
 #[test]
 fn no_allocation_per_step() {
-    let m = LoadedModel::from_source("kepler.lsl", &model_text("kepler"), Backend::Interpreter)
-        .unwrap();
+    for &backend in Backend::available() {
+        no_allocation_per_step_with(backend);
+    }
+}
+
+fn no_allocation_per_step_with(backend: Backend) {
+    let m = LoadedModel::from_source("kepler.lsl", &model_text("kepler"), backend).unwrap();
     let x0 = m.point("paper").unwrap();
     let mut target = vec![0.0; 6];
     m.invariants(&x0, &mut target);
@@ -751,4 +758,214 @@ fn elliptic_functions_closed_form() {
         Backend::Interpreter,
     )
     .is_err());
+}
+
+// ---------------------------------------------------------------------------------------
+// The compiled kernel (JIT back end)
+
+/// `JitTaylor` computes the interpreter's coefficients bitwise: every built-in model (field
+/// and X − ∇V, random targets and gains), every operation's recurrence (`EXPRS`) and the
+/// elliptic functions, at random states, for several orders; and a JIT-loaded model's
+/// integrator ends where the interpreted one does, bitwise. Every field compiles at p = 20
+/// (X − ∇V of the larger models exceeds `MAX_INSTRUCTIONS` at p ≥ 19 and is interpreted);
+/// prints the compile times.
+#[cfg(feature = "jit")]
+#[test]
+fn jit_kernel_agrees_with_the_tape_bitwise() {
+    use lasalle_exec::jit::taylor::JitTaylor;
+    use lasalle_runtime::TaylorKernel;
+    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+    let mut rand = move || {
+        seed = seed
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        0.25 + (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let same = |a: f64, b: f64| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+    let mut texts: Vec<(String, String)> =
+        std::fs::read_dir(format!("{}/../models", env!("CARGO_MANIFEST_DIR")))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "lsl"))
+            .map(|p| {
+                (
+                    p.display().to_string(),
+                    std::fs::read_to_string(&p).unwrap(),
+                )
+            })
+            .collect();
+    texts.sort();
+    assert!(texts.len() >= 10, "the built-in models");
+    for expr in EXPRS {
+        let text = format!(
+            "model E {{ state t: scalar, y: scalar; param c = 0.37;
+               d/dt t = 1; d/dt y = {expr}; }}"
+        );
+        texts.push((expr.to_string(), text));
+    }
+    texts.push((
+        "elliptic".into(),
+        "model F { state t: scalar, u: scalar, v: scalar; param m = 0.7;
+         d/dt t = 1; d/dt u = ellipf(2 * t, m) + ellipk(m) * t;
+         d/dt v = sn(t * t, m) * cd(u, 0.3) + dn(t, m); }"
+            .into(),
+    ));
+    for (name, text) in &texts {
+        let (tp, params) = tapes(text);
+        for (what, tape) in [("field", &tp.field), ("feedback", &tp.feedback)] {
+            let n = tape.dims.state;
+            let target: Vec<f64> = (0..tape.dims.targets).map(|_| rand()).collect();
+            let gains: Vec<f64> = (0..tape.dims.gains).map(|_| rand()).collect();
+            for order in [1u32, 7, 19, 20] {
+                let mut tt = TaylorTape::new(tape, &params, order).unwrap();
+                let start = std::time::Instant::now();
+                let Some(mut jt) = JitTaylor::new(tape, &params, order).unwrap() else {
+                    // too large to unroll: only X − ∇V of the larger models, at high orders
+                    assert!(
+                        what == "feedback" && order >= 19,
+                        "{name}: {what} at p = {order}"
+                    );
+                    continue;
+                };
+                if order == 20 {
+                    println!(
+                        "{name}: {what}: JIT kernel at p = 20 in {:?}",
+                        start.elapsed()
+                    );
+                }
+                TaylorKernel::<LoadedModel>::set_inputs(&mut tt, &target, &gains).unwrap();
+                jt.set_inputs(&target, &gains).unwrap();
+                for _ in 0..3 {
+                    let x: Vec<f64> = (0..n).map(|_| rand()).collect();
+                    tt.compute(&x, order as usize);
+                    jt.compute(&x, order as usize);
+                    for i in 0..n {
+                        let (a, b) = (tt.state_coefficients(i), jt.coefficients(i));
+                        assert_eq!(a.len(), b.len());
+                        for (k, (&a, &b)) in a.iter().zip(b).enumerate() {
+                            assert!(
+                                same(a, b),
+                                "{name}, p = {order}, x_{i}^[{k}]: {a:e} vs {b:e}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+    // the integrators of the two back ends end at the same point
+    let text = model_text("kepler");
+    let ends: Vec<Vec<f64>> = [Backend::Jit, Backend::Interpreter]
+        .into_iter()
+        .map(|b| {
+            let m = LoadedModel::from_source("kepler.lsl", &text, b).unwrap();
+            let x0 = m.point("paper").unwrap();
+            let mut taylor = m.taylor(TaylorOptions::with_tol(1e-15)).unwrap();
+            integrate(&mut taylor, &m, &x0, 0.0, 50.0, 0.0, &mut ())
+                .unwrap()
+                .x
+        })
+        .collect();
+    assert_eq!(ends[0], ends[1]);
+}
+
+// ---------------------------------------------------------------------------------------
+// The split step: X by Taylor, then a gradient step on V (an alternative to X − ∇V)
+
+/// Integrates `m` from `x0` to `t_end` by Taylor steps of the plain field X, or (θ > 0) by
+/// the driver's split step (`Taylor::set_split`: each Taylor step of X followed by one explicit
+/// Euler step x ← x − h ∇V_k(x) of the gradient flow of V_k = ½ Σ k_i |f_i(x) − target_i|²),
+/// with the gains k = θ/(h L(x)) · (1, …, 1), L(x) = ‖Df(x)ᵀDf(x)‖₂ (refreshed every 10
+/// steps) and h the step proposed, so that h k L ≈ θ. Returns the end state, the steps and
+/// the CPU seconds.
+fn split_run(
+    m: &LoadedModel,
+    x0: &[f64],
+    target: &[f64],
+    t_end: f64,
+    tol: f64,
+    theta: f64,
+) -> (Vec<f64>, u64, f64) {
+    use lasalle_runtime::{gauss_newton_norm, ModelInfo};
+    let split = theta > 0.0;
+    let mut taylor = m
+        .taylor(TaylorOptions::with_tol(tol))
+        .unwrap()
+        .with_split(split);
+    let unit = vec![1.0; m.gain_names().len()];
+    let fb = FeedbackField::new(m, target.to_vec(), unit.clone());
+    let mut x = x0.to_vec();
+    let (mut t, mut steps, mut l) = (0.0, 0u64, 0.0);
+    let mut h = Stepper::<f64, Vec<f64>, LoadedModel>::initial_step(&mut taylor, m, 0.0, &x, t_end)
+        .unwrap();
+    let start = std::time::Instant::now();
+    while t < t_end {
+        let h_try = h.min(t_end - t);
+        let out = if split {
+            if steps % 10 == 0 {
+                l = gauss_newton_norm::<_, f64, Vec<f64>, Vec<f64>>(m, &x, &unit);
+            }
+            fb.set_gains(vec![theta / (h_try * l); unit.len()]);
+            taylor.step(&fb, t, &mut x, h_try).unwrap()
+        } else {
+            taylor.step(m, t, &mut x, h_try).unwrap()
+        };
+        t += out.h_taken;
+        h = out.h_next;
+        steps += 1;
+    }
+    (x, steps, start.elapsed().as_secs_f64())
+}
+
+/// The split step pulls drift back: Kepler started 1e-6 off its invariant set (v scaled by
+/// 1 + 1e-6) with the target of the unperturbed orbit. Plain Taylor keeps the offset; with
+/// the gradient step (θ = 0.5) the invariants return to the target within 10 periods.
+#[test]
+fn split_step_pulls_drift_back() {
+    let m =
+        LoadedModel::from_source("kepler.lsl", &model_text("kepler"), Backend::default()).unwrap();
+    let x0 = m.point("paper").unwrap();
+    let mut target = vec![0.0; m.invariant_dim()];
+    m.invariants(&x0, &mut target);
+    let mut xp = x0.clone();
+    xp[3..].iter_mut().for_each(|v| *v *= 1.0 + 1e-6);
+    let period = 2.0 * std::f64::consts::PI * 5f64.powf(1.5);
+    let err = |x: &Vec<f64>| {
+        let mut f = vec![0.0; target.len()];
+        m.invariants(x, &mut f);
+        max_diff(&f, &target)
+    };
+    let (plain, _, _) = split_run(&m, &xp, &target, 10.0 * period, 1e-15, 0.0);
+    let (split, _, _) = split_run(&m, &xp, &target, 10.0 * period, 1e-15, 0.5);
+    println!(
+        "10 periods from 1e-6 off: plain {:.1e}, split {:.1e}",
+        err(&plain),
+        err(&split)
+    );
+    assert!(err(&plain) > 1e-7, "plain: {:e}", err(&plain));
+    assert!(err(&split) < 1e-9, "split: {:e}", err(&split));
+}
+
+/// Kepler, 1000 periods at tol 1e-15 and 1e-16: plain Taylor against the split step for
+/// θ = 0.05, 0.5, 1 (invariant error and CPU time).
+#[test]
+#[ignore = "timing: run with --release --ignored --nocapture"]
+fn timing_split_step() {
+    let m =
+        LoadedModel::from_source("kepler.lsl", &model_text("kepler"), Backend::default()).unwrap();
+    let x0 = m.point("paper").unwrap();
+    let mut target = vec![0.0; m.invariant_dim()];
+    m.invariants(&x0, &mut target);
+    let period = 2.0 * std::f64::consts::PI * 5f64.powf(1.5);
+    for tol in [1e-15, 1e-16] {
+        for theta in [0.0, 0.05, 0.5, 1.0] {
+            let (x, steps, secs) = split_run(&m, &x0, &target, 1000.0 * period, tol, theta);
+            let mut f = vec![0.0; target.len()];
+            m.invariants(&x, &mut f);
+            println!(
+                "tol {tol:e}, θ = {theta}: {secs:.4} s, {steps} steps, |Δ(L, A)|∞ = {:.2e}",
+                max_diff(&f, &target)
+            );
+        }
+    }
 }

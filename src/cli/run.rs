@@ -23,7 +23,9 @@ pub struct RunArgs {
     pub preset: Option<String>,
     /// The method: euler, heun, rk4, dopri5; feedback-<base> (X − ∇V); projection-<base>;
     /// stormer-verlet-a / -b (partitioned models); splitting (models declaring
-    /// `splitting rigid_body(…)`). Default: the preset's, else feedback-euler.
+    /// `splitting rigid_body(…)`); taylor, feedback-taylor (the Taylor method on X − ∇V),
+    /// split-taylor (a Taylor step of X, then x ← x − h∇V). Default: the preset's, else
+    /// feedback-euler.
     #[arg(long, short)]
     pub method: Option<String>,
     /// Step size (the initial step for dopri5); default: the preset's.

@@ -92,11 +92,14 @@ pub enum Method {
     Splitting,
     /// The Taylor method of adaptive order and step (Jorba & Zou 2005) with tolerance
     /// `--rtol`, on X or (`feedback`) on X − ∇V, over the model's Taylor kernels (emitted
-    /// for compiled models, the interpreted tape for loaded ones).
+    /// for compiled models; for loaded ones compiled by the JIT, or interpreted).
     Taylor {
         /// On the feedback field X − ∇V.
         feedback: bool,
     },
+    /// The split step: a Taylor step of X, then one explicit gradient step x ← x − h∇V
+    /// (`lasalle_runtime::Taylor::set_split`); a feedback method (the gains apply).
+    SplitTaylor,
 }
 
 impl Method {
@@ -112,6 +115,7 @@ impl Method {
                 "splitting",
                 "taylor",
                 "feedback-taylor",
+                "split-taylor",
             ]
             .map(String::from),
         );
@@ -122,7 +126,7 @@ impl Method {
     pub fn is_feedback(self) -> bool {
         matches!(
             self,
-            Method::Feedback(_) | Method::Taylor { feedback: true }
+            Method::Feedback(_) | Method::Taylor { feedback: true } | Method::SplitTaylor
         )
     }
 
@@ -134,6 +138,7 @@ impl Method {
                 | Method::Feedback(Base::Dopri5)
                 | Method::Projection(Base::Dopri5)
                 | Method::Taylor { .. }
+                | Method::SplitTaylor
         )
     }
 }
@@ -149,6 +154,7 @@ impl fmt::Display for Method {
             Method::Splitting => f.write_str("splitting"),
             Method::Taylor { feedback: false } => f.write_str("taylor"),
             Method::Taylor { feedback: true } => f.write_str("feedback-taylor"),
+            Method::SplitTaylor => f.write_str("split-taylor"),
         }
     }
 }
@@ -169,6 +175,7 @@ impl FromStr for Method {
             "splitting" => Some(Method::Splitting),
             "taylor" => Some(Method::Taylor { feedback: false }),
             "feedback-taylor" => Some(Method::Taylor { feedback: true }),
+            "split-taylor" => Some(Method::SplitTaylor),
             k => {
                 if let Some(rest) = k.strip_prefix("feedback-") {
                     base(rest).map(Method::Feedback)
@@ -301,7 +308,7 @@ impl RunSpec {
         if matches!(self.gains, GainPolicy::Step { .. }) && !adaptive {
             return Err(format!(
                 "--gains step follows the step of an adaptive method (feedback-dopri5, \
-                 feedback-taylor); `{}` takes fixed steps: use --gains adaptive",
+                 feedback-taylor, split-taylor); `{}` takes fixed steps: use --gains adaptive",
                 self.method
             ));
         }
@@ -873,6 +880,10 @@ where
             } else {
                 Ok(drive(model, model, x0, spec).visit(taylor))
             }
+        }
+        Method::SplitTaylor => {
+            let taylor = taylor(model, spec)?.with_split(true);
+            feedback_run(model, x0, spec, FeedbackStepper::Taylor(taylor))
         }
     }
 }

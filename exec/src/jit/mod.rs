@@ -37,23 +37,25 @@ use cranelift_module::Module;
 use lasalle_codegen::ir::{Func, Func2, Rational};
 use lasalle_runtime::elliptic::ellipj;
 
+pub mod taylor;
+
 type EvalFn = crate::RawEval;
 type LanesFn =
     unsafe extern "C" fn(usize, *const f64, *const f64, *const f64, *const f64, *mut f64);
 
-extern "C" fn call_cbrt(x: f64) -> f64 {
+pub(crate) extern "C" fn call_cbrt(x: f64) -> f64 {
     x.cbrt()
 }
-extern "C" fn call_exp(x: f64) -> f64 {
+pub(crate) extern "C" fn call_exp(x: f64) -> f64 {
     x.exp()
 }
-extern "C" fn call_ln(x: f64) -> f64 {
+pub(crate) extern "C" fn call_ln(x: f64) -> f64 {
     x.ln()
 }
-extern "C" fn call_sin(x: f64) -> f64 {
+pub(crate) extern "C" fn call_sin(x: f64) -> f64 {
     x.sin()
 }
-extern "C" fn call_cos(x: f64) -> f64 {
+pub(crate) extern "C" fn call_cos(x: f64) -> f64 {
     x.cos()
 }
 extern "C" fn call_ellipk(m: f64) -> f64 {
@@ -81,8 +83,33 @@ extern "C" fn call_powf(x: f64, num: i32, den: i32) -> f64 {
     crate::interp::powf(x, Rational { num, den })
 }
 
-fn jit_err(e: impl std::fmt::Display) -> ExecError {
+pub(crate) fn jit_err(e: impl std::fmt::Display) -> ExecError {
     ExecError::Jit(e.to_string())
+}
+
+/// A JIT module for the host, optimising for speed (the IR verifier in debug builds only: the
+/// IR is built by this crate from validated tapes).
+pub(crate) fn jit_module(opt_level: &str) -> Result<JITModule, ExecError> {
+    let mut flags = settings::builder();
+    let set = |f: &mut settings::Builder, k, v| f.set(k, v).map_err(jit_err);
+    set(&mut flags, "use_colocated_libcalls", "false")?;
+    set(&mut flags, "is_pic", "false")?;
+    set(&mut flags, "opt_level", opt_level)?;
+    let verify = if cfg!(debug_assertions) {
+        "true"
+    } else {
+        "false"
+    };
+    set(&mut flags, "enable_verifier", verify)?;
+    let isa = cranelift_native::builder()
+        .map_err(jit_err)?
+        .finish(settings::Flags::new(flags))
+        .map_err(jit_err)?;
+    let module = JITModule::new(JITBuilder::with_isa(
+        isa,
+        cranelift_module::default_libcall_names(),
+    ));
+    Ok(module)
 }
 
 /// A tape compiled to native code.
@@ -132,26 +159,7 @@ impl JitKernel {
     /// Compiles a tape (checked with [`Tape::validate`]).
     pub fn new(tape: &Tape) -> Result<JitKernel, ExecError> {
         tape.validate()?;
-        let mut flags = settings::builder();
-        let set = |f: &mut settings::Builder, k, v| f.set(k, v).map_err(jit_err);
-        set(&mut flags, "use_colocated_libcalls", "false")?;
-        set(&mut flags, "is_pic", "false")?;
-        set(&mut flags, "opt_level", "speed")?;
-        // The IR is built by this module from validated tapes: verify it in debug builds only.
-        let verify = if cfg!(debug_assertions) {
-            "true"
-        } else {
-            "false"
-        };
-        set(&mut flags, "enable_verifier", verify)?;
-        let isa = cranelift_native::builder()
-            .map_err(jit_err)?
-            .finish(settings::Flags::new(flags))
-            .map_err(jit_err)?;
-        let mut module = JITModule::new(JITBuilder::with_isa(
-            isa,
-            cranelift_module::default_libcall_names(),
-        ));
+        let mut module = jit_module("speed")?;
         let compiled = Self::define(&mut module, tape);
         let (eval_id, lanes_id) = match compiled {
             Ok(ids) => ids,

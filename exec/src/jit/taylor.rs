@@ -1,0 +1,829 @@
+//! The Taylor-coefficient recurrences of a field tape ([`TaylorProgram`]) compiled by
+//! Cranelift for one order p: [`JitTaylor`], the default [`TaylorKernel`] of loaded models
+//! with the JIT back end (the interpreted [`TaylorTape`](crate::TaylorTape) stays the kernel
+//! of the interpreter back end, and the fallback for programs too large to unroll).
+//!
+//! # Code shape: fully unrolled
+//!
+//! Like heyoka's default (non-compact) mode, the function is straight-line code: the loop
+//! over the orders k = 0..p and every sum are unrolled, with no index arithmetic and no
+//! dispatch. Every coefficient is stored into one table (rows × (p + 1), row-major, the state
+//! rows first, which [`TaylorKernel::coefficients`] reads) at a constant offset, and read back
+//! by a load at its uses, emitted right before the product that consumes it so that x86 folds
+//! it into the multiplication: keeping all coefficients as SSA values instead made the
+//! register allocator spill them anyway, and compiled several times slower. The last few
+//! stored values are reused without a load. Rows constant along the solution
+//! have their higher coefficients as the constant 0, as in the interpreter's table.
+//!
+//! Unrolling costs code size quadratic in p: a nonlinear recurrence has about k terms at
+//! order k, ≈ p²/2 over the orders (≈ 22 bytes each), so Kepler's field is 39 KB of code at
+//! p = 19, the rigid body's 99 KB and Kepler's X − ∇V 280 KB. Code that large runs from
+//! beyond the instruction cache, each instruction once per step: unrolled, the rigid body's
+//! kernel at p = 19 was only 1.2× the interpreter. So above `UNROLL_LIMIT` estimated
+//! instructions (≈ 65 KB) the Cauchy sums of six or more terms become loops (the first term,
+//! then the rest in order: the same operations), which made that kernel 1.3× faster
+//! (2.3 → 1.8 µs) and made Kepler's (39 KB, unrolled) 1.4× slower when tried there.
+//! [`JitTaylor::new`] refuses (and the caller falls back to the interpreter) above
+//! [`MAX_INSTRUCTIONS`] estimated instructions, which bounds the compile time to ≈ 20 ms.
+//!
+//! # Bitwise agreement with the interpreter
+//!
+//! The operations are those of [`lasalle_runtime::taylor::rec`] in the same order: every sum
+//! is accumulated from its first term upwards (Rust's `f64` `Sum` folds from −0.0, and
+//! −0.0 + t = t exactly), products (j·a)·b with the integer weight j first (skipped for j = 1,
+//! 1·a = a exactly), the division by k + 1 as a product with the rounded 1/(k + 1), and the
+//! order-0 values through the same `std` and `lasalle_runtime::elliptic` functions (the
+//! `extern "C"` wrappers of the parent module and below). Cranelift neither fuses nor
+//! reassociates floating-point operations, so [`JitTaylor`] and [`TaylorTape`](crate::TaylorTape)
+//! agree bitwise (`exec/tests/taylor.rs`: every model in `models/`, field and X − ∇V, every
+//! operation's recurrence, the elliptic functions).
+
+use super::{call_cbrt, call_cos, call_exp, call_ln, call_sin, jit_err, jit_module};
+use crate::taylor::{Inputs, TaylorError};
+use crate::ExecError;
+use cranelift_codegen::ir::condcodes::IntCC;
+use cranelift_codegen::ir::immediates::Ieee64;
+use cranelift_codegen::ir::{
+    types, AbiParam, BlockArg, InstBuilder, MemFlagsData, Signature, StackSlotData, StackSlotKind,
+    Value,
+};
+use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
+use cranelift_jit::JITModule;
+use cranelift_module::Module;
+use lasalle_codegen::tape::taylor::{Leaf, PowZero, Rec, TaylorProgram};
+use lasalle_codegen::tape::Tape;
+use lasalle_runtime::taylor::TaylorKernel;
+use lasalle_runtime::StepError;
+
+/// `(state, hoisted, target, gains, table)`: fills the state rows of `table` (N × (p + 1),
+/// row-major) with x^\[0..=p\] of the solution through `state`.
+type TaylorFn = unsafe extern "C" fn(*const f64, *const f64, *const f64, *const f64, *mut f64);
+
+/// The largest estimated instruction count (see [`JitTaylor::instructions`]) compiled; above
+/// it [`JitTaylor::new`] returns `None` (the caller then interprets the recurrences). Cranelift
+/// compiles about 10⁶ of these per second here, so this bounds a kernel's compile time to
+/// about 20 ms. At p = 19 it admits the field X of every model in `models/` (the rigid body's
+/// is 15 276) and X − ∇V of the small ones (CR3BP 13 224, the closed-form pendulum 18 145), but
+/// not X − ∇V of Kepler (41 420) or the rigid body (68 153).
+pub const MAX_INSTRUCTIONS: usize = 20_000;
+
+/// How many of the last stored coefficients are reused as values instead of reloaded (the
+/// next recurrences usually read them: a store and a load back cost the store-forwarding
+/// latency on the critical path).
+const RECENT: usize = 4;
+
+/// Above this estimated size (≈ 65 KB of unrolled code, twice the instruction cache) the
+/// Cauchy sums of at least [`LOOP_TERMS`] terms are loops (see `Emit::cauchy`).
+const UNROLL_LIMIT: usize = 10_000;
+
+/// The shortest Cauchy sum made a loop in programs above [`UNROLL_LIMIT`].
+const LOOP_TERMS: usize = 6;
+
+/// Cranelift's optimisation level. Its e-graph passes find little to improve in straight-line
+/// IEEE arithmetic (no reassociation, no fusion), and what they do (sharing constants, moving
+/// loads) lengthens live ranges: "speed" made the Kepler kernel 1.2× and the rigid body's 1.5×
+/// slower than "none" (`--bench taylor`), and compiles slower.
+const OPT_LEVEL: &str = "none";
+
+extern "C" fn call_powf(x: f64, p: f64) -> f64 {
+    x.powf(p)
+}
+extern "C" fn call_ellipk(m: f64) -> f64 {
+    lasalle_runtime::elliptic::ellipk(m)
+}
+extern "C" fn call_ellipf(phi: f64, m: f64) -> f64 {
+    lasalle_runtime::elliptic::ellipf(phi, m)
+}
+/// sn, cn, dn of (u | m) into `out[0..3]`.
+///
+/// # Safety
+/// `out` points to 3 writable f64 that nothing else accesses during the call.
+unsafe extern "C" fn call_ellipj(u: f64, m: f64, out: *mut [f64; 3]) {
+    let j = lasalle_runtime::elliptic::ellipj(u, m);
+    // SAFETY: the caller's stack slot, see above
+    unsafe { *out = [j.sn, j.cn, j.dn] };
+}
+
+/// A field tape's Taylor recurrences compiled for the order p: a [`TaylorKernel`] of
+/// [`LoadedModel`](crate::LoadedModel); see the [module docs](self).
+pub struct JitTaylor {
+    inputs: Inputs,
+    /// Owns the code; freed on drop.
+    module: Option<JITModule>,
+    func: TaylorFn,
+    dim: usize,
+    /// The compiled order p (= the stride − 1 of the table).
+    order: usize,
+    /// The coefficients of every row, rows × (p + 1), row-major (the state rows first).
+    table: Vec<f64>,
+    /// The order asked for by the last [`TaylorKernel::compute`].
+    last: usize,
+}
+
+// SAFETY: the module is only touched again in `drop` (which has `&mut self`); the compiled
+// function keeps no state (it reads its arguments and writes the table passed to it).
+unsafe impl Send for JitTaylor {}
+
+impl Drop for JitTaylor {
+    fn drop(&mut self) {
+        if let Some(module) = self.module.take() {
+            // SAFETY: the function pointer into this module lives in `self` only and is
+            // never used again after drop.
+            unsafe { module.free_memory() };
+        }
+    }
+}
+
+impl std::fmt::Debug for JitTaylor {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("JitTaylor")
+            .field("dim", &self.dim)
+            .field("order", &self.order)
+            .finish_non_exhaustive()
+    }
+}
+
+impl JitTaylor {
+    /// Compiles the recurrences of `tape` (a field) for the order `order` with parameter
+    /// values `params`; `Ok(None)` if the unrolled code would exceed [`MAX_INSTRUCTIONS`].
+    pub fn new(tape: &Tape, params: &[f64], order: u32) -> Result<Option<JitTaylor>, TaylorError> {
+        let program = TaylorProgram::new(tape)?;
+        if order == 0 {
+            return Err(lasalle_runtime::TaylorError("the order must be at least 1".into()).into());
+        }
+        let p = order as usize;
+        if Self::instructions(&program, p) > MAX_INSTRUCTIONS {
+            return Ok(None);
+        }
+        let inputs = Inputs::new(tape, params)?;
+        let mut module = jit_module(OPT_LEVEL).map_err(TaylorError::Jit)?;
+        let id = match define(&mut module, &program, p) {
+            Ok(id) => id,
+            Err(e) => {
+                // SAFETY: nothing compiled in this module has been handed out.
+                unsafe { module.free_memory() };
+                return Err(TaylorError::Jit(e));
+            }
+        };
+        let code = module.get_finalized_function(id);
+        // SAFETY: the function was just defined with this signature (five pointers, the host's
+        // C calling convention), and the module owning its code lives in the result.
+        let func = unsafe { std::mem::transmute::<*const u8, TaylorFn>(code) };
+        Ok(Some(JitTaylor {
+            inputs,
+            module: Some(module),
+            func,
+            dim: program.dim,
+            order: p,
+            table: vec![0.0; program.rows * (p + 1)],
+            last: 0,
+        }))
+    }
+
+    /// An estimate of the IR instructions of the unrolled code at order p: the sums of the
+    /// non-constant recurrences, counted in half sums (a folded square or square-root sum is
+    /// one, a Cauchy product, quotient, power or weighted sum two, sin and cos four, sn, cn,
+    /// dn with their three products twelve); a full sum has about k terms at order k, so
+    /// p(p − 1)/2 over the orders, of four instructions each (two loads, a product, a sum);
+    /// plus one instruction per recurrence and order for the rest.
+    pub fn instructions(program: &TaylorProgram, p: usize) -> usize {
+        let sums = |r: &Rec| match r {
+            Rec::Leaf { .. }
+            | Rec::Add { .. }
+            | Rec::Sub { .. }
+            | Rec::Neg { .. }
+            | Rec::Scale { .. }
+            | Rec::DivConst { .. }
+            | Rec::EllipK { .. } => 0,
+            Rec::Square { .. } | Rec::Sqrt { .. } => 1,
+            Rec::SinCos { .. } => 4,
+            Rec::Jacobi { .. } => 12,
+            _ => 2,
+        };
+        let per_order: usize = program
+            .recs
+            .iter()
+            .filter(|(_, constant)| !constant)
+            .map(|(r, _)| sums(r))
+            .sum();
+        let all = program.recs.len() + program.dim;
+        // half sums × p(p − 1)/4 terms × 4 instructions
+        per_order * p * (p - 1) + all * p
+    }
+}
+
+impl TaylorKernel<crate::LoadedModel> for JitTaylor {
+    fn dim(&self) -> usize {
+        self.dim
+    }
+
+    fn max_order(&self) -> usize {
+        self.order
+    }
+
+    fn sync(&mut self, model: &crate::LoadedModel) -> Result<(), StepError> {
+        self.inputs.sync(model)
+    }
+
+    fn set_inputs(&mut self, target: &[f64], gains: &[f64]) -> Result<(), StepError> {
+        self.inputs.set_inputs(target, gains)
+    }
+
+    /// Always computes the compiled order p (the coefficients up to a lower `order` are the
+    /// same values) and hands out `order + 1` of them.
+    ///
+    /// # Panics
+    /// If `x.len()` is not the state dimension.
+    fn compute(&mut self, x: &[f64], order: usize) {
+        assert_eq!(x.len(), self.dim, "state dimension");
+        self.last = order.min(self.order);
+        let i = &self.inputs;
+        // SAFETY: the code reads x[..N], hoisted[..H], target[..M], gains[..G] and writes
+        // table[..N(p + 1)]; `x` was checked above, `Inputs` keeps the hoisted values, targets
+        // and gains at the tape's sizes, and the table was allocated with N(p + 1) entries.
+        // The code lives as long as `self`.
+        unsafe {
+            (self.func)(
+                x.as_ptr(),
+                i.hoisted.as_ptr(),
+                i.target.as_ptr(),
+                i.gains.as_ptr(),
+                self.table.as_mut_ptr(),
+            )
+        }
+    }
+
+    fn coefficients(&self, i: usize) -> &[f64] {
+        let s = self.order + 1;
+        &self.table[i * s..i * s + self.last + 1]
+    }
+}
+
+/// Defines and finalises the function; returns its id.
+fn define(
+    module: &mut JITModule,
+    program: &TaylorProgram,
+    p: usize,
+) -> Result<cranelift_module::FuncId, ExecError> {
+    // every offset into the table fits an immediate
+    offset(program.rows * (p + 1))?;
+    let ptr = module.target_config().pointer_type();
+    let mut sig = module.make_signature();
+    sig.params.extend([AbiParam::new(ptr); 5]);
+    let id = module.declare_anonymous_function(&sig).map_err(jit_err)?;
+    let mut ctx = module.make_context();
+    ctx.func.signature = sig;
+    let mut fctx = FunctionBuilderContext::new();
+    {
+        let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
+        let entry = b.create_block();
+        b.append_block_params_for_function_params(entry);
+        b.switch_to_block(entry);
+        let args: [Value; 5] = b.block_params(entry).try_into().expect("five parameters");
+        let mut unary = module.make_signature();
+        unary.params.push(AbiParam::new(types::F64));
+        unary.returns.push(AbiParam::new(types::F64));
+        let mut binary = unary.clone();
+        binary.params.push(AbiParam::new(types::F64));
+        let mut ellipj = module.make_signature();
+        ellipj
+            .params
+            .extend([AbiParam::new(types::F64), AbiParam::new(types::F64)]);
+        ellipj.params.push(AbiParam::new(ptr));
+        let zero = b.ins().f64const(Ieee64::with_bits(0f64.to_bits()));
+        let [state, hoisted, target, gains, table] = args;
+        let mut e = Emit {
+            b,
+            ptr,
+            unary,
+            binary,
+            ellipj,
+            table,
+            stride: p + 1,
+            rows: vec![0; program.rows],
+            loops: JitTaylor::instructions(program, p) > UNROLL_LIMIT,
+            recent: Default::default(),
+            zero,
+            ellipj_out: None,
+        };
+        let leaves = Leaves {
+            state,
+            hoisted,
+            target,
+            gains,
+        };
+        e.body(program, p, &leaves)?;
+        e.b.ins().return_(&[]);
+        e.b.seal_all_blocks();
+        e.b.finalize(module.target_config());
+    }
+    module.define_function(id, &mut ctx).map_err(jit_err)?;
+    module.clear_context(&mut ctx);
+    module.finalize_definitions().map_err(jit_err)?;
+    Ok(id)
+}
+
+/// A byte offset for element `i` of an input or of the table.
+fn offset(i: usize) -> Result<i32, ExecError> {
+    i.checked_mul(8)
+        .and_then(|o| i32::try_from(o).ok())
+        .ok_or_else(|| ExecError::Jit(format!("index {i} too large for an immediate offset")))
+}
+
+/// The function being built.
+struct Emit<'a> {
+    b: FunctionBuilder<'a>,
+    ptr: types::Type,
+    unary: Signature,
+    binary: Signature,
+    ellipj: Signature,
+    /// The table's address and its stride p + 1.
+    table: Value,
+    stride: usize,
+    /// How many orders of each row are in the table.
+    rows: Vec<usize>,
+    /// Long Cauchy sums as loops (programs above [`UNROLL_LIMIT`]).
+    loops: bool,
+    /// The last values stored, (row, order, value), read back without a load.
+    recent: std::collections::VecDeque<(usize, usize, Value)>,
+    /// The constant 0 (the higher coefficients of rows constant along the solution).
+    zero: Value,
+    /// The address of a 3-f64 stack slot for `call_ellipj`, once needed.
+    ellipj_out: Option<Value>,
+}
+
+impl Emit<'_> {
+    /// Order k of row r: a load from the table (0 past the order-0 value of a constant row).
+    fn c(&mut self, r: usize, k: usize) -> Value {
+        if k >= self.rows[r] {
+            return self.zero;
+        }
+        if let Some(&(_, _, v)) = self.recent.iter().find(|&&(rr, kk, _)| rr == r && kk == k) {
+            return v;
+        }
+        let off = (r * self.stride + k) * 8;
+        let off = i32::try_from(off).expect("table size checked in `define`");
+        self.b
+            .ins()
+            .load(types::F64, MemFlagsData::trusted(), self.table, off)
+    }
+
+    /// Stores order k of row `d`.
+    fn push(&mut self, d: usize, k: usize, v: Value) {
+        debug_assert_eq!(self.rows[d], k, "orders in sequence");
+        let off = (d * self.stride + k) * 8;
+        let off = i32::try_from(off).expect("table size checked in `define`");
+        self.b
+            .ins()
+            .store(MemFlagsData::trusted(), v, self.table, off);
+        self.rows[d] += 1;
+        if self.recent.len() == RECENT {
+            self.recent.pop_front();
+        }
+        self.recent.push_back((d, k, v));
+    }
+
+    fn fadd(&mut self, x: Value, y: Value) -> Value {
+        self.b.ins().fadd(x, y)
+    }
+
+    fn fsub(&mut self, x: Value, y: Value) -> Value {
+        self.b.ins().fsub(x, y)
+    }
+
+    fn fmul(&mut self, x: Value, y: Value) -> Value {
+        self.b.ins().fmul(x, y)
+    }
+
+    fn fdiv(&mut self, x: Value, y: Value) -> Value {
+        self.b.ins().fdiv(x, y)
+    }
+
+    fn fneg(&mut self, x: Value) -> Value {
+        self.b.ins().fneg(x)
+    }
+
+    fn constant(&mut self, x: f64) -> Value {
+        self.b.ins().f64const(Ieee64::with_bits(x.to_bits()))
+    }
+
+    fn load(&mut self, base: Value, i: usize) -> Result<Value, ExecError> {
+        let flags = MemFlagsData::trusted().with_readonly().with_can_move();
+        Ok(self.b.ins().load(types::F64, flags, base, offset(i)?))
+    }
+
+    fn call(&mut self, f: usize, sig: &Signature, args: &[Value]) -> Option<Value> {
+        let sig = self.b.import_signature(sig.clone());
+        let callee = self.b.ins().iconst(self.ptr, f as i64);
+        let call = self.b.ins().call_indirect(sig, callee, args);
+        self.b.inst_results(call).first().copied()
+    }
+
+    fn unary(&mut self, f: extern "C" fn(f64) -> f64, x: Value) -> Value {
+        let sig = self.unary.clone();
+        self.call(f as *const () as usize, &sig, &[x])
+            .expect("one result")
+    }
+
+    fn binary(&mut self, f: extern "C" fn(f64, f64) -> f64, x: Value, y: Value) -> Value {
+        let sig = self.binary.clone();
+        self.call(f as *const () as usize, &sig, &[x, y])
+            .expect("one result")
+    }
+
+    /// Σ_{j ∈ js} x_j·y_j from the first term upwards, `None` if empty; `term(j)` emits the
+    /// factors' loads right before their product, so that the loads fold into the products
+    /// and nothing is kept in registers across the sum.
+    fn sum(
+        &mut self,
+        js: impl IntoIterator<Item = usize>,
+        mut term: impl FnMut(&mut Self, usize) -> (Value, Value),
+    ) -> Option<Value> {
+        let mut acc: Option<Value> = None;
+        for j in js {
+            let (x, y) = term(self, j);
+            let t = self.fmul(x, y);
+            acc = Some(match acc {
+                None => t,
+                Some(s) => self.fadd(s, t),
+            });
+        }
+        acc
+    }
+
+    /// Σ_{j=lo}^{hi} a^\[j\] b^\[k−j\] (`rec::cauchy`; 0 if lo > hi): unrolled below
+    /// [`LOOP_TERMS`] terms, else the first term and then a loop over the rest (the same
+    /// operations in the same order, on the table).
+    fn cauchy(&mut self, a: usize, b: usize, k: usize, lo: usize, hi: usize) -> Value {
+        let short = hi < lo + LOOP_TERMS - 1;
+        if !self.loops || short || self.rows[a] <= hi || self.rows[b] <= k - lo {
+            return self
+                .sum(lo..=hi, |e, j| (e.c(a, j), e.c(b, k - j)))
+                .unwrap_or(self.zero);
+        }
+        let (x, y) = (self.c(a, lo), self.c(b, k - lo));
+        let first = self.fmul(x, y);
+        let ptr = self.ptr;
+        let at = |e: &mut Self, r: usize, j: usize| {
+            let off = ((r * e.stride + j) * 8) as i64;
+            let off = e.b.ins().iconst(ptr, off);
+            e.b.ins().iadd(e.table, off)
+        };
+        let pa = at(self, a, lo + 1);
+        let pb = at(self, b, k - lo - 1);
+        let end = at(self, a, hi + 1);
+        let body = self.b.create_block();
+        let acc = self.b.append_block_param(body, types::F64);
+        let pa_v = self.b.append_block_param(body, ptr);
+        let pb_v = self.b.append_block_param(body, ptr);
+        let exit = self.b.create_block();
+        let result = self.b.append_block_param(exit, types::F64);
+        let args = [first, pa, pb].map(BlockArg::Value);
+        self.b.ins().jump(body, &args);
+        self.b.switch_to_block(body);
+        let flags = MemFlagsData::trusted();
+        let x = self.b.ins().load(types::F64, flags, pa_v, 0);
+        let y = self.b.ins().load(types::F64, flags, pb_v, 0);
+        let t = self.fmul(x, y);
+        let acc = self.fadd(acc, t);
+        let eight = self.b.ins().iconst(ptr, 8);
+        let pa_n = self.b.ins().iadd(pa_v, eight);
+        let pb_n = self.b.ins().isub(pb_v, eight);
+        let more = self.b.ins().icmp(IntCC::NotEqual, pa_n, end);
+        let again = [acc, pa_n, pb_n].map(BlockArg::Value);
+        self.b
+            .ins()
+            .brif(more, body, &again, exit, &[BlockArg::Value(acc)]);
+        self.b.switch_to_block(exit);
+        result
+    }
+
+    /// j·x for the weight j: exact and skipped for j = 1.
+    fn weight(&mut self, j: usize, x: Value) -> Value {
+        if j == 1 {
+            x
+        } else {
+            let w = self.constant(j as f64);
+            self.fmul(w, x)
+        }
+    }
+
+    /// Σ_{j=1}^{k} (j a^\[j\]) b^\[k−j\] (`rec::weighted`).
+    fn weighted(&mut self, a: usize, b: usize, k: usize) -> Value {
+        self.sum(1..=k, |e, j| {
+            let x = e.c(a, j);
+            (e.weight(j, x), e.c(b, k - j))
+        })
+        .expect("k ≥ 1 terms")
+    }
+
+    /// (Σ_{j=1}^{k−1} a^\[j\] b^\[k−j\] + a^\[0\] b^\[k\]) + a^\[k\] b^\[0\] (`rec::mul`).
+    fn mul(&mut self, a: usize, b: usize, k: usize) -> Value {
+        let s = self.cauchy(a, b, k, 1, k - 1);
+        let (x, y) = (self.c(a, 0), self.c(b, k));
+        let t = self.fmul(x, y);
+        let s = self.fadd(s, t);
+        let (x, y) = (self.c(a, k), self.c(b, 0));
+        let t = self.fmul(x, y);
+        self.fadd(s, t)
+    }
+
+    /// 2 (Σ_{j=lo}^{(k−1)/2} a^\[j\] a^\[k−j\] (+ a^\[0\] a^\[k\] if `newest`)) + a^\[k/2\]² for even
+    /// k: `rec::square` (lo = 1 with the newest term) and `rec::sqrt`'s sum (lo = 1 without).
+    fn folded(&mut self, a: usize, k: usize, newest: bool) -> Value {
+        let half = (k - 1) / 2;
+        let mut s = self.cauchy(a, a, k, 1, half);
+        if newest {
+            let (x, y) = (self.c(a, 0), self.c(a, k));
+            let t = self.fmul(x, y);
+            s = self.fadd(s, t);
+        }
+        let two = self.constant(2.0);
+        let mut s = self.fmul(two, s);
+        if k.is_multiple_of(2) {
+            let m = self.c(a, k / 2);
+            let sq = self.fmul(m, m);
+            s = self.fadd(s, sq);
+        }
+        s
+    }
+
+    /// w / k.
+    fn over_k(&mut self, w: Value, k: usize) -> Value {
+        let kv = self.constant(k as f64);
+        self.fdiv(w, kv)
+    }
+
+    /// The whole function: orders 0..p of every recurrence into the table.
+    fn body(
+        &mut self,
+        program: &TaylorProgram,
+        p: usize,
+        leaves: &Leaves,
+    ) -> Result<(), ExecError> {
+        for i in 0..program.dim {
+            let x = self.load(leaves.state, i)?;
+            self.push(i, 0, x);
+        }
+        for k in 0..p {
+            for &(r, constant) in &program.recs {
+                if k == 0 {
+                    self.zeroth(r, leaves)?;
+                } else if !constant {
+                    self.coefficient(r, k);
+                }
+            }
+            let inv = self.constant(1.0 / (k as f64 + 1.0));
+            for (i, &o) in program.outputs.iter().enumerate() {
+                let x = self.c(o, k);
+                let v = self.fmul(x, inv);
+                self.push(i, k + 1, v);
+            }
+        }
+        Ok(())
+    }
+
+    /// Order 0 (as `zeroth` of the interpreter).
+    fn zeroth(&mut self, r: Rec, leaves: &Leaves) -> Result<(), ExecError> {
+        let (d, v) = match r {
+            Rec::Leaf { d, leaf } => (
+                d,
+                match leaf {
+                    Leaf::Const(x) => self.constant(x),
+                    Leaf::Hoisted(k) => self.load(leaves.hoisted, k)?,
+                    Leaf::Target(k) => self.load(leaves.target, k)?,
+                    Leaf::Gain(k) => self.load(leaves.gains, k)?,
+                },
+            ),
+            Rec::Add { d, a, b } => {
+                let (x, y) = (self.c(a, 0), self.c(b, 0));
+                (d, self.fadd(x, y))
+            }
+            Rec::Sub { d, a, b } => {
+                let (x, y) = (self.c(a, 0), self.c(b, 0));
+                (d, self.fsub(x, y))
+            }
+            Rec::Neg { d, a } => {
+                let x = self.c(a, 0);
+                (d, self.fneg(x))
+            }
+            Rec::Mul { d, a, b } | Rec::Scale { d, a, c: b } => {
+                let (x, y) = (self.c(a, 0), self.c(b, 0));
+                (d, self.fmul(x, y))
+            }
+            Rec::Square { d, a } => {
+                let x = self.c(a, 0);
+                (d, self.fmul(x, x))
+            }
+            Rec::Div { d, a, b } | Rec::DivConst { d, a, c: b } => {
+                let (x, y) = (self.c(a, 0), self.c(b, 0));
+                (d, self.fdiv(x, y))
+            }
+            Rec::Pow { d, a, zero, .. } => {
+                let x = self.c(a, 0);
+                let v = match zero {
+                    PowZero::Cbrt => self.unary(call_cbrt, x),
+                    PowZero::Powf(q) => {
+                        let q = self.constant(q);
+                        self.binary(call_powf, x, q)
+                    }
+                };
+                (d, v)
+            }
+            Rec::Sqrt { d, a } => {
+                let x = self.c(a, 0);
+                (d, self.b.ins().sqrt(x))
+            }
+            Rec::Exp { d, a } => {
+                let x = self.c(a, 0);
+                (d, self.unary(call_exp, x))
+            }
+            Rec::Ln { d, a } => {
+                let x = self.c(a, 0);
+                (d, self.unary(call_ln, x))
+            }
+            Rec::SinCos { s, c, a } => {
+                let x = self.c(a, 0);
+                let sv = self.unary(call_sin, x);
+                let cv = self.unary(call_cos, x);
+                self.push(s, 0, sv);
+                self.push(c, 0, cv);
+                return Ok(());
+            }
+            Rec::Jacobi { rows, a, m } => {
+                let out = match self.ellipj_out {
+                    Some(out) => out,
+                    None => {
+                        let slot = self.b.create_sized_stack_slot(StackSlotData::new(
+                            StackSlotKind::ExplicitSlot,
+                            24,
+                            3,
+                        ));
+                        let out = self.b.ins().stack_addr(self.ptr, slot, 0);
+                        self.ellipj_out = Some(out);
+                        out
+                    }
+                };
+                let (u, m) = (self.c(a, 0), self.c(m, 0));
+                let sig = self.ellipj.clone();
+                self.call(call_ellipj as *const () as usize, &sig, &[u, m, out]);
+                let flags = MemFlagsData::trusted();
+                let [sn, cn, dn] =
+                    [0, 8, 16].map(|off| self.b.ins().load(types::F64, flags, out, off));
+                let cd = self.fmul(cn, dn);
+                let sd = self.fmul(sn, dn);
+                let sc = self.fmul(sn, cn);
+                for (r, v) in rows.into_iter().zip([sn, cn, dn, cd, sd, sc]) {
+                    self.push(r, 0, v);
+                }
+                return Ok(());
+            }
+            Rec::EllipK { d, a } => {
+                let x = self.c(a, 0);
+                (d, self.unary(call_ellipk, x))
+            }
+            Rec::EllipF { d, a, m, .. } => {
+                let (x, m) = (self.c(a, 0), self.c(m, 0));
+                (d, self.binary(call_ellipf, x, m))
+            }
+        };
+        self.push(d, 0, v);
+        Ok(())
+    }
+
+    /// Order k ≥ 1 of a non-constant recurrence (as `rec`).
+    fn coefficient(&mut self, r: Rec, k: usize) {
+        let (d, v) = match r {
+            Rec::Leaf { .. } | Rec::EllipK { .. } => return,
+            Rec::Add { d, a, b } => {
+                let (x, y) = (self.c(a, k), self.c(b, k));
+                (d, self.fadd(x, y))
+            }
+            Rec::Sub { d, a, b } => {
+                let (x, y) = (self.c(a, k), self.c(b, k));
+                (d, self.fsub(x, y))
+            }
+            Rec::Neg { d, a } => {
+                let x = self.c(a, k);
+                (d, self.fneg(x))
+            }
+            Rec::Mul { d, a, b } => (d, self.mul(a, b, k)),
+            Rec::Scale { d, a, c } => {
+                let (x, y) = (self.c(a, k), self.c(c, 0));
+                (d, self.fmul(x, y))
+            }
+            Rec::Square { d, a } => (d, self.folded(a, k, true)),
+            Rec::Div { d, a, b } => {
+                let s = self.cauchy(b, d, k, 1, k);
+                let x = self.c(a, k);
+                let num = self.fsub(x, s);
+                let b0 = self.c(b, 0);
+                (d, self.fdiv(num, b0))
+            }
+            Rec::DivConst { d, a, c } => {
+                let (x, y) = (self.c(a, k), self.c(c, 0));
+                (d, self.fdiv(x, y))
+            }
+            Rec::Pow { d, a, alpha, .. } => {
+                // Σ_{j=1}^{k−1} (α(k−j) − j) a^[k−j] u^[j], then the term j = 0, the weights
+                // rounded as `rec::pow`'s
+                let kf = k as f64;
+                let s = self.sum(1..k, |e, j| {
+                    let w = e.constant(alpha * (kf - j as f64) - j as f64);
+                    let x = e.c(a, k - j);
+                    (e.fmul(w, x), e.c(d, j))
+                });
+                let w = self.constant(alpha * kf);
+                let x = self.c(a, k);
+                let x = self.fmul(w, x);
+                let u0 = self.c(d, 0);
+                let t = self.fmul(x, u0);
+                let s = match s {
+                    Some(s) => self.fadd(s, t),
+                    None => t,
+                };
+                let kv = self.constant(kf);
+                let a0 = self.c(a, 0);
+                let den = self.fmul(kv, a0);
+                (d, self.fdiv(s, den))
+            }
+            Rec::Sqrt { d, a } => {
+                let s = if k >= 2 {
+                    self.folded(d, k, false)
+                } else {
+                    self.zero
+                };
+                let x = self.c(a, k);
+                let num = self.fsub(x, s);
+                let two = self.constant(2.0);
+                let u0 = self.c(d, 0);
+                let den = self.fmul(two, u0);
+                (d, self.fdiv(num, den))
+            }
+            Rec::Exp { d, a } => {
+                let s = self.weighted(a, d, k);
+                (d, self.over_k(s, k))
+            }
+            Rec::Ln { d, a } => {
+                // Σ_{j=1}^{k−1} (j u^[j]) a^[k−j]
+                let s = self
+                    .sum(1..k, |e, j| {
+                        let u = e.c(d, j);
+                        (e.weight(j, u), e.c(a, k - j))
+                    })
+                    .unwrap_or(self.zero);
+                let q = self.over_k(s, k);
+                let x = self.c(a, k);
+                let num = self.fsub(x, q);
+                let a0 = self.c(a, 0);
+                (d, self.fdiv(num, a0))
+            }
+            Rec::SinCos { s, c, a } => {
+                let ws = self.weighted(a, c, k);
+                let wc = self.weighted(a, s, k);
+                let sk = self.over_k(ws, k);
+                let nwc = self.fneg(wc);
+                let ck = self.over_k(nwc, k);
+                self.push(s, k, sk);
+                self.push(c, k, ck);
+                return;
+            }
+            Rec::Jacobi { rows, a, m } => {
+                let [sn, cn, dn, cd, sd, sc] = rows;
+                let w = self.weighted(a, cd, k);
+                let sk = self.over_k(w, k);
+                let w = self.weighted(a, sd, k);
+                let nw = self.fneg(w);
+                let ck = self.over_k(nw, k);
+                let w = self.weighted(a, sc, k);
+                let m0 = self.c(m, 0);
+                let nm = self.fneg(m0);
+                let mw = self.fmul(nm, w);
+                let dk = self.over_k(mw, k);
+                self.push(sn, k, sk);
+                self.push(cn, k, ck);
+                self.push(dn, k, dk);
+                let v = self.mul(cn, dn, k);
+                self.push(cd, k, v);
+                let v = self.mul(sn, dn, k);
+                self.push(sd, k, v);
+                let v = self.mul(sn, cn, k);
+                self.push(sc, k, v);
+                return;
+            }
+            Rec::EllipF { d, a, w, .. } => {
+                let s = self.weighted(a, w, k);
+                (d, self.over_k(s, k))
+            }
+        };
+        self.push(d, k, v);
+    }
+}
+
+/// The input pointers.
+struct Leaves {
+    state: Value,
+    hoisted: Value,
+    target: Value,
+    gains: Value,
+}
