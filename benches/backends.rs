@@ -139,8 +139,8 @@ fn tapes(stem: &str) -> lasalle_codegen::tape::ModelTapes {
         .find(|(s, _)| *s == stem)
         .expect("a model of models/");
     let model = lasalle_codegen::lower_source(&format!("models/{stem}.lsl"), text).expect("lowers");
-    let derived = lasalle_codegen::derive::derive(model);
-    lasalle_codegen::check::check(&derived).expect("checks");
+    let derived = lasalle_codegen::derive(model);
+    lasalle_codegen::check(&derived).expect("checks");
     lasalle_codegen::tape::ModelTapes::new(&derived).expect("tapes")
 }
 

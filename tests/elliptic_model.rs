@@ -148,7 +148,7 @@ fn euler_top_closed_form_matches_the_extremal() {
     assert!(
         matches!(
             cf.conservation()[0].verdict,
-            lasalle_codegen::check::Verdict::Proved
+            lasalle_codegen::Verdict::Proved
         ),
         "{:?}",
         cf.conservation()[0].verdict

@@ -5,21 +5,29 @@
 //! conservation of every declared integral) and emitted as plain, formatted Rust that
 //! implements the traits of `lasalle-runtime`.
 //!
-//! Pipeline: [`parse`] → [`model`] (lowering onto [`ir`]) → [`derive`](mod@derive) → [`check`] → [`emit`],
-//! each stage a function of the previous stage's output type:
+//! Pipeline: parse → lower (onto [`ir`]) → derive → check → emit, each stage a function of the
+//! previous stage's output type:
 //!
 //! ```text
 //! lower_source(path, text) -> Model          parse and lower onto one hash-consed graph
-//! derive::derive(Model)    -> Derived        Df, ∇f·X, ∇V, X − ∇V, the partition
-//! check::check(&Derived)   -> Checked<'_>    every invariant conserved, every constant finite
-//! emit::emit(&Checked)     -> Emitted        Rust items, statistics, the tape kernels
+//! derive(Model)            -> Derived        Df, ∇f·X, ∇V, X − ∇V, the partition
+//! check(&Derived)          -> Checked<'_>    every invariant conserved, every constant finite
+//! emit(&Checked)           -> Emitted        Rust items, statistics, the tape kernels
 //! ```
+//! ([`lower_source`], [`derive()`], [`check()`], [`emit()`]; [`generate_source`] runs them all.)
 //!
-//! Pure graph operations (derivatives [`ir::diff`] and [`ir::gradient`], evaluation,
-//! simplification) live in [`ir`], so lowering (Hamilton's equations need ∇H) never calls a
-//! later stage; what the field's structure is (partitioned or not) is asked of the model
-//! ([`Model::partition`]). Run-time back ends start from a [`derive::Derived`] model:
-//! [`tape::ModelTapes::new`].
+//! # What is public
+//!
+//! The stages are private modules; what they hand over is re-exported here, in one list: the
+//! stage functions and their output types, the lowered [`Model`] with the types of its
+//! fields, the conservation verdicts and the errors. Three modules are public because other
+//! crates build on them: [`ir`], the expression graph (evaluated generically over a
+//! [`Scalar`](ir::Scalar) by the normal forms and the stability analysis, and the home of the
+//! pure graph operations [`ir::diff`] and [`ir::gradient`], so lowering — Hamilton's equations
+//! need ∇H — never calls a later stage); [`tape`], the execution IR the JIT, the interpreter
+//! and the Taylor kernels run ([`tape::ModelTapes::new`] takes a [`Derived`] model); and
+//! [`vocabulary`], the DSL's built-in functions and keywords, declared once. What the field's
+//! structure is (partitioned or not) is asked of the model ([`Model::partition`]).
 //! The language's built-in functions and keywords are declared once, in [`vocabulary`].
 //!
 //! In a build script:
@@ -34,18 +42,24 @@
 //! ```
 #![warn(missing_docs)]
 
-pub mod check;
-pub mod derive;
-pub mod emit;
+mod check;
+mod derive;
+mod emit;
 mod error;
 pub mod ir;
-pub mod model;
-pub mod parse;
+mod model;
+mod parse;
 pub mod tape;
 pub mod vocabulary;
 
+pub use check::{check, Checked, Conservation, Verdict};
+pub use derive::{derive, Derivatives, Derived};
+pub use emit::{emit, snake, Emitted, Ops, Stats};
 pub use error::{Diagnostic, DiagnosticKind, Error, Result, Source, Span};
-pub use model::Model;
+pub use model::{
+    Binding, CanonicalHamiltonian, Gain, Guard, Hamiltonian, Invariant, InvariantKind, Model,
+    NotCanonical, Param, Point, Preset, Shape, Splitting, StateVar, Structure, Value, GUARD_STEP,
+};
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -111,9 +125,9 @@ pub struct GeneratedModel {
 /// Generates the code of one model text: the whole pipeline.
 pub fn generate_source(path: &str, text: &str) -> Result<GeneratedModel> {
     let start = Instant::now();
-    let derived = derive::derive(lower_source(path, text)?);
-    let checked = check::check(&derived)?;
-    let emitted = emit::emit(&checked)?;
+    let derived = derive(lower_source(path, text)?);
+    let checked = check(&derived)?;
+    let emitted = emit(&checked)?;
     let model = &derived.model;
     let mut code = emit::format(&emitted.items)?;
     code.push_str(&emitted.tape_code);

@@ -1,8 +1,8 @@
 //! Constraints are checked together on their common manifold, and integrals may hold on it
 //! only (the spherical pendulum: |x|² − 1 and x·v, and its energy).
 
-use lasalle_codegen::check::Verdict;
 use lasalle_codegen::generate_source;
+use lasalle_codegen::Verdict;
 
 const PENDULUM: &str = "model SphericalPendulum {
     state x: vec3, v: vec3;

@@ -6,7 +6,7 @@
 
 use std::collections::HashMap;
 
-use lasalle_codegen::derive::derive;
+use lasalle_codegen::derive;
 use lasalle_codegen::ir::diff;
 use lasalle_codegen::ir::Input;
 use lasalle_codegen::{generate_source, lower_source};

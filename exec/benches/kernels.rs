@@ -34,8 +34,8 @@ fn build(
     backend: Backend,
 ) -> (lasalle_codegen::Model, ModelTapes, Vec<Box<dyn Kernel>>) {
     let model = lasalle_codegen::lower_source(name, text).expect("model");
-    let derived = lasalle_codegen::derive::derive(model);
-    lasalle_codegen::check::check(&derived).expect("check");
+    let derived = lasalle_codegen::derive(model);
+    lasalle_codegen::check(&derived).expect("check");
     let tapes = ModelTapes::new(&derived).expect("tapes");
     let kernels = tapes
         .all()

@@ -15,7 +15,7 @@
 //!
 //! let text = "model Osc { state q: scalar, p: scalar; param w = 2;
 //!             d/dt q = p; d/dt p = -w^2 * q; integral E = p^2/2 + w^2 * q^2/2; }";
-//! let derived = derive::derive(lasalle_codegen::lower_source("osc.lsl", text).unwrap());
+//! let derived = derive(lasalle_codegen::lower_source("osc.lsl", text).unwrap());
 //! let tapes = ModelTapes::new(&derived).unwrap();
 //! let field = Backend::default().compile(&tapes.field).unwrap();
 //! let hoisted = field.hoist(&derived.model.default_params()).unwrap();

@@ -23,12 +23,12 @@
 
 use std::time::{Duration, Instant};
 
-use lasalle_codegen::check::Conservation;
-use lasalle_codegen::derive::{self, Derived};
 use lasalle_codegen::ir::Input;
-use lasalle_codegen::model::{Splitting, GUARD_STEP};
 use lasalle_codegen::tape::{Dims, ModelTapes, Tape, TapeBuilder};
+use lasalle_codegen::Conservation;
 use lasalle_codegen::Model;
+use lasalle_codegen::{derive, Derived};
+use lasalle_codegen::{Splitting, GUARD_STEP};
 use lasalle_runtime::{
     Declared, Field, GuardFailure, InvariantInfo, Invariants, Lyapunov, ModelInfo, ParamError,
     Parameters, Partitioned, Preset, RigidBodySplitting, Shape, Slot,
@@ -289,8 +289,8 @@ impl LoadedModel {
     /// file in messages.
     pub fn from_source(path: &str, text: &str, backend: Backend) -> Result<LoadedModel, LoadError> {
         let start = Instant::now();
-        let derived = derive::derive(lasalle_codegen::lower_source(path, text)?);
-        let conservation = lasalle_codegen::check::check(&derived)?.into_conservation();
+        let derived = derive(lasalle_codegen::lower_source(path, text)?);
+        let conservation = lasalle_codegen::check(&derived)?.into_conservation();
         let tapes = ModelTapes::new(&derived)?;
         let model = &derived.model;
         let params = model.default_params();

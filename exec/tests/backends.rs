@@ -9,10 +9,10 @@
 //!   rounding errors accumulate (Σ|terms| through sums); for well-conditioned values this is a
 //!   few ulps.
 
-use lasalle_codegen::derive::{self, Derived};
 use lasalle_codegen::ir::{Id, Input};
 use lasalle_codegen::tape::{ModelTapes, Tape};
 use lasalle_codegen::Model;
+use lasalle_codegen::{derive, Derived};
 use lasalle_exec::Backend;
 use lasalle_testkit::Rng;
 
@@ -36,9 +36,9 @@ struct Case {
 
 impl Case {
     fn new(name: &str, model: Model, checked: bool) -> Case {
-        let derived = derive::derive(model);
+        let derived = derive(model);
         if checked {
-            lasalle_codegen::check::check(&derived).unwrap_or_else(|e| panic!("{name}: {e}"));
+            lasalle_codegen::check(&derived).unwrap_or_else(|e| panic!("{name}: {e}"));
         }
         let tapes = ModelTapes::new(&derived).unwrap();
         let Derived {

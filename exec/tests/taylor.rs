@@ -40,9 +40,8 @@ fn model_text(name: &str) -> String {
 
 /// The tapes of a model text (not checked: test models need not declare invariants).
 fn tapes(text: &str) -> (ModelTapes, Vec<f64>) {
-    let derived = lasalle_codegen::derive::derive(
-        lasalle_codegen::lower_source("test.lsl", text).expect("model"),
-    );
+    let derived =
+        lasalle_codegen::derive(lasalle_codegen::lower_source("test.lsl", text).expect("model"));
     let tapes = ModelTapes::new(&derived).expect("tapes");
     (tapes, derived.model.default_params())
 }

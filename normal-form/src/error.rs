@@ -111,9 +111,44 @@ pub enum NormalFormError {
     /// The series produced NaN or ∞ (e.g. a singular Hamiltonian at the point).
     #[error("non-finite coefficients in {0}")]
     NonFinite(&'static str),
-    /// The model could not be loaded or is not a canonical Hamiltonian system.
+    /// The model file does not load: the generator's located diagnostics, kept typed (their
+    /// [`DiagnosticKind`](lasalle_codegen::DiagnosticKind)s, spans and help).
+    #[error(transparent)]
+    Load(LoadError),
+    /// The model is not a canonical Hamiltonian system the normal form can expand, or an
+    /// argument does not fit it.
     #[error("model: {0}")]
     Model(String),
+}
+
+impl NormalFormError {
+    /// A model file that did not load.
+    pub fn load(e: lasalle_codegen::Error) -> Self {
+        NormalFormError::Load(LoadError(std::sync::Arc::new(e)))
+    }
+}
+
+/// The generator's error for a model file that does not load, shared (`Arc`) so that
+/// [`NormalFormError`] stays `Clone`; equal when the messages are.
+#[derive(Clone, Debug)]
+pub struct LoadError(pub std::sync::Arc<lasalle_codegen::Error>);
+
+impl fmt::Display for LoadError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.0.fmt(f)
+    }
+}
+
+impl std::error::Error for LoadError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        self.0.source()
+    }
+}
+
+impl PartialEq for LoadError {
+    fn eq(&self, other: &Self) -> bool {
+        self.0.to_string() == other.0.to_string()
+    }
 }
 
 fn list_f(w: &[f64]) -> String {

@@ -208,9 +208,11 @@ pub mod validate;
 
 pub use complex::Complex;
 pub use dd::Dd;
-pub use error::{Eigenvalue, NormalFormError};
+pub use error::{Eigenvalue, LoadError, NormalFormError};
 pub use hamiltonian::{find_equilibrium, taylor, Equilibrium, HamiltonianFn};
 pub use jet::Jet;
+/// Re-exported because they appear in this crate's API: [`HamiltonianFn::eval`] is generic
+/// over [`Scalar`], whose `powf` takes a [`Rational`].
 pub use lasalle_codegen::ir::{Rational, Scalar};
 pub use model::{normalize_model, normalize_model_file, ModelHamiltonian, ModelPoint};
 pub use monomial::{binomial, MonomialTable};

@@ -1,13 +1,14 @@
-//! DSL models (`lasalle_codegen::Model`) as Hamiltonians: the expression DAG is evaluated
-//! over jets through `Graph::eval`, so any model with `structure canonical(q, p)` goes
-//! through the same path as a [`HamiltonianFn`] written in Rust. Jets and double-doubles
-//! implement the generator's `ir::Scalar` themselves, so nothing is adapted in between.
+//! DSL models (`lasalle_codegen::Model`) as Hamiltonians, through the generator's read-only
+//! view [`CanonicalHamiltonian`] (H as a function of z = (q, p), evaluated over any
+//! [`Scalar`]): any model with `structure canonical(q, p)` goes through the same path as a
+//! [`HamiltonianFn`] written in Rust. Jets and double-doubles implement the generator's
+//! `Scalar` themselves, so nothing is adapted in between.
 
 use crate::error::NormalFormError;
 use crate::hamiltonian::HamiltonianFn;
 use crate::normal_form::{normalize, NormalForm, Options, Point};
-use lasalle_codegen::ir::{Func, Id, Input, Node, Scalar};
-use lasalle_codegen::model::{Model, Structure};
+use lasalle_codegen::ir::Scalar;
+use lasalle_codegen::{CanonicalHamiltonian, Model};
 use std::path::Path;
 
 /// The Hamiltonian of a lowered DSL model with `structure canonical(q, p)`, with its
@@ -15,10 +16,7 @@ use std::path::Path;
 #[derive(Clone)]
 pub struct ModelHamiltonian<'a> {
     model: &'a Model,
-    h: Id,
-    /// position in z = (q, p) of each flat state index
-    slot: Vec<usize>,
-    n: usize,
+    h: CanonicalHamiltonian<'a>,
     params: Vec<f64>,
 }
 
@@ -26,42 +24,14 @@ impl<'a> ModelHamiltonian<'a> {
     /// The model's Hamiltonian with its default parameters overridden by `params`
     /// (`name = value`, scalar parameters only).
     pub fn new(model: &'a Model, params: &[(String, f64)]) -> Result<Self, NormalFormError> {
-        let ham = model.hamiltonian.as_ref().ok_or_else(|| {
-            NormalFormError::Model(format!("model `{}` has no `hamiltonian`", model.name))
-        })?;
-        let (q, p) = match &ham.structure {
-            Structure::Canonical { q, p } => (q, p),
-            _ => {
-                return Err(NormalFormError::Model(format!(
-                    "model `{}`: normal forms need `structure canonical(q, p)`",
-                    model.name
-                )))
-            }
-        };
-        let g = &model.graph;
-        let elliptic = |id| matches!(g.node(id), Node::Func2(..) | Node::Func(Func::EllipK, _));
-        if g.reachable(&[ham.h]).into_iter().any(elliptic) {
+        let h = model
+            .canonical_hamiltonian()
+            .map_err(|e| NormalFormError::Model(e.to_string()))?;
+        if h.calls_elliptic() {
             return Err(NormalFormError::Model(format!(
                 "model `{}`: the Hamiltonian calls elliptic functions (sn, cn, dn, their quotients, ellipk, ellipf), which normal forms do not expand into series",
                 model.name
             )));
-        }
-        let n = q.len();
-        if p.len() != n || model.dim() != 2 * n {
-            return Err(NormalFormError::Model(format!(
-                "model `{}`: the state must consist of exactly q and p ({} + {} components, state has {})",
-                model.name,
-                q.len(),
-                p.len(),
-                model.dim()
-            )));
-        }
-        let mut slot = vec![usize::MAX; 2 * n];
-        for (k, &i) in q.iter().enumerate() {
-            slot[i] = k;
-        }
-        for (k, &i) in p.iter().enumerate() {
-            slot[i] = n + k;
         }
         let mut values = model.default_params();
         for (name, v) in params {
@@ -81,9 +51,7 @@ impl<'a> ModelHamiltonian<'a> {
         }
         Ok(ModelHamiltonian {
             model,
-            h: ham.h,
-            slot,
-            n,
+            h,
             params: values,
         })
     }
@@ -97,31 +65,24 @@ impl<'a> ModelHamiltonian<'a> {
     }
     /// The named point in z = (q, p) order, evaluated with the current parameters.
     pub fn point(&self, name: &str) -> Option<Vec<f64>> {
-        let flat = self.model.point_values(name, &self.params)?;
-        let mut z = vec![0.0; 2 * self.n];
-        for (i, &x) in flat.iter().enumerate() {
-            z[self.slot[i]] = x;
+        Some(self.to_z(&self.model.point_values(name, &self.params)?))
+    }
+    /// A flat state of the model in z = (q, p) order.
+    fn to_z(&self, flat: &[f64]) -> Vec<f64> {
+        let mut z = vec![0.0; flat.len()];
+        for (&x, &at) in flat.iter().zip(self.h.z_index()) {
+            z[at] = x;
         }
-        Some(z)
+        z
     }
 }
 
 impl HamiltonianFn for ModelHamiltonian<'_> {
     fn n_dof(&self) -> usize {
-        self.n
+        self.h.n_dof()
     }
     fn eval<S: Scalar>(&self, z: &[S]) -> S {
-        let params = &self.params;
-        let slot = &self.slot;
-        let mut input = |i: Input| -> S {
-            match i {
-                Input::State(k) => z[slot[k as usize]].clone(),
-                Input::Param(k) => S::from_f64(params[k as usize]),
-                _ => S::from_f64(f64::NAN),
-            }
-        };
-        let mut out = self.model.graph.eval(&[self.h], &mut input);
-        out.pop().expect("one output")
+        self.h.eval(z, &self.params)
     }
     fn name(&self) -> String {
         let ps: Vec<String> = self
@@ -138,7 +99,7 @@ impl HamiltonianFn for ModelHamiltonian<'_> {
         }
     }
     fn coordinate_names(&self) -> Vec<String> {
-        let mut names = vec![String::new(); 2 * self.n];
+        let mut names = vec![String::new(); 2 * self.h.n_dof()];
         for sv in &self.model.state {
             let len = sv.shape.len();
             for c in 0..len {
@@ -147,7 +108,7 @@ impl HamiltonianFn for ModelHamiltonian<'_> {
                 } else {
                     format!("{}[{c}]", sv.name)
                 };
-                names[self.slot[sv.offset + c]] = name;
+                names[self.h.z_index()[sv.offset + c]] = name;
             }
         }
         names
@@ -173,8 +134,7 @@ pub fn normalize_model_file(
     point: &ModelPoint,
     options: &Options,
 ) -> Result<NormalForm, NormalFormError> {
-    let model = lasalle_codegen::load_model(path.as_ref())
-        .map_err(|e| NormalFormError::Model(e.to_string()))?;
+    let model = lasalle_codegen::load_model(path.as_ref()).map_err(NormalFormError::load)?;
     normalize_model(&model, params, point, options)
 }
 
@@ -201,11 +161,7 @@ pub fn normalize_model(
                     model.dim()
                 )));
             }
-            let mut z = vec![0.0; v.len()];
-            for (i, &x) in v.iter().enumerate() {
-                z[h.slot[i]] = x;
-            }
-            z
+            h.to_z(v)
         }
         ModelPoint::Auto => {
             let name = h.point_names().into_iter().next().ok_or_else(|| {

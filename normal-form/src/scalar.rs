@@ -1,5 +1,29 @@
 //! Coefficient scalars: the ring the series algebra works over ([`Coeff`]) and the real
 //! fields with elementary functions ([`Real`]): `f64` and [`Dd`](crate::Dd).
+//!
+//! # Why these traits and not one
+//!
+//! Three numeric trait families meet in lasalle, each for what its users need and the others
+//! cannot give:
+//! - `num_traits::Float`, in the emitted Rust: the standard trait that user code, nalgebra
+//!   and dual-number crates already implement, so a compiled model runs over `f32`, `f64` or
+//!   a user's type. It demands what series cannot give (ordering, classification, `NaN`,
+//!   `max`, a total set of elementary functions).
+//! - [`Scalar`](crate::Scalar) (the generator's `ir::Scalar`), to evaluate a model's graph:
+//!   the minimum a DAG evaluation needs (constants, +, ·, 1/x, integer and *exact rational*
+//!   powers, exp, ln, sin, cos, optionally the elliptic functions), implemented by `f64`, by
+//!   [`Dd`](crate::Dd) and by the truncated series ([`Jet`](crate::Jet)) — no ordering, no
+//!   classification, which jets do not have.
+//! - [`Coeff`] and [`Real`], for the series algebra itself: [`Coeff`] is a field with exact
+//!   `f64` literals and a fused multiply-accumulate product kernel (complex coefficients of
+//!   either precision implement it, and are not [`Scalar`](crate::Scalar): they have no
+//!   `powf` with a real rational exponent that the graph could need); [`Real`] adds what the
+//!   linear algebra and the bounds need — ordering, |x|, √, π, the precision's unit roundoff
+//!   and the exact `hi + lo` split of double-double.
+//!
+//! [`Scalar`](crate::Scalar) and [`Coeff`] are re-exported/defined here because they appear in
+//! this crate's API (`HamiltonianFn::eval` is generic over [`Scalar`](crate::Scalar), whose
+//! `powf` takes a [`Rational`](crate::Rational)).
 
 use lasalle_codegen::ir::Rational;
 use std::fmt::Debug;

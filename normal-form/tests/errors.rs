@@ -132,3 +132,40 @@ fn elliptic_functions_are_refused() {
         "{e}"
     );
 }
+
+/// A model file that does not load keeps the generator's typed, located diagnostics: the
+/// same message as `lasalle_codegen::load_model` (file:line:col, the line, a caret, a help),
+/// and its `DiagnosticKind`.
+#[test]
+fn model_files_that_do_not_load_keep_their_diagnostics() {
+    let dir = std::env::temp_dir().join(format!("lasalle-nf-load-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("bad.lsl");
+    std::fs::write(
+        &path,
+        "model Bad { state q: scalar, p: scalar;\n    hamiltonian H = p^2/2 + w*q^2/2;\n    structure canonical(q, p); }\n",
+    )
+    .unwrap();
+    let e = lasalle_normal_form::normalize_model_file(
+        &path,
+        &[],
+        &lasalle_normal_form::ModelPoint::Auto,
+        &Options::with_order(4),
+    )
+    .unwrap_err();
+    let direct = lasalle_codegen::load_model(&path)
+        .err()
+        .expect("does not load");
+    assert_eq!(e.to_string(), direct.to_string());
+    assert!(e.to_string().contains("bad.lsl:2:"), "{e}");
+    let NormalFormError::Load(load) = &e else {
+        panic!("not a load error: {e:?}")
+    };
+    let lasalle_codegen::Error::Model(diagnostics) = &*load.0 else {
+        panic!("not a model diagnostic: {:?}", load.0)
+    };
+    assert_eq!(
+        diagnostics[0].kind,
+        lasalle_codegen::DiagnosticKind::UnknownName
+    );
+}

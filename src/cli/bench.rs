@@ -63,8 +63,8 @@ pub fn run(args: &BenchEvalArgs) -> CliResult {
     let gains = loaded.default_gain_values().to_vec();
 
     let model = lasalle_codegen::lower_source(&shown, &text).map_err(|e| e.to_string())?;
-    let derived = lasalle_codegen::derive::derive(model);
-    lasalle_codegen::check::check(&derived).map_err(|e| e.to_string())?;
+    let derived = lasalle_codegen::derive(model);
+    lasalle_codegen::check(&derived).map_err(|e| e.to_string())?;
     let tapes = ModelTapes::new(&derived).map_err(|e| e.to_string())?;
     let kernel = Backend::Jit
         .compile(&tapes.feedback)

@@ -66,7 +66,7 @@ fn crate_name(generated: &lasalle_codegen::Generated) -> String {
     let model = &generated.models[0];
     format!(
         "{}-model",
-        lasalle_codegen::emit::snake(&model.name).replace('_', "-")
+        lasalle_codegen::snake(&model.name).replace('_', "-")
     )
 }
 

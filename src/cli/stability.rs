@@ -11,7 +11,7 @@
 use clap::Args;
 use lasalle::stability::{self, Equilibrium, Family, Level, Options, Sweep};
 use lasalle::{ModelInfo, Parameters};
-use lasalle_codegen::model::Structure;
+use lasalle_codegen::Structure;
 
 use super::load::{load, BackendArg};
 use super::sim::{apply_param, parse_numbers};

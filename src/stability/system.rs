@@ -6,8 +6,8 @@ use std::collections::HashMap;
 
 use lasalle_codegen::ir::diff;
 use lasalle_codegen::ir::{Graph, Id, Input};
-use lasalle_codegen::model::Structure;
 use lasalle_codegen::Model;
+use lasalle_codegen::Structure;
 
 use super::StabilityError;
 

@@ -36,8 +36,8 @@ pub fn same(a: f64, b: f64) -> bool {
 pub fn tapes(file: &str) -> (lasalle_codegen::Model, ModelTapes) {
     let path = format!("{}/models/{file}", env!("CARGO_MANIFEST_DIR"));
     let model = lasalle_codegen::load_model(&path).unwrap();
-    let derived = lasalle_codegen::derive::derive(model);
-    lasalle_codegen::check::check(&derived).unwrap();
+    let derived = lasalle_codegen::derive(model);
+    lasalle_codegen::check(&derived).unwrap();
     let tapes = ModelTapes::new(&derived).unwrap();
     (derived.model, tapes)
 }

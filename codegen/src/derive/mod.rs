@@ -21,7 +21,7 @@ pub struct Derivatives {
 }
 
 /// The output of stage 3: a lowered model with its derivatives (their nodes added to its
-/// graph). The input of [`check`](crate::check::check) and of the tapes.
+/// graph). The input of [`check`](crate::check()) and of the tapes.
 #[derive(Clone)]
 pub struct Derived {
     /// The model; its graph holds the derivatives' nodes too.

@@ -1,11 +1,13 @@
 //! The lowered model: the syntax tree resolved into shaped values over one DAG.
 
+mod canonical;
 mod declare;
 mod expr;
 mod lower;
 mod structure;
 mod value;
 
+pub use canonical::{CanonicalHamiltonian, NotCanonical};
 pub use lower::lower;
 pub use value::{Shape, Value};
 
