@@ -520,9 +520,14 @@ impl Interpreter {
             for s in &self.specials {
                 dst = straight(done, s.fast_end, dst);
                 done = s.fast_end;
+                // division and square root (the frequent ones) inline, the rest in a call;
                 // `b` is a slot unless the exponent's index (Powf)
-                let y = if s.code == Code::Powf { 0.0 } else { r(s.b) };
-                *dst = self.special(s, r(s.a), y, &mut jacobi);
+                *dst = match s.code {
+                    Code::Div => r(s.a) / r(s.b),
+                    Code::Sqrt => r(s.a).sqrt(),
+                    Code::Powf => self.special(s, r(s.a), 0.0, &mut jacobi),
+                    _ => self.special(s, r(s.a), r(s.b), &mut jacobi),
+                };
                 dst = dst.add(1);
             }
             straight(done, self.fast.len(), dst);
