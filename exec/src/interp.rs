@@ -537,13 +537,12 @@ impl Interpreter {
         }
     }
 
-    /// An instruction off the straight path. `jacobi` holds the arguments and values of the
-    /// last `ellipj` call of this evaluation, so sn, cn, dn of one (u | m) share it.
+    /// An instruction off the straight path other than a division or a square root (those are
+    /// inlined in `run`). `jacobi` holds the arguments and values of the last `ellipj` call of
+    /// this evaluation, so sn, cn, dn of one (u | m) share it.
     #[inline(never)]
     fn special(&self, s: &Special, x: f64, y: f64, jacobi: &mut Option<(u64, u64, Jacobi)>) -> f64 {
         match s.code {
-            Code::Div => x / y,
-            Code::Sqrt => x.sqrt(),
             Code::Cbrt => x.cbrt(),
             Code::Exp => x.exp(),
             Code::Ln => x.ln(),
@@ -571,6 +570,7 @@ impl Interpreter {
             Code::Add | Code::Sub | Code::Mul | Code::Neg | Code::MulAdd => {
                 unreachable!("decoded: these take the straight path")
             }
+            Code::Div | Code::Sqrt => unreachable!("inlined in `run`"),
         }
     }
 
