@@ -10,7 +10,10 @@
 //!
 //! - `feedback/<model>/{emitted,jit,interpreter}`: one evaluation of X − ∇V at a state off the
 //!   target set, through the runtime trait (`Lyapunov::feedback_field`) as a stepper calls it
-//!   (the emitted code on the prepared model, `model.prepare()`, as a run uses it);
+//!   (the emitted code on the prepared model, `model.prepare()`, as a run uses it). `emitted`
+//!   is inlined into the benchmark loop, so consecutive evaluations overlap and nothing is
+//!   paid for a call; `emitted_call` calls the same code through an opaque function pointer,
+//!   as `jit` calls its code (and `interpreter` its loop): the like-for-like comparison;
 //! - `lanes/<model>/{emitted,jit}_k{4,8}`: X − ∇V for K states per call (structure of
 //!   arrays) for the three paper models: `<Model>Lanes::feedback::<K>` emitted from the tape,
 //!   and the JIT's `Kernel::eval_lanes`; the throughput is in states, so Criterion's
@@ -44,6 +47,19 @@ fn loaded(stem: &str, backend: Backend) -> LoadedModel {
     LoadedModel::from_source(&format!("models/{stem}.lsl"), text, backend).expect("loads")
 }
 
+/// `L::feedback_field` as a plain function pointer: called through `black_box` of it, the
+/// emitted code is not inlined into the benchmark loop, as the JIT's code is not.
+#[allow(clippy::type_complexity)]
+fn feedback_fn<L, X, F, K>(_: &L) -> fn(&L, &X, &F, &K, &mut X)
+where
+    L: Lyapunov<f64, X, F, K>,
+    X: lasalle::State<f64>,
+    F: lasalle::State<f64>,
+    K: lasalle::State<f64>,
+{
+    |l, x, target, gains, dx| l.feedback_field(x, target, gains, dx)
+}
+
 macro_rules! feedback_bench {
     ($c:expr, $stem:literal, $ty:ty, $point:ident) => {{
         let m = <$ty>::default();
@@ -57,6 +73,20 @@ macro_rules! feedback_bench {
             let mut dx = [0.0; <$ty>::N];
             b.iter(|| {
                 black_box(&prepared).feedback_field(
+                    black_box(&x),
+                    black_box(&target),
+                    black_box(&gains),
+                    &mut dx,
+                );
+                black_box(dx[0])
+            })
+        });
+        g.bench_function("emitted_call", |b| {
+            let f = black_box(feedback_fn(&prepared));
+            let mut dx = [0.0; <$ty>::N];
+            b.iter(|| {
+                f(
+                    black_box(&prepared),
                     black_box(&x),
                     black_box(&target),
                     black_box(&gains),

@@ -165,10 +165,8 @@ struct Special {
 #[derive(Clone, Debug)]
 pub struct Interpreter {
     common: Common,
-    /// The pooled constants, copied to the slots `consts_at..first` on each call.
+    /// The pooled constants, copied to the slots `N + M + G + H..first` on each call.
     consts: Vec<f64>,
-    /// Slot of the first constant (= N + M + G + H).
-    consts_at: usize,
     /// Slot written by the first instruction.
     first: usize,
     code: Vec<Ins>,
@@ -458,7 +456,6 @@ impl Interpreter {
         Ok(Interpreter {
             common: Common::new(tape),
             consts: dec.consts,
-            consts_at,
             first,
             code,
             fast,
@@ -486,18 +483,20 @@ impl Interpreter {
         gains: &[f64],
         out: &mut [f64],
     ) {
-        use std::ptr::copy_nonoverlapping as copy;
-        // SAFETY (whole body): see the module docs; the slot ranges of the inputs add up to
-        // `consts_at`, the constants fill `consts_at..first`, instruction i writes
-        // `first + i < n_slots` and reads slots below it.
+        // SAFETY (whole body): see the module docs; the inputs (of the lengths of the tape's
+        // dimensions) and the constants fill exactly the slots below `first`, instruction i
+        // writes `first + i < n_slots` and reads slots below it.
         unsafe {
             let mut at = w;
-            for input in [state, target, gains, hoisted] {
-                copy(input.as_ptr(), at, input.len());
-                at = at.add(input.len());
+            // element by element: the inputs are a few values each, for which a `memcpy`
+            // call per input costs more than the copy
+            for input in [state, target, gains, hoisted, &self.consts] {
+                for &v in input {
+                    at.write(v);
+                    at = at.add(1);
+                }
             }
-            debug_assert_eq!(at, w.add(self.consts_at));
-            copy(self.consts.as_ptr(), at, self.consts.len());
+            debug_assert_eq!(at, w.add(self.first));
             let r = |s: u32| *w.add(s as usize);
             let straight = |from: usize, to: usize, mut dst: *mut f64| {
                 // two at a time (half the loop overhead); the second may read the first's
@@ -521,9 +520,14 @@ impl Interpreter {
             for s in &self.specials {
                 dst = straight(done, s.fast_end, dst);
                 done = s.fast_end;
+                // division and square root (the frequent ones) inline, the rest in a call;
                 // `b` is a slot unless the exponent's index (Powf)
-                let y = if s.code == Code::Powf { 0.0 } else { r(s.b) };
-                *dst = self.special(s, r(s.a), y, &mut jacobi);
+                *dst = match s.code {
+                    Code::Div => r(s.a) / r(s.b),
+                    Code::Sqrt => r(s.a).sqrt(),
+                    Code::Powf => self.special(s, r(s.a), 0.0, &mut jacobi),
+                    _ => self.special(s, r(s.a), r(s.b), &mut jacobi),
+                };
                 dst = dst.add(1);
             }
             straight(done, self.fast.len(), dst);
@@ -533,13 +537,12 @@ impl Interpreter {
         }
     }
 
-    /// An instruction off the straight path. `jacobi` holds the arguments and values of the
-    /// last `ellipj` call of this evaluation, so sn, cn, dn of one (u | m) share it.
+    /// An instruction off the straight path other than a division or a square root (those are
+    /// inlined in `run`). `jacobi` holds the arguments and values of the last `ellipj` call of
+    /// this evaluation, so sn, cn, dn of one (u | m) share it.
     #[inline(never)]
     fn special(&self, s: &Special, x: f64, y: f64, jacobi: &mut Option<(u64, u64, Jacobi)>) -> f64 {
         match s.code {
-            Code::Div => x / y,
-            Code::Sqrt => x.sqrt(),
             Code::Cbrt => x.cbrt(),
             Code::Exp => x.exp(),
             Code::Ln => x.ln(),
@@ -567,6 +570,7 @@ impl Interpreter {
             Code::Add | Code::Sub | Code::Mul | Code::Neg | Code::MulAdd => {
                 unreachable!("decoded: these take the straight path")
             }
+            Code::Div | Code::Sqrt => unreachable!("inlined in `run`"),
         }
     }
 

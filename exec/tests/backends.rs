@@ -3,7 +3,8 @@
 //!
 //! Agreement required:
 //! - back end vs `Tape::eval::<f64>`: bitwise (NaN = NaN);
-//! - k lanes (k = 1, 4, 5, 8) vs one state: bitwise;
+//! - k lanes (k = 1, 2, 3, 4, 5, 7, 8: every path of the JIT's four-, two- and one-lane loops)
+//!   vs one state: bitwise;
 //! - tape vs the DAG (`Graph::eval_with_scale`, no emission rewrites): the tape reorders sums
 //!   and products, so |tape − DAG| ≤ 1e-12 · S, where S bounds the magnitude of the terms whose
 //!   rounding errors accumulate (Σ|terms| through sums); for well-conditioned values this is a
@@ -145,7 +146,7 @@ impl Case {
                 results.push(out);
             }
             // Lanes: k states at once, bitwise equal to one at a time.
-            for k in [1usize, 4, 5, 8] {
+            for k in [1usize, 2, 3, 4, 5, 7, 8] {
                 for chunk in results.chunks(k).zip(states.chunks(k)).take(6) {
                     let (expect, xs) = chunk;
                     let k = xs.len();
