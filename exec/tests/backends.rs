@@ -178,14 +178,7 @@ impl Case {
 }
 
 fn model_cases() -> Vec<Case> {
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../models");
-    let mut paths: Vec<_> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|x| x == "lsl"))
-        .collect();
-    paths.sort();
-    assert!(paths.len() >= 6, "models/ has {} models", paths.len());
+    let paths = lasalle_testkit::model_files();
     paths
         .iter()
         .map(|p| {

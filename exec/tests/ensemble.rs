@@ -86,14 +86,7 @@ where
 
 #[test]
 fn lanes_are_lone_runs_bitwise() {
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../models");
-    let mut paths: Vec<_> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "lsl"))
-        .collect();
-    paths.sort();
-    assert!(paths.len() >= 6);
+    let paths = lasalle_testkit::model_files();
     let mut rng = Rng::new(17);
     for backend in Backend::available() {
         for path in &paths {

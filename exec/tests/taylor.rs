@@ -773,28 +773,13 @@ fn elliptic_functions_closed_form() {
 fn jit_kernel_agrees_with_the_tape_bitwise() {
     use lasalle_exec::jit::taylor::JitTaylor;
     use lasalle_runtime::TaylorKernel;
-    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-    let mut rand = move || {
-        seed = seed
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        0.25 + (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rng = lasalle_testkit::Rng::new(0x9e37_79b9_7f4a_7c15);
+    let mut rand = move || rng.uniform(0.25, 1.25);
     let same = |a: f64, b: f64| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
-    let mut texts: Vec<(String, String)> =
-        std::fs::read_dir(format!("{}/../models", env!("CARGO_MANIFEST_DIR")))
-            .unwrap()
-            .map(|e| e.unwrap().path())
-            .filter(|p| p.extension().is_some_and(|e| e == "lsl"))
-            .map(|p| {
-                (
-                    p.display().to_string(),
-                    std::fs::read_to_string(&p).unwrap(),
-                )
-            })
-            .collect();
-    texts.sort();
-    assert!(texts.len() >= 10, "the built-in models");
+    let mut texts: Vec<(String, String)> = lasalle_testkit::model_files()
+        .iter()
+        .map(|p| (p.display().to_string(), std::fs::read_to_string(p).unwrap()))
+        .collect();
     for expr in EXPRS {
         let text = format!(
             "model E {{ state t: scalar, y: scalar; param c = 0.37;

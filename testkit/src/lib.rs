@@ -126,3 +126,17 @@ mod tests {
         assert!((mean - 0.5).abs() < 0.005, "mean {mean}");
     }
 }
+
+/// The repository's model files (`models/*.lsl`), sorted: what the tests that run over every
+/// model (back ends, tapes, lanes) iterate on.
+pub fn model_files() -> Vec<std::path::PathBuf> {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../models");
+    let mut paths: Vec<_> = std::fs::read_dir(dir)
+        .expect("the models/ folder")
+        .map(|e| e.expect("an entry of models/").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "lsl"))
+        .collect();
+    paths.sort();
+    assert!(paths.len() >= 6, "models/ has {} models", paths.len());
+    paths
+}

@@ -117,14 +117,7 @@ fn bad_inputs_are_errors() {
 /// Every function of every model in `models/`: the tape against the DAG, to rounding.
 #[test]
 fn model_tapes_agree_with_the_dag() {
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../models");
-    let mut paths: Vec<_> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|x| x == "lsl"))
-        .collect();
-    paths.sort();
-    assert!(paths.len() >= 5);
+    let paths = lasalle_testkit::model_files();
     for path in paths {
         let model = crate::load_model(&path).unwrap();
         let derived = crate::derive::derive(model);
@@ -174,13 +167,7 @@ fn model_tapes_agree_with_the_dag() {
 /// catches a lowering that stops sharing work.
 #[test]
 fn feedback_tapes_are_small() {
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../models");
-    let mut paths: Vec<_> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|x| x == "lsl"))
-        .collect();
-    paths.sort();
+    let paths = lasalle_testkit::model_files();
     for path in paths {
         let model = crate::load_model(&path).unwrap();
         let derived = crate::derive::derive(model);
