@@ -116,11 +116,33 @@ pub(crate) fn jit_module(opt_level: &str) -> Result<JITModule, ExecError> {
     Ok(module)
 }
 
+/// The machine code of a finalised module, freed when this value is dropped: the owner of
+/// function pointers into it (a kernel) holds it next to them, so the code outlives them.
+pub(crate) struct Code(Option<JITModule>);
+
+impl Code {
+    /// Takes ownership of a finalised module.
+    pub(crate) fn new(module: JITModule) -> Code {
+        Code(Some(module))
+    }
+}
+
+impl Drop for Code {
+    fn drop(&mut self) {
+        if let Some(module) = self.0.take() {
+            // SAFETY: the function pointers into this module live in its owner only, which
+            // is being dropped and never calls them again.
+            unsafe { module.free_memory() };
+        }
+    }
+}
+
 /// A tape compiled to native code.
 pub struct JitKernel {
     common: Common,
     /// Owns the code; freed on drop.
-    module: Option<JITModule>,
+    /// Owns the code `eval` and `lanes` point into.
+    _code: Code,
     eval: EvalFn,
     lanes: LanesFn,
 }
@@ -131,16 +153,6 @@ pub struct JitKernel {
 unsafe impl Send for JitKernel {}
 // SAFETY: as above; `&self` methods only call the pure compiled functions.
 unsafe impl Sync for JitKernel {}
-
-impl Drop for JitKernel {
-    fn drop(&mut self) {
-        if let Some(module) = self.module.take() {
-            // SAFETY: the function pointers into this module live in `self` only and are
-            // never used again after drop.
-            unsafe { module.free_memory() };
-        }
-    }
-}
 
 impl std::fmt::Debug for JitKernel {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -186,7 +198,7 @@ impl JitKernel {
         };
         Ok(JitKernel {
             common: Common::new(tape),
-            module: Some(module),
+            _code: Code::new(module),
             eval,
             lanes,
         })

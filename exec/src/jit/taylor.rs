@@ -38,7 +38,7 @@
 //! agree bitwise (`exec/tests/taylor.rs`: every model in `models/`, field and X − ∇V, every
 //! operation's recurrence, the elliptic functions).
 
-use super::{call_cbrt, call_cos, call_exp, call_ln, call_sin, jit_err, jit_module};
+use super::{call_cbrt, call_cos, call_exp, call_ln, call_sin, jit_err, jit_module, Code};
 use crate::taylor::{Inputs, TaylorError};
 use crate::ExecError;
 use cranelift_codegen::ir::condcodes::IntCC;
@@ -109,7 +109,8 @@ unsafe extern "C" fn call_ellipj(u: f64, m: f64, out: *mut [f64; 3]) {
 pub struct JitTaylor {
     inputs: Inputs,
     /// Owns the code; freed on drop.
-    module: Option<JITModule>,
+    /// Owns the code `code` points into.
+    _code: Code,
     func: TaylorFn,
     dim: usize,
     /// The compiled order p (= the stride − 1 of the table).
@@ -123,16 +124,6 @@ pub struct JitTaylor {
 // SAFETY: the module is only touched again in `drop` (which has `&mut self`); the compiled
 // function keeps no state (it reads its arguments and writes the table passed to it).
 unsafe impl Send for JitTaylor {}
-
-impl Drop for JitTaylor {
-    fn drop(&mut self) {
-        if let Some(module) = self.module.take() {
-            // SAFETY: the function pointer into this module lives in `self` only and is
-            // never used again after drop.
-            unsafe { module.free_memory() };
-        }
-    }
-}
 
 impl std::fmt::Debug for JitTaylor {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -171,7 +162,7 @@ impl JitTaylor {
         let func = unsafe { std::mem::transmute::<*const u8, TaylorFn>(code) };
         Ok(Some(JitTaylor {
             inputs,
-            module: Some(module),
+            _code: Code::new(module),
             func,
             dim: program.dim,
             order: p,
