@@ -16,9 +16,11 @@
 //!   with Cranelift for the order p, unrolled (the default for models loaded with the JIT
 //!   back end), and `lasalle_exec::TaylorTape` interprets them (the interpreter back end, and
 //!   programs too large to unroll);
-//! - the emitted Rust of a compiled model has one kernel type per field (`<Model>TaylorField`,
-//!   `<Model>TaylorFeedback`): the same recurrences as straight-line code per tape
-//!   instruction inside a loop over the order, on a fixed table allocated once.
+//! - the emitted Rust of a compiled model has the recurrences of each field as straight-line
+//!   code per tape instruction inside a loop over the order ([`Recurrences`], implemented by
+//!   `<Model>FieldRecurrences` and `<Model>FeedbackRecurrences`), and one generic kernel,
+//!   [`Emitted`], holds their table and inputs, allocated once (`<Model>TaylorField` is
+//!   `Emitted<<Model>FieldRecurrences>`).
 //!
 //! All run the same lowering of the tape into recurrences (`lasalle_codegen::tape::taylor`)
 //! and the same recurrence functions ([`rec`]; the JIT emits their operations), in the same
@@ -102,6 +104,133 @@ use crate::steppers::{DenseOutput, StepOutcome, Stepper};
 /// this many + 1 columns). Jorba & Zou's order is 20 at the f64 precision, so this bounds the
 /// tolerance only far below what f64 can reach.
 pub const EMITTED_MAX_ORDER: usize = 32;
+
+/// The recurrences of one field of a compiled model, emitted as straight-line Rust by the
+/// generator (`<Model>FieldRecurrences`, `<Model>FeedbackRecurrences`): the sizes, the
+/// parameter slots, the parameter-only values and the coefficient recurrences. [`Emitted`]
+/// turns them into a [`TaylorKernel`]; the emitted code holds only what differs per field.
+pub trait Recurrences<M: ?Sized> {
+    /// The kernel's name, for messages.
+    const NAME: &'static str;
+    /// The state dimension N.
+    const DIM: usize;
+    /// Rows of the coefficient table (the tape's registers).
+    const ROWS: usize;
+    /// Parameter slots.
+    const PARAMS: usize;
+    /// Parameter-only values the recurrences read.
+    const HOISTED: usize;
+    /// Targets f(x₀) (0 for the plain field).
+    const TARGETS: usize;
+    /// Gains (0 for the plain field).
+    const GAINS: usize;
+
+    /// Writes the model's parameter slots (`PARAMS` values).
+    fn params(model: &M, out: &mut [f64]);
+
+    /// Writes the parameter-only values (`HOISTED`) of the parameter slots.
+    fn hoist(params: &[f64], hoisted: &mut [f64]);
+
+    /// Fills the coefficients of orders 0..=`order` (≤ [`EMITTED_MAX_ORDER`]) of every row
+    /// (`ROWS` rows) for the state `x`; row i < N is component i of the solution.
+    fn compute(
+        t: &mut [[f64; EMITTED_MAX_ORDER + 1]],
+        hoisted: &[f64],
+        target: &[f64],
+        gains: &[f64],
+        x: &[f64],
+        order: usize,
+    );
+}
+
+/// The [`TaylorKernel`] of emitted [`Recurrences`]: the coefficient table and the inputs,
+/// allocated once (`Emitted::<KeplerFieldRecurrences>::new(&model)`; the generator names it
+/// `<Model>TaylorField` and `<Model>TaylorFeedback`).
+pub struct Emitted<R> {
+    params: Box<[f64]>,
+    /// The parameters read by the last [`TaylorKernel::sync`], compared with `params`.
+    fresh: Box<[f64]>,
+    hoisted: Box<[f64]>,
+    target: Box<[f64]>,
+    gains: Box<[f64]>,
+    t: Box<[[f64; EMITTED_MAX_ORDER + 1]]>,
+    order: usize,
+    recurrences: std::marker::PhantomData<fn() -> R>,
+}
+
+impl<R> Emitted<R> {
+    /// The kernel with the parameters of `model`; targets and gains 0.
+    pub fn new<M: ?Sized>(model: &M) -> Self
+    where
+        R: Recurrences<M>,
+    {
+        let mut params = vec![0.0; R::PARAMS].into_boxed_slice();
+        R::params(model, &mut params);
+        let mut hoisted = vec![0.0; R::HOISTED].into_boxed_slice();
+        R::hoist(&params, &mut hoisted);
+        Emitted {
+            fresh: params.clone(),
+            params,
+            hoisted,
+            target: vec![0.0; R::TARGETS].into_boxed_slice(),
+            gains: vec![0.0; R::GAINS].into_boxed_slice(),
+            t: vec![[0.0; EMITTED_MAX_ORDER + 1]; R::ROWS].into_boxed_slice(),
+            order: 0,
+            recurrences: std::marker::PhantomData,
+        }
+    }
+}
+
+impl<M: ?Sized, R: Recurrences<M>> TaylorKernel<M> for Emitted<R> {
+    fn dim(&self) -> usize {
+        R::DIM
+    }
+
+    fn max_order(&self) -> usize {
+        EMITTED_MAX_ORDER
+    }
+
+    fn sync(&mut self, model: &M) -> Result<(), StepError> {
+        R::params(model, &mut self.fresh);
+        if self.fresh != self.params {
+            std::mem::swap(&mut self.fresh, &mut self.params);
+            R::hoist(&self.params, &mut self.hoisted);
+        }
+        Ok(())
+    }
+
+    fn set_inputs(&mut self, target: &[f64], gains: &[f64]) -> Result<(), StepError> {
+        if target.len() != R::TARGETS || gains.len() != R::GAINS {
+            return Err(StepError::InvalidInput(format!(
+                "{} takes {} targets and {} gains, got {} and {}",
+                R::NAME,
+                R::TARGETS,
+                R::GAINS,
+                target.len(),
+                gains.len()
+            )));
+        }
+        self.target.copy_from_slice(target);
+        self.gains.copy_from_slice(gains);
+        Ok(())
+    }
+
+    fn compute(&mut self, x: &[f64], order: usize) {
+        self.order = order.min(EMITTED_MAX_ORDER);
+        R::compute(
+            &mut self.t,
+            &self.hoisted,
+            &self.target,
+            &self.gains,
+            x,
+            self.order,
+        );
+    }
+
+    fn coefficients(&self, i: usize) -> &[f64] {
+        &self.t[i][..=self.order]
+    }
+}
 
 /// Invalid options of a Taylor integrator, or a kernel that cannot serve them.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]

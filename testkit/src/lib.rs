@@ -100,6 +100,20 @@ impl Rng {
     }
 }
 
+/// The repository's model files (`models/*.lsl`), sorted: what the tests that run over every
+/// model (back ends, tapes, lanes) iterate on.
+pub fn model_files() -> Vec<std::path::PathBuf> {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../models");
+    let mut paths: Vec<_> = std::fs::read_dir(dir)
+        .expect("the models/ folder")
+        .map(|e| e.expect("an entry of models/").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "lsl"))
+        .collect();
+    paths.sort();
+    assert!(paths.len() >= 6, "models/ has {} models", paths.len());
+    paths
+}
+
 #[cfg(test)]
 mod tests {
     use super::Rng;
@@ -125,18 +139,4 @@ mod tests {
         let mean = (0..100_000).map(|_| r.unit()).sum::<f64>() / 1e5;
         assert!((mean - 0.5).abs() < 0.005, "mean {mean}");
     }
-}
-
-/// The repository's model files (`models/*.lsl`), sorted: what the tests that run over every
-/// model (back ends, tapes, lanes) iterate on.
-pub fn model_files() -> Vec<std::path::PathBuf> {
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../models");
-    let mut paths: Vec<_> = std::fs::read_dir(dir)
-        .expect("the models/ folder")
-        .map(|e| e.expect("an entry of models/").path())
-        .filter(|p| p.extension().is_some_and(|e| e == "lsl"))
-        .collect();
-    paths.sort();
-    assert!(paths.len() >= 6, "models/ has {} models", paths.len());
-    paths
 }

@@ -153,14 +153,14 @@ fn taylor_kernels<T: Float>(m: &{ty}<T>) -> lasalle_runtime::TaylorKernels<{ty}<
         let field = TaylorProgram::new(&tapes.field).map_err(internal)?;
         let feedback = TaylorProgram::new(&tapes.feedback).map_err(internal)?;
         s.push_str(&self.taylor_kernel(
-            &format!("{ty}TaylorField"),
+            (&format!("{ty}TaylorField"), &format!("{ty}FieldRecurrences")),
             "field",
             "X",
             &tapes.field,
             &field,
         ));
         s.push_str(&self.taylor_kernel(
-            &format!("{ty}TaylorFeedback"),
+            (&format!("{ty}TaylorFeedback"), &format!("{ty}FeedbackRecurrences")),
             "feedback",
             "X − ∇V",
             &tapes.feedback,
@@ -179,10 +179,11 @@ fn taylor_kernels<T: Float>(m: &{ty}<T>) -> lasalle_runtime::TaylorKernels<{ty}<
         }
     }
 
-    /// One Taylor kernel struct and its `TaylorKernel` impl.
+    /// The recurrences of one field (`Recurrences` of the runtime, whose `Emitted` makes the
+    /// kernel) and the kernel's name.
     fn taylor_kernel(
         &self,
-        st: &str,
+        (kernel, recurrences): (&str, &str),
         hoist: &str,
         what: &str,
         tape: &Tape,
@@ -218,72 +219,39 @@ fn taylor_kernels<T: Float>(m: &{ty}<T>) -> lasalle_runtime::TaylorKernels<{ty}<
             .map(|(i, o)| format!("            t[{i}][k + 1] = t[{o}][k] * inv;\n"))
             .collect();
         format!(
-            r#"/// The Taylor-coefficient kernel of {what} (`lasalle_runtime::TaylorKernel`): the recurrences
-/// of its tape, {rows} rows of orders 0..=`EMITTED_MAX_ORDER`, allocated once.
-pub struct {st} {{
-    params: [f64; {np}],
-    hoisted: [f64; {nh}],
-    target: [f64; {nt}],
-    gains: [f64; {ng}],
-    t: Box<[[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; {rows}]>,
-    order: usize,
-}}
-impl {st} {{
-    /// The kernel with the parameters of `m`; targets and gains 0.
-    pub fn new<T: Float>(m: &{ty}<T>) -> Self {{
-        let params = m.slot_values();
-        let t = vec![[0.0; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; {rows}]
-            .into_boxed_slice()
-            .try_into()
-            .expect("{rows} rows");
-        {st} {{
-            params,
-            hoisted: hoist_{hoist}(&params),
-            target: [0.0; {nt}],
-            gains: [0.0; {ng}],
-            t,
-            order: 0,
-        }}
+            r#"/// The Taylor-coefficient kernel of {what} (`lasalle_runtime::TaylorKernel`).
+pub type {kernel} = lasalle_runtime::taylor::Emitted<{recurrences}>;
+/// The recurrences of {what}'s tape (`lasalle_runtime::taylor::Recurrences`), {rows} rows of
+/// orders 0..=`EMITTED_MAX_ORDER`.
+pub struct {recurrences};
+impl<T: Float> lasalle_runtime::taylor::Recurrences<{ty}<T>> for {recurrences} {{
+    const NAME: &'static str = "{kernel}";
+    const DIM: usize = {n};
+    const ROWS: usize = {rows};
+    const PARAMS: usize = {np};
+    const HOISTED: usize = {nh};
+    const TARGETS: usize = {nt};
+    const GAINS: usize = {ng};
+    fn params(m: &{ty}<T>, out: &mut [f64]) {{
+        out.copy_from_slice(&m.slot_values());
     }}
-}}
-impl<T: Float> lasalle_runtime::TaylorKernel<{ty}<T>> for {st} {{
-    fn dim(&self) -> usize {{
-        {n}
-    }}
-    fn max_order(&self) -> usize {{
-        lasalle_runtime::taylor::EMITTED_MAX_ORDER
-    }}
-    fn sync(&mut self, m: &{ty}<T>) -> Result<(), lasalle_runtime::StepError> {{
-        let params = m.slot_values();
-        if params != self.params {{
-            self.params = params;
-            self.hoisted = hoist_{hoist}(&params);
-        }}
-        Ok(())
-    }}
-    fn set_inputs(
-        &mut self,
-        target: &[f64],
-        gains: &[f64],
-    ) -> Result<(), lasalle_runtime::StepError> {{
-        if target.len() != self.target.len() || gains.len() != self.gains.len() {{
-            return Err(lasalle_runtime::StepError::InvalidInput(format!(
-                "{st} takes {nt} targets and {ng} gains, got {{}} and {{}}",
-                target.len(),
-                gains.len()
-            )));
-        }}
-        self.target.copy_from_slice(target);
-        self.gains.copy_from_slice(gains);
-        Ok(())
+    fn hoist(params: &[f64], hoisted: &mut [f64]) {{
+        hoisted.copy_from_slice(&hoist_{hoist}(params.try_into().expect("parameter slots: {np}")));
     }}
     #[allow(unused_variables, clippy::all)]
-    fn compute(&mut self, x: &[f64], order: usize) {{
+    fn compute(
+        t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
+        hoisted: &[f64],
+        target: &[f64],
+        gains: &[f64],
+        x: &[f64],
+        order: usize,
+    ) {{
         use lasalle_runtime::taylor::{{rec, EMITTED_MAX_ORDER}};
-        let order = order.min(EMITTED_MAX_ORDER);
-        self.order = order;
-        let {st} {{ hoisted, target, gains, t, .. }} = self;
-        let t = &mut **t;
+        let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; {rows}] = t.try_into().expect("rows: {rows}");
+        let hoisted: &[f64; {nh}] = hoisted.try_into().expect("hoisted values: {nh}");
+        let target: &[f64; {nt}] = target.try_into().expect("targets: {nt}");
+        let gains: &[f64; {ng}] = gains.try_into().expect("gains: {ng}");
         for (row, xi) in t.iter_mut().zip(&x[..{n}]) {{
             row[0] = *xi;
         }}
@@ -293,9 +261,6 @@ impl<T: Float> lasalle_runtime::TaylorKernel<{ty}<T>> for {st} {{
 {higher}            }}
             let inv = 1.0 / (k as f64 + 1.0);
 {outputs}        }}
-    }}
-    fn coefficients(&self, i: usize) -> &[f64] {{
-        &self.t[i][..=self.order]
     }}
 }}
 "#

@@ -641,72 +641,39 @@ pub mod cr3bp {
         let p2: f64 = p1 - p0;
         [p0, p2]
     }
-    /// The Taylor-coefficient kernel of X (`lasalle_runtime::TaylorKernel`): the recurrences
-    /// of its tape, 41 rows of orders 0..=`EMITTED_MAX_ORDER`, allocated once.
-    pub struct CR3BPTaylorField {
-        params: [f64; 1],
-        hoisted: [f64; 4],
-        target: [f64; 0],
-        gains: [f64; 0],
-        t: Box<[[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 41]>,
-        order: usize,
-    }
-    impl CR3BPTaylorField {
-        /// The kernel with the parameters of `m`; targets and gains 0.
-        pub fn new<T: Float>(m: &CR3BP<T>) -> Self {
-            let params = m.slot_values();
-            let t = vec![[0.0; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 41]
-                .into_boxed_slice()
-                .try_into()
-                .expect("41 rows");
-            CR3BPTaylorField {
-                params,
-                hoisted: hoist_field(&params),
-                target: [0.0; 0],
-                gains: [0.0; 0],
-                t,
-                order: 0,
-            }
+    /// The Taylor-coefficient kernel of X (`lasalle_runtime::TaylorKernel`).
+    pub type CR3BPTaylorField = lasalle_runtime::taylor::Emitted<CR3BPFieldRecurrences>;
+    /// The recurrences of X's tape (`lasalle_runtime::taylor::Recurrences`), 41 rows of
+    /// orders 0..=`EMITTED_MAX_ORDER`.
+    pub struct CR3BPFieldRecurrences;
+    impl<T: Float> lasalle_runtime::taylor::Recurrences<CR3BP<T>> for CR3BPFieldRecurrences {
+        const NAME: &'static str = "CR3BPTaylorField";
+        const DIM: usize = 4;
+        const ROWS: usize = 41;
+        const PARAMS: usize = 1;
+        const HOISTED: usize = 4;
+        const TARGETS: usize = 0;
+        const GAINS: usize = 0;
+        fn params(m: &CR3BP<T>, out: &mut [f64]) {
+            out.copy_from_slice(&m.slot_values());
         }
-    }
-    impl<T: Float> lasalle_runtime::TaylorKernel<CR3BP<T>> for CR3BPTaylorField {
-        fn dim(&self) -> usize {
-            4
-        }
-        fn max_order(&self) -> usize {
-            lasalle_runtime::taylor::EMITTED_MAX_ORDER
-        }
-        fn sync(&mut self, m: &CR3BP<T>) -> Result<(), lasalle_runtime::StepError> {
-            let params = m.slot_values();
-            if params != self.params {
-                self.params = params;
-                self.hoisted = hoist_field(&params);
-            }
-            Ok(())
-        }
-        fn set_inputs(
-            &mut self,
-            target: &[f64],
-            gains: &[f64],
-        ) -> Result<(), lasalle_runtime::StepError> {
-            if target.len() != self.target.len() || gains.len() != self.gains.len() {
-                return Err(lasalle_runtime::StepError::InvalidInput(format!(
-                    "CR3BPTaylorField takes 0 targets and 0 gains, got {} and {}",
-                    target.len(),
-                    gains.len()
-                )));
-            }
-            self.target.copy_from_slice(target);
-            self.gains.copy_from_slice(gains);
-            Ok(())
+        fn hoist(params: &[f64], hoisted: &mut [f64]) {
+            hoisted.copy_from_slice(&hoist_field(params.try_into().expect("parameter slots: 1")));
         }
         #[allow(unused_variables, clippy::all)]
-        fn compute(&mut self, x: &[f64], order: usize) {
+        fn compute(
+            t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
+            hoisted: &[f64],
+            target: &[f64],
+            gains: &[f64],
+            x: &[f64],
+            order: usize,
+        ) {
             use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
-            let order = order.min(EMITTED_MAX_ORDER);
-            self.order = order;
-            let CR3BPTaylorField { hoisted, target, gains, t, .. } = self;
-            let t = &mut **t;
+            let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 41] = t.try_into().expect("rows: 41");
+            let hoisted: &[f64; 4] = hoisted.try_into().expect("hoisted values: 4");
+            let target: &[f64; 0] = target.try_into().expect("targets: 0");
+            let gains: &[f64; 0] = gains.try_into().expect("gains: 0");
             for (row, xi) in t.iter_mut().zip(&x[..4]) {
                 row[0] = *xi;
             }
@@ -789,76 +756,40 @@ pub mod cr3bp {
                 t[3][k + 1] = t[40][k] * inv;
             }
         }
-        fn coefficients(&self, i: usize) -> &[f64] {
-            &self.t[i][..=self.order]
-        }
     }
-    /// The Taylor-coefficient kernel of X − ∇V (`lasalle_runtime::TaylorKernel`): the recurrences
-    /// of its tape, 66 rows of orders 0..=`EMITTED_MAX_ORDER`, allocated once.
-    pub struct CR3BPTaylorFeedback {
-        params: [f64; 1],
-        hoisted: [f64; 4],
-        target: [f64; 1],
-        gains: [f64; 1],
-        t: Box<[[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 66]>,
-        order: usize,
-    }
-    impl CR3BPTaylorFeedback {
-        /// The kernel with the parameters of `m`; targets and gains 0.
-        pub fn new<T: Float>(m: &CR3BP<T>) -> Self {
-            let params = m.slot_values();
-            let t = vec![[0.0; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 66]
-                .into_boxed_slice()
-                .try_into()
-                .expect("66 rows");
-            CR3BPTaylorFeedback {
-                params,
-                hoisted: hoist_feedback(&params),
-                target: [0.0; 1],
-                gains: [0.0; 1],
-                t,
-                order: 0,
-            }
+    /// The Taylor-coefficient kernel of X − ∇V (`lasalle_runtime::TaylorKernel`).
+    pub type CR3BPTaylorFeedback = lasalle_runtime::taylor::Emitted<CR3BPFeedbackRecurrences>;
+    /// The recurrences of X − ∇V's tape (`lasalle_runtime::taylor::Recurrences`), 66 rows of
+    /// orders 0..=`EMITTED_MAX_ORDER`.
+    pub struct CR3BPFeedbackRecurrences;
+    impl<T: Float> lasalle_runtime::taylor::Recurrences<CR3BP<T>> for CR3BPFeedbackRecurrences {
+        const NAME: &'static str = "CR3BPTaylorFeedback";
+        const DIM: usize = 4;
+        const ROWS: usize = 66;
+        const PARAMS: usize = 1;
+        const HOISTED: usize = 4;
+        const TARGETS: usize = 1;
+        const GAINS: usize = 1;
+        fn params(m: &CR3BP<T>, out: &mut [f64]) {
+            out.copy_from_slice(&m.slot_values());
         }
-    }
-    impl<T: Float> lasalle_runtime::TaylorKernel<CR3BP<T>> for CR3BPTaylorFeedback {
-        fn dim(&self) -> usize {
-            4
-        }
-        fn max_order(&self) -> usize {
-            lasalle_runtime::taylor::EMITTED_MAX_ORDER
-        }
-        fn sync(&mut self, m: &CR3BP<T>) -> Result<(), lasalle_runtime::StepError> {
-            let params = m.slot_values();
-            if params != self.params {
-                self.params = params;
-                self.hoisted = hoist_feedback(&params);
-            }
-            Ok(())
-        }
-        fn set_inputs(
-            &mut self,
-            target: &[f64],
-            gains: &[f64],
-        ) -> Result<(), lasalle_runtime::StepError> {
-            if target.len() != self.target.len() || gains.len() != self.gains.len() {
-                return Err(lasalle_runtime::StepError::InvalidInput(format!(
-                    "CR3BPTaylorFeedback takes 1 targets and 1 gains, got {} and {}",
-                    target.len(),
-                    gains.len()
-                )));
-            }
-            self.target.copy_from_slice(target);
-            self.gains.copy_from_slice(gains);
-            Ok(())
+        fn hoist(params: &[f64], hoisted: &mut [f64]) {
+            hoisted.copy_from_slice(&hoist_feedback(params.try_into().expect("parameter slots: 1")));
         }
         #[allow(unused_variables, clippy::all)]
-        fn compute(&mut self, x: &[f64], order: usize) {
+        fn compute(
+            t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
+            hoisted: &[f64],
+            target: &[f64],
+            gains: &[f64],
+            x: &[f64],
+            order: usize,
+        ) {
             use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
-            let order = order.min(EMITTED_MAX_ORDER);
-            self.order = order;
-            let CR3BPTaylorFeedback { hoisted, target, gains, t, .. } = self;
-            let t = &mut **t;
+            let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 66] = t.try_into().expect("rows: 66");
+            let hoisted: &[f64; 4] = hoisted.try_into().expect("hoisted values: 4");
+            let target: &[f64; 1] = target.try_into().expect("targets: 1");
+            let gains: &[f64; 1] = gains.try_into().expect("gains: 1");
             for (row, xi) in t.iter_mut().zip(&x[..4]) {
                 row[0] = *xi;
             }
@@ -987,9 +918,6 @@ pub mod cr3bp {
                 t[2][k + 1] = t[62][k] * inv;
                 t[3][k + 1] = t[65][k] * inv;
             }
-        }
-        fn coefficients(&self, i: usize) -> &[f64] {
-            &self.t[i][..=self.order]
         }
     }
     /// The model's functions for K states per call (structure of arrays), with the

@@ -505,72 +505,39 @@ pub mod hostile {
     fn hoist_feedback(p: &[f64; 0]) -> [f64; 0] {
         []
     }
-    /// The Taylor-coefficient kernel of X (`lasalle_runtime::TaylorKernel`): the recurrences
-    /// of its tape, 16 rows of orders 0..=`EMITTED_MAX_ORDER`, allocated once.
-    pub struct HostileTaylorField {
-        params: [f64; 0],
-        hoisted: [f64; 0],
-        target: [f64; 0],
-        gains: [f64; 0],
-        t: Box<[[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 16]>,
-        order: usize,
-    }
-    impl HostileTaylorField {
-        /// The kernel with the parameters of `m`; targets and gains 0.
-        pub fn new<T: Float>(m: &Hostile<T>) -> Self {
-            let params = m.slot_values();
-            let t = vec![[0.0; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 16]
-                .into_boxed_slice()
-                .try_into()
-                .expect("16 rows");
-            HostileTaylorField {
-                params,
-                hoisted: hoist_field(&params),
-                target: [0.0; 0],
-                gains: [0.0; 0],
-                t,
-                order: 0,
-            }
+    /// The Taylor-coefficient kernel of X (`lasalle_runtime::TaylorKernel`).
+    pub type HostileTaylorField = lasalle_runtime::taylor::Emitted<HostileFieldRecurrences>;
+    /// The recurrences of X's tape (`lasalle_runtime::taylor::Recurrences`), 16 rows of
+    /// orders 0..=`EMITTED_MAX_ORDER`.
+    pub struct HostileFieldRecurrences;
+    impl<T: Float> lasalle_runtime::taylor::Recurrences<Hostile<T>> for HostileFieldRecurrences {
+        const NAME: &'static str = "HostileTaylorField";
+        const DIM: usize = 6;
+        const ROWS: usize = 16;
+        const PARAMS: usize = 0;
+        const HOISTED: usize = 0;
+        const TARGETS: usize = 0;
+        const GAINS: usize = 0;
+        fn params(m: &Hostile<T>, out: &mut [f64]) {
+            out.copy_from_slice(&m.slot_values());
         }
-    }
-    impl<T: Float> lasalle_runtime::TaylorKernel<Hostile<T>> for HostileTaylorField {
-        fn dim(&self) -> usize {
-            6
-        }
-        fn max_order(&self) -> usize {
-            lasalle_runtime::taylor::EMITTED_MAX_ORDER
-        }
-        fn sync(&mut self, m: &Hostile<T>) -> Result<(), lasalle_runtime::StepError> {
-            let params = m.slot_values();
-            if params != self.params {
-                self.params = params;
-                self.hoisted = hoist_field(&params);
-            }
-            Ok(())
-        }
-        fn set_inputs(
-            &mut self,
-            target: &[f64],
-            gains: &[f64],
-        ) -> Result<(), lasalle_runtime::StepError> {
-            if target.len() != self.target.len() || gains.len() != self.gains.len() {
-                return Err(lasalle_runtime::StepError::InvalidInput(format!(
-                    "HostileTaylorField takes 0 targets and 0 gains, got {} and {}",
-                    target.len(),
-                    gains.len()
-                )));
-            }
-            self.target.copy_from_slice(target);
-            self.gains.copy_from_slice(gains);
-            Ok(())
+        fn hoist(params: &[f64], hoisted: &mut [f64]) {
+            hoisted.copy_from_slice(&hoist_field(params.try_into().expect("parameter slots: 0")));
         }
         #[allow(unused_variables, clippy::all)]
-        fn compute(&mut self, x: &[f64], order: usize) {
+        fn compute(
+            t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
+            hoisted: &[f64],
+            target: &[f64],
+            gains: &[f64],
+            x: &[f64],
+            order: usize,
+        ) {
             use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
-            let order = order.min(EMITTED_MAX_ORDER);
-            self.order = order;
-            let HostileTaylorField { hoisted, target, gains, t, .. } = self;
-            let t = &mut **t;
+            let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 16] = t.try_into().expect("rows: 16");
+            let hoisted: &[f64; 0] = hoisted.try_into().expect("hoisted values: 0");
+            let target: &[f64; 0] = target.try_into().expect("targets: 0");
+            let gains: &[f64; 0] = gains.try_into().expect("gains: 0");
             for (row, xi) in t.iter_mut().zip(&x[..6]) {
                 row[0] = *xi;
             }
@@ -606,76 +573,40 @@ pub mod hostile {
                 t[5][k + 1] = t[15][k] * inv;
             }
         }
-        fn coefficients(&self, i: usize) -> &[f64] {
-            &self.t[i][..=self.order]
-        }
     }
-    /// The Taylor-coefficient kernel of X − ∇V (`lasalle_runtime::TaylorKernel`): the recurrences
-    /// of its tape, 42 rows of orders 0..=`EMITTED_MAX_ORDER`, allocated once.
-    pub struct HostileTaylorFeedback {
-        params: [f64; 0],
-        hoisted: [f64; 0],
-        target: [f64; 2],
-        gains: [f64; 2],
-        t: Box<[[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 42]>,
-        order: usize,
-    }
-    impl HostileTaylorFeedback {
-        /// The kernel with the parameters of `m`; targets and gains 0.
-        pub fn new<T: Float>(m: &Hostile<T>) -> Self {
-            let params = m.slot_values();
-            let t = vec![[0.0; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 42]
-                .into_boxed_slice()
-                .try_into()
-                .expect("42 rows");
-            HostileTaylorFeedback {
-                params,
-                hoisted: hoist_feedback(&params),
-                target: [0.0; 2],
-                gains: [0.0; 2],
-                t,
-                order: 0,
-            }
+    /// The Taylor-coefficient kernel of X − ∇V (`lasalle_runtime::TaylorKernel`).
+    pub type HostileTaylorFeedback = lasalle_runtime::taylor::Emitted<HostileFeedbackRecurrences>;
+    /// The recurrences of X − ∇V's tape (`lasalle_runtime::taylor::Recurrences`), 42 rows of
+    /// orders 0..=`EMITTED_MAX_ORDER`.
+    pub struct HostileFeedbackRecurrences;
+    impl<T: Float> lasalle_runtime::taylor::Recurrences<Hostile<T>> for HostileFeedbackRecurrences {
+        const NAME: &'static str = "HostileTaylorFeedback";
+        const DIM: usize = 6;
+        const ROWS: usize = 42;
+        const PARAMS: usize = 0;
+        const HOISTED: usize = 0;
+        const TARGETS: usize = 2;
+        const GAINS: usize = 2;
+        fn params(m: &Hostile<T>, out: &mut [f64]) {
+            out.copy_from_slice(&m.slot_values());
         }
-    }
-    impl<T: Float> lasalle_runtime::TaylorKernel<Hostile<T>> for HostileTaylorFeedback {
-        fn dim(&self) -> usize {
-            6
-        }
-        fn max_order(&self) -> usize {
-            lasalle_runtime::taylor::EMITTED_MAX_ORDER
-        }
-        fn sync(&mut self, m: &Hostile<T>) -> Result<(), lasalle_runtime::StepError> {
-            let params = m.slot_values();
-            if params != self.params {
-                self.params = params;
-                self.hoisted = hoist_feedback(&params);
-            }
-            Ok(())
-        }
-        fn set_inputs(
-            &mut self,
-            target: &[f64],
-            gains: &[f64],
-        ) -> Result<(), lasalle_runtime::StepError> {
-            if target.len() != self.target.len() || gains.len() != self.gains.len() {
-                return Err(lasalle_runtime::StepError::InvalidInput(format!(
-                    "HostileTaylorFeedback takes 2 targets and 2 gains, got {} and {}",
-                    target.len(),
-                    gains.len()
-                )));
-            }
-            self.target.copy_from_slice(target);
-            self.gains.copy_from_slice(gains);
-            Ok(())
+        fn hoist(params: &[f64], hoisted: &mut [f64]) {
+            hoisted.copy_from_slice(&hoist_feedback(params.try_into().expect("parameter slots: 0")));
         }
         #[allow(unused_variables, clippy::all)]
-        fn compute(&mut self, x: &[f64], order: usize) {
+        fn compute(
+            t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
+            hoisted: &[f64],
+            target: &[f64],
+            gains: &[f64],
+            x: &[f64],
+            order: usize,
+        ) {
             use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
-            let order = order.min(EMITTED_MAX_ORDER);
-            self.order = order;
-            let HostileTaylorFeedback { hoisted, target, gains, t, .. } = self;
-            let t = &mut **t;
+            let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 42] = t.try_into().expect("rows: 42");
+            let hoisted: &[f64; 0] = hoisted.try_into().expect("hoisted values: 0");
+            let target: &[f64; 2] = target.try_into().expect("targets: 2");
+            let gains: &[f64; 2] = gains.try_into().expect("gains: 2");
             for (row, xi) in t.iter_mut().zip(&x[..6]) {
                 row[0] = *xi;
             }
@@ -757,9 +688,6 @@ pub mod hostile {
                 t[4][k + 1] = t[5][k] * inv;
                 t[5][k + 1] = t[41][k] * inv;
             }
-        }
-        fn coefficients(&self, i: usize) -> &[f64] {
-            &self.t[i][..=self.order]
         }
     }
     /// The model's functions for K states per call (structure of arrays), with the

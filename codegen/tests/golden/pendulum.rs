@@ -567,72 +567,39 @@ pub mod pendulum {
         let p3: f64 = -p2;
         [p3]
     }
-    /// The Taylor-coefficient kernel of X (`lasalle_runtime::TaylorKernel`): the recurrences
-    /// of its tape, 6 rows of orders 0..=`EMITTED_MAX_ORDER`, allocated once.
-    pub struct PendulumTaylorField {
-        params: [f64; 2],
-        hoisted: [f64; 1],
-        target: [f64; 0],
-        gains: [f64; 0],
-        t: Box<[[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 6]>,
-        order: usize,
-    }
-    impl PendulumTaylorField {
-        /// The kernel with the parameters of `m`; targets and gains 0.
-        pub fn new<T: Float>(m: &Pendulum<T>) -> Self {
-            let params = m.slot_values();
-            let t = vec![[0.0; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 6]
-                .into_boxed_slice()
-                .try_into()
-                .expect("6 rows");
-            PendulumTaylorField {
-                params,
-                hoisted: hoist_field(&params),
-                target: [0.0; 0],
-                gains: [0.0; 0],
-                t,
-                order: 0,
-            }
+    /// The Taylor-coefficient kernel of X (`lasalle_runtime::TaylorKernel`).
+    pub type PendulumTaylorField = lasalle_runtime::taylor::Emitted<PendulumFieldRecurrences>;
+    /// The recurrences of X's tape (`lasalle_runtime::taylor::Recurrences`), 6 rows of
+    /// orders 0..=`EMITTED_MAX_ORDER`.
+    pub struct PendulumFieldRecurrences;
+    impl<T: Float> lasalle_runtime::taylor::Recurrences<Pendulum<T>> for PendulumFieldRecurrences {
+        const NAME: &'static str = "PendulumTaylorField";
+        const DIM: usize = 2;
+        const ROWS: usize = 6;
+        const PARAMS: usize = 2;
+        const HOISTED: usize = 1;
+        const TARGETS: usize = 0;
+        const GAINS: usize = 0;
+        fn params(m: &Pendulum<T>, out: &mut [f64]) {
+            out.copy_from_slice(&m.slot_values());
         }
-    }
-    impl<T: Float> lasalle_runtime::TaylorKernel<Pendulum<T>> for PendulumTaylorField {
-        fn dim(&self) -> usize {
-            2
-        }
-        fn max_order(&self) -> usize {
-            lasalle_runtime::taylor::EMITTED_MAX_ORDER
-        }
-        fn sync(&mut self, m: &Pendulum<T>) -> Result<(), lasalle_runtime::StepError> {
-            let params = m.slot_values();
-            if params != self.params {
-                self.params = params;
-                self.hoisted = hoist_field(&params);
-            }
-            Ok(())
-        }
-        fn set_inputs(
-            &mut self,
-            target: &[f64],
-            gains: &[f64],
-        ) -> Result<(), lasalle_runtime::StepError> {
-            if target.len() != self.target.len() || gains.len() != self.gains.len() {
-                return Err(lasalle_runtime::StepError::InvalidInput(format!(
-                    "PendulumTaylorField takes 0 targets and 0 gains, got {} and {}",
-                    target.len(),
-                    gains.len()
-                )));
-            }
-            self.target.copy_from_slice(target);
-            self.gains.copy_from_slice(gains);
-            Ok(())
+        fn hoist(params: &[f64], hoisted: &mut [f64]) {
+            hoisted.copy_from_slice(&hoist_field(params.try_into().expect("parameter slots: 2")));
         }
         #[allow(unused_variables, clippy::all)]
-        fn compute(&mut self, x: &[f64], order: usize) {
+        fn compute(
+            t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
+            hoisted: &[f64],
+            target: &[f64],
+            gains: &[f64],
+            x: &[f64],
+            order: usize,
+        ) {
             use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
-            let order = order.min(EMITTED_MAX_ORDER);
-            self.order = order;
-            let PendulumTaylorField { hoisted, target, gains, t, .. } = self;
-            let t = &mut **t;
+            let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 6] = t.try_into().expect("rows: 6");
+            let hoisted: &[f64; 1] = hoisted.try_into().expect("hoisted values: 1");
+            let target: &[f64; 0] = target.try_into().expect("targets: 0");
+            let gains: &[f64; 0] = gains.try_into().expect("gains: 0");
             for (row, xi) in t.iter_mut().zip(&x[..2]) {
                 row[0] = *xi;
             }
@@ -654,76 +621,40 @@ pub mod pendulum {
                 t[1][k + 1] = t[5][k] * inv;
             }
         }
-        fn coefficients(&self, i: usize) -> &[f64] {
-            &self.t[i][..=self.order]
-        }
     }
-    /// The Taylor-coefficient kernel of X − ∇V (`lasalle_runtime::TaylorKernel`): the recurrences
-    /// of its tape, 19 rows of orders 0..=`EMITTED_MAX_ORDER`, allocated once.
-    pub struct PendulumTaylorFeedback {
-        params: [f64; 2],
-        hoisted: [f64; 1],
-        target: [f64; 1],
-        gains: [f64; 1],
-        t: Box<[[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 19]>,
-        order: usize,
-    }
-    impl PendulumTaylorFeedback {
-        /// The kernel with the parameters of `m`; targets and gains 0.
-        pub fn new<T: Float>(m: &Pendulum<T>) -> Self {
-            let params = m.slot_values();
-            let t = vec![[0.0; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 19]
-                .into_boxed_slice()
-                .try_into()
-                .expect("19 rows");
-            PendulumTaylorFeedback {
-                params,
-                hoisted: hoist_feedback(&params),
-                target: [0.0; 1],
-                gains: [0.0; 1],
-                t,
-                order: 0,
-            }
+    /// The Taylor-coefficient kernel of X − ∇V (`lasalle_runtime::TaylorKernel`).
+    pub type PendulumTaylorFeedback = lasalle_runtime::taylor::Emitted<PendulumFeedbackRecurrences>;
+    /// The recurrences of X − ∇V's tape (`lasalle_runtime::taylor::Recurrences`), 19 rows of
+    /// orders 0..=`EMITTED_MAX_ORDER`.
+    pub struct PendulumFeedbackRecurrences;
+    impl<T: Float> lasalle_runtime::taylor::Recurrences<Pendulum<T>> for PendulumFeedbackRecurrences {
+        const NAME: &'static str = "PendulumTaylorFeedback";
+        const DIM: usize = 2;
+        const ROWS: usize = 19;
+        const PARAMS: usize = 2;
+        const HOISTED: usize = 1;
+        const TARGETS: usize = 1;
+        const GAINS: usize = 1;
+        fn params(m: &Pendulum<T>, out: &mut [f64]) {
+            out.copy_from_slice(&m.slot_values());
         }
-    }
-    impl<T: Float> lasalle_runtime::TaylorKernel<Pendulum<T>> for PendulumTaylorFeedback {
-        fn dim(&self) -> usize {
-            2
-        }
-        fn max_order(&self) -> usize {
-            lasalle_runtime::taylor::EMITTED_MAX_ORDER
-        }
-        fn sync(&mut self, m: &Pendulum<T>) -> Result<(), lasalle_runtime::StepError> {
-            let params = m.slot_values();
-            if params != self.params {
-                self.params = params;
-                self.hoisted = hoist_feedback(&params);
-            }
-            Ok(())
-        }
-        fn set_inputs(
-            &mut self,
-            target: &[f64],
-            gains: &[f64],
-        ) -> Result<(), lasalle_runtime::StepError> {
-            if target.len() != self.target.len() || gains.len() != self.gains.len() {
-                return Err(lasalle_runtime::StepError::InvalidInput(format!(
-                    "PendulumTaylorFeedback takes 1 targets and 1 gains, got {} and {}",
-                    target.len(),
-                    gains.len()
-                )));
-            }
-            self.target.copy_from_slice(target);
-            self.gains.copy_from_slice(gains);
-            Ok(())
+        fn hoist(params: &[f64], hoisted: &mut [f64]) {
+            hoisted.copy_from_slice(&hoist_feedback(params.try_into().expect("parameter slots: 2")));
         }
         #[allow(unused_variables, clippy::all)]
-        fn compute(&mut self, x: &[f64], order: usize) {
+        fn compute(
+            t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
+            hoisted: &[f64],
+            target: &[f64],
+            gains: &[f64],
+            x: &[f64],
+            order: usize,
+        ) {
             use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
-            let order = order.min(EMITTED_MAX_ORDER);
-            self.order = order;
-            let PendulumTaylorFeedback { hoisted, target, gains, t, .. } = self;
-            let t = &mut **t;
+            let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 19] = t.try_into().expect("rows: 19");
+            let hoisted: &[f64; 1] = hoisted.try_into().expect("hoisted values: 1");
+            let target: &[f64; 1] = target.try_into().expect("targets: 1");
+            let gains: &[f64; 1] = gains.try_into().expect("gains: 1");
             for (row, xi) in t.iter_mut().zip(&x[..2]) {
                 row[0] = *xi;
             }
@@ -767,9 +698,6 @@ pub mod pendulum {
                 t[0][k + 1] = t[16][k] * inv;
                 t[1][k + 1] = t[18][k] * inv;
             }
-        }
-        fn coefficients(&self, i: usize) -> &[f64] {
-            &self.t[i][..=self.order]
         }
     }
     /// The model's functions for K states per call (structure of arrays), with the

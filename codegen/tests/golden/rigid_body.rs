@@ -808,72 +808,39 @@ pub mod rigid_body {
         let p8: f64 = p7 / p2;
         [p0, p1, p2, p4, p6, p8]
     }
-    /// The Taylor-coefficient kernel of X (`lasalle_runtime::TaylorKernel`): the recurrences
-    /// of its tape, 48 rows of orders 0..=`EMITTED_MAX_ORDER`, allocated once.
-    pub struct RigidBodyTaylorField {
-        params: [f64; 3],
-        hoisted: [f64; 3],
-        target: [f64; 0],
-        gains: [f64; 0],
-        t: Box<[[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 48]>,
-        order: usize,
-    }
-    impl RigidBodyTaylorField {
-        /// The kernel with the parameters of `m`; targets and gains 0.
-        pub fn new<T: Float>(m: &RigidBody<T>) -> Self {
-            let params = m.slot_values();
-            let t = vec![[0.0; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 48]
-                .into_boxed_slice()
-                .try_into()
-                .expect("48 rows");
-            RigidBodyTaylorField {
-                params,
-                hoisted: hoist_field(&params),
-                target: [0.0; 0],
-                gains: [0.0; 0],
-                t,
-                order: 0,
-            }
+    /// The Taylor-coefficient kernel of X (`lasalle_runtime::TaylorKernel`).
+    pub type RigidBodyTaylorField = lasalle_runtime::taylor::Emitted<RigidBodyFieldRecurrences>;
+    /// The recurrences of X's tape (`lasalle_runtime::taylor::Recurrences`), 48 rows of
+    /// orders 0..=`EMITTED_MAX_ORDER`.
+    pub struct RigidBodyFieldRecurrences;
+    impl<T: Float> lasalle_runtime::taylor::Recurrences<RigidBody<T>> for RigidBodyFieldRecurrences {
+        const NAME: &'static str = "RigidBodyTaylorField";
+        const DIM: usize = 12;
+        const ROWS: usize = 48;
+        const PARAMS: usize = 3;
+        const HOISTED: usize = 3;
+        const TARGETS: usize = 0;
+        const GAINS: usize = 0;
+        fn params(m: &RigidBody<T>, out: &mut [f64]) {
+            out.copy_from_slice(&m.slot_values());
         }
-    }
-    impl<T: Float> lasalle_runtime::TaylorKernel<RigidBody<T>> for RigidBodyTaylorField {
-        fn dim(&self) -> usize {
-            12
-        }
-        fn max_order(&self) -> usize {
-            lasalle_runtime::taylor::EMITTED_MAX_ORDER
-        }
-        fn sync(&mut self, m: &RigidBody<T>) -> Result<(), lasalle_runtime::StepError> {
-            let params = m.slot_values();
-            if params != self.params {
-                self.params = params;
-                self.hoisted = hoist_field(&params);
-            }
-            Ok(())
-        }
-        fn set_inputs(
-            &mut self,
-            target: &[f64],
-            gains: &[f64],
-        ) -> Result<(), lasalle_runtime::StepError> {
-            if target.len() != self.target.len() || gains.len() != self.gains.len() {
-                return Err(lasalle_runtime::StepError::InvalidInput(format!(
-                    "RigidBodyTaylorField takes 0 targets and 0 gains, got {} and {}",
-                    target.len(),
-                    gains.len()
-                )));
-            }
-            self.target.copy_from_slice(target);
-            self.gains.copy_from_slice(gains);
-            Ok(())
+        fn hoist(params: &[f64], hoisted: &mut [f64]) {
+            hoisted.copy_from_slice(&hoist_field(params.try_into().expect("parameter slots: 3")));
         }
         #[allow(unused_variables, clippy::all)]
-        fn compute(&mut self, x: &[f64], order: usize) {
+        fn compute(
+            t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
+            hoisted: &[f64],
+            target: &[f64],
+            gains: &[f64],
+            x: &[f64],
+            order: usize,
+        ) {
             use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
-            let order = order.min(EMITTED_MAX_ORDER);
-            self.order = order;
-            let RigidBodyTaylorField { hoisted, target, gains, t, .. } = self;
-            let t = &mut **t;
+            let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 48] = t.try_into().expect("rows: 48");
+            let hoisted: &[f64; 3] = hoisted.try_into().expect("hoisted values: 3");
+            let target: &[f64; 0] = target.try_into().expect("targets: 0");
+            let gains: &[f64; 0] = gains.try_into().expect("gains: 0");
             for (row, xi) in t.iter_mut().zip(&x[..12]) {
                 row[0] = *xi;
             }
@@ -965,76 +932,40 @@ pub mod rigid_body {
                 t[11][k + 1] = t[47][k] * inv;
             }
         }
-        fn coefficients(&self, i: usize) -> &[f64] {
-            &self.t[i][..=self.order]
-        }
     }
-    /// The Taylor-coefficient kernel of X − ∇V (`lasalle_runtime::TaylorKernel`): the recurrences
-    /// of its tape, 239 rows of orders 0..=`EMITTED_MAX_ORDER`, allocated once.
-    pub struct RigidBodyTaylorFeedback {
-        params: [f64; 3],
-        hoisted: [f64; 6],
-        target: [f64; 13],
-        gains: [f64; 3],
-        t: Box<[[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 239]>,
-        order: usize,
-    }
-    impl RigidBodyTaylorFeedback {
-        /// The kernel with the parameters of `m`; targets and gains 0.
-        pub fn new<T: Float>(m: &RigidBody<T>) -> Self {
-            let params = m.slot_values();
-            let t = vec![[0.0; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]; 239]
-                .into_boxed_slice()
-                .try_into()
-                .expect("239 rows");
-            RigidBodyTaylorFeedback {
-                params,
-                hoisted: hoist_feedback(&params),
-                target: [0.0; 13],
-                gains: [0.0; 3],
-                t,
-                order: 0,
-            }
+    /// The Taylor-coefficient kernel of X − ∇V (`lasalle_runtime::TaylorKernel`).
+    pub type RigidBodyTaylorFeedback = lasalle_runtime::taylor::Emitted<RigidBodyFeedbackRecurrences>;
+    /// The recurrences of X − ∇V's tape (`lasalle_runtime::taylor::Recurrences`), 239 rows of
+    /// orders 0..=`EMITTED_MAX_ORDER`.
+    pub struct RigidBodyFeedbackRecurrences;
+    impl<T: Float> lasalle_runtime::taylor::Recurrences<RigidBody<T>> for RigidBodyFeedbackRecurrences {
+        const NAME: &'static str = "RigidBodyTaylorFeedback";
+        const DIM: usize = 12;
+        const ROWS: usize = 239;
+        const PARAMS: usize = 3;
+        const HOISTED: usize = 6;
+        const TARGETS: usize = 13;
+        const GAINS: usize = 3;
+        fn params(m: &RigidBody<T>, out: &mut [f64]) {
+            out.copy_from_slice(&m.slot_values());
         }
-    }
-    impl<T: Float> lasalle_runtime::TaylorKernel<RigidBody<T>> for RigidBodyTaylorFeedback {
-        fn dim(&self) -> usize {
-            12
-        }
-        fn max_order(&self) -> usize {
-            lasalle_runtime::taylor::EMITTED_MAX_ORDER
-        }
-        fn sync(&mut self, m: &RigidBody<T>) -> Result<(), lasalle_runtime::StepError> {
-            let params = m.slot_values();
-            if params != self.params {
-                self.params = params;
-                self.hoisted = hoist_feedback(&params);
-            }
-            Ok(())
-        }
-        fn set_inputs(
-            &mut self,
-            target: &[f64],
-            gains: &[f64],
-        ) -> Result<(), lasalle_runtime::StepError> {
-            if target.len() != self.target.len() || gains.len() != self.gains.len() {
-                return Err(lasalle_runtime::StepError::InvalidInput(format!(
-                    "RigidBodyTaylorFeedback takes 13 targets and 3 gains, got {} and {}",
-                    target.len(),
-                    gains.len()
-                )));
-            }
-            self.target.copy_from_slice(target);
-            self.gains.copy_from_slice(gains);
-            Ok(())
+        fn hoist(params: &[f64], hoisted: &mut [f64]) {
+            hoisted.copy_from_slice(&hoist_feedback(params.try_into().expect("parameter slots: 3")));
         }
         #[allow(unused_variables, clippy::all)]
-        fn compute(&mut self, x: &[f64], order: usize) {
+        fn compute(
+            t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
+            hoisted: &[f64],
+            target: &[f64],
+            gains: &[f64],
+            x: &[f64],
+            order: usize,
+        ) {
             use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
-            let order = order.min(EMITTED_MAX_ORDER);
-            self.order = order;
-            let RigidBodyTaylorFeedback { hoisted, target, gains, t, .. } = self;
-            let t = &mut **t;
+            let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 239] = t.try_into().expect("rows: 239");
+            let hoisted: &[f64; 6] = hoisted.try_into().expect("hoisted values: 6");
+            let target: &[f64; 13] = target.try_into().expect("targets: 13");
+            let gains: &[f64; 3] = gains.try_into().expect("gains: 3");
             for (row, xi) in t.iter_mut().zip(&x[..12]) {
                 row[0] = *xi;
             }
@@ -1495,9 +1426,6 @@ pub mod rigid_body {
                 t[10][k + 1] = t[225][k] * inv;
                 t[11][k + 1] = t[238][k] * inv;
             }
-        }
-        fn coefficients(&self, i: usize) -> &[f64] {
-            &self.t[i][..=self.order]
         }
     }
     /// The model's functions for K states per call (structure of arrays), with the
