@@ -153,14 +153,20 @@ fn taylor_kernels<T: Float>(m: &{ty}<T>) -> lasalle_runtime::TaylorKernels<{ty}<
         let field = TaylorProgram::new(&tapes.field).map_err(internal)?;
         let feedback = TaylorProgram::new(&tapes.feedback).map_err(internal)?;
         s.push_str(&self.taylor_kernel(
-            (&format!("{ty}TaylorField"), &format!("{ty}FieldRecurrences")),
+            (
+                &format!("{ty}TaylorField"),
+                &format!("{ty}FieldRecurrences"),
+            ),
             "field",
             "X",
             &tapes.field,
             &field,
         ));
         s.push_str(&self.taylor_kernel(
-            (&format!("{ty}TaylorFeedback"), &format!("{ty}FeedbackRecurrences")),
+            (
+                &format!("{ty}TaylorFeedback"),
+                &format!("{ty}FeedbackRecurrences"),
+            ),
             "feedback",
             "X − ∇V",
             &tapes.feedback,
