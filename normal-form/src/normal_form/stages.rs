@@ -1,5 +1,9 @@
-//! The stages of one run in a fixed precision: equilibrium → Taylor expansion → linear
-//! normalisation → resonance check → Lie normalisation → real forms and remainder.
+//! The stages of one run in a fixed precision, each a function of the previous one's output:
+//! equilibrium and Taylor expansion ([`expand`]) → linear normalisation ([`normalize_linear`])
+//! → resonance check ([`check_nonresonant`]) → Lie normalisation (`lie::normalize`) → H̄ in the
+//! actions ([`in_actions`]), the resonant terms and the remainder ([`off_action_terms`]), the
+//! twist coefficients ([`twist_coefficients`]) → the generating function in real form
+//! ([`generating_function`]) and the coordinate maps (`lie::coordinate_maps`).
 
 use super::assemble::Raw;
 use super::expansion::{
@@ -9,10 +13,12 @@ use super::options::{Options, Point, Precision, Progress, Stage};
 use super::result::{DegreeError, Remainder, RemainderPart, ResonantTerm, SmallDivisor, Timings};
 use crate::complex::Complex;
 use crate::error::NormalFormError;
-use crate::hamiltonian::{find_equilibrium, gradient_hessian, taylor, HamiltonianFn};
+use crate::hamiltonian::{find_equilibrium, gradient_hessian, taylor, Equilibrium, HamiltonianFn};
 use crate::lie;
 use crate::linalg::Mat;
-use crate::linear::{complexification, linear_normalization, symplectic_inverse};
+use crate::linear::{
+    complexification, linear_normalization, symplectic_inverse, LinearNormalization,
+};
 use crate::monomial::MonomialTable;
 use crate::poly::Poly;
 use crate::scalar::{Coeff, Real};
@@ -32,10 +38,139 @@ pub(super) fn run<R: Real, H: HamiltonianFn + ?Sized>(
         Precision::DoubleDouble
     };
     Progress::report(&o.progress, Stage::Start(precision));
-    let n = h.n_dof();
-    let d = 2 * n;
-    let nmax = o.order;
+    let (n, nmax) = (h.n_dof(), o.order);
     let top = o.remainder_degree.unwrap_or(nmax).max(nmax);
+    let Expansion { eq, hz, table } = expand::<R, H>(h, point, o, top)?;
+    let energy = hz.constant_term();
+    let mut timings = Timings {
+        taylor: t_start.elapsed().as_secs_f64(),
+        ..Timings::default()
+    };
+
+    let t = Instant::now();
+    let compensate_to = if R::NAME == "f64" {
+        o.compensated_degree.min(nmax)
+    } else {
+        0
+    };
+    let linear = normalize_linear(&hz, &table, o, compensate_to)?;
+    timings.linear = t.elapsed().as_secs_f64();
+
+    check_nonresonant(n, nmax, &linear.lin.omega, o)?;
+    let tol = o.resonance_tol;
+    let is_res = |m: &[i32]| o.resonant && m_dot_omega(m, &linear.lin.omega).abs().to_f64() < tol;
+
+    let t = Instant::now();
+    let out = lie::normalize(
+        linear.hc,
+        nmax,
+        &linear.omega_dd,
+        &linear.lin.sigma,
+        &is_res,
+        compensate_to,
+        &|degree| {
+            Progress::report(
+                &o.progress,
+                Stage::Degree {
+                    degree,
+                    order: nmax,
+                    precision,
+                },
+            )
+        },
+    );
+    Progress::report(&o.progress, Stage::Transform);
+    timings.lie = t.elapsed().as_secs_f64();
+
+    let (hbar, hbar_imag, degrees) = in_actions(&out.z, &table, n, nmax);
+    let mut remainder = o.remainder_degree.map(|_| Remainder {
+        degree: top,
+        parts: Vec::new(),
+    });
+    let resonant_terms = off_action_terms(&out.z, &table, n, nmax, remainder.as_mut());
+    let divisors = out
+        .divisors
+        .iter()
+        .map(|dv| SmallDivisor {
+            m: dv.m.clone(),
+            m_dot_omega: dv.value.to_f64(),
+            order: dv.order,
+            resonant: o.resonant && dv.value.abs().to_f64() < tol,
+        })
+        .collect();
+    // D4 (meaningless when resonant terms were kept: H̄ is then not a function of I alone)
+    let d4 = twist_coefficients(
+        n,
+        nmax,
+        resonant_terms.is_empty(),
+        &hbar,
+        &linear.lin.omega,
+        &linear.lin.sigma,
+    );
+
+    let t = Instant::now();
+    let (greal_parts, generating, generating_imag) =
+        generating_function(&out.generators, &table, &linear.ci, nmax);
+    let (to_normal, from_normal) = if o.transform && nmax >= 2 {
+        // the generators in real form generate the same maps in (Q, P), since the
+        // complexification is symplectic: the coordinate maps are real Lie series
+        let cap = top - 1;
+        (
+            Some(lie::coordinate_maps(&table, &greal_parts, cap, false)),
+            Some(lie::coordinate_maps(&table, &greal_parts, cap, true)),
+        )
+    } else {
+        (None, None)
+    };
+    timings.transform = t.elapsed().as_secs_f64();
+    timings.total = t_start.elapsed().as_secs_f64();
+    let lin = linear.lin;
+    Ok(Raw {
+        eq,
+        energy,
+        ainv: symplectic_inverse(&lin.a),
+        omega: lin.omega,
+        sigma: lin.sigma,
+        a: lin.a,
+        symplectic_residual: lin.symplectic_residual,
+        diagonal_residual: lin.diagonal_residual,
+        quadratic_residual: linear.quadratic_residual,
+        hbar,
+        hbar_imag,
+        degrees,
+        resonant_terms,
+        generating,
+        generating_imag,
+        divisors,
+        d4,
+        remainder,
+        to_normal,
+        from_normal,
+        transform_imag: 0.0,
+        timings,
+        table_bytes: table.memory_bytes(),
+    })
+}
+
+/// What the expansion hands on.
+struct Expansion<R> {
+    /// The equilibrium.
+    eq: Equilibrium<R>,
+    /// H about it, to degree `top`.
+    hz: Poly<R>,
+    /// The monomials of degree ≤ `top` in 2n variables.
+    table: Arc<MonomialTable>,
+}
+
+/// Stage 1: the equilibrium (Newton from the given point, or checked there) and the Taylor
+/// expansion of H about it to degree `top`.
+fn expand<R: Real, H: HamiltonianFn + ?Sized>(
+    h: &H,
+    point: &Point,
+    o: &Options,
+    top: usize,
+) -> Result<Expansion<R>, NormalFormError> {
+    let d = 2 * h.n_dof();
     let (start, given) = match point {
         Point::Given(v) => (v, true),
         Point::Newton(v) => (v, false),
@@ -58,45 +193,50 @@ pub(super) fn run<R: Real, H: HamiltonianFn + ?Sized>(
     if !hz.is_finite() {
         return Err(NormalFormError::NonFinite("the Taylor expansion"));
     }
-    let energy = hz.constant_term();
-    let mut timings = Timings {
-        taylor: t_start.elapsed().as_secs_f64(),
-        ..Timings::default()
-    };
+    Ok(Expansion { eq, hz, table })
+}
 
-    // linear normalisation
-    let t = Instant::now();
-    // in double-double whatever the working precision: a 2n×2n problem, and f64 frequencies
-    // and A come out correctly rounded (the small divisors amplify every error in ω)
-    let (_, s) = gradient_hessian(&hz);
+/// What the linear normalisation hands on.
+struct Linear<R: Real> {
+    /// ω, σ, A rounded to the working precision.
+    lin: LinearNormalization<R>,
+    /// ω in double-double, for the small divisors.
+    omega_dd: Vec<Dd>,
+    /// The complexification's inverse C⁻¹.
+    ci: Mat<Complex<R>>,
+    /// H in the complex normal coordinates, its quadratic part exactly Σ λ_k x_k y_k.
+    hc: Poly<Complex<R>>,
+    /// max |H₂ − Σ λ_k x_k y_k| before it was set exactly.
+    quadratic_residual: f64,
+}
+
+/// Stage 2: the linear normalisation (in double-double whatever the working precision: a
+/// 2n×2n problem, and f64 frequencies and A come out correctly rounded — the small divisors
+/// amplify every error in ω) and H in complex normal coordinates.
+fn normalize_linear<R: Real>(
+    hz: &Poly<R>,
+    table: &MonomialTable,
+    o: &Options,
+    compensate_to: usize,
+) -> Result<Linear<R>, NormalFormError> {
+    let n = table.nvars() / 2;
+    let (_, s) = gradient_hessian(hz);
     let s_dd: Mat<Dd> = s
         .iter()
         .map(|row| row.iter().map(|&x| widen(x)).collect())
         .collect();
     let lin_dd = linear_normalization(&s_dd, &o.basis_rotation)?;
     let lin = lin_dd.rounded(&s);
-    let ainv = symplectic_inverse(&lin.a);
     let (_, ci) = complexification::<R>(n);
-    let compensate_to = if R::NAME == "f64" {
-        o.compensated_degree.min(nmax)
-    } else {
-        0
-    };
-    let mut hc = to_complex_coordinates(&hz, &lin.a, compensate_to);
-    let lambda: Vec<Complex<R>> = lin
-        .omega
-        .iter()
-        .zip(&lin.sigma)
-        .map(|(&w, &sg)| Complex::new(R::zero(), w.scale(sg as f64)))
-        .collect();
+    let mut hc = to_complex_coordinates(hz, &lin.a, compensate_to);
     let mut quadratic_residual: f64 = 0.0;
     let mut h2 = vec![Complex::zero(); table.count(2)];
     for k in 0..n {
-        let mut e = vec![0u8; d];
+        let mut e = vec![0u8; 2 * n];
         e[k] = 1;
         e[n + k] = 1;
         let (_, i) = table.index(&e).expect("x_k y_k");
-        h2[i] = lambda[k];
+        h2[i] = Complex::new(R::zero(), lin.omega[k].scale(lin.sigma[k] as f64));
     }
     if let Some(p) = hc.part(2) {
         for (x, y) in p.iter().zip(&h2) {
@@ -105,42 +245,26 @@ pub(super) fn run<R: Real, H: HamiltonianFn + ?Sized>(
     }
     hc.set_part(2, h2);
     hc.set_part(1, Vec::new());
-    timings.linear = t.elapsed().as_secs_f64();
-
-    // Assumption 1′
-    check_nonresonant(n, nmax, &lin.omega, o)?;
-    let mdot = |m: &[i32]| m_dot_omega(m, &lin.omega);
-    let tol = o.resonance_tol;
-    let resonant_mode = o.resonant;
-    let is_res = |m: &[i32]| resonant_mode && mdot(m).abs().to_f64() < tol;
-
-    // Lie normalisation
-    let t = Instant::now();
-    let out = lie::normalize(
+    Ok(Linear {
+        lin,
+        omega_dd: lin_dd.omega,
+        ci,
         hc,
-        nmax,
-        &lin_dd.omega,
-        &lin.sigma,
-        &is_res,
-        compensate_to,
-        &|degree| {
-            Progress::report(
-                &o.progress,
-                Stage::Degree {
-                    degree,
-                    order: nmax,
-                    precision,
-                },
-            )
-        },
-    );
-    Progress::report(&o.progress, Stage::Transform);
-    timings.lie = t.elapsed().as_secs_f64();
+        quadratic_residual,
+    })
+}
 
-    // H̄ in actions: x_k y_k = −i I_k
+/// Stage 4a: H̄ in the actions (x_k y_k = −i I_k): its coefficients, the largest imaginary
+/// part (zero up to rounding for a real H), and the sizes per degree.
+#[allow(clippy::type_complexity)]
+fn in_actions<R: Real>(
+    z: &Poly<Complex<R>>,
+    table: &MonomialTable,
+    n: usize,
+    nmax: usize,
+) -> (Vec<(Vec<u32>, R)>, f64, Vec<DegreeError>) {
     let mut hbar: Vec<(Vec<u32>, R)> = Vec::new();
     let mut hbar_imag: f64 = 0.0;
-    let mut resonant_terms = Vec::new();
     let mut degrees = Vec::new();
     for k in (2..=nmax).step_by(2) {
         let mut dn = DegreeError {
@@ -153,8 +277,8 @@ pub(super) fn run<R: Real, H: HamiltonianFn + ?Sized>(
         for i in 0..table.count(k) {
             let e = table.exponents(k, i);
             if e[..n] == e[n..] {
-                let z = out.z.part(k).map_or(Complex::zero(), |p| p[i]);
-                let v = z * minus_i_pow::<R>(k / 2);
+                let zc = z.part(k).map_or(Complex::zero(), |p| p[i]);
+                let v = zc * minus_i_pow::<R>(k / 2);
                 dn.max_imag = dn.max_imag.max(v.im.abs().to_f64());
                 dn.max_coeff = dn.max_coeff.max(v.re.abs().to_f64());
                 hbar.push((e[..n].iter().map(|&x| x as u32).collect(), v.re));
@@ -163,16 +287,25 @@ pub(super) fn run<R: Real, H: HamiltonianFn + ?Sized>(
         hbar_imag = hbar_imag.max(dn.max_imag);
         degrees.push(dn);
     }
-    let mut remainder = o.remainder_degree.map(|_| Remainder {
-        degree: top,
-        parts: Vec::new(),
-    });
-    for (k, i, zc) in out.z.terms() {
+    (hbar, hbar_imag, degrees)
+}
+
+/// Stage 4b: the terms of Z that are not functions of the actions: up to order N the
+/// resonant terms kept (`--resonant`), beyond it the remainder's sizes per degree.
+fn off_action_terms<R: Real>(
+    z: &Poly<Complex<R>>,
+    table: &MonomialTable,
+    n: usize,
+    nmax: usize,
+    mut remainder: Option<&mut Remainder>,
+) -> Vec<ResonantTerm> {
+    let mut resonant_terms = Vec::new();
+    for (k, i, zc) in z.terms() {
         let e = table.exponents(k, i);
         if k < 3 || e[..n] == e[n..] {
             continue;
         }
-        if let Some(rem) = remainder.as_mut() {
+        if let Some(rem) = remainder.as_deref_mut() {
             let c = zc.magnitude();
             if c != 0.0 {
                 let split = |s: &[u8]| s.iter().map(|&x| x as i64).sum::<i64>();
@@ -202,36 +335,25 @@ pub(super) fn run<R: Real, H: HamiltonianFn + ?Sized>(
             });
         }
     }
-    let divisors = out
-        .divisors
-        .iter()
-        .map(|dv| SmallDivisor {
-            m: dv.m.clone(),
-            m_dot_omega: dv.value.to_f64(),
-            order: dv.order,
-            resonant: resonant_mode && dv.value.abs().to_f64() < tol,
-        })
-        .collect();
+    resonant_terms
+}
 
-    // D4 (meaningless when resonant terms were kept: H̄ is then not a function of I alone)
-    let d4 = twist_coefficients(
-        n,
-        nmax,
-        resonant_terms.is_empty(),
-        &hbar,
-        &lin.omega,
-        &lin.sigma,
-    );
-
-    // generating function in real form: G(u) with u = C⁻¹ w
-    let t = Instant::now();
+/// Stage 5: the generating function in real form, G(u) with u = C⁻¹ w: its parts by degree,
+/// its terms (exponents, degree, coefficient) and the largest imaginary part dropped.
+#[allow(clippy::type_complexity)]
+fn generating_function<R: Real>(
+    generators: &[Vec<Complex<R>>],
+    table: &Arc<MonomialTable>,
+    ci: &Mat<Complex<R>>,
+    nmax: usize,
+) -> (Vec<Vec<R>>, Vec<(Vec<u32>, usize, R)>, f64) {
     let mut gsum = Poly::zero(table.clone());
-    for (r, g) in out.generators.iter().enumerate() {
+    for (r, g) in generators.iter().enumerate() {
         if !g.is_empty() {
             gsum.set_part(r, g.clone());
         }
     }
-    let (greal, generating_imag) = real_part(&gsum.substitute_pairs(&pair_blocks(&ci)));
+    let (greal, generating_imag) = real_part(&gsum.substitute_pairs(&pair_blocks(ci)));
     let greal_parts: Vec<Vec<R>> = (0..=nmax)
         .map(|r| greal.part(r).map_or(Vec::new(), |p| p.to_vec()))
         .collect();
@@ -246,47 +368,7 @@ pub(super) fn run<R: Real, H: HamiltonianFn + ?Sized>(
             ));
         }
     }
-
-    // transformations
-    let (mut to_normal, mut from_normal, transform_imag) = (None, None, 0.0f64);
-    if o.transform && nmax >= 2 {
-        let cap = top - 1;
-        let fwd = lie::coordinate_maps(&table, &greal_parts, cap, true);
-        let inv = lie::coordinate_maps(&table, &greal_parts, cap, false);
-        // the generators in real form generate the same maps in (Q, P), since the
-        // complexification is symplectic: the coordinate maps are real Lie series
-        let from = fwd;
-        let to = inv;
-        to_normal = Some(to);
-        from_normal = Some(from);
-    }
-    timings.transform = t.elapsed().as_secs_f64();
-    timings.total = t_start.elapsed().as_secs_f64();
-    Ok(Raw {
-        eq,
-        energy,
-        omega: lin.omega.clone(),
-        sigma: lin.sigma.clone(),
-        a: lin.a.clone(),
-        ainv,
-        symplectic_residual: lin.symplectic_residual,
-        diagonal_residual: lin.diagonal_residual,
-        quadratic_residual,
-        hbar,
-        hbar_imag,
-        degrees,
-        resonant_terms,
-        generating,
-        generating_imag,
-        divisors,
-        d4,
-        remainder,
-        to_normal,
-        from_normal,
-        transform_imag,
-        timings,
-        table_bytes: table.memory_bytes(),
-    })
+    (greal_parts, generating, generating_imag)
 }
 
 /// The Arnold–Moser twist coefficients `[A, B, C, D₄]` from H̄₄ (two degrees of freedom,
