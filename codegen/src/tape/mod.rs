@@ -31,7 +31,7 @@
 //! function (or `lasalle_runtime::elliptic` kernel, for K, sn, cn, dn, F) the emitted code calls (`x - y` and `x + (-y)` are the same IEEE operation, so a
 //! negative term may be subtracted or added negated; `Powi` is the binary exponentiation that
 //! `f64::powi` performs, see [`powi`]). For bitwise equality the builder must start from the
-//! graph the emitter starts from (the model after `check::check`) and lower the functions in
+//! graph the emitter starts from (the [`Derived`](crate::Derived) model) and lower the functions in
 //! the emitter's order, as [`ModelTapes::new`] does: the rewrites add nodes, and new nodes' Ids
 //! decide the order of sums. With another graph or order the values may differ by rounding
 //! (a few ulps relative to the size of the terms of a sum), never more.
