@@ -20,7 +20,8 @@ use super::CliResult;
 pub struct BenchEvalArgs {
     /// The model: a path to a model file or the name of a built-in model.
     pub model: String,
-    /// Lane counts k to time (1 = one state per call with `eval`).
+    /// Lane counts k to time (1 = one state per call with `eval`; at most `--states`, which
+    /// times one call over all the states, as heyoka's batched functions are called).
     #[arg(long, default_value = "1,4,8")]
     pub lanes: String,
     /// States per sweep (rounded up to a multiple of every k).
@@ -40,10 +41,13 @@ pub fn run(args: &BenchEvalArgs) -> CliResult {
         .map_err(|e| format!("invalid --lanes: {e}"))?
         .into_iter()
         .map(|k| {
-            if k >= 1.0 && k.fract() == 0.0 && k <= 64.0 {
+            if k >= 1.0 && k.fract() == 0.0 && k <= args.states as f64 {
                 Ok(k as usize)
             } else {
-                Err(format!("invalid --lanes: {k} is not an integer in 1..=64"))
+                Err(format!(
+                    "invalid --lanes: {k} is not an integer in 1..={} (at most --states)",
+                    args.states
+                ))
             }
         })
         .collect::<Result<_, _>>()?;
