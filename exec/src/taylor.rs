@@ -135,7 +135,17 @@ impl TaylorTape {
     /// parameter values `params`, for orders up to `max_order`. Targets and gains (for
     /// X − ∇V) start at 0; set them with [`TaylorKernel::set_inputs`].
     pub fn new(tape: &Tape, params: &[f64], max_order: u32) -> Result<TaylorTape, TaylorError> {
-        let program = TaylorProgram::new(tape)?;
+        Self::with_program(TaylorProgram::new(tape)?, tape, params, max_order)
+    }
+
+    /// [`TaylorTape::new`] with the recurrences `program` of `tape` (e.g.
+    /// [`TaylorProgram::unfused`], to compare with).
+    pub fn with_program(
+        program: TaylorProgram,
+        tape: &Tape,
+        params: &[f64],
+        max_order: u32,
+    ) -> Result<TaylorTape, TaylorError> {
         let inputs = Inputs::new(tape, params)?;
         if max_order == 0 {
             return Err(lasalle_runtime::TaylorError("the order must be at least 1".into()).into());
@@ -300,6 +310,8 @@ fn zeroth(t: &mut [f64], s: usize, r: Rec, hoisted: &[f64], target: &[f64], gain
             t[d * s] = match zero {
                 PowZero::Cbrt => t[a * s].cbrt(),
                 PowZero::Powf(p) => t[a * s].powf(p),
+                // order 0 is the fused chain's
+                PowZero::Fused => return,
             }
         }
         Rec::Sqrt { d, a } => t[d * s] = t[a * s].sqrt(),

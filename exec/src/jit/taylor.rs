@@ -138,7 +138,17 @@ impl JitTaylor {
     /// Compiles the recurrences of `tape` (a field) for the order `order` with parameter
     /// values `params`; `Ok(None)` if the unrolled code would exceed [`MAX_INSTRUCTIONS`].
     pub fn new(tape: &Tape, params: &[f64], order: u32) -> Result<Option<JitTaylor>, TaylorError> {
-        let program = TaylorProgram::new(tape)?;
+        Self::with_program(TaylorProgram::new(tape)?, tape, params, order)
+    }
+
+    /// [`JitTaylor::new`] with the recurrences `program` of `tape` (e.g.
+    /// [`TaylorProgram::unfused`], to compare with).
+    pub fn with_program(
+        program: TaylorProgram,
+        tape: &Tape,
+        params: &[f64],
+        order: u32,
+    ) -> Result<Option<JitTaylor>, TaylorError> {
         if order == 0 {
             return Err(lasalle_runtime::TaylorError("the order must be at least 1".into()).into());
         }
@@ -611,13 +621,17 @@ impl Emit<'_> {
                 (d, self.fdiv(x, y))
             }
             Rec::Pow { d, a, zero, .. } => {
-                let x = self.c(a, 0);
                 let v = match zero {
-                    PowZero::Cbrt => self.unary(call_cbrt, x),
+                    PowZero::Cbrt => {
+                        let x = self.c(a, 0);
+                        self.unary(call_cbrt, x)
+                    }
                     PowZero::Powf(q) => {
-                        let q = self.constant(q);
+                        let (x, q) = (self.c(a, 0), self.constant(q));
                         self.binary(call_powf, x, q)
                     }
+                    // order 0 is the fused chain's
+                    PowZero::Fused => return Ok(()),
                 };
                 (d, v)
             }
