@@ -24,7 +24,7 @@ fn unfused(m: &LoadedModel, p: u32) -> Box<dyn TaylorKernel<LoadedModel>> {
     #[cfg(feature = "jit")]
     if m.backend() == Backend::Jit {
         let jit = lasalle_exec::jit::taylor::JitTaylor::with_program(program, &tape, m.params(), p);
-        return Box::new(jit.expect("compiles").expect("small enough"));
+        return Box::new(jit.expect("compiles"));
     }
     Box::new(TaylorTape::with_program(program, &tape, m.params(), p).expect("kernel"))
 }

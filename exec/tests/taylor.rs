@@ -935,6 +935,55 @@ fn jit_kernel_agrees_with_the_tape_bitwise() {
     assert_eq!(ends[0], ends[1]);
 }
 
+/// A program above `MAX_INSTRUCTIONS` (Kepler's X − ∇V at p = 19) is interpreted for
+/// `DEFER_COMPUTES` computes, then compiled: the coefficients equal the interpreter's bitwise
+/// before and after the switch (random states, targets and gains, and a parameter change
+/// before the switch that the compiled kernel keeps); the JIT back end's kernels take this
+/// form.
+#[cfg(feature = "jit")]
+#[test]
+fn deferred_jit_compiles_later_and_agrees_bitwise() {
+    use lasalle_exec::jit::taylor::{DeferredJit, JitTaylor, DEFER_COMPUTES};
+    let mut rng = lasalle_testkit::Rng::new(0x5851_f42d_4c95_7f2d);
+    let mut rand = move || rng.uniform(0.25, 1.25);
+    let (tp, params) = tapes(&model_text("kepler"));
+    let (tape, order) = (&tp.feedback, 19);
+    assert!(JitTaylor::new(tape, &params, order).unwrap().is_none());
+    let mut deferred = DeferredJit::new(tape, &params, order).unwrap();
+    let mut tt = TaylorTape::new(tape, &params, order).unwrap();
+    let target: Vec<f64> = (0..tape.dims.targets).map(|_| rand()).collect();
+    let gains: Vec<f64> = (0..tape.dims.gains).map(|_| rand()).collect();
+    deferred.set_inputs(&target, &gains).unwrap();
+    TaylorKernel::<LoadedModel>::set_inputs(&mut tt, &target, &gains).unwrap();
+    // a parameter change reaches the deferred kernel through `sync`
+    let mut m =
+        LoadedModel::from_source("kepler.lsl", &model_text("kepler"), Backend::Jit).unwrap();
+    m.set_param("mu", &[1.1]).unwrap();
+    deferred.sync(&m).unwrap();
+    tt.set_params(m.params()).unwrap();
+    let x0: Vec<f64> = (0..tape.dims.state).map(|_| rand()).collect();
+    for c in 0..DEFER_COMPUTES + 3 {
+        assert_eq!(deferred.is_compiled(), c > DEFER_COMPUTES, "compute {c}");
+        let check = c % 1000 == 0 || c >= DEFER_COMPUTES;
+        let x: Vec<f64> = if check {
+            x0.iter().map(|v| v + 0.1 * rand()).collect()
+        } else {
+            x0.clone()
+        };
+        deferred.compute(&x, order as usize);
+        if check {
+            tt.compute(&x, order as usize);
+            for i in 0..x.len() {
+                let (a, b) = (tt.state_coefficients(i), deferred.coefficients(i));
+                assert!(
+                    a.iter().zip(b).all(|(a, b)| a.to_bits() == b.to_bits()),
+                    "compute {c}, x_{i}"
+                );
+            }
+        }
+    }
+}
+
 // ---------------------------------------------------------------------------------------
 // The split step: X by Taylor, then a gradient step on V (an alternative to X − ∇V)
 
