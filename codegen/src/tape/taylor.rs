@@ -6,7 +6,8 @@
 //! Rows: the state components first (row i is x_i), then one row per body register that is
 //! not a state leaf, and internal rows (the cosine partner of a lone sine, the squares of a
 //! `powi`, the constant 1). Sine and cosine of the same operand share one [`Rec::SinCos`].
-//! `powi` is expanded into the squares and products `f64::powi` performs ([`super::powi`]),
+//! `powi` is expanded into the squares and products `f64::powi` performs ([`super::powi`];
+//! the squares of one base are shared, as r² of the perturbed Kepler problem's r⁻² and r⁻⁴),
 //! then 1/· by the division recurrence for a negative exponent, so the order-0 values are the
 //! tape's bitwise and a base with a^\[0\] = 0 is fine for a positive exponent. sn, cn, dn of
 //! one (u | m) share one [`Rec::Jacobi`] (with the products cn·dn, sn·dn, sn·cn their
@@ -266,6 +267,7 @@ impl TaylorProgram {
             rows: n,
             recs: Vec::with_capacity(tape.body.len()),
             one: None,
+            squares: HashMap::new(),
         };
         let powers = if fuse {
             fused_powers(tape)
@@ -475,6 +477,9 @@ struct Builder {
     recs: Vec<(Rec, bool)>,
     /// The row of the constant 1, once needed.
     one: Option<usize>,
+    /// The rows of the squares `powi` made, by operand row and order-0-only flag: x² of
+    /// powi(x, 2) and powi(x, 4) is computed once.
+    squares: HashMap<(usize, bool), usize>,
 }
 
 impl Builder {
@@ -505,9 +510,10 @@ impl Builder {
         }
     }
 
-    /// aᵉ as `f64::powi` computes it ([`super::powi`]): the squares a, a², a⁴, … multiplied
-    /// into the result in increasing order, the first without a product, then 1/· for e < 0,
-    /// each step with its Cauchy recurrence. Returns the row.
+    /// aᵉ as `f64::powi` computes it ([`super::powi`]): the squares a, a², a⁴, … (each row
+    /// made once per base, shared between `powi`s) multiplied into the result in increasing
+    /// order, the first without a product, then 1/· for e < 0, each step with its Cauchy
+    /// recurrence. Returns the row.
     fn powi(&mut self, base: usize, e: i32, constant: bool) -> usize {
         if e == 0 {
             // powi(x, 0) = 1, even for x = NaN
@@ -525,7 +531,15 @@ impl Builder {
             }
             bits >>= 1;
             if bits != 0 {
-                square = self.rec(constant, |d| Rec::Square { d, a: square });
+                let a = square;
+                square = match self.squares.get(&(a, constant)) {
+                    Some(&row) => row,
+                    None => {
+                        let row = self.rec(constant, |d| Rec::Square { d, a });
+                        self.squares.insert((a, constant), row);
+                        row
+                    }
+                };
             }
         }
         let r = result.expect("e ≠ 0 has a bit set");
