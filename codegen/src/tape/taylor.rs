@@ -7,7 +7,8 @@
 //! not a state leaf, and internal rows (the cosine partner of a lone sine, the squares of a
 //! `powi`, the constant 1). Sine and cosine of the same operand share one [`Rec::SinCos`].
 //! `powi` is expanded into the squares and products `f64::powi` performs ([`super::powi`];
-//! the squares of one base are shared, as r² of the perturbed Kepler problem's r⁻² and r⁻⁴),
+//! the squares of one base are shared: the perturbed Kepler problem's `powi(u, 2)` and
+//! `powi(u, 4)` = (u²)², u = 1/r, compute u² once),
 //! then 1/· by the division recurrence for a negative exponent, so the order-0 values are the
 //! tape's bitwise and a base with a^\[0\] = 0 is fine for a positive exponent. sn, cn, dn of
 //! one (u | m) share one [`Rec::Jacobi`] (with the products cn·dn, sn·dn, sn·cn their
@@ -478,7 +479,7 @@ struct Builder {
     /// The row of the constant 1, once needed.
     one: Option<usize>,
     /// The rows of the squares `powi` made, by operand row and order-0-only flag: x² of
-    /// powi(x, 2) and powi(x, 4) is computed once.
+    /// `powi(x, 2)` and `powi(x, 4)` is computed once.
     squares: HashMap<(usize, bool), usize>,
 }
 
