@@ -1,18 +1,32 @@
 //! One Taylor step (coefficients to order p, Jorba–Zou step, Horner) per model at tol 1e-15
 //! and 1e-10: Kepler at its pericentre (e = 0.8) and the free rigid body, with the compiled
 //! kernel (JIT back end, the default) and the interpreted one; and the coefficients alone
-//! (`kernel/…`), so that the driver's share is the difference.
+//! (`kernel/…`), so that the driver's share is the difference; and the kernel of the
+//! recurrences without fused powers (`kernel-unfused/…`, `TaylorProgram::unfused`).
 //!
 //! `cargo bench -p lasalle-exec --bench taylor` (ns per step).
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
-use lasalle_exec::{Backend, LoadedModel, TaylorOptions};
-use lasalle_runtime::{Parameters, Stepper};
+use lasalle_codegen::tape::{taylor::TaylorProgram, ModelTapes};
+use lasalle_exec::{Backend, LoadedModel, TaylorOptions, TaylorTape};
+use lasalle_runtime::{Parameters, Stepper, TaylorKernel};
 use std::time::Duration;
 
 fn model(name: &str, backend: Backend) -> LoadedModel {
     let path = format!("{}/../models/{name}.lsl", env!("CARGO_MANIFEST_DIR"));
     LoadedModel::load(path, backend).expect("model")
+}
+
+/// The field kernel of `m`'s back end at order `p` without fused powers.
+fn unfused(m: &LoadedModel, p: u32) -> Box<dyn TaylorKernel<LoadedModel>> {
+    let tape = ModelTapes::new(m.derived()).expect("tapes").field;
+    let program = TaylorProgram::unfused(&tape).expect("program");
+    #[cfg(feature = "jit")]
+    if m.backend() == Backend::Jit {
+        let jit = lasalle_exec::jit::taylor::JitTaylor::with_program(program, &tape, m.params(), p);
+        return Box::new(jit.expect("compiles"));
+    }
+    Box::new(TaylorTape::with_program(program, &tape, m.params(), p).expect("kernel"))
 }
 
 fn steps(c: &mut Criterion) {
@@ -34,13 +48,15 @@ fn steps(c: &mut Criterion) {
                         black_box(taylor.step(&m, 0.0, &mut x, 10.0).expect("step"));
                     })
                 });
-                let mut kernel = m.taylor_tapes(p).expect("kernels").field;
-                group.bench_function(format!("kernel/{label}"), |b| {
-                    b.iter(|| {
-                        kernel.compute(black_box(&x0), p as usize);
-                        black_box(kernel.coefficients(0)[p as usize]);
-                    })
-                });
+                let kernel = m.taylor_tapes(p).expect("kernels").field;
+                for (what, mut kernel) in [("kernel", kernel), ("kernel-unfused", unfused(&m, p))] {
+                    group.bench_function(format!("{what}/{label}"), |b| {
+                        b.iter(|| {
+                            kernel.compute(black_box(&x0), p as usize);
+                            black_box(kernel.coefficients(0)[p as usize]);
+                        })
+                    });
+                }
             }
         }
     }

@@ -6,7 +6,8 @@
 //! The tape is lowered to recurrences by [`TaylorProgram`]. With the JIT back end
 //! ([`LoadedModel::taylor_tapes`]) the program is compiled for the order p instead
 //! (`crate::jit::taylor::JitTaylor`, 1.2–2.9× faster per step, `cargo bench -p lasalle-exec
-//! --bench taylor`), unless its unrolled code would be too large; compiled models run the same
+//! --bench taylor`), or, when its code would be too large to compile at once, after a run's
+//! first 10 000 interpreted computes (`DeferredJit`); compiled models run the same
 //! program as emitted Rust. All agree bitwise (`tests/tape_kernels.rs` in the root crate,
 //! `exec/tests/taylor.rs`).
 //!
@@ -83,7 +84,7 @@ pub struct TaylorTape {
 #[derive(Clone, Debug)]
 pub(crate) struct Inputs {
     tape: Tape,
-    params: Vec<f64>,
+    pub(crate) params: Vec<f64>,
     pub(crate) hoisted: Vec<f64>,
     pub(crate) target: Vec<f64>,
     pub(crate) gains: Vec<f64>,
@@ -135,7 +136,17 @@ impl TaylorTape {
     /// parameter values `params`, for orders up to `max_order`. Targets and gains (for
     /// X − ∇V) start at 0; set them with [`TaylorKernel::set_inputs`].
     pub fn new(tape: &Tape, params: &[f64], max_order: u32) -> Result<TaylorTape, TaylorError> {
-        let program = TaylorProgram::new(tape)?;
+        Self::with_program(TaylorProgram::new(tape)?, tape, params, max_order)
+    }
+
+    /// [`TaylorTape::new`] with the recurrences `program` of `tape` (e.g.
+    /// [`TaylorProgram::unfused`], to compare with).
+    pub fn with_program(
+        program: TaylorProgram,
+        tape: &Tape,
+        params: &[f64],
+        max_order: u32,
+    ) -> Result<TaylorTape, TaylorError> {
         let inputs = Inputs::new(tape, params)?;
         if max_order == 0 {
             return Err(lasalle_runtime::TaylorError("the order must be at least 1".into()).into());
@@ -197,6 +208,12 @@ impl TaylorTape {
         }
     }
 
+    /// The parameter values, hoisted values, targets and gains the kernel computes with.
+    #[cfg(feature = "jit")]
+    pub(crate) fn inputs(&self) -> &Inputs {
+        &self.inputs
+    }
+
     /// The coefficients x_i^\[0..=order\] of state component `i` from the last
     /// [`TaylorTape::compute`].
     pub fn state_coefficients(&self, i: usize) -> &[f64] {
@@ -235,9 +252,10 @@ impl LoadedModel {
     /// The Taylor kernels of the model's field and of X − ∇V, with its current parameters,
     /// for orders up to `max_order`, from the model's tapes (lowered again).
     /// With the JIT back end (the default with the `jit` feature) the recurrences are compiled
-    /// for the order `max_order` (`lasalle_exec::jit::taylor::JitTaylor`), unless too large to
-    /// unroll; otherwise, and with the interpreter back end, they are interpreted
-    /// ([`TaylorTape`]). Both compute the same coefficients, bitwise.
+    /// for the order `max_order` (`lasalle_exec::jit::taylor::JitTaylor`), or, above its size
+    /// budget, interpreted first and compiled after `DEFER_COMPUTES` computes
+    /// (`lasalle_exec::jit::taylor::DeferredJit`); with the interpreter back end they are
+    /// interpreted ([`TaylorTape`]). All compute the same coefficients, bitwise.
     pub fn taylor_tapes(&self, max_order: u32) -> Result<TaylorKernels<LoadedModel>, TaylorError> {
         let tapes = ModelTapes::new(self.derived())?;
         Ok(TaylorKernels {
@@ -255,9 +273,11 @@ impl LoadedModel {
     ) -> Result<Box<dyn TaylorKernel<LoadedModel>>, TaylorError> {
         #[cfg(feature = "jit")]
         if self.backend() == crate::Backend::Jit {
-            if let Some(k) = crate::jit::taylor::JitTaylor::new(tape, self.params(), max_order)? {
-                return Ok(Box::new(k));
-            }
+            use crate::jit::taylor::{DeferredJit, JitTaylor};
+            return Ok(match JitTaylor::new(tape, self.params(), max_order)? {
+                Some(k) => Box::new(k),
+                None => Box::new(DeferredJit::new(tape, self.params(), max_order)?),
+            });
         }
         Ok(Box::new(TaylorTape::new(tape, self.params(), max_order)?))
     }
@@ -300,6 +320,8 @@ fn zeroth(t: &mut [f64], s: usize, r: Rec, hoisted: &[f64], target: &[f64], gain
             t[d * s] = match zero {
                 PowZero::Cbrt => t[a * s].cbrt(),
                 PowZero::Powf(p) => t[a * s].powf(p),
+                // order 0 is the fused chain's
+                PowZero::Fused => return,
             }
         }
         Rec::Sqrt { d, a } => t[d * s] = t[a * s].sqrt(),

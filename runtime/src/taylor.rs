@@ -52,6 +52,7 @@
 //! | u = aⁿ, n ∈ ℕ | binary exponentiation by Cauchy products (squares and products, as `f64::powi`), so a^\[0\] = 0 is fine |
 //! | u = a⁻ⁿ | the chain for aⁿ, then 1/aⁿ by the division recurrence |
 //! | u = a^α (Powf, ∛) | u^\[k\] = 1/(k a^\[0\]) Σ_{j=0}^{k−1} (α(k−j) − j) a^\[k−j\] u^\[j\] (from a u' = α a' u) |
+//! | u = C·s^β from √s, `powi` and c/· (μ/r³ with r = √s) | above order 0 by the power recurrence on s alone, where cheaper than the chain's own recurrences (*fused powers*, `lasalle_codegen::tape::taylor`); order 0 is the chain's |
 //! | u = √a | u^\[k\] = (a^\[k\] − Σ_{j=1}^{k−1} u^\[j\] u^\[k−j\]) / (2 u^\[0\]) (from u² = a) |
 //! | u = eᵃ | u^\[k\] = (1/k) Σ_{j=1}^{k} j a^\[j\] u^\[k−j\] (from u' = a' u) |
 //! | u = ln a | u^\[k\] = (a^\[k\] − (1/k) Σ_{j=1}^{k−1} j u^\[j\] a^\[k−j\]) / a^\[0\] (from a u' = a') |

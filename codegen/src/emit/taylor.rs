@@ -303,6 +303,8 @@ fn zeroth_line(r: Rec) -> String {
             match zero {
                 PowZero::Cbrt => format!("{}.cbrt()", z(a)),
                 PowZero::Powf(p) => format!("{}.powf({})", z(a), f64_lit(p)),
+                // order 0 is the fused chain's
+                PowZero::Fused => return String::new(),
             },
         ),
         Rec::Sqrt { d, a } => (d, format!("{}.sqrt()", z(a))),

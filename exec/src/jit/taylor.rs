@@ -1,7 +1,8 @@
 //! The Taylor-coefficient recurrences of a field tape ([`TaylorProgram`]) compiled by
 //! Cranelift for one order p: [`JitTaylor`], the default [`TaylorKernel`] of loaded models
 //! with the JIT back end (the interpreted [`TaylorTape`](crate::TaylorTape) stays the kernel
-//! of the interpreter back end, and the fallback for programs too large to unroll).
+//! of the interpreter back end); programs too large to compile at once are interpreted first
+//! and compiled after [`DEFER_COMPUTES`] computes ([`DeferredJit`]).
 //!
 //! # Code shape: fully unrolled
 //!
@@ -23,8 +24,11 @@
 //! instructions (≈ 65 KB) the Cauchy sums of six or more terms become loops (the first term,
 //! then the rest in order: the same operations), which made that kernel 1.3× faster
 //! (2.3 → 1.8 µs) and made Kepler's (39 KB, unrolled) 1.4× slower when tried there.
-//! [`JitTaylor::new`] refuses (and the caller falls back to the interpreter) above
-//! [`MAX_INSTRUCTIONS`] estimated instructions, which bounds the compile time to ≈ 20 ms.
+//! [`JitTaylor::new`] refuses above [`MAX_INSTRUCTIONS`] estimated instructions, which bounds
+//! the compile time when a model's Taylor kernels are built to ≈ 20 ms; the caller then takes
+//! a [`DeferredJit`], which compiles the program (with loops: 1.4–1.7× faster than the
+//! interpreter on every model's X − ∇V at p = 19, 20) only once a run has spent about the
+//! compile time interpreting it.
 //!
 //! # Bitwise agreement with the interpreter
 //!
@@ -60,7 +64,7 @@ use lasalle_runtime::StepError;
 type TaylorFn = unsafe extern "C" fn(*const f64, *const f64, *const f64, *const f64, *mut f64);
 
 /// The largest estimated instruction count (see [`JitTaylor::instructions`]) compiled; above
-/// it [`JitTaylor::new`] returns `None` (the caller then interprets the recurrences). Cranelift
+/// it [`JitTaylor::new`] returns `None` (the caller then takes a [`DeferredJit`]). Cranelift
 /// compiles about 10⁶ of these per second here, so this bounds a kernel's compile time to
 /// about 20 ms. At p = 19 it admits the field X of every model in `models/` (the rigid body's
 /// is 15 276) and X − ∇V of the small ones (CR3BP 13 224, the closed-form pendulum 18 145), but
@@ -139,13 +143,24 @@ impl JitTaylor {
     /// values `params`; `Ok(None)` if the unrolled code would exceed [`MAX_INSTRUCTIONS`].
     pub fn new(tape: &Tape, params: &[f64], order: u32) -> Result<Option<JitTaylor>, TaylorError> {
         let program = TaylorProgram::new(tape)?;
+        if Self::instructions(&program, order as usize) > MAX_INSTRUCTIONS {
+            return Ok(None);
+        }
+        Self::with_program(program, tape, params, order).map(Some)
+    }
+
+    /// [`JitTaylor::new`] with the recurrences `program` of `tape` (e.g.
+    /// [`TaylorProgram::unfused`], to compare with), whatever their size.
+    pub fn with_program(
+        program: TaylorProgram,
+        tape: &Tape,
+        params: &[f64],
+        order: u32,
+    ) -> Result<JitTaylor, TaylorError> {
         if order == 0 {
             return Err(lasalle_runtime::TaylorError("the order must be at least 1".into()).into());
         }
         let p = order as usize;
-        if Self::instructions(&program, p) > MAX_INSTRUCTIONS {
-            return Ok(None);
-        }
         let inputs = Inputs::new(tape, params)?;
         let mut module = jit_module(OPT_LEVEL).map_err(TaylorError::Jit)?;
         let id = match define(&mut module, &program, p) {
@@ -160,7 +175,7 @@ impl JitTaylor {
         // SAFETY: the function was just defined with this signature (five pointers, the host's
         // C calling convention), and the module owning its code lives in the result.
         let func = unsafe { std::mem::transmute::<*const u8, TaylorFn>(code) };
-        Ok(Some(JitTaylor {
+        Ok(JitTaylor {
             inputs,
             _code: Code::new(module),
             func,
@@ -168,7 +183,7 @@ impl JitTaylor {
             order: p,
             table: vec![0.0; program.rows * (p + 1)],
             last: 0,
-        }))
+        })
     }
 
     /// An estimate of the IR instructions of the unrolled code at order p: the sums of the
@@ -199,7 +214,7 @@ impl JitTaylor {
             .sum();
         let all = program.recs.len() + program.dim;
         // half sums × p(p − 1)/4 terms × 4 instructions
-        per_order * p * (p - 1) + all * p
+        per_order * p * p.saturating_sub(1) + all * p
     }
 }
 
@@ -247,6 +262,118 @@ impl TaylorKernel<crate::LoadedModel> for JitTaylor {
     fn coefficients(&self, i: usize) -> &[f64] {
         let s = self.order + 1;
         &self.table[i * s..i * s + self.last + 1]
+    }
+}
+
+/// Interpreted computes after which a [`DeferredJit`] compiles its program. Measured on X − ∇V
+/// at p = 19 and 20 (Kepler, the perturbed Kepler problem, the rigid body, SO(3) type III;
+/// loaded machine): an interpreted compute takes 10–20 µs, the compiled one 0.6–0.7× that, and
+/// compiling 90–375 ms, i.e. the time of 8 000–19 000 interpreted computes. Compiling after
+/// about as many computes as the compile costs bounds a run's kernel time by twice the better
+/// of interpreting throughout and compiling at once (the ski-rental rule), without knowing the
+/// run's length: a short run (the rigid body's 4 741 steps to t = 1000) never compiles, a long
+/// one (Kepler's 57 931 over 1000 periods) runs most of its steps compiled.
+pub const DEFER_COMPUTES: usize = 10_000;
+
+/// The kernel of a program above [`MAX_INSTRUCTIONS`] (X − ∇V of the larger models): the
+/// interpreted [`TaylorTape`](crate::TaylorTape) for its first [`DEFER_COMPUTES`] computes,
+/// then the program compiled by [`JitTaylor::with_program`] (with loops, see the [module
+/// docs](self)). Both compute the same coefficients bitwise, so the switch does not show in
+/// the results; the compile allocates, once, inside the step that makes it. If it fails the
+/// kernel stays interpreted.
+pub struct DeferredJit {
+    tape: Tape,
+    interpreted: crate::TaylorTape,
+    /// Interpreted computes so far (counted up to [`DEFER_COMPUTES`]).
+    computes: usize,
+    compiled: Option<JitTaylor>,
+}
+
+impl std::fmt::Debug for DeferredJit {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("DeferredJit")
+            .field("computes", &self.computes)
+            .field("compiled", &self.compiled)
+            .finish_non_exhaustive()
+    }
+}
+
+impl DeferredJit {
+    /// The interpreted kernel of `tape` (a field) for orders up to `order`, with parameter
+    /// values `params`, to be compiled for the order `order` after [`DEFER_COMPUTES`] computes.
+    pub fn new(tape: &Tape, params: &[f64], order: u32) -> Result<DeferredJit, TaylorError> {
+        Ok(DeferredJit {
+            interpreted: crate::TaylorTape::new(tape, params, order)?,
+            tape: tape.clone(),
+            computes: 0,
+            compiled: None,
+        })
+    }
+
+    /// Whether the program has been compiled (after [`DEFER_COMPUTES`] computes).
+    pub fn is_compiled(&self) -> bool {
+        self.compiled.is_some()
+    }
+
+    /// Compiles the program with the interpreter's current parameters, targets and gains.
+    fn compile(&mut self) {
+        let order = self.interpreted.max_order() as u32;
+        let inputs = self.interpreted.inputs();
+        let jit = TaylorProgram::new(&self.tape)
+            .map_err(TaylorError::from)
+            .and_then(|program| {
+                JitTaylor::with_program(program, &self.tape, &inputs.params, order)
+            });
+        if let Ok(mut jit) = jit {
+            jit.inputs = inputs.clone();
+            self.compiled = Some(jit);
+        }
+    }
+}
+
+impl TaylorKernel<crate::LoadedModel> for DeferredJit {
+    fn dim(&self) -> usize {
+        self.interpreted.dim()
+    }
+
+    fn max_order(&self) -> usize {
+        TaylorKernel::<crate::LoadedModel>::max_order(&self.interpreted)
+    }
+
+    fn sync(&mut self, model: &crate::LoadedModel) -> Result<(), StepError> {
+        match &mut self.compiled {
+            Some(jit) => jit.sync(model),
+            None => self.interpreted.sync(model),
+        }
+    }
+
+    fn set_inputs(&mut self, target: &[f64], gains: &[f64]) -> Result<(), StepError> {
+        match &mut self.compiled {
+            Some(jit) => jit.set_inputs(target, gains),
+            None => {
+                TaylorKernel::<crate::LoadedModel>::set_inputs(&mut self.interpreted, target, gains)
+            }
+        }
+    }
+
+    fn compute(&mut self, x: &[f64], order: usize) {
+        if self.compiled.is_none() && self.computes == DEFER_COMPUTES {
+            self.compile();
+        }
+        match &mut self.compiled {
+            Some(jit) => jit.compute(x, order),
+            None => {
+                self.computes = (self.computes + 1).min(DEFER_COMPUTES + 1);
+                self.interpreted.compute(x, order)
+            }
+        }
+    }
+
+    fn coefficients(&self, i: usize) -> &[f64] {
+        match &self.compiled {
+            Some(jit) => jit.coefficients(i),
+            None => self.interpreted.state_coefficients(i),
+        }
     }
 }
 
@@ -611,13 +738,17 @@ impl Emit<'_> {
                 (d, self.fdiv(x, y))
             }
             Rec::Pow { d, a, zero, .. } => {
-                let x = self.c(a, 0);
                 let v = match zero {
-                    PowZero::Cbrt => self.unary(call_cbrt, x),
+                    PowZero::Cbrt => {
+                        let x = self.c(a, 0);
+                        self.unary(call_cbrt, x)
+                    }
                     PowZero::Powf(q) => {
-                        let q = self.constant(q);
+                        let (x, q) = (self.c(a, 0), self.constant(q));
                         self.binary(call_powf, x, q)
                     }
+                    // order 0 is the fused chain's
+                    PowZero::Fused => return Ok(()),
                 };
                 (d, v)
             }
