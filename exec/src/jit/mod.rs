@@ -31,8 +31,8 @@ use crate::{Common, Dims, ExecError, Kernel, Op, Tape};
 use cranelift_codegen::ir::condcodes::IntCC;
 use cranelift_codegen::ir::immediates::Ieee64;
 use cranelift_codegen::ir::{
-    types, AbiParam, BlockArg, InstBuilder, MemFlagsData, Signature, StackSlotData, StackSlotKind,
-    Value,
+    types, AbiParam, BlockArg, Endianness, InstBuilder, MemFlagsData, Signature, StackSlotData,
+    StackSlotKind, Value,
 };
 use cranelift_codegen::settings::{self, Configurable};
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
@@ -591,11 +591,16 @@ impl Emit<'_> {
         v
     }
 
-    /// The vector `(x, y)` in `eval`: a pack, a splat, two constants, or two scalars put
-    /// together.
+    /// The vector of pack `p` in `eval`.
+    fn pack_vector(&self, pairing: &slp::Pairing, p: usize) -> Value {
+        self.vectors[pairing.packs[p][0]].expect("scheduled: packs come first")
+    }
+
+    /// The vector `(x, y)` in `eval`: a pack, a splat, two constants, or put together from
+    /// the packs and scalars holding x and y with one instruction (two for two scalars).
     fn operand_vector(&mut self, pairing: &slp::Pairing, x: crate::Reg, y: crate::Reg) -> Value {
         if let Some(p) = pairing.pack_of(x, y) {
-            return self.vectors[pairing.packs[p][0]].expect("scheduled: packs come first");
+            return self.pack_vector(pairing, p);
         }
         if x == y {
             let s = self.scalar_value(pairing, x);
@@ -606,9 +611,47 @@ impl Emit<'_> {
             let data = self.b.func.dfg.constants.insert(bytes.into());
             return self.b.ins().vconst(F64X2, data);
         }
-        let (sx, sy) = (self.scalar_value(pairing, x), self.scalar_value(pairing, y));
-        let v = self.b.ins().scalar_to_vector(F64X2, sx);
-        self.b.ins().insertlane(v, sy, 1)
+        let place = |e: &Self, r: crate::Reg| {
+            pairing.lane[r.index()].map(|(p, lane)| (e.pack_vector(pairing, p), lane))
+        };
+        match (place(self, x), place(self, y)) {
+            (Some((vx, 0)), None) => {
+                let sy = self.scalar_value(pairing, y);
+                self.b.ins().insertlane(vx, sy, 1)
+            }
+            (None, Some((vy, 1))) => {
+                let sx = self.scalar_value(pairing, x);
+                self.b.ins().insertlane(vy, sx, 0)
+            }
+            (None, None) => {
+                let (sx, sy) = (self.scalar_value(pairing, x), self.scalar_value(pairing, y));
+                let v = self.b.ins().splat(F64X2, sx);
+                self.b.ins().insertlane(v, sy, 1)
+            }
+            (px, py) => {
+                let splat = |e: &mut Self, r| {
+                    let s = e.scalar_value(pairing, r);
+                    (e.b.ins().splat(F64X2, s), 0)
+                };
+                let (vx, i) = px.unwrap_or_else(|| splat(self, x));
+                let (vy, j) = py.unwrap_or_else(|| splat(self, y));
+                self.shuffle(vx, i, vy, j)
+            }
+        }
+    }
+
+    /// `(vx[i], vy[j])` (one shuffle).
+    fn shuffle(&mut self, vx: Value, i: u8, vy: Value, j: u8) -> Value {
+        let mask: Vec<u8> = (0..8)
+            .map(|k| 8 * i + k)
+            .chain((0..8).map(|k| 16 + 8 * j + k))
+            .collect();
+        let mask = self.b.func.dfg.immediates.push(mask.into());
+        let flags = MemFlagsData::new().with_endianness(Endianness::Little);
+        let bx = self.b.ins().bitcast(types::I8X16, flags, vx);
+        let by = self.b.ins().bitcast(types::I8X16, flags, vy);
+        let s = self.b.ins().shuffle(bx, by, mask);
+        self.b.ins().bitcast(F64X2, flags, s)
     }
 
     /// The two-lane instruction of pack `p` in `eval`: one 128-bit load of two adjacent
@@ -671,7 +714,7 @@ impl Emit<'_> {
             let off = offset(j)?;
             match tape.outputs.get(j + 1).and_then(|&s| pairing.pack_of(r, s)) {
                 Some(p) => {
-                    let v = self.vectors[pairing.packs[p][0]].expect("every pack is emitted");
+                    let v = self.pack_vector(&pairing, p);
                     self.b.ins().store(vector_flags(), v, args.out, off);
                     j += 2;
                 }
@@ -706,10 +749,7 @@ impl Emit<'_> {
             .iter()
             .map(|&off| self.b.ins().iadd(args.state, off))
             .collect();
-        for i in 0..tape.body.len() {
-            if !per_lane[i] {
-                continue;
-            }
+        for i in (0..tape.body.len()).filter(|&i| per_lane[i]) {
             for (part, &state) in states.iter().enumerate() {
                 self.swap_part(part);
                 let v = self.op(i, args, &mut |e, c| {
@@ -758,14 +798,12 @@ impl Emit<'_> {
             .map(|&op| slp::fold(op, &negated))
             .collect();
         // Entry: everything shared by the lanes, also as two-lane vectors.
-        for i in 0..tape.body.len() {
-            if !per_lane[i] {
-                let v = self.op(i, args, &mut |_, _| {
-                    Err(ExecError::Jit("state read outside the lane loop".into()))
-                })?;
-                self.values[i] = Some(v);
-                self.vectors[i] = Some(self.b.ins().splat(F64X2, v));
-            }
+        for i in (0..tape.body.len()).filter(|&i| !per_lane[i]) {
+            let v = self.op(i, args, &mut |_, _| {
+                Err(ExecError::Jit("state read outside the lane loop".into()))
+            })?;
+            self.values[i] = Some(v);
+            self.vectors[i] = Some(self.b.ins().splat(F64X2, v));
         }
         self.other = self.vectors.clone();
         let kb = self.b.ins().ishl_imm_u(k, 3);

@@ -274,13 +274,16 @@ impl Slp {
                 return 0;
             }
         }
-        let extract = |l: Option<(usize, u8)>| i32::from(matches!(l, Some((_, 1))));
-        // put together from two scalars (or a splat), lane 1 of a pack extracted
-        let gather = 1 + extract(self.lane[a]) + extract(self.lane[b]);
         let (oa, ob) = (self.ops[a], self.ops[b]);
         if a == b {
-            return gather;
+            return 1; // a splat
         }
+        // put together: one instruction from a pack, two from two scalars
+        let gather = if self.lane[a].is_some() || self.lane[b].is_some() {
+            1
+        } else {
+            2
+        };
         if matches!((oa, ob), (Op::Const(_), Op::Const(_))) {
             return 0;
         }
@@ -333,19 +336,13 @@ impl Slp {
     }
 
     /// The lane extractions the packs from number `mark` on need: lane 1 of a value with a
-    /// scalar use (an unpaired user, a user whose operand vector is put together, an output
-    /// not stored with its lane partner) costs one shuffle.
+    /// scalar use (an unpaired user, an output not stored with its lane partner) costs one
+    /// shuffle (lane 0 is free; packed users put their operand vectors together, counted by
+    /// [`Slp::bundle`]).
     fn extractions(&self, mark: usize) -> i32 {
         let mut cost = 0;
         for &[a, b] in &self.packs[mark..] {
-            let scalar_use = self.users[b].iter().any(|&u| {
-                let Some((p, l)) = self.lane[u] else {
-                    return true;
-                };
-                let partner = self.packs[p][1 - l as usize];
-                // u reads b in the position where its partner reads a (lane 1 <- lane 1)
-                l != 1 || !self.ops[partner].operands().any(|r| r.index() == a)
-            });
+            let scalar_use = self.users[b].iter().any(|&u| self.lane[u].is_none());
             let out_use = self
                 .outputs
                 .iter()
@@ -356,27 +353,30 @@ impl Slp {
         cost
     }
 
-    /// Tries the tree of `(a, b)` with `extra` added to its cost (a saved store); keeps it if
-    /// it saves instructions.
-    fn attempt(&mut self, a: usize, b: usize, extra: i32) -> bool {
+    /// Tries the trees of the `roots` together, each with `extra` added to its cost (a saved
+    /// store); keeps them if they save instructions.
+    fn attempt(&mut self, roots: &[(usize, usize)], extra: i32) {
         let (mark, swaps) = (self.packs.len(), self.swapped.len());
-        let cost = extra + self.bundle(a, b, 0);
-        if self.packs.len() > mark && cost + self.extractions(mark) < 0 {
-            true
-        } else {
+        let mut cost = 0;
+        for &(a, b) in roots {
+            if a != b && self.lane[a].is_none() && self.lane[b].is_none() {
+                cost += extra + self.bundle(a, b, 0);
+            }
+        }
+        if self.packs.len() == mark || cost + self.extractions(mark) >= 0 {
             self.rollback(mark, swaps);
-            false
         }
     }
 
-    /// Seeds from the adjacent outputs, then from the users of packed values, until nothing
-    /// more pairs.
+    /// Seeds from the adjacent outputs (all pairs `(out[2m], out[2m + 1])` together, then
+    /// every `(out[j], out[j + 1])` alone), then from the users of packed values, until
+    /// nothing more pairs.
     fn seed(&mut self) {
+        let stores: Vec<(usize, usize)> =
+            self.outputs.chunks_exact(2).map(|c| (c[0], c[1])).collect();
+        self.attempt(&stores, -1);
         for j in 1..self.outputs.len() {
-            let (a, b) = (self.outputs[j - 1], self.outputs[j]);
-            if a != b && self.lane[a].is_none() && self.lane[b].is_none() {
-                self.attempt(a, b, -1);
-            }
+            self.attempt(&[(self.outputs[j - 1], self.outputs[j])], -1);
         }
         let mut done = 0;
         while done < self.packs.len() {
@@ -384,13 +384,8 @@ impl Slp {
             done += 1;
             for ua in self.users[a].clone() {
                 for ub in self.users[b].clone() {
-                    if ua != ub
-                        && self.lane[ua].is_none()
-                        && self.lane[ub].is_none()
-                        && kind(self.ops[ua]).is_some()
-                        && kind(self.ops[ua]) == kind(self.ops[ub])
-                    {
-                        self.attempt(ua, ub, 0);
+                    if kind(self.ops[ua]).is_some() && kind(self.ops[ua]) == kind(self.ops[ub]) {
+                        self.attempt(&[(ua, ub)], 0);
                     }
                 }
             }
