@@ -10,7 +10,14 @@
 //! last `ellipj` arguments and values (a stack slot), so those of one (u | m) cost one call.
 //!
 //! Two functions are compiled per tape:
-//! - `eval(hoisted, state, target, gains, out)` for one state;
+//! - `eval(hoisted, state, target, gains, out)` for one state, with pairs of isomorphic,
+//!   independent instructions (the x, y, z components of a model running through the same
+//!   operations) computed as one two-lane `F64X2` instruction, as LLVM's SLP vectoriser does
+//!   to the emitted Rust: adjacent input elements loaded and adjacent outputs stored 128 bits
+//!   at a time, `+ − · /`, negation, `sqrt` and `powi` lane-wise — the same IEEE operation
+//!   in each lane, so the results are bitwise those of scalar code (the pairing pass, what it
+//!   pairs and its cost model: `exec/src/jit/slp.rs`;
+//!   [`JitKernel::paired_instructions`] counts the paired instructions);
 //! - `lanes(k, hoisted, state, target, gains, out)`, a loop over the k lanes of
 //!   structure-of-arrays inputs, four lanes at a time as two 128-bit vectors (the same IEEE
 //!   operations lane by lane; calls are made per lane), then two, then the odd last lane in
