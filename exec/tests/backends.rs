@@ -338,6 +338,22 @@ fn jit() {
     suite(Backend::Jit);
 }
 
+/// The pairing pass of the JIT's `eval` really pairs on the models whose x, y, z components
+/// run through the same operations (so `jit` above checks paired code bitwise against the
+/// tape, on every function of every model and of the random models).
+#[cfg(feature = "jit")]
+#[test]
+fn jit_pairs_the_components() {
+    for case in model_cases() {
+        let kernel = lasalle_exec::jit::JitKernel::new(&case.tapes.feedback).unwrap();
+        let (paired, len) = (kernel.paired_instructions(), case.tapes.feedback.body.len());
+        assert!(paired <= len, "{}: {paired} of {len}", case.name);
+        if ["kepler.lsl", "rigid_body.lsl", "coupled_oscillators.lsl"].contains(&&*case.name) {
+            assert!(4 * paired >= len, "{}: {paired} of {len} paired", case.name);
+        }
+    }
+}
+
 #[test]
 fn bad_arguments_are_errors_not_panics() {
     for &backend in Backend::available() {

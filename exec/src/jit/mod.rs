@@ -10,7 +10,14 @@
 //! last `ellipj` arguments and values (a stack slot), so those of one (u | m) cost one call.
 //!
 //! Two functions are compiled per tape:
-//! - `eval(hoisted, state, target, gains, out)` for one state;
+//! - `eval(hoisted, state, target, gains, out)` for one state, with pairs of isomorphic,
+//!   independent instructions (the x, y, z components of a model running through the same
+//!   operations) computed as one two-lane `F64X2` instruction, as LLVM's SLP vectoriser does
+//!   to the emitted Rust: adjacent input elements loaded and adjacent outputs stored 128 bits
+//!   at a time, `+ − · /`, negation, `sqrt` and `powi` lane-wise — the same IEEE operation
+//!   in each lane, so the results are bitwise those of scalar code (the pairing pass, what it
+//!   pairs and its cost model: `exec/src/jit/slp.rs`;
+//!   [`JitKernel::paired_instructions`] counts the paired instructions);
 //! - `lanes(k, hoisted, state, target, gains, out)`, a loop over the k lanes of
 //!   structure-of-arrays inputs, four lanes at a time as two 128-bit vectors (the same IEEE
 //!   operations lane by lane; calls are made per lane), then two, then the odd last lane in
@@ -31,8 +38,8 @@ use crate::{Common, Dims, ExecError, Kernel, Op, Tape};
 use cranelift_codegen::ir::condcodes::IntCC;
 use cranelift_codegen::ir::immediates::Ieee64;
 use cranelift_codegen::ir::{
-    types, AbiParam, BlockArg, InstBuilder, MemFlagsData, Signature, StackSlotData, StackSlotKind,
-    Value,
+    types, AbiParam, BlockArg, Endianness, InstBuilder, MemFlagsData, Signature, StackSlotData,
+    StackSlotKind, Value,
 };
 use cranelift_codegen::settings::{self, Configurable};
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
@@ -41,6 +48,7 @@ use cranelift_module::Module;
 use lasalle_codegen::ir::{Func, Func2, Rational};
 use lasalle_runtime::elliptic::ellipj;
 
+mod slp;
 pub mod taylor;
 
 type EvalFn = crate::RawEval;
@@ -145,6 +153,8 @@ pub struct JitKernel {
     _code: Code,
     eval: EvalFn,
     lanes: LanesFn,
+    /// Instructions of the body `eval` computes two at a time (see [`slp`]).
+    paired: usize,
 }
 
 // SAFETY: the module is only touched again in `drop` (which has `&mut self`); the compiled
@@ -177,7 +187,7 @@ impl JitKernel {
         tape.validate()?;
         let mut module = jit_module("speed")?;
         let compiled = Self::define(&mut module, tape);
-        let (eval_id, lanes_id) = match compiled {
+        let (eval_id, lanes_id, paired) = match compiled {
             Ok(ids) => ids,
             Err(e) => {
                 // SAFETY: nothing compiled in this module has been handed out.
@@ -201,17 +211,25 @@ impl JitKernel {
             _code: Code::new(module),
             eval,
             lanes,
+            paired,
         })
+    }
+
+    /// How many instructions of the tape's body the single-state function computes in pairs,
+    /// as two-lane vector instructions (twice the number of packs of the pairing pass).
+    pub fn paired_instructions(&self) -> usize {
+        self.paired
     }
 
     fn define(
         module: &mut JITModule,
         tape: &Tape,
-    ) -> Result<(cranelift_module::FuncId, cranelift_module::FuncId), ExecError> {
+    ) -> Result<(cranelift_module::FuncId, cranelift_module::FuncId, usize), ExecError> {
         let ptr = module.target_config().pointer_type();
         let mut ctx = module.make_context();
         let mut fctx = FunctionBuilderContext::new();
         let mut ids = Vec::new();
+        let mut paired = 0;
         for lanes in [false, true] {
             let mut sig = module.make_signature();
             if lanes {
@@ -245,14 +263,7 @@ impl JitKernel {
                     vectors: vec![None; tape.body.len()],
                     other: Vec::new(),
                     vector: false,
-                    negated: tape
-                        .body
-                        .iter()
-                        .map(|op| match *op {
-                            Op::Neg(y) => Some(y),
-                            _ => None,
-                        })
-                        .collect(),
+                    ops: Vec::new(),
                     math: Math::new(module),
                     jacobi_cache: None,
                 };
@@ -271,7 +282,7 @@ impl JitKernel {
                     e.jacobi_cache = Some(e.b.ins().stack_addr(ptr, slot, 0));
                 }
                 match k {
-                    None => e.scalar(tape, &args)?,
+                    None => paired = e.scalar(tape, &args)?,
                     Some(k) => e.lanes(tape, &args, k)?,
                 }
                 e.b.seal_all_blocks();
@@ -282,7 +293,7 @@ impl JitKernel {
             ids.push(id);
         }
         module.finalize_definitions().map_err(jit_err)?;
-        Ok((ids[0], ids[1]))
+        Ok((ids[0], ids[1], paired))
     }
 }
 
@@ -329,17 +340,17 @@ struct Emit<'a> {
     /// Scalar value of each register (shared or of the current lane).
     values: Vec<Option<Value>>,
     /// Two-lane vector value of each register, in the vector loops (of the first pair of lanes
-    /// in the four-lane loop).
+    /// in the four-lane loop); in `eval`, that of each pack, at its lane-0 register.
     vectors: Vec<Option<Value>>,
     /// The vector values of the second pair of lanes, in the four-lane loop (swapped with
     /// `vectors` while its instructions are emitted).
     other: Vec<Option<Value>>,
     /// Emitting a vector loop.
     vector: bool,
-    /// `Some(y)` for the registers that are `Neg(y)`: `x + (−y)` is emitted as `x − y` and
-    /// `x − (−y)` as `x + y`, the same IEEE operations (the negation, if unused otherwise, is
-    /// then dead and not emitted).
-    negated: Vec<Option<crate::Reg>>,
+    /// The instructions with their negated operands folded ([`slp::fold`]): `x + (−y)` is
+    /// emitted as `x − y` and `x − (−y)` as `x + y`, the same IEEE operations (the negation,
+    /// if unused otherwise, is then dead and not emitted).
+    ops: Vec<Op>,
     math: Math,
     /// The address of the `[u, m, sn, cn, dn]` cache of `call_jacobi` (a stack slot filled
     /// with NaN on entry), if the tape has sn, cn or dn.
@@ -478,14 +489,31 @@ impl Emit<'_> {
         }
     }
 
-    /// The value of one instruction in the current mode; `state(i)` loads state component i.
+    /// `+ − · /`, negation, `sqrt` or `powi` (`op`, folded) of the values `x` and `y` (`None`
+    /// for the unary ones), in the current mode.
+    fn arith(&mut self, op: Op, x: Value, y: Option<Value>) -> Value {
+        let y = || y.expect("a binary operation has two operands");
+        match op {
+            Op::Add(..) => self.b.ins().fadd(x, y()),
+            Op::Sub(..) => self.b.ins().fsub(x, y()),
+            Op::Mul(..) => self.b.ins().fmul(x, y()),
+            Op::Div(..) => self.b.ins().fdiv(x, y()),
+            Op::Neg(_) => self.b.ins().fneg(x),
+            Op::Sqrt(_) => self.b.ins().sqrt(x),
+            Op::Powi(_, n) => self.powi(x, n),
+            _ => unreachable!("not an arithmetic operation: {op:?}"),
+        }
+    }
+
+    /// The value of instruction `i` in the current mode; `state(i)` loads state component i.
     fn op(
         &mut self,
-        op: Op,
+        i: usize,
         args: &Args,
         state: &mut dyn FnMut(&mut Self, usize) -> Result<Value, ExecError>,
     ) -> Result<Value, ExecError> {
         let v = |e: &Self, r| e.value(r);
+        let op = self.ops[i];
         Ok(match op {
             Op::State(i) => state(self, i as usize)?,
             Op::Target(i) => self.load(args.target, i as usize)?,
@@ -495,50 +523,13 @@ impl Emit<'_> {
                 return Err(ExecError::Jit("a parameter in the body".into()));
             }
             Op::Const(c) => self.constant(c),
-            Op::Add(a, c) => match (self.negated[a.index()], self.negated[c.index()]) {
-                (_, Some(y)) => {
-                    let (x, y) = (v(self, a), v(self, y));
-                    self.b.ins().fsub(x, y)
-                }
-                (Some(y), None) => {
-                    // −y + x = x − y: IEEE addition is commutative
-                    let (x, y) = (v(self, c), v(self, y));
-                    self.b.ins().fsub(x, y)
-                }
-                (None, None) => {
-                    let (x, y) = (v(self, a), v(self, c));
-                    self.b.ins().fadd(x, y)
-                }
-            },
-            Op::Sub(a, c) => match self.negated[c.index()] {
-                Some(y) => {
-                    let (x, y) = (v(self, a), v(self, y));
-                    self.b.ins().fadd(x, y)
-                }
-                None => {
-                    let (x, y) = (v(self, a), v(self, c));
-                    self.b.ins().fsub(x, y)
-                }
-            },
-            Op::Mul(a, c) => {
+            Op::Add(a, c) | Op::Sub(a, c) | Op::Mul(a, c) | Op::Div(a, c) => {
                 let (x, y) = (v(self, a), v(self, c));
-                self.b.ins().fmul(x, y)
+                self.arith(op, x, Some(y))
             }
-            Op::Div(a, c) => {
-                let (x, y) = (v(self, a), v(self, c));
-                self.b.ins().fdiv(x, y)
-            }
-            Op::Neg(a) => {
+            Op::Neg(a) | Op::Sqrt(a) | Op::Powi(a, _) => {
                 let x = v(self, a);
-                self.b.ins().fneg(x)
-            }
-            Op::Sqrt(a) => {
-                let x = v(self, a);
-                self.b.ins().sqrt(x)
-            }
-            Op::Powi(a, n) => {
-                let x = v(self, a);
-                self.powi(x, n)
+                self.arith(op, x, None)
             }
             Op::Cbrt(a) => self.unary(call_cbrt, v(self, a)),
             Op::Exp(a) => self.unary(call_exp, v(self, a)),
@@ -580,13 +571,8 @@ impl Emit<'_> {
         })
     }
 
-    /// Stores the outputs at `out + 8j` (one state) or `out + j·kb` (lanes, `kb = 8k`).
-    fn store_outputs(
-        &mut self,
-        tape: &Tape,
-        out: Value,
-        kb: Option<Value>,
-    ) -> Result<(), ExecError> {
+    /// Stores the outputs of the lane(s) at `out` to `out + j·kb` (`kb = 8k`).
+    fn store_outputs(&mut self, tape: &Tape, out: Value, kb: Value) {
         let flags = if self.vector {
             vector_flags()
         } else {
@@ -594,30 +580,160 @@ impl Emit<'_> {
         };
         for (j, &r) in tape.outputs.iter().enumerate() {
             let x = self.value(r);
-            match kb {
-                None => {
-                    let off = offset(j)?;
-                    self.b.ins().store(flags, x, out, off);
+            let at = self.b.ins().imul_imm_s(kb, j as i64);
+            let addr = self.b.ins().iadd(out, at);
+            self.b.ins().store(flags, x, addr, 0);
+        }
+    }
+
+    /// The scalar value of register `r` in `eval`: lane of its pack, if paired.
+    fn scalar_value(&mut self, pairing: &slp::Pairing, r: crate::Reg) -> Value {
+        if let Some(v) = self.values[r.index()] {
+            return v;
+        }
+        let (p, lane) = pairing.lane[r.index()].expect("scheduled: operands come first");
+        let packed = self.vectors[pairing.packs[p][0]].expect("scheduled: packs come first");
+        let v = self.b.ins().extractlane(packed, lane);
+        self.values[r.index()] = Some(v);
+        v
+    }
+
+    /// The vector of pack `p` in `eval`.
+    fn pack_vector(&self, pairing: &slp::Pairing, p: usize) -> Value {
+        self.vectors[pairing.packs[p][0]].expect("scheduled: packs come first")
+    }
+
+    /// The vector `(x, y)` in `eval`: a pack, a splat, two constants, or put together from
+    /// the packs and scalars holding x and y with one instruction (two for two scalars).
+    fn operand_vector(&mut self, pairing: &slp::Pairing, x: crate::Reg, y: crate::Reg) -> Value {
+        if let Some(p) = pairing.pack_of(x, y) {
+            return self.pack_vector(pairing, p);
+        }
+        if x == y {
+            let s = self.scalar_value(pairing, x);
+            return self.b.ins().splat(F64X2, s);
+        }
+        if let (Op::Const(c), Op::Const(d)) = (self.ops[x.index()], self.ops[y.index()]) {
+            let bytes: Vec<u8> = [c, d].iter().flat_map(|v| v.to_le_bytes()).collect();
+            let data = self.b.func.dfg.constants.insert(bytes.into());
+            return self.b.ins().vconst(F64X2, data);
+        }
+        let place = |e: &Self, r: crate::Reg| {
+            pairing.lane[r.index()].map(|(p, lane)| (e.pack_vector(pairing, p), lane))
+        };
+        match (place(self, x), place(self, y)) {
+            (Some((vx, 0)), None) => {
+                let sy = self.scalar_value(pairing, y);
+                self.b.ins().insertlane(vx, sy, 1)
+            }
+            (None, Some((vy, 1))) => {
+                let sx = self.scalar_value(pairing, x);
+                self.b.ins().insertlane(vy, sx, 0)
+            }
+            (None, None) => {
+                let (sx, sy) = (self.scalar_value(pairing, x), self.scalar_value(pairing, y));
+                let v = self.b.ins().splat(F64X2, sx);
+                self.b.ins().insertlane(v, sy, 1)
+            }
+            (px, py) => {
+                let splat = |e: &mut Self, r| {
+                    let s = e.scalar_value(pairing, r);
+                    (e.b.ins().splat(F64X2, s), 0)
+                };
+                let (vx, i) = px.unwrap_or_else(|| splat(self, x));
+                let (vy, j) = py.unwrap_or_else(|| splat(self, y));
+                self.shuffle(vx, i, vy, j)
+            }
+        }
+    }
+
+    /// `(vx[i], vy[j])` (one shuffle).
+    fn shuffle(&mut self, vx: Value, i: u8, vy: Value, j: u8) -> Value {
+        let mask: Vec<u8> = (0..8)
+            .map(|k| 8 * i + k)
+            .chain((0..8).map(|k| 16 + 8 * j + k))
+            .collect();
+        let mask = self.b.func.dfg.immediates.push(mask.into());
+        let flags = MemFlagsData::new().with_endianness(Endianness::Little);
+        let bx = self.b.ins().bitcast(types::I8X16, flags, vx);
+        let by = self.b.ins().bitcast(types::I8X16, flags, vy);
+        let s = self.b.ins().shuffle(bx, by, mask);
+        self.b.ins().bitcast(F64X2, flags, s)
+    }
+
+    /// The two-lane instruction of pack `p` in `eval`: one 128-bit load of two adjacent
+    /// input elements, or one lane-wise operation.
+    fn pack(&mut self, pairing: &slp::Pairing, p: usize, args: &Args) -> Result<Value, ExecError> {
+        let [a, b] = pairing.packs[p];
+        let (oa, ob) = (self.ops[a], self.ops[b]);
+        let input = match oa {
+            Op::State(i) => Some((args.state, i)),
+            Op::Target(i) => Some((args.target, i)),
+            Op::Gain(i) => Some((args.gains, i)),
+            Op::Hoisted(i) => Some((args.hoisted, i)),
+            _ => None,
+        };
+        if let Some((base, i)) = input {
+            let flags = load_flags(vector_flags());
+            return Ok(self.b.ins().load(F64X2, flags, base, offset(i as usize)?));
+        }
+        let (mut xs, mut ys) = (oa.operands(), ob.operands());
+        let (xa, xb) = (xs.next(), ys.next());
+        let x = match (xa, xb) {
+            (Some(xa), Some(xb)) => self.operand_vector(pairing, xa, xb),
+            _ => unreachable!("a pack of operations with operands"),
+        };
+        let y = match (xs.next(), ys.next()) {
+            (Some(ya), Some(yb)) => Some(self.operand_vector(pairing, ya, yb)),
+            _ => None,
+        };
+        self.vector = true;
+        let v = self.arith(oa, x, y);
+        self.vector = false;
+        Ok(v)
+    }
+
+    /// `eval`: the packs and the remaining scalar instructions of the pairing ([`slp`]) in
+    /// its order, then the stores, two adjacent outputs of one pack with one 128-bit store.
+    /// Returns the number of instructions computed in pairs.
+    fn scalar(&mut self, tape: &Tape, args: &Args) -> Result<usize, ExecError> {
+        let pairing = slp::pair(tape);
+        self.ops.clone_from(&pairing.ops);
+        let base = args.state;
+        for &node in &pairing.order {
+            match node {
+                slp::Node::Single(i) => {
+                    for r in pairing.ops[i].operands() {
+                        self.scalar_value(&pairing, r);
+                    }
+                    let v = self.op(i, args, &mut |e, k| e.load(base, k))?;
+                    self.values[i] = Some(v);
                 }
-                Some(kb) => {
-                    let at = self.b.ins().imul_imm_s(kb, j as i64);
-                    let addr = self.b.ins().iadd(out, at);
-                    self.b.ins().store(flags, x, addr, 0);
+                slp::Node::Pack(p) => {
+                    let v = self.pack(&pairing, p, args)?;
+                    self.vectors[pairing.packs[p][0]] = Some(v);
                 }
             }
         }
-        Ok(())
-    }
-
-    fn scalar(&mut self, tape: &Tape, args: &Args) -> Result<(), ExecError> {
-        let base = args.state;
-        for (i, &op) in tape.body.iter().enumerate() {
-            let v = self.op(op, args, &mut |e, k| e.load(base, k))?;
-            self.values[i] = Some(v);
+        let mut j = 0;
+        while j < tape.outputs.len() {
+            let r = tape.outputs[j];
+            let off = offset(j)?;
+            match tape.outputs.get(j + 1).and_then(|&s| pairing.pack_of(r, s)) {
+                Some(p) => {
+                    let v = self.pack_vector(&pairing, p);
+                    self.b.ins().store(vector_flags(), v, args.out, off);
+                    j += 2;
+                }
+                None => {
+                    let v = self.scalar_value(&pairing, r);
+                    self.b.ins().store(scalar_flags(), v, args.out, off);
+                    j += 1;
+                }
+            }
         }
-        self.store_outputs(tape, args.out, None)?;
         self.b.ins().return_(&[]);
-        Ok(())
+        Ok(2 * pairing.packs.len())
     }
 
     /// The per-lane instructions for the lane(s) at the byte offsets `offs` (one, or in the
@@ -640,13 +756,10 @@ impl Emit<'_> {
             .iter()
             .map(|&off| self.b.ins().iadd(args.state, off))
             .collect();
-        for (i, &op) in tape.body.iter().enumerate() {
-            if !per_lane[i] {
-                continue;
-            }
+        for i in (0..tape.body.len()).filter(|&i| per_lane[i]) {
             for (part, &state) in states.iter().enumerate() {
                 self.swap_part(part);
-                let v = self.op(op, args, &mut |e, c| {
+                let v = self.op(i, args, &mut |e, c| {
                     let at = e.b.ins().imul_imm_s(kb, c as i64);
                     let addr = e.b.ins().iadd(state, at);
                     Ok(e.b.ins().load(ty, load_flags(flags), addr, 0))
@@ -663,9 +776,8 @@ impl Emit<'_> {
         for (part, &off) in offs.iter().enumerate() {
             self.swap_part(part);
             let out = self.b.ins().iadd(args.out, off);
-            let stored = self.store_outputs(tape, out, Some(kb));
+            self.store_outputs(tape, out, kb);
             self.swap_part(part);
-            stored?;
         }
         Ok(())
     }
@@ -686,15 +798,19 @@ impl Emit<'_> {
         for (i, op) in tape.body.iter().enumerate() {
             per_lane[i] = matches!(op, Op::State(_)) || op.operands().any(|r| per_lane[r.index()]);
         }
+        let negated = slp::negations(tape);
+        self.ops = tape
+            .body
+            .iter()
+            .map(|&op| slp::fold(op, &negated))
+            .collect();
         // Entry: everything shared by the lanes, also as two-lane vectors.
-        for (i, &op) in tape.body.iter().enumerate() {
-            if !per_lane[i] {
-                let v = self.op(op, args, &mut |_, _| {
-                    Err(ExecError::Jit("state read outside the lane loop".into()))
-                })?;
-                self.values[i] = Some(v);
-                self.vectors[i] = Some(self.b.ins().splat(F64X2, v));
-            }
+        for i in (0..tape.body.len()).filter(|&i| !per_lane[i]) {
+            let v = self.op(i, args, &mut |_, _| {
+                Err(ExecError::Jit("state read outside the lane loop".into()))
+            })?;
+            self.values[i] = Some(v);
+            self.vectors[i] = Some(self.b.ins().splat(F64X2, v));
         }
         self.other = self.vectors.clone();
         let kb = self.b.ins().ishl_imm_u(k, 3);
