@@ -125,37 +125,75 @@ struct Ins {
     code: Code,
 }
 
-/// An instruction of the one-state loop: `slot[first + i] = slot[a] · slot[m] + slot[c]`, the
-/// product and the sum being two separately rounded IEEE operations (never fused). With the
-/// constants 1, −1 and −0 in their slots this is each of `+ − · neg` exactly:
-///
-/// | tape    | a | m  | c  | computed        |
-/// |---------|---|----|----|-----------------|
-/// | x + y   | x | 1  | y  | (x·1) + y       |
-/// | x − y   | y | −1 | x  | (−y) + x        |
-/// | x · y   | x | y  | −0 | (x·y) + (−0)    |
-/// | −x      | x | −1 | −0 | (−x) + (−0)     |
-/// | x·y + z | x | y  | z  | (x·y) + z       |
-///
-/// since x·1 = x and y·(−1) = −y exactly, `−y + x` is the IEEE `x − y` (= `x + (−y)`;
-/// addition is commutative), and adding −0 changes nothing (+0 + −0 = +0 and −0 + −0 = −0
-/// in the default rounding mode). The values are therefore bitwise those of the tape, except
-/// that a NaN may come out with the other sign bit (`y·(−1)` keeps a NaN's sign where `−y`
-/// flips it); every NaN stays a NaN. One form for all four means the loop takes no
-/// data-dependent branch: an interpreter's usual cost is the mispredicted jump per
-/// instruction. The other instructions ([`Special`]) split the loop into runs.
-#[derive(Clone, Copy, Debug)]
-struct Fast {
-    a: u32,
-    m: u32,
-    c: u32,
+/// The kind of a run of the one-state loop: instruction after instruction of one form, so the
+/// loop over a run takes no data-dependent branch (an interpreter's usual cost is the
+/// mispredicted jump per instruction). Decoding orders the instructions into few runs
+/// ([`schedule`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    /// `x·y`, operands packed by [`pack2`].
+    Mul,
+    /// `x + y`, operands packed by [`pack2`].
+    Add,
+    /// `x − y`, operands packed by [`pack2`]; also `−x` as `−0 − x`.
+    Sub,
+    /// `x·y + z`, operands packed by [`pack3`]: two roundings as in the tape, never fused.
+    MulAdd,
+    /// Any other instruction ([`Special`]).
+    Special,
 }
 
-/// An instruction off the straight path: `code(slot[a], slot[b])` (`b` is the exponent's
-/// index for `Powf`), after `fast_end` straight instructions in all.
+impl Kind {
+    fn of(code: Code) -> Kind {
+        match code {
+            Code::Mul => Kind::Mul,
+            Code::Add => Kind::Add,
+            Code::Sub | Code::Neg => Kind::Sub,
+            Code::MulAdd => Kind::MulAdd,
+            _ => Kind::Special,
+        }
+    }
+}
+
+/// `len` consecutive instructions of one kind.
+#[derive(Clone, Copy, Debug)]
+struct Run {
+    kind: Kind,
+    len: u32,
+}
+
+/// Bits of one operand in [`pack3`]: the slots are fewer than 2²¹.
+const FIELD: u32 = 21;
+const MASK: u64 = (1 << FIELD) - 1;
+
+/// Two operand slots in one word (one load in the loop).
+fn pack2(a: u32, b: u32) -> u64 {
+    a as u64 | (b as u64) << 32
+}
+
+#[inline(always)]
+fn unpack2(x: u64) -> (usize, usize) {
+    (x as u32 as usize, (x >> 32) as usize)
+}
+
+/// Three operand slots (each below 2²¹) in one word.
+fn pack3(a: u32, b: u32, c: u32) -> u64 {
+    a as u64 | (b as u64) << FIELD | (c as u64) << (2 * FIELD)
+}
+
+#[inline(always)]
+fn unpack3(x: u64) -> (usize, usize, usize) {
+    (
+        (x & MASK) as usize,
+        ((x >> FIELD) & MASK) as usize,
+        (x >> (2 * FIELD)) as usize,
+    )
+}
+
+/// An instruction of a [`Kind::Special`] run: `code(slot[a], slot[b])` (`b` is the exponent's
+/// index for `Powf`).
 #[derive(Clone, Copy, Debug)]
 struct Special {
-    fast_end: usize,
     code: Code,
     a: u32,
     b: u32,
@@ -169,9 +207,12 @@ pub struct Interpreter {
     consts: Vec<f64>,
     /// Slot written by the first instruction.
     first: usize,
+    /// The instructions in the order of `runs` (instruction i writes slot `first + i`).
     code: Vec<Ins>,
-    /// `code` for the one-state loop: the straight instructions…
-    fast: Vec<Fast>,
+    /// `code` for the one-state loop: the runs…
+    runs: Vec<Run>,
+    /// … the packed operands of the instructions of the straight kinds, in order…
+    packed: Vec<u64>,
     /// … and the others, in order.
     specials: Vec<Special>,
     /// Exponents of the `Powf` instructions.
@@ -303,8 +344,6 @@ impl Interpreter {
                 _ => {}
             }
         }
-        // the constants of the `Fast` encoding
-        let [one, minus_one, minus_zero] = [1.0, -1.0, -0.0].map(|c| dec.constant(c));
         let mut slots: Vec<Slot> = Vec::with_capacity(tape.body.len());
         let inputs = |base: usize, k: u32| Slot::Fixed(base + k as usize);
         for (i, &op) in tape.body.iter().enumerate() {
@@ -374,34 +413,50 @@ impl Interpreter {
             };
             slots.push(slot);
         }
-        // Pass 2: constants at consts_at.., computed values at first...
+        // `−x` runs as `−0 − x`
+        let minus_zero = dec
+            .code
+            .iter()
+            .any(|&(code, ..)| code == Code::Neg)
+            .then(|| dec.constant(-0.0));
+        // Pass 2: the instructions in runs, constants at consts_at.., computed values at
+        // first...
+        let (order, runs) = schedule(&dec.code);
+        let mut position = vec![0; order.len()];
+        for (new, &old) in order.iter().enumerate() {
+            position[old] = new;
+        }
         let first = consts_at
             .checked_add(dec.consts.len())
             .ok_or_else(too_large)?;
         let n_slots = first.checked_add(dec.code.len()).ok_or_else(too_large)?;
-        // every slot index fits in a u32
-        u32::try_from(n_slots).map_err(|_| too_large())?;
+        // every slot index fits in a `pack3` field
+        if n_slots > 1 << FIELD {
+            return Err(too_large());
+        }
         let place = |s: Slot| -> u32 {
             (match s {
                 Slot::Fixed(i) => i,
                 Slot::Const(c) => consts_at + c as usize,
-                Slot::Computed(i) => first + i,
+                Slot::Computed(i) => first + position[i],
                 Slot::Product(_) | Slot::Negated(_) => {
                     unreachable!("a deferred value is only read by its one use")
                 }
             }) as u32
         };
-        let code: Vec<Ins> = dec
-            .code
+        let code: Vec<Ins> = order
             .iter()
-            .map(|&(code, a, b, c)| Ins {
-                a: place(a),
-                b: match (code, b) {
-                    (Code::Powf, Slot::Fixed(i)) => i as u32,
-                    _ => place(b),
-                },
-                c: place(c),
-                code,
+            .map(|&i| {
+                let (code, a, b, c) = dec.code[i];
+                Ins {
+                    a: place(a),
+                    b: match (code, b) {
+                        (Code::Powf, Slot::Fixed(i)) => i as u32,
+                        _ => place(b),
+                    },
+                    c: place(c),
+                    code,
+                }
             })
             .collect();
         // The safety argument of the unchecked loop (module docs), checked here once.
@@ -418,28 +473,20 @@ impl Interpreter {
                 return Err(ExecError::Tape(TapeError::Malformed("bad exponent".into())));
             }
         }
-        let [one, minus_one, minus_zero] =
-            [one, minus_one, minus_zero].map(|c| (consts_at + c as usize) as u32);
-        let mut fast = Vec::new();
+        let mut packed = Vec::new();
         let mut specials = Vec::new();
         for ins in &code {
-            let (a, b) = (ins.a, ins.b);
-            let f = |a, m, c| Some(Fast { a, m, c });
-            let straight = match ins.code {
-                Code::Add => f(a, one, b),
-                Code::Sub => f(b, minus_one, a),
-                Code::Mul => f(a, b, minus_zero),
-                Code::Neg => f(a, minus_one, minus_zero),
-                Code::MulAdd => f(a, b, ins.c),
-                _ => None,
-            };
-            match straight {
-                Some(f) => fast.push(f),
-                None => specials.push(Special {
-                    fast_end: fast.len(),
-                    code: ins.code,
-                    a,
-                    b,
+            match ins.code {
+                Code::Mul | Code::Add | Code::Sub => packed.push(pack2(ins.a, ins.b)),
+                Code::Neg => {
+                    let minus_zero = place(Slot::Const(minus_zero.expect("pooled")));
+                    packed.push(pack2(minus_zero, ins.a))
+                }
+                Code::MulAdd => packed.push(pack3(ins.a, ins.b, ins.c)),
+                code => specials.push(Special {
+                    code,
+                    a: ins.a,
+                    b: ins.b,
                 }),
             }
         }
@@ -458,7 +505,8 @@ impl Interpreter {
             consts: dec.consts,
             first,
             code,
-            fast,
+            runs,
+            packed,
             specials,
             rationals: dec.rationals,
             outputs,
@@ -497,40 +545,54 @@ impl Interpreter {
                 }
             }
             debug_assert_eq!(at, w.add(self.first));
-            let r = |s: u32| *w.add(s as usize);
-            let straight = |from: usize, to: usize, mut dst: *mut f64| {
-                // two at a time (half the loop overhead); the second may read the first's
-                // slot, which is written before (raw pointers: the order is kept)
-                let mut pairs = self.fast.get_unchecked(from..to).chunks_exact(2);
-                for p in &mut pairs {
-                    let (f, g) = (p.get_unchecked(0), p.get_unchecked(1));
-                    *dst = r(f.a) * r(f.m) + r(f.c);
-                    *dst.add(1) = r(g.a) * r(g.m) + r(g.c);
-                    dst = dst.add(2);
-                }
-                for f in pairs.remainder() {
-                    *dst = r(f.a) * r(f.m) + r(f.c);
-                    dst = dst.add(1);
-                }
-                dst
-            };
+            let r = |s: usize| *w.add(s);
             let mut dst = w.add(self.first);
-            let mut done = 0;
+            // the runs' lengths add up to the instructions; those of the straight kinds to
+            // `packed`, those of `Kind::Special` to `specials` (as decoded)
+            let mut ops = self.packed.as_ptr();
+            let mut special = self.specials.as_ptr();
             let mut jacobi = None;
-            for s in &self.specials {
-                dst = straight(done, s.fast_end, dst);
-                done = s.fast_end;
-                // division and square root (the frequent ones) inline, the rest in a call;
-                // `b` is a slot unless the exponent's index (Powf)
-                *dst = match s.code {
-                    Code::Div => r(s.a) / r(s.b),
-                    Code::Sqrt => r(s.a).sqrt(),
-                    Code::Powf => self.special(s, r(s.a), 0.0, &mut jacobi),
-                    _ => self.special(s, r(s.a), r(s.b), &mut jacobi),
-                };
-                dst = dst.add(1);
+            for run in &self.runs {
+                let n = run.len as usize;
+                match run.kind {
+                    Kind::Mul => straight(ops, n, dst, |x| {
+                        let (a, b) = unpack2(x);
+                        r(a) * r(b)
+                    }),
+                    Kind::Add => straight(ops, n, dst, |x| {
+                        let (a, b) = unpack2(x);
+                        r(a) + r(b)
+                    }),
+                    Kind::Sub => straight(ops, n, dst, |x| {
+                        let (a, b) = unpack2(x);
+                        r(a) - r(b)
+                    }),
+                    Kind::MulAdd => straight(ops, n, dst, |x| {
+                        let (a, b, c) = unpack3(x);
+                        r(a) * r(b) + r(c)
+                    }),
+                    Kind::Special => {
+                        for k in 0..n {
+                            let s = &*special.add(k);
+                            let (a, b) = (s.a as usize, s.b as usize);
+                            // division and square root (the frequent ones) inline, the rest
+                            // in a call; `b` is a slot unless the exponent's index (Powf)
+                            *dst.add(k) = match s.code {
+                                Code::Div => r(a) / r(b),
+                                Code::Sqrt => r(a).sqrt(),
+                                Code::Powf => self.special(s, r(a), 0.0, &mut jacobi),
+                                _ => self.special(s, r(a), r(b), &mut jacobi),
+                            };
+                        }
+                        special = special.add(n);
+                    }
+                }
+                if run.kind != Kind::Special {
+                    ops = ops.add(n);
+                }
+                dst = dst.add(n);
             }
-            straight(done, self.fast.len(), dst);
+            let r = |s: u32| r(s as usize);
             for (o, &s) in out.iter_mut().zip(&self.outputs) {
                 *o = r(s);
             }
@@ -635,6 +697,93 @@ impl Interpreter {
             out[j * k..][..k].copy_from_slice(&w[s as usize * k..][..k]);
         }
     }
+}
+
+/// `dst[i] = f(ops[i])` for i < `len`, two at a time (half the loop overhead).
+///
+/// # Safety
+///
+/// `ops` and `dst` point to `len` values; `f` reads only slots written before (raw pointers:
+/// the second of a pair may read the first's slot, which the order of the writes keeps).
+#[inline(always)]
+unsafe fn straight(ops: *const u64, len: usize, dst: *mut f64, f: impl Fn(u64) -> f64) {
+    // SAFETY: as the caller guarantees
+    unsafe {
+        let mut i = 0;
+        while i + 2 <= len {
+            *dst.add(i) = f(*ops.add(i));
+            *dst.add(i + 1) = f(*ops.add(i + 1));
+            i += 2;
+        }
+        if i < len {
+            *dst.add(i) = f(*ops.add(i));
+        }
+    }
+}
+
+/// The order in which to run `code`, and its runs: a topological order (every instruction
+/// after those whose values it reads) that takes, from the instructions whose operands are
+/// computed, all those of one kind at a time, with those that become ready meanwhile; the
+/// specials first (they are the slow ones: the sooner they start, the more the processor
+/// overlaps them), else the kind with the most ready instructions.
+fn schedule(code: &[(Code, Slot, Slot, Slot)]) -> (Vec<usize>, Vec<Run>) {
+    const KINDS: [Kind; 5] = [Kind::Special, Kind::Mul, Kind::Add, Kind::Sub, Kind::MulAdd];
+    let kind = |i: usize| {
+        let k = Kind::of(code[i].0);
+        KINDS.iter().position(|&x| x == k).expect("a kind")
+    };
+    let mut users: Vec<Vec<usize>> = vec![Vec::new(); code.len()];
+    let mut waiting = vec![0u32; code.len()];
+    for (i, &(op, a, b, c)) in code.iter().enumerate() {
+        let mut reads: Vec<usize> = [a, b, c]
+            .into_iter()
+            .enumerate()
+            .filter_map(|(k, s)| match s {
+                // `b` of Powf is the exponent's index
+                Slot::Computed(j) if !(k == 1 && op == Code::Powf) => Some(j),
+                _ => None,
+            })
+            .collect();
+        reads.sort_unstable();
+        reads.dedup();
+        for j in reads {
+            users[j].push(i);
+            waiting[i] += 1;
+        }
+    }
+    let mut ready: [std::collections::VecDeque<usize>; KINDS.len()] = Default::default();
+    for (i, &w) in waiting.iter().enumerate() {
+        if w == 0 {
+            ready[kind(i)].push_back(i);
+        }
+    }
+    let mut order = Vec::with_capacity(code.len());
+    let mut runs = Vec::new();
+    while order.len() < code.len() {
+        let k = if ready[0].is_empty() {
+            (1..KINDS.len())
+                .rev()
+                .max_by_key(|&k| ready[k].len())
+                .expect("kinds")
+        } else {
+            0
+        };
+        let start = order.len();
+        while let Some(i) = ready[k].pop_front() {
+            order.push(i);
+            for &u in &users[i] {
+                waiting[u] -= 1;
+                if waiting[u] == 0 {
+                    ready[kind(u)].push_back(u);
+                }
+            }
+        }
+        runs.push(Run {
+            kind: KINDS[k],
+            len: (order.len() - start) as u32,
+        });
+    }
+    (order, runs)
 }
 
 /// `xⁿ` as [`lasalle_codegen::tape::powi`] computes it: the multiplications of the binary exponentiation (the first
