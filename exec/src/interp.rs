@@ -101,6 +101,10 @@ enum Code {
     /// `a·b + c`: a product whose one use is this sum (`Add(Mul(a, b), c)` or
     /// `Add(c, Mul(a, b))`, the same IEEE sum), two roundings as in the tape, never fused.
     MulAdd,
+    /// `a·b − c`: a product whose one use is this difference, rounded as in the tape.
+    MulSub,
+    /// `c − a·b`: a product whose one use is this difference, rounded as in the tape.
+    SubMul,
 }
 
 impl Code {
@@ -120,7 +124,7 @@ impl Code {
 struct Ins {
     a: u32,
     b: u32,
-    /// The addend of `MulAdd`.
+    /// The third operand of `MulAdd`, `MulSub` and `SubMul`.
     c: u32,
     code: Code,
 }
@@ -139,6 +143,10 @@ enum Kind {
     Sub,
     /// `x·y + z`, operands packed by [`pack3`]: two roundings as in the tape, never fused.
     MulAdd,
+    /// `x·y − z`, operands packed by [`pack3`].
+    MulSub,
+    /// `z − x·y`, operands packed by [`pack3`].
+    SubMul,
     /// Any other instruction ([`Special`]).
     Special,
 }
@@ -150,6 +158,8 @@ impl Kind {
             Code::Add => Kind::Add,
             Code::Sub | Code::Neg => Kind::Sub,
             Code::MulAdd => Kind::MulAdd,
+            Code::MulSub => Kind::MulSub,
+            Code::SubMul => Kind::SubMul,
             _ => Kind::Special,
         }
     }
@@ -234,7 +244,7 @@ struct Decoder {
     /// Constants as (bits, index), for pooling.
     pool: std::collections::HashMap<u64, u32>,
     /// Instructions on unplaced slots (`Powf`: the exponent's index as `Slot::Fixed`; the
-    /// third operand is `MulAdd`'s addend, else a copy of the first).
+    /// third operand is that of `MulAdd`, `MulSub` and `SubMul`, else a copy of the first).
     code: Vec<(Code, Slot, Slot, Slot)>,
     /// The factors of the products deferred to their sum ([`Slot::Product`]).
     products: Vec<(Slot, Slot)>,
@@ -269,6 +279,48 @@ impl Decoder {
                 self.push(Code::Neg, x, x)
             }
             s => s,
+        }
+    }
+
+    /// `x + y`, or `x − y` if `subtract`, with a deferred product or negation among the
+    /// operands folded into the instruction: the IEEE operations of the tape, since
+    /// `x + (−v)` and `−v + x` are `x − v`, `x − (−v)` is `x + v`, and a product is rounded on
+    /// its own before it is added or subtracted.
+    fn sum(&mut self, x: Slot, y: Slot, subtract: bool) -> Slot {
+        let negated = |s: Slot| matches!(s, Slot::Negated(_));
+        // −u − v: −u computed on its own
+        let x = if negated(x) && negated(y) != subtract {
+            self.materialize(x)
+        } else {
+            x
+        };
+        let plain = |dec: &Self, s: Slot| match s {
+            Slot::Negated(k) => dec.negated[k],
+            s => s,
+        };
+        // now p + q or p − q, with p and q products or computed values
+        let (p, q, minus) = match (negated(x), negated(y) != subtract) {
+            (false, minus) => (x, plain(self, y), minus),
+            (true, _) => (plain(self, y), plain(self, x), true),
+        };
+        match (p, q, minus) {
+            (Slot::Product(k), c, false) | (c, Slot::Product(k), false) => {
+                // a sum of two products computes the other one on its own
+                let c = self.materialize(c);
+                let (a, b) = self.products[k];
+                self.push3(Code::MulAdd, a, b, c)
+            }
+            (Slot::Product(k), c, true) => {
+                let c = self.materialize(c);
+                let (a, b) = self.products[k];
+                self.push3(Code::MulSub, a, b, c)
+            }
+            (c, Slot::Product(k), true) => {
+                let (a, b) = self.products[k];
+                self.push3(Code::SubMul, a, b, c)
+            }
+            (p, q, false) => self.push(Code::Add, p, q),
+            (p, q, true) => self.push(Code::Sub, p, q),
         }
     }
 
@@ -315,7 +367,8 @@ impl Interpreter {
             products: Vec::new(),
             negated: Vec::new(),
         };
-        // The products used once, by a sum: computed in the sum's `MulAdd`.
+        // The products used once, by a sum or a difference: computed in its `MulAdd`,
+        // `MulSub` or `SubMul`…
         let mut uses = vec![0u32; tape.body.len()];
         for r in tape
             .body
@@ -338,8 +391,17 @@ impl Interpreter {
                         }
                     }
                 }
-                Op::Sub(_, b) if once(b) && matches!(tape.body[b.index()], Op::Neg(_)) => {
-                    fold[b.index()] = true;
+                Op::Sub(a, b) => {
+                    for (r, neg) in [(a, false), (b, true)] {
+                        if once(r)
+                            && matches!(
+                                (&tape.body[r.index()], neg),
+                                (Op::Mul(..), _) | (Op::Neg(_), true)
+                            )
+                        {
+                            fold[r.index()] = true;
+                        }
+                    }
                 }
                 _ => {}
             }
@@ -358,30 +420,8 @@ impl Interpreter {
                     dec.negated.push(s(a));
                     Slot::Negated(dec.negated.len() - 1)
                 }
-                Op::Add(a, b) => match (s(a), s(b)) {
-                    (Slot::Product(p), c) | (c, Slot::Product(p)) => {
-                        // a sum of two products computes the other one on its own
-                        let c = dec.materialize(c);
-                        let (x, y) = dec.products[p];
-                        dec.push3(Code::MulAdd, x, y, c)
-                    }
-                    (x, Slot::Negated(y)) | (Slot::Negated(y), x) => {
-                        let x = dec.materialize(x);
-                        let y = dec.negated[y];
-                        dec.push(Code::Sub, x, y)
-                    }
-                    (x, y) => dec.push(Code::Add, x, y),
-                },
-                Op::Sub(a, b) => {
-                    let x = dec.materialize(s(a));
-                    match s(b) {
-                        Slot::Negated(y) => {
-                            let y = dec.negated[y];
-                            dec.push(Code::Add, x, y)
-                        }
-                        y => dec.push(Code::Sub, x, y),
-                    }
-                }
+                Op::Add(a, b) => dec.sum(s(a), s(b), false),
+                Op::Sub(a, b) => dec.sum(s(a), s(b), true),
                 Op::State(k) => inputs(0, k),
                 Op::Target(k) => inputs(d.state, k),
                 Op::Gain(k) => inputs(d.state + d.targets, k),
@@ -482,7 +522,9 @@ impl Interpreter {
                     let minus_zero = place(Slot::Const(minus_zero.expect("pooled")));
                     packed.push(pack2(minus_zero, ins.a))
                 }
-                Code::MulAdd => packed.push(pack3(ins.a, ins.b, ins.c)),
+                Code::MulAdd | Code::MulSub | Code::SubMul => {
+                    packed.push(pack3(ins.a, ins.b, ins.c))
+                }
                 code => specials.push(Special {
                     code,
                     a: ins.a,
@@ -571,6 +613,14 @@ impl Interpreter {
                         let (a, b, c) = unpack3(x);
                         r(a) * r(b) + r(c)
                     }),
+                    Kind::MulSub => straight(ops, n, dst, |x| {
+                        let (a, b, c) = unpack3(x);
+                        r(a) * r(b) - r(c)
+                    }),
+                    Kind::SubMul => straight(ops, n, dst, |x| {
+                        let (a, b, c) = unpack3(x);
+                        r(c) - r(a) * r(b)
+                    }),
                     Kind::Special => {
                         for k in 0..n {
                             let s = &*special.add(k);
@@ -629,7 +679,13 @@ impl Interpreter {
             }
             Code::EllipF => Func2::EllipF.apply(x, y),
             Code::Powf => powf(x, self.rationals[s.b as usize]),
-            Code::Add | Code::Sub | Code::Mul | Code::Neg | Code::MulAdd => {
+            Code::Add
+            | Code::Sub
+            | Code::Mul
+            | Code::Neg
+            | Code::MulAdd
+            | Code::MulSub
+            | Code::SubMul => {
                 unreachable!("decoded: these take the straight path")
             }
             Code::Div | Code::Sqrt => unreachable!("inlined in `run`"),
@@ -670,12 +726,9 @@ impl Interpreter {
                 Code::Mul => map2(dst, a, lane(ins.b), |x, y| x * y),
                 Code::Div => map2(dst, a, lane(ins.b), |x, y| x / y),
                 Code::Neg => map1(dst, a, |x| -x),
-                Code::MulAdd => {
-                    let (b, c) = (lane(ins.b), lane(ins.c));
-                    for (((d, &x), &y), &z) in dst.iter_mut().zip(a).zip(b).zip(c) {
-                        *d = x * y + z;
-                    }
-                }
+                Code::MulAdd => map3(dst, a, lane(ins.b), lane(ins.c), |x, y, z| x * y + z),
+                Code::MulSub => map3(dst, a, lane(ins.b), lane(ins.c), |x, y, z| x * y - z),
+                Code::SubMul => map3(dst, a, lane(ins.b), lane(ins.c), |x, y, z| z - x * y),
                 Code::Sqrt => map1(dst, a, f64::sqrt),
                 Code::Cbrt => map1(dst, a, f64::cbrt),
                 Code::Exp => map1(dst, a, f64::exp),
@@ -727,7 +780,15 @@ unsafe fn straight(ops: *const u64, len: usize, dst: *mut f64, f: impl Fn(u64) -
 /// specials first (they are the slow ones: the sooner they start, the more the processor
 /// overlaps them), else the kind with the most ready instructions.
 fn schedule(code: &[(Code, Slot, Slot, Slot)]) -> (Vec<usize>, Vec<Run>) {
-    const KINDS: [Kind; 5] = [Kind::Special, Kind::Mul, Kind::Add, Kind::Sub, Kind::MulAdd];
+    const KINDS: [Kind; 7] = [
+        Kind::Special,
+        Kind::Mul,
+        Kind::Add,
+        Kind::Sub,
+        Kind::MulAdd,
+        Kind::MulSub,
+        Kind::SubMul,
+    ];
     let kind = |i: usize| {
         let k = Kind::of(code[i].0);
         KINDS.iter().position(|&x| x == k).expect("a kind")
@@ -820,6 +881,13 @@ fn powi_slots(dec: &mut Decoder, x: Slot, n: i32) -> Slot {
 fn map1(dst: &mut [f64], a: &[f64], f: impl Fn(f64) -> f64) {
     for (d, &x) in dst.iter_mut().zip(a) {
         *d = f(x);
+    }
+}
+
+#[inline(always)]
+fn map3(dst: &mut [f64], a: &[f64], b: &[f64], c: &[f64], f: impl Fn(f64, f64, f64) -> f64) {
+    for (((d, &x), &y), &z) in dst.iter_mut().zip(a).zip(b).zip(c) {
+        *d = f(x, y, z);
     }
 }
 
