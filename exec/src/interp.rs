@@ -578,13 +578,9 @@ impl Interpreter {
         // writes `first + i < n_slots` and reads slots below it.
         unsafe {
             let mut at = w;
-            // element by element: the inputs are a few values each, for which a `memcpy`
-            // call per input costs more than the copy
             for input in [state, target, gains, hoisted, &self.consts] {
-                for &v in input {
-                    at.write(v);
-                    at = at.add(1);
-                }
+                copy_short(input, at);
+                at = at.add(input.len());
             }
             debug_assert_eq!(at, w.add(self.first));
             let r = |s: usize| *w.add(s);
@@ -748,6 +744,46 @@ impl Interpreter {
         }
         for (j, &s) in self.outputs.iter().enumerate() {
             out[j * k..][..k].copy_from_slice(&w[s as usize * k..][..k]);
+        }
+    }
+}
+
+/// Copies `src` (a tape's input: a few values) to `dst` in at most two unaligned moves of
+/// two, four or eight values, the second overlapping the first (a `memcpy` call, which is
+/// what the compiler makes of a loop, costs more than the copy).
+///
+/// # Safety
+///
+/// `dst` points to `src.len()` writable values.
+#[inline(always)]
+unsafe fn copy_short(src: &[f64], dst: *mut f64) {
+    /// `K` values from `s + i` to `d + i`.
+    unsafe fn mov<const K: usize>(s: *const f64, d: *mut f64, i: usize) {
+        // SAFETY: as the caller guarantees
+        unsafe {
+            let v = s.add(i).cast::<[f64; K]>().read_unaligned();
+            d.add(i).cast::<[f64; K]>().write_unaligned(v);
+        }
+    }
+    // SAFETY: every move is inside `src` and inside the `src.len()` values at `dst`
+    unsafe {
+        let (n, s) = (src.len(), src.as_ptr());
+        match n {
+            0 => {}
+            1 => *dst = *s,
+            2..4 => {
+                mov::<2>(s, dst, 0);
+                mov::<2>(s, dst, n - 2);
+            }
+            4..8 => {
+                mov::<4>(s, dst, 0);
+                mov::<4>(s, dst, n - 4);
+            }
+            8..16 => {
+                mov::<8>(s, dst, 0);
+                mov::<8>(s, dst, n - 8);
+            }
+            _ => std::ptr::copy_nonoverlapping(s, dst, n),
         }
     }
 }
