@@ -14,28 +14,49 @@
 //! - expands `Powi` into the multiplications of its binary exponentiation
 //!   ([`lasalle_codegen::tape::powi`]: the same IEEE operations in the same order), with `x⁰`
 //!   the constant 1 and `x¹` the slot of x itself;
-//! - folds a product used once, by a sum, into that sum (`a·b + c`, the product and the sum
-//!   rounded separately as in the tape: never a fused multiply-add);
+//! - folds a product used once, by a sum or a difference, into it (`a·b + c`, `a·b − c`,
+//!   `c − a·b`: the product and the sum rounded separately as in the tape, never a fused
+//!   multiply-add);
 //! - folds a negation used once, by a sum or as the subtrahend of a difference, into it
-//!   (`x + (−y)` and `−y + x` are the IEEE `x − y`; `x − (−y)` is `x + y`).
+//!   (`x + (−y)` and `−y + x` are the IEEE `x − y`; `x − (−y)` is `x + y`);
+//! - orders the instructions into *runs* of one kind (`Kind`: `·`, `+`, `−`, the three folded
+//!   products, and the others), a topological order found greedily (`schedule`: the
+//!   instructions whose operands are computed, all of one kind at a time with those that
+//!   become ready meanwhile; division, square root and the functions first, else the kind
+//!   with the most ready instructions). The models of `models/` take 3 to 24 runs for 5 to
+//!   174 instructions.
 //!
-//! The one-state loop runs `+ − · neg` and the folded products in one branch-free form,
-//! `a·m + c` (`Fast`), and the other instructions (division, square root, the `std`
-//! functions) between runs of it. Every value is therefore the IEEE operation or `std` call of
-//! the tape on the same operands: the results are bitwise those of the tape, except that a NaN
-//! may come out with the other sign bit (see `Fast`; the tests count every NaN as equal).
-//! sn, cn and dn of one (u | m) share one `ellipj` call when no other (u | m) is evaluated
-//! between them (the one-state loop remembers the last arguments; the values are those of
-//! separate calls).
+//! The one-state loop takes one branch per run and none per instruction (an interpreter's
+//! usual cost is the mispredicted jump per instruction): a run is a loop over its
+//! instructions in one form, each a single word of packed operand slots (one load). Every
+//! value is the IEEE operation or `std` call of the tape on the same operands (in another
+//! order, which changes nothing: each instruction still reads the values it read in the
+//! tape): the results are bitwise those of the tape, except that a NaN may come out with
+//! another sign or payload (a folded negation is a subtraction, `−x` runs as `−0 − x`, and
+//! `c + a·b` as `a·b + c`; the tests count every NaN as equal). sn, cn and dn of one (u | m)
+//! share one `ellipj` call when no other (u | m) is evaluated between them (the one-state loop
+//! remembers the last arguments; the values are those of separate calls).
+//!
+//! # Cost
+//!
+//! A run costs about one cycle per instruction on the large models (the loads of the operands
+//! are the limit) and each call a copy of its inputs; on the small ones the time is the
+//! longest chain of dependent instructions, each waiting for the store of its operand to be
+//! forwarded to its load (~7 cycles) and for its own operation — so folding, which takes a
+//! store and a load off the chain, helps them most (docs/performance.md).
 //!
 //! # Safety of the unchecked loop
 //!
 //! Decoding proves, once, that every operand slot of instruction i is below its own slot
-//! `first + i` (so it was written earlier in the same call, by the input copies or by an
-//! earlier instruction), that the inputs fill exactly the slots below `first`, and that every
-//! output slot is below the number of slots. A call then only needs the input lengths (checked
-//! by [`Kernel::eval`], guaranteed by the caller of [`Kernel::eval_unchecked`]) and a buffer of
-//! `n_slots` values; the loop indexes it without bounds checks.
+//! `first + i` in the order of the runs (so it was written earlier in the same call, by the
+//! input copies or by an earlier instruction), that the inputs fill exactly the slots below
+//! `first`, and that every output slot is below the number of slots. The runs' lengths add up
+//! to the number of instructions, those of the straight kinds to the packed operand words and
+//! those of the other kind to the special instructions (by construction). A call then only
+//! needs the input lengths (checked by [`Kernel::eval`], guaranteed by the caller of
+//! [`Kernel::eval_unchecked`]) and a buffer of `n_slots` values; the loop indexes it without
+//! bounds checks. The slots are fewer than 2²¹ (three fit in a word; a larger tape is
+//! [`TapeError::TooLarge`]).
 //!
 //! # Scratch
 //!
@@ -139,7 +160,8 @@ enum Kind {
     Mul,
     /// `x + y`, operands packed by [`pack2`].
     Add,
-    /// `x − y`, operands packed by [`pack2`]; also `−x` as `−0 − x`.
+    /// `x − y`, operands packed by [`pack2`]; also `−x` as `−0 − x` (the same value for every
+    /// x but a NaN: −0 − (+0) = −0, −0 − (−0) = +0).
     Sub,
     /// `x·y + z`, operands packed by [`pack3`]: two roundings as in the tape, never fused.
     MulAdd,
@@ -174,6 +196,7 @@ struct Run {
 
 /// Bits of one operand in [`pack3`]: the slots are fewer than 2²¹.
 const FIELD: u32 = 21;
+/// One operand of [`pack3`].
 const MASK: u64 = (1 << FIELD) - 1;
 
 /// Two operand slots in one word (one load in the loop).
@@ -181,6 +204,7 @@ fn pack2(a: u32, b: u32) -> u64 {
     a as u64 | (b as u64) << 32
 }
 
+/// The slots of [`pack2`].
 #[inline(always)]
 fn unpack2(x: u64) -> (usize, usize) {
     (x as u32 as usize, (x >> 32) as usize)
@@ -191,6 +215,7 @@ fn pack3(a: u32, b: u32, c: u32) -> u64 {
     a as u64 | (b as u64) << FIELD | (c as u64) << (2 * FIELD)
 }
 
+/// The slots of [`pack3`].
 #[inline(always)]
 fn unpack3(x: u64) -> (usize, usize, usize) {
     (
