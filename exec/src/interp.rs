@@ -901,7 +901,10 @@ fn schedule(code: &[(Code, Slot, Slot, Slot)]) -> (Vec<usize>, Vec<Run>) {
             }
         }
         // decoded operands come before their uses, so some instruction is always ready
-        assert!(order.len() > start, "a decoded instruction reads a later one");
+        assert!(
+            order.len() > start,
+            "a decoded instruction reads a later one"
+        );
         runs.push(Run {
             kind: KINDS[k],
             len: (order.len() - start) as u32,
