@@ -138,6 +138,19 @@ fn feedback(c: &mut Criterion) {
     );
     feedback_bench!(
         c,
+        "cr3bp_spatial",
+        models::cr3bp_spatial::CR3BPSpatial<f64>,
+        point_near_l4
+    );
+    feedback_bench!(c, "duffing", models::duffing::Duffing<f64>, point_inside);
+    feedback_bench!(
+        c,
+        "pendulum_closed_form",
+        models::pendulum_closed_form::PendulumClosedForm<f64>,
+        point_bottom
+    );
+    feedback_bench!(
+        c,
         "so3_type_i",
         models::so3_type_i::So3TypeI<f64>,
         point_case_c1

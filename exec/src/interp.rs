@@ -14,28 +14,49 @@
 //! - expands `Powi` into the multiplications of its binary exponentiation
 //!   ([`lasalle_codegen::tape::powi`]: the same IEEE operations in the same order), with `x⁰`
 //!   the constant 1 and `x¹` the slot of x itself;
-//! - folds a product used once, by a sum, into that sum (`a·b + c`, the product and the sum
-//!   rounded separately as in the tape: never a fused multiply-add);
+//! - folds a product used once, by a sum or a difference, into it (`a·b + c`, `a·b − c`,
+//!   `c − a·b`: the product and the sum rounded separately as in the tape, never a fused
+//!   multiply-add);
 //! - folds a negation used once, by a sum or as the subtrahend of a difference, into it
-//!   (`x + (−y)` and `−y + x` are the IEEE `x − y`; `x − (−y)` is `x + y`).
+//!   (`x + (−y)` and `−y + x` are the IEEE `x − y`; `x − (−y)` is `x + y`);
+//! - orders the instructions into *runs* of one kind (`Kind`: `·`, `+`, `−`, the three folded
+//!   products, and the others), a topological order found greedily (`schedule`: the
+//!   instructions whose operands are computed, all of one kind at a time with those that
+//!   become ready meanwhile; division, square root and the functions first, else the kind
+//!   with the most ready instructions). The models of `models/` take 3 to 24 runs for 5 to
+//!   174 instructions.
 //!
-//! The one-state loop runs `+ − · neg` and the folded products in one branch-free form,
-//! `a·m + c` (`Fast`), and the other instructions (division, square root, the `std`
-//! functions) between runs of it. Every value is therefore the IEEE operation or `std` call of
-//! the tape on the same operands: the results are bitwise those of the tape, except that a NaN
-//! may come out with the other sign bit (see `Fast`; the tests count every NaN as equal).
-//! sn, cn and dn of one (u | m) share one `ellipj` call when no other (u | m) is evaluated
-//! between them (the one-state loop remembers the last arguments; the values are those of
-//! separate calls).
+//! The one-state loop takes one branch per run and none per instruction (an interpreter's
+//! usual cost is the mispredicted jump per instruction): a run is a loop over its
+//! instructions in one form, each a single word of packed operand slots (one load). Every
+//! value is the IEEE operation or `std` call of the tape on the same operands (in another
+//! order, which changes nothing: each instruction still reads the values it read in the
+//! tape): the results are bitwise those of the tape, except that a NaN may come out with
+//! another sign or payload (a folded negation is a subtraction, `−x` runs as `−0 − x`, and
+//! `c + a·b` as `a·b + c`; the tests count every NaN as equal). sn, cn and dn of one (u | m)
+//! share one `ellipj` call when no other (u | m) is evaluated between them (the one-state loop
+//! remembers the last arguments; the values are those of separate calls).
+//!
+//! # Cost
+//!
+//! A run costs about one cycle per instruction on the large models (the loads of the operands
+//! are the limit) and each call a copy of its inputs; on the small ones the time is the
+//! longest chain of dependent instructions, each waiting for the store of its operand to be
+//! forwarded to its load (~7 cycles) and for its own operation — so folding, which takes a
+//! store and a load off the chain, helps them most (docs/performance.md).
 //!
 //! # Safety of the unchecked loop
 //!
 //! Decoding proves, once, that every operand slot of instruction i is below its own slot
-//! `first + i` (so it was written earlier in the same call, by the input copies or by an
-//! earlier instruction), that the inputs fill exactly the slots below `first`, and that every
-//! output slot is below the number of slots. A call then only needs the input lengths (checked
-//! by [`Kernel::eval`], guaranteed by the caller of [`Kernel::eval_unchecked`]) and a buffer of
-//! `n_slots` values; the loop indexes it without bounds checks.
+//! `first + i` in the order of the runs (so it was written earlier in the same call, by the
+//! input copies or by an earlier instruction), that the inputs fill exactly the slots below
+//! `first`, and that every output slot is below the number of slots. The runs' lengths add up
+//! to the number of instructions, those of the straight kinds to the packed operand words and
+//! those of the other kind to the special instructions (by construction). A call then only
+//! needs the input lengths (checked by [`Kernel::eval`], guaranteed by the caller of
+//! [`Kernel::eval_unchecked`]) and a buffer of `n_slots` values; the loop indexes it without
+//! bounds checks. The slots are fewer than 2²¹ (three fit in a word; a larger tape is
+//! [`TapeError::TooLarge`]).
 //!
 //! # Scratch
 //!
@@ -101,6 +122,10 @@ enum Code {
     /// `a·b + c`: a product whose one use is this sum (`Add(Mul(a, b), c)` or
     /// `Add(c, Mul(a, b))`, the same IEEE sum), two roundings as in the tape, never fused.
     MulAdd,
+    /// `a·b − c`: a product whose one use is this difference, rounded as in the tape.
+    MulSub,
+    /// `c − a·b`: a product whose one use is this difference, rounded as in the tape.
+    SubMul,
 }
 
 impl Code {
@@ -120,42 +145,90 @@ impl Code {
 struct Ins {
     a: u32,
     b: u32,
-    /// The addend of `MulAdd`.
+    /// The third operand of `MulAdd`, `MulSub` and `SubMul`.
     c: u32,
     code: Code,
 }
 
-/// An instruction of the one-state loop: `slot[first + i] = slot[a] · slot[m] + slot[c]`, the
-/// product and the sum being two separately rounded IEEE operations (never fused). With the
-/// constants 1, −1 and −0 in their slots this is each of `+ − · neg` exactly:
-///
-/// | tape    | a | m  | c  | computed        |
-/// |---------|---|----|----|-----------------|
-/// | x + y   | x | 1  | y  | (x·1) + y       |
-/// | x − y   | y | −1 | x  | (−y) + x        |
-/// | x · y   | x | y  | −0 | (x·y) + (−0)    |
-/// | −x      | x | −1 | −0 | (−x) + (−0)     |
-/// | x·y + z | x | y  | z  | (x·y) + z       |
-///
-/// since x·1 = x and y·(−1) = −y exactly, `−y + x` is the IEEE `x − y` (= `x + (−y)`;
-/// addition is commutative), and adding −0 changes nothing (+0 + −0 = +0 and −0 + −0 = −0
-/// in the default rounding mode). The values are therefore bitwise those of the tape, except
-/// that a NaN may come out with the other sign bit (`y·(−1)` keeps a NaN's sign where `−y`
-/// flips it); every NaN stays a NaN. One form for all four means the loop takes no
-/// data-dependent branch: an interpreter's usual cost is the mispredicted jump per
-/// instruction. The other instructions ([`Special`]) split the loop into runs.
-#[derive(Clone, Copy, Debug)]
-struct Fast {
-    a: u32,
-    m: u32,
-    c: u32,
+/// The kind of a run of the one-state loop: instruction after instruction of one form, so the
+/// loop over a run takes no data-dependent branch (an interpreter's usual cost is the
+/// mispredicted jump per instruction). Decoding orders the instructions into few runs
+/// ([`schedule`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    /// `x·y`, operands packed by [`pack2`].
+    Mul,
+    /// `x + y`, operands packed by [`pack2`].
+    Add,
+    /// `x − y`, operands packed by [`pack2`]; also `−x` as `−0 − x` (the same value for every
+    /// x but a NaN: −0 − (+0) = −0, −0 − (−0) = +0).
+    Sub,
+    /// `x·y + z`, operands packed by [`pack3`]: two roundings as in the tape, never fused.
+    MulAdd,
+    /// `x·y − z`, operands packed by [`pack3`].
+    MulSub,
+    /// `z − x·y`, operands packed by [`pack3`].
+    SubMul,
+    /// Any other instruction ([`Special`]).
+    Special,
 }
 
-/// An instruction off the straight path: `code(slot[a], slot[b])` (`b` is the exponent's
-/// index for `Powf`), after `fast_end` straight instructions in all.
+impl Kind {
+    fn of(code: Code) -> Kind {
+        match code {
+            Code::Mul => Kind::Mul,
+            Code::Add => Kind::Add,
+            Code::Sub | Code::Neg => Kind::Sub,
+            Code::MulAdd => Kind::MulAdd,
+            Code::MulSub => Kind::MulSub,
+            Code::SubMul => Kind::SubMul,
+            _ => Kind::Special,
+        }
+    }
+}
+
+/// `len` consecutive instructions of one kind.
+#[derive(Clone, Copy, Debug)]
+struct Run {
+    kind: Kind,
+    len: u32,
+}
+
+/// Bits of one operand in [`pack3`]: the slots are fewer than 2²¹.
+const FIELD: u32 = 21;
+/// One operand of [`pack3`].
+const MASK: u64 = (1 << FIELD) - 1;
+
+/// Two operand slots in one word (one load in the loop).
+fn pack2(a: u32, b: u32) -> u64 {
+    a as u64 | (b as u64) << 32
+}
+
+/// The slots of [`pack2`].
+#[inline(always)]
+fn unpack2(x: u64) -> (usize, usize) {
+    (x as u32 as usize, (x >> 32) as usize)
+}
+
+/// Three operand slots (each below 2²¹) in one word.
+fn pack3(a: u32, b: u32, c: u32) -> u64 {
+    a as u64 | (b as u64) << FIELD | (c as u64) << (2 * FIELD)
+}
+
+/// The slots of [`pack3`].
+#[inline(always)]
+fn unpack3(x: u64) -> (usize, usize, usize) {
+    (
+        (x & MASK) as usize,
+        ((x >> FIELD) & MASK) as usize,
+        (x >> (2 * FIELD)) as usize,
+    )
+}
+
+/// An instruction of a [`Kind::Special`] run: `code(slot[a], slot[b])` (`b` is the exponent's
+/// index for `Powf`).
 #[derive(Clone, Copy, Debug)]
 struct Special {
-    fast_end: usize,
     code: Code,
     a: u32,
     b: u32,
@@ -169,9 +242,12 @@ pub struct Interpreter {
     consts: Vec<f64>,
     /// Slot written by the first instruction.
     first: usize,
+    /// The instructions in the order of `runs` (instruction i writes slot `first + i`).
     code: Vec<Ins>,
-    /// `code` for the one-state loop: the straight instructions…
-    fast: Vec<Fast>,
+    /// `code` for the one-state loop: the runs…
+    runs: Vec<Run>,
+    /// … the packed operands of the instructions of the straight kinds, in order…
+    packed: Vec<u64>,
     /// … and the others, in order.
     specials: Vec<Special>,
     /// Exponents of the `Powf` instructions.
@@ -193,7 +269,7 @@ struct Decoder {
     /// Constants as (bits, index), for pooling.
     pool: std::collections::HashMap<u64, u32>,
     /// Instructions on unplaced slots (`Powf`: the exponent's index as `Slot::Fixed`; the
-    /// third operand is `MulAdd`'s addend, else a copy of the first).
+    /// third operand is that of `MulAdd`, `MulSub` and `SubMul`, else a copy of the first).
     code: Vec<(Code, Slot, Slot, Slot)>,
     /// The factors of the products deferred to their sum ([`Slot::Product`]).
     products: Vec<(Slot, Slot)>,
@@ -228,6 +304,48 @@ impl Decoder {
                 self.push(Code::Neg, x, x)
             }
             s => s,
+        }
+    }
+
+    /// `x + y`, or `x − y` if `subtract`, with a deferred product or negation among the
+    /// operands folded into the instruction: the IEEE operations of the tape, since
+    /// `x + (−v)` and `−v + x` are `x − v`, `x − (−v)` is `x + v`, and a product is rounded on
+    /// its own before it is added or subtracted.
+    fn sum(&mut self, x: Slot, y: Slot, subtract: bool) -> Slot {
+        let negated = |s: Slot| matches!(s, Slot::Negated(_));
+        // −u − v: −u computed on its own
+        let x = if negated(x) && negated(y) != subtract {
+            self.materialize(x)
+        } else {
+            x
+        };
+        let plain = |dec: &Self, s: Slot| match s {
+            Slot::Negated(k) => dec.negated[k],
+            s => s,
+        };
+        // now p + q or p − q, with p and q products or computed values
+        let (p, q, minus) = match (negated(x), negated(y) != subtract) {
+            (false, minus) => (x, plain(self, y), minus),
+            (true, _) => (plain(self, y), plain(self, x), true),
+        };
+        match (p, q, minus) {
+            (Slot::Product(k), c, false) | (c, Slot::Product(k), false) => {
+                // a sum of two products computes the other one on its own
+                let c = self.materialize(c);
+                let (a, b) = self.products[k];
+                self.push3(Code::MulAdd, a, b, c)
+            }
+            (Slot::Product(k), c, true) => {
+                let c = self.materialize(c);
+                let (a, b) = self.products[k];
+                self.push3(Code::MulSub, a, b, c)
+            }
+            (c, Slot::Product(k), true) => {
+                let (a, b) = self.products[k];
+                self.push3(Code::SubMul, a, b, c)
+            }
+            (p, q, false) => self.push(Code::Add, p, q),
+            (p, q, true) => self.push(Code::Sub, p, q),
         }
     }
 
@@ -274,7 +392,8 @@ impl Interpreter {
             products: Vec::new(),
             negated: Vec::new(),
         };
-        // The products used once, by a sum: computed in the sum's `MulAdd`.
+        // The products used once, by a sum or a difference: computed in its `MulAdd`,
+        // `MulSub` or `SubMul`…
         let mut uses = vec![0u32; tape.body.len()];
         for r in tape
             .body
@@ -297,14 +416,21 @@ impl Interpreter {
                         }
                     }
                 }
-                Op::Sub(_, b) if once(b) && matches!(tape.body[b.index()], Op::Neg(_)) => {
-                    fold[b.index()] = true;
+                Op::Sub(a, b) => {
+                    for (r, neg) in [(a, false), (b, true)] {
+                        if once(r)
+                            && matches!(
+                                (&tape.body[r.index()], neg),
+                                (Op::Mul(..), _) | (Op::Neg(_), true)
+                            )
+                        {
+                            fold[r.index()] = true;
+                        }
+                    }
                 }
                 _ => {}
             }
         }
-        // the constants of the `Fast` encoding
-        let [one, minus_one, minus_zero] = [1.0, -1.0, -0.0].map(|c| dec.constant(c));
         let mut slots: Vec<Slot> = Vec::with_capacity(tape.body.len());
         let inputs = |base: usize, k: u32| Slot::Fixed(base + k as usize);
         for (i, &op) in tape.body.iter().enumerate() {
@@ -319,30 +445,8 @@ impl Interpreter {
                     dec.negated.push(s(a));
                     Slot::Negated(dec.negated.len() - 1)
                 }
-                Op::Add(a, b) => match (s(a), s(b)) {
-                    (Slot::Product(p), c) | (c, Slot::Product(p)) => {
-                        // a sum of two products computes the other one on its own
-                        let c = dec.materialize(c);
-                        let (x, y) = dec.products[p];
-                        dec.push3(Code::MulAdd, x, y, c)
-                    }
-                    (x, Slot::Negated(y)) | (Slot::Negated(y), x) => {
-                        let x = dec.materialize(x);
-                        let y = dec.negated[y];
-                        dec.push(Code::Sub, x, y)
-                    }
-                    (x, y) => dec.push(Code::Add, x, y),
-                },
-                Op::Sub(a, b) => {
-                    let x = dec.materialize(s(a));
-                    match s(b) {
-                        Slot::Negated(y) => {
-                            let y = dec.negated[y];
-                            dec.push(Code::Add, x, y)
-                        }
-                        y => dec.push(Code::Sub, x, y),
-                    }
-                }
+                Op::Add(a, b) => dec.sum(s(a), s(b), false),
+                Op::Sub(a, b) => dec.sum(s(a), s(b), true),
                 Op::State(k) => inputs(0, k),
                 Op::Target(k) => inputs(d.state, k),
                 Op::Gain(k) => inputs(d.state + d.targets, k),
@@ -374,34 +478,50 @@ impl Interpreter {
             };
             slots.push(slot);
         }
-        // Pass 2: constants at consts_at.., computed values at first...
+        // `−x` runs as `−0 − x`
+        let minus_zero = dec
+            .code
+            .iter()
+            .any(|&(code, ..)| code == Code::Neg)
+            .then(|| dec.constant(-0.0));
+        // Pass 2: the instructions in runs, constants at consts_at.., computed values at
+        // first...
+        let (order, runs) = schedule(&dec.code);
+        let mut position = vec![0; order.len()];
+        for (new, &old) in order.iter().enumerate() {
+            position[old] = new;
+        }
         let first = consts_at
             .checked_add(dec.consts.len())
             .ok_or_else(too_large)?;
         let n_slots = first.checked_add(dec.code.len()).ok_or_else(too_large)?;
-        // every slot index fits in a u32
-        u32::try_from(n_slots).map_err(|_| too_large())?;
+        // every slot index fits in a `pack3` field
+        if n_slots > 1 << FIELD {
+            return Err(too_large());
+        }
         let place = |s: Slot| -> u32 {
             (match s {
                 Slot::Fixed(i) => i,
                 Slot::Const(c) => consts_at + c as usize,
-                Slot::Computed(i) => first + i,
+                Slot::Computed(i) => first + position[i],
                 Slot::Product(_) | Slot::Negated(_) => {
                     unreachable!("a deferred value is only read by its one use")
                 }
             }) as u32
         };
-        let code: Vec<Ins> = dec
-            .code
+        let code: Vec<Ins> = order
             .iter()
-            .map(|&(code, a, b, c)| Ins {
-                a: place(a),
-                b: match (code, b) {
-                    (Code::Powf, Slot::Fixed(i)) => i as u32,
-                    _ => place(b),
-                },
-                c: place(c),
-                code,
+            .map(|&i| {
+                let (code, a, b, c) = dec.code[i];
+                Ins {
+                    a: place(a),
+                    b: match (code, b) {
+                        (Code::Powf, Slot::Fixed(i)) => i as u32,
+                        _ => place(b),
+                    },
+                    c: place(c),
+                    code,
+                }
             })
             .collect();
         // The safety argument of the unchecked loop (module docs), checked here once.
@@ -418,28 +538,22 @@ impl Interpreter {
                 return Err(ExecError::Tape(TapeError::Malformed("bad exponent".into())));
             }
         }
-        let [one, minus_one, minus_zero] =
-            [one, minus_one, minus_zero].map(|c| (consts_at + c as usize) as u32);
-        let mut fast = Vec::new();
+        let mut packed = Vec::new();
         let mut specials = Vec::new();
         for ins in &code {
-            let (a, b) = (ins.a, ins.b);
-            let f = |a, m, c| Some(Fast { a, m, c });
-            let straight = match ins.code {
-                Code::Add => f(a, one, b),
-                Code::Sub => f(b, minus_one, a),
-                Code::Mul => f(a, b, minus_zero),
-                Code::Neg => f(a, minus_one, minus_zero),
-                Code::MulAdd => f(a, b, ins.c),
-                _ => None,
-            };
-            match straight {
-                Some(f) => fast.push(f),
-                None => specials.push(Special {
-                    fast_end: fast.len(),
-                    code: ins.code,
-                    a,
-                    b,
+            match ins.code {
+                Code::Mul | Code::Add | Code::Sub => packed.push(pack2(ins.a, ins.b)),
+                Code::Neg => {
+                    let minus_zero = place(Slot::Const(minus_zero.expect("pooled")));
+                    packed.push(pack2(minus_zero, ins.a))
+                }
+                Code::MulAdd | Code::MulSub | Code::SubMul => {
+                    packed.push(pack3(ins.a, ins.b, ins.c))
+                }
+                code => specials.push(Special {
+                    code,
+                    a: ins.a,
+                    b: ins.b,
                 }),
             }
         }
@@ -458,7 +572,8 @@ impl Interpreter {
             consts: dec.consts,
             first,
             code,
-            fast,
+            runs,
+            packed,
             specials,
             rationals: dec.rationals,
             outputs,
@@ -488,49 +603,67 @@ impl Interpreter {
         // writes `first + i < n_slots` and reads slots below it.
         unsafe {
             let mut at = w;
-            // element by element: the inputs are a few values each, for which a `memcpy`
-            // call per input costs more than the copy
             for input in [state, target, gains, hoisted, &self.consts] {
-                for &v in input {
-                    at.write(v);
-                    at = at.add(1);
-                }
+                copy_short(input, at);
+                at = at.add(input.len());
             }
             debug_assert_eq!(at, w.add(self.first));
-            let r = |s: u32| *w.add(s as usize);
-            let straight = |from: usize, to: usize, mut dst: *mut f64| {
-                // two at a time (half the loop overhead); the second may read the first's
-                // slot, which is written before (raw pointers: the order is kept)
-                let mut pairs = self.fast.get_unchecked(from..to).chunks_exact(2);
-                for p in &mut pairs {
-                    let (f, g) = (p.get_unchecked(0), p.get_unchecked(1));
-                    *dst = r(f.a) * r(f.m) + r(f.c);
-                    *dst.add(1) = r(g.a) * r(g.m) + r(g.c);
-                    dst = dst.add(2);
-                }
-                for f in pairs.remainder() {
-                    *dst = r(f.a) * r(f.m) + r(f.c);
-                    dst = dst.add(1);
-                }
-                dst
-            };
+            let r = |s: usize| *w.add(s);
             let mut dst = w.add(self.first);
-            let mut done = 0;
+            // the runs' lengths add up to the instructions; those of the straight kinds to
+            // `packed`, those of `Kind::Special` to `specials` (as decoded)
+            let mut ops = self.packed.as_ptr();
+            let mut special = self.specials.as_ptr();
             let mut jacobi = None;
-            for s in &self.specials {
-                dst = straight(done, s.fast_end, dst);
-                done = s.fast_end;
-                // division and square root (the frequent ones) inline, the rest in a call;
-                // `b` is a slot unless the exponent's index (Powf)
-                *dst = match s.code {
-                    Code::Div => r(s.a) / r(s.b),
-                    Code::Sqrt => r(s.a).sqrt(),
-                    Code::Powf => self.special(s, r(s.a), 0.0, &mut jacobi),
-                    _ => self.special(s, r(s.a), r(s.b), &mut jacobi),
-                };
-                dst = dst.add(1);
+            for run in &self.runs {
+                let n = run.len as usize;
+                match run.kind {
+                    Kind::Mul => straight(ops, n, dst, |x| {
+                        let (a, b) = unpack2(x);
+                        r(a) * r(b)
+                    }),
+                    Kind::Add => straight(ops, n, dst, |x| {
+                        let (a, b) = unpack2(x);
+                        r(a) + r(b)
+                    }),
+                    Kind::Sub => straight(ops, n, dst, |x| {
+                        let (a, b) = unpack2(x);
+                        r(a) - r(b)
+                    }),
+                    Kind::MulAdd => straight(ops, n, dst, |x| {
+                        let (a, b, c) = unpack3(x);
+                        r(a) * r(b) + r(c)
+                    }),
+                    Kind::MulSub => straight(ops, n, dst, |x| {
+                        let (a, b, c) = unpack3(x);
+                        r(a) * r(b) - r(c)
+                    }),
+                    Kind::SubMul => straight(ops, n, dst, |x| {
+                        let (a, b, c) = unpack3(x);
+                        r(c) - r(a) * r(b)
+                    }),
+                    Kind::Special => {
+                        for k in 0..n {
+                            let s = &*special.add(k);
+                            let (a, b) = (s.a as usize, s.b as usize);
+                            // division and square root (the frequent ones) inline, the rest
+                            // in a call; `b` is a slot unless the exponent's index (Powf)
+                            *dst.add(k) = match s.code {
+                                Code::Div => r(a) / r(b),
+                                Code::Sqrt => r(a).sqrt(),
+                                Code::Powf => self.special(s, r(a), 0.0, &mut jacobi),
+                                _ => self.special(s, r(a), r(b), &mut jacobi),
+                            };
+                        }
+                        special = special.add(n);
+                    }
+                }
+                if run.kind != Kind::Special {
+                    ops = ops.add(n);
+                }
+                dst = dst.add(n);
             }
-            straight(done, self.fast.len(), dst);
+            let r = |s: u32| r(s as usize);
             for (o, &s) in out.iter_mut().zip(&self.outputs) {
                 *o = r(s);
             }
@@ -567,7 +700,13 @@ impl Interpreter {
             }
             Code::EllipF => Func2::EllipF.apply(x, y),
             Code::Powf => powf(x, self.rationals[s.b as usize]),
-            Code::Add | Code::Sub | Code::Mul | Code::Neg | Code::MulAdd => {
+            Code::Add
+            | Code::Sub
+            | Code::Mul
+            | Code::Neg
+            | Code::MulAdd
+            | Code::MulSub
+            | Code::SubMul => {
                 unreachable!("decoded: these take the straight path")
             }
             Code::Div | Code::Sqrt => unreachable!("inlined in `run`"),
@@ -608,12 +747,9 @@ impl Interpreter {
                 Code::Mul => map2(dst, a, lane(ins.b), |x, y| x * y),
                 Code::Div => map2(dst, a, lane(ins.b), |x, y| x / y),
                 Code::Neg => map1(dst, a, |x| -x),
-                Code::MulAdd => {
-                    let (b, c) = (lane(ins.b), lane(ins.c));
-                    for (((d, &x), &y), &z) in dst.iter_mut().zip(a).zip(b).zip(c) {
-                        *d = x * y + z;
-                    }
-                }
+                Code::MulAdd => map3(dst, a, lane(ins.b), lane(ins.c), |x, y, z| x * y + z),
+                Code::MulSub => map3(dst, a, lane(ins.b), lane(ins.c), |x, y, z| x * y - z),
+                Code::SubMul => map3(dst, a, lane(ins.b), lane(ins.c), |x, y, z| z - x * y),
                 Code::Sqrt => map1(dst, a, f64::sqrt),
                 Code::Cbrt => map1(dst, a, f64::cbrt),
                 Code::Exp => map1(dst, a, f64::exp),
@@ -635,6 +771,146 @@ impl Interpreter {
             out[j * k..][..k].copy_from_slice(&w[s as usize * k..][..k]);
         }
     }
+}
+
+/// Copies `src` (a tape's input: a few values) to `dst` in at most two unaligned moves of
+/// two, four or eight values, the second overlapping the first (a `memcpy` call, which is
+/// what the compiler makes of a loop, costs more than the copy).
+///
+/// # Safety
+///
+/// `dst` points to `src.len()` writable values.
+#[inline(always)]
+unsafe fn copy_short(src: &[f64], dst: *mut f64) {
+    /// `K` values from `s + i` to `d + i`.
+    unsafe fn mov<const K: usize>(s: *const f64, d: *mut f64, i: usize) {
+        // SAFETY: as the caller guarantees
+        unsafe {
+            let v = s.add(i).cast::<[f64; K]>().read_unaligned();
+            d.add(i).cast::<[f64; K]>().write_unaligned(v);
+        }
+    }
+    // SAFETY: every move is inside `src` and inside the `src.len()` values at `dst`
+    unsafe {
+        let (n, s) = (src.len(), src.as_ptr());
+        match n {
+            0 => {}
+            1 => *dst = *s,
+            2..4 => {
+                mov::<2>(s, dst, 0);
+                mov::<2>(s, dst, n - 2);
+            }
+            4..8 => {
+                mov::<4>(s, dst, 0);
+                mov::<4>(s, dst, n - 4);
+            }
+            8..16 => {
+                mov::<8>(s, dst, 0);
+                mov::<8>(s, dst, n - 8);
+            }
+            _ => std::ptr::copy_nonoverlapping(s, dst, n),
+        }
+    }
+}
+
+/// `dst[i] = f(ops[i])` for i < `len`, two at a time (half the loop overhead).
+///
+/// # Safety
+///
+/// `ops` and `dst` point to `len` values; `f` reads only slots written before (raw pointers:
+/// the second of a pair may read the first's slot, which the order of the writes keeps).
+#[inline(always)]
+unsafe fn straight(ops: *const u64, len: usize, dst: *mut f64, f: impl Fn(u64) -> f64) {
+    // SAFETY: as the caller guarantees
+    unsafe {
+        let mut i = 0;
+        while i + 2 <= len {
+            *dst.add(i) = f(*ops.add(i));
+            *dst.add(i + 1) = f(*ops.add(i + 1));
+            i += 2;
+        }
+        if i < len {
+            *dst.add(i) = f(*ops.add(i));
+        }
+    }
+}
+
+/// The order in which to run `code`, and its runs: a topological order (every instruction
+/// after those whose values it reads) that takes, from the instructions whose operands are
+/// computed, all those of one kind at a time, with those that become ready meanwhile; the
+/// specials first (they are the slow ones: the sooner they start, the more the processor
+/// overlaps them), else the kind with the most ready instructions.
+fn schedule(code: &[(Code, Slot, Slot, Slot)]) -> (Vec<usize>, Vec<Run>) {
+    const KINDS: [Kind; 7] = [
+        Kind::Special,
+        Kind::Mul,
+        Kind::Add,
+        Kind::Sub,
+        Kind::MulAdd,
+        Kind::MulSub,
+        Kind::SubMul,
+    ];
+    let kind = |i: usize| {
+        let k = Kind::of(code[i].0);
+        KINDS.iter().position(|&x| x == k).expect("a kind")
+    };
+    let mut users: Vec<Vec<usize>> = vec![Vec::new(); code.len()];
+    let mut waiting = vec![0u32; code.len()];
+    for (i, &(op, a, b, c)) in code.iter().enumerate() {
+        let mut reads: Vec<usize> = [a, b, c]
+            .into_iter()
+            .enumerate()
+            .filter_map(|(k, s)| match s {
+                // `b` of Powf is the exponent's index
+                Slot::Computed(j) if !(k == 1 && op == Code::Powf) => Some(j),
+                _ => None,
+            })
+            .collect();
+        reads.sort_unstable();
+        reads.dedup();
+        for j in reads {
+            users[j].push(i);
+            waiting[i] += 1;
+        }
+    }
+    let mut ready: [std::collections::VecDeque<usize>; KINDS.len()] = Default::default();
+    for (i, &w) in waiting.iter().enumerate() {
+        if w == 0 {
+            ready[kind(i)].push_back(i);
+        }
+    }
+    let mut order = Vec::with_capacity(code.len());
+    let mut runs = Vec::new();
+    while order.len() < code.len() {
+        let k = if ready[0].is_empty() {
+            (1..KINDS.len())
+                .rev()
+                .max_by_key(|&k| ready[k].len())
+                .expect("kinds")
+        } else {
+            0
+        };
+        let start = order.len();
+        while let Some(i) = ready[k].pop_front() {
+            order.push(i);
+            for &u in &users[i] {
+                waiting[u] -= 1;
+                if waiting[u] == 0 {
+                    ready[kind(u)].push_back(u);
+                }
+            }
+        }
+        // decoded operands come before their uses, so some instruction is always ready
+        assert!(
+            order.len() > start,
+            "a decoded instruction reads a later one"
+        );
+        runs.push(Run {
+            kind: KINDS[k],
+            len: (order.len() - start) as u32,
+        });
+    }
+    (order, runs)
 }
 
 /// `xⁿ` as [`lasalle_codegen::tape::powi`] computes it: the multiplications of the binary exponentiation (the first
@@ -671,6 +947,13 @@ fn powi_slots(dec: &mut Decoder, x: Slot, n: i32) -> Slot {
 fn map1(dst: &mut [f64], a: &[f64], f: impl Fn(f64) -> f64) {
     for (d, &x) in dst.iter_mut().zip(a) {
         *d = f(x);
+    }
+}
+
+#[inline(always)]
+fn map3(dst: &mut [f64], a: &[f64], b: &[f64], c: &[f64], f: impl Fn(f64, f64, f64) -> f64) {
+    for (((d, &x), &y), &z) in dst.iter_mut().zip(a).zip(b).zip(c) {
+        *d = f(x, y, z);
     }
 }
 

@@ -378,3 +378,79 @@ fn bad_arguments_are_errors_not_panics() {
         assert!(backend.compile(&broken).is_err());
     }
 }
+
+/// The interpreter folds products and negations used once into sums and differences (`a·b ± c`,
+/// `c − a·b`, `x − y` for `x + (−y)`, `−0 − x` for `−x`): every combination of a product, a
+/// negation and a plain value on either side of `+` and `−`, at every sign of zero and at
+/// values that cancel, bitwise as the tape (NaN = NaN); and the lanes as one state.
+#[test]
+fn folded_sums_keep_the_signs_of_zero() {
+    use lasalle_exec::{Dims, Op, Reg};
+    // x0, x1, x2, x3; then the forms of the operands: a product, a negation, a plain value
+    let forms = |body: &mut Vec<Op>, k: u32| -> Reg {
+        let (a, b) = (Reg(k % 4), Reg((k + 1) % 4));
+        match k % 3 {
+            0 => body.push(Op::Mul(a, b)),
+            1 => body.push(Op::Neg(a)),
+            _ => body.push(Op::Add(a, b)),
+        }
+        Reg(body.len() as u32 - 1)
+    };
+    let mut body: Vec<Op> = (0..4).map(Op::State).collect();
+    let mut outputs = Vec::new();
+    for i in 0..6 {
+        for j in 0..6 {
+            for sub in [false, true] {
+                // each operand used once, so it is folded where the interpreter can
+                let (x, y) = (forms(&mut body, i), forms(&mut body, j + 1));
+                body.push(if sub { Op::Sub(x, y) } else { Op::Add(x, y) });
+                outputs.push(Reg(body.len() as u32 - 1));
+            }
+        }
+    }
+    // −u − v: the negation of the minuend is computed on its own
+    let (u, v) = (Reg(body.len() as u32), Reg(body.len() as u32 + 1));
+    body.extend([Op::Neg(Reg(0)), Op::Neg(Reg(1)), Op::Sub(u, v)]);
+    outputs.push(Reg(body.len() as u32 - 1));
+    let tape = Tape {
+        body,
+        outputs,
+        dims: Dims {
+            state: 4,
+            ..Dims::default()
+        },
+        ..Tape::default()
+    };
+    let kernel = Backend::Interpreter.compile(&tape).unwrap();
+    let values = [0.0, -0.0, 1.0, -1.0, 2.0, f64::INFINITY, f64::NAN];
+    let mut states = Vec::new();
+    for &a in &values {
+        for &b in &values {
+            states.push(vec![a, b, -a, b]);
+            states.push(vec![a, b, b, -0.0]);
+        }
+    }
+    let outs = tape.outputs.len();
+    for x in &states {
+        let reference = tape.eval::<f64>(&[], x, &[], &[]).unwrap();
+        let mut out = vec![0.0; outs];
+        kernel.eval(&[], x, &[], &[], &mut out).unwrap();
+        let mut lanes = vec![0.0; outs * 2];
+        let soa: Vec<f64> = x.iter().flat_map(|&v| [v, v]).collect();
+        kernel
+            .eval_lanes(2, &[], &soa, &[], &[], &mut lanes)
+            .unwrap();
+        for j in 0..outs {
+            assert!(
+                same(out[j], reference[j]),
+                "output {j} at {x:?}: {:e} vs tape {:e}",
+                out[j],
+                reference[j]
+            );
+            assert!(
+                same(lanes[2 * j], reference[j]),
+                "lanes output {j} at {x:?}"
+            );
+        }
+    }
+}

@@ -255,8 +255,9 @@ pub enum TapeError {
     /// wrong section, or a register list points past its section.
     #[error("malformed tape: {0}")]
     Malformed(String),
-    /// More registers than fit in a `u32`.
-    #[error("the tape has more than 2³² instructions")]
+    /// More registers than fit in a `u32`, or than a back end addresses (the interpreter:
+    /// 2²¹ slots).
+    #[error("the tape is too large: more than 2³² instructions, or 2²¹ slots for the interpreter")]
     TooLarge,
 }
 
