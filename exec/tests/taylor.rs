@@ -345,6 +345,23 @@ const EXPRS: [&str; 12] = [
     "(1 + t^2)^(1/2) * t + (1 + t^2)^(7/2)", // √s read elsewhere, √s⁷ fused
 ];
 
+/// (name, model text) of every model file and of a one-equation model per expression of
+/// [`EXPRS`].
+fn model_and_expression_texts() -> Vec<(String, String)> {
+    let mut texts: Vec<(String, String)> = lasalle_testkit::model_files()
+        .iter()
+        .map(|p| (p.display().to_string(), std::fs::read_to_string(p).unwrap()))
+        .collect();
+    for expr in EXPRS {
+        let text = format!(
+            "model E {{ state t: scalar, y: scalar; param c = 0.37;
+               d/dt t = 1; d/dt y = {expr}; }}"
+        );
+        texts.push((expr.to_string(), text));
+    }
+    texts
+}
+
 #[test]
 fn every_op_against_the_cauchy_integral() {
     // y' = g(t), t' = 1: y^[k+1] = g^[k] / (k + 1), g^[k] the coefficients of s ↦ g(t0 + s)
@@ -775,17 +792,7 @@ fn fused_powers_match_the_unfused_recurrences() {
     use lasalle_codegen::tape::taylor::{PowZero, Rec, TaylorProgram};
     let mut rng = lasalle_testkit::Rng::new(0x2545_f491_4f6c_dd1d);
     let mut rand = move || rng.uniform(0.25, 1.25);
-    let mut texts: Vec<(String, String)> = lasalle_testkit::model_files()
-        .iter()
-        .map(|p| (p.display().to_string(), std::fs::read_to_string(p).unwrap()))
-        .collect();
-    for expr in EXPRS {
-        let text = format!(
-            "model E {{ state t: scalar, y: scalar; param c = 0.37;
-               d/dt t = 1; d/dt y = {expr}; }}"
-        );
-        texts.push((expr.to_string(), text));
-    }
+    let texts = model_and_expression_texts();
     let order = 20;
     let (mut fused, mut worst) = (0, 0.0f64);
     for (name, text) in &texts {
@@ -858,17 +865,7 @@ fn jit_kernel_agrees_with_the_tape_bitwise() {
     let mut rng = lasalle_testkit::Rng::new(0x9e37_79b9_7f4a_7c15);
     let mut rand = move || rng.uniform(0.25, 1.25);
     let same = |a: f64, b: f64| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
-    let mut texts: Vec<(String, String)> = lasalle_testkit::model_files()
-        .iter()
-        .map(|p| (p.display().to_string(), std::fs::read_to_string(p).unwrap()))
-        .collect();
-    for expr in EXPRS {
-        let text = format!(
-            "model E {{ state t: scalar, y: scalar; param c = 0.37;
-               d/dt t = 1; d/dt y = {expr}; }}"
-        );
-        texts.push((expr.to_string(), text));
-    }
+    let mut texts = model_and_expression_texts();
     texts.push((
         "elliptic".into(),
         "model F { state t: scalar, u: scalar, v: scalar; param m = 0.7;
