@@ -6,24 +6,30 @@
 //!
 //! # Code shape: fully unrolled
 //!
-//! Like heyoka's default (non-compact) mode, the function is straight-line code: the loop
-//! over the orders k = 0..p and every sum are unrolled, with no index arithmetic and no
-//! dispatch. Every coefficient is stored into one table (rows × (p + 1), row-major, the state
-//! rows first, which [`TaylorKernel::coefficients`] reads) at a constant offset, and read back
-//! by a load at its uses, emitted right before the product that consumes it so that x86 folds
-//! it into the multiplication: keeping all coefficients as SSA values instead made the
-//! register allocator spill them anyway, and compiled several times slower. The last few
-//! stored values are reused without a load. Rows constant along the solution
-//! have their higher coefficients as the constant 0, as in the interpreter's table.
+//! The loop over the orders k = 0..p is unrolled, and so are the sums of fewer than
+//! [`LOOP_TERMS`] terms: no index arithmetic and no dispatch. Every coefficient is stored into
+//! one table (rows × (p + 1), row-major, the state rows first, which
+//! [`TaylorKernel::coefficients`] reads) at a constant offset, and read back by a load at its
+//! uses, emitted right before the product that consumes it so that x86 folds it into the
+//! multiplication: keeping all coefficients as SSA values instead made the register allocator
+//! spill them anyway, and compiled several times slower. The last few stored values are
+//! reused without a load. Rows constant along the solution have their higher coefficients as
+//! the constant 0, as in the interpreter's table.
 //!
-//! Unrolling costs code size quadratic in p: a nonlinear recurrence has about k terms at
-//! order k, ≈ p²/2 over the orders (≈ 22 bytes each), so Kepler's field is 39 KB of code at
-//! p = 19, the rigid body's 99 KB and Kepler's X − ∇V 280 KB. Code that large runs from
-//! beyond the instruction cache, each instruction once per step: unrolled, the rigid body's
-//! kernel at p = 19 was only 1.2× the interpreter. So above `UNROLL_LIMIT` estimated
-//! instructions (≈ 65 KB) the Cauchy sums of six or more terms become loops (the first term,
-//! then the rest in order: the same operations), which made that kernel 1.3× faster
-//! (2.3 → 1.8 µs) and made Kepler's (39 KB, unrolled) 1.4× slower when tried there.
+//! A Cauchy sum Σ_{j=lo}^{hi} a^\[j\] b^\[k−j\] of [`LOOP_TERMS`] or more terms is a loop:
+//! its first 1 + (hi − lo) mod [`LOOP_UNROLL`] terms unrolled, then passes of
+//! [`LOOP_UNROLL`] terms along two pointers, one up a's row and one down b's (the same
+//! operations in the same order, so still bitwise the interpreter's). Unrolled throughout,
+//! the code grows as p²: Kepler's field is 39 KB at p = 19, the rigid body's 99 KB, beyond
+//! the instruction cache, each instruction run once per step. Measured by `lasalle run
+//! <model> --method taylor --rtol 1e-15 --atol 1e-15` (AMD EPYC, quiet, 2026-11-25; rigid
+//! body to t = 1000, Kepler 1000 periods): fully unrolled 0.0102 s and 0.043 s; loops of one
+//! term per pass in programs above 65 KB only (the previous rule) 0.0127 s and 0.043 s;
+//! loops of four terms per pass in every program 0.0093 s and 0.038 s (two terms per pass
+//! 0.0102 s and 0.038 s, eight 0.0095 s and 0.042 s; [`LOOP_TERMS`] 4, 6 or 8 within the
+//! noise). Every model's Taylor run took less time with the four-term loops than fully
+//! unrolled (0.72–0.91×, `docs/performance.md`).
+//!
 //! [`JitTaylor::new`] refuses above [`MAX_INSTRUCTIONS`] estimated instructions, which bounds
 //! the compile time when a model's Taylor kernels are built to ≈ 20 ms; the caller then takes
 //! a [`DeferredJit`], which compiles the program (with loops: 1.4–1.7× faster than the
@@ -58,6 +64,7 @@ use lasalle_codegen::tape::taylor::{Leaf, PowZero, Rec, TaylorProgram};
 use lasalle_codegen::tape::Tape;
 use lasalle_runtime::taylor::TaylorKernel;
 use lasalle_runtime::StepError;
+use std::collections::{BTreeMap, HashMap};
 
 /// `(state, hoisted, target, gains, table)`: fills the state rows of `table` (N × (p + 1),
 /// row-major) with x^\[0..=p\] of the solution through `state`.
@@ -76,12 +83,16 @@ pub const MAX_INSTRUCTIONS: usize = 20_000;
 /// latency on the critical path).
 const RECENT: usize = 4;
 
-/// Above this estimated size (≈ 65 KB of unrolled code, twice the instruction cache) the
-/// Cauchy sums of at least [`LOOP_TERMS`] terms are loops (see `Emit::cauchy`).
-const UNROLL_LIMIT: usize = 10_000;
-
-/// The shortest Cauchy sum made a loop in programs above [`UNROLL_LIMIT`].
+/// The shortest Cauchy sum made a loop (see the [module docs](self)).
 const LOOP_TERMS: usize = 6;
+
+/// Terms per pass of a Cauchy loop (fewer than [`LOOP_TERMS`], so that every loop makes at
+/// least one pass).
+const LOOP_UNROLL: usize = 4;
+const _: () = assert!(LOOP_UNROLL < LOOP_TERMS);
+
+/// The most Cauchy sums of one order computed in one loop (see `Emit::fuse_sums`).
+const FUSE: usize = 6;
 
 /// Cranelift's optimisation level. Its e-graph passes find little to improve in straight-line
 /// IEEE arithmetic (no reassociation, no fusion), and what they do (sharing constants, moving
@@ -419,8 +430,8 @@ fn define(
             table,
             stride: p + 1,
             rows: vec![0; program.rows],
-            loops: JitTaylor::instructions(program, p) > UNROLL_LIMIT,
             recent: Default::default(),
+            fused: HashMap::new(),
             zero,
             ellipj_out: None,
         };
@@ -460,10 +471,10 @@ struct Emit<'a> {
     stride: usize,
     /// How many orders of each row are in the table.
     rows: Vec<usize>,
-    /// Long Cauchy sums as loops (programs above [`UNROLL_LIMIT`]).
-    loops: bool,
     /// The last values stored, (row, order, value), read back without a load.
     recent: std::collections::VecDeque<(usize, usize, Value)>,
+    /// Order k's Cauchy sums computed by [`Emit::fuse_sums`], by (a, b, lo, hi).
+    fused: HashMap<(usize, usize, usize, usize), Value>,
     /// The constant 0 (the higher coefficients of rows constant along the solution).
     zero: Value,
     /// The address of a 3-f64 stack slot for `call_ellipj`, once needed.
@@ -569,51 +580,140 @@ impl Emit<'_> {
         acc
     }
 
-    /// Σ_{j=lo}^{hi} a^\[j\] b^\[k−j\] (`rec::cauchy`; 0 if lo > hi): unrolled below
-    /// [`LOOP_TERMS`] terms, else the first term and then a loop over the rest (the same
-    /// operations in the same order, on the table).
+    /// Σ_{j=lo}^{hi} a^\[j\] b^\[k−j\] (`rec::cauchy`; 0 if lo > hi): computed at the start of
+    /// the order by [`Emit::fuse_sums`], or unrolled below [`LOOP_TERMS`] terms, else a loop
+    /// ([`Emit::looped`]).
     fn cauchy(&mut self, a: usize, b: usize, k: usize, lo: usize, hi: usize) -> Value {
-        let short = hi < lo + LOOP_TERMS - 1;
-        if !self.loops || short || self.rows[a] <= hi || self.rows[b] <= k - lo {
+        if let Some(v) = self.fused.remove(&(a, b, lo, hi)) {
+            return v;
+        }
+        if !self.loops_over(a, b, k, lo, hi) {
             return self
                 .sum(lo..=hi, |e, j| (e.c(a, j), e.c(b, k - j)))
                 .unwrap_or(self.zero);
         }
-        let (x, y) = (self.c(a, lo), self.c(b, k - lo));
-        let first = self.fmul(x, y);
+        self.looped(&[(a, b)], k, lo, hi)[0]
+    }
+
+    /// Whether Σ_{j=lo}^{hi} a^\[j\] b^\[k−j\] is a loop: [`LOOP_TERMS`] terms or more, all
+    /// of them in the table.
+    fn loops_over(&self, a: usize, b: usize, k: usize, lo: usize, hi: usize) -> bool {
+        hi + 1 >= lo + LOOP_TERMS && self.rows[a] > hi && self.rows[b] > k - lo
+    }
+
+    /// Σ_{j=lo}^{hi} a^\[j\] b^\[k−j\] for every (a, b) of `pairs` (at least
+    /// [`LOOP_TERMS`] terms, all in the table), in one loop: the first
+    /// 1 + (hi − lo) mod [`LOOP_UNROLL`] terms of each unrolled, then passes of
+    /// [`LOOP_UNROLL`] terms of every sum along two pointers, one up the table (table + 8j,
+    /// with each a's row as the load's offset) and one down (table + 8(k − j)). Each sum is
+    /// accumulated in its own order, from its first term upwards; a row read at the same
+    /// place by several sums is loaded once.
+    fn looped(&mut self, pairs: &[(usize, usize)], k: usize, lo: usize, hi: usize) -> Vec<Value> {
+        let head = lo + 1 + (hi - lo) % LOOP_UNROLL;
+        let firsts: Vec<Value> = pairs
+            .iter()
+            .map(|&(a, b)| {
+                let s = self.sum(lo..head, |e, j| (e.c(a, j), e.c(b, k - j)));
+                s.expect("at least one term")
+            })
+            .collect();
         let ptr = self.ptr;
-        let at = |e: &mut Self, r: usize, j: usize| {
-            let off = ((r * e.stride + j) * 8) as i64;
-            let off = e.b.ins().iconst(ptr, off);
+        let at = |e: &mut Self, j: usize| {
+            let off = e.b.ins().iconst(ptr, (j * 8) as i64);
             e.b.ins().iadd(e.table, off)
         };
-        let pa = at(self, a, lo + 1);
-        let pb = at(self, b, k - lo - 1);
-        let end = at(self, a, hi + 1);
+        let (up, down, end) = (at(self, head), at(self, k - head), at(self, hi + 1));
         let body = self.b.create_block();
-        let acc = self.b.append_block_param(body, types::F64);
-        let pa_v = self.b.append_block_param(body, ptr);
-        let pb_v = self.b.append_block_param(body, ptr);
+        let mut accs: Vec<Value> = firsts
+            .iter()
+            .map(|_| self.b.append_block_param(body, types::F64))
+            .collect();
+        let up_v = self.b.append_block_param(body, ptr);
+        let down_v = self.b.append_block_param(body, ptr);
         let exit = self.b.create_block();
-        let result = self.b.append_block_param(exit, types::F64);
-        let args = [first, pa, pb].map(BlockArg::Value);
+        for _ in pairs {
+            self.b.append_block_param(exit, types::F64);
+        }
+        let args: Vec<BlockArg> = firsts
+            .iter()
+            .chain([&up, &down])
+            .map(|&v| BlockArg::Value(v))
+            .collect();
         self.b.ins().jump(body, &args);
         self.b.switch_to_block(body);
         let flags = MemFlagsData::trusted();
-        let x = self.b.ins().load(types::F64, flags, pa_v, 0);
-        let y = self.b.ins().load(types::F64, flags, pb_v, 0);
-        let t = self.fmul(x, y);
-        let acc = self.fadd(acc, t);
-        let eight = self.b.ins().iconst(ptr, 8);
-        let pa_n = self.b.ins().iadd(pa_v, eight);
-        let pb_n = self.b.ins().isub(pb_v, eight);
-        let more = self.b.ins().icmp(IntCC::NotEqual, pa_n, end);
-        let again = [acc, pa_n, pb_n].map(BlockArg::Value);
-        self.b
-            .ins()
-            .brif(more, body, &again, exit, &[BlockArg::Value(acc)]);
+        let stride = self.stride;
+        let row = |r: usize| (r * stride * 8) as i32;
+        for u in 0..LOOP_UNROLL as i32 {
+            let mut loaded: Vec<((bool, usize), Value)> = Vec::new();
+            for (m, &(a, b)) in pairs.iter().enumerate() {
+                let mut load = |e: &mut Self, key: (bool, usize), base: Value, off: i32| {
+                    if let Some(&(_, v)) = loaded.iter().find(|(kk, _)| *kk == key) {
+                        return v;
+                    }
+                    let v = e.b.ins().load(types::F64, flags, base, off);
+                    loaded.push((key, v));
+                    v
+                };
+                let x = load(self, (true, a), up_v, row(a) + 8 * u);
+                let y = load(self, (false, b), down_v, row(b) - 8 * u);
+                let t = self.fmul(x, y);
+                accs[m] = self.fadd(accs[m], t);
+            }
+        }
+        let step = self.b.ins().iconst(ptr, 8 * LOOP_UNROLL as i64);
+        let up_n = self.b.ins().iadd(up_v, step);
+        let down_n = self.b.ins().isub(down_v, step);
+        let more = self.b.ins().icmp(IntCC::NotEqual, up_n, end);
+        let again: Vec<BlockArg> = accs
+            .iter()
+            .chain([&up_n, &down_n])
+            .map(|&v| BlockArg::Value(v))
+            .collect();
+        let done: Vec<BlockArg> = accs.iter().map(|&v| BlockArg::Value(v)).collect();
+        self.b.ins().brif(more, body, &again, exit, &done);
         self.b.switch_to_block(exit);
-        result
+        self.b.block_params(exit).to_vec()
+    }
+
+    /// Order k's Cauchy sums that read only lower orders (the sums of products but for their
+    /// two newest terms, the folded sums of squares and square roots) and loop, computed
+    /// before the order's recurrences in loops of up to [`FUSE`] sums each, those sharing a row
+    /// together; [`Emit::cauchy`] then takes them from `fused`.
+    fn fuse_sums(&mut self, program: &TaylorProgram, k: usize) {
+        // (a, b) of every sum, by its range (lo, hi)
+        let mut classes: BTreeMap<(usize, usize), Vec<(usize, usize)>> = BTreeMap::new();
+        for &(r, constant) in &program.recs {
+            let (a, b, lo, hi) = match r {
+                _ if constant || k < 2 => continue,
+                Rec::Mul { a, b, .. } => (a, b, 1, k - 1),
+                Rec::Square { a, .. } => (a, a, 1, (k - 1) / 2),
+                Rec::Sqrt { d, .. } => (d, d, 1, (k - 1) / 2),
+                _ => continue,
+            };
+            if !self.loops_over(a, b, k, lo, hi) {
+                continue;
+            }
+            let pairs = classes.entry((lo, hi)).or_default();
+            if !pairs.contains(&(a, b)) {
+                pairs.push((a, b));
+            }
+        }
+        for ((lo, hi), mut left) in classes {
+            while !left.is_empty() {
+                let mut group = vec![left.remove(0)];
+                while group.len() < FUSE && !left.is_empty() {
+                    let shares =
+                        |&(a, b): &(usize, usize)| group.iter().any(|&(ga, gb)| ga == a || gb == b);
+                    let i = left.iter().position(shares).unwrap_or(0);
+                    group.push(left.remove(i));
+                }
+                let sums = self.looped(&group, k, lo, hi);
+                for (&(a, b), v) in group.iter().zip(sums) {
+                    self.fused.insert((a, b, lo, hi), v);
+                }
+            }
+        }
     }
 
     /// j·x for the weight j: exact and skipped for j = 1.
@@ -684,6 +784,7 @@ impl Emit<'_> {
             self.push(i, 0, x);
         }
         for k in 0..p {
+            self.fuse_sums(program, k);
             for &(r, constant) in &program.recs {
                 if k == 0 {
                     self.zeroth(r, leaves)?;
@@ -691,6 +792,7 @@ impl Emit<'_> {
                     self.coefficient(r, k);
                 }
             }
+            debug_assert!(self.fused.is_empty(), "every fused sum is read at its order");
             let inv = self.constant(1.0 / (k as f64 + 1.0));
             for (i, &o) in program.outputs.iter().enumerate() {
                 let x = self.c(o, k);
