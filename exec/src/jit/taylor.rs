@@ -18,17 +18,30 @@
 //!
 //! A Cauchy sum Σ_{j=lo}^{hi} a^\[j\] b^\[k−j\] of [`LOOP_TERMS`] or more terms is a loop:
 //! its first 1 + (hi − lo) mod [`LOOP_UNROLL`] terms unrolled, then passes of
-//! [`LOOP_UNROLL`] terms along two pointers, one up a's row and one down b's (the same
+//! [`LOOP_UNROLL`] terms along two pointers, one up the table and one down (the same
 //! operations in the same order, so still bitwise the interpreter's). Unrolled throughout,
 //! the code grows as p²: Kepler's field is 39 KB at p = 19, the rigid body's 99 KB, beyond
-//! the instruction cache, each instruction run once per step. Measured by `lasalle run
-//! <model> --method taylor --rtol 1e-15 --atol 1e-15` (AMD EPYC, quiet, 2026-11-25; rigid
-//! body to t = 1000, Kepler 1000 periods): fully unrolled 0.0102 s and 0.043 s; loops of one
-//! term per pass in programs above 65 KB only (the previous rule) 0.0127 s and 0.043 s;
-//! loops of four terms per pass in every program 0.0093 s and 0.038 s (two terms per pass
-//! 0.0102 s and 0.038 s, eight 0.0095 s and 0.042 s; [`LOOP_TERMS`] 4, 6 or 8 within the
-//! noise). Every model's Taylor run took less time with the four-term loops than fully
-//! unrolled (0.72–0.91×, `docs/performance.md`).
+//! the instruction cache, each instruction run once per step.
+//!
+//! # Fused sums
+//!
+//! Most of a product's order k, Σ_{j=1}^{k−1} a^\[j\] b^\[k−j\] (all but its two newest
+//! terms), reads only orders below k, and so do the folded sums of squares and square roots.
+//! These sums are therefore computed at the start of the order, before any of its
+//! recurrences, up to [`FUSE`] of the same range in one loop (those sharing a row together:
+//! the rigid body's R·Ω̂ has six products per component of Ω), each sum still accumulated
+//! alone in its own order. The loop loads a shared row once per term instead of once per
+//! sum, and its independent chains of additions overlap instead of waiting on one another.
+//!
+//! Measured by `lasalle run <model> --method taylor --rtol 1e-15 --atol 1e-15` (AMD EPYC,
+//! quiet, 2026-11-25, fastest of 5; rigid body to t = 1000, Kepler 1000 periods): fully
+//! unrolled 0.0102 s and 0.043 s; loops of one term per pass in programs above 65 KB only
+//! (the rule before) 0.0127 s and 0.043 s; loops of four terms per pass in every program
+//! 0.0093 s and 0.038 s (two terms per pass 0.0102 s and 0.038 s, eight 0.0095 s and
+//! 0.042 s; [`LOOP_TERMS`] 4, 6 or 8 within the noise); and fused, up to 1, 2, 4, 6 or 8
+//! sums per loop: 0.0103, 0.0089, 0.0080, 0.0078 and 0.0080 s for the rigid body, Kepler
+//! 0.038–0.039 s throughout. Every model's run took 0.61–1.02× the time of the rule
+//! before (`docs/performance.md`).
 //!
 //! [`JitTaylor::new`] refuses above [`MAX_INSTRUCTIONS`] estimated instructions, which bounds
 //! the compile time when a model's Taylor kernels are built to ≈ 20 ms; the caller then takes
