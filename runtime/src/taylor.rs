@@ -336,6 +336,35 @@ pub mod rec {
         ra.iter().zip(rb.iter().rev()).map(|(x, y)| x * y).sum()
     }
 
+    /// [`cauchy`] of G pairs of rows (a, b) of an emitted kernel's table `t` at once: the sums
+    /// Σ_{j=lo}^{hi} t\[a\]\[j\] t\[b\]\[k−j\], each accumulated alone in the order of
+    /// [`cauchy`] (so bitwise its results), in one loop over j (the early sums of
+    /// `lasalle_codegen::tape::taylor`).
+    ///
+    /// # Panics
+    /// If k > [`EMITTED_MAX_ORDER`](super::EMITTED_MAX_ORDER), hi ≥ k or a row is not in `t`.
+    #[inline(always)]
+    pub fn cauchy_many<const R: usize, const G: usize>(
+        t: &[[f64; super::EMITTED_MAX_ORDER + 1]; R],
+        rows: [(usize, usize); G],
+        k: usize,
+        lo: usize,
+        hi: usize,
+    ) -> [f64; G] {
+        assert!(
+            k <= super::EMITTED_MAX_ORDER && hi < k.max(1),
+            "order {k}, terms {lo}..={hi}"
+        );
+        // `Sum` of f64 starts from −0.0 (−0.0 + t = t exactly); no terms: 0.0 as in `cauchy`
+        let mut acc = [if lo > hi { 0.0 } else { -0.0 }; G];
+        for j in lo..=hi {
+            for (s, &(a, b)) in acc.iter_mut().zip(&rows) {
+                *s += t[a][j] * t[b][k - j];
+            }
+        }
+        acc
+    }
+
     /// Σ_{j=1}^{k} j a^\[j\] b^\[k−j\] (the weighted product of the exp and sin/cos recurrences).
     #[inline(always)]
     fn weighted(a: &[f64], b: &[f64], k: usize) -> f64 {
@@ -361,7 +390,13 @@ pub mod rec {
         if k == 0 {
             return a[0] * b[0];
         }
-        cauchy(a, b, k, 1, k - 1) + a[0] * b[k] + a[k] * b[0]
+        mul_after(cauchy(a, b, k, 1, k - 1), a, b, k)
+    }
+
+    /// [`mul`] at k ≥ 1 from its early sum s = Σ_{j=1}^{k−1} a^\[j\] b^\[k−j\].
+    #[inline(always)]
+    pub fn mul_after(s: f64, a: &[f64], b: &[f64], k: usize) -> f64 {
+        s + a[0] * b[k] + a[k] * b[0]
     }
 
     /// (a²)^\[k\] = 2 (Σ_{j=1}^{(k−1)/2} a^\[j\] a^\[k−j\] + a^\[0\] a^\[k\]) (+ a^\[k/2\]² for even
@@ -369,7 +404,13 @@ pub mod rec {
     #[inline(always)]
     pub fn square(a: &[f64], k: usize) -> f64 {
         let half = (k - 1) / 2; // the largest j < k/2
-        let mut s = 2.0 * (cauchy(a, a, k, 1, half) + a[0] * a[k]);
+        square_after(cauchy(a, a, k, 1, half), a, k)
+    }
+
+    /// [`square`] from its early sum s = Σ_{j=1}^{(k−1)/2} a^\[j\] a^\[k−j\].
+    #[inline(always)]
+    pub fn square_after(s: f64, a: &[f64], k: usize) -> f64 {
+        let mut s = 2.0 * (s + a[0] * a[k]);
         if k % 2 == 0 {
             s += a[k / 2] * a[k / 2];
         }
@@ -396,15 +437,21 @@ pub mod rec {
     /// (√a)^\[k\] = (a^\[k\] − Σ_{j=1}^{k−1} u^\[j\] u^\[k−j\]) / (2 u^\[0\]), the sum folded in half.
     #[inline(always)]
     pub fn sqrt(a: &[f64], u: &[f64], k: usize) -> f64 {
-        let mut s = 0.0;
+        let half = (k - 1) / 2; // the largest j < k/2
+        sqrt_after(cauchy(u, u, k, 1, half), a, u, k)
+    }
+
+    /// [`sqrt`] from its early sum s = Σ_{j=1}^{(k−1)/2} u^\[j\] u^\[k−j\] (unused for k = 1).
+    #[inline(always)]
+    pub fn sqrt_after(s: f64, a: &[f64], u: &[f64], k: usize) -> f64 {
+        let mut s2 = 0.0;
         if k >= 2 {
-            let half = (k - 1) / 2; // the largest j < k/2
-            s = 2.0 * cauchy(u, u, k, 1, half);
+            s2 = 2.0 * s;
             if k % 2 == 0 {
-                s += u[k / 2] * u[k / 2];
+                s2 += u[k / 2] * u[k / 2];
             }
         }
-        (a[k] - s) / (2.0 * u[0])
+        (a[k] - s2) / (2.0 * u[0])
     }
 
     /// (eᵃ)^\[k\] = (1/k) Σ_{j=1}^{k} j a^\[j\] u^\[k−j\].
@@ -933,5 +980,40 @@ impl<M: ?Sized, X: State<f64>> DenseOutput<f64, X> for Taylor<M> {
         }
         self.evaluate(which, s, out.as_mut());
         true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{rec, EMITTED_MAX_ORDER};
+
+    /// `rec::cauchy_many` is `rec::cauchy` of each pair, bitwise, for every range of every
+    /// order (empty ones included: +0.0, as `cauchy`).
+    #[test]
+    fn cauchy_many_is_cauchy_of_each_pair() {
+        let mut t = [[0.0; EMITTED_MAX_ORDER + 1]; 3];
+        for (r, row) in t.iter_mut().enumerate() {
+            for (j, c) in row.iter_mut().enumerate() {
+                // values of mixed signs and magnitudes, so that the order of summation shows
+                *c = ((r * 31 + j * 17) as f64).sin() * 10f64.powi((j % 7) as i32 - 3);
+            }
+        }
+        let pairs = [(0, 1), (2, 2), (1, 0)];
+        for k in 1..=EMITTED_MAX_ORDER {
+            for (lo, hi) in [(1, k - 1), (1, (k - 1) / 2), (0, k - 1), (3, 2)] {
+                if hi >= k {
+                    continue;
+                }
+                let many = rec::cauchy_many(&t, pairs, k, lo, hi);
+                for (&(a, b), s) in pairs.iter().zip(many) {
+                    let one = rec::cauchy(&t[a], &t[b], k, lo, hi);
+                    assert_eq!(
+                        s.to_bits(),
+                        one.to_bits(),
+                        "k = {k}, {lo}..={hi}, ({a}, {b})"
+                    );
+                }
+            }
+        }
     }
 }

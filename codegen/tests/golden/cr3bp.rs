@@ -717,21 +717,25 @@ pub mod cr3bp {
                     t[39][0] = t[2][0] + t[38][0];
                     t[40][0] = -t[39][0];
                 } else {
+                    let [e6, e7, e12] =
+                        rec::cauchy_many(t, [(1, 1), (5, 5), (11, 11)], k, 1, (k - 1) / 2);
+                    let [e25, e27, e38] =
+                        rec::cauchy_many(t, [(24, 18), (26, 21), (37, 35)], k, 1, k - 1);
                     t[5][k] = t[0][k] + t[4][k];
-                    t[6][k] = rec::square(&t[1], k);
-                    t[7][k] = rec::square(&t[5], k);
+                    t[6][k] = rec::square_after(e6, &t[1], k);
+                    t[7][k] = rec::square_after(e7, &t[5], k);
                     t[8][k] = t[7][k] + t[6][k];
                     t[11][k] = t[0][k] - t[10][k];
-                    t[12][k] = rec::square(&t[11], k);
+                    t[12][k] = rec::square_after(e12, &t[11], k);
                     t[13][k] = t[6][k] + t[12][k];
                     t[18][k] = rec::pow(&t[13], &t[18], -1.5_f64, k);
                     t[21][k] = rec::pow(&t[8], &t[21], -1.5_f64, k);
                     t[22][k] = t[1][k] + t[2][k];
                     t[23][k] = t[3][k] - t[0][k];
                     t[24][k] = t[11][k] * t[4][0];
-                    t[25][k] = rec::mul(&t[24], &t[18], k);
+                    t[25][k] = rec::mul_after(e25, &t[24], &t[18], k);
                     t[26][k] = t[5][k] * t[10][0];
-                    t[27][k] = rec::mul(&t[26], &t[21], k);
+                    t[27][k] = rec::mul_after(e27, &t[26], &t[21], k);
                     t[28][k] = t[25][k] + t[27][k];
                     t[29][k] = t[28][k] - t[3][k];
                     t[30][k] = -t[29][k];
@@ -739,7 +743,7 @@ pub mod cr3bp {
                     t[34][k] = t[21][k] * t[33][0];
                     t[35][k] = t[32][k] + t[34][k];
                     t[37][k] = t[1][k] * t[36][0];
-                    t[38][k] = rec::mul(&t[37], &t[35], k);
+                    t[38][k] = rec::mul_after(e38, &t[37], &t[35], k);
                     t[39][k] = t[2][k] + t[38][k];
                     t[40][k] = -t[39][k];
                 }
@@ -852,41 +856,49 @@ pub mod cr3bp {
                     t[64][0] = -t[38][0];
                     t[65][0] = t[64][0] - t[63][0];
                 } else {
+                    let [e6, e7, e9, e12, e14, e20] =
+                        rec::cauchy_many(t, [(1, 1), (5, 5), (9, 9), (11, 11), (14, 14), (19, 19)], k, 1, (k - 1) / 2);
+                    let [e22, e40, e41] =
+                        rec::cauchy_many(t, [(18, 18), (2, 2), (3, 3)], k, 1, (k - 1) / 2);
+                    let [e21, e23, e25, e27, e37, e45] =
+                        rec::cauchy_many(t, [(19, 20), (18, 22), (24, 21), (26, 23), (36, 34), (1, 2)], k, 1, k - 1);
+                    let [e46, e56, e58, e60, e63] =
+                        rec::cauchy_many(t, [(0, 3), (29, 55), (38, 55), (16, 55), (15, 55)], k, 1, k - 1);
                     t[5][k] = t[0][k] + t[4][k];
-                    t[6][k] = rec::square(&t[1], k);
-                    t[7][k] = rec::square(&t[5], k);
+                    t[6][k] = rec::square_after(e6, &t[1], k);
+                    t[7][k] = rec::square_after(e7, &t[5], k);
                     t[8][k] = t[7][k] + t[6][k];
-                    t[9][k] = rec::sqrt(&t[8], &t[9], k);
+                    t[9][k] = rec::sqrt_after(e9, &t[8], &t[9], k);
                     t[11][k] = t[0][k] - t[10][k];
-                    t[12][k] = rec::square(&t[11], k);
+                    t[12][k] = rec::square_after(e12, &t[11], k);
                     t[13][k] = t[6][k] + t[12][k];
-                    t[14][k] = rec::sqrt(&t[13], &t[14], k);
+                    t[14][k] = rec::sqrt_after(e14, &t[13], &t[14], k);
                     t[15][k] = t[3][k] - t[0][k];
                     t[16][k] = t[1][k] + t[2][k];
                     t[18][k] = rec::div(&t[17], &t[9], &t[18], k);
                     t[19][k] = rec::div(&t[17], &t[14], &t[19], k);
-                    t[20][k] = rec::square(&t[19], k);
-                    t[21][k] = rec::mul(&t[19], &t[20], k);
-                    t[22][k] = rec::square(&t[18], k);
-                    t[23][k] = rec::mul(&t[18], &t[22], k);
+                    t[20][k] = rec::square_after(e20, &t[19], k);
+                    t[21][k] = rec::mul_after(e21, &t[19], &t[20], k);
+                    t[22][k] = rec::square_after(e22, &t[18], k);
+                    t[23][k] = rec::mul_after(e23, &t[18], &t[22], k);
                     t[24][k] = t[11][k] * t[4][0];
-                    t[25][k] = rec::mul(&t[24], &t[21], k);
+                    t[25][k] = rec::mul_after(e25, &t[24], &t[21], k);
                     t[26][k] = t[5][k] * t[10][0];
-                    t[27][k] = rec::mul(&t[26], &t[23], k);
+                    t[27][k] = rec::mul_after(e27, &t[26], &t[23], k);
                     t[28][k] = t[25][k] + t[27][k];
                     t[29][k] = t[28][k] - t[3][k];
                     t[31][k] = t[21][k] * t[30][0];
                     t[33][k] = t[23][k] * t[32][0];
                     t[34][k] = t[31][k] + t[33][k];
                     t[36][k] = t[1][k] * t[35][0];
-                    t[37][k] = rec::mul(&t[36], &t[34], k);
+                    t[37][k] = rec::mul_after(e37, &t[36], &t[34], k);
                     t[38][k] = t[2][k] + t[37][k];
-                    t[40][k] = rec::square(&t[2], k);
-                    t[41][k] = rec::square(&t[3], k);
+                    t[40][k] = rec::square_after(e40, &t[2], k);
+                    t[41][k] = rec::square_after(e41, &t[3], k);
                     t[42][k] = t[40][k] + t[41][k];
                     t[44][k] = t[42][k] * t[43][0];
-                    t[45][k] = rec::mul(&t[1], &t[2], k);
-                    t[46][k] = rec::mul(&t[0], &t[3], k);
+                    t[45][k] = rec::mul_after(e45, &t[1], &t[2], k);
+                    t[46][k] = rec::mul_after(e46, &t[0], &t[3], k);
                     t[47][k] = t[18][k] * t[10][0];
                     t[48][k] = t[19][k] * t[4][0];
                     t[50][k] = t[44][k] + t[45][k];
@@ -895,14 +907,14 @@ pub mod cr3bp {
                     t[53][k] = t[52][k] - t[48][k];
                     t[54][k] = t[53][k] - t[49][k];
                     t[55][k] = t[54][k] * t[39][0];
-                    t[56][k] = rec::mul(&t[29], &t[55], k);
+                    t[56][k] = rec::mul_after(e56, &t[29], &t[55], k);
                     t[57][k] = t[16][k] - t[56][k];
-                    t[58][k] = rec::mul(&t[38], &t[55], k);
+                    t[58][k] = rec::mul_after(e58, &t[38], &t[55], k);
                     t[59][k] = t[15][k] - t[58][k];
-                    t[60][k] = rec::mul(&t[16], &t[55], k);
+                    t[60][k] = rec::mul_after(e60, &t[16], &t[55], k);
                     t[61][k] = -t[29][k];
                     t[62][k] = t[61][k] - t[60][k];
-                    t[63][k] = rec::mul(&t[15], &t[55], k);
+                    t[63][k] = rec::mul_after(e63, &t[15], &t[55], k);
                     t[64][k] = -t[38][k];
                     t[65][k] = t[64][k] - t[63][k];
                 }

@@ -554,12 +554,16 @@ pub mod hostile {
                     t[14][0] = -t[2][0];
                     t[15][0] = -t[4][0];
                 } else {
-                    t[6][k] = rec::square(&t[2], k);
-                    t[7][k] = rec::square(&t[4], k);
-                    t[8][k] = rec::mul(&t[6], &t[7], k);
+                    let [e6, e7] =
+                        rec::cauchy_many(t, [(2, 2), (4, 4)], k, 1, (k - 1) / 2);
+                    let [e8, e11, e12] =
+                        rec::cauchy_many(t, [(6, 7), (1, 10), (0, 10)], k, 1, k - 1);
+                    t[6][k] = rec::square_after(e6, &t[2], k);
+                    t[7][k] = rec::square_after(e7, &t[4], k);
+                    t[8][k] = rec::mul_after(e8, &t[6], &t[7], k);
                     t[10][k] = t[9][k] + t[8][k];
-                    t[11][k] = rec::mul(&t[1], &t[10], k);
-                    t[12][k] = rec::mul(&t[0], &t[10], k);
+                    t[11][k] = rec::mul_after(e11, &t[1], &t[10], k);
+                    t[12][k] = rec::mul_after(e12, &t[0], &t[10], k);
                     t[13][k] = -t[12][k];
                     t[14][k] = -t[2][k];
                     t[15][k] = -t[4][k];
@@ -649,33 +653,39 @@ pub mod hostile {
                     t[40][0] = t[39][0] - t[38][0];
                     t[41][0] = -t[4][0];
                 } else {
-                    t[6][k] = rec::square(&t[2], k);
-                    t[7][k] = rec::square(&t[4], k);
-                    t[8][k] = rec::mul(&t[6], &t[7], k);
+                    let [e6, e7, e13, e19, e20] =
+                        rec::cauchy_many(t, [(2, 2), (4, 4), (3, 3), (0, 0), (1, 1)], k, 1, (k - 1) / 2);
+                    let [e8, e11, e29, e27, e31, e35] =
+                        rec::cauchy_many(t, [(6, 7), (1, 10), (0, 10), (26, 24), (30, 24), (34, 17)], k, 1, k - 1);
+                    let [e38] =
+                        rec::cauchy_many(t, [(37, 17)], k, 1, k - 1);
+                    t[6][k] = rec::square_after(e6, &t[2], k);
+                    t[7][k] = rec::square_after(e7, &t[4], k);
+                    t[8][k] = rec::mul_after(e8, &t[6], &t[7], k);
                     t[10][k] = t[9][k] + t[8][k];
-                    t[11][k] = rec::mul(&t[1], &t[10], k);
-                    t[13][k] = rec::square(&t[3], k);
+                    t[11][k] = rec::mul_after(e11, &t[1], &t[10], k);
+                    t[13][k] = rec::square_after(e13, &t[3], k);
                     t[15][k] = t[6][k] + t[13][k];
                     t[16][k] = t[15][k] - t[14][k];
                     t[17][k] = t[16][k] * t[12][0];
-                    t[19][k] = rec::square(&t[0], k);
-                    t[20][k] = rec::square(&t[1], k);
+                    t[19][k] = rec::square_after(e19, &t[0], k);
+                    t[20][k] = rec::square_after(e20, &t[1], k);
                     t[22][k] = t[19][k] + t[20][k];
                     t[23][k] = t[22][k] - t[21][k];
                     t[24][k] = t[23][k] * t[18][0];
                     t[26][k] = t[0][k] * t[25][0];
-                    t[27][k] = rec::mul(&t[26], &t[24], k);
+                    t[27][k] = rec::mul_after(e27, &t[26], &t[24], k);
                     t[28][k] = t[11][k] - t[27][k];
-                    t[29][k] = rec::mul(&t[0], &t[10], k);
+                    t[29][k] = rec::mul_after(e29, &t[0], &t[10], k);
                     t[30][k] = t[1][k] * t[25][0];
-                    t[31][k] = rec::mul(&t[30], &t[24], k);
+                    t[31][k] = rec::mul_after(e31, &t[30], &t[24], k);
                     t[32][k] = -t[29][k];
                     t[33][k] = t[32][k] - t[31][k];
                     t[34][k] = t[2][k] * t[25][0];
-                    t[35][k] = rec::mul(&t[34], &t[17], k);
+                    t[35][k] = rec::mul_after(e35, &t[34], &t[17], k);
                     t[36][k] = t[3][k] - t[35][k];
                     t[37][k] = t[3][k] * t[25][0];
-                    t[38][k] = rec::mul(&t[37], &t[17], k);
+                    t[38][k] = rec::mul_after(e38, &t[37], &t[17], k);
                     t[39][k] = -t[2][k];
                     t[40][k] = t[39][k] - t[38][k];
                     t[41][k] = -t[4][k];

@@ -679,19 +679,23 @@ pub mod pendulum {
                     t[17][0] = t[1][0] * t[13][0];
                     t[18][0] = t[14][0] - t[17][0];
                 } else {
+                    let [e5] =
+                        rec::cauchy_many(t, [(1, 1)], k, 1, (k - 1) / 2);
+                    let [e15, e17] =
+                        rec::cauchy_many(t, [(14, 13), (1, 13)], k, 1, k - 1);
                     let (s, c) = rec::sin_cos(&t[0], &t[2], &t[3], k);
                     t[2][k] = s;
                     t[3][k] = c;
-                    t[5][k] = rec::square(&t[1], k);
+                    t[5][k] = rec::square_after(e5, &t[1], k);
                     t[7][k] = t[5][k] * t[6][0];
                     t[9][k] = t[3][k] * t[8][0];
                     t[11][k] = t[7][k] + t[9][k];
                     t[12][k] = t[11][k] - t[10][k];
                     t[13][k] = t[12][k] * t[4][0];
                     t[14][k] = t[2][k] * t[8][0];
-                    t[15][k] = rec::mul(&t[14], &t[13], k);
+                    t[15][k] = rec::mul_after(e15, &t[14], &t[13], k);
                     t[16][k] = t[1][k] + t[15][k];
-                    t[17][k] = rec::mul(&t[1], &t[13], k);
+                    t[17][k] = rec::mul_after(e17, &t[1], &t[13], k);
                     t[18][k] = t[14][k] - t[17][k];
                 }
                 let inv = 1.0 / (k as f64 + 1.0);

@@ -23,15 +23,15 @@
 //! the code grows as p²: Kepler's field is 39 KB at p = 19, the rigid body's 99 KB, beyond
 //! the instruction cache, each instruction run once per step.
 //!
-//! # Fused sums
+//! # Early sums
 //!
-//! Most of a product's order k, Σ_{j=1}^{k−1} a^\[j\] b^\[k−j\] (all but its two newest
-//! terms), reads only orders below k, and so do the folded sums of squares and square roots.
-//! These sums are therefore computed at the start of the order, before any of its
-//! recurrences, up to [`FUSE`] of the same range in one loop (those sharing a row together:
-//! the rigid body's R·Ω̂ has six products per component of Ω), each sum still accumulated
-//! alone in its own order. The loop loads a shared row once per term instead of once per
-//! sum, and its independent chains of additions overlap instead of waiting on one another.
+//! At each order the program's early sums ([`TaylorProgram::early_sums`]: a product's all but
+//! two newest terms, the folded sums of squares and square roots, which read only lower
+//! orders) are computed first, each group of up to [`EARLY_GROUP`] in one loop as above
+//! (those sharing a row together: the rigid body's R·Ω̂ has six products per component of Ω),
+//! each sum still accumulated alone in its own order. The loop loads a shared row once per
+//! term instead of once per sum, and its independent chains of additions overlap instead of
+//! waiting on one another.
 //!
 //! Measured by `lasalle run <model> --method taylor --rtol 1e-15 --atol 1e-15` (AMD EPYC,
 //! quiet, 2026-11-25, fastest of 5; rigid body to t = 1000, Kepler 1000 periods): fully
@@ -73,11 +73,13 @@ use cranelift_codegen::ir::{
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::JITModule;
 use cranelift_module::Module;
-use lasalle_codegen::tape::taylor::{Leaf, PowZero, Rec, TaylorProgram};
+use lasalle_codegen::tape::taylor::{
+    EarlySum, Leaf, PowZero, Rec, Span, TaylorProgram, EARLY_GROUP,
+};
 use lasalle_codegen::tape::Tape;
 use lasalle_runtime::taylor::TaylorKernel;
 use lasalle_runtime::StepError;
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 
 /// `(state, hoisted, target, gains, table)`: fills the state rows of `table` (N × (p + 1),
 /// row-major) with x^\[0..=p\] of the solution through `state`.
@@ -103,9 +105,6 @@ const LOOP_TERMS: usize = 6;
 /// least one pass).
 const LOOP_UNROLL: usize = 4;
 const _: () = assert!(LOOP_UNROLL < LOOP_TERMS);
-
-/// The most Cauchy sums of one order computed in one loop (see `Emit::fuse_sums`).
-const FUSE: usize = 6;
 
 /// Cranelift's optimisation level. Its e-graph passes find little to improve in straight-line
 /// IEEE arithmetic (no reassociation, no fusion), and what they do (sharing constants, moving
@@ -689,42 +688,23 @@ impl Emit<'_> {
         self.b.block_params(exit).to_vec()
     }
 
-    /// Order k's Cauchy sums that read only lower orders (the sums of products but for their
-    /// two newest terms, the folded sums of squares and square roots) and loop, computed
-    /// before the order's recurrences in loops of up to [`FUSE`] sums each, those sharing a row
-    /// together; [`Emit::cauchy`] then takes them from `fused`.
-    fn fuse_sums(&mut self, program: &TaylorProgram, k: usize) {
-        // (a, b) of every sum, by its range (lo, hi)
-        let mut classes: BTreeMap<(usize, usize), Vec<(usize, usize)>> = BTreeMap::new();
-        for &(r, constant) in &program.recs {
-            let (a, b, lo, hi) = match r {
-                _ if constant || k < 2 => continue,
-                Rec::Mul { a, b, .. } => (a, b, 1, k - 1),
-                Rec::Square { a, .. } => (a, a, 1, (k - 1) / 2),
-                Rec::Sqrt { d, .. } => (d, d, 1, (k - 1) / 2),
-                _ => continue,
-            };
-            if !self.loops_over(a, b, k, lo, hi) {
+    /// Order k's early sums ([`TaylorProgram::early_sums`], groups of up to [`EARLY_GROUP`]) that
+    /// loop, each group in one loop, before the order's recurrences; [`Emit::cauchy`] then
+    /// takes them from `fused`.
+    fn fuse_sums(&mut self, groups: &[(Span, Vec<EarlySum>)], k: usize) {
+        for (span, group) in groups {
+            let (lo, hi) = span.range(k);
+            let pairs: Vec<(usize, usize)> = group
+                .iter()
+                .map(|e| (e.a, e.b))
+                .filter(|&(a, b)| self.loops_over(a, b, k, lo, hi))
+                .collect();
+            if pairs.is_empty() {
                 continue;
             }
-            let pairs = classes.entry((lo, hi)).or_default();
-            if !pairs.contains(&(a, b)) {
-                pairs.push((a, b));
-            }
-        }
-        for ((lo, hi), mut left) in classes {
-            while !left.is_empty() {
-                let mut group = vec![left.remove(0)];
-                while group.len() < FUSE && !left.is_empty() {
-                    let shares =
-                        |&(a, b): &(usize, usize)| group.iter().any(|&(ga, gb)| ga == a || gb == b);
-                    let i = left.iter().position(shares).unwrap_or(0);
-                    group.push(left.remove(i));
-                }
-                let sums = self.looped(&group, k, lo, hi);
-                for (&(a, b), v) in group.iter().zip(sums) {
-                    self.fused.insert((a, b, lo, hi), v);
-                }
+            let sums = self.looped(&pairs, k, lo, hi);
+            for (&(a, b), v) in pairs.iter().zip(sums) {
+                self.fused.insert((a, b, lo, hi), v);
             }
         }
     }
@@ -796,8 +776,11 @@ impl Emit<'_> {
             let x = self.load(leaves.state, i)?;
             self.push(i, 0, x);
         }
+        let early = program.early_sums(EARLY_GROUP);
         for k in 0..p {
-            self.fuse_sums(program, k);
+            if k >= 1 {
+                self.fuse_sums(&early, k);
+            }
             for &(r, constant) in &program.recs {
                 if k == 0 {
                     self.zeroth(r, leaves)?;
@@ -805,7 +788,10 @@ impl Emit<'_> {
                     self.coefficient(r, k);
                 }
             }
-            debug_assert!(self.fused.is_empty(), "every fused sum is read at its order");
+            debug_assert!(
+                self.fused.is_empty(),
+                "every fused sum is read at its order"
+            );
             let inv = self.constant(1.0 / (k as f64 + 1.0));
             for (i, &o) in program.outputs.iter().enumerate() {
                 let x = self.c(o, k);
