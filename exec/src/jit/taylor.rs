@@ -7,7 +7,7 @@
 //! # Code shape: fully unrolled
 //!
 //! The loop over the orders k = 0..p is unrolled, and so are the sums of fewer than
-//! [`LOOP_TERMS`] terms: no index arithmetic and no dispatch. Every coefficient is stored into
+//! `LOOP_TERMS` terms: no index arithmetic and no dispatch. Every coefficient is stored into
 //! one table (rows × (p + 1), row-major, the state rows first, which
 //! [`TaylorKernel::coefficients`] reads) at a constant offset, and read back by a load at its
 //! uses, emitted right before the product that consumes it so that x86 folds it into the
@@ -16,9 +16,9 @@
 //! reused without a load. Rows constant along the solution have their higher coefficients as
 //! the constant 0, as in the interpreter's table.
 //!
-//! A Cauchy sum Σ_{j=lo}^{hi} a^\[j\] b^\[k−j\] of [`LOOP_TERMS`] or more terms is a loop:
-//! its first 1 + (hi − lo) mod [`LOOP_UNROLL`] terms unrolled, then passes of
-//! [`LOOP_UNROLL`] terms along two pointers, one up the table and one down (the same
+//! A Cauchy sum Σ_{j=lo}^{hi} a^\[j\] b^\[k−j\] of `LOOP_TERMS` or more terms is a loop:
+//! its first 1 + (hi − lo) mod `LOOP_UNROLL` terms unrolled, then passes of
+//! `LOOP_UNROLL` terms along two pointers, one up the table and one down (the same
 //! operations in the same order, so still bitwise the interpreter's). Unrolled throughout,
 //! the code grows as p²: Kepler's field is 39 KB at p = 19, the rigid body's 99 KB, beyond
 //! the instruction cache, each instruction run once per step.
@@ -38,7 +38,7 @@
 //! unrolled 0.0102 s and 0.043 s; loops of one term per pass in programs above 65 KB only
 //! (the rule before) 0.0127 s and 0.043 s; loops of four terms per pass in every program
 //! 0.0093 s and 0.038 s (two terms per pass 0.0102 s and 0.038 s, eight 0.0095 s and
-//! 0.042 s; [`LOOP_TERMS`] 4, 6 or 8 within the noise); and fused, up to 1, 2, 4, 6 or 8
+//! 0.042 s; `LOOP_TERMS` 4, 6 or 8 within the noise); and fused, up to 1, 2, 4, 6 or 8
 //! sums per loop: 0.0103, 0.0089, 0.0080, 0.0078 and 0.0080 s for the rigid body, Kepler
 //! 0.038–0.039 s throughout. Every model's run took 0.61–1.02× the time of the rule
 //! before (`docs/performance.md`).
