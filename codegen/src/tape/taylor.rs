@@ -58,7 +58,7 @@
 //! independent chains of additions overlap instead of waiting on one another. Each sum is
 //! still accumulated alone, from its first term upwards, so the coefficients are bitwise
 //! those of the recurrences computed one by one (`rec::cauchy_many` in the emitted kernels,
-//! `Emit::fuse_sums` in the JIT).
+//! `Emit::early_sums` of `lasalle_exec::jit::taylor`).
 
 use super::{Op, Reg, Tape, TapeError};
 use crate::ir::Func2;

@@ -4,7 +4,7 @@
 //! of the interpreter back end); programs too large to compile at once are interpreted first
 //! and compiled after [`DEFER_COMPUTES`] computes ([`DeferredJit`]).
 //!
-//! # Code shape: fully unrolled
+//! # Code shape: orders unrolled, long sums as loops
 //!
 //! The loop over the orders k = 0..p is unrolled, and so are the sums of fewer than
 //! `LOOP_TERMS` terms: no index arithmetic and no dispatch. Every coefficient is stored into
@@ -38,8 +38,8 @@
 //! unrolled 0.0102 s and 0.043 s; loops of one term per pass in programs above 65 KB only
 //! (the rule before) 0.0127 s and 0.043 s; loops of four terms per pass in every program
 //! 0.0093 s and 0.038 s (two terms per pass 0.0102 s and 0.038 s, eight 0.0095 s and
-//! 0.042 s; `LOOP_TERMS` 4, 6 or 8 within the noise); and fused, up to 1, 2, 4, 6 or 8
-//! sums per loop: 0.0103, 0.0089, 0.0080, 0.0078 and 0.0080 s for the rigid body, Kepler
+//! 0.042 s; `LOOP_TERMS` 4, 6 or 8 within the noise); and with early sums, up to 1, 2, 4, 6
+//! or 8 per loop: 0.0103, 0.0089, 0.0080, 0.0078 and 0.0080 s for the rigid body, Kepler
 //! 0.038–0.039 s throughout. Every model's run took 0.61–1.02× the time of the rule
 //! before (`docs/performance.md`).
 //!
@@ -443,7 +443,7 @@ fn define(
             stride: p + 1,
             rows: vec![0; program.rows],
             recent: Default::default(),
-            fused: HashMap::new(),
+            early: HashMap::new(),
             zero,
             ellipj_out: None,
         };
@@ -485,8 +485,8 @@ struct Emit<'a> {
     rows: Vec<usize>,
     /// The last values stored, (row, order, value), read back without a load.
     recent: std::collections::VecDeque<(usize, usize, Value)>,
-    /// Order k's Cauchy sums computed by [`Emit::fuse_sums`], by (a, b, lo, hi).
-    fused: HashMap<(usize, usize, usize, usize), Value>,
+    /// Order k's early sums computed by [`Emit::early_sums`], by (a, b, lo, hi).
+    early: HashMap<(usize, usize, usize, usize), Value>,
     /// The constant 0 (the higher coefficients of rows constant along the solution).
     zero: Value,
     /// The address of a 3-f64 stack slot for `call_ellipj`, once needed.
@@ -593,10 +593,10 @@ impl Emit<'_> {
     }
 
     /// Σ_{j=lo}^{hi} a^\[j\] b^\[k−j\] (`rec::cauchy`; 0 if lo > hi): computed at the start of
-    /// the order by [`Emit::fuse_sums`], or unrolled below [`LOOP_TERMS`] terms, else a loop
+    /// the order by [`Emit::early_sums`], or unrolled below [`LOOP_TERMS`] terms, else a loop
     /// ([`Emit::looped`]).
     fn cauchy(&mut self, a: usize, b: usize, k: usize, lo: usize, hi: usize) -> Value {
-        if let Some(v) = self.fused.remove(&(a, b, lo, hi)) {
+        if let Some(v) = self.early.remove(&(a, b, lo, hi)) {
             return v;
         }
         if !self.loops_over(a, b, k, lo, hi) {
@@ -690,8 +690,8 @@ impl Emit<'_> {
 
     /// Order k's early sums ([`TaylorProgram::early_sums`], groups of up to [`EARLY_GROUP`]) that
     /// loop, each group in one loop, before the order's recurrences; [`Emit::cauchy`] then
-    /// takes them from `fused`.
-    fn fuse_sums(&mut self, groups: &[(Span, Vec<EarlySum>)], k: usize) {
+    /// takes them from `early`.
+    fn early_sums(&mut self, groups: &[(Span, Vec<EarlySum>)], k: usize) {
         for (span, group) in groups {
             let (lo, hi) = span.range(k);
             let pairs: Vec<(usize, usize)> = group
@@ -704,7 +704,7 @@ impl Emit<'_> {
             }
             let sums = self.looped(&pairs, k, lo, hi);
             for (&(a, b), v) in pairs.iter().zip(sums) {
-                self.fused.insert((a, b, lo, hi), v);
+                self.early.insert((a, b, lo, hi), v);
             }
         }
     }
@@ -779,7 +779,7 @@ impl Emit<'_> {
         let early = program.early_sums(EARLY_GROUP);
         for k in 0..p {
             if k >= 1 {
-                self.fuse_sums(&early, k);
+                self.early_sums(&early, k);
             }
             for &(r, constant) in &program.recs {
                 if k == 0 {
@@ -789,8 +789,8 @@ impl Emit<'_> {
                 }
             }
             debug_assert!(
-                self.fused.is_empty(),
-                "every fused sum is read at its order"
+                self.early.is_empty(),
+                "every early sum is read at its order"
             );
             let inv = self.constant(1.0 / (k as f64 + 1.0));
             for (i, &o) in program.outputs.iter().enumerate() {
