@@ -9,7 +9,9 @@ Measures, on the same machine and in one process tree:
   over a range of tolerances (adaptive methods) or step sizes (fixed-step methods);
 * the CPU time per state of the feedback field X - grad V evaluated in batches: heyoka's
   compiled function (``cfunc``) with batch sizes 1, 4 and 8 against lasalle's JIT
-  (``lasalle bench-eval``, one state per call and 4 or 8 lanes);
+  (``lasalle bench-eval``, one state per call and 4 or 8 lanes) and, with ``--native-lanes``,
+  the emitted Rust of compiled models built for the host (``-C target-cpu=native``, as heyoka
+  compiles for it), 4 and 8 lanes per call (the ``lanes/`` group of ``benches/backends.rs``);
 
 and writes the tables (``docs/heyoka-results.md``), the precision-work diagrams
 (``docs/figures/heyoka/precision-work-*.png``) and the raw numbers (``results.json`` in the
@@ -248,6 +250,25 @@ def lasalle_eval_ns(exe, system, seconds):
     return {int(k): v for k, v in json.loads(p.stdout)["ns_per_state"].items()}
 
 
+STEMS = {"kepler": "kepler", "rigid-body": "rigid_body", "perturbed-kepler": "perturbed_kepler"}
+
+
+def native_lanes_ns(bench_exe, system, work):
+    """ns per state of the emitted lanes (4 and 8 per call) of `system`, from the criterion
+    bench `bench_exe` (benches/backends.rs built for the host), median of one short run."""
+    stem = STEMS[system]
+    home = os.path.join(work, "criterion-native")
+    env = dict(os.environ, CRITERION_HOME=home)
+    cmd = [bench_exe, "--bench", f"lanes/{stem}/emitted", "--warm-up-time", "0.5",
+           "--measurement-time", "1", "--noplot"]
+    subprocess.run(cmd, capture_output=True, text=True, check=True, env=env)
+    out = {}
+    for k in (4, 8):
+        with open(os.path.join(home, f"lanes_{stem}", f"emitted_k{k}", "new", "estimates.json")) as f:
+            out[k] = json.load(f)["median"]["point_estimate"] / k
+    return out
+
+
 # ---------------------------------------------------------------------------------------------
 # Reports
 
@@ -345,11 +366,24 @@ def markdown(results, evals, args, fig_paths, doc_path):
     lines.append(f"heyoka: one call of the compiled function over {EVAL_STATES} states, batch b = its SIMD "
                  f"width. lasalle (JIT, `lasalle bench-eval`): k states per call, and one call over all "
                  f"{EVAL_STATES} states (the lane loop runs four lanes per iteration as two 128-bit vectors).\n")
-    lines.append(f"| model | heyoka batch 1 | heyoka batch 4 | heyoka batch 8 | lasalle 1 | lasalle 4 lanes | lasalle 8 lanes | lasalle {EVAL_STATES} per call |")
-    lines.append("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    native = any(e.get("native") for e in evals.values())
+    if native:
+        lines.append("lasalle emitted (host): the emitted Rust lanes of the compiled models, built with "
+                     "`-C target-cpu=native` as heyoka compiles for the host (criterion median, "
+                     "`benches/backends.rs` group `lanes/`).\n")
+    head = f"| model | heyoka batch 1 | heyoka batch 4 | heyoka batch 8 | lasalle 1 | lasalle 4 lanes | lasalle 8 lanes | lasalle {EVAL_STATES} per call |"
+    rule = "| --- | --- | --- | --- | --- | --- | --- | --- |"
+    if native:
+        head += " lasalle emitted (host) 4 lanes | lasalle emitted (host) 8 lanes |"
+        rule += " --- | --- |"
+    lines += [head, rule]
     for system, e in evals.items():
         h, l = e["heyoka"], e["lasalle"]
-        lines.append(f"| {system} | {fmt(h.get(1))} | {fmt(h.get(4))} | {fmt(h.get(8))} | {fmt(l.get(1))} | {fmt(l.get(4))} | {fmt(l.get(8))} | {fmt(l.get(EVAL_STATES))} |")
+        row = f"| {system} | {fmt(h.get(1))} | {fmt(h.get(4))} | {fmt(h.get(8))} | {fmt(l.get(1))} | {fmt(l.get(4))} | {fmt(l.get(8))} | {fmt(l.get(EVAL_STATES))} |"
+        if native:
+            n = e.get("native", {})
+            row += f" {fmt(n.get(4))} | {fmt(n.get(8))} |"
+        lines.append(row)
     lines.append("")
     lines.append("## Precision–work diagrams\n")
     for p in fig_paths:
@@ -377,6 +411,8 @@ def main():
     ap.add_argument("--quick", action="store_true", help="fewer tolerances and step sizes")
     ap.add_argument("--provisional", action="store_true", help="mark the figures and tables provisional")
     ap.add_argument("--replot", action="store_true", help="only redraw the docs from WORK/results.json")
+    ap.add_argument("--native-lanes", metavar="BENCH_EXE",
+                    help="benches/backends.rs built with -C target-cpu=native: time its emitted lanes too")
     args = ap.parse_args()
     os.makedirs(args.work, exist_ok=True)
     if args.replot:
@@ -398,7 +434,7 @@ def main():
             hey[(system, tol)] = (ta, x0, lambda s, inv=inv, v=variables: invariant_values(inv, v, s))
 
     runs = {i: [] for i in range(len(tasks))}
-    evals = {s: {"heyoka": {}, "lasalle": {}} for s in MODELS}
+    evals = {s: {"heyoka": {}, "lasalle": {}, "native": {}} for s in MODELS}
     for rep in range(args.repeat):
         for i, (system, label, kind, param) in enumerate(tasks):
             t_end = t_end_of(system, args.periods)
@@ -420,6 +456,9 @@ def main():
                 evals[system]["heyoka"][b] = min(ns, evals[system]["heyoka"].get(b, math.inf))
             for k, ns in lasalle_eval_ns(args.lasalle, system, 0.2).items():
                 evals[system]["lasalle"][k] = min(ns, evals[system]["lasalle"].get(k, math.inf))
+            if args.native_lanes:
+                for k, ns in native_lanes_ns(args.native_lanes, system, args.work).items():
+                    evals[system]["native"][k] = min(ns, evals[system]["native"].get(k, math.inf))
             print(f"[{rep + 1}/{args.repeat}] eval {system}: {evals[system]}", flush=True)
 
     results = []
