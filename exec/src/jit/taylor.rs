@@ -291,7 +291,10 @@ impl TaylorKernel<crate::LoadedModel> for JitTaylor {
 /// Interpreted computes after which a [`DeferredJit`] compiles its program. Measured on X − ∇V
 /// at p = 19 and 20 (Kepler, the perturbed Kepler problem, the rigid body, SO(3) type III;
 /// loaded machine): an interpreted compute takes 10–20 µs, the compiled one 0.6–0.7× that, and
-/// compiling 90–375 ms, i.e. the time of 8 000–19 000 interpreted computes. Compiling after
+/// compiling 90–375 ms, i.e. the time of 8 000–19 000 interpreted computes (with the
+/// four-term loops and early sums, quiet machine of 2026-11-25, p = 19: 63 ms for the
+/// perturbed Kepler problem, 110 ms Kepler, 156 ms the rigid body, 199 ms SO(3) type III, the
+/// time of 8 500–10 800 interpreted computes, so the rule stands). Compiling after
 /// about as many computes as the compile costs bounds a run's kernel time by twice the better
 /// of interpreting throughout and compiling at once (the ski-rental rule), without knowing the
 /// run's length: a short run (the rigid body's 4 741 steps to t = 1000) never compiles, a long
