@@ -37,7 +37,7 @@
 
 use super::Emitter;
 use crate::ir::{Func2, Input};
-use crate::tape::taylor::{Leaf, PowZero, Rec, Span, TaylorProgram, EARLY_GROUP};
+use crate::tape::taylor::{Leaf, PowZero, Rec, TaylorProgram, EARLY_GROUP};
 use crate::tape::{ModelTapes, Op, Tape};
 use proc_macro2::TokenStream;
 use std::fmt::Write;
@@ -228,14 +228,11 @@ fn taylor_kernels<T: Float>(m: &{ty}<T>) -> lasalle_runtime::TaylorKernels<{ty}<
                 .iter()
                 .map(|e| format!("({}, {})", e.a, e.b))
                 .collect();
-            let range = match span {
-                Span::Product => "k - 1",
-                Span::Half => "(k - 1) / 2",
-            };
             higher.push_str(&indent(format!(
-                "let [{}] =\n    rec::cauchy_many(t, [{}], k, 1, {range});\n",
+                "let [{}] =\n    rec::cauchy_many(t, [{}], k, 1, {});\n",
                 names.join(", "),
-                rows.join(", ")
+                rows.join(", "),
+                span.hi_source()
             )));
             for e in group {
                 early[e.rec] = true;

@@ -546,6 +546,14 @@ impl Span {
             Span::Half => (1, (k - 1) / 2),
         }
     }
+
+    /// hi of [`Span::range`] as Rust source in `k` (lo is 1), for the emitted kernels.
+    pub fn hi_source(self) -> &'static str {
+        match self {
+            Span::Product => "k - 1",
+            Span::Half => "(k - 1) / 2",
+        }
+    }
 }
 
 /// A Cauchy sum of [`TaylorProgram::early_sums`]: the one of recurrence `recs[rec]` (a
