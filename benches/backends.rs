@@ -14,6 +14,9 @@
 //!   is inlined into the benchmark loop, so consecutive evaluations overlap and nothing is
 //!   paid for a call; `emitted_call` calls the same code through an opaque function pointer,
 //!   as `jit` calls its code (and `interpreter` its loop): the like-for-like comparison;
+//!   `jit_raw` calls the JIT's `eval` directly on the arrays of `emitted_call`, without
+//!   `LoadedModel`'s length checks of its `Vec` states: `jit` − `jit_raw` is what the safe
+//!   interface costs per call, `jit_raw` / `emitted_call` the ratio of the code alone;
 //! - `lanes/<model>/{emitted,jit}_k{4,8}`: X − ∇V for K states per call (structure of
 //!   arrays) for the three paper models: `<Model>Lanes::feedback::<K>` emitted from the tape,
 //!   and the JIT's `Kernel::eval_lanes`; the throughput is in states, so Criterion's
@@ -92,6 +95,29 @@ macro_rules! feedback_bench {
                     black_box(&gains),
                     &mut dx,
                 );
+                black_box(dx[0])
+            })
+        });
+        let jit = Backend::Jit
+            .compile(&tapes($stem).feedback)
+            .expect("compiles");
+        let hoisted = jit.hoist(&m.slot_values()).expect("hoists");
+        let raw = jit.raw_eval().expect("the JIT hands out its eval");
+        g.bench_function("jit_raw", |b| {
+            let mut dx = [0.0; <$ty>::N];
+            b.iter(|| {
+                // SAFETY: `hoisted` comes from `jit.hoist`, and `x`, `target`, `gains`, `dx`
+                // have the kernel's lengths (the model's N, M, G and N outputs); `jit` is
+                // alive.
+                unsafe {
+                    raw(
+                        black_box(&hoisted).as_ptr(),
+                        black_box(&x).as_ptr(),
+                        black_box(&target).as_ptr(),
+                        black_box(&gains).as_ptr(),
+                        dx.as_mut_ptr(),
+                    )
+                };
                 black_box(dx[0])
             })
         });

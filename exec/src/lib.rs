@@ -65,7 +65,9 @@ pub trait Kernel: Send + Sync {
     fn n_outputs(&self) -> usize;
 
     /// Runs the prelude: the hoisted values for a parameter set (`params.len() ==
-    /// dims().params`), to pass to [`Kernel::eval`] and [`Kernel::eval_lanes`].
+    /// dims().params`), to pass to this kernel's [`Kernel::eval`] and [`Kernel::eval_lanes`].
+    /// A back end may append values of its own after the tape's hoisted values (the JIT's
+    /// vector slots), so the result is for this kernel only.
     fn hoist(&self, params: &[f64]) -> Result<Vec<f64>, ExecError>;
 
     /// `out = f(state; target, gains, hoisted)` for one state.
@@ -194,6 +196,13 @@ impl Common {
                 dims: tape.dims,
             },
         }
+    }
+
+    /// The same, for a kernel whose [`Kernel::hoist`] appends `n` values to the tape's.
+    #[cfg(feature = "jit")]
+    pub(crate) fn with_extra_hoisted(mut self, n: usize) -> Common {
+        self.n_hoisted += n;
+        self
     }
 
     pub(crate) fn dims(&self) -> Dims {

@@ -24,7 +24,7 @@
 use std::time::{Duration, Instant};
 
 use lasalle_codegen::ir::Input;
-use lasalle_codegen::tape::{Dims, ModelTapes, Tape, TapeBuilder};
+use lasalle_codegen::tape::{Dims, ModelTapes, Tape, TapeBuilder, TapeError};
 use lasalle_codegen::Conservation;
 use lasalle_codegen::Model;
 use lasalle_codegen::{derive, Derived};
@@ -61,23 +61,19 @@ struct Compiled {
     kernel: Box<dyn Kernel>,
     /// `kernel.raw_eval()`: valid while `kernel` is alive, which is as long as `self`.
     raw: Option<crate::RawEval>,
-    hoisted: Vec<f64>,
-    /// Lengths of hoisted, state, target, gains and out that the kernel expects.
-    lens: [usize; 5],
+    /// The kernel's parameter-only values. Its length is the one the kernel expects, fixed
+    /// when the model is loaded: only [`Compiled::rehoist`] replaces it, with one as long.
+    hoisted: Box<[f64]>,
+    /// Lengths of state, target, gains and out that the kernel expects.
+    lens: [usize; 4],
 }
 
 impl Compiled {
     fn new(backend: Backend, tape: &Tape, params: &[f64]) -> Result<Compiled, ExecError> {
         let kernel = backend.compile(tape)?;
-        let hoisted = kernel.hoist(params)?;
+        let hoisted = kernel.hoist(params)?.into_boxed_slice();
         let d = kernel.dims();
-        let lens = [
-            hoisted.len(),
-            d.state,
-            d.targets,
-            d.gains,
-            kernel.n_outputs(),
-        ];
+        let lens = [d.state, d.targets, d.gains, kernel.n_outputs()];
         let raw = kernel.raw_eval();
         Ok(Compiled {
             kernel,
@@ -87,24 +83,34 @@ impl Compiled {
         })
     }
 
+    /// Recomputes the parameter-only values (keeping their length).
+    fn rehoist(&mut self, params: &[f64]) -> Result<(), ExecError> {
+        let h = self.kernel.hoist(params)?;
+        if h.len() != self.hoisted.len() {
+            return Err(TapeError::WrongLength {
+                kind: "hoisted",
+                expected: self.hoisted.len(),
+                given: h.len(),
+            }
+            .into());
+        }
+        self.hoisted.copy_from_slice(&h);
+        Ok(())
+    }
+
     /// Evaluates; on an argument of the wrong length (impossible through `LoadedModel`, whose
     /// lengths are fixed when the model is loaded) the outputs are NaN, which the driver
     /// reports as a blow-up.
     #[inline]
     fn eval(&self, state: &[f64], target: &[f64], gains: &[f64], out: &mut [f64]) {
-        let h = &self.hoisted[..];
-        let [nh, ns, nt, ng, no] = self.lens;
-        if h.len() != nh
-            || state.len() != ns
-            || target.len() != nt
-            || gains.len() != ng
-            || out.len() != no
-        {
+        let [ns, nt, ng, no] = self.lens;
+        if state.len() != ns || target.len() != nt || gains.len() != ng || out.len() != no {
             return nan(out);
         }
-        // SAFETY: every length was just compared with what the kernel expects (`hoisted`
-        // comes from `kernel.hoist`, whose length is the first `hoist`'s); `raw` belongs to
-        // `kernel`, alive as long as `self`.
+        let h = &self.hoisted[..];
+        // SAFETY: every length was just compared with what the kernel expects, and `hoisted`
+        // has the kernel's length by the field's invariant; `raw` belongs to `kernel`, alive
+        // as long as `self`.
         unsafe {
             match self.raw {
                 Some(f) => f(
@@ -444,10 +450,7 @@ impl LoadedModel {
     /// Recomputes every kernel's parameter-only values after a parameter change.
     fn rehoist(&mut self) -> Result<(), ExecError> {
         let params = &self.params;
-        for c in self.kernels.all_mut() {
-            c.hoisted = c.kernel.hoist(params)?;
-        }
-        Ok(())
+        self.kernels.all_mut().try_for_each(|c| c.rehoist(params))
     }
 }
 

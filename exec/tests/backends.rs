@@ -354,6 +354,40 @@ fn jit_pairs_the_components() {
     }
 }
 
+/// Operand vectors of two parameter-only values (the coupled oscillators' ω/2 and a, b, c
+/// coefficients) are loaded from the vector slots that the JIT's `hoist` appends to the
+/// tape's hoisted values: they follow a change of the parameters, and a hoisted array made
+/// by another kernel (without them) is refused.
+#[cfg(feature = "jit")]
+#[test]
+fn jit_vector_slots_follow_the_parameters() {
+    let case = model_cases()
+        .into_iter()
+        .find(|c| c.name == "coupled_oscillators.lsl")
+        .unwrap();
+    let tape = &case.tapes.feedback;
+    let jit = Backend::Jit.compile(tape).unwrap();
+    let params: Vec<f64> = case
+        .model
+        .default_params()
+        .iter()
+        .enumerate()
+        .map(|(i, p)| p * (1.5 + 0.25 * i as f64))
+        .collect();
+    let (hoisted, tape_hoisted) = (jit.hoist(&params).unwrap(), tape.hoist(&params).unwrap());
+    assert!(hoisted.len() > tape_hoisted.len(), "no vector slot");
+    assert_eq!(hoisted[..tape_hoisted.len()], tape_hoisted[..]);
+    let d = jit.dims();
+    let mut rng = Rng::new(7);
+    let x: Vec<f64> = (0..d.state).map(|_| component(&mut rng)).collect();
+    let (t, g) = (vec![0.25; d.targets], vec![1.5; d.gains]);
+    let mut out = vec![0.0; jit.n_outputs()];
+    jit.eval(&hoisted, &x, &t, &g, &mut out).unwrap();
+    let reference = tape.eval(&params, &x, &t, &g).unwrap();
+    assert!(out.iter().zip(&reference).all(|(&a, &b)| same(a, b)));
+    assert!(jit.eval(&tape_hoisted, &x, &t, &g, &mut out).is_err());
+}
+
 #[test]
 fn bad_arguments_are_errors_not_panics() {
     for &backend in Backend::available() {

@@ -17,7 +17,10 @@
 //!   at a time, `+ − · /`, negation, `sqrt` and `powi` lane-wise — the same IEEE operation
 //!   in each lane, so the results are bitwise those of scalar code (the pairing pass, what it
 //!   pairs and its cost model: `exec/src/jit/slp.rs`;
-//!   [`JitKernel::paired_instructions`] counts the paired instructions);
+//!   [`JitKernel::paired_instructions`] counts the paired instructions). An operand vector of
+//!   two values that are the same for every call (two hoisted values, or one and a constant,
+//!   in any lanes) is one 128-bit load of a *vector slot*: `hoist` appends the pair to the
+//!   tape's hoisted values, so `hoisted` is longer for this back end than for the others;
 //! - `lanes(k, hoisted, state, target, gains, out)`, a loop over the k lanes of
 //!   structure-of-arrays inputs, four lanes at a time as two 128-bit vectors (the same IEEE
 //!   operations lane by lane; calls are made per lane), then two, then the odd last lane in
@@ -155,6 +158,17 @@ pub struct JitKernel {
     lanes: LanesFn,
     /// Instructions of the body `eval` computes two at a time (see [`slp`]).
     paired: usize,
+    /// The values [`Kernel::hoist`] appends to the tape's hoisted ones: the vector slots of
+    /// `eval`.
+    slots: Vec<Invariant>,
+}
+
+/// The functions [`JitKernel::define`] compiled.
+struct Defined {
+    eval: cranelift_module::FuncId,
+    lanes: cranelift_module::FuncId,
+    paired: usize,
+    slots: Vec<Invariant>,
 }
 
 // SAFETY: the module is only touched again in `drop` (which has `&mut self`); the compiled
@@ -187,16 +201,16 @@ impl JitKernel {
         tape.validate()?;
         let mut module = jit_module("speed")?;
         let compiled = Self::define(&mut module, tape);
-        let (eval_id, lanes_id, paired) = match compiled {
-            Ok(ids) => ids,
+        let defined = match compiled {
+            Ok(defined) => defined,
             Err(e) => {
                 // SAFETY: nothing compiled in this module has been handed out.
                 unsafe { module.free_memory() };
                 return Err(e);
             }
         };
-        let eval = module.get_finalized_function(eval_id);
-        let lanes = module.get_finalized_function(lanes_id);
+        let eval = module.get_finalized_function(defined.eval);
+        let lanes = module.get_finalized_function(defined.lanes);
         // SAFETY: the two functions were just defined with exactly these signatures (pointer
         // arguments and a usize, in the ISA's default calling convention, which is the C
         // convention of the host), and the module that owns their code lives in `self`.
@@ -207,11 +221,12 @@ impl JitKernel {
             )
         };
         Ok(JitKernel {
-            common: Common::new(tape),
+            common: Common::new(tape).with_extra_hoisted(defined.slots.len()),
             _code: Code::new(module),
             eval,
             lanes,
-            paired,
+            paired: defined.paired,
+            slots: defined.slots,
         })
     }
 
@@ -221,15 +236,13 @@ impl JitKernel {
         self.paired
     }
 
-    fn define(
-        module: &mut JITModule,
-        tape: &Tape,
-    ) -> Result<(cranelift_module::FuncId, cranelift_module::FuncId, usize), ExecError> {
+    fn define(module: &mut JITModule, tape: &Tape) -> Result<Defined, ExecError> {
         let ptr = module.target_config().pointer_type();
         let mut ctx = module.make_context();
         let mut fctx = FunctionBuilderContext::new();
         let mut ids = Vec::new();
         let mut paired = 0;
+        let mut slots = Vec::new();
         for lanes in [false, true] {
             let mut sig = module.make_signature();
             if lanes {
@@ -266,6 +279,10 @@ impl JitKernel {
                     ops: Vec::new(),
                     math: Math::new(module),
                     jacobi_cache: None,
+                    slots: Slots {
+                        base: tape.hoisted.len(),
+                        ..Slots::default()
+                    },
                 };
                 let jacobi =
                     |op: &Op| matches!(op, Op::Func2(Func2::Sn | Func2::Cn | Func2::Dn, ..));
@@ -282,7 +299,10 @@ impl JitKernel {
                     e.jacobi_cache = Some(e.b.ins().stack_addr(ptr, slot, 0));
                 }
                 match k {
-                    None => paired = e.scalar(tape, &args)?,
+                    None => {
+                        paired = e.scalar(tape, &args)?;
+                        slots = std::mem::take(&mut e.slots.values);
+                    }
                     Some(k) => e.lanes(tape, &args, k)?,
                 }
                 e.b.seal_all_blocks();
@@ -293,7 +313,12 @@ impl JitKernel {
             ids.push(id);
         }
         module.finalize_definitions().map_err(jit_err)?;
-        Ok((ids[0], ids[1], paired))
+        Ok(Defined {
+            eval: ids[0],
+            lanes: ids[1],
+            paired,
+            slots,
+        })
     }
 }
 
@@ -355,6 +380,28 @@ struct Emit<'a> {
     /// The address of the `[u, m, sn, cn, dn]` cache of `call_jacobi` (a stack slot filled
     /// with NaN on entry), if the tape has sn, cn or dn.
     jacobi_cache: Option<Value>,
+    /// The vector slots `eval` loads, after the tape's hoisted values.
+    slots: Slots,
+}
+
+/// A value that is the same for every call: a hoisted value or a constant.
+#[derive(Clone, Copy, Debug)]
+enum Invariant {
+    Hoisted(usize),
+    Const(f64),
+}
+
+/// The operand vectors of `eval` whose two values are the same for every call
+/// ([`slp::invariant_pair`]): [`Kernel::hoist`] appends them to the tape's hoisted values,
+/// two by two, so that each is one 128-bit load instead of two loads and a shuffle.
+#[derive(Debug, Default)]
+struct Slots {
+    /// The number of the tape's hoisted values: the index of the first slot's lane 0.
+    base: usize,
+    /// The values of the slots, two per slot.
+    values: Vec<Invariant>,
+    /// The index in the hoisted values of each slot's lane 0, by its two registers.
+    index: std::collections::HashMap<(crate::Reg, crate::Reg), usize>,
 }
 
 /// Two lanes per vector: SSE2 on x86-64, NEON on aarch64.
@@ -603,12 +650,50 @@ impl Emit<'_> {
         self.vectors[pairing.packs[p][0]].expect("scheduled: packs come first")
     }
 
-    /// The vector `(x, y)` in `eval`: a pack, a splat, two constants, or put together from
-    /// the packs and scalars holding x and y with one instruction (two for two scalars).
-    fn operand_vector(&mut self, pairing: &slp::Pairing, x: crate::Reg, y: crate::Reg) -> Value {
+    /// The vector `(x, y)` in `eval`: a pack, a vector slot of two values the same for every
+    /// call, or else [`Emit::gather`]ed.
+    fn operand_vector(
+        &mut self,
+        pairing: &slp::Pairing,
+        args: &Args,
+        x: crate::Reg,
+        y: crate::Reg,
+    ) -> Result<Value, ExecError> {
         if let Some(p) = pairing.pack_of(x, y) {
-            return self.pack_vector(pairing, p);
+            return Ok(self.pack_vector(pairing, p));
         }
+        let (ox, oy) = (self.ops[x.index()], self.ops[y.index()]);
+        if slp::invariant_pair(ox, oy) {
+            let i = self.slot(x, y);
+            let flags = load_flags(vector_flags());
+            return Ok(self.b.ins().load(F64X2, flags, args.hoisted, offset(i)?));
+        }
+        Ok(self.gather(pairing, x, y))
+    }
+
+    /// The index in the hoisted values of the vector slot `(x, y)` of two invariant
+    /// registers, added if new.
+    fn slot(&mut self, x: crate::Reg, y: crate::Reg) -> usize {
+        let invariant = |op| match op {
+            Op::Hoisted(i) => Invariant::Hoisted(i as usize),
+            Op::Const(c) => Invariant::Const(c),
+            _ => unreachable!("slots hold hoisted values and constants"),
+        };
+        let (ix, iy) = (
+            invariant(self.ops[x.index()]),
+            invariant(self.ops[y.index()]),
+        );
+        let s = &mut self.slots;
+        *s.index.entry((x, y)).or_insert_with(|| {
+            s.values.extend([ix, iy]);
+            s.base + s.values.len() - 2
+        })
+    }
+
+    /// The vector `(x, y)` of values that form no pack: a splat, two constants, or put
+    /// together from the packs and scalars holding x and y with one instruction (two for two
+    /// scalars).
+    fn gather(&mut self, pairing: &slp::Pairing, x: crate::Reg, y: crate::Reg) -> Value {
         if x == y {
             let s = self.scalar_value(pairing, x);
             return self.b.ins().splat(F64X2, s);
@@ -680,11 +765,11 @@ impl Emit<'_> {
         let (mut xs, mut ys) = (oa.operands(), ob.operands());
         let (xa, xb) = (xs.next(), ys.next());
         let x = match (xa, xb) {
-            (Some(xa), Some(xb)) => self.operand_vector(pairing, xa, xb),
+            (Some(xa), Some(xb)) => self.operand_vector(pairing, args, xa, xb)?,
             _ => unreachable!("a pack of operations with operands"),
         };
         let y = match (xs.next(), ys.next()) {
-            (Some(ya), Some(yb)) => Some(self.operand_vector(pairing, ya, yb)),
+            (Some(ya), Some(yb)) => Some(self.operand_vector(pairing, args, ya, yb)?),
             _ => None,
         };
         self.vector = true;
@@ -868,7 +953,15 @@ impl Kernel for JitKernel {
     }
 
     fn hoist(&self, params: &[f64]) -> Result<Vec<f64>, ExecError> {
-        self.common.hoist(params)
+        let mut hoisted = self.common.hoist(params)?;
+        hoisted.reserve(self.slots.len());
+        for &v in &self.slots {
+            hoisted.push(match v {
+                Invariant::Hoisted(i) => hoisted[i],
+                Invariant::Const(c) => c,
+            });
+        }
+        Ok(hoisted)
     }
 
     fn eval(

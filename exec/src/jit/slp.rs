@@ -12,7 +12,8 @@
 //! the remaining scalar instructions have a topological order, [`Pairing::order`]).
 //! The operands of a pack are vectors built per operand position: the pack of the two
 //! operands when they form one in the same lane order (free), a splat of a shared operand,
-//! a vector constant of two constants, or otherwise one instruction putting together the
+//! a vector constant of two constants, one load of a vector slot for two values that are the
+//! same for every call ([`invariant_pair`]), or otherwise one instruction putting together the
 //! packs and scalars that hold them (`insertlane` into a pack, or a shuffle of two packs;
 //! two instructions for two scalars: a splat and an `insertlane`); a scalar user of a packed
 //! value extracts its lane (lane 0 is free, lane 1 one shuffle). `x + y` and `x · y` are
@@ -207,6 +208,17 @@ fn adjacent(a: Op, b: Op) -> bool {
     }
 }
 
+/// Two values that are the same for every call, at least one of them hoisted: the kernel
+/// stores them side by side after the hoisted values (a *vector slot*, see
+/// `Slots` in the parent module) so that the operand vector `(a, b)` is one 128-bit load, whatever the
+/// lanes and wherever `a` and `b` are in the tape. (Two constants are one vector constant.)
+pub(crate) fn invariant_pair(a: Op, b: Op) -> bool {
+    matches!(
+        (a, b),
+        (Op::Hoisted(_), Op::Hoisted(_) | Op::Const(_)) | (Op::Const(_), Op::Hoisted(_))
+    )
+}
+
 /// The two operands (the second `None` for unary operations).
 fn operands(op: Op) -> (Reg, Option<Reg>) {
     let mut it = op.operands();
@@ -259,7 +271,7 @@ impl Slp {
             (Some((p, 0)), Some((q, 1))) if p == q => return 3,
             _ => {}
         }
-        if a == b || adjacent(oa, ob) {
+        if a == b || adjacent(oa, ob) || invariant_pair(oa, ob) {
             3
         } else if matches!((oa, ob), (Op::Const(_), Op::Const(_))) {
             2
@@ -279,6 +291,9 @@ impl Slp {
             }
         }
         let (oa, ob) = (self.ops[a], self.ops[b]);
+        if invariant_pair(oa, ob) {
+            return 0; // one load of a vector slot of the hoisted values
+        }
         if a == b {
             return 1; // a splat
         }
