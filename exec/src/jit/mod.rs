@@ -694,14 +694,14 @@ impl Emit<'_> {
     /// together from the packs and scalars holding x and y with one instruction (two for two
     /// scalars).
     fn gather(&mut self, pairing: &slp::Pairing, x: crate::Reg, y: crate::Reg) -> Value {
-        if x == y {
-            let s = self.scalar_value(pairing, x);
-            return self.b.ins().splat(F64X2, s);
-        }
         if let (Op::Const(c), Op::Const(d)) = (self.ops[x.index()], self.ops[y.index()]) {
             let bytes: Vec<u8> = [c, d].iter().flat_map(|v| v.to_le_bytes()).collect();
             let data = self.b.func.dfg.constants.insert(bytes.into());
             return self.b.ins().vconst(F64X2, data);
+        }
+        if x == y {
+            let s = self.scalar_value(pairing, x);
+            return self.b.ins().splat(F64X2, s);
         }
         let place = |e: &Self, r: crate::Reg| {
             pairing.lane[r.index()].map(|(p, lane)| (e.pack_vector(pairing, p), lane))

@@ -12,8 +12,9 @@
 //! the remaining scalar instructions have a topological order, [`Pairing::order`]).
 //! The operands of a pack are vectors built per operand position: the pack of the two
 //! operands when they form one in the same lane order (free), a splat of a shared operand,
-//! a vector constant of two constants, one load of a vector slot for two values that are the
-//! same for every call ([`invariant_pair`]), or otherwise one instruction putting together the
+//! a vector constant of two constants (equal or not), one load of a vector slot for two values
+//! that are the same for every call ([`invariant_pair`]), or otherwise one instruction putting
+//! together the
 //! packs and scalars that hold them (`insertlane` into a pack, or a shuffle of two packs;
 //! two instructions for two scalars: a splat and an `insertlane`); a scalar user of a packed
 //! value extracts its lane (lane 0 is free, lane 1 one shuffle). `x + y` and `x · y` are
@@ -291,8 +292,8 @@ impl Slp {
             }
         }
         let (oa, ob) = (self.ops[a], self.ops[b]);
-        if invariant_pair(oa, ob) {
-            return 0; // one load of a vector slot of the hoisted values
+        if invariant_pair(oa, ob) || matches!((oa, ob), (Op::Const(_), Op::Const(_))) {
+            return 0; // one load: of a vector slot of the hoisted values, or a vector constant
         }
         if a == b {
             return 1; // a splat
@@ -303,9 +304,6 @@ impl Slp {
         } else {
             2
         };
-        if matches!((oa, ob), (Op::Const(_), Op::Const(_))) {
-            return 0;
-        }
         if self.lane[a].is_some() || self.lane[b].is_some() || depth >= MAX_DEPTH {
             return gather;
         }
