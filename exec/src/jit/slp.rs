@@ -14,11 +14,10 @@
 //! operands when they form one in the same lane order (free), a splat of a shared operand,
 //! a vector constant of two constants (equal or not), one load of a vector slot for two values
 //! that are the same for every call ([`invariant_pair`]), or otherwise one instruction putting
-//! together the
-//! packs and scalars that hold them (`insertlane` into a pack, or a shuffle of two packs;
-//! two instructions for two scalars: a splat and an `insertlane`); a scalar user of a packed
-//! value extracts its lane (lane 0 is free, lane 1 one shuffle). `x + y` and `x · y` are
-//! commutative IEEE operations, so the operands of lane 1 may be swapped to match those of
+//! together the packs and scalars that hold them (`insertlane` into a pack, or a shuffle of
+//! two packs; two instructions for two scalars: a splat and an `insertlane`); a scalar user of
+//! a packed value extracts its lane (lane 0 is free, lane 1 one shuffle). `x + y` and `x · y`
+//! are commutative IEEE operations, so the operands of lane 1 may be swapped to match those of
 //! lane 0.
 //!
 //! **How.** As LLVM: seeds are the adjacent outputs (`out[2m]`, `out[2m + 1]`, each pair
