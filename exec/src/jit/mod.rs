@@ -20,7 +20,13 @@
 //!   [`JitKernel::paired_instructions`] counts the paired instructions). An operand vector of
 //!   two values that are the same for every call (two hoisted values, or one and a constant,
 //!   in any lanes) is one 128-bit load of a *vector slot*: `hoist` appends the pair to the
-//!   tape's hoisted values, so `hoisted` is longer for this back end than for the others;
+//!   tape's hoisted values, so `hoisted` is longer for this back end than for the others.
+//!   The packs and scalar instructions are emitted in an order that keeps few values live
+//!   (`Slp::schedule` in `slp.rs`), each input element and constant at its first use, and
+//!   `eval` is compiled in a module of its own at `opt_level = none`, which keeps that order:
+//!   Cranelift's e-graph (at `speed`) would elaborate the body depth first from the stores,
+//!   and has nothing to add to a tape that is already simplified and shared (the effect:
+//!   `docs/performance.md`, back ends);
 //! - `lanes(k, hoisted, state, target, gains, out)`, a loop over the k lanes of
 //!   structure-of-arrays inputs, four lanes at a time as two 128-bit vectors (the same IEEE
 //!   operations lane by lane; calls are made per lane), then two, then the odd last lane in
@@ -31,8 +37,9 @@
 //!   hoisted values, constants and what depends on them alone) are computed once before the
 //!   loop.
 //!
-//! For speed: the loads of the inputs are marked pure (see `load_flags`), so Cranelift places
-//! them at their uses instead of loading everything up front and spilling; `x + (−y)` is
+//! For speed: in `lanes`, the loads of the inputs are marked pure (see `load_flags`), so
+//! Cranelift places them at their uses instead of loading everything up front and spilling
+//! (in `eval` the schedule places them); `x + (−y)` is
 //! emitted as `x − y` and `x − (−y)` as `x + y` (the same IEEE operations); and
 //! [`Kernel::raw_eval`] hands out the `eval` function itself, which
 //! [`LoadedModel`](crate::LoadedModel) calls directly after comparing the lengths.
@@ -151,9 +158,8 @@ impl Drop for Code {
 /// A tape compiled to native code.
 pub struct JitKernel {
     common: Common,
-    /// Owns the code; freed on drop.
-    /// Owns the code `eval` and `lanes` point into.
-    _code: Code,
+    /// Owns the code `eval` and `lanes` point into (a module each); freed on drop.
+    _code: [Code; 2],
     eval: EvalFn,
     lanes: LanesFn,
     /// Instructions of the body `eval` computes two at a time (see [`slp`]).
@@ -163,11 +169,12 @@ pub struct JitKernel {
     slots: Vec<Invariant>,
 }
 
-/// The functions [`JitKernel::define`] compiled.
-struct Defined {
-    eval: cranelift_module::FuncId,
-    lanes: cranelift_module::FuncId,
+/// What compiling `eval` found out (nothing for `lanes`).
+#[derive(Default)]
+struct Compiled {
+    /// Instructions computed two at a time.
     paired: usize,
+    /// The vector slots, two values each.
     slots: Vec<Invariant>,
 }
 
@@ -187,6 +194,7 @@ impl std::fmt::Debug for JitKernel {
 }
 
 /// Where the pointer arguments are in the entry block's parameters.
+#[derive(Clone, Copy)]
 struct Args {
     hoisted: Value,
     state: Value,
@@ -199,21 +207,11 @@ impl JitKernel {
     /// Compiles a tape (checked with [`Tape::validate`]).
     pub fn new(tape: &Tape) -> Result<JitKernel, ExecError> {
         tape.validate()?;
-        let mut module = jit_module("speed")?;
-        let compiled = Self::define(&mut module, tape);
-        let defined = match compiled {
-            Ok(defined) => defined,
-            Err(e) => {
-                // SAFETY: nothing compiled in this module has been handed out.
-                unsafe { module.free_memory() };
-                return Err(e);
-            }
-        };
-        let eval = module.get_finalized_function(defined.eval);
-        let lanes = module.get_finalized_function(defined.lanes);
+        let (eval_code, eval, compiled) = Self::compile(tape, false)?;
+        let (lanes_code, lanes, _) = Self::compile(tape, true)?;
         // SAFETY: the two functions were just defined with exactly these signatures (pointer
         // arguments and a usize, in the ISA's default calling convention, which is the C
-        // convention of the host), and the module that owns their code lives in `self`.
+        // convention of the host), and the modules that own their code live in `self`.
         let (eval, lanes) = unsafe {
             (
                 std::mem::transmute::<*const u8, EvalFn>(eval),
@@ -221,12 +219,12 @@ impl JitKernel {
             )
         };
         Ok(JitKernel {
-            common: Common::new(tape).with_extra_hoisted(defined.slots.len()),
-            _code: Code::new(module),
+            common: Common::new(tape).with_extra_hoisted(compiled.slots.len()),
+            _code: [eval_code, lanes_code],
             eval,
             lanes,
-            paired: defined.paired,
-            slots: defined.slots,
+            paired: compiled.paired,
+            slots: compiled.slots,
         })
     }
 
@@ -236,89 +234,101 @@ impl JitKernel {
         self.paired
     }
 
-    fn define(module: &mut JITModule, tape: &Tape) -> Result<Defined, ExecError> {
+    /// Compiles `eval` or `lanes` in a module of its own: `eval` at `opt_level = none`, so
+    /// Cranelift keeps the order of the pairing's schedule (its e-graph would elaborate the
+    /// body depth first from the stores, and the body is already simplified and shared by the
+    /// tape); `lanes` at `speed`.
+    fn compile(tape: &Tape, lanes: bool) -> Result<(Code, *const u8, Compiled), ExecError> {
+        let mut module = jit_module(if lanes { "speed" } else { "none" })?;
+        match Self::define(&mut module, tape, lanes) {
+            Ok((id, compiled)) => {
+                let f = module.get_finalized_function(id);
+                Ok((Code::new(module), f, compiled))
+            }
+            Err(e) => {
+                // SAFETY: nothing compiled in this module has been handed out.
+                unsafe { module.free_memory() };
+                Err(e)
+            }
+        }
+    }
+
+    fn define(
+        module: &mut JITModule,
+        tape: &Tape,
+        lanes: bool,
+    ) -> Result<(cranelift_module::FuncId, Compiled), ExecError> {
         let ptr = module.target_config().pointer_type();
         let mut ctx = module.make_context();
         let mut fctx = FunctionBuilderContext::new();
-        let mut ids = Vec::new();
-        let mut paired = 0;
-        let mut slots = Vec::new();
-        for lanes in [false, true] {
-            let mut sig = module.make_signature();
-            if lanes {
-                sig.params.push(AbiParam::new(ptr));
-            }
-            sig.params.extend([AbiParam::new(ptr); 5]);
-            let id = module.declare_anonymous_function(&sig).map_err(jit_err)?;
-            ctx.func.signature = sig;
-            {
-                let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
-                let entry = b.create_block();
-                b.append_block_params_for_function_params(entry);
-                b.switch_to_block(entry);
-                let p = b.block_params(entry).to_vec();
-                let (k, p) = if lanes {
-                    (Some(p[0]), &p[1..])
-                } else {
-                    (None, &p[..])
-                };
-                let args = Args {
-                    hoisted: p[0],
-                    state: p[1],
-                    target: p[2],
-                    gains: p[3],
-                    out: p[4],
-                };
-                let mut e = Emit {
-                    b,
-                    ptr,
-                    values: vec![None; tape.body.len()],
-                    vectors: vec![None; tape.body.len()],
-                    other: Vec::new(),
-                    vector: false,
-                    ops: Vec::new(),
-                    math: Math::new(module),
-                    jacobi_cache: None,
-                    slots: Slots {
-                        base: tape.hoisted.len(),
-                        ..Slots::default()
-                    },
-                };
-                let jacobi =
-                    |op: &Op| matches!(op, Op::Func2(Func2::Sn | Func2::Cn | Func2::Dn, ..));
-                if tape.body.iter().any(jacobi) {
-                    let slot = e.b.create_sized_stack_slot(StackSlotData::new(
-                        StackSlotKind::ExplicitSlot,
-                        40,
-                        3,
-                    ));
-                    let nan = e.b.ins().f64const(Ieee64::with_bits(f64::NAN.to_bits()));
-                    for i in 0..5 {
-                        e.b.ins().stack_store(ptr, nan, slot, 8 * i);
-                    }
-                    e.jacobi_cache = Some(e.b.ins().stack_addr(ptr, slot, 0));
-                }
-                match k {
-                    None => {
-                        paired = e.scalar(tape, &args)?;
-                        slots = std::mem::take(&mut e.slots.values);
-                    }
-                    Some(k) => e.lanes(tape, &args, k)?,
-                }
-                e.b.seal_all_blocks();
-                e.b.finalize(module.target_config());
-            }
-            module.define_function(id, &mut ctx).map_err(jit_err)?;
-            module.clear_context(&mut ctx);
-            ids.push(id);
+        let mut sig = module.make_signature();
+        if lanes {
+            sig.params.push(AbiParam::new(ptr));
         }
+        sig.params.extend([AbiParam::new(ptr); 5]);
+        let id = module.declare_anonymous_function(&sig).map_err(jit_err)?;
+        ctx.func.signature = sig;
+        let mut compiled = Compiled::default();
+        {
+            let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
+            let entry = b.create_block();
+            b.append_block_params_for_function_params(entry);
+            b.switch_to_block(entry);
+            let p = b.block_params(entry).to_vec();
+            let (k, p) = if lanes {
+                (Some(p[0]), &p[1..])
+            } else {
+                (None, &p[..])
+            };
+            let args = Args {
+                hoisted: p[0],
+                state: p[1],
+                target: p[2],
+                gains: p[3],
+                out: p[4],
+            };
+            let mut e = Emit {
+                b,
+                ptr,
+                values: vec![None; tape.body.len()],
+                vectors: vec![None; tape.body.len()],
+                other: Vec::new(),
+                vector: false,
+                ops: Vec::new(),
+                math: Math::new(module),
+                jacobi_cache: None,
+                slots: Slots {
+                    base: tape.hoisted.len(),
+                    ..Slots::default()
+                },
+                lazy_leaves: None,
+            };
+            let jacobi = |op: &Op| matches!(op, Op::Func2(Func2::Sn | Func2::Cn | Func2::Dn, ..));
+            if tape.body.iter().any(jacobi) {
+                let slot = e.b.create_sized_stack_slot(StackSlotData::new(
+                    StackSlotKind::ExplicitSlot,
+                    40,
+                    3,
+                ));
+                let nan = e.b.ins().f64const(Ieee64::with_bits(f64::NAN.to_bits()));
+                for i in 0..5 {
+                    e.b.ins().stack_store(ptr, nan, slot, 8 * i);
+                }
+                e.jacobi_cache = Some(e.b.ins().stack_addr(ptr, slot, 0));
+            }
+            match k {
+                None => {
+                    compiled.paired = e.scalar(tape, &args)?;
+                    compiled.slots = std::mem::take(&mut e.slots.values);
+                }
+                Some(k) => e.lanes(tape, &args, k)?,
+            }
+            e.b.seal_all_blocks();
+            e.b.finalize(module.target_config());
+        }
+        module.define_function(id, &mut ctx).map_err(jit_err)?;
         module.finalize_definitions().map_err(jit_err)?;
-        Ok(Defined {
-            eval: ids[0],
-            lanes: ids[1],
-            paired,
-            slots,
-        })
+        Ok((id, compiled))
     }
 }
 
@@ -382,6 +392,9 @@ struct Emit<'a> {
     jacobi_cache: Option<Value>,
     /// The vector slots `eval` loads, after the tape's hoisted values.
     slots: Slots,
+    /// In `eval`: the arguments, to load each unpaired input element (and materialise each
+    /// unpaired constant) at its first use, not where the schedule has it.
+    lazy_leaves: Option<Args>,
 }
 
 /// A value that is the same for every call: a hoisted value or a constant.
@@ -412,6 +425,17 @@ fn offset(i: usize) -> Result<i32, ExecError> {
     i.checked_mul(8)
         .and_then(|o| i32::try_from(o).ok())
         .ok_or_else(|| ExecError::Jit(format!("index {i} too large for an immediate offset")))
+}
+
+/// The argument and the index an input element is loaded from.
+fn input(args: &Args, op: Op) -> Option<(Value, u32)> {
+    match op {
+        Op::State(i) => Some((args.state, i)),
+        Op::Target(i) => Some((args.target, i)),
+        Op::Gain(i) => Some((args.gains, i)),
+        Op::Hoisted(i) => Some((args.hoisted, i)),
+        _ => None,
+    }
 }
 
 /// Stores of f64 (8-byte aligned, in bounds).
@@ -633,10 +657,26 @@ impl Emit<'_> {
         }
     }
 
-    /// The scalar value of register `r` in `eval`: lane of its pack, if paired.
+    /// The scalar value of register `r` in `eval`: lane of its pack, if paired; an unpaired
+    /// input element or constant is emitted here, at its first use.
     fn scalar_value(&mut self, pairing: &slp::Pairing, r: crate::Reg) -> Value {
         if let Some(v) = self.values[r.index()] {
             return v;
+        }
+        if let (Some(args), None) = (self.lazy_leaves, pairing.lane[r.index()]) {
+            let v = match self.ops[r.index()] {
+                Op::Const(c) => Some(self.constant(c)),
+                op => input(&args, op).map(|(base, i)| {
+                    // `scalar` checked the offsets of all input elements
+                    let off = 8 * i as i32;
+                    let flags = load_flags(scalar_flags());
+                    self.b.ins().load(types::F64, flags, base, off)
+                }),
+            };
+            if let Some(v) = v {
+                self.values[r.index()] = Some(v);
+                return v;
+            }
         }
         let (p, lane) = pairing.lane[r.index()].expect("scheduled: operands come first");
         let packed = self.vectors[pairing.packs[p][0]].expect("scheduled: packs come first");
@@ -751,14 +791,7 @@ impl Emit<'_> {
     fn pack(&mut self, pairing: &slp::Pairing, p: usize, args: &Args) -> Result<Value, ExecError> {
         let [a, b] = pairing.packs[p];
         let (oa, ob) = (self.ops[a], self.ops[b]);
-        let input = match oa {
-            Op::State(i) => Some((args.state, i)),
-            Op::Target(i) => Some((args.target, i)),
-            Op::Gain(i) => Some((args.gains, i)),
-            Op::Hoisted(i) => Some((args.hoisted, i)),
-            _ => None,
-        };
-        if let Some((base, i)) = input {
+        if let Some((base, i)) = input(args, oa) {
             let flags = load_flags(vector_flags());
             return Ok(self.b.ins().load(F64X2, flags, base, offset(i as usize)?));
         }
@@ -784,9 +817,18 @@ impl Emit<'_> {
     fn scalar(&mut self, tape: &Tape, args: &Args) -> Result<usize, ExecError> {
         let pairing = slp::pair(tape);
         self.ops.clone_from(&pairing.ops);
+        for &op in &self.ops {
+            if let Some((_, i)) = input(args, op) {
+                offset(i as usize)?;
+            }
+        }
+        self.lazy_leaves = Some(*args);
+        let leaf = |op| matches!(op, Op::Const(_)) || input(args, op).is_some();
         let base = args.state;
         for &node in &pairing.order {
             match node {
+                // emitted at their first use, see `scalar_value`
+                slp::Node::Single(i) if leaf(self.ops[i]) => {}
                 slp::Node::Single(i) => {
                     for r in pairing.ops[i].operands() {
                         self.scalar_value(&pairing, r);
