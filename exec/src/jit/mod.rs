@@ -301,7 +301,7 @@ impl JitKernel {
                     base: tape.hoisted.len(),
                     ..Slots::default()
                 },
-                lazy_leaves: None,
+                eval: None,
             };
             let jacobi = |op: &Op| matches!(op, Op::Func2(Func2::Sn | Func2::Cn | Func2::Dn, ..));
             if tape.body.iter().any(jacobi) {
@@ -392,9 +392,10 @@ struct Emit<'a> {
     jacobi_cache: Option<Value>,
     /// The vector slots `eval` loads, after the tape's hoisted values.
     slots: Slots,
-    /// In `eval`: the arguments, to load each unpaired input element (and materialise each
-    /// unpaired constant) at its first use, not where the schedule has it.
-    lazy_leaves: Option<Args>,
+    /// In `eval` (compiled at `opt_level = none`), its arguments: each unpaired input element
+    /// is loaded (and each unpaired constant materialised) at its first use, not where the
+    /// schedule has it, and a negation is an `xor` with −0 from the constant pool.
+    eval: Option<Args>,
 }
 
 /// A value that is the same for every call: a hoisted value or a constant.
@@ -486,6 +487,13 @@ impl Emit<'_> {
         }
     }
 
+    /// The vector `(c[0], c[1])`, from the constant pool.
+    fn vector_constant(&mut self, c: [f64; 2]) -> Value {
+        let bytes: Vec<u8> = c.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let data = self.b.func.dfg.constants.insert(bytes.into());
+        self.b.ins().vconst(F64X2, data)
+    }
+
     fn call(&mut self, f: usize, sig: Signature, args: &[Value]) -> Value {
         let sig = self.b.import_signature(sig);
         let callee = self.b.ins().iconst(self.ptr, f as i64);
@@ -569,6 +577,20 @@ impl Emit<'_> {
             Op::Sub(..) => self.b.ins().fsub(x, y()),
             Op::Mul(..) => self.b.ins().fmul(x, y()),
             Op::Div(..) => self.b.ins().fdiv(x, y()),
+            Op::Neg(_) if self.eval.is_some() => {
+                // the sign bit flipped, as `fneg`, by an `xor` with −0 loaded from the
+                // constant pool (Cranelift's `fneg` of `F64X2` builds the mask in a register
+                // with two instructions, of `F64` with two through a general register; in the
+                // lane loop, at `speed`, the e-graph would share one mask register instead)
+                let sign = if self.vector {
+                    self.vector_constant([-0.0; 2])
+                } else {
+                    self.b
+                        .ins()
+                        .f64const(Ieee64::with_bits((-0.0f64).to_bits()))
+                };
+                self.b.ins().bxor(x, sign)
+            }
             Op::Neg(_) => self.b.ins().fneg(x),
             Op::Sqrt(_) => self.b.ins().sqrt(x),
             Op::Powi(_, n) => self.powi(x, n),
@@ -663,7 +685,7 @@ impl Emit<'_> {
         if let Some(v) = self.values[r.index()] {
             return v;
         }
-        if let (Some(args), None) = (self.lazy_leaves, pairing.lane[r.index()]) {
+        if let (Some(args), None) = (self.eval, pairing.lane[r.index()]) {
             let v = match self.ops[r.index()] {
                 Op::Const(c) => Some(self.constant(c)),
                 op => input(&args, op).map(|(base, i)| {
@@ -735,9 +757,7 @@ impl Emit<'_> {
     /// scalars).
     fn gather(&mut self, pairing: &slp::Pairing, x: crate::Reg, y: crate::Reg) -> Value {
         if let (Op::Const(c), Op::Const(d)) = (self.ops[x.index()], self.ops[y.index()]) {
-            let bytes: Vec<u8> = [c, d].iter().flat_map(|v| v.to_le_bytes()).collect();
-            let data = self.b.func.dfg.constants.insert(bytes.into());
-            return self.b.ins().vconst(F64X2, data);
+            return self.vector_constant([c, d]);
         }
         if x == y {
             let s = self.scalar_value(pairing, x);
@@ -822,7 +842,7 @@ impl Emit<'_> {
                 offset(i as usize)?;
             }
         }
-        self.lazy_leaves = Some(*args);
+        self.eval = Some(*args);
         let leaf = |op| matches!(op, Op::Const(_)) || input(args, op).is_some();
         let base = args.state;
         for &node in &pairing.order {
