@@ -171,7 +171,7 @@ pub struct JitKernel {
 
 /// What compiling `eval` found out (nothing for `lanes`).
 #[derive(Default)]
-struct Compiled {
+struct EvalInfo {
     /// Instructions computed two at a time.
     paired: usize,
     /// The vector slots, two values each.
@@ -238,7 +238,7 @@ impl JitKernel {
     /// Cranelift keeps the order of the pairing's schedule (its e-graph would elaborate the
     /// body depth first from the stores, and the body is already simplified and shared by the
     /// tape); `lanes` at `speed`.
-    fn compile(tape: &Tape, lanes: bool) -> Result<(Code, *const u8, Compiled), ExecError> {
+    fn compile(tape: &Tape, lanes: bool) -> Result<(Code, *const u8, EvalInfo), ExecError> {
         let mut module = jit_module(if lanes { "speed" } else { "none" })?;
         match Self::define(&mut module, tape, lanes) {
             Ok((id, compiled)) => {
@@ -257,7 +257,7 @@ impl JitKernel {
         module: &mut JITModule,
         tape: &Tape,
         lanes: bool,
-    ) -> Result<(cranelift_module::FuncId, Compiled), ExecError> {
+    ) -> Result<(cranelift_module::FuncId, EvalInfo), ExecError> {
         let ptr = module.target_config().pointer_type();
         let mut ctx = module.make_context();
         let mut fctx = FunctionBuilderContext::new();
@@ -268,7 +268,7 @@ impl JitKernel {
         sig.params.extend([AbiParam::new(ptr); 5]);
         let id = module.declare_anonymous_function(&sig).map_err(jit_err)?;
         ctx.func.signature = sig;
-        let mut compiled = Compiled::default();
+        let mut compiled = EvalInfo::default();
         {
             let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
             let entry = b.create_block();

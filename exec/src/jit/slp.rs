@@ -209,9 +209,9 @@ fn adjacent(a: Op, b: Op) -> bool {
 }
 
 /// Two values that are the same for every call, at least one of them hoisted: the kernel
-/// stores them side by side after the hoisted values (a *vector slot*, see
-/// `Slots` in the parent module) so that the operand vector `(a, b)` is one 128-bit load, whatever the
-/// lanes and wherever `a` and `b` are in the tape. (Two constants are one vector constant.)
+/// stores them side by side after the hoisted values (a *vector slot*, see `Slots` in the
+/// parent module), so that the operand vector `(a, b)` is one 128-bit load whatever the lanes
+/// and wherever `a` and `b` are in the tape. (Two constants are one vector constant.)
 pub(crate) fn invariant_pair(a: Op, b: Op) -> bool {
     matches!(
         (a, b),
