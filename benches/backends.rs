@@ -14,9 +14,10 @@
 //!   is inlined into the benchmark loop, so consecutive evaluations overlap and nothing is
 //!   paid for a call; `emitted_call` calls the same code through an opaque function pointer,
 //!   as `jit` calls its code (and `interpreter` its loop): the like-for-like comparison;
-//!   `jit_raw` calls the JIT's `eval` directly on the arrays of `emitted_call`, without
-//!   `LoadedModel`'s length checks of its `Vec` states: `jit` − `jit_raw` is what the safe
-//!   interface costs per call, `jit_raw` / `emitted_call` the ratio of the code alone;
+//!   `jit_raw` calls the JIT's `eval` directly on the arrays of `emitted_call`, not through
+//!   `LoadedModel` and its `Vec` states (their lengths compared, their data pointers loaded):
+//!   `jit` − `jit_raw` is what the safe interface costs per call, `jit_raw` / `emitted_call`
+//!   the ratio of the code alone;
 //! - `lanes/<model>/{emitted,jit}_k{4,8}`: X − ∇V for K states per call (structure of
 //!   arrays) for the three paper models: `<Model>Lanes::feedback::<K>` emitted from the tape,
 //!   and the JIT's `Kernel::eval_lanes`; the throughput is in states, so Criterion's
