@@ -471,10 +471,14 @@ impl Emit<'_> {
 
     fn load(&mut self, base: Value, i: usize) -> Result<Value, ExecError> {
         let off = offset(i)?;
-        Ok(self
-            .b
+        Ok(self.load_at(base, off))
+    }
+
+    /// The input element at byte offset `off` of `base`.
+    fn load_at(&mut self, base: Value, off: i32) -> Value {
+        self.b
             .ins()
-            .load(types::F64, load_flags(scalar_flags()), base, off))
+            .load(types::F64, load_flags(scalar_flags()), base, off)
     }
 
     /// A constant in the current mode.
@@ -688,12 +692,8 @@ impl Emit<'_> {
         if let (Some(args), None) = (self.eval, pairing.lane[r.index()]) {
             let v = match self.ops[r.index()] {
                 Op::Const(c) => Some(self.constant(c)),
-                op => input(&args, op).map(|(base, i)| {
-                    // `scalar` checked the offsets of all input elements
-                    let off = 8 * i as i32;
-                    let flags = load_flags(scalar_flags());
-                    self.b.ins().load(types::F64, flags, base, off)
-                }),
+                // `scalar` checked the offsets of all input elements
+                op => input(&args, op).map(|(base, i)| self.load_at(base, 8 * i as i32)),
             };
             if let Some(v) = v {
                 self.values[r.index()] = Some(v);
