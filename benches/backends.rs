@@ -8,7 +8,7 @@
 //! cargo bench --bench backends -- lanes/          # batched X − ∇V
 //! ```
 //!
-//! - `feedback/<model>/{emitted,jit,interpreter}`: one evaluation of X − ∇V at a state off the
+//! - `feedback/<model>/{emitted,emitted_call,jit_raw,jit,interpreter}`: one evaluation of X − ∇V at a state off the
 //!   target set, through the runtime trait (`Lyapunov::feedback_field`) as a stepper calls it
 //!   (the emitted code on the prepared model, `model.prepare()`, as a run uses it). `emitted`
 //!   is inlined into the benchmark loop, so consecutive evaluations overlap and nothing is
@@ -17,7 +17,12 @@
 //!   `jit_raw` calls the JIT's `eval` directly on the arrays of `emitted_call`, not through
 //!   `LoadedModel` and its `Vec` states (their lengths compared, their data pointers loaded):
 //!   `jit` − `jit_raw` is what the safe interface costs per call, `jit_raw` / `emitted_call`
-//!   the ratio of the code alone;
+//!   the ratio of the code alone. These evaluations are independent, so the processor
+//!   overlaps one with the next: they time throughput;
+//! - `feedback/<model>/{emitted,jit,interpreter}_chained`: the same calls (through the pointer
+//!   for the emitted code), each at a state computed from the last one's result, as the
+//!   stages of an integration are: they time the latency of one evaluation, what a
+//!   single-state integration waits for;
 //! - `lanes/<model>/{emitted,jit}_k{4,8}`: X − ∇V for K states per call (structure of
 //!   arrays) for the three paper models: `<Model>Lanes::feedback::<K>` emitted from the tape,
 //!   and the JIT's `Kernel::eval_lanes`; the throughput is in states, so Criterion's
@@ -62,6 +67,17 @@ where
     K: lasalle::State<f64>,
 {
     |l, x, target, gains, dx| l.feedback_field(x, target, gains, dx)
+}
+
+/// `xs ← x₀ + 10⁻³⁰·dx`: `xs` stays within 10⁻³⁰ of `x₀` (equal, where `x₀` is not tiny), but
+/// the processor must wait for `dx`, so the next evaluation waits for this one, as the stages
+/// of an integration do. One loop for arrays and vectors alike, vectorised: a 128-bit load of
+/// two components the stores of one scalar loop wrote would stall (no store forwarding).
+#[inline(always)]
+fn feed_back(xs: &mut [f64], x0: &[f64], dx: &[f64]) {
+    for ((c, x), f) in xs.iter_mut().zip(x0).zip(dx) {
+        *c = x + 1e-30 * f;
+    }
 }
 
 macro_rules! feedback_bench {
@@ -122,6 +138,15 @@ macro_rules! feedback_bench {
                 black_box(dx[0])
             })
         });
+        g.bench_function("emitted_chained", |b| {
+            let f = black_box(feedback_fn(&prepared));
+            let (mut xs, mut dx) = (x, [0.0; <$ty>::N]);
+            b.iter(|| {
+                f(&prepared, &xs, &target, &gains, &mut dx);
+                feed_back(&mut xs, &x, &dx);
+            });
+            black_box(xs[0]);
+        });
         for (name, backend) in [("jit", Backend::Jit), ("interpreter", Backend::Interpreter)] {
             let l = loaded($stem, backend);
             let (xv, tv, gv) = (x.to_vec(), target.to_vec(), gains.to_vec());
@@ -137,6 +162,14 @@ macro_rules! feedback_bench {
                     black_box(dx[0])
                 })
             });
+            let mut xs = xv.clone();
+            g.bench_function(format!("{name}_chained"), |b| {
+                b.iter(|| {
+                    l.feedback_field(&xs, &tv, &gv, &mut dx);
+                    feed_back(&mut xs, &xv, &dx);
+                })
+            });
+            black_box(xs[0]);
         }
         g.finish();
     }};

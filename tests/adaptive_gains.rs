@@ -214,7 +214,7 @@ fn cli_step_gains_need_an_adaptive_method() {
     assert!(err.contains("adaptive method"), "{err}");
 }
 
-/// `lasalle bench-eval` prints ns per state for 1 and 8 lanes.
+/// `lasalle bench-eval` prints ns per state for 1 and 8 lanes, and per chained evaluation.
 #[test]
 fn cli_bench_eval_prints_ns_per_state() {
     let o = lasalle(&["bench-eval", "kepler", "--lanes", "1,8", "--repeat", "1"]);
@@ -226,4 +226,15 @@ fn cli_bench_eval_prints_ns_per_state() {
     }
     let bad = lasalle(&["bench-eval", "kepler", "--lanes", "0"]);
     assert!(!bad.status.success());
+
+    // chained: one lane, each call waiting for the last
+    let o = lasalle(&["bench-eval", "kepler", "--chain", "--repeat", "1"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
+    let ns = v["ns_per_state"]["1"].as_f64().expect("a number");
+    assert!(ns > 0.0 && ns.is_finite(), "{ns}");
+    assert!(v["what"].as_str().is_some_and(|w| w.contains("chained")));
+    let bad = lasalle(&["bench-eval", "kepler", "--chain", "--lanes", "1,4"]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--lanes 1"));
 }

@@ -1,7 +1,8 @@
-//! `lasalle bench-eval <model> [--lanes 1,4,8]`: the CPU time of the JIT-compiled feedback field
-//! X − ∇V per state, one state per call and k states per call (structure of arrays,
-//! `Kernel::eval_lanes`), printed as one JSON line — the counterpart of heyoka's batched
-//! `make_cfunc` in `scripts/heyoka/bench.py`.
+//! `lasalle bench-eval <model> [--lanes 1,4,8] [--chain]`: the CPU time of the JIT-compiled
+//! feedback field X − ∇V per state, one state per call and k states per call (structure of
+//! arrays, `Kernel::eval_lanes`), printed as one JSON line — the counterpart of heyoka's
+//! batched `make_cfunc` in `scripts/heyoka/bench.py`. With `--chain`, each call waits for the
+//! last (latency, as in an integration) instead of independent calls (throughput).
 
 use std::hint::black_box;
 
@@ -21,9 +22,10 @@ pub struct BenchEvalArgs {
     /// The model: a path to a model file or the name of a built-in model.
     pub model: String,
     /// Lane counts k to time (1 = one state per call with `eval`; at most `--states`, which
-    /// times one call over all the states, as heyoka's batched functions are called).
-    #[arg(long, default_value = "1,4,8")]
-    pub lanes: String,
+    /// times one call over all the states, as heyoka's batched functions are called); default
+    /// 1,4,8 (1 with `--chain`).
+    #[arg(long)]
+    pub lanes: Option<String>,
     /// States per sweep (rounded up to a multiple of every k).
     #[arg(long, default_value_t = 1024)]
     pub states: usize,
@@ -33,11 +35,20 @@ pub struct BenchEvalArgs {
     /// CPU seconds per repetition (at least).
     #[arg(long, default_value_t = 0.2)]
     pub seconds: f64,
+    /// One state per call, each call's state computed from the previous call's result (as in
+    /// an integration, where every evaluation waits for the last): times the latency of one
+    /// evaluation rather than the throughput of independent ones. Only with `--lanes 1`.
+    #[arg(long)]
+    pub chain: bool,
 }
 
 /// Runs `lasalle bench-eval`.
 pub fn run(args: &BenchEvalArgs) -> CliResult {
-    let lanes: Vec<usize> = parse_numbers(&args.lanes)
+    let lanes = args
+        .lanes
+        .as_deref()
+        .unwrap_or(if args.chain { "1" } else { "1,4,8" });
+    let lanes: Vec<usize> = parse_numbers(lanes)
         .map_err(|e| format!("invalid --lanes: {e}"))?
         .into_iter()
         .map(|k| {
@@ -51,6 +62,9 @@ pub fn run(args: &BenchEvalArgs) -> CliResult {
             }
         })
         .collect::<Result<_, _>>()?;
+    if args.chain && lanes != [1] {
+        return Err("--chain times one state per call: use it with --lanes 1".into());
+    }
     if args.states == 0 || args.repeat == 0 || !(args.seconds > 0.0 && args.seconds.is_finite()) {
         return Err("--states, --repeat and --seconds must be positive".into());
     }
@@ -90,9 +104,16 @@ pub fn run(args: &BenchEvalArgs) -> CliResult {
             }
         }
         let mut out = vec![0.0; m * k];
+        let mut chained = x0.clone();
         let mut sweep = || -> CliResult {
             for x in xs.chunks_exact(n * k) {
-                if k == 1 {
+                if args.chain {
+                    // x₀ + 10⁻³⁰·f(x) is x₀ (to 10⁻³⁰), but the processor must wait for f(x)
+                    kernel.eval(&hoisted, &chained, &target, &gains, &mut out)?;
+                    for ((c, x), f) in chained.iter_mut().zip(&x0).zip(&out) {
+                        *c = x + 1e-30 * f;
+                    }
+                } else if k == 1 {
                     kernel.eval(&hoisted, black_box(x), &target, &gains, &mut out)?;
                 } else {
                     kernel.eval_lanes(k, &hoisted, black_box(x), &target, &gains, &mut out)?;
@@ -117,7 +138,11 @@ pub fn run(args: &BenchEvalArgs) -> CliResult {
     }
     let report = json!({
         "model": stem,
-        "what": "feedback field X - grad V, JIT, CPU ns per state (fastest of the repetitions)",
+        "what": if args.chain {
+            "feedback field X - grad V, JIT, CPU ns per chained evaluation (fastest of the repetitions)"
+        } else {
+            "feedback field X - grad V, JIT, CPU ns per state (fastest of the repetitions)"
+        },
         "ns_per_state": results,
     });
     println!("{report}");
