@@ -3,7 +3,7 @@
 //! (Criterion).
 //!
 //! ```sh
-//! cargo bench --bench backends                    # everything (~3 minutes)
+//! cargo bench --bench backends                    # everything (~18 minutes)
 //! cargo bench --bench backends -- feedback/kepler # one model
 //! cargo bench --bench backends -- lanes/          # batched X − ∇V
 //! ```
