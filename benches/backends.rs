@@ -8,11 +8,11 @@
 //! cargo bench --bench backends -- lanes/          # batched X − ∇V
 //! ```
 //!
-//! - `feedback/<model>/{emitted,emitted_call,jit_raw,jit,interpreter}`: one evaluation of X − ∇V at a state off the
-//!   target set, through the runtime trait (`Lyapunov::feedback_field`) as a stepper calls it
-//!   (the emitted code on the prepared model, `model.prepare()`, as a run uses it). `emitted`
-//!   is inlined into the benchmark loop, so consecutive evaluations overlap and nothing is
-//!   paid for a call; `emitted_call` calls the same code through an opaque function pointer,
+//! - `feedback/<model>/{emitted,emitted_call,jit_raw,jit,interpreter}`: one evaluation of
+//!   X − ∇V at a state off the target set, through the runtime trait
+//!   (`Lyapunov::feedback_field`) as a stepper calls it (the emitted code on the prepared
+//!   model, `model.prepare()`, as a run uses it). `emitted` is inlined into the benchmark
+//!   loop, so consecutive evaluations overlap and nothing is paid for a call; `emitted_call` calls the same code through an opaque function pointer,
 //!   as `jit` calls its code (and `interpreter` its loop): the like-for-like comparison;
 //!   `jit_raw` calls the JIT's `eval` directly on the arrays of `emitted_call`, not through
 //!   `LoadedModel` and its `Vec` states (their lengths compared, their data pointers loaded):
