@@ -31,14 +31,19 @@
 //!   every function of the model with the JIT (what `lasalle run model.lsl` pays before its
 //!   first step);
 //! - `run/{rigid_body,kepler}_1e5/{emitted,jit}`: 10⁵ feedback-Euler steps through `integrate`,
-//!   where each evaluation waits for the previous one (as in every integration).
+//!   where each evaluation waits for the previous one (as in every integration);
+//!   `run/rigid_body_dopri5/{emitted,jit}`: feedback-DOPRI5 on the rigid body, t ∈ [0, 20] at
+//!   tolerance 1e-12, the adaptive stepper's work included.
 
 use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use lasalle::models;
-use lasalle::{integrate, Backend, ExplicitRk, FeedbackField, LoadedModel, Lyapunov, MODEL_FILES};
+use lasalle::{
+    integrate, Backend, DormandPrince, ExplicitRk, FeedbackField, LoadedModel, Lyapunov,
+    MODEL_FILES,
+};
 
 /// `x0` moved off the target set by a fixed small perturbation.
 fn perturbed(x0: &[f64]) -> Vec<f64> {
@@ -371,6 +376,34 @@ fn run(c: &mut Criterion) {
             )
             .unwrap()
             .x[0]
+        })
+    });
+    g.finish();
+
+    // the rigid body, feedback-DOPRI5 at rtol = atol = 1e-12 for t ∈ [0, 20] (about 440 000
+    // evaluations): the adaptive stepper's own work on the states next to the field's
+    let mut g = c.benchmark_group("run/rigid_body_dopri5");
+    g.sample_size(10).measurement_time(Duration::from_secs(5));
+    let m = models::rigid_body::RigidBody::<f64>::default().prepare();
+    let x0 = m.point_paper();
+    g.bench_function("emitted", |b| {
+        b.iter(|| {
+            let fb = FeedbackField::from_initial(&m, &x0, [50.0, 100.0, 50.0]);
+            let mut dopri = DormandPrince::with_tolerances(1e-12, 1e-12);
+            integrate(&mut dopri, &fb, &x0, 0.0, 20.0, 1e-4, &mut ())
+                .unwrap()
+                .x[0]
+        })
+    });
+    let l = loaded("rigid_body", Backend::Jit);
+    let y0 = x0.to_vec();
+    g.bench_function("jit", |b| {
+        b.iter(|| {
+            let fb = FeedbackField::from_initial(&l, &y0, vec![50.0, 100.0, 50.0]);
+            let mut dopri = DormandPrince::with_tolerances(1e-12, 1e-12);
+            integrate(&mut dopri, &fb, &y0, 0.0, 20.0, 1e-4, &mut ())
+                .unwrap()
+                .x[0]
         })
     });
     g.finish();

@@ -255,8 +255,8 @@ impl<T: Float, X: State<T>, F: Field<T, X> + ?Sized> Stepper<T, X, F> for Dorman
                 w.y.clone_from(x);
                 for j in 0..i {
                     let hc = h * self.a[i][j];
-                    for n in 0..n_dim {
-                        w.y[n] = w.y[n] + hc * w.k[j][n];
+                    for (yn, kn) in w.y.as_mut().iter_mut().zip(w.k[j].as_ref()) {
+                        *yn = *yn + hc * *kn;
                     }
                 }
                 field.field(&w.y, &mut w.k[i]);
@@ -265,26 +265,29 @@ impl<T: Float, X: State<T>, F: Field<T, X> + ?Sized> Stepper<T, X, F> for Dorman
             w.y_new.clone_from(x);
             for j in 0..6 {
                 let hc = h * self.b[j];
-                for n in 0..n_dim {
-                    w.y_new[n] = w.y_new[n] + hc * w.k[j][n];
+                for (yn, kn) in w.y_new.as_mut().iter_mut().zip(w.k[j].as_ref()) {
+                    *yn = *yn + hc * *kn;
                 }
             }
             field.field(&w.y_new, &mut w.k[6]);
             evaluations += 6;
-            // error estimate h Σ (bᵢ − b̂ᵢ) kᵢ in the norm (4.11)
+            // error estimate h Σ (bᵢ − b̂ᵢ) kᵢ in the norm (4.11); slices of length n_dim, so
+            // the loops below index them without bounds checks
+            let k: [&[T]; 7] = std::array::from_fn(|j| &w.k[j].as_ref()[..n_dim]);
+            let (x_old, y_new) = (&x.as_ref()[..n_dim], &w.y_new.as_ref()[..n_dim]);
             let mut s = T::zero();
             for n in 0..n_dim {
                 let mut en = T::zero();
                 for j in 0..7 {
-                    en = en + self.e[j] * w.k[j][n];
+                    en = en + self.e[j] * k[j][n];
                 }
                 en = en * h;
-                let sk = o.atol + o.rtol * x[n].abs().max(w.y_new[n].abs());
+                let sk = o.atol + o.rtol * x_old[n].abs().max(y_new[n].abs());
                 let r = en / sk;
                 s = s + r * r;
             }
             let err = (s / lit(n_dim.max(1) as f64)).sqrt();
-            let accepted = err.is_finite() && err <= T::one() && all_finite(w.y_new.as_ref());
+            let accepted = err.is_finite() && err <= T::one() && all_finite(y_new);
             if accepted {
                 let fac11 = err.powf(expo1);
                 let fac = (fac11 / self.fac_old.powf(o.beta) / o.safety)
@@ -297,18 +300,19 @@ impl<T: Float, X: State<T>, F: Field<T, X> + ?Sized> Stepper<T, X, F> for Dorman
                 }
                 self.last_rejected = false;
                 // dense output (HNW I §II.6; dopri5.f)
+                let [d0, d1, d2, d3, d4] = w.dense.each_mut().map(|d| &mut d.as_mut()[..n_dim]);
                 for n in 0..n_dim {
-                    let ydiff = w.y_new[n] - x[n];
-                    let bspl = h * w.k[0][n] - ydiff;
-                    w.dense[0][n] = x[n];
-                    w.dense[1][n] = ydiff;
-                    w.dense[2][n] = bspl;
-                    w.dense[3][n] = ydiff - h * w.k[6][n] - bspl;
+                    let ydiff = y_new[n] - x_old[n];
+                    let bspl = h * k[0][n] - ydiff;
+                    d0[n] = x_old[n];
+                    d1[n] = ydiff;
+                    d2[n] = bspl;
+                    d3[n] = ydiff - h * k[6][n] - bspl;
                     let mut dk = T::zero();
                     for j in 0..7 {
-                        dk = dk + self.d[j] * w.k[j][n];
+                        dk = dk + self.d[j] * k[j][n];
                     }
-                    w.dense[4][n] = h * dk;
+                    d4[n] = h * dk;
                 }
                 self.t_old = t;
                 self.h_old = h;
