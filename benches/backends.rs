@@ -314,99 +314,78 @@ fn load(c: &mut Criterion) {
     g.finish();
 }
 
+/// `run/<group>/{emitted,jit}`: `integrate` with the stepper `$stepper` (built afresh for
+/// each run, for the state type of each side) on the feedback field with `$gains` of the
+/// model at its paper point, from t = 0 to `$t_end` with step `$h`; emitted on the prepared
+/// model, JIT on the model file loaded.
+macro_rules! run_bench {
+    (
+        $c:expr, $group:literal, $stem:literal, $ty:ty, $gains:expr, $stepper:expr,
+        $t_end:expr, $h:expr
+    ) => {{
+        let mut g = $c.benchmark_group(concat!("run/", $group));
+        g.sample_size(10).measurement_time(Duration::from_secs(5));
+        let m = <$ty>::default().prepare();
+        let x0 = m.point_paper();
+        g.bench_function("emitted", |b| {
+            b.iter(|| {
+                let fb = FeedbackField::from_initial(&m, &x0, $gains);
+                integrate(&mut $stepper, &fb, &x0, 0.0, $t_end, $h, &mut ())
+                    .unwrap()
+                    .x[0]
+            })
+        });
+        let l = loaded($stem, Backend::Jit);
+        let y0 = x0.to_vec();
+        g.bench_function("jit", |b| {
+            b.iter(|| {
+                let fb = FeedbackField::from_initial(&l, &y0, $gains.to_vec());
+                integrate(&mut $stepper, &fb, &y0, 0.0, $t_end, $h, &mut ())
+                    .unwrap()
+                    .x[0]
+            })
+        });
+        g.finish();
+    }};
+}
+
 fn run(c: &mut Criterion) {
-    let mut g = c.benchmark_group("run/rigid_body_1e5");
-    g.sample_size(10).measurement_time(Duration::from_secs(5));
-    let m = models::rigid_body::RigidBody::<f64>::default().prepare();
-    let x0 = m.point_paper();
-    g.bench_function("emitted", |b| {
-        b.iter(|| {
-            let fb = FeedbackField::from_initial(&m, &x0, [50.0, 100.0, 50.0]);
-            integrate(&mut ExplicitRk::euler(), &fb, &x0, 0.0, 10.0, 1e-4, &mut ())
-                .unwrap()
-                .x[0]
-        })
-    });
-    let l = loaded("rigid_body", Backend::Jit);
-    let y0 = x0.to_vec();
-    g.bench_function("jit", |b| {
-        b.iter(|| {
-            let fb = FeedbackField::from_initial(&l, &y0, vec![50.0, 100.0, 50.0]);
-            integrate(&mut ExplicitRk::euler(), &fb, &y0, 0.0, 10.0, 1e-4, &mut ())
-                .unwrap()
-                .x[0]
-        })
-    });
-    g.finish();
-
-    // Kepler, the paper's step, 10⁵ feedback-Euler steps: each evaluation waits for the last
-    let mut g = c.benchmark_group("run/kepler_1e5");
-    g.sample_size(10).measurement_time(Duration::from_secs(5));
-    let m = models::kepler::Kepler::<f64>::default().prepare();
-    let x0 = m.point_paper();
-    g.bench_function("emitted", |b| {
-        b.iter(|| {
-            let fb = FeedbackField::from_initial(&m, &x0, [4.0, 2.0]);
-            integrate(
-                &mut ExplicitRk::euler(),
-                &fb,
-                &x0,
-                0.0,
-                500.0,
-                0.005,
-                &mut (),
-            )
-            .unwrap()
-            .x[0]
-        })
-    });
-    let l = loaded("kepler", Backend::Jit);
-    let y0 = x0.to_vec();
-    g.bench_function("jit", |b| {
-        b.iter(|| {
-            let fb = FeedbackField::from_initial(&l, &y0, vec![4.0, 2.0]);
-            integrate(
-                &mut ExplicitRk::euler(),
-                &fb,
-                &y0,
-                0.0,
-                500.0,
-                0.005,
-                &mut (),
-            )
-            .unwrap()
-            .x[0]
-        })
-    });
-    g.finish();
-
-    // the rigid body, feedback-DOPRI5 at rtol = atol = 1e-12 for t ∈ [0, 20] (about 440 000
-    // evaluations): the adaptive stepper's own work on the states next to the field's
-    let mut g = c.benchmark_group("run/rigid_body_dopri5");
-    g.sample_size(10).measurement_time(Duration::from_secs(5));
-    let m = models::rigid_body::RigidBody::<f64>::default().prepare();
-    let x0 = m.point_paper();
-    g.bench_function("emitted", |b| {
-        b.iter(|| {
-            let fb = FeedbackField::from_initial(&m, &x0, [50.0, 100.0, 50.0]);
-            let mut dopri = DormandPrince::with_tolerances(1e-12, 1e-12);
-            integrate(&mut dopri, &fb, &x0, 0.0, 20.0, 1e-4, &mut ())
-                .unwrap()
-                .x[0]
-        })
-    });
-    let l = loaded("rigid_body", Backend::Jit);
-    let y0 = x0.to_vec();
-    g.bench_function("jit", |b| {
-        b.iter(|| {
-            let fb = FeedbackField::from_initial(&l, &y0, vec![50.0, 100.0, 50.0]);
-            let mut dopri = DormandPrince::with_tolerances(1e-12, 1e-12);
-            integrate(&mut dopri, &fb, &y0, 0.0, 20.0, 1e-4, &mut ())
-                .unwrap()
-                .x[0]
-        })
-    });
-    g.finish();
+    type RigidBody = models::rigid_body::RigidBody<f64>;
+    type Kepler = models::kepler::Kepler<f64>;
+    // 10⁵ feedback-Euler steps: each evaluation waits for the last (Kepler at the paper's step)
+    let (rigid_gains, kepler_gains) = ([50.0, 100.0, 50.0], [4.0, 2.0]);
+    run_bench!(
+        c,
+        "rigid_body_1e5",
+        "rigid_body",
+        RigidBody,
+        rigid_gains,
+        ExplicitRk::euler(),
+        10.0,
+        1e-4
+    );
+    run_bench!(
+        c,
+        "kepler_1e5",
+        "kepler",
+        Kepler,
+        kepler_gains,
+        ExplicitRk::euler(),
+        500.0,
+        0.005
+    );
+    // the rigid body, feedback-DOPRI5 at rtol = atol = 1e-12 for t ∈ [0, 20] (about 44 000
+    // steps): the adaptive stepper's own work on the states next to the field's
+    run_bench!(
+        c,
+        "rigid_body_dopri5",
+        "rigid_body",
+        RigidBody,
+        rigid_gains,
+        DormandPrince::with_tolerances(1e-12, 1e-12),
+        20.0,
+        1e-4
+    );
 }
 
 criterion_group!(benches, feedback, lanes, load, run);
