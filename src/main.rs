@@ -3,6 +3,8 @@
 
 mod cli;
 
+/// Exit codes: 0 success, 1 a model error or a run that failed (diverged, left its domain),
+/// 2 a mistake in the command line.
 fn main() {
     if let Err(e) = cli::main() {
         let text = e.to_string();
@@ -12,6 +14,6 @@ fn main() {
         } else {
             eprintln!("error: {text}");
         }
-        std::process::exit(1);
+        std::process::exit(if e.is::<cli::Usage>() { 2 } else { 1 });
     }
 }

@@ -159,13 +159,13 @@ fn step_gain_pulls_a_perturbed_state_back() {
 }
 
 /// `lasalle run --gains auto` picks the step-tracking gain for feedback-DOPRI5 (the plain step
-/// count within 1.25×, a smaller error) and `--json` prints the summary with the CPU time.
+/// count within 1.25×, a smaller error) and `--format json` prints the summary with the CPU time.
 #[test]
 fn cli_auto_gains_and_json_summary() {
     let out = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("adaptive-gains-cli");
     let run = |method: &str, gains: &[&str]| -> serde_json::Value {
         let mut args = vec!["run", "rigid-body", "-m", method, "--rtol", "1e-10"];
-        args.extend(["--atol", "1e-10", "--t-end", "200", "--json", "--out"]);
+        args.extend(["--atol", "1e-10", "--t-end", "200", "--format", "json", "--out"]);
         args.push(out.to_str().unwrap());
         args.extend(gains);
         let o = lasalle(&args);
@@ -217,7 +217,8 @@ fn cli_step_gains_need_an_adaptive_method() {
 /// `lasalle bench-eval` prints ns per state for 1 and 8 lanes, and per chained evaluation.
 #[test]
 fn cli_bench_eval_prints_ns_per_state() {
-    let o = lasalle(&["bench-eval", "kepler", "--lanes", "1,8", "--repeat", "1"]);
+    let json = ["--format", "json"];
+    let o = lasalle(&[&["bench-eval", "kepler", "--lanes", "1,8", "--repeat", "1"][..], &json].concat());
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
     for k in ["1", "8"] {
@@ -228,7 +229,7 @@ fn cli_bench_eval_prints_ns_per_state() {
     assert!(!bad.status.success());
 
     // chained: one lane, each call waiting for the last
-    let o = lasalle(&["bench-eval", "kepler", "--chain", "--repeat", "1"]);
+    let o = lasalle(&[&["bench-eval", "kepler", "--chain", "--repeat", "1"][..], &json].concat());
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
     let ns = v["ns_per_state"]["1"].as_f64().expect("a number");

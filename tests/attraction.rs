@@ -324,7 +324,7 @@ fn errors() {
     );
 }
 
-/// `lasalle stability models/duffing.lsl --json` selects this analysis by the model's
+/// `lasalle stability models/duffing.lsl --format json` selects this analysis by the model's
 /// structure (no Hamiltonian, planar, an asymptotically stable named point) and prints the
 /// optimum; `--plot` into a missing directory is refused before any work.
 #[test]
@@ -336,7 +336,7 @@ fn command_line() {
             .output()
             .expect("run lasalle")
     };
-    let out = run(&["stability", "models/duffing.lsl", "--json"]);
+    let out = run(&["stability", "models/duffing.lsl", "--format", "json"]);
     assert!(
         out.status.success(),
         "{}",

@@ -159,7 +159,7 @@ fn command_line() {
         "5e-3,1e-2",
         "--order",
         "6",
-        "--csv",
+        "--format", "csv",
     ]);
     assert!(ok, "{err}");
     let rows: Vec<&str> = out.lines().collect();
@@ -176,7 +176,7 @@ fn command_line() {
         "5e-3,1e-2",
         "--order",
         "4",
-        "--json",
+        "--format", "json",
     ]);
     assert!(ok);
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();

@@ -57,6 +57,7 @@ pub struct Driver<'g, T, X> {
     h: T,
     max_steps: u64,
     guard: Option<(u64, Box<GuardFn<'g, X>>)>,
+    divergence: Option<(u64, Box<GuardFn<'g, X>>)>,
 }
 
 impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
@@ -69,6 +70,7 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
             h,
             max_steps: u64::MAX,
             guard: None,
+            divergence: None,
         }
     }
 
@@ -86,13 +88,37 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
         self
     }
 
-    fn run_guard(&self, step: u64, t: T, h: T, x: &X) -> Result<(), StepError> {
+    /// Runs `check` after every `every`-th step and on the final state (0 is treated as 1); a
+    /// `Some(message)` stops the run with [`StepError::Diverged`]. Meant for checks that cost
+    /// about a field evaluation, such as a [`crate::DriftBound`] on the invariants, run where
+    /// the run records its samples.
+    pub fn divergence(mut self, every: u64, check: impl Fn(&X) -> Option<String> + 'g) -> Self {
+        self.divergence = Some((every.max(1), Box::new(check)));
+        self
+    }
+
+    /// The guard (due every its-period steps) and the divergence check (due every its-period
+    /// steps and at the end, `last`) on the state after step `step`.
+    fn run_checks(&self, step: u64, last: bool, t: T, h: T, x: &X) -> Result<(), StepError> {
         if let Some((every, check)) = &self.guard {
             if step % every == 0 {
                 if let Some(message) = check(x) {
                     return Err(StepError::Guard {
                         t: to_f64(t),
+                        step,
                         h: to_f64(h),
+                        message,
+                        state: state_to_vec(x.as_ref()),
+                    });
+                }
+            }
+        }
+        if let Some((every, check)) = &self.divergence {
+            if step > 0 && (last || step % every == 0) {
+                if let Some(message) = check(x) {
+                    return Err(StepError::Diverged {
+                        t: to_f64(t),
+                        step,
                         message,
                         state: state_to_vec(x.as_ref()),
                     });
@@ -150,7 +176,7 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
         if !all_finite(x.as_ref()) {
             return Err(StepError::non_finite("state", t0, h, x.as_ref()));
         }
-        self.run_guard(0, t0, h, &x)?;
+        self.run_checks(0, false, t0, h, &x)?;
         if on_step(stepper, 0, t0, &x) == Control::Stop {
             summary.stopped_by_observer = true;
             return Ok(summary);
@@ -189,7 +215,9 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
                     state: state_to_vec(x.as_ref()),
                 });
             }
-            let outcome = stepper.step(field, t, &mut x, h_step)?;
+            let outcome = stepper
+                .step(field, t, &mut x, h_step)
+                .map_err(|e| e.at_step(summary.steps + 1))?;
             summary.steps += 1;
             summary.rejections += u64::from(outcome.rejections);
             summary.evaluations += u64::from(outcome.evaluations);
@@ -202,14 +230,13 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
                 t0 + n * h
             };
             if !all_finite(x.as_ref()) {
-                return Err(StepError::non_finite(
-                    "state",
-                    t,
-                    outcome.h_taken,
-                    x.as_ref(),
-                ));
+                return Err(
+                    StepError::non_finite("state", t, outcome.h_taken, x.as_ref())
+                        .at_step(summary.steps),
+                );
             }
-            self.run_guard(summary.steps, t, outcome.h_taken, &x)?;
+            let done = t >= t_end;
+            self.run_checks(summary.steps, done, t, outcome.h_taken, &x)?;
             if on_step(stepper, summary.steps, t, &x) == Control::Stop {
                 summary.stopped_by_observer = true;
                 break;

@@ -22,12 +22,14 @@ pub(crate) fn to_f64<T: Float>(v: T) -> f64 {
 #[non_exhaustive]
 pub enum StepError {
     /// The state (or the field evaluated at it) contains NaN or ±∞: the solution blew up.
-    #[error("blow-up: non-finite {what} at t = {t} (h = {h:e}); state = {state:?}")]
+    #[error("blow-up: non-finite {what} at step {step}, t = {t} (h = {h:e}); state = {state:?}")]
     NonFinite {
         /// What was non-finite: `"state"` or `"field"`.
         what: &'static str,
         /// Time at which the non-finite value was detected.
         t: f64,
+        /// The step that produced it (counted from 1; set by the [`crate::Driver`]).
+        step: u64,
         /// Step size of the step that produced it.
         h: f64,
         /// The state (after the step for `"state"`, before it for `"field"`).
@@ -89,13 +91,28 @@ pub enum StepError {
         state: Vec<f64>,
     },
     /// A caller-supplied validity check (a guard, see [`crate::Driver::guard`]) failed.
-    #[error("guard failed at t = {t} (h = {h:e}): {message}; state = {state:?}")]
+    #[error("guard failed at step {step}, t = {t} (h = {h:e}): {message}; state = {state:?}")]
     Guard {
         /// Time of the offending state.
         t: f64,
+        /// The step that produced it (0: the initial state).
+        step: u64,
         /// Step size of the step that produced it.
         h: f64,
         /// The guard's message.
+        message: String,
+        /// The offending state.
+        state: Vec<f64>,
+    },
+    /// The run diverged: a monitored quantity (an invariant's drift, see
+    /// [`crate::DriftBound`]) left its bound or became non-finite.
+    #[error("diverged at step {step}, t = {t}: {message}; state = {state:?}")]
+    Diverged {
+        /// Time of the offending state.
+        t: f64,
+        /// The step that produced it.
+        step: u64,
+        /// What diverged, with its value and bound.
         message: String,
         /// The offending state.
         state: Vec<f64>,
@@ -114,7 +131,8 @@ impl StepError {
             | StepError::TooManyRejections { t, .. }
             | StepError::MaxSteps { t, .. }
             | StepError::ProjectionNotConverged { t, .. }
-            | StepError::Guard { t, .. } => Some(*t),
+            | StepError::Guard { t, .. }
+            | StepError::Diverged { t, .. } => Some(*t),
             StepError::InvalidInput(_) => None,
         }
     }
@@ -127,9 +145,30 @@ impl StepError {
             | StepError::TooManyRejections { state, .. }
             | StepError::MaxSteps { state, .. }
             | StepError::ProjectionNotConverged { state, .. }
-            | StepError::Guard { state, .. } => Some(state),
+            | StepError::Guard { state, .. }
+            | StepError::Diverged { state, .. } => Some(state),
             StepError::InvalidInput(_) => None,
         }
+    }
+
+    /// The step at which the run failed, where the error knows it (blow-ups, guards,
+    /// divergence and the step budget).
+    pub fn step(&self) -> Option<u64> {
+        match self {
+            StepError::NonFinite { step, .. }
+            | StepError::Guard { step, .. }
+            | StepError::Diverged { step, .. } => Some(*step),
+            StepError::MaxSteps { steps, .. } => Some(*steps),
+            _ => None,
+        }
+    }
+
+    /// The error with its step number set (the driver knows it; a stepper does not).
+    pub(crate) fn at_step(mut self, n: u64) -> Self {
+        if let StepError::NonFinite { step, .. } = &mut self {
+            *step = n;
+        }
+        self
     }
 
     /// A [`StepError::NonFinite`] for a state or field value.
@@ -137,6 +176,7 @@ impl StepError {
         StepError::NonFinite {
             what,
             t: to_f64(t),
+            step: 0,
             h: to_f64(h),
             state: state_to_vec(x),
         }

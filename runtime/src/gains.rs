@@ -350,7 +350,8 @@ pub fn step_gain_target(c: f64, tol: f64, order: u32) -> f64 {
 ///
 /// | text | policy |
 /// | --- | --- |
-/// | `default` | the gains written in the model file ([`ModelInfo::default_gain_values`]) |
+/// | `default` | `model` for fixed-step methods (the paper's gains), `step` for adaptive ones, whose steps the model file's fixed gains cannot follow ([`GainPolicy::resolve`]) |
+/// | `model` | the gains written in the model file ([`ModelInfo::default_gain_values`]) |
 /// | `auto` | `adaptive` (m = 100, c = 1) for fixed-step methods, `step` (c = 2, m = 10) for adaptive ones ([`GainPolicy::resolve`]) |
 /// | `fixed`, `fixed:c` | [`scaled_gains`] at x₀ with unit gains and c (default 1) |
 /// | `adaptive`, `adaptive:m`, `adaptive:m:c` | [`AdaptiveGain`] every m steps (default 100), c (default 1) |
@@ -358,7 +359,10 @@ pub fn step_gain_target(c: f64, tol: f64, order: u32) -> f64 {
 /// | `k1,k2,…` | these gains |
 #[derive(Clone, Debug, PartialEq)]
 pub enum GainPolicy {
-    /// The model file's default gains.
+    /// What applies when nothing is said: `ModelDefault` or `Step` according to the method
+    /// ([`GainPolicy::resolve`]).
+    Default,
+    /// The model file's gains.
     ModelDefault,
     /// `Adaptive` or `Step` according to the method ([`GainPolicy::resolve`]).
     Auto,
@@ -398,11 +402,19 @@ impl FromStr for GainPolicy {
                 Err(GainError::Invalid(format!("c = {c} is not in (0, 2)")))
             }
         };
+        let period = |m: &str| match m.trim().parse::<u64>() {
+            Ok(0) => Err(GainError::Invalid(
+                "the re-estimation period must be at least 1 step".to_string(),
+            )),
+            Ok(m) => Ok(m),
+            Err(_) => Err(bad()),
+        };
         let mut parts = s.trim().split(':');
         let head = parts.next().unwrap_or("");
         let rest: Vec<&str> = parts.collect();
         match head {
-            "default" | "model" if rest.is_empty() => Ok(GainPolicy::ModelDefault),
+            "default" if rest.is_empty() => Ok(GainPolicy::Default),
+            "model" if rest.is_empty() => Ok(GainPolicy::ModelDefault),
             "auto" if rest.is_empty() => Ok(GainPolicy::Auto),
             "step" => {
                 let c = match rest.first() {
@@ -414,7 +426,7 @@ impl FromStr for GainPolicy {
                 };
                 let every = match rest.get(1) {
                     None => 10,
-                    Some(m) => m.trim().parse::<u64>().map_err(|_| bad())?,
+                    Some(m) => period(m)?,
                 };
                 if rest.len() > 2 {
                     return Err(bad());
@@ -431,7 +443,7 @@ impl FromStr for GainPolicy {
             "adaptive" => {
                 let every = match rest.first() {
                     None => 100,
-                    Some(m) => m.trim().parse::<u64>().map_err(|_| bad())?,
+                    Some(m) => period(m)?,
                 };
                 let c = match rest.get(1) {
                     None => 1.0,
@@ -457,10 +469,12 @@ impl FromStr for GainPolicy {
 }
 
 impl GainPolicy {
-    /// `Auto` made concrete for a method that does (`adaptive_method`) or does not choose its
-    /// own steps; other policies unchanged.
+    /// `Default` and `Auto` made concrete for a method that does (`adaptive_method`) or does
+    /// not choose its own steps; other policies unchanged.
     pub fn resolve(self, adaptive_method: bool) -> GainPolicy {
         match self {
+            GainPolicy::Default if adaptive_method => GainPolicy::Step { c: 2.0, every: 10 },
+            GainPolicy::Default => GainPolicy::ModelDefault,
             GainPolicy::Auto if adaptive_method => GainPolicy::Step { c: 2.0, every: 10 },
             GainPolicy::Auto => GainPolicy::Adaptive { every: 100, c: 1.0 },
             other => other,
@@ -468,7 +482,8 @@ impl GainPolicy {
     }
 
     /// The gains to start with at x₀ for step size h (for `Adaptive` and `Auto`, the scaled
-    /// gains at x₀; wrap the stepper in [`AdaptiveGain`] to keep adapting them). `Step` needs
+    /// gains at x₀; wrap the stepper in [`AdaptiveGain`] to keep adapting them; `Default` as
+    /// for a fixed-step method: resolve it first for an adaptive one). `Step` needs
     /// the method's tolerance and order: use [`scaled_gains`] with [`step_gain_target`].
     pub fn initial_gains<Mdl, T, X, F, K>(&self, model: &Mdl, x0: &X, h: T) -> Result<K, GainError>
     where
@@ -493,7 +508,7 @@ impl GainPolicy {
             Ok(k)
         };
         match self {
-            GainPolicy::ModelDefault => from(model.default_gain_values()),
+            GainPolicy::ModelDefault | GainPolicy::Default => from(model.default_gain_values()),
             GainPolicy::Explicit(v) => from(v),
             GainPolicy::Scaled { c } | GainPolicy::Adaptive { c, .. } => {
                 let unit = K::filled(K::len_for(g), T::one());
@@ -532,8 +547,19 @@ mod tests {
     fn parse_policies() {
         assert_eq!(
             "default".parse::<GainPolicy>().unwrap(),
+            GainPolicy::Default
+        );
+        assert_eq!(
+            "model".parse::<GainPolicy>().unwrap(),
             GainPolicy::ModelDefault
         );
+        assert_eq!(
+            GainPolicy::Default.resolve(true),
+            GainPolicy::Step { c: 2.0, every: 10 }
+        );
+        assert_eq!(GainPolicy::Default.resolve(false), GainPolicy::ModelDefault);
+        assert!("step:2:0".parse::<GainPolicy>().is_err());
+        assert!("adaptive:0".parse::<GainPolicy>().is_err());
         assert_eq!("auto".parse::<GainPolicy>().unwrap(), GainPolicy::Auto);
         assert_eq!(
             GainPolicy::Auto.resolve(false),

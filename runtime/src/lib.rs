@@ -8,6 +8,7 @@
 //!   [`Projection`] onto f(x) = f(x₀), [`RigidBodySplitting`];
 //! - [`Driver`] / [`integrate`]: run a stepper to an end time with observers, blow-up checks
 //!   and guards, failing loudly with a [`StepError`] that carries t, h and the state;
+//!   [`DriftBound`] stops a run whose invariants drift past a bound ([`Driver::divergence`]);
 //! - [`FeedbackField`]: the feedback integrator's field X − ∇V, so any stepper becomes a
 //!   feedback integrator; [`gains`](crate::scaled_gains) selection ([`GainPolicy`],
 //!   [`AdaptiveGain`]);
@@ -32,6 +33,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 mod declared;
+mod divergence;
 mod driver;
 pub use lasalle_elliptic as elliptic;
 mod error;
@@ -46,6 +48,7 @@ pub mod steppers;
 pub mod taylor;
 
 pub use declared::{Declared, GuardFailure, Preset};
+pub use divergence::{DriftBound, DEFAULT_MAX_DRIFT};
 pub use driver::{integrate, Driver, GuardFn, Summary};
 pub use elliptic::{ellipf, ellipj, ellipj_m1, ellipk, ellipkm1, Jacobi};
 pub use error::StepError;

@@ -817,6 +817,7 @@ impl<M: ?Sized> Taylor<M> {
             return Err(StepError::NonFinite {
                 what: "field",
                 t,
+                step: 0,
                 h,
                 state: x.to_vec(),
             });
@@ -918,6 +919,7 @@ where
                 return Err(StepError::NonFinite {
                     what: "state",
                     t,
+                    step: 0,
                     h: out.h_taken,
                     state: x.as_ref().to_vec(),
                 });

@@ -141,7 +141,7 @@ def heyoka_run(ta, x0, t_end):
 
 def lasalle_run(exe, model, method, t_end, tol=None, dt=None, gains=None, out_dir="."):
     cmd = [exe, "run", model, "--method", method, "--t-end", repr(t_end)]
-    cmd += ["--dt", repr(dt if dt is not None else 0.01), "--every", "1000000000", "--json"]
+    cmd += ["--dt", repr(dt if dt is not None else 0.01), "--every", "1000000000", "--format", "json"]
     cmd += ["--out", os.path.join(out_dir, "lasalle-run")]
     if tol is not None:
         cmd += ["--rtol", repr(tol), "--atol", repr(tol)]
@@ -245,7 +245,7 @@ def heyoka_eval_ns(system, batch_size, n_states, seconds):
 
 def lasalle_eval_ns(exe, system, seconds):
     cmd = [exe, "bench-eval", system, "--lanes", f"1,4,8,{EVAL_STATES}", "--states", str(EVAL_STATES),
-           "--repeat", "1", "--seconds", repr(seconds)]
+           "--repeat", "1", "--seconds", repr(seconds), "--format", "json"]
     p = subprocess.run(cmd, capture_output=True, text=True, check=True)
     return {int(k): v for k, v in json.loads(p.stdout)["ns_per_state"].items()}
 

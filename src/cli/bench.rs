@@ -1,6 +1,6 @@
 //! `lasalle bench-eval <model> [--lanes 1,4,8] [--chain]`: the CPU time of the JIT-compiled
 //! feedback field X − ∇V per state, one state per call and k states per call (structure of
-//! arrays, `Kernel::eval_lanes`), printed as one JSON line — the counterpart of heyoka's
+//! arrays, `Kernel::eval_lanes`), printed as a table or (`--format json`) one JSON line — the counterpart of heyoka's
 //! batched `make_cfunc` in `scripts/heyoka/bench.py`. With `--chain`, each call waits for the
 //! last (latency, as in an integration) instead of independent calls (throughput).
 
@@ -27,19 +27,32 @@ pub struct BenchEvalArgs {
     #[arg(long)]
     pub lanes: Option<String>,
     /// States per sweep (rounded up to a multiple of every k).
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = 1024, value_parser = super::value::size, allow_hyphen_values = true)]
     pub states: usize,
     /// Repetitions; the fastest is reported.
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = 5, value_parser = super::value::size, allow_hyphen_values = true)]
     pub repeat: usize,
     /// CPU seconds per repetition (at least).
-    #[arg(long, default_value_t = 0.2)]
+    #[arg(long, default_value_t = 0.2, value_parser = super::value::positive, allow_hyphen_values = true)]
     pub seconds: f64,
     /// One state per call, each call's state computed from the previous call's result (as in
     /// an integration, where every evaluation waits for the last): times the latency of one
     /// evaluation rather than the throughput of independent ones. Only with `--lanes 1`.
     #[arg(long)]
     pub chain: bool,
+    /// What to print: one line per lane count (table) or one JSON line (json, for scripts).
+    #[arg(long, value_enum, default_value_t)]
+    pub format: Format,
+}
+
+/// What `lasalle bench-eval` prints.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    /// `k = 1: 23.1 ns per state`, one line per lane count.
+    #[default]
+    Table,
+    /// `{"model": …, "what": …, "ns_per_state": {"1": …}}` on one line.
+    Json,
 }
 
 /// Runs `lasalle bench-eval`.
@@ -49,7 +62,7 @@ pub fn run(args: &BenchEvalArgs) -> CliResult {
         .as_deref()
         .unwrap_or(if args.chain { "1" } else { "1,4,8" });
     let lanes: Vec<usize> = parse_numbers(lanes)
-        .map_err(|e| format!("invalid --lanes: {e}"))?
+        .map_err(|e| super::usage(format!("invalid --lanes: {e}")))?
         .into_iter()
         .map(|k| {
             if k >= 1.0 && k.fract() == 0.0 && k <= args.states as f64 {
@@ -61,12 +74,12 @@ pub fn run(args: &BenchEvalArgs) -> CliResult {
                 ))
             }
         })
-        .collect::<Result<_, _>>()?;
+        .collect::<Result<_, _>>()
+        .map_err(super::usage)?;
     if args.chain && lanes != [1] {
-        return Err("--chain times one state per call: use it with --lanes 1".into());
-    }
-    if args.states == 0 || args.repeat == 0 || !(args.seconds > 0.0 && args.seconds.is_finite()) {
-        return Err("--states, --repeat and --seconds must be positive".into());
+        return Err(super::usage(
+            "--chain times one state per call: use it with --lanes 1",
+        ));
     }
     process_cpu_seconds().ok_or("no process CPU clock on this platform")?;
     let (shown, stem, text) = model_text(&args.model)?;
@@ -145,6 +158,14 @@ pub fn run(args: &BenchEvalArgs) -> CliResult {
         },
         "ns_per_state": results,
     });
-    println!("{report}");
+    match args.format {
+        Format::Json => println!("{report}"),
+        Format::Table => {
+            println!("{stem}: {}", report["what"].as_str().unwrap_or_default());
+            for (k, ns) in &results {
+                println!("  k = {k:>4}: {:.2} ns", ns.as_f64().unwrap_or(f64::NAN));
+            }
+        }
+    }
     Ok(())
 }

@@ -6,6 +6,7 @@ use std::path::Path;
 use lasalle::{Backend, LoadedModel, MODEL_FILES};
 
 use super::sim::normalise;
+use super::{usage, CliResult};
 
 /// Which back end runs a loaded model (`--backend`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -27,13 +28,14 @@ impl From<BackendArg> for Backend {
 }
 
 /// The text of a model given as a path or a name, with the path to show in messages and the
-/// name to use for output directories (the file stem).
-pub fn model_text(arg: &str) -> Result<(String, String, String), String> {
+/// name to use for output directories (the file stem). A model that is not there is a
+/// [`super::Usage`] error.
+pub fn model_text(arg: &str) -> CliResult<(String, String, String)> {
     let path = Path::new(arg);
     let looks_like_path = arg.ends_with(".lsl") || arg.contains(['/', '\\']) || path.is_file();
     if looks_like_path {
         let text = std::fs::read_to_string(path)
-            .map_err(|e| format!("cannot read model file `{arg}`: {e}"))?;
+            .map_err(|e| usage(format!("cannot read model file `{arg}`: {e}")))?;
         let stem = path
             .file_stem()
             .map_or_else(|| arg.to_string(), |s| s.to_string_lossy().into_owned());
@@ -48,16 +50,16 @@ pub fn model_text(arg: &str) -> Result<(String, String, String), String> {
         )),
         None => {
             let known: Vec<&str> = MODEL_FILES.iter().map(|(stem, _)| *stem).collect();
-            Err(format!(
+            Err(usage(format!(
                 "no model `{arg}`: give a path to a model file (`my_model.lsl`) or one of the built-in models: {}",
                 known.join(", ")
-            ))
+            )))
         }
     }
 }
 
 /// Loads a model given as a path or a name and compiles it with `backend`.
-pub fn load(arg: &str, backend: Backend) -> Result<(LoadedModel, String), String> {
+pub fn load(arg: &str, backend: Backend) -> CliResult<(LoadedModel, String)> {
     let (path, stem, text) = model_text(arg)?;
     let model = LoadedModel::from_source(&path, &text, backend).map_err(|e| e.to_string())?;
     Ok((model, stem))

@@ -13,10 +13,61 @@ mod stability;
 mod stability_figure;
 mod sweep;
 
-use clap::{Parser, Subcommand};
+use std::collections::BTreeSet;
+use std::fmt;
+
+use clap::parser::ValueSource;
+use clap::{ArgMatches, CommandFactory, FromArgMatches, Parser, Subcommand};
 
 /// The error type of the command line: any error, shown with its message.
 pub type CliResult<T = ()> = Result<T, Box<dyn std::error::Error>>;
+
+/// A mistake in the command line — a flag's value, a flag that does not apply, an unknown
+/// name — as opposed to a run that failed: exit code 2, as for the parser's own errors.
+#[derive(Debug)]
+pub struct Usage(pub String);
+
+impl fmt::Display for Usage {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Usage {}
+
+/// `message` as a [`Usage`] error.
+pub fn usage(message: impl fmt::Display) -> Box<dyn std::error::Error> {
+    Box::new(Usage(message.to_string()))
+}
+
+/// The flags given on the command line (not defaults), by argument id (`time_bound`), so that
+/// a flag that does not apply to the chosen method or model is refused instead of ignored.
+#[derive(Debug, Default)]
+pub struct Given(BTreeSet<String>);
+
+impl Given {
+    fn from_matches(m: &ArgMatches) -> Given {
+        Given(
+            m.ids()
+                .filter(|id| m.value_source(id.as_str()) == Some(ValueSource::CommandLine))
+                .map(|id| id.to_string())
+                .collect(),
+        )
+    }
+
+    /// Was `--<id>` given?
+    pub fn has(&self, id: &str) -> bool {
+        self.0.contains(id)
+    }
+
+    /// Refuses the first of `ids` that was given: "--<flag> <why>".
+    pub fn refuse(&self, ids: &[&str], why: &str) -> CliResult {
+        match ids.iter().find(|id| self.has(id)) {
+            Some(id) => Err(usage(format!("--{} {why}", id.replace('_', "-")))),
+            None => Ok(()),
+        }
+    }
+}
 
 /// lasalle: symbolic-to-numeric code generation for structure-preserving simulation.
 #[derive(Parser)]
@@ -51,16 +102,82 @@ enum Command {
     BenchEval(bench::BenchEvalArgs),
 }
 
-/// Parses the command line and runs the subcommand.
+/// Parses the command line and runs the subcommand. A malformed command line is a
+/// [`Usage`] error in one line (the parser's message and its tip, without the usage text).
 pub fn main() -> CliResult {
-    match Cli::parse().command {
+    let matches = match Cli::command().try_get_matches() {
+        Ok(m) => m,
+        Err(e) if !e.use_stderr() => e.exit(), // --help, --version
+        Err(e) => return Err(usage(one_line(&e.render().to_string()))),
+    };
+    let cli = Cli::from_arg_matches(&matches).map_err(|e| usage(one_line(&e.to_string())))?;
+    let given = matches
+        .subcommand()
+        .map(|(_, m)| Given::from_matches(m))
+        .unwrap_or_default();
+    match cli.command {
         Command::Gen(args) => gen::run(&args),
-        Command::Run(args) => run::run(&args),
+        Command::Run(args) => run::run(&args, &given),
         Command::Experiment(args) => experiment::run(&args),
         Command::NormalForm(args) => normal_form::run(&args),
-        Command::Sweep(args) => sweep::run(&args),
+        Command::Sweep(args) => sweep::run(&args, &given),
         Command::SweepMerge(args) => sweep::merge(&args),
-        Command::Stability(args) => stability::run(&args),
+        Command::Stability(args) => stability::run(&args, &given),
         Command::BenchEval(args) => bench::run(&args),
+    }
+}
+
+/// The parser's message on one line: its first paragraph (the message and what it lists,
+/// without `error: `), the possible values and its tip.
+fn one_line(text: &str) -> String {
+    let text = text.trim().strip_prefix("error: ").unwrap_or(text.trim());
+    let mut paragraphs = text.split("\n\n");
+    let first: Vec<&str> = paragraphs
+        .next()
+        .unwrap_or("invalid command line")
+        .lines()
+        .map(str::trim)
+        .collect();
+    let notes: Vec<&str> = paragraphs
+        .flat_map(str::lines)
+        .map(str::trim)
+        .filter(|l| l.starts_with("tip:"))
+        .collect();
+    let mut line = first.join(" ");
+    if !notes.is_empty() {
+        line = format!("{line} ({})", notes.join("; "));
+    }
+    line
+}
+
+/// Parsers of flag values: what clap checks is refused before anything runs, with exit code 2.
+pub mod value {
+    /// A finite number > 0.
+    pub fn positive(s: &str) -> Result<f64, String> {
+        match s.trim().parse::<f64>() {
+            Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+            _ => Err(format!("`{s}` is not a positive finite number")),
+        }
+    }
+
+    /// A finite number ≥ 0.
+    pub fn non_negative(s: &str) -> Result<f64, String> {
+        match s.trim().parse::<f64>() {
+            Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+            _ => Err(format!("`{s}` is not a finite number ≥ 0")),
+        }
+    }
+
+    /// A whole number ≥ 1.
+    pub fn count(s: &str) -> Result<u64, String> {
+        match s.trim().parse::<u64>() {
+            Ok(v) if v >= 1 => Ok(v),
+            _ => Err(format!("`{s}` is not a whole number ≥ 1")),
+        }
+    }
+
+    /// A whole number ≥ 1, as a size.
+    pub fn size(s: &str) -> Result<usize, String> {
+        count(s).and_then(|v| usize::try_from(v).map_err(|_| format!("`{s}` is too large")))
     }
 }

@@ -66,7 +66,7 @@ pub struct NormalFormArgs {
     params: Vec<String>,
     /// Truncation degree N of the normal form (2…120). Costs grow steeply with N and with the
     /// number of degrees of freedom (a progress bar is shown on a terminal).
-    #[arg(long, default_value_t = 12)]
+    #[arg(long, default_value_t = 12, value_parser = super::value::size, allow_hyphen_values = true)]
     order: usize,
     /// The equilibrium: a point of the model (`L4`) or a comma-separated starting guess for
     /// Newton's method on ∇H = 0 (flat state order). Default: the model's first point.
@@ -80,14 +80,14 @@ pub struct NormalFormArgs {
     #[arg(long)]
     resonant: bool,
     /// |m·ω| below this counts as a resonance (a finite number ≥ 0).
-    #[arg(long, default_value_t = 1e-6, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 1e-6, value_parser = super::value::non_negative, allow_hyphen_values = true)]
     resonance_tol: f64,
     /// Largest estimated relative error accepted for a coefficient of H̄ (coefficients below
     /// 1000 unit roundoffs of the largest of their degree count relative to that size). Above
     /// it the numbers are not printed: with `--precision auto` the run is redone in
     /// double-double, otherwise it fails. In (0, 1]; default 1e-3, three correct digits. (At
     /// Earth–Moon L4 f64 passes through order 17 and fails from degree 18 on.)
-    #[arg(long, default_value_t = DEFAULT_MAX_RELATIVE_ERROR, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = DEFAULT_MAX_RELATIVE_ERROR, value_parser = super::value::positive, allow_hyphen_values = true)]
     max_rel_error: f64,
     /// How to estimate the error of each coefficient (also what `--max-rel-error` checks).
     /// `cheap` (default) costs about one more run; `rerun` in the other precision costs 1.2–3.3×
@@ -250,12 +250,13 @@ fn progress_bar() -> Option<(ProgressBar, Progress)> {
 
 /// Runs `lasalle normal-form`.
 pub fn run(args: &NormalFormArgs) -> CliResult {
-    validate(args)?;
+    validate(args).map_err(super::usage)?;
     let params = args
         .params
         .iter()
         .map(|p| parse_param(p))
-        .collect::<CliResult<Vec<_>>>()?;
+        .collect::<CliResult<Vec<_>>>()
+        .map_err(super::usage)?;
     let point = match &args.at {
         None => ModelPoint::Auto,
         Some(s) if s.contains(',') || s.parse::<f64>().is_ok() => {
@@ -265,7 +266,8 @@ pub fn run(args: &NormalFormArgs) -> CliResult {
                     Ok(x) if x.is_finite() => Ok(x),
                     _ => Err(format!("`--at {s}`: `{v}` is not a finite number")),
                 })
-                .collect::<Result<Vec<_>, _>>()?;
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(super::usage)?;
             ModelPoint::Values(values)
         }
         Some(name) => ModelPoint::Named(name.clone()),
@@ -274,14 +276,33 @@ pub fn run(args: &NormalFormArgs) -> CliResult {
         .out
         .as_deref()
         .map(|p| OutputFile::check("--out", p))
-        .transpose()?;
+        .transpose()
+        .map_err(super::usage)?;
     let mut rust_file = args
         .emit_rust
         .as_deref()
         .map(|p| OutputFile::check("--emit-rust", p))
-        .transpose()?;
+        .transpose()
+        .map_err(super::usage)?;
     let (path, _, text) = model_text(&args.model)?;
     let model = lasalle_codegen::lower_source(&path, &text).map_err(|e| e.to_string())?;
+    // names the command line gives, checked before anything is computed
+    let params_known: Vec<&str> = model.params.iter().map(|p| p.name.as_str()).collect();
+    if let Some((name, _)) = params.iter().find(|(n, _)| model.param(n).is_none()) {
+        return Err(super::usage(format!(
+            "--param: unknown parameter `{name}` (the model has: {})",
+            params_known.join(", ")
+        )));
+    }
+    if let ModelPoint::Named(name) = &point {
+        if !model.points.iter().any(|p| &p.name == name) {
+            let known: Vec<&str> = model.points.iter().map(|p| p.name.as_str()).collect();
+            return Err(super::usage(format!(
+                "--at: unknown point `{name}` (the model has: {}; or give a Newton start x1,x2,…)",
+                known.join(", ")
+            )));
+        }
+    }
     let bar = progress_bar();
     let precision = match args.precision {
         PrecisionArg::Auto | PrecisionArg::F64 => Precision::F64,

@@ -24,7 +24,7 @@ use std::time::Instant;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lasalle::{
     component_names, sample_capacity, scaled_gains, step_gain_target, AdaptiveGain, Control, Csv,
-    Declared, DormandPrince, Driver, ExplicitRk, FeedbackField, Field, GainPolicy, Invariants,
+    Declared, DormandPrince, DriftBound, Driver, ExplicitRk, FeedbackField, Field, GainPolicy, Invariants,
     LaneField, LoadedModel, Lyapunov, ModelInfo, Observer, Parameters, Projection, Recorder,
     RigidBodySplitting, State, StepError, Stepper, StormerVerlet, Stride, Taylor, TaylorOptions,
     VerletVariant,
@@ -195,7 +195,8 @@ impl FromStr for Method {
 pub struct RunSpec {
     /// The method.
     pub method: Method,
-    /// Step size (fixed-step methods) or initial step (`dopri5`; 0 = automatic).
+    /// Step size (fixed-step methods) or initial step (adaptive methods; 0 = chosen by the
+    /// method: Hairer, Nørsett & Wanner's starting step for DOPRI5, Jorba & Zou's for Taylor).
     pub dt: f64,
     /// End time (the run starts at t = 0).
     pub t_end: f64,
@@ -203,10 +204,13 @@ pub struct RunSpec {
     pub gains: GainPolicy,
     /// Tolerance of the projection on |f(x) − f(x₀)|₂.
     pub tol: f64,
-    /// Relative tolerance of `dopri5`.
+    /// Relative tolerance of `dopri5`; the tolerance ε of the Taylor method.
     pub rtol: f64,
-    /// Absolute tolerance of `dopri5`.
+    /// Absolute tolerance of `dopri5` (the Taylor method has the one tolerance `rtol`).
     pub atol: f64,
+    /// An invariant whose error exceeds `max_drift` times its scale ends the run as diverged
+    /// ([`DriftBound`]).
+    pub max_drift: f64,
     /// Record every `every`-th step (0: about [`AUTO_SAMPLES`] samples).
     pub every: u64,
     /// Show a progress bar (only if standard error is a terminal).
@@ -223,16 +227,19 @@ pub const AUTO_SAMPLES: u64 = 20_000;
 pub const DEFAULT_MAX_STEPS: u64 = 1_000_000_000;
 
 impl RunSpec {
-    /// A spec with the defaults of `lasalle run`: model gains, tol = dt, rtol = atol = 1e-10.
+    /// A spec with the defaults of `lasalle run`: default gains (the model's for fixed-step
+    /// methods, the step-tracking rule for adaptive ones), tol = dt, rtol = atol = 1e-10,
+    /// divergence past [`lasalle::DEFAULT_MAX_DRIFT`].
     pub fn new(method: Method, dt: f64, t_end: f64) -> Self {
         RunSpec {
             method,
             dt,
             t_end,
-            gains: GainPolicy::ModelDefault,
+            gains: GainPolicy::Default,
             tol: dt,
             rtol: 1e-10,
             atol: 1e-10,
+            max_drift: lasalle::DEFAULT_MAX_DRIFT,
             every: 0,
             progress: false,
             max_steps: DEFAULT_MAX_STEPS,
@@ -289,6 +296,12 @@ impl RunSpec {
                 self.rtol, self.atol
             ));
         }
+        if !(self.max_drift.is_finite() && self.max_drift > 0.0) {
+            return Err(format!(
+                "--max-drift must be positive and finite, got {}",
+                self.max_drift
+            ));
+        }
         if !self.method.is_adaptive() && self.t_end / self.dt > self.max_steps as f64 {
             return Err(format!(
                 "--t-end {:e} with --dt {} would take {:.3e} steps, more than the limit of {}: \
@@ -299,7 +312,7 @@ impl RunSpec {
                 self.max_steps
             ));
         }
-        if !self.method.is_feedback() && self.gains != GainPolicy::ModelDefault {
+        if !self.method.is_feedback() && self.gains != GainPolicy::Default {
             return Err(format!(
                 "--gains applies to feedback methods only, not to `{}`",
                 self.method
@@ -494,7 +507,12 @@ impl Trace {
     pub fn write_csv(&self, path: &Path) -> CliResult {
         let file = std::fs::File::create(path)
             .map_err(|e| format!("cannot create {}: {e}", path.display()))?;
-        let mut csv = Csv::new(std::io::BufWriter::new(file));
+        self.write_csv_to(file)
+    }
+
+    /// Writes the samples as CSV to `out` (see [`Trace::write_csv`]).
+    pub fn write_csv_to(&self, out: impl std::io::Write) -> CliResult {
+        let mut csv = Csv::new(std::io::BufWriter::new(out));
         let header = std::iter::once("t".to_string())
             .chain(self.state_names.iter().cloned())
             .chain(self.blocks.iter().map(|b| format!("|Δ{b}|")));
@@ -548,6 +566,7 @@ impl Trace {
             "failure": self.failure.as_ref().map(|e| json!({
                 "message": e.to_string(),
                 "t": e.time(),
+                "step": e.step(),
                 "state": e.state(),
             })),
         })
@@ -660,9 +679,12 @@ where
                 spec.dt
             },
         );
-        driver = driver.guard(1, move |x: &X| {
-            model.check_guards(x, h).map(|g| g.to_string())
-        });
+        let drift = DriftBound::new(model, &self.x0, spec.max_drift);
+        driver = driver
+            .guard(1, move |x: &X| {
+                model.check_guards(x, h).map(|g| g.to_string())
+            })
+            .divergence(every, move |x: &X| drift.check(x));
         let mut obs = Stride::new(
             Progress {
                 inner: &mut rec,
@@ -713,7 +735,7 @@ where
     names.resize_with(model.state_dim(), String::new);
     let ((steps, evaluations, rejections), failure) = match counts {
         Ok(c) => (c, None),
-        Err(e) => ((0, 0, 0), Some(e)),
+        Err(e) => ((e.step().unwrap_or(0), 0, 0), Some(e)),
     };
     Trace {
         method: spec.method.to_string(),
@@ -966,6 +988,15 @@ impl<L: LaneField> Visit<L, Vec<f64>> for DriveLanes<'_, L> {
         let end = driver
             .run(&mut stepper, lanes, &lanes.pack(self.x0s).ok()?, &mut ())
             .ok()?;
+        // a lane that diverged fails alone, where the failure is reported with its step
+        let diverged = |(l, x0): (usize, &Vec<f64>)| {
+            DriftBound::new(model, x0, spec.max_drift)
+                .check(&lanes.unpack(&end.x, l))
+                .is_some()
+        };
+        if self.x0s.iter().enumerate().any(diverged) {
+            return None;
+        }
         let k = lanes.k() as f64;
         let wall = start.elapsed().as_secs_f64() / k;
         let cpu = process_cpu_seconds()
@@ -1140,9 +1171,16 @@ where
         GainPolicy::Step { c, every } => {
             let target = step_gain_target(c, spec.rtol, order);
             let unit = K::filled(K::len_for(model.gain_names().len()), 1.0);
-            // the first step is --dt; the wrapper rescales to the step actually proposed
-            let initial = scaled_gains(model, x0, &unit, spec.dt, target)
-                .map_err(|e| located(e) + "; --gains step needs a first step --dt > 0")?;
+            // the first step is --dt, else DOPRI5's starting step on X; the wrapper rescales
+            // to the step actually proposed
+            let h = if spec.dt > 0.0 {
+                spec.dt
+            } else {
+                DormandPrince::<f64, X>::with_tolerances(spec.rtol, spec.atol)
+                    .initial_step(model, 0.0, x0, spec.t_end)
+                    .ok_or("no starting step: give --dt")?
+            };
+            let initial = scaled_gains(model, x0, &unit, h, target).map_err(located)?;
             Ok(GainPlan {
                 initial,
                 adapt: Some((every, target, 1.0)),

@@ -15,7 +15,7 @@ use lasalle_codegen::Structure;
 
 use super::load::{load, BackendArg};
 use super::sim::{apply_param, parse_numbers};
-use super::CliResult;
+use super::{usage, value, CliResult, Given};
 
 /// Arguments of `lasalle stability`.
 #[derive(Args, Debug)]
@@ -27,7 +27,7 @@ pub struct StabilityArgs {
     pub param: Vec<String>,
     /// The Casimir level |P| = ρ whose equilibria are listed (default: |P| of the model's
     /// first named point, else 1).
-    #[arg(long, conflicts_with = "at")]
+    #[arg(long, conflicts_with = "at", value_parser = value::positive, allow_hyphen_values = true)]
     pub casimir: Option<f64>,
     /// Analyse this point instead (it must be an equilibrium): P1,P2,P3 for Lie–Poisson
     /// models, x1,x2 for planar dissipative ones.
@@ -38,11 +38,11 @@ pub struct StabilityArgs {
     #[arg(long, value_name = "A:B")]
     pub range: Option<String>,
     /// Number of levels in the family summary.
-    #[arg(long, default_value_t = 121)]
+    #[arg(long, default_value_t = 121, value_parser = value::size, allow_hyphen_values = true)]
     pub levels: usize,
-    /// Print JSON instead of tables.
-    #[arg(long)]
-    pub json: bool,
+    /// What to print: tables, JSON, or CSV (canonical models: one row per tube and order).
+    #[arg(long, value_enum, default_value_t)]
+    pub format: Format,
     /// How the model's functions run (the analysis itself evaluates the symbolic derivatives).
     #[arg(long, value_enum, default_value_t)]
     pub backend: BackendArg,
@@ -61,10 +61,10 @@ pub struct CanonicalArgs {
     #[arg(long, value_name = "D0,D1")]
     pub time_bound: Vec<String>,
     /// Canonical models: the highest normal-form order N of the bounds (orders 4, 6, …, N).
-    #[arg(long, default_value_t = 12)]
+    #[arg(long, default_value_t = 12, value_parser = value::size, allow_hyphen_values = true)]
     pub order: usize,
     /// Canonical models: the remainder degree M (default min(2N, N + 8) for each order N).
-    #[arg(long, value_name = "M")]
+    #[arg(long, value_name = "M", value_parser = value::size, allow_hyphen_values = true)]
     pub remainder_degree: Option<usize>,
     /// Canonical models: how distances from the equilibrium are measured.
     #[arg(long, value_enum, default_value = "euclidean")]
@@ -78,15 +78,39 @@ pub struct CanonicalArgs {
     #[arg(long)]
     pub validate: bool,
     /// With --validate: integrate to this time.
-    #[arg(long, default_value_t = 200.0)]
+    #[arg(long, default_value_t = 200.0, value_parser = value::positive, allow_hyphen_values = true, requires = "validate")]
     pub horizon: f64,
     /// With --validate: write the figure `stability_time.svg`/`.png` into this directory.
     #[arg(long, value_name = "DIR", requires = "validate")]
     pub figure: Option<std::path::PathBuf>,
-    /// Canonical models: print CSV (one row per tube and order).
-    #[arg(long, conflicts_with = "json")]
-    pub csv: bool,
 }
+
+/// What `lasalle stability` prints.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    /// Tables.
+    #[default]
+    Table,
+    /// JSON.
+    Json,
+    /// CSV (canonical models).
+    Csv,
+}
+
+/// The flags of each analysis, by argument id: a flag of another analysis than the model's is
+/// refused, not ignored.
+const LIE_POISSON_FLAGS: &[&str] = &["casimir", "range", "levels"];
+const CANONICAL_FLAGS: &[&str] = &[
+    "time_bound",
+    "order",
+    "remainder_degree",
+    "metric",
+    "equilibrium",
+    "validate",
+    "horizon",
+    "figure",
+];
+const ATTRACTION_FLAGS: &[&str] = &["lyapunov", "radius", "plot"];
 
 /// `--metric`.
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
@@ -198,10 +222,10 @@ fn run_canonical(args: &StabilityArgs, model: &lasalle_codegen::Model) -> CliRes
     for p in &args.param {
         let (name, value) = p
             .split_once('=')
-            .ok_or_else(|| format!("invalid --param `{p}`: expected `name=value`"))?;
-        let v = parse_numbers(value).map_err(|e| format!("invalid --param `{p}`: {e}"))?;
+            .ok_or_else(|| usage(format!("invalid --param `{p}`: expected `name=value`")))?;
+        let v = parse_numbers(value).map_err(|e| usage(format!("invalid --param `{p}`: {e}")))?;
         if v.len() != 1 {
-            return Err(format!("invalid --param `{p}`: one value per parameter here").into());
+            return Err(usage(format!("invalid --param `{p}`: one value per parameter here")));
         }
         params.push((name.trim().to_string(), v[0]));
     }
@@ -216,21 +240,21 @@ fn run_canonical(args: &StabilityArgs, model: &lasalle_codegen::Model) -> CliRes
             )),
             Err(e) => Err(format!("invalid --time-bound `{t}`: {e}")),
         })
-        .collect::<Result<Vec<_>, _>>()?;
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(usage)?;
     if !(c.horizon > 0.0 && c.horizon.is_finite()) {
-        return Err(format!(
+        return Err(usage(format!(
             "invalid --horizon {}: must be a positive finite time",
             c.horizon
-        )
-        .into());
+        )));
     }
     if c.validate && tubes.is_empty() {
-        return Err("--validate needs --time-bound D0,D1".into());
+        return Err(usage("--validate needs --time-bound D0,D1"));
     }
     let point = match &c.equilibrium {
         None => ModelPoint::Auto,
         Some(s) if s.contains(',') || s.parse::<f64>().is_ok() => ModelPoint::Values(
-            parse_numbers(s).map_err(|e| format!("invalid --equilibrium `{s}`: {e}"))?,
+            parse_numbers(s).map_err(|e| usage(format!("invalid --equilibrium `{s}`: {e}")))?,
         ),
         Some(name) => ModelPoint::Named(name.clone()),
     };
@@ -250,44 +274,69 @@ fn run_canonical(args: &StabilityArgs, model: &lasalle_codegen::Model) -> CliRes
     };
     if let Some(dir) = &c.figure {
         if !dir.is_dir() {
-            return Err(format!("--figure {}: not a directory", dir.display()).into());
+            return Err(usage(format!("--figure {}: not a directory", dir.display())));
         }
     }
     let report = analyse(model, &params, &opts)?;
     if let Some(dir) = &c.figure {
         super::stability_figure::write(&report, dir)?;
     }
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
-    } else if c.csv {
-        print!("{}", report.to_csv());
-    } else {
-        print!("{}", report.to_table());
+    match args.format {
+        Format::Json => println!("{}", serde_json::to_string_pretty(&report)?),
+        Format::Csv => print!("{}", report.to_csv()),
+        Format::Table => print!("{}", report.to_table()),
     }
     Ok(())
 }
 
 /// Runs `lasalle stability`.
-pub fn run(args: &StabilityArgs) -> CliResult {
+pub fn run(args: &StabilityArgs, given: &Given) -> CliResult {
     let (mut model, stem) = load(&args.model, args.backend.into())?;
     for p in &args.param {
-        apply_param(&mut model, p)?;
+        apply_param(&mut model, p).map_err(usage)?;
     }
+    let name = model.model_name();
+    let refuse = |flags: &[&str], analysis: &str| {
+        given.refuse(
+            flags,
+            &format!("does not apply: `{name}` gets the {analysis} analysis (see `lasalle stability --help`)"),
+        )
+    };
     // one match on the structure chooses the analysis
     let p_index = match model.model().hamiltonian.as_ref().map(|h| &h.structure) {
-        Some(Structure::LiePoissonSo3 { p }) => p.clone(),
-        Some(Structure::Canonical { .. }) => return run_canonical(args, model.model()),
+        Some(Structure::LiePoissonSo3 { p }) => {
+            refuse(CANONICAL_FLAGS, "Lie–Poisson (energy–Casimir)")?;
+            refuse(ATTRACTION_FLAGS, "Lie–Poisson (energy–Casimir)")?;
+            p.clone()
+        }
+        Some(Structure::Canonical { .. }) => {
+            refuse(LIE_POISSON_FLAGS, "canonical (normal-form)")?;
+            refuse(ATTRACTION_FLAGS, "canonical (normal-form)")?;
+            refuse(&["at"], "canonical (normal-form): give the point with --equilibrium")?;
+            return run_canonical(args, model.model());
+        }
         // no Hamiltonian structure: the domain of attraction of a dissipative planar field
         None => {
+            let analysis = "domain-of-attraction (a dissipative field without Hamiltonian structure)";
+            refuse(LIE_POISSON_FLAGS, analysis)?;
+            refuse(CANONICAL_FLAGS, analysis)?;
+            if args.format == Format::Csv {
+                return Err(usage(format!("--format csv: the {analysis} analysis prints tables or JSON")));
+            }
             return super::attraction::run(
                 &model,
                 &stem,
                 args.at.as_deref(),
-                args.json,
+                args.format == Format::Json,
                 &args.attraction,
-            )
+            );
         }
     };
+    if args.format == Format::Csv {
+        return Err(usage(
+            "--format csv: the Lie–Poisson analysis prints tables or JSON",
+        ));
+    }
     let sys = stability::system(&model)?;
     let opts = Options::default();
     let params: Vec<(String, Vec<f64>)> = model
@@ -299,9 +348,9 @@ pub fn run(args: &StabilityArgs) -> CliResult {
     let level_rho = match (&args.casimir, &args.at) {
         (Some(r), _) => *r,
         (None, Some(at)) => {
-            let v = parse_numbers(at).map_err(|e| format!("invalid --at `{at}`: {e}"))?;
+            let v = parse_numbers(at).map_err(|e| usage(format!("invalid --at `{at}`: {e}")))?;
             if v.len() != 3 {
-                return Err(format!("--at needs 3 numbers P1,P2,P3, got {}", v.len()).into());
+                return Err(usage(format!("--at needs 3 numbers P1,P2,P3, got {}", v.len())));
             }
             (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
         }
@@ -315,19 +364,12 @@ pub fn run(args: &StabilityArgs) -> CliResult {
     };
     let (range_lo, range_hi) = match &args.range {
         Some(r) => {
-            let (a, b) = r
-                .split_once(':')
-                .ok_or_else(|| format!("invalid --range `{r}`: expected `a:b`"))?;
-            let a: f64 = a
-                .trim()
-                .parse()
-                .map_err(|_| format!("invalid --range `{r}`"))?;
-            let b: f64 = b
-                .trim()
-                .parse()
-                .map_err(|_| format!("invalid --range `{r}`"))?;
+            let bad = || usage(format!("invalid --range `{r}`: expected `a:b` with 0 < a < b"));
+            let (a, b) = r.split_once(':').ok_or_else(bad)?;
+            let a: f64 = a.trim().parse().map_err(|_| bad())?;
+            let b: f64 = b.trim().parse().map_err(|_| bad())?;
             if !(a > 0.0 && b > a && b.is_finite()) {
-                return Err(format!("invalid --range `{r}`: need 0 < a < b").into());
+                return Err(bad());
             }
             (a, b)
         }
@@ -351,7 +393,7 @@ pub fn run(args: &StabilityArgs) -> CliResult {
         None => Some(stability::analyse_level(&sys, level_rho, &opts)?),
     };
     let sweep = stability::sweep(&sys, range_lo, range_hi, args.levels, &opts)?;
-    if args.json {
+    if args.format == Format::Json {
         let json = serde_json::json!({
             "model": model.model_name(),
             "file": stem,

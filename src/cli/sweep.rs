@@ -18,8 +18,9 @@ use lasalle::{Backend, LoadedModel, ModelInfo, Parameters};
 use rayon::prelude::*;
 
 use super::load::{model_text, BackendArg};
+use super::run::tolerances;
 use super::sim::{initial_state, simulate, simulate_lanes, Method, RunSpec, Trace};
-use super::CliResult;
+use super::{usage, value, CliResult, Given};
 
 /// Arguments of `lasalle sweep`.
 #[derive(Args, Debug)]
@@ -36,31 +37,42 @@ pub struct SweepArgs {
     /// crossed with, `--grid`.
     #[arg(long, value_name = "FILE")]
     pub list: Option<PathBuf>,
-    /// The method of every run.
+    /// The method of every run (as `lasalle run -m`).
     #[arg(long, short, default_value = "dopri5")]
     pub method: String,
-    /// Step size (the initial step of adaptive methods).
-    #[arg(long, default_value_t = 0.01)]
-    pub dt: f64,
+    /// Step size of fixed-step methods (required); the first step of adaptive ones (default:
+    /// chosen by the method), as in `lasalle run`.
+    #[arg(long, value_parser = value::positive, allow_hyphen_values = true)]
+    pub dt: Option<f64>,
     /// End time.
-    #[arg(long)]
+    #[arg(long, value_parser = value::positive, allow_hyphen_values = true)]
     pub t_end: f64,
     /// The initial state: a point of the model (evaluated with each row's parameters) or
     /// comma-separated numbers; default: the model's first point.
     #[arg(long, allow_hyphen_values = true)]
     pub init: Option<String>,
-    /// Relative and absolute tolerance of adaptive methods.
-    #[arg(long, default_value_t = 1e-10)]
-    pub tol: f64,
+    /// Gains of feedback methods, as in `lasalle run`.
+    #[arg(long, default_value = "default", allow_hyphen_values = true)]
+    pub gains: String,
+    /// Relative tolerance of adaptive methods, as in `lasalle run` (default 1e-10).
+    #[arg(long, value_parser = value::positive, allow_hyphen_values = true)]
+    pub rtol: Option<f64>,
+    /// Absolute tolerance of adaptive methods, as in `lasalle run` (default 1e-10).
+    #[arg(long, value_parser = value::positive, allow_hyphen_values = true)]
+    pub atol: Option<f64>,
+    /// A run has diverged when an invariant's error exceeds this many times max(|f(x₀)|, 1),
+    /// as in `lasalle run`.
+    #[arg(long, default_value_t = lasalle::DEFAULT_MAX_DRIFT, value_parser = value::positive, allow_hyphen_values = true)]
+    pub max_drift: f64,
     /// This process runs rows i, i + n, i + 2n, … of the sweep (0 ≤ i < n).
     #[arg(long, value_name = "I/N")]
     pub shard: Option<String>,
     /// Threads (default: all cores).
-    #[arg(long)]
+    #[arg(long, value_parser = value::size, allow_hyphen_values = true)]
     pub threads: Option<usize>,
     /// Rows that share their parameters run this many at a time in lanes (methods euler, heun
     /// and rk4; 1 runs every row alone). Results are the same either way.
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = 8, value_parser = value::size, allow_hyphen_values = true)]
     pub lanes: usize,
     /// How the model's functions run.
     #[arg(long, value_enum, default_value_t)]
@@ -290,36 +302,54 @@ fn run_group(
         .collect()
 }
 
+/// A row of the table: the inputs, then the results, or for a run that failed empty result
+/// cells (no number of a failed run reads as a result) and why, in the last column.
 fn cells(index: usize, row: &[(String, f64)], t: &Trace) -> Vec<String> {
     let mut c = vec![index.to_string()];
     c.extend(row.iter().map(|(_, v)| v.to_string()));
-    c.push(t.t.last().copied().unwrap_or(0.0).to_string());
-    c.push(t.steps.to_string());
-    c.push(t.evaluations.to_string());
-    c.push(t.wall_seconds.to_string());
-    for b in 0..t.blocks.len() {
-        c.push(t.final_error(b).to_string());
-        c.push(t.max_error(b).to_string());
-    }
-    c.extend(t.last_state().iter().map(|v| v.to_string()));
-    c.push(
-        t.failure
-            .as_ref()
+    let results = 4 + 2 * t.blocks.len() + t.dim();
+    match &t.failure {
+        None => {
+            c.push(t.t.last().copied().unwrap_or(0.0).to_string());
+            c.push(t.steps.to_string());
+            c.push(t.evaluations.to_string());
+            c.push(t.wall_seconds.to_string());
+            for b in 0..t.blocks.len() {
+                c.push(t.final_error(b).to_string());
+                c.push(t.max_error(b).to_string());
+            }
+            c.extend(t.last_state().iter().map(|v| v.to_string()));
+            c.push(String::new());
+        }
+        Some(e) => {
+            c.extend(std::iter::repeat_n(String::new(), results));
             // one line per row (sweep-merge reads lines); the table writer quotes it
-            .map(|e| e.to_string().lines().collect::<Vec<_>>().join("; "))
-            .unwrap_or_default(),
-    );
+            c.push(e.to_string().lines().collect::<Vec<_>>().join("; "));
+        }
+    }
     c
 }
 
 /// Runs `lasalle sweep`.
-pub fn run(args: &SweepArgs) -> CliResult {
-    let method: Method = args.method.parse()?;
+pub fn run(args: &SweepArgs, given: &Given) -> CliResult {
+    let method: Method = args.method.parse().map_err(usage)?;
     let (shard, shards) = match &args.shard {
-        Some(s) => parse_shard(s)?,
+        Some(s) => parse_shard(s).map_err(usage)?,
         None => (0, 1),
     };
-    let rows = rows(args)?;
+    let dt = match args.dt {
+        Some(dt) => dt,
+        None if method.is_adaptive() => 0.0,
+        None => return Err(usage(format!("give --dt: `{method}` takes fixed steps"))),
+    };
+    let mut spec = RunSpec::new(method, dt, args.t_end);
+    spec.gains = args.gains.parse().map_err(usage)?;
+    tolerances(&mut spec, given, args.rtol, args.atol)?;
+    spec.max_drift = args.max_drift;
+    spec.tol = if dt > 0.0 { dt } else { spec.rtol };
+    spec.every = u64::MAX; // the initial and the final state
+    spec.validate().map_err(usage)?;
+    let rows = rows(args).map_err(usage)?;
     let (path, _, text) = model_text(&args.model)?;
     let backend: Backend = args.backend.into();
     // the header, from one model
@@ -337,12 +367,9 @@ pub fn run(args: &SweepArgs) -> CliResult {
             .map(|n| format!("{n}(T)")),
     );
     header.push("failure".to_string());
-    let columns = columns(&probe, &rows[0])?;
+    let columns = columns(&probe, &rows[0]).map_err(usage)?;
     drop(probe);
-    let mut spec = RunSpec::new(method, args.dt, args.t_end);
-    (spec.rtol, spec.atol) = (args.tol, args.tol);
-    spec.every = u64::MAX; // the initial and the final state
-                           // this shard's rows, in groups of at most `--lanes` rows with the same parameters
+    // this shard's rows, in groups of at most `--lanes` rows with the same parameters
     let mut groups: Vec<Vec<(usize, &Row)>> = Vec::new();
     let mut open: BTreeMap<Vec<u64>, usize> = BTreeMap::new();
     for (k, row) in rows.iter().enumerate().filter(|(k, _)| k % shards == shard) {
@@ -395,8 +422,13 @@ pub fn run(args: &SweepArgs) -> CliResult {
     let runs = done.len();
     let mut table = lasalle::Csv::new(Vec::new());
     table.record(&header)?;
-    for (_, cells) in done {
-        table.record(&cells?)?;
+    let mut failed = Vec::new();
+    for (k, cells) in done {
+        let cells = cells.map_err(usage)?;
+        if cells.last().is_some_and(|why| !why.is_empty()) {
+            failed.push(k);
+        }
+        table.record(&cells)?;
     }
     let table = table.into_inner()?;
     if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -413,6 +445,13 @@ pub fn run(args: &SweepArgs) -> CliResult {
         pool.current_num_threads(),
         args.out.display()
     );
+    if let Some(first) = failed.first() {
+        return Err(format!(
+            "{} of {runs} runs failed (rows {first}, …): the table's `failure` column says why",
+            failed.len()
+        )
+        .into());
+    }
     Ok(())
 }
 
@@ -422,7 +461,7 @@ pub fn merge(args: &MergeArgs) -> CliResult {
     let mut rows: BTreeMap<usize, String> = BTreeMap::new();
     for path in &args.tables {
         let text = std::fs::read_to_string(path)
-            .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            .map_err(|e| usage(format!("cannot read {}: {e}", path.display())))?;
         let mut lines = text.lines();
         let h = lines
             .next()

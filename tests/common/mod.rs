@@ -41,3 +41,25 @@ pub fn tapes(file: &str) -> (lasalle_codegen::Model, ModelTapes) {
     let tapes = ModelTapes::new(&derived).unwrap();
     (derived.model, tapes)
 }
+
+/// Runs the `lasalle` binary, killed after `seconds` (a hang is a failure, not a stuck test
+/// run): `None` if it had to be killed.
+pub fn lasalle_within(args: &[&str], seconds: u64) -> Option<Output> {
+    use std::time::{Duration, Instant};
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lasalle"))
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("the lasalle binary runs");
+    let start = Instant::now();
+    while child.try_wait().expect("wait for lasalle").is_none() {
+        if start.elapsed() > Duration::from_secs(seconds) {
+            let _ = child.kill();
+            let _ = child.wait();
+            return None;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    Some(child.wait_with_output().expect("lasalle's output"))
+}

@@ -86,7 +86,13 @@ fn worst(t: &Trace) -> (f64, String) {
 
 fn cell(t: &Trace) -> String {
     match &t.failure {
-        Some(err) => format!("blow-up at t = {:.3}", err.time().unwrap_or(f64::NAN)),
+        Some(err) => {
+            let what = match err {
+                lasalle::StepError::Diverged { .. } => "diverged",
+                _ => "blow-up",
+            };
+            format!("{what} at t = {:.3}", err.time().unwrap_or(f64::NAN))
+        }
         None => {
             let (e, name) = worst(t);
             format!("{} ({name})", sci(e))

@@ -35,13 +35,13 @@ pub struct ExperimentArgs {
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// End time instead of the paper's (rigid body 1000, perturbed Kepler 200).
-    #[arg(long)]
+    #[arg(long, value_parser = super::value::positive, allow_hyphen_values = true)]
     pub t_end: Option<f64>,
     /// Kepler: number of periods T = 70.2481 instead of the paper's 1000.
-    #[arg(long)]
+    #[arg(long, value_parser = super::value::positive, allow_hyphen_values = true)]
     pub periods: Option<f64>,
     /// Step size instead of the paper's Δt.
-    #[arg(long)]
+    #[arg(long, value_parser = super::value::positive, allow_hyphen_values = true)]
     pub dt: Option<f64>,
     /// Skip the figures.
     #[arg(long)]
@@ -93,24 +93,12 @@ pub fn run(args: &ExperimentArgs) -> CliResult {
                 .into_iter()
                 .find(|p| normalise(p.name()) == normalise(other))
                 .ok_or_else(|| {
-                    format!(
+                    super::usage(format!(
                         "unknown experiment `{other}`; experiments: rigid-body, kepler, perturbed-kepler, gains, adaptive-gains, so3, all (use `lasalle run {other}` to integrate a model)"
-                    )
+                    ))
                 })?,
         ),
     };
-    if let Some(dt) = args.dt {
-        if !(dt.is_finite() && dt > 0.0) {
-            return Err(format!("step size must be positive and finite, got --dt {dt}").into());
-        }
-    }
-    for (flag, v) in [("--t-end", args.t_end), ("--periods", args.periods)] {
-        if let Some(v) = v {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(format!("{flag} must be positive and finite, got {v}").into());
-            }
-        }
-    }
     match which {
         Which::Paper(p) => run_one(args, p),
         Which::Gains => gains::run(args, &out_dir(args, "gains")?),

@@ -1,0 +1,92 @@
+//! When a run has diverged: a bound on the drift of the declared invariants.
+//!
+//! The driver already stops at a non-finite state. A state can stay finite and still be
+//! garbage (1e142 after a feedback gain too stiff for the step): [`DriftBound`] catches that
+//! through the invariants, which every model of lasalle declares. Block i has diverged when
+//! ‖fᵢ(x) − fᵢ(x₀)‖ is not finite or exceeds `max_drift · max(‖fᵢ(x₀)‖, 1)`: the drift
+//! measured against the invariant's own size, or in absolute terms for invariants near zero
+//! (a constraint RᵀR − I, a momentum that starts at zero). [`crate::Driver::divergence`] runs
+//! the check where a run records its samples.
+
+use std::ops::Range;
+
+use num_traits::Float;
+
+use crate::error::to_f64;
+use crate::field::{Invariants, ModelInfo};
+use crate::state::State;
+
+/// The default `max_drift`: an invariant's error a thousand times its scale is no longer an
+/// integration error but a run that left the problem.
+pub const DEFAULT_MAX_DRIFT: f64 = 1e3;
+
+/// The divergence check of a model's invariants relative to f(x₀) (see the module docs).
+#[derive(Clone, Debug)]
+pub struct DriftBound<'m, Mdl: ?Sized, T, F> {
+    model: &'m Mdl,
+    target: F,
+    /// (name, range in f, bound on the block's error).
+    blocks: Vec<(&'static str, Range<usize>, T)>,
+    max_drift: T,
+}
+
+impl<'m, Mdl, T, F> DriftBound<'m, Mdl, T, F>
+where
+    Mdl: ModelInfo + ?Sized,
+    T: Float,
+    F: State<T>,
+{
+    /// The bound `max_drift · max(‖fᵢ(x₀)‖, 1)` on each declared invariant block of `model`.
+    pub fn new<X>(model: &'m Mdl, x0: &X, max_drift: T) -> Self
+    where
+        Mdl: Invariants<T, X, F>,
+        X: State<T>,
+    {
+        let mut target = F::filled(F::len_for(model.invariant_dim()), T::zero());
+        model.invariants(x0, &mut target);
+        let blocks = model
+            .invariant_infos()
+            .iter()
+            .map(|i| {
+                let range = i.slot.range();
+                let scale = norm(target.as_ref()[range.clone()].iter().copied());
+                (i.slot.name, range, max_drift * scale.max(T::one()))
+            })
+            .collect();
+        DriftBound {
+            model,
+            target,
+            blocks,
+            max_drift,
+        }
+    }
+
+    /// `None` while every block's drift at `x` is within its bound, else what diverged.
+    pub fn check<X>(&self, x: &X) -> Option<String>
+    where
+        Mdl: Invariants<T, X, F>,
+        X: State<T>,
+    {
+        let mut f = self.target.clone();
+        self.model.invariants(x, &mut f);
+        self.blocks.iter().find_map(|(name, range, bound)| {
+            let drift = norm(
+                range
+                    .clone()
+                    .map(|i| f.as_ref()[i] - self.target.as_ref()[i]),
+            );
+            (!(drift <= *bound)).then(|| {
+                format!(
+                    "invariant {name} drifted by |Δ{name}| = {:e}, past {:e} × max(|{name}(x₀)|, 1) = {:e}",
+                    to_f64(drift),
+                    to_f64(self.max_drift),
+                    to_f64(*bound)
+                )
+            })
+        })
+    }
+}
+
+fn norm<T: Float>(v: impl Iterator<Item = T>) -> T {
+    v.fold(T::zero(), |s, x| s + x * x).sqrt()
+}

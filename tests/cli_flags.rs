@@ -1,0 +1,163 @@
+//! Every subcommand's flags with hostile values: NaN, ∞, 0, negative, huge, empty, wrong
+//! counts, unknown names, and flags that do not apply to the method or the model. Each row is
+//! `arguments ⇒ a piece of the message`; each must end at once with exit code 2 and a one-line
+//! message naming the flag or the name, never a panic, a hang or silent acceptance.
+
+mod common;
+
+use common::lasalle_within;
+
+/// `{out}` in a row is replaced by a path in the test's scratch directory.
+const ROWS: &[(&[&str], &str)] = &[
+    // the command line itself
+    (&["frobnicate"], "unrecognized subcommand"),
+    (&["run"], "required"),
+    // run: numbers
+    (&["run", "kepler", "--dt", "nan"], "--dt"),
+    (&["run", "kepler", "--dt", "inf"], "--dt"),
+    (&["run", "kepler", "--dt", "0"], "--dt"),
+    (&["run", "kepler", "--dt", "-1"], "--dt"),
+    (&["run", "kepler", "--dt", ""], "--dt"),
+    (&["run", "kepler", "--t-end", "1e400"], "--t-end"),
+    (&["run", "kepler", "--dt", "2", "--t-end", "1"], "exceeds the end time"),
+    (&["run", "kepler", "--dt", "1e-300", "--t-end", "1"], "--max-steps"),
+    (&["run", "kepler", "--every", "0"], "--every"),
+    (&["run", "kepler", "--every", "-3"], "--every"),
+    (&["run", "kepler", "--every", "1.5"], "--every"),
+    (&["run", "kepler", "--max-steps", "0"], "--max-steps"),
+    (&["run", "kepler", "--max-steps", "99999999999999999999999"], "--max-steps"),
+    (&["run", "kepler", "--max-drift", "nan"], "--max-drift"),
+    (&["run", "kepler", "-m", "dopri5", "--rtol", "0"], "--rtol"),
+    (&["run", "kepler", "-m", "dopri5", "--atol", "-1e-9"], "--atol"),
+    (&["run", "kepler", "-m", "projection-euler", "--projection-tol", "inf"], "--projection-tol"),
+    // run: names and counts
+    (&["run", "nosuch"], "no model `nosuch`"),
+    (&["run", "no/such/file.lsl"], "cannot read model file"),
+    (&["run", "kepler", "-m", "nope"], "unknown method `nope`"),
+    (&["run", "kepler", "-m", ""], "unknown method"),
+    (&["run", "kepler", "--preset", "nope"], "unknown preset `nope`"),
+    (&["run", "kepler", "--backend", "gpu"], "--backend"),
+    (&["run", "kepler", "--format", "yaml"], "possible values"),
+    (&["run", "kepler", "--param", "zz=1"], "unknown parameter `zz`"),
+    (&["run", "kepler", "--param", "mu=1,2"], "takes 1 value"),
+    (&["run", "kepler", "--param", "mu"], "expected `name=value"),
+    (&["run", "kepler", "--param", "mu=nan"], "not a finite number"),
+    (&["run", "kepler", "--param", "mu="], "not a finite number"),
+    (&["run", "kepler", "--init", "nowhere"], "unknown point `nowhere`"),
+    (&["run", "kepler", "--init", "1,2"], "dimension 6"),
+    (&["run", "kepler", "--init", "1,0,0,0,inf,0"], "not a finite number"),
+    (&["run", "kepler", "--init", "0,0,0,0,1,0"], "guard `collision`"),
+    (&["run", "duffing", "--init", "1e200,1e200"], "not finite at the initial state"),
+    (&["run", "kepler", "--gains", "1,2,3"], "gains"),
+    (&["run", "kepler", "--gains", "-1,2"], "≥ 0"),
+    (&["run", "kepler", "--gains", "adaptive:0"], "at least 1 step"),
+    (&["run", "kepler", "--gains", "fixed:5"], "not in (0, 2)"),
+    (&["run", "kepler", "--gains", "sometimes"], "invalid gain specification"),
+    // run: flags that do not apply to the method or the model
+    (&["run", "kepler", "-m", "taylor", "--tol", "1e-15"], "unexpected argument '--tol'"),
+    (&["run", "kepler", "-m", "euler", "--rtol", "1e-8"], "--rtol applies to adaptive methods"),
+    (&["run", "kepler", "-m", "rk4", "--atol", "1e-8"], "--atol applies to adaptive methods"),
+    (&["run", "kepler", "-m", "dopri5", "--gains", "auto"], "--gains applies to feedback"),
+    (&["run", "kepler", "-m", "rk4", "--projection-tol", "1e-6"], "--projection-tol applies"),
+    (&["run", "kepler", "-m", "taylor", "--rtol", "1e-12", "--atol", "1e-10"], "one tolerance"),
+    (&["run", "kepler", "--gains", "step"], "--gains step follows the step"),
+    (&["run", "kepler", "-m", "splitting"], "does not declare `splitting"),
+    (&["run", "duffing", "-m", "stormer-verlet-a", "--dt", "0.1"], "partitioned"),
+    // sweep and sweep-merge
+    (&["sweep", "kepler", "--t-end", "0", "--out", "{out}"], "--t-end"),
+    (&["sweep", "kepler", "--out", "{out}"], "--t-end"),
+    (&["sweep", "kepler", "--t-end", "1", "--out", "{out}", "--tol", "1e-8"], "unexpected argument '--tol'"),
+    (&["sweep", "kepler", "--t-end", "1", "--out", "{out}", "-m", "rk4"], "give --dt"),
+    (&["sweep", "kepler", "--t-end", "1", "--out", "{out}", "-m", "rk4", "--dt", "0.1", "--rtol", "1e-8"], "--rtol applies"),
+    (&["sweep", "kepler", "--t-end", "1", "--out", "{out}", "--grid", "mu=1:2:0"], "count"),
+    (&["sweep", "kepler", "--t-end", "1", "--out", "{out}", "--grid", "mu=1:nan:3"], "not a finite number"),
+    (&["sweep", "kepler", "--t-end", "1", "--out", "{out}", "--grid", "mu"], "expected `name="),
+    (&["sweep", "kepler", "--t-end", "1", "--out", "{out}", "--grid", "zz=1,2"], "neither a parameter"),
+    (&["sweep", "kepler", "--t-end", "1", "--out", "{out}", "--shard", "3/2"], "--shard"),
+    (&["sweep", "kepler", "--t-end", "1", "--out", "{out}", "--shard", "0/0"], "--shard"),
+    (&["sweep", "kepler", "--t-end", "1", "--out", "{out}", "--lanes", "0"], "--lanes"),
+    (&["sweep", "kepler", "--t-end", "1", "--out", "{out}", "--threads", "0"], "--threads"),
+    (&["sweep", "kepler", "--t-end", "1", "--out", "{out}", "--list", "no/such.csv"], "cannot read --list"),
+    (&["sweep-merge", "no/such.csv", "--out", "{out}"], "cannot read"),
+    (&["sweep-merge", "--out", "{out}"], "required"),
+    // stability: each analysis refuses the others' flags
+    (&["stability", "cr3bp", "--casimir", "1"], "--casimir does not apply"),
+    (&["stability", "cr3bp", "--at", "1,2"], "--at does not apply"),
+    (&["stability", "cr3bp", "--radius", "1"], "--radius does not apply"),
+    (&["stability", "so3_type_i", "--time-bound", "1e-3,1e-2"], "--time-bound does not apply"),
+    (&["stability", "duffing", "--time-bound", "1e-3,1e-2"], "--time-bound does not apply"),
+    (&["stability", "duffing", "--levels", "10"], "--levels does not apply"),
+    (&["stability", "cr3bp", "--time-bound", "1"], "expected D0,D1"),
+    (&["stability", "cr3bp", "--time-bound", "nan,1"], "not a finite number"),
+    (&["stability", "cr3bp", "--order", "0"], "--order"),
+    (&["stability", "cr3bp", "--horizon", "5"], "--validate"),
+    (&["stability", "cr3bp", "--validate"], "--validate needs --time-bound"),
+    (&["stability", "so3_type_i", "--levels", "0"], "--levels"),
+    (&["stability", "so3_type_i", "--casimir", "-1"], "--casimir"),
+    (&["stability", "so3_type_i", "--range", "2:1"], "--range"),
+    (&["stability", "so3_type_i", "--at", "1,2"], "3 numbers"),
+    (&["stability", "so3_type_i", "--format", "csv"], "--format csv"),
+    (&["stability", "duffing", "--format", "csv"], "--format csv"),
+    (&["stability", "so3_type_i", "--param", "c1=nan"], "not a finite number"),
+    // normal-form
+    (&["normal-form", "cr3bp", "--order", "1"], "--order"),
+    (&["normal-form", "cr3bp", "--order", "-1"], "--order"),
+    (&["normal-form", "cr3bp", "--order", "100000"], "--order"),
+    (&["normal-form", "cr3bp", "--resonance-tol", "nan"], "--resonance-tol"),
+    (&["normal-form", "cr3bp", "--max-rel-error", "2"], "--max-rel-error"),
+    (&["normal-form", "cr3bp", "--precision", "quad"], "possible values"),
+    (&["normal-form", "cr3bp", "--param", "mu=abc"], "not a number"),
+    (&["normal-form", "cr3bp", "--param", "zz=1"], "unknown parameter `zz`"),
+    (&["normal-form", "cr3bp", "--at", "L9"], "unknown point `L9`"),
+    (&["normal-form", "cr3bp", "--at", "1,nan"], "not a finite number"),
+    (&["normal-form", "cr3bp", "--format", "yaml"], "possible values"),
+    // gen, experiment, bench-eval
+    (&["gen", "nosuch"], "no model `nosuch`"),
+    (&["gen", "kepler", "--runtime-path", "x"], "--crate"),
+    (&["gen", "kepler", "--out", "{out}", "--crate", "{out}"], "cannot be used with"),
+    (&["experiment", "nosuch"], "unknown experiment `nosuch`"),
+    (&["experiment", "kepler", "--dt", "0"], "--dt"),
+    (&["experiment", "kepler", "--periods", "nan"], "--periods"),
+    (&["experiment", "kepler", "--t-end", "-5"], "--t-end"),
+    (&["bench-eval", "kepler", "--lanes", "0"], "--lanes"),
+    (&["bench-eval", "kepler", "--lanes", ""], "--lanes"),
+    (&["bench-eval", "kepler", "--states", "0"], "--states"),
+    (&["bench-eval", "kepler", "--seconds", "-1"], "--seconds"),
+    (&["bench-eval", "kepler", "--chain", "--lanes", "4"], "--chain"),
+];
+
+#[test]
+fn hostile_flags_are_refused_in_one_line_with_exit_code_2() {
+    let scratch = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("cli-flags");
+    std::fs::create_dir_all(&scratch).unwrap();
+    let out = scratch.join("out.csv");
+    let out = out.to_str().unwrap();
+    let mut failures = Vec::new();
+    for (args, expected) in ROWS {
+        let args: Vec<&str> = args
+            .iter()
+            .map(|a| if *a == "{out}" { out } else { a })
+            .collect();
+        let shown = args.join(" ");
+        let Some(o) = lasalle_within(&args, 60) else {
+            failures.push(format!("`{shown}`: still running after 60 s"));
+            continue;
+        };
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        let message = stderr.trim_end();
+        if o.status.code() != Some(2) {
+            failures.push(format!("`{shown}`: exit {:?}, stderr: {message}", o.status.code()));
+        } else if message.lines().count() != 1 || !message.starts_with("error: ") {
+            failures.push(format!("`{shown}`: not one `error:` line: {message:?}"));
+        } else if !message.contains(expected) {
+            failures.push(format!("`{shown}`: `{message}` does not say `{expected}`"));
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} of {} rows:\n{}",
+        failures.len(),
+        ROWS.len(),
+        failures.join("\n")
+    );
+}

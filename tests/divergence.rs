@@ -1,0 +1,172 @@
+//! No silent garbage: a run that diverges stops with a failure that names what diverged, the
+//! time and the step, and the command line exits with 1; the defaults of the adaptive
+//! feedback methods follow the step (they cost about the plain method's steps), and adaptive
+//! methods choose their own first step.
+//!
+//! The Pleiades (seven bodies, `tests/models/pleiades.lsl`, a model written pair by pair as a
+//! user writes it) against the reference solution of the IVP test set (Mazzia & Magherini,
+//! 16 digits at t = 3).
+
+mod common;
+
+use std::path::PathBuf;
+
+use common::lasalle;
+use lasalle::models::rigid_body::RigidBody;
+use lasalle::{Driver, DriftBound, ExplicitRk, StepError};
+
+const PLEIADES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/models/pleiades.lsl");
+
+/// x₁…x₇, y₁…y₇, ẋ₁…ẋ₇, ẏ₁…ẏ₇ at t = 3.
+const REFERENCE: [f64; 28] = [
+    0.3706139143970502, 3.237284092057233, -3.222559032418324, 0.6597091455775310,
+    0.3425581707156584, 1.562172101400631, -0.7003092922212495, -3.943437585517392,
+    -3.271380973972550, 5.225081843456543, -2.590612434977470, 1.198213693392275,
+    -0.2429682344935824, 1.091449240428980, 3.417003806314313, 1.354584501625501,
+    -2.590065597810775, 2.025053734714242, -1.155815100160448, -0.8072988170223021,
+    0.5952396354208710, -3.741244961234010, 0.3773459685750630, 0.9386858869551073,
+    0.3667922227200571, -0.3474046353808490, 2.344915448180937, -1.947020434263292,
+];
+
+fn out(name: &str) -> String {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("divergence").join(name);
+    dir.to_str().unwrap().to_string()
+}
+
+/// `lasalle run` with `args`, its summary.json and standard error.
+fn run(name: &str, args: &[&str]) -> (Option<i32>, serde_json::Value, String) {
+    let dir = out(name);
+    let mut all = vec!["run"];
+    all.extend(args);
+    all.extend(["--format", "json", "--out", &dir]);
+    let o = lasalle(&all);
+    let summary = std::fs::read_to_string(format!("{dir}/summary.json")).expect("summary.json");
+    (
+        o.status.code(),
+        serde_json::from_str(&summary).unwrap(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// The largest distance from the reference, positions and velocities (p = m v, m_i = i).
+fn distance_from_reference(summary: &serde_json::Value) -> f64 {
+    let x: Vec<f64> = summary["final_state"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().expect("a finite final state"))
+        .collect();
+    (0..28)
+        .map(|i| {
+            let v = if i < 14 { x[i] } else { x[i] / ((i % 7) + 1) as f64 };
+            (v - REFERENCE[i]).abs()
+        })
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn pleiades_split_taylor_default_gains_are_accurate() {
+    let args = [PLEIADES, "-m", "split-taylor", "--rtol", "1e-12", "--dt", "5e-4", "--t-end", "3"];
+    let (code, s, stderr) = run("split-taylor", &args);
+    assert_eq!(code, Some(0), "{stderr}");
+    let d = distance_from_reference(&s);
+    assert!(d < 1e-8, "split-taylor at t = 3 is {d:e} from the reference");
+    let h = s["invariant_errors"]["H"]["max"].as_f64().unwrap();
+    assert!(h < 1e-6, "|ΔH| = {h:e}");
+}
+
+#[test]
+fn pleiades_with_gains_too_stiff_for_the_step_fails_naming_what_diverged() {
+    // the model file's gains (1 per invariant) with split-taylor's steps: h·k·L far past 2
+    let args = [
+        PLEIADES, "-m", "split-taylor", "--rtol", "1e-12", "--dt", "5e-4", "--t-end", "3",
+        "--gains", "model",
+    ];
+    let (code, s, stderr) = run("split-taylor-model-gains", &args);
+    assert_eq!(code, Some(1), "a diverged run exits with 1: {stderr}");
+    let failure = &s["failure"];
+    let message = failure["message"].as_str().unwrap();
+    assert!(message.contains("diverged at step"), "{message}");
+    assert!(message.contains("invariant"), "{message}");
+    assert!(failure["step"].as_u64().unwrap() > 0);
+    let t = failure["t"].as_f64().unwrap();
+    assert!(t > 0.0 && t < 3.0, "{t}");
+    assert!(stderr.contains("diverged at step"), "{stderr}");
+    // nothing of the diverged state is reported as a result
+    let last_t = s["t_final"].as_f64().unwrap();
+    assert!(last_t < t, "the last sample ({last_t}) is before the failure ({t})");
+    for (name, e) in s["invariant_errors"].as_object().unwrap() {
+        assert!(e["max"].as_f64().is_some_and(f64::is_finite), "{name}: {e}");
+    }
+}
+
+/// Steps of `method` on `model` with the default gains, from its summary.
+fn steps(model: &str, method: &str, tol: &str, t_end: &str) -> u64 {
+    let name = format!("steps-{}-{method}", model.replace(['/', '.'], "_"));
+    let args = [model, "-m", method, "--rtol", tol, "--t-end", t_end, "--every", "1000000"];
+    let (code, s, stderr) = run(&name, &args);
+    assert_eq!(code, Some(0), "{model} {method}: {stderr}");
+    s["steps"].as_u64().unwrap()
+}
+
+/// The adaptive feedback methods' default gains follow the step: at most ~2× the plain
+/// method's steps (the model file's gains took 312 288 steps against 1 010 on the Pleiades).
+#[test]
+fn adaptive_feedback_defaults_cost_about_the_plain_method() {
+    let cases = [
+        (PLEIADES, "3"),
+        ("kepler", "70.2481"),
+        ("rigid_body", "100"),
+        ("perturbed_kepler", "200"),
+        ("cr3bp", "100"),
+        ("so3_type_iia", "10"),
+    ];
+    let mut report = Vec::new();
+    for (model, t_end) in cases {
+        for (plain, feedback, tol) in [
+            ("dopri5", "feedback-dopri5", "1e-10"),
+            ("taylor", "feedback-taylor", "1e-12"),
+            ("taylor", "split-taylor", "1e-12"),
+        ] {
+            let p = steps(model, plain, tol, t_end);
+            let f = steps(model, feedback, tol, t_end);
+            let ratio = f as f64 / p as f64;
+            report.push(format!("{model} {feedback}: {f} / {p} = {ratio:.2}"));
+            assert!(ratio <= 2.0, "{}", report.join("\n"));
+        }
+    }
+    println!("{}", report.join("\n"));
+}
+
+/// The runtime's check on its own: Euler on the free rigid body amplifies every rotation by
+/// √(1 + ω²h²) a step; at h = 0.1 the energy passes ten times its scale within 10⁴ steps, and
+/// the driver stops at the first check past the bound, with the step and the time.
+#[test]
+fn drift_bound_stops_the_driver() {
+    let m = RigidBody::<f64>::default();
+    let x0 = m.point_paper();
+    let bound = DriftBound::new(&m, &x0, 10.0);
+    let err = Driver::new(0.0, 1e4, 0.1)
+        .divergence(5, |x: &[f64; 12]| bound.check(x))
+        .run(&mut ExplicitRk::euler(), &m, &x0, &mut ())
+        .unwrap_err();
+    let StepError::Diverged { step, t, message, .. } = &err else {
+        panic!("expected a divergence, got {err}");
+    };
+    assert_eq!(step % 5, 0, "checked every 5 steps: {err}");
+    assert!((t - *step as f64 * 0.1).abs() < 1e-9, "{err}");
+    assert!(message.starts_with("invariant "), "{message}");
+    assert!(bound.check(&x0).is_none());
+}
+
+/// Duffing's cubic spring outside the saddles blows up in finite time: a non-finite state,
+/// reported with its step, exit code 1.
+#[test]
+fn a_fixed_step_blow_up_exits_with_1_and_says_where() {
+    let args = ["duffing", "-m", "rk4", "--dt", "0.01", "--t-end", "30", "--init", "10,0"];
+    let (code, s, stderr) = run("duffing-blow-up", &args);
+    assert_eq!(code, Some(1), "{stderr}");
+    let message = s["failure"]["message"].as_str().unwrap();
+    assert!(message.contains("blow-up: non-finite"), "{message}");
+    assert!(s["failure"]["step"].as_u64().is_some_and(|n| n > 0), "{s}");
+}
