@@ -165,7 +165,9 @@ fn cli_auto_gains_and_json_summary() {
     let out = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("adaptive-gains-cli");
     let run = |method: &str, gains: &[&str]| -> serde_json::Value {
         let mut args = vec!["run", "rigid-body", "-m", method, "--rtol", "1e-10"];
-        args.extend(["--atol", "1e-10", "--t-end", "200", "--format", "json", "--out"]);
+        args.extend([
+            "--atol", "1e-10", "--t-end", "200", "--format", "json", "--out",
+        ]);
         args.push(out.to_str().unwrap());
         args.extend(gains);
         let o = lasalle(&args);
@@ -218,7 +220,13 @@ fn cli_step_gains_need_an_adaptive_method() {
 #[test]
 fn cli_bench_eval_prints_ns_per_state() {
     let json = ["--format", "json"];
-    let o = lasalle(&[&["bench-eval", "kepler", "--lanes", "1,8", "--repeat", "1"][..], &json].concat());
+    let o = lasalle(
+        &[
+            &["bench-eval", "kepler", "--lanes", "1,8", "--repeat", "1"][..],
+            &json,
+        ]
+        .concat(),
+    );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
     for k in ["1", "8"] {
@@ -229,7 +237,13 @@ fn cli_bench_eval_prints_ns_per_state() {
     assert!(!bad.status.success());
 
     // chained: one lane, each call waiting for the last
-    let o = lasalle(&[&["bench-eval", "kepler", "--chain", "--repeat", "1"][..], &json].concat());
+    let o = lasalle(
+        &[
+            &["bench-eval", "kepler", "--chain", "--repeat", "1"][..],
+            &json,
+        ]
+        .concat(),
+    );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
     let ns = v["ns_per_state"]["1"].as_f64().expect("a number");

@@ -112,6 +112,13 @@ const ROWS: &[(&[&str], &str)] = &[
     (&["normal-form", "cr3bp", "--order", "-1"], "--order"),
     (&["normal-form", "cr3bp", "--order", "100000"], "--order"),
     (&["normal-form", "cr3bp", "--resonance-tol", "nan"], "--resonance-tol"),
+    (&["normal-form", "cr3bp", "--resonance-tol", "inf"], "--resonance-tol"),
+    (&["normal-form", "cr3bp", "--resonance-tol", "-1e-3"], "--resonance-tol"),
+    (&["normal-form", "cr3bp", "--param", "mu=nan"], "`--param mu=nan`: the value must be a finite number"),
+    (&["normal-form", "cr3bp", "--order", "121"], "`--order 121`: the truncation degree must be between 2 and 120"),
+    (&["normal-form", "cr3bp", "--max-rel-error", "0"], "--max-rel-error"),
+    (&["normal-form", "cr3bp", "--max-rel-error", "nan"], "--max-rel-error"),
+    (&["normal-form", "cr3bp", "--at", "0.5,inf,0,0"], "`--at 0.5,inf,0,0`: `inf` is not a finite number"),
     (&["normal-form", "cr3bp", "--max-rel-error", "2"], "--max-rel-error"),
     (&["normal-form", "cr3bp", "--precision", "quad"], "possible values"),
     (&["normal-form", "cr3bp", "--param", "mu=abc"], "not a number"),
@@ -154,7 +161,10 @@ fn hostile_flags_are_refused_in_one_line_with_exit_code_2() {
         let stderr = String::from_utf8_lossy(&o.stderr);
         let message = stderr.trim_end();
         if o.status.code() != Some(2) {
-            failures.push(format!("`{shown}`: exit {:?}, stderr: {message}", o.status.code()));
+            failures.push(format!(
+                "`{shown}`: exit {:?}, stderr: {message}",
+                o.status.code()
+            ));
         } else if message.lines().count() != 1 || !message.starts_with("error: ") {
             failures.push(format!("`{shown}`: not one `error:` line: {message:?}"));
         } else if !message.contains(expected) {

@@ -13,23 +13,46 @@ use std::path::PathBuf;
 
 use common::lasalle;
 use lasalle::models::rigid_body::RigidBody;
-use lasalle::{Driver, DriftBound, ExplicitRk, StepError};
+use lasalle::{DriftBound, Driver, ExplicitRk, StepError};
 
 const PLEIADES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/models/pleiades.lsl");
 
 /// x₁…x₇, y₁…y₇, ẋ₁…ẋ₇, ẏ₁…ẏ₇ at t = 3.
 const REFERENCE: [f64; 28] = [
-    0.3706139143970502, 3.237284092057233, -3.222559032418324, 0.6597091455775310,
-    0.3425581707156584, 1.562172101400631, -0.7003092922212495, -3.943437585517392,
-    -3.271380973972550, 5.225081843456543, -2.590612434977470, 1.198213693392275,
-    -0.2429682344935824, 1.091449240428980, 3.417003806314313, 1.354584501625501,
-    -2.590065597810775, 2.025053734714242, -1.155815100160448, -0.8072988170223021,
-    0.5952396354208710, -3.741244961234010, 0.3773459685750630, 0.9386858869551073,
-    0.3667922227200571, -0.3474046353808490, 2.344915448180937, -1.947020434263292,
+    0.3706139143970502,
+    3.237284092057233,
+    -3.222559032418324,
+    0.6597091455775310,
+    0.3425581707156584,
+    1.562172101400631,
+    -0.7003092922212495,
+    -3.943437585517392,
+    -3.271380973972550,
+    5.225081843456543,
+    -2.590612434977470,
+    1.198213693392275,
+    -0.2429682344935824,
+    1.091449240428980,
+    3.417003806314313,
+    1.354584501625501,
+    -2.590065597810775,
+    2.025053734714242,
+    -1.155815100160448,
+    -0.8072988170223021,
+    0.5952396354208710,
+    -3.741244961234010,
+    0.3773459685750630,
+    0.9386858869551073,
+    0.3667922227200571,
+    -0.3474046353808490,
+    2.344915448180937,
+    -1.947020434263292,
 ];
 
 fn out(name: &str) -> String {
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("divergence").join(name);
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join("divergence")
+        .join(name);
     dir.to_str().unwrap().to_string()
 }
 
@@ -58,7 +81,11 @@ fn distance_from_reference(summary: &serde_json::Value) -> f64 {
         .collect();
     (0..28)
         .map(|i| {
-            let v = if i < 14 { x[i] } else { x[i] / ((i % 7) + 1) as f64 };
+            let v = if i < 14 {
+                x[i]
+            } else {
+                x[i] / ((i % 7) + 1) as f64
+            };
             (v - REFERENCE[i]).abs()
         })
         .fold(0.0, f64::max)
@@ -66,11 +93,24 @@ fn distance_from_reference(summary: &serde_json::Value) -> f64 {
 
 #[test]
 fn pleiades_split_taylor_default_gains_are_accurate() {
-    let args = [PLEIADES, "-m", "split-taylor", "--rtol", "1e-12", "--dt", "5e-4", "--t-end", "3"];
+    let args = [
+        PLEIADES,
+        "-m",
+        "split-taylor",
+        "--rtol",
+        "1e-12",
+        "--dt",
+        "5e-4",
+        "--t-end",
+        "3",
+    ];
     let (code, s, stderr) = run("split-taylor", &args);
     assert_eq!(code, Some(0), "{stderr}");
     let d = distance_from_reference(&s);
-    assert!(d < 1e-8, "split-taylor at t = 3 is {d:e} from the reference");
+    assert!(
+        d < 1e-8,
+        "split-taylor at t = 3 is {d:e} from the reference"
+    );
     let h = s["invariant_errors"]["H"]["max"].as_f64().unwrap();
     assert!(h < 1e-6, "|ΔH| = {h:e}");
 }
@@ -79,8 +119,17 @@ fn pleiades_split_taylor_default_gains_are_accurate() {
 fn pleiades_with_gains_too_stiff_for_the_step_fails_naming_what_diverged() {
     // the model file's gains (1 per invariant) with split-taylor's steps: h·k·L far past 2
     let args = [
-        PLEIADES, "-m", "split-taylor", "--rtol", "1e-12", "--dt", "5e-4", "--t-end", "3",
-        "--gains", "model",
+        PLEIADES,
+        "-m",
+        "split-taylor",
+        "--rtol",
+        "1e-12",
+        "--dt",
+        "5e-4",
+        "--t-end",
+        "3",
+        "--gains",
+        "model",
     ];
     let (code, s, stderr) = run("split-taylor-model-gains", &args);
     assert_eq!(code, Some(1), "a diverged run exits with 1: {stderr}");
@@ -94,7 +143,10 @@ fn pleiades_with_gains_too_stiff_for_the_step_fails_naming_what_diverged() {
     assert!(stderr.contains("diverged at step"), "{stderr}");
     // nothing of the diverged state is reported as a result
     let last_t = s["t_final"].as_f64().unwrap();
-    assert!(last_t < t, "the last sample ({last_t}) is before the failure ({t})");
+    assert!(
+        last_t < t,
+        "the last sample ({last_t}) is before the failure ({t})"
+    );
     for (name, e) in s["invariant_errors"].as_object().unwrap() {
         assert!(e["max"].as_f64().is_some_and(f64::is_finite), "{name}: {e}");
     }
@@ -103,7 +155,9 @@ fn pleiades_with_gains_too_stiff_for_the_step_fails_naming_what_diverged() {
 /// Steps of `method` on `model` with the default gains, from its summary.
 fn steps(model: &str, method: &str, tol: &str, t_end: &str) -> u64 {
     let name = format!("steps-{}-{method}", model.replace(['/', '.'], "_"));
-    let args = [model, "-m", method, "--rtol", tol, "--t-end", t_end, "--every", "1000000"];
+    let args = [
+        model, "-m", method, "--rtol", tol, "--t-end", t_end, "--every", "1000000",
+    ];
     let (code, s, stderr) = run(&name, &args);
     assert_eq!(code, Some(0), "{model} {method}: {stderr}");
     s["steps"].as_u64().unwrap()
@@ -150,7 +204,10 @@ fn drift_bound_stops_the_driver() {
         .divergence(5, |x: &[f64; 12]| bound.check(x))
         .run(&mut ExplicitRk::euler(), &m, &x0, &mut ())
         .unwrap_err();
-    let StepError::Diverged { step, t, message, .. } = &err else {
+    let StepError::Diverged {
+        step, t, message, ..
+    } = &err
+    else {
         panic!("expected a divergence, got {err}");
     };
     assert_eq!(step % 5, 0, "checked every 5 steps: {err}");
@@ -163,7 +220,9 @@ fn drift_bound_stops_the_driver() {
 /// reported with its step, exit code 1.
 #[test]
 fn a_fixed_step_blow_up_exits_with_1_and_says_where() {
-    let args = ["duffing", "-m", "rk4", "--dt", "0.01", "--t-end", "30", "--init", "10,0"];
+    let args = [
+        "duffing", "-m", "rk4", "--dt", "0.01", "--t-end", "30", "--init", "10,0",
+    ];
     let (code, s, stderr) = run("duffing-blow-up", &args);
     assert_eq!(code, Some(1), "{stderr}");
     let message = s["failure"]["message"].as_str().unwrap();

@@ -119,46 +119,6 @@ fn a_repeated_frequency_is_a_1_1_resonance() {
 }
 
 #[test]
-fn numeric_options_are_validated_by_name() {
-    // issue 11, 5b
-    let cases: &[(&[&str], &str)] = &[
-        (
-            &["--resonance-tol", "nan"],
-            "`--resonance-tol NaN`: must be a finite number ≥ 0",
-        ),
-        (
-            &["--resonance-tol", "inf"],
-            "`--resonance-tol inf`: must be a finite number ≥ 0",
-        ),
-        (&["--resonance-tol", "-1e-3"], "`--resonance-tol -0.001`"),
-        (
-            &["--param", "mu=nan"],
-            "`--param mu=nan`: the value must be a finite number",
-        ),
-        (
-            &["--order", "1"],
-            "`--order 1`: the truncation degree must be between 2 and 120",
-        ),
-        (&["--order", "121"], "`--order 121`"),
-        (
-            &["--max-rel-error", "0"],
-            "`--max-rel-error 0`: must be a number in (0, 1]",
-        ),
-        (&["--max-rel-error", "nan"], "`--max-rel-error NaN`"),
-        (
-            &["--at", "0.5,inf,0,0"],
-            "`--at 0.5,inf,0,0`: `inf` is not a finite number",
-        ),
-    ];
-    for (extra, want) in cases {
-        let args = [&["normal-form", "cr3bp"][..], extra].concat();
-        let (ok, out, err) = lasalle_text(&args);
-        assert!(!ok && err.contains(want), "{extra:?}: {err}");
-        assert!(out.is_empty(), "{extra:?} printed {out}");
-    }
-}
-
-#[test]
 fn f64_breakdown_at_earth_moon_is_detected() {
     // issue 11, 5c: from degree 18 an f64 coefficient (I1^9) has > 1e-3 relative error
     let (ok, out, err) = lasalle_text(&[

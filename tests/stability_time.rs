@@ -159,7 +159,8 @@ fn command_line() {
         "5e-3,1e-2",
         "--order",
         "6",
-        "--format", "csv",
+        "--format",
+        "csv",
     ]);
     assert!(ok, "{err}");
     let rows: Vec<&str> = out.lines().collect();
@@ -176,7 +177,8 @@ fn command_line() {
         "5e-3,1e-2",
         "--order",
         "4",
-        "--format", "json",
+        "--format",
+        "json",
     ]);
     assert!(ok);
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();

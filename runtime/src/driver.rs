@@ -154,9 +154,13 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
         let adaptive = stepper.is_adaptive();
         let mut h = self.h;
         if adaptive && !(h > T::zero()) {
-            h = stepper
-                .initial_step(field, t0, x0, t_end)
-                .ok_or_else(|| StepError::InvalidInput("no initial step size".to_string()))?;
+            h = stepper.initial_step(field, t0, x0, t_end).ok_or_else(|| {
+                StepError::InvalidInput(
+                    "no starting step: the field at the initial state is not finite or too \
+                         large for any step; give a first step h > 0 (--dt)"
+                        .to_string(),
+                )
+            })?;
         }
         if !(h > T::zero() && h.is_finite()) {
             return Err(StepError::InvalidInput(format!(

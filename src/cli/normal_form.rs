@@ -133,13 +133,6 @@ fn validate(args: &NormalFormArgs) -> CliResult {
         )
         .into());
     }
-    if !(args.resonance_tol.is_finite() && args.resonance_tol >= 0.0) {
-        return Err(format!(
-            "`--resonance-tol {}`: must be a finite number ≥ 0 (default 1e-6)",
-            args.resonance_tol
-        )
-        .into());
-    }
     if !(args.max_rel_error > 0.0 && args.max_rel_error <= 1.0) {
         return Err(format!(
             "`--max-rel-error {}`: must be a number in (0, 1] (default {DEFAULT_MAX_RELATIVE_ERROR:e})",

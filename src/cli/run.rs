@@ -101,7 +101,6 @@ pub struct RunArgs {
     pub format: Format,
 }
 
-
 /// The preset `--preset` names, or the model's first one.
 fn preset(
     model: &impl Declared<f64, Vec<f64>>,
@@ -160,9 +159,8 @@ fn run_spec(
         .parse()
         .map_err(usage)?;
     // the preset's step and gains are for its own method, or for any fixed-step one
-    let own = preset.filter(|p| {
-        !method.is_adaptive() || p.method.is_none_or(|m| m.parse() == Ok(method))
-    });
+    let own = preset
+        .filter(|p| !method.is_adaptive() || p.method.is_none_or(|m| m.parse() == Ok(method)));
     let init = match (&args.init, preset.and_then(|p| p.init)) {
         (Some(init), _) => init.clone(),
         (None, Some(init)) => init.to_string(),
@@ -187,9 +185,7 @@ fn run_spec(
         args.gains.parse::<GainPolicy>().map_err(usage)?,
         own.and_then(|p| p.gains),
     ) {
-        (GainPolicy::Default, Some(g)) if method.is_feedback() => {
-            GainPolicy::Explicit(g.to_vec())
-        }
+        (GainPolicy::Default, Some(g)) if method.is_feedback() => GainPolicy::Explicit(g.to_vec()),
         (policy, _) => policy,
     };
     tolerances(&mut spec, given, args.rtol, args.atol)?;

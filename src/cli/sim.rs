@@ -24,10 +24,10 @@ use std::time::Instant;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lasalle::{
     component_names, sample_capacity, scaled_gains, step_gain_target, AdaptiveGain, Control, Csv,
-    Declared, DormandPrince, DriftBound, Driver, ExplicitRk, FeedbackField, Field, GainPolicy, Invariants,
-    LaneField, LoadedModel, Lyapunov, ModelInfo, Observer, Parameters, Projection, Recorder,
-    RigidBodySplitting, State, StepError, Stepper, StormerVerlet, Stride, Taylor, TaylorOptions,
-    VerletVariant,
+    Declared, DormandPrince, DriftBound, Driver, ExplicitRk, FeedbackField, Field, GainPolicy,
+    Invariants, LaneField, LoadedModel, Lyapunov, ModelInfo, Observer, Parameters, Projection,
+    Recorder, RigidBodySplitting, State, StepError, Stepper, StormerVerlet, Stride, Taylor,
+    TaylorOptions, VerletVariant,
 };
 use serde_json::json;
 

@@ -225,7 +225,9 @@ fn run_canonical(args: &StabilityArgs, model: &lasalle_codegen::Model) -> CliRes
             .ok_or_else(|| usage(format!("invalid --param `{p}`: expected `name=value`")))?;
         let v = parse_numbers(value).map_err(|e| usage(format!("invalid --param `{p}`: {e}")))?;
         if v.len() != 1 {
-            return Err(usage(format!("invalid --param `{p}`: one value per parameter here")));
+            return Err(usage(format!(
+                "invalid --param `{p}`: one value per parameter here"
+            )));
         }
         params.push((name.trim().to_string(), v[0]));
     }
@@ -274,7 +276,10 @@ fn run_canonical(args: &StabilityArgs, model: &lasalle_codegen::Model) -> CliRes
     };
     if let Some(dir) = &c.figure {
         if !dir.is_dir() {
-            return Err(usage(format!("--figure {}: not a directory", dir.display())));
+            return Err(usage(format!(
+                "--figure {}: not a directory",
+                dir.display()
+            )));
         }
     }
     let report = analyse(model, &params, &opts)?;
@@ -312,16 +317,22 @@ pub fn run(args: &StabilityArgs, given: &Given) -> CliResult {
         Some(Structure::Canonical { .. }) => {
             refuse(LIE_POISSON_FLAGS, "canonical (normal-form)")?;
             refuse(ATTRACTION_FLAGS, "canonical (normal-form)")?;
-            refuse(&["at"], "canonical (normal-form): give the point with --equilibrium")?;
+            refuse(
+                &["at"],
+                "canonical (normal-form): give the point with --equilibrium",
+            )?;
             return run_canonical(args, model.model());
         }
         // no Hamiltonian structure: the domain of attraction of a dissipative planar field
         None => {
-            let analysis = "domain-of-attraction (a dissipative field without Hamiltonian structure)";
+            let analysis =
+                "domain-of-attraction (a dissipative field without Hamiltonian structure)";
             refuse(LIE_POISSON_FLAGS, analysis)?;
             refuse(CANONICAL_FLAGS, analysis)?;
             if args.format == Format::Csv {
-                return Err(usage(format!("--format csv: the {analysis} analysis prints tables or JSON")));
+                return Err(usage(format!(
+                    "--format csv: the {analysis} analysis prints tables or JSON"
+                )));
             }
             return super::attraction::run(
                 &model,
@@ -350,7 +361,10 @@ pub fn run(args: &StabilityArgs, given: &Given) -> CliResult {
         (None, Some(at)) => {
             let v = parse_numbers(at).map_err(|e| usage(format!("invalid --at `{at}`: {e}")))?;
             if v.len() != 3 {
-                return Err(usage(format!("--at needs 3 numbers P1,P2,P3, got {}", v.len())));
+                return Err(usage(format!(
+                    "--at needs 3 numbers P1,P2,P3, got {}",
+                    v.len()
+                )));
             }
             (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
         }
@@ -364,7 +378,11 @@ pub fn run(args: &StabilityArgs, given: &Given) -> CliResult {
     };
     let (range_lo, range_hi) = match &args.range {
         Some(r) => {
-            let bad = || usage(format!("invalid --range `{r}`: expected `a:b` with 0 < a < b"));
+            let bad = || {
+                usage(format!(
+                    "invalid --range `{r}`: expected `a:b` with 0 < a < b"
+                ))
+            };
             let (a, b) = r.split_once(':').ok_or_else(bad)?;
             let a: f64 = a.trim().parse().map_err(|_| bad())?;
             let b: f64 = b.trim().parse().map_err(|_| bad())?;
