@@ -14,7 +14,7 @@
 //!
 //! Run with `--nocapture` to see the numbers of `docs/so3.md`.
 
-use lasalle::closed_forms::{Case, Type, CASES};
+use lasalle::closed_forms::{Case, Extremal, Type, CASES};
 use lasalle::models::{
     so3_type_i::So3TypeI, so3_type_iia::So3TypeIia, so3_type_iib::So3TypeIib,
     so3_type_iii::So3TypeIii,
@@ -242,8 +242,10 @@ fn euler_angles_reproduce_the_reconstruction() {
 }
 
 /// With g(0) = I (n = P(0)/|P(0)|, φ(0) = 0) the chart folds where D = 0: up to
-/// |D|/√K = 0.05 the angles agree with ġ = gΞ to 1e-9; the cases with n₂ ≠ 0 that reach the
-/// fold within their span are the ones listed, and C.10, C.11 start on it (P₁(0) = 0).
+/// |D|/√K = 0.05 the angles agree with ġ = gΞ to 1e-9. The coordinates cover only the
+/// rotations with (g⁻¹n)₃² ≤ 1 − n₂², i.e. P₃² ≤ K − λ₂² (λ = gP, constant); the cases whose
+/// P₃(t)² passes that bound within their span are the ones whose angles reach the fold (C.18
+/// touches it, C.10 and C.11 start on it: P₁(0) = 0).
 #[test]
 fn thesis_frame_agrees_up_to_the_fold() {
     const FOLDING: [&str; 8] = ["C.4", "C.6", "C.7", "C.8", "C.10", "C.11", "C.18", "C.19"];
@@ -253,6 +255,24 @@ fn thesis_frame_agrees_up_to_the_fold() {
         let r = case.p0.iter().map(|v| v * v).sum::<f64>().sqrt();
         let n = case.p0.map(|v| v / r);
         let eye = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        // the angles exist iff P₃(t)² ≤ K − λ₂² (λ = g P = P(0) here): the margin over the span
+        let orbit = Extremal::of_case(case);
+        let max_p3 = (0..=20_000)
+            .map(|i| orbit.p(case.t_end * i as f64 / 20_000.0)[2].powi(2))
+            .fold(0.0f64, f64::max);
+        let margin = max_p3 - (r * r - case.p0[1] * case.p0[1]);
+        println!(
+            "{}: max P3^2 - (K - lambda2^2) = {margin:+.4} over [0, {}]",
+            case.figure, case.t_end
+        );
+        // predicted: the cases that reach (or, C.18, touch) the boundary fold
+        assert_eq!(
+            margin > -1e-3,
+            FOLDING.contains(&case.figure),
+            "{}: margin {margin:.3e}",
+            case.figure
+        );
+        assert!(margin.abs() > 1e-3 || case.figure == "C.18" || case.p0[0] == 0.0);
         if case.p0[0] == 0.0 {
             println!(
                 "{}: P1(0) = 0, D(0) = 0: the chart is singular at t = 0",
