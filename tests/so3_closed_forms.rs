@@ -5,8 +5,8 @@
 //! - the printed closed forms (Appendix B's MATLAB, transcribed in [`CASES`]), which must be
 //!   far off where `docs/so3.md` says the thesis is wrong;
 //! - the listings with every constant exact ([`exact_listing`]), which must fit at their phase;
-//! and every printed constant against its exact value at four decimals (the errata listed in
-//! [`ERRATA`], the table of `docs/so3.md`).
+//! - every printed constant against its exact value at four decimals (the errata listed in
+//!   [`ERRATA`], the table of `docs/so3.md`).
 //!
 //! Run with `--nocapture` to see the table of `docs/so3.md`.
 

@@ -405,13 +405,13 @@ fn model_defaults_are_consistent() {
         let case: &Case = CASES.iter().find(|c| c.figure == figure).unwrap();
         let x0: Vec<f64> = m.point(point).unwrap();
         assert_eq!(&x0[..3], &[0.0; 3]);
-        for i in 0..3 {
-            assert!((x0[3 + i] - case.p0[i]).abs() < 1e-15, "{figure}");
+        for (x, p) in x0[3..].iter().zip(case.p0) {
+            assert!((x - p).abs() < 1e-15, "{figure}");
         }
         let r = case.p0.iter().map(|v| v * v).sum::<f64>().sqrt();
         let n = m.param("n").unwrap();
-        for i in 0..3 {
-            assert!((n[i] - case.p0[i] / r).abs() < 1e-15, "{figure}: n");
+        for (ni, p) in n.iter().zip(case.p0) {
+            assert!((ni - p / r).abs() < 1e-15, "{figure}: n");
         }
         for (i, name) in ["c1", "c2", "c3"].iter().enumerate() {
             if let Some(v) = m.param(name) {
