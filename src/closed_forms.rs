@@ -1424,3 +1424,314 @@ pub fn p_printed(case: usize, which: usize, t: f64) -> [f64; 3] {
     let f = &CASES[case].printed[which];
     f.eval(t, f.k)
 }
+
+/// The listing `which` (0 = first, 1 = second elliptic function) of `case` with every
+/// constant computed from c, P(0), H and K by the formulas of its theorem — Theorem 4.3.1
+/// (Type I), 5.3.1 (IIa), 6.3.1 (IIb), 7.3.1 (III), in the sub-case the listing belongs to —
+/// at full precision, where the listing prints four decimals. Two of the theorems' formulas
+/// are replaced by the correct ones (`docs/so3.md`): the time scale of Theorem 7.3.1's
+/// "sd and/or cn" sub-cases is √((c₃−c₂)(c₃−c₁)(a² + b²)/(c₁c₂c₃²)), not ·(a² + b²), and
+/// the nc/ds forms of Theorem 6.3.1 keep √(a² + b²) in the denominator of ds (as printed in
+/// the theorem; the C.7 listing prints a there). `k` is the theorem's modulus (so
+/// `eval(t, k²)` is the form with MATLAB's convention fixed) and the form has no phase: like
+/// the printed one, it is right only up to a time shift (`docs/so3.md`, #2).
+pub fn exact_listing(case: &Case, which: usize) -> Printed {
+    let printed = &case.printed[which];
+    let f = match printed.p3 {
+        P3Form::Scaled(_, f) | P3Form::Mobius { f, .. } => f,
+    };
+    let [c1, c2, c3] = case.c;
+    let h = case.ty.hamiltonian(case.c, case.p0);
+    let k = casimir(case.p0);
+    let listing = |omega: f64, modulus: f64, p3: P3Form, p1: [f64; 3], p2: [f64; 3]| Printed {
+        name: printed.name,
+        omega,
+        k: modulus,
+        p3,
+        p1,
+        p2,
+    };
+    match case.ty {
+        Type::I => {
+            // Theorem 4.3.1
+            let s = (h * h - k).sqrt();
+            let (alpha, beta) = (h + s, h - s);
+            let a = ((c1 - s - h) / (c1 + s - h)).sqrt();
+            let a1a2 = -(c1 + s - h) / (4.0 * s * s);
+            listing(
+                (alpha - beta) * a1a2.sqrt() * a / c1.sqrt(),
+                1.0 / a, // b = 1
+                P3Form::Mobius {
+                    n0: alpha,
+                    n1: beta * a,
+                    d1: a,
+                    f,
+                },
+                [2.0 * c1 * h, -2.0 * c1, 0.0],
+                [k - 2.0 * h * c1, 2.0 * c1, -1.0],
+            )
+        }
+        Type::IIa => {
+            // Theorem 5.3.1: CASE (I) c₁ > c₂, CASE (II) the same with c₁ ↔ c₂
+            let (big, small) = if c1 > c2 { (c1, c2) } else { (c2, c1) };
+            let (omega, modulus, amp) = match f {
+                Jf::Nd | Jf::Dn => {
+                    let amp = if f == Jf::Nd {
+                        (k - 2.0 * h * big).sqrt()
+                    } else {
+                        (k - 2.0 * h * small).sqrt()
+                    };
+                    (
+                        ((k - 2.0 * h * small) / (c1 * c2)).sqrt(),
+                        (2.0 * h * (big - small) / (k - 2.0 * h * small)).sqrt(),
+                        amp,
+                    )
+                }
+                _ => {
+                    let amp = if f == Jf::Sd {
+                        ((2.0 * h * big - k) * (k - 2.0 * h * small) / (2.0 * h * (big - small)))
+                            .sqrt()
+                    } else {
+                        (k - 2.0 * h * small).sqrt()
+                    };
+                    (
+                        (2.0 * h * (big - small) / (c1 * c2)).sqrt(),
+                        ((k - 2.0 * h * small) / (2.0 * h * (big - small))).sqrt(),
+                        amp,
+                    )
+                }
+            };
+            listing(
+                omega,
+                modulus,
+                P3Form::Scaled(amp, f),
+                [c1 * (k - 2.0 * h * c2) / (c1 - c2), 0.0, -c1 / (c1 - c2)],
+                [c2 * (k - 2.0 * h * c1) / (c2 - c1), 0.0, -c2 / (c2 - c1)],
+            )
+        }
+        Type::IIb => {
+            // Theorem 6.3.1: a² from the smaller cᵢ, b² from the larger (CASE (I) c₁ > c₂,
+            // CASE (II) c₂ > c₁)
+            let s = (h * h - k).sqrt();
+            let (alpha, beta) = (h + s, h - s);
+            let (big, small) = if c1 > c2 { (c1, c2) } else { (c2, c1) };
+            let a2 = (h - small + s) / (h - small - s);
+            let b2 = (h - big + s) / (h - big - s);
+            let a = a2.sqrt();
+            let a1a2 = -(h - c2 - s) * (h - c1 - s) / (4.0 * s * s);
+            let scale = (alpha - beta) * a1a2.sqrt() / (c1 * c2).sqrt();
+            let (omega, modulus, p3) = match f {
+                Jf::Dc | Jf::Ns => (
+                    scale * a,
+                    b2.sqrt() / a,
+                    P3Form::Mobius {
+                        n0: alpha,
+                        n1: beta * a,
+                        d1: a,
+                        f,
+                    },
+                ),
+                _ => {
+                    // "nc and/or ds": b² = −(H − c + √(H² − K))/(H − c − √(H² − K))
+                    let r = (a2 - b2).sqrt();
+                    let (n1, d1) = if f == Jf::Nc {
+                        (beta * a, a)
+                    } else {
+                        (beta * r, r)
+                    };
+                    (
+                        scale * r,
+                        (-b2).sqrt() / r,
+                        P3Form::Mobius {
+                            n0: alpha,
+                            n1,
+                            d1,
+                            f,
+                        },
+                    )
+                }
+            };
+            let q1 = c1 / (c2 - c1);
+            let q2 = c2 / (c1 - c2);
+            listing(
+                omega,
+                modulus,
+                p3,
+                [q1 * (2.0 * h * c2 - k), -2.0 * c2 * q1, q1],
+                [q2 * (2.0 * h * c1 - k), -2.0 * c1 * q2, q2],
+            )
+        }
+        Type::III => {
+            // Theorem 7.3.1
+            let rate = ((c3 - c2) * (c3 - c1)).abs().sqrt() / (c1 * c2).sqrt() / c3;
+            let x2 = c3 * (k - 2.0 * h * c2) / (c3 - c2);
+            let x1 = c3 * (k - 2.0 * h * c1) / (c3 - c1);
+            let y1 = c3 * (2.0 * h * c1 - k) / (c3 - c1);
+            let y2 = c3 * (2.0 * h * c2 - k) / (c3 - c2);
+            // CASE 1A(I) and 1B(I) share their a², b², as do 1A(II) and 1B(II)
+            let first = (c3 - c1) * (c1 - c2) > 0.0;
+            let case2 = (c3 - c1) * (c3 - c2) < 0.0;
+            let (a2, b2) = match f {
+                _ if case2 => {
+                    if x1 < x2 {
+                        (x2, x1)
+                    } else {
+                        (x1, x2)
+                    }
+                }
+                Jf::Nd | Jf::Dn if first => (x2, x1),
+                Jf::Nd | Jf::Dn => (x1, x2),
+                _ if first => (y1, x2),
+                _ => (y2, x1),
+            };
+            let (a, b) = (a2.sqrt(), b2.sqrt());
+            let (omega, modulus, amp) = match f {
+                Jf::Nd => (rate * a, (a2 - b2).sqrt() / a, b),
+                Jf::Dn => (rate * a, (a2 - b2).sqrt() / a, a),
+                Jf::Sd | Jf::Cn => {
+                    let r = (a2 + b2).sqrt();
+                    (rate * r, b / r, if f == Jf::Sd { a * b / r } else { b })
+                }
+                _ => (rate * a, b / a, b), // CASE 2: sn, cd
+            };
+            let q1 = c1 * (c3 - c2) / (c3 * (c1 - c2));
+            let q2 = c2 * (c3 - c1) / (c3 * (c2 - c1));
+            listing(
+                omega,
+                modulus,
+                P3Form::Scaled(amp, f),
+                [q1 * x2, 0.0, -q1],
+                [q2 * x1, 0.0, -q2],
+            )
+        }
+    }
+}
+
+/// One printed number of an Appendix B listing next to its exact value.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Constant {
+    /// "C.1" … "C.19".
+    pub figure: &'static str,
+    /// The listing(s) that print it: "dc", "dc, ns" (the same number in both), or "ode45"
+    /// for the initial value of SECTION 1.
+    pub listing: String,
+    /// What it is: "ω", "k", "A" (the amplitude of P₃ = A·f), "α", "βa", "a" (the Möbius form
+    /// (α − βa f)/(1 − a f); for ds "β√(a²+b²)" and "√(a²+b²)"), "P₁²: 1", "P₁²: P₃",
+    /// "P₁²: P₃²" (the coefficients of P₁² as a polynomial in P₃), likewise P₂², or "Pᵢ(0)".
+    pub name: &'static str,
+    /// As printed (four decimals at most).
+    pub printed: f64,
+    /// From c, P(0), H and K ([`exact_listing`]; P(0) for the ode45 values).
+    pub exact: f64,
+}
+
+impl Constant {
+    /// Whether the printed number is the exact one rounded to four decimals (a tie such as
+    /// −1.34375 may go either way).
+    pub fn rounds(&self) -> bool {
+        (self.printed - self.exact).abs() <= 0.5e-4 + 1e-12
+    }
+}
+
+/// The initial values of the ode45 calls (SECTION 1) that are printed with four decimals;
+/// the other cases print integers, which are P(0) exactly.
+pub const ODE45_P0: [(&str, [f64; 3]); 5] = [
+    ("C.6", [0.3536, 0.8420, 0.1563]),
+    ("C.7", [1.2247, 2.8284, -1.0]),
+    ("C.8", [1.4577, 0.3953, 0.5]),
+    ("C.9", [4.4721, 1.0, -2.0]),
+    ("C.18", [1.7321, 1.0, 1.0]),
+];
+
+/// Every printed constant of every Appendix B listing (and the four-decimal ode45 initial
+/// values), with its exact value; a number that both listings of a case print alike (ω, k,
+/// the P₁², P₂² coefficients) is one entry "dc, ns" when its exact values agree too.
+pub fn printed_constants() -> Vec<Constant> {
+    const P3_NAMES: [&str; 3] = ["α", "βa", "a"];
+    const P3_NAMES_DS: [&str; 3] = ["α", "β√(a²+b²)", "√(a²+b²)"];
+    const POLY: [[&str; 3]; 2] = [
+        ["P₁²: 1", "P₁²: P₃", "P₁²: P₃²"],
+        ["P₂²: 1", "P₂²: P₃", "P₂²: P₃²"],
+    ];
+    let mut out = Vec::new();
+    for case in &CASES {
+        if let Some((_, p)) = ODE45_P0.iter().find(|(f, _)| *f == case.figure) {
+            for (i, name) in ["P₁(0)", "P₂(0)", "P₃(0)"].into_iter().enumerate() {
+                out.push(Constant {
+                    figure: case.figure,
+                    listing: "ode45".to_string(),
+                    name,
+                    printed: p[i],
+                    exact: case.p0[i],
+                });
+            }
+        }
+        // (name, printed, exact) of each listing, in a fixed order
+        let rows: Vec<Vec<(&'static str, f64, f64)>> = (0..2)
+            .map(|w| {
+                let (pr, ex) = (&case.printed[w], exact_listing(case, w));
+                let mut r = vec![("ω", pr.omega, ex.omega), ("k", pr.k, ex.k)];
+                match (pr.p3, ex.p3) {
+                    (P3Form::Scaled(a, _), P3Form::Scaled(b, _)) => r.push(("A", a, b)),
+                    (
+                        P3Form::Mobius { n0, n1, d1, f },
+                        P3Form::Mobius {
+                            n0: e0,
+                            n1: e1,
+                            d1: e2,
+                            ..
+                        },
+                    ) => {
+                        let names = if f == Jf::Ds { P3_NAMES_DS } else { P3_NAMES };
+                        r.extend([(names[0], n0, e0), (names[1], n1, e1), (names[2], d1, e2)]);
+                    }
+                    _ => unreachable!("{}: printed and exact forms differ in kind", case.figure),
+                }
+                for (names, (pp, pe)) in POLY.iter().zip([(pr.p1, ex.p1), (pr.p2, ex.p2)]) {
+                    for i in 0..3 {
+                        // coefficients that are 0 in both are not printed
+                        if pp[i] != 0.0 || pe[i] != 0.0 {
+                            r.push((names[i], pp[i], pe[i]));
+                        }
+                    }
+                }
+                r
+            })
+            .collect();
+        let names = [case.printed[0].name, case.printed[1].name];
+        for &(name, printed, exact) in &rows[0] {
+            let other = rows[1].iter().find(|r| r.0 == name);
+            let same = |o: &(&str, f64, f64)| o.1 == printed && (o.2 - exact).abs() <= 1e-12;
+            match other {
+                Some(o) if same(o) => out.push(Constant {
+                    figure: case.figure,
+                    listing: format!("{}, {}", names[0], names[1]),
+                    name,
+                    printed,
+                    exact,
+                }),
+                _ => out.push(Constant {
+                    figure: case.figure,
+                    listing: names[0].to_string(),
+                    name,
+                    printed,
+                    exact,
+                }),
+            }
+        }
+        for &(name, printed, exact) in &rows[1] {
+            let first = rows[0].iter().find(|r| r.0 == name);
+            let shared = first.is_some_and(|o| o.1 == printed && (o.2 - exact).abs() <= 1e-12);
+            if !shared {
+                out.push(Constant {
+                    figure: case.figure,
+                    listing: names[1].to_string(),
+                    name,
+                    printed,
+                    exact,
+                });
+            }
+        }
+    }
+    out
+}
