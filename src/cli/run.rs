@@ -127,8 +127,6 @@ fn preset(
     }
 }
 
-/// Runs `lasalle run`.
-
 /// The spec and the initial state of a run: the preset's settings, overridden by the flags;
 /// a flag that does not apply to the method is refused.
 fn run_spec(

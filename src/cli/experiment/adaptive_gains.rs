@@ -100,11 +100,7 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
                     s.progress = !args.quiet;
                     s
                 };
-                let p = simulate(
-                    &model,
-                    &x0,
-                    &spec(plain, GainPolicy::ModelDefault, u64::MAX),
-                )?;
+                let p = simulate(&model, &x0, &spec(plain, GainPolicy::Default, u64::MAX))?;
                 let a = simulate(&model, &x0, &spec(feedback, GainPolicy::Auto, u64::MAX))?;
                 let budget = 10 * p.steps.max(1);
                 let d = simulate(

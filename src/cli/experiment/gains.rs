@@ -55,17 +55,17 @@ fn rows<const G: usize>(structure: (Method, &'static str)) -> Vec<Row> {
         Row {
             label: structure.1,
             method: structure.0,
-            gains: GainPolicy::ModelDefault,
+            gains: GainPolicy::Default,
         },
         Row {
             label: "RK4",
             method: Method::Plain(Base::Rk4),
-            gains: GainPolicy::ModelDefault,
+            gains: GainPolicy::Default,
         },
         Row {
             label: "Euler",
             method: Method::Plain(Base::Euler),
-            gains: GainPolicy::ModelDefault,
+            gains: GainPolicy::Default,
         },
     ]
 }
