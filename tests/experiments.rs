@@ -781,3 +781,31 @@ fn so3_experiment_keeps_g_in_so3_with_feedback() {
         }
     }
 }
+
+/// The gain study runs every row (plain methods with the default gains), and a run whose
+/// invariants pass the drift bound reads "diverged", never a number such as 8e42.
+#[test]
+fn gain_study_reports_divergence_as_such() {
+    let dir = scratch("experiment-gains");
+    let o = lasalle(&[
+        "experiment",
+        "gains",
+        "--no-figures",
+        "-q",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let md = std::fs::read_to_string(dir.join("summary.md")).unwrap();
+    let euler = md
+        .lines()
+        .find(|l| l.starts_with("| Euler |"))
+        .expect("the rigid body's Euler row");
+    assert!(euler.ends_with("diverged at t = 44.490 |"), "{euler}");
+    let errors = md.split("### Stability").next().unwrap();
+    let worst = errors
+        .split(['|', ' ', '('])
+        .filter_map(|c| c.parse::<f64>().ok())
+        .fold(0.0, f64::max);
+    assert!(worst < 1e3, "a cell reads {worst:e}");
+}

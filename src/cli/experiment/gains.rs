@@ -162,7 +162,7 @@ where
     let _ = writeln!(
         s,
         "### {title}, t ∈ [0, {t_end}]\n\nLargest sampled invariant error over the run (and which \
-         invariant); `blow-up` = the run stopped with a non-finite state or a collision.\n"
+         invariant); `blow-up` = the run stopped with a non-finite state or at a guard; `diverged` = an invariant's error passed 10³ times its scale.\n"
     );
     s.push_str(&table.markdown());
     Ok((s, json!(json_rows)))
