@@ -96,7 +96,7 @@ pub struct RunArgs {
     #[arg(long, short)]
     pub quiet: bool,
     /// What to print on standard output: the report (table), the summary as one JSON line
-    /// (json), or the trace (csv); json and csv imply --quiet's silence otherwise.
+    /// (json), or the trace (csv); with json and csv nothing else is printed.
     #[arg(long, value_enum, default_value_t)]
     pub format: Format,
 }

@@ -820,26 +820,43 @@ impl PlanarSystem {
         refined
     }
 
-    /// The boundary radius of the star-shaped component of {V < ℓ} along u.
+    /// The boundary radius of the star-shaped component of {V < ℓ} along u: where V first
+    /// reaches ℓ, or where it first stops increasing at a maximum that touches ℓ (to 10⁻⁹
+    /// relative). The second case is the level set through a saddle, where ℓ is V's maximum
+    /// along the ray: sampling alone never sees V ≥ ℓ there and would run to the search radius.
     fn boundary_radius(&self, c: &Candidate, p: Mat2, u: [f64; 2], level: f64, radius: f64) -> f64 {
         let v = |r: f64| self.eval(&[c.v], self.point(u, r), p, |x| x)[0];
+        let crossing = |mut lo: f64, mut hi: f64| {
+            for _ in 0..60 {
+                let mid = 0.5 * (lo + hi);
+                if v(mid) >= level {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            0.5 * (lo + hi)
+        };
+        let touches = level - 1e-9 * level.abs();
         let n = 400;
-        let mut lo = 0.0;
+        let (mut before, mut lo, mut v_lo) = (0.0, 0.0, f64::NEG_INFINITY);
         for i in 1..=n {
             let r = radius * i as f64 / n as f64;
-            if v(r) >= level {
-                let mut hi = r;
-                for _ in 0..60 {
-                    let mid = 0.5 * (lo + hi);
-                    if v(mid) >= level {
-                        hi = mid;
-                    } else {
-                        lo = mid;
-                    }
-                }
-                return 0.5 * (lo + hi);
+            let v_r = v(r);
+            if v_r >= level {
+                return crossing(lo, r);
             }
-            lo = r;
+            if v_r <= v_lo {
+                // V had a maximum in (before, r)
+                let (r_max, neg) = golden(|r| -v(r), before, r, 80);
+                if -neg >= level {
+                    return crossing(before, r_max);
+                }
+                if -neg >= touches {
+                    return r_max;
+                }
+            }
+            (before, lo, v_lo) = (lo, r, v_r);
         }
         radius
     }
