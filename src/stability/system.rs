@@ -123,14 +123,61 @@ impl LiePoissonSystem {
                 outputs.push(d);
             }
         }
-        Ok(LiePoissonSystem {
+        let sys = LiePoissonSystem {
             name: model.name.clone(),
             graph,
             p,
             outputs,
             h: ham.h,
             params: params.to_vec(),
-        })
+        };
+        // H, ∇H, the field and their derivatives must be finite: a parameter that divides
+        // (c₁ = 0 in H = P₁²/(2c₁)) makes them NaN everywhere, which no test for equilibria
+        // may read as "the field vanishes"
+        let probe = [0.6, -0.48, 0.64];
+        let l = sys.local(probe);
+        let finite = std::iter::once(l.h)
+            .chain(l.grad)
+            .chain(l.field)
+            .chain(l.hess.iter().flatten().copied())
+            .all(f64::is_finite);
+        if !finite {
+            let suspects: Vec<String> = model
+                .params
+                .iter()
+                .filter(|p| {
+                    params[p.offset..p.offset + p.slots()]
+                        .iter()
+                        .any(|&v| v == 0.0 || !v.is_finite())
+                })
+                .map(|p| {
+                    let v = &params[p.offset..p.offset + p.slots()];
+                    format!(
+                        "{} = {}",
+                        p.name,
+                        v.iter().map(f64::to_string).collect::<Vec<_>>().join(",")
+                    )
+                })
+                .collect();
+            return Err(StabilityError::Unsupported {
+                model: model.name.clone(),
+                why: format!(
+                    "H or its field is not finite at P = ({}, {}, {}){}",
+                    probe[0],
+                    probe[1],
+                    probe[2],
+                    if suspects.is_empty() {
+                        String::new()
+                    } else {
+                        format!(
+                            " with {} (a parameter the model divides by?): change it with --param",
+                            suspects.join(", ")
+                        )
+                    }
+                ),
+            });
+        }
+        Ok(sys)
     }
 
     /// The model's name.
