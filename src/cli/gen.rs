@@ -10,8 +10,9 @@ use std::path::{Path, PathBuf};
 pub struct GenArgs {
     /// The model: a path to a model file (`.lsl`) or the name of a built-in model.
     model: String,
-    /// Write a standalone crate (Cargo.toml + src/lib.rs depending on lasalle-runtime) here,
-    /// named after the model (`model RigidBody` → `rigid-body-model`).
+    /// Write a standalone crate (Cargo.toml + src/lib.rs depending on lasalle-runtime, and the
+    /// checkout's Cargo.lock with the runtime sources) here, named after the model
+    /// (`model RigidBody` → `rigid-body-model`).
     #[arg(long = "crate", value_name = "DIR")]
     crate_dir: Option<PathBuf>,
     /// Write the generated module to this file instead of standard output.
