@@ -1,58 +1,81 @@
-//! `lasalle gen <model> --crate <dir>` writes a crate that another project can depend on:
-//! named after the model, with no path of this checkout in its manifest unless one is asked
-//! for. The test builds one (against this checkout's runtime through `--runtime-path`, so it
-//! runs offline) and runs a test inside it that uses the generated model.
+//! Generated code builds outside this workspace with a plain `cargo build`:
+//!
+//! - `lasalle gen <model> --crate <dir>` writes a crate named after the model that depends on
+//!   the runtime sources this lasalle was built from (a path relative to the crate) and
+//!   carries this checkout's `Cargo.lock`; `cargo test` there builds it and runs a test that
+//!   uses the model;
+//! - a crate of a user's own, with `lasalle_codegen::Builder` in its `build.rs`, builds and
+//!   passes its test the same way.
+//!
+//! Both outside crates live under `target/gen-crate-test` and share one target directory, so
+//! the second build reuses what the first compiled. Neither passes `--offline`: with this
+//! checkout's lock, Cargo resolves without asking the registry and finds every crate in the
+//! cache the workspace's build filled, so the builds work without a network — and the tests
+//! check that Cargo did not update the registry index or download anything.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn lasalle_gen(root: &Path, args: &[&str]) -> Output {
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn lasalle_gen(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_lasalle"))
         .arg("gen")
         .args(args)
-        .current_dir(root)
+        .current_dir(root())
         .output()
         .expect("run lasalle gen")
 }
 
-#[test]
-fn generated_crate_builds_and_works() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let work = root.join("target/gen-crate-test");
-    let dir = work.join("orbit-crate");
+/// A fresh directory `target/gen-crate-test/<name>`.
+fn fresh(name: &str) -> PathBuf {
+    let dir = root().join("target/gen-crate-test").join(name);
     let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&work).unwrap();
-    // A file named after something else than its model: the crate is named after the model.
-    std::fs::copy(root.join("models/kepler.lsl"), work.join("orbit.lsl")).unwrap();
-    let out = lasalle_gen(
-        root,
-        &[
-            "target/gen-crate-test/orbit.lsl",
-            "--crate",
-            "target/gen-crate-test/orbit-crate",
-            "--runtime-path",
-            "../../../runtime",
-        ],
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Plain `cargo <command>` in an outside crate (the target directory shared by the outside
+/// crates): succeeds, without updating the registry index or downloading a crate.
+fn cargo(dir: &Path, command: &str) {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = Command::new(cargo)
+        .arg(command)
+        .env(
+            "CARGO_TARGET_DIR",
+            root().join("target/gen-crate-test/target"),
+        )
+        .current_dir(dir)
+        .output()
+        .unwrap_or_else(|e| panic!("run cargo {command} in {}: {e}", dir.display()));
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
     );
     assert!(
         out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        "cargo {command} in {} failed:\n{stdout}\n{stderr}",
+        dir.display()
     );
-    let manifest = std::fs::read_to_string(dir.join("Cargo.toml")).unwrap();
-    assert!(manifest.contains("name = \"kepler-model\""), "{manifest}");
-    assert!(
-        manifest.contains("lasalle-runtime = { path = \"../../../runtime\" }"),
-        "the path as given: {manifest}"
-    );
-    std::fs::create_dir_all(dir.join("tests")).unwrap();
-    std::fs::write(
-        dir.join("tests/smoke.rs"),
+    for network in ["Updating", "Downloading"] {
+        assert!(
+            !stderr.contains(network),
+            "cargo {command} in {} went to the registry:\n{stderr}",
+            dir.display()
+        );
+    }
+}
+
+/// A test of the Kepler model of `models/kepler.lsl`, the struct at `path`.
+fn kepler_test(path: &str) -> String {
+    format!(
         r#"
-use kepler_model::orbit::Kepler;
-use lasalle_runtime::{Field, Invariants};
+use {path}::Kepler;
+use lasalle_runtime::{{Field, Invariants}};
 #[test]
-fn kepler_from_the_generated_crate() {
+fn kepler_from_outside() {{
     let m = Kepler::<f64>::default();
     let x = m.point_paper();
     let mut f = [0.0; 6];
@@ -61,39 +84,151 @@ fn kepler_from_the_generated_crate() {
     let mut dx = [0.0; 6];
     m.prepare().field(&x, &mut dx);
     assert_eq!(dx[3], -1.0);
+}}
+"#
+    )
+}
+
+#[test]
+fn a_generated_crate_builds_with_plain_cargo() {
+    let work = fresh("orbit");
+    // A file named after something else than its model: the crate is named after the model.
+    std::fs::copy(root().join("models/kepler.lsl"), work.join("orbit.lsl")).unwrap();
+    let out = lasalle_gen(&[
+        "target/gen-crate-test/orbit/orbit.lsl",
+        "--crate",
+        "target/gen-crate-test/orbit/crate",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let dir = work.join("crate");
+    let manifest = std::fs::read_to_string(dir.join("Cargo.toml")).unwrap();
+    assert!(manifest.contains("name = \"kepler-model\""), "{manifest}");
+    // The runtime sources of this checkout, by a path relative to the crate.
+    let path = manifest
+        .split("lasalle-runtime = { path = \"")
+        .nth(1)
+        .and_then(|rest| rest.split('"').next())
+        .unwrap_or_else(|| panic!("a path dependency: {manifest}"));
+    assert!(path.starts_with("../"), "relative: {manifest}");
+    assert_eq!(
+        dir.join(path).canonicalize().unwrap(),
+        root().join("runtime").canonicalize().unwrap()
+    );
+    assert!(
+        stderr.contains("the runtime sources this lasalle was built from")
+            && stderr.contains("Cargo.lock"),
+        "says what it chose: {stderr}"
+    );
+    assert!(dir.join("Cargo.lock").is_file());
+    std::fs::create_dir_all(dir.join("tests")).unwrap();
+    std::fs::write(
+        dir.join("tests/smoke.rs"),
+        kepler_test("kepler_model::orbit"),
+    )
+    .unwrap();
+    cargo(&dir, "build");
+    cargo(&dir, "test");
+}
+
+#[test]
+fn a_build_script_with_the_builder_builds_with_plain_cargo() {
+    let dir = fresh("builder");
+    std::fs::create_dir_all(dir.join("models")).unwrap();
+    std::fs::create_dir_all(dir.join("src")).unwrap();
+    std::fs::create_dir_all(dir.join("tests")).unwrap();
+    std::fs::copy(
+        root().join("models/kepler.lsl"),
+        dir.join("models/kepler.lsl"),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("models/oscillator.lsl"),
+        "model Oscillator {\n    state q: scalar, p: scalar;\n    param w = 2;\n    \
+         hamiltonian H = (p^2 + w^2 * q^2) / 2;\n    structure canonical(q, p);\n}\n",
+    )
+    .unwrap();
+    // The crate docs' build script, with the paths of this checkout (relative to the crate).
+    std::fs::write(
+        dir.join("Cargo.toml"),
+        "[package]\nname = \"orbits\"\nversion = \"0.1.0\"\nedition = \"2021\"\n\n\
+         [dependencies]\nlasalle-runtime = { path = \"../../../runtime\" }\n\n\
+         [build-dependencies]\nlasalle-codegen = { path = \"../../../codegen\" }\n\n\
+         [workspace]\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("build.rs"),
+        r#"fn main() {
+    if let Err(e) = lasalle_codegen::Builder::new().models_in("models").build() {
+        eprintln!("{e}");
+        std::process::exit(1);
+    }
 }
 "#,
     )
     .unwrap();
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let out = Command::new(cargo)
-        .args(["test", "--offline", "--quiet"])
-        .env("CARGO_TARGET_DIR", work.join("target"))
-        .current_dir(&dir)
-        .output()
-        .expect("run cargo test in the generated crate");
-    assert!(
-        out.status.success(),
-        "the generated crate failed:\n{}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
+    std::fs::write(
+        dir.join("src/lib.rs"),
+        "pub mod models {\n    include!(concat!(env!(\"OUT_DIR\"), \"/models.rs\"));\n}\n",
+    )
+    .unwrap();
+    let oscillator = r#"
+#[test]
+fn oscillator_from_outside() {
+    use lasalle_runtime::Field;
+    let m = orbits::models::oscillator::Oscillator::<f64>::default();
+    let mut dx = [0.0; 2];
+    m.prepare().field(&[1.0, 0.0], &mut dx);
+    assert_eq!(dx, [0.0, -4.0]);
+}
+"#;
+    std::fs::write(
+        dir.join("tests/smoke.rs"),
+        kepler_test("orbits::models::kepler") + oscillator,
+    )
+    .unwrap();
+    // What `lasalle gen` does for its crates: this checkout's lock, so Cargo resolves to the
+    // versions the workspace's build fetched, without the registry's index.
+    std::fs::copy(root().join("Cargo.lock"), dir.join("Cargo.lock")).unwrap();
+    cargo(&dir, "build");
+    cargo(&dir, "test");
 }
 
 #[test]
-fn by_default_the_crate_depends_on_the_runtime_by_version() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let dir = root.join("target/gen-crate-test/by-version");
-    let _ = std::fs::remove_dir_all(&dir);
-    let out = lasalle_gen(
-        root,
-        &["rigid_body", "--crate", "target/gen-crate-test/by-version"],
-    );
+fn a_runtime_path_is_written_as_given() {
+    let dir = fresh("by-path");
+    let out = lasalle_gen(&[
+        "kepler",
+        "--crate",
+        "target/gen-crate-test/by-path",
+        "--runtime-path",
+        "../../../runtime",
+    ]);
     assert!(
         out.status.success(),
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+    let manifest = std::fs::read_to_string(dir.join("Cargo.toml")).unwrap();
+    assert!(
+        manifest.contains("lasalle-runtime = { path = \"../../../runtime\" }"),
+        "the path as given: {manifest}"
+    );
+    assert!(!dir.join("Cargo.lock").exists());
+}
+
+#[test]
+fn on_request_the_crate_depends_on_the_runtime_by_version() {
+    let dir = fresh("by-version");
+    let out = lasalle_gen(&[
+        "rigid_body",
+        "--crate",
+        "target/gen-crate-test/by-version",
+        "--runtime-registry",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
     let manifest = std::fs::read_to_string(dir.join("Cargo.toml")).unwrap();
     assert!(
         manifest.contains("name = \"rigid-body-model\""),
@@ -108,21 +243,24 @@ fn by_default_the_crate_depends_on_the_runtime_by_version() {
         !manifest.contains("path"),
         "no path of this checkout: {manifest}"
     );
+    assert!(!dir.join("Cargo.lock").exists());
+    // What to do where crates.io has no such version: the flag or the line, with the path.
+    assert!(
+        stderr.contains("--runtime-path ../../../runtime")
+            && stderr.contains("lasalle-runtime = { path = \"../../../runtime\" }"),
+        "{stderr}"
+    );
 }
 
 #[test]
 fn a_runtime_path_without_a_runtime_is_refused() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let out = lasalle_gen(
-        root,
-        &[
-            "kepler",
-            "--crate",
-            "target/gen-crate-test/nowhere",
-            "--runtime-path",
-            "no/such/runtime",
-        ],
-    );
+    let out = lasalle_gen(&[
+        "kepler",
+        "--crate",
+        "target/gen-crate-test/nowhere",
+        "--runtime-path",
+        "no/such/runtime",
+    ]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(

@@ -30,7 +30,16 @@
 //! structure is (partitioned or not) is asked of the model ([`Model::partition`]).
 //! The language's built-in functions and keywords are declared once, in [`vocabulary`].
 //!
-//! In a build script:
+//! In a build script, with the generator as a build dependency and the runtime the generated
+//! code implements as a dependency (from crates.io, or by path to a lasalle checkout):
+//!
+//! ```toml
+//! [dependencies]
+//! lasalle-runtime = { path = "../lasalle/runtime" }  # or "0.1.0"
+//!
+//! [build-dependencies]
+//! lasalle-codegen = { path = "../lasalle/codegen" }  # or "0.1.0"
+//! ```
 //!
 //! ```no_run
 //! // build.rs, inside `fn main()`:

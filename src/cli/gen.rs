@@ -1,4 +1,5 @@
-//! `lasalle gen <model> [--crate <dir>] [--out <file>] [--stats]`
+//! `lasalle gen <model> [--out <file>] [--stats]`; with `--crate <dir> [--runtime-path <path> |
+//! --runtime-registry]` a standalone crate.
 
 use super::CliResult;
 use clap::Args;
@@ -9,18 +10,24 @@ use std::path::{Path, PathBuf};
 pub struct GenArgs {
     /// The model: a path to a model file (`.lsl`) or the name of a built-in model.
     model: String,
-    /// Write a standalone crate (Cargo.toml + src/lib.rs depending on lasalle-runtime) here,
-    /// named after the model (`model RigidBody` → `rigid-body-model`).
+    /// Write a standalone crate (Cargo.toml + src/lib.rs depending on lasalle-runtime, and the
+    /// checkout's Cargo.lock with the runtime sources) here, named after the model
+    /// (`model RigidBody` → `rigid-body-model`).
     #[arg(long = "crate", value_name = "DIR")]
     crate_dir: Option<PathBuf>,
     /// Write the generated module to this file instead of standard output.
     #[arg(long, value_name = "FILE", conflicts_with = "crate_dir")]
     out: Option<PathBuf>,
     /// The generated crate depends on lasalle-runtime at this path, written into its
-    /// Cargo.toml as given (a relative path is relative to the crate's directory). Default:
-    /// the version of lasalle-runtime this lasalle was built with, from the registry.
+    /// Cargo.toml as given (a relative path is relative to the crate's directory). Default: the
+    /// runtime sources this lasalle was built from, by a path relative to the crate, when they
+    /// are still there; else the version of lasalle-runtime this lasalle was built with.
     #[arg(long, value_name = "PATH", requires = "crate_dir")]
     runtime_path: Option<PathBuf>,
+    /// The generated crate depends on lasalle-runtime by version, from crates.io, even when the
+    /// runtime sources this lasalle was built from are here (a crate to publish or to move).
+    #[arg(long, requires = "crate_dir", conflicts_with = "runtime_path")]
+    runtime_registry: bool,
     /// Print operation counts, conservation verdicts, time and size to standard error.
     #[arg(long)]
     stats: bool,
@@ -38,16 +45,37 @@ pub fn run(args: &GenArgs) -> CliResult {
     };
     match (&args.crate_dir, &args.out) {
         (Some(dir), _) => {
-            let runtime = match &args.runtime_path {
-                Some(p) => Runtime::Path(p.clone()),
-                None => Runtime::Version(env!("CARGO_PKG_VERSION")),
+            let sources = runtime_sources();
+            let runtime = match (&args.runtime_path, &sources) {
+                (Some(p), _) => Runtime::Path(p.clone()),
+                (None, Some(s)) if !args.runtime_registry => Runtime::Sources(s.clone()),
+                (None, _) => Runtime::Version(VERSION),
             };
-            write_crate(dir, &generated, &runtime)?;
+            let dependency = write_crate(dir, &generated, &runtime)?;
             eprintln!(
                 "wrote crate `{}` to {}",
                 crate_name(&generated),
                 dir.display()
             );
+            eprintln!("  lasalle-runtime = {dependency}");
+            match &runtime {
+                Runtime::Path(_) => eprintln!("  (--runtime-path, as given)"),
+                Runtime::Sources(s) => {
+                    eprintln!(
+                        "  (the runtime sources this lasalle was built from, {}; \
+                         --runtime-registry for the version on crates.io instead)",
+                        s.display()
+                    );
+                    if let Some(lock) = seed_lock(dir, s)? {
+                        eprintln!(
+                            "  Cargo.lock: the versions of {}, so the first build needs no \
+                             registry update",
+                            lock.display()
+                        );
+                    }
+                }
+                Runtime::Version(_) => eprintln!("{}", version_note(dir, sources.as_deref())),
+            }
         }
         (None, Some(file)) => {
             std::fs::write(file, generated.module_file()).map_err(|e| cannot_write(file, e))?
@@ -70,43 +98,130 @@ fn crate_name(generated: &lasalle_codegen::Generated) -> String {
     )
 }
 
+/// The version of lasalle-runtime this lasalle was built with (the workspace's one version).
+const VERSION: &str = env!("CARGO_PKG_VERSION");
+
+/// The runtime sources this lasalle was built from, if they are still there: the directory
+/// `runtime` of the checkout, holding the manifest of `lasalle-runtime`.
+fn runtime_sources() -> Option<PathBuf> {
+    let dir = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/runtime"));
+    let manifest = std::fs::read_to_string(dir.join("Cargo.toml")).ok()?;
+    manifest
+        .lines()
+        .any(|l| l.trim() == "name = \"lasalle-runtime\"")
+        .then(|| dir.canonicalize().ok())
+        .flatten()
+}
+
+/// What to do when the registry has no lasalle-runtime of this version: the flag, or the line
+/// of the crate's manifest to change. `sources`: the runtime sources this lasalle was built
+/// from, if they are there (then the crate depends on the version because it was asked to).
+fn version_note(dir: &Path, sources: Option<&Path>) -> String {
+    let (why, path) = match sources {
+        Some(s) => {
+            let from_crate = dir.canonicalize().ok().and_then(|d| relative(&d, s));
+            let path = from_crate.as_deref().unwrap_or(s).display().to_string();
+            ("--runtime-registry".to_string(), path)
+        }
+        None => (
+            format!(
+                "the runtime sources this lasalle was built from, {}/runtime, are not there",
+                env!("CARGO_MANIFEST_DIR")
+            ),
+            "PATH".to_string(),
+        ),
+    };
+    let what = if sources.is_some() {
+        ""
+    } else {
+        " (PATH: the `runtime` directory of a lasalle checkout, absolute or relative to the \
+         crate's directory)"
+    };
+    format!(
+        "note: the crate depends on lasalle-runtime {VERSION} from crates.io ({why}). Where \
+         crates.io has no lasalle-runtime {VERSION}, build it against a lasalle checkout: run \
+         `lasalle gen` again with `--runtime-path {path}`{what}, or change the line in {} to\n    \
+         lasalle-runtime = {{ path = {path:?} }}",
+        dir.join("Cargo.toml").display()
+    )
+}
+
+/// Seeds the crate's `Cargo.lock` with the checkout's next to the runtime sources, unless it
+/// has one: the crate then resolves to the versions the runtime was built and tested with
+/// without asking the registry, so it builds offline from the registry cache the checkout's
+/// build filled (Cargo drops the entries the crate does not use). Returns the lock copied.
+fn seed_lock(dir: &Path, sources: &Path) -> CliResult<Option<PathBuf>> {
+    let lock = dir.join("Cargo.lock");
+    let checkout = match sources.parent() {
+        Some(root) if !lock.exists() => root.join("Cargo.lock"),
+        _ => return Ok(None),
+    };
+    if !checkout.is_file() {
+        return Ok(None);
+    }
+    std::fs::copy(&checkout, &lock).map_err(|e| cannot_write(&lock, e))?;
+    Ok(Some(checkout))
+}
+
 /// Where a generated crate finds lasalle-runtime.
 pub enum Runtime {
     /// `lasalle-runtime = "<version>"`, from the registry.
     Version(&'static str),
     /// `lasalle-runtime = { path = "<path>" }`, the path as given (relative to the crate).
     Path(PathBuf),
+    /// `lasalle-runtime = { path = "<path>" }` to the runtime sources at this canonical path:
+    /// relative to the crate's (canonical) directory, or absolute where there is no relative
+    /// path (another drive).
+    Sources(PathBuf),
 }
 
-/// Writes `Cargo.toml` and `src/lib.rs` of a crate holding the generated model.
+/// Writes `Cargo.toml` and `src/lib.rs` of a crate holding the generated model; returns the
+/// dependency on lasalle-runtime as written (`"0.1.0"`, `{ path = "../runtime" }`).
 pub fn write_crate(
     dir: &Path,
     generated: &lasalle_codegen::Generated,
     runtime: &Runtime,
-) -> CliResult {
+) -> CliResult<String> {
+    if let Runtime::Path(p) = runtime {
+        // Resolved as Cargo will: a relative path from the crate's directory, `..` taken
+        // lexically (the crate's directory may not exist yet).
+        let manifest = lexical(&dir.join(p)).join("Cargo.toml");
+        if !manifest.is_file() {
+            return Err(format!(
+                "--runtime-path {}: no lasalle-runtime there ({} does not exist; a relative \
+                 path is relative to the crate directory {})",
+                p.display(),
+                manifest.display(),
+                dir.display()
+            )
+            .into());
+        }
+    }
+    std::fs::create_dir_all(dir.join("src")).map_err(|e| cannot_write(dir, e))?;
     let dependency = match runtime {
         Runtime::Version(v) => format!("{v:?}"),
         Runtime::Path(p) => {
-            // Resolved as Cargo will: a relative path from the crate's directory, `..` taken
-            // lexically (the crate's directory may not exist yet).
-            let manifest = lexical(&dir.join(p)).join("Cargo.toml");
-            if !manifest.is_file() {
-                return Err(format!(
-                    "--runtime-path {}: no lasalle-runtime there ({} does not exist; a relative \
-                     path is relative to the crate directory {})",
-                    p.display(),
-                    manifest.display(),
-                    dir.display()
-                )
-                .into());
-            }
             let path = p
                 .to_str()
                 .ok_or_else(|| format!("--runtime-path {}: not valid UTF-8", p.display()))?;
             format!("{{ path = {path:?} }}")
         }
+        Runtime::Sources(sources) => {
+            let crate_dir = dir.canonicalize().map_err(|e| cannot_write(dir, e))?;
+            let path = relative(&crate_dir, sources).unwrap_or_else(|| sources.clone());
+            let path = path.to_str().ok_or_else(|| {
+                format!(
+                    "the path from {} to the runtime sources {} is not valid UTF-8: pass \
+                     --runtime-path",
+                    crate_dir.display(),
+                    sources.display()
+                )
+            })?;
+            format!("{{ path = {path:?} }}")
+        }
     };
-    std::fs::create_dir_all(dir.join("src")).map_err(|e| cannot_write(dir, e))?;
+    // `[workspace]`: the crate is a workspace of its own, so it builds inside another one
+    // (under this checkout's `target/`, say) without being listed as a member there.
     let manifest = format!(
         "[package]\nname = \"{}\"\nversion = \"0.1.0\"\nedition = \"2021\"\ndescription = \"Model generated by lasalle-codegen\"\n\n\
          [dependencies]\nlasalle-runtime = {dependency}\n\n[workspace]\n",
@@ -117,7 +232,26 @@ pub fn write_crate(
         .map_err(|e| cannot_write(&cargo_toml, e))?;
     lasalle_codegen::write_if_changed(&lib, &generated.crate_lib())
         .map_err(|e| cannot_write(&lib, e))?;
-    Ok(())
+    Ok(dependency)
+}
+
+/// The path from the directory `from` to `to`, both absolute and canonical, with `/` between
+/// its components (`../../lasalle/runtime`); `None` when they share no root (two drives).
+fn relative(from: &Path, to: &Path) -> Option<PathBuf> {
+    let (from, to): (Vec<_>, Vec<_>) = (from.components().collect(), to.components().collect());
+    if from.first() != to.first() {
+        return None;
+    }
+    let common = from.iter().zip(&to).take_while(|(a, b)| a == b).count();
+    let mut parts: Vec<&str> = vec![".."; from.len() - common];
+    for c in &to[common..] {
+        parts.push(c.as_os_str().to_str()?);
+    }
+    Some(PathBuf::from(if parts.is_empty() {
+        ".".to_string()
+    } else {
+        parts.join("/")
+    }))
 }
 
 /// `path` with `.` dropped and `a/..` removed, without asking the file system.
