@@ -249,10 +249,7 @@ pub fn analyse(
         Ok(nf) => nf,
         Err(e @ (NormalFormError::NotElliptic { .. } | NormalFormError::Defective { .. })) => {
             if !o.tubes.is_empty() {
-                return Err(format!(
-                    "{}: no time bound: the equilibrium is not elliptic ({e})",
-                    model.name
-                ));
+                return Err(format!("{}: no time bound: {e}", model.name));
             }
             return Ok(CanonicalReport {
                 model: model.name.clone(),
@@ -266,10 +263,20 @@ pub fn analyse(
                 drift_exponents: Vec::new(),
             });
         }
-        Err(e @ NormalFormError::Resonance { .. }) => {
+        Err(NormalFormError::Resonance {
+            m,
+            m_dot_omega,
+            order,
+            ..
+        }) => {
+            // the normal form's own message suggests its `--resonant`, which bounds cannot use
+            let resonance =
+                format!("resonance m = {m:?} at order {order}, m·ω = {m_dot_omega:.3e}");
             if !o.tubes.is_empty() {
                 return Err(format!(
-                    "{}: no time bound: {e} (the bound needs a non-resonant normal form)",
+                    "{}: no time bound: {resonance}; the bound needs a normal form without \
+                     resonances through order 4 (`lasalle normal-form --resonant` computes the \
+                     resonant one)",
                     model.name
                 ));
             }
@@ -277,7 +284,7 @@ pub fn analyse(
                 .map_err(at)?;
             return Ok(CanonicalReport {
                 verdict: Verdict::NotDecided {
-                    why: format!("a resonance of order ≤ 4 ({e})"),
+                    why: format!("a {resonance}"),
                 },
                 ..report_of(&nf, o.metric)
             });
@@ -503,11 +510,16 @@ impl CanonicalReport {
     pub fn to_table(&self) -> String {
         use std::fmt::Write;
         let mut s = String::new();
-        let _ = writeln!(
-            s,
-            "{}: canonical Hamiltonian, equilibrium {:?}",
-            self.model, self.equilibrium
-        );
+        if self.equilibrium.is_empty() {
+            // not elliptic: the normal form stopped before it reported the point
+            let _ = writeln!(s, "{}: canonical Hamiltonian", self.model);
+        } else {
+            let _ = writeln!(
+                s,
+                "{}: canonical Hamiltonian, equilibrium {:?}",
+                self.model, self.equilibrium
+            );
+        }
         if !self.omega.is_empty() {
             let _ = writeln!(
                 s,
