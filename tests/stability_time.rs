@@ -124,7 +124,23 @@ fn verdicts_at_l4() {
 #[test]
 fn errors_are_located() {
     let err = |tubes: &[(f64, f64)], metric, mu| run(mu, &options(tubes, 6, metric)).unwrap_err();
-    let e = err(&[(1e-3, 2e-3)], Metric::Euclidean, EARTH_MOON_MU);
+    // a tube without a bound is reported with its reason; the other tubes go on
+    let failure = |tubes: &[(f64, f64)], metric, mu| {
+        let r = run(mu, &options(tubes, 6, metric)).unwrap();
+        assert_eq!(r.tubes.len(), tubes.len());
+        let failed: Vec<String> = r.tubes.iter().filter_map(|t| t.failure.clone()).collect();
+        assert_eq!(failed.len(), 1, "{failed:?}");
+        assert!(
+            r.tubes.iter().any(|t| t.best_order.is_some()),
+            "the good tube is bounded"
+        );
+        failed[0].clone()
+    };
+    let e = failure(
+        &[(1e-3, 2e-3), (1e-3, 1e-1)],
+        Metric::Euclidean,
+        EARTH_MOON_MU,
+    );
     assert!(
         e.contains("condition number 29.6") && e.contains("linear-normal"),
         "{e}"
@@ -136,7 +152,11 @@ fn errors_are_located() {
     let e = err(&[(1e-3, 2e-3)], Metric::LinearNormal, 0.024293897);
     assert!(e.contains("resonan"), "{e}");
     // the maps stop converging: no bound at any order
-    let e = err(&[(3e-2, 6e-2)], Metric::LinearNormal, EARTH_MOON_MU);
+    let e = failure(
+        &[(5e-3, 1e-2), (3e-2, 6e-2)],
+        Metric::LinearNormal,
+        EARTH_MOON_MU,
+    );
     assert!(e.contains("too wide"), "{e}");
 }
 

@@ -291,6 +291,19 @@ fn run_canonical(args: &StabilityArgs, model: &lasalle_codegen::Model) -> CliRes
         Format::Csv => print!("{}", report.to_csv()),
         Format::Table => print!("{}", report.to_table()),
     }
+    let failed: Vec<&str> = report
+        .tubes
+        .iter()
+        .filter_map(|t| t.failure.as_deref())
+        .collect();
+    if let Some(first) = failed.first() {
+        return Err(format!(
+            "{} of {} tubes have no bound (the others are above): {first}",
+            failed.len(),
+            report.tubes.len()
+        )
+        .into());
+    }
     Ok(())
 }
 

@@ -156,6 +156,8 @@ pub struct Tube {
     pub best_order: Option<usize>,
     /// Integration, with `validate`.
     pub validation: Option<TubeValidation>,
+    /// Why no order gives a bound (`best_order` is `None`); the other tubes go on.
+    pub failure: Option<String>,
 }
 
 /// Integration from one tube's inner sphere.
@@ -370,9 +372,9 @@ pub fn analyse(
             .filter_map(|r| r.gradient.map(|t| (r.order, t.lower)))
             .max_by(|a, b| a.1.total_cmp(&b.1))
             .map(|(n, _)| n);
-        if best_order.is_none() {
+        let failure = best_order.is_none().then(|| {
             let r = &rows[0];
-            return Err(format!(
+            format!(
                 "--time-bound {d0},{d1}: no bound at any order: the inner sphere reaches ρ₀ = {:.4e} \
                  in normal coordinates, the outer one comes down to ρ₁ = {:.4e} ≤ ρ₀{}",
                 r.rho0,
@@ -384,11 +386,10 @@ pub fn analyse(
                     ),
                     _ => " (the tube is too wide for the normal-form maps: take smaller radii)".into(),
                 }
-            ));
-        }
+            )
+        });
         let validation = match &o.validate {
-            None => None,
-            Some(v) => {
+            Some(v) if failure.is_none() => {
                 let charts: Vec<(&NormalForm, &Bound)> =
                     forms.iter().map(|(nf, b, _, _)| (nf, b)).collect();
                 let run = TubeRun {
@@ -418,6 +419,7 @@ pub fn analyse(
                 }
                 Some(tv)
             }
+            _ => None,
         };
         report.tubes.push(Tube {
             d0,
@@ -425,6 +427,7 @@ pub fn analyse(
             orders: rows,
             best_order,
             validation,
+            failure,
         });
     }
     report.drift_exponents = orders
@@ -536,6 +539,10 @@ impl CanonicalReport {
                 "\nTube d0 = {:e} → d1 = {:e}, distances {}: T = time before any orbit starting within d0 can reach d1",
                 t.d0, t.d1, self.metric
             );
+            if let Some(why) = &t.failure {
+                let _ = writeln!(s, "  {why}");
+                continue;
+            }
             let _ = writeln!(
                 s,
                 "  {:>3} {:>3} {:>5} {:>12} {:>12} {:>5} {:>16} {:>16} {:>9}",
