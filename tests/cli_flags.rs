@@ -98,6 +98,8 @@ const ROWS: &[(&[&str], &str)] = &[
     (&["stability", "cr3bp", "--time-bound", "1"], "expected D0,D1"),
     (&["stability", "cr3bp", "--time-bound", "nan,1"], "not a finite number"),
     (&["stability", "cr3bp", "--order", "0"], "--order"),
+    (&["stability", "cr3bp", "--time-bound", "1e-3,1e-1", "--order", "200"], "between 4 and 120"),
+    (&["stability", "cr3bp", "--time-bound", "1e-3,1e-1", "--order", "3"], "between 4 and 120"),
     (&["stability", "cr3bp", "--horizon", "5"], "--validate"),
     (&["stability", "cr3bp", "--validate"], "--validate needs --time-bound"),
     (&["stability", "so3_type_i", "--levels", "0"], "--levels"),

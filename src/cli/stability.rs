@@ -282,6 +282,7 @@ fn run_canonical(args: &StabilityArgs, model: &lasalle_codegen::Model) -> CliRes
             )));
         }
     }
+    opts.validate().map_err(usage)?;
     let report = analyse(model, &params, &opts)?;
     if let Some(dir) = &c.figure {
         super::stability_figure::write(&report, dir)?;

@@ -225,25 +225,36 @@ fn condition_number(m: &[Vec<f64>]) -> f64 {
     s.max() / s.min()
 }
 
+impl CanonicalOptions {
+    /// Checks the radii (0 < d0 < d1, finite) and the order (4 ≤ N ≤ the normal form's
+    /// largest when there are tubes); the messages name the command line's flags.
+    pub fn validate(&self) -> Result<(), String> {
+        for &(d0, d1) in &self.tubes {
+            if !(d0 > 0.0 && d0.is_finite() && d1.is_finite()) || d1 <= d0 {
+                return Err(format!(
+                    "--time-bound {d0},{d1}: need finite radii 0 < d0 < d1"
+                ));
+            }
+        }
+        if !self.tubes.is_empty() && !(4..=lasalle_normal_form::MAX_ORDER).contains(&self.max_order)
+        {
+            return Err(format!(
+                "--order {}: the bounds need an order between 4 and {}",
+                self.max_order,
+                lasalle_normal_form::MAX_ORDER
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// Runs the analysis; errors are located messages.
 pub fn analyse(
     model: &Model,
     params: &[(String, f64)],
     o: &CanonicalOptions,
 ) -> Result<CanonicalReport, String> {
-    for &(d0, d1) in &o.tubes {
-        if !(d0 > 0.0 && d0.is_finite() && d1.is_finite()) || d1 <= d0 {
-            return Err(format!(
-                "--time-bound {d0},{d1}: need finite radii 0 < d0 < d1"
-            ));
-        }
-    }
-    if !o.tubes.is_empty() && !(4..=lasalle_normal_form::MAX_ORDER).contains(&o.max_order) {
-        return Err(format!(
-            "--order {}: the bounds need an order of at least 4",
-            o.max_order
-        ));
-    }
+    o.validate()?;
     let at = |e: NormalFormError| format!("{}: {e}", model.name);
     // order 4: ellipticity, resonances through order 4, D4
     let base = normalize_model(model, params, &o.point, &options(4, None));
