@@ -3,6 +3,8 @@
 //! V̇; and LaSalle's invariance principle (the report's sixth paper): its example whose
 //! solutions approach E = {y = 0} but not the origin, and Duffing with the energy as V.
 
+mod common;
+
 use std::f64::consts::PI;
 
 use lasalle::stability::attraction::{
@@ -332,13 +334,7 @@ fn errors() {
 /// optimum; `--plot` into a missing directory is refused before any work.
 #[test]
 fn command_line() {
-    let run = |args: &[&str]| {
-        std::process::Command::new(env!("CARGO_BIN_EXE_lasalle"))
-            .args(args)
-            .current_dir(env!("CARGO_MANIFEST_DIR"))
-            .output()
-            .expect("run lasalle")
-    };
+    let run = common::lasalle;
     let out = run(&["stability", "models/duffing.lsl", "--format", "json"]);
     assert!(
         out.status.success(),
@@ -359,4 +355,24 @@ fn command_line() {
     let out = run(&["stability", "duffing", "--plot", "no/such/dir/f.svg"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("no/such/dir"));
+}
+
+/// ε₂ = 0: the linear damped oscillator attracts the whole plane; that is a result (exit 0),
+/// not an error.
+#[test]
+fn a_globally_attracting_equilibrium_is_a_result() {
+    let (ok, out, err) = common::lasalle_text(&["stability", "duffing", "--param", "eps2=0"]);
+    assert!(ok, "{err}");
+    assert!(out.contains("attracts everything sampled"), "{out}");
+    let (ok, out, err) = common::lasalle_text(&[
+        "stability",
+        "duffing",
+        "--param",
+        "eps2=0",
+        "--format",
+        "json",
+    ]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["bounded"], false);
 }

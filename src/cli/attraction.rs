@@ -96,6 +96,32 @@ fn row(name: &str, e: &Estimate) {
     );
 }
 
+/// The result where no estimate is bounded: V̇ < 0 at every sample out to the largest search
+/// radius (a linear field such as Duffing's with ε₂ = 0 attracts the whole plane).
+fn unbounded(sys: &PlanarSystem, stem: &str, radius: f64, json: bool) -> CliResult {
+    let xe = sys.equilibrium();
+    if json {
+        let out = serde_json::json!({
+            "model": sys.name(),
+            "file": stem,
+            "equilibrium": xe,
+            "bounded": false,
+            "radius": radius,
+        });
+        println!("{}", serde_json::to_string_pretty(&out)?);
+    } else {
+        println!(
+            "{} ({stem}): equilibrium ({:.6}, {:.6}) attracts everything sampled: V̇ < 0 for \
+             V = yᵀPy (AᵀP + PA = −I) out to radius {radius:.3e}, so no boundary of its domain \
+             of attraction was found (a linear field's domain is the whole plane)",
+            sys.name(),
+            xe[0],
+            xe[1]
+        );
+    }
+    Ok(())
+}
+
 /// Runs the analysis for `model` (already parameterised) and prints or plots it.
 pub fn run(
     model: &LoadedModel,
@@ -110,7 +136,15 @@ pub fn run(
         radius: args.radius,
         ..Options::default()
     };
-    let analysis = sys.analyse(&opts)?;
+    let analysis = match sys.analyse(&opts) {
+        Err(attraction::AttractionError::Unbounded { radius }) => {
+            if figure.is_some() {
+                eprintln!("note: no figure: there is no bounded estimate to draw");
+            }
+            return unbounded(&sys, stem, radius, json);
+        }
+        other => other?,
+    };
     let radius = analysis.radius;
     let let_name = match &args.lyapunov {
         Some(n) => Some(n.clone()),
