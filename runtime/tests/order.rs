@@ -215,3 +215,64 @@ fn driver_hits_end_time_with_partial_last_step() {
     assert_eq!(end.steps, 100_000);
     assert_eq!(last_t, 10.0);
 }
+
+/// The compositions of Störmer–Verlet have the orders 4, 6 and 8 their weights promise (the
+/// eighth-order sweep starts where the error is asymptotic and stays above the rounding floor).
+#[test]
+fn compositions_have_orders_4_6_8() {
+    check_order("symplectic4", 4.0, &[100, 200, 400, 800, 1600], |n| {
+        kepler_error(Composition::order4(), n)
+    });
+    check_order("symplectic6", 6.0, &[40, 60, 80, 120, 160], |n| {
+        kepler_error(Composition::order6(), n)
+    });
+    check_order("symplectic8", 8.0, &[50, 60, 80, 100, 120], |n| {
+        kepler_error(Composition::order8(), n)
+    });
+    for c in [
+        Composition::<[f64; 6]>::order4(),
+        Composition::order6(),
+        Composition::order8(),
+    ] {
+        let sum: f64 = c.weights().iter().sum();
+        assert!((sum - 1.0).abs() < 1e-15, "{sum}");
+    }
+}
+
+/// Symplectic: over 10⁶ steps (≈ 2·10⁴ periods of the e = 0.5 orbit) the energy error stays
+/// bounded — its largest value in the second half is no larger than in the first — while a
+/// non-symplectic method of the same order (RK4) drifts.
+#[test]
+fn compositions_keep_the_energy_bounded_over_a_million_steps() {
+    let k = Kepler { mu: 1.0 };
+    let x0 = ORBIT.initial();
+    let e0 = k.energy(&x0);
+    let worst = |mut stepper: Box<dyn Stepper<f64, [f64; 6], Kepler>>, h: f64| {
+        let (mut x, mut halves) = (x0, [0.0f64; 2]);
+        for n in 0..1_000_000u64 {
+            stepper.step(&k, n as f64 * h, &mut x, h).unwrap();
+            let half = usize::from(n >= 500_000);
+            halves[half] = halves[half].max((k.energy(&x) - e0).abs());
+        }
+        halves
+    };
+    for (name, stepper, h) in [
+        (
+            "symplectic4",
+            Box::new(Composition::order4()) as Box<dyn Stepper<_, _, _>>,
+            0.05,
+        ),
+        ("symplectic6", Box::new(Composition::order6()), 0.05),
+        ("symplectic8", Box::new(Composition::order8()), 0.05),
+    ] {
+        let [first, second] = worst(stepper, h);
+        eprintln!("{name}: max |ΔE| {first:.2e} (first half), {second:.2e} (second half)");
+        assert!(
+            second <= 1.5 * first && second < 1e-4,
+            "{name}: {first:e} → {second:e}"
+        );
+    }
+    let [first, second] = worst(Box::new(ExplicitRk::rk4()), 0.05);
+    eprintln!("rk4: max |ΔE| {first:.2e} (first half), {second:.2e} (second half)");
+    assert!(second > 1.8 * first, "RK4 drifts: {first:e} → {second:e}");
+}

@@ -12,6 +12,7 @@
 //! | [`ExplicitRk`] over a [`Tableau`] (Euler, Heun, RK4, DOPRI5 fixed) | `explicit_rk.rs` | 1, 2, 4, 5 | [`Field`](crate::Field) |
 //! | [`DormandPrince`] adaptive 5(4) with dense output | `dormand_prince.rs` | 5 | [`Field`](crate::Field) |
 //! | [`StormerVerlet`] A (kick–drift–kick) / B (drift–kick–drift) | `stormer_verlet.rs` | 2 | [`Partitioned`](crate::Partitioned) |
+//! | [`Composition`] of Störmer–Verlet (Yoshida, Suzuki) | `composition.rs` | 4, 6, 8 | [`Partitioned`](crate::Partitioned) |
 //! | [`Projection`] of any base stepper onto f(x) = f(x₀) | `projection.rs` | base | [`Invariants`](crate::Invariants) |
 //! | [`RigidBodySplitting`] into three rotations | `rigid_body_splitting.rs` | 2 | the free rigid body (N = 12) |
 
@@ -20,6 +21,7 @@ use num_traits::Float;
 use crate::error::StepError;
 use crate::state::State;
 
+mod composition;
 mod dormand_prince;
 mod explicit_rk;
 mod projection;
@@ -27,6 +29,7 @@ mod rigid_body_splitting;
 mod stormer_verlet;
 mod tableau;
 
+pub use composition::Composition;
 pub use dormand_prince::{DormandPrince, DormandPrinceOptions};
 pub use explicit_rk::{Euler, ExplicitRk, Heun, Rk4};
 pub use projection::{pivoted_cholesky_solve, Projection};
