@@ -32,8 +32,8 @@
 //! `Stepper<f64, Vec<f64>, FeedbackField<LoadedModel, Vec<f64>, Vec<f64>>>`, or with the target
 //! and gains held by the stepper ([`TaylorField::Feedback`]).
 
-use lasalle_codegen::tape::taylor::{Leaf, PowZero, Rec, TaylorProgram};
-use lasalle_codegen::tape::{expect_len, ModelTapes, Tape, TapeError};
+use lasalle_model::tape::taylor::{Leaf, PowZero, Rec, TaylorProgram};
+use lasalle_model::tape::{expect_len, ModelTapes, Tape, TapeError};
 use lasalle_runtime::taylor::rec;
 pub use lasalle_runtime::taylor::{
     jorba_zou_step, order_for_tolerance, TaylorField, TaylorKernel, TaylorKernels, TaylorOptions,
@@ -53,7 +53,7 @@ pub enum TaylorError {
     Tape(#[from] TapeError),
     /// The model's functions could not be rebuilt from its text.
     #[error(transparent)]
-    Model(#[from] lasalle_codegen::Error),
+    Model(#[from] lasalle_model::Error),
     /// An invalid option (tolerance, order or largest step).
     #[error(transparent)]
     Option(#[from] lasalle_runtime::TaylorError),

@@ -22,7 +22,7 @@
 //!   [`Emitted`], holds their table and inputs, allocated once (`<Model>TaylorField` is
 //!   `Emitted<<Model>FieldRecurrences>`).
 //!
-//! All run the same lowering of the tape into recurrences (`lasalle_codegen::tape::taylor`)
+//! All run the same lowering of the tape into recurrences (`lasalle_model::tape::taylor`)
 //! and the same recurrence functions ([`rec`]; the JIT emits their operations), in the same
 //! order, so they agree bitwise.
 //! The kernel behind a driver is a `Box<dyn TaylorKernel<M>>`: one virtual call per step
@@ -52,7 +52,7 @@
 //! | u = aⁿ, n ∈ ℕ | binary exponentiation by Cauchy products (squares and products, as `f64::powi`), so a^\[0\] = 0 is fine |
 //! | u = a⁻ⁿ | the chain for aⁿ, then 1/aⁿ by the division recurrence |
 //! | u = a^α (Powf, ∛) | u^\[k\] = 1/(k a^\[0\]) Σ_{j=0}^{k−1} (α(k−j) − j) a^\[k−j\] u^\[j\] (from a u' = α a' u) |
-//! | u = C·s^β from √s, `powi` and c/· (μ/r³ with r = √s) | above order 0 by the power recurrence on s alone, where cheaper than the chain's own recurrences (*fused powers*, `lasalle_codegen::tape::taylor`); order 0 is the chain's |
+//! | u = C·s^β from √s, `powi` and c/· (μ/r³ with r = √s) | above order 0 by the power recurrence on s alone, where cheaper than the chain's own recurrences (*fused powers*, `lasalle_model::tape::taylor`); order 0 is the chain's |
 //! | u = √a | u^\[k\] = (a^\[k\] − Σ_{j=1}^{k−1} u^\[j\] u^\[k−j\]) / (2 u^\[0\]) (from u² = a) |
 //! | u = eᵃ | u^\[k\] = (1/k) Σ_{j=1}^{k} j a^\[j\] u^\[k−j\] (from u' = a' u) |
 //! | u = ln a | u^\[k\] = (a^\[k\] − (1/k) Σ_{j=1}^{k−1} j u^\[j\] a^\[k−j\]) / a^\[0\] (from a u' = a') |
@@ -339,7 +339,7 @@ pub mod rec {
     /// [`cauchy`] of G pairs of rows (a, b) of an emitted kernel's table `t` at once: the sums
     /// Σ_{j=lo}^{hi} t\[a\]\[j\] t\[b\]\[k−j\], each accumulated alone in the order of
     /// [`cauchy`] (so bitwise its results), in one loop over j (the early sums of
-    /// `lasalle_codegen::tape::taylor`).
+    /// `lasalle_model::tape::taylor`).
     ///
     /// # Panics
     /// If k > [`EMITTED_MAX_ORDER`](super::EMITTED_MAX_ORDER), hi ≥ k or a row is not in `t`.

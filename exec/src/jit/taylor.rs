@@ -73,10 +73,8 @@ use cranelift_codegen::ir::{
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::JITModule;
 use cranelift_module::Module;
-use lasalle_codegen::tape::taylor::{
-    EarlySum, Leaf, PowZero, Rec, Span, TaylorProgram, EARLY_GROUP,
-};
-use lasalle_codegen::tape::Tape;
+use lasalle_model::tape::taylor::{EarlySum, Leaf, PowZero, Rec, Span, TaylorProgram, EARLY_GROUP};
+use lasalle_model::tape::Tape;
 use lasalle_runtime::taylor::TaylorKernel;
 use lasalle_runtime::StepError;
 use std::collections::HashMap;
