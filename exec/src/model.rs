@@ -667,7 +667,6 @@ impl Declared<f64, Vec<f64>> for LoadedModel {
         max_order: u32,
     ) -> Result<lasalle_runtime::TaylorKernels<Self>, lasalle_runtime::TaylorError> {
         self.taylor_tapes(max_order)
-            .map_err(|e| lasalle_runtime::TaylorError(e.to_string()))
     }
 
     fn rigid_body_splitting(&self) -> Option<RigidBodySplitting<f64>> {
