@@ -108,7 +108,7 @@ fn step_gain_keeps_taylor_steps() {
         let (m, x0) = model(stem);
         let taylor = || m.taylor(TaylorOptions::with_tol(TOL)).expect("taylor");
         let mut t = taylor();
-        let order = <Taylor as Stepper<f64, Vec<f64>, LoadedModel>>::order(&t);
+        let order = <Taylor<LoadedModel> as Stepper<f64, Vec<f64>, LoadedModel>>::order(&t);
         let p = plain(&m, &x0, t_end, &mut t);
         let f = feedback(&m, &x0, &x0, t_end, (TOL, order), taylor());
         check(&format!("{stem} taylor"), p, f);
@@ -153,7 +153,7 @@ fn step_gain_pulls_a_perturbed_state_back() {
     let (_, f_err) = feedback(&m, &x0, &start, t_end, (TOL, 5), dp());
     assert!(f_err < 1e-9, "feedback-DOPRI5 did not pull back: {f_err:e}");
     let taylor = m.taylor(TaylorOptions::with_tol(TOL)).expect("taylor");
-    let order = <Taylor as Stepper<f64, Vec<f64>, LoadedModel>>::order(&taylor);
+    let order = <Taylor<LoadedModel> as Stepper<f64, Vec<f64>, LoadedModel>>::order(&taylor);
     let (_, t_err) = feedback(&m, &x0, &start, t_end, (TOL, order), taylor);
     assert!(t_err < 1e-9, "feedback-Taylor did not pull back: {t_err:e}");
 }

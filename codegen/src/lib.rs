@@ -5,30 +5,33 @@
 //! conservation of every declared integral) and emitted as plain, formatted Rust that
 //! implements the traits of `lasalle-runtime`.
 //!
+//! The front end — parse, lower, derive, check, the tapes and their Taylor program — is the
+//! crate [`lasalle_model`]; this crate is emission (`syn`, `quote`, `prettyplease`), the
+//! whole pipeline ([`generate_source`]) and the [`Builder`] of build scripts. It re-exports
+//! the front end's pipeline, so `lasalle_codegen::lower_source`,
+//! `lasalle_codegen::tape::ModelTapes` or `lasalle_codegen::Structure` name the same items as
+//! in `lasalle_model`. Code that runs a model without emitting it (an interpreter, a JIT, an
+//! analysis) depends on `lasalle-model` alone.
+//!
 //! Pipeline: parse → lower (onto [`ir`]) → derive → check → emit, each stage a function of the
 //! previous stage's output type:
 //!
 //! ```text
-//! lower_source(path, text) -> Model          parse and lower onto one hash-consed graph
-//! derive(Model)            -> Derived        Df, ∇f·X, ∇V, X − ∇V, the partition
-//! check(&Derived)          -> Checked<'_>    every invariant conserved, every constant finite
-//! emit(&Checked)           -> Emitted        Rust items, statistics, the tape kernels
+//! lasalle-model    lower_source(path, text) -> Model        parse and lower onto one hash-consed graph
+//!                  derive(Model)            -> Derived      Df, ∇f·X, ∇V, X − ∇V, the partition
+//!                  check(&Derived)          -> Checked<'_>  every invariant conserved, every constant finite
+//! lasalle-codegen  emit(&Checked)           -> Emitted      Rust items, statistics, the tape kernels
 //! ```
 //! ([`lower_source`], [`derive()`], [`check()`], [`emit()`]; [`generate_source`] runs them all.)
 //!
 //! # What is public
 //!
-//! The stages are private modules; what they hand over is re-exported here, in one list: the
-//! stage functions and their output types, the lowered [`Model`] with the types of its
-//! fields, the conservation verdicts and the errors. Three modules are public because other
-//! crates build on them: [`ir`], the expression graph (evaluated generically over a
-//! [`Scalar`](ir::Scalar) by the normal forms and the stability analysis, and the home of the
-//! pure graph operations [`ir::diff`] and [`ir::gradient`], so lowering — Hamilton's equations
-//! need ∇H — never calls a later stage); [`tape`], the execution IR the JIT, the interpreter
-//! and the Taylor kernels run ([`tape::ModelTapes::new`] takes a [`Derived`] model); and
-//! [`vocabulary`], the DSL's built-in functions and keywords, declared once. What the field's
-//! structure is (partitioned or not) is asked of the model ([`Model::partition`]).
-//! The language's built-in functions and keywords are declared once, in [`vocabulary`].
+//! Emission's output types ([`Emitted`], [`Stats`], [`Ops`]), the generated code
+//! ([`GeneratedModel`], [`Generated`], [`Report`]) and the [`Builder`] are this crate's; the
+//! rest of the list — the stage functions and their output types, the lowered [`Model`] with
+//! the types of its fields, the conservation verdicts, the errors, and the modules [`ir`],
+//! [`tape`] and [`vocabulary`] — is re-exported from [`lasalle_model`], where it is
+//! documented.
 //!
 //! In a build script, with the generator as a build dependency and the runtime the generated
 //! code implements as a dependency (from crates.io, or by path to a lasalle checkout):
@@ -51,48 +54,18 @@
 //! ```
 #![warn(missing_docs)]
 
-mod check;
-mod derive;
 mod emit;
-mod error;
-pub mod ir;
-mod model;
-mod parse;
-pub mod tape;
-pub mod vocabulary;
 
-pub use check::{check, Checked, Conservation, Verdict};
-pub use derive::{derive, Derivatives, Derived};
 pub use emit::{emit, snake, Emitted, Ops, Stats};
-pub use error::{Diagnostic, DiagnosticKind, Error, Result, Source, Span};
-pub use model::{
-    Binding, CanonicalHamiltonian, Gain, Guard, Hamiltonian, Invariant, InvariantKind, Model,
-    NotCanonical, Param, Point, Preset, Shape, Splitting, StateVar, Structure, Value, GUARD_STEP,
+pub use lasalle_model::{
+    check, derive, ir, load_model, lower_source, tape, vocabulary, Binding, CanonicalHamiltonian,
+    Checked, Conservation, Derivatives, Derived, Diagnostic, DiagnosticKind, Error, Gain, Guard,
+    Hamiltonian, Invariant, InvariantKind, Model, NotCanonical, Param, Point, Preset, Result,
+    Shape, Source, Span, Splitting, StateVar, Structure, Value, Verdict, GUARD_STEP,
 };
 
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use std::time::{Duration, Instant};
-
-/// Parses and lowers model text (no conservation check, no emission).
-pub fn lower_source(path: &str, text: &str) -> Result<Model> {
-    let source = Arc::new(Source {
-        path: path.to_string(),
-        text: text.to_string(),
-    });
-    let ast = parse::parse(&source)?;
-    model::lower(&ast, source)
-}
-
-/// Reads, parses and lowers a model file.
-pub fn load_model(path: impl AsRef<Path>) -> Result<Model> {
-    let path = path.as_ref();
-    let text = std::fs::read_to_string(path).map_err(|e| Error::Io {
-        path: path.display().to_string(),
-        source: e,
-    })?;
-    lower_source(&path.display().to_string(), &text)
-}
 
 /// What generating one model produced and cost.
 #[derive(Clone, Debug)]
@@ -100,7 +73,7 @@ pub struct Report {
     /// Operation counts of the emitted functions.
     pub stats: emit::Stats,
     /// How each invariant was shown to be conserved.
-    pub conservation: Vec<check::Conservation>,
+    pub conservation: Vec<Conservation>,
     /// Wall time of parse → emit → format.
     pub time: Duration,
     /// Size of the formatted code in bytes.
@@ -147,7 +120,7 @@ pub fn generate_source(path: &str, text: &str) -> Result<GeneratedModel> {
     )
     .replace(|c: char| !c.is_ascii_alphanumeric() && c != '_', "_");
     // `fn.lsl`, `self.lsl`, `1d.lsl`, `_.lsl` still name a valid module: `fn_`, `self_`, `v1d`, `v_`.
-    let module = emit::names::identifier(&module);
+    let module = lasalle_model::names::identifier(&module);
     Ok(GeneratedModel {
         name: model.name.clone(),
         module,

@@ -5,8 +5,8 @@
 //! `cargo bench -p lasalle-exec` (ns per evaluation; the lane benches report per state).
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
-use lasalle_codegen::tape::ModelTapes;
 use lasalle_exec::{Backend, Kernel};
+use lasalle_model::tape::ModelTapes;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -32,10 +32,10 @@ fn build(
     name: &str,
     text: &str,
     backend: Backend,
-) -> (lasalle_codegen::Model, ModelTapes, Vec<Box<dyn Kernel>>) {
-    let model = lasalle_codegen::lower_source(name, text).expect("model");
-    let derived = lasalle_codegen::derive(model);
-    lasalle_codegen::check(&derived).expect("check");
+) -> (lasalle_model::Model, ModelTapes, Vec<Box<dyn Kernel>>) {
+    let model = lasalle_model::lower_source(name, text).expect("model");
+    let derived = lasalle_model::derive(model);
+    lasalle_model::check(&derived).expect("check");
     let tapes = ModelTapes::new(&derived).expect("tapes");
     let kernels = tapes
         .all()

@@ -7,8 +7,8 @@
 //! `cargo bench -p lasalle-exec --bench taylor` (ns per step).
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
-use lasalle_codegen::tape::{taylor::TaylorProgram, ModelTapes};
 use lasalle_exec::{Backend, LoadedModel, TaylorOptions, TaylorTape};
+use lasalle_model::tape::{taylor::TaylorProgram, ModelTapes};
 use lasalle_runtime::{Parameters, Stepper, TaylorKernel};
 use std::time::Duration;
 

@@ -145,7 +145,7 @@ impl LoadedModel {
     /// components, with this model's back end and parameters.
     pub fn feedback_lanes(&self, k: usize, gains: &[f64]) -> Result<FeedbackLanes<'_>, ExecError> {
         let tape = targets_as_state(self.feedback_tape());
-        lasalle_codegen::tape::expect_len("gains", tape.dims.gains, gains.len())?;
+        lasalle_model::tape::expect_len("gains", tape.dims.gains, gains.len())?;
         let kernel = self.backend().compile(&tape)?;
         let hoisted = kernel.hoist(self.params())?;
         Ok(FeedbackLanes {

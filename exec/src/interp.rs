@@ -12,7 +12,7 @@
 //! every leaf instruction of the tape, and then runs the computed instructions (instruction i
 //! writes slot `first + i`). Decoding also
 //! - expands `Powi` into the multiplications of its binary exponentiation
-//!   ([`lasalle_codegen::tape::powi`]: the same IEEE operations in the same order), with `x⁰`
+//!   ([`lasalle_model::tape::powi`]: the same IEEE operations in the same order), with `x⁰`
 //!   the constant 1 and `x¹` the slot of x itself;
 //! - folds a product used once, by a sum or a difference, into it (`a·b + c`, `a·b − c`,
 //!   `c − a·b`: the product and the sum rounded separately as in the tape, never a fused
@@ -69,7 +69,7 @@
 //! loop over the lanes, which the compiler vectorises.
 
 use crate::{Common, Dims, ExecError, Kernel, Op, Reg, Tape, TapeError};
-use lasalle_codegen::ir::{Func, Func2, Rational, Scalar};
+use lasalle_model::ir::{Func, Func2, Rational, Scalar};
 use lasalle_runtime::elliptic::{ellipj, Jacobi};
 use std::cell::Cell;
 use std::mem::MaybeUninit;
@@ -913,7 +913,7 @@ fn schedule(code: &[(Code, Slot, Slot, Slot)]) -> (Vec<usize>, Vec<Run>) {
     (order, runs)
 }
 
-/// `xⁿ` as [`lasalle_codegen::tape::powi`] computes it: the multiplications of the binary exponentiation (the first
+/// `xⁿ` as [`lasalle_model::tape::powi`] computes it: the multiplications of the binary exponentiation (the first
 /// square is taken as is), and `1 / r` for n < 0.
 fn powi_slots(dec: &mut Decoder, x: Slot, n: i32) -> Slot {
     let mut bits = n.unsigned_abs();

@@ -1,6 +1,6 @@
 //! # lasalle-exec
 //!
-//! Execution back ends for the register tapes of `lasalle_codegen::tape`: an interpreter
+//! Execution back ends for the register tapes of `lasalle_model::tape`: an interpreter
 //! ([`interp`]) and, with the `jit` feature (default), a Cranelift JIT (`jit`). Both compute
 //! what the tape computes in f64, bitwise: every tape instruction is one IEEE operation or a
 //! call of the `std` function the emitted Rust calls.
@@ -10,12 +10,12 @@
 //! or for k states at once ([`Kernel::eval_lanes`]).
 //!
 //! ```
-//! use lasalle_codegen::{derive, tape::ModelTapes};
+//! use lasalle_model::{derive, tape::ModelTapes};
 //! use lasalle_exec::Backend;
 //!
 //! let text = "model Osc { state q: scalar, p: scalar; param w = 2;
 //!             d/dt q = p; d/dt p = -w^2 * q; integral E = p^2/2 + w^2 * q^2/2; }";
-//! let derived = derive(lasalle_codegen::lower_source("osc.lsl", text).unwrap());
+//! let derived = derive(lasalle_model::lower_source("osc.lsl", text).unwrap());
 //! let tapes = ModelTapes::new(&derived).unwrap();
 //! let field = Backend::default().compile(&tapes.field).unwrap();
 //! let hoisted = field.hoist(&derived.model.default_params()).unwrap();
@@ -36,7 +36,7 @@ pub use ensemble::{FeedbackLanes, LaneField, Lanes, PackError};
 pub use model::{LoadError, LoadedModel};
 pub use taylor::{Taylor, TaylorError, TaylorField, TaylorOptions, TaylorTape};
 
-pub use lasalle_codegen::tape::{Dims, Op, Reg, Tape, TapeError};
+pub use lasalle_model::tape::{Dims, Op, Reg, Tape, TapeError};
 
 /// What can go wrong compiling or running a tape.
 #[derive(Debug, thiserror::Error)]
@@ -227,7 +227,7 @@ impl Common {
         gains: &[f64],
         out: &[f64],
     ) -> Result<(), ExecError> {
-        use lasalle_codegen::tape::expect_len;
+        use lasalle_model::tape::expect_len;
         let d = self.dims;
         // Byte offsets of lanes (8k) must fit in a usize.
         k.checked_mul(8).ok_or(TapeError::TooLarge)?;

@@ -23,12 +23,12 @@
 
 use std::time::{Duration, Instant};
 
-use lasalle_codegen::ir::Input;
-use lasalle_codegen::tape::{Dims, ModelTapes, Tape, TapeBuilder, TapeError};
-use lasalle_codegen::Conservation;
-use lasalle_codegen::Model;
-use lasalle_codegen::{derive, Derived};
-use lasalle_codegen::{Splitting, GUARD_STEP};
+use lasalle_model::ir::Input;
+use lasalle_model::tape::{Dims, ModelTapes, Tape, TapeBuilder, TapeError};
+use lasalle_model::Conservation;
+use lasalle_model::Model;
+use lasalle_model::{derive, Derived};
+use lasalle_model::{Splitting, GUARD_STEP};
 use lasalle_runtime::{
     Declared, Field, GuardFailure, InvariantInfo, Invariants, Lyapunov, ModelInfo, ParamError,
     Parameters, Partitioned, Preset, RigidBodySplitting, Shape, Slot,
@@ -42,13 +42,13 @@ pub enum LoadError {
     /// The model file has errors (syntax, names, shapes, a non-conserved integral), or cannot
     /// be read; the message names file:line:col.
     #[error(transparent)]
-    Model(#[from] lasalle_codegen::Error),
+    Model(#[from] lasalle_model::Error),
     /// A function could not be compiled.
     #[error("cannot compile the model's functions: {0}")]
     Exec(#[from] ExecError),
     /// A function could not be linearised into a tape.
     #[error("cannot linearise the model's functions: {0}")]
-    Tape(#[from] lasalle_codegen::tape::TapeError),
+    Tape(#[from] lasalle_model::tape::TapeError),
 }
 
 /// A compiled function with the values its prelude computed for the current parameters.
@@ -295,8 +295,8 @@ impl LoadedModel {
     /// file in messages.
     pub fn from_source(path: &str, text: &str, backend: Backend) -> Result<LoadedModel, LoadError> {
         let start = Instant::now();
-        let derived = derive(lasalle_codegen::lower_source(path, text)?);
-        let conservation = lasalle_codegen::check(&derived)?.into_conservation();
+        let derived = derive(lasalle_model::lower_source(path, text)?);
+        let conservation = lasalle_model::check(&derived)?.into_conservation();
         let tapes = ModelTapes::new(&derived)?;
         let model = &derived.model;
         let params = model.default_params();
@@ -358,7 +358,7 @@ impl LoadedModel {
         backend: Backend,
     ) -> Result<LoadedModel, LoadError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|e| lasalle_codegen::Error::Io {
+        let text = std::fs::read_to_string(path).map_err(|e| lasalle_model::Error::Io {
             path: path.display().to_string(),
             source: e,
         })?;
@@ -667,7 +667,6 @@ impl Declared<f64, Vec<f64>> for LoadedModel {
         max_order: u32,
     ) -> Result<lasalle_runtime::TaylorKernels<Self>, lasalle_runtime::TaylorError> {
         self.taylor_tapes(max_order)
-            .map_err(|e| lasalle_runtime::TaylorError(e.to_string()))
     }
 
     fn rigid_body_splitting(&self) -> Option<RigidBodySplitting<f64>> {

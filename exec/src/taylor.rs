@@ -9,7 +9,8 @@
 //! --bench taylor`), or, when its code would be too large to compile at once, after a run's
 //! first 10 000 interpreted computes (`DeferredJit`); compiled models run the same
 //! program as emitted Rust. All agree bitwise (`tests/tape_kernels.rs` in the root crate,
-//! `exec/tests/taylor.rs`).
+//! `exec/tests/taylor.rs`). The driver, its options and the error ([`Taylor`],
+//! [`TaylorOptions`], [`TaylorError`]) are the runtime's, re-exported here.
 //!
 //! # Use
 //!
@@ -32,35 +33,16 @@
 //! `Stepper<f64, Vec<f64>, FeedbackField<LoadedModel, Vec<f64>, Vec<f64>>>`, or with the target
 //! and gains held by the stepper ([`TaylorField::Feedback`]).
 
-use lasalle_codegen::tape::taylor::{Leaf, PowZero, Rec, TaylorProgram};
-use lasalle_codegen::tape::{expect_len, ModelTapes, Tape, TapeError};
+use lasalle_model::tape::taylor::{Leaf, PowZero, Rec, TaylorProgram};
+use lasalle_model::tape::{expect_len, ModelTapes, Tape};
 use lasalle_runtime::taylor::rec;
 pub use lasalle_runtime::taylor::{
-    jorba_zou_step, order_for_tolerance, TaylorField, TaylorKernel, TaylorKernels, TaylorOptions,
+    jorba_zou_step, order_for_tolerance, Taylor, TaylorError, TaylorField, TaylorKernel,
+    TaylorKernels, TaylorOptions,
 };
 use lasalle_runtime::StepError;
 
 use crate::LoadedModel;
-
-/// The Taylor integrator of a [`LoadedModel`].
-pub type Taylor = lasalle_runtime::Taylor<LoadedModel>;
-
-/// What can go wrong setting up a Taylor integrator.
-#[derive(Debug, thiserror::Error)]
-pub enum TaylorError {
-    /// The tape is malformed (not a field), or an input has the wrong length.
-    #[error(transparent)]
-    Tape(#[from] TapeError),
-    /// The model's functions could not be rebuilt from its text.
-    #[error(transparent)]
-    Model(#[from] lasalle_codegen::Error),
-    /// An invalid option (tolerance, order or largest step).
-    #[error(transparent)]
-    Option(#[from] lasalle_runtime::TaylorError),
-    /// The JIT could not compile the recurrences.
-    #[error(transparent)]
-    Jit(#[from] crate::ExecError),
-}
 
 /// The Taylor-coefficient recurrences of one field tape ([`TaylorProgram`]) interpreted over
 /// their coefficient table: a [`TaylorKernel`] of [`LoadedModel`].
@@ -94,7 +76,7 @@ impl Inputs {
     /// The hoisted values of `tape` for `params`; targets and gains 0.
     pub(crate) fn new(tape: &Tape, params: &[f64]) -> Result<Inputs, TaylorError> {
         Ok(Inputs {
-            hoisted: tape.hoist(params)?,
+            hoisted: tape.hoist(params).map_err(TaylorError::kernels)?,
             tape: tape.clone(),
             params: params.to_vec(),
             target: vec![0.0; tape.dims.targets],
@@ -103,7 +85,7 @@ impl Inputs {
     }
 
     fn set_params(&mut self, params: &[f64]) -> Result<(), TaylorError> {
-        self.hoisted = self.tape.hoist(params)?;
+        self.hoisted = self.tape.hoist(params).map_err(TaylorError::kernels)?;
         self.params.clear();
         self.params.extend_from_slice(params);
         Ok(())
@@ -136,7 +118,8 @@ impl TaylorTape {
     /// parameter values `params`, for orders up to `max_order`. Targets and gains (for
     /// X − ∇V) start at 0; set them with [`TaylorKernel::set_inputs`].
     pub fn new(tape: &Tape, params: &[f64], max_order: u32) -> Result<TaylorTape, TaylorError> {
-        Self::with_program(TaylorProgram::new(tape)?, tape, params, max_order)
+        let program = TaylorProgram::new(tape).map_err(TaylorError::kernels)?;
+        Self::with_program(program, tape, params, max_order)
     }
 
     /// [`TaylorTape::new`] with the recurrences `program` of `tape` (e.g.
@@ -149,7 +132,7 @@ impl TaylorTape {
     ) -> Result<TaylorTape, TaylorError> {
         let inputs = Inputs::new(tape, params)?;
         if max_order == 0 {
-            return Err(lasalle_runtime::TaylorError("the order must be at least 1".into()).into());
+            return Err(TaylorError::Option("the order must be at least 1".into()));
         }
         let stride = max_order as usize + 1;
         Ok(TaylorTape {
@@ -257,7 +240,7 @@ impl LoadedModel {
     /// (`lasalle_exec::jit::taylor::DeferredJit`); with the interpreter back end they are
     /// interpreted ([`TaylorTape`]). All compute the same coefficients, bitwise.
     pub fn taylor_tapes(&self, max_order: u32) -> Result<TaylorKernels<LoadedModel>, TaylorError> {
-        let tapes = ModelTapes::new(self.derived())?;
+        let tapes = ModelTapes::new(self.derived()).map_err(TaylorError::kernels)?;
         Ok(TaylorKernels {
             field: self.taylor_kernel(&tapes.field, max_order)?,
             feedback: self.taylor_kernel(&tapes.feedback, max_order)?,
@@ -284,9 +267,9 @@ impl LoadedModel {
 
     /// The adaptive Taylor integrator of the model (mode [`TaylorField::Plain`]), its kernels
     /// sized for the order of `opts`.
-    pub fn taylor(&self, opts: TaylorOptions) -> Result<Taylor, TaylorError> {
+    pub fn taylor(&self, opts: TaylorOptions) -> Result<Taylor<LoadedModel>, TaylorError> {
         let order = opts.checked_order()?;
-        Ok(Taylor::new(self.taylor_tapes(order)?, opts)?)
+        Taylor::new(self.taylor_tapes(order)?, opts)
     }
 }
 

@@ -10,11 +10,11 @@
 //!   rounding errors accumulate (Σ|terms| through sums); for well-conditioned values this is a
 //!   few ulps.
 
-use lasalle_codegen::ir::{Id, Input};
-use lasalle_codegen::tape::{ModelTapes, Tape};
-use lasalle_codegen::Model;
-use lasalle_codegen::{derive, Derived};
 use lasalle_exec::Backend;
+use lasalle_model::ir::{Id, Input};
+use lasalle_model::tape::{ModelTapes, Tape};
+use lasalle_model::Model;
+use lasalle_model::{derive, Derived};
 use lasalle_testkit::Rng;
 
 /// ±[0.5, 1.5): away from 0, so |x| of a vec3 is ≥ 0.86 (Kepler's r).
@@ -39,7 +39,7 @@ impl Case {
     fn new(name: &str, model: Model, checked: bool) -> Case {
         let derived = derive(model);
         if checked {
-            lasalle_codegen::check(&derived).unwrap_or_else(|e| panic!("{name}: {e}"));
+            lasalle_model::check(&derived).unwrap_or_else(|e| panic!("{name}: {e}"));
         }
         let tapes = ModelTapes::new(&derived).unwrap();
         let Derived {
@@ -183,7 +183,7 @@ fn model_cases() -> Vec<Case> {
         .iter()
         .map(|p| {
             let name = p.file_name().unwrap().to_string_lossy().into_owned();
-            Case::new(&name, lasalle_codegen::load_model(p).unwrap(), true)
+            Case::new(&name, lasalle_model::load_model(p).unwrap(), true)
         })
         .collect()
 }
@@ -310,7 +310,7 @@ fn random_cases(count: usize) -> Vec<Case> {
     (0..count)
         .map(|i| {
             let text = g.model(i);
-            let model = lasalle_codegen::lower_source(&format!("random{i}.lsl"), &text)
+            let model = lasalle_model::lower_source(&format!("random{i}.lsl"), &text)
                 .unwrap_or_else(|e| panic!("{e}\n{text}"));
             Case::new(&format!("random{i}"), model, false)
         })

@@ -12,10 +12,10 @@
 //! - `#[ignore]`d timing runs (Kepler 1000 periods, rigid body t = 1000): `cargo test --release
 //!   -p lasalle-exec --test taylor -- --ignored --nocapture`.
 
-use lasalle_codegen::ir::{Rational, Scalar};
-use lasalle_codegen::tape::{ModelTapes, Tape};
 use lasalle_exec::taylor::{jorba_zou_step, order_for_tolerance};
 use lasalle_exec::{Backend, LoadedModel, TaylorField, TaylorOptions, TaylorTape};
+use lasalle_model::ir::{Rational, Scalar};
+use lasalle_model::tape::{ModelTapes, Tape};
 use lasalle_runtime::{
     integrate, DenseOutput, Driver, FeedbackField, Field, Invariants, Parameters, Stepper,
     TaylorKernel,
@@ -42,7 +42,7 @@ fn model_text(name: &str) -> String {
 /// The tapes of a model text (not checked: test models need not declare invariants).
 fn tapes(text: &str) -> (ModelTapes, Vec<f64>) {
     let derived =
-        lasalle_codegen::derive(lasalle_codegen::lower_source("test.lsl", text).expect("model"));
+        lasalle_model::derive(lasalle_model::lower_source("test.lsl", text).expect("model"));
     let tapes = ModelTapes::new(&derived).expect("tapes");
     (tapes, derived.model.default_params())
 }
@@ -789,7 +789,7 @@ fn elliptic_functions_closed_form() {
 /// t = 1.1 within 111 ulps fused, 655 unfused; see `tape::taylor`'s docs).
 #[test]
 fn fused_powers_match_the_unfused_recurrences() {
-    use lasalle_codegen::tape::taylor::{PowZero, Rec, TaylorProgram};
+    use lasalle_model::tape::taylor::{PowZero, Rec, TaylorProgram};
     let texts = model_and_expression_texts();
     let order = 20;
     let (mut fused, mut worst) = (0, 0.0f64);

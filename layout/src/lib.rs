@@ -1,8 +1,8 @@
-//! The layout vocabulary shared by the generator (`lasalle-codegen`, which decides it) and the
-//! runtime (`lasalle-runtime`, whose emitted and loaded models describe themselves with it):
-//! the [`Shape`] of a state variable, parameter or invariant, and the [`InvariantKind`] of an
-//! invariant. Defined once here, with no dependencies, so that the generator — a build
-//! dependency — does not pull the runtime's numerics into build scripts.
+//! The layout vocabulary shared by the generator (`lasalle-model`, whose front end decides
+//! it) and the runtime (`lasalle-runtime`, whose emitted and loaded models describe themselves
+//! with it): the [`Shape`] of a state variable, parameter or invariant, and the
+//! [`InvariantKind`] of an invariant. Defined once here, with no dependencies, so that the
+//! generator — a build dependency — does not pull the runtime's numerics into build scripts.
 
 use std::fmt;
 

@@ -5,7 +5,7 @@
 //! `cargo run -p lasalle-normal-form --release --example accuracy [mu] [order]`: the table;
 //! `… --example accuracy -- --scan [order]`: the worst relative f64 error through `order`
 //! for 12 mass ratios μ = μ_EM·(1 + 7·10⁻⁴ k), k = 0…11, plain f64 vs compensated.
-use lasalle_codegen::Model;
+use lasalle_model::Model;
 use lasalle_normal_form::validate::EARTH_MOON_MU;
 use lasalle_normal_form::{normalize_model, ModelPoint, NormalForm, Options, Precision};
 
@@ -29,7 +29,7 @@ fn rel(x: &NormalForm, reference: &NormalForm) -> Vec<f64> {
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let model =
-        lasalle_codegen::load_model(concat!(env!("CARGO_MANIFEST_DIR"), "/../models/cr3bp.lsl"))
+        lasalle_model::load_model(concat!(env!("CARGO_MANIFEST_DIR"), "/../models/cr3bp.lsl"))
             .expect("model");
     let num = |i: usize| args.get(i).and_then(|s| s.parse::<f64>().ok());
     if args.first().map(String::as_str) == Some("--scan") {

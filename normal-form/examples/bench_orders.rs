@@ -36,7 +36,7 @@ fn main() {
     }
     let has = |f: &str| args.iter().any(|a| a == f);
     let model =
-        lasalle_codegen::load_model(concat!(env!("CARGO_MANIFEST_DIR"), "/../models/cr3bp.lsl"))
+        lasalle_model::load_model(concat!(env!("CARGO_MANIFEST_DIR"), "/../models/cr3bp.lsl"))
             .expect("model");
     let params = [("mu".to_string(), EARTH_MOON_MU)];
     let point = ModelPoint::Named("L4".into());

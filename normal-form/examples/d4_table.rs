@@ -1,7 +1,7 @@
 //! D₄ at L4 against Deprit & Deprit-Bartholomé, and μ_c by bisection on our D₄.
 //!
 //! `cargo run -p lasalle-normal-form --release --example d4_table`
-use lasalle_codegen::Model;
+use lasalle_model::Model;
 use lasalle_normal_form::validate::{deprit_d4, EARTH_MOON_MU};
 use lasalle_normal_form::{normalize_model, ModelPoint, Options, Precision};
 
@@ -22,7 +22,7 @@ fn d4(model: &Model, mu: f64, p: Precision) -> (f64, f64, f64, f64) {
 
 fn main() {
     let model =
-        &lasalle_codegen::load_model(concat!(env!("CARGO_MANIFEST_DIR"), "/../models/cr3bp.lsl"))
+        &lasalle_model::load_model(concat!(env!("CARGO_MANIFEST_DIR"), "/../models/cr3bp.lsl"))
             .expect("model");
     println!(
         "{:>20} {:>12} {:>12} {:>12} {:>22} {:>22} {:>10} {:>10}",

@@ -4,7 +4,7 @@ use lasalle_normal_form::validate::*;
 use lasalle_normal_form::*;
 fn main() {
     let model =
-        lasalle_codegen::load_model(concat!(env!("CARGO_MANIFEST_DIR"), "/../models/cr3bp.lsl"))
+        lasalle_model::load_model(concat!(env!("CARGO_MANIFEST_DIR"), "/../models/cr3bp.lsl"))
             .expect("model");
     let h = ModelHamiltonian::new(&model, &[("mu".to_string(), EARTH_MOON_MU)]).unwrap();
     let p = Point::Newton(h.point("L4").unwrap());

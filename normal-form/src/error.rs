@@ -112,7 +112,7 @@ pub enum NormalFormError {
     #[error("non-finite coefficients in {0}")]
     NonFinite(&'static str),
     /// The model file does not load: the generator's located diagnostics, kept typed (their
-    /// [`DiagnosticKind`](lasalle_codegen::DiagnosticKind)s, spans and help).
+    /// [`DiagnosticKind`](lasalle_model::DiagnosticKind)s, spans and help).
     #[error(transparent)]
     Load(LoadError),
     /// The model is not a canonical Hamiltonian system the normal form can expand, or an
@@ -123,7 +123,7 @@ pub enum NormalFormError {
 
 impl NormalFormError {
     /// A model file that did not load.
-    pub fn load(e: lasalle_codegen::Error) -> Self {
+    pub fn load(e: lasalle_model::Error) -> Self {
         NormalFormError::Load(LoadError(std::sync::Arc::new(e)))
     }
 }
@@ -131,7 +131,7 @@ impl NormalFormError {
 /// The generator's error for a model file that does not load, shared (`Arc`) so that
 /// [`NormalFormError`] stays `Clone`; equal when the messages are.
 #[derive(Clone, Debug)]
-pub struct LoadError(pub std::sync::Arc<lasalle_codegen::Error>);
+pub struct LoadError(pub std::sync::Arc<lasalle_model::Error>);
 
 impl fmt::Display for LoadError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

@@ -7,13 +7,13 @@ use crate::linalg::{solve, Mat};
 use crate::monomial::MonomialTable;
 use crate::poly::Poly;
 use crate::scalar::Real;
-use lasalle_codegen::ir::Scalar;
+use lasalle_model::ir::Scalar;
 use std::sync::Arc;
 
 /// A Hamiltonian with `n` degrees of freedom in canonical coordinates
 /// `z = (q₁…q_n, p₁…p_n)`, evaluated generically so that the same expression gives numbers,
-/// jets (Taylor series) and double-double values: `S` is the code generator's
-/// `lasalle_codegen::ir::Scalar` (re-exported as [`Scalar`](crate::Scalar)).
+/// jets (Taylor series) and double-double values: `S` is the front end's
+/// `lasalle_model::ir::Scalar` (re-exported as [`Scalar`](crate::Scalar)).
 ///
 /// Parameters are part of the implementing value. DSL models are [`ModelHamiltonian`]s;
 /// writing one in Rust is mainly for independent checks (see [`PolynomialHamiltonian`]).

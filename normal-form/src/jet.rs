@@ -18,16 +18,16 @@
 //! two small products per degree. The same code serves univariate series in time (one
 //! variable) for a Taylor integrator.
 //!
-//! Jets implement the code generator's `lasalle_codegen::ir::Scalar` (re-exported as
+//! Jets implement the front end's `lasalle_model::ir::Scalar` (re-exported as
 //! [`Scalar`]), so a model's expression DAG evaluates over them directly
 //! (`Graph::eval`), with exact rational exponents.
 
 use crate::poly::{mul_acc_hom, Poly};
 use crate::scalar::{Coeff, Real};
 use crate::Dd;
-use lasalle_codegen::ir::{Rational, Scalar};
+use lasalle_model::ir::{Rational, Scalar};
 
-/// Double-double values in expression evaluation (`lasalle_codegen::ir::Graph::eval`, any
+/// Double-double values in expression evaluation (`lasalle_model::ir::Graph::eval`, any
 /// [`HamiltonianFn`](crate::HamiltonianFn)); `f64` has its implementation in the code
 /// generator.
 impl Scalar for Dd {

@@ -28,7 +28,7 @@
 //! 2. **Taylor expansion** of H about the equilibrium to degree N by evaluating the
 //!    expression once over truncated multivariate series ([`jet`]): `1/r`, `x^p`, `exp`, …
 //!    are series recurrences, never symbolic derivatives. The same code evaluates a model's
-//!    DAG (`lasalle_codegen::ir::Graph::eval`) and, with one variable, series in time.
+//!    DAG (`lasalle_model::ir::Graph::eval`) and, with one variable, series in time.
 //! 3. **Linear normalisation.** Eigenvalues of `J S` (S = Hessian) from the even
 //!    characteristic polynomial; unless they are purely imaginary the run stops with
 //!    [`NormalFormError::NotElliptic`] listing them. A real symplectic `A`
@@ -213,7 +213,7 @@ pub use hamiltonian::{find_equilibrium, taylor, Equilibrium, HamiltonianFn};
 pub use jet::Jet;
 /// Re-exported because they appear in this crate's API: [`HamiltonianFn::eval`] is generic
 /// over [`Scalar`], whose `powf` takes a [`Rational`].
-pub use lasalle_codegen::ir::{Rational, Scalar};
+pub use lasalle_model::ir::{Rational, Scalar};
 pub use model::{normalize_model, normalize_model_file, ModelHamiltonian, ModelPoint};
 pub use monomial::{binomial, MonomialTable};
 pub use normal_form::{

@@ -1,4 +1,4 @@
-//! DSL models (`lasalle_codegen::Model`) as Hamiltonians, through the generator's read-only
+//! DSL models (`lasalle_model::Model`) as Hamiltonians, through the generator's read-only
 //! view [`CanonicalHamiltonian`] (H as a function of z = (q, p), evaluated over any
 //! [`Scalar`]): any model with `structure canonical(q, p)` goes through the same path as a
 //! [`HamiltonianFn`] written in Rust. Jets and double-doubles implement the generator's
@@ -7,8 +7,8 @@
 use crate::error::NormalFormError;
 use crate::hamiltonian::HamiltonianFn;
 use crate::normal_form::{normalize, NormalForm, Options, Point};
-use lasalle_codegen::ir::Scalar;
-use lasalle_codegen::{CanonicalHamiltonian, Model};
+use lasalle_model::ir::Scalar;
+use lasalle_model::{CanonicalHamiltonian, Model};
 use std::path::Path;
 
 /// The Hamiltonian of a lowered DSL model with `structure canonical(q, p)`, with its
@@ -134,7 +134,7 @@ pub fn normalize_model_file(
     point: &ModelPoint,
     options: &Options,
 ) -> Result<NormalForm, NormalFormError> {
-    let model = lasalle_codegen::load_model(path.as_ref()).map_err(NormalFormError::load)?;
+    let model = lasalle_model::load_model(path.as_ref()).map_err(NormalFormError::load)?;
     normalize_model(&model, params, point, options)
 }
 

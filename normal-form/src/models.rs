@@ -5,7 +5,7 @@
 use crate::hamiltonian::HamiltonianFn;
 use crate::monomial::MonomialTable;
 use crate::poly::Poly;
-use lasalle_codegen::ir::Scalar;
+use lasalle_model::ir::Scalar;
 use std::sync::Arc;
 
 /// A Hamiltonian given as a real polynomial in z = (q₁…q_n, p₁…p_n) (f64 coefficients).

@@ -25,7 +25,7 @@
 //! this crate's API (`HamiltonianFn::eval` is generic over [`Scalar`](crate::Scalar), whose
 //! `powf` takes a [`Rational`](crate::Rational)).
 
-use lasalle_codegen::ir::Rational;
+use lasalle_model::ir::Rational;
 use std::fmt::Debug;
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
 

@@ -123,7 +123,7 @@ fn a_point_that_is_not_an_equilibrium() {
 fn elliptic_functions_are_refused() {
     let text = "model Ell { state q: scalar, p: scalar; param m = 0.5;
         hamiltonian H = p^2/2 + q^2/2 + sn(q, m)^4; structure canonical(q, p); }";
-    let model = lasalle_codegen::lower_source("ell.lsl", text).unwrap();
+    let model = lasalle_model::lower_source("ell.lsl", text).unwrap();
     let e = lasalle_normal_form::ModelHamiltonian::new(&model, &[])
         .err()
         .expect("refused");
@@ -134,7 +134,7 @@ fn elliptic_functions_are_refused() {
 }
 
 /// A model file that does not load keeps the generator's typed, located diagnostics: the
-/// same message as `lasalle_codegen::load_model` (file:line:col, the line, a caret, a help),
+/// same message as `lasalle_model::load_model` (file:line:col, the line, a caret, a help),
 /// and its `DiagnosticKind`.
 #[test]
 fn model_files_that_do_not_load_keep_their_diagnostics() {
@@ -153,7 +153,7 @@ fn model_files_that_do_not_load_keep_their_diagnostics() {
         &Options::with_order(4),
     )
     .unwrap_err();
-    let direct = lasalle_codegen::load_model(&path)
+    let direct = lasalle_model::load_model(&path)
         .err()
         .expect("does not load");
     assert_eq!(e.to_string(), direct.to_string());
@@ -161,11 +161,11 @@ fn model_files_that_do_not_load_keep_their_diagnostics() {
     let NormalFormError::Load(load) = &e else {
         panic!("not a load error: {e:?}")
     };
-    let lasalle_codegen::Error::Model(diagnostics) = &*load.0 else {
+    let lasalle_model::Error::Model(diagnostics) = &*load.0 else {
         panic!("not a model diagnostic: {:?}", load.0)
     };
     assert_eq!(
         diagnostics[0].kind,
-        lasalle_codegen::DiagnosticKind::UnknownName
+        lasalle_model::DiagnosticKind::UnknownName
     );
 }

@@ -110,6 +110,8 @@ pub trait Declared<T: Float, X: State<T>> {
         Self: Sized,
     {
         let _ = max_order;
-        Err(TaylorError("the model has no Taylor kernels".into()))
+        Err(TaylorError::Option(
+            "the model has no Taylor kernels".into(),
+        ))
     }
 }

@@ -22,9 +22,18 @@
 //!   [`Emitted`], holds their table and inputs, allocated once (`<Model>TaylorField` is
 //!   `Emitted<<Model>FieldRecurrences>`).
 //!
-//! All run the same lowering of the tape into recurrences (`lasalle_codegen::tape::taylor`)
+//! All run the same lowering of the tape into recurrences (`lasalle_model::tape::taylor`)
 //! and the same recurrence functions ([`rec`]; the JIT emits their operations), in the same
 //! order, so they agree bitwise.
+//!
+//! One name per thing, across the crates: the **program** is `TaylorProgram`
+//! (`lasalle_model::tape::taylor`, the recurrences of one field tape); the **driver**
+//! [`Taylor`], its [`TaylorOptions`], the kernel interface [`TaylorKernel`] and the one
+//! **error** [`TaylorError`] (an invalid option, or kernels a back end cannot build) are this
+//! module's, and every back end returns them; each **back end** is a module of its own:
+//! `lasalle_codegen`'s `emit::taylor` (the emitted [`Recurrences`]), `lasalle_exec::taylor`
+//! (the interpreter, `TaylorTape`) and `lasalle_exec::jit::taylor` (`JitTaylor`,
+//! `DeferredJit`).
 //! The kernel behind a driver is a `Box<dyn TaylorKernel<M>>`: one virtual call per step
 //! (the step itself costs about p²/2 field evaluations), and one driver type per model type.
 //!
@@ -52,7 +61,7 @@
 //! | u = aⁿ, n ∈ ℕ | binary exponentiation by Cauchy products (squares and products, as `f64::powi`), so a^\[0\] = 0 is fine |
 //! | u = a⁻ⁿ | the chain for aⁿ, then 1/aⁿ by the division recurrence |
 //! | u = a^α (Powf, ∛) | u^\[k\] = 1/(k a^\[0\]) Σ_{j=0}^{k−1} (α(k−j) − j) a^\[k−j\] u^\[j\] (from a u' = α a' u) |
-//! | u = C·s^β from √s, `powi` and c/· (μ/r³ with r = √s) | above order 0 by the power recurrence on s alone, where cheaper than the chain's own recurrences (*fused powers*, `lasalle_codegen::tape::taylor`); order 0 is the chain's |
+//! | u = C·s^β from √s, `powi` and c/· (μ/r³ with r = √s) | above order 0 by the power recurrence on s alone, where cheaper than the chain's own recurrences (*fused powers*, `lasalle_model::tape::taylor`); order 0 is the chain's |
 //! | u = √a | u^\[k\] = (a^\[k\] − Σ_{j=1}^{k−1} u^\[j\] u^\[k−j\]) / (2 u^\[0\]) (from u² = a) |
 //! | u = eᵃ | u^\[k\] = (1/k) Σ_{j=1}^{k} j a^\[j\] u^\[k−j\] (from u' = a' u) |
 //! | u = ln a | u^\[k\] = (a^\[k\] − (1/k) Σ_{j=1}^{k−1} j u^\[j\] a^\[k−j\]) / a^\[0\] (from a u' = a') |
@@ -233,10 +242,27 @@ impl<M: ?Sized, R: Recurrences<M>> TaylorKernel<M> for Emitted<R> {
     }
 }
 
-/// Invalid options of a Taylor integrator, or a kernel that cannot serve them.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[error("invalid Taylor option: {0}")]
-pub struct TaylorError(pub String);
+/// What can go wrong setting up a Taylor integrator, whatever its kernels (emitted,
+/// interpreted or compiled at run time): the one error type of the Taylor method.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum TaylorError {
+    /// An invalid option (tolerance, order or largest step), or one the kernels cannot serve
+    /// (an order above theirs, a model without kernels).
+    #[error("invalid Taylor option: {0}")]
+    Option(String),
+    /// The kernels could not be built: the back end's error as it is (a malformed tape, a
+    /// program the JIT could not compile).
+    #[error(transparent)]
+    Kernels(Box<dyn std::error::Error + Send + Sync>),
+}
+
+impl TaylorError {
+    /// [`TaylorError::Kernels`] from a back end's error.
+    pub fn kernels(e: impl Into<Box<dyn std::error::Error + Send + Sync>>) -> TaylorError {
+        TaylorError::Kernels(e.into())
+    }
+}
 
 /// The Taylor coefficients of the solution of one field, for [`Taylor`].
 ///
@@ -339,7 +365,7 @@ pub mod rec {
     /// [`cauchy`] of G pairs of rows (a, b) of an emitted kernel's table `t` at once: the sums
     /// Σ_{j=lo}^{hi} t\[a\]\[j\] t\[b\]\[k−j\], each accumulated alone in the order of
     /// [`cauchy`] (so bitwise its results), in one loop over j (the early sums of
-    /// `lasalle_codegen::tape::taylor`).
+    /// `lasalle_model::tape::taylor`).
     ///
     /// # Panics
     /// If k > [`EMITTED_MAX_ORDER`](super::EMITTED_MAX_ORDER), hi ≥ k or a row is not in `t`.
@@ -544,20 +570,20 @@ impl TaylorOptions {
     /// The order these options ask for, after checking them.
     pub fn checked_order(&self) -> Result<u32, TaylorError> {
         if !(self.tol > 0.0 && self.tol < 1.0) {
-            return Err(TaylorError(format!(
+            return Err(TaylorError::Option(format!(
                 "the tolerance must lie in (0, 1), got {}",
                 self.tol
             )));
         }
         if self.h_max.is_nan() || self.h_max <= 0.0 {
-            return Err(TaylorError(format!(
+            return Err(TaylorError::Option(format!(
                 "h_max must be positive, got {}",
                 self.h_max
             )));
         }
         let order = self.order.unwrap_or_else(|| order_for_tolerance(self.tol));
         if !(2..=1000).contains(&order) {
-            return Err(TaylorError(format!(
+            return Err(TaylorError::Option(format!(
                 "the order must lie in 2..=1000, got {order}"
             )));
         }
@@ -639,12 +665,12 @@ impl<M: ?Sized> Taylor<M> {
         let TaylorKernels { field, feedback } = kernels;
         let max = field.max_order().min(feedback.max_order());
         if order as usize > max {
-            return Err(TaylorError(format!(
+            return Err(TaylorError::Option(format!(
                 "order {order} exceeds the kernels' largest order {max}"
             )));
         }
         if field.dim() != feedback.dim() {
-            return Err(TaylorError(
+            return Err(TaylorError::Option(
                 "the field and feedback kernels have different state dimensions".into(),
             ));
         }

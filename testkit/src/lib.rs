@@ -6,7 +6,7 @@
 //! [`Rng`] is the one random generator of the tests: SplitMix64 (Steele, Lea & Flood 2014),
 //! seeded explicitly, so every failure reproduces from the seed printed with it. The library
 //! code that samples (the generator's numerical conservation check) has its own generator,
-//! `lasalle_codegen`'s `check::sampling::Rng`, because its verdicts are part of the product.
+//! `lasalle_model`'s `check::sampling::Rng`, because its verdicts are part of the product.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;

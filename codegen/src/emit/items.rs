@@ -4,7 +4,7 @@
 use super::body::{literal, Output, Place};
 use super::names::{snake, Scope};
 use super::{note_for, u, Emitter};
-use crate::model::{InvariantKind, Shape};
+use lasalle_model::{InvariantKind, Shape};
 use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
 

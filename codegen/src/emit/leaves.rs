@@ -4,7 +4,7 @@
 use super::names::{identifier, snake, Scope};
 use super::{note_at, u, LineIndex};
 use crate::ir::{Id, Input};
-use crate::model::{Model, Shape};
+use lasalle_model::{Model, Shape};
 use proc_macro2::TokenStream;
 use quote::{format_ident, quote};
 use std::collections::HashMap;

@@ -32,19 +32,16 @@ mod body;
 mod items;
 mod lanes;
 mod leaves;
-pub(crate) mod names;
 mod prepared;
 mod taylor;
 mod traits;
 
 pub use names::snake;
 
-use crate::check::Checked;
-use crate::check::{Conservation, Verdict};
-use crate::derive::Derivatives;
 use crate::ir::{Graph, OpCount};
-use crate::model::{InvariantKind, Model};
 use body::{Body, Hoisting, Output};
+use lasalle_model::names;
+use lasalle_model::{Checked, Conservation, Derivatives, InvariantKind, Model, Verdict};
 use leaves::Leaves;
 use prepared::Prepared;
 use proc_macro2::{Literal, TokenStream};

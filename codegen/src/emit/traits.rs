@@ -4,7 +4,7 @@
 use super::body::{Body, Output, Place};
 use super::{file_name, note_for, u, Emitter};
 use crate::ir::{Id, Input};
-use crate::model::Splitting;
+use lasalle_model::Splitting;
 use proc_macro2::Literal;
 use proc_macro2::TokenStream;
 use quote::quote;
@@ -349,7 +349,7 @@ impl Emitter<'_> {
                 .collect();
             let body = self.body(&outputs, &["x", "dt", "margin"]);
             let x = body.arg("x", is_state);
-            let dt = body.arg("dt", |i| *i == crate::model::GUARD_STEP);
+            let dt = body.arg("dt", |i| *i == lasalle_model::GUARD_STEP);
             let tokens = &body.tokens;
             let checks = model.guards.iter().enumerate().map(|(i, g)| {
                 let (name, condition, iu, strict) = (&g.name, &g.condition, u(i), g.strict);

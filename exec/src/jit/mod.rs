@@ -3,7 +3,7 @@
 //! Every register is one SSA value. `+ − · /`, negation and `sqrt` are native instructions
 //! (IEEE, correctly rounded, never fused or reassociated by Cranelift); `Powi` is expanded
 //! inline by the binary exponentiation of
-//! [`lasalle_codegen::tape::powi`]; `cbrt`, `exp`, `ln`, `sin`, `cos` and
+//! [`lasalle_model::tape::powi`]; `cbrt`, `exp`, `ln`, `sin`, `cos` and
 //! `powf` call `extern "C"` wrappers of the `std` functions, and the elliptic functions
 //! (K, sn, cn, dn, F) wrappers of `lasalle_runtime::elliptic`'s, so results are bitwise those
 //! of the interpreter and of the emitted Rust. sn, cn and dn go through a per-call cache of the
@@ -55,7 +55,7 @@ use cranelift_codegen::settings::{self, Configurable};
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::{JITBuilder, JITModule};
 use cranelift_module::Module;
-use lasalle_codegen::ir::{Func, Func2, Rational};
+use lasalle_model::ir::{Func, Func2, Rational};
 use lasalle_runtime::elliptic::ellipj;
 
 mod slp;
@@ -543,7 +543,7 @@ impl Emit<'_> {
         self.b.ins().insertlane(v, lanes[1], 1)
     }
 
-    /// xⁿ by binary exponentiation (`lasalle_codegen::tape::powi`).
+    /// xⁿ by binary exponentiation (`lasalle_model::tape::powi`).
     fn powi(&mut self, x: Value, n: i32) -> Value {
         let mut bits = n.unsigned_abs();
         let mut square = x;

@@ -36,7 +36,7 @@
 //! recomputed differently.
 
 use super::Op;
-use lasalle_codegen::tape::{Reg, Tape};
+use lasalle_model::tape::{Reg, Tape};
 use std::collections::BTreeSet;
 
 /// Deepest operand tree paired from one seed (deeper operands are put together from scalars).
@@ -512,11 +512,11 @@ impl Slp {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use lasalle_codegen::tape::ModelTapes;
+    use lasalle_model::tape::ModelTapes;
 
     fn feedback(file: &str, text: &str) -> Tape {
-        let model = lasalle_codegen::lower_source(file, text).unwrap();
-        ModelTapes::new(&lasalle_codegen::derive(model))
+        let model = lasalle_model::lower_source(file, text).unwrap();
+        ModelTapes::new(&lasalle_model::derive(model))
             .unwrap()
             .feedback
     }

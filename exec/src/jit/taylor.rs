@@ -73,10 +73,8 @@ use cranelift_codegen::ir::{
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::JITModule;
 use cranelift_module::Module;
-use lasalle_codegen::tape::taylor::{
-    EarlySum, Leaf, PowZero, Rec, Span, TaylorProgram, EARLY_GROUP,
-};
-use lasalle_codegen::tape::Tape;
+use lasalle_model::tape::taylor::{EarlySum, Leaf, PowZero, Rec, Span, TaylorProgram, EARLY_GROUP};
+use lasalle_model::tape::Tape;
 use lasalle_runtime::taylor::TaylorKernel;
 use lasalle_runtime::StepError;
 use std::collections::HashMap;
@@ -165,7 +163,7 @@ impl JitTaylor {
     /// Compiles the recurrences of `tape` (a field) for the order `order` with parameter
     /// values `params`; `Ok(None)` if the unrolled code would exceed [`MAX_INSTRUCTIONS`].
     pub fn new(tape: &Tape, params: &[f64], order: u32) -> Result<Option<JitTaylor>, TaylorError> {
-        let program = TaylorProgram::new(tape)?;
+        let program = TaylorProgram::new(tape).map_err(TaylorError::kernels)?;
         if Self::instructions(&program, order as usize) > MAX_INSTRUCTIONS {
             return Ok(None);
         }
@@ -181,17 +179,17 @@ impl JitTaylor {
         order: u32,
     ) -> Result<JitTaylor, TaylorError> {
         if order == 0 {
-            return Err(lasalle_runtime::TaylorError("the order must be at least 1".into()).into());
+            return Err(TaylorError::Option("the order must be at least 1".into()));
         }
         let p = order as usize;
         let inputs = Inputs::new(tape, params)?;
-        let mut module = jit_module(OPT_LEVEL).map_err(TaylorError::Jit)?;
+        let mut module = jit_module(OPT_LEVEL).map_err(TaylorError::kernels)?;
         let id = match define(&mut module, &program, p) {
             Ok(id) => id,
             Err(e) => {
                 // SAFETY: nothing compiled in this module has been handed out.
                 unsafe { module.free_memory() };
-                return Err(TaylorError::Jit(e));
+                return Err(TaylorError::kernels(e));
             }
         };
         let code = module.get_finalized_function(id);
@@ -346,7 +344,7 @@ impl DeferredJit {
         let order = self.interpreted.max_order() as u32;
         let inputs = self.interpreted.inputs();
         let jit = TaylorProgram::new(&self.tape)
-            .map_err(TaylorError::from)
+            .map_err(TaylorError::kernels)
             .and_then(|program| {
                 JitTaylor::with_program(program, &self.tape, &inputs.params, order)
             });

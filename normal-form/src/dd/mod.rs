@@ -425,7 +425,7 @@ mod tests {
         }
         assert!(close((Dd::PI / Dd::new(6.0)).sin(), Dd::new(0.5), 1e-31));
         assert!(close(
-            Real::powf(Dd::new(2.0), lasalle_codegen::ir::Rational::new(-3, 2))
+            Real::powf(Dd::new(2.0), lasalle_model::ir::Rational::new(-3, 2))
                 * Dd::new(2.0).sqrt()
                 * Dd::new(2.0),
             one,

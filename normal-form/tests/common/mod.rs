@@ -1,7 +1,7 @@
 //! Shared by the integration tests: the DSL models of the workspace, loaded once.
 #![allow(dead_code)]
 
-use lasalle_codegen::Model;
+use lasalle_model::Model;
 use lasalle_normal_form::{
     normalize_model, ModelHamiltonian, ModelPoint, NormalForm, NormalFormError, Options,
 };
@@ -16,7 +16,7 @@ pub fn workspace_file(rel: &str) -> PathBuf {
 }
 
 fn load(rel: &str) -> Model {
-    lasalle_codegen::load_model(workspace_file(rel)).expect("model loads")
+    lasalle_model::load_model(workspace_file(rel)).expect("model loads")
 }
 
 /// `models/cr3bp.lsl`.

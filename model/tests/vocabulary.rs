@@ -1,10 +1,16 @@
 //! The vocabulary table is the language: every built-in lowers, every name in it is reserved,
 //! docs/dsl.md shows exactly the table, and problems are classified by their kind.
 
-use lasalle_codegen::vocabulary::{
+use lasalle_model::vocabulary::{
     functions_markdown, keywords_markdown, Arity, Lowering, BUILTINS, KEYWORDS,
 };
-use lasalle_codegen::{generate_source, lower_source, DiagnosticKind, Error};
+use lasalle_model::{check, derive, lower_source, DiagnosticKind, Error};
+
+/// The front end on `text`: parse, lower, derive and check (what emission would be given).
+fn front_end(path: &str, text: &str) -> Result<(), Error> {
+    check(&derive(lower_source(path, text)?))?;
+    Ok(())
+}
 
 /// A call of each built-in that lowers in a model with `state x: vec3, R: mat3, u: scalar` and
 /// `param a = 0.5` (a test fails if a new built-in has no example here).
@@ -88,7 +94,7 @@ fn every_builtin_lowers() {
 }
 
 fn kinds(text: &str) -> Vec<DiagnosticKind> {
-    match generate_source("k.lsl", text) {
+    match front_end("k.lsl", text) {
         Ok(_) => panic!("expected an error for:\n{text}"),
         Err(e) => e.diagnostics().iter().map(|d| d.kind).collect(),
     }
@@ -115,7 +121,7 @@ fn docs_show_the_tables() {
     ] {
         assert!(
             doc.contains(&table),
-            "docs/dsl.md does not hold the {what} table of `lasalle_codegen::vocabulary`; \
+            "docs/dsl.md does not hold the {what} table of `lasalle_model::vocabulary`; \
              replace it with:\n{table}"
         );
     }
@@ -137,7 +143,7 @@ fn lowering_rows_are_consistent() {
             Lowering::Func(f) => assert_eq!(f.name(), b.name),
             Lowering::Func2(f) => assert_eq!(f.name(), b.name),
             Lowering::Quotient(p, q) => {
-                let letter = |f: Option<lasalle_codegen::ir::Func2>| {
+                let letter = |f: Option<lasalle_model::ir::Func2>| {
                     f.map_or('n', |f| f.name().chars().next().unwrap())
                 };
                 assert_eq!(format!("{}{}", letter(p), letter(q)), b.name);
@@ -186,7 +192,7 @@ fn diagnostics_have_kinds() {
 #[test]
 fn elliptic_parameter_must_not_depend_on_the_state() {
     let text = "model M {\n  state x: scalar, y: scalar;\n  let m = y^2 / 2;\n  d/dt x = sn(x, m);\n  d/dt y = 0;\n}\n";
-    let e = generate_source("models/e.lsl", text).unwrap_err();
+    let e = front_end("models/e.lsl", text).unwrap_err();
     let d = &e.diagnostics()[0];
     assert_eq!(d.kind, DiagnosticKind::StateDependentParameter);
     let msg = e.to_string();
@@ -205,13 +211,13 @@ fn elliptic_parameter_must_not_depend_on_the_state() {
             "{call}"
         );
     }
-    let e = generate_source("e.lsl", "model M { state x: scalar; d/dt x = cn(x, 1.5); }")
+    let e = front_end("e.lsl", "model M { state x: scalar; d/dt x = cn(x, 1.5); }")
         .unwrap_err()
         .to_string();
     assert!(e.contains("is 1.5, outside [0, 1]"), "{e}");
     // parameters, lets of parameters and numbers are fine
     let ok = "model M { state x: scalar; param k = 0.8; let m = k^2; d/dt x = dn(x, m) + ellipk(m) + ellipf(x, 0.3) + ds(1 + x^2, 1); }";
-    assert!(generate_source("e.lsl", ok).is_ok());
+    assert!(front_end("e.lsl", ok).is_ok());
 }
 
 /// Constant calls fold with the runtime's kernels, in parameter defaults too.

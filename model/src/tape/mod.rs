@@ -13,8 +13,8 @@
 //!
 //! [`TapeBuilder::build`] first runs the emitter's rewrites
 //! ([`Graph::optimize_for_emission`]: factored sums, one root and one reciprocal per base,
-//! grouped parameter-only factors, shared sub-products), then writes each node
-//! exactly as `emit::body` renders it:
+//! grouped parameter-only factors, shared sub-products), then writes each node exactly as
+//! `lasalle_codegen`'s `emit::body` renders it:
 //! - a sum is a left fold with the positive terms first (`a + b - c`, stable order); a term is
 //!   negative when it is a negative number or a product with a negative coefficient that is not
 //!   a shared temporary; a leading negative term is negated (`-c + a`);
@@ -640,7 +640,8 @@ impl TapeBuilder {
     }
 }
 
-/// The lowering of one tape: `emit::body::Writer` with instructions instead of tokens.
+/// The lowering of one tape: `lasalle_codegen`'s `emit::body::Writer` with instructions instead
+/// of tokens.
 struct Lowering<'a> {
     g: &'a Graph,
     dims: Dims,

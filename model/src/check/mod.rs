@@ -124,7 +124,7 @@ fn sample(
 
 /// The output of stage 4: a derived model whose every declared invariant is shown to be
 /// conserved (how, per invariant, in [`Checked::conservation`]), with no non-finite constant.
-/// The input of [`emit`](crate::emit()).
+/// The input of emission (`lasalle_codegen::emit`).
 #[derive(Clone)]
 pub struct Checked<'d> {
     derived: &'d Derived,

@@ -16,10 +16,10 @@ impl Lowerer {
         span: &Span,
         points: &mut Vec<Point>,
     ) -> L<()> {
-        let method = crate::emit::snake(&name.name);
+        let method = crate::names::snake(&name.name);
         match points
             .iter()
-            .find(|p: &&Point| crate::emit::snake(&p.name) == method)
+            .find(|p: &&Point| crate::names::snake(&p.name) == method)
         {
             Some(prev) => {
                 let (line, _) = prev.span.line_col();

@@ -1,6 +1,6 @@
 //! Rewrites for emission, applied after every check: they change rounding, not values. The
-//! emitted Rust (`emit::body`) and the tapes (`tape`) both write the rewritten graph, so
-//! they stay bitwise equal.
+//! emitted Rust (`lasalle_codegen`'s `emit::body`) and the tapes (`tape`) both write the
+//! rewritten graph, so they stay bitwise equal.
 //!
 //! - Sums are factored greedily: `k·a·x + k·b·x + c → k·x·(a + b) + c` (Horner-like), which
 //!   saves the multiplications a hand-written formula would not repeat.

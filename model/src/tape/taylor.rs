@@ -1,7 +1,10 @@
-//! A field tape lowered to Taylor-coefficient recurrences: one [`Rec`] per instruction over
-//! rows of a coefficient table, shared by the interpreted kernel (`lasalle_exec::TaylorTape`)
-//! and the emitted kernels of compiled models (`emit::taylor`), which therefore run the same
-//! recurrences (`lasalle_runtime::taylor::rec`) in the same order and agree bitwise.
+//! A field tape lowered to Taylor-coefficient recurrences, the [`TaylorProgram`]: one [`Rec`]
+//! per instruction over rows of a coefficient table, the one program of every Taylor back end
+//! — the interpreted kernel (`lasalle_exec::TaylorTape`), the JIT's
+//! (`lasalle_exec::jit::taylor`) and the emitted kernels of compiled models
+//! (`lasalle_codegen`'s `emit::taylor`) — which therefore run the same recurrences
+//! (`lasalle_runtime::taylor::rec`) in the same order and agree bitwise. The driver, the
+//! kernel interface and the error of the Taylor method are `lasalle_runtime::taylor`'s.
 //!
 //! Rows: the state components first (row i is x_i), then one row per body register that is
 //! not a state leaf, and internal rows (the cosine partner of a lone sine, the squares of a

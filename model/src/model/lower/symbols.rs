@@ -47,7 +47,7 @@ impl Lowerer {
     /// The model's name becomes a Rust type: keywords and names the emitted code uses itself
     /// are refused (a renamed struct would surprise whoever imports it).
     pub(super) fn check_model_name(&mut self, name: &Ident) {
-        if let Some(why) = crate::emit::names::reserved_type_name(&name.name) {
+        if let Some(why) = crate::names::reserved_type_name(&name.name) {
             self.errors.push(
                 Diagnostic::new(
                     &name.span,
