@@ -328,6 +328,15 @@ where
         self.gains_for_h = T::nan();
         self.base.reset()
     }
+
+    fn counters(&self) -> Vec<(&'static str, f64)> {
+        let mut v = self.base.counters();
+        v.push((
+            "last_gauss_newton_norm",
+            self.last_norm.to_f64().unwrap_or(f64::NAN),
+        ));
+        v
+    }
 }
 
 /// The target of h·k·L for the step-tracking gain of an adaptive method of order `order` at

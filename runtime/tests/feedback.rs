@@ -129,6 +129,11 @@ fn feedback_euler_on_rigid_body() {
         } else if adaptive {
             let mut st = AdaptiveGain::new(ExplicitRk::euler(), [1.0; 3], 100);
             integrate(&mut st, &fb, &x0, 0.0, t_end, h, &mut rec).unwrap();
+            // the wrapper reports its last estimate of L among the stepper's counters
+            assert_eq!(
+                counters(&st, &fb, &x0),
+                [("last_gauss_newton_norm", st.last_norm())]
+            );
         } else {
             integrate(&mut ExplicitRk::euler(), &fb, &x0, 0.0, t_end, h, &mut rec).unwrap();
         }
@@ -246,4 +251,14 @@ fn excessive_gains_blow_up_loudly() {
     assert!(matches!(err, StepError::NonFinite { .. }), "{err}");
     assert!(err.time().unwrap() < 100.0);
     assert_eq!(err.state().unwrap().len(), 6);
+}
+
+/// The counters of a stepper for the field `_f` and states like `_x`.
+fn counters<S, X, F>(s: &S, _f: &F, _x: &X) -> Vec<(&'static str, f64)>
+where
+    S: Stepper<f64, X, F>,
+    X: State<f64>,
+    F: ?Sized,
+{
+    s.counters()
 }

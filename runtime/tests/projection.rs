@@ -44,6 +44,14 @@ fn projected_euler_on_kepler_stays_within_tolerance() {
         );
         assert!(worst <= tol, "tol {tol:e}: |Δf| reached {worst:e}");
         assert!(proj.projections() > 0);
+        // the stepper reports its counters itself, for the front ends' summaries
+        assert_eq!(
+            Stepper::<f64, [f64; 6], Kepler>::counters(&proj),
+            [
+                ("newton_iterations", proj.newton_iterations() as f64),
+                ("projected_steps", proj.projections() as f64)
+            ]
+        );
     }
     // plain Euler for comparison
     let mut rec = Recorder::new(&k, &x0, 1000, 100_000);

@@ -102,6 +102,14 @@ pub trait Stepper<T: Float, X: State<T>, F: ?Sized> {
     /// Forgets cached information about the previous step (e.g. a first-same-as-last stage).
     /// Call it when the state is changed outside the stepper.
     fn reset(&mut self) {}
+
+    /// Named counters of the work done so far beyond steps and evaluations, for reports:
+    /// [`Projection`] adds `newton_iterations` and `projected_steps`,
+    /// [`AdaptiveGain`](crate::AdaptiveGain) `last_gauss_newton_norm`; a wrapper lists its
+    /// base stepper's counters first. None by default.
+    fn counters(&self) -> Vec<(&'static str, f64)> {
+        Vec::new()
+    }
 }
 
 /// Continuous extension of the last accepted step (HNW I, §II.6 "Dense output").
@@ -133,5 +141,8 @@ impl<T: Float, X: State<T>, F: ?Sized, S: Stepper<T, X, F> + ?Sized> Stepper<T, 
     }
     fn reset(&mut self) {
         (**self).reset()
+    }
+    fn counters(&self) -> Vec<(&'static str, f64)> {
+        (**self).counters()
     }
 }

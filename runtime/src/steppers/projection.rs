@@ -356,6 +356,13 @@ where
     fn reset(&mut self) {
         self.base.reset()
     }
+
+    fn counters(&self) -> Vec<(&'static str, f64)> {
+        let mut v = self.base.counters();
+        v.push(("newton_iterations", self.newton_iterations as f64));
+        v.push(("projected_steps", self.projections as f64));
+        v
+    }
 }
 
 #[cfg(test)]
