@@ -1,0 +1,390 @@
+//! Ensembles: many runs of one model file, across threads ([`simulate_many`]) and, within a
+//! thread, several states in lanes ([`simulate_lanes`]) — each run's result bitwise the one
+//! it gets alone.
+
+use std::collections::HashMap;
+use std::path::Path;
+use std::sync::Mutex;
+use std::time::Instant;
+
+use lasalle_exec::{Backend, LaneField, LoadedModel};
+use lasalle_runtime::{DriftBound, Driver, ModelInfo, Observer, Parameters, Recorder, Stepper};
+use rayon::prelude::*;
+
+use crate::simulate::{check_start, plan_gains, recording, with_base, GainPlan, Visit};
+use crate::{initial_state, process_cpu_seconds, simulate, Base, Method, Recording, RunError};
+use crate::RunSpec;
+
+/// Integrates the states `x0s` of a loaded model together, in lanes
+/// ([`lasalle_exec::Lanes`], [`lasalle_exec::FeedbackLanes`]: one kernel call per stage for
+/// all of them), as [`simulate`] integrates each alone: each recording equals the lone run's
+/// except for the wall and CPU time, the group's divided by the number of lanes.
+///
+/// `None` where lanes do not apply — fewer than two states, a method other than a fixed-step
+/// Runge–Kutta method on X or X − ∇V, gains that differ between the states or change during
+/// the run, samples between the first and the last state (`spec.every` below the run's step
+/// count), an initial state that [`simulate`] refuses, a run that fails (its guards or a
+/// blow-up stop every lane) — and then the caller runs each state alone, which gives each its
+/// own result.
+pub fn simulate_lanes(
+    model: &LoadedModel,
+    x0s: &[Vec<f64>],
+    spec: &RunSpec,
+) -> Option<Vec<Recording>> {
+    let (Method::Plain(base) | Method::Feedback(base)) = spec.method else {
+        return None;
+    };
+    if base == Base::Dopri5
+        || x0s.len() < 2
+        || spec.record_every() < spec.steps()
+        || x0s.iter().any(|x0| check_start(model, x0, spec).is_err())
+    {
+        return None;
+    }
+    let k = x0s.len();
+    if !spec.method.is_feedback() {
+        return with_base(
+            base,
+            spec,
+            DriveLanes {
+                lanes: model.lanes(k),
+                x0s,
+                spec,
+            },
+        );
+    }
+    // one gain vector for all lanes, fixed during the run
+    let mut plans = x0s
+        .iter()
+        .map(|x0| plan_gains::<_, _, Vec<f64>, Vec<f64>>(model, x0, spec, base.order()).ok());
+    let plan = plans.next()??;
+    let same = |p: &GainPlan<Vec<f64>>| {
+        p.adapt.is_none()
+            && p.initial
+                .iter()
+                .zip(&plan.initial)
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+    };
+    if plan.adapt.is_some() || !plans.all(|p| p.as_ref().is_some_and(same)) {
+        return None;
+    }
+    let lanes = model.feedback_lanes(k, &plan.initial).ok()?;
+    let mut recordings = with_base(base, spec, DriveLanes { lanes, x0s, spec })?;
+    for r in &mut recordings {
+        r.gains_initial = Some(plan.initial.clone());
+        r.gains_final = Some(plan.initial.clone());
+    }
+    Some(recordings)
+}
+
+/// The visitor of [`simulate_lanes`].
+struct DriveLanes<'a, L> {
+    lanes: L,
+    x0s: &'a [Vec<f64>],
+    spec: &'a RunSpec,
+}
+
+impl<L: LaneField> Visit<L, Vec<f64>> for DriveLanes<'_, L> {
+    type Out = Option<Vec<Recording>>;
+
+    fn visit<S: Stepper<f64, Vec<f64>, L>>(self, mut stepper: S) -> Self::Out {
+        let (lanes, spec) = (&self.lanes, self.spec);
+        let model = lanes.model();
+        let mut driver = Driver::new(0.0, spec.t_end, spec.dt).max_steps(spec.max_steps);
+        if model.has_guards() {
+            driver = driver.guard(1, move |x: &Vec<f64>| {
+                lanes.check_guards(x, spec.dt).map(|g| g.to_string())
+            });
+        }
+        let (start, cpu_start) = (Instant::now(), process_cpu_seconds());
+        let end = driver
+            .run(&mut stepper, lanes, &lanes.pack(self.x0s).ok()?, &mut ())
+            .ok()?;
+        // a lane that diverged fails alone, where the failure is reported with its step
+        let diverged = |(l, x0): (usize, &Vec<f64>)| {
+            DriftBound::new(model, x0, spec.max_drift)
+                .check(&lanes.unpack(&end.x, l))
+                .is_some()
+        };
+        if self.x0s.iter().enumerate().any(diverged) {
+            return None;
+        }
+        let k = lanes.k() as f64;
+        let wall = start.elapsed().as_secs_f64() / k;
+        let cpu = process_cpu_seconds()
+            .zip(cpu_start)
+            .map(|(end, start)| (end - start) / k);
+        let stepper = (stepper.name(), stepper.counters());
+        let recordings = self.x0s.iter().enumerate().map(|(l, x0)| {
+            // the samples of the lone run with `every = u64::MAX`: the first and the last
+            let mut rec = Recorder::new(model, x0, spec.record_every(), 2);
+            rec.observe(0, 0.0, x0);
+            rec.finish(end.steps, end.t, &lanes.unpack(&end.x, l));
+            let counts = Ok((end.steps, end.evaluations, end.rejections));
+            recording(model, spec, stepper.clone(), rec, (wall, cpu), counts)
+        });
+        Some(recordings.collect())
+    }
+}
+
+/// A model file's text, to load once per thread of an ensemble.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ModelSource {
+    /// The path to show in messages.
+    pub path: String,
+    /// The model file's text.
+    pub text: String,
+    /// The back end that runs the model's functions.
+    pub backend: Backend,
+}
+
+impl ModelSource {
+    /// The model text `text`, shown in messages as `path`.
+    pub fn new(path: impl Into<String>, text: impl Into<String>, backend: Backend) -> Self {
+        ModelSource {
+            path: path.into(),
+            text: text.into(),
+            backend,
+        }
+    }
+
+    /// The model file at `path`.
+    pub fn read(path: impl AsRef<Path>, backend: Backend) -> Result<Self, RunError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|e| {
+            RunError::Load(format!("cannot read model file `{}`: {e}", path.display()))
+        })?;
+        Ok(ModelSource::new(path.display().to_string(), text, backend))
+    }
+
+    /// Parses, derives, checks and compiles the model.
+    pub fn load(&self) -> Result<LoadedModel, RunError> {
+        LoadedModel::from_source(&self.path, &self.text, self.backend)
+            .map_err(|e| RunError::Load(e.to_string()))
+    }
+}
+
+/// Where a member of an ensemble starts.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum Init {
+    /// The model's first named point, evaluated with the member's parameters.
+    #[default]
+    First,
+    /// A named point of the model, evaluated with the member's parameters, or comma-separated
+    /// numbers ([`initial_state`]).
+    Text(String),
+    /// The state itself, in the flat state order.
+    State(Vec<f64>),
+}
+
+/// One run of an ensemble: parameter values (on top of the model file's defaults), the
+/// initial state, and components of the initial state to set after it is resolved (a sweep
+/// over initial conditions).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Member {
+    /// Parameters to set, as [`Parameters::set_param`] takes them; the others keep the model
+    /// file's values.
+    pub params: Vec<(String, Vec<f64>)>,
+    /// The initial state.
+    pub init: Init,
+    /// Components of the initial state to set: (index in the flat state, value).
+    pub set: Vec<(usize, f64)>,
+}
+
+impl Member {
+    /// A member starting from `init`, with the model file's parameters.
+    pub fn new(init: Init) -> Self {
+        Member {
+            init,
+            ..Member::default()
+        }
+    }
+
+    /// A member starting from the state `x0`.
+    pub fn at(x0: Vec<f64>) -> Self {
+        Member::new(Init::State(x0))
+    }
+
+    /// Sets a parameter (its slot values).
+    pub fn param(mut self, name: impl Into<String>, values: impl Into<Vec<f64>>) -> Self {
+        self.params.push((name.into(), values.into()));
+        self
+    }
+
+    /// Sets component `i` of the initial state.
+    pub fn set(mut self, i: usize, value: f64) -> Self {
+        self.set.push((i, value));
+        self
+    }
+
+    /// The member's parameters bitwise, to group members that share them.
+    fn key(&self) -> Vec<(&str, Vec<u64>)> {
+        self.params
+            .iter()
+            .map(|(n, v)| (n.as_str(), v.iter().map(|x| x.to_bits()).collect()))
+            .collect()
+    }
+
+    /// The initial state, with the member's parameters already set on `model`.
+    fn start(&self, model: &LoadedModel) -> Result<Vec<f64>, RunError> {
+        let mut x0 = match &self.init {
+            Init::First => {
+                let first = model.point_names().first().ok_or_else(|| {
+                    RunError::Model("the model has no named point: give --init x1,x2,…".into())
+                })?;
+                initial_state(model, first)?
+            }
+            Init::Text(text) => initial_state(model, text)?,
+            Init::State(x) => x.clone(),
+        };
+        for &(i, v) in &self.set {
+            let n = x0.len();
+            *x0.get_mut(i).ok_or_else(|| {
+                RunError::Model(format!(
+                    "state component {i} does not exist (the state has dimension {n})"
+                ))
+            })? = v;
+        }
+        Ok(x0)
+    }
+}
+
+/// The results of [`simulate_many`].
+#[derive(Debug)]
+pub struct Ensemble {
+    /// One result per member, in the members' order.
+    pub recordings: Vec<Result<Recording, RunError>>,
+    /// The threads the runs were spread over.
+    pub threads: usize,
+}
+
+/// A model of one thread of [`simulate_many`], with the model file's parameter values.
+struct ThreadModel {
+    model: LoadedModel,
+    defaults: Vec<(&'static str, Vec<f64>)>,
+}
+
+impl ThreadModel {
+    fn load(source: &ModelSource) -> Result<ThreadModel, RunError> {
+        let model = source.load()?;
+        let defaults = model
+            .param_slots()
+            .iter()
+            .filter_map(|s| Some((s.name, model.param(s.name)?)))
+            .collect();
+        Ok(ThreadModel { model, defaults })
+    }
+
+    /// Sets the parameters of `member` and the model file's values of the others.
+    fn set_params(&mut self, member: &Member) -> Result<(), RunError> {
+        for (name, values) in &self.defaults {
+            let given = member.params.iter().any(|(n, _)| n == name);
+            let same = || {
+                self.model.param(name).is_some_and(|v| {
+                    v.iter()
+                        .zip(values)
+                        .all(|(a, b)| a.to_bits() == b.to_bits())
+                })
+            };
+            if !given && !same() {
+                self.model
+                    .set_param(name, values)
+                    .map_err(|e| RunError::Model(e.to_string()))?;
+            }
+        }
+        for (name, values) in &member.params {
+            self.model
+                .set_param(name, values)
+                .map_err(|e| RunError::Model(e.to_string()))?;
+        }
+        Ok(())
+    }
+
+    /// The runs of a group of members with the same parameters: together in lanes where that
+    /// applies, else one by one.
+    fn run_group(&mut self, group: &[&Member], spec: &RunSpec) -> Vec<Result<Recording, RunError>> {
+        if let Err(e) = self.set_params(group[0]) {
+            return vec![Err(e); group.len()];
+        }
+        let model = &self.model;
+        let starts: Result<Vec<Vec<f64>>, RunError> =
+            group.iter().map(|m| m.start(model)).collect();
+        if let Some(recordings) = starts.ok().and_then(|x0s| simulate_lanes(model, &x0s, spec)) {
+            return recordings.into_iter().map(Ok).collect();
+        }
+        group
+            .iter()
+            .map(|m| simulate(model, &m.start(model)?, spec))
+            .collect()
+    }
+}
+
+/// Runs every member of an ensemble of one model file as `spec` says, on `threads` threads
+/// (0: one per core), each with its own copy of the model; within a thread, members with the
+/// same parameters run up to `lanes` at a time in lanes ([`simulate_lanes`], where it
+/// applies; 1 runs every member alone). Each member's recording is bitwise the one
+/// [`simulate`] gives it alone (but for the timings), and a member that fails to start
+/// (unknown parameter or point, initial state outside the domain) fails alone.
+///
+/// Recordings of runs sampled only at the start and the end (`spec.every` at least the run's
+/// step count, e.g. `u64::MAX`) are what lanes need and what a large ensemble wants to keep;
+/// with `spec.every = 0` each member keeps about [`AUTO_SAMPLES`](crate::AUTO_SAMPLES)
+/// samples.
+pub fn simulate_many(
+    source: &ModelSource,
+    members: &[Member],
+    spec: &RunSpec,
+    threads: usize,
+    lanes: usize,
+) -> Result<Ensemble, RunError> {
+    spec.validate()?;
+    // groups of at most `lanes` members with the same parameters, in the members' order
+    let mut groups: Vec<Vec<(usize, &Member)>> = Vec::new();
+    let mut open: HashMap<Vec<(&str, Vec<u64>)>, usize> = HashMap::new();
+    for (k, member) in members.iter().enumerate() {
+        let key = member.key();
+        match open.get(&key) {
+            Some(&g) if groups[g].len() < lanes.max(1) => groups[g].push((k, member)),
+            _ => {
+                open.insert(key, groups.len());
+                groups.push(vec![(k, member)]);
+            }
+        }
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| RunError::Load(format!("cannot start threads: {e}")))?;
+    // one model per thread, loaded by its first group (`map_init` would load one per rayon
+    // job, which for short runs costs more than the runs)
+    let models: Vec<Mutex<Option<Result<ThreadModel, RunError>>>> = (0..pool
+        .current_num_threads())
+        .map(|_| Mutex::new(None))
+        .collect();
+    let results: Vec<Vec<Result<Recording, RunError>>> = pool.install(|| {
+        groups
+            .par_iter()
+            .map(|group| {
+                let slot = &models[rayon::current_thread_index().unwrap_or(0)];
+                let mut slot = slot.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+                match slot.get_or_insert_with(|| ThreadModel::load(source)) {
+                    Ok(m) => {
+                        let group: Vec<&Member> = group.iter().map(|&(_, m)| m).collect();
+                        m.run_group(&group, spec)
+                    }
+                    Err(e) => vec![Err(e.clone()); group.len()],
+                }
+            })
+            .collect()
+    });
+    let mut done: Vec<(usize, Result<Recording, RunError>)> = groups
+        .iter()
+        .zip(results)
+        .flat_map(|(group, results)| group.iter().map(|&(k, _)| k).zip(results))
+        .collect();
+    done.sort_by_key(|(k, _)| *k);
+    Ok(Ensemble {
+        recordings: done.into_iter().map(|(_, r)| r).collect(),
+        threads: pool.current_num_threads(),
+    })
+}

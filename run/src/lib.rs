@@ -1,0 +1,61 @@
+//! # lasalle-run
+//!
+//! The run engine of lasalle as a library: what `lasalle run` and `lasalle sweep` do, for any
+//! front end (the command line, a Python package). The split follows diffsol's problem and
+//! method: a model and an initial state are the problem, a [`RunSpec`] the method that solves
+//! it.
+//!
+//! - [`Method`] (with its [`Base`]): the method grammar, `feedback-rk4`, `projection-euler`,
+//!   `split-taylor`, … (`FromStr`/`Display`, as [`GainPolicy`](lasalle_runtime::GainPolicy)
+//!   for the gains);
+//! - [`RunSpec`]: method, step, end time, gains, tolerances, sampling, step budget and
+//!   divergence bound; [`RunSpec::from_preset`] resolves a model's run preset with the
+//!   caller's overrides ([`RunSpecBuilder`]), [`RunSpec::validate`] checks it;
+//! - [`simulate`] (and [`simulate_with_progress`]): one run of any model — loaded at run time
+//!   ([`LoadedModel`](lasalle_exec::LoadedModel)) or compiled — from an initial state;
+//! - [`simulate_many`]: an ensemble of [`Member`]s of one model file across threads, members
+//!   with equal parameters in lanes ([`simulate_lanes`]), each result bitwise the lone run's;
+//! - [`Recording`]: sampled times, states and invariant errors, the stepper's counters, wall
+//!   and CPU time, and the [`failure`](Recording::failure) that stopped a run early, written
+//!   as CSV ([`Recording::write_csv`]) and JSON ([`Recording::summary_json`]).
+//!
+//! A run of the Kepler model's preset (feedback-Euler, one period) with ten periods of
+//! feedback-RK4 instead:
+//!
+//! ```
+//! use lasalle_exec::{Backend, LoadedModel};
+//! use lasalle_run::{simulate, RunSpec};
+//!
+//! let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../models/kepler.lsl");
+//! let mut model = LoadedModel::load(path, Backend::Jit)?;
+//! let (spec, x0) = RunSpec::from_preset(model.preset("paper"))
+//!     .method("feedback-rk4".parse()?)
+//!     .t_end(702.481)
+//!     .prepare(&mut model)?; // the preset's parameters and initial point
+//! let rec = simulate(&model, &x0, &spec)?;
+//! assert_eq!(rec.steps, 140_497);
+//! assert!(rec.failure.is_none() && rec.max_invariant_error() < 1e-6);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! The crate depends on the runtime, the loader and JIT, `serde_json` and `rayon` only: no
+//! command-line, terminal or plotting crates.
+#![warn(missing_docs)]
+
+mod clock;
+mod ensemble;
+mod error;
+mod input;
+mod method;
+mod recording;
+mod simulate;
+mod spec;
+
+pub use clock::process_cpu_seconds;
+pub use ensemble::{simulate_lanes, simulate_many, Ensemble, Init, Member, ModelSource};
+pub use error::RunError;
+pub use input::{initial_state, parse_numbers};
+pub use method::{Base, Method};
+pub use recording::{json_number, Recording};
+pub use simulate::{simulate, simulate_with_progress, RunModel};
+pub use spec::{find_preset, RunSpec, RunSpecBuilder, AUTO_SAMPLES, DEFAULT_MAX_STEPS};

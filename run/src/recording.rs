@@ -1,0 +1,235 @@
+//! [`Recording`]: what a run leaves — sampled times, states and invariant errors, counters,
+//! timings, and the failure that stopped it early — with its CSV and JSON writers.
+
+use std::io::Write;
+use std::path::Path;
+
+use lasalle_runtime::{Csv, StepError};
+use serde_json::json;
+
+/// The sampled output of a run.
+#[derive(Clone, Debug)]
+pub struct Recording {
+    /// The method, as [`Method`](crate::Method) writes it (`feedback-rk4`).
+    pub method: String,
+    /// The stepper's own name, e.g. `projection(euler)`.
+    pub stepper: String,
+    /// Names of the state components (`R[0,0]`, …, `Omega[2]`).
+    pub state_names: Vec<String>,
+    /// Names of the invariant blocks whose errors are recorded.
+    pub blocks: Vec<String>,
+    /// Sample times.
+    pub t: Vec<f64>,
+    /// Sampled states, `state_names.len()` per sample.
+    pub x: Vec<f64>,
+    /// Invariant errors ‖fᵢ(x) − fᵢ(x₀)‖, `blocks.len()` per sample.
+    pub errors: Vec<f64>,
+    /// Wall-clock time of the integration (including the sampling), in seconds.
+    pub wall_seconds: f64,
+    /// CPU time of the process during the integration, in seconds (None where the platform
+    /// has no process clock).
+    pub cpu_seconds: Option<f64>,
+    /// Accepted steps.
+    pub steps: u64,
+    /// Field evaluations reported by the stepper.
+    pub evaluations: u64,
+    /// Rejected steps (adaptive methods).
+    pub rejections: u64,
+    /// The stepper's counters ([`Stepper::counters`](lasalle_runtime::Stepper::counters):
+    /// Newton iterations of a projection, the last spectral norm estimate of an adaptive
+    /// gain).
+    pub counters: Vec<(&'static str, f64)>,
+    /// Gains at the start (feedback methods).
+    pub gains_initial: Option<Vec<f64>>,
+    /// Gains at the end (differ from the initial ones for adaptive gains).
+    pub gains_final: Option<Vec<f64>>,
+    /// Why the run stopped early, if it did: the step, the time and the state in the error
+    /// (diverged, blew up, left the model's guards, ran out of steps).
+    pub failure: Option<StepError>,
+    /// Recorded every this many steps.
+    pub every: u64,
+}
+
+impl Recording {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    /// No samples (never the case for a recording of a run: it has the initial state).
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    /// The state dimension.
+    pub fn dim(&self) -> usize {
+        self.state_names.len()
+    }
+
+    /// The state of sample `i`.
+    pub fn state(&self, i: usize) -> &[f64] {
+        let n = self.dim();
+        &self.x[i * n..(i + 1) * n]
+    }
+
+    /// The final recorded state.
+    pub fn last_state(&self) -> &[f64] {
+        self.state(self.len() - 1)
+    }
+
+    /// The time of the last sample (0 for an empty recording).
+    pub fn t_final(&self) -> f64 {
+        self.t.last().copied().unwrap_or(0.0)
+    }
+
+    /// The index of the invariant block `name`.
+    pub fn block(&self, name: &str) -> Option<usize> {
+        self.blocks.iter().position(|b| b == name)
+    }
+
+    /// The error series of block `b`.
+    pub fn error_series(&self, b: usize) -> Vec<f64> {
+        let nb = self.blocks.len();
+        self.errors
+            .iter()
+            .skip(b)
+            .step_by(nb.max(1))
+            .copied()
+            .collect()
+    }
+
+    /// The error of block `b` at the last sample.
+    pub fn final_error(&self, b: usize) -> f64 {
+        let nb = self.blocks.len();
+        self.errors[(self.len() - 1) * nb + b]
+    }
+
+    /// The largest sampled error of block `b` (NaN if any sample is NaN).
+    pub fn max_error(&self, b: usize) -> f64 {
+        self.error_series(b).into_iter().fold(0.0, nan_max)
+    }
+
+    /// The largest sampled error of any invariant (NaN if any sample is NaN; 0 for a model
+    /// without invariants).
+    pub fn max_invariant_error(&self) -> f64 {
+        self.errors.iter().copied().fold(0.0, nan_max)
+    }
+
+    /// The error of block `name` at the end, by name (panics on an unknown name).
+    pub fn final_of(&self, name: &str) -> f64 {
+        self.final_error(
+            self.block(name)
+                .unwrap_or_else(|| panic!("no invariant `{name}`")),
+        )
+    }
+
+    /// The largest sampled error of block `name` (panics on an unknown name).
+    pub fn max_of(&self, name: &str) -> f64 {
+        self.max_error(
+            self.block(name)
+                .unwrap_or_else(|| panic!("no invariant `{name}`")),
+        )
+    }
+
+    /// A stepper counter by name.
+    pub fn counter(&self, name: &str) -> Option<f64> {
+        self.counters
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, v)| *v)
+    }
+
+    /// Writes the samples as CSV to the file `path` (see [`Recording::write_csv_to`]).
+    pub fn write_csv(&self, path: impl AsRef<Path>) -> std::io::Result<()> {
+        let path = path.as_ref();
+        let file = std::fs::File::create(path).map_err(|e| {
+            std::io::Error::new(e.kind(), format!("cannot create {}: {e}", path.display()))
+        })?;
+        self.write_csv_to(file)
+    }
+
+    /// Writes the samples as CSV to `out`: `t`, the state components, one `|Δname|` column
+    /// per invariant (Frobenius norm for a matrix constraint); one line per sample.
+    pub fn write_csv_to(&self, out: impl Write) -> std::io::Result<()> {
+        let mut csv = Csv::new(std::io::BufWriter::new(out));
+        let header = std::iter::once("t".to_string())
+            .chain(self.state_names.iter().cloned())
+            .chain(self.blocks.iter().map(|b| format!("|Δ{b}|")));
+        csv.record(header)?;
+        let nb = self.blocks.len();
+        for i in 0..self.len() {
+            let row = std::iter::once(&self.t[i])
+                .chain(self.state(i))
+                .chain(&self.errors[i * nb..(i + 1) * nb]);
+            csv.record(row)?;
+        }
+        csv.into_inner()?;
+        Ok(())
+    }
+
+    /// The run's summary as JSON: counters, wall and CPU time, final and maximal invariant
+    /// errors, final state, gains, failure. Non-finite numbers are strings
+    /// ([`json_number`]).
+    pub fn summary_json(&self) -> serde_json::Value {
+        let invariants: serde_json::Map<String, serde_json::Value> = self
+            .blocks
+            .iter()
+            .enumerate()
+            .map(|(b, name)| {
+                (
+                    name.clone(),
+                    json!({
+                        "final": json_number(self.final_error(b)),
+                        "max": json_number(self.max_error(b)),
+                    }),
+                )
+            })
+            .collect();
+        let counters: serde_json::Map<String, serde_json::Value> = self
+            .counters
+            .iter()
+            .map(|(n, v)| (n.to_string(), json_number(*v)))
+            .collect();
+        json!({
+            "method": self.method,
+            "stepper": self.stepper,
+            "t_final": json_number(self.t_final()),
+            "steps": self.steps,
+            "evaluations": self.evaluations,
+            "rejections": self.rejections,
+            "wall_seconds": self.wall_seconds,
+            "cpu_seconds": self.cpu_seconds,
+            "samples": self.len(),
+            "record_every": self.every,
+            "invariant_errors": invariants,
+            "final_state": self.last_state().iter().map(|v| json_number(*v)).collect::<Vec<_>>(),
+            "gains_initial": self.gains_initial,
+            "gains_final": self.gains_final,
+            "stats": counters,
+            "failure": self.failure.as_ref().map(|e| json!({
+                "message": e.to_string(),
+                "t": e.time(),
+                "step": e.step(),
+                "state": e.state(),
+            })),
+        })
+    }
+}
+
+/// The larger of two numbers, NaN if either is.
+fn nan_max(m: f64, e: f64) -> f64 {
+    if e.is_nan() || m.is_nan() {
+        f64::NAN
+    } else {
+        m.max(e)
+    }
+}
+
+/// A finite number as JSON, anything else as a string (JSON has no NaN or ∞).
+pub fn json_number(v: f64) -> serde_json::Value {
+    if v.is_finite() {
+        json!(v)
+    } else {
+        json!(v.to_string())
+    }
+}

@@ -1,0 +1,560 @@
+//! [`simulate`]: one run of a model from an initial state as a [`RunSpec`] says.
+//!
+//! Any model that implements the runtime's traits and [`Declared`] runs — a model loaded
+//! from a file at run time ([`lasalle_exec::LoadedModel`]) or one compiled ahead of time.
+//! The stepper for the method is built by composing visitors (`projection-` wraps the base
+//! stepper in a [`Projection`], `feedback-` integrates the [`FeedbackField`], the adaptive and
+//! step-tracking gains wrap the stepper in an [`AdaptiveGain`]), so the inner loop is static
+//! code for each (storage, method) pair. Methods that need structure the model does not
+//! declare fail with a message ("method `stormer-verlet-a` needs a partitioned model"); the
+//! model's guards stop a run that leaves its domain.
+
+use std::fmt;
+use std::marker::PhantomData;
+use std::time::Instant;
+
+use lasalle_runtime::{
+    component_names, sample_capacity, scaled_gains, step_gain_target, AdaptiveGain, Control,
+    Declared, DormandPrince, DriftBound, Driver, ExplicitRk, FeedbackField, Field, GainError,
+    GainPolicy, Invariants, Lyapunov, ModelInfo, Observer, Projection, Recorder, State,
+    StepError, Stepper, StormerVerlet, Stride, Taylor, TaylorOptions, VerletVariant,
+};
+
+use crate::{process_cpu_seconds, Base, Method, Recording, RunError, RunSpec};
+
+/// Everything [`simulate`] needs of a model, with states, invariants and gains stored as
+/// `X`, `FV` and `K`: the runtime's traits and the model file's declarations.
+pub trait RunModel<X: State<f64>, FV: State<f64>, K: State<f64>>:
+    Lyapunov<f64, X, FV, K> + ModelInfo + Declared<f64, X>
+{
+}
+
+impl<M, X, FV, K> RunModel<X, FV, K> for M
+where
+    M: Lyapunov<f64, X, FV, K> + ModelInfo + Declared<f64, X>,
+    X: State<f64>,
+    FV: State<f64>,
+    K: State<f64>,
+{
+}
+
+/// Integrates `model` from `x0` as `spec` says.
+///
+/// An integration that blows up, drifts past `spec.max_drift` or leaves the model's domain
+/// (a failed guard) still returns the samples up to the failure, with
+/// [`Recording::failure`] set; invalid arguments (bad numbers, a method the model cannot use,
+/// gains of the wrong count, an initial state outside the domain) are errors.
+pub fn simulate<Mdl, X, FV, K>(model: &Mdl, x0: &X, spec: &RunSpec) -> Result<Recording, RunError>
+where
+    Mdl: RunModel<X, FV, K>,
+    X: State<f64>,
+    FV: State<f64>,
+    K: State<f64>,
+{
+    simulate_with_progress(model, x0, spec, &|_| {})
+}
+
+/// [`simulate`], calling `progress` with the time reached about every 2¹⁶ steps (for a
+/// progress bar over [0, `spec.t_end`]).
+pub fn simulate_with_progress<Mdl, X, FV, K>(
+    model: &Mdl,
+    x0: &X,
+    spec: &RunSpec,
+    progress: &dyn Fn(f64),
+) -> Result<Recording, RunError>
+where
+    Mdl: RunModel<X, FV, K>,
+    X: State<f64>,
+    FV: State<f64>,
+    K: State<f64>,
+{
+    let f = check_start(model, x0, spec)?;
+    let name = model.model_name();
+    // the innermost visitor on the model's own field
+    let on_x = || drive(model, model, x0, spec, progress);
+    match spec.method {
+        Method::Plain(b) => Ok(with_base(b, spec, on_x())),
+        Method::Projection(b) => {
+            let visit = Project {
+                inner: on_x(),
+                target: f,
+                tol: spec.tol,
+            };
+            Ok(with_base(b, spec, visit))
+        }
+        Method::Feedback(b) => feedback_run(model, x0, spec, progress, FeedbackStepper::Base(b)),
+        Method::StormerVerlet(variant) => {
+            let halves = model.partitioned().ok_or_else(|| {
+                RunError::Model(format!(
+                    "method `{}` needs a partitioned model (q̇ = a(p), ṗ = b(q)); the field of `{name}` is not partitioned",
+                    spec.method
+                ))
+            })?;
+            let stepper = match variant {
+                VerletVariant::A => StormerVerlet::a(),
+                VerletVariant::B => StormerVerlet::b(),
+            };
+            Ok(drive(model, halves, x0, spec, progress).visit(stepper))
+        }
+        Method::Splitting => {
+            let splitting = model.rigid_body_splitting().ok_or_else(|| {
+                RunError::Model(format!(
+                    "method `splitting` is the free rigid body's three-rotation splitting; `{name}` does not declare `splitting rigid_body(R, Omega, I);`"
+                ))
+            })?;
+            Ok(on_x().visit(splitting))
+        }
+        Method::Taylor { feedback } => {
+            let taylor = taylor(model, spec)?;
+            if feedback {
+                feedback_run(model, x0, spec, progress, FeedbackStepper::Taylor(taylor))
+            } else {
+                Ok(on_x().visit(taylor))
+            }
+        }
+        Method::SplitTaylor => {
+            let taylor = taylor(model, spec)?.with_split(true);
+            feedback_run(model, x0, spec, progress, FeedbackStepper::Taylor(taylor))
+        }
+    }
+}
+
+/// Something that does a run with any stepper for the field `F` (the continuation that
+/// [`simulate`] hands the stepper it built).
+pub(crate) trait Visit<F: ?Sized, X: State<f64>> {
+    /// The result.
+    type Out;
+    /// Runs with `stepper`.
+    fn visit<S: Stepper<f64, X, F>>(self, stepper: S) -> Self::Out;
+}
+
+/// Checks the spec and the initial state (finite, inside the model's guards, where the field
+/// and the invariants are defined); returns f(x₀).
+pub(crate) fn check_start<Mdl, X, FV, K>(
+    model: &Mdl,
+    x0: &X,
+    spec: &RunSpec,
+) -> Result<FV, RunError>
+where
+    Mdl: RunModel<X, FV, K>,
+    X: State<f64>,
+    FV: State<f64>,
+    K: State<f64>,
+{
+    spec.validate()?;
+    let name = model.model_name();
+    let shown = x0.as_ref();
+    if shown.len() != model.state_dim() {
+        return Err(RunError::Model(format!(
+            "the initial state has {} components but the state of `{name}` has dimension {}",
+            shown.len(),
+            model.state_dim()
+        )));
+    }
+    if let Some(i) = shown.iter().position(|v| !v.is_finite()) {
+        return Err(RunError::Model(format!(
+            "initial state component {i} is not finite"
+        )));
+    }
+    // The field and the invariants must be defined at x0 (e.g. Kepler at x = 0 is not).
+    let mut dx = x0.clone();
+    let mut f = FV::filled(FV::len_for(model.invariant_dim()), 0.0);
+    model.field(x0, &mut dx);
+    model.invariants(x0, &mut f);
+    if let Some(failure) = model.check_guards(x0, 0.0) {
+        return Err(RunError::Model(format!(
+            "invalid initial state {shown:?}: {failure}"
+        )));
+    }
+    if dx.as_ref().iter().chain(f.as_ref()).any(|v| !v.is_finite()) {
+        return Err(RunError::Model(format!(
+            "the field or the invariants of `{name}` are not finite at the initial state {shown:?}"
+        )));
+    }
+    Ok(f)
+}
+
+/// Moves the progress on, about every 2¹⁶ steps, on the way to `inner`.
+struct Progress<'o, O> {
+    inner: &'o mut O,
+    progress: &'o dyn Fn(f64),
+    every: u64,
+}
+
+impl<O: Observer<f64, X>, X: ?Sized> Observer<f64, X> for Progress<'_, O> {
+    #[inline]
+    fn observe(&mut self, step: u64, t: f64, x: &X) -> Control {
+        // only every `every`-th step gets here (a Stride): one of them per 2¹⁶ steps
+        if step & 0xffff < self.every {
+            (self.progress)(t);
+        }
+        self.inner.observe(step, t, x)
+    }
+
+    fn finish(&mut self, step: u64, t: f64, x: &X) {
+        self.inner.finish(step, t, x)
+    }
+}
+
+/// The innermost visitor: integrates `field` with the stepper and records the model's
+/// invariants.
+struct Drive<'a, Mdl, F: ?Sized, X, FV> {
+    model: &'a Mdl,
+    field: &'a F,
+    x0: X,
+    spec: &'a RunSpec,
+    progress: &'a dyn Fn(f64),
+    invariants: PhantomData<FV>,
+}
+
+impl<Mdl, F, X, FV> Visit<F, X> for Drive<'_, Mdl, F, X, FV>
+where
+    Mdl: Invariants<f64, X, FV> + ModelInfo + Declared<f64, X>,
+    X: State<f64>,
+    FV: State<f64>,
+    F: ?Sized,
+{
+    type Out = Recording;
+
+    fn visit<S: Stepper<f64, X, F>>(self, mut stepper: S) -> Recording {
+        let spec = self.spec;
+        let every = spec.record_every();
+        // the stride forwards every `every`-th step; the recorder keeps all it is given
+        let mut rec = Recorder::new(
+            self.model,
+            &self.x0,
+            1,
+            sample_capacity(spec.steps(), every),
+        );
+        let mut driver = Driver::new(0.0, spec.t_end, spec.dt).max_steps(spec.max_steps);
+        // the model's guards, with the step size (0 for adaptive methods, which shrink theirs)
+        let (model, h) = (
+            self.model,
+            if spec.method.is_adaptive() {
+                0.0
+            } else {
+                spec.dt
+            },
+        );
+        let drift = DriftBound::new(model, &self.x0, spec.max_drift);
+        driver = driver
+            .guard(1, move |x: &X| {
+                model.check_guards(x, h).map(|g| g.to_string())
+            })
+            .divergence(every, move |x: &X| drift.check(x));
+        let mut obs = Stride::new(
+            Progress {
+                inner: &mut rec,
+                progress: self.progress,
+                every,
+            },
+            every,
+        );
+        let (start, cpu_start) = (Instant::now(), process_cpu_seconds());
+        let result = driver.run(&mut stepper, self.field, &self.x0, &mut obs);
+        let wall_seconds = start.elapsed().as_secs_f64();
+        let cpu_seconds = process_cpu_seconds()
+            .zip(cpu_start)
+            .map(|(end, start)| end - start);
+        let counts = match result {
+            Ok(s) => Ok((s.steps, s.evaluations, s.rejections)),
+            Err(e) => Err(e),
+        };
+        let stepper = (stepper.name(), stepper.counters());
+        recording(
+            self.model,
+            spec,
+            stepper,
+            rec,
+            (wall_seconds, cpu_seconds),
+            counts,
+        )
+    }
+}
+
+/// The [`Recording`] of a run: what `rec` recorded, with the run's counters (or its failure).
+pub(crate) fn recording<Mdl, X, FV>(
+    model: &Mdl,
+    spec: &RunSpec,
+    (stepper, counters): (String, Vec<(&'static str, f64)>),
+    rec: Recorder<'_, Mdl, f64, X, FV>,
+    (wall_seconds, cpu_seconds): (f64, Option<f64>),
+    counts: Result<(u64, u64, u64), StepError>,
+) -> Recording
+where
+    Mdl: Invariants<f64, X, FV> + ModelInfo + ?Sized,
+    X: State<f64>,
+    FV: State<f64>,
+{
+    let mut names = component_names(model.state_slots());
+    names.resize_with(model.state_dim(), String::new);
+    let ((steps, evaluations, rejections), failure) = match counts {
+        Ok(c) => (c, None),
+        Err(e) => ((e.step().unwrap_or(0), 0, 0), Some(e)),
+    };
+    Recording {
+        method: spec.method.to_string(),
+        stepper,
+        state_names: names,
+        blocks: rec.blocks().iter().map(|(n, _)| n.to_string()).collect(),
+        x: rec
+            .x
+            .iter()
+            .flat_map(|s| s.as_ref().iter().copied())
+            .collect(),
+        t: rec.t,
+        errors: rec.errors,
+        wall_seconds,
+        cpu_seconds,
+        steps,
+        evaluations,
+        rejections,
+        counters,
+        gains_initial: None,
+        gains_final: None,
+        failure,
+        every: spec.record_every(),
+    }
+}
+
+/// Wraps the base stepper in the projection onto {f = target} (GNI §IV.4).
+struct Project<V, FV> {
+    inner: V,
+    target: FV,
+    tol: f64,
+}
+
+impl<F, V, X, FV> Visit<F, X> for Project<V, FV>
+where
+    F: Invariants<f64, X, FV> + ?Sized,
+    V: Visit<F, X>,
+    X: State<f64>,
+    FV: State<f64>,
+{
+    type Out = V::Out;
+
+    fn visit<S: Stepper<f64, X, F>>(self, stepper: S) -> V::Out {
+        self.inner
+            .visit(Projection::new(stepper, self.target, self.tol))
+    }
+}
+
+/// Wraps the base stepper in the periodic adaptive gain (Bae & Chang) or the step-tracking
+/// gain, as [`GainPlan::wrap`] says.
+struct Adapt<V, K> {
+    inner: V,
+    unit: K,
+    every: u64,
+    c: f64,
+    safety: f64,
+}
+
+impl<'a, Mdl, V, X, FV, K> Visit<FeedbackField<'a, Mdl, FV, K>, X> for Adapt<V, K>
+where
+    Mdl: Lyapunov<f64, X, FV, K> + ModelInfo,
+    V: Visit<FeedbackField<'a, Mdl, FV, K>, X>,
+    X: State<f64>,
+    FV: State<f64>,
+    K: State<f64>,
+{
+    type Out = V::Out;
+
+    fn visit<S>(self, stepper: S) -> V::Out
+    where
+        S: Stepper<f64, X, FeedbackField<'a, Mdl, FV, K>>,
+    {
+        self.inner.visit(
+            AdaptiveGain::new(stepper, self.unit, self.every)
+                .c(self.c)
+                .safety(self.safety),
+        )
+    }
+}
+
+/// Hands `visit` the explicit Runge–Kutta stepper `base`.
+pub(crate) fn with_base<F, V, X>(base: Base, spec: &RunSpec, visit: V) -> V::Out
+where
+    F: Field<f64, X> + ?Sized,
+    V: Visit<F, X>,
+    X: State<f64>,
+{
+    match base {
+        Base::Euler => visit.visit(ExplicitRk::<f64, 1, X>::euler()),
+        Base::Heun => visit.visit(ExplicitRk::<f64, 2, X>::heun()),
+        Base::Rk4 => visit.visit(ExplicitRk::<f64, 4, X>::rk4()),
+        Base::Dopri5 => visit.visit(DormandPrince::<f64, X>::with_tolerances(
+            spec.rtol, spec.atol,
+        )),
+    }
+}
+
+/// The innermost visitor for `field` (the model itself, its feedback field or its partitioned
+/// half-fields), recording the model's invariants.
+fn drive<'a, Mdl, F: ?Sized, X: Clone, FV>(
+    model: &'a Mdl,
+    field: &'a F,
+    x0: &X,
+    spec: &'a RunSpec,
+    progress: &'a dyn Fn(f64),
+) -> Drive<'a, Mdl, F, X, FV> {
+    Drive {
+        model,
+        field,
+        x0: x0.clone(),
+        spec,
+        progress,
+        invariants: PhantomData,
+    }
+}
+
+/// The Taylor integrator of `model` with tolerance `spec.rtol`, over its kernels
+/// ([`Declared::taylor_kernels`]).
+fn taylor<Mdl, X, FV, K>(model: &Mdl, spec: &RunSpec) -> Result<Taylor<Mdl>, RunError>
+where
+    Mdl: RunModel<X, FV, K>,
+    X: State<f64>,
+    FV: State<f64>,
+    K: State<f64>,
+{
+    let opts = TaylorOptions::with_tol(spec.rtol);
+    let bad = |e: &dyn fmt::Display| RunError::Model(format!("method `{}`: {e}", spec.method));
+    let order = opts.checked_order().map_err(|e| bad(&e))?;
+    let kernels = model.taylor_kernels(order).map_err(|e| bad(&e))?;
+    Taylor::new(kernels, opts).map_err(|e| bad(&e))
+}
+
+/// The stepper of a feedback run.
+enum FeedbackStepper<Mdl> {
+    /// An explicit Runge–Kutta method.
+    Base(Base),
+    /// The Taylor method.
+    Taylor(Taylor<Mdl>),
+}
+
+impl<Mdl> FeedbackStepper<Mdl> {
+    /// Hands `visit` the stepper.
+    fn visit<F, X, V>(self, spec: &RunSpec, visit: V) -> V::Out
+    where
+        F: Field<f64, X> + ?Sized,
+        X: State<f64>,
+        V: Visit<F, X>,
+        Taylor<Mdl>: Stepper<f64, X, F>,
+    {
+        match self {
+            FeedbackStepper::Base(b) => with_base(b, spec, visit),
+            FeedbackStepper::Taylor(t) => visit.visit(t),
+        }
+    }
+}
+
+/// A run on the feedback field X − ∇V with the gains of `spec` (adapted along the run if it
+/// says so).
+fn feedback_run<Mdl, X, FV, K>(
+    model: &Mdl,
+    x0: &X,
+    spec: &RunSpec,
+    progress: &dyn Fn(f64),
+    stepper: FeedbackStepper<Mdl>,
+) -> Result<Recording, RunError>
+where
+    Mdl: RunModel<X, FV, K>,
+    X: State<f64>,
+    FV: State<f64>,
+    K: State<f64>,
+{
+    let order = match &stepper {
+        FeedbackStepper::Base(b) => b.order(),
+        FeedbackStepper::Taylor(t) => <Taylor<Mdl> as Stepper<f64, X, Mdl>>::order(t),
+    };
+    let plan: GainPlan<K> = plan_gains(model, x0, spec, order)?;
+    let fb = FeedbackField::from_initial(model, x0, plan.initial.clone());
+    let inner = drive(model, &fb, x0, spec, progress);
+    let mut rec = match plan.wrap(inner) {
+        Gained::Adaptive(adapt) => stepper.visit(spec, adapt),
+        Gained::Fixed(inner) => stepper.visit(spec, inner),
+    };
+    rec.gains_initial = Some(plan.initial.as_ref().to_vec());
+    rec.gains_final = Some(fb.gains().as_ref().to_vec());
+    Ok(rec)
+}
+
+/// The gains of a feedback run: the initial ones and, for the adaptive policies, how the
+/// [`AdaptiveGain`] wrapper keeps choosing them.
+pub(crate) struct GainPlan<K> {
+    pub(crate) initial: K,
+    /// (re-estimation period, c, safety factor) of the wrapper.
+    pub(crate) adapt: Option<(u64, f64, f64)>,
+}
+
+/// The innermost visitor of a feedback run, wrapped in the adaptive gain or not.
+enum Gained<V, K> {
+    Adaptive(Adapt<V, K>),
+    Fixed(V),
+}
+
+impl<K: State<f64>> GainPlan<K> {
+    /// `inner` wrapped in the adaptive gain if the plan has one.
+    fn wrap<V>(&self, inner: V) -> Gained<V, K> {
+        match self.adapt {
+            Some((every, c, safety)) => Gained::Adaptive(Adapt {
+                inner,
+                unit: K::filled(K::len_for(self.initial.len()), 1.0),
+                every,
+                c,
+                safety,
+            }),
+            None => Gained::Fixed(inner),
+        }
+    }
+}
+
+/// Resolves `spec.gains` for a feedback method of order `order`: `auto` by whether the method
+/// is adaptive, `step` to the target h·k·L = [`step_gain_target`] with the tolerance `rtol`.
+pub(crate) fn plan_gains<Mdl, X, FV, K>(
+    model: &Mdl,
+    x0: &X,
+    spec: &RunSpec,
+    order: u32,
+) -> Result<GainPlan<K>, RunError>
+where
+    Mdl: RunModel<X, FV, K>,
+    X: State<f64>,
+    FV: State<f64>,
+    K: State<f64>,
+{
+    let located = |e: GainError| {
+        RunError::Model(format!(
+            "{e} (model `{}` has gains {})",
+            model.model_name(),
+            model.gain_names().join(", ")
+        ))
+    };
+    match spec.gains.clone().resolve(spec.method.is_adaptive()) {
+        GainPolicy::Step { c, every } => {
+            let target = step_gain_target(c, spec.rtol, order);
+            let unit = K::filled(K::len_for(model.gain_names().len()), 1.0);
+            // the first step is `dt`, else DOPRI5's starting step on X; the wrapper rescales
+            // to the step actually proposed
+            let h = if spec.dt > 0.0 {
+                spec.dt
+            } else {
+                DormandPrince::<f64, X>::with_tolerances(spec.rtol, spec.atol)
+                    .initial_step(model, 0.0, x0, spec.t_end)
+                    .ok_or_else(|| RunError::Spec("no starting step: give --dt".into()))?
+            };
+            let initial = scaled_gains(model, x0, &unit, h, target).map_err(located)?;
+            Ok(GainPlan {
+                initial,
+                adapt: Some((every, target, 1.0)),
+            })
+        }
+        policy => {
+            let initial = policy.initial_gains(model, x0, spec.dt).map_err(located)?;
+            let adapt = match policy {
+                GainPolicy::Adaptive { every, c } => Some((every, c, 0.8)),
+                _ => None,
+            };
+            Ok(GainPlan { initial, adapt })
+        }
+    }
+}
