@@ -12,8 +12,8 @@ use lasalle_runtime::{DriftBound, Driver, ModelInfo, Observer, Parameters, Recor
 use rayon::prelude::*;
 
 use crate::simulate::{check_start, plan_gains, recording, with_base, GainPlan, Visit};
-use crate::{initial_state, process_cpu_seconds, simulate, Base, Method, Recording, RunError};
 use crate::RunSpec;
+use crate::{initial_state, process_cpu_seconds, simulate, Base, Method, Recording, RunError};
 
 /// Integrates the states `x0s` of a loaded model together, in lanes
 /// ([`lasalle_exec::Lanes`], [`lasalle_exec::FeedbackLanes`]: one kernel call per stage for
@@ -309,7 +309,10 @@ impl ThreadModel {
         let model = &self.model;
         let starts: Result<Vec<Vec<f64>>, RunError> =
             group.iter().map(|m| m.start(model)).collect();
-        if let Some(recordings) = starts.ok().and_then(|x0s| simulate_lanes(model, &x0s, spec)) {
+        if let Some(recordings) = starts
+            .ok()
+            .and_then(|x0s| simulate_lanes(model, &x0s, spec))
+        {
             return recordings.into_iter().map(Ok).collect();
         }
         group
@@ -357,8 +360,7 @@ pub fn simulate_many(
         .map_err(|e| RunError::Load(format!("cannot start threads: {e}")))?;
     // one model per thread, loaded by its first group (`map_init` would load one per rayon
     // job, which for short runs costs more than the runs)
-    let models: Vec<Mutex<Option<Result<ThreadModel, RunError>>>> = (0..pool
-        .current_num_threads())
+    let models: Vec<Mutex<Option<Result<ThreadModel, RunError>>>> = (0..pool.current_num_threads())
         .map(|_| Mutex::new(None))
         .collect();
     let results: Vec<Vec<Result<Recording, RunError>>> = pool.install(|| {

@@ -206,6 +206,8 @@ mod tests {
         );
         assert_eq!("heun".parse::<Base>().unwrap(), Base::Heun);
         let e = "nope".parse::<Method>().unwrap_err();
-        assert!(e.to_string().starts_with("unknown method `nope`; known methods: euler"));
+        assert!(e
+            .to_string()
+            .starts_with("unknown method `nope`; known methods: euler"));
     }
 }

@@ -16,8 +16,8 @@ use std::time::Instant;
 use lasalle_runtime::{
     component_names, sample_capacity, scaled_gains, step_gain_target, AdaptiveGain, Control,
     Declared, DormandPrince, DriftBound, Driver, ExplicitRk, FeedbackField, Field, GainError,
-    GainPolicy, Invariants, Lyapunov, ModelInfo, Observer, Projection, Recorder, State,
-    StepError, Stepper, StormerVerlet, Stride, Taylor, TaylorOptions, VerletVariant,
+    GainPolicy, Invariants, Lyapunov, ModelInfo, Observer, Projection, Recorder, State, StepError,
+    Stepper, StormerVerlet, Stride, Taylor, TaylorOptions, VerletVariant,
 };
 
 use crate::{process_cpu_seconds, Base, Method, Recording, RunError, RunSpec};

@@ -323,7 +323,7 @@ impl RunSpecBuilder {
         let preset = self.preset.as_ref();
         // the preset's step and gains are for its own method, or for any fixed-step one
         let own = preset.filter(|p| {
-            !method.is_adaptive() || p.method.is_none_or(|m| m.parse() == Ok(method))
+            !method.is_adaptive() || p.method.map_or(true, |m| m.parse() == Ok(method))
         });
         let dt = match self.dt.or(own.and_then(|p| p.dt)) {
             Some(dt) => dt,

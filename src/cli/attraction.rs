@@ -13,8 +13,8 @@ use lasalle::stability::attraction::{
 use lasalle::{LoadedModel, ModelInfo, Parameters};
 
 use super::plot::{write_figure, Chart, Style};
-use super::sim::parse_numbers;
 use super::CliResult;
+use lasalle::parse_numbers;
 
 /// The options of `lasalle stability` for dissipative planar models.
 #[derive(Args, Debug)]

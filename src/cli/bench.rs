@@ -13,8 +13,8 @@ use lasalle_codegen::tape::ModelTapes;
 use serde_json::json;
 
 use super::load::{load, model_text};
-use super::sim::{parse_numbers, process_cpu_seconds};
 use super::CliResult;
+use lasalle::{parse_numbers, process_cpu_seconds};
 
 /// Arguments of `lasalle bench-eval`.
 #[derive(Args, Debug)]

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use lasalle::{Backend, LoadedModel, MODEL_FILES};
 
-use super::sim::normalise;
+use super::args::normalise;
 use super::{usage, CliResult};
 
 /// Which back end runs a loaded model (`--backend`).

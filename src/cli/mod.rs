@@ -1,5 +1,6 @@
 //! Subcommands. Each lives in its own module; this file only parses arguments and dispatches.
 
+mod args;
 mod attraction;
 mod bench;
 mod experiment;
@@ -7,8 +8,8 @@ mod gen;
 mod load;
 mod normal_form;
 mod plot;
+mod progress;
 mod run;
-mod sim;
 mod stability;
 mod stability_figure;
 mod sweep;

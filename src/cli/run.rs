@@ -6,10 +6,10 @@
 use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
-use lasalle::{Declared, GainPolicy, ModelInfo, Parameters, Preset};
+use lasalle::{find_preset, GainPolicy, Method, ModelInfo, Preset, RunError, RunSpec};
 
+use super::args::parse_param;
 use super::load::{load, BackendArg};
-use super::sim::{apply_param, initial_state, simulate, Method, RunSpec};
 use super::{usage, value, CliResult, Given};
 
 /// What `lasalle run` prints on standard output.
@@ -79,7 +79,7 @@ pub struct RunArgs {
     pub every: Option<u64>,
     /// The most steps a run may take (fixed-step runs needing more are refused before they
     /// start).
-    #[arg(long, default_value_t = super::sim::DEFAULT_MAX_STEPS, value_parser = value::count, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = lasalle::DEFAULT_MAX_STEPS, value_parser = value::count, allow_hyphen_values = true)]
     pub max_steps: u64,
     /// The run has diverged, and stops with exit code 1, when an invariant's error exceeds
     /// this many times max(|f(x₀)|, 1).
@@ -101,112 +101,65 @@ pub struct RunArgs {
     pub format: Format,
 }
 
-/// The preset `--preset` names, or the model's first one.
-fn preset(
-    model: &impl Declared<f64, Vec<f64>>,
-    name: Option<&str>,
-) -> Result<Option<&'static Preset>, String> {
-    let presets = model.presets();
-    match name {
-        None => Ok(presets.first()),
-        Some(name) => presets
-            .iter()
-            .find(|p| p.name == name)
-            .map(Some)
-            .ok_or_else(|| {
-                let known: Vec<&str> = presets.iter().map(|p| p.name).collect();
-                if known.is_empty() {
-                    format!("unknown preset `{name}`: the model declares no `run` preset")
-                } else {
-                    format!(
-                        "unknown preset `{name}`; the model's presets: {}",
-                        known.join(", ")
-                    )
-                }
-            }),
-    }
-}
-
-/// The spec and the initial state of a run: the preset's settings, overridden by the flags;
-/// a flag that does not apply to the method is refused.
+/// The spec and the initial state of a run: the preset's settings, overridden by the flags
+/// (resolved by the library's [`lasalle::RunSpecBuilder`]); a flag that does not apply to the
+/// method is refused.
 fn run_spec(
     args: &RunArgs,
     given: &Given,
     model: &mut lasalle::LoadedModel,
     preset: Option<&Preset>,
 ) -> CliResult<(RunSpec, Vec<f64>)> {
-    let model_name = model.model_name();
-    let missing = |what: &str, flag: &str| {
-        usage(format!(
-            "give {flag}: model `{model_name}` declares no {what} (add `run NAME {{ {what} = …; }}` to the model file)"
-        ))
-    };
-    if let Some(p) = preset {
-        for (name, values) in p.params {
-            model.set_param(name, values).map_err(usage)?;
-        }
-    }
+    let mut builder = RunSpec::from_preset(preset);
     for p in &args.param {
-        apply_param(model, p).map_err(usage)?;
+        let (name, values) = parse_param(p).map_err(usage)?;
+        builder = builder.param(name, values);
     }
-    let method: Method = args
-        .method
-        .as_deref()
-        .or(preset.and_then(|p| p.method))
-        .unwrap_or("feedback-euler")
-        .parse()
-        .map_err(usage)?;
-    // the preset's step and gains are for its own method, or for any fixed-step one
-    let own = preset
-        .filter(|p| !method.is_adaptive() || p.method.is_none_or(|m| m.parse() == Ok(method)));
-    let init = match (&args.init, preset.and_then(|p| p.init)) {
-        (Some(init), _) => init.clone(),
-        (None, Some(init)) => init.to_string(),
-        (None, None) => model
-            .point_names()
-            .first()
-            .map(|n| n.to_string())
-            .ok_or_else(|| usage("the model has no named point: give --init x1,x2,…"))?,
-    };
-    let x0 = initial_state(model, &init).map_err(usage)?;
-    let dt = match args.dt.or(own.and_then(|p| p.dt)) {
-        Some(dt) => dt,
-        None if method.is_adaptive() => 0.0,
-        None => return Err(missing("dt", "--dt")),
-    };
-    let t_end = args
-        .t_end
-        .or(preset.and_then(|p| p.t_end))
-        .ok_or_else(|| missing("t_end", "--t-end"))?;
-    let mut spec = RunSpec::new(method, dt, t_end);
-    spec.gains = match (
-        args.gains.parse::<GainPolicy>().map_err(usage)?,
-        own.and_then(|p| p.gains),
-    ) {
-        (GainPolicy::Default, Some(g)) if method.is_feedback() => GainPolicy::Explicit(g.to_vec()),
-        (policy, _) => policy,
-    };
-    tolerances(&mut spec, given, args.rtol, args.atol)?;
-    spec.tol = args
-        .projection_tol
-        .unwrap_or(if dt > 0.0 { dt } else { spec.rtol });
-    spec.every = args.every.or(preset.and_then(|p| p.every)).unwrap_or(0);
-    spec.progress = !args.quiet && args.format == Format::Table;
-    spec.max_steps = args.max_steps;
-    spec.max_drift = args.max_drift;
-    Ok((spec, x0))
+    if let Some(m) = &args.method {
+        builder = builder.method(m.parse().map_err(usage)?);
+    }
+    let method = builder.resolved_method().map_err(usage)?;
+    refuse_inapplicable(method, given)?;
+    builder = builder
+        .gains(args.gains.parse::<GainPolicy>().map_err(usage)?)
+        .max_steps(args.max_steps)
+        .max_drift(args.max_drift);
+    if let Some(dt) = args.dt {
+        builder = builder.dt(dt);
+    }
+    if let Some(t_end) = args.t_end {
+        builder = builder.t_end(t_end);
+    }
+    if let Some(rtol) = args.rtol {
+        builder = builder.rtol(rtol);
+    }
+    if let Some(atol) = args.atol {
+        builder = builder.atol(atol);
+    }
+    if let Some(tol) = args.projection_tol {
+        builder = builder.projection_tol(tol);
+    }
+    if let Some(every) = args.every {
+        builder = builder.every(every);
+    }
+    if let Some(init) = &args.init {
+        builder = builder.init(init.as_str());
+    }
+    builder.prepare(model).map_err(|e| match e {
+        RunError::Missing(what) => {
+            let flag = format!("--{}", what.replace('_', "-"));
+            usage(format!(
+                "give {flag}: model `{}` declares no {what} (add `run NAME {{ {what} = …; }}` to the model file)",
+                model.model_name()
+            ))
+        }
+        e => usage(e),
+    })
 }
 
-/// Sets `--rtol` and `--atol` on `spec` (the Taylor methods' one tolerance from either) and
-/// refuses the flags that do not apply to its method: the tolerances for fixed-step methods,
+/// Refuses the flags that do not apply to `method`: the tolerances for fixed-step methods,
 /// `--gains` for methods without feedback, `--projection-tol` for non-projection methods.
-pub fn tolerances(
-    spec: &mut RunSpec,
-    given: &Given,
-    rtol: Option<f64>,
-    atol: Option<f64>,
-) -> CliResult {
-    let method = spec.method;
+pub fn refuse_inapplicable(method: Method, given: &Given) -> CliResult {
     if !method.is_adaptive() {
         given.refuse(
             &["rtol", "atol"],
@@ -228,32 +181,17 @@ pub fn tolerances(
             &format!("applies to the projection methods (projection-*), not to `{method}`"),
         )?;
     }
-    if matches!(method, Method::Taylor { .. } | Method::SplitTaylor) {
-        // Jorba & Zou's one tolerance, absolute below ‖x‖∞ = 1 and relative above
-        if let (Some(r), Some(a)) = (rtol, atol) {
-            if r != a {
-                return Err(usage(format!(
-                    "`{method}` has one tolerance ε (absolute for |x| ≤ 1, relative above): \
-                     give --rtol alone, not --rtol {r} with --atol {a}"
-                )));
-            }
-        }
-        spec.rtol = rtol.or(atol).unwrap_or(spec.rtol);
-        spec.atol = spec.rtol;
-    } else {
-        spec.rtol = rtol.unwrap_or(spec.rtol);
-        spec.atol = atol.unwrap_or(spec.atol);
-    }
     Ok(())
 }
 
 /// Runs `lasalle run`.
 pub fn run(args: &RunArgs, given: &Given) -> CliResult {
     let (mut model, stem) = load(&args.model, args.backend.into())?;
-    let preset = preset(&model, args.preset.as_deref()).map_err(usage)?;
+    let preset = find_preset(&model, args.preset.as_deref()).map_err(usage)?;
     let (spec, x0) = run_spec(args, given, &mut model, preset)?;
     let method = spec.method;
-    let trace = simulate(&model, &x0, &spec).map_err(usage)?;
+    let shown = !args.quiet && args.format == Format::Table;
+    let recording = super::progress::simulate(&model, &x0, &spec, shown).map_err(usage)?;
     let name = model.model_name();
 
     let dir = args
@@ -261,8 +199,8 @@ pub fn run(args: &RunArgs, given: &Given) -> CliResult {
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("out/{stem}-{method}")));
     std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    trace.write_csv(&dir.join("trace.csv"))?;
-    let mut summary = trace.summary_json();
+    recording.write_csv(dir.join("trace.csv"))?;
+    let mut summary = recording.summary_json();
     summary["model"] = name.into();
     summary["model_file"] = stem.clone().into();
     summary["preset"] = preset.map(|p| p.name).into();
@@ -288,10 +226,10 @@ pub fn run(args: &RunArgs, given: &Given) -> CliResult {
     )?;
     match args.format {
         Format::Json => println!("{summary}"),
-        Format::Csv => trace.write_csv_to(std::io::stdout().lock())?,
+        Format::Csv => recording.write_csv_to(std::io::stdout().lock())?,
         Format::Table => {}
     }
-    if let Some(e) = &trace.failure {
+    if let Some(e) = &recording.failure {
         return Err(format!(
             "{method} on `{name}` stopped: {e}\n(samples up to the failure are in {})",
             dir.display()
@@ -307,19 +245,19 @@ pub fn run(args: &RunArgs, given: &Given) -> CliResult {
         println!(
             "{name} {method} {dt} to t = {}: {} steps, {} evaluations, {:.3} s (model loaded in {:.1} ms)",
             spec.t_end,
-            trace.steps,
-            trace.evaluations,
-            trace.wall_seconds,
+            recording.steps,
+            recording.evaluations,
+            recording.wall_seconds,
             model.load_time().as_secs_f64() * 1e3
         );
-        for (b, name) in trace.blocks.iter().enumerate() {
+        for (b, name) in recording.blocks.iter().enumerate() {
             println!(
                 "  |Δ{name}|: final {:.3e}, max {:.3e}",
-                trace.final_error(b),
-                trace.max_error(b)
+                recording.final_error(b),
+                recording.max_error(b)
             );
         }
-        if let Some(g) = &trace.gains_final {
+        if let Some(g) = &recording.gains_final {
             println!("  gains: {g:?}");
         }
         println!("wrote {}/trace.csv and summary.json", dir.display());

@@ -13,9 +13,10 @@ use lasalle::stability::{self, Equilibrium, Family, Level, Options, Sweep};
 use lasalle::{ModelInfo, Parameters};
 use lasalle_codegen::Structure;
 
+use super::args::apply_param;
 use super::load::{load, BackendArg};
-use super::sim::{apply_param, parse_numbers};
 use super::{usage, value, CliResult, Given};
+use lasalle::parse_numbers;
 
 /// Arguments of `lasalle stability`.
 #[derive(Args, Debug)]

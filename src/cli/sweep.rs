@@ -5,21 +5,22 @@
 //! PBS, `xargs -P`) split a sweep across machines, and `lasalle sweep-merge` joins the shards'
 //! tables, checking that every row is there exactly once.
 //!
-//! Within a core, rows that share their parameters run together in lanes ([`simulate_lanes`],
-//! `--lanes`, plain fixed-step methods): one kernel call per stage for up to `--lanes` states,
-//! each row's result bitwise the one it gets alone.
+//! The runs are the library's ensemble ([`lasalle::simulate_many`]): one model per thread, and
+//! within a thread rows that share their parameters together in lanes (`--lanes`, fixed-step
+//! Runge–Kutta methods): one kernel call per stage for up to `--lanes` states, each row's
+//! result bitwise the one it gets alone.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
-use std::sync::Mutex;
 
 use clap::Args;
-use lasalle::{Backend, LoadedModel, ModelInfo, Parameters};
-use rayon::prelude::*;
+use lasalle::{
+    simulate_many, GainPolicy, Init, LoadedModel, Member, Method, ModelInfo, ModelSource,
+    Recording, RunError, RunSpec,
+};
 
 use super::load::{model_text, BackendArg};
-use super::run::tolerances;
-use super::sim::{initial_state, simulate, simulate_lanes, Method, RunSpec, Trace};
+use super::run::refuse_inapplicable;
 use super::{usage, value, CliResult, Given};
 
 /// Arguments of `lasalle sweep`.
@@ -237,74 +238,21 @@ fn columns(model: &LoadedModel, row: &[(String, f64)]) -> Result<Vec<Column>, St
         .collect()
 }
 
-/// Sets a row's parameters and returns its initial state.
-fn start(
-    model: &mut LoadedModel,
-    index: usize,
-    row: &[(String, f64)],
-    columns: &[Column],
-    args: &SweepArgs,
-) -> Result<Vec<f64>, String> {
+/// The run of a row: its parameters, and its initial state with the row's components.
+fn member(row: &[(String, f64)], columns: &[Column], init: &Init) -> Member {
+    let mut member = Member::new(init.clone());
     for ((name, v), c) in row.iter().zip(columns) {
-        if *c == Column::Param {
-            model
-                .set_param(name, &[*v])
-                .map_err(|e| format!("row {index}: {e}"))?;
-        }
+        member = match *c {
+            Column::Param => member.param(name.as_str(), [*v]),
+            Column::State(i) => member.set(i, *v),
+        };
     }
-    let init = match &args.init {
-        Some(i) => i.clone(),
-        None => model
-            .point_names()
-            .first()
-            .map(|p| p.to_string())
-            .ok_or("the model has no named point: give --init x1,x2,…")?,
-    };
-    let mut x0 = initial_state(model, &init).map_err(|e| format!("row {index}: {e}"))?;
-    for ((_, v), c) in row.iter().zip(columns) {
-        if let Column::State(i) = *c {
-            x0[i] = *v;
-        }
-    }
-    Ok(x0)
-}
-
-/// The runs of a group of rows with the same parameters, as table rows: together in lanes
-/// where that applies, else one by one.
-fn run_group(
-    model: &mut LoadedModel,
-    group: &[(usize, &Row)],
-    columns: &[Column],
-    args: &SweepArgs,
-    spec: &RunSpec,
-) -> Vec<Result<Vec<String>, String>> {
-    let starts: Result<Vec<Vec<f64>>, String> = group
-        .iter()
-        .map(|&(k, row)| start(model, k, row, columns, args))
-        .collect();
-    if let Some(traces) = starts
-        .ok()
-        .and_then(|x0s| simulate_lanes(model, &x0s, spec))
-    {
-        return group
-            .iter()
-            .zip(&traces)
-            .map(|(&(k, row), t)| Ok(cells(k, row, t)))
-            .collect();
-    }
-    group
-        .iter()
-        .map(|&(k, row)| {
-            let x0 = start(model, k, row, columns, args)?;
-            let trace = simulate(model, &x0, spec).map_err(|e| format!("row {k}: {e}"))?;
-            Ok(cells(k, row, &trace))
-        })
-        .collect()
+    member
 }
 
 /// A row of the table: the inputs, then the results, or for a run that failed empty result
 /// cells (no number of a failed run reads as a result) and why, in the last column.
-fn cells(index: usize, row: &[(String, f64)], t: &Trace) -> Vec<String> {
+fn cells(index: usize, row: &[(String, f64)], t: &Recording) -> Vec<String> {
     let mut c = vec![index.to_string()];
     c.extend(row.iter().map(|(_, v)| v.to_string()));
     let results = 4 + 2 * t.blocks.len() + t.dim();
@@ -337,23 +285,31 @@ pub fn run(args: &SweepArgs, given: &Given) -> CliResult {
         Some(s) => parse_shard(s).map_err(usage)?,
         None => (0, 1),
     };
-    let dt = match args.dt {
-        Some(dt) => dt,
-        None if method.is_adaptive() => 0.0,
-        None => return Err(usage(format!("give --dt: `{method}` takes fixed steps"))),
-    };
-    let mut spec = RunSpec::new(method, dt, args.t_end);
-    spec.gains = args.gains.parse().map_err(usage)?;
-    tolerances(&mut spec, given, args.rtol, args.atol)?;
-    spec.max_drift = args.max_drift;
-    spec.tol = if dt > 0.0 { dt } else { spec.rtol };
-    spec.every = u64::MAX; // the initial and the final state
-    spec.validate().map_err(usage)?;
+    refuse_inapplicable(method, given)?;
+    let mut builder = RunSpec::builder()
+        .method(method)
+        .t_end(args.t_end)
+        .gains(args.gains.parse::<GainPolicy>().map_err(usage)?)
+        .max_drift(args.max_drift)
+        .every(u64::MAX); // the initial and the final state
+    if let Some(dt) = args.dt {
+        builder = builder.dt(dt);
+    }
+    if let Some(rtol) = args.rtol {
+        builder = builder.rtol(rtol);
+    }
+    if let Some(atol) = args.atol {
+        builder = builder.atol(atol);
+    }
+    let spec = builder.build().map_err(|e| match e {
+        RunError::Missing("dt") => usage(format!("give --dt: `{method}` takes fixed steps")),
+        e => usage(e),
+    })?;
     let rows = rows(args).map_err(usage)?;
     let (path, _, text) = model_text(&args.model)?;
-    let backend: Backend = args.backend.into();
+    let source = ModelSource::new(path, text, args.backend.into());
     // the header, from one model
-    let probe = LoadedModel::from_source(&path, &text, backend).map_err(|e| e.to_string())?;
+    let probe: LoadedModel = source.load().map_err(|e| e.to_string())?;
     let mut header = vec!["row".to_string()];
     header.extend(rows[0].iter().map(|(n, _)| n.clone()));
     header.extend(["t_final", "steps", "evaluations", "wall_seconds"].map(String::from));
@@ -369,62 +325,35 @@ pub fn run(args: &SweepArgs, given: &Given) -> CliResult {
     header.push("failure".to_string());
     let columns = columns(&probe, &rows[0]).map_err(usage)?;
     drop(probe);
-    // this shard's rows, in groups of at most `--lanes` rows with the same parameters
-    let mut groups: Vec<Vec<(usize, &Row)>> = Vec::new();
-    let mut open: BTreeMap<Vec<u64>, usize> = BTreeMap::new();
-    for (k, row) in rows.iter().enumerate().filter(|(k, _)| k % shards == shard) {
-        let params: Vec<u64> = row
-            .iter()
-            .zip(&columns)
-            .filter(|(_, c)| **c == Column::Param)
-            .map(|((_, v), _)| v.to_bits())
-            .collect();
-        match open.get(&params) {
-            Some(&g) if groups[g].len() < args.lanes.max(1) => groups[g].push((k, row)),
-            _ => {
-                open.insert(params, groups.len());
-                groups.push(vec![(k, row)]);
-            }
-        }
-    }
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads.unwrap_or(0))
-        .build()
-        .map_err(|e| format!("cannot start threads: {e}"))?;
-    let start = std::time::Instant::now();
-    // one model per thread, loaded by its first group (`map_init` would load one per rayon
-    // job, which for short runs costs more than the runs)
-    let models: Vec<Mutex<Option<Result<LoadedModel, String>>>> = (0..pool.current_num_threads())
-        .map(|_| Mutex::new(None))
-        .collect();
-    let results: Vec<Vec<Result<Vec<String>, String>>> = pool.install(|| {
-        groups
-            .par_iter()
-            .map(|group| {
-                let slot = &models[rayon::current_thread_index().unwrap_or(0)];
-                let mut slot = slot.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
-                let model = slot.get_or_insert_with(|| {
-                    LoadedModel::from_source(&path, &text, backend).map_err(|e| e.to_string())
-                });
-                match model {
-                    Ok(m) => run_group(m, group, &columns, args, &spec),
-                    Err(e) => vec![Err(e.clone()); group.len()],
-                }
-            })
-            .collect()
-    });
-    let mut done: Vec<(usize, Result<Vec<String>, String>)> = groups
+    // this shard's rows
+    let init = args.init.clone().map_or(Init::First, Init::Text);
+    let mine: Vec<(usize, &Row)> = rows
         .iter()
-        .zip(results)
-        .flat_map(|(group, results)| group.iter().map(|&(k, _)| k).zip(results))
+        .enumerate()
+        .filter(|(k, _)| k % shards == shard)
         .collect();
-    done.sort_by_key(|(k, _)| *k);
-    let runs = done.len();
+    let members: Vec<Member> = mine
+        .iter()
+        .map(|(_, row)| member(row, &columns, &init))
+        .collect();
+    let start = std::time::Instant::now();
+    let ensemble = simulate_many(
+        &source,
+        &members,
+        &spec,
+        args.threads.unwrap_or(0),
+        args.lanes,
+    )
+    .map_err(|e| e.to_string())?;
+    let runs = mine.len();
     let mut table = lasalle::Csv::new(Vec::new());
     table.record(&header)?;
     let mut failed = Vec::new();
-    for (k, cells) in done {
-        let cells = cells.map_err(usage)?;
+    for (&(k, row), recording) in mine.iter().zip(&ensemble.recordings) {
+        let recording = recording
+            .as_ref()
+            .map_err(|e| usage(format!("row {k}: {e}")))?;
+        let cells = cells(k, row, recording);
         if cells.last().is_some_and(|why| !why.is_empty()) {
             failed.push(k);
         }
@@ -442,7 +371,7 @@ pub fn run(args: &SweepArgs, given: &Given) -> CliResult {
         runs,
         rows.len(),
         start.elapsed().as_secs_f64(),
-        pool.current_num_threads(),
+        ensemble.threads,
         args.out.display()
     );
     if let Some(first) = failed.first() {

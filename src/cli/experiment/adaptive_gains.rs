@@ -13,7 +13,9 @@ use lasalle::{Backend, GainPolicy, Parameters};
 use serde_json::json;
 
 use super::super::load::load;
-use super::super::sim::{num, simulate, Base, Method, RunSpec, Trace};
+use lasalle::{json_number as num, Base, Method, Recording, RunSpec};
+
+use super::super::progress::simulate;
 use super::{command_line, error_figure, sci, ExperimentArgs, Table};
 use crate::cli::CliResult;
 
@@ -21,7 +23,7 @@ use crate::cli::CliResult;
 const TOLERANCES: [f64; 5] = [1e-8, 1e-10, 1e-12, 1e-14, 1e-15];
 
 /// The largest final invariant error over the blocks (NaN if the run stopped early).
-fn final_worst(t: &Trace) -> f64 {
+fn final_worst(t: &Recording) -> f64 {
     if t.failure.is_some() {
         return f64::NAN;
     }
@@ -31,7 +33,7 @@ fn final_worst(t: &Trace) -> f64 {
 }
 
 /// Steps of a run, `> n` if it hit the step budget.
-fn steps_cell(t: &Trace, budget: u64) -> String {
+fn steps_cell(t: &Recording, budget: u64) -> String {
     match &t.failure {
         Some(lasalle::StepError::MaxSteps { .. }) => format!("> {budget}"),
         Some(e) => format!("failed: {e}"),
@@ -40,7 +42,7 @@ fn steps_cell(t: &Trace, budget: u64) -> String {
 }
 
 /// The final error, or `—` for a run that stopped early.
-fn error_cell(t: &Trace) -> String {
+fn error_cell(t: &Recording) -> String {
     if t.failure.is_some() {
         "—".to_string()
     } else {
@@ -97,16 +99,27 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
                     s.gains = gains;
                     s.every = 10;
                     s.max_steps = max_steps;
-                    s.progress = !args.quiet;
                     s
                 };
-                let p = simulate(&model, &x0, &spec(plain, GainPolicy::Default, u64::MAX))?;
-                let a = simulate(&model, &x0, &spec(feedback, GainPolicy::Auto, u64::MAX))?;
+                let shown = !args.quiet;
+                let p = simulate(
+                    &model,
+                    &x0,
+                    &spec(plain, GainPolicy::Default, u64::MAX),
+                    shown,
+                )?;
+                let a = simulate(
+                    &model,
+                    &x0,
+                    &spec(feedback, GainPolicy::Auto, u64::MAX),
+                    shown,
+                )?;
                 let budget = 10 * p.steps.max(1);
                 let d = simulate(
                     &model,
                     &x0,
                     &spec(feedback, GainPolicy::ModelDefault, budget),
+                    shown,
                 )?;
                 let ratio = a.steps as f64 / p.steps as f64;
                 table.row(vec![
@@ -160,7 +173,7 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
             .enumerate()
             .map(|(i, (_, m, n))| (*m, i, n.as_str()))
             .collect();
-        let traces: Vec<Trace> = figure.iter().map(|(t, _, _)| t.clone()).collect();
+        let traces: Vec<Recording> = figure.iter().map(|(t, _, _)| t.clone()).collect();
         error_figure(
             dir,
             (

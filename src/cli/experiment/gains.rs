@@ -13,7 +13,9 @@ use lasalle::models::{kepler::Kepler, perturbed_kepler::PerturbedKepler, rigid_b
 use lasalle::{gauss_newton_norm, GainPolicy, VerletVariant};
 use serde_json::json;
 
-use super::super::sim::{simulate, Base, Method, RunModel, RunSpec, Trace};
+use lasalle::{json_number, Base, Method, Recording, RunModel, RunSpec};
+
+use super::super::progress::simulate;
 use super::{command_line, sci, ExperimentArgs, Table};
 use crate::cli::CliResult;
 
@@ -72,7 +74,7 @@ fn rows<const G: usize>(structure: (Method, &'static str)) -> Vec<Row> {
 
 /// The worst invariant of a run: max over the samples of the largest block error, and its
 /// name; or the blow-up.
-fn worst(t: &Trace) -> (f64, String) {
+fn worst(t: &Recording) -> (f64, String) {
     let (mut e, mut name) = (0.0f64, String::new());
     for (b, n) in t.blocks.iter().enumerate() {
         let m = t.max_error(b);
@@ -84,7 +86,7 @@ fn worst(t: &Trace) -> (f64, String) {
     (e, name)
 }
 
-fn cell(t: &Trace) -> String {
+fn cell(t: &Recording) -> String {
     match &t.failure {
         Some(err) => {
             let what = match err {
@@ -126,17 +128,16 @@ where
             let mut spec = RunSpec::new(row.method, h, t_end);
             spec.gains = row.gains.clone();
             spec.every = (spec.steps() / 5000).max(1);
-            spec.progress = !quiet;
-            let trace = simulate(model, x0, &spec)?;
+            let trace = simulate(model, x0, &spec, !quiet).map_err(|e| e.to_string())?;
             cells.push(cell(&trace));
             let (e, name) = worst(&trace);
             json_rows.push(json!({
                 "method": row.label,
                 "h": h,
-                "worst_max_error": super::super::sim::num(e),
+                "worst_max_error": json_number(e),
                 "worst_invariant": name,
                 "max_errors": trace.blocks.iter().enumerate()
-                    .map(|(b, n)| (n.clone(), super::super::sim::num(trace.max_error(b))))
+                    .map(|(b, n)| (n.clone(), json_number(trace.max_error(b))))
                     .collect::<serde_json::Map<_, _>>(),
                 "gains_initial": trace.gains_initial,
                 "gains_final": trace.gains_final,

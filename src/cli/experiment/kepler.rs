@@ -10,7 +10,9 @@ use lasalle::VerletVariant;
 use serde_json::json;
 
 use super::super::plot::{decimate, write_figure, Chart, Style};
-use super::super::sim::{num, simulate, Base, Method, RunSpec, Trace};
+use lasalle::{json_number as num, Base, Method, Recording, RunSpec};
+
+use super::super::progress::simulate;
 use super::{
     command_line, error_figure, failure_note, must, sci, write_outputs, ExperimentArgs, Table,
 };
@@ -66,10 +68,9 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
         let mut spec = RunSpec::new(method, dt, t_end);
         spec.every = (spec.steps() / 20_000).max(1);
         spec.tol = dt;
-        spec.progress = !args.quiet;
-        traces.push(must(simulate(&model, &x0, &spec))?);
+        traces.push(must(simulate(&model, &x0, &spec, !args.quiet))?);
     }
-    let angle = |t: &Trace| {
+    let angle = |t: &Recording| {
         let a = lrl(t.last_state(), model.mu);
         a[1].atan2(a[0])
     };
@@ -86,7 +87,7 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
     ]);
     for t in &traces {
         let mut note = failure_note(t);
-        if let (Some(n), Some(p)) = (t.stat("newton_iterations"), t.stat("projected_steps")) {
+        if let (Some(n), Some(p)) = (t.counter("newton_iterations"), t.counter("projected_steps")) {
             note = format!("{p} of {} steps projected, {n} Newton iterations", t.steps);
         }
         table.row(vec![
@@ -149,7 +150,7 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
     Ok(())
 }
 
-fn figures(dir: &Path, traces: &[Trace]) -> CliResult {
+fn figures(dir: &Path, traces: &[Recording]) -> CliResult {
     let panels: Vec<Chart> = traces
         .iter()
         .zip(METHODS)

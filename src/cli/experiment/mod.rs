@@ -3,7 +3,7 @@
 //! gains of adaptive methods (adaptive-gains) and the thesis' SO(3) systems (so3).
 //!
 //! Each experiment runs its methods through the same core as `lasalle run`
-//! ([`super::sim::simulate`]) and writes into `--out` (default `out/experiment-<name>/`):
+//! ([`lasalle::simulate`]) and writes into `--out` (default `out/experiment-<name>/`):
 //! one `<method>.csv` per method (t, state, invariant errors), `summary.md` (the tables, with
 //! the command that regenerates them), `summary.json`, and the figures `figN_*.svg` / `.png`.
 //! `--t-end` / `--periods` shorten the runs (the tests use that).
@@ -21,7 +21,9 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::plot::{thin, write_figure, Chart, Style};
-use super::sim::{normalise, Method, Trace};
+use lasalle::{Method, Recording, RunError};
+
+use super::args::normalise;
 use super::CliResult;
 
 /// Arguments of `lasalle experiment`.
@@ -194,7 +196,7 @@ impl Table {
 }
 
 /// The note on a run that stopped early, or the empty string.
-fn failure_note(trace: &Trace) -> String {
+fn failure_note(trace: &Recording) -> String {
     match &trace.failure {
         Some(e) => format!(
             "stopped at t = {:.4}: {}",
@@ -209,13 +211,13 @@ fn failure_note(trace: &Trace) -> String {
 /// unless quiet.
 fn write_outputs(
     dir: &Path,
-    traces: &[&Trace],
+    traces: &[&Recording],
     report: &str,
     json: serde_json::Value,
     quiet: bool,
 ) -> CliResult {
     for t in traces {
-        t.write_csv(&dir.join(format!("{}.csv", t.method)))?;
+        t.write_csv(dir.join(format!("{}.csv", t.method)))?;
     }
     std::fs::write(dir.join("summary.md"), report)?;
     std::fs::write(
@@ -230,7 +232,7 @@ fn write_outputs(
 }
 
 /// Runs a method and fails on invalid arguments (a blow-up is kept in the trace).
-fn must(r: Result<Trace, String>) -> Result<Trace, Box<dyn std::error::Error>> {
+fn must(r: Result<Recording, RunError>) -> Result<Recording, Box<dyn std::error::Error>> {
     r.map_err(Into::into)
 }
 
@@ -239,7 +241,7 @@ fn must(r: Result<Trace, String>) -> Result<Trace, Box<dyn std::error::Error>> {
 fn error_figure(
     dir: &Path,
     (stem, block, title, label): (&str, &str, &str, &str),
-    traces: &[Trace],
+    traces: &[Recording],
     methods: &[(Method, usize, &str)],
 ) -> CliResult {
     let mut c = Chart::new(title, "t", label, true);

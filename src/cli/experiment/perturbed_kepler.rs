@@ -14,7 +14,9 @@ use lasalle::{Control, Declared, DormandPrince, Driver, VerletVariant};
 use serde_json::json;
 
 use super::super::plot::{thin, write_figure, Chart, Style};
-use super::super::sim::{num, simulate, Base, Method, RunSpec, Trace};
+use lasalle::{json_number as num, Base, Method, Recording, RunSpec};
+
+use super::super::progress::simulate;
 use super::{
     command_line, error_figure, failure_note, must, sci, write_outputs, ExperimentArgs, Table,
 };
@@ -77,8 +79,7 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
         spec.tol = 1e-8;
         spec.rtol = REFERENCE_TOL;
         spec.atol = REFERENCE_TOL;
-        spec.progress = !args.quiet;
-        traces.push(must(simulate(&model, &x0, &spec))?);
+        traces.push(must(simulate(&model, &x0, &spec, !args.quiet))?);
     }
     // the reference at the fixed-step sample times, and its check at tighter tolerances
     let times = traces[0].t.clone();
@@ -113,7 +114,7 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
     ]);
     for (i, t) in traces.iter().enumerate() {
         let mut note = failure_note(t);
-        if let (Some(n), Some(p)) = (t.stat("newton_iterations"), t.stat("projected_steps")) {
+        if let (Some(n), Some(p)) = (t.counter("newton_iterations"), t.counter("projected_steps")) {
             note = format!("{p} of {} steps projected, {n} Newton iterations", t.steps);
         }
         let d = if i < 3 { &distances[i] } else { &ref_error };
@@ -178,7 +179,7 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
 
 fn figures(
     dir: &Path,
-    traces: &[Trace],
+    traces: &[Recording],
     times: &[f64],
     distances: &[Vec<f64>],
     ref_error: &[f64],

@@ -10,7 +10,9 @@ use lasalle::models::rigid_body::RigidBody;
 use serde_json::json;
 
 use super::super::plot::{thin, write_figure, Chart, Style};
-use super::super::sim::{num, simulate, Base, Method, RunSpec, Trace};
+use lasalle::{json_number as num, Base, Method, Recording, RunSpec};
+
+use super::super::progress::simulate;
 use super::{
     command_line, error_figure, failure_note, must, sci, write_outputs, ExperimentArgs, Table,
 };
@@ -39,10 +41,9 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
         // about 10⁴ samples: every 0.1 time units at the paper's step
         spec.every = (spec.steps() / 10_000).max(1);
         spec.tol = dt;
-        spec.progress = !args.quiet;
-        traces.push(must(simulate(&model, &x0, &spec))?);
+        traces.push(must(simulate(&model, &x0, &spec, !args.quiet))?);
     }
-    let energy = |t: &Trace| {
+    let energy = |t: &Recording| {
         let w = &t.last_state()[9..12];
         0.5 * (model.i[0] * w[0] * w[0] + model.i[1] * w[1] * w[1] + model.i[2] * w[2] * w[2])
     };
@@ -63,7 +64,7 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
     ]);
     for t in &traces {
         let mut note = failure_note(t);
-        if let (Some(n), Some(p)) = (t.stat("newton_iterations"), t.stat("projected_steps")) {
+        if let (Some(n), Some(p)) = (t.counter("newton_iterations"), t.counter("projected_steps")) {
             note = format!("{p} of {} steps projected, {n} Newton iterations", t.steps);
         }
         table.row(vec![
@@ -128,7 +129,7 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
     Ok(())
 }
 
-fn figures(dir: &Path, traces: &[Trace]) -> CliResult {
+fn figures(dir: &Path, traces: &[Recording]) -> CliResult {
     // Fig. 1: Ω(t), one panel per method
     let panels: Vec<Chart> = traces
         .iter()

@@ -14,7 +14,9 @@ use serde_json::json;
 
 use super::super::load::load;
 use super::super::plot::{thin, write_figure, Chart, Style};
-use super::super::sim::{simulate, Base, Method, RunSpec, Trace};
+use lasalle::{Base, Method, Recording, RunSpec};
+
+use super::super::progress::simulate;
 use super::{
     command_line, error_figure, failure_note, must, sci, write_outputs, ExperimentArgs, Table,
 };
@@ -75,8 +77,7 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
             } else {
                 (spec.steps() / 10_000).max(1)
             };
-            spec.progress = !args.quiet;
-            traces.push(must(simulate(&model, &x0, &spec))?);
+            traces.push(must(simulate(&model, &x0, &spec, !args.quiet))?);
         }
         // the corrected closed form (docs/so3.md) against DOPRI5
         let c = ["c1", "c2", "c3"].map(|n| model.param(n).map_or(1.0, |v| v[0]));
@@ -164,7 +165,7 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
     write_outputs(dir, &[], &report, json, args.quiet)
 }
 
-fn figures(dir: &Path, title: &str, traces: &[Trace], closed: &Extremal) -> CliResult {
+fn figures(dir: &Path, title: &str, traces: &[Recording], closed: &Extremal) -> CliResult {
     // P(t) from DOPRI5 (lines) and the closed form (dots) over Appendix C's span
     let reference = &traces[3];
     let mut c = Chart::new(
