@@ -1,4 +1,5 @@
-//! The Rust example of the README, compiled and run: one Kepler period of feedback-Euler.
+//! The Rust examples of the README, compiled and run: one Kepler period of feedback-Euler, and
+//! the run example checked against the crate doctest that runs it.
 
 use lasalle::models::kepler::Kepler;
 use lasalle::{integrate, sample_capacity, ExplicitRk, FeedbackField, Recorder};
@@ -48,4 +49,36 @@ fn readme_loaded_example() -> Result<(), Box<dyn std::error::Error>> {
     )?;
     assert_eq!(end.steps, 14_050);
     Ok(())
+}
+
+/// The README's run example is the `lasalle` crate's doctest (which compiles and runs it),
+/// line for line.
+#[test]
+fn readme_run_example_is_the_crate_doctest() {
+    let root = env!("CARGO_MANIFEST_DIR");
+    let readme = std::fs::read_to_string(format!("{root}/README.md")).unwrap();
+    let lib = std::fs::read_to_string(format!("{root}/src/lib.rs")).unwrap();
+    // the README's ```rust block that builds a RunSpec
+    let shown: Vec<&str> = readme
+        .split("```rust\n")
+        .skip(1)
+        .map(|b| b.split("```").next().unwrap_or(""))
+        .find(|b| b.contains("RunSpec::from_preset"))
+        .expect("the README shows a RunSpec example")
+        .lines()
+        .collect();
+    // the doctest in the crate docs, without its hidden lines
+    let docs: Vec<&str> = lib
+        .lines()
+        .filter_map(|l| l.strip_prefix("//!"))
+        .map(|l| l.strip_prefix(' ').unwrap_or(l))
+        .collect();
+    let start = docs.iter().position(|l| *l == "```").expect("a doctest") + 1;
+    let len = docs[start..].iter().position(|l| *l == "```").unwrap();
+    let tested: Vec<&str> = docs[start..start + len]
+        .iter()
+        .copied()
+        .filter(|l| !l.starts_with("# "))
+        .collect();
+    assert_eq!(shown, tested);
 }
