@@ -1,0 +1,177 @@
+//! The run engine on loaded models: presets with overrides, progress, counters, and
+//! ensembles whose members get bitwise the results they get alone.
+
+use std::cell::RefCell;
+
+use lasalle_exec::{Backend, LoadedModel};
+use lasalle_run::{
+    find_preset, simulate, simulate_many, simulate_with_progress, Init, Member, Method,
+    ModelSource, Recording, RunError, RunSpec,
+};
+use lasalle_runtime::{GainPolicy, Parameters};
+
+fn model_path(stem: &str) -> String {
+    format!("{}/../models/{stem}.lsl", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn load(stem: &str) -> LoadedModel {
+    LoadedModel::load(model_path(stem), Backend::Jit).unwrap()
+}
+
+/// Everything but the timings, bit for bit.
+fn assert_same(a: &Recording, b: &Recording, what: &str) {
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&a.t), bits(&b.t), "{what}: times");
+    assert_eq!(bits(&a.x), bits(&b.x), "{what}: states");
+    assert_eq!(bits(&a.errors), bits(&b.errors), "{what}: errors");
+    assert_eq!(
+        (a.steps, a.evaluations, a.rejections),
+        (b.steps, b.evaluations, b.rejections),
+        "{what}: counts"
+    );
+    assert_eq!(a.counters, b.counters, "{what}: counters");
+    assert_eq!(a.gains_final, b.gains_final, "{what}: gains");
+    assert_eq!(
+        a.failure.as_ref().map(|e| e.to_string()),
+        b.failure.as_ref().map(|e| e.to_string()),
+        "{what}: failure"
+    );
+}
+
+#[test]
+fn a_preset_with_overrides_sets_parameters_and_the_initial_point() {
+    let mut model = load("so3_type_iii");
+    let preset = find_preset(&model, Some("case_c18")).unwrap().unwrap();
+    let (name, values) = preset.params[0];
+    let (spec, x0) = RunSpec::from_preset(Some(preset))
+        .t_end(0.5)
+        .prepare(&mut model)
+        .unwrap();
+    assert_eq!(model.param(name).unwrap(), values);
+    assert_eq!(Some(x0.clone()), model.point(preset.init.unwrap()));
+    assert_eq!(spec.t_end, 0.5);
+    let rec = simulate(&model, &x0, &spec).unwrap();
+    assert!(rec.failure.is_none());
+    assert_eq!(rec.t_final(), 0.5);
+    assert!(find_preset(&model, Some("nope"))
+        .unwrap_err()
+        .to_string()
+        .contains("unknown preset `nope`"));
+}
+
+#[test]
+fn progress_is_reported_and_counters_come_from_the_stepper() {
+    let model = load("kepler");
+    let x0 = model.point("paper").unwrap();
+    let spec = RunSpec::builder()
+        .method("projection-euler".parse().unwrap())
+        .dt(1e-3)
+        .t_end(300.0)
+        .build()
+        .unwrap();
+    let seen = RefCell::new(Vec::new());
+    let rec = simulate_with_progress(&model, &x0, &spec, &|t| seen.borrow_mut().push(t)).unwrap();
+    let seen = seen.into_inner();
+    // 3·10⁵ steps: the start and every 2¹⁶ steps
+    assert_eq!(seen.len(), 5, "{seen:?}");
+    assert!(seen.windows(2).all(|w| w[0] < w[1] && w[1] <= spec.t_end));
+    assert!(rec.counter("newton_iterations").unwrap() > 0.0);
+    assert!(rec.counter("projected_steps").unwrap() > 0.0);
+    let summary = rec.summary_json();
+    assert_eq!(
+        summary["stats"]["newton_iterations"],
+        rec.counter("newton_iterations").unwrap()
+    );
+    // the adaptive gain reports its last estimate
+    let spec = RunSpec::new("feedback-euler".parse().unwrap(), 0.01, 10.0);
+    let spec = RunSpec {
+        gains: GainPolicy::Adaptive { every: 10, c: 1.0 },
+        ..spec
+    };
+    let rec = simulate(&model, &x0, &spec).unwrap();
+    assert!(rec.counter("last_gauss_newton_norm").unwrap() > 0.0);
+}
+
+#[test]
+fn ensemble_members_get_their_lone_results() {
+    let source = ModelSource::read(model_path("kepler"), Backend::Jit).unwrap();
+    let x0 = [1.0, 0.0, 0.0, 0.0, 1.2, 0.0];
+    let mut members = Vec::new();
+    for mu in [1.0, 1.2] {
+        for v in [0.9, 1.0, 1.1, 1.3, 0.02] {
+            members.push(Member::at(x0.to_vec()).param("mu", [mu]).set(4, v));
+        }
+    }
+    // the model file's parameters, after members that changed them
+    members.push(Member::new(Init::Text("paper".into())));
+    for method in ["rk4", "feedback-heun"] {
+        let mut spec = RunSpec::new(method.parse::<Method>().unwrap(), 0.01, 20.0);
+        spec.every = u64::MAX;
+        let mut alone = Vec::new();
+        for m in &members {
+            let mut model = source.load().unwrap();
+            for (name, values) in &m.params {
+                model.set_param(name, values).unwrap();
+            }
+            let x = match &m.init {
+                Init::State(x) => {
+                    let mut x = x.clone();
+                    for &(i, v) in &m.set {
+                        x[i] = v;
+                    }
+                    x
+                }
+                _ => model.point("paper").unwrap(),
+            };
+            alone.push(simulate(&model, &x, &spec).unwrap());
+        }
+        for (threads, lanes) in [(1, 1), (1, 4), (2, 8)] {
+            let ensemble = simulate_many(&source, &members, &spec, threads, lanes).unwrap();
+            assert_eq!(ensemble.threads, threads);
+            assert_eq!(ensemble.recordings.len(), members.len());
+            for (k, (got, want)) in ensemble.recordings.iter().zip(&alone).enumerate() {
+                let got = got.as_ref().unwrap();
+                assert_same(
+                    got,
+                    want,
+                    &format!("{method}, {threads} threads, {lanes} lanes, member {k}"),
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn a_member_that_cannot_start_fails_alone() {
+    let source = ModelSource::read(model_path("kepler"), Backend::Interpreter).unwrap();
+    let members = [
+        Member::default(),
+        Member::default().param("zz", [1.0]),
+        Member::new(Init::Text("nowhere".into())),
+        Member::at(vec![0.0; 6]),
+        Member::default().set(9, 1.0),
+    ];
+    let spec = RunSpec::new("rk4".parse().unwrap(), 0.01, 1.0);
+    let ensemble = simulate_many(&source, &members, &spec, 1, 8).unwrap();
+    let r = &ensemble.recordings;
+    assert!(r[0].as_ref().is_ok_and(|rec| rec.failure.is_none()));
+    let message = |k: usize| r[k].as_ref().unwrap_err().to_string();
+    assert!(
+        message(1).contains("unknown parameter `zz`"),
+        "{}",
+        message(1)
+    );
+    assert!(
+        message(2).contains("unknown point `nowhere`"),
+        "{}",
+        message(2)
+    );
+    assert!(matches!(r[3], Err(RunError::Model(_))), "{:?}", r[3]);
+    assert!(message(4).contains("component 9"), "{}", message(4));
+    // a spec that cannot run is refused before any thread starts
+    let bad = RunSpec::new("rk4".parse().unwrap(), -1.0, 1.0);
+    assert!(matches!(
+        simulate_many(&source, &members, &bad, 1, 8),
+        Err(RunError::Spec(_))
+    ));
+}
