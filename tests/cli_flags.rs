@@ -71,6 +71,8 @@ const ROWS: &[(&[&str], &str)] = &[
     (&["run", "kepler", "--gains", "step"], "--gains step follows the step"),
     (&["run", "kepler", "-m", "splitting"], "does not declare `splitting"),
     (&["run", "duffing", "-m", "stormer-verlet-a", "--dt", "0.1"], "partitioned"),
+    (&["run", "duffing", "-m", "symplectic6", "--dt", "0.1"], "method `symplectic6` needs a partitioned model"),
+    (&["run", "kepler", "-m", "symplectic5"], "unknown method `symplectic5`"),
     // sweep and sweep-merge
     (&["sweep", "kepler", "--t-end", "0", "--out", "{out}"], "--t-end"),
     (&["sweep", "kepler", "--out", "{out}"], "--t-end"),

@@ -77,6 +77,12 @@ pub enum Method {
     Projection(Base),
     /// Störmer–Verlet A (GNI (3.4)) or B (GNI (3.5)); partitioned models only.
     StormerVerlet(VerletVariant),
+    /// A symmetric composition of Störmer–Verlet of order 4, 6 or 8
+    /// ([`lasalle_runtime::Composition`]); partitioned models only.
+    Symplectic {
+        /// 4, 6 or 8.
+        order: u32,
+    },
     /// The three-rotation splitting of the free rigid body (GNI §VII.5).
     Splitting,
     /// The Taylor method of adaptive order and step (Jorba & Zou 2005) with tolerance
@@ -101,6 +107,9 @@ impl Method {
             [
                 "stormer-verlet-a",
                 "stormer-verlet-b",
+                "symplectic4",
+                "symplectic6",
+                "symplectic8",
                 "splitting",
                 "taylor",
                 "feedback-taylor",
@@ -145,6 +154,7 @@ impl fmt::Display for Method {
             Method::Projection(b) => write!(f, "projection-{}", b.name()),
             Method::StormerVerlet(VerletVariant::A) => f.write_str("stormer-verlet-a"),
             Method::StormerVerlet(VerletVariant::B) => f.write_str("stormer-verlet-b"),
+            Method::Symplectic { order } => write!(f, "symplectic{order}"),
             Method::Splitting => f.write_str("splitting"),
             Method::Taylor { feedback: false } => f.write_str("taylor"),
             Method::Taylor { feedback: true } => f.write_str("feedback-taylor"),
@@ -168,6 +178,9 @@ impl FromStr for Method {
             "stormer-verlet-b" | "sv-b" | "verlet-b" => {
                 Some(Method::StormerVerlet(VerletVariant::B))
             }
+            "symplectic4" => Some(Method::Symplectic { order: 4 }),
+            "symplectic6" => Some(Method::Symplectic { order: 6 }),
+            "symplectic8" => Some(Method::Symplectic { order: 8 }),
             "splitting" => Some(Method::Splitting),
             "taylor" => Some(Method::Taylor { feedback: false }),
             "feedback-taylor" => Some(Method::Taylor { feedback: true }),

@@ -14,10 +14,10 @@ use std::marker::PhantomData;
 use std::time::Instant;
 
 use lasalle_runtime::{
-    component_names, sample_capacity, scaled_gains, step_gain_target, AdaptiveGain, Control,
-    Declared, DormandPrince, DriftBound, Driver, ExplicitRk, FeedbackField, Field, GainError,
-    GainPolicy, Invariants, Lyapunov, ModelInfo, Observer, Projection, Recorder, State, StepError,
-    Stepper, StormerVerlet, Stride, Taylor, TaylorOptions, VerletVariant,
+    component_names, sample_capacity, scaled_gains, step_gain_target, AdaptiveGain, Composition,
+    Control, Declared, DormandPrince, DriftBound, Driver, ExplicitRk, FeedbackField, Field,
+    GainError, GainPolicy, Invariants, Lyapunov, ModelInfo, Observer, Projection, Recorder, State,
+    StepError, Stepper, StormerVerlet, Stride, Taylor, TaylorOptions, VerletVariant,
 };
 
 use crate::{process_cpu_seconds, Base, Method, Recording, RunError, RunSpec};
@@ -83,18 +83,21 @@ where
             Ok(with_base(b, spec, visit))
         }
         Method::Feedback(b) => feedback_run(model, x0, spec, progress, FeedbackStepper::Base(b)),
-        Method::StormerVerlet(variant) => {
+        Method::StormerVerlet(_) | Method::Symplectic { .. } => {
             let halves = model.partitioned().ok_or_else(|| {
                 RunError::Model(format!(
                     "method `{}` needs a partitioned model (q̇ = a(p), ṗ = b(q)); the field of `{name}` is not partitioned",
                     spec.method
                 ))
             })?;
-            let stepper = match variant {
-                VerletVariant::A => StormerVerlet::a(),
-                VerletVariant::B => StormerVerlet::b(),
-            };
-            Ok(drive(model, halves, x0, spec, progress).visit(stepper))
+            let drive = drive(model, halves, x0, spec, progress);
+            Ok(match spec.method {
+                Method::StormerVerlet(VerletVariant::A) => drive.visit(StormerVerlet::a()),
+                Method::StormerVerlet(VerletVariant::B) => drive.visit(StormerVerlet::b()),
+                Method::Symplectic { order: 4 } => drive.visit(Composition::order4()),
+                Method::Symplectic { order: 6 } => drive.visit(Composition::order6()),
+                _ => drive.visit(Composition::order8()),
+            })
         }
         Method::Splitting => {
             let splitting = model.rigid_body_splitting().ok_or_else(|| {

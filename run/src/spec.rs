@@ -101,6 +101,13 @@ impl RunSpec {
     /// count within the budget, gains only for feedback methods.
     pub fn validate(&self) -> Result<(), RunError> {
         let bad = |m: String| Err(RunError::Spec(m));
+        if let Method::Symplectic { order } = self.method {
+            if ![4, 6, 8].contains(&order) {
+                return bad(format!(
+                    "symplectic compositions have order 4, 6 or 8, not {order}"
+                ));
+            }
+        }
         let adaptive = self.method.is_adaptive();
         if !(self.dt.is_finite() && (self.dt > 0.0 || (adaptive && self.dt == 0.0))) {
             return bad(format!(

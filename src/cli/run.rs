@@ -35,7 +35,8 @@ pub struct RunArgs {
     #[arg(long)]
     pub preset: Option<String>,
     /// The method: euler, heun, rk4, dopri5; feedback-<base> (X − ∇V); projection-<base>;
-    /// stormer-verlet-a / -b (partitioned models); splitting (models declaring
+    /// stormer-verlet-a / -b, symplectic4 / 6 / 8 (compositions of Störmer–Verlet; partitioned
+    /// models); splitting (models declaring
     /// `splitting rigid_body(…)`); taylor, feedback-taylor (the Taylor method on X − ∇V),
     /// split-taylor (a Taylor step of X, then x ← x − h∇V). Default: the preset's, else
     /// feedback-euler.
