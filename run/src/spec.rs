@@ -129,7 +129,7 @@ impl RunSpec {
         }
         if !(self.tol.is_finite() && self.tol > 0.0) {
             return bad(format!(
-                "projection tolerance must be positive, got --tol {}",
+                "projection tolerance must be positive, got --projection-tol {}",
                 self.tol
             ));
         }
