@@ -97,8 +97,8 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
         self
     }
 
-    /// The guard (due every its-period steps) and the divergence check (due every its-period
-    /// steps and at the end, `last`) on the state after step `step`.
+    /// The guard (on its period of steps) and the divergence check (on its period and at the
+    /// end, `last`) on the state after step `step`.
     fn run_checks(&self, step: u64, last: bool, t: T, h: T, x: &X) -> Result<(), StepError> {
         if let Some((every, check)) = &self.guard {
             if step % every == 0 {
@@ -157,7 +157,7 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
             h = stepper.initial_step(field, t0, x0, t_end).ok_or_else(|| {
                 StepError::InvalidInput(
                     "no starting step: the field at the initial state is not finite or too \
-                         large for any step; give a first step h > 0 (--dt)"
+                     large for any step; give a first step h > 0 (--dt)"
                         .to_string(),
                 )
             })?;
