@@ -1,4 +1,4 @@
-//! The step-tracking gain of adaptive methods (`--gains step` / `auto`, issue 10 item 4): with
+//! The step-tracking gain of adaptive methods (`--gains step` / `auto`): with
 //! h·k·L(x) = 2·tol^(1/p) before every step, feedback-DOPRI5 and feedback-Taylor take about as
 //! many steps as the plain methods at the same tolerance (deterministic step counts, no timing)
 //! and end with smaller invariant errors; with the paper's gains feedback-DOPRI5 needs more than

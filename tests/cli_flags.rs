@@ -47,6 +47,7 @@ const ROWS: &[(&[&str], &str)] = &[
     (&["run", "kepler", "--init", "1,2"], "dimension 6"),
     (&["run", "kepler", "--init", "1,0,0,0,inf,0"], "not a finite number"),
     (&["run", "kepler", "--init", "0,0,0,0,1,0"], "guard `collision`"),
+    (&["run", "kepler", "-m", "euler", "--init", "0,0,0,0,0,0"], "invalid initial state"),
     (&["run", "duffing", "--init", "1e200,1e200"], "not finite at the initial state"),
     (&["run", "kepler", "--gains", "-1,2"], "≥ 0"),
     (&["run", "kepler", "--gains", "adaptive:0"], "at least 1 step"),

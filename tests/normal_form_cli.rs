@@ -66,7 +66,7 @@ fn scratch_dir(name: &str) -> std::path::PathBuf {
 
 #[test]
 fn a_repeated_frequency_is_a_1_1_resonance() {
-    // issue 11, 5a: w2 = 1 makes both frequencies 1
+    // w2 = 1 makes both frequencies 1
     let (ok, _, err) = lasalle_text(&[
         "normal-form",
         "models/coupled_oscillators.lsl",
@@ -120,7 +120,7 @@ fn a_repeated_frequency_is_a_1_1_resonance() {
 
 #[test]
 fn f64_breakdown_at_earth_moon_is_detected() {
-    // issue 11, 5c: from degree 18 an f64 coefficient (I1^9) has > 1e-3 relative error
+    // from degree 18 an f64 coefficient (I1^9) has > 1e-3 relative error
     let (ok, out, err) = lasalle_text(&[
         "normal-form",
         "cr3bp",
@@ -150,7 +150,6 @@ fn f64_breakdown_at_earth_moon_is_detected() {
 
 #[test]
 fn error_estimate_cost_is_stated_and_cheap_by_default() {
-    // issue 11, 5d
     let (ok, out, err) = lasalle_text(&["normal-form", "cr3bp", "--order", "16"]);
     assert!(ok, "{err}");
     assert!(out.contains("normal planes rotated"), "{out}");
@@ -177,7 +176,7 @@ fn error_estimate_cost_is_stated_and_cheap_by_default() {
 
 #[test]
 fn no_progress_bar_when_stderr_is_not_a_terminal() {
-    // issue 11, 5e: the bar is drawn only on a terminal (see also the library test of the
+    // the bar is drawn only on a terminal (see also the library test of the
     // progress stages in normal-form/tests/progress.rs)
     let (ok, _, err) = lasalle_text(&["normal-form", "cr3bp", "--order", "14"]);
     assert!(ok);
@@ -211,7 +210,6 @@ fn progress_bar_on_a_terminal() {
 
 #[test]
 fn bad_output_paths_fail_before_computing() {
-    // issue 11, 5f
     let dir = scratch_dir("paths");
     let missing = dir.join("no/such/dir/out.txt");
     let m = missing.to_string_lossy().into_owned();
@@ -247,7 +245,7 @@ fn bad_output_paths_fail_before_computing() {
 
 #[test]
 fn spatial_cr3bp_at_order_16_in_double_double() {
-    // issue 11, item 6: three degrees of freedom, vertical frequency 1 (by path: the built-in
+    // three degrees of freedom, vertical frequency 1 (by path: the built-in
     // name `cr3bp_spatial` works as well, but the list of embedded models is fixed when the
     // binary is built)
     let t = std::time::Instant::now();

@@ -1,5 +1,5 @@
 //! Any model file runs from the command line, loaded and compiled at run time, with the same
-//! flags as the built-in models (issue 7); and the runtime integrates a loaded model exactly as
+//! flags as the built-in models; and the runtime integrates a loaded model exactly as
 //! it integrates the same model compiled ahead of time (one code path, `Vec<f64>` storage
 //! instead of `[f64; N]`).
 

@@ -1,5 +1,4 @@
-//! Progress reports (issue 11, 5e), option validation (5b) and the precision check (5c) of the
-//! library.
+//! Progress reports, option validation and the precision check of the library.
 
 mod common;
 

@@ -1,4 +1,4 @@
-//! Repeated frequencies (issue 11, item 5a): a diagonalisable repeated frequency is a 1:1 (or
+//! Repeated frequencies: a diagonalisable repeated frequency is a 1:1 (or
 //! 1:−1) resonance, normalised with `resonant`; a non-diagonalisable one is refused by name.
 
 use lasalle_normal_form::models::PolynomialHamiltonian;

@@ -1,5 +1,5 @@
-//! The spatial restricted three-body problem (`models/cr3bp_spatial.lsl`) at L4 (issue 11,
-//! item 6): three degrees of freedom, vertical frequency 1, and the planar model on I_z = 0.
+//! The spatial restricted three-body problem (`models/cr3bp_spatial.lsl`) at L4: three degrees
+//! of freedom, vertical frequency 1, and the planar model on I_z = 0.
 
 mod common;
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""lasalle side by side with heyoka (issue 10, item 5), in one interleaved run.
+"""lasalle side by side with heyoka, in one interleaved run.
 
 Measures, on the same machine and in one process tree:
 

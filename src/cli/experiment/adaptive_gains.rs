@@ -1,4 +1,4 @@
-//! Gains for adaptive methods (issue 10, item 4): step counts and final invariant errors of
+//! Gains for adaptive methods: step counts and final invariant errors of
 //! DOPRI5 and the Taylor method, plain, with the feedback term at the model's (the paper's)
 //! gains, and with the step-tracking gain `--gains auto` (h·k·L = 2·tol^(1/p), see
 //! `lasalle::step_gain_target`), over tolerances 1e-8 … 1e-15, on the rigid body (t = 1000),
