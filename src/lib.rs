@@ -36,10 +36,8 @@ pub use lasalle_run::{
 };
 pub use lasalle_runtime::*;
 
-pub mod closed_forms;
 include!(concat!(env!("OUT_DIR"), "/model_files.rs"));
 
-pub mod stability;
 
 /// The models generated from `models/*.lsl` at build time.
 #[allow(missing_docs)]

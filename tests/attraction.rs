@@ -1,4 +1,4 @@
-//! Domains of attraction (`lasalle::stability::attraction`) on the damped Duffing equation of
+//! Domains of attraction (`lasalle_analysis::attraction`) on the damped Duffing equation of
 //! the report's third paper, checked against its numbers and independently of the generator's
 //! V̇; and LaSalle's invariance principle (the report's sixth paper): its example whose
 //! solutions approach E = {y = 0} but not the origin, and Duffing with the energy as V.
@@ -7,8 +7,8 @@ mod common;
 
 use std::f64::consts::PI;
 
-use lasalle::stability::attraction::{
-    AttractionError, Limit, Lyapunov, Mat2, Options, PlanarSystem,
+use lasalle_analysis::attraction::{
+    AttractionError, Limit, LyapunovFunction, Mat2, Options, PlanarSystem,
 };
 use lasalle::{
     Backend, Control, DormandPrince, DormandPrinceOptions, Driver, Field, LoadedModel, Parameters,
@@ -125,7 +125,7 @@ fn optimum_reproduces_the_report() {
     );
     // the energy of the undamped system: ℓ = 6.25 (the saddles' energy), V̇ = −x₂² ≤ 0
     let e = sys
-        .estimate(Lyapunov::Let("energy"), a.radius, &Options::default())
+        .estimate(LyapunovFunction::Let("energy"), a.radius, &Options::default())
         .unwrap();
     assert!((e.level - 6.25).abs() < 1e-9, "{}", e.level);
     assert_eq!(e.limit, Limit::NotIncreasing);
@@ -166,7 +166,7 @@ fn level_verified_independently() {
     let sys = system(&m);
     let p = [[0.5, 0.25], [0.25, 0.25]];
     let e = sys
-        .estimate(Lyapunov::Quadratic(p), 27.0, &Options::default())
+        .estimate(LyapunovFunction::Quadratic(p), 27.0, &Options::default())
         .unwrap();
     assert!((e.level - 12.5).abs() < 1e-8, "{}", e.level);
     assert!((level_by_hand(p, 1.0, 0.04) - 12.5).abs() < 1e-8);
@@ -205,7 +205,7 @@ fn points_of_the_estimate_converge() {
     let sys = system(&m);
     let p = [[0.5, 0.25], [0.25, 0.25]];
     let level = sys
-        .estimate(Lyapunov::Quadratic(p), 27.0, &Options::default())
+        .estimate(LyapunovFunction::Quadratic(p), 27.0, &Options::default())
         .unwrap()
         .level;
     let mut starts: Vec<[f64; 2]> = Vec::new();
@@ -277,7 +277,7 @@ fn lasalle_duffing_energy() {
     let m = duffing();
     let sys = system(&m);
     let e = sys
-        .estimate(Lyapunov::Let("energy"), 27.0, &Options::default())
+        .estimate(LyapunovFunction::Let("energy"), 27.0, &Options::default())
         .unwrap();
     assert!(e.check.zeros > 0 && e.check.stuck == 0 && e.check.positive == 0);
     assert!(e.check.theorem().contains("LaSalle"));
@@ -304,7 +304,7 @@ fn errors() {
     assert!(e.contains("not asymptotically stable"), "{e}");
     let sys = system(&m);
     let e = sys
-        .estimate(Lyapunov::Let("nope"), 10.0, &Options::default())
+        .estimate(LyapunovFunction::Let("nope"), 10.0, &Options::default())
         .unwrap_err()
         .to_string();
     assert!(e.contains("energy"), "{e}");
@@ -315,7 +315,7 @@ fn errors() {
     assert!(sys.analyse(&bad).is_err());
     let e = sys
         .estimate(
-            Lyapunov::Quadratic([[1.0, 0.0], [0.0, 1.0]]),
+            LyapunovFunction::Quadratic([[1.0, 0.0], [0.0, 1.0]]),
             -1.0,
             &Options::default(),
         )

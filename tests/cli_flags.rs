@@ -70,7 +70,7 @@ const ROWS: &[(&[&str], &str)] = &[
     (&["run", "kepler", "-m", "rk4", "--projection-tol", "1e-6"], "--projection-tol applies"),
     (&["run", "kepler", "-m", "taylor", "--rtol", "1e-12", "--atol", "1e-10"], "one tolerance"),
     (&["run", "kepler", "--gains", "step"], "--gains step follows the step"),
-    (&["run", "kepler", "-m", "splitting"], "does not declare `splitting"),
+    (&["run", "kepler", "-m", "splitting"], "`Kepler` declares none"),
     (&["run", "duffing", "-m", "stormer-verlet-a", "--dt", "0.1"], "partitioned"),
     (&["run", "duffing", "-m", "symplectic6", "--dt", "0.1"], "method `symplectic6` needs a partitioned model"),
     (&["run", "kepler", "-m", "symplectic5"], "unknown method `symplectic5`"),

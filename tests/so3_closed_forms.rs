@@ -10,7 +10,7 @@
 //!
 //! Run with `--nocapture` to see the table of `docs/so3.md`.
 
-use lasalle::closed_forms::{
+use lasalle_analysis::closed_forms::{
     casimir, exact_listing, printed_constants, prop_5_3_1_printed, prop_6_3_1_printed,
     prop_7_3_2_printed, theorem_4_3_2_p3, Case, Constant, Extremal, P3Form, Printed, Type, CASES,
 };

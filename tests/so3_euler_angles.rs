@@ -14,7 +14,7 @@
 //!
 //! Run with `--nocapture` to see the numbers of `docs/so3.md`.
 
-use lasalle::closed_forms::{Case, Extremal, Type, CASES};
+use lasalle_analysis::closed_forms::{Case, Extremal, Type, CASES};
 use lasalle::models::{
     so3_type_i::So3TypeI, so3_type_iia::So3TypeIia, so3_type_iib::So3TypeIib,
     so3_type_iii::So3TypeIii,

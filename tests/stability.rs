@@ -1,4 +1,4 @@
-//! `lasalle::stability` against the thesis' stability theorems (Rodgerson 2009, §4.6, 5.6, 6.6,
+//! `lasalle_analysis::lie_poisson` against the thesis' stability theorems (Rodgerson 2009, §4.6, 5.6, 6.6,
 //! 7.6) for the four so(3)* models, on both sides of every condition, with the cases the
 //! thesis leaves open decided; and dynamics: DOPRI5 from 10⁻⁴ off a stable equilibrium stays
 //! within 10⁻² over t ∈ [0, 200], from 10⁻⁴ off an unstable one it leaves (distance > 0.1).
@@ -6,8 +6,8 @@
 //! Tolerances: equilibria to 10⁻⁸ (relative to ρ), eigenvalues and λ to 10⁻⁸ relative,
 //! verdict-change levels of a sweep to 10⁻⁶.
 
-use lasalle::stability::{
-    self, Equilibrium, Extremum, LiePoissonSystem, Options, Probe, Verdict, VerdictClass,
+use lasalle_analysis::lie_poisson::{
+    self as stability, Equilibrium, Extremum, LiePoissonSystem, Options, Probe, Verdict, VerdictClass,
 };
 use lasalle::{Backend, LoadedModel, Parameters, MODEL_FILES};
 

@@ -1,11 +1,11 @@
-//! Finite-time stability at Earth–Moon L4 (`lasalle::stability::canonical`) against DOPRI5:
+//! Finite-time stability at Earth–Moon L4 (`lasalle_analysis::canonical`) against DOPRI5:
 //! orbits from every action split and phase on the inner sphere never leave the outer tube
 //! before the bound, the bound's differential inequality holds along every orbit, and the
 //! measured action drift scales with the radius like the bound's lowest remainder degree.
 //! Plus the verdicts (Arnold–Moser, linear instability beyond Routh's ratio, resonance) and
 //! the errors.
 
-use lasalle::stability::canonical::{
+use lasalle_analysis::canonical::{
     analyse, CanonicalOptions, CanonicalReport, Validation, Verdict,
 };
 use lasalle_codegen::Model;

@@ -27,11 +27,11 @@ use lasalle_model::ir::Input;
 use lasalle_model::tape::{Dims, ModelTapes, Tape, TapeBuilder, TapeError};
 use lasalle_model::Conservation;
 use lasalle_model::Model;
+use lasalle_model::GUARD_STEP;
 use lasalle_model::{derive, Derived};
-use lasalle_model::{Splitting, GUARD_STEP};
 use lasalle_runtime::{
     Declared, Field, GuardFailure, InvariantInfo, Invariants, Lyapunov, ModelInfo, ParamError,
-    Parameters, Partitioned, Preset, RigidBodySplitting, Shape, Slot,
+    Parameters, Partitioned, Preset, Shape, Slot, Splitting,
 };
 
 use crate::{Backend, ExecError, Kernel};
@@ -669,11 +669,9 @@ impl Declared<f64, Vec<f64>> for LoadedModel {
         self.taylor_tapes(max_order)
     }
 
-    fn rigid_body_splitting(&self) -> Option<RigidBodySplitting<f64>> {
-        self.derived.model.splitting.as_ref().map(|s| match s {
-            Splitting::RigidBody { inertia } => {
-                RigidBodySplitting::new(inertia.map(|k| self.params[k as usize]))
-            }
-        })
+    fn splitting(&self) -> Option<Splitting<f64>> {
+        let s = self.derived.model.splitting.as_ref()?;
+        let values: Vec<f64> = s.params.iter().map(|&k| self.params[k as usize]).collect();
+        Splitting::declared(s.kind, &values)
     }
 }

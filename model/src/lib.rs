@@ -35,7 +35,8 @@
 //! need ∇H — never calls a later stage); [`tape`], the execution IR the JIT, the interpreter
 //! and the Taylor kernels run ([`tape::ModelTapes::new`] takes a [`Derived`] model), with
 //! [`tape::taylor`], the Taylor program every Taylor back end runs; [`vocabulary`], the DSL's
-//! built-in functions and keywords, declared once; and [`names`], the Rust identifiers of model
+//! built-in functions and keywords, declared once; [`splitting`], the structure-specific
+//! splittings, a module and a table row per kind; and [`names`], the Rust identifiers of model
 //! names (lowering refuses a model name the emitted code cannot use, the emitter names its
 //! items with the same rules). What the field's structure is (partitioned or not) is asked of
 //! the model ([`Model::partition`]).
@@ -59,6 +60,7 @@ pub mod ir;
 mod model;
 pub mod names;
 mod parse;
+pub mod splitting;
 pub mod tape;
 pub mod vocabulary;
 
@@ -67,8 +69,9 @@ pub use derive::{derive, Derivatives, Derived};
 pub use error::{Diagnostic, DiagnosticKind, Error, Result, Source, Span};
 pub use model::{
     Binding, CanonicalHamiltonian, Gain, Guard, Hamiltonian, Invariant, InvariantKind, Model,
-    NotCanonical, Param, Point, Preset, Shape, Splitting, StateVar, Structure, Value, GUARD_STEP,
+    NotCanonical, Param, Point, Preset, Shape, StateVar, Structure, Value, GUARD_STEP,
 };
+pub use splitting::{Splitting, SplittingKind, SPLITTINGS};
 
 use std::path::Path;
 use std::sync::Arc;

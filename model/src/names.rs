@@ -26,7 +26,7 @@ const EMITTED_NAMES: &[&str] = &[
     "GuardFailure",
     "Declared",
     "Preset",
-    "RigidBodySplitting",
+    "Splitting",
     "Field",
     "InvariantInfo",
     "InvariantKind",

@@ -100,9 +100,9 @@ where
             })
         }
         Method::Splitting => {
-            let splitting = model.rigid_body_splitting().ok_or_else(|| {
+            let splitting = model.splitting().ok_or_else(|| {
                 RunError::Model(format!(
-                    "method `splitting` is the free rigid body's three-rotation splitting; `{name}` does not declare `splitting rigid_body(R, Omega, I);`"
+                    "method `splitting` runs the structure-specific splitting a model declares, and `{name}` declares none (e.g. `splitting rigid_body(R, Omega, I);` for the free rigid body)"
                 ))
             })?;
             Ok(on_x().visit(splitting))

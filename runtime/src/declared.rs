@@ -6,7 +6,7 @@ use num_traits::Float;
 
 use crate::field::Partitioned;
 use crate::state::State;
-use crate::steppers::RigidBodySplitting;
+use crate::steppers::Splitting;
 use crate::taylor::{TaylorError, TaylorKernels};
 
 /// A run preset (`run paper { method = feedback_euler; dt = 0.005; … }`): the settings a run uses
@@ -96,9 +96,9 @@ pub trait Declared<T: Float, X: State<T>> {
         None
     }
 
-    /// The free rigid body's three-rotation splitting, if the model declares
-    /// `splitting rigid_body(R, Omega, I);`, with its current moments of inertia.
-    fn rigid_body_splitting(&self) -> Option<RigidBodySplitting<T>> {
+    /// The structure-specific splitting the model declares (`splitting KIND(ARGS);`), if any,
+    /// with its parameters' current values.
+    fn splitting(&self) -> Option<Splitting<T>> {
         None
     }
 

@@ -7,8 +7,8 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use lasalle::stability::attraction::{
-    self, Analysis, Estimate, Lyapunov, Mat2, Options, PlanarSystem, Saddle,
+use lasalle_analysis::attraction::{
+    self, Analysis, Estimate, LyapunovFunction, Mat2, Options, PlanarSystem, Saddle,
 };
 use lasalle::{LoadedModel, ModelInfo, Parameters};
 
@@ -151,7 +151,7 @@ pub fn run(
         None => sys.scalar_lets().into_iter().find(|n| n == "energy"),
     };
     let by_let = match &let_name {
-        Some(n) => Some((n.clone(), sys.estimate(Lyapunov::Let(n), radius, &opts)?)),
+        Some(n) => Some((n.clone(), sys.estimate(LyapunovFunction::Let(n), radius, &opts)?)),
         None => None,
     };
     let saddles = attraction::saddles_with_manifolds(&sys, model, radius)?;
@@ -412,7 +412,7 @@ fn plot(
         Style::Line,
     );
     if let Some((name, e)) = by_let {
-        let mut b = sys.boundary(Lyapunov::Let(name), e.level, analysis.radius, 720)?;
+        let mut b = sys.boundary(LyapunovFunction::Let(name), e.level, analysis.radius, 720)?;
         b.push(b[0]);
         curve(
             &mut chart,

@@ -9,7 +9,7 @@
 //!   dissipative planar field.
 
 use clap::Args;
-use lasalle::stability::{self, Equilibrium, Family, Level, Options, Sweep};
+use lasalle_analysis::lie_poisson::{self as stability, Equilibrium, Family, Level, Options, Sweep};
 use lasalle::{ModelInfo, Parameters};
 use lasalle_codegen::Structure;
 
@@ -215,7 +215,7 @@ fn print_sweep(s: &Sweep) {
 
 /// The canonical branch: normal-form verdicts and tube bounds.
 fn run_canonical(args: &StabilityArgs, model: &lasalle_codegen::Model) -> CliResult {
-    use lasalle::stability::canonical::{analyse, CanonicalOptions, Validation};
+    use lasalle_analysis::canonical::{analyse, CanonicalOptions, Validation};
     use lasalle_normal_form::bound::Metric;
     use lasalle_normal_form::ModelPoint;
     let c = &args.canonical;

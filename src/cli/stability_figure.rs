@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use lasalle::stability::canonical::CanonicalReport;
+use lasalle_analysis::canonical::CanonicalReport;
 
 use super::plot::{write_figure, Chart, Series, Style};
 use super::CliResult;
@@ -49,7 +49,7 @@ pub fn write(report: &CanonicalReport, dir: &Path) -> CliResult {
             color: k,
             style: Style::Line,
         });
-        let measured = |f: fn(&lasalle::stability::canonical::Measured) -> f64| -> Vec<f64> {
+        let measured = |f: fn(&lasalle_analysis::canonical::Measured) -> f64| -> Vec<f64> {
             tubes
                 .iter()
                 .map(|t| t.validation.as_ref().map_or(0.0, |v| f(&v.measured[k])))

@@ -278,9 +278,9 @@ const IMPORTABLE: &[(&str, &str)] = &[
     ("Parameters", "lasalle_runtime"),
     ("Partitioned", "lasalle_runtime"),
     ("Preset", "lasalle_runtime"),
-    ("RigidBodySplitting", "lasalle_runtime"),
     ("Shape", "lasalle_runtime"),
     ("Slot", "lasalle_runtime"),
+    ("Splitting", "lasalle_runtime"),
 ];
 
 /// The `use` items for the names `items` uses: [`IMPORTABLE`] names, and nalgebra's

@@ -384,13 +384,11 @@ impl Emitter<'_> {
             TokenStream::new()
         };
         let splitting = match &model.splitting {
-            Some(Splitting::RigidBody { inertia }) => {
-                let moments = inertia
-                    .iter()
-                    .map(|&k| self.leaves.input(Input::Param(k)).1);
+            Some(Splitting { kind, params }) => {
+                let values = params.iter().map(|&k| self.leaves.input(Input::Param(k)).1);
                 quote! {
-                    fn rigid_body_splitting(&self) -> Option<RigidBodySplitting<T>> {
-                        Some(RigidBodySplitting::new([#(#moments),*]))
+                    fn splitting(&self) -> Option<Splitting<T>> {
+                        Splitting::declared(#kind, &[#(#values),*])
                     }
                 }
             }
@@ -410,8 +408,8 @@ impl Emitter<'_> {
         };
         let prep_splitting = if model.splitting.is_some() {
             quote! {
-                fn rigid_body_splitting(&self) -> Option<RigidBodySplitting<T>> {
-                    self.model.rigid_body_splitting()
+                fn splitting(&self) -> Option<Splitting<T>> {
+                    self.model.splitting()
                 }
             }
         } else {

@@ -17,7 +17,7 @@ pub mod rigid_body {
     use core::ops::Deref;
     use lasalle_runtime::{
         Declared, Field, InvariantInfo, InvariantKind, Invariants, Lyapunov, ModelInfo,
-        ParamError, Parameters, Preset, RigidBodySplitting, Shape, Slot, lit,
+        ParamError, Parameters, Preset, Shape, Slot, Splitting, lit,
     };
     use lasalle_runtime::nalgebra::{MatrixView, MatrixViewMut, Scalar, U1, U3};
     use lasalle_runtime::num_traits::Float;
@@ -515,8 +515,8 @@ pub mod rigid_body {
             self.model.presets()
         }
 
-        fn rigid_body_splitting(&self) -> Option<RigidBodySplitting<T>> {
-            self.model.rigid_body_splitting()
+        fn splitting(&self) -> Option<Splitting<T>> {
+            self.model.splitting()
         }
     }
 
@@ -536,8 +536,8 @@ pub mod rigid_body {
             ]
         }
 
-        fn rigid_body_splitting(&self) -> Option<RigidBodySplitting<T>> {
-            Some(RigidBodySplitting::new([self.i[0], self.i[1], self.i[2]]))
+        fn splitting(&self) -> Option<Splitting<T>> {
+            Splitting::declared("rigid_body", &[self.i[0], self.i[1], self.i[2]])
         }
 
         fn taylor_kernels(

@@ -1,10 +1,8 @@
-//! Lowering of what a model declares for running it: run presets, domain guards and
-//! structure-specific splittings.
+//! Lowering of what a model declares for running it: run presets and domain guards.
 
 use super::lower::{Ctx, Kind, Lowerer, Symbol, L};
 use super::*;
 use crate::error::Diagnostic;
-use crate::ir::Input;
 use crate::parse::ast::*;
 
 /// The settings a `run` preset may have.
@@ -240,131 +238,5 @@ impl Lowerer {
             condition: text.split_whitespace().collect::<Vec<_>>().join(" "),
             span: span.clone(),
         })
-    }
-
-    /// `splitting rigid_body(R, Omega, I);`: checks the layout the splitting needs and that the
-    /// field is the free rigid body's, at random states.
-    pub(super) fn splitting(
-        &mut self,
-        kind: &Ident,
-        args: &[Ident],
-        span: &Span,
-        state: &[StateVar],
-        params: &[Param],
-        field: &[Id],
-    ) -> L<Splitting> {
-        if kind.name != "rigid_body" {
-            return Err(
-                Diagnostic::new(&kind.span, format!("unknown splitting `{}`", kind.name))
-                    .help("known splittings: `rigid_body(R, Omega, I)` (the free rigid body)"),
-            );
-        }
-        let [r, omega, inertia] = args else {
-            return Err(Diagnostic::new(
-                span,
-                format!(
-                    "`rigid_body` takes 3 arguments (R, Omega, I), {} given",
-                    args.len()
-                ),
-            ));
-        };
-        let var = |a: &Ident, shape: Shape, offset: usize| -> L<()> {
-            match state.iter().find(|s| s.name == a.name) {
-                Some(s) if s.shape == shape && s.offset == offset => Ok(()),
-                Some(s) => Err(Diagnostic::new(
-                    &a.span,
-                    format!(
-                        "the rigid-body splitting needs `{}` as a {shape} at x[{offset}..{}], it is a {} at x[{}..{}]",
-                        a.name,
-                        offset + shape.len(),
-                        s.shape,
-                        s.offset,
-                        s.offset + s.shape.len()
-                    ),
-                )
-                .help("declare `state R: mat3, Omega: vec3;` in this order")),
-                None => Err(Diagnostic::new(
-                    &a.span,
-                    format!("`{}` is not a state variable", a.name),
-                )),
-            }
-        };
-        var(r, Shape::Matrix(3, 3), 0)?;
-        var(omega, Shape::Vector(3), 9)?;
-        if state.iter().map(|s| s.shape.len()).sum::<usize>() != 12 {
-            return Err(Diagnostic::new(
-                span,
-                "the rigid-body splitting needs the state (R, Omega) and nothing else",
-            ));
-        }
-        let p = params
-            .iter()
-            .find(|p| p.name == inertia.name)
-            .ok_or_else(|| {
-                Diagnostic::new(
-                    &inertia.span,
-                    format!("`{}` is not a parameter", inertia.name),
-                )
-                .help("declare the inertia tensor as `param I = diag(3, 2, 1);`")
-            })?;
-        if !(p.slots() == 3 && (p.diagonal || p.shape == Shape::Vector(3))) {
-            return Err(Diagnostic::new(
-                &inertia.span,
-                format!(
-                    "the rigid-body splitting needs the principal moments of inertia: `{}` must be `diag(I1, I2, I3)` or a vec3",
-                    inertia.name
-                ),
-            ));
-        }
-        let slots = [p.offset as u32, p.offset as u32 + 1, p.offset as u32 + 2];
-        // The field must be Ṙ = RΩ̂, Ω̇ = 𝕀⁻¹((𝕀Ω) × Ω): compare at random states.
-        let defaults: Vec<f64> = params.iter().flat_map(|q| q.defaults.clone()).collect();
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
-        for _ in 0..16 {
-            let x: Vec<f64> = (0..12).map(|_| next()).collect();
-            let got = self.g.eval_f64(field, &mut |i| match i {
-                Input::State(k) => x[k as usize],
-                Input::Param(k) => defaults[k as usize],
-                _ => f64::NAN,
-            });
-            let i: Vec<f64> = slots.iter().map(|&k| defaults[k as usize]).collect();
-            let w = &x[9..12];
-            let rr = |a: usize, b: usize| x[a + 3 * b];
-            let mut want = [0.0; 12];
-            // (R Ω̂)_{ab} = Σ_c R_{ac} Ω̂_{cb}, Ω̂ = [[0, −w3, w2], [w3, 0, −w1], [−w2, w1, 0]]
-            let hat = [[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]];
-            for a in 0..3 {
-                for b in 0..3 {
-                    want[a + 3 * b] = (0..3).map(|c| rr(a, c) * hat[c][b]).sum();
-                }
-            }
-            let m = [i[0] * w[0], i[1] * w[1], i[2] * w[2]];
-            let cross = [
-                m[1] * w[2] - m[2] * w[1],
-                m[2] * w[0] - m[0] * w[2],
-                m[0] * w[1] - m[1] * w[0],
-            ];
-            for k in 0..3 {
-                want[9 + k] = cross[k] / i[k];
-            }
-            let bad = (0..12).find(|&k| (got[k] - want[k]).abs() > 1e-12 * (1.0 + want[k].abs()));
-            if let Some(k) = bad {
-                return Err(Diagnostic::new(
-                    span,
-                    format!(
-                        "the field is not the free rigid body's, so the rigid-body splitting does not apply: component {k} is {} where Ṙ = RΩ̂, Ω̇ = 𝕀⁻¹((𝕀Ω) × Ω) gives {}",
-                        got[k], want[k]
-                    ),
-                )
-                .help("write `d/dt R = R * hat(Omega); d/dt Omega = inv(I) * cross(I * Omega, Omega);`"));
-            }
-        }
-        Ok(Splitting::RigidBody { inertia: slots })
     }
 }

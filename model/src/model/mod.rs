@@ -166,17 +166,6 @@ pub struct Guard {
 /// The step size `dt` in a guard's condition (0 for adaptive methods).
 pub const GUARD_STEP: crate::ir::Input = crate::ir::Input::Symbol(0);
 
-/// A structure-specific splitting method the model admits (`splitting rigid_body(R, Omega, I);`).
-#[derive(Clone, Debug, PartialEq)]
-pub enum Splitting {
-    /// The free rigid body Ṙ = RΩ̂, Ω̇ = 𝕀⁻¹((𝕀Ω) × Ω) with 𝕀 = diag(I₁, I₂, I₃), integrated by
-    /// three exact rotations (GNI §VII.5). The generator checks that the field is this one.
-    RigidBody {
-        /// The parameter slots of I₁, I₂, I₃.
-        inertia: [u32; 3],
-    },
-}
-
 /// A `let` binding, kept so generated code can name its temporaries after it.
 #[derive(Clone, Debug)]
 pub struct Binding {
@@ -224,7 +213,7 @@ pub struct Model {
     /// Domain guards.
     pub guards: Vec<Guard>,
     /// The structure-specific splitting the model admits, if any.
-    pub splitting: Option<Splitting>,
+    pub splitting: Option<crate::splitting::Splitting>,
 }
 
 impl Model {

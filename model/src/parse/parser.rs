@@ -321,7 +321,7 @@ impl Parser {
             }
             "splitting" => {
                 self.bump();
-                let kind = self.ident("a splitting (`rigid_body`)")?;
+                let kind = self.ident("a splitting kind (e.g. `rigid_body`)")?;
                 self.expect_punct('(')?;
                 let mut args = vec![self.ident("an argument")?];
                 while self.is_punct(',') {

@@ -15,6 +15,7 @@
 //! | [`Composition`] of Störmer–Verlet (Yoshida, Suzuki) | `composition.rs` | 4, 6, 8 | [`Partitioned`](crate::Partitioned) |
 //! | [`Projection`] of any base stepper onto f(x) = f(x₀) | `projection.rs` | base | [`Invariants`](crate::Invariants) |
 //! | [`RigidBodySplitting`] into three rotations | `rigid_body_splitting.rs` | 2 | the free rigid body (N = 12) |
+//! | [`Splitting`]: the splitting a model declares | `splitting.rs` | its kind's | [`Declared::splitting`](crate::Declared::splitting) |
 
 use num_traits::Float;
 
@@ -26,6 +27,7 @@ mod dormand_prince;
 mod explicit_rk;
 mod projection;
 mod rigid_body_splitting;
+mod splitting;
 mod stormer_verlet;
 mod tableau;
 
@@ -34,6 +36,7 @@ pub use dormand_prince::{DormandPrince, DormandPrinceOptions};
 pub use explicit_rk::{Euler, ExplicitRk, Heun, Rk4};
 pub use projection::{pivoted_cholesky_solve, Projection};
 pub use rigid_body_splitting::RigidBodySplitting;
+pub use splitting::Splitting;
 pub use stormer_verlet::{StormerVerlet, VerletVariant};
 pub use tableau::Tableau;
 

@@ -8,7 +8,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use lasalle::closed_forms::{Extremal, Type};
+use lasalle_analysis::closed_forms::{Extremal, Type};
 use lasalle::{Backend, Declared, Parameters};
 use serde_json::json;
 

@@ -144,7 +144,15 @@ impl Lowerer {
             field.into_iter().map(|f| f.expect("checked above")).unzip();
         let splitting = match splitting_decl {
             Some((kind, args, span)) => {
-                match self.splitting(kind, args, &span, &state, &params, &field) {
+                let decl = crate::splitting::Declaration {
+                    args,
+                    span: &span,
+                    state: &state,
+                    params: &params,
+                    field: &field,
+                    graph: &self.g,
+                };
+                match crate::splitting::declare(kind, &decl) {
                     Ok(s) => Some(s),
                     Err(d) => {
                         self.errors.push(d);

@@ -16,7 +16,7 @@
 //!
 //! Every constant — modulus, amplitudes, time scale and phase — is computed from P(0), H and
 //! K (never from the thesis' rounded numbers), and the Jacobi functions are called with the
-//! *parameter* m = k² ([`crate::elliptic`]'s and MATLAB's convention).
+//! *parameter* m = k² ([`lasalle_runtime::elliptic`]'s and MATLAB's convention).
 //!
 //! * **Types IIa and III** (no linear term: Euler's free rigid body with inverse moments
 //!   Iᵢ = 1/cᵢ, I₃ = 0 for IIa). In axes (i, j, l) — a permutation π of (1, 2, 3) — the
@@ -52,7 +52,7 @@
 //! `printed.k` reproduces the thesis' MATLAB (which passes k where `ellipj` expects m),
 //! `printed.k * printed.k` fixes only that.
 
-use crate::elliptic::{ellipf, ellipj, ellipk, Jacobi};
+use lasalle_runtime::elliptic::{ellipf, ellipj, ellipk, Jacobi};
 
 /// The four types of chapters 4–7. The variants are the thesis' names (Roman numerals).
 #[allow(clippy::upper_case_acronyms)]

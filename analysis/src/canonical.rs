@@ -5,7 +5,7 @@
 //! `lasalle stability <model> [--time-bound d0,d1 …] [--order N] [--validate]` prints it; the
 //! derivation is in `docs/stability.md`.
 
-use lasalle_codegen::Model;
+use lasalle_model::Model;
 use lasalle_normal_form::bound::{tube_radii, Bound, Metric, Norm, Time};
 use lasalle_normal_form::validate::{tube_orbits, TubeOrbit, TubeRun};
 use lasalle_normal_form::{

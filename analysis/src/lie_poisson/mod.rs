@@ -22,8 +22,6 @@
 //! equilibria over a range of Casimir levels and reports, per branch, the ranges of ρ where each
 //! verdict holds, with the boundaries located by bisection.
 
-pub mod attraction;
-pub mod canonical;
 mod system;
 
 pub use system::{LiePoissonSystem, Local};

@@ -33,10 +33,10 @@ use std::collections::HashMap;
 use std::f64::consts::PI;
 use std::fmt;
 
-use lasalle_codegen::ir::diff;
-use lasalle_codegen::ir::{Graph, Id, Input, Rational, Scalar};
-use lasalle_codegen::Model;
 use lasalle_exec::LoadedModel;
+use lasalle_model::ir::diff;
+use lasalle_model::ir::{Graph, Id, Input, Rational, Scalar};
+use lasalle_model::Model;
 use lasalle_runtime::{Control, DormandPrince, DormandPrinceOptions, Driver, Field};
 use nalgebra::{Matrix3, Vector3};
 
@@ -479,7 +479,7 @@ fn q_of(ab: [f64; 2]) -> Mat2 {
 
 /// A Lyapunov function to analyse.
 #[derive(Clone, Copy, Debug)]
-pub enum Lyapunov<'a> {
+pub enum LyapunovFunction<'a> {
     /// V = yᵀPy, y = x − xₑ.
     Quadratic(Mat2),
     /// The model's scalar `let` of this name (e.g. `energy`): its star-shaped sublevel
@@ -691,7 +691,7 @@ impl PlanarSystem {
         self.xe
     }
 
-    /// The names of the model's scalar `let`s (candidates for [`Lyapunov::Let`]).
+    /// The names of the model's scalar `let`s (candidates for [`LyapunovFunction::Let`]).
     pub fn scalar_lets(&self) -> Vec<String> {
         self.lets.iter().map(|(n, _)| n.clone()).collect()
     }
@@ -912,11 +912,11 @@ impl PlanarSystem {
     /// The candidate's nodes (in an extended copy of the system for a `let`) and P.
     fn prepare(
         &self,
-        function: Lyapunov,
+        function: LyapunovFunction,
     ) -> Result<(Option<PlanarSystem>, Candidate, Mat2), AttractionError> {
         Ok(match function {
-            Lyapunov::Quadratic(p) => (None, self.quadratic, p),
-            Lyapunov::Let(name) => {
+            LyapunovFunction::Quadratic(p) => (None, self.quadratic, p),
+            LyapunovFunction::Let(name) => {
                 let v = self
                     .lets
                     .iter()
@@ -936,7 +936,7 @@ impl PlanarSystem {
     /// The estimate {V < ℓ*} (its star-shaped component around xₑ), searched within `radius`.
     pub fn estimate(
         &self,
-        function: Lyapunov,
+        function: LyapunovFunction,
         radius: f64,
         opts: &Options,
     ) -> Result<Estimate, AttractionError> {
@@ -947,8 +947,8 @@ impl PlanarSystem {
         let best = s.level(&c, p, radius, opts);
         let (check, polar_area) = s.check(&c, p, best.level, radius, opts);
         let area = match function {
-            Lyapunov::Quadratic(pm) => PI * best.level / det(pm).sqrt(),
-            Lyapunov::Let(_) => polar_area,
+            LyapunovFunction::Quadratic(pm) => PI * best.level / det(pm).sqrt(),
+            LyapunovFunction::Let(_) => polar_area,
         };
         Ok(Estimate {
             level: best.level,
@@ -962,7 +962,7 @@ impl PlanarSystem {
     /// `n` points of the boundary of the component of {V < level} around xₑ (within `radius`).
     pub fn boundary(
         &self,
-        function: Lyapunov,
+        function: LyapunovFunction,
         level: f64,
         radius: f64,
         n: usize,
@@ -1069,7 +1069,7 @@ impl PlanarSystem {
             Ok(QuadraticEstimate {
                 p,
                 q,
-                estimate: self.estimate(Lyapunov::Quadratic(p), radius, opts)?,
+                estimate: self.estimate(LyapunovFunction::Quadratic(p), radius, opts)?,
             })
         };
         Ok(Analysis {

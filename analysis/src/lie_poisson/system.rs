@@ -4,10 +4,10 @@
 
 use std::collections::HashMap;
 
-use lasalle_codegen::ir::diff;
-use lasalle_codegen::ir::{Graph, Id, Input};
-use lasalle_codegen::Model;
-use lasalle_codegen::Structure;
+use lasalle_model::ir::diff;
+use lasalle_model::ir::{Graph, Id, Input};
+use lasalle_model::Model;
+use lasalle_model::Structure;
 
 use super::StabilityError;
 

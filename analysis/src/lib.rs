@@ -1,0 +1,25 @@
+//! # lasalle-analysis
+//!
+//! The analyses lasalle runs on a model, beyond integrating it. Each works on the front end's
+//! [`Model`](lasalle_model::Model) (its expression DAG, for symbolic derivatives) and, where it
+//! integrates, on a loaded model of [`lasalle_exec`]:
+//!
+//! - [`lie_poisson`]: equilibria of Lie–Poisson models on so(3)* and their stability by the
+//!   energy–Casimir method, on one Casimir level or swept over a range (`lasalle stability` on
+//!   an so(3) model);
+//! - [`canonical`]: stability of an equilibrium of a canonical Hamiltonian model from its
+//!   Birkhoff normal form, with finite-time tube bounds (`lasalle stability --time-bound`);
+//! - [`attraction`]: domains of attraction of a planar equilibrium, estimated by sublevel sets
+//!   of Lyapunov functions and compared with the stable manifolds of the saddles around it
+//!   (`lasalle stability` on a dissipative planar model);
+//! - [`closed_forms`]: the closed-form extremals of the SO(3) optimal-control problems, as
+//!   corrected and as printed in the thesis they come from.
+//!
+//! The derivations, the checks and the measured numbers are in `docs/stability.md` and
+//! `docs/so3.md`.
+#![warn(missing_docs)]
+
+pub mod attraction;
+pub mod canonical;
+pub mod closed_forms;
+pub mod lie_poisson;
