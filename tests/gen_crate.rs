@@ -13,6 +13,8 @@
 //! cache the workspace's build filled, so the builds work without a network — and the tests
 //! check that Cargo did not update the registry index or download anything.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -21,12 +23,8 @@ fn root() -> &'static Path {
 }
 
 fn lasalle_gen(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lasalle"))
-        .arg("gen")
-        .args(args)
-        .current_dir(root())
-        .output()
-        .expect("run lasalle gen")
+    let args: Vec<&str> = std::iter::once("gen").chain(args.iter().copied()).collect();
+    common::lasalle(&args)
 }
 
 /// A fresh directory `target/gen-crate-test/<name>`.

@@ -1,9 +1,7 @@
-//! `lasalle normal-form` from the command line: tables, JSON, and the errors the issue names.
-
-use std::process::Command;
+//! `lasalle normal-form` from the command line: tables, JSON, progress and its errors.
 
 mod common;
-use common::lasalle_text;
+use common::{lasalle_on_terminal, lasalle_text};
 
 #[test]
 fn earth_moon_json_has_deprit_d4() {
@@ -185,24 +183,12 @@ fn no_progress_bar_when_stderr_is_not_a_terminal() {
 
 #[test]
 fn progress_bar_on_a_terminal() {
-    // run under `script` (util-linux) so that stderr is a pseudo-terminal
-    let have_script = Command::new("script")
-        .arg("--version")
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !have_script {
-        eprintln!("`script` not available: skipped");
+    let Some(out) =
+        lasalle_on_terminal(&["normal-form", "cr3bp", "--order", "24", "--precision", "dd"])
+    else {
+        eprintln!("`script` (util-linux) not available: skipped");
         return;
-    }
-    let cmd = format!(
-        "{} normal-form cr3bp --order 24 --precision dd > /dev/null",
-        env!("CARGO_BIN_EXE_lasalle")
-    );
-    let out = Command::new("script")
-        .args(["-qec", &cmd, "/dev/null"])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("script");
+    };
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{text}");
     assert!(text.contains("dd: degree"), "{text}");

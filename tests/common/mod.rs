@@ -16,6 +16,30 @@ pub fn lasalle(args: &[&str]) -> Output {
         .expect("the lasalle binary runs")
 }
 
+/// Runs the `lasalle` binary under util-linux's `script`, so that its standard streams are a
+/// pseudo-terminal, as at a user's terminal; its standard output is discarded, and what the
+/// terminal shows (standard error) is the output's `stdout`. `None` where `script` is missing.
+pub fn lasalle_on_terminal(args: &[&str]) -> Option<Output> {
+    let have_script = Command::new("script")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !have_script {
+        return None;
+    }
+    let quoted: Vec<String> = std::iter::once(env!("CARGO_BIN_EXE_lasalle"))
+        .chain(args.iter().copied())
+        .map(|a| format!("'{}'", a.replace('\'', "'\\''")))
+        .collect();
+    let cmd = format!("{} > /dev/null", quoted.join(" "));
+    Some(
+        Command::new("script")
+            .args(["-qec", &cmd, "/dev/null"])
+            .output()
+            .expect("script runs"),
+    )
+}
+
 /// Runs the `lasalle` binary: (success, standard output, standard error).
 pub fn lasalle_text(args: &[&str]) -> (bool, String, String) {
     let out = lasalle(args);
