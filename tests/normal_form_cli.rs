@@ -1,4 +1,4 @@
-//! `lasalle normal-form` from the command line: tables, JSON, and the errors the issue names.
+//! `lasalle normal-form` from the command line: tables, JSON, and its errors.
 
 use std::process::Command;
 
