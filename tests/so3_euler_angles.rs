@@ -14,7 +14,6 @@
 //!
 //! Run with `--nocapture` to see the numbers of `docs/so3.md`.
 
-use lasalle_analysis::closed_forms::{Case, Extremal, Type, CASES};
 use lasalle::models::{
     so3_type_i::So3TypeI, so3_type_iia::So3TypeIia, so3_type_iib::So3TypeIib,
     so3_type_iii::So3TypeIii,
@@ -22,6 +21,7 @@ use lasalle::models::{
 use lasalle::{
     Backend, Control, DormandPrince, DormandPrinceOptions, Driver, LoadedModel, Parameters,
 };
+use lasalle_analysis::closed_forms::{Case, Extremal, Type, CASES};
 
 const OUTPUTS: usize = 501;
 const TOL: f64 = 1e-9;
