@@ -1,4 +1,4 @@
-//! The Taylor method (tolerance 1e-15, Jorba–Zou order 19) on the two long runs, with
+//! The Taylor method (tolerance 1e-15, Jorba–Zou order 19) on two long runs, with
 //! the emitted kernels of the compiled models and with the interpreted tape of the same models
 //! loaded from their files: CPU time per run (the process's CPU time over as many runs as fill
 //! `MIN_CPU`, divided by their number), steps, and the largest final invariant error ‖f(x) − f(x₀)‖∞ over all components.

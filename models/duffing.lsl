@@ -1,5 +1,6 @@
-// models/duffing.lsl — the Duffing equation with damping, (24) of the report's third paper
-// ("estimating the domain of attraction … optimal quadratic form Liapunov functions"):
+// models/duffing.lsl — the Duffing equation with damping, (24) of the domain-of-attraction
+// survey in NASA TM X-53478 (Progress Report No. 8, Marshall Space Flight Center, 1966, third
+// paper: "estimating the domain of attraction … optimal quadratic form Liapunov functions"):
 //     ẋ₁ = x₂,  ẋ₂ = −ε₁x₂ − x₁ + ε₂x₁³,
 // with the paper's ε₁ = 1, ε₂ = 0.04 (its Figs. 3 and 5–12). The origin is asymptotically
 // stable; (±1/√ε₂, 0) = (±5, 0) are saddles whose stable manifolds bound its domain of

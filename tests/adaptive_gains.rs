@@ -74,7 +74,7 @@ where
     (s.steps, worst_error(m, &x0, &s.x))
 }
 
-/// Steps at most 1.25× plain (the issue asks ≤ 2×) and final error no worse than plain.
+/// Steps at most 1.25× plain and final error no worse than plain.
 fn check(what: &str, (p_steps, p_err): (u64, f64), (f_steps, f_err): (u64, f64)) {
     let ratio = f_steps as f64 / p_steps as f64;
     assert!(

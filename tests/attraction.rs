@@ -1,6 +1,8 @@
 //! Domains of attraction (`lasalle_analysis::attraction`) on the damped Duffing equation of
-//! the report's third paper, checked against its numbers and independently of the generator's
-//! V̇; and LaSalle's invariance principle (the report's sixth paper): its example whose
+//! the domain-of-attraction survey in NASA TM X-53478 (Progress Report No. 8, Marshall Space
+//! Flight Center, 1966), checked against its numbers and independently of the generator's
+//! V̇; and LaSalle's invariance principle (J. P. LaSalle, "An invariance principle in the
+//! theory of stability", in the same report): its example whose
 //! solutions approach E = {y = 0} but not the origin, and Duffing with the energy as V.
 
 mod common;
@@ -244,7 +246,7 @@ model LaSalleExample {
     point paper { x = 2; y = -1; s = 0; }
 }";
 
-/// LaSalle's example (the report's sixth paper, after Theorem 1): ẍ + p(t)ẋ + x = 0,
+/// LaSalle's example (after his Theorem 1): ẍ + p(t)ẋ + x = 0,
 /// p ≥ δ > 0, V = (x² + y²)/2, V̇ = −p y² ≤ −δy², E = {y = 0}. Every solution approaches E, and
 /// no more can be said without bounding p: for p = 2 + eᵗ, x = 1 + e⁻ᵗ is a solution, which
 /// tends to (1, 0) ∈ E, not to the origin. With p bounded (p = 2 + sin t; Theorem 4, the system

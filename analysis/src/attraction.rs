@@ -1,6 +1,7 @@
 //! Domains of attraction of an asymptotically stable equilibrium of a planar vector field,
-//! estimated by sublevel sets of Lyapunov functions (the report's third paper: "optimal"
-//! quadratic forms, and LaSalle's theorem on the extent of asymptotic stability).
+//! estimated by sublevel sets of Lyapunov functions (the domain-of-attraction survey of NASA TM
+//! X-53478, *Progress Report No. 8*, Marshall Space Flight Center, 1966: "optimal" quadratic
+//! forms, and LaSalle's theorem on the extent of asymptotic stability).
 //!
 //! For V positive definite about the equilibrium xₑ, every bounded component Ω_ℓ of {V < ℓ}
 //! around xₑ on which V̇ = ∇V·f ≤ 0 is positively invariant, and if the largest invariant set in

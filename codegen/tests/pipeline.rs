@@ -1,5 +1,5 @@
 //! The paper models go through the whole pipeline; the gradient of V stays a small multiple
-//! of V's cost (reverse mode), as the issue asks (≤ 4×). Prints the per-model statistics.
+//! of V's cost (reverse mode, ≤ 4×). Prints the per-model statistics.
 
 #[test]
 fn paper_models_generate_with_cheap_gradients() {

@@ -1,6 +1,6 @@
 //! Finite-time stability from the normal form: a lower bound on the time an orbit needs to
-//! leave a tube about an elliptic equilibrium (seed `004`, first paper: "which tube of initial
-//! conditions keeps solutions inside a prescribed tube over a prescribed time").
+//! leave a tube about an elliptic equilibrium (NASA TM X-53478, 1966, first paper: "which tube
+//! of initial conditions keeps solutions inside a prescribed tube over a prescribed time").
 //!
 //! ## The estimate
 //!

@@ -2,7 +2,8 @@
 //!
 //! Birkhoff normal forms of Hamiltonian systems at elliptic equilibria, to any order, in
 //! f64 or double-double precision — the restricted three-body problem at L4 being the
-//! reference case (seed `004`, first paper pp. 8–22; `docs/equations.md` §3).
+//! reference case (the first paper of NASA TM X-53478, *Progress Report No. 8*, Marshall
+//! Space Flight Center, 1966; `docs/normal-form.md`).
 //!
 //! ```
 //! use lasalle_normal_form::validate::{deprit_d4, EARTH_MOON_MU};

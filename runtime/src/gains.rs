@@ -4,7 +4,7 @@
 //! component, [`expand_gains`]) the Hessian of V at the target set is the Gauss–Newton matrix
 //! H_GN = Df(x)ᵀ K Df(x) (the term with second derivatives of f vanishes where Δf = 0). An
 //! explicit method sees −∇V as a contraction with rates up to L = ‖H_GN‖₂; explicit Euler is
-//! stable on it only for h·L < 2 (Chang et al. 2016, Appendix; see docs/equations.md §1), and
+//! stable on it only for h·L < 2 (Chang, Jiménez & Perlmutter 2016, Appendix), and
 //! h·L = 1 removes the error along the stiffest direction in one step. Following Bae & Chang,
 //! *Feedback integrators revisited* (arXiv:2512.01528), the gains are therefore chosen as
 //!

@@ -36,12 +36,12 @@
 //! Measured by `lasalle run <model> --method taylor --rtol 1e-15 --atol 1e-15` (AMD EPYC,
 //! quiet, 2026-11-25, fastest of 5; rigid body to t = 1000, Kepler 1000 periods): fully
 //! unrolled 0.0102 s and 0.043 s; loops of one term per pass in programs above 65 KB only
-//! (the rule before) 0.0127 s and 0.043 s; loops of four terms per pass in every program
+//! 0.0127 s and 0.043 s; loops of four terms per pass in every program
 //! 0.0093 s and 0.038 s (two terms per pass 0.0102 s and 0.038 s, eight 0.0095 s and
 //! 0.042 s; `LOOP_TERMS` 4, 6 or 8 within the noise); and with early sums, up to 1, 2, 4, 6
 //! or 8 per loop: 0.0103, 0.0089, 0.0080, 0.0078 and 0.0080 s for the rigid body, Kepler
-//! 0.038–0.039 s throughout. Every model's run took 0.61–1.02× the time of the rule
-//! before (`docs/performance.md`).
+//! 0.038–0.039 s throughout. Against loops above 65 KB only, every model's run takes
+//! 0.61–1.02× the time; the current times per model are in `docs/performance.md`.
 //!
 //! [`JitTaylor::new`] refuses above [`MAX_INSTRUCTIONS`] estimated instructions, which bounds
 //! the compile time when a model's Taylor kernels are built to ≈ 20 ms; the caller then takes

@@ -185,7 +185,7 @@ impl ModelInfo for Pendulum {
 
 // ---------------------------------------------------------------- Kepler
 
-/// ẋ = v, v̇ = −μx/|x|³ (equations.md (31)); invariants L = x × v (f[0..3]) and
+/// ẋ = v, v̇ = −μx/|x|³ (Chang, Jiménez & Perlmutter 2016, (31)); invariants L = x × v (f[0..3]) and
 /// A = v × L − μx/|x| (f[3..6]); gains k₁ (L), k₂ (A).
 pub struct Kepler {
     pub mu: f64,
@@ -196,7 +196,7 @@ impl Kepler {
         0.5 * norm(&x[3..6]).powi(2) - self.mu / norm(&x[0..3])
     }
 
-    /// The feedback field of Lemma 3.5 / (41), written out by hand (equations.md §1.2).
+    /// The feedback field of Lemma 3.5 / (41), written out by hand (Chang, Jiménez & Perlmutter 2016, §3.2).
     pub fn hand_feedback(&self, x: &[f64; 6], target: &[f64; 6], k: &[f64; 2], dx: &mut [f64; 6]) {
         let mu = self.mu;
         let p = [x[0], x[1], x[2]];

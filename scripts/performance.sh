@@ -1,0 +1,258 @@
+#!/usr/bin/env bash
+# Runs the benchmarks docs/performance.md reports and writes each table into it, between
+# `<!-- table: NAME -->` and `<!-- /table -->`; after a run of every table it also rewrites
+# the date and machine line between `<!-- measured -->` and `<!-- /measured -->`.
+#
+#   scripts/performance.sh                      # every table, then the date line (~40 min on 2 cores)
+#   scripts/performance.sh taylor-models sweep  # only these tables (the date line is left alone)
+#   scripts/performance.sh --list               # the tables and what measures each
+#
+# Run it on a quiet machine: the numbers are times. `heyoka` (scripts/heyoka/run.sh) writes
+# docs/heyoka-results.md and its figures, not a table of this page. Environment:
+# LASALLE=path/to/lasalle uses that binary instead of building target/release/lasalle;
+# DOC=path writes another copy of the page (default docs/performance.md).
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+cd "$root"
+doc="${DOC:-$root/docs/performance.md}"
+target="${CARGO_TARGET_DIR:-$root/target}"
+criterion="$target/criterion"
+work="$target/performance"
+mkdir -p "$work"
+
+all=(feedback backends run load adaptive-gains taylor-models taylor-kernels sweep heyoka)
+
+describe() {
+    case "$1" in
+    feedback) echo "cargo bench --bench feedback (generated vs hand-written fields, 10^7 steps)" ;;
+    backends) echo "cargo bench --bench backends -- feedback/ (emitted, JIT, interpreter; independent and chained)" ;;
+    run) echo "cargo bench --bench backends -- run/ (integrations, emitted vs JIT)" ;;
+    load) echo "cargo bench --bench backends -- load/ (loading a model file with the JIT)" ;;
+    adaptive-gains) echo "lasalle experiment adaptive-gains (steps and errors; also the figure)" ;;
+    taylor-models) echo "lasalle run <model> -m taylor --rtol 1e-15 … --format json, fastest of 5" ;;
+    taylor-kernels) echo "cargo bench --bench taylor (emitted Taylor kernels vs the interpreted tape)" ;;
+    sweep) echo "lasalle sweep kepler … --threads T --lanes L, fastest of 3" ;;
+    heyoka) echo "scripts/heyoka/run.sh (writes docs/heyoka-results.md and docs/figures/heyoka/)" ;;
+    *) return 1 ;;
+    esac
+}
+
+if [ "${1:-}" = "--list" ]; then
+    for t in "${all[@]}"; do printf '%-15s %s\n' "$t" "$(describe "$t")"; done
+    exit 0
+fi
+selected=("$@")
+[ ${#selected[@]} -eq 0 ] && selected=("${all[@]}")
+for t in "${selected[@]}"; do
+    describe "$t" >/dev/null || { echo "performance.sh: unknown table '$t' (see --list)" >&2; exit 2; }
+done
+
+# put_table NAME FILE: the table in FILE replaces the one between NAME's markers in $doc.
+put_table() {
+    python3 - "$doc" "$1" "$2" <<'EOF'
+import re, sys
+doc, name, path = sys.argv[1:]
+table = open(path, encoding="utf-8").read().strip("\n")
+if not table.startswith("|"):
+    sys.exit(f"performance.sh: the new '{name}' table is not a markdown table:\n{table}")
+text = open(doc, encoding="utf-8").read()
+pattern = re.compile(r"(<!-- table: %s -->\n).*?(<!-- /table -->)" % re.escape(name), re.S)
+text, n = pattern.subn(lambda m: m.group(1) + table + "\n" + m.group(2), text)
+if n != 1:
+    sys.exit(f"performance.sh: {doc} has {n} '<!-- table: {name} -->' markers, not one")
+open(doc, "w", encoding="utf-8").write(text)
+print(f"wrote table '{name}' into {doc}")
+EOF
+}
+
+# put_date: the date and machine line.
+put_date() {
+    local cpu
+    cpu="$(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo 2>/dev/null | head -1)"
+    python3 - "$doc" "$(date -u +%F)" "${cpu:-unknown processor}" "$(nproc)" <<'EOF'
+import re, sys
+doc, day, cpu, cores = sys.argv[1:]
+line = (f"Measured on {day} on {cores} cores of an {cpu}, Linux, by `scripts/performance.sh`; "
+        "the emitted Rust built for baseline x86-64 (SSE2) unless a table says otherwise.")
+text = open(doc, encoding="utf-8").read()
+text, n = re.subn(r"(<!-- measured -->).*?(<!-- /measured -->)",
+                  lambda m: m.group(1) + line + m.group(2), text, flags=re.S)
+if n != 1:
+    sys.exit(f"performance.sh: {doc} has {n} '<!-- measured -->' markers, not one")
+open(doc, "w", encoding="utf-8").write(text)
+EOF
+}
+
+# Criterion's median of group/function in ns (the group's '/' become '_' in its directory).
+median() {
+    python3 - "$criterion" "$1" "$2" <<'EOF'
+import json, os, sys
+root, group, function = sys.argv[1:]
+path = os.path.join(root, group.replace("/", "_"), function, "new", "estimates.json")
+print(json.load(open(path))["median"]["point_estimate"])
+EOF
+}
+
+lasalle_bin() {
+    if [ -n "${LASALLE:-}" ]; then
+        echo "$LASALLE"
+    else
+        cargo build --release --quiet >&2
+        echo "$target/release/lasalle"
+    fi
+}
+
+table_feedback() {
+    cargo bench --bench feedback >&2
+    local fr hr fk hk rg rh
+    fr=$(median field/rigid_body prepared); hr=$(median field/rigid_body hand)
+    fk=$(median field/kepler prepared); hk=$(median field/kepler hand)
+    rg=$(median run/rigid_body_1e7 generated); rh=$(median run/rigid_body_1e7 hand)
+    python3 - "$fr" "$hr" "$fk" "$hk" "$rg" "$rh" <<'EOF'
+import sys
+fr, hr, fk, hk, rg, rh = map(float, sys.argv[1:])
+print("| benchmark | generated | hand-written | ratio |")
+print("| --- | --- | --- | --- |")
+print(f"| rigid-body feedback field, one evaluation | {fr:.1f} ns | {hr:.1f} ns | {fr / hr:.2f} |")
+print(f"| Kepler feedback field, one evaluation | {fk:.1f} ns | {hk:.1f} ns | {fk / hk:.2f} |")
+print(f"| rigid-body experiment, 10⁷ feedback-Euler steps | {rg / 1e9:.3f} s | {rh / 1e9:.3f} s | {rg / rh:.2f} |")
+EOF
+}
+
+table_backends() {
+    cargo bench --bench backends -- feedback/ --warm-up-time 1 --measurement-time 3 >&2
+    python3 - "$criterion" <<'EOF'
+import json, os, sys
+root = sys.argv[1]
+def med(model, f):
+    path = os.path.join(root, "feedback_" + model, f, "new", "estimates.json")
+    return json.load(open(path))["median"]["point_estimate"]
+def ns(x):
+    return f"{x:.0f}" if x >= 100 else f"{x:.1f}"
+models = sorted(d[len("feedback_"):] for d in os.listdir(root) if d.startswith("feedback_"))
+order = ["rigid_body", "kepler", "perturbed_kepler", "cr3bp", "cr3bp_spatial",
+         "coupled_oscillators", "duffing", "pendulum_closed_form"]
+models = [m for m in order if m in models] + [m for m in models if m not in order]
+print("| model | emitted (inlined / call) | JIT, raw call | JIT | interpreter | emitted, chained | JIT, chained | interpreter, chained |")
+print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+for m in models:
+    e, ec, raw, jit, it = (med(m, f) for f in ("emitted", "emitted_call", "jit_raw", "jit", "interpreter"))
+    ech, jch, ich = (med(m, f) for f in ("emitted_chained", "jit_chained", "interpreter_chained"))
+    print(f"| {m} | {ns(e)} / {ns(ec)} | {ns(raw)} ({raw / ec:.2f}×) | {ns(jit)} ({jit / ec:.2f}×) "
+          f"| {ns(it)} ({it / ec:.1f}×) | {ns(ech)} | {ns(jch)} ({jch / ech:.2f}×) | {ns(ich)} ({ich / ech:.1f}×) |")
+EOF
+}
+
+table_run() {
+    cargo bench --bench backends -- run/ >&2
+    echo "| run | emitted | JIT | ratio |"
+    echo "| --- | --- | --- | --- |"
+    for r in rigid_body_1e5 kepler_1e5 rigid_body_dopri5; do
+        python3 -c 'import sys; r, e, j = sys.argv[1], float(sys.argv[2]) / 1e6, float(sys.argv[3]) / 1e6
+print(f"| {r} | {e:.3g} | {j:.3g} | {j / e:.2f} |")' "$r" "$(median "run/$r" emitted)" "$(median "run/$r" jit)"
+    done
+}
+
+table_load() {
+    cargo bench --bench backends -- load/ >&2
+    echo "| model | load (JIT) |"
+    echo "| --- | --- |"
+    for d in "$criterion"/load/*/; do
+        local m
+        m="$(basename "$d")"
+        [ "$m" = report ] && continue
+        python3 -c 'import sys; print(f"| {sys.argv[1]} | {float(sys.argv[2]) / 1e6:.2g} |")' "$m" "$(median load "$m")"
+    done
+}
+
+table_adaptive_gains() {
+    local bin out="$work/adaptive-gains"
+    bin="$(lasalle_bin)"
+    "$bin" experiment adaptive-gains --out "$out" -q >&2
+    cp "$out/adaptive-gains-rigid-body-energy.png" "$root/docs/figures/"
+    grep '^|' "$out/summary.md"
+}
+
+# model and end time T of the Taylor runs
+taylor_runs=(
+    "kepler 70248.1" "rigid_body 1000" "cr3bp 10000" "cr3bp_spatial 3000" "perturbed_kepler 3000"
+    "so3_type_i 3000" "so3_type_iia 3000" "so3_type_iib 3000" "so3_type_iii 3000"
+    "coupled_oscillators 10000" "duffing 30000" "pendulum_closed_form 3000"
+)
+
+table_taylor_models() {
+    local bin
+    bin="$(lasalle_bin)"
+    echo "| model | T | steps | CPU s |"
+    echo "| --- | --- | --- | --- |"
+    for r in "${taylor_runs[@]}"; do
+        set -- $r
+        for _ in 1 2 3 4 5; do
+            "$bin" run "models/$1.lsl" -m taylor --rtol 1e-15 --atol 1e-15 --dt 0.01 \
+                --every 1000000000 --format json --t-end "$2" --out "$work/taylor-$1"
+        done | python3 -c 'import json, sys
+runs = [json.loads(l) for l in sys.stdin if l.startswith("{")]
+steps = {r["steps"] for r in runs}
+assert len(runs) == 5 and len(steps) == 1, "five runs with the same steps"
+cpu = min(r["cpu_seconds"] for r in runs)
+print(f"| {sys.argv[1]} | {sys.argv[2]} | {steps.pop()} | {cpu:.3g} |")' "$1" "$2"
+    done
+}
+
+table_taylor_kernels() {
+    cargo bench --bench taylor | tee /dev/stderr | python3 -c 'import re, sys
+rows = {}
+for line in sys.stdin:
+    m = re.match(r"^(.*?)\s+(emitted|tape)\s+([0-9.]+) s\s+(\d+) steps", line)
+    if m:
+        rows.setdefault(m.group(1), {})[m.group(2)] = float(m.group(3))
+print("| run | emitted kernels | interpreted tape |")
+print("| --- | --- | --- |")
+for what, t in rows.items():
+    emitted, tape = t["emitted"], t["tape"]
+    print(f"| {what} | {emitted:.2g} | {tape:.2g} |")'
+}
+
+# wall seconds of the fastest of 3 sweeps
+sweep_time() {
+    local bin="$1" method="$2" threads="$3" lanes="$4" best="" t0 t1 t
+    for _ in 1 2 3; do
+        t0=$(date +%s.%N)
+        "$bin" sweep kepler -m "$method" --dt 0.001 --t-end 70.2481 --grid 'v[1]=1.2:1.4:128' \
+            --threads "$threads" --lanes "$lanes" --out "$work/sweep.csv" >/dev/null
+        t1=$(date +%s.%N)
+        t=$(python3 -c "print($t1 - $t0)")
+        best=$(python3 -c "print(min(float('$t'), float('${best:-inf}')))")
+    done
+    echo "$best"
+}
+
+table_sweep() {
+    local bin
+    bin="$(lasalle_bin)"
+    echo "| method | 1 thread, no lanes | 1 thread, 8 lanes | 2 threads, no lanes | 2 threads, 8 lanes |"
+    echo "| --- | --- | --- | --- | --- |"
+    for method in rk4 feedback-rk4; do
+        python3 -c 'import sys
+m, a, b, c, d = sys.argv[1], *map(float, sys.argv[2:])
+print(f"| {m} | {a:.2f} | {b:.2f} ({a / b:.1f}×) | {c:.2f} ({a / c:.1f}×) | {d:.2f} ({a / d:.1f}×) |")' \
+            "$method" "$(sweep_time "$bin" "$method" 1 1)" "$(sweep_time "$bin" "$method" 1 8)" \
+            "$(sweep_time "$bin" "$method" 2 1)" "$(sweep_time "$bin" "$method" 2 8)"
+    done
+}
+
+for t in "${selected[@]}"; do
+    echo "== $t: $(describe "$t")" >&2
+    if [ "$t" = heyoka ]; then
+        scripts/heyoka/run.sh
+        continue
+    fi
+    "table_${t//-/_}" >"$work/$t.md"
+    put_table "$t" "$work/$t.md"
+done
+if [ ${#selected[@]} -eq ${#all[@]} ]; then
+    put_date
+    echo "updated the date line of $doc" >&2
+else
+    echo "note: a partial run: the date line of $doc is unchanged" >&2
+fi
