@@ -30,7 +30,7 @@ use std::fmt;
 
 use lasalle_exec::LoadedModel;
 use lasalle_runtime::{Control, DormandPrince, DormandPrinceOptions, Driver};
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DVector, Vector3};
 
 /// Why an analysis cannot run.
 #[derive(Clone, Debug, PartialEq)]
@@ -322,50 +322,19 @@ impl Default for Options {
     }
 }
 
-// ---- small vector helpers ----------------------------------------------------------------
-
-type V3 = [f64; 3];
-
-fn dot(a: V3, b: V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn norm(a: V3) -> f64 {
-    dot(a, a).sqrt()
-}
-fn scale(a: V3, s: f64) -> V3 {
-    a.map(|x| x * s)
-}
-fn add(a: V3, b: V3) -> V3 {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-fn sub(a: V3, b: V3) -> V3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn cross(a: V3, b: V3) -> V3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn matvec(m: &[[f64; 3]; 3], v: V3) -> V3 {
-    std::array::from_fn(|i| dot(m[i], v))
-}
-fn max_abs(m: &[[f64; 3]; 3]) -> f64 {
-    m.iter().flatten().fold(0.0f64, |a, x| a.max(x.abs()))
-}
+type V3 = Vector3<f64>;
 
 /// An orthonormal basis (e₁, e₂) of the tangent plane P^⊥, with e₁ × e₂ = P/|P|.
 fn tangent_basis(p: V3) -> (V3, V3) {
-    let u = scale(p, 1.0 / norm(p));
+    let u = p * (1.0 / p.norm());
     let k = (0..3)
         .min_by(|&a, &b| u[a].abs().total_cmp(&u[b].abs()))
         .unwrap_or(0);
-    let mut axis = [0.0; 3];
+    let mut axis = V3::zeros();
     axis[k] = 1.0;
-    let e1 = sub(axis, scale(u, dot(axis, u)));
-    let e1 = scale(e1, 1.0 / norm(e1));
-    (e1, cross(u, e1))
+    let e1 = axis - u * axis.dot(&u);
+    let e1 = e1 * (1.0 / e1.norm());
+    (e1, u.cross(&e1))
 }
 
 /// n points spread evenly over the sphere of radius ρ (a Fibonacci lattice, slightly rotated
@@ -383,7 +352,7 @@ fn fibonacci(n: usize, rho: f64) -> Vec<V3> {
             let q = [q[0], c * q[1] - s * q[2], s * q[1] + c * q[2]];
             let (s, c) = 0.5171f64.sin_cos();
             let q = [c * q[0] + s * q[2], q[1], -s * q[0] + c * q[2]];
-            scale(q, rho)
+            V3::new(q[0], q[1], q[2]) * rho
         })
         .collect()
 }
@@ -408,16 +377,16 @@ fn newton(sys: &LiePoissonSystem, p0: V3, rho: f64, pin: Option<(V3, V3)>) -> Op
         for i in 0..3 {
             r[i] = loc.grad[i] + lambda * p[i];
         }
-        r[3] = (dot(p, p) - rho * rho) / (2.0 * rho);
+        r[3] = (p.dot(&p) - rho * rho) / (2.0 * rho);
         if let Some((v, q)) = pin {
-            r[4] = dot(v, sub(p, q));
+            r[4] = v.dot(&(p - q));
         }
-        let size = norm(loc.grad).max(lambda.abs() * rho).max(1e-300);
+        let size = loc.grad.norm().max(lambda.abs() * rho).max(1e-300);
         (r, loc, size)
     };
     let mut p = p0;
     let loc0 = sys.local(p);
-    let mut lambda = -dot(loc0.grad, p) / dot(p, p);
+    let mut lambda = -loc0.grad.dot(&p) / p.dot(&p);
     let (mut r, mut loc, mut size) = residual(p, lambda);
     let converged = |r: &DVector<f64>, size: f64| {
         r.iter().take(3).all(|x| x.abs() <= 1e-12 * size)
@@ -443,7 +412,7 @@ fn newton(sys: &LiePoissonSystem, p0: V3, rho: f64, pin: Option<(V3, V3)>) -> Op
         let mut jm = DMatrix::zeros(rows, 4);
         for i in 0..3 {
             for j in 0..3 {
-                jm[(i, j)] = loc.hess[i][j] + if i == j { lambda } else { 0.0 };
+                jm[(i, j)] = loc.hess[(i, j)] + if i == j { lambda } else { 0.0 };
             }
             jm[(i, 3)] = p[i];
             jm[(3, i)] = p[i] / rho;
@@ -458,7 +427,7 @@ fn newton(sys: &LiePoissonSystem, p0: V3, rho: f64, pin: Option<(V3, V3)>) -> Op
         let mut t = 1.0;
         let mut accepted = false;
         for _ in 0..30 {
-            let pn = [p[0] - t * step[0], p[1] - t * step[1], p[2] - t * step[2]];
+            let pn = p - V3::new(step[0], step[1], step[2]) * t;
             let ln = lambda - t * step[3];
             let (rn, locn, sizen) = residual(pn, ln);
             if rn.norm() < n0 || rn.norm() == 0.0 {
@@ -501,18 +470,18 @@ struct SecondOrder {
 
 fn second_order(sys: &LiePoissonSystem, p: V3, opts: &Options) -> SecondOrder {
     let local = sys.local(p);
-    let lambda = -dot(local.grad, p) / dot(p, p);
+    let lambda = -local.grad.dot(&p) / p.dot(&p);
     let (e1, e2) = tangent_basis(p);
-    let m = |u: V3, v: V3| dot(u, matvec(&local.hess, v)) + lambda * dot(u, v);
+    let m = |u: V3, v: V3| u.dot(&(local.hess * v)) + lambda * u.dot(&v);
     let (a, b, c) = (m(e1, e1), m(e1, e2), m(e2, e2));
     let eig = sym2_eigen(a, b, c);
-    let tol = opts.degenerate * max_abs(&local.hess).max(lambda.abs()).max(1e-300);
+    let tol = opts.degenerate * local.hess.amax().max(lambda.abs()).max(1e-300);
     // the model's own linearisation, restricted to the tangent plane
-    let j = |u: V3, v: V3| dot(u, matvec(&local.jac, v));
+    let j = |u: V3, v: V3| u.dot(&(local.jac * v));
     let (j11, j12, j21, j22) = (j(e1, e1), j(e1, e2), j(e2, e1), j(e2, e2));
     let half_tr = 0.5 * (j11 + j22);
     let disc = half_tr * half_tr - (j11 * j22 - j12 * j21);
-    let jscale = max_abs(&local.jac).max(1e-300);
+    let jscale = local.jac.amax().max(1e-300);
     let spectrum = if disc.abs() <= (opts.degenerate * jscale).powi(2) {
         Spectrum::Zero
     } else if disc > 0.0 {
@@ -534,16 +503,16 @@ fn second_order(sys: &LiePoissonSystem, p: V3, opts: &Options) -> SecondOrder {
 /// The point at geodesic distance r from P on its sphere, in the tangent direction
 /// cos θ e₁ + sin θ e₂.
 fn geodesic(p: V3, basis: (V3, V3), r: f64, theta: f64) -> V3 {
-    let rho = norm(p);
-    let dir = add(scale(basis.0, theta.cos()), scale(basis.1, theta.sin()));
+    let rho = p.norm();
+    let dir = basis.0 * theta.cos() + basis.1 * theta.sin();
     let a = r / rho;
-    add(scale(p, a.cos()), scale(dir, rho * a.sin()))
+    p * a.cos() + dir * (rho * a.sin())
 }
 
 /// The higher-order probe of an isolated degenerate equilibrium: the sign of H − H(Pₑ) on
 /// geodesic circles of radii ρ·{10⁻¹, 3·10⁻², 10⁻², 3·10⁻³}, 720 directions each.
 fn leaf_probe(sys: &LiePoissonSystem, p: V3, basis: (V3, V3)) -> Probe {
-    let rho = norm(p);
+    let rho = p.norm();
     let h0 = sys.energy(p);
     let (mut all_below, mut all_above, mut mixed_everywhere) = (true, true, true);
     for r in [1e-1, 3e-2, 1e-2, 3e-3] {
@@ -582,13 +551,13 @@ fn leaf_probe(sys: &LiePoissonSystem, p: V3, basis: (V3, V3)) -> Probe {
 /// the predicted point normal to the kernel). `None` when the first step finds no equilibrium
 /// (P is isolated).
 fn trace_family(sys: &LiePoissonSystem, p: V3, opts: &Options) -> Option<(Family, Vec<V3>)> {
-    let rho = norm(p);
+    let rho = p.norm();
     let step = 0.05 * rho;
     let kernel = |q: V3, prev: Option<V3>| -> V3 {
         let so = second_order(sys, q, opts);
         let (e1, e2) = so.basis;
         let lm = so.local;
-        let m = |u: V3, v: V3| dot(u, matvec(&lm.hess, v)) + so.lambda * dot(u, v);
+        let m = |u: V3, v: V3| u.dot(&(lm.hess * v)) + so.lambda * u.dot(&v);
         let (a, b) = (m(e1, e1), m(e1, e2));
         // the eigenvector of the eigenvalue closest to zero
         let ev = so.eig[if so.eig[0].abs() <= so.eig[1].abs() {
@@ -606,10 +575,10 @@ fn trace_family(sys: &LiePoissonSystem, p: V3, opts: &Options) -> Option<(Family
         } else {
             (x, y)
         };
-        let v = add(scale(e1, x), scale(e2, y));
-        let v = scale(v, 1.0 / norm(v));
+        let v = e1 * x + e2 * y;
+        let v = v * (1.0 / v.norm());
         match prev {
-            Some(w) if dot(v, w) < 0.0 => scale(v, -1.0),
+            Some(w) if v.dot(&w) < 0.0 => -v,
             _ => v,
         }
     };
@@ -618,10 +587,10 @@ fn trace_family(sys: &LiePoissonSystem, p: V3, opts: &Options) -> Option<(Family
     let mut q = p;
     let mut closed = false;
     for k in 0..2000 {
-        let pred = add(q, scale(v, step));
-        let pred = scale(pred, rho / norm(pred));
+        let pred = q + v * step;
+        let pred = pred * (rho / pred.norm());
         let (next, _) = newton(sys, pred, rho, Some((v, pred)))?;
-        if norm(sub(next, pred)) > 0.5 * step {
+        if (next - pred).norm() > 0.5 * step {
             return if k == 0 {
                 None
             } else {
@@ -637,7 +606,7 @@ fn trace_family(sys: &LiePoissonSystem, p: V3, opts: &Options) -> Option<(Family
                 break_family(members, closed, rho)
             };
         }
-        if k >= 3 && norm(sub(next, p)) < 0.75 * step {
+        if k >= 3 && (next - p).norm() < 0.75 * step {
             closed = true;
             break;
         }
@@ -653,9 +622,7 @@ fn break_family(members: Vec<V3>, closed: bool, rho: f64) -> Option<(Family, Vec
         return None;
     }
     let n = members.len() as f64;
-    let mean = members
-        .iter()
-        .fold([0.0; 3], |a, &m| add(a, scale(m, 1.0 / n)));
+    let mean = members.iter().fold(V3::zeros(), |a, &m| a + m * (1.0 / n));
     let mut mat = DMatrix::zeros(members.len(), 3);
     for (i, m) in members.iter().enumerate() {
         for j in 0..3 {
@@ -667,24 +634,24 @@ fn break_family(members: Vec<V3>, closed: bool, rho: f64) -> Option<(Family, Vec
     let k = (0..3)
         .min_by(|&a, &b| svd.singular_values[a].total_cmp(&svd.singular_values[b]))
         .unwrap_or(2);
-    let mut normal = [vt[(k, 0)], vt[(k, 1)], vt[(k, 2)]];
+    let mut normal = V3::new(vt[(k, 0)], vt[(k, 1)], vt[(k, 2)]);
     // a canonical orientation: the largest component positive
     let big = (0..3)
         .max_by(|&a, &b| normal[a].abs().total_cmp(&normal[b].abs()))
         .unwrap_or(0);
     if normal[big] < 0.0 {
-        normal = scale(normal, -1.0);
+        normal = -normal;
     }
-    let mut offset = dot(normal, mean);
+    let mut offset = normal.dot(&mean);
     if offset.abs() < 1e-12 * rho {
         offset = 0.0;
     }
     let fit_residual = members
         .iter()
-        .fold(0.0f64, |a, &m| a.max((dot(normal, m) - offset).abs()));
+        .fold(0.0f64, |a, &m| a.max((normal.dot(&m) - offset).abs()));
     Some((
         Family {
-            normal,
+            normal: normal.into(),
             offset,
             members: members.len(),
             closed,
@@ -747,11 +714,11 @@ fn classify_inner(
         Verdict::Undecided { probe }
     };
     let eq = Equilibrium {
-        p,
-        rho: norm(p),
+        p: p.into(),
+        rho: p.norm(),
         lambda: so.lambda,
         energy: so.local.h,
-        residual: norm(so.local.field),
+        residual: so.local.field.norm(),
         second_variation: so.eig,
         spectrum: so.spectrum,
         verdict,
@@ -762,7 +729,7 @@ fn classify_inner(
 
 fn field_scale(sys: &LiePoissonSystem, p: V3) -> f64 {
     let l = sys.local(p);
-    norm(p) * norm(l.grad)
+    p.norm() * l.grad.norm()
 }
 
 /// All equilibria on the Casimir level |P| = ρ.
@@ -778,7 +745,7 @@ pub fn analyse_level(
     let probes = fibonacci(40, rho);
     let vanishes = probes.iter().all(|&q| {
         let l = sys.local(q);
-        norm(l.field) <= 1e-12 * (norm(q) * norm(l.grad) + max_abs(&l.hess) * rho * rho) + 1e-300
+        l.field.norm() <= 1e-12 * (q.norm() * l.grad.norm() + l.hess.amax() * rho * rho) + 1e-300
     });
     if vanishes {
         return Ok(Level {
@@ -795,15 +762,15 @@ pub fn analyse_level(
         let Some((p, _)) = newton(sys, start, rho, None) else {
             continue;
         };
-        let p = scale(p, rho / norm(p));
-        if norm(sys.local(p).field) > 1e-8 * field_scale(sys, p).max(1e-300) {
+        let p = p * (rho / p.norm());
+        if sys.local(p).field.norm() > 1e-8 * field_scale(sys, p).max(1e-300) {
             continue;
         }
         let so = second_order(sys, p, opts);
         let near_degenerate =
             so.eig[0].abs().min(so.eig[1].abs()) <= 1e-3 * so.tol / opts.degenerate;
         let home = clusters.iter_mut().find(|(members, degenerate)| {
-            let d = norm(sub(p, members[0]));
+            let d = (p - members[0]).norm();
             d <= 1e-4 * rho || (near_degenerate && *degenerate && d <= 1e-3 * rho)
         });
         match home {
@@ -815,11 +782,9 @@ pub fn analyse_level(
         .iter()
         .map(|(members, _)| {
             let n = members.len() as f64;
-            let mean = members
-                .iter()
-                .fold([0.0; 3], |a, &m| add(a, scale(m, 1.0 / n)));
-            if norm(mean) > 0.5 * rho {
-                scale(mean, rho / norm(mean))
+            let mean = members.iter().fold(V3::zeros(), |a, &m| a + m * (1.0 / n));
+            if mean.norm() > 0.5 * rho {
+                mean * (rho / mean.norm())
             } else {
                 members[0]
             }
@@ -829,8 +794,8 @@ pub fn analyse_level(
     let mut covered: Vec<(Family, Vec<V3>)> = Vec::new();
     for p in found {
         let on_known_family = covered.iter().any(|(f, m)| {
-            (dot(f.normal, p) - f.offset).abs() <= 1e-6 * rho
-                && m.iter().any(|&q| norm(sub(p, q)) <= 0.2 * rho)
+            (V3::from(f.normal).dot(&p) - f.offset).abs() <= 1e-6 * rho
+                && m.iter().any(|&q| (p - q).norm() <= 0.2 * rho)
         });
         if on_known_family {
             continue;
@@ -839,11 +804,11 @@ pub fn analyse_level(
         if let Some(f) = &eq.family {
             // the member closest to a fixed generic direction represents the family, so a
             // sweep over levels sees a continuous representative
-            let reference = [0.9, 0.3, 0.1];
+            let reference = V3::new(0.9, 0.3, 0.1);
             let rep = members
                 .iter()
                 .copied()
-                .max_by(|&a, &b| dot(a, reference).total_cmp(&dot(b, reference)))
+                .max_by(|&a, &b| a.dot(&reference).total_cmp(&b.dot(&reference)))
                 .unwrap_or(p);
             let f = f.clone();
             let (mut eq2, _) = classify_inner(sys, rep, opts, false);
@@ -874,11 +839,11 @@ pub fn analyse_point(
     p: V3,
     opts: &Options,
 ) -> Result<Equilibrium, StabilityError> {
-    let rho = norm(p);
+    let rho = p.norm();
     if !(rho.is_finite() && rho > 0.0) {
         return Err(StabilityError::BadLevel(rho));
     }
-    let residual = norm(sys.local(p).field);
+    let residual = sys.local(p).field.norm();
     if residual > 1e-8 * field_scale(sys, p).max(1e-300) {
         // Newton from P, else (P may be a singular start) from points 1–10 % of ρ away
         let basis = tangent_basis(p);
@@ -888,11 +853,11 @@ pub fn analyse_point(
                     .iter()
                     .find_map(|&r| newton(sys, geodesic(p, basis, r * rho, 0.7), rho, None))
             })
-            .map(|(q, _)| scale(q, rho / norm(q)));
+            .map(|(q, _)| q * (rho / q.norm()));
         return Err(StabilityError::NotEquilibrium {
-            p,
+            p: p.into(),
             residual,
-            nearest,
+            nearest: nearest.map(Into::into),
         });
     }
     Ok(classify(sys, p, opts))
@@ -970,14 +935,14 @@ pub fn sweep(
         if level.all_equilibria {
             all.push(rho);
         }
-        let unit = |e: &Equilibrium| scale(e.p, 1.0 / e.rho);
+        let unit = |e: &Equilibrium| V3::from(e.p) * (1.0 / e.rho);
         let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
         for &b in &open {
             let last = &branches[b].last().expect("open branches are non-empty").1;
             // the branch continued to this level by Newton from its last point, scaled
             let tracked = if last.family.is_none() {
-                newton(sys, scale(last.p, rho / last.rho), rho, None)
-                    .map(|(p, _)| scale(p, rho / norm(p)))
+                newton(sys, V3::from(last.p) * (rho / last.rho), rho, None)
+                    .map(|(p, _)| p * (rho / p.norm()))
             } else {
                 None
             };
@@ -985,11 +950,11 @@ pub fn sweep(
                 if e.family.is_some() != last.family.is_some() {
                     continue;
                 }
-                let d = norm(sub(unit(e), unit(last)));
+                let d = (unit(e) - unit(last)).norm();
                 match tracked {
                     // the continuation lands on it: matched before any closeness guess
-                    Some(t) if norm(sub(t, e.p)) <= 1e-3 * rho => {
-                        pairs.push((1e-3 * norm(sub(t, e.p)) / rho, b, i))
+                    Some(t) if (t - V3::from(e.p)).norm() <= 1e-3 * rho => {
+                        pairs.push((1e-3 * (t - V3::from(e.p)).norm() / rho, b, i))
                     }
                     _ if d < 0.35 => pairs.push((d, b, i)),
                     _ => {}
@@ -1060,7 +1025,7 @@ fn segments(
             // a verdict change between two consecutive levels: bisect
             if let Some((rho, p)) = bisect(sys, e1, &points[i].1, opts) {
                 seg.rho_to = rho;
-                seg.p_to = p;
+                seg.p_to = p.into();
                 seg.refined[1] = true;
             }
         }
@@ -1087,12 +1052,12 @@ fn bisect(
 ) -> Option<(f64, V3)> {
     let class_a = a.verdict.class();
     let (mut lo, mut hi) = (a.rho, b.rho);
-    let mut p_lo = a.p;
+    let mut p_lo = V3::from(a.p);
     for _ in 0..50 {
         let mid = 0.5 * (lo + hi);
-        let guess = scale(p_lo, mid / norm(p_lo));
+        let guess = p_lo * (mid / p_lo.norm());
         let (p, _) = newton(sys, guess, mid, None)?;
-        let p = scale(p, mid / norm(p));
+        let p = p * (mid / p.norm());
         let (e, _) = classify_inner(sys, p, opts, false);
         if e.verdict.class() == class_a {
             lo = mid;
@@ -1102,7 +1067,7 @@ fn bisect(
         }
     }
     let mid = 0.5 * (lo + hi);
-    Some((mid, scale(p_lo, mid / norm(p_lo))))
+    Some((mid, p_lo * (mid / p_lo.norm())))
 }
 
 // ---- dynamics -----------------------------------------------------------------------------------
@@ -1129,8 +1094,8 @@ pub fn max_excursion(
     };
     let mut worst = 0.0f64;
     let mut observer = |_: u64, _: f64, x: &Vec<f64>| {
-        let p = [x[p_index[0]], x[p_index[1]], x[p_index[2]]];
-        worst = worst.max(norm(sub(p, pe)));
+        let p = V3::new(x[p_index[0]], x[p_index[1]], x[p_index[2]]);
+        worst = worst.max((p - pe).norm());
         Control::Continue
     };
     let mut dp5 = DormandPrince::<f64, Vec<f64>>::new(opts);

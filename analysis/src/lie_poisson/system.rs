@@ -8,6 +8,7 @@ use lasalle_model::ir::diff;
 use lasalle_model::ir::{Graph, Id, Input};
 use lasalle_model::Model;
 use lasalle_model::Structure;
+use nalgebra::{Matrix3, Vector3};
 
 use super::StabilityError;
 
@@ -17,13 +18,13 @@ pub struct Local {
     /// H(P).
     pub h: f64,
     /// ∇H(P).
-    pub grad: [f64; 3],
+    pub grad: Vector3<f64>,
     /// ∇²H(P).
-    pub hess: [[f64; 3]; 3],
+    pub hess: Matrix3<f64>,
     /// The field Ṗ = P × ∇H(P) as the model computes it.
-    pub field: [f64; 3],
+    pub field: Vector3<f64>,
     /// Its Jacobian ∂Ṗᵢ/∂Pⱼ.
-    pub jac: [[f64; 3]; 3],
+    pub jac: Matrix3<f64>,
 }
 
 /// A Lie–Poisson so(3)* Hamiltonian subsystem prepared for equilibrium and stability analysis.
@@ -134,12 +135,12 @@ impl LiePoissonSystem {
         // H, ∇H, the field and their derivatives must be finite: a parameter that divides
         // (c₁ = 0 in H = P₁²/(2c₁)) makes them NaN everywhere, which no test for equilibria
         // may read as "the field vanishes"
-        let probe = [0.6, -0.48, 0.64];
+        let probe = Vector3::new(0.6, -0.48, 0.64);
         let l = sys.local(probe);
         let finite = std::iter::once(l.h)
-            .chain(l.grad)
-            .chain(l.field)
-            .chain(l.hess.iter().flatten().copied())
+            .chain(l.grad.iter().copied())
+            .chain(l.field.iter().copied())
+            .chain(l.hess.iter().copied())
             .all(f64::is_finite);
         if !finite {
             let suspects: Vec<String> = model
@@ -195,7 +196,7 @@ impl LiePoissonSystem {
         &self.params
     }
 
-    fn input(&self, x: [f64; 3]) -> impl FnMut(Input) -> f64 + '_ {
+    fn input(&self, x: Vector3<f64>) -> impl FnMut(Input) -> f64 + '_ {
         move |i| match i {
             Input::State(k) => self.p.iter().position(|&q| q == k).map_or(0.0, |j| x[j]),
             Input::Param(k) => self.params.get(k as usize).copied().unwrap_or(f64::NAN),
@@ -204,19 +205,19 @@ impl LiePoissonSystem {
     }
 
     /// H(P).
-    pub fn energy(&self, x: [f64; 3]) -> f64 {
+    pub fn energy(&self, x: Vector3<f64>) -> f64 {
         self.graph.eval_f64(&[self.h], &mut self.input(x))[0]
     }
 
     /// H, ∇H, ∇²H, X and DX at P.
-    pub fn local(&self, x: [f64; 3]) -> Local {
+    pub fn local(&self, x: Vector3<f64>) -> Local {
         let v = self.graph.eval_f64(&self.outputs, &mut self.input(x));
-        let m = |o: usize| std::array::from_fn(|i| std::array::from_fn(|j| v[o + 3 * i + j]));
+        let m = |o: usize| Matrix3::from_fn(|i, j| v[o + 3 * i + j]);
         Local {
             h: v[0],
-            grad: [v[1], v[2], v[3]],
+            grad: Vector3::new(v[1], v[2], v[3]),
             hess: m(4),
-            field: [v[13], v[14], v[15]],
+            field: Vector3::new(v[13], v[14], v[15]),
             jac: m(16),
         }
     }
