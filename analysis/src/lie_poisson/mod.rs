@@ -662,8 +662,8 @@ fn break_family(members: Vec<V3>, closed: bool, rho: f64) -> Option<(Family, Vec
 }
 
 /// Classifies an equilibrium P (assumed one: `residual` is reported, not checked).
-pub fn classify(sys: &LiePoissonSystem, p: V3, opts: &Options) -> Equilibrium {
-    classify_inner(sys, p, opts, true).0
+pub fn classify(sys: &LiePoissonSystem, p: [f64; 3], opts: &Options) -> Equilibrium {
+    classify_inner(sys, V3::from(p), opts, true).0
 }
 
 fn classify_inner(
@@ -836,9 +836,10 @@ pub fn analyse_level(
 /// error names the nearest equilibrium on its level.
 pub fn analyse_point(
     sys: &LiePoissonSystem,
-    p: V3,
+    p: [f64; 3],
     opts: &Options,
 ) -> Result<Equilibrium, StabilityError> {
+    let p = V3::from(p);
     let rho = p.norm();
     if !(rho.is_finite() && rho > 0.0) {
         return Err(StabilityError::BadLevel(rho));
@@ -860,7 +861,7 @@ pub fn analyse_point(
             nearest: nearest.map(Into::into),
         });
     }
-    Ok(classify(sys, p, opts))
+    Ok(classify_inner(sys, p, opts, true).0)
 }
 
 // ---- sweeps over Casimir levels ---------------------------------------------------------------
@@ -1078,8 +1079,8 @@ fn bisect(
 pub fn max_excursion(
     model: &LoadedModel,
     p_index: [usize; 3],
-    pe: V3,
-    dp: V3,
+    pe: [f64; 3],
+    dp: [f64; 3],
     t_end: f64,
 ) -> Result<f64, String> {
     let mut x0 = vec![0.0; model.dim()];
@@ -1095,7 +1096,7 @@ pub fn max_excursion(
     let mut worst = 0.0f64;
     let mut observer = |_: u64, _: f64, x: &Vec<f64>| {
         let p = V3::new(x[p_index[0]], x[p_index[1]], x[p_index[2]]);
-        worst = worst.max((p - pe).norm());
+        worst = worst.max((p - V3::from(pe)).norm());
         Control::Continue
     };
     let mut dp5 = DormandPrince::<f64, Vec<f64>>::new(opts);
