@@ -35,7 +35,8 @@
 //! need ∇H — never calls a later stage); [`tape`], the execution IR the JIT, the interpreter
 //! and the Taylor kernels run ([`tape::ModelTapes::new`] takes a [`Derived`] model), with
 //! [`tape::taylor`], the Taylor program every Taylor back end runs; [`vocabulary`], the DSL's
-//! built-in functions and keywords, declared once; and [`names`], the Rust identifiers of model
+//! built-in functions and keywords, declared once; [`variational`], the variational equations
+//! and chaos indicators as a transformation of the lowered model; and [`names`], the Rust identifiers of model
 //! names (lowering refuses a model name the emitted code cannot use, the emitter names its
 //! items with the same rules). What the field's structure is (partitioned or not) is asked of
 //! the model ([`Model::partition`]).
@@ -60,6 +61,7 @@ mod model;
 pub mod names;
 mod parse;
 pub mod tape;
+pub mod variational;
 pub mod vocabulary;
 
 pub use check::{check, Checked, Conservation, Verdict};
