@@ -11,15 +11,18 @@
 //!   at unit length, λ = u·Au/(u·u) its instantaneous growth rate and
 //!
 //!   ```text
-//!   u̇ = Au − λu,   ℓ̇ = λ,   τ̇ = 1,   ȧ = τλ,   ḃ = 2aτ/(τ² + 10⁻³⁰⁰)
+//!   u̇ = Au − λu,   ℓ̇ = λ,   τ̇ = 1,   ȧ = τλ,   ḃ = 2aτ/(τ² + ε),   ε = 10⁻²⁰
 //!   ```
 //!
 //!   so that, for a tangent vector w with w(0) = u(0) of unit length, ℓ(t) = ln‖w(t)‖ (the
 //!   fast Lyapunov indicator, Froeschlé, Lega & Gonczi 1997), ℓ(t)/t the finite-time maximal
 //!   Lyapunov exponent, 2a(t)/t the MEGNO Y(t) = (2/t)∫₀ᵗ s λ(s) ds and b(t)/t its mean ⟨Y⟩(t)
-//!   (Cincotta & Simó 2000). The tangent vector never overflows however fast it grows; the
-//!   10⁻³⁰⁰ only makes the rate of b, 2a/τ, a number at τ = 0 (where a = 0), and changes
-//!   nothing in f64 once τ > 10⁻¹⁴⁰.
+//!   (Cincotta & Simó 2000). The tangent vector never overflows however fast it grows. The
+//!   floor ε ([`CLOCK_FLOOR`]) makes the rate of b, 2a/τ, defined at τ = 0 (where a = 0) and
+//!   analytic within √ε = 10⁻¹⁰ of it, so the Taylor method's first step is about 10⁻¹⁰ long
+//!   and its steps then grow geometrically; since a = O(τ²), it moves b by at most
+//!   max|λ|·ε·ln(τ/√ε) ≈ 10⁻¹⁸ max|λ| (time units in which the run is much longer than 10⁻¹⁰
+//!   are assumed).
 //!
 //! The new model is an ordinary [`Model`]: every back end (emitted Rust, the JIT, the
 //! interpreter, lanes, the Taylor method) runs it without code of its own. It keeps the
@@ -51,8 +54,8 @@ use std::collections::HashMap;
 use crate::ir::{diff, Graph, Id, Input};
 use crate::{Diagnostic, Model, Point, Shape, StateVar};
 
-/// The rate of b is 2aτ/(τ² + [`CLOCK_FLOOR`]): 2a/τ for every τ > 10⁻¹⁴⁰, and 0 at τ = 0.
-pub const CLOCK_FLOOR: f64 = 1e-300;
+/// ε in the rate 2aτ/(τ² + ε) of the MEGNO sum b (see the [module docs](self)).
+pub const CLOCK_FLOOR: f64 = 1e-20;
 
 /// What a model is extended with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
