@@ -2,6 +2,7 @@
 
 mod args;
 mod attraction;
+mod chaos;
 mod bench;
 mod experiment;
 mod gen;
