@@ -47,7 +47,7 @@ def grid(points):
             for p1 in np.linspace(p_lo, p_hi, n):
                 p0sq = 2.0 * E - p1 * p1 - q1 * q1 + 2.0 * q1 ** 3 / 3.0
                 if p0sq > 0.0:
-                    out.append((q1, p1, math.sqrt(p0sq)))
+                    out.append((float(q1), float(p1), math.sqrt(p0sq)))
         if len(out) >= points:
             return n, out
         n += 1
