@@ -64,8 +64,18 @@ fn run_writes_the_stm_spectrum_and_megno() {
         }
     }
     let csv = std::fs::read_to_string(out.join("stm.csv")).unwrap();
-    let row: Vec<f64> = csv.lines().nth(2).unwrap().split(',').skip(1).map(|v| v.parse().unwrap()).collect();
-    assert!((row[0] - exact[1][0]).abs() < 1e-9 && (row[1] - exact[1][1]).abs() < 1e-9, "{csv}");
+    let row: Vec<f64> = csv
+        .lines()
+        .nth(2)
+        .unwrap()
+        .split(',')
+        .skip(1)
+        .map(|v| v.parse().unwrap())
+        .collect();
+    assert!(
+        (row[0] - exact[1][0]).abs() < 1e-9 && (row[1] - exact[1][1]).abs() < 1e-9,
+        "{csv}"
+    );
     let spectrum: Vec<f64> = s["lyapunov_spectrum"]
         .as_array()
         .unwrap()
@@ -92,7 +102,10 @@ fn feedback_methods_are_refused() {
         "--quiet",
     ]);
     assert!(!ok);
-    assert!(err.contains("feedback-rk4") && err.contains("use euler, heun, rk4, dopri5 or taylor"), "{err}");
+    assert!(
+        err.contains("feedback-rk4") && err.contains("use euler, heun, rk4, dopri5 or taylor"),
+        "{err}"
+    );
 }
 
 /// A MEGNO map of Hénon–Heiles on the E = 1/12 section q₀ = 0 along p₁ = 0 (p₀ from the
@@ -109,7 +122,10 @@ fn sweep_indicator_writes_the_map() {
         text.push_str(&format!("{q1},{p0}\n"));
     }
     std::fs::write(&list, text).unwrap();
-    for method in [["-m", "rk4", "--dt", "0.01"], ["-m", "dopri5", "--rtol", "1e-10"]] {
+    for method in [
+        ["-m", "rk4", "--dt", "0.01"],
+        ["-m", "dopri5", "--rtol", "1e-10"],
+    ] {
         let table = dir.join(format!("map-{}.csv", method[1]));
         let mut args = vec![
             "sweep",

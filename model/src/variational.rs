@@ -172,7 +172,10 @@ impl Extension {
             .map(|s| s.span.clone())
             .ok_or_else(|| refuse(model, "the model has no state to linearise"))?;
         if let Extension::Variational { tangents: 0 } = self {
-            return Err(refuse(model, "the variational equations need at least one tangent vector"));
+            return Err(refuse(
+                model,
+                "the variational equations need at least one tangent vector",
+            ));
         }
         let mut out = model.clone();
         out.splitting = None;

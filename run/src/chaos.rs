@@ -14,7 +14,7 @@
 //! step with x: they are refused.
 
 use lasalle_exec::LoadedModel;
-use lasalle_model::variational::{Extension, Indicators};
+pub use lasalle_model::variational::{Extension, Indicators};
 use lasalle_runtime::{ModelInfo, Parameters};
 
 use crate::{simulate, Method, Recording, RunError, RunSpec};

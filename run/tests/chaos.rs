@@ -3,6 +3,8 @@
 //! identities (Φ(t)X(x₀) = X(x(t)), ΦᵀJΦ = J), the divergence theorem for the spectrum's sum,
 //! Lorenz's exponents, the ± pairing of Hamiltonian spectra and MEGNO's limits.
 
+#![allow(clippy::needless_range_loop)] // matrices are compared entry by entry
+
 use lasalle_exec::{Backend, LoadedModel};
 use lasalle_run::chaos::{indicators, lyapunov_spectrum, state_transition};
 use lasalle_run::{simulate, Base, Method, RunSpec};
@@ -71,7 +73,10 @@ fn oscillator_stm_is_exp_at() {
             for i in 0..2 {
                 for j in 0..2 {
                     let err = (tr.phi[i][j] - exact[i][j]).abs();
-                    assert!(err < 1e-9, "{backend:?} {method}: Φ[{i}][{j}] off by {err:e}");
+                    assert!(
+                        err < 1e-9,
+                        "{backend:?} {method}: Φ[{i}][{j}] off by {err:e}"
+                    );
                 }
             }
         }
@@ -141,7 +146,11 @@ fn kepler_stm_matches_finite_differences_and_flow_identities() {
     let (f0, f1) = (field(&x0), field(&tr.x));
     for i in 0..4 {
         let phi_f0: f64 = (0..4).map(|j| tr.phi[i][j] * f0[j]).sum();
-        assert!((phi_f0 - f1[i]).abs() < 1e-8, "(Φ X(x₀))[{i}] = {phi_f0} ≠ {}", f1[i]);
+        assert!(
+            (phi_f0 - f1[i]).abs() < 1e-8,
+            "(Φ X(x₀))[{i}] = {phi_f0} ≠ {}",
+            f1[i]
+        );
     }
     // J = [[0, I], [−I, 0]] on (x, v)
     let jmul = |v: [f64; 4]| [v[2], v[3], -v[0], -v[1]];
@@ -165,9 +174,17 @@ fn lorenz_spectrum() {
     let sum: f64 = sp.exponents.iter().sum();
     let divergence = -(10.0 + 1.0 + 8.0 / 3.0);
     assert!((sum - divergence).abs() < 1e-6, "Σλ = {sum}");
-    assert!((sp.exponents[0] - 0.9056).abs() < 0.03, "{:?}", sp.exponents);
+    assert!(
+        (sp.exponents[0] - 0.9056).abs() < 0.03,
+        "{:?}",
+        sp.exponents
+    );
     assert!(sp.exponents[1].abs() < 0.01, "{:?}", sp.exponents);
-    assert!((sp.exponents[2] + 14.5723).abs() < 0.03, "{:?}", sp.exponents);
+    assert!(
+        (sp.exponents[2] + 14.5723).abs() < 0.03,
+        "{:?}",
+        sp.exponents
+    );
     assert_eq!(sp.renormalisations, 2000);
 }
 
@@ -176,7 +193,10 @@ fn lorenz_spectrum() {
 fn damped_oscillator_spectrum_sums_to_the_divergence() {
     let m = load(DAMPED, Backend::Interpreter);
     let sp = lyapunov_spectrum(&m, &[1.0, 0.0], &spec(TAYLOR, 200.0, 1e-12), 0.5).unwrap();
-    assert!((sp.exponents.iter().sum::<f64>() + 0.3).abs() < 1e-9, "{sp:?}");
+    assert!(
+        (sp.exponents.iter().sum::<f64>() + 0.3).abs() < 1e-9,
+        "{sp:?}"
+    );
     for l in &sp.exponents {
         assert!((l + 0.15).abs() < 0.02, "{sp:?}");
     }
@@ -222,7 +242,10 @@ fn megno_limits() {
     let lorenz = load(LORENZ, Backend::default());
     let (_, ind) = indicators(&lorenz, &[1.0, 1.0, 1.0], &spec(DOPRI5, 2000.0, 1e-10)).unwrap();
     assert!((ind.mle - 0.9056).abs() < 0.01, "{ind:?}");
-    assert!((2.0 * ind.megno_mean / ind.t - ind.mle).abs() < 0.02 * ind.mle, "{ind:?}");
+    assert!(
+        (2.0 * ind.megno_mean / ind.t - ind.mle).abs() < 0.02 * ind.mle,
+        "{ind:?}"
+    );
 }
 
 /// The same indicators from the JIT and the interpreter, and a method that changes x by
@@ -241,7 +264,9 @@ fn back_ends_agree_and_feedback_is_refused() {
     }
     let m = load(&hh, Backend::default());
     let err = indicators(&m, &x0, &spec(Method::Feedback(Base::Rk4), 1.0, 1e-10)).unwrap_err();
-    assert!(err.to_string().contains("use euler, heun, rk4, dopri5 or taylor"), "{err}");
+    assert!(
+        err.to_string()
+            .contains("use euler, heun, rk4, dopri5 or taylor"),
+        "{err}"
+    );
 }
-
-

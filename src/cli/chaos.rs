@@ -88,8 +88,8 @@ pub fn extend_summary(
         });
     }
     if args.lyapunov_spectrum {
-        let sp = chaos::lyapunov_spectrum(model, x0, &spec, args.renormalise_every)
-            .map_err(usage)?;
+        let sp =
+            chaos::lyapunov_spectrum(model, x0, &spec, args.renormalise_every).map_err(usage)?;
         summary["lyapunov_spectrum"] = sp.exponents.clone().into();
         summary["lyapunov_spectrum_sum"] = sp.exponents.iter().sum::<f64>().into();
         summary["renormalise_every"] = args.renormalise_every.into();
@@ -169,7 +169,11 @@ pub fn write_map(
         // the scale of Cincotta & Simó's maps: 2 (quasi-periodic) to 8 and beyond (chaotic)
         Indicator::Megno => (0.0, 8.0),
         _ => {
-            let mut v: Vec<f64> = cells.iter().map(|c| c.2).filter(|v| v.is_finite()).collect();
+            let mut v: Vec<f64> = cells
+                .iter()
+                .map(|c| c.2)
+                .filter(|v| v.is_finite())
+                .collect();
             v.sort_by(f64::total_cmp);
             if v.is_empty() {
                 (0.0, 1.0)
@@ -178,15 +182,7 @@ pub fn write_map(
             }
         }
     };
-    write_heat_map(
-        dir,
-        &stem,
-        title,
-        axes,
-        indicator.column(),
-        cells,
-        (lo, hi),
-    )
+    write_heat_map(dir, &stem, title, axes, indicator.column(), cells, (lo, hi))
 }
 
 /// The report lines of the variational results in `summary` (for `--format table`).
@@ -251,7 +247,10 @@ impl SweepIndicator {
 
     /// Their cells for a run of a model of dimension `n` (empty for a failed run).
     pub fn cells(rec: &lasalle::Recording, n: usize) -> Vec<String> {
-        match (&rec.failure, chaos::Extension::Indicators.indicators(n, rec.last_state())) {
+        match (
+            &rec.failure,
+            chaos::Extension::Indicators.indicators(n, rec.last_state()),
+        ) {
             (None, Some(ind)) => vec![
                 ind.megno_mean.to_string(),
                 ind.mle.to_string(),
@@ -263,7 +262,10 @@ impl SweepIndicator {
 
     /// The indicator's value of a run (NaN for a failed run).
     pub fn value(&self, rec: &lasalle::Recording, n: usize) -> f64 {
-        match (&rec.failure, chaos::Extension::Indicators.indicators(n, rec.last_state())) {
+        match (
+            &rec.failure,
+            chaos::Extension::Indicators.indicators(n, rec.last_state()),
+        ) {
             (None, Some(ind)) => self.indicator.of(&ind),
             _ => f64::NAN,
         }
@@ -291,6 +293,10 @@ pub fn write_sweep_map(
             )
         })
         .collect();
-    let title = format!("{} at t = {t_end}, {} runs", indicator.column(), cells.len());
+    let title = format!(
+        "{} at t = {t_end}, {} runs",
+        indicator.column(),
+        cells.len()
+    );
     write_map(table, indicator, (x_name, y_name), &cells, &title)
 }

@@ -2,8 +2,8 @@
 
 mod args;
 mod attraction;
-mod chaos;
 mod bench;
+mod chaos;
 mod experiment;
 mod gen;
 mod load;
