@@ -295,7 +295,18 @@ impl LoadedModel {
     /// file in messages.
     pub fn from_source(path: &str, text: &str, backend: Backend) -> Result<LoadedModel, LoadError> {
         let start = Instant::now();
-        let derived = derive(lasalle_model::lower_source(path, text)?);
+        Self::compile(lasalle_model::lower_source(path, text)?, backend, start)
+    }
+
+    /// Loads a lowered model, e.g. one built by a transformation of the front end
+    /// ([`lasalle_model::variational`]): derive, check, linearise and compile as
+    /// [`LoadedModel::from_source`] does.
+    pub fn from_model(model: Model, backend: Backend) -> Result<LoadedModel, LoadError> {
+        Self::compile(model, backend, Instant::now())
+    }
+
+    fn compile(model: Model, backend: Backend, start: Instant) -> Result<LoadedModel, LoadError> {
+        let derived = derive(model);
         let conservation = lasalle_model::check(&derived)?.into_conservation();
         let tapes = ModelTapes::new(&derived)?;
         let model = &derived.model;

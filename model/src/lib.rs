@@ -36,7 +36,9 @@
 //! and the Taylor kernels run ([`tape::ModelTapes::new`] takes a [`Derived`] model), with
 //! [`tape::taylor`], the Taylor program every Taylor back end runs; [`vocabulary`], the DSL's
 //! built-in functions and keywords, declared once; [`splitting`], the structure-specific
-//! splittings, a module and a table row per kind; and [`names`], the Rust identifiers of model
+//! splittings, a module and a table row per kind; [`variational`], the variational equations
+//! and chaos indicators as a transformation of the lowered model; and [`names`], the Rust
+//! identifiers of model
 //! names (lowering refuses a model name the emitted code cannot use, the emitter names its
 //! items with the same rules). What the field's structure is (partitioned or not) is asked of
 //! the model ([`Model::partition`]).
@@ -62,6 +64,7 @@ pub mod names;
 mod parse;
 pub mod splitting;
 pub mod tape;
+pub mod variational;
 pub mod vocabulary;
 
 pub use check::{check, Checked, Conservation, Verdict};

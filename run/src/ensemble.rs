@@ -8,6 +8,7 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use lasalle_exec::{Backend, LaneField, LoadedModel};
+use lasalle_model::variational::Extension;
 use lasalle_runtime::{DriftBound, Driver, ModelInfo, Observer, Parameters, Recorder, Stepper};
 use rayon::prelude::*;
 
@@ -136,6 +137,9 @@ pub struct ModelSource {
     pub text: String,
     /// The back end that runs the model's functions.
     pub backend: Backend,
+    /// What the front end extends the model with before it is compiled (the variational
+    /// equations, the chaos indicators), if anything.
+    pub extension: Option<Extension>,
 }
 
 impl ModelSource {
@@ -145,7 +149,16 @@ impl ModelSource {
             path: path.into(),
             text: text.into(),
             backend,
+            extension: None,
         }
+    }
+
+    /// The same model extended by the front end ([`lasalle_model::variational`]): members'
+    /// initial states are then states of the extended model
+    /// ([`Extension::extend_state`]).
+    pub fn extended(mut self, extension: Extension) -> Self {
+        self.extension = Some(extension);
+        self
     }
 
     /// The model file at `path`.
@@ -159,8 +172,16 @@ impl ModelSource {
 
     /// Parses, derives, checks and compiles the model.
     pub fn load(&self) -> Result<LoadedModel, RunError> {
-        LoadedModel::from_source(&self.path, &self.text, self.backend)
-            .map_err(|e| RunError::Load(e.to_string()))
+        let loaded = match self.extension {
+            None => LoadedModel::from_source(&self.path, &self.text, self.backend),
+            Some(ext) => {
+                let lowered = lasalle_model::lower_source(&self.path, &self.text)
+                    .and_then(|m| ext.apply(&m))
+                    .map_err(|e| RunError::Load(e.to_string()))?;
+                LoadedModel::from_model(lowered, self.backend)
+            }
+        };
+        loaded.map_err(|e| RunError::Load(e.to_string()))
     }
 }
 

@@ -15,6 +15,9 @@
 //!   ([`LoadedModel`](lasalle_exec::LoadedModel)) or compiled — from an initial state;
 //! - [`simulate_many`]: an ensemble of [`Member`]s of one model file across threads, members
 //!   with equal parameters in lanes ([`simulate_lanes`]), each result bitwise the lone run's;
+//! - [`chaos`]: the state-transition matrix of a run ([`chaos::state_transition`]), the
+//!   Lyapunov spectrum ([`chaos::lyapunov_spectrum`]), the maximal Lyapunov exponent, FLI and
+//!   MEGNO ([`chaos::indicators`]; in ensembles, [`ModelSource::extended`]);
 //! - [`Recording`]: sampled times, states and invariant errors, the stepper's counters, wall
 //!   and CPU time, and the [`failure`](Recording::failure) that stopped a run early, written
 //!   as CSV ([`Recording::write_csv`]) and JSON ([`Recording::summary_json`]).
@@ -38,10 +41,11 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
-//! The crate depends on the runtime, the loader and JIT, `serde_json` and `rayon` only: no
+//! The crate depends on the runtime, the front end, the loader and JIT, `serde_json` and `rayon` only: no
 //! command-line, terminal or plotting crates.
 #![warn(missing_docs)]
 
+pub mod chaos;
 mod clock;
 mod ensemble;
 mod error;

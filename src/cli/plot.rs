@@ -395,3 +395,173 @@ where
     }
     Ok(())
 }
+
+/// Writes `<stem>.svg` and `<stem>.png` in `dir`: a heat map of `cells` (x, y, value), each
+/// drawn as a rectangle of the grid's spacing in a colour from dark blue (`range.0` and below)
+/// to yellow (`range.1` and above), grey where the value is not finite; a colour bar on the
+/// right is labelled `label`.
+pub fn write_heat_map(
+    dir: &Path,
+    stem: &str,
+    title: &str,
+    (x_label, y_label): (&str, &str),
+    label: &str,
+    cells: &[(f64, f64, f64)],
+    range: (f64, f64),
+) -> CliResult {
+    register_font();
+    let size = (820u32, 700u32);
+    let svg = dir.join(format!("{stem}.svg"));
+    let map = HeatMap {
+        title,
+        x_label,
+        y_label,
+        label,
+        cells,
+        range,
+    };
+    {
+        let root = SVGBackend::new(&svg, size).into_drawing_area();
+        map.draw(&root)?;
+        root.present()
+            .map_err(|e| format!("writing {}: {e}", svg.display()))?;
+    }
+    let png = dir.join(format!("{stem}.png"));
+    let mut buf = vec![0u8; (size.0 * size.1 * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+        map.draw(&root)?;
+        root.present()
+            .map_err(|e| format!("drawing {}: {e}", png.display()))?;
+    }
+    write_png(&png, &buf, size)
+}
+
+struct HeatMap<'a> {
+    title: &'a str,
+    x_label: &'a str,
+    y_label: &'a str,
+    label: &'a str,
+    cells: &'a [(f64, f64, f64)],
+    range: (f64, f64),
+}
+
+impl HeatMap<'_> {
+    /// A colour from a viridis-like ramp for s ∈ [0, 1].
+    fn colour(s: f64) -> RGBColor {
+        const STOPS: [(f64, [f64; 3]); 5] = [
+            (0.0, [68.0, 1.0, 84.0]),
+            (0.25, [59.0, 82.0, 139.0]),
+            (0.5, [33.0, 145.0, 140.0]),
+            (0.75, [94.0, 201.0, 98.0]),
+            (1.0, [253.0, 231.0, 37.0]),
+        ];
+        let s = s.clamp(0.0, 1.0);
+        let k = STOPS.iter().position(|&(p, _)| p >= s).unwrap_or(4).max(1);
+        let ((p0, c0), (p1, c1)) = (STOPS[k - 1], STOPS[k]);
+        let f = (s - p0) / (p1 - p0);
+        let c = |i: usize| (c0[i] + f * (c1[i] - c0[i])).round() as u8;
+        RGBColor(c(0), c(1), c(2))
+    }
+
+    fn value_colour(&self, v: f64) -> RGBColor {
+        if !v.is_finite() {
+            return RGBColor(170, 170, 170);
+        }
+        let (lo, hi) = self.range;
+        Self::colour(if hi > lo { (v - lo) / (hi - lo) } else { 0.5 })
+    }
+
+    /// The grid's spacing along one axis: the smallest positive gap between distinct values.
+    fn spacing(values: impl Iterator<Item = f64>) -> f64 {
+        let mut v: Vec<f64> = values.collect();
+        v.sort_by(f64::total_cmp);
+        v.dedup();
+        v.windows(2)
+            .map(|w| w[1] - w[0])
+            .filter(|d| *d > 0.0)
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> CliResult
+    where
+        DB::ErrorType: 'static,
+    {
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        let (main, bar) = root.split_horizontally(700);
+        let dx = Self::spacing(self.cells.iter().map(|c| c.0));
+        let dy = Self::spacing(self.cells.iter().map(|c| c.1));
+        let (dx, dy) = (
+            if dx.is_finite() { dx } else { 1.0 },
+            if dy.is_finite() { dy } else { 1.0 },
+        );
+        let lo_hi = |f: fn(&(f64, f64, f64)) -> f64| {
+            self.cells
+                .iter()
+                .map(f)
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                    (a.min(v), b.max(v))
+                })
+        };
+        let (x0, x1) = lo_hi(|c| c.0);
+        let (y0, y1) = lo_hi(|c| c.1);
+        if !(x0.is_finite() && y0.is_finite()) {
+            return Err("the map has no points".into());
+        }
+        let mut chart = ChartBuilder::on(&main)
+            .caption(self.title, ("sans-serif", 17))
+            .margin(12)
+            .x_label_area_size(38)
+            .y_label_area_size(60)
+            .build_cartesian_2d(
+                (x0 - dx / 2.0)..(x1 + dx / 2.0),
+                (y0 - dy / 2.0)..(y1 + dy / 2.0),
+            )
+            .map_err(|e| e.to_string())?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc(self.x_label)
+            .y_desc(self.y_label)
+            .label_style(("sans-serif", 13))
+            .draw()
+            .map_err(|e| e.to_string())?;
+        chart
+            .draw_series(self.cells.iter().map(|&(x, y, v)| {
+                Rectangle::new(
+                    [(x - dx / 2.0, y - dy / 2.0), (x + dx / 2.0, y + dy / 2.0)],
+                    self.value_colour(v).filled(),
+                )
+            }))
+            .map_err(|e| e.to_string())?;
+        // the colour bar
+        let (lo, hi) = self.range;
+        let mut bar_chart = ChartBuilder::on(&bar)
+            .margin_top(40)
+            .margin_bottom(50)
+            .margin_right(10)
+            .y_label_area_size(50)
+            .caption(self.label, ("sans-serif", 14))
+            .build_cartesian_2d(0.0..1.0, lo..hi.max(lo + f64::EPSILON))
+            .map_err(|e| e.to_string())?;
+        bar_chart
+            .configure_mesh()
+            .disable_mesh()
+            .disable_x_axis()
+            .label_style(("sans-serif", 12))
+            .draw()
+            .map_err(|e| e.to_string())?;
+        let steps = 100;
+        bar_chart
+            .draw_series((0..steps).map(|k| {
+                let a = lo + (hi - lo) * k as f64 / steps as f64;
+                let b = lo + (hi - lo) * (k + 1) as f64 / steps as f64;
+                Rectangle::new(
+                    [(0.0, a), (1.0, b)],
+                    Self::colour((k as f64 + 0.5) / steps as f64).filled(),
+                )
+            }))
+            .map_err(|e| e.to_string())?;
+        Ok(())
+    }
+}

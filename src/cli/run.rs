@@ -100,6 +100,9 @@ pub struct RunArgs {
     /// (json), or the trace (csv); with json and csv nothing else is printed.
     #[arg(long, value_enum, default_value_t)]
     pub format: Format,
+    /// The variational equations and chaos indicators.
+    #[command(flatten)]
+    pub chaos: super::chaos::ChaosArgs,
 }
 
 /// The spec and the initial state of a run: the preset's settings, overridden by the flags
@@ -221,6 +224,9 @@ pub fn run(args: &RunArgs, given: &Given) -> CliResult {
     if matches!(method, Method::Projection(_)) {
         summary["projection_tol"] = spec.tol.into();
     }
+    if recording.failure.is_none() {
+        super::chaos::extend_summary(&args.chaos, &model, &x0, &spec, &dir, &mut summary)?;
+    }
     std::fs::write(
         dir.join("summary.json"),
         serde_json::to_string_pretty(&summary)? + "\n",
@@ -261,6 +267,7 @@ pub fn run(args: &RunArgs, given: &Given) -> CliResult {
         if let Some(g) = &recording.gains_final {
             println!("  gains: {g:?}");
         }
+        super::chaos::report(&summary);
         println!("wrote {}/trace.csv and summary.json", dir.display());
     }
     Ok(())

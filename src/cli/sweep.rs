@@ -81,6 +81,12 @@ pub struct SweepArgs {
     /// The table to write (CSV).
     #[arg(long)]
     pub out: PathBuf,
+    /// A stability map: integrate each row with a unit tangent vector (the variational
+    /// equations, derived symbolically) and add the columns megno (⟨Y⟩), mle (ln‖w‖/t) and fli
+    /// (ln‖w‖); the map of this indicator over the first two columns of the rows is drawn
+    /// into <out>.png and <out>.svg.
+    #[arg(long, value_enum)]
+    pub indicator: Option<super::chaos::Indicator>,
 }
 
 /// Arguments of `lasalle sweep-merge`.
@@ -307,7 +313,15 @@ pub fn run(args: &SweepArgs, given: &Given) -> CliResult {
     })?;
     let rows = rows(args).map_err(usage)?;
     let (path, _, text) = model_text(&args.model)?;
-    let source = ModelSource::new(path, text, args.backend.into());
+    let mut source = ModelSource::new(path, text, args.backend.into());
+    let plain_dim = source.load().map_err(|e| e.to_string())?.dim();
+    let indicator = args
+        .indicator
+        .map(|indicator| super::chaos::SweepIndicator { indicator });
+    if let Some(ind) = &indicator {
+        lasalle::run::chaos::check_method(method).map_err(usage)?;
+        source = ind.source(source);
+    }
     // the header, from one model
     let probe: LoadedModel = source.load().map_err(|e| e.to_string())?;
     let mut header = vec!["row".to_string()];
@@ -322,11 +336,17 @@ pub fn run(args: &SweepArgs, given: &Given) -> CliResult {
             .into_iter()
             .map(|n| format!("{n}(T)")),
     );
+    if indicator.is_some() {
+        header.extend(super::chaos::SweepIndicator::header().map(String::from));
+    }
     header.push("failure".to_string());
     let columns = columns(&probe, &rows[0]).map_err(usage)?;
     drop(probe);
     // this shard's rows
-    let init = args.init.clone().map_or(Init::First, Init::Text);
+    let init = match &indicator {
+        Some(ind) => ind.init(args.init.as_deref(), plain_dim).map_err(usage)?,
+        None => args.init.clone().map_or(Init::First, Init::Text),
+    };
     let mine: Vec<(usize, &Row)> = rows
         .iter()
         .enumerate()
@@ -349,13 +369,22 @@ pub fn run(args: &SweepArgs, given: &Given) -> CliResult {
     let mut table = lasalle::Csv::new(Vec::new());
     table.record(&header)?;
     let mut failed = Vec::new();
+    let mut map = Vec::new();
     for (&(k, row), recording) in mine.iter().zip(&ensemble.recordings) {
         let recording = recording
             .as_ref()
             .map_err(|e| usage(format!("row {k}: {e}")))?;
-        let cells = cells(k, row, recording);
+        let mut cells = cells(k, row, recording);
         if cells.last().is_some_and(|why| !why.is_empty()) {
             failed.push(k);
+        }
+        if let Some(ind) = &indicator {
+            let at = cells.len() - 1;
+            cells.splice(
+                at..at,
+                super::chaos::SweepIndicator::cells(recording, plain_dim),
+            );
+            map.push((row, ind.value(recording, plain_dim)));
         }
         table.record(&cells)?;
     }
@@ -366,11 +395,15 @@ pub fn run(args: &SweepArgs, given: &Given) -> CliResult {
     }
     std::fs::write(&args.out, table)
         .map_err(|e| format!("cannot write {}: {e}", args.out.display()))?;
+    let seconds = start.elapsed().as_secs_f64();
+    if let (Some(ind), Some(first)) = (&indicator, map.first()) {
+        super::chaos::write_sweep_map(&args.out, ind.indicator, first.0, &map, args.t_end)?;
+    }
     eprintln!(
         "sweep: {} of {} runs (shard {shard}/{shards}) in {:.2} s on {} threads → {}",
         runs,
         rows.len(),
-        start.elapsed().as_secs_f64(),
+        seconds,
         ensemble.threads,
         args.out.display()
     );

@@ -1,0 +1,272 @@
+//! The variational equations and the chaos indicators against what is known independently:
+//! exp(At) for linear systems, central finite differences of the flow, the flow's own
+//! identities (Φ(t)X(x₀) = X(x(t)), ΦᵀJΦ = J), the divergence theorem for the spectrum's sum,
+//! Lorenz's exponents, the ± pairing of Hamiltonian spectra and MEGNO's limits.
+
+#![allow(clippy::needless_range_loop)] // matrices are compared entry by entry
+
+use lasalle_exec::{Backend, LoadedModel};
+use lasalle_run::chaos::{indicators, lyapunov_spectrum, state_transition};
+use lasalle_run::{simulate, Base, Method, RunSpec};
+use lasalle_runtime::Parameters;
+
+const OSC: &str = "model Osc { state q: scalar, p: scalar; param w = 1.7;
+    d/dt q = p; d/dt p = -w^2 * q; point start { q = 0.3; p = -0.2; } }";
+
+const DAMPED: &str = "model Damped { state q: scalar, p: scalar; param c = 0.3; param w = 2;
+    d/dt q = p; d/dt p = -w^2 * q - c * p; point start { q = 1; p = 0; } }";
+
+const LORENZ: &str = "model Lorenz { state x: scalar, y: scalar, z: scalar;
+    param sigma = 10; param rho = 28; param beta = 8/3;
+    d/dt x = sigma * (y - x); d/dt y = x * (rho - z) - y; d/dt z = x * y - beta * z;
+    point start { x = 1; y = 1; z = 1; } }";
+
+const KEPLER: &str = "model Kepler { state x: vec2, v: vec2; param mu = 1;
+    d/dt x = v; d/dt v = -mu * x / norm(x)^3;
+    point start { x = [1, 0]; v = [0, 1.2]; } }";
+
+fn henon_heiles() -> String {
+    std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../models/henon_heiles.lsl"
+    ))
+    .unwrap()
+}
+
+/// A state in the chaotic sea of the E = 1/8 section q₀ = 0 (Hénon & Heiles 1964, fig. 5):
+/// q₁ = −0.1, p₁ = 0, p₀ > 0 from the energy.
+fn henon_heiles_chaotic() -> Vec<f64> {
+    let q1: f64 = -0.1;
+    let p0 = (2.0 * (0.125 - q1 * q1 / 2.0 + q1.powi(3) / 3.0)).sqrt();
+    vec![0.0, q1, p0, 0.0]
+}
+
+fn load(text: &str, backend: Backend) -> LoadedModel {
+    LoadedModel::from_source("test.lsl", text, backend).unwrap()
+}
+
+fn spec(method: Method, t_end: f64, tol: f64) -> RunSpec {
+    let mut s = RunSpec::new(method, 0.0, t_end);
+    s.rtol = tol;
+    s.atol = tol;
+    s.every = u64::MAX;
+    s
+}
+
+const DOPRI5: Method = Method::Plain(Base::Dopri5);
+const TAYLOR: Method = Method::Taylor { feedback: false };
+
+/// The oscillator's Φ(t) = exp(At) = [[cos wt, sin wt / w], [−w sin wt, cos wt]], on every
+/// back end and with the adaptive methods.
+#[test]
+fn oscillator_stm_is_exp_at() {
+    let (w, t) = (1.7f64, 13.0f64);
+    let exact = [
+        [(w * t).cos(), (w * t).sin() / w],
+        [-w * (w * t).sin(), (w * t).cos()],
+    ];
+    for backend in Backend::available() {
+        for method in [DOPRI5, TAYLOR] {
+            let m = load(OSC, *backend);
+            let x0 = m.point("start").unwrap();
+            let tr = state_transition(&m, &x0, &spec(method, t, 1e-12)).unwrap();
+            for i in 0..2 {
+                for j in 0..2 {
+                    let err = (tr.phi[i][j] - exact[i][j]).abs();
+                    assert!(
+                        err < 1e-9,
+                        "{backend:?} {method}: Φ[{i}][{j}] off by {err:e}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// A non-normal linear system: the damped oscillator's exp(At) in closed form.
+#[test]
+fn damped_oscillator_stm_is_exp_at() {
+    let (c, w, t) = (0.3f64, 2.0f64, 7.5f64);
+    // A = [[0, 1], [−w², −c]]: exp(At) = e^{−ct/2} [cos Ωt I + sin(Ωt)/Ω (A + c/2 I)]
+    let om = (w * w - c * c / 4.0).sqrt();
+    let (e, co, si) = ((-c * t / 2.0).exp(), (om * t).cos(), (om * t).sin() / om);
+    let exact = [
+        [e * (co + si * c / 2.0), e * si],
+        [e * si * (-w * w), e * (co + si * (-c + c / 2.0))],
+    ];
+    let m = load(DAMPED, Backend::default());
+    let tr = state_transition(&m, &[1.0, 0.0], &spec(DOPRI5, t, 1e-12)).unwrap();
+    for i in 0..2 {
+        for j in 0..2 {
+            assert!(
+                (tr.phi[i][j] - exact[i][j]).abs() < 1e-9,
+                "Φ[{i}][{j}] = {} ≠ {}",
+                tr.phi[i][j],
+                exact[i][j]
+            );
+        }
+    }
+}
+
+/// Kepler's Φ over two orbits of an eccentric orbit: against central differences of the
+/// flow, the identity Φ(t)X(x₀) = X(x(t)) and symplecticity ΦᵀJΦ = J.
+#[test]
+fn kepler_stm_matches_finite_differences_and_flow_identities() {
+    let m = load(KEPLER, Backend::default());
+    let x0 = m.point("start").unwrap();
+    let t = 12.0;
+    let tight = spec(DOPRI5, t, 1e-13);
+    let tr = state_transition(&m, &x0, &tight).unwrap();
+    let flow = |x: &[f64]| {
+        simulate(&m, &x.to_vec(), &tight)
+            .unwrap()
+            .last_state()
+            .to_vec()
+    };
+    let h = 1e-5;
+    for j in 0..4 {
+        let (mut a, mut b) = (x0.clone(), x0.clone());
+        a[j] += h;
+        b[j] -= h;
+        let (fa, fb) = (flow(&a), flow(&b));
+        for i in 0..4 {
+            let fd = (fa[i] - fb[i]) / (2.0 * h);
+            let err = (fd - tr.phi[i][j]).abs();
+            assert!(
+                err < 1e-5 * (1.0 + fd.abs()),
+                "Φ[{i}][{j}] = {} vs central difference {fd}",
+                tr.phi[i][j]
+            );
+        }
+    }
+    let field = |x: &[f64]| {
+        let r3 = (x[0] * x[0] + x[1] * x[1]).powf(1.5);
+        [x[2], x[3], -x[0] / r3, -x[1] / r3]
+    };
+    let (f0, f1) = (field(&x0), field(&tr.x));
+    for i in 0..4 {
+        let phi_f0: f64 = (0..4).map(|j| tr.phi[i][j] * f0[j]).sum();
+        assert!(
+            (phi_f0 - f1[i]).abs() < 1e-8,
+            "(Φ X(x₀))[{i}] = {phi_f0} ≠ {}",
+            f1[i]
+        );
+    }
+    // J = [[0, I], [−I, 0]] on (x, v)
+    let jmul = |v: [f64; 4]| [v[2], v[3], -v[0], -v[1]];
+    for a in 0..4 {
+        for b in 0..4 {
+            let col = |k: usize| [tr.phi[0][k], tr.phi[1][k], tr.phi[2][k], tr.phi[3][k]];
+            let jb = jmul(col(b));
+            let s: f64 = (0..4).map(|i| col(a)[i] * jb[i]).sum();
+            let expected = jmul(std::array::from_fn(|i| if i == b { 1.0 } else { 0.0 }))[a];
+            assert!((s - expected).abs() < 1e-8, "(ΦᵀJΦ)[{a}][{b}] = {s}");
+        }
+    }
+}
+
+/// Lorenz: the spectrum's sum is the (constant) divergence −(σ + 1 + β), the largest
+/// exponent 0.9056 and the middle one 0 (Sprott, Chaos and Time-Series Analysis, 2003).
+#[test]
+fn lorenz_spectrum() {
+    let m = load(LORENZ, Backend::default());
+    let sp = lyapunov_spectrum(&m, &[1.0, 1.0, 1.0], &spec(DOPRI5, 2000.0, 1e-10), 1.0).unwrap();
+    let sum: f64 = sp.exponents.iter().sum();
+    let divergence = -(10.0 + 1.0 + 8.0 / 3.0);
+    assert!((sum - divergence).abs() < 1e-6, "Σλ = {sum}");
+    assert!(
+        (sp.exponents[0] - 0.9056).abs() < 0.03,
+        "{:?}",
+        sp.exponents
+    );
+    assert!(sp.exponents[1].abs() < 0.01, "{:?}", sp.exponents);
+    assert!(
+        (sp.exponents[2] + 14.5723).abs() < 0.03,
+        "{:?}",
+        sp.exponents
+    );
+    assert_eq!(sp.renormalisations, 2000);
+}
+
+/// A damped oscillator: both exponents are −c/2 (its divergence is −c).
+#[test]
+fn damped_oscillator_spectrum_sums_to_the_divergence() {
+    let m = load(DAMPED, Backend::Interpreter);
+    let sp = lyapunov_spectrum(&m, &[1.0, 0.0], &spec(TAYLOR, 200.0, 1e-12), 0.5).unwrap();
+    assert!(
+        (sp.exponents.iter().sum::<f64>() + 0.3).abs() < 1e-9,
+        "{sp:?}"
+    );
+    for l in &sp.exponents {
+        assert!((l + 0.15).abs() < 0.02, "{sp:?}");
+    }
+}
+
+/// Hénon–Heiles in its chaotic sea: the spectrum is (λ, 0, 0, −λ) with λ > 0, and sums to 0.
+#[test]
+fn henon_heiles_spectrum_comes_in_pairs() {
+    let m = load(&henon_heiles(), Backend::default());
+    let x0 = henon_heiles_chaotic();
+    let sp = lyapunov_spectrum(&m, &x0, &spec(DOPRI5, 5000.0, 1e-11), 2.0).unwrap();
+    let l = &sp.exponents;
+    assert!(l[0] > 0.02, "{l:?}");
+    assert!((l[0] + l[3]).abs() < 1e-3 * l[0].max(1.0), "{l:?}");
+    assert!(l[1].abs() < 0.01 && l[2].abs() < 0.01, "{l:?}");
+    assert!(l.iter().sum::<f64>().abs() < 1e-8, "{l:?}");
+}
+
+/// MEGNO: ⟨Y⟩ → 0 on the oscillator's (isochronous) orbits, → 2 on a quasi-periodic orbit of
+/// Hénon–Heiles, and grows like λt/2 in its chaotic sea and on Lorenz's attractor, where the
+/// unit tangent vector's mean growth rate is the largest exponent.
+#[test]
+fn megno_limits() {
+    let osc = load(OSC, Backend::default());
+    let (_, ind) = indicators(&osc, &[0.3, -0.2], &spec(DOPRI5, 2000.0, 1e-12)).unwrap();
+    assert!(ind.megno_mean.abs() < 0.01, "{ind:?}");
+    assert!((ind.t - 2000.0).abs() < 1e-9);
+
+    let hh = load(&henon_heiles(), Backend::default());
+    let regular = hh.point("regular").unwrap();
+    let (_, ind) = indicators(&hh, &regular, &spec(TAYLOR, 5000.0, 1e-12)).unwrap();
+    assert!((ind.megno_mean - 2.0).abs() < 0.1, "{ind:?}");
+    assert!(ind.mle < 0.01, "{ind:?}");
+
+    let chaotic = henon_heiles_chaotic();
+    let (_, ind) = indicators(&hh, &chaotic, &spec(DOPRI5, 5000.0, 1e-11)).unwrap();
+    assert!(ind.megno_mean > 20.0 && ind.mle > 0.03, "{ind:?}");
+    // ⟨Y⟩ ≈ λt/2 for large t
+    let slope = 2.0 * ind.megno_mean / ind.t;
+    assert!((slope - ind.mle).abs() < 0.15 * ind.mle, "{ind:?}");
+
+    // Lorenz: the unit tangent vector's growth rate is the largest exponent, 0.9056
+    let lorenz = load(LORENZ, Backend::default());
+    let (_, ind) = indicators(&lorenz, &[1.0, 1.0, 1.0], &spec(DOPRI5, 2000.0, 1e-10)).unwrap();
+    assert!((ind.mle - 0.9056).abs() < 0.01, "{ind:?}");
+    assert!(
+        (2.0 * ind.megno_mean / ind.t - ind.mle).abs() < 0.02 * ind.mle,
+        "{ind:?}"
+    );
+}
+
+/// The same indicators from the JIT and the interpreter, and a method that changes x by
+/// something other than the field is refused.
+#[test]
+fn back_ends_agree_and_feedback_is_refused() {
+    let hh = henon_heiles();
+    let x0 = henon_heiles_chaotic();
+    let s = spec(DOPRI5, 50.0, 1e-12);
+    let got: Vec<_> = Backend::available()
+        .iter()
+        .map(|b| indicators(&load(&hh, *b), &x0, &s).unwrap().1)
+        .collect();
+    for g in &got[1..] {
+        assert!((g.fli - got[0].fli).abs() < 1e-9, "{got:?}");
+    }
+    let m = load(&hh, Backend::default());
+    let err = indicators(&m, &x0, &spec(Method::Feedback(Base::Rk4), 1.0, 1e-10)).unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("use euler, heun, rk4, dopri5 or taylor"),
+        "{err}"
+    );
+}
