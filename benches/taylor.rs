@@ -77,7 +77,7 @@ fn report(what: &str, kernels: &str, (time, (steps, err)): (Duration, (u64, f64)
 macro_rules! run {
     ($what:expr, $ty:ty, $stem:literal, $t_end:expr) => {{
         let opts = TaylorOptions::with_tol(1e-15);
-        let sys = <$ty>::default();
+        let sys = <$ty>::default().prepare();
         let x0 = sys.point_paper();
         let mut f0 = [0.0; <$ty>::M];
         sys.invariants(&x0, &mut f0);
@@ -101,7 +101,7 @@ macro_rules! run {
         });
         report($what, "tape", tape);
         let order =
-            Stepper::<f64, [f64; <$ty>::N], $ty>::order(&sys.taylor(opts).expect("kernels"));
+            Stepper::<f64, [f64; <$ty>::N], _>::order(&sys.taylor(opts).expect("kernels"));
         println!("{:<26} order {order}", "");
     }};
 }

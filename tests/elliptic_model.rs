@@ -157,7 +157,8 @@ fn euler_top_closed_form_matches_the_extremal() {
         c1: 1.0,
         c2: 2.0,
         c3: 3.0,
-    };
+    }
+    .prepare();
     let mut x0 = [0.0; 12];
     x0[..3].copy_from_slice(&[0.5, 0.0, 2.0]);
     x0[3] = 1.0;

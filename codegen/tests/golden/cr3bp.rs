@@ -460,6 +460,7 @@ pub mod cr3bp {
             }
         }
     }
+
     /// The machine kernels of `CR3BP`, generated from its tapes rather than written from its
     /// formulas: the parameter-only values of every function in f64 ([`Prelude`], a field of
     /// [`CR3BPPrepared`](super::CR3BPPrepared)), the Taylor-coefficient kernels of X and X − ∇V

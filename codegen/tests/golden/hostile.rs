@@ -364,6 +364,7 @@ pub mod hostile {
             }
         }
     }
+
     /// The machine kernels of `Hostile`, generated from its tapes rather than written from its
     /// formulas: the parameter-only values of every function in f64 ([`Prelude`], a field of
     /// [`HostilePrepared`](super::HostilePrepared)), the Taylor-coefficient kernels of X and X − ∇V

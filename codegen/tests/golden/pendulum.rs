@@ -364,6 +364,7 @@ pub mod pendulum {
             }
         }
     }
+
     /// The machine kernels of `Pendulum`, generated from its tapes rather than written from its
     /// formulas: the parameter-only values of every function in f64 ([`Prelude`], a field of
     /// [`PendulumPrepared`](super::PendulumPrepared)), the Taylor-coefficient kernels of X and X − ∇V

@@ -654,6 +654,7 @@ pub mod rigid_body {
             }
         }
     }
+
     /// The machine kernels of `RigidBody`, generated from its tapes rather than written from its
     /// formulas: the parameter-only values of every function in f64 ([`Prelude`], a field of
     /// [`RigidBodyPrepared`](super::RigidBodyPrepared)), the Taylor-coefficient kernels of X and X − ∇V
