@@ -546,10 +546,8 @@ fn perturbed_kepler_projection_precesses() {
 fn gauss_newton_stability_limits() {
     let pk = PerturbedKepler::default().prepare();
     let x0 = pk.point_paper();
-    let l_paper =
-        gauss_newton_norm::<_, f64, [f64; 6], [f64; 4]>(&pk, &x0, &[2.0, 3.0]);
-    let l_unit =
-        gauss_newton_norm::<_, f64, [f64; 6], [f64; 4]>(&pk, &x0, &[1.0, 1.0]);
+    let l_paper = gauss_newton_norm::<_, f64, [f64; 6], [f64; 4]>(&pk, &x0, &[2.0, 3.0]);
+    let l_unit = gauss_newton_norm::<_, f64, [f64; 6], [f64; 4]>(&pk, &x0, &[1.0, 1.0]);
     assert!(0.03 * l_paper > 2.0, "h·L = {}", 0.03 * l_paper);
     assert!(0.03 * l_unit < 2.0, "h·L = {}", 0.03 * l_unit);
     let rb = RigidBody::default().prepare();

@@ -10,15 +10,15 @@
 //!
 //! Run with `--nocapture` to see the table of `docs/so3.md`.
 
-use lasalle_analysis::closed_forms::{
-    casimir, exact_listing, printed_constants, prop_5_3_1_printed, prop_6_3_1_printed,
-    prop_7_3_2_printed, theorem_4_3_2_p3, Case, Constant, Extremal, P3Form, Printed, Type, CASES,
-};
 use lasalle::models::{
     so3_type_i::So3TypeI, so3_type_iia::So3TypeIia, so3_type_iib::So3TypeIib,
     so3_type_iii::So3TypeIii,
 };
 use lasalle::{Control, DormandPrince, DormandPrinceOptions, Driver};
+use lasalle_analysis::closed_forms::{
+    casimir, exact_listing, printed_constants, prop_5_3_1_printed, prop_6_3_1_printed,
+    prop_7_3_2_printed, theorem_4_3_2_p3, Case, Constant, Extremal, P3Form, Printed, Type, CASES,
+};
 
 const OUTPUTS: usize = 501;
 const TOL: f64 = 1e-10;

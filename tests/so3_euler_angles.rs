@@ -14,7 +14,6 @@
 //!
 //! Run with `--nocapture` to see the numbers of `docs/so3.md`.
 
-use lasalle_analysis::closed_forms::{Case, Extremal, Type, CASES};
 use lasalle::models::{
     so3_type_i::So3TypeI, so3_type_iia::So3TypeIia, so3_type_iib::So3TypeIib,
     so3_type_iii::So3TypeIii,
@@ -22,6 +21,7 @@ use lasalle::models::{
 use lasalle::{
     Backend, Control, DormandPrince, DormandPrinceOptions, Driver, LoadedModel, Parameters,
 };
+use lasalle_analysis::closed_forms::{Case, Extremal, Type, CASES};
 
 const OUTPUTS: usize = 501;
 const TOL: f64 = 1e-9;
@@ -97,7 +97,13 @@ fn reconstruct(ty: Type, c: [f64; 3], p0: [f64; 3], g0: &Mat, times: &[f64]) -> 
     let driver = Driver::new(0.0, *times.last().unwrap(), 0.0).max_steps(10_000_000);
     let [c1, c2, c3] = c;
     let res = match ty {
-        Type::I => driver.run_dense(&mut dp, &So3TypeI::<f64> { c1 }.prepare(), &x0, times, &mut observer),
+        Type::I => driver.run_dense(
+            &mut dp,
+            &So3TypeI::<f64> { c1 }.prepare(),
+            &x0,
+            times,
+            &mut observer,
+        ),
         Type::IIa => {
             let m = So3TypeIia::<f64> { c1, c2 }.prepare();
             driver.run_dense(&mut dp, &m, &x0, times, &mut observer)

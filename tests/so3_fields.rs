@@ -237,7 +237,12 @@ macro_rules! with_model {
                 $body
             }
             Type::III => {
-                let $m = So3TypeIii::<f64> { c1: c[0], c2: c[1], c3: c[2] }.prepare();
+                let $m = So3TypeIii::<f64> {
+                    c1: c[0],
+                    c2: c[1],
+                    c3: c[2],
+                }
+                .prepare();
                 $body
             }
         }

@@ -170,13 +170,16 @@ fn the_prepared_model_reads_its_parameters_and_follows_set_param() {
     p.field(&x, &mut a);
     assert_eq!(a[1], -(9.81 / 2.0) * 0.5f64.sin());
     assert_eq!(p.l, 2.0); // the parameters, through Deref
-    // set_param prepares again: the prepared −g/l follows l
+                          // set_param prepares again: the prepared −g/l follows l
     p.set_param("l", &[4.0]).unwrap();
     p.field(&x, &mut a);
     assert_eq!(a[1], -(9.81 / 4.0) * 0.5f64.sin());
     assert_eq!(p.param("l"), Some(vec![4.0]));
     assert!(p.set_param("l", &[1.0, 2.0]).is_err());
-    assert_eq!(p.l, 4.0, "a rejected value leaves the parameters as they were");
+    assert_eq!(
+        p.l, 4.0,
+        "a rejected value leaves the parameters as they were"
+    );
 }
 
 #[test]
