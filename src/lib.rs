@@ -38,6 +38,7 @@ pub use lasalle_runtime::*;
 
 include!(concat!(env!("OUT_DIR"), "/model_files.rs"));
 
+
 /// The models generated from `models/*.lsl` at build time.
 #[allow(missing_docs)]
 pub mod models {

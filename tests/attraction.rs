@@ -7,12 +7,12 @@ mod common;
 
 use std::f64::consts::PI;
 
+use lasalle_analysis::attraction::{
+    AttractionError, Limit, LyapunovFunction, Mat2, Options, PlanarSystem,
+};
 use lasalle::{
     Backend, Control, DormandPrince, DormandPrinceOptions, Driver, Field, LoadedModel, Parameters,
     MODEL_FILES,
-};
-use lasalle_analysis::attraction::{
-    AttractionError, Limit, LyapunovFunction, Mat2, Options, PlanarSystem,
 };
 
 fn duffing() -> LoadedModel {
@@ -125,11 +125,7 @@ fn optimum_reproduces_the_report() {
     );
     // the energy of the undamped system: ℓ = 6.25 (the saddles' energy), V̇ = −x₂² ≤ 0
     let e = sys
-        .estimate(
-            LyapunovFunction::Let("energy"),
-            a.radius,
-            &Options::default(),
-        )
+        .estimate(LyapunovFunction::Let("energy"), a.radius, &Options::default())
         .unwrap();
     assert!((e.level - 6.25).abs() < 1e-9, "{}", e.level);
     assert_eq!(e.limit, Limit::NotIncreasing);

@@ -69,7 +69,7 @@ pub use params::{ParamError, Parameters};
 pub use state::State;
 pub use steppers::{
     pivoted_cholesky_solve, Composition, DenseOutput, DormandPrince, DormandPrinceOptions, Euler,
-    ExplicitRk, Heun, Projection, RigidBodySplitting, Rk4, Splitting, StepOutcome, Stepper,
-    StormerVerlet, Tableau, VerletVariant,
+    ExplicitRk, Heun, Projection, RigidBodySplitting, Rk4, Splitting, StepOutcome, Stepper, StormerVerlet,
+    Tableau, VerletVariant,
 };
 pub use taylor::{Taylor, TaylorError, TaylorField, TaylorKernel, TaylorKernels, TaylorOptions};

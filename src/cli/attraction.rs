@@ -7,10 +7,10 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use lasalle::{LoadedModel, ModelInfo, Parameters};
 use lasalle_analysis::attraction::{
     self, Analysis, Estimate, LyapunovFunction, Mat2, Options, PlanarSystem, Saddle,
 };
+use lasalle::{LoadedModel, ModelInfo, Parameters};
 
 use super::plot::{write_figure, Chart, Style};
 use super::CliResult;
@@ -151,10 +151,7 @@ pub fn run(
         None => sys.scalar_lets().into_iter().find(|n| n == "energy"),
     };
     let by_let = match &let_name {
-        Some(n) => Some((
-            n.clone(),
-            sys.estimate(LyapunovFunction::Let(n), radius, &opts)?,
-        )),
+        Some(n) => Some((n.clone(), sys.estimate(LyapunovFunction::Let(n), radius, &opts)?)),
         None => None,
     };
     let saddles = attraction::saddles_with_manifolds(&sys, model, radius)?;

@@ -9,10 +9,8 @@
 //!   dissipative planar field.
 
 use clap::Args;
+use lasalle_analysis::lie_poisson::{self as stability, Equilibrium, Family, Level, Options, Sweep};
 use lasalle::{ModelInfo, Parameters};
-use lasalle_analysis::lie_poisson::{
-    self as stability, Equilibrium, Family, Level, Options, Sweep,
-};
 use lasalle_codegen::Structure;
 
 use super::args::apply_param;

@@ -33,6 +33,7 @@ impl<T: Float> Splitting<T> {
             _ => None,
         }
     }
+
 }
 
 impl<T: Float, X: State<T>, F: ?Sized> Stepper<T, X, F> for Splitting<T> {

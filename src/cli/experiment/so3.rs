@@ -8,8 +8,8 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use lasalle::{Backend, Declared, Parameters};
 use lasalle_analysis::closed_forms::{Extremal, Type};
+use lasalle::{Backend, Declared, Parameters};
 use serde_json::json;
 
 use super::super::load::load;
