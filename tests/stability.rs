@@ -6,11 +6,10 @@
 //! Tolerances: equilibria to 10⁻⁸ (relative to ρ), eigenvalues and λ to 10⁻⁸ relative,
 //! verdict-change levels of a sweep to 10⁻⁶.
 
-use lasalle::{Backend, LoadedModel, Parameters, MODEL_FILES};
 use lasalle_analysis::lie_poisson::{
-    self as stability, Equilibrium, Extremum, LiePoissonSystem, Options, Probe, Verdict,
-    VerdictClass,
+    self as stability, Equilibrium, Extremum, LiePoissonSystem, Options, Probe, Verdict, VerdictClass,
 };
+use lasalle::{Backend, LoadedModel, Parameters, MODEL_FILES};
 
 fn model(stem: &str, params: &[(&str, f64)]) -> (LoadedModel, LiePoissonSystem) {
     let text = MODEL_FILES
