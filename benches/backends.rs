@@ -87,7 +87,7 @@ fn feed_back(xs: &mut [f64], x0: &[f64], dx: &[f64]) {
 
 macro_rules! feedback_bench {
     ($c:expr, $stem:literal, $ty:ty, $point:ident) => {{
-        let m = <$ty>::default();
+        let m = <$ty>::default().prepare();
         let x0 = m.$point();
         let target = m.targets(&x0);
         let gains = <$ty>::default_gains();
@@ -255,7 +255,7 @@ fn tapes(stem: &str) -> lasalle_codegen::tape::ModelTapes {
 macro_rules! lanes_bench {
     ($c:expr, $stem:literal, $ty:ty, $($k:literal),*) => {{
         const N: usize = <$ty>::N;
-        let m = <$ty>::default();
+        let m = <$ty>::default().prepare();
         let x0 = m.point_paper();
         let target = m.targets(&x0);
         let gains = <$ty>::default_gains();

@@ -5,10 +5,9 @@
 //! cargo bench --bench feedback -- field/       # ns per feedback-field evaluation only
 //! ```
 //!
-//! - `field/<model>/{prepared,generated,hand}`: one evaluation of X − ∇V at a state off the
-//!   target set (so every term of ∇V is live), inputs through `black_box`: `prepared` on the
-//!   prepared model (`model.prepare()`, parameter-only values computed once, as a run uses
-//!   it), `generated` on the model itself (which prepares the values it needs on every call);
+//! - `field/<model>/{prepared,hand}`: one evaluation of X − ∇V at a state off the target set
+//!   (so every term of ∇V is live), inputs through `black_box`: `prepared` on the prepared
+//!   model (`model.prepare()`, parameter-only values computed once, as a run uses it);
 //! - `run/rigid_body_1e7/{generated,hand}`: the paper's rigid-body experiment, 10⁷
 //!   feedback-Euler steps of Δt = 1e-4, as a plain loop x ← x + h·(X − ∇V)(x), the generated
 //!   field on the prepared model;
@@ -43,28 +42,16 @@ fn kepler_state() -> [f64; 6] {
 
 fn fields(c: &mut Criterion) {
     let rb = RigidBody::default();
+    let prepared = rb.prepare();
     let x0 = rb.point_paper();
-    let target = rb.targets(&x0);
+    let target = prepared.targets(&x0);
     let gains = RigidBody::<f64>::default_gains();
     let x = rigid_body_state();
     let mut g = c.benchmark_group("field/rigid_body");
-    let prepared = rb.prepare();
     g.bench_function("prepared", |b| {
         let mut dx = [0.0; 12];
         b.iter(|| {
             black_box(&prepared).feedback_field(
-                black_box(&x),
-                black_box(&target),
-                black_box(&gains),
-                &mut dx,
-            );
-            black_box(dx)
-        })
-    });
-    g.bench_function("generated", |b| {
-        let mut dx = [0.0; 12];
-        b.iter(|| {
-            black_box(&rb).feedback_field(
                 black_box(&x),
                 black_box(&target),
                 black_box(&gains),
@@ -91,29 +78,17 @@ fn fields(c: &mut Criterion) {
     g.finish();
 
     let kp = Kepler::default();
+    let prepared = kp.prepare();
     let s0 = kp.point_paper();
     let mut target = [0.0; 6];
-    kp.invariants(&s0, &mut target);
+    prepared.invariants(&s0, &mut target);
     let gains = Kepler::<f64>::default_gains();
     let s = kepler_state();
     let mut g = c.benchmark_group("field/kepler");
-    let prepared = kp.prepare();
     g.bench_function("prepared", |b| {
         let mut ds = [0.0; 6];
         b.iter(|| {
             black_box(&prepared).feedback_field(
-                black_box(&s),
-                black_box(&target),
-                black_box(&gains),
-                &mut ds,
-            );
-            black_box(ds)
-        })
-    });
-    g.bench_function("generated", |b| {
-        let mut ds = [0.0; 6];
-        b.iter(|| {
-            black_box(&kp).feedback_field(
                 black_box(&s),
                 black_box(&target),
                 black_box(&gains),
@@ -148,7 +123,7 @@ const STEPS: u64 = 10_000_000;
 const H: f64 = 1e-4;
 
 fn runs(c: &mut Criterion) {
-    let rb = RigidBody::default();
+    let rb = RigidBody::default().prepare();
     let x0 = rb.point_paper();
     let target = rb.targets(&x0);
     let gains = RigidBody::<f64>::default_gains();

@@ -74,10 +74,18 @@ fn report(what: &str, kernels: &str, (time, (steps, err)): (Duration, (u64, f64)
     );
 }
 
+/// The order of a Taylor integrator on its model's own field.
+fn order_of<M, const N: usize>(taylor: &lasalle::Taylor<M>) -> u32
+where
+    lasalle::Taylor<M>: Stepper<f64, [f64; N], M>,
+{
+    Stepper::<f64, [f64; N], M>::order(taylor)
+}
+
 macro_rules! run {
     ($what:expr, $ty:ty, $stem:literal, $t_end:expr) => {{
         let opts = TaylorOptions::with_tol(1e-15);
-        let sys = <$ty>::default();
+        let sys = <$ty>::default().prepare();
         let x0 = sys.point_paper();
         let mut f0 = [0.0; <$ty>::M];
         sys.invariants(&x0, &mut f0);
@@ -100,8 +108,7 @@ macro_rules! run {
             (end.steps, max_error(&a, &b))
         });
         report($what, "tape", tape);
-        let order =
-            Stepper::<f64, [f64; <$ty>::N], $ty>::order(&sys.taylor(opts).expect("kernels"));
+        let order = order_of::<_, { <$ty>::N }>(&sys.taylor(opts).expect("kernels"));
         println!("{:<26} order {order}", "");
     }};
 }

@@ -188,7 +188,7 @@ fn adaptive_feedback_defaults_cost_about_the_plain_method() {
 /// the driver stops at the first check past the bound, with the step and the time.
 #[test]
 fn drift_bound_stops_the_driver() {
-    let m = RigidBody::<f64>::default();
+    let m = RigidBody::<f64>::default().prepare();
     let x0 = m.point_paper();
     let bound = DriftBound::new(&m, &x0, 10.0);
     let err = Driver::new(0.0, 1e4, 0.1)

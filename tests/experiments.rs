@@ -104,8 +104,8 @@ where
 #[test]
 fn handwritten_baseline_matches_generated_fields() {
     let mut rng = Rng::new(7);
-    let rb = RigidBody::default();
-    let kp = Kepler::default();
+    let rb = RigidBody::default().prepare();
+    let kp = Kepler::default().prepare();
     for _ in 0..500 {
         let x: [f64; 12] = std::array::from_fn(|_| rng.uniform(-1.5, 1.5));
         let target: [f64; 13] = std::array::from_fn(|_| rng.uniform(-2.0, 2.0));
@@ -215,7 +215,7 @@ fn rigid_body_experiment_feedback_beats_euler() {
 /// check integrates the Euler equations alone.
 #[test]
 fn rigid_body_euler_energy_gap_at_t_1000() {
-    let rb = RigidBody::default();
+    let rb = RigidBody::default().prepare();
     let inertia = rb.i;
     let energy = |w: &[f64]| {
         0.5 * (inertia[0] * w[0] * w[0] + inertia[1] * w[1] * w[1] + inertia[2] * w[2] * w[2])
@@ -333,7 +333,7 @@ fn rigid_body_splitting_variants_do_not_reproduce_the_paper_gap() {
 /// bounded; Störmer–Verlet keeps L to rounding (40 periods, Δt = 0.005).
 #[test]
 fn kepler_verlet_precesses_feedback_does_not() {
-    let kp = Kepler::default();
+    let kp = Kepler::default().prepare();
     let x0 = kp.point_paper();
     let period = 70.2481;
     let (h, t_end) = (0.005, 40.0 * period);
@@ -426,7 +426,7 @@ fn kepler_experiment_short() {
 /// apocentre (−9, 0, 0).
 #[test]
 fn dopri5_meets_tolerance_on_kepler() {
-    let kp = Kepler::default();
+    let kp = Kepler::default().prepare();
     let x0 = kp.point_paper();
     let period = 2.0 * std::f64::consts::PI * 5f64.powf(1.5);
     let tol = 1e-10;
@@ -544,16 +544,14 @@ fn perturbed_kepler_projection_precesses() {
 /// body the paper's gains need h < 2/L ≈ 1e-3.
 #[test]
 fn gauss_newton_stability_limits() {
-    let pk = PerturbedKepler::default();
+    let pk = PerturbedKepler::default().prepare();
     let x0 = pk.point_paper();
-    let l_paper =
-        gauss_newton_norm::<PerturbedKepler, f64, [f64; 6], [f64; 4]>(&pk, &x0, &[2.0, 3.0]);
-    let l_unit =
-        gauss_newton_norm::<PerturbedKepler, f64, [f64; 6], [f64; 4]>(&pk, &x0, &[1.0, 1.0]);
+    let l_paper = gauss_newton_norm::<_, f64, [f64; 6], [f64; 4]>(&pk, &x0, &[2.0, 3.0]);
+    let l_unit = gauss_newton_norm::<_, f64, [f64; 6], [f64; 4]>(&pk, &x0, &[1.0, 1.0]);
     assert!(0.03 * l_paper > 2.0, "h·L = {}", 0.03 * l_paper);
     assert!(0.03 * l_unit < 2.0, "h·L = {}", 0.03 * l_unit);
-    let rb = RigidBody::default();
-    let l_rb = gauss_newton_norm::<RigidBody, f64, [f64; 12], [f64; 13]>(
+    let rb = RigidBody::default().prepare();
+    let l_rb = gauss_newton_norm::<_, f64, [f64; 12], [f64; 13]>(
         &rb,
         &rb.point_paper(),
         &[50.0, 100.0, 50.0],
@@ -723,7 +721,7 @@ fn kepler_collision_stops_with_an_error() {
 /// projected (perturbed Kepler, tolerance 1e-8); the stepper is the runtime's.
 #[test]
 fn projection_with_tight_tolerance_projects_every_step() {
-    let pk = PerturbedKepler::default();
+    let pk = PerturbedKepler::default().prepare();
     let x0 = pk.point_paper();
     let mut proj = Projection::from_initial(ExplicitRk::<f64, 1, _>::euler(), &pk, &x0, 1e-8);
     let end = integrate(&mut proj, &pk, &x0, 0.0, 6.0, 0.03, &mut ()).unwrap();

@@ -241,7 +241,7 @@ fn loaded(stem: &str, backend: Backend) -> LoadedModel {
 /// adaptive DOPRI5 on Kepler, feedback-RK4 on the rigid body.
 #[test]
 fn loaded_and_compiled_models_integrate_identically() {
-    let compiled = Kepler::<f64>::default();
+    let compiled = Kepler::<f64>::default().prepare();
     let x0 = compiled.point_paper();
     let fb = FeedbackField::from_initial(&compiled, &x0, [4.0, 2.0]);
     let want_fb = integrate(
@@ -259,7 +259,7 @@ fn loaded_and_compiled_models_integrate_identically() {
     let mut dp = DormandPrince::with_tolerances(1e-10, 1e-10);
     let want_dp = integrate(&mut dp, &compiled, &x0, 0.0, 20.0, 0.0, &mut ()).unwrap();
 
-    let rb = RigidBody::<f64>::default();
+    let rb = RigidBody::<f64>::default().prepare();
     let y0 = rb.point_paper();
     let rb_fb = FeedbackField::from_initial(&rb, &y0, [50.0, 100.0, 50.0]);
     let mut rec = Recorder::new(&rb, &y0, 10, 200);

@@ -56,7 +56,7 @@ fn split<const N: usize>(x: &[f64; N], at: usize) -> (Vector3<f64>, Vector3<f64>
 
 #[test]
 fn kepler_matches_the_paper() {
-    let m = Kepler::<f64>::default();
+    let m = Kepler::<f64>::default().prepare();
     let (k1, k2) = (4.0, 2.0);
     let mu = m.mu;
     let mut rng = Rng::new(1);
@@ -112,7 +112,7 @@ fn kepler_matches_the_paper() {
 
 #[test]
 fn perturbed_kepler_matches_the_paper() {
-    let m = PerturbedKepler::<f64>::default();
+    let m = PerturbedKepler::<f64>::default().prepare();
     let (k1, k2) = (2.0, 3.0);
     let (mu, delta) = (m.mu, m.delta);
     let u = |r: f64| -mu / r - delta / r.powi(3);
@@ -158,7 +158,7 @@ fn perturbed_kepler_matches_the_paper() {
 
 #[test]
 fn rigid_body_matches_the_paper() {
-    let m = RigidBody::<f64>::default();
+    let m = RigidBody::<f64>::default().prepare();
     let inertia = Matrix3::from_diagonal(&Vector3::from_column_slice(&m.i));
     let (k0, k1, k2) = (50.0, 100.0, 50.0);
     let hat = |w: &Vector3<f64>| Matrix3::new(0.0, -w[2], w[1], w[2], 0.0, -w[0], -w[1], w[0], 0.0);
@@ -214,11 +214,11 @@ fn rigid_body_matches_the_paper() {
 #[test]
 fn paper_initial_conditions() {
     // §4.1: E(0) = 3, π(0) = (3, 2, 1)
-    let rb = RigidBody::<f64>::default();
+    let rb = RigidBody::<f64>::default().prepare();
     let f = rb.targets(&rb.point_paper());
     assert_close("rigid body E0, π0", &f[9..], &[3.0, 3.0, 2.0, 1.0], 1e-15);
     // §4.2: L(0) = (0, 0, √1.8), A(0) = (0.8, 0, 0)
-    let k = Kepler::<f64>::default();
+    let k = Kepler::<f64>::default().prepare();
     let f = k.targets(&k.point_paper());
     assert_close(
         "Kepler L0, A0",
@@ -227,7 +227,7 @@ fn paper_initial_conditions() {
         1e-15,
     );
     // §4.3: E(0) = −0.5390625, L(0) = (0, 0, 0.8)
-    let p = PerturbedKepler::<f64>::default();
+    let p = PerturbedKepler::<f64>::default().prepare();
     let f = p.targets(&p.point_paper());
     assert_close(
         "perturbed Kepler E0, L0",
@@ -239,8 +239,8 @@ fn paper_initial_conditions() {
 
 #[test]
 fn generated_code_is_generic_over_the_scalar() {
-    let m64 = RigidBody::<f64>::default();
-    let m32 = RigidBody::<f32>::default();
+    let m64 = RigidBody::<f64>::default().prepare();
+    let m32 = RigidBody::<f32>::default().prepare();
     let x = m64.point_paper();
     let x32 = x.map(|v| v as f32 * 1.01);
     let x64 = x32.map(f64::from);

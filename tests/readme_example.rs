@@ -6,7 +6,7 @@ use lasalle::{integrate, sample_capacity, ExplicitRk, FeedbackField, Recorder};
 
 #[test]
 fn readme_example() -> Result<(), Box<dyn std::error::Error>> {
-    let m = Kepler::<f64>::default();
+    let m = Kepler::<f64>::default().prepare();
     let x0 = m.point_paper(); // x = (1, 0, 0), v = (0, √1.8, 0)
     let fb = FeedbackField::from_initial(&m, &x0, [4.0, 2.0]); // ẋ = X(x) − ∇V(x)
     let mut rec = Recorder::new(&m, &x0, 100, sample_capacity(14_050, 100));

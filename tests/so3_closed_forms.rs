@@ -59,19 +59,19 @@ fn integrate_from(
     let [c1, c2, c3] = c;
     let res = match ty {
         Type::I => {
-            let m = So3TypeI::<f64> { c1 };
+            let m = So3TypeI::<f64> { c1 }.prepare();
             driver.run_dense(&mut dp, &m, &x0, &times, &mut observer)
         }
         Type::IIa => {
-            let m = So3TypeIia::<f64> { c1, c2 };
+            let m = So3TypeIia::<f64> { c1, c2 }.prepare();
             driver.run_dense(&mut dp, &m, &x0, &times, &mut observer)
         }
         Type::IIb => {
-            let m = So3TypeIib::<f64> { c1, c2 };
+            let m = So3TypeIib::<f64> { c1, c2 }.prepare();
             driver.run_dense(&mut dp, &m, &x0, &times, &mut observer)
         }
         Type::III => {
-            let m = So3TypeIii::<f64> { c1, c2, c3 };
+            let m = So3TypeIii::<f64> { c1, c2, c3 }.prepare();
             driver.run_dense(&mut dp, &m, &x0, &times, &mut observer)
         }
     };

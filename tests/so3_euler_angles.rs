@@ -97,17 +97,23 @@ fn reconstruct(ty: Type, c: [f64; 3], p0: [f64; 3], g0: &Mat, times: &[f64]) -> 
     let driver = Driver::new(0.0, *times.last().unwrap(), 0.0).max_steps(10_000_000);
     let [c1, c2, c3] = c;
     let res = match ty {
-        Type::I => driver.run_dense(&mut dp, &So3TypeI::<f64> { c1 }, &x0, times, &mut observer),
+        Type::I => driver.run_dense(
+            &mut dp,
+            &So3TypeI::<f64> { c1 }.prepare(),
+            &x0,
+            times,
+            &mut observer,
+        ),
         Type::IIa => {
-            let m = So3TypeIia::<f64> { c1, c2 };
+            let m = So3TypeIia::<f64> { c1, c2 }.prepare();
             driver.run_dense(&mut dp, &m, &x0, times, &mut observer)
         }
         Type::IIb => {
-            let m = So3TypeIib::<f64> { c1, c2 };
+            let m = So3TypeIib::<f64> { c1, c2 }.prepare();
             driver.run_dense(&mut dp, &m, &x0, times, &mut observer)
         }
         Type::III => {
-            let m = So3TypeIii::<f64> { c1, c2, c3 };
+            let m = So3TypeIii::<f64> { c1, c2, c3 }.prepare();
             driver.run_dense(&mut dp, &m, &x0, times, &mut observer)
         }
     };

@@ -225,27 +225,24 @@ macro_rules! with_model {
         let c: [f64; 3] = $c;
         match $ty {
             Type::I => {
-                let mut $m = So3TypeI::<f64>::default();
-                $m.c1 = c[0];
+                let $m = So3TypeI::<f64> { c1: c[0] }.prepare();
                 $body
             }
             Type::IIa => {
-                let mut $m = So3TypeIia::<f64>::default();
-                $m.c1 = c[0];
-                $m.c2 = c[1];
+                let $m = So3TypeIia::<f64> { c1: c[0], c2: c[1] }.prepare();
                 $body
             }
             Type::IIb => {
-                let mut $m = So3TypeIib::<f64>::default();
-                $m.c1 = c[0];
-                $m.c2 = c[1];
+                let $m = So3TypeIib::<f64> { c1: c[0], c2: c[1] }.prepare();
                 $body
             }
             Type::III => {
-                let mut $m = So3TypeIii::<f64>::default();
-                $m.c1 = c[0];
-                $m.c2 = c[1];
-                $m.c3 = c[2];
+                let $m = So3TypeIii::<f64> {
+                    c1: c[0],
+                    c2: c[1],
+                    c3: c[2],
+                }
+                .prepare();
                 $body
             }
         }

@@ -12,7 +12,7 @@ fn close(a: &[f64], b: &[f64], rel: f64) -> bool {
 #[test]
 fn type_i_extremals_are_the_thesis_equations() {
     // Rodgerson (2009) (4.5)–(4.7): Ṗ1 = P2, Ṗ2 = −P1 + P1P3/c1, Ṗ3 = −P1P2/c1
-    let m = So3TypeI::<f64>::default();
+    let m = So3TypeI::<f64>::default().prepare();
     let c1 = m.c1;
     let mut x = m.point_thesis();
     for k in 0..200 {
@@ -40,7 +40,7 @@ fn type_i_extremals_are_the_thesis_equations() {
 
 #[test]
 fn cr3bp_canonical_equations_and_l4_equilibrium() {
-    let m = CR3BP::<f64>::default();
+    let m = CR3BP::<f64>::default().prepare();
     let mu = m.mu;
     for k in 0..200 {
         let s = k as f64 * 0.61;

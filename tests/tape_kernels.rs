@@ -1,8 +1,8 @@
 //! The kernels emitted from the tapes, on every model in `models/`:
-//! - the emitted Taylor kernels (`<Model>TaylorField`, `<Model>TaylorFeedback`) compute the
+//! - the emitted Taylor kernels (`kernels::TaylorField`, `kernels::TaylorFeedback`) compute the
 //!   coefficients that the interpreted `lasalle_exec::TaylorTape` computes, bitwise, at random
 //!   states, and the compiled and loaded Taylor integrators take the same steps;
-//! - every batched function (`<Model>Lanes`, K = 4 and 8) equals the scalar emitted function
+//! - every batched function (`kernels::Lanes`, K = 4 and 8) equals the scalar emitted function
 //!   (or the tape, for the Hamiltonian, which has no scalar function) lane by lane, bitwise;
 //! - a compiled Taylor step, plain or feedback, allocates nothing.
 
@@ -66,17 +66,18 @@ fn soa<const N: usize, const K: usize>(xs: &[[f64; N]; K]) -> [[f64; K]; N] {
 }
 
 macro_rules! check_model {
-    ($test:ident, $file:literal, $ty:ty, $field:ty, $feedback:ty, partitioned: $part:tt, hamiltonian: $ham:tt) => {
+    ($test:ident, $file:literal, $ty:ty, $prepared:ty, $field:ty, $feedback:ty, partitioned: $part:tt, hamiltonian: $ham:tt) => {
         mod $test {
             use super::*;
             type Model = $ty;
+            type Prepared = $prepared;
             const N: usize = Model::N;
             const M: usize = Model::M;
 
             #[test]
             fn taylor_kernels_agree_with_the_tape() {
                 let (model, tapes) = tapes($file);
-                let sys = Model::default();
+                let sys = Model::default().prepare();
                 let params = model.default_params();
                 let order = EMITTED_MAX_ORDER as u32;
                 let mut tf = TaylorTape::new(&tapes.field, &params, order).unwrap();
@@ -89,10 +90,10 @@ macro_rules! check_model {
                     let x: [f64; N] = std::array::from_fn(|_| rand());
                     let x0: [f64; N] = std::array::from_fn(|_| rand());
                     let target = sys.targets(&x0);
-                    TaylorKernel::<Model>::set_inputs(&mut eb, &target, &gains).unwrap();
+                    TaylorKernel::<Prepared>::set_inputs(&mut eb, &target, &gains).unwrap();
                     TaylorKernel::<LoadedModel>::set_inputs(&mut tb, &target, &gains).unwrap();
-                    same_coefficients::<Model>("field", &mut ef, &mut tf, &x);
-                    same_coefficients::<Model>("feedback", &mut eb, &mut tb, &x);
+                    same_coefficients::<Prepared>("field", &mut ef, &mut tf, &x);
+                    same_coefficients::<Prepared>("feedback", &mut eb, &mut tb, &x);
                 }
                 // a parameter change reaches the emitted kernels through `sync`
                 let mut changed = sys;
@@ -108,16 +109,16 @@ macro_rules! check_model {
                     .unwrap();
                 }
                 let p2 = changed.slot_values().to_vec();
-                TaylorKernel::<Model>::sync(&mut ef, &changed).unwrap();
+                TaylorKernel::<Prepared>::sync(&mut ef, &changed).unwrap();
                 tf.set_params(&p2).unwrap();
                 let x: [f64; N] = std::array::from_fn(|_| rand());
-                same_coefficients::<Model>("field after a parameter change", &mut ef, &mut tf, &x);
+                same_coefficients::<Prepared>("field after a parameter change", &mut ef, &mut tf, &x);
             }
 
             #[test]
             fn lanes_equal_scalar_calls() {
                 let (_, tapes) = tapes($file);
-                let sys = Model::default();
+                let sys = Model::default().prepare();
                 let params = sys.slot_values();
                 let mut rand = rng();
                 let gains = Model::default_gains();
@@ -132,7 +133,7 @@ macro_rules! check_model {
 
             #[allow(unused_variables)]
             fn check_lanes<const K: usize>(
-                sys: &Model,
+                sys: &Prepared,
                 lanes: &<Model as LanesOf>::Lanes,
                 tapes: &ModelTapes,
                 params: &[f64],
@@ -222,28 +223,28 @@ use models::{
 };
 
 lanes_of!(
-    co::CoupledOscillators => co::CoupledOscillatorsLanes,
-    cr3bp::CR3BP => cr3bp::CR3BPLanes,
-    cs::CR3BPSpatial => cs::CR3BPSpatialLanes,
-    kepler::Kepler => kepler::KeplerLanes,
-    pk::PerturbedKepler => pk::PerturbedKeplerLanes,
-    rb::RigidBody => rb::RigidBodyLanes,
-    s1::So3TypeI => s1::So3TypeILanes,
-    s2a::So3TypeIia => s2a::So3TypeIiaLanes,
-    s2b::So3TypeIib => s2b::So3TypeIibLanes,
-    s3::So3TypeIii => s3::So3TypeIiiLanes,
+    co::CoupledOscillators => co::kernels::Lanes,
+    cr3bp::CR3BP => cr3bp::kernels::Lanes,
+    cs::CR3BPSpatial => cs::kernels::Lanes,
+    kepler::Kepler => kepler::kernels::Lanes,
+    pk::PerturbedKepler => pk::kernels::Lanes,
+    rb::RigidBody => rb::kernels::Lanes,
+    s1::So3TypeI => s1::kernels::Lanes,
+    s2a::So3TypeIia => s2a::kernels::Lanes,
+    s2b::So3TypeIib => s2b::kernels::Lanes,
+    s3::So3TypeIii => s3::kernels::Lanes,
 );
 
-check_model!(coupled_oscillators, "coupled_oscillators.lsl", co::CoupledOscillators, co::CoupledOscillatorsTaylorField, co::CoupledOscillatorsTaylorFeedback, partitioned: true, hamiltonian: true);
-check_model!(cr3bp_planar, "cr3bp.lsl", cr3bp::CR3BP, cr3bp::CR3BPTaylorField, cr3bp::CR3BPTaylorFeedback, partitioned: false, hamiltonian: true);
-check_model!(cr3bp_spatial, "cr3bp_spatial.lsl", cs::CR3BPSpatial, cs::CR3BPSpatialTaylorField, cs::CR3BPSpatialTaylorFeedback, partitioned: false, hamiltonian: true);
-check_model!(kepler_model, "kepler.lsl", kepler::Kepler, kepler::KeplerTaylorField, kepler::KeplerTaylorFeedback, partitioned: true, hamiltonian: false);
-check_model!(perturbed_kepler, "perturbed_kepler.lsl", pk::PerturbedKepler, pk::PerturbedKeplerTaylorField, pk::PerturbedKeplerTaylorFeedback, partitioned: true, hamiltonian: false);
-check_model!(rigid_body, "rigid_body.lsl", rb::RigidBody, rb::RigidBodyTaylorField, rb::RigidBodyTaylorFeedback, partitioned: false, hamiltonian: false);
-check_model!(so3_type_i, "so3_type_i.lsl", s1::So3TypeI, s1::So3TypeITaylorField, s1::So3TypeITaylorFeedback, partitioned: false, hamiltonian: true);
-check_model!(so3_type_iia, "so3_type_iia.lsl", s2a::So3TypeIia, s2a::So3TypeIiaTaylorField, s2a::So3TypeIiaTaylorFeedback, partitioned: false, hamiltonian: true);
-check_model!(so3_type_iib, "so3_type_iib.lsl", s2b::So3TypeIib, s2b::So3TypeIibTaylorField, s2b::So3TypeIibTaylorFeedback, partitioned: false, hamiltonian: true);
-check_model!(so3_type_iii, "so3_type_iii.lsl", s3::So3TypeIii, s3::So3TypeIiiTaylorField, s3::So3TypeIiiTaylorFeedback, partitioned: false, hamiltonian: true);
+check_model!(coupled_oscillators, "coupled_oscillators.lsl", co::CoupledOscillators, co::CoupledOscillatorsPrepared, co::kernels::TaylorField, co::kernels::TaylorFeedback, partitioned: true, hamiltonian: true);
+check_model!(cr3bp_planar, "cr3bp.lsl", cr3bp::CR3BP, cr3bp::CR3BPPrepared, cr3bp::kernels::TaylorField, cr3bp::kernels::TaylorFeedback, partitioned: false, hamiltonian: true);
+check_model!(cr3bp_spatial, "cr3bp_spatial.lsl", cs::CR3BPSpatial, cs::CR3BPSpatialPrepared, cs::kernels::TaylorField, cs::kernels::TaylorFeedback, partitioned: false, hamiltonian: true);
+check_model!(kepler_model, "kepler.lsl", kepler::Kepler, kepler::KeplerPrepared, kepler::kernels::TaylorField, kepler::kernels::TaylorFeedback, partitioned: true, hamiltonian: false);
+check_model!(perturbed_kepler, "perturbed_kepler.lsl", pk::PerturbedKepler, pk::PerturbedKeplerPrepared, pk::kernels::TaylorField, pk::kernels::TaylorFeedback, partitioned: true, hamiltonian: false);
+check_model!(rigid_body, "rigid_body.lsl", rb::RigidBody, rb::RigidBodyPrepared, rb::kernels::TaylorField, rb::kernels::TaylorFeedback, partitioned: false, hamiltonian: false);
+check_model!(so3_type_i, "so3_type_i.lsl", s1::So3TypeI, s1::So3TypeIPrepared, s1::kernels::TaylorField, s1::kernels::TaylorFeedback, partitioned: false, hamiltonian: true);
+check_model!(so3_type_iia, "so3_type_iia.lsl", s2a::So3TypeIia, s2a::So3TypeIiaPrepared, s2a::kernels::TaylorField, s2a::kernels::TaylorFeedback, partitioned: false, hamiltonian: true);
+check_model!(so3_type_iib, "so3_type_iib.lsl", s2b::So3TypeIib, s2b::So3TypeIibPrepared, s2b::kernels::TaylorField, s2b::kernels::TaylorFeedback, partitioned: false, hamiltonian: true);
+check_model!(so3_type_iii, "so3_type_iii.lsl", s3::So3TypeIii, s3::So3TypeIiiPrepared, s3::kernels::TaylorField, s3::kernels::TaylorFeedback, partitioned: false, hamiltonian: true);
 
 /// Kepler (e = 0.8) over 10 periods: the compiled Taylor integrator (emitted kernels) and the
 /// loaded one (the interpreted tape) take the same steps; L and A are kept to 1e-12.
@@ -253,7 +254,7 @@ fn compiled_and_loaded_taylor_integrate_alike() {
     let path = format!("{}/models/kepler.lsl", env!("CARGO_MANIFEST_DIR"));
     let text = std::fs::read_to_string(&path).unwrap();
     let loaded = LoadedModel::from_source(&path, &text, Backend::Interpreter).unwrap();
-    let sys = kepler::Kepler::default();
+    let sys = kepler::Kepler::default().prepare();
     // e = 0.8 at perihelion: r = 0.2, v = sqrt(mu (1 + e) / r) with mu = 1
     let x0 = [0.2, 0.0, 0.0, 0.0, 9.0f64.sqrt(), 0.0];
     let params = sys.slot_values();
@@ -286,7 +287,7 @@ fn compiled_and_loaded_taylor_integrate_alike() {
 #[test]
 fn compiled_taylor_steps_do_not_allocate() {
     use lasalle_runtime::{FeedbackField, Stepper, TaylorOptions};
-    let sys = rb::RigidBody::default();
+    let sys = rb::RigidBody::default().prepare();
     let x0 = sys.point_paper();
     let fb = FeedbackField::from_initial(&sys, &x0, rb::RigidBody::default_gains());
     let mut taylor = sys.taylor(TaylorOptions::with_tol(1e-15)).unwrap();

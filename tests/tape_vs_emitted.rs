@@ -64,7 +64,7 @@ macro_rules! check_model {
             const N: usize = Model::N;
             const M: usize = Model::M;
             let (model, tapes) = tapes($file);
-            let sys = Model::default();
+            let sys = Model::default().prepare();
             let params = model.default_params();
             let gains = Model::default_gains();
             let mut seed = 0x9e37_79b9_7f4a_7c15_u64;

@@ -24,6 +24,12 @@
 //! ```
 //! ([`lower_source`], [`derive()`], [`check()`], [`emit()`]; [`generate_source`] runs them all.)
 //!
+//! A model's module reads as written from the formulas first (the parameter struct
+//! `<Model>`, its `prepare()`, the prepared model `<Model>Prepared` that implements the
+//! runtime's traits once, each output under its model line), then fences the machine kernels
+//! generated from the tapes into one submodule, `kernels`, with one header and one lint
+//! `allow` (see the module docs of `emit`, and `docs/dsl.md`, "What is generated").
+//!
 //! # What is public
 //!
 //! Emission's output types ([`Emitted`], [`Stats`], [`Ops`]), the generated code
@@ -95,7 +101,8 @@ pub struct GeneratedModel {
     pub code: String,
     /// The same items as token text (with the note markers), to build modules from.
     items: String,
-    /// The kernels emitted from the tapes (Taylor kernels, lanes), formatted when generated:
+    /// The module `kernels` emitted from the tapes (preludes, Taylor kernels, lanes),
+    /// formatted when generated:
     /// straight-line code too large to go through the formatter again in every module file.
     tape_code: String,
     /// Statistics.
@@ -140,8 +147,8 @@ pub fn generate_source(path: &str, text: &str) -> Result<GeneratedModel> {
 }
 
 impl GeneratedModel {
-    /// `pub mod <module> { … }` with the summary as its docs, formatted, the tape kernels at
-    /// the end of the module.
+    /// `pub mod <module> { … }` with the summary as its docs, formatted, the module `kernels`
+    /// at the end.
     fn module_text(&self) -> String {
         let mut text = emit::format(&self.module_tokens())
             .expect("the items of every model parsed when they were generated");

@@ -18,9 +18,10 @@
 //!   programs too large to unroll);
 //! - the emitted Rust of a compiled model has the recurrences of each field as straight-line
 //!   code per tape instruction inside a loop over the order ([`Recurrences`], implemented by
-//!   `<Model>FieldRecurrences` and `<Model>FeedbackRecurrences`), and one generic kernel,
-//!   [`Emitted`], holds their table and inputs, allocated once (`<Model>TaylorField` is
-//!   `Emitted<<Model>FieldRecurrences>`).
+//!   `kernels::FieldRecurrences` and `kernels::FeedbackRecurrences` of the model's module),
+//!   and one generic kernel, [`Emitted`], holds their table and inputs, allocated once
+//!   (`kernels::TaylorField` is `Emitted<FieldRecurrences>`); the parameter-only values are
+//!   the prepared model's (`kernels::Prelude`), copied at every [`TaylorKernel::sync`].
 //!
 //! All run the same lowering of the tape into recurrences (`lasalle_model::tape::taylor`)
 //! and the same recurrence functions ([`rec`]; the JIT emits their operations), in the same
@@ -116,8 +117,8 @@ use crate::steppers::{DenseOutput, StepOutcome, Stepper};
 pub const EMITTED_MAX_ORDER: usize = 32;
 
 /// The recurrences of one field of a compiled model, emitted as straight-line Rust by the
-/// generator (`<Model>FieldRecurrences`, `<Model>FeedbackRecurrences`): the sizes, the
-/// parameter slots, the parameter-only values and the coefficient recurrences. [`Emitted`]
+/// generator (`kernels::FieldRecurrences`, `kernels::FeedbackRecurrences` of the model's
+/// module): the sizes, the parameter-only values and the coefficient recurrences. [`Emitted`]
 /// turns them into a [`TaylorKernel`]; the emitted code holds only what differs per field.
 pub trait Recurrences<M: ?Sized> {
     /// The kernel's name, for messages.
@@ -126,8 +127,6 @@ pub trait Recurrences<M: ?Sized> {
     const DIM: usize;
     /// Rows of the coefficient table (the tape's registers).
     const ROWS: usize;
-    /// Parameter slots.
-    const PARAMS: usize;
     /// Parameter-only values the recurrences read.
     const HOISTED: usize;
     /// Targets f(x₀) (0 for the plain field).
@@ -135,11 +134,9 @@ pub trait Recurrences<M: ?Sized> {
     /// Gains (0 for the plain field).
     const GAINS: usize;
 
-    /// Writes the model's parameter slots (`PARAMS` values).
-    fn params(model: &M, out: &mut [f64]);
-
-    /// Writes the parameter-only values (`HOISTED`) of the parameter slots.
-    fn hoist(params: &[f64], hoisted: &mut [f64]);
+    /// The parameter-only values (`HOISTED`, the tape's prelude), as the prepared model holds
+    /// them.
+    fn hoisted(model: &M) -> &[f64];
 
     /// Fills the coefficients of orders 0..=`order` (≤ [`EMITTED_MAX_ORDER`]) of every row
     /// (`ROWS` rows) for the state `x`; row i < N is component i of the solution.
@@ -154,12 +151,9 @@ pub trait Recurrences<M: ?Sized> {
 }
 
 /// The [`TaylorKernel`] of emitted [`Recurrences`]: the coefficient table and the inputs,
-/// allocated once (`Emitted::<KeplerFieldRecurrences>::new(&model)`; the generator names it
-/// `<Model>TaylorField` and `<Model>TaylorFeedback`).
+/// allocated once (`Emitted::<FieldRecurrences>::new(&prepared)`; the generator names it
+/// `kernels::TaylorField` and `kernels::TaylorFeedback`).
 pub struct Emitted<R> {
-    params: Box<[f64]>,
-    /// The parameters read by the last [`TaylorKernel::sync`], compared with `params`.
-    fresh: Box<[f64]>,
     hoisted: Box<[f64]>,
     target: Box<[f64]>,
     gains: Box<[f64]>,
@@ -169,19 +163,13 @@ pub struct Emitted<R> {
 }
 
 impl<R> Emitted<R> {
-    /// The kernel with the parameters of `model`; targets and gains 0.
+    /// The kernel with the parameter-only values of `model`; targets and gains 0.
     pub fn new<M: ?Sized>(model: &M) -> Self
     where
         R: Recurrences<M>,
     {
-        let mut params = vec![0.0; R::PARAMS].into_boxed_slice();
-        R::params(model, &mut params);
-        let mut hoisted = vec![0.0; R::HOISTED].into_boxed_slice();
-        R::hoist(&params, &mut hoisted);
         Emitted {
-            fresh: params.clone(),
-            params,
-            hoisted,
+            hoisted: R::hoisted(model).into(),
             target: vec![0.0; R::TARGETS].into_boxed_slice(),
             gains: vec![0.0; R::GAINS].into_boxed_slice(),
             t: vec![[0.0; EMITTED_MAX_ORDER + 1]; R::ROWS].into_boxed_slice(),
@@ -201,11 +189,7 @@ impl<M: ?Sized, R: Recurrences<M>> TaylorKernel<M> for Emitted<R> {
     }
 
     fn sync(&mut self, model: &M) -> Result<(), StepError> {
-        R::params(model, &mut self.fresh);
-        if self.fresh != self.params {
-            std::mem::swap(&mut self.fresh, &mut self.params);
-            R::hoist(&self.params, &mut self.hoisted);
-        }
+        self.hoisted.copy_from_slice(R::hoisted(model));
         Ok(())
     }
 

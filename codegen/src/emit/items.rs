@@ -41,7 +41,8 @@ impl Emitter<'_> {
     pub fn struct_items(&mut self) -> TokenStream {
         let model = self.model;
         let points = self.point_fns();
-        let (ty, n, m, ng) = (&self.ty, u(self.n), u(self.m), u(self.gains()));
+        let (ty, prep) = (&self.ty, &self.prepared_ty);
+        let (n, m, ng) = (u(self.n), u(self.m), u(self.gains()));
         // no invariants (a dissipative field): an empty array, no zero-length repeat
         let targets_init = if self.m == 0 {
             quote!(let mut f: [T; 0] = [];)
@@ -147,14 +148,16 @@ impl Emitter<'_> {
                     [#(#gain_lits),*]
                 }
 
+                #(#points)*
+            }
+
+            impl<T: Float> #prep<T> {
                 /// The target f(x₀) of the feedback field: the invariants at the initial state.
                 pub fn targets(&self, x0: &[T; #n]) -> [T; #m] {
                     #targets_init
                     self.invariants(x0, &mut f);
                     f
                 }
-
-                #(#points)*
             }
         }
     }
@@ -283,22 +286,7 @@ impl Emitter<'_> {
             .iter()
             .map(|k| Literal::f64_unsuffixed(k.default));
         let prep = &self.prepared_ty;
-        let info_impls = [
-            (quote!(#ty<T>), quote!(Self)),
-            (quote!(#prep<T>), quote!(#ty::<T>)),
-        ]
-        .map(|(target, consts)| {
-            quote! {
-                impl<T> ModelInfo for #target {
-                    fn model_name(&self) -> &'static str { #consts::NAME }
-                    fn state_slots(&self) -> &'static [Slot] { #consts::STATE }
-                    fn invariant_infos(&self) -> &'static [InvariantInfo] { #consts::INVARIANTS }
-                    fn gain_names(&self) -> &'static [&'static str] { #consts::GAIN_NAMES }
-                    fn default_gain_values(&self) -> &'static [f64] { #consts::DEFAULT_GAINS }
-                    fn param_slots(&self) -> &'static [Slot] { #consts::PARAMS }
-                }
-            }
-        });
+        let consts = quote!(#ty::<T>);
         quote! {
             impl<T> #ty<T> {
                 /// The model's name.
@@ -315,14 +303,20 @@ impl Emitter<'_> {
                 pub const PARAMS: &'static [Slot] = &[#(#param_slots),*];
             }
 
-            #(#info_impls)*
+            impl<T> ModelInfo for #prep<T> {
+                fn model_name(&self) -> &'static str { #consts::NAME }
+                fn state_slots(&self) -> &'static [Slot] { #consts::STATE }
+                fn invariant_infos(&self) -> &'static [InvariantInfo] { #consts::INVARIANTS }
+                fn gain_names(&self) -> &'static [&'static str] { #consts::GAIN_NAMES }
+                fn default_gain_values(&self) -> &'static [f64] { #consts::DEFAULT_GAINS }
+                fn param_slots(&self) -> &'static [Slot] { #consts::PARAMS }
+            }
         }
     }
 
     /// `impl Parameters`: parameters and points by name, for command lines and configs.
     pub fn parameters_impl(&self) -> TokenStream {
         let model = self.model;
-        let ty = &self.ty;
         let fields: Vec<_> = self
             .leaves
             .fields
@@ -333,12 +327,14 @@ impl Emitter<'_> {
             let name = &p.name;
             let len = u(p.slots());
             let assign = match (p.shape, p.diagonal) {
-                (Shape::Scalar, _) => quote!(self.#fi = values[0];),
-                (Shape::Vector(_), _) | (_, true) => quote!(self.#fi.copy_from_slice(values);),
+                (Shape::Scalar, _) => quote!(self.model.#fi = values[0];),
+                (Shape::Vector(_), _) | (_, true) => {
+                    quote!(self.model.#fi.copy_from_slice(values);)
+                }
                 (Shape::Matrix(r, c), false) => {
                     let (r, c) = (u(r), u(c));
                     quote! {
-                        for j in 0..#c { for i in 0..#r { self.#fi[i][j] = values[j * #r + i]; } }
+                        for j in 0..#c { for i in 0..#r { self.model.#fi[i][j] = values[j * #r + i]; } }
                     }
                 }
             };
@@ -348,7 +344,6 @@ impl Emitter<'_> {
                         return Err(ParamError::WrongLength { name: name.to_string(), expected: #len, given: values.len() });
                     }
                     #assign
-                    Ok(())
                 }
             }
         });
@@ -402,8 +397,10 @@ impl Emitter<'_> {
                     fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
                         match name {
                             #(#set_arms)*
-                            _ => #unknown,
+                            _ => return #unknown,
                         }
+                        *self = self.model.prepare();
+                        Ok(())
                     }
                 },
                 quote! {
@@ -434,34 +431,14 @@ impl Emitter<'_> {
         };
         let prep = &self.prepared_ty;
         quote! {
-            impl Parameters for #ty<f64> {
+            /// Parameters and points by name; setting a parameter prepares the model again.
+            impl Parameters for #prep<f64> {
                 #set_param
                 #param
                 fn point_names(&self) -> &'static [&'static str] {
                     &[#(#point_names),*]
                 }
                 #point
-            }
-
-            /// Setting a parameter prepares the model again.
-            impl Parameters for #prep<f64> {
-                fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
-                    self.model.set_param(name, values)?;
-                    *self = self.model.prepare();
-                    Ok(())
-                }
-
-                fn param(&self, name: &str) -> Option<Vec<f64>> {
-                    self.model.param(name)
-                }
-
-                fn point_names(&self) -> &'static [&'static str] {
-                    self.model.point_names()
-                }
-
-                fn point(&self, name: &str) -> Option<Vec<f64>> {
-                    self.model.point(name)
-                }
             }
         }
     }

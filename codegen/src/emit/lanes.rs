@@ -1,8 +1,8 @@
 //! Batched evaluation: every function of a compiled model for K states per call, structure of
 //! arrays, emitted from the model's tapes.
 //!
-//! `<Model>::lanes(&self)` runs the preludes once (the parameter-only values of every tape)
-//! and returns a `<Model>Lanes`, whose methods (`field`, `invariants`, `jacobian`,
+//! `<Model>Prepared::lanes(&self)` returns a `kernels::Lanes` over the prepared model's
+//! preludes (the parameter-only values of every tape, computed once by `prepare`), whose methods (`field`, `invariants`, `jacobian`,
 //! `lyapunov`, `lyapunov_gradient`, `feedback`, and `hamiltonian`, `field_q`, `field_p` when
 //! the model has them) take `x: &[[f64; K]; N]` (component i of lane l at `x[i][l]`, the
 //! layout of `lasalle_exec::Kernel::eval_lanes` with k = K) and write `out: &mut [[f64; K];
@@ -24,35 +24,20 @@ use super::taylor::{f64_lit, op_expr};
 use crate::tape::{ModelTapes, Op, Tape};
 use std::fmt::Write;
 
-/// The `<Model>Lanes` struct, its methods, and `<Model>::lanes`, formatted.
-pub(super) fn lanes_items(ty: &str, tapes: &ModelTapes) -> String {
-    let all = tapes.all();
-    let fields: String = all
-        .iter()
-        .map(|(name, tape)| format!("    {name}: [f64; {}],\n", tape.hoisted.len()))
-        .collect();
-    let inits: String = all
-        .iter()
-        .map(|(name, _)| format!("            {name}: hoist_{name}(&p),\n"))
-        .collect();
+/// The `Lanes` struct and its methods, formatted (`<Model>Prepared::lanes` makes one).
+pub(super) fn lanes_items(prep: &str, tapes: &ModelTapes) -> String {
     let mut s = format!(
-        "/// The model's functions for K states per call (structure of arrays), with the
-/// parameter-only values computed once: see `{ty}::lanes`.
+        "/// The model's functions for K states per call (structure of arrays), reading the
+/// parameter-only values of [`{prep}`](super::{prep}): see `{prep}::lanes`.
 #[derive(Clone, Debug)]
-pub struct {ty}Lanes {{
-{fields}}}
-impl<T: Float> {ty}<T> {{
-    /// The batched functions with the current parameters (their preludes run now).
-    pub fn lanes(&self) -> {ty}Lanes {{
-        let p = self.slot_values();
-        {ty}Lanes {{
-{inits}        }}
-    }}
+pub struct Lanes {{
+    prelude: Prelude,
 }}
-impl {ty}Lanes {{
+
+impl Lanes {{
 "
     );
-    for (name, tape) in &all {
+    for (name, tape) in &tapes.all() {
         s.push_str(&lanes_fn(name, tape));
     }
     s.push_str("}\n");
@@ -74,13 +59,12 @@ fn lanes_fn(name: &str, tape: &Tape) -> String {
     let mut s = format!(
         "    /// `{name}` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
     /// of lane l; each lane equals the scalar function bitwise.
-    #[allow(unused_variables, clippy::all)]
     pub fn {name}<const K: usize>(
         &self,
         x: &[[f64; K]; {n}],{inputs}
         out: &mut [[f64; K]; {nout}],
     ) {{
-        let h = &self.{name};
+        let h = &self.prelude.{name};
 "
     );
     for (i, op) in tape.body.iter().enumerate() {

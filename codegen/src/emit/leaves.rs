@@ -1,5 +1,11 @@
 //! How a function reads its leaves: state components, parameters, targets and gains, each
-//! under a readable name (`x_0`, `mu`, `r_0_2`, `k1`), and which nodes carry `let` names.
+//! under a readable name (`x_0`, `mu`, `r_0_2`, `k1`, `l0_2`), and which nodes carry names of
+//! their own: `let` bindings (`r`) and the components of the invariants (`l_2`, `c_0_1`).
+//!
+//! An invariant's components are named as its state-like blocks are (`e`, `l_2`, `c_0_1`);
+//! its target f(x₀), an input of V, as the value at x₀ is written by hand (`e0`, `l0_2`,
+//! `c0_0_1`); the deviation of a component from its target, where it is a value of its own,
+//! gets a `d` (`de`, `dl_2`, see [`super::prepared::describe`]).
 
 use super::names::{identifier, snake, Scope};
 use super::{note_at, u, LineIndex};
@@ -16,6 +22,8 @@ pub struct Leaves<'a> {
     pub fields: Vec<String>,
     /// Nodes bound by `let`: their name and the note quoting the binding.
     let_names: HashMap<Id, (String, String)>,
+    /// The components of the invariants: `l_2`, `c_0_1`.
+    invariant_names: HashMap<Id, String>,
 }
 
 /// The name of component `j` of a block called `base`: `x_0`, `r_1_2` (row 1, column 2; the
@@ -67,11 +75,45 @@ impl<'a> Leaves<'a> {
                     .or_insert_with(|| (component(&base, b.value.shape, j), note.clone()));
             }
         }
+        let mut invariant_names = HashMap::new();
+        for f in &model.invariants {
+            for (j, &id) in f.value.ids.iter().enumerate() {
+                if !model.graph.children(id).is_empty() {
+                    invariant_names
+                        .entry(id)
+                        .or_insert_with(|| component(&snake(&f.name), f.value.shape, j));
+                }
+            }
+        }
         Ok(Leaves {
             model,
             fields,
             let_names,
+            invariant_names,
         })
+    }
+
+    /// The name of a node that is a component of an invariant (`l_2`, `c_0_1`).
+    pub fn invariant_name(&self, id: Id) -> Option<&str> {
+        self.invariant_names.get(&id).map(String::as_str)
+    }
+
+    /// The invariant that stacked component k belongs to, and k's index in it.
+    fn invariant_of(&self, k: usize) -> (&lasalle_model::Invariant, usize) {
+        let f = self
+            .model
+            .invariants
+            .iter()
+            .find(|f| (f.offset..f.offset + f.value.shape.len()).contains(&k))
+            .expect("an invariant component");
+        (f, k - f.offset)
+    }
+
+    /// The name of component k of the stacked invariants (`e`, `l_2`, `c_0_1`), whose target
+    /// is `target[k]`.
+    pub fn invariant_component(&self, k: usize) -> String {
+        let (f, j) = self.invariant_of(k);
+        component(&snake(&f.name), f.value.shape, j)
     }
 
     /// The name and note of a node bound by `let`.
@@ -139,17 +181,8 @@ impl<'a> Leaves<'a> {
             }
             Input::Target(k) => {
                 let k = k as usize;
-                let f = model
-                    .invariants
-                    .iter()
-                    .find(|f| (f.offset..f.offset + f.value.shape.len()).contains(&k))
-                    .expect("target");
-                let base = snake(&f.name);
-                let name = if f.value.shape.len() == 1 {
-                    format!("{base}_0")
-                } else {
-                    format!("{base}_0_{}", k - f.offset)
-                };
+                let (f, j) = self.invariant_of(k);
+                let name = component(&format!("{}0", snake(&f.name)), f.value.shape, j);
                 let ku = u(k);
                 (name, quote!(target[#ku]))
             }

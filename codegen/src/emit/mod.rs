@@ -15,14 +15,37 @@
 //! - The maximal parameter-only subexpressions of each function are fields of the prepared
 //!   model `<Model>Prepared` (module `prepared`), computed once by `<Model>::prepare()`; inside
 //!   them negative powers are always divisions, so a field rounds the same for every function.
-//!   The trait impls with the real bodies are on the prepared model; the model's own impls
-//!   prepare and delegate (`#[inline]`, so a call computes only the fields it reads).
+//!   The same call runs the preludes of the machine kernels' tapes (`kernels::Prelude`, below):
+//!   parameters are prepared in one place, once per parameter set.
+//!
+//! # One model type for the runtime: the prepared one
+//!
+//! The runtime's traits (`Field`, `Invariants`, `Lyapunov`, `Partitioned`, `Declared`,
+//! `ModelInfo`, `Parameters`) are implemented once, on `<Model>Prepared`; the model struct
+//! `<Model>` holds the parameters (public fields, `Default`, the points, the state views) and
+//! offers `prepare()`. A run prepares once and every call reads the prepared values.
 //!
 //! Why a companion and not a cache in the model: the parameters stay public fields
-//! (`model.c1 = …`), and a cache next to them would go stale on such an assignment. The
-//! prepared model is immutable (private fields, `Deref` to the model for reading), so it is
-//! always consistent with the parameters it was made from; `Parameters::set_param` on it
-//! prepares again.
+//! (`model.c1 = …`), and a cache next to them would go stale on such an assignment. Why not
+//! impls on both, the model's preparing on every call: each trait would be written twice, and
+//! a call on the model would silently pay for the preparation. The prepared model is immutable
+//! (private fields, `Deref` to the model for reading), so it is always consistent with the
+//! parameters it was made from; `Parameters::set_param` on it prepares again.
+//!
+//! # Layout of the emitted module
+//!
+//! The readable part first, written from the formulas: the parameter struct, the prepared
+//! model, the state views, then the trait impls, each output under the model line it comes
+//! from. Leaves and values carry the names a person would give them: state and parameter
+//! components (`x_0`, `r_1_2`, `i_0`), the components of an invariant (`l_2`, `c_0_1`), its
+//! target f(x₀) (`l0_2`, `e0`), the deviation from it (`dl_2`, `de`), `let` names, and
+//! parameter-only values named after what they hold (`i_1_minus_i_2_over_i_0`).
+//!
+//! Then one module, `kernels`, with one header and one `allow` for all of it: the machine
+//! kernels generated from the tapes rather than the formulas (`taylor` and `lanes`): the
+//! preludes (`Prelude`, in the prepared model), the Taylor-coefficient kernels of X and X − ∇V
+//! and the batched functions for K states per call. They are straight-line code over numbered
+//! registers and table rows, appended as formatted text.
 //!
 //! The tapes (`crate::tape`) are lowered from the same rewritten graph with the same rules
 //! (their prelude is the prepared fields' computation), so the emitted Rust, the JIT and the
@@ -93,9 +116,9 @@ pub struct Emitted {
     pub summary: String,
     /// Operation counts.
     pub stats: Stats,
-    /// The kernels emitted from the tapes (Taylor kernels and lanes), already formatted: to
-    /// append to the formatted items (they are large, straight-line code that would dominate
-    /// the time of formatting).
+    /// The module `kernels` emitted from the tapes (preludes, Taylor kernels and lanes),
+    /// already formatted: to append to the formatted items (they are large, straight-line
+    /// code that would dominate the time of formatting).
     pub tape_code: String,
 }
 

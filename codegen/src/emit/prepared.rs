@@ -23,11 +23,12 @@ pub struct Prepared {
 }
 
 impl Prepared {
-    /// An empty list; `taken` are names the prepared struct may not use (its `model` field,
-    /// and the parameters, which `Deref` reaches through it).
+    /// An empty list; `taken` are names the prepared struct may not use (its `model` and
+    /// `kernels` fields, and the parameters, which `Deref` reaches through it).
     pub fn new(taken: &[&str]) -> Self {
         let mut scope = Scope::with(taken);
         scope.take("model");
+        scope.take("kernels");
         Prepared {
             fields: Vec::new(),
             index: HashMap::new(),
@@ -57,12 +58,44 @@ pub fn describe(g: &Graph, leaves: &Leaves, id: Id) -> Option<String> {
     describe_within(g, leaves, id, MAX_DEPTH)
 }
 
+/// The stacked invariant component k of a sum f_k(x) − target[k] (exactly one term is the
+/// negated target, and no other term is a target): the deviation V penalises.
+fn deviation(g: &Graph, id: Id) -> Option<usize> {
+    let Node::Add(ts) = g.node(id) else {
+        return None;
+    };
+    let target = |t: Id| match g.node(t) {
+        Node::Input(crate::ir::Input::Target(k)) => Some(*k as usize),
+        _ => None,
+    };
+    let negated_target = |t: Id| match g.node(t) {
+        Node::Mul(fs) if fs.len() == 2 && g.as_num(fs[0]) == Some(-1.0) => target(fs[1]),
+        _ => None,
+    };
+    let mut found = None;
+    for &t in ts.iter() {
+        match negated_target(t) {
+            Some(k) if found.is_none() => found = Some(k),
+            Some(_) => return None,
+            None if target(t).is_some() => return None,
+            None => {}
+        }
+    }
+    found
+}
+
 /// How deep [`describe`] looks into an expression (a longer name would not fit anyway).
 const MAX_DEPTH: usize = 4;
 
 fn describe_within(g: &Graph, leaves: &Leaves, id: Id, depth: usize) -> Option<String> {
     if let Some((name, _)) = leaves.let_name(id) {
         return Some(name.clone());
+    }
+    if let Some(name) = leaves.invariant_name(id) {
+        return Some(name.to_string());
+    }
+    if let Some(k) = deviation(g, id) {
+        return Some(format!("d{}", leaves.invariant_component(k)));
     }
     let depth = depth.checked_sub(1)?;
     let describe = |id: Id| describe_within(g, leaves, id, depth);
@@ -150,7 +183,7 @@ impl Emitter<'_> {
             &mut self.graph,
             &self.leaves,
             &outputs,
-            &["model"],
+            &["model", "kernels"],
             Hoisting::Prepare,
         );
         let names: Vec<_> = self
@@ -168,9 +201,10 @@ impl Emitter<'_> {
         });
         let struct_doc = format!(
             " The model `{}` with its parameter-only values computed once ([`{ty}::prepare`]): \
-             the functions of the runtime's traits read them instead of recomputing them at \
-             every call. Immutable: to change a parameter, change the model and prepare it \
-             again, or call `Parameters::set_param`, which prepares again.",
+             the runtime's traits are implemented on it, and its functions read these values \
+             instead of recomputing them at every call. Immutable: to change a parameter, \
+             change the model and prepare it again, or call `Parameters::set_param`, which \
+             prepares again.",
             self.model.name
         );
         let body_tokens = &body.tokens;
@@ -180,6 +214,8 @@ impl Emitter<'_> {
             pub struct #prep<T = f64> {
                 model: #ty<T>,
                 #(#names: T,)*
+                /// The same values for the machine kernels, per tape and in f64.
+                kernels: kernels::Prelude,
             }
 
             impl<T> Deref for #prep<T> {
@@ -191,13 +227,11 @@ impl Emitter<'_> {
             }
 
             impl<T: Float> #ty<T> {
-                /// The model with its parameter-only values computed, for runs: its trait
-                /// functions do less work per call than the model's own, which prepare on
-                /// every call.
-                #[inline]
+                /// The model with its parameter-only values computed, for runs: the runtime's
+                /// traits are implemented on the prepared model.
                 pub fn prepare(&self) -> #prep<T> {
                     #body_tokens
-                    #prep { model: *self, #(#inits,)* }
+                    #prep { model: *self, #(#inits,)* kernels: kernels::Prelude::new(&self.slot_values()) }
                 }
             }
         }

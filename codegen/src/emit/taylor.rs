@@ -1,8 +1,9 @@
-//! Emitted f64 kernels generated from the model's tapes ([`ModelTapes`]) rather than from the
-//! symbolic graph: the Taylor-coefficient kernels of the field and of X − ∇V
-//! (`<Model>TaylorField`, `<Model>TaylorFeedback`, see [`lasalle_runtime::taylor`]) and the
-//! batched evaluation of every function for K states per call (`<Model>Lanes`, see
-//! [`super::lanes`]).
+//! The module `kernels` of an emitted model: f64 kernels generated from the model's tapes
+//! ([`ModelTapes`]) rather than from the symbolic graph. The preludes of the tapes
+//! (`kernels::Prelude`, computed by `<Model>::prepare` and kept in the prepared model), the
+//! Taylor-coefficient kernels of the field and of X − ∇V (`kernels::TaylorField`,
+//! `kernels::TaylorFeedback`, see [`lasalle_runtime::taylor`]) and the batched evaluation of
+//! every function for K states per call (`kernels::Lanes`, see [`super::lanes`]).
 //!
 //! Both start from the tapes so that they compute what the tape interpreter and the JIT
 //! compute, bitwise: the tape is lowered exactly as the emitter writes the scalar functions
@@ -10,15 +11,16 @@
 //! the Taylor kernels run the lowering of [`TaylorProgram`] with the recurrence functions
 //! of `lasalle_runtime::taylor::rec`, exactly as `lasalle_exec::TaylorTape` interprets it.
 //!
-//! The items are written as formatted text and appended to the formatted items: they are
+//! The module is written as formatted text and appended to the formatted items, with one
+//! header and one `allow` (unused registers, clippy) for all of it: its items are
 //! straight-line code over numbered registers and table rows (`t[12][k]`), in which readable
 //! names would not help, and formatting them with `prettyplease` would take most of the
 //! generation time of a large model (5× the rest for 20 000 `let`s).
 //!
 //! # The emitted Taylor kernel
 //!
-//! Per field, a `Recurrences` impl (`<Model>FieldRecurrences`: sizes, parameter slots,
-//! hoisting and the coefficient loop); the runtime's generic `taylor::Emitted<R>` is the
+//! Per field, a `Recurrences` impl (`kernels::FieldRecurrences`: sizes, the prepared model's
+//! prelude and the coefficient loop); the runtime's generic `taylor::Emitted<R>` is the
 //! kernel and owns the inputs and the table `[[f64; P + 1]; ROWS]` with
 //! P = [`lasalle_runtime::taylor::EMITTED_MAX_ORDER`], allocated once. `compute` is one loop
 //! over the order k. Order 0 is the straight-line f64 code of every recurrence. Order k ≥ 1
@@ -95,16 +97,10 @@ pub(super) fn op_expr(op: &Op, r: impl Fn(crate::tape::Reg) -> String) -> String
     }
 }
 
-/// The function `hoist_<name>(p: &[f64; P]) -> [f64; H]`: the tape's prelude (parameters →
-/// hoisted values), f64 op for f64 op as `Tape::hoist`.
-fn hoist_fn(name: &str, tape: &Tape) -> String {
-    let (np, nh) = (tape.dims.params, tape.hoisted.len());
-    let mut s = format!(
-        "/// The parameter-only values of `{name}` (the prelude of its tape) from the parameter slots.
-#[allow(unused_variables, clippy::all)]
-fn hoist_{name}(p: &[f64; {np}]) -> [f64; {nh}] {{
-"
-    );
+/// One tape's prelude (parameter slots `p` → its hoisted values), f64 op for f64 op as
+/// `Tape::hoist`: a block of `let`s ending in the array of hoisted values.
+fn prelude_block(tape: &Tape) -> String {
+    let mut s = String::from("{\n");
     for (i, op) in tape.prelude.iter().enumerate() {
         let e = match *op {
             Op::Param(k) => format!("p[{k}]"),
@@ -114,15 +110,29 @@ fn hoist_{name}(p: &[f64; {np}]) -> [f64; {nh}] {{
         let _ = writeln!(s, "    let p{i}: f64 = {e};");
     }
     let hs: Vec<String> = tape.hoisted.iter().map(|r| format!("p{}", r.0)).collect();
-    let _ = writeln!(s, "    [{}]\n}}", hs.join(", "));
+    let _ = write!(s, "    [{}]\n}}", hs.join(", "));
     s
 }
 
+/// Indents every non-empty line of `text` by `by` spaces.
+fn indent(text: &str, by: usize) -> String {
+    text.lines()
+        .map(|l| {
+            if l.is_empty() {
+                "\n".to_string()
+            } else {
+                format!("{:by$}{l}\n", "")
+            }
+        })
+        .collect()
+}
+
 impl Emitter<'_> {
-    /// The kernels built from the tapes, formatted: the parameter slots as f64, the hoisting
-    /// functions, the Taylor kernels and the lanes.
+    /// The module `kernels`, formatted: the parameter slots as f64, the preludes of the tapes
+    /// (`Prelude`, a field of the prepared model), the Taylor kernels and the lanes.
     pub fn tape_items(&mut self, tapes: &ModelTapes) -> crate::Result<String> {
         let ty = self.ty.to_string();
+        let prep = self.prepared_ty.to_string();
         let np = self.model.param_slots();
         let slots: Vec<String> = (0..np)
             .map(|k| {
@@ -130,12 +140,41 @@ impl Emitter<'_> {
                 format!("{}.to_f64().unwrap_or(f64::NAN)", e.replace(' ', ""))
             })
             .collect();
+        let all = tapes.all();
+        let prelude_fields: String = all
+            .iter()
+            .map(|(name, tape)| format!("    {name}: [f64; {}],\n", tape.hoisted.len()))
+            .collect();
+        let prelude_inits: String = all
+            .iter()
+            .map(|(name, tape)| {
+                let block = indent(&prelude_block(tape), 12);
+                format!("            {name}: {},\n", block.trim())
+            })
+            .collect();
         let mut s = format!(
-            "impl<T: Float> {ty}<T> {{
+            "impl<T: Float> super::{ty}<T> {{
     /// The parameter slots as f64, in the order of `PARAMS` (matrices column-major).
     pub fn slot_values(&self) -> [f64; {np}] {{
         [{slots}]
     }}
+}}
+
+/// The parameter-only values of every tape (its prelude) in f64, computed once by
+/// `{ty}::prepare` (a field of the prepared model), read by the Taylor kernels and the lanes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Prelude {{
+{prelude_fields}}}
+
+impl Prelude {{
+    /// The preludes of every tape from the parameter slots, f64 op for f64 op as the tapes'.
+    pub fn new(p: &[f64; {np}]) -> Self {{
+        Prelude {{
+{prelude_inits}        }}
+    }}
+}}
+
+impl<T: Float> super::{prep}<T> {{
     /// The adaptive Taylor integrator (Jorba & Zou; `lasalle_runtime::taylor`) of the field
     /// and of X − ∇V over this model's emitted kernels.
     pub fn taylor(
@@ -144,51 +183,64 @@ impl Emitter<'_> {
     ) -> Result<lasalle_runtime::Taylor<Self>, lasalle_runtime::TaylorError> {{
         lasalle_runtime::Taylor::new(taylor_kernels(self), opts)
     }}
+
+    /// The model's functions for K states per call, with this model's parameters.
+    pub fn lanes(&self) -> Lanes {{
+        Lanes {{ prelude: self.kernels }}
+    }}
 }}
+
 /// The emitted Taylor kernels of the field and of X − ∇V.
-fn taylor_kernels<T: Float>(m: &{ty}<T>) -> lasalle_runtime::TaylorKernels<{ty}<T>> {{
+pub fn taylor_kernels<T: Float>(
+    m: &super::{prep}<T>,
+) -> lasalle_runtime::TaylorKernels<super::{prep}<T>> {{
     lasalle_runtime::TaylorKernels {{
-        field: Box::new({ty}TaylorField::new(m)),
-        feedback: Box::new({ty}TaylorFeedback::new(m)),
+        field: Box::new(TaylorField::new(m)),
+        feedback: Box::new(TaylorFeedback::new(m)),
     }}
 }}
 ",
             slots = slots.join(", ")
         );
-        for (name, tape) in tapes.all() {
-            s.push_str(&hoist_fn(name, tape));
-        }
         let field = TaylorProgram::new(&tapes.field).map_err(internal)?;
         let feedback = TaylorProgram::new(&tapes.feedback).map_err(internal)?;
         s.push_str(&self.taylor_kernel(
-            (
-                &format!("{ty}TaylorField"),
-                &format!("{ty}FieldRecurrences"),
-            ),
+            ("TaylorField", "FieldRecurrences"),
             "field",
             "X",
             &tapes.field,
             &field,
         ));
         s.push_str(&self.taylor_kernel(
-            (
-                &format!("{ty}TaylorFeedback"),
-                &format!("{ty}FeedbackRecurrences"),
-            ),
+            ("TaylorFeedback", "FeedbackRecurrences"),
             "feedback",
             "X − ∇V",
             &tapes.feedback,
             &feedback,
         ));
-        s.push_str(&super::lanes::lanes_items(&ty, tapes));
-        Ok(s)
+        s.push_str(&super::lanes::lanes_items(&prep, tapes));
+        let doc = format!(
+            "\n/// The machine kernels of `{ty}`, generated from its tapes rather than written from its
+/// formulas: the parameter-only values of every function in f64 ([`Prelude`], a field of
+/// [`{prep}`](super::{prep})), the Taylor-coefficient kernels of X and X − ∇V
+/// ([`TaylorField`], [`TaylorFeedback`]) and every function for K states per call
+/// ([`Lanes`]). Straight-line code over numbered registers and table rows, each operation the
+/// IEEE operation of the functions above, so that they agree bitwise with them, with the JIT
+/// and with the tape interpreter; not meant to be read.
+pub mod kernels {{
+    #![allow(unused_variables, clippy::all)]
+    use lasalle_runtime::num_traits::Float;
+
+"
+        );
+        Ok(format!("{doc}{}}}\n", indent(&s, 4)))
     }
 
     /// The `TaylorKernel` hook of the `Declared` impl.
     pub fn taylor_hook(&self) -> TokenStream {
         quote::quote! {
             fn taylor_kernels(&self, _max_order: u32) -> Result<lasalle_runtime::TaylorKernels<Self>, lasalle_runtime::TaylorError> {
-                Ok(taylor_kernels(self))
+                Ok(kernels::taylor_kernels(self))
             }
         }
     }
@@ -198,16 +250,15 @@ fn taylor_kernels<T: Float>(m: &{ty}<T>) -> lasalle_runtime::TaylorKernels<{ty}<
     fn taylor_kernel(
         &self,
         (kernel, recurrences): (&str, &str),
-        hoist: &str,
+        prelude: &str,
         what: &str,
         tape: &Tape,
         program: &TaylorProgram,
     ) -> String {
-        let ty = self.ty.to_string();
+        let (ty, prep) = (self.ty.to_string(), self.prepared_ty.to_string());
         let d = tape.dims;
-        let (n, np, nh, nt, ng, rows) = (
+        let (n, nh, nt, ng, rows) = (
             d.state,
-            d.params,
             tape.hoisted.len(),
             d.targets,
             d.gains,
@@ -256,21 +307,16 @@ pub type {kernel} = lasalle_runtime::taylor::Emitted<{recurrences}>;
 /// The recurrences of {what}'s tape (`lasalle_runtime::taylor::Recurrences`), {rows} rows of
 /// orders 0..=`EMITTED_MAX_ORDER`.
 pub struct {recurrences};
-impl<T: Float> lasalle_runtime::taylor::Recurrences<{ty}<T>> for {recurrences} {{
-    const NAME: &'static str = "{kernel}";
+impl<T: Float> lasalle_runtime::taylor::Recurrences<super::{prep}<T>> for {recurrences} {{
+    const NAME: &'static str = "{ty}: {kernel}";
     const DIM: usize = {n};
     const ROWS: usize = {rows};
-    const PARAMS: usize = {np};
     const HOISTED: usize = {nh};
     const TARGETS: usize = {nt};
     const GAINS: usize = {ng};
-    fn params(m: &{ty}<T>, out: &mut [f64]) {{
-        out.copy_from_slice(&m.slot_values());
+    fn hoisted(m: &super::{prep}<T>) -> &[f64] {{
+        &m.kernels.{prelude}
     }}
-    fn hoist(params: &[f64], hoisted: &mut [f64]) {{
-        hoisted.copy_from_slice(&hoist_{hoist}(params.try_into().expect("parameter slots: {np}")));
-    }}
-    #[allow(unused_variables, clippy::all)]
     fn compute(
         t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
         hoisted: &[f64],

@@ -51,12 +51,12 @@ impl Emitter<'_> {
         note_for(self.model, &f.span)
     }
 
-    /// `impl Field` for the prepared model and for the model (which prepares on every call),
-    /// and the body's operation count.
+    /// `impl Field` (on the prepared model, as every trait impl), and the body's operation
+    /// count.
     pub fn field_impl(&mut self) -> (TokenStream, u64) {
         let outputs = self.field_outputs(&self.model.field, |_| true);
         let body = self.body(&outputs, &["x", "dx"]);
-        let (ty, prep, n) = (&self.ty, &self.prepared_ty, u(self.n));
+        let (prep, n) = (&self.prepared_ty, u(self.n));
         let x = body.arg("x", is_state);
         let tokens = &body.tokens;
         (
@@ -65,12 +65,6 @@ impl Emitter<'_> {
                     fn field(&self, #x: &[T; #n], dx: &mut [T; #n]) { #tokens }
                 }
 
-                impl<T: Float> Field<T, [T; #n]> for #ty<T> {
-                    #[inline]
-                    fn field(&self, x: &[T; #n], dx: &mut [T; #n]) {
-                        self.prepare().field(x, dx)
-                    }
-                }
             },
             body.ops,
         )
@@ -105,7 +99,7 @@ impl Emitter<'_> {
             }
         }
         let jac = self.body(&jac_outputs, &["x", "jac"]);
-        let (ty, prep, n, m) = (&self.ty, &self.prepared_ty, u(self.n), u(self.m));
+        let (prep, n, m) = (&self.prepared_ty, u(self.n), u(self.m));
         let jac_init = if jac_outputs.len() < self.n * self.m {
             quote!(*jac = [[T::zero(); #n]; #m];)
         } else {
@@ -129,17 +123,6 @@ impl Emitter<'_> {
                 }
             }
 
-            impl<T: Float> Invariants<T, [T; #n], [T; #m]> for #ty<T> {
-                #[inline]
-                fn invariants(&self, x: &[T; #n], f: &mut [T; #m]) {
-                    self.prepare().invariants(x, f)
-                }
-
-                #[inline]
-                fn invariants_jacobian(&self, x: &[T; #n], jac: &mut [[T; #n]; #m]) {
-                    self.prepare().invariants_jacobian(x, jac)
-                }
-            }
         };
         (tokens, inv.ops, jac.ops, jac_ids)
     }
@@ -192,7 +175,7 @@ impl Emitter<'_> {
             })
             .collect();
         let fb = self.body(&fb_outputs, &["x", "target", "gains", "dx"]);
-        let (ty, prep) = (&self.ty, &self.prepared_ty);
+        let prep = &self.prepared_ty;
         let (n, m, ng) = (u(self.n), u(self.m), u(self.gains()));
         let sig = |b: &Body| {
             (
@@ -218,22 +201,6 @@ impl Emitter<'_> {
                 }
             }
 
-            impl<T: Float> Lyapunov<T, [T; #n], [T; #m], [T; #ng]> for #ty<T> {
-                #[inline]
-                fn lyapunov(&self, x: &[T; #n], target: &[T; #m], gains: &[T; #ng]) -> T {
-                    self.prepare().lyapunov(x, target, gains)
-                }
-
-                #[inline]
-                fn lyapunov_gradient(&self, x: &[T; #n], target: &[T; #m], gains: &[T; #ng], grad: &mut [T; #n]) {
-                    self.prepare().lyapunov_gradient(x, target, gains, grad)
-                }
-
-                #[inline]
-                fn feedback_field(&self, x: &[T; #n], target: &[T; #m], gains: &[T; #ng], dx: &mut [T; #n]) {
-                    self.prepare().feedback_field(x, target, gains, dx)
-                }
-            }
         };
         (tokens, [v.ops, grad.ops, fb.ops])
     }
@@ -251,34 +218,18 @@ impl Emitter<'_> {
             &self.field_outputs(&self.model.field, |k| !is_q[k]),
             &["x", "dx"],
         );
-        let (ty, prep, n) = (&self.ty, &self.prepared_ty, u(self.n));
+        let (prep, n) = (&self.prepared_ty, u(self.n));
         let (qx, px) = (q.arg("x", is_state), p.arg("x", is_state));
         let (q_tokens, p_tokens) = (&q.tokens, &p.tokens);
         quote! {
             impl<T: Float> Partitioned<T, [T; #n]> for #prep<T> {
                 fn is_q(&self) -> &[bool] {
-                    self.model.is_q()
+                    &[#(#is_q),*]
                 }
 
                 fn field_q(&self, #qx: &[T; #n], dx: &mut [T; #n]) { #q_tokens }
 
                 fn field_p(&self, #px: &[T; #n], dx: &mut [T; #n]) { #p_tokens }
-            }
-
-            impl<T: Float> Partitioned<T, [T; #n]> for #ty<T> {
-                fn is_q(&self) -> &[bool] {
-                    &[#(#is_q),*]
-                }
-
-                #[inline]
-                fn field_q(&self, x: &[T; #n], dx: &mut [T; #n]) {
-                    self.prepare().field_q(x, dx)
-                }
-
-                #[inline]
-                fn field_p(&self, x: &[T; #n], dx: &mut [T; #n]) {
-                    self.prepare().field_p(x, dx)
-                }
             }
         }
     }
@@ -286,7 +237,7 @@ impl Emitter<'_> {
     /// `impl Declared`: the model file's run presets, guards and structure-specific steppers.
     pub fn declared_impl(&mut self) -> TokenStream {
         let model = self.model;
-        let (ty, n) = (self.ty.clone(), u(self.n));
+        let n = u(self.n);
         let presets = model.presets.iter().map(|p| {
             let name = &p.name;
             let opt_str = |v: &Option<String>| match v {
@@ -333,8 +284,8 @@ impl Emitter<'_> {
                 }
             }
         };
-        let (guards, guards_delegate) = if model.guards.is_empty() {
-            (TokenStream::new(), TokenStream::new())
+        let guards = if model.guards.is_empty() {
+            TokenStream::new()
         } else {
             let k = u(model.guards.len());
             let outputs: Vec<Output> = model
@@ -358,21 +309,13 @@ impl Emitter<'_> {
             let mut checks = checks.collect::<Vec<_>>().into_iter();
             let first = checks.next().expect("at least one guard");
             let rest = checks.map(|c| quote!(.or_else(|| #c)));
-            (
-                quote! {
-                    fn check_guards(&self, #x: &[T; #n], #dt: T) -> Option<GuardFailure> {
-                        let mut margin = [T::zero(); #k];
-                        #tokens
-                        #first #(#rest)*
-                    }
-                },
-                quote! {
-                    #[inline]
-                    fn check_guards(&self, x: &[T; #n], dt: T) -> Option<GuardFailure> {
-                        self.prepare().check_guards(x, dt)
-                    }
-                },
-            )
+            quote! {
+                fn check_guards(&self, #x: &[T; #n], #dt: T) -> Option<GuardFailure> {
+                    let mut margin = [T::zero(); #k];
+                    #tokens
+                    #first #(#rest)*
+                }
+            }
         };
         let partitioned = if self.d.partition.is_some() {
             quote! {
@@ -395,37 +338,11 @@ impl Emitter<'_> {
             None => TokenStream::new(),
         };
         let taylor = self.taylor_hook();
-        // The prepared model's declarations are the model's, but for the functions it computes.
         let prep = &self.prepared_ty;
-        let prep_presets = if model.presets.is_empty() {
-            TokenStream::new()
-        } else {
-            quote! {
-                fn presets(&self) -> &'static [Preset] {
-                    self.model.presets()
-                }
-            }
-        };
-        let prep_splitting = if model.splitting.is_some() {
-            quote! {
-                fn splitting(&self) -> Option<Splitting<T>> {
-                    self.model.splitting()
-                }
-            }
-        } else {
-            TokenStream::new()
-        };
         quote! {
             impl<T: Float> Declared<T, [T; #n]> for #prep<T> {
-                #prep_presets
-                #guards
-                #partitioned
-                #prep_splitting
-            }
-
-            impl<T: Float> Declared<T, [T; #n]> for #ty<T> {
                 #presets
-                #guards_delegate
+                #guards
                 #partitioned
                 #splitting
                 #taylor

@@ -52,13 +52,6 @@ pub mod cr3bp {
             [T::one()]
         }
 
-        /// The target f(x₀) of the feedback field: the invariants at the initial state.
-        pub fn targets(&self, x0: &[T; 4]) -> [T; 1] {
-            let mut f = [T::zero(); 1];
-            self.invariants(x0, &mut f);
-            f
-        }
-
         /// The point `L4` (cr3bp.lsl:15: point L4 { q = [0.5 - mu, sqrt(3) / 2]; p = [-sqrt(3) / 2, 0.5 - mu]; }).
         pub fn point_l4(&self) -> [T; 4] {
             let mu = self.mu;
@@ -78,7 +71,16 @@ pub mod cr3bp {
         }
     }
 
-    /// The model `CR3BP` with its parameter-only values computed once ([`CR3BP::prepare`]): the functions of the runtime's traits read them instead of recomputing them at every call. Immutable: to change a parameter, change the model and prepare it again, or call `Parameters::set_param`, which prepares again.
+    impl<T: Float> CR3BPPrepared<T> {
+        /// The target f(x₀) of the feedback field: the invariants at the initial state.
+        pub fn targets(&self, x0: &[T; 4]) -> [T; 1] {
+            let mut f = [T::zero(); 1];
+            self.invariants(x0, &mut f);
+            f
+        }
+    }
+
+    /// The model `CR3BP` with its parameter-only values computed once ([`CR3BP::prepare`]): the runtime's traits are implemented on it, and its functions read these values instead of recomputing them at every call. Immutable: to change a parameter, change the model and prepare it again, or call `Parameters::set_param`, which prepares again.
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct CR3BPPrepared<T = f64> {
         model: CR3BP<T>,
@@ -86,6 +88,8 @@ pub mod cr3bp {
         neg_one_minus_mu: T,
         half_mu: T,
         half_one_minus_mu: T,
+        /// The same values for the machine kernels, per tape and in f64.
+        kernels: kernels::Prelude,
     }
 
     impl<T> Deref for CR3BPPrepared<T> {
@@ -97,10 +101,8 @@ pub mod cr3bp {
     }
 
     impl<T: Float> CR3BP<T> {
-        /// The model with its parameter-only values computed, for runs: its trait
-        /// functions do less work per call than the model's own, which prepare on
-        /// every call.
-        #[inline]
+        /// The model with its parameter-only values computed, for runs: the runtime's
+        /// traits are implemented on the prepared model.
         pub fn prepare(&self) -> CR3BPPrepared<T> {
             let mu = self.mu;
             let one_minus_mu = T::one() - mu;
@@ -113,6 +115,7 @@ pub mod cr3bp {
                 neg_one_minus_mu,
                 half_mu,
                 half_one_minus_mu,
+                kernels: kernels::Prelude::new(&self.slot_values()),
             }
         }
     }
@@ -167,13 +170,6 @@ pub mod cr3bp {
         }
     }
 
-    impl<T: Float> Field<T, [T; 4]> for CR3BP<T> {
-        #[inline]
-        fn field(&self, x: &[T; 4], dx: &mut [T; 4]) {
-            self.prepare().field(x, dx)
-        }
-    }
-
     impl<T: Float> Invariants<T, [T; 4], [T; 1]> for CR3BPPrepared<T> {
         fn invariants(&self, x: &[T; 4], f: &mut [T; 1]) {
             let [q_0, q_1, p_0, p_1] = *x;
@@ -213,23 +209,11 @@ pub mod cr3bp {
         }
     }
 
-    impl<T: Float> Invariants<T, [T; 4], [T; 1]> for CR3BP<T> {
-        #[inline]
-        fn invariants(&self, x: &[T; 4], f: &mut [T; 1]) {
-            self.prepare().invariants(x, f)
-        }
-
-        #[inline]
-        fn invariants_jacobian(&self, x: &[T; 4], jac: &mut [[T; 4]; 1]) {
-            self.prepare().invariants_jacobian(x, jac)
-        }
-    }
-
     impl<T: Float> Lyapunov<T, [T; 4], [T; 1], [T; 1]> for CR3BPPrepared<T> {
         fn lyapunov(&self, x: &[T; 4], target: &[T; 1], gains: &[T; 1]) -> T {
             let [q_0, q_1, p_0, p_1] = *x;
             let [k_h] = *gains;
-            let [h_0] = *target;
+            let [h0] = *target;
             let mu = self.mu;
             let one_minus_mu = self.one_minus_mu;
             let neg_one_minus_mu = self.neg_one_minus_mu;
@@ -241,7 +225,7 @@ pub mod cr3bp {
             // cr3bp.lsl: V = Σ k/2 |f − f(x₀)|² over the invariants
             lit::<T>(0.5) * k_h
                 * (lit::<T>(0.5) * (p_0 * p_0 + p_1 * p_1) + q_1 * p_0 - q_0 * p_1
-                    - one_minus_mu / r1 - mu / r2 - h_0)
+                    - one_minus_mu / r1 - mu / r2 - h0)
                     .powi(2)
         }
 
@@ -254,7 +238,7 @@ pub mod cr3bp {
         ) {
             let [q_0, q_1, p_0, p_1] = *x;
             let [k_h] = *gains;
-            let [h_0] = *target;
+            let [h0] = *target;
             let mu = self.mu;
             let one_minus_mu = self.one_minus_mu;
             let neg_one_minus_mu = self.neg_one_minus_mu;
@@ -271,20 +255,21 @@ pub mod cr3bp {
             let inv_r2 = T::one() / r2;
             let inv_r2_pow3 = inv_r2.powi(3);
             let inv_r1_pow3 = inv_r1.powi(3);
-            let t1 = k_h
+            let k_h_dh = k_h
                 * (lit::<T>(0.5) * (p_0 * p_0 + p_1 * p_1) + q_1 * p_0 - q_0 * p_1
-                    - one_minus_mu * inv_r1 - mu * inv_r2 - h_0);
+                    - one_minus_mu * inv_r1 - mu * inv_r2 - h0);
             // ∂V/∂x[0] (q_0)
             grad[0] = (mu * q_0_minus_one_minus_mu * inv_r2_pow3
-                + q_0_plus_mu * one_minus_mu * inv_r1_pow3 - p_1) * t1;
+                + q_0_plus_mu * one_minus_mu * inv_r1_pow3 - p_1) * k_h_dh;
             // ∂V/∂x[1] (q_1)
             grad[1] = (p_0
                 + lit::<T>(2.0) * q_1
-                    * (half_mu * inv_r2_pow3 + half_one_minus_mu * inv_r1_pow3)) * t1;
+                    * (half_mu * inv_r2_pow3 + half_one_minus_mu * inv_r1_pow3))
+                * k_h_dh;
             // ∂V/∂x[2] (p_0)
-            grad[2] = (q_1 + p_0) * t1;
+            grad[2] = (q_1 + p_0) * k_h_dh;
             // ∂V/∂x[3] (p_1)
-            grad[3] = (p_1 - q_0) * t1;
+            grad[3] = (p_1 - q_0) * k_h_dh;
         }
 
         fn feedback_field(
@@ -296,7 +281,7 @@ pub mod cr3bp {
         ) {
             let [q_0, q_1, p_0, p_1] = *x;
             let [k_h] = *gains;
-            let [h_0] = *target;
+            let [h0] = *target;
             let mu = self.mu;
             let one_minus_mu = self.one_minus_mu;
             let neg_one_minus_mu = self.neg_one_minus_mu;
@@ -320,56 +305,21 @@ pub mod cr3bp {
             let t2 = p_0
                 + lit::<T>(2.0) * q_1
                     * (half_mu * inv_r2_pow3 + half_one_minus_mu * inv_r1_pow3);
-            let t3 = k_h
+            let k_h_dh = k_h
                 * (lit::<T>(0.5) * (p_0 * p_0 + p_1 * p_1) + q_1 * p_0 - q_0 * p_1
-                    - one_minus_mu * inv_r1 - mu * inv_r2 - h_0);
+                    - one_minus_mu * inv_r1 - mu * inv_r2 - h0);
             // cr3bp.lsl:12: structure canonical(q, p); − ∂V/∂x[0]
-            dx[0] = q_1_plus_p_0 - t1 * t3;
+            dx[0] = q_1_plus_p_0 - t1 * k_h_dh;
             // cr3bp.lsl:12: structure canonical(q, p); − ∂V/∂x[1]
-            dx[1] = p_1_minus_q_0 - t2 * t3;
+            dx[1] = p_1_minus_q_0 - t2 * k_h_dh;
             // cr3bp.lsl:12: structure canonical(q, p); − ∂V/∂x[2]
-            dx[2] = -t1 - q_1_plus_p_0 * t3;
+            dx[2] = -t1 - q_1_plus_p_0 * k_h_dh;
             // cr3bp.lsl:12: structure canonical(q, p); − ∂V/∂x[3]
-            dx[3] = -t2 - p_1_minus_q_0 * t3;
-        }
-    }
-
-    impl<T: Float> Lyapunov<T, [T; 4], [T; 1], [T; 1]> for CR3BP<T> {
-        #[inline]
-        fn lyapunov(&self, x: &[T; 4], target: &[T; 1], gains: &[T; 1]) -> T {
-            self.prepare().lyapunov(x, target, gains)
-        }
-
-        #[inline]
-        fn lyapunov_gradient(
-            &self,
-            x: &[T; 4],
-            target: &[T; 1],
-            gains: &[T; 1],
-            grad: &mut [T; 4],
-        ) {
-            self.prepare().lyapunov_gradient(x, target, gains, grad)
-        }
-
-        #[inline]
-        fn feedback_field(
-            &self,
-            x: &[T; 4],
-            target: &[T; 1],
-            gains: &[T; 1],
-            dx: &mut [T; 4],
-        ) {
-            self.prepare().feedback_field(x, target, gains, dx)
+            dx[3] = -t2 - p_1_minus_q_0 * k_h_dh;
         }
     }
 
     impl<T: Float> Declared<T, [T; 4]> for CR3BPPrepared<T> {
-        fn presets(&self) -> &'static [Preset] {
-            self.model.presets()
-        }
-    }
-
-    impl<T: Float> Declared<T, [T; 4]> for CR3BP<T> {
         fn presets(&self) -> &'static [Preset] {
             &[
                 Preset {
@@ -389,7 +339,7 @@ pub mod cr3bp {
             &self,
             _max_order: u32,
         ) -> Result<lasalle_runtime::TaylorKernels<Self>, lasalle_runtime::TaylorError> {
-            Ok(taylor_kernels(self))
+            Ok(kernels::taylor_kernels(self))
         }
     }
 
@@ -440,32 +390,6 @@ pub mod cr3bp {
         ];
     }
 
-    impl<T> ModelInfo for CR3BP<T> {
-        fn model_name(&self) -> &'static str {
-            Self::NAME
-        }
-
-        fn state_slots(&self) -> &'static [Slot] {
-            Self::STATE
-        }
-
-        fn invariant_infos(&self) -> &'static [InvariantInfo] {
-            Self::INVARIANTS
-        }
-
-        fn gain_names(&self) -> &'static [&'static str] {
-            Self::GAIN_NAMES
-        }
-
-        fn default_gain_values(&self) -> &'static [f64] {
-            Self::DEFAULT_GAINS
-        }
-
-        fn param_slots(&self) -> &'static [Slot] {
-            Self::PARAMS
-        }
-    }
-
     impl<T> ModelInfo for CR3BPPrepared<T> {
         fn model_name(&self) -> &'static str {
             CR3BP::<T>::NAME
@@ -492,7 +416,8 @@ pub mod cr3bp {
         }
     }
 
-    impl Parameters for CR3BP<f64> {
+    /// Parameters and points by name; setting a parameter prepares the model again.
+    impl Parameters for CR3BPPrepared<f64> {
         fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
             match name {
                 "mu" => {
@@ -503,16 +428,17 @@ pub mod cr3bp {
                             given: values.len(),
                         });
                     }
-                    self.mu = values[0];
-                    Ok(())
+                    self.model.mu = values[0];
                 }
                 _ => {
-                    Err(ParamError::Unknown {
+                    return Err(ParamError::Unknown {
                         name: name.to_string(),
                         known: "`mu`".to_string(),
-                    })
+                    });
                 }
             }
+            *self = self.model.prepare();
+            Ok(())
         }
 
         fn param(&self, name: &str) -> Option<Vec<f64>> {
@@ -535,803 +461,776 @@ pub mod cr3bp {
         }
     }
 
-    /// Setting a parameter prepares the model again.
-    impl Parameters for CR3BPPrepared<f64> {
-        fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
-            self.model.set_param(name, values)?;
-            *self = self.model.prepare();
-            Ok(())
-        }
+    /// The machine kernels of `CR3BP`, generated from its tapes rather than written from its
+    /// formulas: the parameter-only values of every function in f64 ([`Prelude`], a field of
+    /// [`CR3BPPrepared`](super::CR3BPPrepared)), the Taylor-coefficient kernels of X and X − ∇V
+    /// ([`TaylorField`], [`TaylorFeedback`]) and every function for K states per call
+    /// ([`Lanes`]). Straight-line code over numbered registers and table rows, each operation the
+    /// IEEE operation of the functions above, so that they agree bitwise with them, with the JIT
+    /// and with the tape interpreter; not meant to be read.
+    pub mod kernels {
+        #![allow(unused_variables, clippy::all)]
+        use lasalle_runtime::num_traits::Float;
 
-        fn param(&self, name: &str) -> Option<Vec<f64>> {
-            self.model.param(name)
-        }
-
-        fn point_names(&self) -> &'static [&'static str] {
-            self.model.point_names()
-        }
-
-        fn point(&self, name: &str) -> Option<Vec<f64>> {
-            self.model.point(name)
-        }
-    }
-    impl<T: Float> CR3BP<T> {
-        /// The parameter slots as f64, in the order of `PARAMS` (matrices column-major).
-        pub fn slot_values(&self) -> [f64; 1] {
-            [self.mu.to_f64().unwrap_or(f64::NAN)]
-        }
-        /// The adaptive Taylor integrator (Jorba & Zou; `lasalle_runtime::taylor`) of the field
-        /// and of X − ∇V over this model's emitted kernels.
-        pub fn taylor(
-            &self,
-            opts: lasalle_runtime::TaylorOptions,
-        ) -> Result<lasalle_runtime::Taylor<Self>, lasalle_runtime::TaylorError> {
-            lasalle_runtime::Taylor::new(taylor_kernels(self), opts)
-        }
-    }
-    /// The emitted Taylor kernels of the field and of X − ∇V.
-    fn taylor_kernels<T: Float>(m: &CR3BP<T>) -> lasalle_runtime::TaylorKernels<CR3BP<T>> {
-        lasalle_runtime::TaylorKernels {
-            field: Box::new(CR3BPTaylorField::new(m)),
-            feedback: Box::new(CR3BPTaylorFeedback::new(m)),
-        }
-    }
-    /// The parameter-only values of `field` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_field(p: &[f64; 1]) -> [f64; 4] {
-        let p0: f64 = p[0];
-        let p1: f64 = 1.0_f64;
-        let p2: f64 = p1 - p0;
-        let p3: f64 = 0.5_f64;
-        let p4: f64 = p3 * p0;
-        let p5: f64 = p3 * p2;
-        [p0, p2, p4, p5]
-    }
-    /// The parameter-only values of `invariants` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_invariants(p: &[f64; 1]) -> [f64; 2] {
-        let p0: f64 = p[0];
-        let p1: f64 = 1.0_f64;
-        let p2: f64 = p1 - p0;
-        [p0, p2]
-    }
-    /// The parameter-only values of `jacobian` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_jacobian(p: &[f64; 1]) -> [f64; 2] {
-        let p0: f64 = p[0];
-        let p1: f64 = 1.0_f64;
-        let p2: f64 = p1 - p0;
-        [p0, p2]
-    }
-    /// The parameter-only values of `lyapunov` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_lyapunov(p: &[f64; 1]) -> [f64; 2] {
-        let p0: f64 = p[0];
-        let p1: f64 = 1.0_f64;
-        let p2: f64 = p1 - p0;
-        [p0, p2]
-    }
-    /// The parameter-only values of `lyapunov_gradient` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_lyapunov_gradient(p: &[f64; 1]) -> [f64; 4] {
-        let p0: f64 = p[0];
-        let p1: f64 = 1.0_f64;
-        let p2: f64 = p1 - p0;
-        let p3: f64 = 0.5_f64;
-        let p4: f64 = p3 * p0;
-        let p5: f64 = p3 * p2;
-        [p0, p2, p4, p5]
-    }
-    /// The parameter-only values of `feedback` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_feedback(p: &[f64; 1]) -> [f64; 4] {
-        let p0: f64 = p[0];
-        let p1: f64 = 1.0_f64;
-        let p2: f64 = p1 - p0;
-        let p3: f64 = 0.5_f64;
-        let p4: f64 = p3 * p0;
-        let p5: f64 = p3 * p2;
-        [p0, p2, p4, p5]
-    }
-    /// The parameter-only values of `hamiltonian` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_hamiltonian(p: &[f64; 1]) -> [f64; 2] {
-        let p0: f64 = p[0];
-        let p1: f64 = 1.0_f64;
-        let p2: f64 = p1 - p0;
-        [p0, p2]
-    }
-    /// The Taylor-coefficient kernel of X (`lasalle_runtime::TaylorKernel`).
-    pub type CR3BPTaylorField = lasalle_runtime::taylor::Emitted<CR3BPFieldRecurrences>;
-    /// The recurrences of X's tape (`lasalle_runtime::taylor::Recurrences`), 41 rows of
-    /// orders 0..=`EMITTED_MAX_ORDER`.
-    pub struct CR3BPFieldRecurrences;
-    impl<T: Float> lasalle_runtime::taylor::Recurrences<CR3BP<T>> for CR3BPFieldRecurrences {
-        const NAME: &'static str = "CR3BPTaylorField";
-        const DIM: usize = 4;
-        const ROWS: usize = 41;
-        const PARAMS: usize = 1;
-        const HOISTED: usize = 4;
-        const TARGETS: usize = 0;
-        const GAINS: usize = 0;
-        fn params(m: &CR3BP<T>, out: &mut [f64]) {
-            out.copy_from_slice(&m.slot_values());
-        }
-        fn hoist(params: &[f64], hoisted: &mut [f64]) {
-            hoisted.copy_from_slice(&hoist_field(params.try_into().expect("parameter slots: 1")));
-        }
-        #[allow(unused_variables, clippy::all)]
-        fn compute(
-            t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
-            hoisted: &[f64],
-            target: &[f64],
-            gains: &[f64],
-            x: &[f64],
-            order: usize,
-        ) {
-            use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
-            let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 41] = t.try_into().expect("rows: 41");
-            let hoisted: &[f64; 4] = hoisted.try_into().expect("hoisted values: 4");
-            let target: &[f64; 0] = target.try_into().expect("targets: 0");
-            let gains: &[f64; 0] = gains.try_into().expect("gains: 0");
-            for (row, xi) in t.iter_mut().zip(&x[..4]) {
-                row[0] = *xi;
+        impl<T: Float> super::CR3BP<T> {
+            /// The parameter slots as f64, in the order of `PARAMS` (matrices column-major).
+            pub fn slot_values(&self) -> [f64; 1] {
+                [self.mu.to_f64().unwrap_or(f64::NAN)]
             }
-            for k in 0..order {
-                if k == 0 {
-                    t[4][0] = hoisted[0];
-                    t[5][0] = t[0][0] + t[4][0];
-                    t[6][0] = t[1][0] * t[1][0];
-                    t[7][0] = t[5][0] * t[5][0];
-                    t[8][0] = t[7][0] + t[6][0];
-                    t[9][0] = t[8][0].sqrt();
-                    t[10][0] = hoisted[1];
-                    t[11][0] = t[0][0] - t[10][0];
-                    t[12][0] = t[11][0] * t[11][0];
-                    t[13][0] = t[6][0] + t[12][0];
-                    t[14][0] = t[13][0].sqrt();
-                    t[15][0] = t[14][0] * t[14][0];
-                    t[16][0] = t[14][0] * t[15][0];
-                    t[17][0] = 1.0_f64;
-                    t[18][0] = t[17][0] / t[16][0];
-                    t[19][0] = t[9][0] * t[9][0];
-                    t[20][0] = t[9][0] * t[19][0];
-                    t[21][0] = t[17][0] / t[20][0];
-                    t[22][0] = t[1][0] + t[2][0];
-                    t[23][0] = t[3][0] - t[0][0];
-                    t[24][0] = t[11][0] * t[4][0];
-                    t[25][0] = t[24][0] * t[18][0];
-                    t[26][0] = t[5][0] * t[10][0];
-                    t[27][0] = t[26][0] * t[21][0];
-                    t[28][0] = t[25][0] + t[27][0];
-                    t[29][0] = t[28][0] - t[3][0];
-                    t[30][0] = -t[29][0];
-                    t[31][0] = hoisted[2];
-                    t[32][0] = t[18][0] * t[31][0];
-                    t[33][0] = hoisted[3];
-                    t[34][0] = t[21][0] * t[33][0];
-                    t[35][0] = t[32][0] + t[34][0];
-                    t[36][0] = 2.0_f64;
-                    t[37][0] = t[1][0] * t[36][0];
-                    t[38][0] = t[37][0] * t[35][0];
-                    t[39][0] = t[2][0] + t[38][0];
-                    t[40][0] = -t[39][0];
-                } else {
-                    let [e6, e7, e12] =
-                        rec::cauchy_many(t, [(1, 1), (5, 5), (11, 11)], k, 1, (k - 1) / 2);
-                    let [e25, e27, e38] =
-                        rec::cauchy_many(t, [(24, 18), (26, 21), (37, 35)], k, 1, k - 1);
-                    t[5][k] = t[0][k] + t[4][k];
-                    t[6][k] = rec::square_after(e6, &t[1], k);
-                    t[7][k] = rec::square_after(e7, &t[5], k);
-                    t[8][k] = t[7][k] + t[6][k];
-                    t[11][k] = t[0][k] - t[10][k];
-                    t[12][k] = rec::square_after(e12, &t[11], k);
-                    t[13][k] = t[6][k] + t[12][k];
-                    t[18][k] = rec::pow(&t[13], &t[18], -1.5_f64, k);
-                    t[21][k] = rec::pow(&t[8], &t[21], -1.5_f64, k);
-                    t[22][k] = t[1][k] + t[2][k];
-                    t[23][k] = t[3][k] - t[0][k];
-                    t[24][k] = t[11][k] * t[4][0];
-                    t[25][k] = rec::mul_after(e25, &t[24], &t[18], k);
-                    t[26][k] = t[5][k] * t[10][0];
-                    t[27][k] = rec::mul_after(e27, &t[26], &t[21], k);
-                    t[28][k] = t[25][k] + t[27][k];
-                    t[29][k] = t[28][k] - t[3][k];
-                    t[30][k] = -t[29][k];
-                    t[32][k] = t[18][k] * t[31][0];
-                    t[34][k] = t[21][k] * t[33][0];
-                    t[35][k] = t[32][k] + t[34][k];
-                    t[37][k] = t[1][k] * t[36][0];
-                    t[38][k] = rec::mul_after(e38, &t[37], &t[35], k);
-                    t[39][k] = t[2][k] + t[38][k];
-                    t[40][k] = -t[39][k];
+        }
+
+        /// The parameter-only values of every tape (its prelude) in f64, computed once by
+        /// `CR3BP::prepare` (a field of the prepared model), read by the Taylor kernels and the lanes.
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub struct Prelude {
+            field: [f64; 4],
+            invariants: [f64; 2],
+            jacobian: [f64; 2],
+            lyapunov: [f64; 2],
+            lyapunov_gradient: [f64; 4],
+            feedback: [f64; 4],
+            hamiltonian: [f64; 2],
+        }
+
+        impl Prelude {
+            /// The preludes of every tape from the parameter slots, f64 op for f64 op as the tapes'.
+            pub fn new(p: &[f64; 1]) -> Self {
+                Prelude {
+                    field: {
+                        let p0: f64 = p[0];
+                        let p1: f64 = 1.0_f64;
+                        let p2: f64 = p1 - p0;
+                        let p3: f64 = 0.5_f64;
+                        let p4: f64 = p3 * p0;
+                        let p5: f64 = p3 * p2;
+                        [p0, p2, p4, p5]
+                    },
+                    invariants: {
+                        let p0: f64 = p[0];
+                        let p1: f64 = 1.0_f64;
+                        let p2: f64 = p1 - p0;
+                        [p0, p2]
+                    },
+                    jacobian: {
+                        let p0: f64 = p[0];
+                        let p1: f64 = 1.0_f64;
+                        let p2: f64 = p1 - p0;
+                        [p0, p2]
+                    },
+                    lyapunov: {
+                        let p0: f64 = p[0];
+                        let p1: f64 = 1.0_f64;
+                        let p2: f64 = p1 - p0;
+                        [p0, p2]
+                    },
+                    lyapunov_gradient: {
+                        let p0: f64 = p[0];
+                        let p1: f64 = 1.0_f64;
+                        let p2: f64 = p1 - p0;
+                        let p3: f64 = 0.5_f64;
+                        let p4: f64 = p3 * p0;
+                        let p5: f64 = p3 * p2;
+                        [p0, p2, p4, p5]
+                    },
+                    feedback: {
+                        let p0: f64 = p[0];
+                        let p1: f64 = 1.0_f64;
+                        let p2: f64 = p1 - p0;
+                        let p3: f64 = 0.5_f64;
+                        let p4: f64 = p3 * p0;
+                        let p5: f64 = p3 * p2;
+                        [p0, p2, p4, p5]
+                    },
+                    hamiltonian: {
+                        let p0: f64 = p[0];
+                        let p1: f64 = 1.0_f64;
+                        let p2: f64 = p1 - p0;
+                        [p0, p2]
+                    },
                 }
-                let inv = 1.0 / (k as f64 + 1.0);
-                t[0][k + 1] = t[22][k] * inv;
-                t[1][k + 1] = t[23][k] * inv;
-                t[2][k + 1] = t[30][k] * inv;
-                t[3][k + 1] = t[40][k] * inv;
             }
         }
-    }
-    /// The Taylor-coefficient kernel of X − ∇V (`lasalle_runtime::TaylorKernel`).
-    pub type CR3BPTaylorFeedback = lasalle_runtime::taylor::Emitted<CR3BPFeedbackRecurrences>;
-    /// The recurrences of X − ∇V's tape (`lasalle_runtime::taylor::Recurrences`), 66 rows of
-    /// orders 0..=`EMITTED_MAX_ORDER`.
-    pub struct CR3BPFeedbackRecurrences;
-    impl<T: Float> lasalle_runtime::taylor::Recurrences<CR3BP<T>> for CR3BPFeedbackRecurrences {
-        const NAME: &'static str = "CR3BPTaylorFeedback";
-        const DIM: usize = 4;
-        const ROWS: usize = 66;
-        const PARAMS: usize = 1;
-        const HOISTED: usize = 4;
-        const TARGETS: usize = 1;
-        const GAINS: usize = 1;
-        fn params(m: &CR3BP<T>, out: &mut [f64]) {
-            out.copy_from_slice(&m.slot_values());
-        }
-        fn hoist(params: &[f64], hoisted: &mut [f64]) {
-            hoisted.copy_from_slice(&hoist_feedback(params.try_into().expect("parameter slots: 1")));
-        }
-        #[allow(unused_variables, clippy::all)]
-        fn compute(
-            t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
-            hoisted: &[f64],
-            target: &[f64],
-            gains: &[f64],
-            x: &[f64],
-            order: usize,
-        ) {
-            use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
-            let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 66] = t.try_into().expect("rows: 66");
-            let hoisted: &[f64; 4] = hoisted.try_into().expect("hoisted values: 4");
-            let target: &[f64; 1] = target.try_into().expect("targets: 1");
-            let gains: &[f64; 1] = gains.try_into().expect("gains: 1");
-            for (row, xi) in t.iter_mut().zip(&x[..4]) {
-                row[0] = *xi;
+
+        impl<T: Float> super::CR3BPPrepared<T> {
+            /// The adaptive Taylor integrator (Jorba & Zou; `lasalle_runtime::taylor`) of the field
+            /// and of X − ∇V over this model's emitted kernels.
+            pub fn taylor(
+                &self,
+                opts: lasalle_runtime::TaylorOptions,
+            ) -> Result<lasalle_runtime::Taylor<Self>, lasalle_runtime::TaylorError> {
+                lasalle_runtime::Taylor::new(taylor_kernels(self), opts)
             }
-            for k in 0..order {
-                if k == 0 {
-                    t[4][0] = hoisted[0];
-                    t[5][0] = t[0][0] + t[4][0];
-                    t[6][0] = t[1][0] * t[1][0];
-                    t[7][0] = t[5][0] * t[5][0];
-                    t[8][0] = t[7][0] + t[6][0];
-                    t[9][0] = t[8][0].sqrt();
-                    t[10][0] = hoisted[1];
-                    t[11][0] = t[0][0] - t[10][0];
-                    t[12][0] = t[11][0] * t[11][0];
-                    t[13][0] = t[6][0] + t[12][0];
-                    t[14][0] = t[13][0].sqrt();
-                    t[15][0] = t[3][0] - t[0][0];
-                    t[16][0] = t[1][0] + t[2][0];
-                    t[17][0] = 1.0_f64;
-                    t[18][0] = t[17][0] / t[9][0];
-                    t[19][0] = t[17][0] / t[14][0];
-                    t[20][0] = t[19][0] * t[19][0];
-                    t[21][0] = t[19][0] * t[20][0];
-                    t[22][0] = t[18][0] * t[18][0];
-                    t[23][0] = t[18][0] * t[22][0];
-                    t[24][0] = t[11][0] * t[4][0];
-                    t[25][0] = t[24][0] * t[21][0];
-                    t[26][0] = t[5][0] * t[10][0];
-                    t[27][0] = t[26][0] * t[23][0];
-                    t[28][0] = t[25][0] + t[27][0];
-                    t[29][0] = t[28][0] - t[3][0];
-                    t[30][0] = hoisted[2];
-                    t[31][0] = t[21][0] * t[30][0];
-                    t[32][0] = hoisted[3];
-                    t[33][0] = t[23][0] * t[32][0];
-                    t[34][0] = t[31][0] + t[33][0];
-                    t[35][0] = 2.0_f64;
-                    t[36][0] = t[1][0] * t[35][0];
-                    t[37][0] = t[36][0] * t[34][0];
-                    t[38][0] = t[2][0] + t[37][0];
-                    t[39][0] = gains[0];
-                    t[40][0] = t[2][0] * t[2][0];
-                    t[41][0] = t[3][0] * t[3][0];
-                    t[42][0] = t[40][0] + t[41][0];
-                    t[43][0] = 0.5_f64;
-                    t[44][0] = t[42][0] * t[43][0];
-                    t[45][0] = t[1][0] * t[2][0];
-                    t[46][0] = t[0][0] * t[3][0];
-                    t[47][0] = t[18][0] * t[10][0];
-                    t[48][0] = t[19][0] * t[4][0];
-                    t[49][0] = target[0];
-                    t[50][0] = t[44][0] + t[45][0];
-                    t[51][0] = t[50][0] - t[46][0];
-                    t[52][0] = t[51][0] - t[47][0];
-                    t[53][0] = t[52][0] - t[48][0];
-                    t[54][0] = t[53][0] - t[49][0];
-                    t[55][0] = t[54][0] * t[39][0];
-                    t[56][0] = t[29][0] * t[55][0];
-                    t[57][0] = t[16][0] - t[56][0];
-                    t[58][0] = t[38][0] * t[55][0];
-                    t[59][0] = t[15][0] - t[58][0];
-                    t[60][0] = t[16][0] * t[55][0];
-                    t[61][0] = -t[29][0];
-                    t[62][0] = t[61][0] - t[60][0];
-                    t[63][0] = t[15][0] * t[55][0];
-                    t[64][0] = -t[38][0];
-                    t[65][0] = t[64][0] - t[63][0];
-                } else {
-                    let [e6, e7, e9, e12, e14, e20] =
-                        rec::cauchy_many(t, [(1, 1), (5, 5), (9, 9), (11, 11), (14, 14), (19, 19)], k, 1, (k - 1) / 2);
-                    let [e22, e40, e41] =
-                        rec::cauchy_many(t, [(18, 18), (2, 2), (3, 3)], k, 1, (k - 1) / 2);
-                    let [e21, e23, e25, e27, e37, e45] =
-                        rec::cauchy_many(t, [(19, 20), (18, 22), (24, 21), (26, 23), (36, 34), (1, 2)], k, 1, k - 1);
-                    let [e46, e56, e58, e60, e63] =
-                        rec::cauchy_many(t, [(0, 3), (29, 55), (38, 55), (16, 55), (15, 55)], k, 1, k - 1);
-                    t[5][k] = t[0][k] + t[4][k];
-                    t[6][k] = rec::square_after(e6, &t[1], k);
-                    t[7][k] = rec::square_after(e7, &t[5], k);
-                    t[8][k] = t[7][k] + t[6][k];
-                    t[9][k] = rec::sqrt_after(e9, &t[8], &t[9], k);
-                    t[11][k] = t[0][k] - t[10][k];
-                    t[12][k] = rec::square_after(e12, &t[11], k);
-                    t[13][k] = t[6][k] + t[12][k];
-                    t[14][k] = rec::sqrt_after(e14, &t[13], &t[14], k);
-                    t[15][k] = t[3][k] - t[0][k];
-                    t[16][k] = t[1][k] + t[2][k];
-                    t[18][k] = rec::div(&t[17], &t[9], &t[18], k);
-                    t[19][k] = rec::div(&t[17], &t[14], &t[19], k);
-                    t[20][k] = rec::square_after(e20, &t[19], k);
-                    t[21][k] = rec::mul_after(e21, &t[19], &t[20], k);
-                    t[22][k] = rec::square_after(e22, &t[18], k);
-                    t[23][k] = rec::mul_after(e23, &t[18], &t[22], k);
-                    t[24][k] = t[11][k] * t[4][0];
-                    t[25][k] = rec::mul_after(e25, &t[24], &t[21], k);
-                    t[26][k] = t[5][k] * t[10][0];
-                    t[27][k] = rec::mul_after(e27, &t[26], &t[23], k);
-                    t[28][k] = t[25][k] + t[27][k];
-                    t[29][k] = t[28][k] - t[3][k];
-                    t[31][k] = t[21][k] * t[30][0];
-                    t[33][k] = t[23][k] * t[32][0];
-                    t[34][k] = t[31][k] + t[33][k];
-                    t[36][k] = t[1][k] * t[35][0];
-                    t[37][k] = rec::mul_after(e37, &t[36], &t[34], k);
-                    t[38][k] = t[2][k] + t[37][k];
-                    t[40][k] = rec::square_after(e40, &t[2], k);
-                    t[41][k] = rec::square_after(e41, &t[3], k);
-                    t[42][k] = t[40][k] + t[41][k];
-                    t[44][k] = t[42][k] * t[43][0];
-                    t[45][k] = rec::mul_after(e45, &t[1], &t[2], k);
-                    t[46][k] = rec::mul_after(e46, &t[0], &t[3], k);
-                    t[47][k] = t[18][k] * t[10][0];
-                    t[48][k] = t[19][k] * t[4][0];
-                    t[50][k] = t[44][k] + t[45][k];
-                    t[51][k] = t[50][k] - t[46][k];
-                    t[52][k] = t[51][k] - t[47][k];
-                    t[53][k] = t[52][k] - t[48][k];
-                    t[54][k] = t[53][k] - t[49][k];
-                    t[55][k] = t[54][k] * t[39][0];
-                    t[56][k] = rec::mul_after(e56, &t[29], &t[55], k);
-                    t[57][k] = t[16][k] - t[56][k];
-                    t[58][k] = rec::mul_after(e58, &t[38], &t[55], k);
-                    t[59][k] = t[15][k] - t[58][k];
-                    t[60][k] = rec::mul_after(e60, &t[16], &t[55], k);
-                    t[61][k] = -t[29][k];
-                    t[62][k] = t[61][k] - t[60][k];
-                    t[63][k] = rec::mul_after(e63, &t[15], &t[55], k);
-                    t[64][k] = -t[38][k];
-                    t[65][k] = t[64][k] - t[63][k];
+
+            /// The model's functions for K states per call, with this model's parameters.
+            pub fn lanes(&self) -> Lanes {
+                Lanes { prelude: self.kernels }
+            }
+        }
+
+        /// The emitted Taylor kernels of the field and of X − ∇V.
+        pub fn taylor_kernels<T: Float>(
+            m: &super::CR3BPPrepared<T>,
+        ) -> lasalle_runtime::TaylorKernels<super::CR3BPPrepared<T>> {
+            lasalle_runtime::TaylorKernels {
+                field: Box::new(TaylorField::new(m)),
+                feedback: Box::new(TaylorFeedback::new(m)),
+            }
+        }
+        /// The Taylor-coefficient kernel of X (`lasalle_runtime::TaylorKernel`).
+        pub type TaylorField = lasalle_runtime::taylor::Emitted<FieldRecurrences>;
+        /// The recurrences of X's tape (`lasalle_runtime::taylor::Recurrences`), 41 rows of
+        /// orders 0..=`EMITTED_MAX_ORDER`.
+        pub struct FieldRecurrences;
+        impl<T: Float> lasalle_runtime::taylor::Recurrences<super::CR3BPPrepared<T>> for FieldRecurrences {
+            const NAME: &'static str = "CR3BP: TaylorField";
+            const DIM: usize = 4;
+            const ROWS: usize = 41;
+            const HOISTED: usize = 4;
+            const TARGETS: usize = 0;
+            const GAINS: usize = 0;
+            fn hoisted(m: &super::CR3BPPrepared<T>) -> &[f64] {
+                &m.kernels.field
+            }
+            fn compute(
+                t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
+                hoisted: &[f64],
+                target: &[f64],
+                gains: &[f64],
+                x: &[f64],
+                order: usize,
+            ) {
+                use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
+                let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 41] = t.try_into().expect("rows: 41");
+                let hoisted: &[f64; 4] = hoisted.try_into().expect("hoisted values: 4");
+                let target: &[f64; 0] = target.try_into().expect("targets: 0");
+                let gains: &[f64; 0] = gains.try_into().expect("gains: 0");
+                for (row, xi) in t.iter_mut().zip(&x[..4]) {
+                    row[0] = *xi;
                 }
-                let inv = 1.0 / (k as f64 + 1.0);
-                t[0][k + 1] = t[57][k] * inv;
-                t[1][k + 1] = t[59][k] * inv;
-                t[2][k + 1] = t[62][k] * inv;
-                t[3][k + 1] = t[65][k] * inv;
+                for k in 0..order {
+                    if k == 0 {
+                        t[4][0] = hoisted[0];
+                        t[5][0] = t[0][0] + t[4][0];
+                        t[6][0] = t[1][0] * t[1][0];
+                        t[7][0] = t[5][0] * t[5][0];
+                        t[8][0] = t[7][0] + t[6][0];
+                        t[9][0] = t[8][0].sqrt();
+                        t[10][0] = hoisted[1];
+                        t[11][0] = t[0][0] - t[10][0];
+                        t[12][0] = t[11][0] * t[11][0];
+                        t[13][0] = t[6][0] + t[12][0];
+                        t[14][0] = t[13][0].sqrt();
+                        t[15][0] = t[14][0] * t[14][0];
+                        t[16][0] = t[14][0] * t[15][0];
+                        t[17][0] = 1.0_f64;
+                        t[18][0] = t[17][0] / t[16][0];
+                        t[19][0] = t[9][0] * t[9][0];
+                        t[20][0] = t[9][0] * t[19][0];
+                        t[21][0] = t[17][0] / t[20][0];
+                        t[22][0] = t[1][0] + t[2][0];
+                        t[23][0] = t[3][0] - t[0][0];
+                        t[24][0] = t[11][0] * t[4][0];
+                        t[25][0] = t[24][0] * t[18][0];
+                        t[26][0] = t[5][0] * t[10][0];
+                        t[27][0] = t[26][0] * t[21][0];
+                        t[28][0] = t[25][0] + t[27][0];
+                        t[29][0] = t[28][0] - t[3][0];
+                        t[30][0] = -t[29][0];
+                        t[31][0] = hoisted[2];
+                        t[32][0] = t[18][0] * t[31][0];
+                        t[33][0] = hoisted[3];
+                        t[34][0] = t[21][0] * t[33][0];
+                        t[35][0] = t[32][0] + t[34][0];
+                        t[36][0] = 2.0_f64;
+                        t[37][0] = t[1][0] * t[36][0];
+                        t[38][0] = t[37][0] * t[35][0];
+                        t[39][0] = t[2][0] + t[38][0];
+                        t[40][0] = -t[39][0];
+                    } else {
+                        let [e6, e7, e12] =
+                            rec::cauchy_many(t, [(1, 1), (5, 5), (11, 11)], k, 1, (k - 1) / 2);
+                        let [e25, e27, e38] =
+                            rec::cauchy_many(t, [(24, 18), (26, 21), (37, 35)], k, 1, k - 1);
+                        t[5][k] = t[0][k] + t[4][k];
+                        t[6][k] = rec::square_after(e6, &t[1], k);
+                        t[7][k] = rec::square_after(e7, &t[5], k);
+                        t[8][k] = t[7][k] + t[6][k];
+                        t[11][k] = t[0][k] - t[10][k];
+                        t[12][k] = rec::square_after(e12, &t[11], k);
+                        t[13][k] = t[6][k] + t[12][k];
+                        t[18][k] = rec::pow(&t[13], &t[18], -1.5_f64, k);
+                        t[21][k] = rec::pow(&t[8], &t[21], -1.5_f64, k);
+                        t[22][k] = t[1][k] + t[2][k];
+                        t[23][k] = t[3][k] - t[0][k];
+                        t[24][k] = t[11][k] * t[4][0];
+                        t[25][k] = rec::mul_after(e25, &t[24], &t[18], k);
+                        t[26][k] = t[5][k] * t[10][0];
+                        t[27][k] = rec::mul_after(e27, &t[26], &t[21], k);
+                        t[28][k] = t[25][k] + t[27][k];
+                        t[29][k] = t[28][k] - t[3][k];
+                        t[30][k] = -t[29][k];
+                        t[32][k] = t[18][k] * t[31][0];
+                        t[34][k] = t[21][k] * t[33][0];
+                        t[35][k] = t[32][k] + t[34][k];
+                        t[37][k] = t[1][k] * t[36][0];
+                        t[38][k] = rec::mul_after(e38, &t[37], &t[35], k);
+                        t[39][k] = t[2][k] + t[38][k];
+                        t[40][k] = -t[39][k];
+                    }
+                    let inv = 1.0 / (k as f64 + 1.0);
+                    t[0][k + 1] = t[22][k] * inv;
+                    t[1][k + 1] = t[23][k] * inv;
+                    t[2][k + 1] = t[30][k] * inv;
+                    t[3][k + 1] = t[40][k] * inv;
+                }
             }
         }
-    }
-    /// The model's functions for K states per call (structure of arrays), with the
-    /// parameter-only values computed once: see `CR3BP::lanes`.
-    #[derive(Clone, Debug)]
-    pub struct CR3BPLanes {
-        field: [f64; 4],
-        invariants: [f64; 2],
-        jacobian: [f64; 2],
-        lyapunov: [f64; 2],
-        lyapunov_gradient: [f64; 4],
-        feedback: [f64; 4],
-        hamiltonian: [f64; 2],
-    }
-    impl<T: Float> CR3BP<T> {
-        /// The batched functions with the current parameters (their preludes run now).
-        pub fn lanes(&self) -> CR3BPLanes {
-            let p = self.slot_values();
-            CR3BPLanes {
-                field: hoist_field(&p),
-                invariants: hoist_invariants(&p),
-                jacobian: hoist_jacobian(&p),
-                lyapunov: hoist_lyapunov(&p),
-                lyapunov_gradient: hoist_lyapunov_gradient(&p),
-                feedback: hoist_feedback(&p),
-                hamiltonian: hoist_hamiltonian(&p),
+        /// The Taylor-coefficient kernel of X − ∇V (`lasalle_runtime::TaylorKernel`).
+        pub type TaylorFeedback = lasalle_runtime::taylor::Emitted<FeedbackRecurrences>;
+        /// The recurrences of X − ∇V's tape (`lasalle_runtime::taylor::Recurrences`), 66 rows of
+        /// orders 0..=`EMITTED_MAX_ORDER`.
+        pub struct FeedbackRecurrences;
+        impl<T: Float> lasalle_runtime::taylor::Recurrences<super::CR3BPPrepared<T>> for FeedbackRecurrences {
+            const NAME: &'static str = "CR3BP: TaylorFeedback";
+            const DIM: usize = 4;
+            const ROWS: usize = 66;
+            const HOISTED: usize = 4;
+            const TARGETS: usize = 1;
+            const GAINS: usize = 1;
+            fn hoisted(m: &super::CR3BPPrepared<T>) -> &[f64] {
+                &m.kernels.feedback
+            }
+            fn compute(
+                t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
+                hoisted: &[f64],
+                target: &[f64],
+                gains: &[f64],
+                x: &[f64],
+                order: usize,
+            ) {
+                use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
+                let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 66] = t.try_into().expect("rows: 66");
+                let hoisted: &[f64; 4] = hoisted.try_into().expect("hoisted values: 4");
+                let target: &[f64; 1] = target.try_into().expect("targets: 1");
+                let gains: &[f64; 1] = gains.try_into().expect("gains: 1");
+                for (row, xi) in t.iter_mut().zip(&x[..4]) {
+                    row[0] = *xi;
+                }
+                for k in 0..order {
+                    if k == 0 {
+                        t[4][0] = hoisted[0];
+                        t[5][0] = t[0][0] + t[4][0];
+                        t[6][0] = t[1][0] * t[1][0];
+                        t[7][0] = t[5][0] * t[5][0];
+                        t[8][0] = t[7][0] + t[6][0];
+                        t[9][0] = t[8][0].sqrt();
+                        t[10][0] = hoisted[1];
+                        t[11][0] = t[0][0] - t[10][0];
+                        t[12][0] = t[11][0] * t[11][0];
+                        t[13][0] = t[6][0] + t[12][0];
+                        t[14][0] = t[13][0].sqrt();
+                        t[15][0] = t[3][0] - t[0][0];
+                        t[16][0] = t[1][0] + t[2][0];
+                        t[17][0] = 1.0_f64;
+                        t[18][0] = t[17][0] / t[9][0];
+                        t[19][0] = t[17][0] / t[14][0];
+                        t[20][0] = t[19][0] * t[19][0];
+                        t[21][0] = t[19][0] * t[20][0];
+                        t[22][0] = t[18][0] * t[18][0];
+                        t[23][0] = t[18][0] * t[22][0];
+                        t[24][0] = t[11][0] * t[4][0];
+                        t[25][0] = t[24][0] * t[21][0];
+                        t[26][0] = t[5][0] * t[10][0];
+                        t[27][0] = t[26][0] * t[23][0];
+                        t[28][0] = t[25][0] + t[27][0];
+                        t[29][0] = t[28][0] - t[3][0];
+                        t[30][0] = hoisted[2];
+                        t[31][0] = t[21][0] * t[30][0];
+                        t[32][0] = hoisted[3];
+                        t[33][0] = t[23][0] * t[32][0];
+                        t[34][0] = t[31][0] + t[33][0];
+                        t[35][0] = 2.0_f64;
+                        t[36][0] = t[1][0] * t[35][0];
+                        t[37][0] = t[36][0] * t[34][0];
+                        t[38][0] = t[2][0] + t[37][0];
+                        t[39][0] = gains[0];
+                        t[40][0] = t[2][0] * t[2][0];
+                        t[41][0] = t[3][0] * t[3][0];
+                        t[42][0] = t[40][0] + t[41][0];
+                        t[43][0] = 0.5_f64;
+                        t[44][0] = t[42][0] * t[43][0];
+                        t[45][0] = t[1][0] * t[2][0];
+                        t[46][0] = t[0][0] * t[3][0];
+                        t[47][0] = t[18][0] * t[10][0];
+                        t[48][0] = t[19][0] * t[4][0];
+                        t[49][0] = target[0];
+                        t[50][0] = t[44][0] + t[45][0];
+                        t[51][0] = t[50][0] - t[46][0];
+                        t[52][0] = t[51][0] - t[47][0];
+                        t[53][0] = t[52][0] - t[48][0];
+                        t[54][0] = t[53][0] - t[49][0];
+                        t[55][0] = t[54][0] * t[39][0];
+                        t[56][0] = t[29][0] * t[55][0];
+                        t[57][0] = t[16][0] - t[56][0];
+                        t[58][0] = t[38][0] * t[55][0];
+                        t[59][0] = t[15][0] - t[58][0];
+                        t[60][0] = t[16][0] * t[55][0];
+                        t[61][0] = -t[29][0];
+                        t[62][0] = t[61][0] - t[60][0];
+                        t[63][0] = t[15][0] * t[55][0];
+                        t[64][0] = -t[38][0];
+                        t[65][0] = t[64][0] - t[63][0];
+                    } else {
+                        let [e6, e7, e9, e12, e14, e20] =
+                            rec::cauchy_many(t, [(1, 1), (5, 5), (9, 9), (11, 11), (14, 14), (19, 19)], k, 1, (k - 1) / 2);
+                        let [e22, e40, e41] =
+                            rec::cauchy_many(t, [(18, 18), (2, 2), (3, 3)], k, 1, (k - 1) / 2);
+                        let [e21, e23, e25, e27, e37, e45] =
+                            rec::cauchy_many(t, [(19, 20), (18, 22), (24, 21), (26, 23), (36, 34), (1, 2)], k, 1, k - 1);
+                        let [e46, e56, e58, e60, e63] =
+                            rec::cauchy_many(t, [(0, 3), (29, 55), (38, 55), (16, 55), (15, 55)], k, 1, k - 1);
+                        t[5][k] = t[0][k] + t[4][k];
+                        t[6][k] = rec::square_after(e6, &t[1], k);
+                        t[7][k] = rec::square_after(e7, &t[5], k);
+                        t[8][k] = t[7][k] + t[6][k];
+                        t[9][k] = rec::sqrt_after(e9, &t[8], &t[9], k);
+                        t[11][k] = t[0][k] - t[10][k];
+                        t[12][k] = rec::square_after(e12, &t[11], k);
+                        t[13][k] = t[6][k] + t[12][k];
+                        t[14][k] = rec::sqrt_after(e14, &t[13], &t[14], k);
+                        t[15][k] = t[3][k] - t[0][k];
+                        t[16][k] = t[1][k] + t[2][k];
+                        t[18][k] = rec::div(&t[17], &t[9], &t[18], k);
+                        t[19][k] = rec::div(&t[17], &t[14], &t[19], k);
+                        t[20][k] = rec::square_after(e20, &t[19], k);
+                        t[21][k] = rec::mul_after(e21, &t[19], &t[20], k);
+                        t[22][k] = rec::square_after(e22, &t[18], k);
+                        t[23][k] = rec::mul_after(e23, &t[18], &t[22], k);
+                        t[24][k] = t[11][k] * t[4][0];
+                        t[25][k] = rec::mul_after(e25, &t[24], &t[21], k);
+                        t[26][k] = t[5][k] * t[10][0];
+                        t[27][k] = rec::mul_after(e27, &t[26], &t[23], k);
+                        t[28][k] = t[25][k] + t[27][k];
+                        t[29][k] = t[28][k] - t[3][k];
+                        t[31][k] = t[21][k] * t[30][0];
+                        t[33][k] = t[23][k] * t[32][0];
+                        t[34][k] = t[31][k] + t[33][k];
+                        t[36][k] = t[1][k] * t[35][0];
+                        t[37][k] = rec::mul_after(e37, &t[36], &t[34], k);
+                        t[38][k] = t[2][k] + t[37][k];
+                        t[40][k] = rec::square_after(e40, &t[2], k);
+                        t[41][k] = rec::square_after(e41, &t[3], k);
+                        t[42][k] = t[40][k] + t[41][k];
+                        t[44][k] = t[42][k] * t[43][0];
+                        t[45][k] = rec::mul_after(e45, &t[1], &t[2], k);
+                        t[46][k] = rec::mul_after(e46, &t[0], &t[3], k);
+                        t[47][k] = t[18][k] * t[10][0];
+                        t[48][k] = t[19][k] * t[4][0];
+                        t[50][k] = t[44][k] + t[45][k];
+                        t[51][k] = t[50][k] - t[46][k];
+                        t[52][k] = t[51][k] - t[47][k];
+                        t[53][k] = t[52][k] - t[48][k];
+                        t[54][k] = t[53][k] - t[49][k];
+                        t[55][k] = t[54][k] * t[39][0];
+                        t[56][k] = rec::mul_after(e56, &t[29], &t[55], k);
+                        t[57][k] = t[16][k] - t[56][k];
+                        t[58][k] = rec::mul_after(e58, &t[38], &t[55], k);
+                        t[59][k] = t[15][k] - t[58][k];
+                        t[60][k] = rec::mul_after(e60, &t[16], &t[55], k);
+                        t[61][k] = -t[29][k];
+                        t[62][k] = t[61][k] - t[60][k];
+                        t[63][k] = rec::mul_after(e63, &t[15], &t[55], k);
+                        t[64][k] = -t[38][k];
+                        t[65][k] = t[64][k] - t[63][k];
+                    }
+                    let inv = 1.0 / (k as f64 + 1.0);
+                    t[0][k + 1] = t[57][k] * inv;
+                    t[1][k + 1] = t[59][k] * inv;
+                    t[2][k + 1] = t[62][k] * inv;
+                    t[3][k + 1] = t[65][k] * inv;
+                }
             }
         }
-    }
-    impl CR3BPLanes {
-        /// `field` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn field<const K: usize>(
-            &self,
-            x: &[[f64; K]; 4],
-            out: &mut [[f64; K]; 4],
-        ) {
-            let h = &self.field;
-            let r0: [f64; K] = x[0];
-            let r1: [f64; K] = [h[0]; K];
-            let r2: [f64; K] = core::array::from_fn(|l| r0[l] + r1[l]);
-            let r3: [f64; K] = x[1];
-            let r4: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
-            let r5: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
-            let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r4[l]);
-            let r7: [f64; K] = core::array::from_fn(|l| r6[l].sqrt());
-            let r8: [f64; K] = [h[1]; K];
-            let r9: [f64; K] = core::array::from_fn(|l| r0[l] - r8[l]);
-            let r10: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
-            let r11: [f64; K] = core::array::from_fn(|l| r4[l] + r10[l]);
-            let r12: [f64; K] = core::array::from_fn(|l| r11[l].sqrt());
-            let r13: [f64; K] = core::array::from_fn(|l| r12[l].powi(3));
-            let r14: [f64; K] = [1.0_f64; K];
-            let r15: [f64; K] = core::array::from_fn(|l| r14[l] / r13[l]);
-            let r16: [f64; K] = core::array::from_fn(|l| r7[l].powi(3));
-            let r17: [f64; K] = core::array::from_fn(|l| r14[l] / r16[l]);
-            let r18: [f64; K] = x[2];
-            let r19: [f64; K] = core::array::from_fn(|l| r3[l] + r18[l]);
-            let r20: [f64; K] = x[3];
-            let r21: [f64; K] = core::array::from_fn(|l| r20[l] - r0[l]);
-            let r22: [f64; K] = core::array::from_fn(|l| r1[l] * r9[l]);
-            let r23: [f64; K] = core::array::from_fn(|l| r22[l] * r15[l]);
-            let r24: [f64; K] = core::array::from_fn(|l| r2[l] * r8[l]);
-            let r25: [f64; K] = core::array::from_fn(|l| r24[l] * r17[l]);
-            let r26: [f64; K] = core::array::from_fn(|l| r23[l] + r25[l]);
-            let r27: [f64; K] = core::array::from_fn(|l| r26[l] - r20[l]);
-            let r28: [f64; K] = core::array::from_fn(|l| -r27[l]);
-            let r29: [f64; K] = [h[2]; K];
-            let r30: [f64; K] = core::array::from_fn(|l| r15[l] * r29[l]);
-            let r31: [f64; K] = [h[3]; K];
-            let r32: [f64; K] = core::array::from_fn(|l| r17[l] * r31[l]);
-            let r33: [f64; K] = core::array::from_fn(|l| r30[l] + r32[l]);
-            let r34: [f64; K] = [2.0_f64; K];
-            let r35: [f64; K] = core::array::from_fn(|l| r34[l] * r3[l]);
-            let r36: [f64; K] = core::array::from_fn(|l| r35[l] * r33[l]);
-            let r37: [f64; K] = core::array::from_fn(|l| r18[l] + r36[l]);
-            let r38: [f64; K] = core::array::from_fn(|l| -r37[l]);
-            out[0] = r19;
-            out[1] = r21;
-            out[2] = r28;
-            out[3] = r38;
+        /// The model's functions for K states per call (structure of arrays), reading the
+        /// parameter-only values of [`CR3BPPrepared`](super::CR3BPPrepared): see `CR3BPPrepared::lanes`.
+        #[derive(Clone, Debug)]
+        pub struct Lanes {
+            prelude: Prelude,
         }
-        /// `invariants` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn invariants<const K: usize>(
-            &self,
-            x: &[[f64; K]; 4],
-            out: &mut [[f64; K]; 1],
-        ) {
-            let h = &self.invariants;
-            let r0: [f64; K] = x[1];
-            let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
-            let r2: [f64; K] = x[0];
-            let r3: [f64; K] = [h[0]; K];
-            let r4: [f64; K] = core::array::from_fn(|l| r2[l] + r3[l]);
-            let r5: [f64; K] = core::array::from_fn(|l| r4[l].powi(2));
-            let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r1[l]);
-            let r7: [f64; K] = core::array::from_fn(|l| r6[l].sqrt());
-            let r8: [f64; K] = [h[1]; K];
-            let r9: [f64; K] = core::array::from_fn(|l| r2[l] - r8[l]);
-            let r10: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
-            let r11: [f64; K] = core::array::from_fn(|l| r1[l] + r10[l]);
-            let r12: [f64; K] = core::array::from_fn(|l| r11[l].sqrt());
-            let r13: [f64; K] = x[2];
-            let r14: [f64; K] = core::array::from_fn(|l| r13[l].powi(2));
-            let r15: [f64; K] = x[3];
-            let r16: [f64; K] = core::array::from_fn(|l| r15[l].powi(2));
-            let r17: [f64; K] = core::array::from_fn(|l| r14[l] + r16[l]);
-            let r18: [f64; K] = [0.5_f64; K];
-            let r19: [f64; K] = core::array::from_fn(|l| r18[l] * r17[l]);
-            let r20: [f64; K] = core::array::from_fn(|l| r0[l] * r13[l]);
-            let r21: [f64; K] = core::array::from_fn(|l| r2[l] * r15[l]);
-            let r22: [f64; K] = core::array::from_fn(|l| r8[l] / r7[l]);
-            let r23: [f64; K] = core::array::from_fn(|l| r3[l] / r12[l]);
-            let r24: [f64; K] = core::array::from_fn(|l| r19[l] + r20[l]);
-            let r25: [f64; K] = core::array::from_fn(|l| r24[l] - r21[l]);
-            let r26: [f64; K] = core::array::from_fn(|l| r25[l] - r22[l]);
-            let r27: [f64; K] = core::array::from_fn(|l| r26[l] - r23[l]);
-            out[0] = r27;
-        }
-        /// `jacobian` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn jacobian<const K: usize>(
-            &self,
-            x: &[[f64; K]; 4],
-            out: &mut [[f64; K]; 4],
-        ) {
-            let h = &self.jacobian;
-            let r0: [f64; K] = x[0];
-            let r1: [f64; K] = [h[0]; K];
-            let r2: [f64; K] = core::array::from_fn(|l| r0[l] + r1[l]);
-            let r3: [f64; K] = x[1];
-            let r4: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
-            let r5: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
-            let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r4[l]);
-            let r7: [f64; K] = core::array::from_fn(|l| r6[l].sqrt());
-            let r8: [f64; K] = [h[1]; K];
-            let r9: [f64; K] = core::array::from_fn(|l| r0[l] - r8[l]);
-            let r10: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
-            let r11: [f64; K] = core::array::from_fn(|l| r4[l] + r10[l]);
-            let r12: [f64; K] = core::array::from_fn(|l| r11[l].sqrt());
-            let r13: [f64; K] = core::array::from_fn(|l| r12[l].powi(3));
-            let r14: [f64; K] = [1.0_f64; K];
-            let r15: [f64; K] = core::array::from_fn(|l| r14[l] / r13[l]);
-            let r16: [f64; K] = core::array::from_fn(|l| r7[l].powi(3));
-            let r17: [f64; K] = core::array::from_fn(|l| r14[l] / r16[l]);
-            let r18: [f64; K] = x[3];
-            let r19: [f64; K] = core::array::from_fn(|l| r1[l] * r9[l]);
-            let r20: [f64; K] = core::array::from_fn(|l| r19[l] * r15[l]);
-            let r21: [f64; K] = core::array::from_fn(|l| r2[l] * r8[l]);
-            let r22: [f64; K] = core::array::from_fn(|l| r21[l] * r17[l]);
-            let r23: [f64; K] = core::array::from_fn(|l| r20[l] + r22[l]);
-            let r24: [f64; K] = core::array::from_fn(|l| r23[l] - r18[l]);
-            let r25: [f64; K] = x[2];
-            let r26: [f64; K] = core::array::from_fn(|l| r1[l] * r15[l]);
-            let r27: [f64; K] = core::array::from_fn(|l| r8[l] * r17[l]);
-            let r28: [f64; K] = core::array::from_fn(|l| r26[l] + r27[l]);
-            let r29: [f64; K] = core::array::from_fn(|l| r3[l] * r28[l]);
-            let r30: [f64; K] = core::array::from_fn(|l| r25[l] + r29[l]);
-            let r31: [f64; K] = core::array::from_fn(|l| r3[l] + r25[l]);
-            let r32: [f64; K] = core::array::from_fn(|l| r18[l] - r0[l]);
-            out[0] = r24;
-            out[1] = r30;
-            out[2] = r31;
-            out[3] = r32;
-        }
-        /// `lyapunov` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn lyapunov<const K: usize>(
-            &self,
-            x: &[[f64; K]; 4],
-            target: &[f64; 1],
-            gains: &[f64; 1],
-            out: &mut [[f64; K]; 1],
-        ) {
-            let h = &self.lyapunov;
-            let r0: [f64; K] = x[1];
-            let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
-            let r2: [f64; K] = x[0];
-            let r3: [f64; K] = [h[0]; K];
-            let r4: [f64; K] = core::array::from_fn(|l| r2[l] + r3[l]);
-            let r5: [f64; K] = core::array::from_fn(|l| r4[l].powi(2));
-            let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r1[l]);
-            let r7: [f64; K] = core::array::from_fn(|l| r6[l].sqrt());
-            let r8: [f64; K] = [h[1]; K];
-            let r9: [f64; K] = core::array::from_fn(|l| r2[l] - r8[l]);
-            let r10: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
-            let r11: [f64; K] = core::array::from_fn(|l| r1[l] + r10[l]);
-            let r12: [f64; K] = core::array::from_fn(|l| r11[l].sqrt());
-            let r13: [f64; K] = [gains[0]; K];
-            let r14: [f64; K] = x[2];
-            let r15: [f64; K] = core::array::from_fn(|l| r14[l].powi(2));
-            let r16: [f64; K] = x[3];
-            let r17: [f64; K] = core::array::from_fn(|l| r16[l].powi(2));
-            let r18: [f64; K] = core::array::from_fn(|l| r15[l] + r17[l]);
-            let r19: [f64; K] = [0.5_f64; K];
-            let r20: [f64; K] = core::array::from_fn(|l| r19[l] * r18[l]);
-            let r21: [f64; K] = core::array::from_fn(|l| r0[l] * r14[l]);
-            let r22: [f64; K] = core::array::from_fn(|l| r2[l] * r16[l]);
-            let r23: [f64; K] = core::array::from_fn(|l| r8[l] / r7[l]);
-            let r24: [f64; K] = core::array::from_fn(|l| r3[l] / r12[l]);
-            let r25: [f64; K] = [target[0]; K];
-            let r26: [f64; K] = core::array::from_fn(|l| r20[l] + r21[l]);
-            let r27: [f64; K] = core::array::from_fn(|l| r26[l] - r22[l]);
-            let r28: [f64; K] = core::array::from_fn(|l| r27[l] - r23[l]);
-            let r29: [f64; K] = core::array::from_fn(|l| r28[l] - r24[l]);
-            let r30: [f64; K] = core::array::from_fn(|l| r29[l] - r25[l]);
-            let r31: [f64; K] = core::array::from_fn(|l| r30[l].powi(2));
-            let r32: [f64; K] = core::array::from_fn(|l| r19[l] * r13[l]);
-            let r33: [f64; K] = core::array::from_fn(|l| r32[l] * r31[l]);
-            out[0] = r33;
-        }
-        /// `lyapunov_gradient` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn lyapunov_gradient<const K: usize>(
-            &self,
-            x: &[[f64; K]; 4],
-            target: &[f64; 1],
-            gains: &[f64; 1],
-            out: &mut [[f64; K]; 4],
-        ) {
-            let h = &self.lyapunov_gradient;
-            let r0: [f64; K] = x[0];
-            let r1: [f64; K] = [h[0]; K];
-            let r2: [f64; K] = core::array::from_fn(|l| r0[l] + r1[l]);
-            let r3: [f64; K] = x[1];
-            let r4: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
-            let r5: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
-            let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r4[l]);
-            let r7: [f64; K] = core::array::from_fn(|l| r6[l].sqrt());
-            let r8: [f64; K] = [h[1]; K];
-            let r9: [f64; K] = core::array::from_fn(|l| r0[l] - r8[l]);
-            let r10: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
-            let r11: [f64; K] = core::array::from_fn(|l| r4[l] + r10[l]);
-            let r12: [f64; K] = core::array::from_fn(|l| r11[l].sqrt());
-            let r13: [f64; K] = [1.0_f64; K];
-            let r14: [f64; K] = core::array::from_fn(|l| r13[l] / r7[l]);
-            let r15: [f64; K] = core::array::from_fn(|l| r13[l] / r12[l]);
-            let r16: [f64; K] = core::array::from_fn(|l| r15[l].powi(3));
-            let r17: [f64; K] = core::array::from_fn(|l| r14[l].powi(3));
-            let r18: [f64; K] = [gains[0]; K];
-            let r19: [f64; K] = x[2];
-            let r20: [f64; K] = core::array::from_fn(|l| r19[l].powi(2));
-            let r21: [f64; K] = x[3];
-            let r22: [f64; K] = core::array::from_fn(|l| r21[l].powi(2));
-            let r23: [f64; K] = core::array::from_fn(|l| r20[l] + r22[l]);
-            let r24: [f64; K] = [0.5_f64; K];
-            let r25: [f64; K] = core::array::from_fn(|l| r24[l] * r23[l]);
-            let r26: [f64; K] = core::array::from_fn(|l| r3[l] * r19[l]);
-            let r27: [f64; K] = core::array::from_fn(|l| r0[l] * r21[l]);
-            let r28: [f64; K] = core::array::from_fn(|l| r8[l] * r14[l]);
-            let r29: [f64; K] = core::array::from_fn(|l| r1[l] * r15[l]);
-            let r30: [f64; K] = [target[0]; K];
-            let r31: [f64; K] = core::array::from_fn(|l| r25[l] + r26[l]);
-            let r32: [f64; K] = core::array::from_fn(|l| r31[l] - r27[l]);
-            let r33: [f64; K] = core::array::from_fn(|l| r32[l] - r28[l]);
-            let r34: [f64; K] = core::array::from_fn(|l| r33[l] - r29[l]);
-            let r35: [f64; K] = core::array::from_fn(|l| r34[l] - r30[l]);
-            let r36: [f64; K] = core::array::from_fn(|l| r18[l] * r35[l]);
-            let r37: [f64; K] = core::array::from_fn(|l| r1[l] * r9[l]);
-            let r38: [f64; K] = core::array::from_fn(|l| r37[l] * r16[l]);
-            let r39: [f64; K] = core::array::from_fn(|l| r2[l] * r8[l]);
-            let r40: [f64; K] = core::array::from_fn(|l| r39[l] * r17[l]);
-            let r41: [f64; K] = core::array::from_fn(|l| r38[l] + r40[l]);
-            let r42: [f64; K] = core::array::from_fn(|l| r41[l] - r21[l]);
-            let r43: [f64; K] = core::array::from_fn(|l| r42[l] * r36[l]);
-            let r44: [f64; K] = [h[2]; K];
-            let r45: [f64; K] = core::array::from_fn(|l| r44[l] * r16[l]);
-            let r46: [f64; K] = [h[3]; K];
-            let r47: [f64; K] = core::array::from_fn(|l| r46[l] * r17[l]);
-            let r48: [f64; K] = core::array::from_fn(|l| r45[l] + r47[l]);
-            let r49: [f64; K] = [2.0_f64; K];
-            let r50: [f64; K] = core::array::from_fn(|l| r49[l] * r3[l]);
-            let r51: [f64; K] = core::array::from_fn(|l| r50[l] * r48[l]);
-            let r52: [f64; K] = core::array::from_fn(|l| r19[l] + r51[l]);
-            let r53: [f64; K] = core::array::from_fn(|l| r52[l] * r36[l]);
-            let r54: [f64; K] = core::array::from_fn(|l| r3[l] + r19[l]);
-            let r55: [f64; K] = core::array::from_fn(|l| r54[l] * r36[l]);
-            let r56: [f64; K] = core::array::from_fn(|l| r21[l] - r0[l]);
-            let r57: [f64; K] = core::array::from_fn(|l| r56[l] * r36[l]);
-            out[0] = r43;
-            out[1] = r53;
-            out[2] = r55;
-            out[3] = r57;
-        }
-        /// `feedback` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn feedback<const K: usize>(
-            &self,
-            x: &[[f64; K]; 4],
-            target: &[f64; 1],
-            gains: &[f64; 1],
-            out: &mut [[f64; K]; 4],
-        ) {
-            let h = &self.feedback;
-            let r0: [f64; K] = x[0];
-            let r1: [f64; K] = [h[0]; K];
-            let r2: [f64; K] = core::array::from_fn(|l| r0[l] + r1[l]);
-            let r3: [f64; K] = x[1];
-            let r4: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
-            let r5: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
-            let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r4[l]);
-            let r7: [f64; K] = core::array::from_fn(|l| r6[l].sqrt());
-            let r8: [f64; K] = [h[1]; K];
-            let r9: [f64; K] = core::array::from_fn(|l| r0[l] - r8[l]);
-            let r10: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
-            let r11: [f64; K] = core::array::from_fn(|l| r4[l] + r10[l]);
-            let r12: [f64; K] = core::array::from_fn(|l| r11[l].sqrt());
-            let r13: [f64; K] = x[3];
-            let r14: [f64; K] = core::array::from_fn(|l| r13[l] - r0[l]);
-            let r15: [f64; K] = x[2];
-            let r16: [f64; K] = core::array::from_fn(|l| r3[l] + r15[l]);
-            let r17: [f64; K] = [1.0_f64; K];
-            let r18: [f64; K] = core::array::from_fn(|l| r17[l] / r7[l]);
-            let r19: [f64; K] = core::array::from_fn(|l| r17[l] / r12[l]);
-            let r20: [f64; K] = core::array::from_fn(|l| r19[l].powi(3));
-            let r21: [f64; K] = core::array::from_fn(|l| r18[l].powi(3));
-            let r22: [f64; K] = core::array::from_fn(|l| r1[l] * r9[l]);
-            let r23: [f64; K] = core::array::from_fn(|l| r22[l] * r20[l]);
-            let r24: [f64; K] = core::array::from_fn(|l| r2[l] * r8[l]);
-            let r25: [f64; K] = core::array::from_fn(|l| r24[l] * r21[l]);
-            let r26: [f64; K] = core::array::from_fn(|l| r23[l] + r25[l]);
-            let r27: [f64; K] = core::array::from_fn(|l| r26[l] - r13[l]);
-            let r28: [f64; K] = [h[2]; K];
-            let r29: [f64; K] = core::array::from_fn(|l| r28[l] * r20[l]);
-            let r30: [f64; K] = [h[3]; K];
-            let r31: [f64; K] = core::array::from_fn(|l| r30[l] * r21[l]);
-            let r32: [f64; K] = core::array::from_fn(|l| r29[l] + r31[l]);
-            let r33: [f64; K] = [2.0_f64; K];
-            let r34: [f64; K] = core::array::from_fn(|l| r33[l] * r3[l]);
-            let r35: [f64; K] = core::array::from_fn(|l| r34[l] * r32[l]);
-            let r36: [f64; K] = core::array::from_fn(|l| r15[l] + r35[l]);
-            let r37: [f64; K] = [gains[0]; K];
-            let r38: [f64; K] = core::array::from_fn(|l| r15[l].powi(2));
-            let r39: [f64; K] = core::array::from_fn(|l| r13[l].powi(2));
-            let r40: [f64; K] = core::array::from_fn(|l| r38[l] + r39[l]);
-            let r41: [f64; K] = [0.5_f64; K];
-            let r42: [f64; K] = core::array::from_fn(|l| r41[l] * r40[l]);
-            let r43: [f64; K] = core::array::from_fn(|l| r3[l] * r15[l]);
-            let r44: [f64; K] = core::array::from_fn(|l| r0[l] * r13[l]);
-            let r45: [f64; K] = core::array::from_fn(|l| r8[l] * r18[l]);
-            let r46: [f64; K] = core::array::from_fn(|l| r1[l] * r19[l]);
-            let r47: [f64; K] = [target[0]; K];
-            let r48: [f64; K] = core::array::from_fn(|l| r42[l] + r43[l]);
-            let r49: [f64; K] = core::array::from_fn(|l| r48[l] - r44[l]);
-            let r50: [f64; K] = core::array::from_fn(|l| r49[l] - r45[l]);
-            let r51: [f64; K] = core::array::from_fn(|l| r50[l] - r46[l]);
-            let r52: [f64; K] = core::array::from_fn(|l| r51[l] - r47[l]);
-            let r53: [f64; K] = core::array::from_fn(|l| r37[l] * r52[l]);
-            let r54: [f64; K] = core::array::from_fn(|l| r27[l] * r53[l]);
-            let r55: [f64; K] = core::array::from_fn(|l| r16[l] - r54[l]);
-            let r56: [f64; K] = core::array::from_fn(|l| r36[l] * r53[l]);
-            let r57: [f64; K] = core::array::from_fn(|l| r14[l] - r56[l]);
-            let r58: [f64; K] = core::array::from_fn(|l| r16[l] * r53[l]);
-            let r59: [f64; K] = core::array::from_fn(|l| -r27[l]);
-            let r60: [f64; K] = core::array::from_fn(|l| r59[l] - r58[l]);
-            let r61: [f64; K] = core::array::from_fn(|l| r14[l] * r53[l]);
-            let r62: [f64; K] = core::array::from_fn(|l| -r36[l]);
-            let r63: [f64; K] = core::array::from_fn(|l| r62[l] - r61[l]);
-            out[0] = r55;
-            out[1] = r57;
-            out[2] = r60;
-            out[3] = r63;
-        }
-        /// `hamiltonian` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn hamiltonian<const K: usize>(
-            &self,
-            x: &[[f64; K]; 4],
-            out: &mut [[f64; K]; 1],
-        ) {
-            let h = &self.hamiltonian;
-            let r0: [f64; K] = x[1];
-            let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
-            let r2: [f64; K] = x[0];
-            let r3: [f64; K] = [h[0]; K];
-            let r4: [f64; K] = core::array::from_fn(|l| r2[l] + r3[l]);
-            let r5: [f64; K] = core::array::from_fn(|l| r4[l].powi(2));
-            let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r1[l]);
-            let r7: [f64; K] = core::array::from_fn(|l| r6[l].sqrt());
-            let r8: [f64; K] = [h[1]; K];
-            let r9: [f64; K] = core::array::from_fn(|l| r2[l] - r8[l]);
-            let r10: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
-            let r11: [f64; K] = core::array::from_fn(|l| r1[l] + r10[l]);
-            let r12: [f64; K] = core::array::from_fn(|l| r11[l].sqrt());
-            let r13: [f64; K] = x[2];
-            let r14: [f64; K] = core::array::from_fn(|l| r13[l].powi(2));
-            let r15: [f64; K] = x[3];
-            let r16: [f64; K] = core::array::from_fn(|l| r15[l].powi(2));
-            let r17: [f64; K] = core::array::from_fn(|l| r14[l] + r16[l]);
-            let r18: [f64; K] = [0.5_f64; K];
-            let r19: [f64; K] = core::array::from_fn(|l| r18[l] * r17[l]);
-            let r20: [f64; K] = core::array::from_fn(|l| r0[l] * r13[l]);
-            let r21: [f64; K] = core::array::from_fn(|l| r2[l] * r15[l]);
-            let r22: [f64; K] = core::array::from_fn(|l| r8[l] / r7[l]);
-            let r23: [f64; K] = core::array::from_fn(|l| r3[l] / r12[l]);
-            let r24: [f64; K] = core::array::from_fn(|l| r19[l] + r20[l]);
-            let r25: [f64; K] = core::array::from_fn(|l| r24[l] - r21[l]);
-            let r26: [f64; K] = core::array::from_fn(|l| r25[l] - r22[l]);
-            let r27: [f64; K] = core::array::from_fn(|l| r26[l] - r23[l]);
-            out[0] = r27;
+
+        impl Lanes {
+            /// `field` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn field<const K: usize>(
+                &self,
+                x: &[[f64; K]; 4],
+                out: &mut [[f64; K]; 4],
+            ) {
+                let h = &self.prelude.field;
+                let r0: [f64; K] = x[0];
+                let r1: [f64; K] = [h[0]; K];
+                let r2: [f64; K] = core::array::from_fn(|l| r0[l] + r1[l]);
+                let r3: [f64; K] = x[1];
+                let r4: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
+                let r5: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
+                let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r4[l]);
+                let r7: [f64; K] = core::array::from_fn(|l| r6[l].sqrt());
+                let r8: [f64; K] = [h[1]; K];
+                let r9: [f64; K] = core::array::from_fn(|l| r0[l] - r8[l]);
+                let r10: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
+                let r11: [f64; K] = core::array::from_fn(|l| r4[l] + r10[l]);
+                let r12: [f64; K] = core::array::from_fn(|l| r11[l].sqrt());
+                let r13: [f64; K] = core::array::from_fn(|l| r12[l].powi(3));
+                let r14: [f64; K] = [1.0_f64; K];
+                let r15: [f64; K] = core::array::from_fn(|l| r14[l] / r13[l]);
+                let r16: [f64; K] = core::array::from_fn(|l| r7[l].powi(3));
+                let r17: [f64; K] = core::array::from_fn(|l| r14[l] / r16[l]);
+                let r18: [f64; K] = x[2];
+                let r19: [f64; K] = core::array::from_fn(|l| r3[l] + r18[l]);
+                let r20: [f64; K] = x[3];
+                let r21: [f64; K] = core::array::from_fn(|l| r20[l] - r0[l]);
+                let r22: [f64; K] = core::array::from_fn(|l| r1[l] * r9[l]);
+                let r23: [f64; K] = core::array::from_fn(|l| r22[l] * r15[l]);
+                let r24: [f64; K] = core::array::from_fn(|l| r2[l] * r8[l]);
+                let r25: [f64; K] = core::array::from_fn(|l| r24[l] * r17[l]);
+                let r26: [f64; K] = core::array::from_fn(|l| r23[l] + r25[l]);
+                let r27: [f64; K] = core::array::from_fn(|l| r26[l] - r20[l]);
+                let r28: [f64; K] = core::array::from_fn(|l| -r27[l]);
+                let r29: [f64; K] = [h[2]; K];
+                let r30: [f64; K] = core::array::from_fn(|l| r15[l] * r29[l]);
+                let r31: [f64; K] = [h[3]; K];
+                let r32: [f64; K] = core::array::from_fn(|l| r17[l] * r31[l]);
+                let r33: [f64; K] = core::array::from_fn(|l| r30[l] + r32[l]);
+                let r34: [f64; K] = [2.0_f64; K];
+                let r35: [f64; K] = core::array::from_fn(|l| r34[l] * r3[l]);
+                let r36: [f64; K] = core::array::from_fn(|l| r35[l] * r33[l]);
+                let r37: [f64; K] = core::array::from_fn(|l| r18[l] + r36[l]);
+                let r38: [f64; K] = core::array::from_fn(|l| -r37[l]);
+                out[0] = r19;
+                out[1] = r21;
+                out[2] = r28;
+                out[3] = r38;
+            }
+            /// `invariants` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn invariants<const K: usize>(
+                &self,
+                x: &[[f64; K]; 4],
+                out: &mut [[f64; K]; 1],
+            ) {
+                let h = &self.prelude.invariants;
+                let r0: [f64; K] = x[1];
+                let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
+                let r2: [f64; K] = x[0];
+                let r3: [f64; K] = [h[0]; K];
+                let r4: [f64; K] = core::array::from_fn(|l| r2[l] + r3[l]);
+                let r5: [f64; K] = core::array::from_fn(|l| r4[l].powi(2));
+                let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r1[l]);
+                let r7: [f64; K] = core::array::from_fn(|l| r6[l].sqrt());
+                let r8: [f64; K] = [h[1]; K];
+                let r9: [f64; K] = core::array::from_fn(|l| r2[l] - r8[l]);
+                let r10: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
+                let r11: [f64; K] = core::array::from_fn(|l| r1[l] + r10[l]);
+                let r12: [f64; K] = core::array::from_fn(|l| r11[l].sqrt());
+                let r13: [f64; K] = x[2];
+                let r14: [f64; K] = core::array::from_fn(|l| r13[l].powi(2));
+                let r15: [f64; K] = x[3];
+                let r16: [f64; K] = core::array::from_fn(|l| r15[l].powi(2));
+                let r17: [f64; K] = core::array::from_fn(|l| r14[l] + r16[l]);
+                let r18: [f64; K] = [0.5_f64; K];
+                let r19: [f64; K] = core::array::from_fn(|l| r18[l] * r17[l]);
+                let r20: [f64; K] = core::array::from_fn(|l| r0[l] * r13[l]);
+                let r21: [f64; K] = core::array::from_fn(|l| r2[l] * r15[l]);
+                let r22: [f64; K] = core::array::from_fn(|l| r8[l] / r7[l]);
+                let r23: [f64; K] = core::array::from_fn(|l| r3[l] / r12[l]);
+                let r24: [f64; K] = core::array::from_fn(|l| r19[l] + r20[l]);
+                let r25: [f64; K] = core::array::from_fn(|l| r24[l] - r21[l]);
+                let r26: [f64; K] = core::array::from_fn(|l| r25[l] - r22[l]);
+                let r27: [f64; K] = core::array::from_fn(|l| r26[l] - r23[l]);
+                out[0] = r27;
+            }
+            /// `jacobian` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn jacobian<const K: usize>(
+                &self,
+                x: &[[f64; K]; 4],
+                out: &mut [[f64; K]; 4],
+            ) {
+                let h = &self.prelude.jacobian;
+                let r0: [f64; K] = x[0];
+                let r1: [f64; K] = [h[0]; K];
+                let r2: [f64; K] = core::array::from_fn(|l| r0[l] + r1[l]);
+                let r3: [f64; K] = x[1];
+                let r4: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
+                let r5: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
+                let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r4[l]);
+                let r7: [f64; K] = core::array::from_fn(|l| r6[l].sqrt());
+                let r8: [f64; K] = [h[1]; K];
+                let r9: [f64; K] = core::array::from_fn(|l| r0[l] - r8[l]);
+                let r10: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
+                let r11: [f64; K] = core::array::from_fn(|l| r4[l] + r10[l]);
+                let r12: [f64; K] = core::array::from_fn(|l| r11[l].sqrt());
+                let r13: [f64; K] = core::array::from_fn(|l| r12[l].powi(3));
+                let r14: [f64; K] = [1.0_f64; K];
+                let r15: [f64; K] = core::array::from_fn(|l| r14[l] / r13[l]);
+                let r16: [f64; K] = core::array::from_fn(|l| r7[l].powi(3));
+                let r17: [f64; K] = core::array::from_fn(|l| r14[l] / r16[l]);
+                let r18: [f64; K] = x[3];
+                let r19: [f64; K] = core::array::from_fn(|l| r1[l] * r9[l]);
+                let r20: [f64; K] = core::array::from_fn(|l| r19[l] * r15[l]);
+                let r21: [f64; K] = core::array::from_fn(|l| r2[l] * r8[l]);
+                let r22: [f64; K] = core::array::from_fn(|l| r21[l] * r17[l]);
+                let r23: [f64; K] = core::array::from_fn(|l| r20[l] + r22[l]);
+                let r24: [f64; K] = core::array::from_fn(|l| r23[l] - r18[l]);
+                let r25: [f64; K] = x[2];
+                let r26: [f64; K] = core::array::from_fn(|l| r1[l] * r15[l]);
+                let r27: [f64; K] = core::array::from_fn(|l| r8[l] * r17[l]);
+                let r28: [f64; K] = core::array::from_fn(|l| r26[l] + r27[l]);
+                let r29: [f64; K] = core::array::from_fn(|l| r3[l] * r28[l]);
+                let r30: [f64; K] = core::array::from_fn(|l| r25[l] + r29[l]);
+                let r31: [f64; K] = core::array::from_fn(|l| r3[l] + r25[l]);
+                let r32: [f64; K] = core::array::from_fn(|l| r18[l] - r0[l]);
+                out[0] = r24;
+                out[1] = r30;
+                out[2] = r31;
+                out[3] = r32;
+            }
+            /// `lyapunov` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn lyapunov<const K: usize>(
+                &self,
+                x: &[[f64; K]; 4],
+                target: &[f64; 1],
+                gains: &[f64; 1],
+                out: &mut [[f64; K]; 1],
+            ) {
+                let h = &self.prelude.lyapunov;
+                let r0: [f64; K] = x[1];
+                let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
+                let r2: [f64; K] = x[0];
+                let r3: [f64; K] = [h[0]; K];
+                let r4: [f64; K] = core::array::from_fn(|l| r2[l] + r3[l]);
+                let r5: [f64; K] = core::array::from_fn(|l| r4[l].powi(2));
+                let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r1[l]);
+                let r7: [f64; K] = core::array::from_fn(|l| r6[l].sqrt());
+                let r8: [f64; K] = [h[1]; K];
+                let r9: [f64; K] = core::array::from_fn(|l| r2[l] - r8[l]);
+                let r10: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
+                let r11: [f64; K] = core::array::from_fn(|l| r1[l] + r10[l]);
+                let r12: [f64; K] = core::array::from_fn(|l| r11[l].sqrt());
+                let r13: [f64; K] = [gains[0]; K];
+                let r14: [f64; K] = x[2];
+                let r15: [f64; K] = core::array::from_fn(|l| r14[l].powi(2));
+                let r16: [f64; K] = x[3];
+                let r17: [f64; K] = core::array::from_fn(|l| r16[l].powi(2));
+                let r18: [f64; K] = core::array::from_fn(|l| r15[l] + r17[l]);
+                let r19: [f64; K] = [0.5_f64; K];
+                let r20: [f64; K] = core::array::from_fn(|l| r19[l] * r18[l]);
+                let r21: [f64; K] = core::array::from_fn(|l| r0[l] * r14[l]);
+                let r22: [f64; K] = core::array::from_fn(|l| r2[l] * r16[l]);
+                let r23: [f64; K] = core::array::from_fn(|l| r8[l] / r7[l]);
+                let r24: [f64; K] = core::array::from_fn(|l| r3[l] / r12[l]);
+                let r25: [f64; K] = [target[0]; K];
+                let r26: [f64; K] = core::array::from_fn(|l| r20[l] + r21[l]);
+                let r27: [f64; K] = core::array::from_fn(|l| r26[l] - r22[l]);
+                let r28: [f64; K] = core::array::from_fn(|l| r27[l] - r23[l]);
+                let r29: [f64; K] = core::array::from_fn(|l| r28[l] - r24[l]);
+                let r30: [f64; K] = core::array::from_fn(|l| r29[l] - r25[l]);
+                let r31: [f64; K] = core::array::from_fn(|l| r30[l].powi(2));
+                let r32: [f64; K] = core::array::from_fn(|l| r19[l] * r13[l]);
+                let r33: [f64; K] = core::array::from_fn(|l| r32[l] * r31[l]);
+                out[0] = r33;
+            }
+            /// `lyapunov_gradient` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn lyapunov_gradient<const K: usize>(
+                &self,
+                x: &[[f64; K]; 4],
+                target: &[f64; 1],
+                gains: &[f64; 1],
+                out: &mut [[f64; K]; 4],
+            ) {
+                let h = &self.prelude.lyapunov_gradient;
+                let r0: [f64; K] = x[0];
+                let r1: [f64; K] = [h[0]; K];
+                let r2: [f64; K] = core::array::from_fn(|l| r0[l] + r1[l]);
+                let r3: [f64; K] = x[1];
+                let r4: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
+                let r5: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
+                let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r4[l]);
+                let r7: [f64; K] = core::array::from_fn(|l| r6[l].sqrt());
+                let r8: [f64; K] = [h[1]; K];
+                let r9: [f64; K] = core::array::from_fn(|l| r0[l] - r8[l]);
+                let r10: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
+                let r11: [f64; K] = core::array::from_fn(|l| r4[l] + r10[l]);
+                let r12: [f64; K] = core::array::from_fn(|l| r11[l].sqrt());
+                let r13: [f64; K] = [1.0_f64; K];
+                let r14: [f64; K] = core::array::from_fn(|l| r13[l] / r7[l]);
+                let r15: [f64; K] = core::array::from_fn(|l| r13[l] / r12[l]);
+                let r16: [f64; K] = core::array::from_fn(|l| r15[l].powi(3));
+                let r17: [f64; K] = core::array::from_fn(|l| r14[l].powi(3));
+                let r18: [f64; K] = [gains[0]; K];
+                let r19: [f64; K] = x[2];
+                let r20: [f64; K] = core::array::from_fn(|l| r19[l].powi(2));
+                let r21: [f64; K] = x[3];
+                let r22: [f64; K] = core::array::from_fn(|l| r21[l].powi(2));
+                let r23: [f64; K] = core::array::from_fn(|l| r20[l] + r22[l]);
+                let r24: [f64; K] = [0.5_f64; K];
+                let r25: [f64; K] = core::array::from_fn(|l| r24[l] * r23[l]);
+                let r26: [f64; K] = core::array::from_fn(|l| r3[l] * r19[l]);
+                let r27: [f64; K] = core::array::from_fn(|l| r0[l] * r21[l]);
+                let r28: [f64; K] = core::array::from_fn(|l| r8[l] * r14[l]);
+                let r29: [f64; K] = core::array::from_fn(|l| r1[l] * r15[l]);
+                let r30: [f64; K] = [target[0]; K];
+                let r31: [f64; K] = core::array::from_fn(|l| r25[l] + r26[l]);
+                let r32: [f64; K] = core::array::from_fn(|l| r31[l] - r27[l]);
+                let r33: [f64; K] = core::array::from_fn(|l| r32[l] - r28[l]);
+                let r34: [f64; K] = core::array::from_fn(|l| r33[l] - r29[l]);
+                let r35: [f64; K] = core::array::from_fn(|l| r34[l] - r30[l]);
+                let r36: [f64; K] = core::array::from_fn(|l| r18[l] * r35[l]);
+                let r37: [f64; K] = core::array::from_fn(|l| r1[l] * r9[l]);
+                let r38: [f64; K] = core::array::from_fn(|l| r37[l] * r16[l]);
+                let r39: [f64; K] = core::array::from_fn(|l| r2[l] * r8[l]);
+                let r40: [f64; K] = core::array::from_fn(|l| r39[l] * r17[l]);
+                let r41: [f64; K] = core::array::from_fn(|l| r38[l] + r40[l]);
+                let r42: [f64; K] = core::array::from_fn(|l| r41[l] - r21[l]);
+                let r43: [f64; K] = core::array::from_fn(|l| r42[l] * r36[l]);
+                let r44: [f64; K] = [h[2]; K];
+                let r45: [f64; K] = core::array::from_fn(|l| r44[l] * r16[l]);
+                let r46: [f64; K] = [h[3]; K];
+                let r47: [f64; K] = core::array::from_fn(|l| r46[l] * r17[l]);
+                let r48: [f64; K] = core::array::from_fn(|l| r45[l] + r47[l]);
+                let r49: [f64; K] = [2.0_f64; K];
+                let r50: [f64; K] = core::array::from_fn(|l| r49[l] * r3[l]);
+                let r51: [f64; K] = core::array::from_fn(|l| r50[l] * r48[l]);
+                let r52: [f64; K] = core::array::from_fn(|l| r19[l] + r51[l]);
+                let r53: [f64; K] = core::array::from_fn(|l| r52[l] * r36[l]);
+                let r54: [f64; K] = core::array::from_fn(|l| r3[l] + r19[l]);
+                let r55: [f64; K] = core::array::from_fn(|l| r54[l] * r36[l]);
+                let r56: [f64; K] = core::array::from_fn(|l| r21[l] - r0[l]);
+                let r57: [f64; K] = core::array::from_fn(|l| r56[l] * r36[l]);
+                out[0] = r43;
+                out[1] = r53;
+                out[2] = r55;
+                out[3] = r57;
+            }
+            /// `feedback` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn feedback<const K: usize>(
+                &self,
+                x: &[[f64; K]; 4],
+                target: &[f64; 1],
+                gains: &[f64; 1],
+                out: &mut [[f64; K]; 4],
+            ) {
+                let h = &self.prelude.feedback;
+                let r0: [f64; K] = x[0];
+                let r1: [f64; K] = [h[0]; K];
+                let r2: [f64; K] = core::array::from_fn(|l| r0[l] + r1[l]);
+                let r3: [f64; K] = x[1];
+                let r4: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
+                let r5: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
+                let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r4[l]);
+                let r7: [f64; K] = core::array::from_fn(|l| r6[l].sqrt());
+                let r8: [f64; K] = [h[1]; K];
+                let r9: [f64; K] = core::array::from_fn(|l| r0[l] - r8[l]);
+                let r10: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
+                let r11: [f64; K] = core::array::from_fn(|l| r4[l] + r10[l]);
+                let r12: [f64; K] = core::array::from_fn(|l| r11[l].sqrt());
+                let r13: [f64; K] = x[3];
+                let r14: [f64; K] = core::array::from_fn(|l| r13[l] - r0[l]);
+                let r15: [f64; K] = x[2];
+                let r16: [f64; K] = core::array::from_fn(|l| r3[l] + r15[l]);
+                let r17: [f64; K] = [1.0_f64; K];
+                let r18: [f64; K] = core::array::from_fn(|l| r17[l] / r7[l]);
+                let r19: [f64; K] = core::array::from_fn(|l| r17[l] / r12[l]);
+                let r20: [f64; K] = core::array::from_fn(|l| r19[l].powi(3));
+                let r21: [f64; K] = core::array::from_fn(|l| r18[l].powi(3));
+                let r22: [f64; K] = core::array::from_fn(|l| r1[l] * r9[l]);
+                let r23: [f64; K] = core::array::from_fn(|l| r22[l] * r20[l]);
+                let r24: [f64; K] = core::array::from_fn(|l| r2[l] * r8[l]);
+                let r25: [f64; K] = core::array::from_fn(|l| r24[l] * r21[l]);
+                let r26: [f64; K] = core::array::from_fn(|l| r23[l] + r25[l]);
+                let r27: [f64; K] = core::array::from_fn(|l| r26[l] - r13[l]);
+                let r28: [f64; K] = [h[2]; K];
+                let r29: [f64; K] = core::array::from_fn(|l| r28[l] * r20[l]);
+                let r30: [f64; K] = [h[3]; K];
+                let r31: [f64; K] = core::array::from_fn(|l| r30[l] * r21[l]);
+                let r32: [f64; K] = core::array::from_fn(|l| r29[l] + r31[l]);
+                let r33: [f64; K] = [2.0_f64; K];
+                let r34: [f64; K] = core::array::from_fn(|l| r33[l] * r3[l]);
+                let r35: [f64; K] = core::array::from_fn(|l| r34[l] * r32[l]);
+                let r36: [f64; K] = core::array::from_fn(|l| r15[l] + r35[l]);
+                let r37: [f64; K] = [gains[0]; K];
+                let r38: [f64; K] = core::array::from_fn(|l| r15[l].powi(2));
+                let r39: [f64; K] = core::array::from_fn(|l| r13[l].powi(2));
+                let r40: [f64; K] = core::array::from_fn(|l| r38[l] + r39[l]);
+                let r41: [f64; K] = [0.5_f64; K];
+                let r42: [f64; K] = core::array::from_fn(|l| r41[l] * r40[l]);
+                let r43: [f64; K] = core::array::from_fn(|l| r3[l] * r15[l]);
+                let r44: [f64; K] = core::array::from_fn(|l| r0[l] * r13[l]);
+                let r45: [f64; K] = core::array::from_fn(|l| r8[l] * r18[l]);
+                let r46: [f64; K] = core::array::from_fn(|l| r1[l] * r19[l]);
+                let r47: [f64; K] = [target[0]; K];
+                let r48: [f64; K] = core::array::from_fn(|l| r42[l] + r43[l]);
+                let r49: [f64; K] = core::array::from_fn(|l| r48[l] - r44[l]);
+                let r50: [f64; K] = core::array::from_fn(|l| r49[l] - r45[l]);
+                let r51: [f64; K] = core::array::from_fn(|l| r50[l] - r46[l]);
+                let r52: [f64; K] = core::array::from_fn(|l| r51[l] - r47[l]);
+                let r53: [f64; K] = core::array::from_fn(|l| r37[l] * r52[l]);
+                let r54: [f64; K] = core::array::from_fn(|l| r27[l] * r53[l]);
+                let r55: [f64; K] = core::array::from_fn(|l| r16[l] - r54[l]);
+                let r56: [f64; K] = core::array::from_fn(|l| r36[l] * r53[l]);
+                let r57: [f64; K] = core::array::from_fn(|l| r14[l] - r56[l]);
+                let r58: [f64; K] = core::array::from_fn(|l| r16[l] * r53[l]);
+                let r59: [f64; K] = core::array::from_fn(|l| -r27[l]);
+                let r60: [f64; K] = core::array::from_fn(|l| r59[l] - r58[l]);
+                let r61: [f64; K] = core::array::from_fn(|l| r14[l] * r53[l]);
+                let r62: [f64; K] = core::array::from_fn(|l| -r36[l]);
+                let r63: [f64; K] = core::array::from_fn(|l| r62[l] - r61[l]);
+                out[0] = r55;
+                out[1] = r57;
+                out[2] = r60;
+                out[3] = r63;
+            }
+            /// `hamiltonian` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn hamiltonian<const K: usize>(
+                &self,
+                x: &[[f64; K]; 4],
+                out: &mut [[f64; K]; 1],
+            ) {
+                let h = &self.prelude.hamiltonian;
+                let r0: [f64; K] = x[1];
+                let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
+                let r2: [f64; K] = x[0];
+                let r3: [f64; K] = [h[0]; K];
+                let r4: [f64; K] = core::array::from_fn(|l| r2[l] + r3[l]);
+                let r5: [f64; K] = core::array::from_fn(|l| r4[l].powi(2));
+                let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r1[l]);
+                let r7: [f64; K] = core::array::from_fn(|l| r6[l].sqrt());
+                let r8: [f64; K] = [h[1]; K];
+                let r9: [f64; K] = core::array::from_fn(|l| r2[l] - r8[l]);
+                let r10: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
+                let r11: [f64; K] = core::array::from_fn(|l| r1[l] + r10[l]);
+                let r12: [f64; K] = core::array::from_fn(|l| r11[l].sqrt());
+                let r13: [f64; K] = x[2];
+                let r14: [f64; K] = core::array::from_fn(|l| r13[l].powi(2));
+                let r15: [f64; K] = x[3];
+                let r16: [f64; K] = core::array::from_fn(|l| r15[l].powi(2));
+                let r17: [f64; K] = core::array::from_fn(|l| r14[l] + r16[l]);
+                let r18: [f64; K] = [0.5_f64; K];
+                let r19: [f64; K] = core::array::from_fn(|l| r18[l] * r17[l]);
+                let r20: [f64; K] = core::array::from_fn(|l| r0[l] * r13[l]);
+                let r21: [f64; K] = core::array::from_fn(|l| r2[l] * r15[l]);
+                let r22: [f64; K] = core::array::from_fn(|l| r8[l] / r7[l]);
+                let r23: [f64; K] = core::array::from_fn(|l| r3[l] / r12[l]);
+                let r24: [f64; K] = core::array::from_fn(|l| r19[l] + r20[l]);
+                let r25: [f64; K] = core::array::from_fn(|l| r24[l] - r21[l]);
+                let r26: [f64; K] = core::array::from_fn(|l| r25[l] - r22[l]);
+                let r27: [f64; K] = core::array::from_fn(|l| r26[l] - r23[l]);
+                out[0] = r27;
+            }
         }
     }
 }

@@ -56,23 +56,27 @@ pub mod hostile {
             [T::one(), T::one()]
         }
 
-        /// The target f(x₀) of the feedback field: the invariants at the initial state.
-        pub fn targets(&self, x0: &[T; 6]) -> [T; 2] {
-            let mut f = [T::zero(); 2];
-            self.invariants(x0, &mut f);
-            f
-        }
-
         /// The point `start` (hostile.lsl:15: point start { fn = 1; self = 0; type = [1, 0]; x = 0; x_mut = 1; }).
         pub fn point_start(&self) -> [T; 6] {
             [T::one(), T::zero(), T::one(), T::zero(), T::zero(), T::one()]
         }
     }
 
-    /// The model `Hostile` with its parameter-only values computed once ([`Hostile::prepare`]): the functions of the runtime's traits read them instead of recomputing them at every call. Immutable: to change a parameter, change the model and prepare it again, or call `Parameters::set_param`, which prepares again.
+    impl<T: Float> HostilePrepared<T> {
+        /// The target f(x₀) of the feedback field: the invariants at the initial state.
+        pub fn targets(&self, x0: &[T; 6]) -> [T; 2] {
+            let mut f = [T::zero(); 2];
+            self.invariants(x0, &mut f);
+            f
+        }
+    }
+
+    /// The model `Hostile` with its parameter-only values computed once ([`Hostile::prepare`]): the runtime's traits are implemented on it, and its functions read these values instead of recomputing them at every call. Immutable: to change a parameter, change the model and prepare it again, or call `Parameters::set_param`, which prepares again.
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct HostilePrepared<T = f64> {
         model: Hostile<T>,
+        /// The same values for the machine kernels, per tape and in f64.
+        kernels: kernels::Prelude,
     }
 
     impl<T> Deref for HostilePrepared<T> {
@@ -84,12 +88,13 @@ pub mod hostile {
     }
 
     impl<T: Float> Hostile<T> {
-        /// The model with its parameter-only values computed, for runs: its trait
-        /// functions do less work per call than the model's own, which prepare on
-        /// every call.
-        #[inline]
+        /// The model with its parameter-only values computed, for runs: the runtime's
+        /// traits are implemented on the prepared model.
         pub fn prepare(&self) -> HostilePrepared<T> {
-            HostilePrepared { model: *self }
+            HostilePrepared {
+                model: *self,
+                kernels: kernels::Prelude::new(&self.slot_values()),
+            }
         }
     }
 
@@ -146,13 +151,6 @@ pub mod hostile {
         }
     }
 
-    impl<T: Float> Field<T, [T; 6]> for Hostile<T> {
-        #[inline]
-        fn field(&self, x: &[T; 6], dx: &mut [T; 6]) {
-            self.prepare().field(x, dx)
-        }
-    }
-
     impl<T: Float> Invariants<T, [T; 6], [T; 2]> for HostilePrepared<T> {
         fn invariants(&self, x: &[T; 6], f: &mut [T; 2]) {
             let [fn_, self_, type_0, type_1, ..] = *x;
@@ -174,26 +172,14 @@ pub mod hostile {
         }
     }
 
-    impl<T: Float> Invariants<T, [T; 6], [T; 2]> for Hostile<T> {
-        #[inline]
-        fn invariants(&self, x: &[T; 6], f: &mut [T; 2]) {
-            self.prepare().invariants(x, f)
-        }
-
-        #[inline]
-        fn invariants_jacobian(&self, x: &[T; 6], jac: &mut [[T; 6]; 2]) {
-            self.prepare().invariants_jacobian(x, jac)
-        }
-    }
-
     impl<T: Float> Lyapunov<T, [T; 6], [T; 2], [T; 2]> for HostilePrepared<T> {
         fn lyapunov(&self, x: &[T; 6], target: &[T; 2], gains: &[T; 2]) -> T {
             let [fn_, self_, type_0, type_1, ..] = *x;
             let [k_e, k_f] = *gains;
-            let [e_0, f_0] = *target;
+            let [e0, f0] = *target;
             // hostile.lsl: V = Σ k/2 |f − f(x₀)|² over the invariants
-            lit::<T>(0.5) * k_e * (fn_ * fn_ + self_ * self_ - e_0).powi(2)
-                + lit::<T>(0.5) * k_f * (type_0 * type_0 + type_1 * type_1 - f_0).powi(2)
+            lit::<T>(0.5) * k_e * (fn_ * fn_ + self_ * self_ - e0).powi(2)
+                + lit::<T>(0.5) * k_f * (type_0 * type_0 + type_1 * type_1 - f0).powi(2)
         }
 
         fn lyapunov_gradient(
@@ -205,17 +191,17 @@ pub mod hostile {
         ) {
             let [fn_, self_, type_0, type_1, ..] = *x;
             let [k_e, k_f] = *gains;
-            let [e_0, f_0] = *target;
-            let t1 = k_f * (type_0 * type_0 + type_1 * type_1 - f_0);
-            let t2 = k_e * (fn_ * fn_ + self_ * self_ - e_0);
+            let [e0, f0] = *target;
+            let k_f_df = k_f * (type_0 * type_0 + type_1 * type_1 - f0);
+            let k_e_de = k_e * (fn_ * fn_ + self_ * self_ - e0);
             // ∂V/∂x[0] (fn)
-            grad[0] = lit::<T>(2.0) * fn_ * t2;
+            grad[0] = lit::<T>(2.0) * fn_ * k_e_de;
             // ∂V/∂x[1] (self)
-            grad[1] = lit::<T>(2.0) * self_ * t2;
+            grad[1] = lit::<T>(2.0) * self_ * k_e_de;
             // ∂V/∂x[2] (type_0)
-            grad[2] = lit::<T>(2.0) * type_0 * t1;
+            grad[2] = lit::<T>(2.0) * type_0 * k_f_df;
             // ∂V/∂x[3] (type_1)
-            grad[3] = lit::<T>(2.0) * type_1 * t1;
+            grad[3] = lit::<T>(2.0) * type_1 * k_f_df;
             // ∂V/∂x[4] (x)
             grad[4] = T::zero();
             // ∂V/∂x[5] (x_mut)
@@ -231,22 +217,22 @@ pub mod hostile {
         ) {
             let [fn_, self_, type_0, type_1, x_2, x_mut] = *x;
             let [k_e, k_f] = *gains;
-            let [e_0, f_0] = *target;
+            let [e0, f0] = *target;
             let type_0_sq = type_0 * type_0;
             // hostile.lsl:6: let T = 1 + lit^2;
             let t = T::one() + type_0_sq * (x_2 * x_2);
             // hostile.lsl:7: let _ = self * T;
             let v_ = self_ * t;
-            let t1 = k_f * (type_0_sq + type_1 * type_1 - f_0);
-            let t2 = k_e * (fn_ * fn_ + self_ * self_ - e_0);
+            let k_f_df = k_f * (type_0_sq + type_1 * type_1 - f0);
+            let k_e_de = k_e * (fn_ * fn_ + self_ * self_ - e0);
             // hostile.lsl:8: d/dt fn = _; − ∂V/∂x[0]
-            dx[0] = v_ - lit::<T>(2.0) * fn_ * t2;
+            dx[0] = v_ - lit::<T>(2.0) * fn_ * k_e_de;
             // hostile.lsl:9: d/dt self = -fn * T; − ∂V/∂x[1]
-            dx[1] = -fn_ * t - lit::<T>(2.0) * self_ * t2;
+            dx[1] = -fn_ * t - lit::<T>(2.0) * self_ * k_e_de;
             // hostile.lsl:10: d/dt type = [type[1], -type[0]]; − ∂V/∂x[2]
-            dx[2] = type_1 - lit::<T>(2.0) * type_0 * t1;
+            dx[2] = type_1 - lit::<T>(2.0) * type_0 * k_f_df;
             // hostile.lsl:10: d/dt type = [type[1], -type[0]]; − ∂V/∂x[3]
-            dx[3] = -type_0 - lit::<T>(2.0) * type_1 * t1;
+            dx[3] = -type_0 - lit::<T>(2.0) * type_1 * k_f_df;
             // hostile.lsl:11: d/dt x = x_mut; − ∂V/∂x[4]
             dx[4] = x_mut;
             // hostile.lsl:12: d/dt x_mut = -x; − ∂V/∂x[5]
@@ -254,42 +240,12 @@ pub mod hostile {
         }
     }
 
-    impl<T: Float> Lyapunov<T, [T; 6], [T; 2], [T; 2]> for Hostile<T> {
-        #[inline]
-        fn lyapunov(&self, x: &[T; 6], target: &[T; 2], gains: &[T; 2]) -> T {
-            self.prepare().lyapunov(x, target, gains)
-        }
-
-        #[inline]
-        fn lyapunov_gradient(
-            &self,
-            x: &[T; 6],
-            target: &[T; 2],
-            gains: &[T; 2],
-            grad: &mut [T; 6],
-        ) {
-            self.prepare().lyapunov_gradient(x, target, gains, grad)
-        }
-
-        #[inline]
-        fn feedback_field(
-            &self,
-            x: &[T; 6],
-            target: &[T; 2],
-            gains: &[T; 2],
-            dx: &mut [T; 6],
-        ) {
-            self.prepare().feedback_field(x, target, gains, dx)
-        }
-    }
-
-    impl<T: Float> Declared<T, [T; 6]> for HostilePrepared<T> {}
-    impl<T: Float> Declared<T, [T; 6]> for Hostile<T> {
+    impl<T: Float> Declared<T, [T; 6]> for HostilePrepared<T> {
         fn taylor_kernels(
             &self,
             _max_order: u32,
         ) -> Result<lasalle_runtime::TaylorKernels<Self>, lasalle_runtime::TaylorError> {
-            Ok(taylor_kernels(self))
+            Ok(kernels::taylor_kernels(self))
         }
     }
 
@@ -358,32 +314,6 @@ pub mod hostile {
         pub const PARAMS: &'static [Slot] = &[];
     }
 
-    impl<T> ModelInfo for Hostile<T> {
-        fn model_name(&self) -> &'static str {
-            Self::NAME
-        }
-
-        fn state_slots(&self) -> &'static [Slot] {
-            Self::STATE
-        }
-
-        fn invariant_infos(&self) -> &'static [InvariantInfo] {
-            Self::INVARIANTS
-        }
-
-        fn gain_names(&self) -> &'static [&'static str] {
-            Self::GAIN_NAMES
-        }
-
-        fn default_gain_values(&self) -> &'static [f64] {
-            Self::DEFAULT_GAINS
-        }
-
-        fn param_slots(&self) -> &'static [Slot] {
-            Self::PARAMS
-        }
-    }
-
     impl<T> ModelInfo for HostilePrepared<T> {
         fn model_name(&self) -> &'static str {
             Hostile::<T>::NAME
@@ -410,7 +340,8 @@ pub mod hostile {
         }
     }
 
-    impl Parameters for Hostile<f64> {
+    /// Parameters and points by name; setting a parameter prepares the model again.
+    impl Parameters for HostilePrepared<f64> {
         fn set_param(&mut self, name: &str, _values: &[f64]) -> Result<(), ParamError> {
             Err(ParamError::Unknown {
                 name: name.to_string(),
@@ -434,526 +365,503 @@ pub mod hostile {
         }
     }
 
-    /// Setting a parameter prepares the model again.
-    impl Parameters for HostilePrepared<f64> {
-        fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
-            self.model.set_param(name, values)?;
-            *self = self.model.prepare();
-            Ok(())
-        }
+    /// The machine kernels of `Hostile`, generated from its tapes rather than written from its
+    /// formulas: the parameter-only values of every function in f64 ([`Prelude`], a field of
+    /// [`HostilePrepared`](super::HostilePrepared)), the Taylor-coefficient kernels of X and X − ∇V
+    /// ([`TaylorField`], [`TaylorFeedback`]) and every function for K states per call
+    /// ([`Lanes`]). Straight-line code over numbered registers and table rows, each operation the
+    /// IEEE operation of the functions above, so that they agree bitwise with them, with the JIT
+    /// and with the tape interpreter; not meant to be read.
+    pub mod kernels {
+        #![allow(unused_variables, clippy::all)]
+        use lasalle_runtime::num_traits::Float;
 
-        fn param(&self, name: &str) -> Option<Vec<f64>> {
-            self.model.param(name)
-        }
-
-        fn point_names(&self) -> &'static [&'static str] {
-            self.model.point_names()
-        }
-
-        fn point(&self, name: &str) -> Option<Vec<f64>> {
-            self.model.point(name)
-        }
-    }
-    impl<T: Float> Hostile<T> {
-        /// The parameter slots as f64, in the order of `PARAMS` (matrices column-major).
-        pub fn slot_values(&self) -> [f64; 0] {
-            []
-        }
-        /// The adaptive Taylor integrator (Jorba & Zou; `lasalle_runtime::taylor`) of the field
-        /// and of X − ∇V over this model's emitted kernels.
-        pub fn taylor(
-            &self,
-            opts: lasalle_runtime::TaylorOptions,
-        ) -> Result<lasalle_runtime::Taylor<Self>, lasalle_runtime::TaylorError> {
-            lasalle_runtime::Taylor::new(taylor_kernels(self), opts)
-        }
-    }
-    /// The emitted Taylor kernels of the field and of X − ∇V.
-    fn taylor_kernels<T: Float>(m: &Hostile<T>) -> lasalle_runtime::TaylorKernels<Hostile<T>> {
-        lasalle_runtime::TaylorKernels {
-            field: Box::new(HostileTaylorField::new(m)),
-            feedback: Box::new(HostileTaylorFeedback::new(m)),
-        }
-    }
-    /// The parameter-only values of `field` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_field(p: &[f64; 0]) -> [f64; 0] {
-        []
-    }
-    /// The parameter-only values of `invariants` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_invariants(p: &[f64; 0]) -> [f64; 0] {
-        []
-    }
-    /// The parameter-only values of `jacobian` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_jacobian(p: &[f64; 0]) -> [f64; 0] {
-        []
-    }
-    /// The parameter-only values of `lyapunov` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_lyapunov(p: &[f64; 0]) -> [f64; 0] {
-        []
-    }
-    /// The parameter-only values of `lyapunov_gradient` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_lyapunov_gradient(p: &[f64; 0]) -> [f64; 0] {
-        []
-    }
-    /// The parameter-only values of `feedback` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_feedback(p: &[f64; 0]) -> [f64; 0] {
-        []
-    }
-    /// The Taylor-coefficient kernel of X (`lasalle_runtime::TaylorKernel`).
-    pub type HostileTaylorField = lasalle_runtime::taylor::Emitted<HostileFieldRecurrences>;
-    /// The recurrences of X's tape (`lasalle_runtime::taylor::Recurrences`), 16 rows of
-    /// orders 0..=`EMITTED_MAX_ORDER`.
-    pub struct HostileFieldRecurrences;
-    impl<T: Float> lasalle_runtime::taylor::Recurrences<Hostile<T>> for HostileFieldRecurrences {
-        const NAME: &'static str = "HostileTaylorField";
-        const DIM: usize = 6;
-        const ROWS: usize = 16;
-        const PARAMS: usize = 0;
-        const HOISTED: usize = 0;
-        const TARGETS: usize = 0;
-        const GAINS: usize = 0;
-        fn params(m: &Hostile<T>, out: &mut [f64]) {
-            out.copy_from_slice(&m.slot_values());
-        }
-        fn hoist(params: &[f64], hoisted: &mut [f64]) {
-            hoisted.copy_from_slice(&hoist_field(params.try_into().expect("parameter slots: 0")));
-        }
-        #[allow(unused_variables, clippy::all)]
-        fn compute(
-            t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
-            hoisted: &[f64],
-            target: &[f64],
-            gains: &[f64],
-            x: &[f64],
-            order: usize,
-        ) {
-            use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
-            let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 16] = t.try_into().expect("rows: 16");
-            let hoisted: &[f64; 0] = hoisted.try_into().expect("hoisted values: 0");
-            let target: &[f64; 0] = target.try_into().expect("targets: 0");
-            let gains: &[f64; 0] = gains.try_into().expect("gains: 0");
-            for (row, xi) in t.iter_mut().zip(&x[..6]) {
-                row[0] = *xi;
+        impl<T: Float> super::Hostile<T> {
+            /// The parameter slots as f64, in the order of `PARAMS` (matrices column-major).
+            pub fn slot_values(&self) -> [f64; 0] {
+                []
             }
-            for k in 0..order {
-                if k == 0 {
-                    t[6][0] = t[2][0] * t[2][0];
-                    t[7][0] = t[4][0] * t[4][0];
-                    t[8][0] = t[6][0] * t[7][0];
-                    t[9][0] = 1.0_f64;
-                    t[10][0] = t[9][0] + t[8][0];
-                    t[11][0] = t[1][0] * t[10][0];
-                    t[12][0] = t[0][0] * t[10][0];
-                    t[13][0] = -t[12][0];
-                    t[14][0] = -t[2][0];
-                    t[15][0] = -t[4][0];
-                } else {
-                    let [e6, e7] =
-                        rec::cauchy_many(t, [(2, 2), (4, 4)], k, 1, (k - 1) / 2);
-                    let [e8, e11, e12] =
-                        rec::cauchy_many(t, [(6, 7), (1, 10), (0, 10)], k, 1, k - 1);
-                    t[6][k] = rec::square_after(e6, &t[2], k);
-                    t[7][k] = rec::square_after(e7, &t[4], k);
-                    t[8][k] = rec::mul_after(e8, &t[6], &t[7], k);
-                    t[10][k] = t[9][k] + t[8][k];
-                    t[11][k] = rec::mul_after(e11, &t[1], &t[10], k);
-                    t[12][k] = rec::mul_after(e12, &t[0], &t[10], k);
-                    t[13][k] = -t[12][k];
-                    t[14][k] = -t[2][k];
-                    t[15][k] = -t[4][k];
+        }
+
+        /// The parameter-only values of every tape (its prelude) in f64, computed once by
+        /// `Hostile::prepare` (a field of the prepared model), read by the Taylor kernels and the lanes.
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub struct Prelude {
+            field: [f64; 0],
+            invariants: [f64; 0],
+            jacobian: [f64; 0],
+            lyapunov: [f64; 0],
+            lyapunov_gradient: [f64; 0],
+            feedback: [f64; 0],
+        }
+
+        impl Prelude {
+            /// The preludes of every tape from the parameter slots, f64 op for f64 op as the tapes'.
+            pub fn new(p: &[f64; 0]) -> Self {
+                Prelude {
+                    field: {
+                        []
+                    },
+                    invariants: {
+                        []
+                    },
+                    jacobian: {
+                        []
+                    },
+                    lyapunov: {
+                        []
+                    },
+                    lyapunov_gradient: {
+                        []
+                    },
+                    feedback: {
+                        []
+                    },
                 }
-                let inv = 1.0 / (k as f64 + 1.0);
-                t[0][k + 1] = t[11][k] * inv;
-                t[1][k + 1] = t[13][k] * inv;
-                t[2][k + 1] = t[3][k] * inv;
-                t[3][k + 1] = t[14][k] * inv;
-                t[4][k + 1] = t[5][k] * inv;
-                t[5][k + 1] = t[15][k] * inv;
             }
         }
-    }
-    /// The Taylor-coefficient kernel of X − ∇V (`lasalle_runtime::TaylorKernel`).
-    pub type HostileTaylorFeedback = lasalle_runtime::taylor::Emitted<HostileFeedbackRecurrences>;
-    /// The recurrences of X − ∇V's tape (`lasalle_runtime::taylor::Recurrences`), 42 rows of
-    /// orders 0..=`EMITTED_MAX_ORDER`.
-    pub struct HostileFeedbackRecurrences;
-    impl<T: Float> lasalle_runtime::taylor::Recurrences<Hostile<T>> for HostileFeedbackRecurrences {
-        const NAME: &'static str = "HostileTaylorFeedback";
-        const DIM: usize = 6;
-        const ROWS: usize = 42;
-        const PARAMS: usize = 0;
-        const HOISTED: usize = 0;
-        const TARGETS: usize = 2;
-        const GAINS: usize = 2;
-        fn params(m: &Hostile<T>, out: &mut [f64]) {
-            out.copy_from_slice(&m.slot_values());
-        }
-        fn hoist(params: &[f64], hoisted: &mut [f64]) {
-            hoisted.copy_from_slice(&hoist_feedback(params.try_into().expect("parameter slots: 0")));
-        }
-        #[allow(unused_variables, clippy::all)]
-        fn compute(
-            t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
-            hoisted: &[f64],
-            target: &[f64],
-            gains: &[f64],
-            x: &[f64],
-            order: usize,
-        ) {
-            use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
-            let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 42] = t.try_into().expect("rows: 42");
-            let hoisted: &[f64; 0] = hoisted.try_into().expect("hoisted values: 0");
-            let target: &[f64; 2] = target.try_into().expect("targets: 2");
-            let gains: &[f64; 2] = gains.try_into().expect("gains: 2");
-            for (row, xi) in t.iter_mut().zip(&x[..6]) {
-                row[0] = *xi;
+
+        impl<T: Float> super::HostilePrepared<T> {
+            /// The adaptive Taylor integrator (Jorba & Zou; `lasalle_runtime::taylor`) of the field
+            /// and of X − ∇V over this model's emitted kernels.
+            pub fn taylor(
+                &self,
+                opts: lasalle_runtime::TaylorOptions,
+            ) -> Result<lasalle_runtime::Taylor<Self>, lasalle_runtime::TaylorError> {
+                lasalle_runtime::Taylor::new(taylor_kernels(self), opts)
             }
-            for k in 0..order {
-                if k == 0 {
-                    t[6][0] = t[2][0] * t[2][0];
-                    t[7][0] = t[4][0] * t[4][0];
-                    t[8][0] = t[6][0] * t[7][0];
-                    t[9][0] = 1.0_f64;
-                    t[10][0] = t[9][0] + t[8][0];
-                    t[11][0] = t[1][0] * t[10][0];
-                    t[12][0] = gains[1];
-                    t[13][0] = t[3][0] * t[3][0];
-                    t[14][0] = target[1];
-                    t[15][0] = t[6][0] + t[13][0];
-                    t[16][0] = t[15][0] - t[14][0];
-                    t[17][0] = t[16][0] * t[12][0];
-                    t[18][0] = gains[0];
-                    t[19][0] = t[0][0] * t[0][0];
-                    t[20][0] = t[1][0] * t[1][0];
-                    t[21][0] = target[0];
-                    t[22][0] = t[19][0] + t[20][0];
-                    t[23][0] = t[22][0] - t[21][0];
-                    t[24][0] = t[23][0] * t[18][0];
-                    t[25][0] = 2.0_f64;
-                    t[26][0] = t[0][0] * t[25][0];
-                    t[27][0] = t[26][0] * t[24][0];
-                    t[28][0] = t[11][0] - t[27][0];
-                    t[29][0] = t[0][0] * t[10][0];
-                    t[30][0] = t[1][0] * t[25][0];
-                    t[31][0] = t[30][0] * t[24][0];
-                    t[32][0] = -t[29][0];
-                    t[33][0] = t[32][0] - t[31][0];
-                    t[34][0] = t[2][0] * t[25][0];
-                    t[35][0] = t[34][0] * t[17][0];
-                    t[36][0] = t[3][0] - t[35][0];
-                    t[37][0] = t[3][0] * t[25][0];
-                    t[38][0] = t[37][0] * t[17][0];
-                    t[39][0] = -t[2][0];
-                    t[40][0] = t[39][0] - t[38][0];
-                    t[41][0] = -t[4][0];
-                } else {
-                    let [e6, e7, e13, e19, e20] =
-                        rec::cauchy_many(t, [(2, 2), (4, 4), (3, 3), (0, 0), (1, 1)], k, 1, (k - 1) / 2);
-                    let [e8, e11, e29, e27, e31, e35] =
-                        rec::cauchy_many(t, [(6, 7), (1, 10), (0, 10), (26, 24), (30, 24), (34, 17)], k, 1, k - 1);
-                    let [e38] =
-                        rec::cauchy_many(t, [(37, 17)], k, 1, k - 1);
-                    t[6][k] = rec::square_after(e6, &t[2], k);
-                    t[7][k] = rec::square_after(e7, &t[4], k);
-                    t[8][k] = rec::mul_after(e8, &t[6], &t[7], k);
-                    t[10][k] = t[9][k] + t[8][k];
-                    t[11][k] = rec::mul_after(e11, &t[1], &t[10], k);
-                    t[13][k] = rec::square_after(e13, &t[3], k);
-                    t[15][k] = t[6][k] + t[13][k];
-                    t[16][k] = t[15][k] - t[14][k];
-                    t[17][k] = t[16][k] * t[12][0];
-                    t[19][k] = rec::square_after(e19, &t[0], k);
-                    t[20][k] = rec::square_after(e20, &t[1], k);
-                    t[22][k] = t[19][k] + t[20][k];
-                    t[23][k] = t[22][k] - t[21][k];
-                    t[24][k] = t[23][k] * t[18][0];
-                    t[26][k] = t[0][k] * t[25][0];
-                    t[27][k] = rec::mul_after(e27, &t[26], &t[24], k);
-                    t[28][k] = t[11][k] - t[27][k];
-                    t[29][k] = rec::mul_after(e29, &t[0], &t[10], k);
-                    t[30][k] = t[1][k] * t[25][0];
-                    t[31][k] = rec::mul_after(e31, &t[30], &t[24], k);
-                    t[32][k] = -t[29][k];
-                    t[33][k] = t[32][k] - t[31][k];
-                    t[34][k] = t[2][k] * t[25][0];
-                    t[35][k] = rec::mul_after(e35, &t[34], &t[17], k);
-                    t[36][k] = t[3][k] - t[35][k];
-                    t[37][k] = t[3][k] * t[25][0];
-                    t[38][k] = rec::mul_after(e38, &t[37], &t[17], k);
-                    t[39][k] = -t[2][k];
-                    t[40][k] = t[39][k] - t[38][k];
-                    t[41][k] = -t[4][k];
+
+            /// The model's functions for K states per call, with this model's parameters.
+            pub fn lanes(&self) -> Lanes {
+                Lanes { prelude: self.kernels }
+            }
+        }
+
+        /// The emitted Taylor kernels of the field and of X − ∇V.
+        pub fn taylor_kernels<T: Float>(
+            m: &super::HostilePrepared<T>,
+        ) -> lasalle_runtime::TaylorKernels<super::HostilePrepared<T>> {
+            lasalle_runtime::TaylorKernels {
+                field: Box::new(TaylorField::new(m)),
+                feedback: Box::new(TaylorFeedback::new(m)),
+            }
+        }
+        /// The Taylor-coefficient kernel of X (`lasalle_runtime::TaylorKernel`).
+        pub type TaylorField = lasalle_runtime::taylor::Emitted<FieldRecurrences>;
+        /// The recurrences of X's tape (`lasalle_runtime::taylor::Recurrences`), 16 rows of
+        /// orders 0..=`EMITTED_MAX_ORDER`.
+        pub struct FieldRecurrences;
+        impl<T: Float> lasalle_runtime::taylor::Recurrences<super::HostilePrepared<T>> for FieldRecurrences {
+            const NAME: &'static str = "Hostile: TaylorField";
+            const DIM: usize = 6;
+            const ROWS: usize = 16;
+            const HOISTED: usize = 0;
+            const TARGETS: usize = 0;
+            const GAINS: usize = 0;
+            fn hoisted(m: &super::HostilePrepared<T>) -> &[f64] {
+                &m.kernels.field
+            }
+            fn compute(
+                t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
+                hoisted: &[f64],
+                target: &[f64],
+                gains: &[f64],
+                x: &[f64],
+                order: usize,
+            ) {
+                use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
+                let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 16] = t.try_into().expect("rows: 16");
+                let hoisted: &[f64; 0] = hoisted.try_into().expect("hoisted values: 0");
+                let target: &[f64; 0] = target.try_into().expect("targets: 0");
+                let gains: &[f64; 0] = gains.try_into().expect("gains: 0");
+                for (row, xi) in t.iter_mut().zip(&x[..6]) {
+                    row[0] = *xi;
                 }
-                let inv = 1.0 / (k as f64 + 1.0);
-                t[0][k + 1] = t[28][k] * inv;
-                t[1][k + 1] = t[33][k] * inv;
-                t[2][k + 1] = t[36][k] * inv;
-                t[3][k + 1] = t[40][k] * inv;
-                t[4][k + 1] = t[5][k] * inv;
-                t[5][k + 1] = t[41][k] * inv;
+                for k in 0..order {
+                    if k == 0 {
+                        t[6][0] = t[2][0] * t[2][0];
+                        t[7][0] = t[4][0] * t[4][0];
+                        t[8][0] = t[6][0] * t[7][0];
+                        t[9][0] = 1.0_f64;
+                        t[10][0] = t[9][0] + t[8][0];
+                        t[11][0] = t[1][0] * t[10][0];
+                        t[12][0] = t[0][0] * t[10][0];
+                        t[13][0] = -t[12][0];
+                        t[14][0] = -t[2][0];
+                        t[15][0] = -t[4][0];
+                    } else {
+                        let [e6, e7] =
+                            rec::cauchy_many(t, [(2, 2), (4, 4)], k, 1, (k - 1) / 2);
+                        let [e8, e11, e12] =
+                            rec::cauchy_many(t, [(6, 7), (1, 10), (0, 10)], k, 1, k - 1);
+                        t[6][k] = rec::square_after(e6, &t[2], k);
+                        t[7][k] = rec::square_after(e7, &t[4], k);
+                        t[8][k] = rec::mul_after(e8, &t[6], &t[7], k);
+                        t[10][k] = t[9][k] + t[8][k];
+                        t[11][k] = rec::mul_after(e11, &t[1], &t[10], k);
+                        t[12][k] = rec::mul_after(e12, &t[0], &t[10], k);
+                        t[13][k] = -t[12][k];
+                        t[14][k] = -t[2][k];
+                        t[15][k] = -t[4][k];
+                    }
+                    let inv = 1.0 / (k as f64 + 1.0);
+                    t[0][k + 1] = t[11][k] * inv;
+                    t[1][k + 1] = t[13][k] * inv;
+                    t[2][k + 1] = t[3][k] * inv;
+                    t[3][k + 1] = t[14][k] * inv;
+                    t[4][k + 1] = t[5][k] * inv;
+                    t[5][k + 1] = t[15][k] * inv;
+                }
             }
         }
-    }
-    /// The model's functions for K states per call (structure of arrays), with the
-    /// parameter-only values computed once: see `Hostile::lanes`.
-    #[derive(Clone, Debug)]
-    pub struct HostileLanes {
-        field: [f64; 0],
-        invariants: [f64; 0],
-        jacobian: [f64; 0],
-        lyapunov: [f64; 0],
-        lyapunov_gradient: [f64; 0],
-        feedback: [f64; 0],
-    }
-    impl<T: Float> Hostile<T> {
-        /// The batched functions with the current parameters (their preludes run now).
-        pub fn lanes(&self) -> HostileLanes {
-            let p = self.slot_values();
-            HostileLanes {
-                field: hoist_field(&p),
-                invariants: hoist_invariants(&p),
-                jacobian: hoist_jacobian(&p),
-                lyapunov: hoist_lyapunov(&p),
-                lyapunov_gradient: hoist_lyapunov_gradient(&p),
-                feedback: hoist_feedback(&p),
+        /// The Taylor-coefficient kernel of X − ∇V (`lasalle_runtime::TaylorKernel`).
+        pub type TaylorFeedback = lasalle_runtime::taylor::Emitted<FeedbackRecurrences>;
+        /// The recurrences of X − ∇V's tape (`lasalle_runtime::taylor::Recurrences`), 42 rows of
+        /// orders 0..=`EMITTED_MAX_ORDER`.
+        pub struct FeedbackRecurrences;
+        impl<T: Float> lasalle_runtime::taylor::Recurrences<super::HostilePrepared<T>> for FeedbackRecurrences {
+            const NAME: &'static str = "Hostile: TaylorFeedback";
+            const DIM: usize = 6;
+            const ROWS: usize = 42;
+            const HOISTED: usize = 0;
+            const TARGETS: usize = 2;
+            const GAINS: usize = 2;
+            fn hoisted(m: &super::HostilePrepared<T>) -> &[f64] {
+                &m.kernels.feedback
+            }
+            fn compute(
+                t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
+                hoisted: &[f64],
+                target: &[f64],
+                gains: &[f64],
+                x: &[f64],
+                order: usize,
+            ) {
+                use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
+                let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 42] = t.try_into().expect("rows: 42");
+                let hoisted: &[f64; 0] = hoisted.try_into().expect("hoisted values: 0");
+                let target: &[f64; 2] = target.try_into().expect("targets: 2");
+                let gains: &[f64; 2] = gains.try_into().expect("gains: 2");
+                for (row, xi) in t.iter_mut().zip(&x[..6]) {
+                    row[0] = *xi;
+                }
+                for k in 0..order {
+                    if k == 0 {
+                        t[6][0] = t[2][0] * t[2][0];
+                        t[7][0] = t[4][0] * t[4][0];
+                        t[8][0] = t[6][0] * t[7][0];
+                        t[9][0] = 1.0_f64;
+                        t[10][0] = t[9][0] + t[8][0];
+                        t[11][0] = t[1][0] * t[10][0];
+                        t[12][0] = gains[1];
+                        t[13][0] = t[3][0] * t[3][0];
+                        t[14][0] = target[1];
+                        t[15][0] = t[6][0] + t[13][0];
+                        t[16][0] = t[15][0] - t[14][0];
+                        t[17][0] = t[16][0] * t[12][0];
+                        t[18][0] = gains[0];
+                        t[19][0] = t[0][0] * t[0][0];
+                        t[20][0] = t[1][0] * t[1][0];
+                        t[21][0] = target[0];
+                        t[22][0] = t[19][0] + t[20][0];
+                        t[23][0] = t[22][0] - t[21][0];
+                        t[24][0] = t[23][0] * t[18][0];
+                        t[25][0] = 2.0_f64;
+                        t[26][0] = t[0][0] * t[25][0];
+                        t[27][0] = t[26][0] * t[24][0];
+                        t[28][0] = t[11][0] - t[27][0];
+                        t[29][0] = t[0][0] * t[10][0];
+                        t[30][0] = t[1][0] * t[25][0];
+                        t[31][0] = t[30][0] * t[24][0];
+                        t[32][0] = -t[29][0];
+                        t[33][0] = t[32][0] - t[31][0];
+                        t[34][0] = t[2][0] * t[25][0];
+                        t[35][0] = t[34][0] * t[17][0];
+                        t[36][0] = t[3][0] - t[35][0];
+                        t[37][0] = t[3][0] * t[25][0];
+                        t[38][0] = t[37][0] * t[17][0];
+                        t[39][0] = -t[2][0];
+                        t[40][0] = t[39][0] - t[38][0];
+                        t[41][0] = -t[4][0];
+                    } else {
+                        let [e6, e7, e13, e19, e20] =
+                            rec::cauchy_many(t, [(2, 2), (4, 4), (3, 3), (0, 0), (1, 1)], k, 1, (k - 1) / 2);
+                        let [e8, e11, e29, e27, e31, e35] =
+                            rec::cauchy_many(t, [(6, 7), (1, 10), (0, 10), (26, 24), (30, 24), (34, 17)], k, 1, k - 1);
+                        let [e38] =
+                            rec::cauchy_many(t, [(37, 17)], k, 1, k - 1);
+                        t[6][k] = rec::square_after(e6, &t[2], k);
+                        t[7][k] = rec::square_after(e7, &t[4], k);
+                        t[8][k] = rec::mul_after(e8, &t[6], &t[7], k);
+                        t[10][k] = t[9][k] + t[8][k];
+                        t[11][k] = rec::mul_after(e11, &t[1], &t[10], k);
+                        t[13][k] = rec::square_after(e13, &t[3], k);
+                        t[15][k] = t[6][k] + t[13][k];
+                        t[16][k] = t[15][k] - t[14][k];
+                        t[17][k] = t[16][k] * t[12][0];
+                        t[19][k] = rec::square_after(e19, &t[0], k);
+                        t[20][k] = rec::square_after(e20, &t[1], k);
+                        t[22][k] = t[19][k] + t[20][k];
+                        t[23][k] = t[22][k] - t[21][k];
+                        t[24][k] = t[23][k] * t[18][0];
+                        t[26][k] = t[0][k] * t[25][0];
+                        t[27][k] = rec::mul_after(e27, &t[26], &t[24], k);
+                        t[28][k] = t[11][k] - t[27][k];
+                        t[29][k] = rec::mul_after(e29, &t[0], &t[10], k);
+                        t[30][k] = t[1][k] * t[25][0];
+                        t[31][k] = rec::mul_after(e31, &t[30], &t[24], k);
+                        t[32][k] = -t[29][k];
+                        t[33][k] = t[32][k] - t[31][k];
+                        t[34][k] = t[2][k] * t[25][0];
+                        t[35][k] = rec::mul_after(e35, &t[34], &t[17], k);
+                        t[36][k] = t[3][k] - t[35][k];
+                        t[37][k] = t[3][k] * t[25][0];
+                        t[38][k] = rec::mul_after(e38, &t[37], &t[17], k);
+                        t[39][k] = -t[2][k];
+                        t[40][k] = t[39][k] - t[38][k];
+                        t[41][k] = -t[4][k];
+                    }
+                    let inv = 1.0 / (k as f64 + 1.0);
+                    t[0][k + 1] = t[28][k] * inv;
+                    t[1][k + 1] = t[33][k] * inv;
+                    t[2][k + 1] = t[36][k] * inv;
+                    t[3][k + 1] = t[40][k] * inv;
+                    t[4][k + 1] = t[5][k] * inv;
+                    t[5][k + 1] = t[41][k] * inv;
+                }
             }
         }
-    }
-    impl HostileLanes {
-        /// `field` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn field<const K: usize>(
-            &self,
-            x: &[[f64; K]; 6],
-            out: &mut [[f64; K]; 6],
-        ) {
-            let h = &self.field;
-            let r0: [f64; K] = x[2];
-            let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
-            let r2: [f64; K] = x[4];
-            let r3: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
-            let r4: [f64; K] = core::array::from_fn(|l| r1[l] * r3[l]);
-            let r5: [f64; K] = [1.0_f64; K];
-            let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r4[l]);
-            let r7: [f64; K] = x[1];
-            let r8: [f64; K] = core::array::from_fn(|l| r7[l] * r6[l]);
-            let r9: [f64; K] = x[0];
-            let r10: [f64; K] = core::array::from_fn(|l| r9[l] * r6[l]);
-            let r11: [f64; K] = core::array::from_fn(|l| -r10[l]);
-            let r12: [f64; K] = x[3];
-            let r13: [f64; K] = core::array::from_fn(|l| -r0[l]);
-            let r14: [f64; K] = x[5];
-            let r15: [f64; K] = core::array::from_fn(|l| -r2[l]);
-            out[0] = r8;
-            out[1] = r11;
-            out[2] = r12;
-            out[3] = r13;
-            out[4] = r14;
-            out[5] = r15;
+        /// The model's functions for K states per call (structure of arrays), reading the
+        /// parameter-only values of [`HostilePrepared`](super::HostilePrepared): see `HostilePrepared::lanes`.
+        #[derive(Clone, Debug)]
+        pub struct Lanes {
+            prelude: Prelude,
         }
-        /// `invariants` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn invariants<const K: usize>(
-            &self,
-            x: &[[f64; K]; 6],
-            out: &mut [[f64; K]; 2],
-        ) {
-            let h = &self.invariants;
-            let r0: [f64; K] = x[0];
-            let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
-            let r2: [f64; K] = x[1];
-            let r3: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
-            let r4: [f64; K] = core::array::from_fn(|l| r1[l] + r3[l]);
-            let r5: [f64; K] = x[2];
-            let r6: [f64; K] = core::array::from_fn(|l| r5[l].powi(2));
-            let r7: [f64; K] = x[3];
-            let r8: [f64; K] = core::array::from_fn(|l| r7[l].powi(2));
-            let r9: [f64; K] = core::array::from_fn(|l| r6[l] + r8[l]);
-            out[0] = r4;
-            out[1] = r9;
-        }
-        /// `jacobian` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn jacobian<const K: usize>(
-            &self,
-            x: &[[f64; K]; 6],
-            out: &mut [[f64; K]; 12],
-        ) {
-            let h = &self.jacobian;
-            let r0: [f64; K] = x[0];
-            let r1: [f64; K] = [2.0_f64; K];
-            let r2: [f64; K] = core::array::from_fn(|l| r1[l] * r0[l]);
-            let r3: [f64; K] = x[1];
-            let r4: [f64; K] = core::array::from_fn(|l| r1[l] * r3[l]);
-            let r5: [f64; K] = x[2];
-            let r6: [f64; K] = core::array::from_fn(|l| r1[l] * r5[l]);
-            let r7: [f64; K] = x[3];
-            let r8: [f64; K] = core::array::from_fn(|l| r1[l] * r7[l]);
-            let r9: [f64; K] = [0.0_f64; K];
-            out[0] = r2;
-            out[1] = r4;
-            out[2] = r9;
-            out[3] = r9;
-            out[4] = r9;
-            out[5] = r9;
-            out[6] = r9;
-            out[7] = r9;
-            out[8] = r6;
-            out[9] = r8;
-            out[10] = r9;
-            out[11] = r9;
-        }
-        /// `lyapunov` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn lyapunov<const K: usize>(
-            &self,
-            x: &[[f64; K]; 6],
-            target: &[f64; 2],
-            gains: &[f64; 2],
-            out: &mut [[f64; K]; 1],
-        ) {
-            let h = &self.lyapunov;
-            let r0: [f64; K] = [gains[0]; K];
-            let r1: [f64; K] = x[0];
-            let r2: [f64; K] = core::array::from_fn(|l| r1[l].powi(2));
-            let r3: [f64; K] = x[1];
-            let r4: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
-            let r5: [f64; K] = [target[0]; K];
-            let r6: [f64; K] = core::array::from_fn(|l| r2[l] + r4[l]);
-            let r7: [f64; K] = core::array::from_fn(|l| r6[l] - r5[l]);
-            let r8: [f64; K] = core::array::from_fn(|l| r7[l].powi(2));
-            let r9: [f64; K] = [0.5_f64; K];
-            let r10: [f64; K] = core::array::from_fn(|l| r9[l] * r0[l]);
-            let r11: [f64; K] = core::array::from_fn(|l| r10[l] * r8[l]);
-            let r12: [f64; K] = [gains[1]; K];
-            let r13: [f64; K] = x[2];
-            let r14: [f64; K] = core::array::from_fn(|l| r13[l].powi(2));
-            let r15: [f64; K] = x[3];
-            let r16: [f64; K] = core::array::from_fn(|l| r15[l].powi(2));
-            let r17: [f64; K] = [target[1]; K];
-            let r18: [f64; K] = core::array::from_fn(|l| r14[l] + r16[l]);
-            let r19: [f64; K] = core::array::from_fn(|l| r18[l] - r17[l]);
-            let r20: [f64; K] = core::array::from_fn(|l| r19[l].powi(2));
-            let r21: [f64; K] = core::array::from_fn(|l| r9[l] * r12[l]);
-            let r22: [f64; K] = core::array::from_fn(|l| r21[l] * r20[l]);
-            let r23: [f64; K] = core::array::from_fn(|l| r11[l] + r22[l]);
-            out[0] = r23;
-        }
-        /// `lyapunov_gradient` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn lyapunov_gradient<const K: usize>(
-            &self,
-            x: &[[f64; K]; 6],
-            target: &[f64; 2],
-            gains: &[f64; 2],
-            out: &mut [[f64; K]; 6],
-        ) {
-            let h = &self.lyapunov_gradient;
-            let r0: [f64; K] = [gains[1]; K];
-            let r1: [f64; K] = x[2];
-            let r2: [f64; K] = core::array::from_fn(|l| r1[l].powi(2));
-            let r3: [f64; K] = x[3];
-            let r4: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
-            let r5: [f64; K] = [target[1]; K];
-            let r6: [f64; K] = core::array::from_fn(|l| r2[l] + r4[l]);
-            let r7: [f64; K] = core::array::from_fn(|l| r6[l] - r5[l]);
-            let r8: [f64; K] = core::array::from_fn(|l| r0[l] * r7[l]);
-            let r9: [f64; K] = [gains[0]; K];
-            let r10: [f64; K] = x[0];
-            let r11: [f64; K] = core::array::from_fn(|l| r10[l].powi(2));
-            let r12: [f64; K] = x[1];
-            let r13: [f64; K] = core::array::from_fn(|l| r12[l].powi(2));
-            let r14: [f64; K] = [target[0]; K];
-            let r15: [f64; K] = core::array::from_fn(|l| r11[l] + r13[l]);
-            let r16: [f64; K] = core::array::from_fn(|l| r15[l] - r14[l]);
-            let r17: [f64; K] = core::array::from_fn(|l| r9[l] * r16[l]);
-            let r18: [f64; K] = [2.0_f64; K];
-            let r19: [f64; K] = core::array::from_fn(|l| r18[l] * r10[l]);
-            let r20: [f64; K] = core::array::from_fn(|l| r19[l] * r17[l]);
-            let r21: [f64; K] = core::array::from_fn(|l| r18[l] * r12[l]);
-            let r22: [f64; K] = core::array::from_fn(|l| r21[l] * r17[l]);
-            let r23: [f64; K] = core::array::from_fn(|l| r18[l] * r1[l]);
-            let r24: [f64; K] = core::array::from_fn(|l| r23[l] * r8[l]);
-            let r25: [f64; K] = core::array::from_fn(|l| r18[l] * r3[l]);
-            let r26: [f64; K] = core::array::from_fn(|l| r25[l] * r8[l]);
-            let r27: [f64; K] = [0.0_f64; K];
-            out[0] = r20;
-            out[1] = r22;
-            out[2] = r24;
-            out[3] = r26;
-            out[4] = r27;
-            out[5] = r27;
-        }
-        /// `feedback` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn feedback<const K: usize>(
-            &self,
-            x: &[[f64; K]; 6],
-            target: &[f64; 2],
-            gains: &[f64; 2],
-            out: &mut [[f64; K]; 6],
-        ) {
-            let h = &self.feedback;
-            let r0: [f64; K] = x[2];
-            let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
-            let r2: [f64; K] = x[4];
-            let r3: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
-            let r4: [f64; K] = core::array::from_fn(|l| r1[l] * r3[l]);
-            let r5: [f64; K] = [1.0_f64; K];
-            let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r4[l]);
-            let r7: [f64; K] = x[1];
-            let r8: [f64; K] = core::array::from_fn(|l| r7[l] * r6[l]);
-            let r9: [f64; K] = [gains[1]; K];
-            let r10: [f64; K] = x[3];
-            let r11: [f64; K] = core::array::from_fn(|l| r10[l].powi(2));
-            let r12: [f64; K] = [target[1]; K];
-            let r13: [f64; K] = core::array::from_fn(|l| r1[l] + r11[l]);
-            let r14: [f64; K] = core::array::from_fn(|l| r13[l] - r12[l]);
-            let r15: [f64; K] = core::array::from_fn(|l| r9[l] * r14[l]);
-            let r16: [f64; K] = [gains[0]; K];
-            let r17: [f64; K] = x[0];
-            let r18: [f64; K] = core::array::from_fn(|l| r17[l].powi(2));
-            let r19: [f64; K] = core::array::from_fn(|l| r7[l].powi(2));
-            let r20: [f64; K] = [target[0]; K];
-            let r21: [f64; K] = core::array::from_fn(|l| r18[l] + r19[l]);
-            let r22: [f64; K] = core::array::from_fn(|l| r21[l] - r20[l]);
-            let r23: [f64; K] = core::array::from_fn(|l| r16[l] * r22[l]);
-            let r24: [f64; K] = [2.0_f64; K];
-            let r25: [f64; K] = core::array::from_fn(|l| r24[l] * r17[l]);
-            let r26: [f64; K] = core::array::from_fn(|l| r25[l] * r23[l]);
-            let r27: [f64; K] = core::array::from_fn(|l| r8[l] - r26[l]);
-            let r28: [f64; K] = core::array::from_fn(|l| r17[l] * r6[l]);
-            let r29: [f64; K] = core::array::from_fn(|l| r24[l] * r7[l]);
-            let r30: [f64; K] = core::array::from_fn(|l| r29[l] * r23[l]);
-            let r31: [f64; K] = core::array::from_fn(|l| -r28[l]);
-            let r32: [f64; K] = core::array::from_fn(|l| r31[l] - r30[l]);
-            let r33: [f64; K] = core::array::from_fn(|l| r24[l] * r0[l]);
-            let r34: [f64; K] = core::array::from_fn(|l| r33[l] * r15[l]);
-            let r35: [f64; K] = core::array::from_fn(|l| r10[l] - r34[l]);
-            let r36: [f64; K] = core::array::from_fn(|l| r24[l] * r10[l]);
-            let r37: [f64; K] = core::array::from_fn(|l| r36[l] * r15[l]);
-            let r38: [f64; K] = core::array::from_fn(|l| -r0[l]);
-            let r39: [f64; K] = core::array::from_fn(|l| r38[l] - r37[l]);
-            let r40: [f64; K] = x[5];
-            let r41: [f64; K] = core::array::from_fn(|l| -r2[l]);
-            out[0] = r27;
-            out[1] = r32;
-            out[2] = r35;
-            out[3] = r39;
-            out[4] = r40;
-            out[5] = r41;
+
+        impl Lanes {
+            /// `field` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn field<const K: usize>(
+                &self,
+                x: &[[f64; K]; 6],
+                out: &mut [[f64; K]; 6],
+            ) {
+                let h = &self.prelude.field;
+                let r0: [f64; K] = x[2];
+                let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
+                let r2: [f64; K] = x[4];
+                let r3: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
+                let r4: [f64; K] = core::array::from_fn(|l| r1[l] * r3[l]);
+                let r5: [f64; K] = [1.0_f64; K];
+                let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r4[l]);
+                let r7: [f64; K] = x[1];
+                let r8: [f64; K] = core::array::from_fn(|l| r7[l] * r6[l]);
+                let r9: [f64; K] = x[0];
+                let r10: [f64; K] = core::array::from_fn(|l| r9[l] * r6[l]);
+                let r11: [f64; K] = core::array::from_fn(|l| -r10[l]);
+                let r12: [f64; K] = x[3];
+                let r13: [f64; K] = core::array::from_fn(|l| -r0[l]);
+                let r14: [f64; K] = x[5];
+                let r15: [f64; K] = core::array::from_fn(|l| -r2[l]);
+                out[0] = r8;
+                out[1] = r11;
+                out[2] = r12;
+                out[3] = r13;
+                out[4] = r14;
+                out[5] = r15;
+            }
+            /// `invariants` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn invariants<const K: usize>(
+                &self,
+                x: &[[f64; K]; 6],
+                out: &mut [[f64; K]; 2],
+            ) {
+                let h = &self.prelude.invariants;
+                let r0: [f64; K] = x[0];
+                let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
+                let r2: [f64; K] = x[1];
+                let r3: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
+                let r4: [f64; K] = core::array::from_fn(|l| r1[l] + r3[l]);
+                let r5: [f64; K] = x[2];
+                let r6: [f64; K] = core::array::from_fn(|l| r5[l].powi(2));
+                let r7: [f64; K] = x[3];
+                let r8: [f64; K] = core::array::from_fn(|l| r7[l].powi(2));
+                let r9: [f64; K] = core::array::from_fn(|l| r6[l] + r8[l]);
+                out[0] = r4;
+                out[1] = r9;
+            }
+            /// `jacobian` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn jacobian<const K: usize>(
+                &self,
+                x: &[[f64; K]; 6],
+                out: &mut [[f64; K]; 12],
+            ) {
+                let h = &self.prelude.jacobian;
+                let r0: [f64; K] = x[0];
+                let r1: [f64; K] = [2.0_f64; K];
+                let r2: [f64; K] = core::array::from_fn(|l| r1[l] * r0[l]);
+                let r3: [f64; K] = x[1];
+                let r4: [f64; K] = core::array::from_fn(|l| r1[l] * r3[l]);
+                let r5: [f64; K] = x[2];
+                let r6: [f64; K] = core::array::from_fn(|l| r1[l] * r5[l]);
+                let r7: [f64; K] = x[3];
+                let r8: [f64; K] = core::array::from_fn(|l| r1[l] * r7[l]);
+                let r9: [f64; K] = [0.0_f64; K];
+                out[0] = r2;
+                out[1] = r4;
+                out[2] = r9;
+                out[3] = r9;
+                out[4] = r9;
+                out[5] = r9;
+                out[6] = r9;
+                out[7] = r9;
+                out[8] = r6;
+                out[9] = r8;
+                out[10] = r9;
+                out[11] = r9;
+            }
+            /// `lyapunov` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn lyapunov<const K: usize>(
+                &self,
+                x: &[[f64; K]; 6],
+                target: &[f64; 2],
+                gains: &[f64; 2],
+                out: &mut [[f64; K]; 1],
+            ) {
+                let h = &self.prelude.lyapunov;
+                let r0: [f64; K] = [gains[0]; K];
+                let r1: [f64; K] = x[0];
+                let r2: [f64; K] = core::array::from_fn(|l| r1[l].powi(2));
+                let r3: [f64; K] = x[1];
+                let r4: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
+                let r5: [f64; K] = [target[0]; K];
+                let r6: [f64; K] = core::array::from_fn(|l| r2[l] + r4[l]);
+                let r7: [f64; K] = core::array::from_fn(|l| r6[l] - r5[l]);
+                let r8: [f64; K] = core::array::from_fn(|l| r7[l].powi(2));
+                let r9: [f64; K] = [0.5_f64; K];
+                let r10: [f64; K] = core::array::from_fn(|l| r9[l] * r0[l]);
+                let r11: [f64; K] = core::array::from_fn(|l| r10[l] * r8[l]);
+                let r12: [f64; K] = [gains[1]; K];
+                let r13: [f64; K] = x[2];
+                let r14: [f64; K] = core::array::from_fn(|l| r13[l].powi(2));
+                let r15: [f64; K] = x[3];
+                let r16: [f64; K] = core::array::from_fn(|l| r15[l].powi(2));
+                let r17: [f64; K] = [target[1]; K];
+                let r18: [f64; K] = core::array::from_fn(|l| r14[l] + r16[l]);
+                let r19: [f64; K] = core::array::from_fn(|l| r18[l] - r17[l]);
+                let r20: [f64; K] = core::array::from_fn(|l| r19[l].powi(2));
+                let r21: [f64; K] = core::array::from_fn(|l| r9[l] * r12[l]);
+                let r22: [f64; K] = core::array::from_fn(|l| r21[l] * r20[l]);
+                let r23: [f64; K] = core::array::from_fn(|l| r11[l] + r22[l]);
+                out[0] = r23;
+            }
+            /// `lyapunov_gradient` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn lyapunov_gradient<const K: usize>(
+                &self,
+                x: &[[f64; K]; 6],
+                target: &[f64; 2],
+                gains: &[f64; 2],
+                out: &mut [[f64; K]; 6],
+            ) {
+                let h = &self.prelude.lyapunov_gradient;
+                let r0: [f64; K] = [gains[1]; K];
+                let r1: [f64; K] = x[2];
+                let r2: [f64; K] = core::array::from_fn(|l| r1[l].powi(2));
+                let r3: [f64; K] = x[3];
+                let r4: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
+                let r5: [f64; K] = [target[1]; K];
+                let r6: [f64; K] = core::array::from_fn(|l| r2[l] + r4[l]);
+                let r7: [f64; K] = core::array::from_fn(|l| r6[l] - r5[l]);
+                let r8: [f64; K] = core::array::from_fn(|l| r0[l] * r7[l]);
+                let r9: [f64; K] = [gains[0]; K];
+                let r10: [f64; K] = x[0];
+                let r11: [f64; K] = core::array::from_fn(|l| r10[l].powi(2));
+                let r12: [f64; K] = x[1];
+                let r13: [f64; K] = core::array::from_fn(|l| r12[l].powi(2));
+                let r14: [f64; K] = [target[0]; K];
+                let r15: [f64; K] = core::array::from_fn(|l| r11[l] + r13[l]);
+                let r16: [f64; K] = core::array::from_fn(|l| r15[l] - r14[l]);
+                let r17: [f64; K] = core::array::from_fn(|l| r9[l] * r16[l]);
+                let r18: [f64; K] = [2.0_f64; K];
+                let r19: [f64; K] = core::array::from_fn(|l| r18[l] * r10[l]);
+                let r20: [f64; K] = core::array::from_fn(|l| r19[l] * r17[l]);
+                let r21: [f64; K] = core::array::from_fn(|l| r18[l] * r12[l]);
+                let r22: [f64; K] = core::array::from_fn(|l| r21[l] * r17[l]);
+                let r23: [f64; K] = core::array::from_fn(|l| r18[l] * r1[l]);
+                let r24: [f64; K] = core::array::from_fn(|l| r23[l] * r8[l]);
+                let r25: [f64; K] = core::array::from_fn(|l| r18[l] * r3[l]);
+                let r26: [f64; K] = core::array::from_fn(|l| r25[l] * r8[l]);
+                let r27: [f64; K] = [0.0_f64; K];
+                out[0] = r20;
+                out[1] = r22;
+                out[2] = r24;
+                out[3] = r26;
+                out[4] = r27;
+                out[5] = r27;
+            }
+            /// `feedback` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn feedback<const K: usize>(
+                &self,
+                x: &[[f64; K]; 6],
+                target: &[f64; 2],
+                gains: &[f64; 2],
+                out: &mut [[f64; K]; 6],
+            ) {
+                let h = &self.prelude.feedback;
+                let r0: [f64; K] = x[2];
+                let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
+                let r2: [f64; K] = x[4];
+                let r3: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
+                let r4: [f64; K] = core::array::from_fn(|l| r1[l] * r3[l]);
+                let r5: [f64; K] = [1.0_f64; K];
+                let r6: [f64; K] = core::array::from_fn(|l| r5[l] + r4[l]);
+                let r7: [f64; K] = x[1];
+                let r8: [f64; K] = core::array::from_fn(|l| r7[l] * r6[l]);
+                let r9: [f64; K] = [gains[1]; K];
+                let r10: [f64; K] = x[3];
+                let r11: [f64; K] = core::array::from_fn(|l| r10[l].powi(2));
+                let r12: [f64; K] = [target[1]; K];
+                let r13: [f64; K] = core::array::from_fn(|l| r1[l] + r11[l]);
+                let r14: [f64; K] = core::array::from_fn(|l| r13[l] - r12[l]);
+                let r15: [f64; K] = core::array::from_fn(|l| r9[l] * r14[l]);
+                let r16: [f64; K] = [gains[0]; K];
+                let r17: [f64; K] = x[0];
+                let r18: [f64; K] = core::array::from_fn(|l| r17[l].powi(2));
+                let r19: [f64; K] = core::array::from_fn(|l| r7[l].powi(2));
+                let r20: [f64; K] = [target[0]; K];
+                let r21: [f64; K] = core::array::from_fn(|l| r18[l] + r19[l]);
+                let r22: [f64; K] = core::array::from_fn(|l| r21[l] - r20[l]);
+                let r23: [f64; K] = core::array::from_fn(|l| r16[l] * r22[l]);
+                let r24: [f64; K] = [2.0_f64; K];
+                let r25: [f64; K] = core::array::from_fn(|l| r24[l] * r17[l]);
+                let r26: [f64; K] = core::array::from_fn(|l| r25[l] * r23[l]);
+                let r27: [f64; K] = core::array::from_fn(|l| r8[l] - r26[l]);
+                let r28: [f64; K] = core::array::from_fn(|l| r17[l] * r6[l]);
+                let r29: [f64; K] = core::array::from_fn(|l| r24[l] * r7[l]);
+                let r30: [f64; K] = core::array::from_fn(|l| r29[l] * r23[l]);
+                let r31: [f64; K] = core::array::from_fn(|l| -r28[l]);
+                let r32: [f64; K] = core::array::from_fn(|l| r31[l] - r30[l]);
+                let r33: [f64; K] = core::array::from_fn(|l| r24[l] * r0[l]);
+                let r34: [f64; K] = core::array::from_fn(|l| r33[l] * r15[l]);
+                let r35: [f64; K] = core::array::from_fn(|l| r10[l] - r34[l]);
+                let r36: [f64; K] = core::array::from_fn(|l| r24[l] * r10[l]);
+                let r37: [f64; K] = core::array::from_fn(|l| r36[l] * r15[l]);
+                let r38: [f64; K] = core::array::from_fn(|l| -r0[l]);
+                let r39: [f64; K] = core::array::from_fn(|l| r38[l] - r37[l]);
+                let r40: [f64; K] = x[5];
+                let r41: [f64; K] = core::array::from_fn(|l| -r2[l]);
+                out[0] = r27;
+                out[1] = r32;
+                out[2] = r35;
+                out[3] = r39;
+                out[4] = r40;
+                out[5] = r41;
+            }
         }
     }
 }

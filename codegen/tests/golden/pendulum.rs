@@ -57,25 +57,29 @@ pub mod pendulum {
             [lit::<T>(2.0)]
         }
 
-        /// The target f(x₀) of the feedback field: the invariants at the initial state.
-        pub fn targets(&self, x0: &[T; 2]) -> [T; 1] {
-            let mut f = [T::zero(); 1];
-            self.invariants(x0, &mut f);
-            f
-        }
-
         /// The point `rest` (pendulum.lsl:13: point rest { theta = 0; omega = 0; }).
         pub fn point_rest(&self) -> [T; 2] {
             [T::zero(), T::zero()]
         }
     }
 
-    /// The model `Pendulum` with its parameter-only values computed once ([`Pendulum::prepare`]): the functions of the runtime's traits read them instead of recomputing them at every call. Immutable: to change a parameter, change the model and prepare it again, or call `Parameters::set_param`, which prepares again.
+    impl<T: Float> PendulumPrepared<T> {
+        /// The target f(x₀) of the feedback field: the invariants at the initial state.
+        pub fn targets(&self, x0: &[T; 2]) -> [T; 1] {
+            let mut f = [T::zero(); 1];
+            self.invariants(x0, &mut f);
+            f
+        }
+    }
+
+    /// The model `Pendulum` with its parameter-only values computed once ([`Pendulum::prepare`]): the runtime's traits are implemented on it, and its functions read these values instead of recomputing them at every call. Immutable: to change a parameter, change the model and prepare it again, or call `Parameters::set_param`, which prepares again.
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct PendulumPrepared<T = f64> {
         model: Pendulum<T>,
         neg_g_over_l: T,
         k: T,
+        /// The same values for the machine kernels, per tape and in f64.
+        kernels: kernels::Prelude,
     }
 
     impl<T> Deref for PendulumPrepared<T> {
@@ -87,10 +91,8 @@ pub mod pendulum {
     }
 
     impl<T: Float> Pendulum<T> {
-        /// The model with its parameter-only values computed, for runs: its trait
-        /// functions do less work per call than the model's own, which prepare on
-        /// every call.
-        #[inline]
+        /// The model with its parameter-only values computed, for runs: the runtime's
+        /// traits are implemented on the prepared model.
         pub fn prepare(&self) -> PendulumPrepared<T> {
             let g = self.g;
             let l = self.l;
@@ -100,6 +102,7 @@ pub mod pendulum {
                 model: *self,
                 neg_g_over_l,
                 k,
+                kernels: kernels::Prelude::new(&self.slot_values()),
             }
         }
     }
@@ -127,13 +130,6 @@ pub mod pendulum {
         }
     }
 
-    impl<T: Float> Field<T, [T; 2]> for Pendulum<T> {
-        #[inline]
-        fn field(&self, x: &[T; 2], dx: &mut [T; 2]) {
-            self.prepare().field(x, dx)
-        }
-    }
-
     impl<T: Float> Invariants<T, [T; 2], [T; 1]> for PendulumPrepared<T> {
         fn invariants(&self, x: &[T; 2], f: &mut [T; 1]) {
             let [theta, omega] = *x;
@@ -151,27 +147,15 @@ pub mod pendulum {
         }
     }
 
-    impl<T: Float> Invariants<T, [T; 2], [T; 1]> for Pendulum<T> {
-        #[inline]
-        fn invariants(&self, x: &[T; 2], f: &mut [T; 1]) {
-            self.prepare().invariants(x, f)
-        }
-
-        #[inline]
-        fn invariants_jacobian(&self, x: &[T; 2], jac: &mut [[T; 2]; 1]) {
-            self.prepare().invariants_jacobian(x, jac)
-        }
-    }
-
     impl<T: Float> Lyapunov<T, [T; 2], [T; 1], [T; 1]> for PendulumPrepared<T> {
         fn lyapunov(&self, x: &[T; 2], target: &[T; 1], gains: &[T; 1]) -> T {
             let [theta, omega] = *x;
             let [k_e] = *gains;
-            let [e_0] = *target;
+            let [e0] = *target;
             let neg_g_over_l = self.neg_g_over_l;
             // pendulum.lsl: V = Σ k/2 |f − f(x₀)|² over the invariants
             lit::<T>(0.5) * k_e
-                * (lit::<T>(0.5) * (omega * omega) + neg_g_over_l * theta.cos() - e_0)
+                * (lit::<T>(0.5) * (omega * omega) + neg_g_over_l * theta.cos() - e0)
                     .powi(2)
         }
 
@@ -184,15 +168,15 @@ pub mod pendulum {
         ) {
             let [theta, omega] = *x;
             let [k_e] = *gains;
-            let [e_0] = *target;
+            let [e0] = *target;
             let k = self.k;
             let neg_g_over_l = self.neg_g_over_l;
-            let t1 = k_e
-                * (lit::<T>(0.5) * (omega * omega) + neg_g_over_l * theta.cos() - e_0);
+            let k_e_de = k_e
+                * (lit::<T>(0.5) * (omega * omega) + neg_g_over_l * theta.cos() - e0);
             // ∂V/∂x[0] (theta)
-            grad[0] = k * theta.sin() * t1;
+            grad[0] = k * theta.sin() * k_e_de;
             // ∂V/∂x[1] (omega)
-            grad[1] = omega * t1;
+            grad[1] = omega * k_e_de;
         }
 
         fn feedback_field(
@@ -204,50 +188,21 @@ pub mod pendulum {
         ) {
             let [theta, omega] = *x;
             let [k_e] = *gains;
-            let [e_0] = *target;
+            let [e0] = *target;
             let neg_g_over_l = self.neg_g_over_l;
             let sin_theta = theta.sin();
-            let t1 = k_e
-                * (lit::<T>(0.5) * (omega * omega) + neg_g_over_l * theta.cos() - e_0);
+            let k_e_de = k_e
+                * (lit::<T>(0.5) * (omega * omega) + neg_g_over_l * theta.cos() - e0);
             // pendulum.lsl:8: d/dt theta = omega; − ∂V/∂x[0]
-            dx[0] = omega + neg_g_over_l * sin_theta * t1;
+            dx[0] = omega + neg_g_over_l * sin_theta * k_e_de;
             // pendulum.lsl:9: d/dt omega = -k * sin(theta); − ∂V/∂x[1]
-            dx[1] = neg_g_over_l * sin_theta - omega * t1;
-        }
-    }
-
-    impl<T: Float> Lyapunov<T, [T; 2], [T; 1], [T; 1]> for Pendulum<T> {
-        #[inline]
-        fn lyapunov(&self, x: &[T; 2], target: &[T; 1], gains: &[T; 1]) -> T {
-            self.prepare().lyapunov(x, target, gains)
-        }
-
-        #[inline]
-        fn lyapunov_gradient(
-            &self,
-            x: &[T; 2],
-            target: &[T; 1],
-            gains: &[T; 1],
-            grad: &mut [T; 2],
-        ) {
-            self.prepare().lyapunov_gradient(x, target, gains, grad)
-        }
-
-        #[inline]
-        fn feedback_field(
-            &self,
-            x: &[T; 2],
-            target: &[T; 1],
-            gains: &[T; 1],
-            dx: &mut [T; 2],
-        ) {
-            self.prepare().feedback_field(x, target, gains, dx)
+            dx[1] = neg_g_over_l * sin_theta - omega * k_e_de;
         }
     }
 
     impl<T: Float> Partitioned<T, [T; 2]> for PendulumPrepared<T> {
         fn is_q(&self) -> &[bool] {
-            self.model.is_q()
+            &[true, false]
         }
 
         fn field_q(&self, x: &[T; 2], dx: &mut [T; 2]) {
@@ -264,29 +219,7 @@ pub mod pendulum {
         }
     }
 
-    impl<T: Float> Partitioned<T, [T; 2]> for Pendulum<T> {
-        fn is_q(&self) -> &[bool] {
-            &[true, false]
-        }
-
-        #[inline]
-        fn field_q(&self, x: &[T; 2], dx: &mut [T; 2]) {
-            self.prepare().field_q(x, dx)
-        }
-
-        #[inline]
-        fn field_p(&self, x: &[T; 2], dx: &mut [T; 2]) {
-            self.prepare().field_p(x, dx)
-        }
-    }
-
     impl<T: Float> Declared<T, [T; 2]> for PendulumPrepared<T> {
-        fn partitioned(&self) -> Option<&dyn Partitioned<T, [T; 2]>> {
-            Some(self)
-        }
-    }
-
-    impl<T: Float> Declared<T, [T; 2]> for Pendulum<T> {
         fn partitioned(&self) -> Option<&dyn Partitioned<T, [T; 2]>> {
             Some(self)
         }
@@ -295,7 +228,7 @@ pub mod pendulum {
             &self,
             _max_order: u32,
         ) -> Result<lasalle_runtime::TaylorKernels<Self>, lasalle_runtime::TaylorError> {
-            Ok(taylor_kernels(self))
+            Ok(kernels::taylor_kernels(self))
         }
     }
 
@@ -351,32 +284,6 @@ pub mod pendulum {
         ];
     }
 
-    impl<T> ModelInfo for Pendulum<T> {
-        fn model_name(&self) -> &'static str {
-            Self::NAME
-        }
-
-        fn state_slots(&self) -> &'static [Slot] {
-            Self::STATE
-        }
-
-        fn invariant_infos(&self) -> &'static [InvariantInfo] {
-            Self::INVARIANTS
-        }
-
-        fn gain_names(&self) -> &'static [&'static str] {
-            Self::GAIN_NAMES
-        }
-
-        fn default_gain_values(&self) -> &'static [f64] {
-            Self::DEFAULT_GAINS
-        }
-
-        fn param_slots(&self) -> &'static [Slot] {
-            Self::PARAMS
-        }
-    }
-
     impl<T> ModelInfo for PendulumPrepared<T> {
         fn model_name(&self) -> &'static str {
             Pendulum::<T>::NAME
@@ -403,7 +310,8 @@ pub mod pendulum {
         }
     }
 
-    impl Parameters for Pendulum<f64> {
+    /// Parameters and points by name; setting a parameter prepares the model again.
+    impl Parameters for PendulumPrepared<f64> {
         fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
             match name {
                 "g" => {
@@ -414,8 +322,7 @@ pub mod pendulum {
                             given: values.len(),
                         });
                     }
-                    self.g = values[0];
-                    Ok(())
+                    self.model.g = values[0];
                 }
                 "l" => {
                     if values.len() != 1 {
@@ -425,16 +332,17 @@ pub mod pendulum {
                             given: values.len(),
                         });
                     }
-                    self.l = values[0];
-                    Ok(())
+                    self.model.l = values[0];
                 }
                 _ => {
-                    Err(ParamError::Unknown {
+                    return Err(ParamError::Unknown {
                         name: name.to_string(),
                         known: "`g`, `l`".to_string(),
-                    })
+                    });
                 }
             }
+            *self = self.model.prepare();
+            Ok(())
         }
 
         fn param(&self, name: &str) -> Option<Vec<f64>> {
@@ -457,456 +365,425 @@ pub mod pendulum {
         }
     }
 
-    /// Setting a parameter prepares the model again.
-    impl Parameters for PendulumPrepared<f64> {
-        fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
-            self.model.set_param(name, values)?;
-            *self = self.model.prepare();
-            Ok(())
-        }
+    /// The machine kernels of `Pendulum`, generated from its tapes rather than written from its
+    /// formulas: the parameter-only values of every function in f64 ([`Prelude`], a field of
+    /// [`PendulumPrepared`](super::PendulumPrepared)), the Taylor-coefficient kernels of X and X − ∇V
+    /// ([`TaylorField`], [`TaylorFeedback`]) and every function for K states per call
+    /// ([`Lanes`]). Straight-line code over numbered registers and table rows, each operation the
+    /// IEEE operation of the functions above, so that they agree bitwise with them, with the JIT
+    /// and with the tape interpreter; not meant to be read.
+    pub mod kernels {
+        #![allow(unused_variables, clippy::all)]
+        use lasalle_runtime::num_traits::Float;
 
-        fn param(&self, name: &str) -> Option<Vec<f64>> {
-            self.model.param(name)
-        }
-
-        fn point_names(&self) -> &'static [&'static str] {
-            self.model.point_names()
-        }
-
-        fn point(&self, name: &str) -> Option<Vec<f64>> {
-            self.model.point(name)
-        }
-    }
-    impl<T: Float> Pendulum<T> {
-        /// The parameter slots as f64, in the order of `PARAMS` (matrices column-major).
-        pub fn slot_values(&self) -> [f64; 2] {
-            [self.g.to_f64().unwrap_or(f64::NAN), self.l.to_f64().unwrap_or(f64::NAN)]
-        }
-        /// The adaptive Taylor integrator (Jorba & Zou; `lasalle_runtime::taylor`) of the field
-        /// and of X − ∇V over this model's emitted kernels.
-        pub fn taylor(
-            &self,
-            opts: lasalle_runtime::TaylorOptions,
-        ) -> Result<lasalle_runtime::Taylor<Self>, lasalle_runtime::TaylorError> {
-            lasalle_runtime::Taylor::new(taylor_kernels(self), opts)
-        }
-    }
-    /// The emitted Taylor kernels of the field and of X − ∇V.
-    fn taylor_kernels<T: Float>(m: &Pendulum<T>) -> lasalle_runtime::TaylorKernels<Pendulum<T>> {
-        lasalle_runtime::TaylorKernels {
-            field: Box::new(PendulumTaylorField::new(m)),
-            feedback: Box::new(PendulumTaylorFeedback::new(m)),
-        }
-    }
-    /// The parameter-only values of `field` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_field(p: &[f64; 2]) -> [f64; 1] {
-        let p0: f64 = p[0];
-        let p1: f64 = p[1];
-        let p2: f64 = p0 / p1;
-        let p3: f64 = -p2;
-        [p3]
-    }
-    /// The parameter-only values of `invariants` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_invariants(p: &[f64; 2]) -> [f64; 1] {
-        let p0: f64 = p[0];
-        let p1: f64 = p[1];
-        let p2: f64 = p0 / p1;
-        let p3: f64 = -p2;
-        [p3]
-    }
-    /// The parameter-only values of `jacobian` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_jacobian(p: &[f64; 2]) -> [f64; 1] {
-        let p0: f64 = p[0];
-        let p1: f64 = p[1];
-        let p2: f64 = p0 / p1;
-        [p2]
-    }
-    /// The parameter-only values of `lyapunov` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_lyapunov(p: &[f64; 2]) -> [f64; 1] {
-        let p0: f64 = p[0];
-        let p1: f64 = p[1];
-        let p2: f64 = p0 / p1;
-        let p3: f64 = -p2;
-        [p3]
-    }
-    /// The parameter-only values of `lyapunov_gradient` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_lyapunov_gradient(p: &[f64; 2]) -> [f64; 2] {
-        let p0: f64 = p[1];
-        let p1: f64 = 1.0_f64;
-        let p2: f64 = p1 / p0;
-        let p3: f64 = p[0];
-        let p4: f64 = p3 / p0;
-        let p5: f64 = -p4;
-        [p5, p4]
-    }
-    /// The parameter-only values of `feedback` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_feedback(p: &[f64; 2]) -> [f64; 1] {
-        let p0: f64 = p[0];
-        let p1: f64 = p[1];
-        let p2: f64 = p0 / p1;
-        let p3: f64 = -p2;
-        [p3]
-    }
-    /// The parameter-only values of `field_q` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_field_q(p: &[f64; 2]) -> [f64; 0] {
-        []
-    }
-    /// The parameter-only values of `field_p` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_field_p(p: &[f64; 2]) -> [f64; 1] {
-        let p0: f64 = p[0];
-        let p1: f64 = p[1];
-        let p2: f64 = p0 / p1;
-        let p3: f64 = -p2;
-        [p3]
-    }
-    /// The Taylor-coefficient kernel of X (`lasalle_runtime::TaylorKernel`).
-    pub type PendulumTaylorField = lasalle_runtime::taylor::Emitted<PendulumFieldRecurrences>;
-    /// The recurrences of X's tape (`lasalle_runtime::taylor::Recurrences`), 6 rows of
-    /// orders 0..=`EMITTED_MAX_ORDER`.
-    pub struct PendulumFieldRecurrences;
-    impl<T: Float> lasalle_runtime::taylor::Recurrences<Pendulum<T>> for PendulumFieldRecurrences {
-        const NAME: &'static str = "PendulumTaylorField";
-        const DIM: usize = 2;
-        const ROWS: usize = 6;
-        const PARAMS: usize = 2;
-        const HOISTED: usize = 1;
-        const TARGETS: usize = 0;
-        const GAINS: usize = 0;
-        fn params(m: &Pendulum<T>, out: &mut [f64]) {
-            out.copy_from_slice(&m.slot_values());
-        }
-        fn hoist(params: &[f64], hoisted: &mut [f64]) {
-            hoisted.copy_from_slice(&hoist_field(params.try_into().expect("parameter slots: 2")));
-        }
-        #[allow(unused_variables, clippy::all)]
-        fn compute(
-            t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
-            hoisted: &[f64],
-            target: &[f64],
-            gains: &[f64],
-            x: &[f64],
-            order: usize,
-        ) {
-            use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
-            let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 6] = t.try_into().expect("rows: 6");
-            let hoisted: &[f64; 1] = hoisted.try_into().expect("hoisted values: 1");
-            let target: &[f64; 0] = target.try_into().expect("targets: 0");
-            let gains: &[f64; 0] = gains.try_into().expect("gains: 0");
-            for (row, xi) in t.iter_mut().zip(&x[..2]) {
-                row[0] = *xi;
+        impl<T: Float> super::Pendulum<T> {
+            /// The parameter slots as f64, in the order of `PARAMS` (matrices column-major).
+            pub fn slot_values(&self) -> [f64; 2] {
+                [self.g.to_f64().unwrap_or(f64::NAN), self.l.to_f64().unwrap_or(f64::NAN)]
             }
-            for k in 0..order {
-                if k == 0 {
-                    let (s, c) = t[0][0].sin_cos();
-                    t[2][0] = s;
-                    t[3][0] = c;
-                    t[4][0] = hoisted[0];
-                    t[5][0] = t[2][0] * t[4][0];
-                } else {
-                    let (s, c) = rec::sin_cos(&t[0], &t[2], &t[3], k);
-                    t[2][k] = s;
-                    t[3][k] = c;
-                    t[5][k] = t[2][k] * t[4][0];
+        }
+
+        /// The parameter-only values of every tape (its prelude) in f64, computed once by
+        /// `Pendulum::prepare` (a field of the prepared model), read by the Taylor kernels and the lanes.
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub struct Prelude {
+            field: [f64; 1],
+            invariants: [f64; 1],
+            jacobian: [f64; 1],
+            lyapunov: [f64; 1],
+            lyapunov_gradient: [f64; 2],
+            feedback: [f64; 1],
+            field_q: [f64; 0],
+            field_p: [f64; 1],
+        }
+
+        impl Prelude {
+            /// The preludes of every tape from the parameter slots, f64 op for f64 op as the tapes'.
+            pub fn new(p: &[f64; 2]) -> Self {
+                Prelude {
+                    field: {
+                        let p0: f64 = p[0];
+                        let p1: f64 = p[1];
+                        let p2: f64 = p0 / p1;
+                        let p3: f64 = -p2;
+                        [p3]
+                    },
+                    invariants: {
+                        let p0: f64 = p[0];
+                        let p1: f64 = p[1];
+                        let p2: f64 = p0 / p1;
+                        let p3: f64 = -p2;
+                        [p3]
+                    },
+                    jacobian: {
+                        let p0: f64 = p[0];
+                        let p1: f64 = p[1];
+                        let p2: f64 = p0 / p1;
+                        [p2]
+                    },
+                    lyapunov: {
+                        let p0: f64 = p[0];
+                        let p1: f64 = p[1];
+                        let p2: f64 = p0 / p1;
+                        let p3: f64 = -p2;
+                        [p3]
+                    },
+                    lyapunov_gradient: {
+                        let p0: f64 = p[1];
+                        let p1: f64 = 1.0_f64;
+                        let p2: f64 = p1 / p0;
+                        let p3: f64 = p[0];
+                        let p4: f64 = p3 / p0;
+                        let p5: f64 = -p4;
+                        [p5, p4]
+                    },
+                    feedback: {
+                        let p0: f64 = p[0];
+                        let p1: f64 = p[1];
+                        let p2: f64 = p0 / p1;
+                        let p3: f64 = -p2;
+                        [p3]
+                    },
+                    field_q: {
+                        []
+                    },
+                    field_p: {
+                        let p0: f64 = p[0];
+                        let p1: f64 = p[1];
+                        let p2: f64 = p0 / p1;
+                        let p3: f64 = -p2;
+                        [p3]
+                    },
                 }
-                let inv = 1.0 / (k as f64 + 1.0);
-                t[0][k + 1] = t[1][k] * inv;
-                t[1][k + 1] = t[5][k] * inv;
             }
         }
-    }
-    /// The Taylor-coefficient kernel of X − ∇V (`lasalle_runtime::TaylorKernel`).
-    pub type PendulumTaylorFeedback = lasalle_runtime::taylor::Emitted<PendulumFeedbackRecurrences>;
-    /// The recurrences of X − ∇V's tape (`lasalle_runtime::taylor::Recurrences`), 19 rows of
-    /// orders 0..=`EMITTED_MAX_ORDER`.
-    pub struct PendulumFeedbackRecurrences;
-    impl<T: Float> lasalle_runtime::taylor::Recurrences<Pendulum<T>> for PendulumFeedbackRecurrences {
-        const NAME: &'static str = "PendulumTaylorFeedback";
-        const DIM: usize = 2;
-        const ROWS: usize = 19;
-        const PARAMS: usize = 2;
-        const HOISTED: usize = 1;
-        const TARGETS: usize = 1;
-        const GAINS: usize = 1;
-        fn params(m: &Pendulum<T>, out: &mut [f64]) {
-            out.copy_from_slice(&m.slot_values());
-        }
-        fn hoist(params: &[f64], hoisted: &mut [f64]) {
-            hoisted.copy_from_slice(&hoist_feedback(params.try_into().expect("parameter slots: 2")));
-        }
-        #[allow(unused_variables, clippy::all)]
-        fn compute(
-            t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
-            hoisted: &[f64],
-            target: &[f64],
-            gains: &[f64],
-            x: &[f64],
-            order: usize,
-        ) {
-            use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
-            let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 19] = t.try_into().expect("rows: 19");
-            let hoisted: &[f64; 1] = hoisted.try_into().expect("hoisted values: 1");
-            let target: &[f64; 1] = target.try_into().expect("targets: 1");
-            let gains: &[f64; 1] = gains.try_into().expect("gains: 1");
-            for (row, xi) in t.iter_mut().zip(&x[..2]) {
-                row[0] = *xi;
+
+        impl<T: Float> super::PendulumPrepared<T> {
+            /// The adaptive Taylor integrator (Jorba & Zou; `lasalle_runtime::taylor`) of the field
+            /// and of X − ∇V over this model's emitted kernels.
+            pub fn taylor(
+                &self,
+                opts: lasalle_runtime::TaylorOptions,
+            ) -> Result<lasalle_runtime::Taylor<Self>, lasalle_runtime::TaylorError> {
+                lasalle_runtime::Taylor::new(taylor_kernels(self), opts)
             }
-            for k in 0..order {
-                if k == 0 {
-                    let (s, c) = t[0][0].sin_cos();
-                    t[2][0] = s;
-                    t[3][0] = c;
-                    t[4][0] = gains[0];
-                    t[5][0] = t[1][0] * t[1][0];
-                    t[6][0] = 0.5_f64;
-                    t[7][0] = t[5][0] * t[6][0];
-                    t[8][0] = hoisted[0];
-                    t[9][0] = t[3][0] * t[8][0];
-                    t[10][0] = target[0];
-                    t[11][0] = t[7][0] + t[9][0];
-                    t[12][0] = t[11][0] - t[10][0];
-                    t[13][0] = t[12][0] * t[4][0];
-                    t[14][0] = t[2][0] * t[8][0];
-                    t[15][0] = t[14][0] * t[13][0];
-                    t[16][0] = t[1][0] + t[15][0];
-                    t[17][0] = t[1][0] * t[13][0];
-                    t[18][0] = t[14][0] - t[17][0];
-                } else {
-                    let [e5] =
-                        rec::cauchy_many(t, [(1, 1)], k, 1, (k - 1) / 2);
-                    let [e15, e17] =
-                        rec::cauchy_many(t, [(14, 13), (1, 13)], k, 1, k - 1);
-                    let (s, c) = rec::sin_cos(&t[0], &t[2], &t[3], k);
-                    t[2][k] = s;
-                    t[3][k] = c;
-                    t[5][k] = rec::square_after(e5, &t[1], k);
-                    t[7][k] = t[5][k] * t[6][0];
-                    t[9][k] = t[3][k] * t[8][0];
-                    t[11][k] = t[7][k] + t[9][k];
-                    t[12][k] = t[11][k] - t[10][k];
-                    t[13][k] = t[12][k] * t[4][0];
-                    t[14][k] = t[2][k] * t[8][0];
-                    t[15][k] = rec::mul_after(e15, &t[14], &t[13], k);
-                    t[16][k] = t[1][k] + t[15][k];
-                    t[17][k] = rec::mul_after(e17, &t[1], &t[13], k);
-                    t[18][k] = t[14][k] - t[17][k];
+
+            /// The model's functions for K states per call, with this model's parameters.
+            pub fn lanes(&self) -> Lanes {
+                Lanes { prelude: self.kernels }
+            }
+        }
+
+        /// The emitted Taylor kernels of the field and of X − ∇V.
+        pub fn taylor_kernels<T: Float>(
+            m: &super::PendulumPrepared<T>,
+        ) -> lasalle_runtime::TaylorKernels<super::PendulumPrepared<T>> {
+            lasalle_runtime::TaylorKernels {
+                field: Box::new(TaylorField::new(m)),
+                feedback: Box::new(TaylorFeedback::new(m)),
+            }
+        }
+        /// The Taylor-coefficient kernel of X (`lasalle_runtime::TaylorKernel`).
+        pub type TaylorField = lasalle_runtime::taylor::Emitted<FieldRecurrences>;
+        /// The recurrences of X's tape (`lasalle_runtime::taylor::Recurrences`), 6 rows of
+        /// orders 0..=`EMITTED_MAX_ORDER`.
+        pub struct FieldRecurrences;
+        impl<T: Float> lasalle_runtime::taylor::Recurrences<super::PendulumPrepared<T>> for FieldRecurrences {
+            const NAME: &'static str = "Pendulum: TaylorField";
+            const DIM: usize = 2;
+            const ROWS: usize = 6;
+            const HOISTED: usize = 1;
+            const TARGETS: usize = 0;
+            const GAINS: usize = 0;
+            fn hoisted(m: &super::PendulumPrepared<T>) -> &[f64] {
+                &m.kernels.field
+            }
+            fn compute(
+                t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
+                hoisted: &[f64],
+                target: &[f64],
+                gains: &[f64],
+                x: &[f64],
+                order: usize,
+            ) {
+                use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
+                let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 6] = t.try_into().expect("rows: 6");
+                let hoisted: &[f64; 1] = hoisted.try_into().expect("hoisted values: 1");
+                let target: &[f64; 0] = target.try_into().expect("targets: 0");
+                let gains: &[f64; 0] = gains.try_into().expect("gains: 0");
+                for (row, xi) in t.iter_mut().zip(&x[..2]) {
+                    row[0] = *xi;
                 }
-                let inv = 1.0 / (k as f64 + 1.0);
-                t[0][k + 1] = t[16][k] * inv;
-                t[1][k + 1] = t[18][k] * inv;
+                for k in 0..order {
+                    if k == 0 {
+                        let (s, c) = t[0][0].sin_cos();
+                        t[2][0] = s;
+                        t[3][0] = c;
+                        t[4][0] = hoisted[0];
+                        t[5][0] = t[2][0] * t[4][0];
+                    } else {
+                        let (s, c) = rec::sin_cos(&t[0], &t[2], &t[3], k);
+                        t[2][k] = s;
+                        t[3][k] = c;
+                        t[5][k] = t[2][k] * t[4][0];
+                    }
+                    let inv = 1.0 / (k as f64 + 1.0);
+                    t[0][k + 1] = t[1][k] * inv;
+                    t[1][k + 1] = t[5][k] * inv;
+                }
             }
         }
-    }
-    /// The model's functions for K states per call (structure of arrays), with the
-    /// parameter-only values computed once: see `Pendulum::lanes`.
-    #[derive(Clone, Debug)]
-    pub struct PendulumLanes {
-        field: [f64; 1],
-        invariants: [f64; 1],
-        jacobian: [f64; 1],
-        lyapunov: [f64; 1],
-        lyapunov_gradient: [f64; 2],
-        feedback: [f64; 1],
-        field_q: [f64; 0],
-        field_p: [f64; 1],
-    }
-    impl<T: Float> Pendulum<T> {
-        /// The batched functions with the current parameters (their preludes run now).
-        pub fn lanes(&self) -> PendulumLanes {
-            let p = self.slot_values();
-            PendulumLanes {
-                field: hoist_field(&p),
-                invariants: hoist_invariants(&p),
-                jacobian: hoist_jacobian(&p),
-                lyapunov: hoist_lyapunov(&p),
-                lyapunov_gradient: hoist_lyapunov_gradient(&p),
-                feedback: hoist_feedback(&p),
-                field_q: hoist_field_q(&p),
-                field_p: hoist_field_p(&p),
+        /// The Taylor-coefficient kernel of X − ∇V (`lasalle_runtime::TaylorKernel`).
+        pub type TaylorFeedback = lasalle_runtime::taylor::Emitted<FeedbackRecurrences>;
+        /// The recurrences of X − ∇V's tape (`lasalle_runtime::taylor::Recurrences`), 19 rows of
+        /// orders 0..=`EMITTED_MAX_ORDER`.
+        pub struct FeedbackRecurrences;
+        impl<T: Float> lasalle_runtime::taylor::Recurrences<super::PendulumPrepared<T>> for FeedbackRecurrences {
+            const NAME: &'static str = "Pendulum: TaylorFeedback";
+            const DIM: usize = 2;
+            const ROWS: usize = 19;
+            const HOISTED: usize = 1;
+            const TARGETS: usize = 1;
+            const GAINS: usize = 1;
+            fn hoisted(m: &super::PendulumPrepared<T>) -> &[f64] {
+                &m.kernels.feedback
+            }
+            fn compute(
+                t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
+                hoisted: &[f64],
+                target: &[f64],
+                gains: &[f64],
+                x: &[f64],
+                order: usize,
+            ) {
+                use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
+                let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 19] = t.try_into().expect("rows: 19");
+                let hoisted: &[f64; 1] = hoisted.try_into().expect("hoisted values: 1");
+                let target: &[f64; 1] = target.try_into().expect("targets: 1");
+                let gains: &[f64; 1] = gains.try_into().expect("gains: 1");
+                for (row, xi) in t.iter_mut().zip(&x[..2]) {
+                    row[0] = *xi;
+                }
+                for k in 0..order {
+                    if k == 0 {
+                        let (s, c) = t[0][0].sin_cos();
+                        t[2][0] = s;
+                        t[3][0] = c;
+                        t[4][0] = gains[0];
+                        t[5][0] = t[1][0] * t[1][0];
+                        t[6][0] = 0.5_f64;
+                        t[7][0] = t[5][0] * t[6][0];
+                        t[8][0] = hoisted[0];
+                        t[9][0] = t[3][0] * t[8][0];
+                        t[10][0] = target[0];
+                        t[11][0] = t[7][0] + t[9][0];
+                        t[12][0] = t[11][0] - t[10][0];
+                        t[13][0] = t[12][0] * t[4][0];
+                        t[14][0] = t[2][0] * t[8][0];
+                        t[15][0] = t[14][0] * t[13][0];
+                        t[16][0] = t[1][0] + t[15][0];
+                        t[17][0] = t[1][0] * t[13][0];
+                        t[18][0] = t[14][0] - t[17][0];
+                    } else {
+                        let [e5] =
+                            rec::cauchy_many(t, [(1, 1)], k, 1, (k - 1) / 2);
+                        let [e15, e17] =
+                            rec::cauchy_many(t, [(14, 13), (1, 13)], k, 1, k - 1);
+                        let (s, c) = rec::sin_cos(&t[0], &t[2], &t[3], k);
+                        t[2][k] = s;
+                        t[3][k] = c;
+                        t[5][k] = rec::square_after(e5, &t[1], k);
+                        t[7][k] = t[5][k] * t[6][0];
+                        t[9][k] = t[3][k] * t[8][0];
+                        t[11][k] = t[7][k] + t[9][k];
+                        t[12][k] = t[11][k] - t[10][k];
+                        t[13][k] = t[12][k] * t[4][0];
+                        t[14][k] = t[2][k] * t[8][0];
+                        t[15][k] = rec::mul_after(e15, &t[14], &t[13], k);
+                        t[16][k] = t[1][k] + t[15][k];
+                        t[17][k] = rec::mul_after(e17, &t[1], &t[13], k);
+                        t[18][k] = t[14][k] - t[17][k];
+                    }
+                    let inv = 1.0 / (k as f64 + 1.0);
+                    t[0][k + 1] = t[16][k] * inv;
+                    t[1][k + 1] = t[18][k] * inv;
+                }
             }
         }
-    }
-    impl PendulumLanes {
-        /// `field` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn field<const K: usize>(
-            &self,
-            x: &[[f64; K]; 2],
-            out: &mut [[f64; K]; 2],
-        ) {
-            let h = &self.field;
-            let r0: [f64; K] = x[1];
-            let r1: [f64; K] = x[0];
-            let r2: [f64; K] = core::array::from_fn(|l| r1[l].sin());
-            let r3: [f64; K] = [h[0]; K];
-            let r4: [f64; K] = core::array::from_fn(|l| r3[l] * r2[l]);
-            out[0] = r0;
-            out[1] = r4;
+        /// The model's functions for K states per call (structure of arrays), reading the
+        /// parameter-only values of [`PendulumPrepared`](super::PendulumPrepared): see `PendulumPrepared::lanes`.
+        #[derive(Clone, Debug)]
+        pub struct Lanes {
+            prelude: Prelude,
         }
-        /// `invariants` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn invariants<const K: usize>(
-            &self,
-            x: &[[f64; K]; 2],
-            out: &mut [[f64; K]; 1],
-        ) {
-            let h = &self.invariants;
-            let r0: [f64; K] = x[1];
-            let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
-            let r2: [f64; K] = [0.5_f64; K];
-            let r3: [f64; K] = core::array::from_fn(|l| r2[l] * r1[l]);
-            let r4: [f64; K] = x[0];
-            let r5: [f64; K] = core::array::from_fn(|l| r4[l].cos());
-            let r6: [f64; K] = [h[0]; K];
-            let r7: [f64; K] = core::array::from_fn(|l| r6[l] * r5[l]);
-            let r8: [f64; K] = core::array::from_fn(|l| r3[l] + r7[l]);
-            out[0] = r8;
-        }
-        /// `jacobian` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn jacobian<const K: usize>(
-            &self,
-            x: &[[f64; K]; 2],
-            out: &mut [[f64; K]; 2],
-        ) {
-            let h = &self.jacobian;
-            let r0: [f64; K] = x[0];
-            let r1: [f64; K] = core::array::from_fn(|l| r0[l].sin());
-            let r2: [f64; K] = [h[0]; K];
-            let r3: [f64; K] = core::array::from_fn(|l| r2[l] * r1[l]);
-            let r4: [f64; K] = x[1];
-            out[0] = r3;
-            out[1] = r4;
-        }
-        /// `lyapunov` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn lyapunov<const K: usize>(
-            &self,
-            x: &[[f64; K]; 2],
-            target: &[f64; 1],
-            gains: &[f64; 1],
-            out: &mut [[f64; K]; 1],
-        ) {
-            let h = &self.lyapunov;
-            let r0: [f64; K] = [gains[0]; K];
-            let r1: [f64; K] = x[1];
-            let r2: [f64; K] = core::array::from_fn(|l| r1[l].powi(2));
-            let r3: [f64; K] = [0.5_f64; K];
-            let r4: [f64; K] = core::array::from_fn(|l| r3[l] * r2[l]);
-            let r5: [f64; K] = x[0];
-            let r6: [f64; K] = core::array::from_fn(|l| r5[l].cos());
-            let r7: [f64; K] = [h[0]; K];
-            let r8: [f64; K] = core::array::from_fn(|l| r7[l] * r6[l]);
-            let r9: [f64; K] = [target[0]; K];
-            let r10: [f64; K] = core::array::from_fn(|l| r4[l] + r8[l]);
-            let r11: [f64; K] = core::array::from_fn(|l| r10[l] - r9[l]);
-            let r12: [f64; K] = core::array::from_fn(|l| r11[l].powi(2));
-            let r13: [f64; K] = core::array::from_fn(|l| r3[l] * r0[l]);
-            let r14: [f64; K] = core::array::from_fn(|l| r13[l] * r12[l]);
-            out[0] = r14;
-        }
-        /// `lyapunov_gradient` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn lyapunov_gradient<const K: usize>(
-            &self,
-            x: &[[f64; K]; 2],
-            target: &[f64; 1],
-            gains: &[f64; 1],
-            out: &mut [[f64; K]; 2],
-        ) {
-            let h = &self.lyapunov_gradient;
-            let r0: [f64; K] = [gains[0]; K];
-            let r1: [f64; K] = x[1];
-            let r2: [f64; K] = core::array::from_fn(|l| r1[l].powi(2));
-            let r3: [f64; K] = [0.5_f64; K];
-            let r4: [f64; K] = core::array::from_fn(|l| r3[l] * r2[l]);
-            let r5: [f64; K] = x[0];
-            let r6: [f64; K] = core::array::from_fn(|l| r5[l].cos());
-            let r7: [f64; K] = [h[0]; K];
-            let r8: [f64; K] = core::array::from_fn(|l| r7[l] * r6[l]);
-            let r9: [f64; K] = [target[0]; K];
-            let r10: [f64; K] = core::array::from_fn(|l| r4[l] + r8[l]);
-            let r11: [f64; K] = core::array::from_fn(|l| r10[l] - r9[l]);
-            let r12: [f64; K] = core::array::from_fn(|l| r0[l] * r11[l]);
-            let r13: [f64; K] = core::array::from_fn(|l| r5[l].sin());
-            let r14: [f64; K] = [h[1]; K];
-            let r15: [f64; K] = core::array::from_fn(|l| r14[l] * r13[l]);
-            let r16: [f64; K] = core::array::from_fn(|l| r15[l] * r12[l]);
-            let r17: [f64; K] = core::array::from_fn(|l| r1[l] * r12[l]);
-            out[0] = r16;
-            out[1] = r17;
-        }
-        /// `feedback` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn feedback<const K: usize>(
-            &self,
-            x: &[[f64; K]; 2],
-            target: &[f64; 1],
-            gains: &[f64; 1],
-            out: &mut [[f64; K]; 2],
-        ) {
-            let h = &self.feedback;
-            let r0: [f64; K] = x[0];
-            let r1: [f64; K] = core::array::from_fn(|l| r0[l].sin());
-            let r2: [f64; K] = [gains[0]; K];
-            let r3: [f64; K] = x[1];
-            let r4: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
-            let r5: [f64; K] = [0.5_f64; K];
-            let r6: [f64; K] = core::array::from_fn(|l| r5[l] * r4[l]);
-            let r7: [f64; K] = core::array::from_fn(|l| r0[l].cos());
-            let r8: [f64; K] = [h[0]; K];
-            let r9: [f64; K] = core::array::from_fn(|l| r8[l] * r7[l]);
-            let r10: [f64; K] = [target[0]; K];
-            let r11: [f64; K] = core::array::from_fn(|l| r6[l] + r9[l]);
-            let r12: [f64; K] = core::array::from_fn(|l| r11[l] - r10[l]);
-            let r13: [f64; K] = core::array::from_fn(|l| r2[l] * r12[l]);
-            let r14: [f64; K] = core::array::from_fn(|l| r8[l] * r1[l]);
-            let r15: [f64; K] = core::array::from_fn(|l| r14[l] * r13[l]);
-            let r16: [f64; K] = core::array::from_fn(|l| r3[l] + r15[l]);
-            let r17: [f64; K] = core::array::from_fn(|l| r3[l] * r13[l]);
-            let r18: [f64; K] = core::array::from_fn(|l| r14[l] - r17[l]);
-            out[0] = r16;
-            out[1] = r18;
-        }
-        /// `field_q` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn field_q<const K: usize>(
-            &self,
-            x: &[[f64; K]; 2],
-            out: &mut [[f64; K]; 1],
-        ) {
-            let h = &self.field_q;
-            let r0: [f64; K] = x[1];
-            out[0] = r0;
-        }
-        /// `field_p` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn field_p<const K: usize>(
-            &self,
-            x: &[[f64; K]; 2],
-            out: &mut [[f64; K]; 1],
-        ) {
-            let h = &self.field_p;
-            let r0: [f64; K] = x[0];
-            let r1: [f64; K] = core::array::from_fn(|l| r0[l].sin());
-            let r2: [f64; K] = [h[0]; K];
-            let r3: [f64; K] = core::array::from_fn(|l| r2[l] * r1[l]);
-            out[0] = r3;
+
+        impl Lanes {
+            /// `field` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn field<const K: usize>(
+                &self,
+                x: &[[f64; K]; 2],
+                out: &mut [[f64; K]; 2],
+            ) {
+                let h = &self.prelude.field;
+                let r0: [f64; K] = x[1];
+                let r1: [f64; K] = x[0];
+                let r2: [f64; K] = core::array::from_fn(|l| r1[l].sin());
+                let r3: [f64; K] = [h[0]; K];
+                let r4: [f64; K] = core::array::from_fn(|l| r3[l] * r2[l]);
+                out[0] = r0;
+                out[1] = r4;
+            }
+            /// `invariants` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn invariants<const K: usize>(
+                &self,
+                x: &[[f64; K]; 2],
+                out: &mut [[f64; K]; 1],
+            ) {
+                let h = &self.prelude.invariants;
+                let r0: [f64; K] = x[1];
+                let r1: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
+                let r2: [f64; K] = [0.5_f64; K];
+                let r3: [f64; K] = core::array::from_fn(|l| r2[l] * r1[l]);
+                let r4: [f64; K] = x[0];
+                let r5: [f64; K] = core::array::from_fn(|l| r4[l].cos());
+                let r6: [f64; K] = [h[0]; K];
+                let r7: [f64; K] = core::array::from_fn(|l| r6[l] * r5[l]);
+                let r8: [f64; K] = core::array::from_fn(|l| r3[l] + r7[l]);
+                out[0] = r8;
+            }
+            /// `jacobian` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn jacobian<const K: usize>(
+                &self,
+                x: &[[f64; K]; 2],
+                out: &mut [[f64; K]; 2],
+            ) {
+                let h = &self.prelude.jacobian;
+                let r0: [f64; K] = x[0];
+                let r1: [f64; K] = core::array::from_fn(|l| r0[l].sin());
+                let r2: [f64; K] = [h[0]; K];
+                let r3: [f64; K] = core::array::from_fn(|l| r2[l] * r1[l]);
+                let r4: [f64; K] = x[1];
+                out[0] = r3;
+                out[1] = r4;
+            }
+            /// `lyapunov` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn lyapunov<const K: usize>(
+                &self,
+                x: &[[f64; K]; 2],
+                target: &[f64; 1],
+                gains: &[f64; 1],
+                out: &mut [[f64; K]; 1],
+            ) {
+                let h = &self.prelude.lyapunov;
+                let r0: [f64; K] = [gains[0]; K];
+                let r1: [f64; K] = x[1];
+                let r2: [f64; K] = core::array::from_fn(|l| r1[l].powi(2));
+                let r3: [f64; K] = [0.5_f64; K];
+                let r4: [f64; K] = core::array::from_fn(|l| r3[l] * r2[l]);
+                let r5: [f64; K] = x[0];
+                let r6: [f64; K] = core::array::from_fn(|l| r5[l].cos());
+                let r7: [f64; K] = [h[0]; K];
+                let r8: [f64; K] = core::array::from_fn(|l| r7[l] * r6[l]);
+                let r9: [f64; K] = [target[0]; K];
+                let r10: [f64; K] = core::array::from_fn(|l| r4[l] + r8[l]);
+                let r11: [f64; K] = core::array::from_fn(|l| r10[l] - r9[l]);
+                let r12: [f64; K] = core::array::from_fn(|l| r11[l].powi(2));
+                let r13: [f64; K] = core::array::from_fn(|l| r3[l] * r0[l]);
+                let r14: [f64; K] = core::array::from_fn(|l| r13[l] * r12[l]);
+                out[0] = r14;
+            }
+            /// `lyapunov_gradient` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn lyapunov_gradient<const K: usize>(
+                &self,
+                x: &[[f64; K]; 2],
+                target: &[f64; 1],
+                gains: &[f64; 1],
+                out: &mut [[f64; K]; 2],
+            ) {
+                let h = &self.prelude.lyapunov_gradient;
+                let r0: [f64; K] = [gains[0]; K];
+                let r1: [f64; K] = x[1];
+                let r2: [f64; K] = core::array::from_fn(|l| r1[l].powi(2));
+                let r3: [f64; K] = [0.5_f64; K];
+                let r4: [f64; K] = core::array::from_fn(|l| r3[l] * r2[l]);
+                let r5: [f64; K] = x[0];
+                let r6: [f64; K] = core::array::from_fn(|l| r5[l].cos());
+                let r7: [f64; K] = [h[0]; K];
+                let r8: [f64; K] = core::array::from_fn(|l| r7[l] * r6[l]);
+                let r9: [f64; K] = [target[0]; K];
+                let r10: [f64; K] = core::array::from_fn(|l| r4[l] + r8[l]);
+                let r11: [f64; K] = core::array::from_fn(|l| r10[l] - r9[l]);
+                let r12: [f64; K] = core::array::from_fn(|l| r0[l] * r11[l]);
+                let r13: [f64; K] = core::array::from_fn(|l| r5[l].sin());
+                let r14: [f64; K] = [h[1]; K];
+                let r15: [f64; K] = core::array::from_fn(|l| r14[l] * r13[l]);
+                let r16: [f64; K] = core::array::from_fn(|l| r15[l] * r12[l]);
+                let r17: [f64; K] = core::array::from_fn(|l| r1[l] * r12[l]);
+                out[0] = r16;
+                out[1] = r17;
+            }
+            /// `feedback` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn feedback<const K: usize>(
+                &self,
+                x: &[[f64; K]; 2],
+                target: &[f64; 1],
+                gains: &[f64; 1],
+                out: &mut [[f64; K]; 2],
+            ) {
+                let h = &self.prelude.feedback;
+                let r0: [f64; K] = x[0];
+                let r1: [f64; K] = core::array::from_fn(|l| r0[l].sin());
+                let r2: [f64; K] = [gains[0]; K];
+                let r3: [f64; K] = x[1];
+                let r4: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
+                let r5: [f64; K] = [0.5_f64; K];
+                let r6: [f64; K] = core::array::from_fn(|l| r5[l] * r4[l]);
+                let r7: [f64; K] = core::array::from_fn(|l| r0[l].cos());
+                let r8: [f64; K] = [h[0]; K];
+                let r9: [f64; K] = core::array::from_fn(|l| r8[l] * r7[l]);
+                let r10: [f64; K] = [target[0]; K];
+                let r11: [f64; K] = core::array::from_fn(|l| r6[l] + r9[l]);
+                let r12: [f64; K] = core::array::from_fn(|l| r11[l] - r10[l]);
+                let r13: [f64; K] = core::array::from_fn(|l| r2[l] * r12[l]);
+                let r14: [f64; K] = core::array::from_fn(|l| r8[l] * r1[l]);
+                let r15: [f64; K] = core::array::from_fn(|l| r14[l] * r13[l]);
+                let r16: [f64; K] = core::array::from_fn(|l| r3[l] + r15[l]);
+                let r17: [f64; K] = core::array::from_fn(|l| r3[l] * r13[l]);
+                let r18: [f64; K] = core::array::from_fn(|l| r14[l] - r17[l]);
+                out[0] = r16;
+                out[1] = r18;
+            }
+            /// `field_q` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn field_q<const K: usize>(
+                &self,
+                x: &[[f64; K]; 2],
+                out: &mut [[f64; K]; 1],
+            ) {
+                let h = &self.prelude.field_q;
+                let r0: [f64; K] = x[1];
+                out[0] = r0;
+            }
+            /// `field_p` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn field_p<const K: usize>(
+                &self,
+                x: &[[f64; K]; 2],
+                out: &mut [[f64; K]; 1],
+            ) {
+                let h = &self.prelude.field_p;
+                let r0: [f64; K] = x[0];
+                let r1: [f64; K] = core::array::from_fn(|l| r0[l].sin());
+                let r2: [f64; K] = [h[0]; K];
+                let r3: [f64; K] = core::array::from_fn(|l| r2[l] * r1[l]);
+                out[0] = r3;
+            }
         }
     }
 }

@@ -54,13 +54,6 @@ pub mod rigid_body {
             [lit::<T>(50.0), lit::<T>(100.0), lit::<T>(50.0)]
         }
 
-        /// The target f(x₀) of the feedback field: the invariants at the initial state.
-        pub fn targets(&self, x0: &[T; 12]) -> [T; 13] {
-            let mut f = [T::zero(); 13];
-            self.invariants(x0, &mut f);
-            f
-        }
-
         /// The point `paper` (rigid_body.lsl:20: point paper { R = eye(3); Omega = [1, 1, 1]; }).
         pub fn point_paper(&self) -> [T; 12] {
             [
@@ -80,13 +73,24 @@ pub mod rigid_body {
         }
     }
 
-    /// The model `RigidBody` with its parameter-only values computed once ([`RigidBody::prepare`]): the functions of the runtime's traits read them instead of recomputing them at every call. Immutable: to change a parameter, change the model and prepare it again, or call `Parameters::set_param`, which prepares again.
+    impl<T: Float> RigidBodyPrepared<T> {
+        /// The target f(x₀) of the feedback field: the invariants at the initial state.
+        pub fn targets(&self, x0: &[T; 12]) -> [T; 13] {
+            let mut f = [T::zero(); 13];
+            self.invariants(x0, &mut f);
+            f
+        }
+    }
+
+    /// The model `RigidBody` with its parameter-only values computed once ([`RigidBody::prepare`]): the runtime's traits are implemented on it, and its functions read these values instead of recomputing them at every call. Immutable: to change a parameter, change the model and prepare it again, or call `Parameters::set_param`, which prepares again.
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct RigidBodyPrepared<T = f64> {
         model: RigidBody<T>,
         i_1_minus_i_2_over_i_0: T,
         i_2_minus_i_0_over_i_1: T,
         i_0_minus_i_1_over_i_2: T,
+        /// The same values for the machine kernels, per tape and in f64.
+        kernels: kernels::Prelude,
     }
 
     impl<T> Deref for RigidBodyPrepared<T> {
@@ -98,10 +102,8 @@ pub mod rigid_body {
     }
 
     impl<T: Float> RigidBody<T> {
-        /// The model with its parameter-only values computed, for runs: its trait
-        /// functions do less work per call than the model's own, which prepare on
-        /// every call.
-        #[inline]
+        /// The model with its parameter-only values computed, for runs: the runtime's
+        /// traits are implemented on the prepared model.
         pub fn prepare(&self) -> RigidBodyPrepared<T> {
             let i_0 = self.i[0];
             let i_1 = self.i[1];
@@ -114,6 +116,7 @@ pub mod rigid_body {
                 i_1_minus_i_2_over_i_0,
                 i_2_minus_i_0_over_i_1,
                 i_0_minus_i_1_over_i_2,
+                kernels: kernels::Prelude::new(&self.slot_values()),
             }
         }
     }
@@ -164,13 +167,6 @@ pub mod rigid_body {
         }
     }
 
-    impl<T: Float> Field<T, [T; 12]> for RigidBody<T> {
-        #[inline]
-        fn field(&self, x: &[T; 12], dx: &mut [T; 12]) {
-            self.prepare().field(x, dx)
-        }
-    }
-
     impl<T: Float> Invariants<T, [T; 12], [T; 13]> for RigidBodyPrepared<T> {
         fn invariants(&self, x: &[T; 12], f: &mut [T; 13]) {
             let [r_0_0, r_1_0, r_2_0, r_0_1, r_1_1, r_2_1, r_0_2, r_1_2, r_2_2, omega_0,
@@ -181,18 +177,18 @@ pub mod rigid_body {
             let omega_0_i_0 = omega_0 * i_0;
             let omega_1_i_1 = omega_1 * i_1;
             let omega_2_i_2 = omega_2 * i_2;
-            let t1 = r_0_0 * r_0_1 + r_1_0 * r_1_1 + r_2_0 * r_2_1;
-            let t2 = r_0_0 * r_0_2 + r_1_0 * r_1_2 + r_2_0 * r_2_2;
-            let t3 = r_0_1 * r_0_2 + r_1_1 * r_1_2 + r_2_1 * r_2_2;
+            let c_1_0 = r_0_0 * r_0_1 + r_1_0 * r_1_1 + r_2_0 * r_2_1;
+            let c_2_0 = r_0_0 * r_0_2 + r_1_0 * r_1_2 + r_2_0 * r_2_2;
+            let c_2_1 = r_0_1 * r_0_2 + r_1_1 * r_1_2 + r_2_1 * r_2_2;
             // rigid_body.lsl:10: constraint C = transpose(R) * R - eye(3) gain k0 = 50;
             f[0] = r_0_0 * r_0_0 + r_1_0 * r_1_0 + r_2_0 * r_2_0 - T::one();
-            f[1] = t1;
-            f[2] = t2;
-            f[3] = t1;
+            f[1] = c_1_0;
+            f[2] = c_2_0;
+            f[3] = c_1_0;
             f[4] = r_0_1 * r_0_1 + r_1_1 * r_1_1 + r_2_1 * r_2_1 - T::one();
-            f[5] = t3;
-            f[6] = t2;
-            f[7] = t3;
+            f[5] = c_2_1;
+            f[6] = c_2_0;
+            f[7] = c_2_1;
             f[8] = r_0_2 * r_0_2 + r_1_2 * r_1_2 + r_2_2 * r_2_2 - T::one();
             // rigid_body.lsl:11: integral E = dot(Omega, I * Omega) / 2 gain k1 = 100;
             f[9] = lit::<T>(0.5)
@@ -286,24 +282,12 @@ pub mod rigid_body {
         }
     }
 
-    impl<T: Float> Invariants<T, [T; 12], [T; 13]> for RigidBody<T> {
-        #[inline]
-        fn invariants(&self, x: &[T; 12], f: &mut [T; 13]) {
-            self.prepare().invariants(x, f)
-        }
-
-        #[inline]
-        fn invariants_jacobian(&self, x: &[T; 12], jac: &mut [[T; 12]; 13]) {
-            self.prepare().invariants_jacobian(x, jac)
-        }
-    }
-
     impl<T: Float> Lyapunov<T, [T; 12], [T; 13], [T; 3]> for RigidBodyPrepared<T> {
         fn lyapunov(&self, x: &[T; 12], target: &[T; 13], gains: &[T; 3]) -> T {
             let [r_0_0, r_1_0, r_2_0, r_0_1, r_1_1, r_2_1, r_0_2, r_1_2, r_2_2, omega_0,
                 omega_1, omega_2] = *x;
             let [k0, k1, k2] = *gains;
-            let [.., e_0, pi_0_0, pi_0_1, pi_0_2] = *target;
+            let [.., e0, pi0_0, pi0_1, pi0_2] = *target;
             let i_0 = self.i[0];
             let i_1 = self.i[1];
             let i_2 = self.i[2];
@@ -324,17 +308,17 @@ pub mod rigid_body {
                 + lit::<T>(0.5) * k1
                     * (lit::<T>(0.5)
                         * (i_0 * (omega_0 * omega_0) + i_1 * (omega_1 * omega_1)
-                            + i_2 * (omega_2 * omega_2)) - e_0)
+                            + i_2 * (omega_2 * omega_2)) - e0)
                         .powi(2)
                 + lit::<T>(0.5) * k2
                     * ((r_0_0 * omega_0_i_0 + r_0_1 * omega_1_i_1 + r_0_2 * omega_2_i_2
-                        - pi_0_0)
+                        - pi0_0)
                         .powi(2)
                         + (r_1_0 * omega_0_i_0 + r_1_1 * omega_1_i_1
-                            + r_1_2 * omega_2_i_2 - pi_0_1)
+                            + r_1_2 * omega_2_i_2 - pi0_1)
                             .powi(2)
                         + (r_2_0 * omega_0_i_0 + r_2_1 * omega_1_i_1
-                            + r_2_2 * omega_2_i_2 - pi_0_2)
+                            + r_2_2 * omega_2_i_2 - pi0_2)
                             .powi(2))
         }
 
@@ -348,59 +332,71 @@ pub mod rigid_body {
             let [r_0_0, r_1_0, r_2_0, r_0_1, r_1_1, r_2_1, r_0_2, r_1_2, r_2_2, omega_0,
                 omega_1, omega_2] = *x;
             let [k0, k1, k2] = *gains;
-            let [.., e_0, pi_0_0, pi_0_1, pi_0_2] = *target;
+            let [.., e0, pi0_0, pi0_1, pi0_2] = *target;
             let i_0 = self.i[0];
             let i_1 = self.i[1];
             let i_2 = self.i[2];
             let omega_0_i_0 = omega_0 * i_0;
             let omega_1_i_1 = omega_1 * i_1;
             let omega_2_i_2 = omega_2 * i_2;
-            let t1 = r_0_0 * r_0_1 + r_1_0 * r_1_1 + r_2_0 * r_2_1;
-            let t2 = r_0_0 * r_0_2 + r_1_0 * r_1_2 + r_2_0 * r_2_2;
-            let t3 = r_0_1 * r_0_2 + r_1_1 * r_1_2 + r_2_1 * r_2_2;
-            let t4 = r_0_0 * r_0_0 + r_1_0 * r_1_0 + r_2_0 * r_2_0 - T::one();
-            let t5 = r_0_1 * r_0_1 + r_1_1 * r_1_1 + r_2_1 * r_2_1 - T::one();
-            let t6 = r_0_2 * r_0_2 + r_1_2 * r_1_2 + r_2_2 * r_2_2 - T::one();
-            let t7 = k1
+            let c_1_0 = r_0_0 * r_0_1 + r_1_0 * r_1_1 + r_2_0 * r_2_1;
+            let c_2_0 = r_0_0 * r_0_2 + r_1_0 * r_1_2 + r_2_0 * r_2_2;
+            let c_2_1 = r_0_1 * r_0_2 + r_1_1 * r_1_2 + r_2_1 * r_2_2;
+            let c_0_0 = r_0_0 * r_0_0 + r_1_0 * r_1_0 + r_2_0 * r_2_0 - T::one();
+            let c_1_1 = r_0_1 * r_0_1 + r_1_1 * r_1_1 + r_2_1 * r_2_1 - T::one();
+            let c_2_2 = r_0_2 * r_0_2 + r_1_2 * r_1_2 + r_2_2 * r_2_2 - T::one();
+            let k1_de = k1
                 * (lit::<T>(0.5)
                     * (i_0 * (omega_0 * omega_0) + i_1 * (omega_1 * omega_1)
-                        + i_2 * (omega_2 * omega_2)) - e_0);
-            let t8 = r_0_0 * omega_0_i_0 + r_0_1 * omega_1_i_1 + r_0_2 * omega_2_i_2
-                - pi_0_0;
-            let t9 = r_1_0 * omega_0_i_0 + r_1_1 * omega_1_i_1 + r_1_2 * omega_2_i_2
-                - pi_0_1;
-            let t10 = r_2_0 * omega_0_i_0 + r_2_1 * omega_1_i_1 + r_2_2 * omega_2_i_2
-                - pi_0_2;
+                        + i_2 * (omega_2 * omega_2)) - e0);
+            let dpi_0 = r_0_0 * omega_0_i_0 + r_0_1 * omega_1_i_1 + r_0_2 * omega_2_i_2
+                - pi0_0;
+            let dpi_1 = r_1_0 * omega_0_i_0 + r_1_1 * omega_1_i_1 + r_1_2 * omega_2_i_2
+                - pi0_1;
+            let dpi_2 = r_2_0 * omega_0_i_0 + r_2_1 * omega_1_i_1 + r_2_2 * omega_2_i_2
+                - pi0_2;
             let omega_2_i_2_k2 = omega_2_i_2 * k2;
             let omega_1_i_1_k2 = omega_1_i_1 * k2;
             let omega_0_i_0_k2 = omega_0_i_0 * k2;
             // ∂V/∂x[0] (r_0_0)
-            grad[0] = t8 * omega_0_i_0_k2 + k0 * (r_0_2 * t2 + r_0_1 * t1 + r_0_0 * t4);
+            grad[0] = dpi_0 * omega_0_i_0_k2
+                + k0 * (r_0_2 * c_2_0 + r_0_1 * c_1_0 + r_0_0 * c_0_0);
             // ∂V/∂x[1] (r_1_0)
-            grad[1] = t9 * omega_0_i_0_k2 + k0 * (r_1_2 * t2 + r_1_1 * t1 + r_1_0 * t4);
+            grad[1] = dpi_1 * omega_0_i_0_k2
+                + k0 * (r_1_2 * c_2_0 + r_1_1 * c_1_0 + r_1_0 * c_0_0);
             // ∂V/∂x[2] (r_2_0)
-            grad[2] = t10 * omega_0_i_0_k2 + k0 * (r_2_2 * t2 + r_2_1 * t1 + r_2_0 * t4);
+            grad[2] = dpi_2 * omega_0_i_0_k2
+                + k0 * (r_2_2 * c_2_0 + r_2_1 * c_1_0 + r_2_0 * c_0_0);
             // ∂V/∂x[3] (r_0_1)
-            grad[3] = t8 * omega_1_i_1_k2 + k0 * (r_0_2 * t3 + r_0_1 * t5 + r_0_0 * t1);
+            grad[3] = dpi_0 * omega_1_i_1_k2
+                + k0 * (r_0_2 * c_2_1 + r_0_1 * c_1_1 + r_0_0 * c_1_0);
             // ∂V/∂x[4] (r_1_1)
-            grad[4] = t9 * omega_1_i_1_k2 + k0 * (r_1_2 * t3 + r_1_1 * t5 + r_1_0 * t1);
+            grad[4] = dpi_1 * omega_1_i_1_k2
+                + k0 * (r_1_2 * c_2_1 + r_1_1 * c_1_1 + r_1_0 * c_1_0);
             // ∂V/∂x[5] (r_2_1)
-            grad[5] = t10 * omega_1_i_1_k2 + k0 * (r_2_2 * t3 + r_2_1 * t5 + r_2_0 * t1);
+            grad[5] = dpi_2 * omega_1_i_1_k2
+                + k0 * (r_2_2 * c_2_1 + r_2_1 * c_1_1 + r_2_0 * c_1_0);
             // ∂V/∂x[6] (r_0_2)
-            grad[6] = t8 * omega_2_i_2_k2 + k0 * (r_0_2 * t6 + r_0_1 * t3 + r_0_0 * t2);
+            grad[6] = dpi_0 * omega_2_i_2_k2
+                + k0 * (r_0_2 * c_2_2 + r_0_1 * c_2_1 + r_0_0 * c_2_0);
             // ∂V/∂x[7] (r_1_2)
-            grad[7] = t9 * omega_2_i_2_k2 + k0 * (r_1_2 * t6 + r_1_1 * t3 + r_1_0 * t2);
+            grad[7] = dpi_1 * omega_2_i_2_k2
+                + k0 * (r_1_2 * c_2_2 + r_1_1 * c_2_1 + r_1_0 * c_2_0);
             // ∂V/∂x[8] (r_2_2)
-            grad[8] = t10 * omega_2_i_2_k2 + k0 * (r_2_2 * t6 + r_2_1 * t3 + r_2_0 * t2);
+            grad[8] = dpi_2 * omega_2_i_2_k2
+                + k0 * (r_2_2 * c_2_2 + r_2_1 * c_2_1 + r_2_0 * c_2_0);
             // ∂V/∂x[9] (omega_0)
             grad[9] = i_0
-                * (omega_0 * t7 + k2 * (r_2_0 * t10 + r_1_0 * t9 + r_0_0 * t8));
+                * (omega_0 * k1_de
+                    + k2 * (r_2_0 * dpi_2 + r_1_0 * dpi_1 + r_0_0 * dpi_0));
             // ∂V/∂x[10] (omega_1)
             grad[10] = i_1
-                * (omega_1 * t7 + k2 * (r_2_1 * t10 + r_1_1 * t9 + r_0_1 * t8));
+                * (omega_1 * k1_de
+                    + k2 * (r_2_1 * dpi_2 + r_1_1 * dpi_1 + r_0_1 * dpi_0));
             // ∂V/∂x[11] (omega_2)
             grad[11] = i_2
-                * (omega_2 * t7 + k2 * (r_2_2 * t10 + r_1_2 * t9 + r_0_2 * t8));
+                * (omega_2 * k1_de
+                    + k2 * (r_2_2 * dpi_2 + r_1_2 * dpi_1 + r_0_2 * dpi_0));
         }
 
         fn feedback_field(
@@ -413,7 +409,7 @@ pub mod rigid_body {
             let [r_0_0, r_1_0, r_2_0, r_0_1, r_1_1, r_2_1, r_0_2, r_1_2, r_2_2, omega_0,
                 omega_1, omega_2] = *x;
             let [k0, k1, k2] = *gains;
-            let [.., e_0, pi_0_0, pi_0_1, pi_0_2] = *target;
+            let [.., e0, pi0_0, pi0_1, pi0_2] = *target;
             let i_0 = self.i[0];
             let i_1 = self.i[1];
             let i_2 = self.i[2];
@@ -423,104 +419,80 @@ pub mod rigid_body {
             let omega_0_i_0 = omega_0 * i_0;
             let omega_1_i_1 = omega_1 * i_1;
             let omega_2_i_2 = omega_2 * i_2;
-            let t1 = r_0_0 * r_0_1 + r_1_0 * r_1_1 + r_2_0 * r_2_1;
-            let t2 = r_0_0 * r_0_2 + r_1_0 * r_1_2 + r_2_0 * r_2_2;
-            let t3 = r_0_1 * r_0_2 + r_1_1 * r_1_2 + r_2_1 * r_2_2;
-            let t4 = r_0_0 * r_0_0 + r_1_0 * r_1_0 + r_2_0 * r_2_0 - T::one();
-            let t5 = r_0_1 * r_0_1 + r_1_1 * r_1_1 + r_2_1 * r_2_1 - T::one();
-            let t6 = r_0_2 * r_0_2 + r_1_2 * r_1_2 + r_2_2 * r_2_2 - T::one();
-            let t7 = k1
+            let c_1_0 = r_0_0 * r_0_1 + r_1_0 * r_1_1 + r_2_0 * r_2_1;
+            let c_2_0 = r_0_0 * r_0_2 + r_1_0 * r_1_2 + r_2_0 * r_2_2;
+            let c_2_1 = r_0_1 * r_0_2 + r_1_1 * r_1_2 + r_2_1 * r_2_2;
+            let c_0_0 = r_0_0 * r_0_0 + r_1_0 * r_1_0 + r_2_0 * r_2_0 - T::one();
+            let c_1_1 = r_0_1 * r_0_1 + r_1_1 * r_1_1 + r_2_1 * r_2_1 - T::one();
+            let c_2_2 = r_0_2 * r_0_2 + r_1_2 * r_1_2 + r_2_2 * r_2_2 - T::one();
+            let k1_de = k1
                 * (lit::<T>(0.5)
                     * (i_0 * (omega_0 * omega_0) + i_1 * (omega_1 * omega_1)
-                        + i_2 * (omega_2 * omega_2)) - e_0);
-            let t8 = r_0_0 * omega_0_i_0 + r_0_1 * omega_1_i_1 + r_0_2 * omega_2_i_2
-                - pi_0_0;
-            let t9 = r_1_0 * omega_0_i_0 + r_1_1 * omega_1_i_1 + r_1_2 * omega_2_i_2
-                - pi_0_1;
-            let t10 = r_2_0 * omega_0_i_0 + r_2_1 * omega_1_i_1 + r_2_2 * omega_2_i_2
-                - pi_0_2;
+                        + i_2 * (omega_2 * omega_2)) - e0);
+            let dpi_0 = r_0_0 * omega_0_i_0 + r_0_1 * omega_1_i_1 + r_0_2 * omega_2_i_2
+                - pi0_0;
+            let dpi_1 = r_1_0 * omega_0_i_0 + r_1_1 * omega_1_i_1 + r_1_2 * omega_2_i_2
+                - pi0_1;
+            let dpi_2 = r_2_0 * omega_0_i_0 + r_2_1 * omega_1_i_1 + r_2_2 * omega_2_i_2
+                - pi0_2;
             let omega_2_i_2_k2 = omega_2_i_2 * k2;
             let omega_1_i_1_k2 = omega_1_i_1 * k2;
             let omega_0_i_0_k2 = omega_0_i_0 * k2;
             // rigid_body.lsl:7: d/dt R = R * hat(Omega); − ∂V/∂x[0]
             dx[0] = r_0_1 * omega_2 - r_0_2 * omega_1
-                - (t8 * omega_0_i_0_k2 + k0 * (r_0_2 * t2 + r_0_1 * t1 + r_0_0 * t4));
+                - (dpi_0 * omega_0_i_0_k2
+                    + k0 * (r_0_2 * c_2_0 + r_0_1 * c_1_0 + r_0_0 * c_0_0));
             // rigid_body.lsl:7: d/dt R = R * hat(Omega); − ∂V/∂x[1]
             dx[1] = r_1_1 * omega_2 - r_1_2 * omega_1
-                - (t9 * omega_0_i_0_k2 + k0 * (r_1_2 * t2 + r_1_1 * t1 + r_1_0 * t4));
+                - (dpi_1 * omega_0_i_0_k2
+                    + k0 * (r_1_2 * c_2_0 + r_1_1 * c_1_0 + r_1_0 * c_0_0));
             // rigid_body.lsl:7: d/dt R = R * hat(Omega); − ∂V/∂x[2]
             dx[2] = r_2_1 * omega_2 - r_2_2 * omega_1
-                - (t10 * omega_0_i_0_k2 + k0 * (r_2_2 * t2 + r_2_1 * t1 + r_2_0 * t4));
+                - (dpi_2 * omega_0_i_0_k2
+                    + k0 * (r_2_2 * c_2_0 + r_2_1 * c_1_0 + r_2_0 * c_0_0));
             // rigid_body.lsl:7: d/dt R = R * hat(Omega); − ∂V/∂x[3]
             dx[3] = r_0_2 * omega_0 - r_0_0 * omega_2
-                - (t8 * omega_1_i_1_k2 + k0 * (r_0_2 * t3 + r_0_1 * t5 + r_0_0 * t1));
+                - (dpi_0 * omega_1_i_1_k2
+                    + k0 * (r_0_2 * c_2_1 + r_0_1 * c_1_1 + r_0_0 * c_1_0));
             // rigid_body.lsl:7: d/dt R = R * hat(Omega); − ∂V/∂x[4]
             dx[4] = r_1_2 * omega_0 - r_1_0 * omega_2
-                - (t9 * omega_1_i_1_k2 + k0 * (r_1_2 * t3 + r_1_1 * t5 + r_1_0 * t1));
+                - (dpi_1 * omega_1_i_1_k2
+                    + k0 * (r_1_2 * c_2_1 + r_1_1 * c_1_1 + r_1_0 * c_1_0));
             // rigid_body.lsl:7: d/dt R = R * hat(Omega); − ∂V/∂x[5]
             dx[5] = r_2_2 * omega_0 - r_2_0 * omega_2
-                - (t10 * omega_1_i_1_k2 + k0 * (r_2_2 * t3 + r_2_1 * t5 + r_2_0 * t1));
+                - (dpi_2 * omega_1_i_1_k2
+                    + k0 * (r_2_2 * c_2_1 + r_2_1 * c_1_1 + r_2_0 * c_1_0));
             // rigid_body.lsl:7: d/dt R = R * hat(Omega); − ∂V/∂x[6]
             dx[6] = r_0_0 * omega_1 - r_0_1 * omega_0
-                - (t8 * omega_2_i_2_k2 + k0 * (r_0_2 * t6 + r_0_1 * t3 + r_0_0 * t2));
+                - (dpi_0 * omega_2_i_2_k2
+                    + k0 * (r_0_2 * c_2_2 + r_0_1 * c_2_1 + r_0_0 * c_2_0));
             // rigid_body.lsl:7: d/dt R = R * hat(Omega); − ∂V/∂x[7]
             dx[7] = r_1_0 * omega_1 - r_1_1 * omega_0
-                - (t9 * omega_2_i_2_k2 + k0 * (r_1_2 * t6 + r_1_1 * t3 + r_1_0 * t2));
+                - (dpi_1 * omega_2_i_2_k2
+                    + k0 * (r_1_2 * c_2_2 + r_1_1 * c_2_1 + r_1_0 * c_2_0));
             // rigid_body.lsl:7: d/dt R = R * hat(Omega); − ∂V/∂x[8]
             dx[8] = r_2_0 * omega_1 - r_2_1 * omega_0
-                - (t10 * omega_2_i_2_k2 + k0 * (r_2_2 * t6 + r_2_1 * t3 + r_2_0 * t2));
+                - (dpi_2 * omega_2_i_2_k2
+                    + k0 * (r_2_2 * c_2_2 + r_2_1 * c_2_1 + r_2_0 * c_2_0));
             // rigid_body.lsl:8: d/dt Omega = inv(I) * cross(I * Omega, Omega); − ∂V/∂x[9]
             dx[9] = omega_1 * omega_2 * i_1_minus_i_2_over_i_0
-                - i_0 * (omega_0 * t7 + k2 * (r_2_0 * t10 + r_1_0 * t9 + r_0_0 * t8));
+                - i_0
+                    * (omega_0 * k1_de
+                        + k2 * (r_2_0 * dpi_2 + r_1_0 * dpi_1 + r_0_0 * dpi_0));
             // rigid_body.lsl:8: d/dt Omega = inv(I) * cross(I * Omega, Omega); − ∂V/∂x[10]
             dx[10] = omega_0 * omega_2 * i_2_minus_i_0_over_i_1
-                - i_1 * (omega_1 * t7 + k2 * (r_2_1 * t10 + r_1_1 * t9 + r_0_1 * t8));
+                - i_1
+                    * (omega_1 * k1_de
+                        + k2 * (r_2_1 * dpi_2 + r_1_1 * dpi_1 + r_0_1 * dpi_0));
             // rigid_body.lsl:8: d/dt Omega = inv(I) * cross(I * Omega, Omega); − ∂V/∂x[11]
             dx[11] = omega_0 * omega_1 * i_0_minus_i_1_over_i_2
-                - i_2 * (omega_2 * t7 + k2 * (r_2_2 * t10 + r_1_2 * t9 + r_0_2 * t8));
-        }
-    }
-
-    impl<T: Float> Lyapunov<T, [T; 12], [T; 13], [T; 3]> for RigidBody<T> {
-        #[inline]
-        fn lyapunov(&self, x: &[T; 12], target: &[T; 13], gains: &[T; 3]) -> T {
-            self.prepare().lyapunov(x, target, gains)
-        }
-
-        #[inline]
-        fn lyapunov_gradient(
-            &self,
-            x: &[T; 12],
-            target: &[T; 13],
-            gains: &[T; 3],
-            grad: &mut [T; 12],
-        ) {
-            self.prepare().lyapunov_gradient(x, target, gains, grad)
-        }
-
-        #[inline]
-        fn feedback_field(
-            &self,
-            x: &[T; 12],
-            target: &[T; 13],
-            gains: &[T; 3],
-            dx: &mut [T; 12],
-        ) {
-            self.prepare().feedback_field(x, target, gains, dx)
+                - i_2
+                    * (omega_2 * k1_de
+                        + k2 * (r_2_2 * dpi_2 + r_1_2 * dpi_1 + r_0_2 * dpi_0));
         }
     }
 
     impl<T: Float> Declared<T, [T; 12]> for RigidBodyPrepared<T> {
-        fn presets(&self) -> &'static [Preset] {
-            self.model.presets()
-        }
-
-        fn splitting(&self) -> Option<Splitting<T>> {
-            self.model.splitting()
-        }
-    }
-
-    impl<T: Float> Declared<T, [T; 12]> for RigidBody<T> {
         fn presets(&self) -> &'static [Preset] {
             &[
                 Preset {
@@ -544,7 +516,7 @@ pub mod rigid_body {
             &self,
             _max_order: u32,
         ) -> Result<lasalle_runtime::TaylorKernels<Self>, lasalle_runtime::TaylorError> {
-            Ok(taylor_kernels(self))
+            Ok(kernels::taylor_kernels(self))
         }
     }
 
@@ -613,32 +585,6 @@ pub mod rigid_body {
         ];
     }
 
-    impl<T> ModelInfo for RigidBody<T> {
-        fn model_name(&self) -> &'static str {
-            Self::NAME
-        }
-
-        fn state_slots(&self) -> &'static [Slot] {
-            Self::STATE
-        }
-
-        fn invariant_infos(&self) -> &'static [InvariantInfo] {
-            Self::INVARIANTS
-        }
-
-        fn gain_names(&self) -> &'static [&'static str] {
-            Self::GAIN_NAMES
-        }
-
-        fn default_gain_values(&self) -> &'static [f64] {
-            Self::DEFAULT_GAINS
-        }
-
-        fn param_slots(&self) -> &'static [Slot] {
-            Self::PARAMS
-        }
-    }
-
     impl<T> ModelInfo for RigidBodyPrepared<T> {
         fn model_name(&self) -> &'static str {
             RigidBody::<T>::NAME
@@ -665,7 +611,8 @@ pub mod rigid_body {
         }
     }
 
-    impl Parameters for RigidBody<f64> {
+    /// Parameters and points by name; setting a parameter prepares the model again.
+    impl Parameters for RigidBodyPrepared<f64> {
         fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
             match name {
                 "I" => {
@@ -676,16 +623,17 @@ pub mod rigid_body {
                             given: values.len(),
                         });
                     }
-                    self.i.copy_from_slice(values);
-                    Ok(())
+                    self.model.i.copy_from_slice(values);
                 }
                 _ => {
-                    Err(ParamError::Unknown {
+                    return Err(ParamError::Unknown {
                         name: name.to_string(),
                         known: "`I`".to_string(),
-                    })
+                    });
                 }
             }
+            *self = self.model.prepare();
+            Ok(())
         }
 
         fn param(&self, name: &str) -> Option<Vec<f64>> {
@@ -707,1777 +655,1754 @@ pub mod rigid_body {
         }
     }
 
-    /// Setting a parameter prepares the model again.
-    impl Parameters for RigidBodyPrepared<f64> {
-        fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
-            self.model.set_param(name, values)?;
-            *self = self.model.prepare();
-            Ok(())
-        }
+    /// The machine kernels of `RigidBody`, generated from its tapes rather than written from its
+    /// formulas: the parameter-only values of every function in f64 ([`Prelude`], a field of
+    /// [`RigidBodyPrepared`](super::RigidBodyPrepared)), the Taylor-coefficient kernels of X and X − ∇V
+    /// ([`TaylorField`], [`TaylorFeedback`]) and every function for K states per call
+    /// ([`Lanes`]). Straight-line code over numbered registers and table rows, each operation the
+    /// IEEE operation of the functions above, so that they agree bitwise with them, with the JIT
+    /// and with the tape interpreter; not meant to be read.
+    pub mod kernels {
+        #![allow(unused_variables, clippy::all)]
+        use lasalle_runtime::num_traits::Float;
 
-        fn param(&self, name: &str) -> Option<Vec<f64>> {
-            self.model.param(name)
-        }
-
-        fn point_names(&self) -> &'static [&'static str] {
-            self.model.point_names()
-        }
-
-        fn point(&self, name: &str) -> Option<Vec<f64>> {
-            self.model.point(name)
-        }
-    }
-    impl<T: Float> RigidBody<T> {
-        /// The parameter slots as f64, in the order of `PARAMS` (matrices column-major).
-        pub fn slot_values(&self) -> [f64; 3] {
-            [self.i[0].to_f64().unwrap_or(f64::NAN), self.i[1].to_f64().unwrap_or(f64::NAN), self.i[2].to_f64().unwrap_or(f64::NAN)]
-        }
-        /// The adaptive Taylor integrator (Jorba & Zou; `lasalle_runtime::taylor`) of the field
-        /// and of X − ∇V over this model's emitted kernels.
-        pub fn taylor(
-            &self,
-            opts: lasalle_runtime::TaylorOptions,
-        ) -> Result<lasalle_runtime::Taylor<Self>, lasalle_runtime::TaylorError> {
-            lasalle_runtime::Taylor::new(taylor_kernels(self), opts)
-        }
-    }
-    /// The emitted Taylor kernels of the field and of X − ∇V.
-    fn taylor_kernels<T: Float>(m: &RigidBody<T>) -> lasalle_runtime::TaylorKernels<RigidBody<T>> {
-        lasalle_runtime::TaylorKernels {
-            field: Box::new(RigidBodyTaylorField::new(m)),
-            feedback: Box::new(RigidBodyTaylorFeedback::new(m)),
-        }
-    }
-    /// The parameter-only values of `field` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_field(p: &[f64; 3]) -> [f64; 3] {
-        let p0: f64 = p[0];
-        let p1: f64 = p[1];
-        let p2: f64 = p[2];
-        let p3: f64 = p1 - p2;
-        let p4: f64 = p3 / p0;
-        let p5: f64 = p2 - p0;
-        let p6: f64 = p5 / p1;
-        let p7: f64 = p0 - p1;
-        let p8: f64 = p7 / p2;
-        [p4, p6, p8]
-    }
-    /// The parameter-only values of `invariants` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_invariants(p: &[f64; 3]) -> [f64; 3] {
-        let p0: f64 = p[0];
-        let p1: f64 = p[1];
-        let p2: f64 = p[2];
-        [p0, p1, p2]
-    }
-    /// The parameter-only values of `jacobian` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_jacobian(p: &[f64; 3]) -> [f64; 3] {
-        let p0: f64 = p[0];
-        let p1: f64 = p[1];
-        let p2: f64 = p[2];
-        [p0, p1, p2]
-    }
-    /// The parameter-only values of `lyapunov` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_lyapunov(p: &[f64; 3]) -> [f64; 3] {
-        let p0: f64 = p[0];
-        let p1: f64 = p[1];
-        let p2: f64 = p[2];
-        [p0, p1, p2]
-    }
-    /// The parameter-only values of `lyapunov_gradient` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_lyapunov_gradient(p: &[f64; 3]) -> [f64; 3] {
-        let p0: f64 = p[0];
-        let p1: f64 = p[1];
-        let p2: f64 = p[2];
-        [p0, p1, p2]
-    }
-    /// The parameter-only values of `feedback` (the prelude of its tape) from the parameter slots.
-    #[allow(unused_variables, clippy::all)]
-    fn hoist_feedback(p: &[f64; 3]) -> [f64; 6] {
-        let p0: f64 = p[0];
-        let p1: f64 = p[1];
-        let p2: f64 = p[2];
-        let p3: f64 = p1 - p2;
-        let p4: f64 = p3 / p0;
-        let p5: f64 = p2 - p0;
-        let p6: f64 = p5 / p1;
-        let p7: f64 = p0 - p1;
-        let p8: f64 = p7 / p2;
-        [p0, p1, p2, p4, p6, p8]
-    }
-    /// The Taylor-coefficient kernel of X (`lasalle_runtime::TaylorKernel`).
-    pub type RigidBodyTaylorField = lasalle_runtime::taylor::Emitted<RigidBodyFieldRecurrences>;
-    /// The recurrences of X's tape (`lasalle_runtime::taylor::Recurrences`), 48 rows of
-    /// orders 0..=`EMITTED_MAX_ORDER`.
-    pub struct RigidBodyFieldRecurrences;
-    impl<T: Float> lasalle_runtime::taylor::Recurrences<RigidBody<T>> for RigidBodyFieldRecurrences {
-        const NAME: &'static str = "RigidBodyTaylorField";
-        const DIM: usize = 12;
-        const ROWS: usize = 48;
-        const PARAMS: usize = 3;
-        const HOISTED: usize = 3;
-        const TARGETS: usize = 0;
-        const GAINS: usize = 0;
-        fn params(m: &RigidBody<T>, out: &mut [f64]) {
-            out.copy_from_slice(&m.slot_values());
-        }
-        fn hoist(params: &[f64], hoisted: &mut [f64]) {
-            hoisted.copy_from_slice(&hoist_field(params.try_into().expect("parameter slots: 3")));
-        }
-        #[allow(unused_variables, clippy::all)]
-        fn compute(
-            t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
-            hoisted: &[f64],
-            target: &[f64],
-            gains: &[f64],
-            x: &[f64],
-            order: usize,
-        ) {
-            use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
-            let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 48] = t.try_into().expect("rows: 48");
-            let hoisted: &[f64; 3] = hoisted.try_into().expect("hoisted values: 3");
-            let target: &[f64; 0] = target.try_into().expect("targets: 0");
-            let gains: &[f64; 0] = gains.try_into().expect("gains: 0");
-            for (row, xi) in t.iter_mut().zip(&x[..12]) {
-                row[0] = *xi;
+        impl<T: Float> super::RigidBody<T> {
+            /// The parameter slots as f64, in the order of `PARAMS` (matrices column-major).
+            pub fn slot_values(&self) -> [f64; 3] {
+                [self.i[0].to_f64().unwrap_or(f64::NAN), self.i[1].to_f64().unwrap_or(f64::NAN), self.i[2].to_f64().unwrap_or(f64::NAN)]
             }
-            for k in 0..order {
-                if k == 0 {
-                    t[12][0] = t[3][0] * t[11][0];
-                    t[13][0] = t[6][0] * t[10][0];
-                    t[14][0] = t[12][0] - t[13][0];
-                    t[15][0] = t[4][0] * t[11][0];
-                    t[16][0] = t[7][0] * t[10][0];
-                    t[17][0] = t[15][0] - t[16][0];
-                    t[18][0] = t[5][0] * t[11][0];
-                    t[19][0] = t[8][0] * t[10][0];
-                    t[20][0] = t[18][0] - t[19][0];
-                    t[21][0] = t[0][0] * t[11][0];
-                    t[22][0] = t[6][0] * t[9][0];
-                    t[23][0] = t[22][0] - t[21][0];
-                    t[24][0] = t[1][0] * t[11][0];
-                    t[25][0] = t[7][0] * t[9][0];
-                    t[26][0] = t[25][0] - t[24][0];
-                    t[27][0] = t[2][0] * t[11][0];
-                    t[28][0] = t[8][0] * t[9][0];
-                    t[29][0] = t[28][0] - t[27][0];
-                    t[30][0] = t[0][0] * t[10][0];
-                    t[31][0] = t[3][0] * t[9][0];
-                    t[32][0] = t[30][0] - t[31][0];
-                    t[33][0] = t[1][0] * t[10][0];
-                    t[34][0] = t[4][0] * t[9][0];
-                    t[35][0] = t[33][0] - t[34][0];
-                    t[36][0] = t[2][0] * t[10][0];
-                    t[37][0] = t[5][0] * t[9][0];
-                    t[38][0] = t[36][0] - t[37][0];
-                    t[39][0] = t[10][0] * t[11][0];
-                    t[40][0] = hoisted[0];
-                    t[41][0] = t[39][0] * t[40][0];
-                    t[42][0] = t[9][0] * t[11][0];
-                    t[43][0] = hoisted[1];
-                    t[44][0] = t[42][0] * t[43][0];
-                    t[45][0] = t[9][0] * t[10][0];
-                    t[46][0] = hoisted[2];
-                    t[47][0] = t[45][0] * t[46][0];
-                } else {
-                    let [e12, e15, e18, e21, e24, e27] =
-                        rec::cauchy_many(t, [(3, 11), (4, 11), (5, 11), (0, 11), (1, 11), (2, 11)], k, 1, k - 1);
-                    let [e13, e16, e19, e22, e25, e28] =
-                        rec::cauchy_many(t, [(6, 10), (7, 10), (8, 10), (6, 9), (7, 9), (8, 9)], k, 1, k - 1);
-                    let [e30, e33, e36, e45, e42, e39] =
-                        rec::cauchy_many(t, [(0, 10), (1, 10), (2, 10), (9, 10), (9, 11), (10, 11)], k, 1, k - 1);
-                    let [e31, e34, e37] =
-                        rec::cauchy_many(t, [(3, 9), (4, 9), (5, 9)], k, 1, k - 1);
-                    t[12][k] = rec::mul_after(e12, &t[3], &t[11], k);
-                    t[13][k] = rec::mul_after(e13, &t[6], &t[10], k);
-                    t[14][k] = t[12][k] - t[13][k];
-                    t[15][k] = rec::mul_after(e15, &t[4], &t[11], k);
-                    t[16][k] = rec::mul_after(e16, &t[7], &t[10], k);
-                    t[17][k] = t[15][k] - t[16][k];
-                    t[18][k] = rec::mul_after(e18, &t[5], &t[11], k);
-                    t[19][k] = rec::mul_after(e19, &t[8], &t[10], k);
-                    t[20][k] = t[18][k] - t[19][k];
-                    t[21][k] = rec::mul_after(e21, &t[0], &t[11], k);
-                    t[22][k] = rec::mul_after(e22, &t[6], &t[9], k);
-                    t[23][k] = t[22][k] - t[21][k];
-                    t[24][k] = rec::mul_after(e24, &t[1], &t[11], k);
-                    t[25][k] = rec::mul_after(e25, &t[7], &t[9], k);
-                    t[26][k] = t[25][k] - t[24][k];
-                    t[27][k] = rec::mul_after(e27, &t[2], &t[11], k);
-                    t[28][k] = rec::mul_after(e28, &t[8], &t[9], k);
-                    t[29][k] = t[28][k] - t[27][k];
-                    t[30][k] = rec::mul_after(e30, &t[0], &t[10], k);
-                    t[31][k] = rec::mul_after(e31, &t[3], &t[9], k);
-                    t[32][k] = t[30][k] - t[31][k];
-                    t[33][k] = rec::mul_after(e33, &t[1], &t[10], k);
-                    t[34][k] = rec::mul_after(e34, &t[4], &t[9], k);
-                    t[35][k] = t[33][k] - t[34][k];
-                    t[36][k] = rec::mul_after(e36, &t[2], &t[10], k);
-                    t[37][k] = rec::mul_after(e37, &t[5], &t[9], k);
-                    t[38][k] = t[36][k] - t[37][k];
-                    t[39][k] = rec::mul_after(e39, &t[10], &t[11], k);
-                    t[41][k] = t[39][k] * t[40][0];
-                    t[42][k] = rec::mul_after(e42, &t[9], &t[11], k);
-                    t[44][k] = t[42][k] * t[43][0];
-                    t[45][k] = rec::mul_after(e45, &t[9], &t[10], k);
-                    t[47][k] = t[45][k] * t[46][0];
+        }
+
+        /// The parameter-only values of every tape (its prelude) in f64, computed once by
+        /// `RigidBody::prepare` (a field of the prepared model), read by the Taylor kernels and the lanes.
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub struct Prelude {
+            field: [f64; 3],
+            invariants: [f64; 3],
+            jacobian: [f64; 3],
+            lyapunov: [f64; 3],
+            lyapunov_gradient: [f64; 3],
+            feedback: [f64; 6],
+        }
+
+        impl Prelude {
+            /// The preludes of every tape from the parameter slots, f64 op for f64 op as the tapes'.
+            pub fn new(p: &[f64; 3]) -> Self {
+                Prelude {
+                    field: {
+                        let p0: f64 = p[0];
+                        let p1: f64 = p[1];
+                        let p2: f64 = p[2];
+                        let p3: f64 = p1 - p2;
+                        let p4: f64 = p3 / p0;
+                        let p5: f64 = p2 - p0;
+                        let p6: f64 = p5 / p1;
+                        let p7: f64 = p0 - p1;
+                        let p8: f64 = p7 / p2;
+                        [p4, p6, p8]
+                    },
+                    invariants: {
+                        let p0: f64 = p[0];
+                        let p1: f64 = p[1];
+                        let p2: f64 = p[2];
+                        [p0, p1, p2]
+                    },
+                    jacobian: {
+                        let p0: f64 = p[0];
+                        let p1: f64 = p[1];
+                        let p2: f64 = p[2];
+                        [p0, p1, p2]
+                    },
+                    lyapunov: {
+                        let p0: f64 = p[0];
+                        let p1: f64 = p[1];
+                        let p2: f64 = p[2];
+                        [p0, p1, p2]
+                    },
+                    lyapunov_gradient: {
+                        let p0: f64 = p[0];
+                        let p1: f64 = p[1];
+                        let p2: f64 = p[2];
+                        [p0, p1, p2]
+                    },
+                    feedback: {
+                        let p0: f64 = p[0];
+                        let p1: f64 = p[1];
+                        let p2: f64 = p[2];
+                        let p3: f64 = p1 - p2;
+                        let p4: f64 = p3 / p0;
+                        let p5: f64 = p2 - p0;
+                        let p6: f64 = p5 / p1;
+                        let p7: f64 = p0 - p1;
+                        let p8: f64 = p7 / p2;
+                        [p0, p1, p2, p4, p6, p8]
+                    },
                 }
-                let inv = 1.0 / (k as f64 + 1.0);
-                t[0][k + 1] = t[14][k] * inv;
-                t[1][k + 1] = t[17][k] * inv;
-                t[2][k + 1] = t[20][k] * inv;
-                t[3][k + 1] = t[23][k] * inv;
-                t[4][k + 1] = t[26][k] * inv;
-                t[5][k + 1] = t[29][k] * inv;
-                t[6][k + 1] = t[32][k] * inv;
-                t[7][k + 1] = t[35][k] * inv;
-                t[8][k + 1] = t[38][k] * inv;
-                t[9][k + 1] = t[41][k] * inv;
-                t[10][k + 1] = t[44][k] * inv;
-                t[11][k + 1] = t[47][k] * inv;
             }
         }
-    }
-    /// The Taylor-coefficient kernel of X − ∇V (`lasalle_runtime::TaylorKernel`).
-    pub type RigidBodyTaylorFeedback = lasalle_runtime::taylor::Emitted<RigidBodyFeedbackRecurrences>;
-    /// The recurrences of X − ∇V's tape (`lasalle_runtime::taylor::Recurrences`), 239 rows of
-    /// orders 0..=`EMITTED_MAX_ORDER`.
-    pub struct RigidBodyFeedbackRecurrences;
-    impl<T: Float> lasalle_runtime::taylor::Recurrences<RigidBody<T>> for RigidBodyFeedbackRecurrences {
-        const NAME: &'static str = "RigidBodyTaylorFeedback";
-        const DIM: usize = 12;
-        const ROWS: usize = 239;
-        const PARAMS: usize = 3;
-        const HOISTED: usize = 6;
-        const TARGETS: usize = 13;
-        const GAINS: usize = 3;
-        fn params(m: &RigidBody<T>, out: &mut [f64]) {
-            out.copy_from_slice(&m.slot_values());
-        }
-        fn hoist(params: &[f64], hoisted: &mut [f64]) {
-            hoisted.copy_from_slice(&hoist_feedback(params.try_into().expect("parameter slots: 3")));
-        }
-        #[allow(unused_variables, clippy::all)]
-        fn compute(
-            t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
-            hoisted: &[f64],
-            target: &[f64],
-            gains: &[f64],
-            x: &[f64],
-            order: usize,
-        ) {
-            use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
-            let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 239] = t.try_into().expect("rows: 239");
-            let hoisted: &[f64; 6] = hoisted.try_into().expect("hoisted values: 6");
-            let target: &[f64; 13] = target.try_into().expect("targets: 13");
-            let gains: &[f64; 3] = gains.try_into().expect("gains: 3");
-            for (row, xi) in t.iter_mut().zip(&x[..12]) {
-                row[0] = *xi;
+
+        impl<T: Float> super::RigidBodyPrepared<T> {
+            /// The adaptive Taylor integrator (Jorba & Zou; `lasalle_runtime::taylor`) of the field
+            /// and of X − ∇V over this model's emitted kernels.
+            pub fn taylor(
+                &self,
+                opts: lasalle_runtime::TaylorOptions,
+            ) -> Result<lasalle_runtime::Taylor<Self>, lasalle_runtime::TaylorError> {
+                lasalle_runtime::Taylor::new(taylor_kernels(self), opts)
             }
-            for k in 0..order {
-                if k == 0 {
-                    t[12][0] = hoisted[0];
-                    t[13][0] = t[9][0] * t[12][0];
-                    t[14][0] = hoisted[1];
-                    t[15][0] = t[10][0] * t[14][0];
-                    t[16][0] = hoisted[2];
-                    t[17][0] = t[11][0] * t[16][0];
-                    t[18][0] = t[0][0] * t[3][0];
-                    t[19][0] = t[1][0] * t[4][0];
-                    t[20][0] = t[2][0] * t[5][0];
-                    t[21][0] = t[18][0] + t[19][0];
-                    t[22][0] = t[21][0] + t[20][0];
-                    t[23][0] = t[0][0] * t[6][0];
-                    t[24][0] = t[1][0] * t[7][0];
-                    t[25][0] = t[2][0] * t[8][0];
-                    t[26][0] = t[23][0] + t[24][0];
-                    t[27][0] = t[26][0] + t[25][0];
-                    t[28][0] = t[3][0] * t[6][0];
-                    t[29][0] = t[4][0] * t[7][0];
-                    t[30][0] = t[5][0] * t[8][0];
-                    t[31][0] = t[28][0] + t[29][0];
-                    t[32][0] = t[31][0] + t[30][0];
-                    t[33][0] = t[0][0] * t[0][0];
-                    t[34][0] = t[1][0] * t[1][0];
-                    t[35][0] = t[2][0] * t[2][0];
-                    t[36][0] = t[33][0] + t[34][0];
-                    t[37][0] = t[36][0] + t[35][0];
-                    t[38][0] = 1.0_f64;
-                    t[39][0] = t[37][0] - t[38][0];
-                    t[40][0] = t[3][0] * t[3][0];
-                    t[41][0] = t[4][0] * t[4][0];
-                    t[42][0] = t[5][0] * t[5][0];
-                    t[43][0] = t[40][0] + t[41][0];
-                    t[44][0] = t[43][0] + t[42][0];
-                    t[45][0] = t[44][0] - t[38][0];
-                    t[46][0] = t[6][0] * t[6][0];
-                    t[47][0] = t[7][0] * t[7][0];
-                    t[48][0] = t[8][0] * t[8][0];
-                    t[49][0] = t[46][0] + t[47][0];
-                    t[50][0] = t[49][0] + t[48][0];
-                    t[51][0] = t[50][0] - t[38][0];
-                    t[52][0] = gains[1];
-                    t[53][0] = t[9][0] * t[9][0];
-                    t[54][0] = t[53][0] * t[12][0];
-                    t[55][0] = t[10][0] * t[10][0];
-                    t[56][0] = t[55][0] * t[14][0];
-                    t[57][0] = t[11][0] * t[11][0];
-                    t[58][0] = t[57][0] * t[16][0];
-                    t[59][0] = t[54][0] + t[56][0];
-                    t[60][0] = t[59][0] + t[58][0];
-                    t[61][0] = 0.5_f64;
-                    t[62][0] = t[60][0] * t[61][0];
-                    t[63][0] = target[9];
-                    t[64][0] = t[62][0] - t[63][0];
-                    t[65][0] = t[64][0] * t[52][0];
-                    t[66][0] = t[0][0] * t[13][0];
-                    t[67][0] = t[3][0] * t[15][0];
-                    t[68][0] = t[6][0] * t[17][0];
-                    t[69][0] = target[10];
-                    t[70][0] = t[66][0] + t[67][0];
-                    t[71][0] = t[70][0] + t[68][0];
-                    t[72][0] = t[71][0] - t[69][0];
-                    t[73][0] = t[1][0] * t[13][0];
-                    t[74][0] = t[4][0] * t[15][0];
-                    t[75][0] = t[7][0] * t[17][0];
-                    t[76][0] = target[11];
-                    t[77][0] = t[73][0] + t[74][0];
-                    t[78][0] = t[77][0] + t[75][0];
-                    t[79][0] = t[78][0] - t[76][0];
-                    t[80][0] = t[2][0] * t[13][0];
-                    t[81][0] = t[5][0] * t[15][0];
-                    t[82][0] = t[8][0] * t[17][0];
-                    t[83][0] = target[12];
-                    t[84][0] = t[80][0] + t[81][0];
-                    t[85][0] = t[84][0] + t[82][0];
-                    t[86][0] = t[85][0] - t[83][0];
-                    t[87][0] = gains[2];
-                    t[88][0] = t[17][0] * t[87][0];
-                    t[89][0] = t[15][0] * t[87][0];
-                    t[90][0] = t[13][0] * t[87][0];
-                    t[91][0] = t[3][0] * t[11][0];
-                    t[92][0] = t[6][0] * t[10][0];
-                    t[93][0] = t[72][0] * t[90][0];
-                    t[94][0] = gains[0];
-                    t[95][0] = t[6][0] * t[27][0];
-                    t[96][0] = t[3][0] * t[22][0];
-                    t[97][0] = t[0][0] * t[39][0];
-                    t[98][0] = t[95][0] + t[96][0];
-                    t[99][0] = t[98][0] + t[97][0];
-                    t[100][0] = t[99][0] * t[94][0];
-                    t[101][0] = t[93][0] + t[100][0];
-                    t[102][0] = t[91][0] - t[92][0];
-                    t[103][0] = t[102][0] - t[101][0];
-                    t[104][0] = t[4][0] * t[11][0];
-                    t[105][0] = t[7][0] * t[10][0];
-                    t[106][0] = t[79][0] * t[90][0];
-                    t[107][0] = t[7][0] * t[27][0];
-                    t[108][0] = t[4][0] * t[22][0];
-                    t[109][0] = t[1][0] * t[39][0];
-                    t[110][0] = t[107][0] + t[108][0];
-                    t[111][0] = t[110][0] + t[109][0];
-                    t[112][0] = t[111][0] * t[94][0];
-                    t[113][0] = t[106][0] + t[112][0];
-                    t[114][0] = t[104][0] - t[105][0];
-                    t[115][0] = t[114][0] - t[113][0];
-                    t[116][0] = t[5][0] * t[11][0];
-                    t[117][0] = t[8][0] * t[10][0];
-                    t[118][0] = t[86][0] * t[90][0];
-                    t[119][0] = t[8][0] * t[27][0];
-                    t[120][0] = t[5][0] * t[22][0];
-                    t[121][0] = t[2][0] * t[39][0];
-                    t[122][0] = t[119][0] + t[120][0];
-                    t[123][0] = t[122][0] + t[121][0];
-                    t[124][0] = t[123][0] * t[94][0];
-                    t[125][0] = t[118][0] + t[124][0];
-                    t[126][0] = t[116][0] - t[117][0];
-                    t[127][0] = t[126][0] - t[125][0];
-                    t[128][0] = t[0][0] * t[11][0];
-                    t[129][0] = t[6][0] * t[9][0];
-                    t[130][0] = t[72][0] * t[89][0];
-                    t[131][0] = t[6][0] * t[32][0];
-                    t[132][0] = t[3][0] * t[45][0];
-                    t[133][0] = t[0][0] * t[22][0];
-                    t[134][0] = t[131][0] + t[132][0];
-                    t[135][0] = t[134][0] + t[133][0];
-                    t[136][0] = t[135][0] * t[94][0];
-                    t[137][0] = t[130][0] + t[136][0];
-                    t[138][0] = t[129][0] - t[128][0];
-                    t[139][0] = t[138][0] - t[137][0];
-                    t[140][0] = t[1][0] * t[11][0];
-                    t[141][0] = t[7][0] * t[9][0];
-                    t[142][0] = t[79][0] * t[89][0];
-                    t[143][0] = t[7][0] * t[32][0];
-                    t[144][0] = t[4][0] * t[45][0];
-                    t[145][0] = t[1][0] * t[22][0];
-                    t[146][0] = t[143][0] + t[144][0];
-                    t[147][0] = t[146][0] + t[145][0];
-                    t[148][0] = t[147][0] * t[94][0];
-                    t[149][0] = t[142][0] + t[148][0];
-                    t[150][0] = t[141][0] - t[140][0];
-                    t[151][0] = t[150][0] - t[149][0];
-                    t[152][0] = t[2][0] * t[11][0];
-                    t[153][0] = t[8][0] * t[9][0];
-                    t[154][0] = t[86][0] * t[89][0];
-                    t[155][0] = t[8][0] * t[32][0];
-                    t[156][0] = t[5][0] * t[45][0];
-                    t[157][0] = t[2][0] * t[22][0];
-                    t[158][0] = t[155][0] + t[156][0];
-                    t[159][0] = t[158][0] + t[157][0];
-                    t[160][0] = t[159][0] * t[94][0];
-                    t[161][0] = t[154][0] + t[160][0];
-                    t[162][0] = t[153][0] - t[152][0];
-                    t[163][0] = t[162][0] - t[161][0];
-                    t[164][0] = t[0][0] * t[10][0];
-                    t[165][0] = t[3][0] * t[9][0];
-                    t[166][0] = t[72][0] * t[88][0];
-                    t[167][0] = t[6][0] * t[51][0];
-                    t[168][0] = t[3][0] * t[32][0];
-                    t[169][0] = t[0][0] * t[27][0];
-                    t[170][0] = t[167][0] + t[168][0];
-                    t[171][0] = t[170][0] + t[169][0];
-                    t[172][0] = t[171][0] * t[94][0];
-                    t[173][0] = t[166][0] + t[172][0];
-                    t[174][0] = t[164][0] - t[165][0];
-                    t[175][0] = t[174][0] - t[173][0];
-                    t[176][0] = t[1][0] * t[10][0];
-                    t[177][0] = t[4][0] * t[9][0];
-                    t[178][0] = t[79][0] * t[88][0];
-                    t[179][0] = t[7][0] * t[51][0];
-                    t[180][0] = t[4][0] * t[32][0];
-                    t[181][0] = t[1][0] * t[27][0];
-                    t[182][0] = t[179][0] + t[180][0];
-                    t[183][0] = t[182][0] + t[181][0];
-                    t[184][0] = t[183][0] * t[94][0];
-                    t[185][0] = t[178][0] + t[184][0];
-                    t[186][0] = t[176][0] - t[177][0];
-                    t[187][0] = t[186][0] - t[185][0];
-                    t[188][0] = t[2][0] * t[10][0];
-                    t[189][0] = t[5][0] * t[9][0];
-                    t[190][0] = t[86][0] * t[88][0];
-                    t[191][0] = t[8][0] * t[51][0];
-                    t[192][0] = t[5][0] * t[32][0];
-                    t[193][0] = t[2][0] * t[27][0];
-                    t[194][0] = t[191][0] + t[192][0];
-                    t[195][0] = t[194][0] + t[193][0];
-                    t[196][0] = t[195][0] * t[94][0];
-                    t[197][0] = t[190][0] + t[196][0];
-                    t[198][0] = t[188][0] - t[189][0];
-                    t[199][0] = t[198][0] - t[197][0];
-                    t[200][0] = t[10][0] * t[11][0];
-                    t[201][0] = hoisted[3];
-                    t[202][0] = t[200][0] * t[201][0];
-                    t[203][0] = t[9][0] * t[65][0];
-                    t[204][0] = t[2][0] * t[86][0];
-                    t[205][0] = t[1][0] * t[79][0];
-                    t[206][0] = t[0][0] * t[72][0];
-                    t[207][0] = t[204][0] + t[205][0];
-                    t[208][0] = t[207][0] + t[206][0];
-                    t[209][0] = t[208][0] * t[87][0];
-                    t[210][0] = t[203][0] + t[209][0];
-                    t[211][0] = t[210][0] * t[12][0];
-                    t[212][0] = t[202][0] - t[211][0];
-                    t[213][0] = t[9][0] * t[11][0];
-                    t[214][0] = hoisted[4];
-                    t[215][0] = t[213][0] * t[214][0];
-                    t[216][0] = t[10][0] * t[65][0];
-                    t[217][0] = t[5][0] * t[86][0];
-                    t[218][0] = t[4][0] * t[79][0];
-                    t[219][0] = t[3][0] * t[72][0];
-                    t[220][0] = t[217][0] + t[218][0];
-                    t[221][0] = t[220][0] + t[219][0];
-                    t[222][0] = t[221][0] * t[87][0];
-                    t[223][0] = t[216][0] + t[222][0];
-                    t[224][0] = t[223][0] * t[14][0];
-                    t[225][0] = t[215][0] - t[224][0];
-                    t[226][0] = t[9][0] * t[10][0];
-                    t[227][0] = hoisted[5];
-                    t[228][0] = t[226][0] * t[227][0];
-                    t[229][0] = t[11][0] * t[65][0];
-                    t[230][0] = t[8][0] * t[86][0];
-                    t[231][0] = t[7][0] * t[79][0];
-                    t[232][0] = t[6][0] * t[72][0];
-                    t[233][0] = t[230][0] + t[231][0];
-                    t[234][0] = t[233][0] + t[232][0];
-                    t[235][0] = t[234][0] * t[87][0];
-                    t[236][0] = t[229][0] + t[235][0];
-                    t[237][0] = t[236][0] * t[16][0];
-                    t[238][0] = t[228][0] - t[237][0];
-                } else {
-                    let [e18, e23, e28, e66, e67, e73] =
-                        rec::cauchy_many(t, [(0, 3), (0, 6), (3, 6), (0, 13), (3, 15), (1, 13)], k, 1, k - 1);
-                    let [e19, e24, e29, e74, e81, e30] =
-                        rec::cauchy_many(t, [(1, 4), (1, 7), (4, 7), (4, 15), (5, 15), (5, 8)], k, 1, k - 1);
-                    let [e20, e25, e80, e121, e97, e109] =
-                        rec::cauchy_many(t, [(2, 5), (2, 8), (2, 13), (2, 39), (0, 39), (1, 39)], k, 1, k - 1);
-                    let [e68, e75, e82, e92, e95, e105] =
-                        rec::cauchy_many(t, [(6, 17), (7, 17), (8, 17), (6, 10), (6, 27), (7, 10)], k, 1, k - 1);
-                    let [e91, e96, e104, e108, e116, e120] =
-                        rec::cauchy_many(t, [(3, 11), (3, 22), (4, 11), (4, 22), (5, 11), (5, 22)], k, 1, k - 1);
-                    let [e93, e106, e118, e130, e142, e154] =
-                        rec::cauchy_many(t, [(72, 90), (79, 90), (86, 90), (72, 89), (79, 89), (86, 89)], k, 1, k - 1);
-                    let [e107, e119, e117, e141, e129, e131] =
-                        rec::cauchy_many(t, [(7, 27), (8, 27), (8, 10), (7, 9), (6, 9), (6, 32)], k, 1, k - 1);
-                    let [e128, e133, e140, e145, e152, e157] =
-                        rec::cauchy_many(t, [(0, 11), (0, 22), (1, 11), (1, 22), (2, 11), (2, 22)], k, 1, k - 1);
-                    let [e132, e144, e156, e165, e153, e155] =
-                        rec::cauchy_many(t, [(3, 45), (4, 45), (5, 45), (3, 9), (8, 9), (8, 32)], k, 1, k - 1);
-                    let [e143, e168, e179, e167, e180, e177] =
-                        rec::cauchy_many(t, [(7, 32), (3, 32), (7, 51), (6, 51), (4, 32), (4, 9)], k, 1, k - 1);
-                    let [e164, e169, e176, e181, e188, e193] =
-                        rec::cauchy_many(t, [(0, 10), (0, 27), (1, 10), (1, 27), (2, 10), (2, 27)], k, 1, k - 1);
-                    let [e166, e178, e190, e189, e192, e217] =
-                        rec::cauchy_many(t, [(72, 88), (79, 88), (86, 88), (5, 9), (5, 32), (5, 86)], k, 1, k - 1);
-                    let [e191, e230, e204, e200, e213, e203] =
-                        rec::cauchy_many(t, [(8, 51), (8, 86), (2, 86), (10, 11), (9, 11), (9, 65)], k, 1, k - 1);
-                    let [e205, e218, e231, e206, e219, e232] =
-                        rec::cauchy_many(t, [(1, 79), (4, 79), (7, 79), (0, 72), (3, 72), (6, 72)], k, 1, k - 1);
-                    let [e216, e229, e226] =
-                        rec::cauchy_many(t, [(10, 65), (11, 65), (9, 10)], k, 1, k - 1);
-                    let [e33, e34, e35, e40, e41, e42] =
-                        rec::cauchy_many(t, [(0, 0), (1, 1), (2, 2), (3, 3), (4, 4), (5, 5)], k, 1, (k - 1) / 2);
-                    let [e46, e47, e48, e53, e55, e57] =
-                        rec::cauchy_many(t, [(6, 6), (7, 7), (8, 8), (9, 9), (10, 10), (11, 11)], k, 1, (k - 1) / 2);
-                    t[13][k] = t[9][k] * t[12][0];
-                    t[15][k] = t[10][k] * t[14][0];
-                    t[17][k] = t[11][k] * t[16][0];
-                    t[18][k] = rec::mul_after(e18, &t[0], &t[3], k);
-                    t[19][k] = rec::mul_after(e19, &t[1], &t[4], k);
-                    t[20][k] = rec::mul_after(e20, &t[2], &t[5], k);
-                    t[21][k] = t[18][k] + t[19][k];
-                    t[22][k] = t[21][k] + t[20][k];
-                    t[23][k] = rec::mul_after(e23, &t[0], &t[6], k);
-                    t[24][k] = rec::mul_after(e24, &t[1], &t[7], k);
-                    t[25][k] = rec::mul_after(e25, &t[2], &t[8], k);
-                    t[26][k] = t[23][k] + t[24][k];
-                    t[27][k] = t[26][k] + t[25][k];
-                    t[28][k] = rec::mul_after(e28, &t[3], &t[6], k);
-                    t[29][k] = rec::mul_after(e29, &t[4], &t[7], k);
-                    t[30][k] = rec::mul_after(e30, &t[5], &t[8], k);
-                    t[31][k] = t[28][k] + t[29][k];
-                    t[32][k] = t[31][k] + t[30][k];
-                    t[33][k] = rec::square_after(e33, &t[0], k);
-                    t[34][k] = rec::square_after(e34, &t[1], k);
-                    t[35][k] = rec::square_after(e35, &t[2], k);
-                    t[36][k] = t[33][k] + t[34][k];
-                    t[37][k] = t[36][k] + t[35][k];
-                    t[39][k] = t[37][k] - t[38][k];
-                    t[40][k] = rec::square_after(e40, &t[3], k);
-                    t[41][k] = rec::square_after(e41, &t[4], k);
-                    t[42][k] = rec::square_after(e42, &t[5], k);
-                    t[43][k] = t[40][k] + t[41][k];
-                    t[44][k] = t[43][k] + t[42][k];
-                    t[45][k] = t[44][k] - t[38][k];
-                    t[46][k] = rec::square_after(e46, &t[6], k);
-                    t[47][k] = rec::square_after(e47, &t[7], k);
-                    t[48][k] = rec::square_after(e48, &t[8], k);
-                    t[49][k] = t[46][k] + t[47][k];
-                    t[50][k] = t[49][k] + t[48][k];
-                    t[51][k] = t[50][k] - t[38][k];
-                    t[53][k] = rec::square_after(e53, &t[9], k);
-                    t[54][k] = t[53][k] * t[12][0];
-                    t[55][k] = rec::square_after(e55, &t[10], k);
-                    t[56][k] = t[55][k] * t[14][0];
-                    t[57][k] = rec::square_after(e57, &t[11], k);
-                    t[58][k] = t[57][k] * t[16][0];
-                    t[59][k] = t[54][k] + t[56][k];
-                    t[60][k] = t[59][k] + t[58][k];
-                    t[62][k] = t[60][k] * t[61][0];
-                    t[64][k] = t[62][k] - t[63][k];
-                    t[65][k] = t[64][k] * t[52][0];
-                    t[66][k] = rec::mul_after(e66, &t[0], &t[13], k);
-                    t[67][k] = rec::mul_after(e67, &t[3], &t[15], k);
-                    t[68][k] = rec::mul_after(e68, &t[6], &t[17], k);
-                    t[70][k] = t[66][k] + t[67][k];
-                    t[71][k] = t[70][k] + t[68][k];
-                    t[72][k] = t[71][k] - t[69][k];
-                    t[73][k] = rec::mul_after(e73, &t[1], &t[13], k);
-                    t[74][k] = rec::mul_after(e74, &t[4], &t[15], k);
-                    t[75][k] = rec::mul_after(e75, &t[7], &t[17], k);
-                    t[77][k] = t[73][k] + t[74][k];
-                    t[78][k] = t[77][k] + t[75][k];
-                    t[79][k] = t[78][k] - t[76][k];
-                    t[80][k] = rec::mul_after(e80, &t[2], &t[13], k);
-                    t[81][k] = rec::mul_after(e81, &t[5], &t[15], k);
-                    t[82][k] = rec::mul_after(e82, &t[8], &t[17], k);
-                    t[84][k] = t[80][k] + t[81][k];
-                    t[85][k] = t[84][k] + t[82][k];
-                    t[86][k] = t[85][k] - t[83][k];
-                    t[88][k] = t[17][k] * t[87][0];
-                    t[89][k] = t[15][k] * t[87][0];
-                    t[90][k] = t[13][k] * t[87][0];
-                    t[91][k] = rec::mul_after(e91, &t[3], &t[11], k);
-                    t[92][k] = rec::mul_after(e92, &t[6], &t[10], k);
-                    t[93][k] = rec::mul_after(e93, &t[72], &t[90], k);
-                    t[95][k] = rec::mul_after(e95, &t[6], &t[27], k);
-                    t[96][k] = rec::mul_after(e96, &t[3], &t[22], k);
-                    t[97][k] = rec::mul_after(e97, &t[0], &t[39], k);
-                    t[98][k] = t[95][k] + t[96][k];
-                    t[99][k] = t[98][k] + t[97][k];
-                    t[100][k] = t[99][k] * t[94][0];
-                    t[101][k] = t[93][k] + t[100][k];
-                    t[102][k] = t[91][k] - t[92][k];
-                    t[103][k] = t[102][k] - t[101][k];
-                    t[104][k] = rec::mul_after(e104, &t[4], &t[11], k);
-                    t[105][k] = rec::mul_after(e105, &t[7], &t[10], k);
-                    t[106][k] = rec::mul_after(e106, &t[79], &t[90], k);
-                    t[107][k] = rec::mul_after(e107, &t[7], &t[27], k);
-                    t[108][k] = rec::mul_after(e108, &t[4], &t[22], k);
-                    t[109][k] = rec::mul_after(e109, &t[1], &t[39], k);
-                    t[110][k] = t[107][k] + t[108][k];
-                    t[111][k] = t[110][k] + t[109][k];
-                    t[112][k] = t[111][k] * t[94][0];
-                    t[113][k] = t[106][k] + t[112][k];
-                    t[114][k] = t[104][k] - t[105][k];
-                    t[115][k] = t[114][k] - t[113][k];
-                    t[116][k] = rec::mul_after(e116, &t[5], &t[11], k);
-                    t[117][k] = rec::mul_after(e117, &t[8], &t[10], k);
-                    t[118][k] = rec::mul_after(e118, &t[86], &t[90], k);
-                    t[119][k] = rec::mul_after(e119, &t[8], &t[27], k);
-                    t[120][k] = rec::mul_after(e120, &t[5], &t[22], k);
-                    t[121][k] = rec::mul_after(e121, &t[2], &t[39], k);
-                    t[122][k] = t[119][k] + t[120][k];
-                    t[123][k] = t[122][k] + t[121][k];
-                    t[124][k] = t[123][k] * t[94][0];
-                    t[125][k] = t[118][k] + t[124][k];
-                    t[126][k] = t[116][k] - t[117][k];
-                    t[127][k] = t[126][k] - t[125][k];
-                    t[128][k] = rec::mul_after(e128, &t[0], &t[11], k);
-                    t[129][k] = rec::mul_after(e129, &t[6], &t[9], k);
-                    t[130][k] = rec::mul_after(e130, &t[72], &t[89], k);
-                    t[131][k] = rec::mul_after(e131, &t[6], &t[32], k);
-                    t[132][k] = rec::mul_after(e132, &t[3], &t[45], k);
-                    t[133][k] = rec::mul_after(e133, &t[0], &t[22], k);
-                    t[134][k] = t[131][k] + t[132][k];
-                    t[135][k] = t[134][k] + t[133][k];
-                    t[136][k] = t[135][k] * t[94][0];
-                    t[137][k] = t[130][k] + t[136][k];
-                    t[138][k] = t[129][k] - t[128][k];
-                    t[139][k] = t[138][k] - t[137][k];
-                    t[140][k] = rec::mul_after(e140, &t[1], &t[11], k);
-                    t[141][k] = rec::mul_after(e141, &t[7], &t[9], k);
-                    t[142][k] = rec::mul_after(e142, &t[79], &t[89], k);
-                    t[143][k] = rec::mul_after(e143, &t[7], &t[32], k);
-                    t[144][k] = rec::mul_after(e144, &t[4], &t[45], k);
-                    t[145][k] = rec::mul_after(e145, &t[1], &t[22], k);
-                    t[146][k] = t[143][k] + t[144][k];
-                    t[147][k] = t[146][k] + t[145][k];
-                    t[148][k] = t[147][k] * t[94][0];
-                    t[149][k] = t[142][k] + t[148][k];
-                    t[150][k] = t[141][k] - t[140][k];
-                    t[151][k] = t[150][k] - t[149][k];
-                    t[152][k] = rec::mul_after(e152, &t[2], &t[11], k);
-                    t[153][k] = rec::mul_after(e153, &t[8], &t[9], k);
-                    t[154][k] = rec::mul_after(e154, &t[86], &t[89], k);
-                    t[155][k] = rec::mul_after(e155, &t[8], &t[32], k);
-                    t[156][k] = rec::mul_after(e156, &t[5], &t[45], k);
-                    t[157][k] = rec::mul_after(e157, &t[2], &t[22], k);
-                    t[158][k] = t[155][k] + t[156][k];
-                    t[159][k] = t[158][k] + t[157][k];
-                    t[160][k] = t[159][k] * t[94][0];
-                    t[161][k] = t[154][k] + t[160][k];
-                    t[162][k] = t[153][k] - t[152][k];
-                    t[163][k] = t[162][k] - t[161][k];
-                    t[164][k] = rec::mul_after(e164, &t[0], &t[10], k);
-                    t[165][k] = rec::mul_after(e165, &t[3], &t[9], k);
-                    t[166][k] = rec::mul_after(e166, &t[72], &t[88], k);
-                    t[167][k] = rec::mul_after(e167, &t[6], &t[51], k);
-                    t[168][k] = rec::mul_after(e168, &t[3], &t[32], k);
-                    t[169][k] = rec::mul_after(e169, &t[0], &t[27], k);
-                    t[170][k] = t[167][k] + t[168][k];
-                    t[171][k] = t[170][k] + t[169][k];
-                    t[172][k] = t[171][k] * t[94][0];
-                    t[173][k] = t[166][k] + t[172][k];
-                    t[174][k] = t[164][k] - t[165][k];
-                    t[175][k] = t[174][k] - t[173][k];
-                    t[176][k] = rec::mul_after(e176, &t[1], &t[10], k);
-                    t[177][k] = rec::mul_after(e177, &t[4], &t[9], k);
-                    t[178][k] = rec::mul_after(e178, &t[79], &t[88], k);
-                    t[179][k] = rec::mul_after(e179, &t[7], &t[51], k);
-                    t[180][k] = rec::mul_after(e180, &t[4], &t[32], k);
-                    t[181][k] = rec::mul_after(e181, &t[1], &t[27], k);
-                    t[182][k] = t[179][k] + t[180][k];
-                    t[183][k] = t[182][k] + t[181][k];
-                    t[184][k] = t[183][k] * t[94][0];
-                    t[185][k] = t[178][k] + t[184][k];
-                    t[186][k] = t[176][k] - t[177][k];
-                    t[187][k] = t[186][k] - t[185][k];
-                    t[188][k] = rec::mul_after(e188, &t[2], &t[10], k);
-                    t[189][k] = rec::mul_after(e189, &t[5], &t[9], k);
-                    t[190][k] = rec::mul_after(e190, &t[86], &t[88], k);
-                    t[191][k] = rec::mul_after(e191, &t[8], &t[51], k);
-                    t[192][k] = rec::mul_after(e192, &t[5], &t[32], k);
-                    t[193][k] = rec::mul_after(e193, &t[2], &t[27], k);
-                    t[194][k] = t[191][k] + t[192][k];
-                    t[195][k] = t[194][k] + t[193][k];
-                    t[196][k] = t[195][k] * t[94][0];
-                    t[197][k] = t[190][k] + t[196][k];
-                    t[198][k] = t[188][k] - t[189][k];
-                    t[199][k] = t[198][k] - t[197][k];
-                    t[200][k] = rec::mul_after(e200, &t[10], &t[11], k);
-                    t[202][k] = t[200][k] * t[201][0];
-                    t[203][k] = rec::mul_after(e203, &t[9], &t[65], k);
-                    t[204][k] = rec::mul_after(e204, &t[2], &t[86], k);
-                    t[205][k] = rec::mul_after(e205, &t[1], &t[79], k);
-                    t[206][k] = rec::mul_after(e206, &t[0], &t[72], k);
-                    t[207][k] = t[204][k] + t[205][k];
-                    t[208][k] = t[207][k] + t[206][k];
-                    t[209][k] = t[208][k] * t[87][0];
-                    t[210][k] = t[203][k] + t[209][k];
-                    t[211][k] = t[210][k] * t[12][0];
-                    t[212][k] = t[202][k] - t[211][k];
-                    t[213][k] = rec::mul_after(e213, &t[9], &t[11], k);
-                    t[215][k] = t[213][k] * t[214][0];
-                    t[216][k] = rec::mul_after(e216, &t[10], &t[65], k);
-                    t[217][k] = rec::mul_after(e217, &t[5], &t[86], k);
-                    t[218][k] = rec::mul_after(e218, &t[4], &t[79], k);
-                    t[219][k] = rec::mul_after(e219, &t[3], &t[72], k);
-                    t[220][k] = t[217][k] + t[218][k];
-                    t[221][k] = t[220][k] + t[219][k];
-                    t[222][k] = t[221][k] * t[87][0];
-                    t[223][k] = t[216][k] + t[222][k];
-                    t[224][k] = t[223][k] * t[14][0];
-                    t[225][k] = t[215][k] - t[224][k];
-                    t[226][k] = rec::mul_after(e226, &t[9], &t[10], k);
-                    t[228][k] = t[226][k] * t[227][0];
-                    t[229][k] = rec::mul_after(e229, &t[11], &t[65], k);
-                    t[230][k] = rec::mul_after(e230, &t[8], &t[86], k);
-                    t[231][k] = rec::mul_after(e231, &t[7], &t[79], k);
-                    t[232][k] = rec::mul_after(e232, &t[6], &t[72], k);
-                    t[233][k] = t[230][k] + t[231][k];
-                    t[234][k] = t[233][k] + t[232][k];
-                    t[235][k] = t[234][k] * t[87][0];
-                    t[236][k] = t[229][k] + t[235][k];
-                    t[237][k] = t[236][k] * t[16][0];
-                    t[238][k] = t[228][k] - t[237][k];
+
+            /// The model's functions for K states per call, with this model's parameters.
+            pub fn lanes(&self) -> Lanes {
+                Lanes { prelude: self.kernels }
+            }
+        }
+
+        /// The emitted Taylor kernels of the field and of X − ∇V.
+        pub fn taylor_kernels<T: Float>(
+            m: &super::RigidBodyPrepared<T>,
+        ) -> lasalle_runtime::TaylorKernels<super::RigidBodyPrepared<T>> {
+            lasalle_runtime::TaylorKernels {
+                field: Box::new(TaylorField::new(m)),
+                feedback: Box::new(TaylorFeedback::new(m)),
+            }
+        }
+        /// The Taylor-coefficient kernel of X (`lasalle_runtime::TaylorKernel`).
+        pub type TaylorField = lasalle_runtime::taylor::Emitted<FieldRecurrences>;
+        /// The recurrences of X's tape (`lasalle_runtime::taylor::Recurrences`), 48 rows of
+        /// orders 0..=`EMITTED_MAX_ORDER`.
+        pub struct FieldRecurrences;
+        impl<T: Float> lasalle_runtime::taylor::Recurrences<super::RigidBodyPrepared<T>> for FieldRecurrences {
+            const NAME: &'static str = "RigidBody: TaylorField";
+            const DIM: usize = 12;
+            const ROWS: usize = 48;
+            const HOISTED: usize = 3;
+            const TARGETS: usize = 0;
+            const GAINS: usize = 0;
+            fn hoisted(m: &super::RigidBodyPrepared<T>) -> &[f64] {
+                &m.kernels.field
+            }
+            fn compute(
+                t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
+                hoisted: &[f64],
+                target: &[f64],
+                gains: &[f64],
+                x: &[f64],
+                order: usize,
+            ) {
+                use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
+                let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 48] = t.try_into().expect("rows: 48");
+                let hoisted: &[f64; 3] = hoisted.try_into().expect("hoisted values: 3");
+                let target: &[f64; 0] = target.try_into().expect("targets: 0");
+                let gains: &[f64; 0] = gains.try_into().expect("gains: 0");
+                for (row, xi) in t.iter_mut().zip(&x[..12]) {
+                    row[0] = *xi;
                 }
-                let inv = 1.0 / (k as f64 + 1.0);
-                t[0][k + 1] = t[103][k] * inv;
-                t[1][k + 1] = t[115][k] * inv;
-                t[2][k + 1] = t[127][k] * inv;
-                t[3][k + 1] = t[139][k] * inv;
-                t[4][k + 1] = t[151][k] * inv;
-                t[5][k + 1] = t[163][k] * inv;
-                t[6][k + 1] = t[175][k] * inv;
-                t[7][k + 1] = t[187][k] * inv;
-                t[8][k + 1] = t[199][k] * inv;
-                t[9][k + 1] = t[212][k] * inv;
-                t[10][k + 1] = t[225][k] * inv;
-                t[11][k + 1] = t[238][k] * inv;
+                for k in 0..order {
+                    if k == 0 {
+                        t[12][0] = t[3][0] * t[11][0];
+                        t[13][0] = t[6][0] * t[10][0];
+                        t[14][0] = t[12][0] - t[13][0];
+                        t[15][0] = t[4][0] * t[11][0];
+                        t[16][0] = t[7][0] * t[10][0];
+                        t[17][0] = t[15][0] - t[16][0];
+                        t[18][0] = t[5][0] * t[11][0];
+                        t[19][0] = t[8][0] * t[10][0];
+                        t[20][0] = t[18][0] - t[19][0];
+                        t[21][0] = t[0][0] * t[11][0];
+                        t[22][0] = t[6][0] * t[9][0];
+                        t[23][0] = t[22][0] - t[21][0];
+                        t[24][0] = t[1][0] * t[11][0];
+                        t[25][0] = t[7][0] * t[9][0];
+                        t[26][0] = t[25][0] - t[24][0];
+                        t[27][0] = t[2][0] * t[11][0];
+                        t[28][0] = t[8][0] * t[9][0];
+                        t[29][0] = t[28][0] - t[27][0];
+                        t[30][0] = t[0][0] * t[10][0];
+                        t[31][0] = t[3][0] * t[9][0];
+                        t[32][0] = t[30][0] - t[31][0];
+                        t[33][0] = t[1][0] * t[10][0];
+                        t[34][0] = t[4][0] * t[9][0];
+                        t[35][0] = t[33][0] - t[34][0];
+                        t[36][0] = t[2][0] * t[10][0];
+                        t[37][0] = t[5][0] * t[9][0];
+                        t[38][0] = t[36][0] - t[37][0];
+                        t[39][0] = t[10][0] * t[11][0];
+                        t[40][0] = hoisted[0];
+                        t[41][0] = t[39][0] * t[40][0];
+                        t[42][0] = t[9][0] * t[11][0];
+                        t[43][0] = hoisted[1];
+                        t[44][0] = t[42][0] * t[43][0];
+                        t[45][0] = t[9][0] * t[10][0];
+                        t[46][0] = hoisted[2];
+                        t[47][0] = t[45][0] * t[46][0];
+                    } else {
+                        let [e12, e15, e18, e21, e24, e27] =
+                            rec::cauchy_many(t, [(3, 11), (4, 11), (5, 11), (0, 11), (1, 11), (2, 11)], k, 1, k - 1);
+                        let [e13, e16, e19, e22, e25, e28] =
+                            rec::cauchy_many(t, [(6, 10), (7, 10), (8, 10), (6, 9), (7, 9), (8, 9)], k, 1, k - 1);
+                        let [e30, e33, e36, e45, e42, e39] =
+                            rec::cauchy_many(t, [(0, 10), (1, 10), (2, 10), (9, 10), (9, 11), (10, 11)], k, 1, k - 1);
+                        let [e31, e34, e37] =
+                            rec::cauchy_many(t, [(3, 9), (4, 9), (5, 9)], k, 1, k - 1);
+                        t[12][k] = rec::mul_after(e12, &t[3], &t[11], k);
+                        t[13][k] = rec::mul_after(e13, &t[6], &t[10], k);
+                        t[14][k] = t[12][k] - t[13][k];
+                        t[15][k] = rec::mul_after(e15, &t[4], &t[11], k);
+                        t[16][k] = rec::mul_after(e16, &t[7], &t[10], k);
+                        t[17][k] = t[15][k] - t[16][k];
+                        t[18][k] = rec::mul_after(e18, &t[5], &t[11], k);
+                        t[19][k] = rec::mul_after(e19, &t[8], &t[10], k);
+                        t[20][k] = t[18][k] - t[19][k];
+                        t[21][k] = rec::mul_after(e21, &t[0], &t[11], k);
+                        t[22][k] = rec::mul_after(e22, &t[6], &t[9], k);
+                        t[23][k] = t[22][k] - t[21][k];
+                        t[24][k] = rec::mul_after(e24, &t[1], &t[11], k);
+                        t[25][k] = rec::mul_after(e25, &t[7], &t[9], k);
+                        t[26][k] = t[25][k] - t[24][k];
+                        t[27][k] = rec::mul_after(e27, &t[2], &t[11], k);
+                        t[28][k] = rec::mul_after(e28, &t[8], &t[9], k);
+                        t[29][k] = t[28][k] - t[27][k];
+                        t[30][k] = rec::mul_after(e30, &t[0], &t[10], k);
+                        t[31][k] = rec::mul_after(e31, &t[3], &t[9], k);
+                        t[32][k] = t[30][k] - t[31][k];
+                        t[33][k] = rec::mul_after(e33, &t[1], &t[10], k);
+                        t[34][k] = rec::mul_after(e34, &t[4], &t[9], k);
+                        t[35][k] = t[33][k] - t[34][k];
+                        t[36][k] = rec::mul_after(e36, &t[2], &t[10], k);
+                        t[37][k] = rec::mul_after(e37, &t[5], &t[9], k);
+                        t[38][k] = t[36][k] - t[37][k];
+                        t[39][k] = rec::mul_after(e39, &t[10], &t[11], k);
+                        t[41][k] = t[39][k] * t[40][0];
+                        t[42][k] = rec::mul_after(e42, &t[9], &t[11], k);
+                        t[44][k] = t[42][k] * t[43][0];
+                        t[45][k] = rec::mul_after(e45, &t[9], &t[10], k);
+                        t[47][k] = t[45][k] * t[46][0];
+                    }
+                    let inv = 1.0 / (k as f64 + 1.0);
+                    t[0][k + 1] = t[14][k] * inv;
+                    t[1][k + 1] = t[17][k] * inv;
+                    t[2][k + 1] = t[20][k] * inv;
+                    t[3][k + 1] = t[23][k] * inv;
+                    t[4][k + 1] = t[26][k] * inv;
+                    t[5][k + 1] = t[29][k] * inv;
+                    t[6][k + 1] = t[32][k] * inv;
+                    t[7][k + 1] = t[35][k] * inv;
+                    t[8][k + 1] = t[38][k] * inv;
+                    t[9][k + 1] = t[41][k] * inv;
+                    t[10][k + 1] = t[44][k] * inv;
+                    t[11][k + 1] = t[47][k] * inv;
+                }
             }
         }
-    }
-    /// The model's functions for K states per call (structure of arrays), with the
-    /// parameter-only values computed once: see `RigidBody::lanes`.
-    #[derive(Clone, Debug)]
-    pub struct RigidBodyLanes {
-        field: [f64; 3],
-        invariants: [f64; 3],
-        jacobian: [f64; 3],
-        lyapunov: [f64; 3],
-        lyapunov_gradient: [f64; 3],
-        feedback: [f64; 6],
-    }
-    impl<T: Float> RigidBody<T> {
-        /// The batched functions with the current parameters (their preludes run now).
-        pub fn lanes(&self) -> RigidBodyLanes {
-            let p = self.slot_values();
-            RigidBodyLanes {
-                field: hoist_field(&p),
-                invariants: hoist_invariants(&p),
-                jacobian: hoist_jacobian(&p),
-                lyapunov: hoist_lyapunov(&p),
-                lyapunov_gradient: hoist_lyapunov_gradient(&p),
-                feedback: hoist_feedback(&p),
+        /// The Taylor-coefficient kernel of X − ∇V (`lasalle_runtime::TaylorKernel`).
+        pub type TaylorFeedback = lasalle_runtime::taylor::Emitted<FeedbackRecurrences>;
+        /// The recurrences of X − ∇V's tape (`lasalle_runtime::taylor::Recurrences`), 239 rows of
+        /// orders 0..=`EMITTED_MAX_ORDER`.
+        pub struct FeedbackRecurrences;
+        impl<T: Float> lasalle_runtime::taylor::Recurrences<super::RigidBodyPrepared<T>> for FeedbackRecurrences {
+            const NAME: &'static str = "RigidBody: TaylorFeedback";
+            const DIM: usize = 12;
+            const ROWS: usize = 239;
+            const HOISTED: usize = 6;
+            const TARGETS: usize = 13;
+            const GAINS: usize = 3;
+            fn hoisted(m: &super::RigidBodyPrepared<T>) -> &[f64] {
+                &m.kernels.feedback
+            }
+            fn compute(
+                t: &mut [[f64; lasalle_runtime::taylor::EMITTED_MAX_ORDER + 1]],
+                hoisted: &[f64],
+                target: &[f64],
+                gains: &[f64],
+                x: &[f64],
+                order: usize,
+            ) {
+                use lasalle_runtime::taylor::{rec, EMITTED_MAX_ORDER};
+                let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; 239] = t.try_into().expect("rows: 239");
+                let hoisted: &[f64; 6] = hoisted.try_into().expect("hoisted values: 6");
+                let target: &[f64; 13] = target.try_into().expect("targets: 13");
+                let gains: &[f64; 3] = gains.try_into().expect("gains: 3");
+                for (row, xi) in t.iter_mut().zip(&x[..12]) {
+                    row[0] = *xi;
+                }
+                for k in 0..order {
+                    if k == 0 {
+                        t[12][0] = hoisted[0];
+                        t[13][0] = t[9][0] * t[12][0];
+                        t[14][0] = hoisted[1];
+                        t[15][0] = t[10][0] * t[14][0];
+                        t[16][0] = hoisted[2];
+                        t[17][0] = t[11][0] * t[16][0];
+                        t[18][0] = t[0][0] * t[3][0];
+                        t[19][0] = t[1][0] * t[4][0];
+                        t[20][0] = t[2][0] * t[5][0];
+                        t[21][0] = t[18][0] + t[19][0];
+                        t[22][0] = t[21][0] + t[20][0];
+                        t[23][0] = t[0][0] * t[6][0];
+                        t[24][0] = t[1][0] * t[7][0];
+                        t[25][0] = t[2][0] * t[8][0];
+                        t[26][0] = t[23][0] + t[24][0];
+                        t[27][0] = t[26][0] + t[25][0];
+                        t[28][0] = t[3][0] * t[6][0];
+                        t[29][0] = t[4][0] * t[7][0];
+                        t[30][0] = t[5][0] * t[8][0];
+                        t[31][0] = t[28][0] + t[29][0];
+                        t[32][0] = t[31][0] + t[30][0];
+                        t[33][0] = t[0][0] * t[0][0];
+                        t[34][0] = t[1][0] * t[1][0];
+                        t[35][0] = t[2][0] * t[2][0];
+                        t[36][0] = t[33][0] + t[34][0];
+                        t[37][0] = t[36][0] + t[35][0];
+                        t[38][0] = 1.0_f64;
+                        t[39][0] = t[37][0] - t[38][0];
+                        t[40][0] = t[3][0] * t[3][0];
+                        t[41][0] = t[4][0] * t[4][0];
+                        t[42][0] = t[5][0] * t[5][0];
+                        t[43][0] = t[40][0] + t[41][0];
+                        t[44][0] = t[43][0] + t[42][0];
+                        t[45][0] = t[44][0] - t[38][0];
+                        t[46][0] = t[6][0] * t[6][0];
+                        t[47][0] = t[7][0] * t[7][0];
+                        t[48][0] = t[8][0] * t[8][0];
+                        t[49][0] = t[46][0] + t[47][0];
+                        t[50][0] = t[49][0] + t[48][0];
+                        t[51][0] = t[50][0] - t[38][0];
+                        t[52][0] = gains[1];
+                        t[53][0] = t[9][0] * t[9][0];
+                        t[54][0] = t[53][0] * t[12][0];
+                        t[55][0] = t[10][0] * t[10][0];
+                        t[56][0] = t[55][0] * t[14][0];
+                        t[57][0] = t[11][0] * t[11][0];
+                        t[58][0] = t[57][0] * t[16][0];
+                        t[59][0] = t[54][0] + t[56][0];
+                        t[60][0] = t[59][0] + t[58][0];
+                        t[61][0] = 0.5_f64;
+                        t[62][0] = t[60][0] * t[61][0];
+                        t[63][0] = target[9];
+                        t[64][0] = t[62][0] - t[63][0];
+                        t[65][0] = t[64][0] * t[52][0];
+                        t[66][0] = t[0][0] * t[13][0];
+                        t[67][0] = t[3][0] * t[15][0];
+                        t[68][0] = t[6][0] * t[17][0];
+                        t[69][0] = target[10];
+                        t[70][0] = t[66][0] + t[67][0];
+                        t[71][0] = t[70][0] + t[68][0];
+                        t[72][0] = t[71][0] - t[69][0];
+                        t[73][0] = t[1][0] * t[13][0];
+                        t[74][0] = t[4][0] * t[15][0];
+                        t[75][0] = t[7][0] * t[17][0];
+                        t[76][0] = target[11];
+                        t[77][0] = t[73][0] + t[74][0];
+                        t[78][0] = t[77][0] + t[75][0];
+                        t[79][0] = t[78][0] - t[76][0];
+                        t[80][0] = t[2][0] * t[13][0];
+                        t[81][0] = t[5][0] * t[15][0];
+                        t[82][0] = t[8][0] * t[17][0];
+                        t[83][0] = target[12];
+                        t[84][0] = t[80][0] + t[81][0];
+                        t[85][0] = t[84][0] + t[82][0];
+                        t[86][0] = t[85][0] - t[83][0];
+                        t[87][0] = gains[2];
+                        t[88][0] = t[17][0] * t[87][0];
+                        t[89][0] = t[15][0] * t[87][0];
+                        t[90][0] = t[13][0] * t[87][0];
+                        t[91][0] = t[3][0] * t[11][0];
+                        t[92][0] = t[6][0] * t[10][0];
+                        t[93][0] = t[72][0] * t[90][0];
+                        t[94][0] = gains[0];
+                        t[95][0] = t[6][0] * t[27][0];
+                        t[96][0] = t[3][0] * t[22][0];
+                        t[97][0] = t[0][0] * t[39][0];
+                        t[98][0] = t[95][0] + t[96][0];
+                        t[99][0] = t[98][0] + t[97][0];
+                        t[100][0] = t[99][0] * t[94][0];
+                        t[101][0] = t[93][0] + t[100][0];
+                        t[102][0] = t[91][0] - t[92][0];
+                        t[103][0] = t[102][0] - t[101][0];
+                        t[104][0] = t[4][0] * t[11][0];
+                        t[105][0] = t[7][0] * t[10][0];
+                        t[106][0] = t[79][0] * t[90][0];
+                        t[107][0] = t[7][0] * t[27][0];
+                        t[108][0] = t[4][0] * t[22][0];
+                        t[109][0] = t[1][0] * t[39][0];
+                        t[110][0] = t[107][0] + t[108][0];
+                        t[111][0] = t[110][0] + t[109][0];
+                        t[112][0] = t[111][0] * t[94][0];
+                        t[113][0] = t[106][0] + t[112][0];
+                        t[114][0] = t[104][0] - t[105][0];
+                        t[115][0] = t[114][0] - t[113][0];
+                        t[116][0] = t[5][0] * t[11][0];
+                        t[117][0] = t[8][0] * t[10][0];
+                        t[118][0] = t[86][0] * t[90][0];
+                        t[119][0] = t[8][0] * t[27][0];
+                        t[120][0] = t[5][0] * t[22][0];
+                        t[121][0] = t[2][0] * t[39][0];
+                        t[122][0] = t[119][0] + t[120][0];
+                        t[123][0] = t[122][0] + t[121][0];
+                        t[124][0] = t[123][0] * t[94][0];
+                        t[125][0] = t[118][0] + t[124][0];
+                        t[126][0] = t[116][0] - t[117][0];
+                        t[127][0] = t[126][0] - t[125][0];
+                        t[128][0] = t[0][0] * t[11][0];
+                        t[129][0] = t[6][0] * t[9][0];
+                        t[130][0] = t[72][0] * t[89][0];
+                        t[131][0] = t[6][0] * t[32][0];
+                        t[132][0] = t[3][0] * t[45][0];
+                        t[133][0] = t[0][0] * t[22][0];
+                        t[134][0] = t[131][0] + t[132][0];
+                        t[135][0] = t[134][0] + t[133][0];
+                        t[136][0] = t[135][0] * t[94][0];
+                        t[137][0] = t[130][0] + t[136][0];
+                        t[138][0] = t[129][0] - t[128][0];
+                        t[139][0] = t[138][0] - t[137][0];
+                        t[140][0] = t[1][0] * t[11][0];
+                        t[141][0] = t[7][0] * t[9][0];
+                        t[142][0] = t[79][0] * t[89][0];
+                        t[143][0] = t[7][0] * t[32][0];
+                        t[144][0] = t[4][0] * t[45][0];
+                        t[145][0] = t[1][0] * t[22][0];
+                        t[146][0] = t[143][0] + t[144][0];
+                        t[147][0] = t[146][0] + t[145][0];
+                        t[148][0] = t[147][0] * t[94][0];
+                        t[149][0] = t[142][0] + t[148][0];
+                        t[150][0] = t[141][0] - t[140][0];
+                        t[151][0] = t[150][0] - t[149][0];
+                        t[152][0] = t[2][0] * t[11][0];
+                        t[153][0] = t[8][0] * t[9][0];
+                        t[154][0] = t[86][0] * t[89][0];
+                        t[155][0] = t[8][0] * t[32][0];
+                        t[156][0] = t[5][0] * t[45][0];
+                        t[157][0] = t[2][0] * t[22][0];
+                        t[158][0] = t[155][0] + t[156][0];
+                        t[159][0] = t[158][0] + t[157][0];
+                        t[160][0] = t[159][0] * t[94][0];
+                        t[161][0] = t[154][0] + t[160][0];
+                        t[162][0] = t[153][0] - t[152][0];
+                        t[163][0] = t[162][0] - t[161][0];
+                        t[164][0] = t[0][0] * t[10][0];
+                        t[165][0] = t[3][0] * t[9][0];
+                        t[166][0] = t[72][0] * t[88][0];
+                        t[167][0] = t[6][0] * t[51][0];
+                        t[168][0] = t[3][0] * t[32][0];
+                        t[169][0] = t[0][0] * t[27][0];
+                        t[170][0] = t[167][0] + t[168][0];
+                        t[171][0] = t[170][0] + t[169][0];
+                        t[172][0] = t[171][0] * t[94][0];
+                        t[173][0] = t[166][0] + t[172][0];
+                        t[174][0] = t[164][0] - t[165][0];
+                        t[175][0] = t[174][0] - t[173][0];
+                        t[176][0] = t[1][0] * t[10][0];
+                        t[177][0] = t[4][0] * t[9][0];
+                        t[178][0] = t[79][0] * t[88][0];
+                        t[179][0] = t[7][0] * t[51][0];
+                        t[180][0] = t[4][0] * t[32][0];
+                        t[181][0] = t[1][0] * t[27][0];
+                        t[182][0] = t[179][0] + t[180][0];
+                        t[183][0] = t[182][0] + t[181][0];
+                        t[184][0] = t[183][0] * t[94][0];
+                        t[185][0] = t[178][0] + t[184][0];
+                        t[186][0] = t[176][0] - t[177][0];
+                        t[187][0] = t[186][0] - t[185][0];
+                        t[188][0] = t[2][0] * t[10][0];
+                        t[189][0] = t[5][0] * t[9][0];
+                        t[190][0] = t[86][0] * t[88][0];
+                        t[191][0] = t[8][0] * t[51][0];
+                        t[192][0] = t[5][0] * t[32][0];
+                        t[193][0] = t[2][0] * t[27][0];
+                        t[194][0] = t[191][0] + t[192][0];
+                        t[195][0] = t[194][0] + t[193][0];
+                        t[196][0] = t[195][0] * t[94][0];
+                        t[197][0] = t[190][0] + t[196][0];
+                        t[198][0] = t[188][0] - t[189][0];
+                        t[199][0] = t[198][0] - t[197][0];
+                        t[200][0] = t[10][0] * t[11][0];
+                        t[201][0] = hoisted[3];
+                        t[202][0] = t[200][0] * t[201][0];
+                        t[203][0] = t[9][0] * t[65][0];
+                        t[204][0] = t[2][0] * t[86][0];
+                        t[205][0] = t[1][0] * t[79][0];
+                        t[206][0] = t[0][0] * t[72][0];
+                        t[207][0] = t[204][0] + t[205][0];
+                        t[208][0] = t[207][0] + t[206][0];
+                        t[209][0] = t[208][0] * t[87][0];
+                        t[210][0] = t[203][0] + t[209][0];
+                        t[211][0] = t[210][0] * t[12][0];
+                        t[212][0] = t[202][0] - t[211][0];
+                        t[213][0] = t[9][0] * t[11][0];
+                        t[214][0] = hoisted[4];
+                        t[215][0] = t[213][0] * t[214][0];
+                        t[216][0] = t[10][0] * t[65][0];
+                        t[217][0] = t[5][0] * t[86][0];
+                        t[218][0] = t[4][0] * t[79][0];
+                        t[219][0] = t[3][0] * t[72][0];
+                        t[220][0] = t[217][0] + t[218][0];
+                        t[221][0] = t[220][0] + t[219][0];
+                        t[222][0] = t[221][0] * t[87][0];
+                        t[223][0] = t[216][0] + t[222][0];
+                        t[224][0] = t[223][0] * t[14][0];
+                        t[225][0] = t[215][0] - t[224][0];
+                        t[226][0] = t[9][0] * t[10][0];
+                        t[227][0] = hoisted[5];
+                        t[228][0] = t[226][0] * t[227][0];
+                        t[229][0] = t[11][0] * t[65][0];
+                        t[230][0] = t[8][0] * t[86][0];
+                        t[231][0] = t[7][0] * t[79][0];
+                        t[232][0] = t[6][0] * t[72][0];
+                        t[233][0] = t[230][0] + t[231][0];
+                        t[234][0] = t[233][0] + t[232][0];
+                        t[235][0] = t[234][0] * t[87][0];
+                        t[236][0] = t[229][0] + t[235][0];
+                        t[237][0] = t[236][0] * t[16][0];
+                        t[238][0] = t[228][0] - t[237][0];
+                    } else {
+                        let [e18, e23, e28, e66, e67, e73] =
+                            rec::cauchy_many(t, [(0, 3), (0, 6), (3, 6), (0, 13), (3, 15), (1, 13)], k, 1, k - 1);
+                        let [e19, e24, e29, e74, e81, e30] =
+                            rec::cauchy_many(t, [(1, 4), (1, 7), (4, 7), (4, 15), (5, 15), (5, 8)], k, 1, k - 1);
+                        let [e20, e25, e80, e121, e97, e109] =
+                            rec::cauchy_many(t, [(2, 5), (2, 8), (2, 13), (2, 39), (0, 39), (1, 39)], k, 1, k - 1);
+                        let [e68, e75, e82, e92, e95, e105] =
+                            rec::cauchy_many(t, [(6, 17), (7, 17), (8, 17), (6, 10), (6, 27), (7, 10)], k, 1, k - 1);
+                        let [e91, e96, e104, e108, e116, e120] =
+                            rec::cauchy_many(t, [(3, 11), (3, 22), (4, 11), (4, 22), (5, 11), (5, 22)], k, 1, k - 1);
+                        let [e93, e106, e118, e130, e142, e154] =
+                            rec::cauchy_many(t, [(72, 90), (79, 90), (86, 90), (72, 89), (79, 89), (86, 89)], k, 1, k - 1);
+                        let [e107, e119, e117, e141, e129, e131] =
+                            rec::cauchy_many(t, [(7, 27), (8, 27), (8, 10), (7, 9), (6, 9), (6, 32)], k, 1, k - 1);
+                        let [e128, e133, e140, e145, e152, e157] =
+                            rec::cauchy_many(t, [(0, 11), (0, 22), (1, 11), (1, 22), (2, 11), (2, 22)], k, 1, k - 1);
+                        let [e132, e144, e156, e165, e153, e155] =
+                            rec::cauchy_many(t, [(3, 45), (4, 45), (5, 45), (3, 9), (8, 9), (8, 32)], k, 1, k - 1);
+                        let [e143, e168, e179, e167, e180, e177] =
+                            rec::cauchy_many(t, [(7, 32), (3, 32), (7, 51), (6, 51), (4, 32), (4, 9)], k, 1, k - 1);
+                        let [e164, e169, e176, e181, e188, e193] =
+                            rec::cauchy_many(t, [(0, 10), (0, 27), (1, 10), (1, 27), (2, 10), (2, 27)], k, 1, k - 1);
+                        let [e166, e178, e190, e189, e192, e217] =
+                            rec::cauchy_many(t, [(72, 88), (79, 88), (86, 88), (5, 9), (5, 32), (5, 86)], k, 1, k - 1);
+                        let [e191, e230, e204, e200, e213, e203] =
+                            rec::cauchy_many(t, [(8, 51), (8, 86), (2, 86), (10, 11), (9, 11), (9, 65)], k, 1, k - 1);
+                        let [e205, e218, e231, e206, e219, e232] =
+                            rec::cauchy_many(t, [(1, 79), (4, 79), (7, 79), (0, 72), (3, 72), (6, 72)], k, 1, k - 1);
+                        let [e216, e229, e226] =
+                            rec::cauchy_many(t, [(10, 65), (11, 65), (9, 10)], k, 1, k - 1);
+                        let [e33, e34, e35, e40, e41, e42] =
+                            rec::cauchy_many(t, [(0, 0), (1, 1), (2, 2), (3, 3), (4, 4), (5, 5)], k, 1, (k - 1) / 2);
+                        let [e46, e47, e48, e53, e55, e57] =
+                            rec::cauchy_many(t, [(6, 6), (7, 7), (8, 8), (9, 9), (10, 10), (11, 11)], k, 1, (k - 1) / 2);
+                        t[13][k] = t[9][k] * t[12][0];
+                        t[15][k] = t[10][k] * t[14][0];
+                        t[17][k] = t[11][k] * t[16][0];
+                        t[18][k] = rec::mul_after(e18, &t[0], &t[3], k);
+                        t[19][k] = rec::mul_after(e19, &t[1], &t[4], k);
+                        t[20][k] = rec::mul_after(e20, &t[2], &t[5], k);
+                        t[21][k] = t[18][k] + t[19][k];
+                        t[22][k] = t[21][k] + t[20][k];
+                        t[23][k] = rec::mul_after(e23, &t[0], &t[6], k);
+                        t[24][k] = rec::mul_after(e24, &t[1], &t[7], k);
+                        t[25][k] = rec::mul_after(e25, &t[2], &t[8], k);
+                        t[26][k] = t[23][k] + t[24][k];
+                        t[27][k] = t[26][k] + t[25][k];
+                        t[28][k] = rec::mul_after(e28, &t[3], &t[6], k);
+                        t[29][k] = rec::mul_after(e29, &t[4], &t[7], k);
+                        t[30][k] = rec::mul_after(e30, &t[5], &t[8], k);
+                        t[31][k] = t[28][k] + t[29][k];
+                        t[32][k] = t[31][k] + t[30][k];
+                        t[33][k] = rec::square_after(e33, &t[0], k);
+                        t[34][k] = rec::square_after(e34, &t[1], k);
+                        t[35][k] = rec::square_after(e35, &t[2], k);
+                        t[36][k] = t[33][k] + t[34][k];
+                        t[37][k] = t[36][k] + t[35][k];
+                        t[39][k] = t[37][k] - t[38][k];
+                        t[40][k] = rec::square_after(e40, &t[3], k);
+                        t[41][k] = rec::square_after(e41, &t[4], k);
+                        t[42][k] = rec::square_after(e42, &t[5], k);
+                        t[43][k] = t[40][k] + t[41][k];
+                        t[44][k] = t[43][k] + t[42][k];
+                        t[45][k] = t[44][k] - t[38][k];
+                        t[46][k] = rec::square_after(e46, &t[6], k);
+                        t[47][k] = rec::square_after(e47, &t[7], k);
+                        t[48][k] = rec::square_after(e48, &t[8], k);
+                        t[49][k] = t[46][k] + t[47][k];
+                        t[50][k] = t[49][k] + t[48][k];
+                        t[51][k] = t[50][k] - t[38][k];
+                        t[53][k] = rec::square_after(e53, &t[9], k);
+                        t[54][k] = t[53][k] * t[12][0];
+                        t[55][k] = rec::square_after(e55, &t[10], k);
+                        t[56][k] = t[55][k] * t[14][0];
+                        t[57][k] = rec::square_after(e57, &t[11], k);
+                        t[58][k] = t[57][k] * t[16][0];
+                        t[59][k] = t[54][k] + t[56][k];
+                        t[60][k] = t[59][k] + t[58][k];
+                        t[62][k] = t[60][k] * t[61][0];
+                        t[64][k] = t[62][k] - t[63][k];
+                        t[65][k] = t[64][k] * t[52][0];
+                        t[66][k] = rec::mul_after(e66, &t[0], &t[13], k);
+                        t[67][k] = rec::mul_after(e67, &t[3], &t[15], k);
+                        t[68][k] = rec::mul_after(e68, &t[6], &t[17], k);
+                        t[70][k] = t[66][k] + t[67][k];
+                        t[71][k] = t[70][k] + t[68][k];
+                        t[72][k] = t[71][k] - t[69][k];
+                        t[73][k] = rec::mul_after(e73, &t[1], &t[13], k);
+                        t[74][k] = rec::mul_after(e74, &t[4], &t[15], k);
+                        t[75][k] = rec::mul_after(e75, &t[7], &t[17], k);
+                        t[77][k] = t[73][k] + t[74][k];
+                        t[78][k] = t[77][k] + t[75][k];
+                        t[79][k] = t[78][k] - t[76][k];
+                        t[80][k] = rec::mul_after(e80, &t[2], &t[13], k);
+                        t[81][k] = rec::mul_after(e81, &t[5], &t[15], k);
+                        t[82][k] = rec::mul_after(e82, &t[8], &t[17], k);
+                        t[84][k] = t[80][k] + t[81][k];
+                        t[85][k] = t[84][k] + t[82][k];
+                        t[86][k] = t[85][k] - t[83][k];
+                        t[88][k] = t[17][k] * t[87][0];
+                        t[89][k] = t[15][k] * t[87][0];
+                        t[90][k] = t[13][k] * t[87][0];
+                        t[91][k] = rec::mul_after(e91, &t[3], &t[11], k);
+                        t[92][k] = rec::mul_after(e92, &t[6], &t[10], k);
+                        t[93][k] = rec::mul_after(e93, &t[72], &t[90], k);
+                        t[95][k] = rec::mul_after(e95, &t[6], &t[27], k);
+                        t[96][k] = rec::mul_after(e96, &t[3], &t[22], k);
+                        t[97][k] = rec::mul_after(e97, &t[0], &t[39], k);
+                        t[98][k] = t[95][k] + t[96][k];
+                        t[99][k] = t[98][k] + t[97][k];
+                        t[100][k] = t[99][k] * t[94][0];
+                        t[101][k] = t[93][k] + t[100][k];
+                        t[102][k] = t[91][k] - t[92][k];
+                        t[103][k] = t[102][k] - t[101][k];
+                        t[104][k] = rec::mul_after(e104, &t[4], &t[11], k);
+                        t[105][k] = rec::mul_after(e105, &t[7], &t[10], k);
+                        t[106][k] = rec::mul_after(e106, &t[79], &t[90], k);
+                        t[107][k] = rec::mul_after(e107, &t[7], &t[27], k);
+                        t[108][k] = rec::mul_after(e108, &t[4], &t[22], k);
+                        t[109][k] = rec::mul_after(e109, &t[1], &t[39], k);
+                        t[110][k] = t[107][k] + t[108][k];
+                        t[111][k] = t[110][k] + t[109][k];
+                        t[112][k] = t[111][k] * t[94][0];
+                        t[113][k] = t[106][k] + t[112][k];
+                        t[114][k] = t[104][k] - t[105][k];
+                        t[115][k] = t[114][k] - t[113][k];
+                        t[116][k] = rec::mul_after(e116, &t[5], &t[11], k);
+                        t[117][k] = rec::mul_after(e117, &t[8], &t[10], k);
+                        t[118][k] = rec::mul_after(e118, &t[86], &t[90], k);
+                        t[119][k] = rec::mul_after(e119, &t[8], &t[27], k);
+                        t[120][k] = rec::mul_after(e120, &t[5], &t[22], k);
+                        t[121][k] = rec::mul_after(e121, &t[2], &t[39], k);
+                        t[122][k] = t[119][k] + t[120][k];
+                        t[123][k] = t[122][k] + t[121][k];
+                        t[124][k] = t[123][k] * t[94][0];
+                        t[125][k] = t[118][k] + t[124][k];
+                        t[126][k] = t[116][k] - t[117][k];
+                        t[127][k] = t[126][k] - t[125][k];
+                        t[128][k] = rec::mul_after(e128, &t[0], &t[11], k);
+                        t[129][k] = rec::mul_after(e129, &t[6], &t[9], k);
+                        t[130][k] = rec::mul_after(e130, &t[72], &t[89], k);
+                        t[131][k] = rec::mul_after(e131, &t[6], &t[32], k);
+                        t[132][k] = rec::mul_after(e132, &t[3], &t[45], k);
+                        t[133][k] = rec::mul_after(e133, &t[0], &t[22], k);
+                        t[134][k] = t[131][k] + t[132][k];
+                        t[135][k] = t[134][k] + t[133][k];
+                        t[136][k] = t[135][k] * t[94][0];
+                        t[137][k] = t[130][k] + t[136][k];
+                        t[138][k] = t[129][k] - t[128][k];
+                        t[139][k] = t[138][k] - t[137][k];
+                        t[140][k] = rec::mul_after(e140, &t[1], &t[11], k);
+                        t[141][k] = rec::mul_after(e141, &t[7], &t[9], k);
+                        t[142][k] = rec::mul_after(e142, &t[79], &t[89], k);
+                        t[143][k] = rec::mul_after(e143, &t[7], &t[32], k);
+                        t[144][k] = rec::mul_after(e144, &t[4], &t[45], k);
+                        t[145][k] = rec::mul_after(e145, &t[1], &t[22], k);
+                        t[146][k] = t[143][k] + t[144][k];
+                        t[147][k] = t[146][k] + t[145][k];
+                        t[148][k] = t[147][k] * t[94][0];
+                        t[149][k] = t[142][k] + t[148][k];
+                        t[150][k] = t[141][k] - t[140][k];
+                        t[151][k] = t[150][k] - t[149][k];
+                        t[152][k] = rec::mul_after(e152, &t[2], &t[11], k);
+                        t[153][k] = rec::mul_after(e153, &t[8], &t[9], k);
+                        t[154][k] = rec::mul_after(e154, &t[86], &t[89], k);
+                        t[155][k] = rec::mul_after(e155, &t[8], &t[32], k);
+                        t[156][k] = rec::mul_after(e156, &t[5], &t[45], k);
+                        t[157][k] = rec::mul_after(e157, &t[2], &t[22], k);
+                        t[158][k] = t[155][k] + t[156][k];
+                        t[159][k] = t[158][k] + t[157][k];
+                        t[160][k] = t[159][k] * t[94][0];
+                        t[161][k] = t[154][k] + t[160][k];
+                        t[162][k] = t[153][k] - t[152][k];
+                        t[163][k] = t[162][k] - t[161][k];
+                        t[164][k] = rec::mul_after(e164, &t[0], &t[10], k);
+                        t[165][k] = rec::mul_after(e165, &t[3], &t[9], k);
+                        t[166][k] = rec::mul_after(e166, &t[72], &t[88], k);
+                        t[167][k] = rec::mul_after(e167, &t[6], &t[51], k);
+                        t[168][k] = rec::mul_after(e168, &t[3], &t[32], k);
+                        t[169][k] = rec::mul_after(e169, &t[0], &t[27], k);
+                        t[170][k] = t[167][k] + t[168][k];
+                        t[171][k] = t[170][k] + t[169][k];
+                        t[172][k] = t[171][k] * t[94][0];
+                        t[173][k] = t[166][k] + t[172][k];
+                        t[174][k] = t[164][k] - t[165][k];
+                        t[175][k] = t[174][k] - t[173][k];
+                        t[176][k] = rec::mul_after(e176, &t[1], &t[10], k);
+                        t[177][k] = rec::mul_after(e177, &t[4], &t[9], k);
+                        t[178][k] = rec::mul_after(e178, &t[79], &t[88], k);
+                        t[179][k] = rec::mul_after(e179, &t[7], &t[51], k);
+                        t[180][k] = rec::mul_after(e180, &t[4], &t[32], k);
+                        t[181][k] = rec::mul_after(e181, &t[1], &t[27], k);
+                        t[182][k] = t[179][k] + t[180][k];
+                        t[183][k] = t[182][k] + t[181][k];
+                        t[184][k] = t[183][k] * t[94][0];
+                        t[185][k] = t[178][k] + t[184][k];
+                        t[186][k] = t[176][k] - t[177][k];
+                        t[187][k] = t[186][k] - t[185][k];
+                        t[188][k] = rec::mul_after(e188, &t[2], &t[10], k);
+                        t[189][k] = rec::mul_after(e189, &t[5], &t[9], k);
+                        t[190][k] = rec::mul_after(e190, &t[86], &t[88], k);
+                        t[191][k] = rec::mul_after(e191, &t[8], &t[51], k);
+                        t[192][k] = rec::mul_after(e192, &t[5], &t[32], k);
+                        t[193][k] = rec::mul_after(e193, &t[2], &t[27], k);
+                        t[194][k] = t[191][k] + t[192][k];
+                        t[195][k] = t[194][k] + t[193][k];
+                        t[196][k] = t[195][k] * t[94][0];
+                        t[197][k] = t[190][k] + t[196][k];
+                        t[198][k] = t[188][k] - t[189][k];
+                        t[199][k] = t[198][k] - t[197][k];
+                        t[200][k] = rec::mul_after(e200, &t[10], &t[11], k);
+                        t[202][k] = t[200][k] * t[201][0];
+                        t[203][k] = rec::mul_after(e203, &t[9], &t[65], k);
+                        t[204][k] = rec::mul_after(e204, &t[2], &t[86], k);
+                        t[205][k] = rec::mul_after(e205, &t[1], &t[79], k);
+                        t[206][k] = rec::mul_after(e206, &t[0], &t[72], k);
+                        t[207][k] = t[204][k] + t[205][k];
+                        t[208][k] = t[207][k] + t[206][k];
+                        t[209][k] = t[208][k] * t[87][0];
+                        t[210][k] = t[203][k] + t[209][k];
+                        t[211][k] = t[210][k] * t[12][0];
+                        t[212][k] = t[202][k] - t[211][k];
+                        t[213][k] = rec::mul_after(e213, &t[9], &t[11], k);
+                        t[215][k] = t[213][k] * t[214][0];
+                        t[216][k] = rec::mul_after(e216, &t[10], &t[65], k);
+                        t[217][k] = rec::mul_after(e217, &t[5], &t[86], k);
+                        t[218][k] = rec::mul_after(e218, &t[4], &t[79], k);
+                        t[219][k] = rec::mul_after(e219, &t[3], &t[72], k);
+                        t[220][k] = t[217][k] + t[218][k];
+                        t[221][k] = t[220][k] + t[219][k];
+                        t[222][k] = t[221][k] * t[87][0];
+                        t[223][k] = t[216][k] + t[222][k];
+                        t[224][k] = t[223][k] * t[14][0];
+                        t[225][k] = t[215][k] - t[224][k];
+                        t[226][k] = rec::mul_after(e226, &t[9], &t[10], k);
+                        t[228][k] = t[226][k] * t[227][0];
+                        t[229][k] = rec::mul_after(e229, &t[11], &t[65], k);
+                        t[230][k] = rec::mul_after(e230, &t[8], &t[86], k);
+                        t[231][k] = rec::mul_after(e231, &t[7], &t[79], k);
+                        t[232][k] = rec::mul_after(e232, &t[6], &t[72], k);
+                        t[233][k] = t[230][k] + t[231][k];
+                        t[234][k] = t[233][k] + t[232][k];
+                        t[235][k] = t[234][k] * t[87][0];
+                        t[236][k] = t[229][k] + t[235][k];
+                        t[237][k] = t[236][k] * t[16][0];
+                        t[238][k] = t[228][k] - t[237][k];
+                    }
+                    let inv = 1.0 / (k as f64 + 1.0);
+                    t[0][k + 1] = t[103][k] * inv;
+                    t[1][k + 1] = t[115][k] * inv;
+                    t[2][k + 1] = t[127][k] * inv;
+                    t[3][k + 1] = t[139][k] * inv;
+                    t[4][k + 1] = t[151][k] * inv;
+                    t[5][k + 1] = t[163][k] * inv;
+                    t[6][k + 1] = t[175][k] * inv;
+                    t[7][k + 1] = t[187][k] * inv;
+                    t[8][k + 1] = t[199][k] * inv;
+                    t[9][k + 1] = t[212][k] * inv;
+                    t[10][k + 1] = t[225][k] * inv;
+                    t[11][k + 1] = t[238][k] * inv;
+                }
             }
         }
-    }
-    impl RigidBodyLanes {
-        /// `field` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn field<const K: usize>(
-            &self,
-            x: &[[f64; K]; 12],
-            out: &mut [[f64; K]; 12],
-        ) {
-            let h = &self.field;
-            let r0: [f64; K] = x[3];
-            let r1: [f64; K] = x[11];
-            let r2: [f64; K] = core::array::from_fn(|l| r0[l] * r1[l]);
-            let r3: [f64; K] = x[6];
-            let r4: [f64; K] = x[10];
-            let r5: [f64; K] = core::array::from_fn(|l| r3[l] * r4[l]);
-            let r6: [f64; K] = core::array::from_fn(|l| r2[l] - r5[l]);
-            let r7: [f64; K] = x[4];
-            let r8: [f64; K] = core::array::from_fn(|l| r7[l] * r1[l]);
-            let r9: [f64; K] = x[7];
-            let r10: [f64; K] = core::array::from_fn(|l| r9[l] * r4[l]);
-            let r11: [f64; K] = core::array::from_fn(|l| r8[l] - r10[l]);
-            let r12: [f64; K] = x[5];
-            let r13: [f64; K] = core::array::from_fn(|l| r12[l] * r1[l]);
-            let r14: [f64; K] = x[8];
-            let r15: [f64; K] = core::array::from_fn(|l| r14[l] * r4[l]);
-            let r16: [f64; K] = core::array::from_fn(|l| r13[l] - r15[l]);
-            let r17: [f64; K] = x[0];
-            let r18: [f64; K] = core::array::from_fn(|l| r17[l] * r1[l]);
-            let r19: [f64; K] = x[9];
-            let r20: [f64; K] = core::array::from_fn(|l| r3[l] * r19[l]);
-            let r21: [f64; K] = core::array::from_fn(|l| r20[l] - r18[l]);
-            let r22: [f64; K] = x[1];
-            let r23: [f64; K] = core::array::from_fn(|l| r22[l] * r1[l]);
-            let r24: [f64; K] = core::array::from_fn(|l| r9[l] * r19[l]);
-            let r25: [f64; K] = core::array::from_fn(|l| r24[l] - r23[l]);
-            let r26: [f64; K] = x[2];
-            let r27: [f64; K] = core::array::from_fn(|l| r26[l] * r1[l]);
-            let r28: [f64; K] = core::array::from_fn(|l| r14[l] * r19[l]);
-            let r29: [f64; K] = core::array::from_fn(|l| r28[l] - r27[l]);
-            let r30: [f64; K] = core::array::from_fn(|l| r17[l] * r4[l]);
-            let r31: [f64; K] = core::array::from_fn(|l| r0[l] * r19[l]);
-            let r32: [f64; K] = core::array::from_fn(|l| r30[l] - r31[l]);
-            let r33: [f64; K] = core::array::from_fn(|l| r22[l] * r4[l]);
-            let r34: [f64; K] = core::array::from_fn(|l| r7[l] * r19[l]);
-            let r35: [f64; K] = core::array::from_fn(|l| r33[l] - r34[l]);
-            let r36: [f64; K] = core::array::from_fn(|l| r26[l] * r4[l]);
-            let r37: [f64; K] = core::array::from_fn(|l| r12[l] * r19[l]);
-            let r38: [f64; K] = core::array::from_fn(|l| r36[l] - r37[l]);
-            let r39: [f64; K] = core::array::from_fn(|l| r4[l] * r1[l]);
-            let r40: [f64; K] = [h[0]; K];
-            let r41: [f64; K] = core::array::from_fn(|l| r39[l] * r40[l]);
-            let r42: [f64; K] = core::array::from_fn(|l| r19[l] * r1[l]);
-            let r43: [f64; K] = [h[1]; K];
-            let r44: [f64; K] = core::array::from_fn(|l| r42[l] * r43[l]);
-            let r45: [f64; K] = core::array::from_fn(|l| r19[l] * r4[l]);
-            let r46: [f64; K] = [h[2]; K];
-            let r47: [f64; K] = core::array::from_fn(|l| r45[l] * r46[l]);
-            out[0] = r6;
-            out[1] = r11;
-            out[2] = r16;
-            out[3] = r21;
-            out[4] = r25;
-            out[5] = r29;
-            out[6] = r32;
-            out[7] = r35;
-            out[8] = r38;
-            out[9] = r41;
-            out[10] = r44;
-            out[11] = r47;
+        /// The model's functions for K states per call (structure of arrays), reading the
+        /// parameter-only values of [`RigidBodyPrepared`](super::RigidBodyPrepared): see `RigidBodyPrepared::lanes`.
+        #[derive(Clone, Debug)]
+        pub struct Lanes {
+            prelude: Prelude,
         }
-        /// `invariants` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn invariants<const K: usize>(
-            &self,
-            x: &[[f64; K]; 12],
-            out: &mut [[f64; K]; 13],
-        ) {
-            let h = &self.invariants;
-            let r0: [f64; K] = x[9];
-            let r1: [f64; K] = [h[0]; K];
-            let r2: [f64; K] = core::array::from_fn(|l| r0[l] * r1[l]);
-            let r3: [f64; K] = x[10];
-            let r4: [f64; K] = [h[1]; K];
-            let r5: [f64; K] = core::array::from_fn(|l| r3[l] * r4[l]);
-            let r6: [f64; K] = x[11];
-            let r7: [f64; K] = [h[2]; K];
-            let r8: [f64; K] = core::array::from_fn(|l| r6[l] * r7[l]);
-            let r9: [f64; K] = x[0];
-            let r10: [f64; K] = x[3];
-            let r11: [f64; K] = core::array::from_fn(|l| r9[l] * r10[l]);
-            let r12: [f64; K] = x[1];
-            let r13: [f64; K] = x[4];
-            let r14: [f64; K] = core::array::from_fn(|l| r12[l] * r13[l]);
-            let r15: [f64; K] = x[2];
-            let r16: [f64; K] = x[5];
-            let r17: [f64; K] = core::array::from_fn(|l| r15[l] * r16[l]);
-            let r18: [f64; K] = core::array::from_fn(|l| r11[l] + r14[l]);
-            let r19: [f64; K] = core::array::from_fn(|l| r18[l] + r17[l]);
-            let r20: [f64; K] = x[6];
-            let r21: [f64; K] = core::array::from_fn(|l| r9[l] * r20[l]);
-            let r22: [f64; K] = x[7];
-            let r23: [f64; K] = core::array::from_fn(|l| r12[l] * r22[l]);
-            let r24: [f64; K] = x[8];
-            let r25: [f64; K] = core::array::from_fn(|l| r15[l] * r24[l]);
-            let r26: [f64; K] = core::array::from_fn(|l| r21[l] + r23[l]);
-            let r27: [f64; K] = core::array::from_fn(|l| r26[l] + r25[l]);
-            let r28: [f64; K] = core::array::from_fn(|l| r10[l] * r20[l]);
-            let r29: [f64; K] = core::array::from_fn(|l| r13[l] * r22[l]);
-            let r30: [f64; K] = core::array::from_fn(|l| r16[l] * r24[l]);
-            let r31: [f64; K] = core::array::from_fn(|l| r28[l] + r29[l]);
-            let r32: [f64; K] = core::array::from_fn(|l| r31[l] + r30[l]);
-            let r33: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
-            let r34: [f64; K] = core::array::from_fn(|l| r12[l].powi(2));
-            let r35: [f64; K] = core::array::from_fn(|l| r15[l].powi(2));
-            let r36: [f64; K] = core::array::from_fn(|l| r33[l] + r34[l]);
-            let r37: [f64; K] = core::array::from_fn(|l| r36[l] + r35[l]);
-            let r38: [f64; K] = [1.0_f64; K];
-            let r39: [f64; K] = core::array::from_fn(|l| r37[l] - r38[l]);
-            let r40: [f64; K] = core::array::from_fn(|l| r10[l].powi(2));
-            let r41: [f64; K] = core::array::from_fn(|l| r13[l].powi(2));
-            let r42: [f64; K] = core::array::from_fn(|l| r16[l].powi(2));
-            let r43: [f64; K] = core::array::from_fn(|l| r40[l] + r41[l]);
-            let r44: [f64; K] = core::array::from_fn(|l| r43[l] + r42[l]);
-            let r45: [f64; K] = core::array::from_fn(|l| r44[l] - r38[l]);
-            let r46: [f64; K] = core::array::from_fn(|l| r20[l].powi(2));
-            let r47: [f64; K] = core::array::from_fn(|l| r22[l].powi(2));
-            let r48: [f64; K] = core::array::from_fn(|l| r24[l].powi(2));
-            let r49: [f64; K] = core::array::from_fn(|l| r46[l] + r47[l]);
-            let r50: [f64; K] = core::array::from_fn(|l| r49[l] + r48[l]);
-            let r51: [f64; K] = core::array::from_fn(|l| r50[l] - r38[l]);
-            let r52: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
-            let r53: [f64; K] = core::array::from_fn(|l| r1[l] * r52[l]);
-            let r54: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
-            let r55: [f64; K] = core::array::from_fn(|l| r4[l] * r54[l]);
-            let r56: [f64; K] = core::array::from_fn(|l| r6[l].powi(2));
-            let r57: [f64; K] = core::array::from_fn(|l| r7[l] * r56[l]);
-            let r58: [f64; K] = core::array::from_fn(|l| r53[l] + r55[l]);
-            let r59: [f64; K] = core::array::from_fn(|l| r58[l] + r57[l]);
-            let r60: [f64; K] = [0.5_f64; K];
-            let r61: [f64; K] = core::array::from_fn(|l| r60[l] * r59[l]);
-            let r62: [f64; K] = core::array::from_fn(|l| r9[l] * r2[l]);
-            let r63: [f64; K] = core::array::from_fn(|l| r10[l] * r5[l]);
-            let r64: [f64; K] = core::array::from_fn(|l| r20[l] * r8[l]);
-            let r65: [f64; K] = core::array::from_fn(|l| r62[l] + r63[l]);
-            let r66: [f64; K] = core::array::from_fn(|l| r65[l] + r64[l]);
-            let r67: [f64; K] = core::array::from_fn(|l| r12[l] * r2[l]);
-            let r68: [f64; K] = core::array::from_fn(|l| r13[l] * r5[l]);
-            let r69: [f64; K] = core::array::from_fn(|l| r22[l] * r8[l]);
-            let r70: [f64; K] = core::array::from_fn(|l| r67[l] + r68[l]);
-            let r71: [f64; K] = core::array::from_fn(|l| r70[l] + r69[l]);
-            let r72: [f64; K] = core::array::from_fn(|l| r15[l] * r2[l]);
-            let r73: [f64; K] = core::array::from_fn(|l| r16[l] * r5[l]);
-            let r74: [f64; K] = core::array::from_fn(|l| r24[l] * r8[l]);
-            let r75: [f64; K] = core::array::from_fn(|l| r72[l] + r73[l]);
-            let r76: [f64; K] = core::array::from_fn(|l| r75[l] + r74[l]);
-            out[0] = r39;
-            out[1] = r19;
-            out[2] = r27;
-            out[3] = r19;
-            out[4] = r45;
-            out[5] = r32;
-            out[6] = r27;
-            out[7] = r32;
-            out[8] = r51;
-            out[9] = r61;
-            out[10] = r66;
-            out[11] = r71;
-            out[12] = r76;
-        }
-        /// `jacobian` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn jacobian<const K: usize>(
-            &self,
-            x: &[[f64; K]; 12],
-            out: &mut [[f64; K]; 156],
-        ) {
-            let h = &self.jacobian;
-            let r0: [f64; K] = x[9];
-            let r1: [f64; K] = [h[0]; K];
-            let r2: [f64; K] = core::array::from_fn(|l| r0[l] * r1[l]);
-            let r3: [f64; K] = x[10];
-            let r4: [f64; K] = [h[1]; K];
-            let r5: [f64; K] = core::array::from_fn(|l| r3[l] * r4[l]);
-            let r6: [f64; K] = x[11];
-            let r7: [f64; K] = [h[2]; K];
-            let r8: [f64; K] = core::array::from_fn(|l| r6[l] * r7[l]);
-            let r9: [f64; K] = x[0];
-            let r10: [f64; K] = [2.0_f64; K];
-            let r11: [f64; K] = core::array::from_fn(|l| r10[l] * r9[l]);
-            let r12: [f64; K] = x[1];
-            let r13: [f64; K] = core::array::from_fn(|l| r10[l] * r12[l]);
-            let r14: [f64; K] = x[2];
-            let r15: [f64; K] = core::array::from_fn(|l| r10[l] * r14[l]);
-            let r16: [f64; K] = x[3];
-            let r17: [f64; K] = x[4];
-            let r18: [f64; K] = x[5];
-            let r19: [f64; K] = x[6];
-            let r20: [f64; K] = x[7];
-            let r21: [f64; K] = x[8];
-            let r22: [f64; K] = core::array::from_fn(|l| r10[l] * r16[l]);
-            let r23: [f64; K] = core::array::from_fn(|l| r10[l] * r17[l]);
-            let r24: [f64; K] = core::array::from_fn(|l| r10[l] * r18[l]);
-            let r25: [f64; K] = core::array::from_fn(|l| r10[l] * r19[l]);
-            let r26: [f64; K] = core::array::from_fn(|l| r10[l] * r20[l]);
-            let r27: [f64; K] = core::array::from_fn(|l| r10[l] * r21[l]);
-            let r28: [f64; K] = core::array::from_fn(|l| r9[l] * r1[l]);
-            let r29: [f64; K] = core::array::from_fn(|l| r16[l] * r4[l]);
-            let r30: [f64; K] = core::array::from_fn(|l| r19[l] * r7[l]);
-            let r31: [f64; K] = core::array::from_fn(|l| r12[l] * r1[l]);
-            let r32: [f64; K] = core::array::from_fn(|l| r17[l] * r4[l]);
-            let r33: [f64; K] = core::array::from_fn(|l| r20[l] * r7[l]);
-            let r34: [f64; K] = core::array::from_fn(|l| r14[l] * r1[l]);
-            let r35: [f64; K] = core::array::from_fn(|l| r18[l] * r4[l]);
-            let r36: [f64; K] = core::array::from_fn(|l| r21[l] * r7[l]);
-            let r37: [f64; K] = [0.0_f64; K];
-            out[0] = r11;
-            out[1] = r13;
-            out[2] = r15;
-            out[3] = r37;
-            out[4] = r37;
-            out[5] = r37;
-            out[6] = r37;
-            out[7] = r37;
-            out[8] = r37;
-            out[9] = r37;
-            out[10] = r37;
-            out[11] = r37;
-            out[12] = r16;
-            out[13] = r17;
-            out[14] = r18;
-            out[15] = r9;
-            out[16] = r12;
-            out[17] = r14;
-            out[18] = r37;
-            out[19] = r37;
-            out[20] = r37;
-            out[21] = r37;
-            out[22] = r37;
-            out[23] = r37;
-            out[24] = r19;
-            out[25] = r20;
-            out[26] = r21;
-            out[27] = r37;
-            out[28] = r37;
-            out[29] = r37;
-            out[30] = r9;
-            out[31] = r12;
-            out[32] = r14;
-            out[33] = r37;
-            out[34] = r37;
-            out[35] = r37;
-            out[36] = r16;
-            out[37] = r17;
-            out[38] = r18;
-            out[39] = r9;
-            out[40] = r12;
-            out[41] = r14;
-            out[42] = r37;
-            out[43] = r37;
-            out[44] = r37;
-            out[45] = r37;
-            out[46] = r37;
-            out[47] = r37;
-            out[48] = r37;
-            out[49] = r37;
-            out[50] = r37;
-            out[51] = r22;
-            out[52] = r23;
-            out[53] = r24;
-            out[54] = r37;
-            out[55] = r37;
-            out[56] = r37;
-            out[57] = r37;
-            out[58] = r37;
-            out[59] = r37;
-            out[60] = r37;
-            out[61] = r37;
-            out[62] = r37;
-            out[63] = r19;
-            out[64] = r20;
-            out[65] = r21;
-            out[66] = r16;
-            out[67] = r17;
-            out[68] = r18;
-            out[69] = r37;
-            out[70] = r37;
-            out[71] = r37;
-            out[72] = r19;
-            out[73] = r20;
-            out[74] = r21;
-            out[75] = r37;
-            out[76] = r37;
-            out[77] = r37;
-            out[78] = r9;
-            out[79] = r12;
-            out[80] = r14;
-            out[81] = r37;
-            out[82] = r37;
-            out[83] = r37;
-            out[84] = r37;
-            out[85] = r37;
-            out[86] = r37;
-            out[87] = r19;
-            out[88] = r20;
-            out[89] = r21;
-            out[90] = r16;
-            out[91] = r17;
-            out[92] = r18;
-            out[93] = r37;
-            out[94] = r37;
-            out[95] = r37;
-            out[96] = r37;
-            out[97] = r37;
-            out[98] = r37;
-            out[99] = r37;
-            out[100] = r37;
-            out[101] = r37;
-            out[102] = r25;
-            out[103] = r26;
-            out[104] = r27;
-            out[105] = r37;
-            out[106] = r37;
-            out[107] = r37;
-            out[108] = r37;
-            out[109] = r37;
-            out[110] = r37;
-            out[111] = r37;
-            out[112] = r37;
-            out[113] = r37;
-            out[114] = r37;
-            out[115] = r37;
-            out[116] = r37;
-            out[117] = r2;
-            out[118] = r5;
-            out[119] = r8;
-            out[120] = r2;
-            out[121] = r37;
-            out[122] = r37;
-            out[123] = r5;
-            out[124] = r37;
-            out[125] = r37;
-            out[126] = r8;
-            out[127] = r37;
-            out[128] = r37;
-            out[129] = r28;
-            out[130] = r29;
-            out[131] = r30;
-            out[132] = r37;
-            out[133] = r2;
-            out[134] = r37;
-            out[135] = r37;
-            out[136] = r5;
-            out[137] = r37;
-            out[138] = r37;
-            out[139] = r8;
-            out[140] = r37;
-            out[141] = r31;
-            out[142] = r32;
-            out[143] = r33;
-            out[144] = r37;
-            out[145] = r37;
-            out[146] = r2;
-            out[147] = r37;
-            out[148] = r37;
-            out[149] = r5;
-            out[150] = r37;
-            out[151] = r37;
-            out[152] = r8;
-            out[153] = r34;
-            out[154] = r35;
-            out[155] = r36;
-        }
-        /// `lyapunov` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn lyapunov<const K: usize>(
-            &self,
-            x: &[[f64; K]; 12],
-            target: &[f64; 13],
-            gains: &[f64; 3],
-            out: &mut [[f64; K]; 1],
-        ) {
-            let h = &self.lyapunov;
-            let r0: [f64; K] = x[9];
-            let r1: [f64; K] = [h[0]; K];
-            let r2: [f64; K] = core::array::from_fn(|l| r0[l] * r1[l]);
-            let r3: [f64; K] = x[10];
-            let r4: [f64; K] = [h[1]; K];
-            let r5: [f64; K] = core::array::from_fn(|l| r3[l] * r4[l]);
-            let r6: [f64; K] = x[11];
-            let r7: [f64; K] = [h[2]; K];
-            let r8: [f64; K] = core::array::from_fn(|l| r6[l] * r7[l]);
-            let r9: [f64; K] = [gains[0]; K];
-            let r10: [f64; K] = x[0];
-            let r11: [f64; K] = core::array::from_fn(|l| r10[l].powi(2));
-            let r12: [f64; K] = x[1];
-            let r13: [f64; K] = core::array::from_fn(|l| r12[l].powi(2));
-            let r14: [f64; K] = x[2];
-            let r15: [f64; K] = core::array::from_fn(|l| r14[l].powi(2));
-            let r16: [f64; K] = core::array::from_fn(|l| r11[l] + r13[l]);
-            let r17: [f64; K] = core::array::from_fn(|l| r16[l] + r15[l]);
-            let r18: [f64; K] = [1.0_f64; K];
-            let r19: [f64; K] = core::array::from_fn(|l| r17[l] - r18[l]);
-            let r20: [f64; K] = core::array::from_fn(|l| r19[l].powi(2));
-            let r21: [f64; K] = x[3];
-            let r22: [f64; K] = core::array::from_fn(|l| r21[l].powi(2));
-            let r23: [f64; K] = x[4];
-            let r24: [f64; K] = core::array::from_fn(|l| r23[l].powi(2));
-            let r25: [f64; K] = x[5];
-            let r26: [f64; K] = core::array::from_fn(|l| r25[l].powi(2));
-            let r27: [f64; K] = core::array::from_fn(|l| r22[l] + r24[l]);
-            let r28: [f64; K] = core::array::from_fn(|l| r27[l] + r26[l]);
-            let r29: [f64; K] = core::array::from_fn(|l| r28[l] - r18[l]);
-            let r30: [f64; K] = core::array::from_fn(|l| r29[l].powi(2));
-            let r31: [f64; K] = x[6];
-            let r32: [f64; K] = core::array::from_fn(|l| r31[l].powi(2));
-            let r33: [f64; K] = x[7];
-            let r34: [f64; K] = core::array::from_fn(|l| r33[l].powi(2));
-            let r35: [f64; K] = x[8];
-            let r36: [f64; K] = core::array::from_fn(|l| r35[l].powi(2));
-            let r37: [f64; K] = core::array::from_fn(|l| r32[l] + r34[l]);
-            let r38: [f64; K] = core::array::from_fn(|l| r37[l] + r36[l]);
-            let r39: [f64; K] = core::array::from_fn(|l| r38[l] - r18[l]);
-            let r40: [f64; K] = core::array::from_fn(|l| r39[l].powi(2));
-            let r41: [f64; K] = core::array::from_fn(|l| r10[l] * r21[l]);
-            let r42: [f64; K] = core::array::from_fn(|l| r12[l] * r23[l]);
-            let r43: [f64; K] = core::array::from_fn(|l| r14[l] * r25[l]);
-            let r44: [f64; K] = core::array::from_fn(|l| r41[l] + r42[l]);
-            let r45: [f64; K] = core::array::from_fn(|l| r44[l] + r43[l]);
-            let r46: [f64; K] = core::array::from_fn(|l| r45[l].powi(2));
-            let r47: [f64; K] = [2.0_f64; K];
-            let r48: [f64; K] = core::array::from_fn(|l| r47[l] * r46[l]);
-            let r49: [f64; K] = core::array::from_fn(|l| r10[l] * r31[l]);
-            let r50: [f64; K] = core::array::from_fn(|l| r12[l] * r33[l]);
-            let r51: [f64; K] = core::array::from_fn(|l| r14[l] * r35[l]);
-            let r52: [f64; K] = core::array::from_fn(|l| r49[l] + r50[l]);
-            let r53: [f64; K] = core::array::from_fn(|l| r52[l] + r51[l]);
-            let r54: [f64; K] = core::array::from_fn(|l| r53[l].powi(2));
-            let r55: [f64; K] = core::array::from_fn(|l| r47[l] * r54[l]);
-            let r56: [f64; K] = core::array::from_fn(|l| r21[l] * r31[l]);
-            let r57: [f64; K] = core::array::from_fn(|l| r23[l] * r33[l]);
-            let r58: [f64; K] = core::array::from_fn(|l| r25[l] * r35[l]);
-            let r59: [f64; K] = core::array::from_fn(|l| r56[l] + r57[l]);
-            let r60: [f64; K] = core::array::from_fn(|l| r59[l] + r58[l]);
-            let r61: [f64; K] = core::array::from_fn(|l| r60[l].powi(2));
-            let r62: [f64; K] = core::array::from_fn(|l| r47[l] * r61[l]);
-            let r63: [f64; K] = core::array::from_fn(|l| r20[l] + r30[l]);
-            let r64: [f64; K] = core::array::from_fn(|l| r63[l] + r40[l]);
-            let r65: [f64; K] = core::array::from_fn(|l| r64[l] + r48[l]);
-            let r66: [f64; K] = core::array::from_fn(|l| r65[l] + r55[l]);
-            let r67: [f64; K] = core::array::from_fn(|l| r66[l] + r62[l]);
-            let r68: [f64; K] = [0.25_f64; K];
-            let r69: [f64; K] = core::array::from_fn(|l| r68[l] * r9[l]);
-            let r70: [f64; K] = core::array::from_fn(|l| r69[l] * r67[l]);
-            let r71: [f64; K] = [gains[1]; K];
-            let r72: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
-            let r73: [f64; K] = core::array::from_fn(|l| r1[l] * r72[l]);
-            let r74: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
-            let r75: [f64; K] = core::array::from_fn(|l| r4[l] * r74[l]);
-            let r76: [f64; K] = core::array::from_fn(|l| r6[l].powi(2));
-            let r77: [f64; K] = core::array::from_fn(|l| r7[l] * r76[l]);
-            let r78: [f64; K] = core::array::from_fn(|l| r73[l] + r75[l]);
-            let r79: [f64; K] = core::array::from_fn(|l| r78[l] + r77[l]);
-            let r80: [f64; K] = [0.5_f64; K];
-            let r81: [f64; K] = core::array::from_fn(|l| r80[l] * r79[l]);
-            let r82: [f64; K] = [target[9]; K];
-            let r83: [f64; K] = core::array::from_fn(|l| r81[l] - r82[l]);
-            let r84: [f64; K] = core::array::from_fn(|l| r83[l].powi(2));
-            let r85: [f64; K] = core::array::from_fn(|l| r80[l] * r71[l]);
-            let r86: [f64; K] = core::array::from_fn(|l| r85[l] * r84[l]);
-            let r87: [f64; K] = [gains[2]; K];
-            let r88: [f64; K] = core::array::from_fn(|l| r10[l] * r2[l]);
-            let r89: [f64; K] = core::array::from_fn(|l| r21[l] * r5[l]);
-            let r90: [f64; K] = core::array::from_fn(|l| r31[l] * r8[l]);
-            let r91: [f64; K] = [target[10]; K];
-            let r92: [f64; K] = core::array::from_fn(|l| r88[l] + r89[l]);
-            let r93: [f64; K] = core::array::from_fn(|l| r92[l] + r90[l]);
-            let r94: [f64; K] = core::array::from_fn(|l| r93[l] - r91[l]);
-            let r95: [f64; K] = core::array::from_fn(|l| r94[l].powi(2));
-            let r96: [f64; K] = core::array::from_fn(|l| r12[l] * r2[l]);
-            let r97: [f64; K] = core::array::from_fn(|l| r23[l] * r5[l]);
-            let r98: [f64; K] = core::array::from_fn(|l| r33[l] * r8[l]);
-            let r99: [f64; K] = [target[11]; K];
-            let r100: [f64; K] = core::array::from_fn(|l| r96[l] + r97[l]);
-            let r101: [f64; K] = core::array::from_fn(|l| r100[l] + r98[l]);
-            let r102: [f64; K] = core::array::from_fn(|l| r101[l] - r99[l]);
-            let r103: [f64; K] = core::array::from_fn(|l| r102[l].powi(2));
-            let r104: [f64; K] = core::array::from_fn(|l| r14[l] * r2[l]);
-            let r105: [f64; K] = core::array::from_fn(|l| r25[l] * r5[l]);
-            let r106: [f64; K] = core::array::from_fn(|l| r35[l] * r8[l]);
-            let r107: [f64; K] = [target[12]; K];
-            let r108: [f64; K] = core::array::from_fn(|l| r104[l] + r105[l]);
-            let r109: [f64; K] = core::array::from_fn(|l| r108[l] + r106[l]);
-            let r110: [f64; K] = core::array::from_fn(|l| r109[l] - r107[l]);
-            let r111: [f64; K] = core::array::from_fn(|l| r110[l].powi(2));
-            let r112: [f64; K] = core::array::from_fn(|l| r95[l] + r103[l]);
-            let r113: [f64; K] = core::array::from_fn(|l| r112[l] + r111[l]);
-            let r114: [f64; K] = core::array::from_fn(|l| r80[l] * r87[l]);
-            let r115: [f64; K] = core::array::from_fn(|l| r114[l] * r113[l]);
-            let r116: [f64; K] = core::array::from_fn(|l| r70[l] + r86[l]);
-            let r117: [f64; K] = core::array::from_fn(|l| r116[l] + r115[l]);
-            out[0] = r117;
-        }
-        /// `lyapunov_gradient` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn lyapunov_gradient<const K: usize>(
-            &self,
-            x: &[[f64; K]; 12],
-            target: &[f64; 13],
-            gains: &[f64; 3],
-            out: &mut [[f64; K]; 12],
-        ) {
-            let h = &self.lyapunov_gradient;
-            let r0: [f64; K] = x[9];
-            let r1: [f64; K] = [h[0]; K];
-            let r2: [f64; K] = core::array::from_fn(|l| r0[l] * r1[l]);
-            let r3: [f64; K] = x[10];
-            let r4: [f64; K] = [h[1]; K];
-            let r5: [f64; K] = core::array::from_fn(|l| r3[l] * r4[l]);
-            let r6: [f64; K] = x[11];
-            let r7: [f64; K] = [h[2]; K];
-            let r8: [f64; K] = core::array::from_fn(|l| r6[l] * r7[l]);
-            let r9: [f64; K] = x[0];
-            let r10: [f64; K] = x[3];
-            let r11: [f64; K] = core::array::from_fn(|l| r9[l] * r10[l]);
-            let r12: [f64; K] = x[1];
-            let r13: [f64; K] = x[4];
-            let r14: [f64; K] = core::array::from_fn(|l| r12[l] * r13[l]);
-            let r15: [f64; K] = x[2];
-            let r16: [f64; K] = x[5];
-            let r17: [f64; K] = core::array::from_fn(|l| r15[l] * r16[l]);
-            let r18: [f64; K] = core::array::from_fn(|l| r11[l] + r14[l]);
-            let r19: [f64; K] = core::array::from_fn(|l| r18[l] + r17[l]);
-            let r20: [f64; K] = x[6];
-            let r21: [f64; K] = core::array::from_fn(|l| r9[l] * r20[l]);
-            let r22: [f64; K] = x[7];
-            let r23: [f64; K] = core::array::from_fn(|l| r12[l] * r22[l]);
-            let r24: [f64; K] = x[8];
-            let r25: [f64; K] = core::array::from_fn(|l| r15[l] * r24[l]);
-            let r26: [f64; K] = core::array::from_fn(|l| r21[l] + r23[l]);
-            let r27: [f64; K] = core::array::from_fn(|l| r26[l] + r25[l]);
-            let r28: [f64; K] = core::array::from_fn(|l| r10[l] * r20[l]);
-            let r29: [f64; K] = core::array::from_fn(|l| r13[l] * r22[l]);
-            let r30: [f64; K] = core::array::from_fn(|l| r16[l] * r24[l]);
-            let r31: [f64; K] = core::array::from_fn(|l| r28[l] + r29[l]);
-            let r32: [f64; K] = core::array::from_fn(|l| r31[l] + r30[l]);
-            let r33: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
-            let r34: [f64; K] = core::array::from_fn(|l| r12[l].powi(2));
-            let r35: [f64; K] = core::array::from_fn(|l| r15[l].powi(2));
-            let r36: [f64; K] = core::array::from_fn(|l| r33[l] + r34[l]);
-            let r37: [f64; K] = core::array::from_fn(|l| r36[l] + r35[l]);
-            let r38: [f64; K] = [1.0_f64; K];
-            let r39: [f64; K] = core::array::from_fn(|l| r37[l] - r38[l]);
-            let r40: [f64; K] = core::array::from_fn(|l| r10[l].powi(2));
-            let r41: [f64; K] = core::array::from_fn(|l| r13[l].powi(2));
-            let r42: [f64; K] = core::array::from_fn(|l| r16[l].powi(2));
-            let r43: [f64; K] = core::array::from_fn(|l| r40[l] + r41[l]);
-            let r44: [f64; K] = core::array::from_fn(|l| r43[l] + r42[l]);
-            let r45: [f64; K] = core::array::from_fn(|l| r44[l] - r38[l]);
-            let r46: [f64; K] = core::array::from_fn(|l| r20[l].powi(2));
-            let r47: [f64; K] = core::array::from_fn(|l| r22[l].powi(2));
-            let r48: [f64; K] = core::array::from_fn(|l| r24[l].powi(2));
-            let r49: [f64; K] = core::array::from_fn(|l| r46[l] + r47[l]);
-            let r50: [f64; K] = core::array::from_fn(|l| r49[l] + r48[l]);
-            let r51: [f64; K] = core::array::from_fn(|l| r50[l] - r38[l]);
-            let r52: [f64; K] = [gains[1]; K];
-            let r53: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
-            let r54: [f64; K] = core::array::from_fn(|l| r1[l] * r53[l]);
-            let r55: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
-            let r56: [f64; K] = core::array::from_fn(|l| r4[l] * r55[l]);
-            let r57: [f64; K] = core::array::from_fn(|l| r6[l].powi(2));
-            let r58: [f64; K] = core::array::from_fn(|l| r7[l] * r57[l]);
-            let r59: [f64; K] = core::array::from_fn(|l| r54[l] + r56[l]);
-            let r60: [f64; K] = core::array::from_fn(|l| r59[l] + r58[l]);
-            let r61: [f64; K] = [0.5_f64; K];
-            let r62: [f64; K] = core::array::from_fn(|l| r61[l] * r60[l]);
-            let r63: [f64; K] = [target[9]; K];
-            let r64: [f64; K] = core::array::from_fn(|l| r62[l] - r63[l]);
-            let r65: [f64; K] = core::array::from_fn(|l| r52[l] * r64[l]);
-            let r66: [f64; K] = core::array::from_fn(|l| r9[l] * r2[l]);
-            let r67: [f64; K] = core::array::from_fn(|l| r10[l] * r5[l]);
-            let r68: [f64; K] = core::array::from_fn(|l| r20[l] * r8[l]);
-            let r69: [f64; K] = [target[10]; K];
-            let r70: [f64; K] = core::array::from_fn(|l| r66[l] + r67[l]);
-            let r71: [f64; K] = core::array::from_fn(|l| r70[l] + r68[l]);
-            let r72: [f64; K] = core::array::from_fn(|l| r71[l] - r69[l]);
-            let r73: [f64; K] = core::array::from_fn(|l| r12[l] * r2[l]);
-            let r74: [f64; K] = core::array::from_fn(|l| r13[l] * r5[l]);
-            let r75: [f64; K] = core::array::from_fn(|l| r22[l] * r8[l]);
-            let r76: [f64; K] = [target[11]; K];
-            let r77: [f64; K] = core::array::from_fn(|l| r73[l] + r74[l]);
-            let r78: [f64; K] = core::array::from_fn(|l| r77[l] + r75[l]);
-            let r79: [f64; K] = core::array::from_fn(|l| r78[l] - r76[l]);
-            let r80: [f64; K] = core::array::from_fn(|l| r15[l] * r2[l]);
-            let r81: [f64; K] = core::array::from_fn(|l| r16[l] * r5[l]);
-            let r82: [f64; K] = core::array::from_fn(|l| r24[l] * r8[l]);
-            let r83: [f64; K] = [target[12]; K];
-            let r84: [f64; K] = core::array::from_fn(|l| r80[l] + r81[l]);
-            let r85: [f64; K] = core::array::from_fn(|l| r84[l] + r82[l]);
-            let r86: [f64; K] = core::array::from_fn(|l| r85[l] - r83[l]);
-            let r87: [f64; K] = [gains[2]; K];
-            let r88: [f64; K] = core::array::from_fn(|l| r8[l] * r87[l]);
-            let r89: [f64; K] = core::array::from_fn(|l| r5[l] * r87[l]);
-            let r90: [f64; K] = core::array::from_fn(|l| r2[l] * r87[l]);
-            let r91: [f64; K] = core::array::from_fn(|l| r72[l] * r90[l]);
-            let r92: [f64; K] = [gains[0]; K];
-            let r93: [f64; K] = core::array::from_fn(|l| r20[l] * r27[l]);
-            let r94: [f64; K] = core::array::from_fn(|l| r10[l] * r19[l]);
-            let r95: [f64; K] = core::array::from_fn(|l| r9[l] * r39[l]);
-            let r96: [f64; K] = core::array::from_fn(|l| r93[l] + r94[l]);
-            let r97: [f64; K] = core::array::from_fn(|l| r96[l] + r95[l]);
-            let r98: [f64; K] = core::array::from_fn(|l| r92[l] * r97[l]);
-            let r99: [f64; K] = core::array::from_fn(|l| r91[l] + r98[l]);
-            let r100: [f64; K] = core::array::from_fn(|l| r79[l] * r90[l]);
-            let r101: [f64; K] = core::array::from_fn(|l| r22[l] * r27[l]);
-            let r102: [f64; K] = core::array::from_fn(|l| r13[l] * r19[l]);
-            let r103: [f64; K] = core::array::from_fn(|l| r12[l] * r39[l]);
-            let r104: [f64; K] = core::array::from_fn(|l| r101[l] + r102[l]);
-            let r105: [f64; K] = core::array::from_fn(|l| r104[l] + r103[l]);
-            let r106: [f64; K] = core::array::from_fn(|l| r92[l] * r105[l]);
-            let r107: [f64; K] = core::array::from_fn(|l| r100[l] + r106[l]);
-            let r108: [f64; K] = core::array::from_fn(|l| r86[l] * r90[l]);
-            let r109: [f64; K] = core::array::from_fn(|l| r24[l] * r27[l]);
-            let r110: [f64; K] = core::array::from_fn(|l| r16[l] * r19[l]);
-            let r111: [f64; K] = core::array::from_fn(|l| r15[l] * r39[l]);
-            let r112: [f64; K] = core::array::from_fn(|l| r109[l] + r110[l]);
-            let r113: [f64; K] = core::array::from_fn(|l| r112[l] + r111[l]);
-            let r114: [f64; K] = core::array::from_fn(|l| r92[l] * r113[l]);
-            let r115: [f64; K] = core::array::from_fn(|l| r108[l] + r114[l]);
-            let r116: [f64; K] = core::array::from_fn(|l| r72[l] * r89[l]);
-            let r117: [f64; K] = core::array::from_fn(|l| r20[l] * r32[l]);
-            let r118: [f64; K] = core::array::from_fn(|l| r10[l] * r45[l]);
-            let r119: [f64; K] = core::array::from_fn(|l| r9[l] * r19[l]);
-            let r120: [f64; K] = core::array::from_fn(|l| r117[l] + r118[l]);
-            let r121: [f64; K] = core::array::from_fn(|l| r120[l] + r119[l]);
-            let r122: [f64; K] = core::array::from_fn(|l| r92[l] * r121[l]);
-            let r123: [f64; K] = core::array::from_fn(|l| r116[l] + r122[l]);
-            let r124: [f64; K] = core::array::from_fn(|l| r79[l] * r89[l]);
-            let r125: [f64; K] = core::array::from_fn(|l| r22[l] * r32[l]);
-            let r126: [f64; K] = core::array::from_fn(|l| r13[l] * r45[l]);
-            let r127: [f64; K] = core::array::from_fn(|l| r12[l] * r19[l]);
-            let r128: [f64; K] = core::array::from_fn(|l| r125[l] + r126[l]);
-            let r129: [f64; K] = core::array::from_fn(|l| r128[l] + r127[l]);
-            let r130: [f64; K] = core::array::from_fn(|l| r92[l] * r129[l]);
-            let r131: [f64; K] = core::array::from_fn(|l| r124[l] + r130[l]);
-            let r132: [f64; K] = core::array::from_fn(|l| r86[l] * r89[l]);
-            let r133: [f64; K] = core::array::from_fn(|l| r24[l] * r32[l]);
-            let r134: [f64; K] = core::array::from_fn(|l| r16[l] * r45[l]);
-            let r135: [f64; K] = core::array::from_fn(|l| r15[l] * r19[l]);
-            let r136: [f64; K] = core::array::from_fn(|l| r133[l] + r134[l]);
-            let r137: [f64; K] = core::array::from_fn(|l| r136[l] + r135[l]);
-            let r138: [f64; K] = core::array::from_fn(|l| r92[l] * r137[l]);
-            let r139: [f64; K] = core::array::from_fn(|l| r132[l] + r138[l]);
-            let r140: [f64; K] = core::array::from_fn(|l| r72[l] * r88[l]);
-            let r141: [f64; K] = core::array::from_fn(|l| r20[l] * r51[l]);
-            let r142: [f64; K] = core::array::from_fn(|l| r10[l] * r32[l]);
-            let r143: [f64; K] = core::array::from_fn(|l| r9[l] * r27[l]);
-            let r144: [f64; K] = core::array::from_fn(|l| r141[l] + r142[l]);
-            let r145: [f64; K] = core::array::from_fn(|l| r144[l] + r143[l]);
-            let r146: [f64; K] = core::array::from_fn(|l| r92[l] * r145[l]);
-            let r147: [f64; K] = core::array::from_fn(|l| r140[l] + r146[l]);
-            let r148: [f64; K] = core::array::from_fn(|l| r79[l] * r88[l]);
-            let r149: [f64; K] = core::array::from_fn(|l| r22[l] * r51[l]);
-            let r150: [f64; K] = core::array::from_fn(|l| r13[l] * r32[l]);
-            let r151: [f64; K] = core::array::from_fn(|l| r12[l] * r27[l]);
-            let r152: [f64; K] = core::array::from_fn(|l| r149[l] + r150[l]);
-            let r153: [f64; K] = core::array::from_fn(|l| r152[l] + r151[l]);
-            let r154: [f64; K] = core::array::from_fn(|l| r92[l] * r153[l]);
-            let r155: [f64; K] = core::array::from_fn(|l| r148[l] + r154[l]);
-            let r156: [f64; K] = core::array::from_fn(|l| r86[l] * r88[l]);
-            let r157: [f64; K] = core::array::from_fn(|l| r24[l] * r51[l]);
-            let r158: [f64; K] = core::array::from_fn(|l| r16[l] * r32[l]);
-            let r159: [f64; K] = core::array::from_fn(|l| r15[l] * r27[l]);
-            let r160: [f64; K] = core::array::from_fn(|l| r157[l] + r158[l]);
-            let r161: [f64; K] = core::array::from_fn(|l| r160[l] + r159[l]);
-            let r162: [f64; K] = core::array::from_fn(|l| r92[l] * r161[l]);
-            let r163: [f64; K] = core::array::from_fn(|l| r156[l] + r162[l]);
-            let r164: [f64; K] = core::array::from_fn(|l| r0[l] * r65[l]);
-            let r165: [f64; K] = core::array::from_fn(|l| r15[l] * r86[l]);
-            let r166: [f64; K] = core::array::from_fn(|l| r12[l] * r79[l]);
-            let r167: [f64; K] = core::array::from_fn(|l| r9[l] * r72[l]);
-            let r168: [f64; K] = core::array::from_fn(|l| r165[l] + r166[l]);
-            let r169: [f64; K] = core::array::from_fn(|l| r168[l] + r167[l]);
-            let r170: [f64; K] = core::array::from_fn(|l| r87[l] * r169[l]);
-            let r171: [f64; K] = core::array::from_fn(|l| r164[l] + r170[l]);
-            let r172: [f64; K] = core::array::from_fn(|l| r1[l] * r171[l]);
-            let r173: [f64; K] = core::array::from_fn(|l| r3[l] * r65[l]);
-            let r174: [f64; K] = core::array::from_fn(|l| r16[l] * r86[l]);
-            let r175: [f64; K] = core::array::from_fn(|l| r13[l] * r79[l]);
-            let r176: [f64; K] = core::array::from_fn(|l| r10[l] * r72[l]);
-            let r177: [f64; K] = core::array::from_fn(|l| r174[l] + r175[l]);
-            let r178: [f64; K] = core::array::from_fn(|l| r177[l] + r176[l]);
-            let r179: [f64; K] = core::array::from_fn(|l| r87[l] * r178[l]);
-            let r180: [f64; K] = core::array::from_fn(|l| r173[l] + r179[l]);
-            let r181: [f64; K] = core::array::from_fn(|l| r4[l] * r180[l]);
-            let r182: [f64; K] = core::array::from_fn(|l| r6[l] * r65[l]);
-            let r183: [f64; K] = core::array::from_fn(|l| r24[l] * r86[l]);
-            let r184: [f64; K] = core::array::from_fn(|l| r22[l] * r79[l]);
-            let r185: [f64; K] = core::array::from_fn(|l| r20[l] * r72[l]);
-            let r186: [f64; K] = core::array::from_fn(|l| r183[l] + r184[l]);
-            let r187: [f64; K] = core::array::from_fn(|l| r186[l] + r185[l]);
-            let r188: [f64; K] = core::array::from_fn(|l| r87[l] * r187[l]);
-            let r189: [f64; K] = core::array::from_fn(|l| r182[l] + r188[l]);
-            let r190: [f64; K] = core::array::from_fn(|l| r7[l] * r189[l]);
-            out[0] = r99;
-            out[1] = r107;
-            out[2] = r115;
-            out[3] = r123;
-            out[4] = r131;
-            out[5] = r139;
-            out[6] = r147;
-            out[7] = r155;
-            out[8] = r163;
-            out[9] = r172;
-            out[10] = r181;
-            out[11] = r190;
-        }
-        /// `feedback` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
-        /// of lane l; each lane equals the scalar function bitwise.
-        #[allow(unused_variables, clippy::all)]
-        pub fn feedback<const K: usize>(
-            &self,
-            x: &[[f64; K]; 12],
-            target: &[f64; 13],
-            gains: &[f64; 3],
-            out: &mut [[f64; K]; 12],
-        ) {
-            let h = &self.feedback;
-            let r0: [f64; K] = x[9];
-            let r1: [f64; K] = [h[0]; K];
-            let r2: [f64; K] = core::array::from_fn(|l| r0[l] * r1[l]);
-            let r3: [f64; K] = x[10];
-            let r4: [f64; K] = [h[1]; K];
-            let r5: [f64; K] = core::array::from_fn(|l| r3[l] * r4[l]);
-            let r6: [f64; K] = x[11];
-            let r7: [f64; K] = [h[2]; K];
-            let r8: [f64; K] = core::array::from_fn(|l| r6[l] * r7[l]);
-            let r9: [f64; K] = x[0];
-            let r10: [f64; K] = x[3];
-            let r11: [f64; K] = core::array::from_fn(|l| r9[l] * r10[l]);
-            let r12: [f64; K] = x[1];
-            let r13: [f64; K] = x[4];
-            let r14: [f64; K] = core::array::from_fn(|l| r12[l] * r13[l]);
-            let r15: [f64; K] = x[2];
-            let r16: [f64; K] = x[5];
-            let r17: [f64; K] = core::array::from_fn(|l| r15[l] * r16[l]);
-            let r18: [f64; K] = core::array::from_fn(|l| r11[l] + r14[l]);
-            let r19: [f64; K] = core::array::from_fn(|l| r18[l] + r17[l]);
-            let r20: [f64; K] = x[6];
-            let r21: [f64; K] = core::array::from_fn(|l| r9[l] * r20[l]);
-            let r22: [f64; K] = x[7];
-            let r23: [f64; K] = core::array::from_fn(|l| r12[l] * r22[l]);
-            let r24: [f64; K] = x[8];
-            let r25: [f64; K] = core::array::from_fn(|l| r15[l] * r24[l]);
-            let r26: [f64; K] = core::array::from_fn(|l| r21[l] + r23[l]);
-            let r27: [f64; K] = core::array::from_fn(|l| r26[l] + r25[l]);
-            let r28: [f64; K] = core::array::from_fn(|l| r10[l] * r20[l]);
-            let r29: [f64; K] = core::array::from_fn(|l| r13[l] * r22[l]);
-            let r30: [f64; K] = core::array::from_fn(|l| r16[l] * r24[l]);
-            let r31: [f64; K] = core::array::from_fn(|l| r28[l] + r29[l]);
-            let r32: [f64; K] = core::array::from_fn(|l| r31[l] + r30[l]);
-            let r33: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
-            let r34: [f64; K] = core::array::from_fn(|l| r12[l].powi(2));
-            let r35: [f64; K] = core::array::from_fn(|l| r15[l].powi(2));
-            let r36: [f64; K] = core::array::from_fn(|l| r33[l] + r34[l]);
-            let r37: [f64; K] = core::array::from_fn(|l| r36[l] + r35[l]);
-            let r38: [f64; K] = [1.0_f64; K];
-            let r39: [f64; K] = core::array::from_fn(|l| r37[l] - r38[l]);
-            let r40: [f64; K] = core::array::from_fn(|l| r10[l].powi(2));
-            let r41: [f64; K] = core::array::from_fn(|l| r13[l].powi(2));
-            let r42: [f64; K] = core::array::from_fn(|l| r16[l].powi(2));
-            let r43: [f64; K] = core::array::from_fn(|l| r40[l] + r41[l]);
-            let r44: [f64; K] = core::array::from_fn(|l| r43[l] + r42[l]);
-            let r45: [f64; K] = core::array::from_fn(|l| r44[l] - r38[l]);
-            let r46: [f64; K] = core::array::from_fn(|l| r20[l].powi(2));
-            let r47: [f64; K] = core::array::from_fn(|l| r22[l].powi(2));
-            let r48: [f64; K] = core::array::from_fn(|l| r24[l].powi(2));
-            let r49: [f64; K] = core::array::from_fn(|l| r46[l] + r47[l]);
-            let r50: [f64; K] = core::array::from_fn(|l| r49[l] + r48[l]);
-            let r51: [f64; K] = core::array::from_fn(|l| r50[l] - r38[l]);
-            let r52: [f64; K] = [gains[1]; K];
-            let r53: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
-            let r54: [f64; K] = core::array::from_fn(|l| r1[l] * r53[l]);
-            let r55: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
-            let r56: [f64; K] = core::array::from_fn(|l| r4[l] * r55[l]);
-            let r57: [f64; K] = core::array::from_fn(|l| r6[l].powi(2));
-            let r58: [f64; K] = core::array::from_fn(|l| r7[l] * r57[l]);
-            let r59: [f64; K] = core::array::from_fn(|l| r54[l] + r56[l]);
-            let r60: [f64; K] = core::array::from_fn(|l| r59[l] + r58[l]);
-            let r61: [f64; K] = [0.5_f64; K];
-            let r62: [f64; K] = core::array::from_fn(|l| r61[l] * r60[l]);
-            let r63: [f64; K] = [target[9]; K];
-            let r64: [f64; K] = core::array::from_fn(|l| r62[l] - r63[l]);
-            let r65: [f64; K] = core::array::from_fn(|l| r52[l] * r64[l]);
-            let r66: [f64; K] = core::array::from_fn(|l| r9[l] * r2[l]);
-            let r67: [f64; K] = core::array::from_fn(|l| r10[l] * r5[l]);
-            let r68: [f64; K] = core::array::from_fn(|l| r20[l] * r8[l]);
-            let r69: [f64; K] = [target[10]; K];
-            let r70: [f64; K] = core::array::from_fn(|l| r66[l] + r67[l]);
-            let r71: [f64; K] = core::array::from_fn(|l| r70[l] + r68[l]);
-            let r72: [f64; K] = core::array::from_fn(|l| r71[l] - r69[l]);
-            let r73: [f64; K] = core::array::from_fn(|l| r12[l] * r2[l]);
-            let r74: [f64; K] = core::array::from_fn(|l| r13[l] * r5[l]);
-            let r75: [f64; K] = core::array::from_fn(|l| r22[l] * r8[l]);
-            let r76: [f64; K] = [target[11]; K];
-            let r77: [f64; K] = core::array::from_fn(|l| r73[l] + r74[l]);
-            let r78: [f64; K] = core::array::from_fn(|l| r77[l] + r75[l]);
-            let r79: [f64; K] = core::array::from_fn(|l| r78[l] - r76[l]);
-            let r80: [f64; K] = core::array::from_fn(|l| r15[l] * r2[l]);
-            let r81: [f64; K] = core::array::from_fn(|l| r16[l] * r5[l]);
-            let r82: [f64; K] = core::array::from_fn(|l| r24[l] * r8[l]);
-            let r83: [f64; K] = [target[12]; K];
-            let r84: [f64; K] = core::array::from_fn(|l| r80[l] + r81[l]);
-            let r85: [f64; K] = core::array::from_fn(|l| r84[l] + r82[l]);
-            let r86: [f64; K] = core::array::from_fn(|l| r85[l] - r83[l]);
-            let r87: [f64; K] = [gains[2]; K];
-            let r88: [f64; K] = core::array::from_fn(|l| r8[l] * r87[l]);
-            let r89: [f64; K] = core::array::from_fn(|l| r5[l] * r87[l]);
-            let r90: [f64; K] = core::array::from_fn(|l| r2[l] * r87[l]);
-            let r91: [f64; K] = core::array::from_fn(|l| r10[l] * r6[l]);
-            let r92: [f64; K] = core::array::from_fn(|l| r20[l] * r3[l]);
-            let r93: [f64; K] = core::array::from_fn(|l| r72[l] * r90[l]);
-            let r94: [f64; K] = [gains[0]; K];
-            let r95: [f64; K] = core::array::from_fn(|l| r20[l] * r27[l]);
-            let r96: [f64; K] = core::array::from_fn(|l| r10[l] * r19[l]);
-            let r97: [f64; K] = core::array::from_fn(|l| r9[l] * r39[l]);
-            let r98: [f64; K] = core::array::from_fn(|l| r95[l] + r96[l]);
-            let r99: [f64; K] = core::array::from_fn(|l| r98[l] + r97[l]);
-            let r100: [f64; K] = core::array::from_fn(|l| r94[l] * r99[l]);
-            let r101: [f64; K] = core::array::from_fn(|l| r93[l] + r100[l]);
-            let r102: [f64; K] = core::array::from_fn(|l| r91[l] - r92[l]);
-            let r103: [f64; K] = core::array::from_fn(|l| r102[l] - r101[l]);
-            let r104: [f64; K] = core::array::from_fn(|l| r13[l] * r6[l]);
-            let r105: [f64; K] = core::array::from_fn(|l| r22[l] * r3[l]);
-            let r106: [f64; K] = core::array::from_fn(|l| r79[l] * r90[l]);
-            let r107: [f64; K] = core::array::from_fn(|l| r22[l] * r27[l]);
-            let r108: [f64; K] = core::array::from_fn(|l| r13[l] * r19[l]);
-            let r109: [f64; K] = core::array::from_fn(|l| r12[l] * r39[l]);
-            let r110: [f64; K] = core::array::from_fn(|l| r107[l] + r108[l]);
-            let r111: [f64; K] = core::array::from_fn(|l| r110[l] + r109[l]);
-            let r112: [f64; K] = core::array::from_fn(|l| r94[l] * r111[l]);
-            let r113: [f64; K] = core::array::from_fn(|l| r106[l] + r112[l]);
-            let r114: [f64; K] = core::array::from_fn(|l| r104[l] - r105[l]);
-            let r115: [f64; K] = core::array::from_fn(|l| r114[l] - r113[l]);
-            let r116: [f64; K] = core::array::from_fn(|l| r16[l] * r6[l]);
-            let r117: [f64; K] = core::array::from_fn(|l| r24[l] * r3[l]);
-            let r118: [f64; K] = core::array::from_fn(|l| r86[l] * r90[l]);
-            let r119: [f64; K] = core::array::from_fn(|l| r24[l] * r27[l]);
-            let r120: [f64; K] = core::array::from_fn(|l| r16[l] * r19[l]);
-            let r121: [f64; K] = core::array::from_fn(|l| r15[l] * r39[l]);
-            let r122: [f64; K] = core::array::from_fn(|l| r119[l] + r120[l]);
-            let r123: [f64; K] = core::array::from_fn(|l| r122[l] + r121[l]);
-            let r124: [f64; K] = core::array::from_fn(|l| r94[l] * r123[l]);
-            let r125: [f64; K] = core::array::from_fn(|l| r118[l] + r124[l]);
-            let r126: [f64; K] = core::array::from_fn(|l| r116[l] - r117[l]);
-            let r127: [f64; K] = core::array::from_fn(|l| r126[l] - r125[l]);
-            let r128: [f64; K] = core::array::from_fn(|l| r9[l] * r6[l]);
-            let r129: [f64; K] = core::array::from_fn(|l| r20[l] * r0[l]);
-            let r130: [f64; K] = core::array::from_fn(|l| r72[l] * r89[l]);
-            let r131: [f64; K] = core::array::from_fn(|l| r20[l] * r32[l]);
-            let r132: [f64; K] = core::array::from_fn(|l| r10[l] * r45[l]);
-            let r133: [f64; K] = core::array::from_fn(|l| r9[l] * r19[l]);
-            let r134: [f64; K] = core::array::from_fn(|l| r131[l] + r132[l]);
-            let r135: [f64; K] = core::array::from_fn(|l| r134[l] + r133[l]);
-            let r136: [f64; K] = core::array::from_fn(|l| r94[l] * r135[l]);
-            let r137: [f64; K] = core::array::from_fn(|l| r130[l] + r136[l]);
-            let r138: [f64; K] = core::array::from_fn(|l| r129[l] - r128[l]);
-            let r139: [f64; K] = core::array::from_fn(|l| r138[l] - r137[l]);
-            let r140: [f64; K] = core::array::from_fn(|l| r12[l] * r6[l]);
-            let r141: [f64; K] = core::array::from_fn(|l| r22[l] * r0[l]);
-            let r142: [f64; K] = core::array::from_fn(|l| r79[l] * r89[l]);
-            let r143: [f64; K] = core::array::from_fn(|l| r22[l] * r32[l]);
-            let r144: [f64; K] = core::array::from_fn(|l| r13[l] * r45[l]);
-            let r145: [f64; K] = core::array::from_fn(|l| r12[l] * r19[l]);
-            let r146: [f64; K] = core::array::from_fn(|l| r143[l] + r144[l]);
-            let r147: [f64; K] = core::array::from_fn(|l| r146[l] + r145[l]);
-            let r148: [f64; K] = core::array::from_fn(|l| r94[l] * r147[l]);
-            let r149: [f64; K] = core::array::from_fn(|l| r142[l] + r148[l]);
-            let r150: [f64; K] = core::array::from_fn(|l| r141[l] - r140[l]);
-            let r151: [f64; K] = core::array::from_fn(|l| r150[l] - r149[l]);
-            let r152: [f64; K] = core::array::from_fn(|l| r15[l] * r6[l]);
-            let r153: [f64; K] = core::array::from_fn(|l| r24[l] * r0[l]);
-            let r154: [f64; K] = core::array::from_fn(|l| r86[l] * r89[l]);
-            let r155: [f64; K] = core::array::from_fn(|l| r24[l] * r32[l]);
-            let r156: [f64; K] = core::array::from_fn(|l| r16[l] * r45[l]);
-            let r157: [f64; K] = core::array::from_fn(|l| r15[l] * r19[l]);
-            let r158: [f64; K] = core::array::from_fn(|l| r155[l] + r156[l]);
-            let r159: [f64; K] = core::array::from_fn(|l| r158[l] + r157[l]);
-            let r160: [f64; K] = core::array::from_fn(|l| r94[l] * r159[l]);
-            let r161: [f64; K] = core::array::from_fn(|l| r154[l] + r160[l]);
-            let r162: [f64; K] = core::array::from_fn(|l| r153[l] - r152[l]);
-            let r163: [f64; K] = core::array::from_fn(|l| r162[l] - r161[l]);
-            let r164: [f64; K] = core::array::from_fn(|l| r9[l] * r3[l]);
-            let r165: [f64; K] = core::array::from_fn(|l| r10[l] * r0[l]);
-            let r166: [f64; K] = core::array::from_fn(|l| r72[l] * r88[l]);
-            let r167: [f64; K] = core::array::from_fn(|l| r20[l] * r51[l]);
-            let r168: [f64; K] = core::array::from_fn(|l| r10[l] * r32[l]);
-            let r169: [f64; K] = core::array::from_fn(|l| r9[l] * r27[l]);
-            let r170: [f64; K] = core::array::from_fn(|l| r167[l] + r168[l]);
-            let r171: [f64; K] = core::array::from_fn(|l| r170[l] + r169[l]);
-            let r172: [f64; K] = core::array::from_fn(|l| r94[l] * r171[l]);
-            let r173: [f64; K] = core::array::from_fn(|l| r166[l] + r172[l]);
-            let r174: [f64; K] = core::array::from_fn(|l| r164[l] - r165[l]);
-            let r175: [f64; K] = core::array::from_fn(|l| r174[l] - r173[l]);
-            let r176: [f64; K] = core::array::from_fn(|l| r12[l] * r3[l]);
-            let r177: [f64; K] = core::array::from_fn(|l| r13[l] * r0[l]);
-            let r178: [f64; K] = core::array::from_fn(|l| r79[l] * r88[l]);
-            let r179: [f64; K] = core::array::from_fn(|l| r22[l] * r51[l]);
-            let r180: [f64; K] = core::array::from_fn(|l| r13[l] * r32[l]);
-            let r181: [f64; K] = core::array::from_fn(|l| r12[l] * r27[l]);
-            let r182: [f64; K] = core::array::from_fn(|l| r179[l] + r180[l]);
-            let r183: [f64; K] = core::array::from_fn(|l| r182[l] + r181[l]);
-            let r184: [f64; K] = core::array::from_fn(|l| r94[l] * r183[l]);
-            let r185: [f64; K] = core::array::from_fn(|l| r178[l] + r184[l]);
-            let r186: [f64; K] = core::array::from_fn(|l| r176[l] - r177[l]);
-            let r187: [f64; K] = core::array::from_fn(|l| r186[l] - r185[l]);
-            let r188: [f64; K] = core::array::from_fn(|l| r15[l] * r3[l]);
-            let r189: [f64; K] = core::array::from_fn(|l| r16[l] * r0[l]);
-            let r190: [f64; K] = core::array::from_fn(|l| r86[l] * r88[l]);
-            let r191: [f64; K] = core::array::from_fn(|l| r24[l] * r51[l]);
-            let r192: [f64; K] = core::array::from_fn(|l| r16[l] * r32[l]);
-            let r193: [f64; K] = core::array::from_fn(|l| r15[l] * r27[l]);
-            let r194: [f64; K] = core::array::from_fn(|l| r191[l] + r192[l]);
-            let r195: [f64; K] = core::array::from_fn(|l| r194[l] + r193[l]);
-            let r196: [f64; K] = core::array::from_fn(|l| r94[l] * r195[l]);
-            let r197: [f64; K] = core::array::from_fn(|l| r190[l] + r196[l]);
-            let r198: [f64; K] = core::array::from_fn(|l| r188[l] - r189[l]);
-            let r199: [f64; K] = core::array::from_fn(|l| r198[l] - r197[l]);
-            let r200: [f64; K] = core::array::from_fn(|l| r3[l] * r6[l]);
-            let r201: [f64; K] = [h[3]; K];
-            let r202: [f64; K] = core::array::from_fn(|l| r200[l] * r201[l]);
-            let r203: [f64; K] = core::array::from_fn(|l| r0[l] * r65[l]);
-            let r204: [f64; K] = core::array::from_fn(|l| r15[l] * r86[l]);
-            let r205: [f64; K] = core::array::from_fn(|l| r12[l] * r79[l]);
-            let r206: [f64; K] = core::array::from_fn(|l| r9[l] * r72[l]);
-            let r207: [f64; K] = core::array::from_fn(|l| r204[l] + r205[l]);
-            let r208: [f64; K] = core::array::from_fn(|l| r207[l] + r206[l]);
-            let r209: [f64; K] = core::array::from_fn(|l| r87[l] * r208[l]);
-            let r210: [f64; K] = core::array::from_fn(|l| r203[l] + r209[l]);
-            let r211: [f64; K] = core::array::from_fn(|l| r1[l] * r210[l]);
-            let r212: [f64; K] = core::array::from_fn(|l| r202[l] - r211[l]);
-            let r213: [f64; K] = core::array::from_fn(|l| r0[l] * r6[l]);
-            let r214: [f64; K] = [h[4]; K];
-            let r215: [f64; K] = core::array::from_fn(|l| r213[l] * r214[l]);
-            let r216: [f64; K] = core::array::from_fn(|l| r3[l] * r65[l]);
-            let r217: [f64; K] = core::array::from_fn(|l| r16[l] * r86[l]);
-            let r218: [f64; K] = core::array::from_fn(|l| r13[l] * r79[l]);
-            let r219: [f64; K] = core::array::from_fn(|l| r10[l] * r72[l]);
-            let r220: [f64; K] = core::array::from_fn(|l| r217[l] + r218[l]);
-            let r221: [f64; K] = core::array::from_fn(|l| r220[l] + r219[l]);
-            let r222: [f64; K] = core::array::from_fn(|l| r87[l] * r221[l]);
-            let r223: [f64; K] = core::array::from_fn(|l| r216[l] + r222[l]);
-            let r224: [f64; K] = core::array::from_fn(|l| r4[l] * r223[l]);
-            let r225: [f64; K] = core::array::from_fn(|l| r215[l] - r224[l]);
-            let r226: [f64; K] = core::array::from_fn(|l| r0[l] * r3[l]);
-            let r227: [f64; K] = [h[5]; K];
-            let r228: [f64; K] = core::array::from_fn(|l| r226[l] * r227[l]);
-            let r229: [f64; K] = core::array::from_fn(|l| r6[l] * r65[l]);
-            let r230: [f64; K] = core::array::from_fn(|l| r24[l] * r86[l]);
-            let r231: [f64; K] = core::array::from_fn(|l| r22[l] * r79[l]);
-            let r232: [f64; K] = core::array::from_fn(|l| r20[l] * r72[l]);
-            let r233: [f64; K] = core::array::from_fn(|l| r230[l] + r231[l]);
-            let r234: [f64; K] = core::array::from_fn(|l| r233[l] + r232[l]);
-            let r235: [f64; K] = core::array::from_fn(|l| r87[l] * r234[l]);
-            let r236: [f64; K] = core::array::from_fn(|l| r229[l] + r235[l]);
-            let r237: [f64; K] = core::array::from_fn(|l| r7[l] * r236[l]);
-            let r238: [f64; K] = core::array::from_fn(|l| r228[l] - r237[l]);
-            out[0] = r103;
-            out[1] = r115;
-            out[2] = r127;
-            out[3] = r139;
-            out[4] = r151;
-            out[5] = r163;
-            out[6] = r175;
-            out[7] = r187;
-            out[8] = r199;
-            out[9] = r212;
-            out[10] = r225;
-            out[11] = r238;
+
+        impl Lanes {
+            /// `field` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn field<const K: usize>(
+                &self,
+                x: &[[f64; K]; 12],
+                out: &mut [[f64; K]; 12],
+            ) {
+                let h = &self.prelude.field;
+                let r0: [f64; K] = x[3];
+                let r1: [f64; K] = x[11];
+                let r2: [f64; K] = core::array::from_fn(|l| r0[l] * r1[l]);
+                let r3: [f64; K] = x[6];
+                let r4: [f64; K] = x[10];
+                let r5: [f64; K] = core::array::from_fn(|l| r3[l] * r4[l]);
+                let r6: [f64; K] = core::array::from_fn(|l| r2[l] - r5[l]);
+                let r7: [f64; K] = x[4];
+                let r8: [f64; K] = core::array::from_fn(|l| r7[l] * r1[l]);
+                let r9: [f64; K] = x[7];
+                let r10: [f64; K] = core::array::from_fn(|l| r9[l] * r4[l]);
+                let r11: [f64; K] = core::array::from_fn(|l| r8[l] - r10[l]);
+                let r12: [f64; K] = x[5];
+                let r13: [f64; K] = core::array::from_fn(|l| r12[l] * r1[l]);
+                let r14: [f64; K] = x[8];
+                let r15: [f64; K] = core::array::from_fn(|l| r14[l] * r4[l]);
+                let r16: [f64; K] = core::array::from_fn(|l| r13[l] - r15[l]);
+                let r17: [f64; K] = x[0];
+                let r18: [f64; K] = core::array::from_fn(|l| r17[l] * r1[l]);
+                let r19: [f64; K] = x[9];
+                let r20: [f64; K] = core::array::from_fn(|l| r3[l] * r19[l]);
+                let r21: [f64; K] = core::array::from_fn(|l| r20[l] - r18[l]);
+                let r22: [f64; K] = x[1];
+                let r23: [f64; K] = core::array::from_fn(|l| r22[l] * r1[l]);
+                let r24: [f64; K] = core::array::from_fn(|l| r9[l] * r19[l]);
+                let r25: [f64; K] = core::array::from_fn(|l| r24[l] - r23[l]);
+                let r26: [f64; K] = x[2];
+                let r27: [f64; K] = core::array::from_fn(|l| r26[l] * r1[l]);
+                let r28: [f64; K] = core::array::from_fn(|l| r14[l] * r19[l]);
+                let r29: [f64; K] = core::array::from_fn(|l| r28[l] - r27[l]);
+                let r30: [f64; K] = core::array::from_fn(|l| r17[l] * r4[l]);
+                let r31: [f64; K] = core::array::from_fn(|l| r0[l] * r19[l]);
+                let r32: [f64; K] = core::array::from_fn(|l| r30[l] - r31[l]);
+                let r33: [f64; K] = core::array::from_fn(|l| r22[l] * r4[l]);
+                let r34: [f64; K] = core::array::from_fn(|l| r7[l] * r19[l]);
+                let r35: [f64; K] = core::array::from_fn(|l| r33[l] - r34[l]);
+                let r36: [f64; K] = core::array::from_fn(|l| r26[l] * r4[l]);
+                let r37: [f64; K] = core::array::from_fn(|l| r12[l] * r19[l]);
+                let r38: [f64; K] = core::array::from_fn(|l| r36[l] - r37[l]);
+                let r39: [f64; K] = core::array::from_fn(|l| r4[l] * r1[l]);
+                let r40: [f64; K] = [h[0]; K];
+                let r41: [f64; K] = core::array::from_fn(|l| r39[l] * r40[l]);
+                let r42: [f64; K] = core::array::from_fn(|l| r19[l] * r1[l]);
+                let r43: [f64; K] = [h[1]; K];
+                let r44: [f64; K] = core::array::from_fn(|l| r42[l] * r43[l]);
+                let r45: [f64; K] = core::array::from_fn(|l| r19[l] * r4[l]);
+                let r46: [f64; K] = [h[2]; K];
+                let r47: [f64; K] = core::array::from_fn(|l| r45[l] * r46[l]);
+                out[0] = r6;
+                out[1] = r11;
+                out[2] = r16;
+                out[3] = r21;
+                out[4] = r25;
+                out[5] = r29;
+                out[6] = r32;
+                out[7] = r35;
+                out[8] = r38;
+                out[9] = r41;
+                out[10] = r44;
+                out[11] = r47;
+            }
+            /// `invariants` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn invariants<const K: usize>(
+                &self,
+                x: &[[f64; K]; 12],
+                out: &mut [[f64; K]; 13],
+            ) {
+                let h = &self.prelude.invariants;
+                let r0: [f64; K] = x[9];
+                let r1: [f64; K] = [h[0]; K];
+                let r2: [f64; K] = core::array::from_fn(|l| r0[l] * r1[l]);
+                let r3: [f64; K] = x[10];
+                let r4: [f64; K] = [h[1]; K];
+                let r5: [f64; K] = core::array::from_fn(|l| r3[l] * r4[l]);
+                let r6: [f64; K] = x[11];
+                let r7: [f64; K] = [h[2]; K];
+                let r8: [f64; K] = core::array::from_fn(|l| r6[l] * r7[l]);
+                let r9: [f64; K] = x[0];
+                let r10: [f64; K] = x[3];
+                let r11: [f64; K] = core::array::from_fn(|l| r9[l] * r10[l]);
+                let r12: [f64; K] = x[1];
+                let r13: [f64; K] = x[4];
+                let r14: [f64; K] = core::array::from_fn(|l| r12[l] * r13[l]);
+                let r15: [f64; K] = x[2];
+                let r16: [f64; K] = x[5];
+                let r17: [f64; K] = core::array::from_fn(|l| r15[l] * r16[l]);
+                let r18: [f64; K] = core::array::from_fn(|l| r11[l] + r14[l]);
+                let r19: [f64; K] = core::array::from_fn(|l| r18[l] + r17[l]);
+                let r20: [f64; K] = x[6];
+                let r21: [f64; K] = core::array::from_fn(|l| r9[l] * r20[l]);
+                let r22: [f64; K] = x[7];
+                let r23: [f64; K] = core::array::from_fn(|l| r12[l] * r22[l]);
+                let r24: [f64; K] = x[8];
+                let r25: [f64; K] = core::array::from_fn(|l| r15[l] * r24[l]);
+                let r26: [f64; K] = core::array::from_fn(|l| r21[l] + r23[l]);
+                let r27: [f64; K] = core::array::from_fn(|l| r26[l] + r25[l]);
+                let r28: [f64; K] = core::array::from_fn(|l| r10[l] * r20[l]);
+                let r29: [f64; K] = core::array::from_fn(|l| r13[l] * r22[l]);
+                let r30: [f64; K] = core::array::from_fn(|l| r16[l] * r24[l]);
+                let r31: [f64; K] = core::array::from_fn(|l| r28[l] + r29[l]);
+                let r32: [f64; K] = core::array::from_fn(|l| r31[l] + r30[l]);
+                let r33: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
+                let r34: [f64; K] = core::array::from_fn(|l| r12[l].powi(2));
+                let r35: [f64; K] = core::array::from_fn(|l| r15[l].powi(2));
+                let r36: [f64; K] = core::array::from_fn(|l| r33[l] + r34[l]);
+                let r37: [f64; K] = core::array::from_fn(|l| r36[l] + r35[l]);
+                let r38: [f64; K] = [1.0_f64; K];
+                let r39: [f64; K] = core::array::from_fn(|l| r37[l] - r38[l]);
+                let r40: [f64; K] = core::array::from_fn(|l| r10[l].powi(2));
+                let r41: [f64; K] = core::array::from_fn(|l| r13[l].powi(2));
+                let r42: [f64; K] = core::array::from_fn(|l| r16[l].powi(2));
+                let r43: [f64; K] = core::array::from_fn(|l| r40[l] + r41[l]);
+                let r44: [f64; K] = core::array::from_fn(|l| r43[l] + r42[l]);
+                let r45: [f64; K] = core::array::from_fn(|l| r44[l] - r38[l]);
+                let r46: [f64; K] = core::array::from_fn(|l| r20[l].powi(2));
+                let r47: [f64; K] = core::array::from_fn(|l| r22[l].powi(2));
+                let r48: [f64; K] = core::array::from_fn(|l| r24[l].powi(2));
+                let r49: [f64; K] = core::array::from_fn(|l| r46[l] + r47[l]);
+                let r50: [f64; K] = core::array::from_fn(|l| r49[l] + r48[l]);
+                let r51: [f64; K] = core::array::from_fn(|l| r50[l] - r38[l]);
+                let r52: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
+                let r53: [f64; K] = core::array::from_fn(|l| r1[l] * r52[l]);
+                let r54: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
+                let r55: [f64; K] = core::array::from_fn(|l| r4[l] * r54[l]);
+                let r56: [f64; K] = core::array::from_fn(|l| r6[l].powi(2));
+                let r57: [f64; K] = core::array::from_fn(|l| r7[l] * r56[l]);
+                let r58: [f64; K] = core::array::from_fn(|l| r53[l] + r55[l]);
+                let r59: [f64; K] = core::array::from_fn(|l| r58[l] + r57[l]);
+                let r60: [f64; K] = [0.5_f64; K];
+                let r61: [f64; K] = core::array::from_fn(|l| r60[l] * r59[l]);
+                let r62: [f64; K] = core::array::from_fn(|l| r9[l] * r2[l]);
+                let r63: [f64; K] = core::array::from_fn(|l| r10[l] * r5[l]);
+                let r64: [f64; K] = core::array::from_fn(|l| r20[l] * r8[l]);
+                let r65: [f64; K] = core::array::from_fn(|l| r62[l] + r63[l]);
+                let r66: [f64; K] = core::array::from_fn(|l| r65[l] + r64[l]);
+                let r67: [f64; K] = core::array::from_fn(|l| r12[l] * r2[l]);
+                let r68: [f64; K] = core::array::from_fn(|l| r13[l] * r5[l]);
+                let r69: [f64; K] = core::array::from_fn(|l| r22[l] * r8[l]);
+                let r70: [f64; K] = core::array::from_fn(|l| r67[l] + r68[l]);
+                let r71: [f64; K] = core::array::from_fn(|l| r70[l] + r69[l]);
+                let r72: [f64; K] = core::array::from_fn(|l| r15[l] * r2[l]);
+                let r73: [f64; K] = core::array::from_fn(|l| r16[l] * r5[l]);
+                let r74: [f64; K] = core::array::from_fn(|l| r24[l] * r8[l]);
+                let r75: [f64; K] = core::array::from_fn(|l| r72[l] + r73[l]);
+                let r76: [f64; K] = core::array::from_fn(|l| r75[l] + r74[l]);
+                out[0] = r39;
+                out[1] = r19;
+                out[2] = r27;
+                out[3] = r19;
+                out[4] = r45;
+                out[5] = r32;
+                out[6] = r27;
+                out[7] = r32;
+                out[8] = r51;
+                out[9] = r61;
+                out[10] = r66;
+                out[11] = r71;
+                out[12] = r76;
+            }
+            /// `jacobian` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn jacobian<const K: usize>(
+                &self,
+                x: &[[f64; K]; 12],
+                out: &mut [[f64; K]; 156],
+            ) {
+                let h = &self.prelude.jacobian;
+                let r0: [f64; K] = x[9];
+                let r1: [f64; K] = [h[0]; K];
+                let r2: [f64; K] = core::array::from_fn(|l| r0[l] * r1[l]);
+                let r3: [f64; K] = x[10];
+                let r4: [f64; K] = [h[1]; K];
+                let r5: [f64; K] = core::array::from_fn(|l| r3[l] * r4[l]);
+                let r6: [f64; K] = x[11];
+                let r7: [f64; K] = [h[2]; K];
+                let r8: [f64; K] = core::array::from_fn(|l| r6[l] * r7[l]);
+                let r9: [f64; K] = x[0];
+                let r10: [f64; K] = [2.0_f64; K];
+                let r11: [f64; K] = core::array::from_fn(|l| r10[l] * r9[l]);
+                let r12: [f64; K] = x[1];
+                let r13: [f64; K] = core::array::from_fn(|l| r10[l] * r12[l]);
+                let r14: [f64; K] = x[2];
+                let r15: [f64; K] = core::array::from_fn(|l| r10[l] * r14[l]);
+                let r16: [f64; K] = x[3];
+                let r17: [f64; K] = x[4];
+                let r18: [f64; K] = x[5];
+                let r19: [f64; K] = x[6];
+                let r20: [f64; K] = x[7];
+                let r21: [f64; K] = x[8];
+                let r22: [f64; K] = core::array::from_fn(|l| r10[l] * r16[l]);
+                let r23: [f64; K] = core::array::from_fn(|l| r10[l] * r17[l]);
+                let r24: [f64; K] = core::array::from_fn(|l| r10[l] * r18[l]);
+                let r25: [f64; K] = core::array::from_fn(|l| r10[l] * r19[l]);
+                let r26: [f64; K] = core::array::from_fn(|l| r10[l] * r20[l]);
+                let r27: [f64; K] = core::array::from_fn(|l| r10[l] * r21[l]);
+                let r28: [f64; K] = core::array::from_fn(|l| r9[l] * r1[l]);
+                let r29: [f64; K] = core::array::from_fn(|l| r16[l] * r4[l]);
+                let r30: [f64; K] = core::array::from_fn(|l| r19[l] * r7[l]);
+                let r31: [f64; K] = core::array::from_fn(|l| r12[l] * r1[l]);
+                let r32: [f64; K] = core::array::from_fn(|l| r17[l] * r4[l]);
+                let r33: [f64; K] = core::array::from_fn(|l| r20[l] * r7[l]);
+                let r34: [f64; K] = core::array::from_fn(|l| r14[l] * r1[l]);
+                let r35: [f64; K] = core::array::from_fn(|l| r18[l] * r4[l]);
+                let r36: [f64; K] = core::array::from_fn(|l| r21[l] * r7[l]);
+                let r37: [f64; K] = [0.0_f64; K];
+                out[0] = r11;
+                out[1] = r13;
+                out[2] = r15;
+                out[3] = r37;
+                out[4] = r37;
+                out[5] = r37;
+                out[6] = r37;
+                out[7] = r37;
+                out[8] = r37;
+                out[9] = r37;
+                out[10] = r37;
+                out[11] = r37;
+                out[12] = r16;
+                out[13] = r17;
+                out[14] = r18;
+                out[15] = r9;
+                out[16] = r12;
+                out[17] = r14;
+                out[18] = r37;
+                out[19] = r37;
+                out[20] = r37;
+                out[21] = r37;
+                out[22] = r37;
+                out[23] = r37;
+                out[24] = r19;
+                out[25] = r20;
+                out[26] = r21;
+                out[27] = r37;
+                out[28] = r37;
+                out[29] = r37;
+                out[30] = r9;
+                out[31] = r12;
+                out[32] = r14;
+                out[33] = r37;
+                out[34] = r37;
+                out[35] = r37;
+                out[36] = r16;
+                out[37] = r17;
+                out[38] = r18;
+                out[39] = r9;
+                out[40] = r12;
+                out[41] = r14;
+                out[42] = r37;
+                out[43] = r37;
+                out[44] = r37;
+                out[45] = r37;
+                out[46] = r37;
+                out[47] = r37;
+                out[48] = r37;
+                out[49] = r37;
+                out[50] = r37;
+                out[51] = r22;
+                out[52] = r23;
+                out[53] = r24;
+                out[54] = r37;
+                out[55] = r37;
+                out[56] = r37;
+                out[57] = r37;
+                out[58] = r37;
+                out[59] = r37;
+                out[60] = r37;
+                out[61] = r37;
+                out[62] = r37;
+                out[63] = r19;
+                out[64] = r20;
+                out[65] = r21;
+                out[66] = r16;
+                out[67] = r17;
+                out[68] = r18;
+                out[69] = r37;
+                out[70] = r37;
+                out[71] = r37;
+                out[72] = r19;
+                out[73] = r20;
+                out[74] = r21;
+                out[75] = r37;
+                out[76] = r37;
+                out[77] = r37;
+                out[78] = r9;
+                out[79] = r12;
+                out[80] = r14;
+                out[81] = r37;
+                out[82] = r37;
+                out[83] = r37;
+                out[84] = r37;
+                out[85] = r37;
+                out[86] = r37;
+                out[87] = r19;
+                out[88] = r20;
+                out[89] = r21;
+                out[90] = r16;
+                out[91] = r17;
+                out[92] = r18;
+                out[93] = r37;
+                out[94] = r37;
+                out[95] = r37;
+                out[96] = r37;
+                out[97] = r37;
+                out[98] = r37;
+                out[99] = r37;
+                out[100] = r37;
+                out[101] = r37;
+                out[102] = r25;
+                out[103] = r26;
+                out[104] = r27;
+                out[105] = r37;
+                out[106] = r37;
+                out[107] = r37;
+                out[108] = r37;
+                out[109] = r37;
+                out[110] = r37;
+                out[111] = r37;
+                out[112] = r37;
+                out[113] = r37;
+                out[114] = r37;
+                out[115] = r37;
+                out[116] = r37;
+                out[117] = r2;
+                out[118] = r5;
+                out[119] = r8;
+                out[120] = r2;
+                out[121] = r37;
+                out[122] = r37;
+                out[123] = r5;
+                out[124] = r37;
+                out[125] = r37;
+                out[126] = r8;
+                out[127] = r37;
+                out[128] = r37;
+                out[129] = r28;
+                out[130] = r29;
+                out[131] = r30;
+                out[132] = r37;
+                out[133] = r2;
+                out[134] = r37;
+                out[135] = r37;
+                out[136] = r5;
+                out[137] = r37;
+                out[138] = r37;
+                out[139] = r8;
+                out[140] = r37;
+                out[141] = r31;
+                out[142] = r32;
+                out[143] = r33;
+                out[144] = r37;
+                out[145] = r37;
+                out[146] = r2;
+                out[147] = r37;
+                out[148] = r37;
+                out[149] = r5;
+                out[150] = r37;
+                out[151] = r37;
+                out[152] = r8;
+                out[153] = r34;
+                out[154] = r35;
+                out[155] = r36;
+            }
+            /// `lyapunov` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn lyapunov<const K: usize>(
+                &self,
+                x: &[[f64; K]; 12],
+                target: &[f64; 13],
+                gains: &[f64; 3],
+                out: &mut [[f64; K]; 1],
+            ) {
+                let h = &self.prelude.lyapunov;
+                let r0: [f64; K] = x[9];
+                let r1: [f64; K] = [h[0]; K];
+                let r2: [f64; K] = core::array::from_fn(|l| r0[l] * r1[l]);
+                let r3: [f64; K] = x[10];
+                let r4: [f64; K] = [h[1]; K];
+                let r5: [f64; K] = core::array::from_fn(|l| r3[l] * r4[l]);
+                let r6: [f64; K] = x[11];
+                let r7: [f64; K] = [h[2]; K];
+                let r8: [f64; K] = core::array::from_fn(|l| r6[l] * r7[l]);
+                let r9: [f64; K] = [gains[0]; K];
+                let r10: [f64; K] = x[0];
+                let r11: [f64; K] = core::array::from_fn(|l| r10[l].powi(2));
+                let r12: [f64; K] = x[1];
+                let r13: [f64; K] = core::array::from_fn(|l| r12[l].powi(2));
+                let r14: [f64; K] = x[2];
+                let r15: [f64; K] = core::array::from_fn(|l| r14[l].powi(2));
+                let r16: [f64; K] = core::array::from_fn(|l| r11[l] + r13[l]);
+                let r17: [f64; K] = core::array::from_fn(|l| r16[l] + r15[l]);
+                let r18: [f64; K] = [1.0_f64; K];
+                let r19: [f64; K] = core::array::from_fn(|l| r17[l] - r18[l]);
+                let r20: [f64; K] = core::array::from_fn(|l| r19[l].powi(2));
+                let r21: [f64; K] = x[3];
+                let r22: [f64; K] = core::array::from_fn(|l| r21[l].powi(2));
+                let r23: [f64; K] = x[4];
+                let r24: [f64; K] = core::array::from_fn(|l| r23[l].powi(2));
+                let r25: [f64; K] = x[5];
+                let r26: [f64; K] = core::array::from_fn(|l| r25[l].powi(2));
+                let r27: [f64; K] = core::array::from_fn(|l| r22[l] + r24[l]);
+                let r28: [f64; K] = core::array::from_fn(|l| r27[l] + r26[l]);
+                let r29: [f64; K] = core::array::from_fn(|l| r28[l] - r18[l]);
+                let r30: [f64; K] = core::array::from_fn(|l| r29[l].powi(2));
+                let r31: [f64; K] = x[6];
+                let r32: [f64; K] = core::array::from_fn(|l| r31[l].powi(2));
+                let r33: [f64; K] = x[7];
+                let r34: [f64; K] = core::array::from_fn(|l| r33[l].powi(2));
+                let r35: [f64; K] = x[8];
+                let r36: [f64; K] = core::array::from_fn(|l| r35[l].powi(2));
+                let r37: [f64; K] = core::array::from_fn(|l| r32[l] + r34[l]);
+                let r38: [f64; K] = core::array::from_fn(|l| r37[l] + r36[l]);
+                let r39: [f64; K] = core::array::from_fn(|l| r38[l] - r18[l]);
+                let r40: [f64; K] = core::array::from_fn(|l| r39[l].powi(2));
+                let r41: [f64; K] = core::array::from_fn(|l| r10[l] * r21[l]);
+                let r42: [f64; K] = core::array::from_fn(|l| r12[l] * r23[l]);
+                let r43: [f64; K] = core::array::from_fn(|l| r14[l] * r25[l]);
+                let r44: [f64; K] = core::array::from_fn(|l| r41[l] + r42[l]);
+                let r45: [f64; K] = core::array::from_fn(|l| r44[l] + r43[l]);
+                let r46: [f64; K] = core::array::from_fn(|l| r45[l].powi(2));
+                let r47: [f64; K] = [2.0_f64; K];
+                let r48: [f64; K] = core::array::from_fn(|l| r47[l] * r46[l]);
+                let r49: [f64; K] = core::array::from_fn(|l| r10[l] * r31[l]);
+                let r50: [f64; K] = core::array::from_fn(|l| r12[l] * r33[l]);
+                let r51: [f64; K] = core::array::from_fn(|l| r14[l] * r35[l]);
+                let r52: [f64; K] = core::array::from_fn(|l| r49[l] + r50[l]);
+                let r53: [f64; K] = core::array::from_fn(|l| r52[l] + r51[l]);
+                let r54: [f64; K] = core::array::from_fn(|l| r53[l].powi(2));
+                let r55: [f64; K] = core::array::from_fn(|l| r47[l] * r54[l]);
+                let r56: [f64; K] = core::array::from_fn(|l| r21[l] * r31[l]);
+                let r57: [f64; K] = core::array::from_fn(|l| r23[l] * r33[l]);
+                let r58: [f64; K] = core::array::from_fn(|l| r25[l] * r35[l]);
+                let r59: [f64; K] = core::array::from_fn(|l| r56[l] + r57[l]);
+                let r60: [f64; K] = core::array::from_fn(|l| r59[l] + r58[l]);
+                let r61: [f64; K] = core::array::from_fn(|l| r60[l].powi(2));
+                let r62: [f64; K] = core::array::from_fn(|l| r47[l] * r61[l]);
+                let r63: [f64; K] = core::array::from_fn(|l| r20[l] + r30[l]);
+                let r64: [f64; K] = core::array::from_fn(|l| r63[l] + r40[l]);
+                let r65: [f64; K] = core::array::from_fn(|l| r64[l] + r48[l]);
+                let r66: [f64; K] = core::array::from_fn(|l| r65[l] + r55[l]);
+                let r67: [f64; K] = core::array::from_fn(|l| r66[l] + r62[l]);
+                let r68: [f64; K] = [0.25_f64; K];
+                let r69: [f64; K] = core::array::from_fn(|l| r68[l] * r9[l]);
+                let r70: [f64; K] = core::array::from_fn(|l| r69[l] * r67[l]);
+                let r71: [f64; K] = [gains[1]; K];
+                let r72: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
+                let r73: [f64; K] = core::array::from_fn(|l| r1[l] * r72[l]);
+                let r74: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
+                let r75: [f64; K] = core::array::from_fn(|l| r4[l] * r74[l]);
+                let r76: [f64; K] = core::array::from_fn(|l| r6[l].powi(2));
+                let r77: [f64; K] = core::array::from_fn(|l| r7[l] * r76[l]);
+                let r78: [f64; K] = core::array::from_fn(|l| r73[l] + r75[l]);
+                let r79: [f64; K] = core::array::from_fn(|l| r78[l] + r77[l]);
+                let r80: [f64; K] = [0.5_f64; K];
+                let r81: [f64; K] = core::array::from_fn(|l| r80[l] * r79[l]);
+                let r82: [f64; K] = [target[9]; K];
+                let r83: [f64; K] = core::array::from_fn(|l| r81[l] - r82[l]);
+                let r84: [f64; K] = core::array::from_fn(|l| r83[l].powi(2));
+                let r85: [f64; K] = core::array::from_fn(|l| r80[l] * r71[l]);
+                let r86: [f64; K] = core::array::from_fn(|l| r85[l] * r84[l]);
+                let r87: [f64; K] = [gains[2]; K];
+                let r88: [f64; K] = core::array::from_fn(|l| r10[l] * r2[l]);
+                let r89: [f64; K] = core::array::from_fn(|l| r21[l] * r5[l]);
+                let r90: [f64; K] = core::array::from_fn(|l| r31[l] * r8[l]);
+                let r91: [f64; K] = [target[10]; K];
+                let r92: [f64; K] = core::array::from_fn(|l| r88[l] + r89[l]);
+                let r93: [f64; K] = core::array::from_fn(|l| r92[l] + r90[l]);
+                let r94: [f64; K] = core::array::from_fn(|l| r93[l] - r91[l]);
+                let r95: [f64; K] = core::array::from_fn(|l| r94[l].powi(2));
+                let r96: [f64; K] = core::array::from_fn(|l| r12[l] * r2[l]);
+                let r97: [f64; K] = core::array::from_fn(|l| r23[l] * r5[l]);
+                let r98: [f64; K] = core::array::from_fn(|l| r33[l] * r8[l]);
+                let r99: [f64; K] = [target[11]; K];
+                let r100: [f64; K] = core::array::from_fn(|l| r96[l] + r97[l]);
+                let r101: [f64; K] = core::array::from_fn(|l| r100[l] + r98[l]);
+                let r102: [f64; K] = core::array::from_fn(|l| r101[l] - r99[l]);
+                let r103: [f64; K] = core::array::from_fn(|l| r102[l].powi(2));
+                let r104: [f64; K] = core::array::from_fn(|l| r14[l] * r2[l]);
+                let r105: [f64; K] = core::array::from_fn(|l| r25[l] * r5[l]);
+                let r106: [f64; K] = core::array::from_fn(|l| r35[l] * r8[l]);
+                let r107: [f64; K] = [target[12]; K];
+                let r108: [f64; K] = core::array::from_fn(|l| r104[l] + r105[l]);
+                let r109: [f64; K] = core::array::from_fn(|l| r108[l] + r106[l]);
+                let r110: [f64; K] = core::array::from_fn(|l| r109[l] - r107[l]);
+                let r111: [f64; K] = core::array::from_fn(|l| r110[l].powi(2));
+                let r112: [f64; K] = core::array::from_fn(|l| r95[l] + r103[l]);
+                let r113: [f64; K] = core::array::from_fn(|l| r112[l] + r111[l]);
+                let r114: [f64; K] = core::array::from_fn(|l| r80[l] * r87[l]);
+                let r115: [f64; K] = core::array::from_fn(|l| r114[l] * r113[l]);
+                let r116: [f64; K] = core::array::from_fn(|l| r70[l] + r86[l]);
+                let r117: [f64; K] = core::array::from_fn(|l| r116[l] + r115[l]);
+                out[0] = r117;
+            }
+            /// `lyapunov_gradient` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn lyapunov_gradient<const K: usize>(
+                &self,
+                x: &[[f64; K]; 12],
+                target: &[f64; 13],
+                gains: &[f64; 3],
+                out: &mut [[f64; K]; 12],
+            ) {
+                let h = &self.prelude.lyapunov_gradient;
+                let r0: [f64; K] = x[9];
+                let r1: [f64; K] = [h[0]; K];
+                let r2: [f64; K] = core::array::from_fn(|l| r0[l] * r1[l]);
+                let r3: [f64; K] = x[10];
+                let r4: [f64; K] = [h[1]; K];
+                let r5: [f64; K] = core::array::from_fn(|l| r3[l] * r4[l]);
+                let r6: [f64; K] = x[11];
+                let r7: [f64; K] = [h[2]; K];
+                let r8: [f64; K] = core::array::from_fn(|l| r6[l] * r7[l]);
+                let r9: [f64; K] = x[0];
+                let r10: [f64; K] = x[3];
+                let r11: [f64; K] = core::array::from_fn(|l| r9[l] * r10[l]);
+                let r12: [f64; K] = x[1];
+                let r13: [f64; K] = x[4];
+                let r14: [f64; K] = core::array::from_fn(|l| r12[l] * r13[l]);
+                let r15: [f64; K] = x[2];
+                let r16: [f64; K] = x[5];
+                let r17: [f64; K] = core::array::from_fn(|l| r15[l] * r16[l]);
+                let r18: [f64; K] = core::array::from_fn(|l| r11[l] + r14[l]);
+                let r19: [f64; K] = core::array::from_fn(|l| r18[l] + r17[l]);
+                let r20: [f64; K] = x[6];
+                let r21: [f64; K] = core::array::from_fn(|l| r9[l] * r20[l]);
+                let r22: [f64; K] = x[7];
+                let r23: [f64; K] = core::array::from_fn(|l| r12[l] * r22[l]);
+                let r24: [f64; K] = x[8];
+                let r25: [f64; K] = core::array::from_fn(|l| r15[l] * r24[l]);
+                let r26: [f64; K] = core::array::from_fn(|l| r21[l] + r23[l]);
+                let r27: [f64; K] = core::array::from_fn(|l| r26[l] + r25[l]);
+                let r28: [f64; K] = core::array::from_fn(|l| r10[l] * r20[l]);
+                let r29: [f64; K] = core::array::from_fn(|l| r13[l] * r22[l]);
+                let r30: [f64; K] = core::array::from_fn(|l| r16[l] * r24[l]);
+                let r31: [f64; K] = core::array::from_fn(|l| r28[l] + r29[l]);
+                let r32: [f64; K] = core::array::from_fn(|l| r31[l] + r30[l]);
+                let r33: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
+                let r34: [f64; K] = core::array::from_fn(|l| r12[l].powi(2));
+                let r35: [f64; K] = core::array::from_fn(|l| r15[l].powi(2));
+                let r36: [f64; K] = core::array::from_fn(|l| r33[l] + r34[l]);
+                let r37: [f64; K] = core::array::from_fn(|l| r36[l] + r35[l]);
+                let r38: [f64; K] = [1.0_f64; K];
+                let r39: [f64; K] = core::array::from_fn(|l| r37[l] - r38[l]);
+                let r40: [f64; K] = core::array::from_fn(|l| r10[l].powi(2));
+                let r41: [f64; K] = core::array::from_fn(|l| r13[l].powi(2));
+                let r42: [f64; K] = core::array::from_fn(|l| r16[l].powi(2));
+                let r43: [f64; K] = core::array::from_fn(|l| r40[l] + r41[l]);
+                let r44: [f64; K] = core::array::from_fn(|l| r43[l] + r42[l]);
+                let r45: [f64; K] = core::array::from_fn(|l| r44[l] - r38[l]);
+                let r46: [f64; K] = core::array::from_fn(|l| r20[l].powi(2));
+                let r47: [f64; K] = core::array::from_fn(|l| r22[l].powi(2));
+                let r48: [f64; K] = core::array::from_fn(|l| r24[l].powi(2));
+                let r49: [f64; K] = core::array::from_fn(|l| r46[l] + r47[l]);
+                let r50: [f64; K] = core::array::from_fn(|l| r49[l] + r48[l]);
+                let r51: [f64; K] = core::array::from_fn(|l| r50[l] - r38[l]);
+                let r52: [f64; K] = [gains[1]; K];
+                let r53: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
+                let r54: [f64; K] = core::array::from_fn(|l| r1[l] * r53[l]);
+                let r55: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
+                let r56: [f64; K] = core::array::from_fn(|l| r4[l] * r55[l]);
+                let r57: [f64; K] = core::array::from_fn(|l| r6[l].powi(2));
+                let r58: [f64; K] = core::array::from_fn(|l| r7[l] * r57[l]);
+                let r59: [f64; K] = core::array::from_fn(|l| r54[l] + r56[l]);
+                let r60: [f64; K] = core::array::from_fn(|l| r59[l] + r58[l]);
+                let r61: [f64; K] = [0.5_f64; K];
+                let r62: [f64; K] = core::array::from_fn(|l| r61[l] * r60[l]);
+                let r63: [f64; K] = [target[9]; K];
+                let r64: [f64; K] = core::array::from_fn(|l| r62[l] - r63[l]);
+                let r65: [f64; K] = core::array::from_fn(|l| r52[l] * r64[l]);
+                let r66: [f64; K] = core::array::from_fn(|l| r9[l] * r2[l]);
+                let r67: [f64; K] = core::array::from_fn(|l| r10[l] * r5[l]);
+                let r68: [f64; K] = core::array::from_fn(|l| r20[l] * r8[l]);
+                let r69: [f64; K] = [target[10]; K];
+                let r70: [f64; K] = core::array::from_fn(|l| r66[l] + r67[l]);
+                let r71: [f64; K] = core::array::from_fn(|l| r70[l] + r68[l]);
+                let r72: [f64; K] = core::array::from_fn(|l| r71[l] - r69[l]);
+                let r73: [f64; K] = core::array::from_fn(|l| r12[l] * r2[l]);
+                let r74: [f64; K] = core::array::from_fn(|l| r13[l] * r5[l]);
+                let r75: [f64; K] = core::array::from_fn(|l| r22[l] * r8[l]);
+                let r76: [f64; K] = [target[11]; K];
+                let r77: [f64; K] = core::array::from_fn(|l| r73[l] + r74[l]);
+                let r78: [f64; K] = core::array::from_fn(|l| r77[l] + r75[l]);
+                let r79: [f64; K] = core::array::from_fn(|l| r78[l] - r76[l]);
+                let r80: [f64; K] = core::array::from_fn(|l| r15[l] * r2[l]);
+                let r81: [f64; K] = core::array::from_fn(|l| r16[l] * r5[l]);
+                let r82: [f64; K] = core::array::from_fn(|l| r24[l] * r8[l]);
+                let r83: [f64; K] = [target[12]; K];
+                let r84: [f64; K] = core::array::from_fn(|l| r80[l] + r81[l]);
+                let r85: [f64; K] = core::array::from_fn(|l| r84[l] + r82[l]);
+                let r86: [f64; K] = core::array::from_fn(|l| r85[l] - r83[l]);
+                let r87: [f64; K] = [gains[2]; K];
+                let r88: [f64; K] = core::array::from_fn(|l| r8[l] * r87[l]);
+                let r89: [f64; K] = core::array::from_fn(|l| r5[l] * r87[l]);
+                let r90: [f64; K] = core::array::from_fn(|l| r2[l] * r87[l]);
+                let r91: [f64; K] = core::array::from_fn(|l| r72[l] * r90[l]);
+                let r92: [f64; K] = [gains[0]; K];
+                let r93: [f64; K] = core::array::from_fn(|l| r20[l] * r27[l]);
+                let r94: [f64; K] = core::array::from_fn(|l| r10[l] * r19[l]);
+                let r95: [f64; K] = core::array::from_fn(|l| r9[l] * r39[l]);
+                let r96: [f64; K] = core::array::from_fn(|l| r93[l] + r94[l]);
+                let r97: [f64; K] = core::array::from_fn(|l| r96[l] + r95[l]);
+                let r98: [f64; K] = core::array::from_fn(|l| r92[l] * r97[l]);
+                let r99: [f64; K] = core::array::from_fn(|l| r91[l] + r98[l]);
+                let r100: [f64; K] = core::array::from_fn(|l| r79[l] * r90[l]);
+                let r101: [f64; K] = core::array::from_fn(|l| r22[l] * r27[l]);
+                let r102: [f64; K] = core::array::from_fn(|l| r13[l] * r19[l]);
+                let r103: [f64; K] = core::array::from_fn(|l| r12[l] * r39[l]);
+                let r104: [f64; K] = core::array::from_fn(|l| r101[l] + r102[l]);
+                let r105: [f64; K] = core::array::from_fn(|l| r104[l] + r103[l]);
+                let r106: [f64; K] = core::array::from_fn(|l| r92[l] * r105[l]);
+                let r107: [f64; K] = core::array::from_fn(|l| r100[l] + r106[l]);
+                let r108: [f64; K] = core::array::from_fn(|l| r86[l] * r90[l]);
+                let r109: [f64; K] = core::array::from_fn(|l| r24[l] * r27[l]);
+                let r110: [f64; K] = core::array::from_fn(|l| r16[l] * r19[l]);
+                let r111: [f64; K] = core::array::from_fn(|l| r15[l] * r39[l]);
+                let r112: [f64; K] = core::array::from_fn(|l| r109[l] + r110[l]);
+                let r113: [f64; K] = core::array::from_fn(|l| r112[l] + r111[l]);
+                let r114: [f64; K] = core::array::from_fn(|l| r92[l] * r113[l]);
+                let r115: [f64; K] = core::array::from_fn(|l| r108[l] + r114[l]);
+                let r116: [f64; K] = core::array::from_fn(|l| r72[l] * r89[l]);
+                let r117: [f64; K] = core::array::from_fn(|l| r20[l] * r32[l]);
+                let r118: [f64; K] = core::array::from_fn(|l| r10[l] * r45[l]);
+                let r119: [f64; K] = core::array::from_fn(|l| r9[l] * r19[l]);
+                let r120: [f64; K] = core::array::from_fn(|l| r117[l] + r118[l]);
+                let r121: [f64; K] = core::array::from_fn(|l| r120[l] + r119[l]);
+                let r122: [f64; K] = core::array::from_fn(|l| r92[l] * r121[l]);
+                let r123: [f64; K] = core::array::from_fn(|l| r116[l] + r122[l]);
+                let r124: [f64; K] = core::array::from_fn(|l| r79[l] * r89[l]);
+                let r125: [f64; K] = core::array::from_fn(|l| r22[l] * r32[l]);
+                let r126: [f64; K] = core::array::from_fn(|l| r13[l] * r45[l]);
+                let r127: [f64; K] = core::array::from_fn(|l| r12[l] * r19[l]);
+                let r128: [f64; K] = core::array::from_fn(|l| r125[l] + r126[l]);
+                let r129: [f64; K] = core::array::from_fn(|l| r128[l] + r127[l]);
+                let r130: [f64; K] = core::array::from_fn(|l| r92[l] * r129[l]);
+                let r131: [f64; K] = core::array::from_fn(|l| r124[l] + r130[l]);
+                let r132: [f64; K] = core::array::from_fn(|l| r86[l] * r89[l]);
+                let r133: [f64; K] = core::array::from_fn(|l| r24[l] * r32[l]);
+                let r134: [f64; K] = core::array::from_fn(|l| r16[l] * r45[l]);
+                let r135: [f64; K] = core::array::from_fn(|l| r15[l] * r19[l]);
+                let r136: [f64; K] = core::array::from_fn(|l| r133[l] + r134[l]);
+                let r137: [f64; K] = core::array::from_fn(|l| r136[l] + r135[l]);
+                let r138: [f64; K] = core::array::from_fn(|l| r92[l] * r137[l]);
+                let r139: [f64; K] = core::array::from_fn(|l| r132[l] + r138[l]);
+                let r140: [f64; K] = core::array::from_fn(|l| r72[l] * r88[l]);
+                let r141: [f64; K] = core::array::from_fn(|l| r20[l] * r51[l]);
+                let r142: [f64; K] = core::array::from_fn(|l| r10[l] * r32[l]);
+                let r143: [f64; K] = core::array::from_fn(|l| r9[l] * r27[l]);
+                let r144: [f64; K] = core::array::from_fn(|l| r141[l] + r142[l]);
+                let r145: [f64; K] = core::array::from_fn(|l| r144[l] + r143[l]);
+                let r146: [f64; K] = core::array::from_fn(|l| r92[l] * r145[l]);
+                let r147: [f64; K] = core::array::from_fn(|l| r140[l] + r146[l]);
+                let r148: [f64; K] = core::array::from_fn(|l| r79[l] * r88[l]);
+                let r149: [f64; K] = core::array::from_fn(|l| r22[l] * r51[l]);
+                let r150: [f64; K] = core::array::from_fn(|l| r13[l] * r32[l]);
+                let r151: [f64; K] = core::array::from_fn(|l| r12[l] * r27[l]);
+                let r152: [f64; K] = core::array::from_fn(|l| r149[l] + r150[l]);
+                let r153: [f64; K] = core::array::from_fn(|l| r152[l] + r151[l]);
+                let r154: [f64; K] = core::array::from_fn(|l| r92[l] * r153[l]);
+                let r155: [f64; K] = core::array::from_fn(|l| r148[l] + r154[l]);
+                let r156: [f64; K] = core::array::from_fn(|l| r86[l] * r88[l]);
+                let r157: [f64; K] = core::array::from_fn(|l| r24[l] * r51[l]);
+                let r158: [f64; K] = core::array::from_fn(|l| r16[l] * r32[l]);
+                let r159: [f64; K] = core::array::from_fn(|l| r15[l] * r27[l]);
+                let r160: [f64; K] = core::array::from_fn(|l| r157[l] + r158[l]);
+                let r161: [f64; K] = core::array::from_fn(|l| r160[l] + r159[l]);
+                let r162: [f64; K] = core::array::from_fn(|l| r92[l] * r161[l]);
+                let r163: [f64; K] = core::array::from_fn(|l| r156[l] + r162[l]);
+                let r164: [f64; K] = core::array::from_fn(|l| r0[l] * r65[l]);
+                let r165: [f64; K] = core::array::from_fn(|l| r15[l] * r86[l]);
+                let r166: [f64; K] = core::array::from_fn(|l| r12[l] * r79[l]);
+                let r167: [f64; K] = core::array::from_fn(|l| r9[l] * r72[l]);
+                let r168: [f64; K] = core::array::from_fn(|l| r165[l] + r166[l]);
+                let r169: [f64; K] = core::array::from_fn(|l| r168[l] + r167[l]);
+                let r170: [f64; K] = core::array::from_fn(|l| r87[l] * r169[l]);
+                let r171: [f64; K] = core::array::from_fn(|l| r164[l] + r170[l]);
+                let r172: [f64; K] = core::array::from_fn(|l| r1[l] * r171[l]);
+                let r173: [f64; K] = core::array::from_fn(|l| r3[l] * r65[l]);
+                let r174: [f64; K] = core::array::from_fn(|l| r16[l] * r86[l]);
+                let r175: [f64; K] = core::array::from_fn(|l| r13[l] * r79[l]);
+                let r176: [f64; K] = core::array::from_fn(|l| r10[l] * r72[l]);
+                let r177: [f64; K] = core::array::from_fn(|l| r174[l] + r175[l]);
+                let r178: [f64; K] = core::array::from_fn(|l| r177[l] + r176[l]);
+                let r179: [f64; K] = core::array::from_fn(|l| r87[l] * r178[l]);
+                let r180: [f64; K] = core::array::from_fn(|l| r173[l] + r179[l]);
+                let r181: [f64; K] = core::array::from_fn(|l| r4[l] * r180[l]);
+                let r182: [f64; K] = core::array::from_fn(|l| r6[l] * r65[l]);
+                let r183: [f64; K] = core::array::from_fn(|l| r24[l] * r86[l]);
+                let r184: [f64; K] = core::array::from_fn(|l| r22[l] * r79[l]);
+                let r185: [f64; K] = core::array::from_fn(|l| r20[l] * r72[l]);
+                let r186: [f64; K] = core::array::from_fn(|l| r183[l] + r184[l]);
+                let r187: [f64; K] = core::array::from_fn(|l| r186[l] + r185[l]);
+                let r188: [f64; K] = core::array::from_fn(|l| r87[l] * r187[l]);
+                let r189: [f64; K] = core::array::from_fn(|l| r182[l] + r188[l]);
+                let r190: [f64; K] = core::array::from_fn(|l| r7[l] * r189[l]);
+                out[0] = r99;
+                out[1] = r107;
+                out[2] = r115;
+                out[3] = r123;
+                out[4] = r131;
+                out[5] = r139;
+                out[6] = r147;
+                out[7] = r155;
+                out[8] = r163;
+                out[9] = r172;
+                out[10] = r181;
+                out[11] = r190;
+            }
+            /// `feedback` for K states: `x[i][l]` is component i of lane l, `out[j][l]` output j
+            /// of lane l; each lane equals the scalar function bitwise.
+            pub fn feedback<const K: usize>(
+                &self,
+                x: &[[f64; K]; 12],
+                target: &[f64; 13],
+                gains: &[f64; 3],
+                out: &mut [[f64; K]; 12],
+            ) {
+                let h = &self.prelude.feedback;
+                let r0: [f64; K] = x[9];
+                let r1: [f64; K] = [h[0]; K];
+                let r2: [f64; K] = core::array::from_fn(|l| r0[l] * r1[l]);
+                let r3: [f64; K] = x[10];
+                let r4: [f64; K] = [h[1]; K];
+                let r5: [f64; K] = core::array::from_fn(|l| r3[l] * r4[l]);
+                let r6: [f64; K] = x[11];
+                let r7: [f64; K] = [h[2]; K];
+                let r8: [f64; K] = core::array::from_fn(|l| r6[l] * r7[l]);
+                let r9: [f64; K] = x[0];
+                let r10: [f64; K] = x[3];
+                let r11: [f64; K] = core::array::from_fn(|l| r9[l] * r10[l]);
+                let r12: [f64; K] = x[1];
+                let r13: [f64; K] = x[4];
+                let r14: [f64; K] = core::array::from_fn(|l| r12[l] * r13[l]);
+                let r15: [f64; K] = x[2];
+                let r16: [f64; K] = x[5];
+                let r17: [f64; K] = core::array::from_fn(|l| r15[l] * r16[l]);
+                let r18: [f64; K] = core::array::from_fn(|l| r11[l] + r14[l]);
+                let r19: [f64; K] = core::array::from_fn(|l| r18[l] + r17[l]);
+                let r20: [f64; K] = x[6];
+                let r21: [f64; K] = core::array::from_fn(|l| r9[l] * r20[l]);
+                let r22: [f64; K] = x[7];
+                let r23: [f64; K] = core::array::from_fn(|l| r12[l] * r22[l]);
+                let r24: [f64; K] = x[8];
+                let r25: [f64; K] = core::array::from_fn(|l| r15[l] * r24[l]);
+                let r26: [f64; K] = core::array::from_fn(|l| r21[l] + r23[l]);
+                let r27: [f64; K] = core::array::from_fn(|l| r26[l] + r25[l]);
+                let r28: [f64; K] = core::array::from_fn(|l| r10[l] * r20[l]);
+                let r29: [f64; K] = core::array::from_fn(|l| r13[l] * r22[l]);
+                let r30: [f64; K] = core::array::from_fn(|l| r16[l] * r24[l]);
+                let r31: [f64; K] = core::array::from_fn(|l| r28[l] + r29[l]);
+                let r32: [f64; K] = core::array::from_fn(|l| r31[l] + r30[l]);
+                let r33: [f64; K] = core::array::from_fn(|l| r9[l].powi(2));
+                let r34: [f64; K] = core::array::from_fn(|l| r12[l].powi(2));
+                let r35: [f64; K] = core::array::from_fn(|l| r15[l].powi(2));
+                let r36: [f64; K] = core::array::from_fn(|l| r33[l] + r34[l]);
+                let r37: [f64; K] = core::array::from_fn(|l| r36[l] + r35[l]);
+                let r38: [f64; K] = [1.0_f64; K];
+                let r39: [f64; K] = core::array::from_fn(|l| r37[l] - r38[l]);
+                let r40: [f64; K] = core::array::from_fn(|l| r10[l].powi(2));
+                let r41: [f64; K] = core::array::from_fn(|l| r13[l].powi(2));
+                let r42: [f64; K] = core::array::from_fn(|l| r16[l].powi(2));
+                let r43: [f64; K] = core::array::from_fn(|l| r40[l] + r41[l]);
+                let r44: [f64; K] = core::array::from_fn(|l| r43[l] + r42[l]);
+                let r45: [f64; K] = core::array::from_fn(|l| r44[l] - r38[l]);
+                let r46: [f64; K] = core::array::from_fn(|l| r20[l].powi(2));
+                let r47: [f64; K] = core::array::from_fn(|l| r22[l].powi(2));
+                let r48: [f64; K] = core::array::from_fn(|l| r24[l].powi(2));
+                let r49: [f64; K] = core::array::from_fn(|l| r46[l] + r47[l]);
+                let r50: [f64; K] = core::array::from_fn(|l| r49[l] + r48[l]);
+                let r51: [f64; K] = core::array::from_fn(|l| r50[l] - r38[l]);
+                let r52: [f64; K] = [gains[1]; K];
+                let r53: [f64; K] = core::array::from_fn(|l| r0[l].powi(2));
+                let r54: [f64; K] = core::array::from_fn(|l| r1[l] * r53[l]);
+                let r55: [f64; K] = core::array::from_fn(|l| r3[l].powi(2));
+                let r56: [f64; K] = core::array::from_fn(|l| r4[l] * r55[l]);
+                let r57: [f64; K] = core::array::from_fn(|l| r6[l].powi(2));
+                let r58: [f64; K] = core::array::from_fn(|l| r7[l] * r57[l]);
+                let r59: [f64; K] = core::array::from_fn(|l| r54[l] + r56[l]);
+                let r60: [f64; K] = core::array::from_fn(|l| r59[l] + r58[l]);
+                let r61: [f64; K] = [0.5_f64; K];
+                let r62: [f64; K] = core::array::from_fn(|l| r61[l] * r60[l]);
+                let r63: [f64; K] = [target[9]; K];
+                let r64: [f64; K] = core::array::from_fn(|l| r62[l] - r63[l]);
+                let r65: [f64; K] = core::array::from_fn(|l| r52[l] * r64[l]);
+                let r66: [f64; K] = core::array::from_fn(|l| r9[l] * r2[l]);
+                let r67: [f64; K] = core::array::from_fn(|l| r10[l] * r5[l]);
+                let r68: [f64; K] = core::array::from_fn(|l| r20[l] * r8[l]);
+                let r69: [f64; K] = [target[10]; K];
+                let r70: [f64; K] = core::array::from_fn(|l| r66[l] + r67[l]);
+                let r71: [f64; K] = core::array::from_fn(|l| r70[l] + r68[l]);
+                let r72: [f64; K] = core::array::from_fn(|l| r71[l] - r69[l]);
+                let r73: [f64; K] = core::array::from_fn(|l| r12[l] * r2[l]);
+                let r74: [f64; K] = core::array::from_fn(|l| r13[l] * r5[l]);
+                let r75: [f64; K] = core::array::from_fn(|l| r22[l] * r8[l]);
+                let r76: [f64; K] = [target[11]; K];
+                let r77: [f64; K] = core::array::from_fn(|l| r73[l] + r74[l]);
+                let r78: [f64; K] = core::array::from_fn(|l| r77[l] + r75[l]);
+                let r79: [f64; K] = core::array::from_fn(|l| r78[l] - r76[l]);
+                let r80: [f64; K] = core::array::from_fn(|l| r15[l] * r2[l]);
+                let r81: [f64; K] = core::array::from_fn(|l| r16[l] * r5[l]);
+                let r82: [f64; K] = core::array::from_fn(|l| r24[l] * r8[l]);
+                let r83: [f64; K] = [target[12]; K];
+                let r84: [f64; K] = core::array::from_fn(|l| r80[l] + r81[l]);
+                let r85: [f64; K] = core::array::from_fn(|l| r84[l] + r82[l]);
+                let r86: [f64; K] = core::array::from_fn(|l| r85[l] - r83[l]);
+                let r87: [f64; K] = [gains[2]; K];
+                let r88: [f64; K] = core::array::from_fn(|l| r8[l] * r87[l]);
+                let r89: [f64; K] = core::array::from_fn(|l| r5[l] * r87[l]);
+                let r90: [f64; K] = core::array::from_fn(|l| r2[l] * r87[l]);
+                let r91: [f64; K] = core::array::from_fn(|l| r10[l] * r6[l]);
+                let r92: [f64; K] = core::array::from_fn(|l| r20[l] * r3[l]);
+                let r93: [f64; K] = core::array::from_fn(|l| r72[l] * r90[l]);
+                let r94: [f64; K] = [gains[0]; K];
+                let r95: [f64; K] = core::array::from_fn(|l| r20[l] * r27[l]);
+                let r96: [f64; K] = core::array::from_fn(|l| r10[l] * r19[l]);
+                let r97: [f64; K] = core::array::from_fn(|l| r9[l] * r39[l]);
+                let r98: [f64; K] = core::array::from_fn(|l| r95[l] + r96[l]);
+                let r99: [f64; K] = core::array::from_fn(|l| r98[l] + r97[l]);
+                let r100: [f64; K] = core::array::from_fn(|l| r94[l] * r99[l]);
+                let r101: [f64; K] = core::array::from_fn(|l| r93[l] + r100[l]);
+                let r102: [f64; K] = core::array::from_fn(|l| r91[l] - r92[l]);
+                let r103: [f64; K] = core::array::from_fn(|l| r102[l] - r101[l]);
+                let r104: [f64; K] = core::array::from_fn(|l| r13[l] * r6[l]);
+                let r105: [f64; K] = core::array::from_fn(|l| r22[l] * r3[l]);
+                let r106: [f64; K] = core::array::from_fn(|l| r79[l] * r90[l]);
+                let r107: [f64; K] = core::array::from_fn(|l| r22[l] * r27[l]);
+                let r108: [f64; K] = core::array::from_fn(|l| r13[l] * r19[l]);
+                let r109: [f64; K] = core::array::from_fn(|l| r12[l] * r39[l]);
+                let r110: [f64; K] = core::array::from_fn(|l| r107[l] + r108[l]);
+                let r111: [f64; K] = core::array::from_fn(|l| r110[l] + r109[l]);
+                let r112: [f64; K] = core::array::from_fn(|l| r94[l] * r111[l]);
+                let r113: [f64; K] = core::array::from_fn(|l| r106[l] + r112[l]);
+                let r114: [f64; K] = core::array::from_fn(|l| r104[l] - r105[l]);
+                let r115: [f64; K] = core::array::from_fn(|l| r114[l] - r113[l]);
+                let r116: [f64; K] = core::array::from_fn(|l| r16[l] * r6[l]);
+                let r117: [f64; K] = core::array::from_fn(|l| r24[l] * r3[l]);
+                let r118: [f64; K] = core::array::from_fn(|l| r86[l] * r90[l]);
+                let r119: [f64; K] = core::array::from_fn(|l| r24[l] * r27[l]);
+                let r120: [f64; K] = core::array::from_fn(|l| r16[l] * r19[l]);
+                let r121: [f64; K] = core::array::from_fn(|l| r15[l] * r39[l]);
+                let r122: [f64; K] = core::array::from_fn(|l| r119[l] + r120[l]);
+                let r123: [f64; K] = core::array::from_fn(|l| r122[l] + r121[l]);
+                let r124: [f64; K] = core::array::from_fn(|l| r94[l] * r123[l]);
+                let r125: [f64; K] = core::array::from_fn(|l| r118[l] + r124[l]);
+                let r126: [f64; K] = core::array::from_fn(|l| r116[l] - r117[l]);
+                let r127: [f64; K] = core::array::from_fn(|l| r126[l] - r125[l]);
+                let r128: [f64; K] = core::array::from_fn(|l| r9[l] * r6[l]);
+                let r129: [f64; K] = core::array::from_fn(|l| r20[l] * r0[l]);
+                let r130: [f64; K] = core::array::from_fn(|l| r72[l] * r89[l]);
+                let r131: [f64; K] = core::array::from_fn(|l| r20[l] * r32[l]);
+                let r132: [f64; K] = core::array::from_fn(|l| r10[l] * r45[l]);
+                let r133: [f64; K] = core::array::from_fn(|l| r9[l] * r19[l]);
+                let r134: [f64; K] = core::array::from_fn(|l| r131[l] + r132[l]);
+                let r135: [f64; K] = core::array::from_fn(|l| r134[l] + r133[l]);
+                let r136: [f64; K] = core::array::from_fn(|l| r94[l] * r135[l]);
+                let r137: [f64; K] = core::array::from_fn(|l| r130[l] + r136[l]);
+                let r138: [f64; K] = core::array::from_fn(|l| r129[l] - r128[l]);
+                let r139: [f64; K] = core::array::from_fn(|l| r138[l] - r137[l]);
+                let r140: [f64; K] = core::array::from_fn(|l| r12[l] * r6[l]);
+                let r141: [f64; K] = core::array::from_fn(|l| r22[l] * r0[l]);
+                let r142: [f64; K] = core::array::from_fn(|l| r79[l] * r89[l]);
+                let r143: [f64; K] = core::array::from_fn(|l| r22[l] * r32[l]);
+                let r144: [f64; K] = core::array::from_fn(|l| r13[l] * r45[l]);
+                let r145: [f64; K] = core::array::from_fn(|l| r12[l] * r19[l]);
+                let r146: [f64; K] = core::array::from_fn(|l| r143[l] + r144[l]);
+                let r147: [f64; K] = core::array::from_fn(|l| r146[l] + r145[l]);
+                let r148: [f64; K] = core::array::from_fn(|l| r94[l] * r147[l]);
+                let r149: [f64; K] = core::array::from_fn(|l| r142[l] + r148[l]);
+                let r150: [f64; K] = core::array::from_fn(|l| r141[l] - r140[l]);
+                let r151: [f64; K] = core::array::from_fn(|l| r150[l] - r149[l]);
+                let r152: [f64; K] = core::array::from_fn(|l| r15[l] * r6[l]);
+                let r153: [f64; K] = core::array::from_fn(|l| r24[l] * r0[l]);
+                let r154: [f64; K] = core::array::from_fn(|l| r86[l] * r89[l]);
+                let r155: [f64; K] = core::array::from_fn(|l| r24[l] * r32[l]);
+                let r156: [f64; K] = core::array::from_fn(|l| r16[l] * r45[l]);
+                let r157: [f64; K] = core::array::from_fn(|l| r15[l] * r19[l]);
+                let r158: [f64; K] = core::array::from_fn(|l| r155[l] + r156[l]);
+                let r159: [f64; K] = core::array::from_fn(|l| r158[l] + r157[l]);
+                let r160: [f64; K] = core::array::from_fn(|l| r94[l] * r159[l]);
+                let r161: [f64; K] = core::array::from_fn(|l| r154[l] + r160[l]);
+                let r162: [f64; K] = core::array::from_fn(|l| r153[l] - r152[l]);
+                let r163: [f64; K] = core::array::from_fn(|l| r162[l] - r161[l]);
+                let r164: [f64; K] = core::array::from_fn(|l| r9[l] * r3[l]);
+                let r165: [f64; K] = core::array::from_fn(|l| r10[l] * r0[l]);
+                let r166: [f64; K] = core::array::from_fn(|l| r72[l] * r88[l]);
+                let r167: [f64; K] = core::array::from_fn(|l| r20[l] * r51[l]);
+                let r168: [f64; K] = core::array::from_fn(|l| r10[l] * r32[l]);
+                let r169: [f64; K] = core::array::from_fn(|l| r9[l] * r27[l]);
+                let r170: [f64; K] = core::array::from_fn(|l| r167[l] + r168[l]);
+                let r171: [f64; K] = core::array::from_fn(|l| r170[l] + r169[l]);
+                let r172: [f64; K] = core::array::from_fn(|l| r94[l] * r171[l]);
+                let r173: [f64; K] = core::array::from_fn(|l| r166[l] + r172[l]);
+                let r174: [f64; K] = core::array::from_fn(|l| r164[l] - r165[l]);
+                let r175: [f64; K] = core::array::from_fn(|l| r174[l] - r173[l]);
+                let r176: [f64; K] = core::array::from_fn(|l| r12[l] * r3[l]);
+                let r177: [f64; K] = core::array::from_fn(|l| r13[l] * r0[l]);
+                let r178: [f64; K] = core::array::from_fn(|l| r79[l] * r88[l]);
+                let r179: [f64; K] = core::array::from_fn(|l| r22[l] * r51[l]);
+                let r180: [f64; K] = core::array::from_fn(|l| r13[l] * r32[l]);
+                let r181: [f64; K] = core::array::from_fn(|l| r12[l] * r27[l]);
+                let r182: [f64; K] = core::array::from_fn(|l| r179[l] + r180[l]);
+                let r183: [f64; K] = core::array::from_fn(|l| r182[l] + r181[l]);
+                let r184: [f64; K] = core::array::from_fn(|l| r94[l] * r183[l]);
+                let r185: [f64; K] = core::array::from_fn(|l| r178[l] + r184[l]);
+                let r186: [f64; K] = core::array::from_fn(|l| r176[l] - r177[l]);
+                let r187: [f64; K] = core::array::from_fn(|l| r186[l] - r185[l]);
+                let r188: [f64; K] = core::array::from_fn(|l| r15[l] * r3[l]);
+                let r189: [f64; K] = core::array::from_fn(|l| r16[l] * r0[l]);
+                let r190: [f64; K] = core::array::from_fn(|l| r86[l] * r88[l]);
+                let r191: [f64; K] = core::array::from_fn(|l| r24[l] * r51[l]);
+                let r192: [f64; K] = core::array::from_fn(|l| r16[l] * r32[l]);
+                let r193: [f64; K] = core::array::from_fn(|l| r15[l] * r27[l]);
+                let r194: [f64; K] = core::array::from_fn(|l| r191[l] + r192[l]);
+                let r195: [f64; K] = core::array::from_fn(|l| r194[l] + r193[l]);
+                let r196: [f64; K] = core::array::from_fn(|l| r94[l] * r195[l]);
+                let r197: [f64; K] = core::array::from_fn(|l| r190[l] + r196[l]);
+                let r198: [f64; K] = core::array::from_fn(|l| r188[l] - r189[l]);
+                let r199: [f64; K] = core::array::from_fn(|l| r198[l] - r197[l]);
+                let r200: [f64; K] = core::array::from_fn(|l| r3[l] * r6[l]);
+                let r201: [f64; K] = [h[3]; K];
+                let r202: [f64; K] = core::array::from_fn(|l| r200[l] * r201[l]);
+                let r203: [f64; K] = core::array::from_fn(|l| r0[l] * r65[l]);
+                let r204: [f64; K] = core::array::from_fn(|l| r15[l] * r86[l]);
+                let r205: [f64; K] = core::array::from_fn(|l| r12[l] * r79[l]);
+                let r206: [f64; K] = core::array::from_fn(|l| r9[l] * r72[l]);
+                let r207: [f64; K] = core::array::from_fn(|l| r204[l] + r205[l]);
+                let r208: [f64; K] = core::array::from_fn(|l| r207[l] + r206[l]);
+                let r209: [f64; K] = core::array::from_fn(|l| r87[l] * r208[l]);
+                let r210: [f64; K] = core::array::from_fn(|l| r203[l] + r209[l]);
+                let r211: [f64; K] = core::array::from_fn(|l| r1[l] * r210[l]);
+                let r212: [f64; K] = core::array::from_fn(|l| r202[l] - r211[l]);
+                let r213: [f64; K] = core::array::from_fn(|l| r0[l] * r6[l]);
+                let r214: [f64; K] = [h[4]; K];
+                let r215: [f64; K] = core::array::from_fn(|l| r213[l] * r214[l]);
+                let r216: [f64; K] = core::array::from_fn(|l| r3[l] * r65[l]);
+                let r217: [f64; K] = core::array::from_fn(|l| r16[l] * r86[l]);
+                let r218: [f64; K] = core::array::from_fn(|l| r13[l] * r79[l]);
+                let r219: [f64; K] = core::array::from_fn(|l| r10[l] * r72[l]);
+                let r220: [f64; K] = core::array::from_fn(|l| r217[l] + r218[l]);
+                let r221: [f64; K] = core::array::from_fn(|l| r220[l] + r219[l]);
+                let r222: [f64; K] = core::array::from_fn(|l| r87[l] * r221[l]);
+                let r223: [f64; K] = core::array::from_fn(|l| r216[l] + r222[l]);
+                let r224: [f64; K] = core::array::from_fn(|l| r4[l] * r223[l]);
+                let r225: [f64; K] = core::array::from_fn(|l| r215[l] - r224[l]);
+                let r226: [f64; K] = core::array::from_fn(|l| r0[l] * r3[l]);
+                let r227: [f64; K] = [h[5]; K];
+                let r228: [f64; K] = core::array::from_fn(|l| r226[l] * r227[l]);
+                let r229: [f64; K] = core::array::from_fn(|l| r6[l] * r65[l]);
+                let r230: [f64; K] = core::array::from_fn(|l| r24[l] * r86[l]);
+                let r231: [f64; K] = core::array::from_fn(|l| r22[l] * r79[l]);
+                let r232: [f64; K] = core::array::from_fn(|l| r20[l] * r72[l]);
+                let r233: [f64; K] = core::array::from_fn(|l| r230[l] + r231[l]);
+                let r234: [f64; K] = core::array::from_fn(|l| r233[l] + r232[l]);
+                let r235: [f64; K] = core::array::from_fn(|l| r87[l] * r234[l]);
+                let r236: [f64; K] = core::array::from_fn(|l| r229[l] + r235[l]);
+                let r237: [f64; K] = core::array::from_fn(|l| r7[l] * r236[l]);
+                let r238: [f64; K] = core::array::from_fn(|l| r228[l] - r237[l]);
+                out[0] = r103;
+                out[1] = r115;
+                out[2] = r127;
+                out[3] = r139;
+                out[4] = r151;
+                out[5] = r163;
+                out[6] = r175;
+                out[7] = r187;
+                out[8] = r199;
+                out[9] = r212;
+                out[10] = r225;
+                out[11] = r238;
+            }
         }
     }
 }

@@ -9,7 +9,11 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use lasalle::models::{kepler::Kepler, perturbed_kepler::PerturbedKepler, rigid_body::RigidBody};
+use lasalle::models::{
+    kepler::Kepler,
+    perturbed_kepler::{PerturbedKepler, PerturbedKeplerPrepared},
+    rigid_body::RigidBody,
+};
 use lasalle::{gauss_newton_norm, GainPolicy, VerletVariant};
 use serde_json::json;
 
@@ -250,7 +254,7 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
 }
 
 /// h·L at the perturbed Kepler pericentre and its maximum along the orbit, for Δt = 0.03.
-fn pericentre_check(model: &PerturbedKepler, x0: &[f64; 6]) -> String {
+fn pericentre_check(model: &PerturbedKeplerPrepared, x0: &[f64; 6]) -> String {
     let h = 0.03;
     let gains_of = |k: [f64; 2]| gauss_newton_norm(model, x0, &k);
     // L along one exact orbit (DOPRI5 reference over one radial period ≈ 3.9)

@@ -9,7 +9,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use lasalle::models::perturbed_kepler::PerturbedKepler;
+use lasalle::models::perturbed_kepler::{PerturbedKepler, PerturbedKeplerPrepared};
 use lasalle::{Control, Declared, DormandPrince, Driver, VerletVariant};
 use serde_json::json;
 
@@ -36,7 +36,7 @@ pub const CHECK_TOL: f64 = 1e-13;
 
 /// DOPRI5 with rtol = atol = `tol`, interpolated at `times` (dense output); the states.
 pub fn dense_reference(
-    model: &PerturbedKepler,
+    model: &PerturbedKeplerPrepared,
     x0: &[f64; 6],
     times: &[f64],
     tol: f64,
