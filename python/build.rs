@@ -20,10 +20,16 @@ fn main() {
     for f in &files {
         let stem = f.file_stem().expect("a file").to_string_lossy();
         let path = f.canonicalize().unwrap_or_else(|_| f.clone());
-        writeln!(out, "    ({stem:?}, include_str!({:?})),", path.display().to_string()).unwrap();
+        writeln!(
+            out,
+            "    ({stem:?}, include_str!({:?})),",
+            path.display().to_string()
+        )
+        .unwrap();
     }
     out.push_str("];\n");
-    let target = PathBuf::from(std::env::var("OUT_DIR").expect("set by cargo")).join("model_files.rs");
+    let target =
+        PathBuf::from(std::env::var("OUT_DIR").expect("set by cargo")).join("model_files.rs");
     std::fs::write(target, out).expect("OUT_DIR is writable");
     println!("cargo:rerun-if-changed=../models");
 }
