@@ -28,13 +28,13 @@ mod models {
 }
 
 create_exception!(
-    _lasalle,
+    lasalle,
     LasalleError,
     PyException,
     "The base class of lasalle's exceptions."
 );
 create_exception!(
-    _lasalle,
+    lasalle,
     ModelError,
     LasalleError,
     "A model that does not load: a syntax error, an unknown name, a declared invariant that is \
@@ -42,7 +42,7 @@ create_exception!(
      diagnostic, the message as the command line prints it."
 );
 create_exception!(
-    _lasalle,
+    lasalle,
     GuardError,
     LasalleError,
     "A state outside the model's domain: a guard (`guard collision: norm(x) > 1e-6;`) fails. \
