@@ -12,7 +12,8 @@ use std::collections::HashMap;
 
 use lasalle_exec::{Backend, LoadError, LoadedModel};
 use lasalle_run::{
-    simulate, simulate_many, Member, Method, ModelSource, Recording, RunError, RunSpec,
+    simulate, simulate_many, KernelPool, Member, Method, ModelSource, Recording, Reusing,
+    RunError, RunSpec,
 };
 use lasalle_runtime::{
     component_names, Declared, GainPolicy, ModelInfo, Parameters, Shape, Slot, StepError,
@@ -337,6 +338,8 @@ fn param_value<'py>(py: Python<'py>, slot: &Slot, values: Vec<f64>) -> PyResult<
 struct NativeModel {
     source: ModelSource,
     model: LoadedModel,
+    /// The Taylor kernels of its runs, built at the first Taylor run of each order.
+    kernels: std::sync::Arc<KernelPool>,
 }
 
 impl NativeModel {
@@ -404,7 +407,11 @@ impl NativeModel {
         let model = py
             .allow_threads(|| LoadedModel::from_source(&source.path, &source.text, backend))
             .map_err(|e| model_error(py, e))?;
-        Ok(NativeModel { source, model })
+        Ok(NativeModel {
+            source,
+            model,
+            kernels: KernelPool::new(),
+        })
     }
 
     #[getter]
@@ -572,8 +579,15 @@ impl NativeModel {
         }
         let result = self.check_state(py, &y0, &spec, t0).and_then(|()| {
             let model = &self.model;
-            py.allow_threads(|| simulate(model, &y0, &spec))
-                .map_err(run_error)
+            let reusing = Reusing::new(model, &self.kernels);
+            py.allow_threads(|| {
+                if spec.method.is_taylor() {
+                    simulate(&reusing, &y0, &spec)
+                } else {
+                    simulate(model, &y0, &spec)
+                }
+            })
+            .map_err(run_error)
         });
         self.restore(&saved);
         recording_dict(py, &result?, t0)

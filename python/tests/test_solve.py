@@ -125,3 +125,17 @@ def test_bad_states_and_spans_are_value_errors(kepler):
         kepler.solve("paper", (1, 0))
     with pytest.raises(ValueError, match="unknown point"):
         kepler.solve("aphelion", (0, 1))
+
+
+def test_taylor_runs_reuse_their_kernels_with_the_bits_of_new_ones(kepler):
+    # the second run takes the first run's kernels (built once per model and order)
+    y0 = [1.0, 0, 0, 0, 1.2, 0]
+    first = kepler.solve(y0, (0, 20), "feedback-taylor", rtol=1e-14)
+    kepler.params["mu"] = 0.9
+    changed = kepler.solve(y0, (0, 20), "feedback-taylor", rtol=1e-14)
+    fresh = lasalle.Model("kepler")
+    fresh.params["mu"] = 0.9
+    assert np.array_equal(changed.y, fresh.solve(y0, (0, 20), "feedback-taylor", rtol=1e-14).y)
+    kepler.params["mu"] = 1.0
+    assert np.array_equal(first.y, kepler.solve(y0, (0, 20), "feedback-taylor", rtol=1e-14).y)
+    assert not np.array_equal(first.y, changed.y)

@@ -15,6 +15,8 @@
 //!   ([`LoadedModel`](lasalle_exec::LoadedModel)) or compiled — from an initial state;
 //! - [`simulate_many`]: an ensemble of [`Member`]s of one model file across threads, members
 //!   with equal parameters in lanes ([`simulate_lanes`]), each result bitwise the lone run's;
+//! - [`Reusing`]: a loaded model whose Taylor kernels a [`KernelPool`] keeps between runs
+//!   (ensembles build them once per thread);
 //! - [`Recording`]: sampled times, states and invariant errors, the stepper's counters, wall
 //!   and CPU time, and the [`failure`](Recording::failure) that stopped a run early, written
 //!   as CSV ([`Recording::write_csv`]) and JSON ([`Recording::summary_json`]).
@@ -48,6 +50,7 @@ mod error;
 mod input;
 mod method;
 mod recording;
+mod reuse;
 mod simulate;
 mod spec;
 
@@ -57,5 +60,6 @@ pub use error::RunError;
 pub use input::{initial_state, parse_numbers};
 pub use method::{Base, Method};
 pub use recording::{json_number, Recording};
+pub use reuse::{KernelPool, Reusing};
 pub use simulate::{simulate, simulate_with_progress, RunModel};
 pub use spec::{find_preset, RunSpec, RunSpecBuilder, AUTO_SAMPLES, DEFAULT_MAX_STEPS};
