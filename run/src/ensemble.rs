@@ -14,7 +14,10 @@ use rayon::prelude::*;
 
 use crate::simulate::{check_start, plan_gains, recording, with_base, GainPlan, Visit};
 use crate::RunSpec;
-use crate::{initial_state, process_cpu_seconds, simulate, Base, Method, Recording, RunError};
+use crate::{
+    initial_state, process_cpu_seconds, simulate, Base, KernelPool, Method, Recording, Reusing,
+    RunError,
+};
 
 /// Integrates the states `x0s` of a loaded model together, in lanes
 /// ([`lasalle_exec::Lanes`], [`lasalle_exec::FeedbackLanes`]: one kernel call per stage for
@@ -283,6 +286,8 @@ pub struct Ensemble {
 struct ThreadModel {
     model: LoadedModel,
     defaults: Vec<(&'static str, Vec<f64>)>,
+    /// The Taylor kernels of the thread's runs, built once.
+    kernels: std::sync::Arc<KernelPool>,
 }
 
 impl ThreadModel {
@@ -293,7 +298,11 @@ impl ThreadModel {
             .iter()
             .filter_map(|s| Some((s.name, model.param(s.name)?)))
             .collect();
-        Ok(ThreadModel { model, defaults })
+        Ok(ThreadModel {
+            model,
+            defaults,
+            kernels: KernelPool::new(),
+        })
     }
 
     /// Sets the parameters of `member` and the model file's values of the others.
@@ -336,9 +345,17 @@ impl ThreadModel {
         {
             return recordings.into_iter().map(Ok).collect();
         }
+        let reusing = Reusing::new(model, &self.kernels);
         group
             .iter()
-            .map(|m| simulate(model, &m.start(model)?, spec))
+            .map(|m| {
+                let x0 = m.start(model)?;
+                if spec.method.is_taylor() {
+                    simulate(&reusing, &x0, spec)
+                } else {
+                    simulate(model, &x0, spec)
+                }
+            })
             .collect()
     }
 }

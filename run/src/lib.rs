@@ -18,6 +18,8 @@
 //! - [`chaos`]: the state-transition matrix of a run ([`chaos::state_transition`]), the
 //!   Lyapunov spectrum ([`chaos::lyapunov_spectrum`]), the maximal Lyapunov exponent, FLI and
 //!   MEGNO ([`chaos::indicators`]; in ensembles, [`ModelSource::extended`]);
+//! - [`Reusing`]: a loaded model whose Taylor kernels a [`KernelPool`] keeps between runs
+//!   (ensembles build them once per thread);
 //! - [`Recording`]: sampled times, states and invariant errors, the stepper's counters, wall
 //!   and CPU time, and the [`failure`](Recording::failure) that stopped a run early, written
 //!   as CSV ([`Recording::write_csv`]) and JSON ([`Recording::summary_json`]).
@@ -52,6 +54,7 @@ mod error;
 mod input;
 mod method;
 mod recording;
+mod reuse;
 mod simulate;
 mod spec;
 
@@ -61,5 +64,6 @@ pub use error::RunError;
 pub use input::{initial_state, parse_numbers};
 pub use method::{Base, Method};
 pub use recording::{json_number, Recording};
+pub use reuse::{KernelPool, Reusing};
 pub use simulate::{simulate, simulate_with_progress, RunModel};
 pub use spec::{find_preset, RunSpec, RunSpecBuilder, AUTO_SAMPLES, DEFAULT_MAX_STEPS};

@@ -1,0 +1,818 @@
+//! The native part of the Python package `lasalle` (`lasalle._lasalle`): a loaded model, one
+//! run, an ensemble, and the normal form, over the run engine ([`lasalle_run`]). The Python
+//! package (`lasalle/__init__.py`) gives it the public API: `Model`, `Solution`, `Solutions`,
+//! executors and pickling.
+//!
+//! Every entry point returns a Python exception, never panics on user input: bad arguments
+//! are `ValueError`, a model that does not load is `lasalle.ModelError` (with its file, line
+//! and column), an initial state outside the model's guards is `lasalle.GuardError`. Runs and
+//! ensembles release the GIL for their whole duration.
+
+use std::collections::HashMap;
+
+use lasalle_exec::{Backend, LoadError, LoadedModel};
+use lasalle_run::{
+    simulate, simulate_many, KernelPool, Member, Method, ModelSource, Recording, Reusing,
+    RunError, RunSpec,
+};
+use lasalle_runtime::{
+    component_names, Declared, GainPolicy, ModelInfo, Parameters, Shape, Slot, StepError,
+};
+use numpy::{IntoPyArray, PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::create_exception;
+use pyo3::exceptions::{PyException, PyOSError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+
+mod models {
+    include!(concat!(env!("OUT_DIR"), "/model_files.rs"));
+}
+
+create_exception!(
+    lasalle,
+    LasalleError,
+    PyException,
+    "The base class of lasalle's exceptions."
+);
+create_exception!(
+    lasalle,
+    ModelError,
+    LasalleError,
+    "A model that does not load: a syntax error, an unknown name, a declared invariant that is \
+     not conserved. Attributes: file, line, column (None where the problem has no place) and \
+     diagnostic, the message as the command line prints it."
+);
+create_exception!(
+    lasalle,
+    GuardError,
+    LasalleError,
+    "A state outside the model's domain: a guard (`guard collision: norm(x) > 1e-6;`) fails. \
+     Attributes: guard (its name), t and state."
+);
+
+/// Lower case without `-` and `_`: `rigid-body`, `rigid_body` and `RigidBody` agree.
+fn normalise(s: &str) -> String {
+    s.chars()
+        .filter(|c| *c != '-' && *c != '_')
+        .flat_map(char::to_lowercase)
+        .collect()
+}
+
+/// The names of the built-in models (the repository's `models/*.lsl`).
+#[pyfunction]
+fn builtin_models() -> Vec<&'static str> {
+    models::MODEL_FILES.iter().map(|(stem, _)| *stem).collect()
+}
+
+/// The path (for messages) and text of a model given as a path or the name of a built-in one.
+#[pyfunction]
+fn model_text(arg: &str) -> PyResult<(String, String)> {
+    let path = std::path::Path::new(arg);
+    if arg.ends_with(".lsl") || arg.contains(['/', '\\']) || path.is_file() {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| PyOSError::new_err(format!("cannot read model file `{arg}`: {e}")))?;
+        return Ok((arg.to_string(), text));
+    }
+    let key = normalise(arg);
+    match models::MODEL_FILES
+        .iter()
+        .find(|(stem, _)| normalise(stem) == key)
+    {
+        Some((stem, text)) => Ok((format!("models/{stem}.lsl"), text.to_string())),
+        None => Err(PyValueError::new_err(format!(
+            "no model `{arg}`: give a path to a model file (`my_model.lsl`) or one of the \
+             built-in models: {}",
+            builtin_models().join(", ")
+        ))),
+    }
+}
+
+fn backend(name: &str) -> PyResult<Backend> {
+    match normalise(name).as_str() {
+        "jit" => Ok(Backend::Jit),
+        "interpreter" => Ok(Backend::Interpreter),
+        _ => Err(PyValueError::new_err(format!(
+            "unknown backend `{name}`: `jit` (native code, the default) or `interpreter`"
+        ))),
+    }
+}
+
+fn backend_name(b: Backend) -> &'static str {
+    match b {
+        Backend::Jit => "jit",
+        Backend::Interpreter => "interpreter",
+    }
+}
+
+/// A `ModelError` with the location of the first diagnostic.
+fn model_error(py: Python<'_>, e: LoadError) -> PyErr {
+    let text = e.to_string();
+    let located = match &e {
+        LoadError::Model(lasalle_model::Error::Io { .. }) => {
+            return PyOSError::new_err(text);
+        }
+        LoadError::Model(lasalle_model::Error::Model(diagnostics)) => diagnostics
+            .iter()
+            .find_map(|d| d.span.as_ref())
+            .map(|s| (s.source.path.clone(), s.line_col())),
+        _ => None,
+    };
+    let err = ModelError::new_err(text.trim_end().to_string());
+    let value = err.value(py);
+    let (file, line, col) = match located {
+        Some((f, (l, c))) => (Some(f), Some(l), Some(c)),
+        None => (None, None, None),
+    };
+    // setting attributes on a fresh exception instance cannot fail
+    let _ = value.setattr("file", file);
+    let _ = value.setattr("line", line);
+    let _ = value.setattr("column", col);
+    let _ = value.setattr("diagnostic", text);
+    err
+}
+
+/// A `GuardError` for the guard `guard` failing at (`t`, `state`).
+fn guard_error(py: Python<'_>, message: String, guard: &str, t: f64, state: &[f64]) -> PyErr {
+    let err = GuardError::new_err(message);
+    let value = err.value(py);
+    let _ = value.setattr("guard", guard);
+    let _ = value.setattr("t", t);
+    let _ = value.setattr("state", state.to_vec().into_pyarray(py));
+    err
+}
+
+/// A run's arguments that are not its model's parameters or initial state.
+struct Options {
+    method: Method,
+    t_end: f64,
+    dt: Option<f64>,
+    rtol: Option<f64>,
+    atol: Option<f64>,
+    gains: GainPolicy,
+    every: Option<u64>,
+    max_steps: Option<u64>,
+    max_drift: Option<f64>,
+}
+
+impl Options {
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        method: &str,
+        t_end: f64,
+        dt: Option<f64>,
+        rtol: Option<f64>,
+        atol: Option<f64>,
+        gains: &Bound<'_, PyAny>,
+        every: Option<u64>,
+        max_steps: Option<u64>,
+        max_drift: Option<f64>,
+    ) -> PyResult<Options> {
+        let method: Method = method.parse().map_err(run_error)?;
+        let gains = if let Ok(text) = gains.extract::<String>() {
+            text.parse::<GainPolicy>()
+                .map_err(|e| PyValueError::new_err(format!("gains={text:?}: {e}")))?
+        } else {
+            let values: Vec<f64> = gains.extract().map_err(|_| {
+                PyValueError::new_err(
+                    "gains: a policy (`default`, `model`, `auto`, `fixed:c`, `adaptive:m:c`, \
+                     `step:c:m`) or a sequence of numbers",
+                )
+            })?;
+            GainPolicy::Explicit(values)
+        };
+        Ok(Options {
+            method,
+            t_end,
+            dt,
+            rtol,
+            atol,
+            gains,
+            every,
+            max_steps,
+            max_drift,
+        })
+    }
+
+    /// The spec, checked.
+    fn spec(&self) -> PyResult<RunSpec> {
+        let mut b = RunSpec::builder()
+            .method(self.method)
+            .t_end(self.t_end)
+            .gains(self.gains.clone());
+        if let Some(dt) = self.dt {
+            b = b.dt(dt);
+        }
+        if let Some(r) = self.rtol {
+            b = b.rtol(r);
+        }
+        if let Some(a) = self.atol {
+            b = b.atol(a);
+        }
+        if let Some(e) = self.every {
+            b = b.every(e);
+        }
+        if let Some(m) = self.max_steps {
+            b = b.max_steps(m);
+        }
+        if let Some(d) = self.max_drift {
+            b = b.max_drift(d);
+        }
+        b.build().map_err(|e| match e {
+            RunError::Missing("dt") => PyValueError::new_err(format!(
+                "method `{}` takes fixed steps: give dt=",
+                self.method
+            )),
+            e => run_error(e),
+        })
+    }
+}
+
+/// The messages of the run engine name the command line's flags; here they are keywords.
+fn run_error(e: RunError) -> PyErr {
+    let text = e
+        .to_string()
+        .replace("--dt ", "dt=")
+        .replace("--t-end ", "t_end=")
+        .replace("--rtol", "rtol")
+        .replace("--atol", "atol")
+        .replace("--gains", "gains")
+        .replace("--max-steps", "max_steps")
+        .replace("--max-drift", "max_drift")
+        .replace("--projection-tol", "projection tolerance")
+        .replace("--init", "y0");
+    PyValueError::new_err(text)
+}
+
+/// The guard's name in a guard failure's message (``guard `name` violated: …``).
+fn guard_name(message: &str) -> Option<&str> {
+    let rest = message.split("guard `").nth(1)?;
+    rest.split('`').next()
+}
+
+/// What stopped a run: kind, message, time, state, the guard.
+fn failure_dict<'py>(py: Python<'py>, e: &StepError) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    let kind = match e {
+        StepError::NonFinite { .. } => "blow-up",
+        StepError::StepSizeTooSmall { .. } => "step-size",
+        StepError::TooManyRejections { .. } => "rejections",
+        StepError::MaxSteps { .. } => "max-steps",
+        StepError::ProjectionNotConverged { .. } => "projection",
+        StepError::Guard { .. } => "guard",
+        StepError::Diverged { .. } => "diverged",
+        _ => "invalid",
+    };
+    d.set_item("kind", kind)?;
+    d.set_item("message", e.to_string())?;
+    d.set_item("t", e.time())?;
+    d.set_item("state", e.state().map(|s| s.to_vec().into_pyarray(py)))?;
+    d.set_item("step", e.step())?;
+    let guard = match e {
+        StepError::Guard { message, .. } => guard_name(message).map(str::to_string),
+        _ => None,
+    };
+    d.set_item("guard", guard)?;
+    Ok(d)
+}
+
+/// One run as a dict of the Python `Solution`'s fields; times shifted by `t0`.
+fn recording_dict<'py>(py: Python<'py>, rec: &Recording, t0: f64) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    let (n, nt, m) = (rec.dim(), rec.len(), rec.blocks.len());
+    let t: Vec<f64> = rec.t.iter().map(|t| t + t0).collect();
+    let mut y = vec![0.0; n * nt];
+    for (k, sample) in rec.x.chunks_exact(n.max(1)).enumerate() {
+        for (i, v) in sample.iter().enumerate() {
+            y[i * nt + k] = *v;
+        }
+    }
+    let mut inv = vec![0.0; m * nt];
+    for (k, sample) in rec.errors.chunks_exact(m.max(1)).enumerate() {
+        for (b, v) in sample.iter().enumerate() {
+            inv[b * nt + k] = *v;
+        }
+    }
+    let max_drift: Vec<f64> = (0..m).map(|b| rec.max_error(b)).collect();
+    d.set_item("t", t.into_pyarray(py))?;
+    d.set_item("y", y.into_pyarray(py).reshape([n, nt])?)?;
+    d.set_item("invariants", inv.into_pyarray(py).reshape([m, nt])?)?;
+    d.set_item("max_drift", max_drift.into_pyarray(py))?;
+    d.set_item("success", rec.failure.is_none())?;
+    d.set_item("nfev", rec.evaluations)?;
+    d.set_item("steps", rec.steps)?;
+    d.set_item("rejections", rec.rejections)?;
+    d.set_item("method", &rec.method)?;
+    d.set_item("stepper", &rec.stepper)?;
+    d.set_item("wall_seconds", rec.wall_seconds)?;
+    d.set_item("cpu_seconds", rec.cpu_seconds)?;
+    d.set_item("gains_initial", rec.gains_initial.clone())?;
+    d.set_item("gains_final", rec.gains_final.clone())?;
+    let counters = PyDict::new(py);
+    for (name, v) in &rec.counters {
+        counters.set_item(name, v)?;
+    }
+    d.set_item("counters", counters)?;
+    match &rec.failure {
+        None => d.set_item("failure", py.None())?,
+        Some(e) => d.set_item("failure", failure_dict(py, e)?)?,
+    }
+    Ok(d)
+}
+
+/// A parameter's values as Python sees them: a float, or an array of its shape.
+fn param_value<'py>(py: Python<'py>, slot: &Slot, values: Vec<f64>) -> PyResult<Bound<'py, PyAny>> {
+    Ok(match slot.shape {
+        Shape::Scalar => values[0].into_pyobject(py)?.into_any(),
+        Shape::Vector(_) => values.into_pyarray(py).into_any(),
+        // column-major in the model: the transpose of the row-major (c, r) array
+        Shape::Matrix(r, c) => values
+            .into_pyarray(py)
+            .reshape([c, r])?
+            .transpose()?
+            .into_any(),
+    })
+}
+
+/// A loaded model (the native half of `lasalle.Model`).
+#[pyclass(module = "lasalle._lasalle", name = "NativeModel")]
+struct NativeModel {
+    source: ModelSource,
+    model: LoadedModel,
+    /// The Taylor kernels of its runs, built at the first Taylor run of each order.
+    kernels: std::sync::Arc<KernelPool>,
+}
+
+impl NativeModel {
+    fn slot(&self, name: &str) -> PyResult<Slot> {
+        self.model
+            .param_slots()
+            .iter()
+            .find(|s| s.name == name)
+            .copied()
+            .ok_or_else(|| {
+                let known: Vec<&str> = self.model.param_slots().iter().map(|s| s.name).collect();
+                PyValueError::new_err(format!(
+                    "unknown parameter `{name}`; the model `{}` has: {}",
+                    self.model.model_name(),
+                    known.join(", ")
+                ))
+            })
+    }
+
+    /// The current values of every parameter.
+    fn all_params(&self) -> Vec<(String, Vec<f64>)> {
+        self.model
+            .param_slots()
+            .iter()
+            .filter_map(|s| Some((s.name.to_string(), self.model.param(s.name)?)))
+            .collect()
+    }
+
+    fn check_state(&self, py: Python<'_>, y0: &[f64], spec: &RunSpec, t0: f64) -> PyResult<()> {
+        let n = self.model.state_dim();
+        if y0.len() != n {
+            return Err(PyValueError::new_err(format!(
+                "y0 has {} components but the state of `{}` has dimension {n} ({})",
+                y0.len(),
+                self.model.model_name(),
+                component_names(self.model.state_slots()).join(", ")
+            )));
+        }
+        let h = if spec.method.is_adaptive() {
+            0.0
+        } else {
+            spec.dt
+        };
+        if let Some(g) = self.model.check_guards(&y0.to_vec(), h) {
+            return Err(guard_error(
+                py,
+                format!("the initial state is outside the model's domain: {g}"),
+                g.name,
+                t0,
+                y0,
+            ));
+        }
+        Ok(())
+    }
+}
+
+#[pymethods]
+impl NativeModel {
+    /// Loads a model from its text; `path` names it in messages.
+    #[new]
+    #[pyo3(signature = (text, path, backend_name = "jit"))]
+    fn new(py: Python<'_>, text: String, path: String, backend_name: &str) -> PyResult<Self> {
+        let backend = backend(backend_name)?;
+        let source = ModelSource::new(path, text, backend);
+        let model = py
+            .allow_threads(|| LoadedModel::from_source(&source.path, &source.text, backend))
+            .map_err(|e| model_error(py, e))?;
+        Ok(NativeModel {
+            source,
+            model,
+            kernels: KernelPool::new(),
+        })
+    }
+
+    #[getter]
+    fn name(&self) -> &'static str {
+        self.model.model_name()
+    }
+
+    #[getter]
+    fn path(&self) -> &str {
+        &self.source.path
+    }
+
+    #[getter]
+    fn text(&self) -> &str {
+        &self.source.text
+    }
+
+    #[getter]
+    fn backend(&self) -> &'static str {
+        backend_name(self.source.backend)
+    }
+
+    #[getter]
+    fn state_names(&self) -> Vec<String> {
+        component_names(self.model.state_slots())
+    }
+
+    #[getter]
+    fn param_names(&self) -> Vec<&'static str> {
+        self.model.param_slots().iter().map(|s| s.name).collect()
+    }
+
+    #[getter]
+    fn integrals(&self) -> Vec<&'static str> {
+        self.model
+            .invariant_infos()
+            .iter()
+            .map(|i| i.slot.name)
+            .collect()
+    }
+
+    #[getter]
+    fn gain_names(&self) -> Vec<&'static str> {
+        self.model.gain_names().to_vec()
+    }
+
+    #[getter]
+    fn point_names(&self) -> Vec<&'static str> {
+        self.model.point_names().to_vec()
+    }
+
+    #[getter]
+    fn dim(&self) -> usize {
+        self.model.state_dim()
+    }
+
+    /// The load time (parse, derive, check, compile) in seconds.
+    #[getter]
+    fn load_seconds(&self) -> f64 {
+        self.model.load_time().as_secs_f64()
+    }
+
+    /// A named point, evaluated with the current parameters.
+    fn point<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        self.model
+            .point(name)
+            .map(|p| p.into_pyarray(py))
+            .ok_or_else(|| {
+                PyValueError::new_err(format!(
+                    "unknown point `{name}`; the model has: {}",
+                    self.model.point_names().join(", ")
+                ))
+            })
+    }
+
+    /// A parameter's current value (a float, or an array of its shape).
+    fn get_param<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
+        let slot = self.slot(name)?;
+        let values = self.model.param(name).unwrap_or_default();
+        param_value(py, &slot, values)
+    }
+
+    /// The shape of a parameter: () for a scalar, (n,) or (r, c).
+    fn param_shape(&self, name: &str) -> PyResult<Vec<usize>> {
+        Ok(match self.slot(name)?.shape {
+            Shape::Scalar => vec![],
+            Shape::Vector(n) => vec![n],
+            Shape::Matrix(r, c) => vec![r, c],
+        })
+    }
+
+    /// Sets a parameter from its flat values (matrices column-major).
+    fn set_param(&mut self, name: &str, values: Vec<f64>) -> PyResult<()> {
+        self.slot(name)?;
+        if let Some(v) = values.iter().find(|v| !v.is_finite()) {
+            return Err(PyValueError::new_err(format!(
+                "parameter `{name}`: {v} is not a finite number"
+            )));
+        }
+        self.model
+            .set_param(name, &values)
+            .map_err(|e| PyValueError::new_err(e.to_string()))
+    }
+
+    /// The run presets, as dicts.
+    fn presets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let out = PyDict::new(py);
+        for p in self.model.presets() {
+            let d = PyDict::new(py);
+            d.set_item("method", p.method.map(|m| m.replace('_', "-")))?;
+            d.set_item("dt", p.dt)?;
+            d.set_item("t_end", p.t_end)?;
+            d.set_item("every", p.every)?;
+            d.set_item("init", p.init)?;
+            d.set_item("gains", p.gains.map(|g| g.to_vec()))?;
+            let params = PyDict::new(py);
+            for (name, values) in p.params {
+                params.set_item(name, values.to_vec())?;
+            }
+            d.set_item("params", params)?;
+            out.set_item(p.name, d)?;
+        }
+        Ok(out)
+    }
+
+    /// One run from `y0` over [t0, t1]; `params` overrides parameters for this run only.
+    #[pyo3(signature = (y0, t0, t1, method, dt, rtol, atol, gains, params, every, max_steps, max_drift))]
+    #[allow(clippy::too_many_arguments)]
+    fn solve<'py>(
+        &mut self,
+        py: Python<'py>,
+        y0: PyReadonlyArray1<'py, f64>,
+        t0: f64,
+        t1: f64,
+        method: &str,
+        dt: Option<f64>,
+        rtol: Option<f64>,
+        atol: Option<f64>,
+        gains: &Bound<'py, PyAny>,
+        params: HashMap<String, Vec<f64>>,
+        every: Option<u64>,
+        max_steps: Option<u64>,
+        max_drift: Option<f64>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let opts = Options::new(
+            method,
+            t1 - t0,
+            dt,
+            rtol,
+            atol,
+            gains,
+            every,
+            max_steps,
+            max_drift,
+        )?;
+        let spec = opts.spec()?;
+        let y0: Vec<f64> = y0.as_array().iter().copied().collect();
+        // the overrides for this run, then the model's values back
+        let saved = self.all_params();
+        for (name, values) in &params {
+            if let Err(e) = self.set_param(name, values.clone()) {
+                self.restore(&saved);
+                return Err(e);
+            }
+        }
+        let result = self.check_state(py, &y0, &spec, t0).and_then(|()| {
+            let model = &self.model;
+            let reusing = Reusing::new(model, &self.kernels);
+            py.allow_threads(|| {
+                if spec.method.is_taylor() {
+                    simulate(&reusing, &y0, &spec)
+                } else {
+                    simulate(model, &y0, &spec)
+                }
+            })
+            .map_err(run_error)
+        });
+        self.restore(&saved);
+        recording_dict(py, &result?, t0)
+    }
+
+    /// Runs of the rows of `y0s` (B, n) with per-row parameters `params` (name → (B, k)
+    /// flat values), on `threads` threads (0: one per core), `lanes` rows at a time in lanes.
+    #[pyo3(signature = (y0s, t0, t1, method, dt, rtol, atol, gains, params, every, max_steps, max_drift, threads, lanes))]
+    #[allow(clippy::too_many_arguments)]
+    fn solve_many<'py>(
+        &self,
+        py: Python<'py>,
+        y0s: PyReadonlyArray2<'py, f64>,
+        t0: f64,
+        t1: f64,
+        method: &str,
+        dt: Option<f64>,
+        rtol: Option<f64>,
+        atol: Option<f64>,
+        gains: &Bound<'py, PyAny>,
+        params: HashMap<String, PyReadonlyArray2<'py, f64>>,
+        every: Option<u64>,
+        max_steps: Option<u64>,
+        max_drift: Option<f64>,
+        threads: usize,
+        lanes: usize,
+    ) -> PyResult<Bound<'py, PyList>> {
+        let opts = Options::new(
+            method,
+            t1 - t0,
+            dt,
+            rtol,
+            atol,
+            gains,
+            every,
+            max_steps,
+            max_drift,
+        )?;
+        let spec = opts.spec()?;
+        let y0s = y0s.as_array();
+        let (b, n) = (y0s.nrows(), y0s.ncols());
+        if n != self.model.state_dim() {
+            return Err(PyValueError::new_err(format!(
+                "y0s has {n} columns but the state of `{}` has dimension {} ({})",
+                self.model.model_name(),
+                self.model.state_dim(),
+                component_names(self.model.state_slots()).join(", ")
+            )));
+        }
+        let base = self.all_params();
+        let mut columns: Vec<(String, usize, Vec<f64>)> = Vec::new();
+        for (name, values) in &params {
+            let slot = self.slot(name)?;
+            let values = values.as_array();
+            if values.nrows() != b || values.ncols() != slot.shape.len() {
+                return Err(PyValueError::new_err(format!(
+                    "params[{name:?}] has shape ({}, {}) but {b} rows of {} values are needed",
+                    values.nrows(),
+                    values.ncols(),
+                    slot.shape.len()
+                )));
+            }
+            if let Some(v) = values.iter().find(|v| !v.is_finite()) {
+                return Err(PyValueError::new_err(format!(
+                    "params[{name:?}]: {v} is not a finite number"
+                )));
+            }
+            columns.push((
+                name.clone(),
+                slot.shape.len(),
+                values.iter().copied().collect(),
+            ));
+        }
+        let members: Vec<Member> = (0..b)
+            .map(|row| {
+                let mut m = Member::at(y0s.row(row).iter().copied().collect());
+                for (name, values) in &base {
+                    if !params.contains_key(name) {
+                        m = m.param(name.clone(), values.clone());
+                    }
+                }
+                for (name, k, values) in &columns {
+                    m = m.param(name.clone(), values[row * k..(row + 1) * k].to_vec());
+                }
+                m
+            })
+            .collect();
+        let source = &self.source;
+        let ensemble = py
+            .allow_threads(|| simulate_many(source, &members, &spec, threads, lanes))
+            .map_err(run_error)?;
+        let out = PyList::empty(py);
+        for r in &ensemble.recordings {
+            match r {
+                Ok(rec) => out.append(recording_dict(py, rec, t0)?)?,
+                Err(e) => out.append(run_error(e.clone()).value(py).to_string())?,
+            }
+        }
+        Ok(out)
+    }
+
+    /// The Birkhoff normal form at an elliptic equilibrium, as the JSON text of
+    /// `lasalle normal-form --format json`.
+    #[pyo3(signature = (order, precision, params, at, resonant, resonance_tol, max_rel_error, error_estimate))]
+    #[allow(clippy::too_many_arguments)]
+    fn normal_form(
+        &self,
+        py: Python<'_>,
+        order: usize,
+        precision: &str,
+        params: HashMap<String, f64>,
+        at: Option<&Bound<'_, PyAny>>,
+        resonant: bool,
+        resonance_tol: f64,
+        max_rel_error: f64,
+        error_estimate: &str,
+    ) -> PyResult<String> {
+        use lasalle_normal_form::{
+            normalize_model, ErrorEstimate, ModelPoint, Options, Precision, MAX_ORDER,
+        };
+        if !(2..=MAX_ORDER).contains(&order) {
+            return Err(PyValueError::new_err(format!(
+                "order={order}: the truncation degree must be between 2 and {MAX_ORDER}"
+            )));
+        }
+        if !(max_rel_error > 0.0 && max_rel_error <= 1.0) {
+            return Err(PyValueError::new_err(format!(
+                "max_rel_error={max_rel_error}: must be in (0, 1]"
+            )));
+        }
+        if !(resonance_tol >= 0.0 && resonance_tol.is_finite()) {
+            return Err(PyValueError::new_err(format!(
+                "resonance_tol={resonance_tol}: must be a finite number >= 0"
+            )));
+        }
+        let (precision, auto) = match normalise(precision).as_str() {
+            "auto" => (Precision::F64, true),
+            "f64" | "double" => (Precision::F64, false),
+            "dd" | "doubledouble" => (Precision::DoubleDouble, false),
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "precision={precision:?}: `auto`, `f64` or `dd`"
+                )))
+            }
+        };
+        let estimate = match (normalise(error_estimate).as_str(), precision) {
+            ("none", _) => ErrorEstimate::None,
+            ("cheap", Precision::F64) => ErrorEstimate::Rotation,
+            ("cheap", _) | ("rerun", _) => ErrorEstimate::OtherPrecision,
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "error_estimate={error_estimate:?}: `cheap`, `rerun` or `none`"
+                )))
+            }
+        };
+        let point = match at {
+            None => ModelPoint::Auto,
+            Some(a) => {
+                if let Ok(name) = a.extract::<String>() {
+                    ModelPoint::Named(name)
+                } else {
+                    ModelPoint::Values(a.extract::<Vec<f64>>().map_err(|_| {
+                        PyValueError::new_err("at: a point's name or a sequence of numbers")
+                    })?)
+                }
+            }
+        };
+        // the model's current scalar parameters, then the overrides
+        let mut values: Vec<(String, f64)> = self
+            .all_params()
+            .into_iter()
+            .filter(|(_, v)| v.len() == 1)
+            .map(|(n, v)| (n, v[0]))
+            .collect();
+        for (name, v) in params {
+            let slot = self.slot(&name)?;
+            if slot.shape.len() != 1 {
+                return Err(PyValueError::new_err(format!(
+                    "parameter `{name}` is not a scalar"
+                )));
+            }
+            values.retain(|(n, _)| *n != name);
+            values.push((name, v));
+        }
+        let options = Options {
+            order,
+            precision,
+            auto_precision: auto,
+            max_relative_error: Some(max_rel_error),
+            resonant,
+            resonance_tol,
+            error_estimate: estimate,
+            ..Options::default()
+        };
+        let source = &self.source;
+        let result = py.allow_threads(|| {
+            let model = lasalle_model::lower_source(&source.path, &source.text)
+                .map_err(|e| e.to_string())?;
+            normalize_model(&model, &values, &point, &options)
+                .map(|nf| nf.to_json())
+                .map_err(|e| format!("{}: {e}", source.path))
+        });
+        result.map_err(PyValueError::new_err)
+    }
+}
+
+impl NativeModel {
+    fn restore(&mut self, saved: &[(String, Vec<f64>)]) {
+        for (name, values) in saved {
+            // the values were read from the model itself: they fit
+            let _ = self.model.set_param(name, values);
+        }
+    }
+}
+
+/// The native module `lasalle._lasalle`.
+#[pymodule]
+fn _lasalle(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add_class::<NativeModel>()?;
+    m.add_function(wrap_pyfunction!(model_text, m)?)?;
+    m.add_function(wrap_pyfunction!(builtin_models, m)?)?;
+    m.add("LasalleError", py.get_type::<LasalleError>())?;
+    m.add("ModelError", py.get_type::<ModelError>())?;
+    m.add("GuardError", py.get_type::<GuardError>())?;
+    m.add("known_methods", Method::known())?;
+    Ok(())
+}
