@@ -280,7 +280,7 @@ fn errors_inside_families_are_located() {
     let e = error(&nbody_with("sum(i in 0..n: dot(p[i], p[i]) + p[i])"));
     assert!(e.contains("cannot add a scalar and a vec3 (where i = 0)"), "{e}");
     let e = error(&nbody_with("sum(i in 0..n: dot(p[k], p[i]))"));
-    assert!(e.contains("unknown symbol `k`") && e.contains("f.lsl:5:40"), "{e}");
+    assert!(e.contains("unknown symbol `k` (where i = 0)") && e.contains("f.lsl:5:42"), "{e}");
     let e = error(&nbody_with("sum(p in 0..n: m[p])"));
     assert!(e.contains("index `p` would hide the state variable `p`"), "{e}");
     let e = error(&nbody_with("sum(i in 0..n: p[i, 0])"));

@@ -85,7 +85,16 @@ impl Lowerer {
                 }),
                 idx.to_vec(),
             ),
-            span: name.span.to(&idx[idx.len() - 1].span),
+            span: {
+                // through the closing `]` after the last index
+                let last = &idx[idx.len() - 1].span;
+                let rest = &last.source.text[last.end..];
+                let close = rest.find(']').map_or(last.end, |k| last.end + k + 1);
+                Span {
+                    end: close,
+                    ..name.span.clone()
+                }
+            },
         };
         let target = self.expr(&target_expr, Ctx::Model)?;
         let v = self.expr(e, Ctx::Model)?;
