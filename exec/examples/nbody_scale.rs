@@ -62,13 +62,14 @@ fn row(n: usize) {
         all.push(&p.field_q);
         all.push(&p.field_p);
     }
+    let largest = all.iter().map(|t| t.body.len()).max().unwrap_or(0);
     for tape in all {
         Backend::Jit.compile(tape).expect("the JIT compiles");
     }
     let jit = t.elapsed().as_secs_f64();
     let total = lower + derive + check + tape + taylor + jit;
     println!(
-        "| {n} | {} | {lower:.3} | {derive:.3} | {check:.3} | {tape:.3} | {taylor:.3} | {jit:.3} | {total:.2} | {:.0} |",
+        "| {n} | {} | {largest} | {lower:.3} | {derive:.3} | {check:.3} | {tape:.3} | {taylor:.3} | {jit:.3} | {total:.2} | {:.0} |",
         n * (n - 1) / 2,
         peak_mib()
     );
@@ -96,8 +97,8 @@ fn main() {
     if sizes.is_empty() {
         sizes = vec![3, 6, 12, 24, 48, 96, 128, 256];
     }
-    println!("| bodies N | pairs | parse + lower s | derive s | check s | tapes s | Taylor program s | JIT s | load s | peak MiB |");
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("| bodies N | pairs | largest tape | parse + lower s | derive s | check s | tapes s | Taylor program s | JIT s | load s | peak MiB |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     let exe = std::env::current_exe().expect("this program");
     for n in sizes {
         let t = Instant::now();
