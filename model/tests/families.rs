@@ -159,8 +159,8 @@ fn nbody_family_is_the_written_model_bit_for_bit() {
 /// q_i = sin(kπ(i+1)/(n+1)), has q̈ = −ω_k² q with ω_k = 2 sin(kπ / (2(n+1))).
 #[test]
 fn fput_linear_modes_have_their_closed_form_frequencies() {
-    let text = include_str!("../../models/fput.lsl")
-        .replace("param alpha = 0.25;", "param alpha = 0;");
+    let text =
+        include_str!("../../models/fput.lsl").replace("param alpha = 0.25;", "param alpha = 0;");
     let m = model(&text);
     let n = m.dim() / 2;
     assert_eq!(n, 16);
@@ -249,11 +249,22 @@ fn conditions_products_and_comprehensions() {
         for i in 0..n: d/dt x[i] = sum(j in 0..n, j != i: w[j]) * prod(k in 0..n, k < i: x[k]) + a[i][1];
     }";
     let m = model(text);
-    assert_eq!(m.default_params(), [1.0, 2.0, 3.0, 4.0, 1.0, 2.0, 1.0, 2.0, 1.0, 2.0, 1.0, 2.0]);
+    assert_eq!(
+        m.default_params(),
+        [1.0, 2.0, 3.0, 4.0, 1.0, 2.0, 1.0, 2.0, 1.0, 2.0, 1.0, 2.0]
+    );
     let x = [2.0, 3.0, 5.0, 7.0];
     let f = eval(&m, &m.field, &x);
     // Σ_{j≠i} w_j = 10 − (i + 1); Π_{k<i} x_k (empty product 1); + a_i[1] = 2
-    assert_eq!(f, [9.0 + 2.0, 8.0 * 2.0 + 2.0, 7.0 * 6.0 + 2.0, 6.0 * 30.0 + 2.0]);
+    assert_eq!(
+        f,
+        [
+            9.0 + 2.0,
+            8.0 * 2.0 + 2.0,
+            7.0 * 6.0 + 2.0,
+            6.0 * 30.0 + 2.0
+        ]
+    );
 }
 
 /// The message and `file:line:col` of the first error of `text`.
@@ -278,32 +289,61 @@ fn errors_inside_families_are_located() {
         "{e}"
     );
     let e = error(&nbody_with("sum(i in 0..n: dot(p[i], p[i]) + p[i])"));
-    assert!(e.contains("cannot add a scalar and a vec3 (where i = 0)"), "{e}");
+    assert!(
+        e.contains("cannot add a scalar and a vec3 (where i = 0)"),
+        "{e}"
+    );
     let e = error(&nbody_with("sum(i in 0..n: dot(p[k], p[i]))"));
-    assert!(e.contains("unknown symbol `k` (where i = 0)") && e.contains("f.lsl:5:42"), "{e}");
+    assert!(
+        e.contains("unknown symbol `k` (where i = 0)") && e.contains("f.lsl:5:42"),
+        "{e}"
+    );
     let e = error(&nbody_with("sum(p in 0..n: m[p])"));
-    assert!(e.contains("index `p` would hide the state variable `p`"), "{e}");
+    assert!(
+        e.contains("index `p` would hide the state variable `p`"),
+        "{e}"
+    );
     let e = error(&nbody_with("sum(i in 0..n: p[i, 0])"));
-    assert!(e.contains("`p` is a family of 5 vec3s: it takes one index"), "{e}");
+    assert!(
+        e.contains("`p` is a family of 5 vec3s: it takes one index"),
+        "{e}"
+    );
     let e = error(&nbody_with("sum(i in 0..n: p[i][3])"));
-    assert!(e.contains("index 3 is out of range 0..3 (where i = 0)"), "{e}");
+    assert!(
+        e.contains("index 3 is out of range 0..3 (where i = 0)"),
+        "{e}"
+    );
     let e = error(&nbody_with("sum(i in 0..n i != 0: m[i])"));
     assert!(e.contains("expected"), "{e}");
     let e = error("model E { param n = 2.5; state q: scalar[n]; d/dt q = q; }");
-    assert!(e.contains("a size must be a whole number, this is 2.5"), "{e}");
-    let e = error("model E { param n = 3; state q: scalar[n]; param m: scalar[n] = [1, 2]; d/dt q = m; }");
+    assert!(
+        e.contains("a size must be a whole number, this is 2.5"),
+        "{e}"
+    );
+    let e = error(
+        "model E { param n = 3; state q: scalar[n]; param m: scalar[n] = [1, 2]; d/dt q = m; }",
+    );
     assert!(
         e.contains("parameter `m` is declared a scalar[n] but its default is a vec2"),
         "{e}"
     );
-    let e = error("model E { param n = 3; state q: scalar[n]; for i in 0..n: d/dt q[i] = 0; d/dt q[2] = 1; }");
+    let e = error(
+        "model E { param n = 3; state q: scalar[n]; for i in 0..n: d/dt q[i] = 0; d/dt q[2] = 1; }",
+    );
     assert!(e.contains("`q[2]` already has an equation"), "{e}");
     let e = error("model E { param n = 3; state q: scalar[n]; for i in 1..n: d/dt q[i] = 0; }");
     assert!(e.contains("state `q` has no equation"), "{e}");
     let e = error("model E { param n = 3; state q: vec2[n]; for i in 0..n: d/dt q[i] = 0; }");
-    assert!(e.contains("d/dt q[i] is a vec2 but this is a scalar (where i = 0)"), "{e}");
-    let e = error("model E { param n = 3; state q: scalar[n]; d/dt q = [i in 0..n: q[(i + 1) % 0]]; }");
+    assert!(
+        e.contains("d/dt q[i] is a vec2 but this is a scalar (where i = 0)"),
+        "{e}"
+    );
+    let e =
+        error("model E { param n = 3; state q: scalar[n]; d/dt q = [i in 0..n: q[(i + 1) % 0]]; }");
     assert!(e.contains("`%` takes two constant whole numbers"), "{e}");
     let e = error("model E { param n = 3; state q: mat2[n]; d/dt q = q; }");
-    assert!(e.contains("a family's members are scalars or vectors, not a mat2"), "{e}");
+    assert!(
+        e.contains("a family's members are scalars or vectors, not a mat2"),
+        "{e}"
+    );
 }

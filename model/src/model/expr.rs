@@ -471,8 +471,12 @@ impl Lowerer {
             }
             BinOp::Rem => {
                 let (x, y) = (
-                    (sa == Shape::Scalar).then(|| self.g.as_num(va.ids[0])).flatten(),
-                    (sb == Shape::Scalar).then(|| self.g.as_num(vb.ids[0])).flatten(),
+                    (sa == Shape::Scalar)
+                        .then(|| self.g.as_num(va.ids[0]))
+                        .flatten(),
+                    (sb == Shape::Scalar)
+                        .then(|| self.g.as_num(vb.ids[0]))
+                        .flatten(),
                 );
                 match (x, y) {
                     (Some(x), Some(y)) if x.fract() == 0.0 && y.fract() == 0.0 && y != 0.0 => {

@@ -85,8 +85,7 @@ pub fn lex(source: &Arc<Source>) -> Result<Vec<Token>, Diagnostic> {
             let start = i;
             // `0..n` is a number and a range: a `.` followed by `.` ends the number.
             while i < text.len()
-                && (text[i].is_ascii_digit()
-                    || (text[i] == b'.' && text.get(i + 1) != Some(&b'.')))
+                && (text[i].is_ascii_digit() || (text[i] == b'.' && text.get(i + 1) != Some(&b'.')))
             {
                 i += 1;
             }

@@ -100,9 +100,9 @@ impl Parser {
                 self.bump(); // `in`
                 let start = self.expr()?;
                 if self.peek().tok != Tok::DotDot {
-                    return Err(self
-                        .unexpected("`..`")
-                        .help("an index runs over a range `start..end` (end excluded): `i in 0..n`"));
+                    return Err(self.unexpected("`..`").help(
+                        "an index runs over a range `start..end` (end excluded): `i in 0..n`",
+                    ));
                 }
                 self.bump();
                 let end = self.expr()?;
