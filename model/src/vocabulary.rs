@@ -322,6 +322,25 @@ pub const KEYWORDS: &[Keyword] = &[
         "splitting",
         "a structure-specific splitting the model admits",
     ),
+    item(
+        "for",
+        "`for i in 0..n: d/dt q[i] = …;`: the equation of every member of a family",
+    ),
+    Keyword {
+        name: "in",
+        starts_item: false,
+        doc: "`i in a..b`: an index running over a, a + 1, …, b − 1",
+    },
+    Keyword {
+        name: "sum",
+        starts_item: false,
+        doc: "`sum(i in 0..n, j in i+1..n: …)`: the sum of a term over index tuples (with conditions such as `i != j`)",
+    },
+    Keyword {
+        name: "prod",
+        starts_item: false,
+        doc: "`prod(i in 0..n: …)`: the product of a scalar term over index tuples",
+    },
 ];
 
 /// Is `name` reserved (a keyword or a built-in function), so that it cannot name a symbol?

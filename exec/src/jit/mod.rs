@@ -109,14 +109,26 @@ pub(crate) fn jit_err(e: impl std::fmt::Display) -> ExecError {
     ExecError::Jit(e.to_string())
 }
 
+/// Tapes with a body at least this long are compiled for compile time: Cranelift's
+/// backtracking register allocator grows faster than linearly on one long straight-line
+/// function (at 66 gravitational pairs, 12 bodies, it was two thirds of the model's load), so
+/// these use its single-pass allocator, and their `lanes` are compiled without optimisation.
+/// Register allocation and the optimisation level change which registers and spills the code
+/// uses, never an arithmetic operation, so the results are the same bit for bit.
+pub const LARGE_TAPE: usize = 2_000;
+
 /// A JIT module for the host, optimising for speed (the IR verifier in debug builds only: the
-/// IR is built by this crate from validated tapes).
-pub(crate) fn jit_module(opt_level: &str) -> Result<JITModule, ExecError> {
+/// IR is built by this crate from validated tapes); `fast_regalloc` chooses Cranelift's
+/// single-pass register allocator (see [`LARGE_TAPE`]).
+pub(crate) fn jit_module(opt_level: &str, fast_regalloc: bool) -> Result<JITModule, ExecError> {
     let mut flags = settings::builder();
     let set = |f: &mut settings::Builder, k, v| f.set(k, v).map_err(jit_err);
     set(&mut flags, "use_colocated_libcalls", "false")?;
     set(&mut flags, "is_pic", "false")?;
     set(&mut flags, "opt_level", opt_level)?;
+    if fast_regalloc {
+        set(&mut flags, "regalloc_algorithm", "single_pass")?;
+    }
     let verify = if cfg!(debug_assertions) {
         "true"
     } else {
@@ -239,7 +251,8 @@ impl JitKernel {
     /// body depth first from the stores, and the body is already simplified and shared by the
     /// tape); `lanes` at `speed`.
     fn compile(tape: &Tape, lanes: bool) -> Result<(Code, *const u8, EvalInfo), ExecError> {
-        let mut module = jit_module(if lanes { "speed" } else { "none" })?;
+        let large = tape.body.len() >= LARGE_TAPE;
+        let mut module = jit_module(if lanes && !large { "speed" } else { "none" }, large)?;
         match Self::define(&mut module, tape, lanes) {
             Ok((id, compiled)) => {
                 let f = module.get_finalized_function(id);

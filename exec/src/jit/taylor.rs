@@ -183,7 +183,7 @@ impl JitTaylor {
         }
         let p = order as usize;
         let inputs = Inputs::new(tape, params)?;
-        let mut module = jit_module(OPT_LEVEL).map_err(TaylorError::kernels)?;
+        let mut module = jit_module(OPT_LEVEL, false).map_err(TaylorError::kernels)?;
         let id = match define(&mut module, &program, p) {
             Ok(id) => id,
             Err(e) => {

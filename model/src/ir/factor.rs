@@ -22,6 +22,19 @@ use super::{Graph, Id, Node, Rational};
 use std::cmp::Reverse;
 use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 
+/// Graphs with at least this many reachable nodes share products many pairs per round (see
+/// [`Graph::share_products`]); smaller ones, every model of `models/` among them, one pair
+/// per round.
+pub const LARGE_GRAPH: usize = 20_000;
+
+/// The number of factors of a product node.
+fn node_factors(node: &Node) -> usize {
+    match node {
+        Node::Mul(c) => c.len(),
+        _ => 0,
+    }
+}
+
 impl Graph {
     /// The roots rewritten by both passes, for emission.
     pub fn optimize_for_emission(&mut self, roots: &[Id]) -> Vec<Id> {
@@ -370,7 +383,10 @@ impl Graph {
         }
     }
 
-    /// Introduces shared sub-products for factor pairs that occur in several products.
+    /// Introduces shared sub-products for factor pairs that occur in several products: the
+    /// most frequent pair first, one pair per round; in a graph of [`LARGE_GRAPH`] nodes or
+    /// more, every frequent pair that shares no factor with a more frequent one per round (one
+    /// round per pair would make the pass quadratic in the model's size).
     pub fn share_products(&mut self, roots: &[Id]) -> Vec<Id> {
         let mut roots = roots.to_vec();
         loop {
@@ -397,6 +413,62 @@ impl Graph {
                         }
                     }
                 }
+            }
+            if order.len() >= LARGE_GRAPH {
+                // One pass per round over a large graph: every pair that occurs twice or more
+                // and shares no factor with a more frequent (or earlier) chosen pair.
+                let mut ranked: Vec<(usize, (Id, Id))> = first_seen
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, p)| pairs[*p] >= 2)
+                    .map(|(i, &p)| (i, p))
+                    .collect();
+                if ranked.is_empty() {
+                    return roots;
+                }
+                ranked.sort_by_key(|&(i, p)| (Reverse(pairs[&p]), i));
+                let mut used: HashSet<Id> = HashSet::new();
+                let mut chosen: HashMap<Id, (Id, Id)> = HashMap::new();
+                for (_, (a, b)) in ranked {
+                    if used.contains(&a) || used.contains(&b) {
+                        continue;
+                    }
+                    used.insert(a);
+                    used.insert(b);
+                    let pair = self.intern(Node::Mul(vec![a, b].into()));
+                    chosen.insert(a, (b, pair));
+                }
+                let pair_nodes: HashSet<Id> = chosen.values().map(|&(_, p)| p).collect();
+                roots = self.rebuild_raw(&roots, &order, |g, old, node| match node {
+                    Node::Mul(_) if pair_nodes.contains(&old) => Some(old),
+                    Node::Mul(c) => {
+                        let mut c = c.to_vec();
+                        let mut changed = true;
+                        // every chosen pair the product holds
+                        while changed {
+                            changed = false;
+                            for k in 0..c.len() {
+                                if let Some(&(b, pair)) = chosen.get(&c[k]) {
+                                    if c.contains(&b) {
+                                        let a = c[k];
+                                        c.retain(|&x| x != a && x != b);
+                                        c.push(pair);
+                                        changed = true;
+                                        break;
+                                    }
+                                }
+                            }
+                        }
+                        let before = node_factors(node);
+                        if c.len() == before {
+                            None
+                        } else {
+                            Some(g.raw_product(c))
+                        }
+                    }
+                    _ => None,
+                });
+                continue;
             }
             let best = first_seen
                 .iter()

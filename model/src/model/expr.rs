@@ -91,7 +91,9 @@ impl Lowerer {
 
     pub(super) fn constant(&mut self, e: &Expr, what: &str) -> L<f64> {
         let v = self.expr(e, Ctx::Constant).map_err(|d| {
-            if matches!(
+            if d.kind == DiagnosticKind::UnknownName && matches!(&e.kind, ExprKind::Name(_)) {
+                d.help("a constant here is a number, a parameter, or an index bound by `sum(i in …: …)`, `[i in …: …]` or `for i in …:`")
+            } else if matches!(
                 d.kind,
                 DiagnosticKind::NotAllowedHere | DiagnosticKind::UnknownName
             ) {
@@ -188,6 +190,10 @@ impl Lowerer {
     fn expr_inner(&mut self, e: &Expr, ctx: Ctx) -> L<Value> {
         match &e.kind {
             ExprKind::Num(x) => Ok(Value::scalar(self.g.num(*x))),
+            ExprKind::Name(name) if self.index_value(&name.name).is_some() => {
+                let v = self.index_value(&name.name).unwrap_or_default();
+                Ok(Value::scalar(self.g.num(v as f64)))
+            }
             ExprKind::Name(name) => {
                 if ctx == Ctx::Constant {
                     if let Some(sym) = self
@@ -220,8 +226,13 @@ impl Lowerer {
             ExprKind::Binary(op, a, b) => self.binary(*op, a, b, e, ctx),
             ExprKind::Chain(first, rest) => self.chain(first, rest, ctx),
             ExprKind::Call(f, args) => self.call(f, args, e, ctx),
+            ExprKind::Family(op, head, body) => self.family(*op, head, body, e, ctx),
+            ExprKind::Comprehension(head, body) => self.comprehension(head, body, e, ctx),
             ExprKind::Index(base, idx) => {
                 let v = self.expr(base, ctx)?;
+                if let Some(member) = self.member(base, &v, idx)? {
+                    return Ok(member);
+                }
                 match (v.shape, idx.len()) {
                     (Shape::Vector(n), 1) => {
                         let i = self.index(&idx[0], n)?;
@@ -249,6 +260,15 @@ impl Lowerer {
 
     pub(super) fn list(&mut self, elems: &[Expr], e: &Expr, ctx: Ctx) -> L<Value> {
         let vals: Vec<Value> = elems.iter().map(|x| self.expr(x, ctx)).collect::<L<_>>()?;
+        self.list_of(vals, e)
+    }
+
+    /// The list of `vals`: scalars make a vector, equal-length vectors the rows of a matrix.
+    pub(super) fn list_of(&mut self, vals: Vec<Value>, e: &Expr) -> L<Value> {
+        let span_of = |k: usize| match &e.kind {
+            ExprKind::List(elems) => elems[k].span.clone(),
+            _ => e.span.clone(),
+        };
         if vals.iter().all(|v| v.shape == Shape::Scalar) {
             return Ok(Value {
                 shape: Shape::Vector(vals.len()),
@@ -265,7 +285,7 @@ impl Lowerer {
         };
         if let Some((k, v)) = vals.iter().enumerate().find(|(_, v)| v.shape != first) {
             return Err(Diagnostic::new(
-                &elems[k].span,
+                &span_of(k),
                 format!("row {k} is a {}, the first row is a {first}", v.shape),
             ));
         }
@@ -322,7 +342,7 @@ impl Lowerer {
         // costs O(n), not O(n²).
         let mut acc = acc;
         let mut pending: Vec<Id> = Vec::new();
-        let long = rest.len() >= LONG_CHAIN;
+        let long = rest.len() >= LONG_CHAIN && rest.iter().all(|(op, _)| *op != BinOp::Rem);
         for (op, b) in rest {
             let vb = self.expr(b, ctx)?;
             if long && acc.shape == Shape::Scalar && vb.shape == Shape::Scalar {
@@ -448,6 +468,26 @@ impl Lowerer {
                         .help("divide by scalars only; use `inv(M)` for parameter matrices"));
                 }
                 Ok(self.map(&va, |g, x| g.div(x, vb.ids[0])))
+            }
+            BinOp::Rem => {
+                let (x, y) = (
+                    (sa == Shape::Scalar)
+                        .then(|| self.g.as_num(va.ids[0]))
+                        .flatten(),
+                    (sb == Shape::Scalar)
+                        .then(|| self.g.as_num(vb.ids[0]))
+                        .flatten(),
+                );
+                match (x, y) {
+                    (Some(x), Some(y)) if x.fract() == 0.0 && y.fract() == 0.0 && y != 0.0 => {
+                        Ok(Value::scalar(self.g.num(x.rem_euclid(y))))
+                    }
+                    _ => Err(Diagnostic::new(
+                        span,
+                        "`%` takes two constant whole numbers, the second not 0",
+                    )
+                    .help("`%` computes indices, e.g. the neighbour `q[(i + 1) % n]` of a periodic chain")),
+                }
             }
             BinOp::Pow => unreachable!("handled above"),
         }

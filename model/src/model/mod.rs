@@ -3,6 +3,7 @@
 mod canonical;
 mod declare;
 mod expr;
+mod family;
 mod lower;
 mod structure;
 mod value;

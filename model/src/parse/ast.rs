@@ -33,6 +33,8 @@ pub enum BinOp {
     Div,
     /// `^` (scalar to a constant power)
     Pow,
+    /// `%` (the non-negative remainder of two constant whole numbers: `(i + 1) % n`)
+    Rem,
 }
 
 /// The forms an expression takes.
@@ -56,15 +58,93 @@ pub enum ExprKind {
     Index(Box<Expr>, Vec<Expr>),
     /// `[a, b, c]` (a vector) or `[[a, b], [c, d]]` (a matrix, by rows)
     List(Vec<Expr>),
+    /// `sum(i in 0..n, j in i+1..n: body)` or `prod(…: body)`: one term per index tuple.
+    Family(FamilyOp, FamilyHead, Box<Expr>),
+    /// `[i in 0..n: body]`: the list of the body's values, one element per index tuple.
+    Comprehension(FamilyHead, Box<Expr>),
 }
 
-/// A declared shape in `state x: vec3`.
+/// What a family expression does with its terms.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FamilyOp {
+    /// `sum(…)`
+    Sum,
+    /// `prod(…)`
+    Prod,
+}
+
+/// The indices of a family: ranges and conditions, in order (`i in 0..n, j in 0..n, i != j`).
+#[derive(Clone, Debug)]
+pub struct FamilyHead {
+    /// Ranges and conditions; a condition may use the indices bound before it.
+    pub clauses: Vec<Clause>,
+    /// From the first clause to the last.
+    pub span: Span,
+}
+
+/// One clause of a [`FamilyHead`].
+#[derive(Clone, Debug)]
+pub enum Clause {
+    /// `i in start..end`: i runs over start, start + 1, …, end − 1.
+    Range {
+        /// The index.
+        var: Ident,
+        /// First value.
+        start: Expr,
+        /// One past the last value.
+        end: Expr,
+    },
+    /// `lhs op rhs`: only index tuples that satisfy it.
+    Cond {
+        /// Left side.
+        lhs: Expr,
+        /// The comparison.
+        op: IndexComparison,
+        /// Right side.
+        rhs: Expr,
+    },
+}
+
+/// A comparison of whole numbers in a family's condition.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum IndexComparison {
+    /// `==`
+    Eq,
+    /// `!=`
+    Ne,
+    /// `<`
+    Less,
+    /// `<=`
+    LessEq,
+    /// `>`
+    Greater,
+    /// `>=`
+    GreaterEq,
+}
+
+impl IndexComparison {
+    /// Does `a op b` hold?
+    pub fn holds(self, a: i64, b: i64) -> bool {
+        match self {
+            IndexComparison::Eq => a == b,
+            IndexComparison::Ne => a != b,
+            IndexComparison::Less => a < b,
+            IndexComparison::LessEq => a <= b,
+            IndexComparison::Greater => a > b,
+            IndexComparison::GreaterEq => a >= b,
+        }
+    }
+}
+
+/// A declared shape in `state x: vec3`, or a family `state q: vec3[n]`.
 #[derive(Clone, Debug)]
 pub struct TypeName {
     /// The written name (`scalar`, `vec3`, `mat3`, …).
     pub name: String,
-    /// Where it is written.
+    /// Where it is written (with the count, if any).
     pub span: Span,
+    /// The number of members of a family (`[n]`), a constant expression.
+    pub count: Option<Expr>,
 }
 
 /// The structure that turns a Hamiltonian into a vector field.
@@ -99,8 +179,8 @@ pub struct GainDecl {
 pub enum Item {
     /// `state x: vec3, v: vec3;`
     State(Vec<(Ident, TypeName)>),
-    /// `param mu = 1.0;`
-    Param(Ident, Expr),
+    /// `param mu = 1.0;` or `param m: scalar[n] = 1;` (with a declared shape)
+    Param(Ident, Option<TypeName>, Expr),
     /// `let r = norm(x);`
     Let(Ident, Expr),
     /// `d/dt x = v;`
@@ -139,6 +219,10 @@ pub enum Item {
     },
     /// `splitting KIND(args…);`: a structure-specific splitting method the model admits.
     Splitting(Ident, Vec<Ident>),
+    /// `d/dt q[i] = …;`: the equation of one member of a family (or one component).
+    ElementDerivative(Ident, Vec<Expr>, Expr),
+    /// `for i in 0..n: d/dt q[i] = …;`: the item once per index tuple of the head.
+    For(FamilyHead, Box<Spanned>),
 }
 
 /// A comparison in a `guard`.

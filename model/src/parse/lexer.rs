@@ -10,8 +10,10 @@ pub enum Tok {
     Ident(String),
     /// A numeric literal.
     Num(f64),
-    /// Punctuation: one of `{ } ( ) [ ] , ; : = + - * / ^ < >`.
+    /// Punctuation: one of `{ } ( ) [ ] , ; : = + - * / ^ < > % !`.
     Punct(char),
+    /// `..`, the range operator of a family (`i in 0..n`).
+    DotDot,
     /// End of file.
     Eof,
 }
@@ -23,6 +25,7 @@ impl Tok {
             Tok::Ident(s) => format!("`{s}`"),
             Tok::Num(x) => format!("number `{x}`"),
             Tok::Punct(c) => format!("`{c}`"),
+            Tok::DotDot => "`..`".to_string(),
             Tok::Eof => "end of file".to_string(),
         }
     }
@@ -80,7 +83,10 @@ pub fn lex(source: &Arc<Source>) -> Result<Vec<Token>, Diagnostic> {
             || (c == b'.' && text.get(i + 1).is_some_and(u8::is_ascii_digit))
         {
             let start = i;
-            while i < text.len() && (text[i].is_ascii_digit() || text[i] == b'.') {
+            // `0..n` is a number and a range: a `.` followed by `.` ends the number.
+            while i < text.len()
+                && (text[i].is_ascii_digit() || (text[i] == b'.' && text.get(i + 1) != Some(&b'.')))
+            {
                 i += 1;
             }
             if i < text.len() && (text[i] == b'e' || text[i] == b'E') {
@@ -103,7 +109,13 @@ pub fn lex(source: &Arc<Source>) -> Result<Vec<Token>, Diagnostic> {
                 tok: Tok::Num(value),
                 span: span(start, i),
             });
-        } else if b"{}()[],;:=+-*/^<>".contains(&c) {
+        } else if text[i..].starts_with(b"..") {
+            tokens.push(Token {
+                tok: Tok::DotDot,
+                span: span(i, i + 2),
+            });
+            i += 2;
+        } else if b"{}()[],;:=+-*/^<>%!".contains(&c) {
             tokens.push(Token {
                 tok: Tok::Punct(c as char),
                 span: span(i, i + 1),
@@ -115,7 +127,7 @@ pub fn lex(source: &Arc<Source>) -> Result<Vec<Token>, Diagnostic> {
                 &span(i, i + ch.len_utf8()),
                 format!("unexpected character `{ch}`"),
             )
-            .help("model files use ASCII names, numbers and the operators + - * / ^"));
+            .help("model files use ASCII names, numbers and the operators + - * / ^ %"));
         }
     }
     tokens.push(Token {

@@ -7,8 +7,9 @@
 //! ```text
 //! file      = "model" NAME "{" item* "}"
 //! item      = "state" NAME ":" TYPE ("," NAME ":" TYPE)* ";"
-//!           | "param" NAME "=" expr ";"          | "let" NAME "=" expr ";"
-//!           | "d" "/" "dt" NAME "=" expr ";"
+//!           | "param" NAME [":" TYPE] "=" expr ";" | "let" NAME "=" expr ";"
+//!           | "d" "/" "dt" NAME ["[" expr ("," expr)* "]"] "=" expr ";"
+//!           | "for" head ":" item
 //!           | ("integral" | "constraint") NAME "=" expr ["gain" [NAME "="] expr] ";"
 //!           | "lyapunov" NAME "=" expr ";"       | "hamiltonian" NAME "=" expr ";"
 //!           | "structure" ("canonical" "(" NAME "," NAME ")" | "lie_poisson_so3" "(" NAME ")") ";"
@@ -16,11 +17,18 @@
 //!           | "run" NAME "{" (NAME "=" expr ";")* "}"
 //!           | "guard" NAME ":" expr ("<" | "<=" | ">" | ">=") expr ";"
 //!           | "splitting" NAME "(" NAME ("," NAME)* ")" ";"
+//! TYPE      = NAME ["[" expr "]"]                  (a family: `vec3[n]`)
+//! head      = clause ("," clause)*;  clause = NAME "in" expr ".." expr | expr CMP expr
+//! primary   = NUM | NAME | NAME "(" args ")" | "(" expr ")" | "[" expr ("," expr)* "]"
+//!           | ("sum" | "prod") "(" head ":" expr ")" | "[" head ":" expr "]"
 //! ```
+//! `%` is parsed with `*` and `/`; the family forms are in `family`.
 
 use super::ast::*;
 use super::lexer::{Tok, Token};
 use crate::error::{Diagnostic, Span};
+
+mod family;
 
 /// The parser state: a token list and a cursor.
 pub struct Parser {
@@ -160,14 +168,8 @@ impl Parser {
                     let name = self.ident("a state variable's name")?;
                     self.expect_punct(':')
                         .map_err(|d| d.help("declare a shape: `state x: vec3;`"))?;
-                    let ty = self.ident("a shape (`scalar`, `vec2`, `vec3`, `mat2`, `mat3`, …)")?;
-                    decls.push((
-                        name,
-                        TypeName {
-                            name: ty.name,
-                            span: ty.span,
-                        },
-                    ));
+                    let ty = self.type_name()?;
+                    decls.push((name, ty));
                     if self.is_punct(',') {
                         self.bump();
                     } else {
@@ -177,14 +179,28 @@ impl Parser {
                 self.expect_punct(';')?;
                 Item::State(decls)
             }
-            "param" | "let" | "lyapunov" | "hamiltonian" => {
+            "param" => {
+                self.bump();
+                let name = self.ident("a name")?;
+                let ty = if self.is_punct(':') {
+                    self.bump();
+                    Some(self.type_name()?)
+                } else {
+                    None
+                };
+                self.expect_punct('=')?;
+                let value = self.expr()?;
+                self.expect_punct(';')?;
+                Item::Param(name, ty, value)
+            }
+            "for" => return self.for_item(),
+            "let" | "lyapunov" | "hamiltonian" => {
                 self.bump();
                 let name = self.ident("a name")?;
                 self.expect_punct('=')?;
                 let value = self.expr()?;
                 self.expect_punct(';')?;
                 match keyword.as_str() {
-                    "param" => Item::Param(name, value),
                     "let" => Item::Let(name, value),
                     "lyapunov" => Item::Lyapunov(name, value),
                     _ => Item::Hamiltonian(name, value),
@@ -196,10 +212,18 @@ impl Parser {
                 self.expect_keyword("dt")
                     .map_err(|d| d.help("write a derivative as `d/dt x = …;`"))?;
                 let name = self.ident("a state variable")?;
+                let indices = if self.is_punct('[') {
+                    Some(self.subscripts()?)
+                } else {
+                    None
+                };
                 self.expect_punct('=')?;
                 let value = self.expr()?;
                 self.expect_punct(';')?;
-                Item::Derivative(name, value)
+                match indices {
+                    Some(indices) => Item::ElementDerivative(name, indices, value),
+                    None => Item::Derivative(name, value),
+                }
             }
             "integral" | "constraint" => {
                 self.bump();
@@ -377,11 +401,12 @@ impl Parser {
         })
     }
 
-    /// term = unary (("*" | "/") unary)*
+    /// term = unary (("*" | "/" | "%") unary)*
     fn term(&mut self) -> PResult<Expr> {
         self.chain(Self::unary, |c| match c {
             '*' => Some(BinOp::Mul),
             '/' => Some(BinOp::Div),
+            '%' => Some(BinOp::Rem),
             _ => None,
         })
     }
@@ -453,14 +478,8 @@ impl Parser {
                 )
                 .help("split it with `let` bindings"));
             }
-            self.bump();
-            let mut indices = vec![self.expr()?];
-            while self.is_punct(',') {
-                self.bump();
-                indices.push(self.expr()?);
-            }
-            let end = self.expect_punct(']')?;
-            let span = e.span.to(&end);
+            let indices = self.subscripts()?;
+            let span = e.span.to(&self.prev_span());
             e = Expr {
                 kind: ExprKind::Index(Box::new(e), indices),
                 span,
@@ -479,6 +498,15 @@ impl Parser {
                     span: t.span,
                 })
             }
+            Tok::Ident(name) if self.starts_family() => {
+                let op = if name == "sum" {
+                    FamilyOp::Sum
+                } else {
+                    FamilyOp::Prod
+                };
+                self.family(op)
+            }
+            Tok::Punct('[') if self.starts_comprehension() => self.comprehension(),
             Tok::Ident(name) => {
                 self.bump();
                 let id = Ident {

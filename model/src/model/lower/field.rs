@@ -55,6 +55,79 @@ impl Lowerer {
         Ok(())
     }
 
+    /// `d/dt q[i] = …;`: the equation of member i of a family (or of one component).
+    pub(super) fn element_derivative(
+        &mut self,
+        name: &Ident,
+        idx: &[Expr],
+        e: &Expr,
+        span: &Span,
+        field: &mut [Option<(Id, Span)>],
+    ) -> L<()> {
+        let sym = self.lookup(name, Ctx::Model)?;
+        if sym.kind != Kind::State {
+            return Err(Diagnostic::new(
+                &name.span,
+                format!(
+                    "`{}` is a {}, not a state variable",
+                    name.name,
+                    sym.kind.describe()
+                ),
+            )
+            .help("`d/dt` takes a variable declared with `state`"));
+        }
+        // The target is lowered as the expression `name[idx…]` would be.
+        let target_expr = Expr {
+            kind: ExprKind::Index(
+                Box::new(Expr {
+                    kind: ExprKind::Name(name.clone()),
+                    span: name.span.clone(),
+                }),
+                idx.to_vec(),
+            ),
+            span: {
+                // through the closing `]` after the last index
+                let last = &idx[idx.len() - 1].span;
+                let rest = &last.source.text[last.end..];
+                let close = rest.find(']').map_or(last.end, |k| last.end + k + 1);
+                Span {
+                    end: close,
+                    ..name.span.clone()
+                }
+            },
+        };
+        let target = self.expr(&target_expr, Ctx::Model)?;
+        let v = self.expr(e, Ctx::Model)?;
+        if v.shape != target.shape {
+            return Err(Diagnostic::new(
+                &e.span,
+                format!(
+                    "d/dt {} is a {} but this is a {}",
+                    target_expr.span.text(),
+                    target.shape,
+                    v.shape
+                ),
+            )
+            .help("the right-hand side must have the shape of the member"));
+        }
+        for (k, &state_id) in target.ids.iter().enumerate() {
+            let Node::Input(Input::State(i)) = *self.g.node(state_id) else {
+                unreachable!("state ids are inputs")
+            };
+            let slot = &mut field[i as usize];
+            if let Some((_, prev)) = slot {
+                let (line, _) = prev.line_col();
+                return Err(Diagnostic::new(
+                    &target_expr.span,
+                    format!("`{}` already has an equation", target_expr.span.text()),
+                )
+                .help(format!("see line {line}; keep one")));
+            }
+            *slot = Some((v.ids[k], span.clone()));
+        }
+        Ok(())
+    }
+
     /// Every state component needs exactly one equation.
     pub(super) fn check_equations(&mut self, state: &[StateVar], field: &[Option<(Id, Span)>]) {
         for s in state {

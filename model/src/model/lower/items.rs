@@ -61,6 +61,22 @@ impl Lowerer {
     fn item<'a>(&mut self, it: &'a Spanned, state: &[StateVar], acc: &mut Items<'a>) -> L<()> {
         match &it.item {
             Item::State(_) | Item::Param(..) => Ok(()),
+            Item::ElementDerivative(name, idx, e) => {
+                self.element_derivative(name, idx, e, &it.span, &mut acc.field)
+            }
+            Item::For(head, inner) => {
+                let Item::ElementDerivative(name, idx, e) = &inner.item else {
+                    return Err(Diagnostic::new(
+                        &inner.span,
+                        "`for` takes an equation of a family's member: `for i in 0..n: d/dt q[i] = …;`",
+                    )
+                    .help("sums, products and lists take their indices themselves: `sum(i in 0..n: …)`, `[i in 0..n: …]`"));
+                };
+                let mut count = 0;
+                self.for_each(head, 0, &mut count, &mut |lw| {
+                    lw.element_derivative(name, idx, e, &inner.span, &mut acc.field)
+                })
+            }
             Item::Let(name, e) => self.binding(name, e, &it.span, &mut acc.lets),
             Item::Derivative(name, e) => self.derivative(name, e, &it.span, &mut acc.field),
             Item::Invariant {

@@ -79,6 +79,12 @@ pub(super) struct Lowerer {
     /// The value of every graph node that is a constant (no inputs), by Id; filled in
     /// creation order by `check_finite`.
     pub(super) constants: Vec<Option<f64>>,
+    /// The indices bound while a family is unrolled, innermost last (`model::family`).
+    pub(super) indices: Vec<(String, i64)>,
+    /// The families of vectors among the state and parameters, with their members' shape.
+    pub(super) families: HashMap<String, Shape>,
+    /// Names used as sizes or range bounds: parameters among them are constants.
+    pub(super) sizes: std::collections::HashSet<String>,
 }
 
 pub(super) type L<T> = Result<T, Diagnostic>;
@@ -95,6 +101,9 @@ pub fn lower(ast: &ModelAst, source: Arc<Source>) -> Result<Model, Error> {
         gain_names: Default::default(),
         errors: Vec::new(),
         constants: Vec::new(),
+        indices: Vec::new(),
+        families: HashMap::new(),
+        sizes: Lowerer::size_names(ast),
     };
     let model = lw.model(ast);
     if lw.errors.is_empty() {

@@ -56,6 +56,11 @@ impl Lowerer {
                 .help("a point assigns every state variable"));
             };
             let v = self.expr(e, Ctx::Model)?;
+            let v = if self.families.contains_key(&s.name) {
+                self.family_value(s.shape, e, v)
+            } else {
+                v
+            };
             if v.shape != s.shape {
                 return Err(Diagnostic::new(
                     &e.span,

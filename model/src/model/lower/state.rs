@@ -1,6 +1,6 @@
 //! Pass 1: state variables and parameters, which may be used anywhere in the model.
 
-use super::{Ctx, Kind, Lowerer};
+use super::{Ctx, Kind, Lowerer, L};
 use crate::error::Diagnostic;
 use crate::ir::Input;
 use crate::model::{Param, Shape, StateVar, Value};
@@ -20,15 +20,16 @@ impl Lowerer {
             match &it.item {
                 Item::State(decls) => {
                     for (name, ty) in decls {
-                        let Some(shape) = Shape::from_name(&ty.name) else {
-                            self.errors.push(
-                                Diagnostic::new(&ty.span, format!("unknown shape `{}`", ty.name))
-                                    .help(
-                                    "shapes are `scalar`, `vecN` (e.g. `vec3`), `matN` or `matRxC`",
-                                ),
-                            );
-                            continue;
+                        let (shape, member) = match self.declared_shape(ty) {
+                            Ok(s) => s,
+                            Err(d) => {
+                                self.errors.push(d);
+                                continue;
+                            }
                         };
+                        if let Some(m @ Shape::Vector(_)) = member {
+                            self.families.insert(name.name.clone(), m);
+                        }
                         let ids = (0..shape.len())
                             .map(|k| self.g.input(Input::State((n + k) as u32)))
                             .collect();
@@ -42,8 +43,8 @@ impl Lowerer {
                         n += shape.len();
                     }
                 }
-                Item::Param(name, e) => {
-                    if let Some(p) = self.param(name, e, it) {
+                Item::Param(name, ty, e) => {
+                    if let Some(p) = self.param(name, ty.as_ref(), e, it) {
                         params.push(p);
                     }
                 }
@@ -68,15 +69,28 @@ impl Lowerer {
         (state, params, n)
     }
 
-    pub(super) fn param(&mut self, name: &Ident, e: &Expr, it: &Spanned) -> Option<Param> {
+    pub(super) fn param(
+        &mut self,
+        name: &Ident,
+        ty: Option<&TypeName>,
+        e: &Expr,
+        it: &Spanned,
+    ) -> Option<Param> {
+        if self.sizes.contains(&name.name) {
+            self.size_param(name, ty, e);
+            return None;
+        }
         let offset = self.param_defaults.len();
         let (value, diagonal) = match &e.kind {
-            ExprKind::Call(f, args) if f.name == "diag" => {
+            ExprKind::Call(f, args) if f.name == "diag" && ty.is_none() => {
                 (self.diag_args(args, e, Ctx::Constant), true)
             }
             _ => (self.expr(e, Ctx::Constant), false),
         };
-        let value = match value {
+        let value = match value.and_then(|v| match ty {
+            Some(ty) => self.typed_default(name, ty, e, v),
+            None => Ok(v),
+        }) {
             Ok(v) => v,
             Err(d) => {
                 self.errors.push(d);
@@ -131,5 +145,72 @@ impl Lowerer {
             defaults,
             span: it.span.clone(),
         })
+    }
+}
+
+impl Lowerer {
+    /// A parameter used as a size or a range bound: a constant of the model, with no slot.
+    fn size_param(&mut self, name: &Ident, ty: Option<&TypeName>, e: &Expr) {
+        if let Some(ty) = ty.filter(|t| t.name != "scalar" || t.count.is_some()) {
+            self.errors.push(
+                Diagnostic::new(
+                    &ty.span,
+                    format!("`{}` is used as a size, so it is a scalar", name.name),
+                )
+                .help(format!("declare it as `param {} = 16;`", name.name)),
+            );
+            return;
+        }
+        match self.integer(e, "a size") {
+            Ok(k) => {
+                let id = self.g.num(k as f64);
+                self.declare(name, Kind::Param, Value::scalar(id));
+            }
+            Err(d) => {
+                self.errors.push(d.help(format!(
+                    "`{}` is used as a size or a range bound: it is a whole number",
+                    name.name
+                )));
+                self.poisoned.insert(name.name.clone());
+            }
+        }
+    }
+
+    /// The default `v` (written `e`) of a parameter declared with a shape: a family takes a
+    /// list of its members or one value for all of them (a scalar for a family of scalars, a
+    /// vector for a family of vectors).
+    fn typed_default(&mut self, name: &Ident, ty: &TypeName, e: &Expr, v: Value) -> L<Value> {
+        let (shape, member) = self.declared_shape(ty)?;
+        let mut v = v;
+        if let Some(member) = member {
+            if let Shape::Vector(_) = member {
+                self.families.insert(name.name.clone(), member);
+            }
+            v = self.family_value(shape, e, v);
+            if v.shape == Shape::Scalar && member == Shape::Scalar {
+                v = Value {
+                    shape,
+                    ids: vec![v.ids[0]; shape.len()],
+                };
+            }
+        }
+        if v.shape != shape {
+            return Err(Diagnostic::new(
+                &e.span,
+                format!(
+                    "parameter `{}` is declared a {} but its default is a {}",
+                    name.name,
+                    ty.span.text(),
+                    v.shape
+                ),
+            )
+            .help(match member {
+                Some(m) => format!(
+                    "give one {m} for every member (`[…, …]` or `[i in 0..n: …]`), or one {m} for all"
+                ),
+                None => "the default must have the declared shape".to_string(),
+            }));
+        }
+        Ok(v)
     }
 }

@@ -1,0 +1,218 @@
+//! Families from the command line: the Pleiades written as a family reproduce the IVP test
+//! set's reference solution as the model written pair by pair does, the FPUT chain of
+//! `models/fput.lsl` conserves its energy, the heat equation's first mode decays as its closed
+//! form, and the N-body family of `models/nbody.lsl` loads and runs at a size given by
+//! editing its `param n` line.
+
+mod common;
+
+use std::path::PathBuf;
+
+use common::lasalle;
+
+const PLEIADES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/models/pleiades.lsl");
+
+/// The Pleiades as a family: the layout q = (x₁…x₇, y₁…y₇) and point of the written model.
+const PLEIADES_FAMILY: &str = "model PleiadesFamily {
+    param n = 7;
+    state q: scalar[2 * n], p: scalar[2 * n];
+    hamiltonian H = sum(i in 0..n: (p[i]^2 + p[n + i]^2) / (2 * (i + 1)))
+        - sum(i in 0..n, j in i+1..n: (i + 1) * (j + 1) / sqrt((q[i] - q[j])^2 + (q[n + i] - q[n + j])^2));
+    structure canonical(q, p);
+    integral P = [sum(i in 0..n: p[i]), sum(i in 0..n: p[n + i])];
+    integral L = sum(i in 0..n: q[i] * p[n + i] - q[n + i] * p[i]);
+    point start { q = [3, 3, -1, -3, 2, -2, 2, 3, -3, 2, 0, 0, -4, 4]; p = [0, 0, 0, 0, 0, 10.5, -10.5, 0, 0, 0, -5, 5, 0, 0]; }
+}";
+
+/// x₁…x₇, y₁…y₇, ẋ₁…ẋ₇, ẏ₁…ẏ₇ at t = 3 (Mazzia & Magherini, the IVP test set).
+#[allow(clippy::excessive_precision)]
+const REFERENCE: [f64; 28] = [
+    0.3706139143970502,
+    3.237284092057233,
+    -3.222559032418324,
+    0.6597091455775310,
+    0.3425581707156584,
+    1.562172101400631,
+    -0.7003092922212495,
+    -3.943437585517392,
+    -3.271380973972550,
+    5.225081843456543,
+    -2.590612434977470,
+    1.198213693392275,
+    -0.2429682344935824,
+    1.091449240428980,
+    3.417003806314313,
+    1.354584501625501,
+    -2.590065597810775,
+    2.025053734714242,
+    -1.155815100160448,
+    -0.8072988170223021,
+    0.5952396354208710,
+    -3.741244961234010,
+    0.3773459685750630,
+    0.9386858869551073,
+    0.3667922227200571,
+    -0.3474046353808490,
+    2.344915448180937,
+    -1.947020434263292,
+];
+
+fn dir(name: &str) -> PathBuf {
+    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join("families")
+        .join(name);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Writes `text` as `name.lsl` in a directory of its own.
+fn model_file(name: &str, text: &str) -> String {
+    let path = dir(name).join(format!("{name}.lsl"));
+    std::fs::write(&path, text).unwrap();
+    path.to_str().unwrap().to_string()
+}
+
+/// `lasalle run` with `args`: its summary.json (the run must succeed).
+fn run(name: &str, args: &[&str]) -> serde_json::Value {
+    let out = dir(name).join("out");
+    let out = out.to_str().unwrap();
+    let mut all = vec!["run"];
+    all.extend(args);
+    all.extend(["--format", "json", "--out", out]);
+    let o = lasalle(&all);
+    assert!(
+        o.status.success(),
+        "{name}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    serde_json::from_str(&std::fs::read_to_string(format!("{out}/summary.json")).unwrap()).unwrap()
+}
+
+fn final_state(s: &serde_json::Value) -> Vec<f64> {
+    s["final_state"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect()
+}
+
+fn max_error(s: &serde_json::Value, invariant: &str) -> f64 {
+    s["invariant_errors"][invariant]["max"].as_f64().unwrap()
+}
+
+#[test]
+fn pleiades_family_meets_the_ivp_test_set_as_the_written_model() {
+    let family = model_file("pleiades_family", PLEIADES_FAMILY);
+    let args = |m: &str| -> Vec<String> {
+        [
+            m, "-m", "taylor", "--rtol", "1e-13", "--t-end", "3", "--init", "start",
+        ]
+        .map(String::from)
+        .to_vec()
+    };
+    let a: Vec<String> = args(&family);
+    let b: Vec<String> = args(PLEIADES);
+    let s_family = run(
+        "pleiades_family",
+        &a.iter().map(String::as_str).collect::<Vec<_>>(),
+    );
+    let s_written = run(
+        "pleiades_written",
+        &b.iter().map(String::as_str).collect::<Vec<_>>(),
+    );
+    let (x, y) = (final_state(&s_family), final_state(&s_written));
+    for i in 0..28 {
+        // velocities are p / m, m_i = i
+        let v = if i < 14 {
+            x[i]
+        } else {
+            x[i] / ((i % 7) + 1) as f64
+        };
+        assert!(
+            (v - REFERENCE[i]).abs() < 1e-8,
+            "component {i}: {v} against {}",
+            REFERENCE[i]
+        );
+        assert_eq!(
+            x[i].to_bits(),
+            y[i].to_bits(),
+            "component {i}: {} {}",
+            x[i],
+            y[i]
+        );
+    }
+    assert!(max_error(&s_family, "H") < 1e-9);
+}
+
+#[test]
+fn fput_conserves_its_energy() {
+    // the model's preset: Störmer–Verlet, dt = 0.05, to t = 1000
+    let s = run("fput", &["fput"]);
+    let e = max_error(&s, "H");
+    // the energy of the first mode: ω₁² Σ sin²(π(i+1)/(n+1)) / 2 = ω₁² (n+1) / 4 ≈ 0.037
+    assert!(e > 0.0 && e < 1e-4, "|ΔH| = {e:e}");
+    let s = run(
+        "fput-dopri",
+        &["fput", "-m", "dopri5", "--rtol", "1e-12", "--t-end", "100"],
+    );
+    // an explicit method drifts, slowly at this tolerance (|ΔH| / H ≈ 5e-9 at t = 100)
+    assert!(max_error(&s, "H") < 1e-9, "{}", max_error(&s, "H"));
+}
+
+#[test]
+fn heat_equation_first_mode_decays_as_its_closed_form() {
+    let text = "model Heat {
+        param n = 32;
+        state u: scalar[n];
+        param kappa = 1;
+        let h = 1 / (n + 1);
+        for i in 1..n-1: d/dt u[i] = kappa * (u[i-1] - 2 * u[i] + u[i+1]) / h^2;
+        d/dt u[0] = kappa * (u[1] - 2 * u[0]) / h^2;
+        d/dt u[n-1] = kappa * (u[n-2] - 2 * u[n-1]) / h^2;
+        point mode1 { u = [i in 0..n: sin(3.141592653589793 * (i + 1) / (n + 1))]; }
+    }";
+    let file = model_file("heat", text);
+    let t = 0.05;
+    let s = run(
+        "heat",
+        &[
+            &file, "-m", "dopri5", "--rtol", "1e-12", "--atol", "1e-14", "--t-end", "0.05",
+            "--init", "mode1",
+        ],
+    );
+    let u = final_state(&s);
+    let n = 32;
+    let h = 1.0 / (n + 1) as f64;
+    let pi = std::f64::consts::PI;
+    let lambda = 4.0 / (h * h) * (pi * h / 2.0).sin().powi(2);
+    // the semi-discrete decay rate is the continuous one, π², to O(h²)
+    assert!((lambda - pi * pi).abs() < pi.powi(4) * h * h / 12.0 * 1.01);
+    for (i, ui) in u.iter().enumerate() {
+        let exact = (-lambda * t).exp() * (pi * (i + 1) as f64 * h).sin();
+        assert!(
+            (ui - exact).abs() < 1e-10,
+            "u[{i}] = {ui}, closed form {exact}"
+        );
+    }
+}
+
+#[test]
+fn nbody_size_is_one_line() {
+    let text = include_str!("../models/nbody.lsl");
+    assert_eq!(text.matches("param n = 5;").count(), 1);
+    let file = model_file("nbody16", &text.replace("param n = 5;", "param n = 16;"));
+    let s = run(
+        "nbody16",
+        &[&file, "-m", "dopri5", "--rtol", "1e-12", "--t-end", "1"],
+    );
+    assert_eq!(final_state(&s).len(), 96);
+    // dopri5 at rtol 1e-12 conserves none of them exactly; P (a sum of the field) to rounding
+    for (name, bound) in [("H", 1e-8), ("P", 1e-12), ("L", 1e-10)] {
+        let e = max_error(&s, name);
+        assert!(e < bound, "{name}: {e:e}");
+    }
+    // the size is a constant of the model, not a run-time parameter
+    let o = lasalle(&["run", &file, "--param", "n=3", "--t-end", "0.1"]);
+    assert!(!o.status.success());
+}
