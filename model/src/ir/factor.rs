@@ -384,7 +384,7 @@ impl Graph {
     }
 
     /// Introduces shared sub-products for factor pairs that occur in several products: the
-    /// most frequent pair first, one pair per round; in a graph of [`LARGE_GRAPH`] nodes or
+    /// most frequent pair first, one pair per round; in a graph of `LARGE_GRAPH` nodes or
     /// more, every frequent pair that shares no factor with a more frequent one per round (one
     /// round per pair would make the pass quadratic in the model's size).
     pub fn share_products(&mut self, roots: &[Id]) -> Vec<Id> {
