@@ -901,6 +901,10 @@ impl<M: ?Sized, X: State<f64>> Stepper<f64, X, M> for Taylor<M> {
         format!("taylor({})", self.order)
     }
 
+    fn dense_output(&self) -> Option<&dyn DenseOutput<f64, X>> {
+        Some(self)
+    }
+
     fn is_adaptive(&self) -> bool {
         true
     }
@@ -963,6 +967,10 @@ where
 
     fn name(&self) -> String {
         format!("taylor({})", self.order)
+    }
+
+    fn dense_output(&self) -> Option<&dyn DenseOutput<f64, X>> {
+        Some(self)
     }
 
     fn is_adaptive(&self) -> bool {

@@ -122,6 +122,7 @@ impl Lowerer {
             points,
             presets,
             guards,
+            events,
             splitting: splitting_decl,
         } = self.items(ast, &state, n);
         let hamiltonian = self.hamiltonian_route(
@@ -171,6 +172,7 @@ impl Lowerer {
             points,
             presets,
             guards,
+            events,
             splitting,
         })
     }

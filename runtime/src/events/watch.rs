@@ -1,0 +1,326 @@
+//! [`Watch`]: after every step, the crossings of the model's events on the step's continuous
+//! extension, and the states at the output times that fall in it.
+
+use super::extension::{Extension, Hermite};
+use super::root::{brent, golden_min};
+use super::{Crossing, EventDirection, EventSpec};
+use crate::state::State;
+use crate::steppers::DenseOutput;
+
+/// Subintervals a step is cut into to look for sign changes and extrema of each event
+/// function: two crossings of one event closer than a quarter step are seen as an extremum
+/// (and then both found) only where the sampled values show one.
+pub const SUBINTERVALS: usize = 4;
+
+/// A minimum of |g| along a step within this fraction of g's range over the step is a touch:
+/// found once, as one crossing, even where the interpolant dips through zero and back.
+pub const TOUCH: f64 = 1e-8;
+
+/// The event function g(x, t) of every event at once, into the slice.
+pub type EventFn<'m, X> = dyn Fn(&X, f64, &mut [f64]) + 'm;
+/// The model's field, for the Hermite interpolant.
+pub type FieldFn<'m, X> = dyn Fn(&X, &mut X) + 'm;
+
+/// Locates events and samples output times step by step; see the [module docs](super).
+pub struct Watch<'m, X> {
+    events: Vec<EventSpec>,
+    g: Box<EventFn<'m, X>>,
+    field: Box<FieldFn<'m, X>>,
+    t_eval: Vec<f64>,
+    next_eval: usize,
+    t0: f64,
+    x0: X,
+    f0: X,
+    f0_valid: bool,
+    f1: X,
+    /// g at t₀, per event.
+    g0: Vec<f64>,
+    /// The sign of the last nonzero value of each event function (0 before any).
+    sign: Vec<f64>,
+    tmp: X,
+    gtmp: Vec<f64>,
+    /// Node values, `(SUBINTERVALS + 1) × events`.
+    nodes: Vec<f64>,
+    found: Vec<Crossing<X>>,
+    step_found: Vec<Crossing<X>>,
+    /// Interpolations and event-function evaluations so far.
+    pub evaluations: u64,
+    /// Extra field evaluations for Hermite interpolants.
+    pub field_evaluations: u64,
+}
+
+impl<'m, X: State<f64>> Watch<'m, X> {
+    /// A watch of `events` (evaluated by `g`), sampling the sorted output times `t_eval`,
+    /// starting at (t₀, x₀); `field` is the model's field for the Hermite interpolant of
+    /// steppers without dense output. Returns the outputs at t₀ through `on_grid`.
+    pub fn new(
+        events: Vec<EventSpec>,
+        g: Box<EventFn<'m, X>>,
+        field: Box<FieldFn<'m, X>>,
+        t_eval: Vec<f64>,
+        t0: f64,
+        x0: &X,
+    ) -> Self {
+        let m = events.len();
+        let mut w = Watch {
+            events,
+            g,
+            field,
+            t_eval,
+            next_eval: 0,
+            t0,
+            x0: x0.clone(),
+            f0: x0.clone(),
+            f0_valid: false,
+            f1: x0.clone(),
+            g0: vec![0.0; m],
+            sign: vec![0.0; m],
+            tmp: x0.clone(),
+            gtmp: vec![0.0; m],
+            nodes: vec![0.0; (SUBINTERVALS + 1) * m],
+            found: Vec::new(),
+            step_found: Vec::new(),
+            evaluations: 0,
+            field_evaluations: 0,
+        };
+        if m > 0 {
+            (w.g)(x0, t0, &mut w.g0);
+            for (s, &v) in w.sign.iter_mut().zip(&w.g0) {
+                *s = sgn(v);
+            }
+        }
+        w
+    }
+
+    /// The events watched.
+    pub fn events(&self) -> &[EventSpec] {
+        &self.events
+    }
+
+    /// Calls `on_grid(t, x)` for the output times at the start (t = t₀).
+    pub fn start(&mut self, on_grid: &mut dyn FnMut(f64, &X)) {
+        while self.next_eval < self.t_eval.len() && self.t_eval[self.next_eval] <= self.t0 {
+            on_grid(self.t_eval[self.next_eval], &self.x0);
+            self.next_eval += 1;
+        }
+    }
+
+    /// The non-terminal crossings found so far, in time order; they are handed out once.
+    pub fn take_crossings(&mut self) -> Vec<Crossing<X>> {
+        std::mem::take(&mut self.found)
+    }
+
+    /// Are there output times left?
+    pub fn grid_done(&self) -> bool {
+        self.next_eval >= self.t_eval.len()
+    }
+
+    /// After a step to (t₁, x₁) whose stepper has the continuous extension `dense` (or none:
+    /// the Hermite cubic): records the crossings in the step, calls `on_grid` for the output
+    /// times in (t₀, t₁] (up to a terminal crossing), and returns the first terminal
+    /// crossing, if any, which ends the run.
+    pub fn after_step(
+        &mut self,
+        dense: Option<&dyn DenseOutput<f64, X>>,
+        t1: f64,
+        x1: &X,
+        on_grid: &mut dyn FnMut(f64, &X),
+    ) -> Option<Crossing<X>> {
+        let t0 = self.t0;
+        let h = t1 - t0;
+        let slack = 1e-9 * h.abs().max(f64::MIN_POSITIVE);
+        let dense = dense.and_then(|d| {
+            let (a, b) = d.dense_interval()?;
+            ((a - t0).abs() <= slack && (b - t1).abs() <= slack).then_some((d, a, b))
+        });
+        let needs_work = !self.events.is_empty() || self.next_eval < self.t_eval.len();
+        if needs_work && dense.is_none() {
+            if !self.f0_valid {
+                (self.field)(&self.x0, &mut self.f0);
+                self.field_evaluations += 1;
+            }
+            (self.field)(x1, &mut self.f1);
+            self.field_evaluations += 1;
+        }
+        let mut terminal = None;
+        if needs_work {
+            let ext = match dense {
+                Some((d, a, b)) => Extension::Dense(d, a, b),
+                None => Extension::Hermite(Hermite {
+                    t0,
+                    t1,
+                    x0: &self.x0,
+                    x1,
+                    f0: &self.f0,
+                    f1: &self.f1,
+                }),
+            };
+            if !self.events.is_empty() && h > 0.0 {
+                terminal = locate(
+                    &ext,
+                    t0,
+                    t1,
+                    x1,
+                    Locate {
+                        events: &self.events,
+                        g: &*self.g,
+                        g0: &mut self.g0,
+                        sign: &mut self.sign,
+                        nodes: &mut self.nodes,
+                        tmp: &mut self.tmp,
+                        gtmp: &mut self.gtmp,
+                        found: &mut self.step_found,
+                        evaluations: &mut self.evaluations,
+                    },
+                );
+                self.found.append(&mut self.step_found);
+            }
+            let t_cut = terminal.as_ref().map_or(t1, |c: &Crossing<X>| c.t);
+            while self.next_eval < self.t_eval.len() && self.t_eval[self.next_eval] <= t_cut {
+                let t = self.t_eval[self.next_eval];
+                if t == t1 {
+                    on_grid(t, x1);
+                } else {
+                    ext.eval(t, &mut self.tmp);
+                    on_grid(t, &self.tmp);
+                }
+                self.next_eval += 1;
+            }
+        }
+        self.t0 = t1;
+        self.x0.clone_from(x1);
+        if dense.is_none() && needs_work {
+            std::mem::swap(&mut self.f0, &mut self.f1);
+            self.f0_valid = true;
+        } else {
+            self.f0_valid = false;
+        }
+        terminal
+    }
+}
+
+/// The sign of v: ±1, or 0 for 0 and NaN.
+fn sgn(v: f64) -> f64 {
+    if v > 0.0 {
+        1.0
+    } else if v < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
+}
+
+/// The watch's event state, borrowed for one step.
+struct Locate<'a, 'm, X> {
+    events: &'a [EventSpec],
+    g: &'a EventFn<'m, X>,
+    g0: &'a mut Vec<f64>,
+    sign: &'a mut Vec<f64>,
+    nodes: &'a mut Vec<f64>,
+    tmp: &'a mut X,
+    gtmp: &'a mut Vec<f64>,
+    found: &'a mut Vec<Crossing<X>>,
+    evaluations: &'a mut u64,
+}
+
+/// The crossings of every event on [t₀, t₁] of the extension `ext` into `l.found` (time
+/// order, cut after the first terminal one, which is returned instead).
+fn locate<X: State<f64>>(
+    ext: &Extension<'_, X>,
+    t0: f64,
+    t1: f64,
+    x1: &X,
+    l: Locate<'_, '_, X>,
+) -> Option<Crossing<X>> {
+    let m = l.events.len();
+    let node_t = |j: usize| {
+        if j == SUBINTERVALS {
+            t1
+        } else {
+            t0 + (t1 - t0) * j as f64 / SUBINTERVALS as f64
+        }
+    };
+    // the event functions at the nodes: t₀ from the last step, t₁ at the stepper's state
+    l.nodes[..m].copy_from_slice(l.g0);
+    for j in 1..=SUBINTERVALS {
+        let t = node_t(j);
+        let row = &mut l.nodes[j * m..(j + 1) * m];
+        if j == SUBINTERVALS {
+            (l.g)(x1, t, row);
+        } else {
+            ext.eval(t, l.tmp);
+            (l.g)(l.tmp, t, row);
+        }
+        *l.evaluations += 1;
+    }
+    let (g, tmp, gtmp, evaluations) = (l.g, &mut *l.tmp, &mut *l.gtmp, &mut *l.evaluations);
+    // g_i along the extension
+    let mut gi = |i: usize, t: f64| -> f64 {
+        ext.eval(t, tmp);
+        g(tmp, t, gtmp);
+        *evaluations += 1;
+        gtmp[i]
+    };
+    l.found.clear();
+    for (i, spec) in l.events.iter().enumerate() {
+        let v = |j: usize| l.nodes[j * m + i];
+        let scale = (0..=SUBINTERVALS).fold(0.0f64, |s, j| s.max(v(j).abs()));
+        let mut roots: Vec<(f64, bool, bool)> = Vec::new(); // (t, rising, touch)
+        let mut s = l.sign[i];
+        for j in 1..=SUBINTERVALS {
+            let (a, b) = (node_t(j - 1), node_t(j));
+            let (va, vb) = (v(j - 1), v(j));
+            if vb != 0.0 && s != 0.0 && sgn(vb) != s {
+                // a sign change on [a, b] (va may be 0: the zero is then at a)
+                let t = brent(|t| gi(i, t), a, b, va, vb, 0.0);
+                roots.push((t, s < 0.0, false));
+            } else if j < SUBINTERVALS && vb != 0.0 && sgn(vb) == s {
+                // an interior node nearer zero than both neighbours: an extremum of g on
+                // [a, c] may reach or pass zero
+                let vc = v(j + 1);
+                if vb.abs() < va.abs() && vb.abs() <= vc.abs() && sgn(vc) == s {
+                    let c = node_t(j + 1);
+                    let (tm, gm) = golden_min(|t| s * gi(i, t), a, c);
+                    if gm < -TOUCH * scale {
+                        // through zero and back: two crossings
+                        let t = brent(|t| gi(i, t), a, tm, va, s * gm, 0.0);
+                        roots.push((t, s < 0.0, false));
+                        let t = brent(|t| gi(i, t), tm, c, s * gm, vc, 0.0);
+                        roots.push((t, s > 0.0, false));
+                    } else if gm <= TOUCH * scale {
+                        roots.push((tm, s < 0.0, true));
+                    }
+                }
+            }
+            if vb != 0.0 {
+                s = sgn(vb);
+            }
+        }
+        l.sign[i] = s;
+        for (t, rising, touch) in roots {
+            let wanted = touch
+                || match spec.direction {
+                    EventDirection::Both => true,
+                    EventDirection::Rising => rising,
+                    EventDirection::Falling => !rising,
+                };
+            if wanted {
+                let mut x = x1.clone();
+                ext.eval(t, &mut x);
+                l.found.push(Crossing {
+                    event: i,
+                    t,
+                    x,
+                    rising,
+                    touch,
+                });
+            }
+        }
+    }
+    l.g0.copy_from_slice(&l.nodes[SUBINTERVALS * m..]);
+    l.found.sort_by(|a, b| a.t.total_cmp(&b.t));
+    let first_stop = l.found.iter().position(|c| l.events[c.event].terminal)?;
+    let stop = l.found.remove(first_stop);
+    l.found.truncate(first_stop);
+    Some(stop)
+}
