@@ -45,6 +45,7 @@
 mod clock;
 mod ensemble;
 mod error;
+mod events;
 mod input;
 mod method;
 mod recording;
@@ -54,6 +55,7 @@ mod spec;
 pub use clock::process_cpu_seconds;
 pub use ensemble::{simulate_lanes, simulate_many, Ensemble, Init, Member, ModelSource};
 pub use error::RunError;
+pub use events::{parse_t_eval, EventHit};
 pub use input::{initial_state, parse_numbers};
 pub use method::{Base, Method};
 pub use recording::{json_number, Recording};

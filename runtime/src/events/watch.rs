@@ -37,6 +37,8 @@ pub struct Watch<'m, X> {
     g0: Vec<f64>,
     /// The sign of the last nonzero value of each event function (0 before any).
     sign: Vec<f64>,
+    /// Did the last step end with the event function coming nearer zero (and no touch)?
+    approach: Vec<bool>,
     tmp: X,
     gtmp: Vec<f64>,
     /// Node values, `(SUBINTERVALS + 1) × events`.
@@ -75,6 +77,7 @@ impl<'m, X: State<f64>> Watch<'m, X> {
             f1: x0.clone(),
             g0: vec![0.0; m],
             sign: vec![0.0; m],
+            approach: vec![false; m],
             tmp: x0.clone(),
             gtmp: vec![0.0; m],
             nodes: vec![0.0; (SUBINTERVALS + 1) * m],
@@ -166,6 +169,7 @@ impl<'m, X: State<f64>> Watch<'m, X> {
                         g: &*self.g,
                         g0: &mut self.g0,
                         sign: &mut self.sign,
+                        approach: &mut self.approach,
                         nodes: &mut self.nodes,
                         tmp: &mut self.tmp,
                         gtmp: &mut self.gtmp,
@@ -216,6 +220,7 @@ struct Locate<'a, 'm, X> {
     g: &'a EventFn<'m, X>,
     g0: &'a mut Vec<f64>,
     sign: &'a mut Vec<f64>,
+    approach: &'a mut Vec<bool>,
     nodes: &'a mut Vec<f64>,
     tmp: &'a mut X,
     gtmp: &'a mut Vec<f64>,
@@ -265,37 +270,47 @@ fn locate<X: State<f64>>(
     for (i, spec) in l.events.iter().enumerate() {
         let v = |j: usize| l.nodes[j * m + i];
         let scale = (0..=SUBINTERVALS).fold(0.0f64, |s, j| s.max(v(j).abs()));
+        let tiny = 1e-7 * (t1 - t0);
         let mut roots: Vec<(f64, bool, bool)> = Vec::new(); // (t, rising, touch)
         let mut s = l.sign[i];
+        // the first subinterval, where the last step ended coming nearer zero without a touch
+        // at its end
+        let same = |s: f64, a: f64, b: f64| s != 0.0 && sgn(a) == s && sgn(b) == s;
+        let mut xm = Extremum {
+            gi: &mut gi,
+            i,
+            touch: TOUCH * scale,
+            tiny,
+        };
+        if l.approach[i] && same(s, v(0), v(1)) && v(0).abs() < v(1).abs() {
+            xm.search(&mut roots, s, (t0, v(0)), (node_t(1), v(1)), (true, false));
+        }
+        let mut edge_touch = false;
         for j in 1..=SUBINTERVALS {
             let (a, b) = (node_t(j - 1), node_t(j));
             let (va, vb) = (v(j - 1), v(j));
             if vb != 0.0 && s != 0.0 && sgn(vb) != s {
                 // a sign change on [a, b] (va may be 0: the zero is then at a)
-                let t = brent(|t| gi(i, t), a, b, va, vb, 0.0);
+                let t = brent(|t| (xm.gi)(i, t), a, b, va, vb, 0.0);
                 roots.push((t, s < 0.0, false));
-            } else if j < SUBINTERVALS && vb != 0.0 && sgn(vb) == s {
-                // an interior node nearer zero than both neighbours: an extremum of g on
-                // [a, c] may reach or pass zero
+            } else if j < SUBINTERVALS && same(s, va, vb) && sgn(v(j + 1)) == s {
                 let vc = v(j + 1);
-                if vb.abs() < va.abs() && vb.abs() <= vc.abs() && sgn(vc) == s {
-                    let c = node_t(j + 1);
-                    let (tm, gm) = golden_min(|t| s * gi(i, t), a, c);
-                    if gm < -TOUCH * scale {
-                        // through zero and back: two crossings
-                        let t = brent(|t| gi(i, t), a, tm, va, s * gm, 0.0);
-                        roots.push((t, s < 0.0, false));
-                        let t = brent(|t| gi(i, t), tm, c, s * gm, vc, 0.0);
-                        roots.push((t, s > 0.0, false));
-                    } else if gm <= TOUCH * scale {
-                        roots.push((tm, s < 0.0, true));
-                    }
+                if vb.abs() < va.abs() && vb.abs() <= vc.abs() {
+                    xm.search(&mut roots, s, (a, va), (node_t(j + 1), vc), (false, false));
                 }
+            } else if j == SUBINTERVALS && same(s, va, vb) && vb.abs() < va.abs() {
+                // coming nearer zero at the step's end: the last subinterval now, the next
+                // step's first one then
+                let touch = xm.search(&mut roots, s, (a, va), (b, vb), (false, false));
+                edge_touch = touch.is_some_and(|tm| tm >= b - tiny);
             }
             if vb != 0.0 {
                 s = sgn(vb);
             }
         }
+        l.approach[i] = !edge_touch
+            && same(s, v(SUBINTERVALS - 1), v(SUBINTERVALS))
+            && v(SUBINTERVALS).abs() < v(SUBINTERVALS - 1).abs();
         l.sign[i] = s;
         for (t, rising, touch) in roots {
             let wanted = touch
@@ -323,4 +338,47 @@ fn locate<X: State<f64>>(
     let stop = l.found.remove(first_stop);
     l.found.truncate(first_stop);
     Some(stop)
+}
+
+/// The search of an extremum of one event function between samples.
+struct Extremum<'e> {
+    gi: &'e mut dyn FnMut(usize, f64) -> f64,
+    i: usize,
+    /// |g| at most this is a touch.
+    touch: f64,
+    /// Nearer than this to an open end of the interval is outside it.
+    tiny: f64,
+}
+
+impl Extremum<'_> {
+    /// Where g of sign `s` at both ends of [a, c] comes nearer zero between them, its extremum:
+    /// two crossings into `roots` if it passes zero, one touch if it (about) reaches it,
+    /// returning the touch's time; `open` excludes touches at the interval's ends.
+    fn search(
+        &mut self,
+        roots: &mut Vec<(f64, bool, bool)>,
+        s: f64,
+        (a, va): (f64, f64),
+        (c, vc): (f64, f64),
+        open: (bool, bool),
+    ) -> Option<f64> {
+        let i = self.i;
+        let gi = &mut *self.gi;
+        let (tm, gm) = golden_min(|t| s * gi(i, t), a, c);
+        if gm < -self.touch {
+            let t = brent(|t| gi(i, t), a, tm, va, s * gm, 0.0);
+            roots.push((t, s < 0.0, false));
+            let t = brent(|t| gi(i, t), tm, c, s * gm, vc, 0.0);
+            roots.push((t, s > 0.0, false));
+            None
+        } else if gm <= self.touch
+            && !(open.0 && tm <= a + self.tiny)
+            && !(open.1 && tm >= c - self.tiny)
+        {
+            roots.push((tm, s < 0.0, true));
+            Some(tm)
+        } else {
+            None
+        }
+    }
 }
