@@ -348,6 +348,9 @@ where
             Control::Continue
         }
     })?;
+    let t_last = terminal.as_ref().map_or(summary.t, |c| c.t);
+    hits.extend(watch.finish(t_last).into_iter().map(|c| (c, false)));
+    hits.sort_by(|a, b| a.0.t.total_cmp(&b.0.t));
     match terminal {
         Some(c) => {
             obs.inner.inner.observe(k, c.t, &c.x);

@@ -39,6 +39,10 @@ pub struct Watch<'m, X> {
     sign: Vec<f64>,
     /// Did the last step end with the event function coming nearer zero (and no touch)?
     approach: Vec<bool>,
+    /// Where each event function last became exactly 0, while it stays 0.
+    zero_at: Vec<Option<f64>>,
+    /// A crossing near which g stayed within a touch of zero to the step's end, per event.
+    pending: Vec<Option<Crossing<X>>>,
     tmp: X,
     gtmp: Vec<f64>,
     /// Node values, `(SUBINTERVALS + 1) × events`.
@@ -78,6 +82,8 @@ impl<'m, X: State<f64>> Watch<'m, X> {
             g0: vec![0.0; m],
             sign: vec![0.0; m],
             approach: vec![false; m],
+            zero_at: vec![None; m],
+            pending: vec![None; m],
             tmp: x0.clone(),
             gtmp: vec![0.0; m],
             nodes: vec![0.0; (SUBINTERVALS + 1) * m],
@@ -111,6 +117,25 @@ impl<'m, X: State<f64>> Watch<'m, X> {
     /// The non-terminal crossings found so far, in time order; they are handed out once.
     pub fn take_crossings(&mut self) -> Vec<Crossing<X>> {
         std::mem::take(&mut self.found)
+    }
+
+    /// At the end of the run: the crossings that were waiting to see whether a touch follows
+    /// (g still within a touch of zero at the last step's end), up to `t_end`, in time order.
+    pub fn finish(&mut self, t_end: f64) -> Vec<Crossing<X>> {
+        let mut rest: Vec<Crossing<X>> = self.pending.iter_mut().filter_map(Option::take).collect();
+        rest.retain(|c| c.t <= t_end);
+        rest.retain(|c| {
+            c.touch
+                || match self.events[c.event].direction {
+                    EventDirection::Both => true,
+                    EventDirection::Rising => c.rising,
+                    EventDirection::Falling => !c.rising,
+                }
+        });
+        rest.sort_by(|a, b| a.t.total_cmp(&b.t));
+        let mut found = self.take_crossings();
+        found.append(&mut rest);
+        found
     }
 
     /// Are there output times left?
@@ -170,6 +195,8 @@ impl<'m, X: State<f64>> Watch<'m, X> {
                         g0: &mut self.g0,
                         sign: &mut self.sign,
                         approach: &mut self.approach,
+                        zero_at: &mut self.zero_at,
+                        pending: &mut self.pending,
                         nodes: &mut self.nodes,
                         tmp: &mut self.tmp,
                         gtmp: &mut self.gtmp,
@@ -221,6 +248,8 @@ struct Locate<'a, 'm, X> {
     g0: &'a mut Vec<f64>,
     sign: &'a mut Vec<f64>,
     approach: &'a mut Vec<bool>,
+    zero_at: &'a mut Vec<Option<f64>>,
+    pending: &'a mut Vec<Option<Crossing<X>>>,
     nodes: &'a mut Vec<f64>,
     tmp: &'a mut X,
     gtmp: &'a mut Vec<f64>,
@@ -271,7 +300,7 @@ fn locate<X: State<f64>>(
         let v = |j: usize| l.nodes[j * m + i];
         let scale = (0..=SUBINTERVALS).fold(0.0f64, |s, j| s.max(v(j).abs()));
         let tiny = 1e-7 * (t1 - t0);
-        let mut roots: Vec<(f64, bool, bool)> = Vec::new(); // (t, rising, touch)
+        let mut roots: Vec<Root> = Vec::new();
         let mut s = l.sign[i];
         // the first subinterval, where the last step ended coming nearer zero without a touch
         // at its end
@@ -289,10 +318,20 @@ fn locate<X: State<f64>>(
         for j in 1..=SUBINTERVALS {
             let (a, b) = (node_t(j - 1), node_t(j));
             let (va, vb) = (v(j - 1), v(j));
-            if vb != 0.0 && s != 0.0 && sgn(vb) != s {
+            if vb == 0.0 {
+                // an exact zero: a crossing if the sign changes after it, else a touch
+                if s != 0.0 && l.zero_at[i].is_none() {
+                    l.zero_at[i] = Some(b);
+                }
+            } else if s != 0.0 && sgn(vb) != s {
                 // a sign change on [a, b] (va may be 0: the zero is then at a)
-                let t = brent(|t| (xm.gi)(i, t), a, b, va, vb, 0.0);
-                roots.push((t, s < 0.0, false));
+                let t = match l.zero_at[i].take() {
+                    Some(tz) => tz,
+                    None => brent(|t| (xm.gi)(i, t), a, b, va, vb, 0.0),
+                };
+                roots.push(Root::new(t, s < 0.0, false, false));
+            } else if let Some(tz) = l.zero_at[i].take() {
+                roots.push(Root::new(tz, s < 0.0, true, true));
             } else if j < SUBINTERVALS && same(s, va, vb) && sgn(v(j + 1)) == s {
                 let vc = v(j + 1);
                 if vb.abs() < va.abs() && vb.abs() <= vc.abs() {
@@ -312,23 +351,68 @@ fn locate<X: State<f64>>(
             && same(s, v(SUBINTERVALS - 1), v(SUBINTERVALS))
             && v(SUBINTERVALS).abs() < v(SUBINTERVALS - 1).abs();
         l.sign[i] = s;
-        for (t, rising, touch) in roots {
-            let wanted = touch
+        // Two opposite crossings with g no farther from zero than a touch between them (at
+        // the samples) are one touch, also across steps: a crossing with g still that near
+        // zero at the step's end waits for the next step.
+        let big_between = |a: f64, b: f64| {
+            (0..=SUBINTERVALS).any(|j| {
+                let t = node_t(j);
+                t > a && t < b && v(j).abs() > TOUCH * scale
+            })
+        };
+        let emit = |c: Crossing<X>, found: &mut Vec<Crossing<X>>| {
+            let wanted = c.touch
                 || match spec.direction {
                     EventDirection::Both => true,
-                    EventDirection::Rising => rising,
-                    EventDirection::Falling => !rising,
+                    EventDirection::Rising => c.rising,
+                    EventDirection::Falling => !c.rising,
                 };
             if wanted {
-                let mut x = x1.clone();
-                ext.eval(t, &mut x);
-                l.found.push(Crossing {
-                    event: i,
-                    t,
-                    x,
-                    rising,
-                    touch,
-                });
+                found.push(c);
+            }
+        };
+        let at = |t: f64| {
+            let mut x = x1.clone();
+            ext.eval(t.max(t0), &mut x);
+            x
+        };
+        let mut open = l.pending[i].take();
+        for r in roots {
+            if let Some(p) = open.take() {
+                if !r.touch && r.rising != p.rising && !big_between(p.t, r.t) {
+                    let t = 0.5 * (p.t + r.t);
+                    emit(
+                        Crossing {
+                            event: i,
+                            t,
+                            x: at(t),
+                            rising: p.rising,
+                            touch: true,
+                        },
+                        l.found,
+                    );
+                    continue;
+                }
+                emit(p, l.found);
+            }
+            let c = Crossing {
+                event: i,
+                t: r.t,
+                x: at(r.t),
+                rising: r.rising,
+                touch: r.touch,
+            };
+            if r.touch || r.confirmed || spec.terminal {
+                emit(c, l.found);
+            } else {
+                open = Some(c);
+            }
+        }
+        if let Some(p) = open {
+            if big_between(p.t, f64::INFINITY) {
+                emit(p, l.found);
+            } else {
+                l.pending[i] = Some(p);
             }
         }
     }
@@ -338,6 +422,26 @@ fn locate<X: State<f64>>(
     let stop = l.found.remove(first_stop);
     l.found.truncate(first_stop);
     Some(stop)
+}
+
+/// A zero of one event function in a step.
+struct Root {
+    t: f64,
+    rising: bool,
+    touch: bool,
+    /// Known to be a crossing of its own (not half of a touch).
+    confirmed: bool,
+}
+
+impl Root {
+    fn new(t: f64, rising: bool, touch: bool, confirmed: bool) -> Root {
+        Root {
+            t,
+            rising,
+            touch,
+            confirmed,
+        }
+    }
 }
 
 /// The search of an extremum of one event function between samples.
@@ -356,7 +460,7 @@ impl Extremum<'_> {
     /// returning the touch's time; `open` excludes touches at the interval's ends.
     fn search(
         &mut self,
-        roots: &mut Vec<(f64, bool, bool)>,
+        roots: &mut Vec<Root>,
         s: f64,
         (a, va): (f64, f64),
         (c, vc): (f64, f64),
@@ -367,15 +471,15 @@ impl Extremum<'_> {
         let (tm, gm) = golden_min(|t| s * gi(i, t), a, c);
         if gm < -self.touch {
             let t = brent(|t| gi(i, t), a, tm, va, s * gm, 0.0);
-            roots.push((t, s < 0.0, false));
+            roots.push(Root::new(t, s < 0.0, false, true));
             let t = brent(|t| gi(i, t), tm, c, s * gm, vc, 0.0);
-            roots.push((t, s > 0.0, false));
+            roots.push(Root::new(t, s > 0.0, false, false));
             None
         } else if gm <= self.touch
             && !(open.0 && tm <= a + self.tiny)
             && !(open.1 && tm >= c - self.tiny)
         {
-            roots.push((tm, s < 0.0, true));
+            roots.push(Root::new(tm, s < 0.0, true, true));
             Some(tm)
         } else {
             None
