@@ -174,3 +174,32 @@ fn mistakes_are_refused_with_a_located_message() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The emitted Rust of a compiled model computes its event functions bitwise as the JIT and
+/// the interpreter do, and declares the same events.
+#[test]
+fn emitted_jit_and_interpreter_event_values_agree_bitwise() {
+    use lasalle::models::cr3bp::CR3BP;
+    use lasalle::{Backend, Declared, LoadedModel};
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/cr3bp.lsl");
+    let jit = LoadedModel::load(path, Backend::Jit).unwrap();
+    let interp = LoadedModel::load(path, Backend::Interpreter).unwrap();
+    let emitted = CR3BP::<f64>::default();
+    assert_eq!(Declared::<f64, [f64; 4]>::events(&emitted), jit.events());
+    assert_eq!(jit.events().len(), 1);
+    for k in 0..100 {
+        let x = [
+            (k as f64 * 0.31).sin(),
+            (k as f64 * 0.17).cos() - 0.5,
+            k as f64 * 0.01,
+            -(k as f64 * 0.07).sin(),
+        ];
+        let t = k as f64 * 0.37;
+        let (mut a, mut b, mut c) = ([0.0], vec![0.0], vec![0.0]);
+        emitted.event_values(&x, t, &mut a);
+        jit.event_values(&x.to_vec(), t, &mut b);
+        interp.event_values(&x.to_vec(), t, &mut c);
+        assert!(common::same(a[0], b[0]) && common::same(b[0], c[0]));
+        assert_eq!(a[0], x[1]);
+    }
+}
