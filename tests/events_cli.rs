@@ -53,7 +53,7 @@ fn section_points_lie_on_the_level_and_the_plane() {
     assert!(stdout.contains("10 orbits"), "{stdout}");
     let (header, rows) = read_csv(&dir.join("section.csv"));
     assert_eq!(header, ["orbit", "t", "q[0]", "q[1]", "p[0]", "p[1]", "H"]);
-    assert!(rows.len() > 500, "{} points", rows.len());
+    assert!(rows.len() > 300, "{} points", rows.len());
     let mut orbits = std::collections::BTreeSet::new();
     for row in &rows {
         let v: Vec<f64> = row[1..].iter().map(|c| c.parse().unwrap()).collect();
@@ -152,7 +152,9 @@ fn mistakes_are_refused_with_a_located_message() {
         let (ok, _, stderr) = lasalle_text(&["run", path.to_str().unwrap(), "-m", "rk4", "--dt", "0.1", "--t-end", "1"]);
         assert!(!ok, "{item}");
         assert!(stderr.contains(message), "{item}: {stderr}");
-        assert!(stderr.contains(&format!("bad{k}.lsl:5:")), "{item}: not located: {stderr}");
+        // the second of two items is on line 6
+        let line = if item.contains('\n') { 6 } else { 5 };
+        assert!(stderr.contains(&format!("bad{k}.lsl:{line}:")), "{item}: not located: {stderr}");
     }
     let out = dir.join("out");
     let out = out.to_str().unwrap();

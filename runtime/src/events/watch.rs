@@ -314,7 +314,7 @@ fn locate<X: State<f64>>(
         if l.approach[i] && same(s, v(0), v(1)) && v(0).abs() < v(1).abs() {
             xm.search(&mut roots, s, (t0, v(0)), (node_t(1), v(1)), (true, false));
         }
-        let mut edge_touch = false;
+        let (mut edge_touch, mut approaching) = (false, false);
         for j in 1..=SUBINTERVALS {
             let (a, b) = (node_t(j - 1), node_t(j));
             let (va, vb) = (v(j - 1), v(j));
@@ -338,18 +338,22 @@ fn locate<X: State<f64>>(
                     xm.search(&mut roots, s, (a, va), (node_t(j + 1), vc), (false, false));
                 }
             } else if j == SUBINTERVALS && same(s, va, vb) && vb.abs() < va.abs() {
-                // coming nearer zero at the step's end: the last subinterval now, the next
-                // step's first one then
-                let touch = xm.search(&mut roots, s, (a, va), (b, vb), (false, false));
-                edge_touch = touch.is_some_and(|tm| tm >= b - tiny);
+                // nearer zero at the step's end than a sample before: if g already turned
+                // back (a value just before the end is nearer still), its extremum lies in
+                // the last subinterval; if it is still coming nearer, in the next step
+                let near = (xm.gi)(i, b - 1e-6 * (b - a));
+                if sgn(near) == s && near.abs() < vb.abs() {
+                    let touch = xm.search(&mut roots, s, (a, va), (b, vb), (false, false));
+                    edge_touch = touch.is_some_and(|tm| tm >= b - tiny);
+                } else {
+                    approaching = true;
+                }
             }
             if vb != 0.0 {
                 s = sgn(vb);
             }
         }
-        l.approach[i] = !edge_touch
-            && same(s, v(SUBINTERVALS - 1), v(SUBINTERVALS))
-            && v(SUBINTERVALS).abs() < v(SUBINTERVALS - 1).abs();
+        l.approach[i] = approaching && !edge_touch;
         l.sign[i] = s;
         // Two opposite crossings with g no farther from zero than a touch between them (at
         // the samples) are one touch, also across steps: a crossing with g still that near
