@@ -18,12 +18,12 @@ runs = [json.loads(l) for l in sys.stdin]
 print(min(r["cpu_seconds"] / r["steps"] for r in runs), runs[0]["steps"],
       runs[0]["events"]["counts"].get("section", 0))'
 }
-printf '%-12s %10s %12s %12s %10s %9s\n' method steps "ns/step" "+event" "extra" crossings
+printf '%-18s %10s %12s %12s %10s %9s\n' method steps "ns/step" "+event" "extra" crossings
 for spec in "rk4 --dt 0.01" "stormer-verlet-b --dt 0.01" "dopri5 --rtol 1e-10 --atol 1e-10" "taylor --rtol 1e-14"; do
     read -r -a flags <<< "-m $spec"
     read -r base steps _ <<< "$(best "$work/without.lsl" "${flags[@]}" --t-end 20000)"
     read -r with _ crossings <<< "$(best "$work/with.lsl" "${flags[@]}" --t-end 20000)"
     python3 -c "
 b, w = $base * 1e9, $with * 1e9
-print(f'{\"${spec%% *}\":<12} {$steps:>10} {b:>12.1f} {w:>12.1f} {w - b:>+9.1f}  {$crossings:>8}')"
+print(f'{\"${spec%% *}\":<18} {$steps:>10} {b:>12.1f} {w:>12.1f} {w - b:>+9.1f}  {$crossings:>8}')"
 done
