@@ -45,9 +45,24 @@ fn section_points_lie_on_the_level_and_the_plane() {
     let dir = scratch("section");
     let out = dir.to_str().unwrap();
     let (ok, stdout, stderr) = lasalle_text(&[
-        "section", "henon_heiles", "--event", "section", "--energy", "0.125", "--solve", "p[0]",
-        "--grid", "q[1]=-0.3:0.5:5", "--grid", "p[1]=0,0.1", "--axes", "q[1],p[1]", "--t-end",
-        "300", "--out", out,
+        "section",
+        "henon_heiles",
+        "--event",
+        "section",
+        "--energy",
+        "0.125",
+        "--solve",
+        "p[0]",
+        "--grid",
+        "q[1]=-0.3:0.5:5",
+        "--grid",
+        "p[1]=0,0.1",
+        "--axes",
+        "q[1],p[1]",
+        "--t-end",
+        "300",
+        "--out",
+        out,
     ]);
     assert!(ok, "{stdout}\n{stderr}");
     assert!(stdout.contains("10 orbits"), "{stdout}");
@@ -76,8 +91,20 @@ fn run_writes_events_and_samples_output_times() {
     let dir = scratch("run");
     let out = dir.to_str().unwrap();
     let (ok, stdout, stderr) = lasalle_text(&[
-        "run", "henon_heiles", "-m", "dopri5", "--rtol", "1e-12", "--atol", "1e-12", "--t-end",
-        "50", "--t-eval", "0:50:101", "--out", out,
+        "run",
+        "henon_heiles",
+        "-m",
+        "dopri5",
+        "--rtol",
+        "1e-12",
+        "--atol",
+        "1e-12",
+        "--t-end",
+        "50",
+        "--t-eval",
+        "0:50:101",
+        "--out",
+        out,
     ]);
     assert!(ok, "{stdout}\n{stderr}");
     assert!(stdout.contains("event crossings (events.csv)"), "{stdout}");
@@ -96,8 +123,7 @@ fn run_writes_events_and_samples_output_times() {
         assert!((t - 0.5 * k as f64).abs() < 1e-12, "{t}");
     }
     let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap())
-            .unwrap();
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
     assert_eq!(summary["events"]["counts"]["section"], rows.len());
     assert!(summary["events"]["stopped_by"].is_null());
     let _ = std::fs::remove_dir_all(&dir);
@@ -117,14 +143,21 @@ fn a_terminal_event_is_a_successful_end() {
     .unwrap();
     let out = dir.join("out");
     let (ok, stdout, stderr) = lasalle_text(&[
-        "run", model.to_str().unwrap(), "-m", "taylor", "--rtol", "1e-15", "--t-end", "10",
-        "--out", out.to_str().unwrap(),
+        "run",
+        model.to_str().unwrap(),
+        "-m",
+        "taylor",
+        "--rtol",
+        "1e-15",
+        "--t-end",
+        "10",
+        "--out",
+        out.to_str().unwrap(),
     ]);
     assert!(ok, "{stdout}\n{stderr}");
     assert!(stdout.contains("stopped by event `low`"), "{stdout}");
     let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
-            .unwrap();
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     let t = summary["events"]["stopped_by"]["t"].as_f64().unwrap();
     assert_eq!(summary["events"]["stopped_by"]["event"], "low");
     assert!((t - 2.0 * std::f64::consts::PI / 3.0).abs() < 1e-13, "{t}");
@@ -137,37 +170,162 @@ fn a_terminal_event_is_a_successful_end() {
 #[test]
 fn mistakes_are_refused_with_a_located_message() {
     let dir = scratch("mistakes");
-    let base = "model Osc {\n    state x: vec2;\n    d/dt x = -x;\n    point start { x = [1, 0]; }\n";
+    let base =
+        "model Osc {\n    state x: vec2;\n    d/dt x = -x;\n    point start { x = [1, 0]; }\n";
     let cases = [
         ("event e: x = 0;", "scalar"),
         ("event e: y[0] = 0;", "`y`"),
         ("event e: x[0] = 1;", "right side must be 0"),
-        ("event e: x[0] = 0 upwards;", "`rising`, `falling`, `stop` or `;`"),
-        ("event e: x[0] = 0;\n    event e: x[1] = 0;", "a second event `e`"),
-        ("event e: x[0] = 0 stop rising;", "`rising`, `falling`, `stop` or `;`"),
+        (
+            "event e: x[0] = 0 upwards;",
+            "`rising`, `falling`, `stop` or `;`",
+        ),
+        (
+            "event e: x[0] = 0;\n    event e: x[1] = 0;",
+            "a second event `e`",
+        ),
+        (
+            "event e: x[0] = 0 stop rising;",
+            "`rising`, `falling`, `stop` or `;`",
+        ),
     ];
     for (k, (item, message)) in cases.iter().enumerate() {
         let path = dir.join(format!("bad{k}.lsl"));
         std::fs::write(&path, format!("{base}    {item}\n}}\n")).unwrap();
-        let (ok, _, stderr) = lasalle_text(&["run", path.to_str().unwrap(), "-m", "rk4", "--dt", "0.1", "--t-end", "1"]);
+        let (ok, _, stderr) = lasalle_text(&[
+            "run",
+            path.to_str().unwrap(),
+            "-m",
+            "rk4",
+            "--dt",
+            "0.1",
+            "--t-end",
+            "1",
+        ]);
         assert!(!ok, "{item}");
         assert!(stderr.contains(message), "{item}: {stderr}");
         // the second of two items is on line 6
         let line = if item.contains('\n') { 6 } else { 5 };
-        assert!(stderr.contains(&format!("bad{k}.lsl:{line}:")), "{item}: not located: {stderr}");
+        assert!(
+            stderr.contains(&format!("bad{k}.lsl:{line}:")),
+            "{item}: not located: {stderr}"
+        );
     }
     let out = dir.join("out");
     let out = out.to_str().unwrap();
     for (args, message) in [
-        (&["run", "henon_heiles", "--t-eval", "0:1", "--out", out][..], "--t-eval"),
-        (&["run", "henon_heiles", "--t-eval", "5,1", "--out", out], "increase"),
-        (&["run", "henon_heiles", "--t-eval", "0:200:3", "--out", out], "outside"),
-        (&["run", "henon_heiles", "--t-eval", "0:1:3", "--every", "2", "--out", out], "--every"),
-        (&["section", "henon_heiles", "--event", "nope", "--axes", "q[1],p[1]", "--t-end", "1", "--out", out], "declares no event `nope`; its events: section"),
-        (&["section", "henon_heiles", "--event", "section", "--energy", "0.1", "--axes", "q[1],p[1]", "--t-end", "1", "--out", out], "--energy and --solve"),
-        (&["section", "henon_heiles", "--event", "section", "--energy", "0.1", "--solve", "p[9]", "--axes", "q[1],p[1]", "--t-end", "1", "--out", out], "--solve `p[9]`"),
-        (&["section", "henon_heiles", "--event", "section", "--axes", "q[1]", "--t-end", "1", "--out", out], "--axes"),
-        (&["section", "henon_heiles", "--event", "section", "--energy", "-1", "--solve", "p[0]", "--grid", "q[1]=0", "--axes", "q[1],p[1]", "--t-end", "1", "--out", out], "reaches the level"),
+        (
+            &["run", "henon_heiles", "--t-eval", "0:1", "--out", out][..],
+            "--t-eval",
+        ),
+        (
+            &["run", "henon_heiles", "--t-eval", "5,1", "--out", out],
+            "increase",
+        ),
+        (
+            &["run", "henon_heiles", "--t-eval", "0:200:3", "--out", out],
+            "outside",
+        ),
+        (
+            &[
+                "run",
+                "henon_heiles",
+                "--t-eval",
+                "0:1:3",
+                "--every",
+                "2",
+                "--out",
+                out,
+            ],
+            "--every",
+        ),
+        (
+            &[
+                "section",
+                "henon_heiles",
+                "--event",
+                "nope",
+                "--axes",
+                "q[1],p[1]",
+                "--t-end",
+                "1",
+                "--out",
+                out,
+            ],
+            "declares no event `nope`; its events: section",
+        ),
+        (
+            &[
+                "section",
+                "henon_heiles",
+                "--event",
+                "section",
+                "--energy",
+                "0.1",
+                "--axes",
+                "q[1],p[1]",
+                "--t-end",
+                "1",
+                "--out",
+                out,
+            ],
+            "--energy and --solve",
+        ),
+        (
+            &[
+                "section",
+                "henon_heiles",
+                "--event",
+                "section",
+                "--energy",
+                "0.1",
+                "--solve",
+                "p[9]",
+                "--axes",
+                "q[1],p[1]",
+                "--t-end",
+                "1",
+                "--out",
+                out,
+            ],
+            "--solve `p[9]`",
+        ),
+        (
+            &[
+                "section",
+                "henon_heiles",
+                "--event",
+                "section",
+                "--axes",
+                "q[1]",
+                "--t-end",
+                "1",
+                "--out",
+                out,
+            ],
+            "--axes",
+        ),
+        (
+            &[
+                "section",
+                "henon_heiles",
+                "--event",
+                "section",
+                "--energy",
+                "-1",
+                "--solve",
+                "p[0]",
+                "--grid",
+                "q[1]=0",
+                "--axes",
+                "q[1],p[1]",
+                "--t-end",
+                "1",
+                "--out",
+                out,
+            ],
+            "reaches the level",
+        ),
     ] {
         let (ok, _, stderr) = lasalle_text(args);
         assert!(!ok, "{args:?}");

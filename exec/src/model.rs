@@ -30,8 +30,8 @@ use lasalle_model::Model;
 use lasalle_model::{derive, Derived};
 use lasalle_model::{Direction, Splitting, EVENT_TIME, GUARD_STEP};
 use lasalle_runtime::{
-    Declared, EventDirection, EventSpec, Field, GuardFailure, InvariantInfo, Invariants, Lyapunov, ModelInfo, ParamError,
-    Parameters, Partitioned, Preset, RigidBodySplitting, Shape, Slot,
+    Declared, EventDirection, EventSpec, Field, GuardFailure, InvariantInfo, Invariants, Lyapunov,
+    ModelInfo, ParamError, Parameters, Partitioned, Preset, RigidBodySplitting, Shape, Slot,
 };
 
 use crate::{Backend, ExecError, Kernel};
@@ -351,13 +351,17 @@ impl LoadedModel {
             // the time `t` becomes the tape's one gain
             let mut graph = model.graph.clone();
             let values: Vec<_> = model.events.iter().map(|e| e.value).collect();
-            let values = graph.rename_inputs(&values, |i| {
-                if i == EVENT_TIME {
-                    Input::Gain(0)
-                } else {
-                    i
-                }
-            });
+            let values =
+                graph.rename_inputs(
+                    &values,
+                    |i| {
+                        if i == EVENT_TIME {
+                            Input::Gain(0)
+                        } else {
+                            i
+                        }
+                    },
+                );
             let dims = Dims {
                 state: model.dim(),
                 params: model.param_slots(),

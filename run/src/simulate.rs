@@ -15,9 +15,9 @@ use std::time::Instant;
 
 use lasalle_runtime::{
     component_names, sample_capacity, scaled_gains, step_gain_target, AdaptiveGain, Composition,
-    Control, Crossing, Declared, DormandPrince, DriftBound, Driver, ExplicitRk, FeedbackField, Field,
-    GainError, GainPolicy, Invariants, Lyapunov, ModelInfo, Observer, Projection, Recorder, State,
-    StepError, Stepper, StormerVerlet, Stride, Taylor, TaylorOptions, VerletVariant, Watch,
+    Control, Crossing, Declared, DormandPrince, DriftBound, Driver, ExplicitRk, FeedbackField,
+    Field, GainError, GainPolicy, Invariants, Lyapunov, ModelInfo, Observer, Projection, Recorder,
+    State, StepError, Stepper, StormerVerlet, Stride, Taylor, TaylorOptions, VerletVariant, Watch,
 };
 
 use crate::{process_cpu_seconds, Base, EventHit, Method, Recording, RunError, RunSpec};

@@ -160,7 +160,7 @@ impl RunSpec {
                 self.max_steps
             ));
         }
-        if let Some(w) = self.t_eval.windows(2).find(|w| !(w[0] <= w[1])) {
+        if let Some(w) = self.t_eval.windows(2).find(|w| w[0] > w[1]) {
             return bad(format!(
                 "--t-eval times must increase, got {} before {}",
                 w[0], w[1]

@@ -94,9 +94,17 @@ fn every_method_finds_the_zeros_of_cos_within_its_error() {
         );
         // the state recorded at a crossing is on the section x = 0 to the same error
         for e in rec.events_named("zero") {
-            assert!(e.x[0].abs() <= allowed, "{method}: x = {:e} at a zero", e.x[0]);
+            assert!(
+                e.x[0].abs() <= allowed,
+                "{method}: x = {:e} at a zero",
+                e.x[0]
+            );
             assert_eq!(e.invariants.len(), 1);
-            assert!((e.invariants[0] - 0.5).abs() < 1e-2, "{method}: E = {}", e.invariants[0]);
+            assert!(
+                (e.invariants[0] - 0.5).abs() < 1e-2,
+                "{method}: E = {}",
+                e.invariants[0]
+            );
         }
         eprintln!("{method:>18}: crossing error {worst:.2e}, state error {state_error:.2e}");
     }
@@ -162,7 +170,12 @@ fn a_touch_is_found_once() {
         "event graze: -(t - 1.3)^2 = 0;\n    event pair: 1e-20 - (t - 1.3)^2 = 0;\n    event miss: -1e-3 - (t - 1.3)^2 = 0;\n    point start",
     );
     let model = load(&text, Backend::Jit);
-    for (method, dt) in [("dopri5", 0.0), ("rk4", 0.1), ("rk4", 0.07), ("taylor", 0.0)] {
+    for (method, dt) in [
+        ("dopri5", 0.0),
+        ("rk4", 0.1),
+        ("rk4", 0.07),
+        ("taylor", 0.0),
+    ] {
         let rec = run(&model, method, dt, 1e-12, 3.0);
         for name in ["graze", "pair"] {
             let hits: Vec<_> = rec.events_named(name).collect();
@@ -233,7 +246,10 @@ model Kepler {
              passage k at 2πk to {worst:.2e}",
             rec.steps
         );
-        assert!(per_orbit < orbit, "{method}: an orbit off 2π by {per_orbit:e}");
+        assert!(
+            per_orbit < orbit,
+            "{method}: an orbit off 2π by {per_orbit:e}"
+        );
         assert!(per_orbit_apo < orbit, "{method}: {per_orbit_apo:e}");
         assert!(last < drift && worst < drift, "{method}: {worst:e}");
         // at a pericentre r = a(1 − e) = 0.5, at an apocentre a(1 + e) = 1.5
@@ -260,15 +276,27 @@ fn t_eval_against_the_closed_form() {
     ] {
         let m: lasalle_run::Method = method.parse().unwrap();
         let mut b = RunSpec::builder().method(m).t_end(10.0);
-        b = if m.is_adaptive() { b.rtol(tol) } else { b.dt(dt) };
+        b = if m.is_adaptive() {
+            b.rtol(tol)
+        } else {
+            b.dt(dt)
+        };
         if m.is_adaptive() && !m.is_taylor() {
             b = b.atol(tol);
         }
-        let plain = simulate(&model, &model_point(&model, "start"), &b.clone().build().unwrap()).unwrap();
+        let plain = simulate(
+            &model,
+            &model_point(&model, "start"),
+            &b.clone().build().unwrap(),
+        )
+        .unwrap();
         let spec = b.t_eval(times.clone()).build().unwrap();
         let rec = simulate(&model, &model_point(&model, "start"), &spec).unwrap();
         assert_eq!(rec.t, times, "{method}");
-        assert_eq!(rec.steps, plain.steps, "{method}: output times changed the steps");
+        assert_eq!(
+            rec.steps, plain.steps,
+            "{method}: output times changed the steps"
+        );
         for i in 0..rec.len() {
             let t = rec.t[i];
             let x = rec.state(i);

@@ -281,10 +281,7 @@ pub fn run(args: &RunArgs, given: &Given) -> CliResult {
             println!("  stopped by event `{}` at t = {}", e.name, e.t);
         }
         if has_events {
-            println!(
-                "  {} event crossings (events.csv)",
-                recording.events.len()
-            );
+            println!("  {} event crossings (events.csv)", recording.events.len());
         }
         println!("wrote {}/trace.csv and summary.json", dir.display());
     }

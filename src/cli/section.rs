@@ -11,8 +11,8 @@ use std::path::PathBuf;
 use clap::Args;
 use lasalle::events::brent;
 use lasalle::{
-    simulate_many, Declared, Init, Invariants, LoadedModel, Member, Method, ModelInfo,
-    ModelSource, Parameters, RunError, RunSpec,
+    simulate_many, Declared, Init, Invariants, LoadedModel, Member, Method, ModelInfo, ModelSource,
+    Parameters, RunError, RunSpec,
 };
 
 use super::args::parse_param;
@@ -94,11 +94,15 @@ pub struct SectionArgs {
 
 /// `name=start:stop:count` or `name=v1,v2,…`.
 fn parse_axis(text: &str) -> Result<(String, Vec<f64>), String> {
-    let (name, spec) = text
-        .split_once('=')
-        .ok_or_else(|| format!("invalid --grid `{text}`: expected `name=start:stop:count` or `name=v1,v2,…`"))?;
-    let values = lasalle::run::parse_t_eval(spec)
-        .map_err(|e| format!("invalid --grid `{text}`: {}", e.to_string().replace("--t-eval ", "")))?;
+    let (name, spec) = text.split_once('=').ok_or_else(|| {
+        format!("invalid --grid `{text}`: expected `name=start:stop:count` or `name=v1,v2,…`")
+    })?;
+    let values = lasalle::run::parse_t_eval(spec).map_err(|e| {
+        format!(
+            "invalid --grid `{text}`: {}",
+            e.to_string().replace("--t-eval ", "")
+        )
+    })?;
     Ok((name.trim().to_string(), values))
 }
 
@@ -184,12 +188,13 @@ fn solve_level(model: &LoadedModel, x: &mut [f64], k: usize, inv: usize, e: f64)
     };
     let (a, b, c) = (h(-1.0), h(0.0), h(1.0));
     let curvature = 0.5 * (a + c) - b;
-    if !(curvature > 0.0) {
+    // NaN fails too
+    if curvature.is_nan() || curvature <= 0.0 {
         return None;
     }
     let vertex = -(c - a) / (4.0 * curvature);
     let low = h(vertex);
-    if !(low <= 0.0) {
+    if low.is_nan() || low > 0.0 {
         return None;
     }
     let mut d = 1.0;
@@ -242,10 +247,12 @@ pub fn run(args: &SectionArgs, given: &Given) -> CliResult {
             ))
         })?;
     let names = lasalle::component_names(model.state_slots());
-    let (a, b) = args
-        .axes
-        .split_once(',')
-        .ok_or_else(|| usage(format!("--axes `{}`: give two components, `a,b`", args.axes)))?;
+    let (a, b) = args.axes.split_once(',').ok_or_else(|| {
+        usage(format!(
+            "--axes `{}`: give two components, `a,b`",
+            args.axes
+        ))
+    })?;
     let axes = [
         component(&names, a.trim(), "--axes").map_err(usage)?,
         component(&names, b.trim(), "--axes").map_err(usage)?,
@@ -320,9 +327,11 @@ pub fn run(args: &SectionArgs, given: &Given) -> CliResult {
     let members: Vec<Member> = x0s
         .iter()
         .map(|x| {
-            params.iter().fold(Member::new(Init::State(x.clone())), |m, (n, v)| {
-                m.param(n.as_str(), v.clone())
-            })
+            params
+                .iter()
+                .fold(Member::new(Init::State(x.clone())), |m, (n, v)| {
+                    m.param(n.as_str(), v.clone())
+                })
         })
         .collect();
     let threads = args
@@ -330,9 +339,10 @@ pub fn run(args: &SectionArgs, given: &Given) -> CliResult {
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let ensemble = simulate_many(&source, &members, &spec, threads, 1).map_err(usage)?;
 
-    let dir = args.out.clone().unwrap_or_else(|| {
-        PathBuf::from(format!("out/{stem}-section-{}", args.event))
-    });
+    let dir = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("out/{stem}-section-{}", args.event)));
     std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     let inv_names = {
         let mut n = lasalle::component_names(
@@ -393,7 +403,13 @@ pub fn run(args: &SectionArgs, given: &Given) -> CliResult {
         None => format!("{name}: section `{event_name}`"),
     });
     let mut chart = Chart::new(&title, &names[axes[0]], &names[axes[1]], false);
-    chart.add(&format!("{points} points, {} orbits", x0s.len()), px, py, 0, Style::Dots);
+    chart.add(
+        &format!("{points} points, {} orbits", x0s.len()),
+        px,
+        py,
+        0,
+        Style::Dots,
+    );
     write_figure(&dir, "section", &[chart], (1, 1), (900, 820))?;
     if !args.quiet {
         println!(
@@ -407,7 +423,10 @@ pub fn run(args: &SectionArgs, given: &Given) -> CliResult {
             }
         );
         if level.is_some() {
-            println!("  max |{} − E| at the points: {level_error:.3e}", args.integral);
+            println!(
+                "  max |{} − E| at the points: {level_error:.3e}",
+                args.integral
+            );
         }
         println!("  max |g| at the points: {plane_error:.3e}");
         println!(

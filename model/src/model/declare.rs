@@ -254,8 +254,10 @@ impl Lowerer {
         span: &Span,
     ) -> L<Event> {
         if !matches!(zero.kind, ExprKind::Num(z) if z == 0.0) {
-            return Err(Diagnostic::new(&zero.span, "an event's right side must be 0")
-                .help("move it to the left: `event escape: norm(x) - 10 = 0;`"));
+            return Err(
+                Diagnostic::new(&zero.span, "an event's right side must be 0")
+                    .help("move it to the left: `event escape: norm(x) - 10 = 0;`"),
+            );
         }
         // `t` means the time inside an event, where the model does not name something `t`.
         let time = !self.symbols.contains_key("t");
@@ -286,7 +288,12 @@ impl Lowerer {
             value: value?,
             direction,
             terminal,
-            expr: expr.span.text().split_whitespace().collect::<Vec<_>>().join(" "),
+            expr: expr
+                .span
+                .text()
+                .split_whitespace()
+                .collect::<Vec<_>>()
+                .join(" "),
             span: span.clone(),
         })
     }

@@ -5,14 +5,7 @@
 /// (or one is 0): Brent's combination of bisection, secant and inverse quadratic
 /// interpolation, to a bracket of a few ulps of the root (tolerance 2 ε |t| + `xtol`/2 with
 /// `xtol` ≥ 0). Never leaves [a, b]; at most `4 + 2·log₂((b − a)/ulp)` evaluations.
-pub fn brent(
-    mut f: impl FnMut(f64) -> f64,
-    a: f64,
-    b: f64,
-    fa: f64,
-    fb: f64,
-    xtol: f64,
-) -> f64 {
+pub fn brent(mut f: impl FnMut(f64) -> f64, a: f64, b: f64, fa: f64, fb: f64, xtol: f64) -> f64 {
     if fa == 0.0 {
         return a;
     }

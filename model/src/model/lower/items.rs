@@ -4,7 +4,9 @@
 use super::{Ctx, Lowerer, L};
 use crate::error::{Diagnostic, DiagnosticKind, Span};
 use crate::ir::Id;
-use crate::model::{Binding, Event, Gain, Guard, Invariant, InvariantKind, Point, Preset, StateVar};
+use crate::model::{
+    Binding, Event, Gain, Guard, Invariant, InvariantKind, Point, Preset, StateVar,
+};
 use crate::parse::ast::*;
 
 /// What pass 2 collects, item by item.
@@ -127,11 +129,20 @@ impl Lowerer {
                     let line = first.span.line_col().0;
                     Err(
                         Diagnostic::new(&name.span, format!("a second event `{}`", name.name))
-                            .help(format!("the first is declared on line {line}; name each event once")),
+                            .help(format!(
+                                "the first is declared on line {line}; name each event once"
+                            )),
                     )
                 } else {
-                    self.event(name, expr, zero, direction.as_ref(), stop.is_some(), &it.span)
-                        .map(|e| acc.events.push(e))
+                    self.event(
+                        name,
+                        expr,
+                        zero,
+                        direction.as_ref(),
+                        stop.is_some(),
+                        &it.span,
+                    )
+                    .map(|e| acc.events.push(e))
                 }
             }
             Item::Splitting(kind, args) => {
