@@ -11,6 +11,9 @@ model CR3BP {
     hamiltonian H = dot(p, p) / 2 + q[1] * p[0] - q[0] * p[1] - (1 - mu) / r1 - mu / r2;
     structure canonical(q, p);                      // q̇ = ∂H/∂p, ṗ = −∂H/∂q; H is the Jacobi integral
 
+    // The section y = 0 crossed upwards (ẏ = p₁ − q₀ > 0), plotted in (x, ẋ = p₀ + q₁)
+    event section: q[1] = 0 rising;
+
     // The Lagrange point L4, leading the secondary by 60°.
     point L4 { q = [0.5 - mu, sqrt(3) / 2]; p = [-sqrt(3) / 2, 0.5 - mu]; }
     // A small libration about L4 (displaced by 0.01 along x): `lasalle run cr3bp --init near_L4`.

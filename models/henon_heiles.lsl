@@ -8,6 +8,10 @@ model HenonHeiles {
     hamiltonian H = (p[0]^2 + p[1]^2 + q[0]^2 + q[1]^2) / 2 + q[0]^2 * q[1] - q[1]^3 / 3;
     structure canonical(q, p);
 
+    // Hénon & Heiles' surface of section: q₀ = 0 crossed upwards (p₀ = q̇₀ > 0), plotted in
+    // (q₁, p₁): `lasalle section henon_heiles --event section --energy 0.125 --solve p[0] …`
+    event section: q[0] = 0 rising;
+
     // E = 0.12471…, in the chaotic sea of the E = 1/8 section
     point chaotic { q = [0, 0.1]; p = [0.49, 0]; }
     // E = 1/12 on the section q₀ = 0, q₁ = 0, p₁ = 0: a regular (quasi-periodic) orbit

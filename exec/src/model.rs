@@ -27,11 +27,11 @@ use lasalle_model::ir::Input;
 use lasalle_model::tape::{Dims, ModelTapes, Tape, TapeBuilder, TapeError};
 use lasalle_model::Conservation;
 use lasalle_model::Model;
-use lasalle_model::GUARD_STEP;
 use lasalle_model::{derive, Derived};
+use lasalle_model::{Direction, EVENT_TIME, GUARD_STEP};
 use lasalle_runtime::{
-    Declared, Field, GuardFailure, InvariantInfo, Invariants, Lyapunov, ModelInfo, ParamError,
-    Parameters, Partitioned, Preset, Shape, Slot, Splitting,
+    Declared, EventDirection, EventSpec, Field, GuardFailure, InvariantInfo, Invariants, Lyapunov,
+    ModelInfo, ParamError, Parameters, Partitioned, Preset, Shape, Slot, Splitting,
 };
 
 use crate::{Backend, ExecError, Kernel};
@@ -144,6 +144,8 @@ struct Kernels {
     partition: Option<(Compiled, Compiled, Vec<bool>)>,
     /// The margins of the guards, with the step size as the tape's one gain.
     guards: Option<Compiled>,
+    /// The event functions, with the time as the tape's one gain.
+    events: Option<Compiled>,
 }
 
 impl Kernels {
@@ -165,6 +167,7 @@ impl Kernels {
         .into_iter()
         .chain(partition)
         .chain(self.guards.as_mut())
+        .chain(self.events.as_mut())
     }
 }
 
@@ -181,6 +184,7 @@ struct Info {
     points: &'static [&'static str],
     presets: &'static [Preset],
     guards: Vec<(&'static str, &'static str, bool)>,
+    events: &'static [EventSpec],
 }
 
 fn leak<T>(v: Vec<T>) -> &'static [T] {
@@ -261,6 +265,21 @@ impl Info {
                 .iter()
                 .map(|g| (leak_str(&g.name), leak_str(&g.condition), g.strict))
                 .collect(),
+            events: leak(
+                model
+                    .events
+                    .iter()
+                    .map(|e| EventSpec {
+                        name: leak_str(&e.name),
+                        direction: match e.direction {
+                            Direction::Both => EventDirection::Both,
+                            Direction::Rising => EventDirection::Rising,
+                            Direction::Falling => EventDirection::Falling,
+                        },
+                        terminal: e.terminal,
+                    })
+                    .collect(),
+            ),
         }
     }
 }
@@ -337,6 +356,31 @@ impl LoadedModel {
             };
             Some(c(&TapeBuilder::new(graph, dims).build(&margins)?)?)
         };
+        let events = if model.events.is_empty() {
+            None
+        } else {
+            // the time `t` becomes the tape's one gain
+            let mut graph = model.graph.clone();
+            let values: Vec<_> = model.events.iter().map(|e| e.value).collect();
+            let values =
+                graph.rename_inputs(
+                    &values,
+                    |i| {
+                        if i == EVENT_TIME {
+                            Input::Gain(0)
+                        } else {
+                            i
+                        }
+                    },
+                );
+            let dims = Dims {
+                state: model.dim(),
+                params: model.param_slots(),
+                targets: 0,
+                gains: 1,
+            };
+            Some(c(&TapeBuilder::new(graph, dims).build(&values)?)?)
+        };
         let kernels = Kernels {
             field: c(&tapes.field)?,
             invariants: c(&tapes.invariants)?,
@@ -349,6 +393,7 @@ impl LoadedModel {
                 None => None,
             },
             guards,
+            events,
         };
         let info = Info::new(model);
         Ok(LoadedModel {
@@ -666,6 +711,16 @@ impl Declared<f64, Vec<f64>> for LoadedModel {
             .find_map(|(&(name, condition, strict), &m)| {
                 GuardFailure::check(name, condition, m, strict)
             })
+    }
+
+    fn events(&self) -> &'static [EventSpec] {
+        self.info.events
+    }
+
+    fn event_values(&self, x: &Vec<f64>, t: f64, g: &mut [f64]) {
+        if let Some(events) = &self.kernels.events {
+            events.eval(x, &[], &[t], g);
+        }
     }
 
     fn partitioned(&self) -> Option<&dyn Partitioned<f64, Vec<f64>>> {

@@ -24,6 +24,8 @@ const EMITTED_NAMES: &[&str] = &[
     "MatrixViewMut",
     "Scalar",
     "GuardFailure",
+    "EventDirection",
+    "EventSpec",
     "Declared",
     "Preset",
     "Splitting",

@@ -319,6 +319,10 @@ pub const KEYWORDS: &[Keyword] = &[
     item("run", "a run preset"),
     item("guard", "a domain condition checked during runs"),
     item(
+        "event",
+        "a crossing g = 0 located during runs (`rising`, `falling`, `stop`)",
+    ),
+    item(
         "splitting",
         "a structure-specific splitting the model admits",
     ),

@@ -5,6 +5,8 @@ use std::io::Write;
 use std::path::Path;
 
 use lasalle_runtime::{Csv, StepError};
+
+use crate::EventHit;
 use serde_json::json;
 
 /// The sampled output of a run.
@@ -46,8 +48,15 @@ pub struct Recording {
     /// Why the run stopped early, if it did: the step, the time and the state in the error
     /// (diverged, blew up, left the model's guards, ran out of steps).
     pub failure: Option<StepError>,
-    /// Recorded every this many steps.
+    /// Recorded every this many steps (0: at the output times [`RunSpec::t_eval`](crate::RunSpec::t_eval)).
     pub every: u64,
+    /// Names of the invariants' components (`H`, `L[0]`, …), as in [`EventHit::invariants`].
+    pub invariant_names: Vec<String>,
+    /// The crossings of the model's non-terminal events, in time order.
+    pub events: Vec<EventHit>,
+    /// The crossing of a terminal (`stop`) event that ended the run, if one did: the run
+    /// succeeded, and its last sample is that crossing.
+    pub stopped_by: Option<EventHit>,
 }
 
 impl Recording {
@@ -206,6 +215,7 @@ impl Recording {
             "gains_initial": self.gains_initial,
             "gains_final": self.gains_final,
             "stats": counters,
+            "events": self.events_json(),
             "failure": self.failure.as_ref().map(|e| json!({
                 "message": e.to_string(),
                 "t": e.time(),

@@ -14,7 +14,7 @@ use std::sync::{Arc, Mutex};
 use lasalle_exec::LoadedModel;
 use lasalle_runtime::{
     Declared, Field, GuardFailure, InvariantInfo, Invariants, Lyapunov, ModelInfo, Partitioned,
-    Preset, RigidBodySplitting, Slot, StepError, TaylorError, TaylorKernel, TaylorKernels,
+    Preset, Slot, Splitting, StepError, TaylorError, TaylorKernel, TaylorKernels,
 };
 
 /// A Taylor kernel of a loaded model.
@@ -237,8 +237,8 @@ impl<'a> Declared<f64, Vec<f64>> for Reusing<'a> {
         self.model.partitioned()
     }
 
-    fn rigid_body_splitting(&self) -> Option<RigidBodySplitting<f64>> {
-        self.model.rigid_body_splitting()
+    fn splitting(&self) -> Option<Splitting<f64>> {
+        self.model.splitting()
     }
 
     /// The pool's kernels for `max_order`, else new ones; back to the pool after the run.

@@ -15,12 +15,12 @@ use std::time::Instant;
 
 use lasalle_runtime::{
     component_names, sample_capacity, scaled_gains, step_gain_target, AdaptiveGain, Composition,
-    Control, Declared, DormandPrince, DriftBound, Driver, ExplicitRk, FeedbackField, Field,
-    GainError, GainPolicy, Invariants, Lyapunov, ModelInfo, Observer, Projection, Recorder, State,
-    StepError, Stepper, StormerVerlet, Stride, Taylor, TaylorOptions, VerletVariant,
+    Control, Crossing, Declared, DormandPrince, DriftBound, Driver, ExplicitRk, FeedbackField,
+    Field, GainError, GainPolicy, Invariants, Lyapunov, ModelInfo, Observer, Projection, Recorder,
+    State, StepError, Stepper, StormerVerlet, Stride, Taylor, TaylorOptions, VerletVariant, Watch,
 };
 
-use crate::{process_cpu_seconds, Base, Method, Recording, RunError, RunSpec};
+use crate::{process_cpu_seconds, Base, EventHit, Method, Recording, RunError, RunSpec};
 
 /// Everything [`simulate`] needs of a model, with states, invariants and gains stored as
 /// `X`, `FV` and `K`: the runtime's traits and the model file's declarations.
@@ -254,7 +254,22 @@ where
             every,
         );
         let (start, cpu_start) = (Instant::now(), process_cpu_seconds());
-        let result = driver.run(&mut stepper, self.field, &self.x0, &mut obs);
+        let watched = !model.events().is_empty() || !spec.t_eval.is_empty();
+        let mut hits = Vec::new();
+        let result = if watched {
+            watched_run(
+                model,
+                &driver,
+                &mut stepper,
+                self.field,
+                &self.x0,
+                spec,
+                &mut obs,
+                &mut hits,
+            )
+        } else {
+            driver.run(&mut stepper, self.field, &self.x0, &mut obs)
+        };
         let wall_seconds = start.elapsed().as_secs_f64();
         let cpu_seconds = process_cpu_seconds()
             .zip(cpu_start)
@@ -264,14 +279,122 @@ where
             Err(e) => Err(e),
         };
         let stepper = (stepper.name(), stepper.counters());
-        recording(
+        let mut recording = recording(
             self.model,
             spec,
             stepper,
             rec,
             (wall_seconds, cpu_seconds),
             counts,
-        )
+        );
+        if watched {
+            attach_events(self.model, &mut recording, hits);
+        }
+        recording
+    }
+}
+
+/// A run that watches the model's events and samples the output times `spec.t_eval` on
+/// each step's continuous extension ([`Watch`]); `hits` receives the crossings, the terminal
+/// one (which ends the run, recorded as the last sample) last.
+#[allow(clippy::too_many_arguments)]
+fn watched_run<Mdl, F, X, FV, S, O>(
+    model: &Mdl,
+    driver: &Driver<'_, f64, X>,
+    stepper: &mut S,
+    field: &F,
+    x0: &X,
+    spec: &RunSpec,
+    obs: &mut Stride<Progress<'_, O>>,
+    hits: &mut Vec<(Crossing<X>, bool)>,
+) -> Result<lasalle_runtime::Summary<f64, X>, StepError>
+where
+    Mdl: Invariants<f64, X, FV> + ModelInfo + Declared<f64, X>,
+    F: ?Sized,
+    X: State<f64>,
+    FV: State<f64>,
+    S: Stepper<f64, X, F>,
+    O: Observer<f64, X>,
+{
+    let grid = !spec.t_eval.is_empty();
+    let mut watch = Watch::new(
+        model.events().to_vec(),
+        Box::new(move |x: &X, t, g: &mut [f64]| model.event_values(x, t, g)),
+        Box::new(move |x: &X, dx: &mut X| model.field(x, dx)),
+        spec.t_eval.clone(),
+        0.0,
+        x0,
+    );
+    // output times go straight to the recorder, numbered in order
+    let mut k = 0u64;
+    let mut terminal = None;
+    let summary = driver.run_stepwise(stepper, field, x0, |s, step, t, x| {
+        let mut on_grid = |tg: f64, xg: &X| {
+            obs.inner.inner.observe(k, tg, xg);
+            k += 1;
+        };
+        if step == 0 {
+            watch.start(&mut on_grid);
+        } else {
+            terminal = watch.after_step(s.dense_output(), t, x, &mut on_grid);
+            hits.extend(watch.take_crossings().into_iter().map(|c| (c, false)));
+        }
+        if !grid && terminal.is_none() && obs.observe(step, t, x) == Control::Stop {
+            return Control::Stop;
+        }
+        if terminal.is_some() || (grid && watch.grid_done() && model.events().is_empty()) {
+            Control::Stop
+        } else {
+            Control::Continue
+        }
+    })?;
+    let t_last = terminal.as_ref().map_or(summary.t, |c| c.t);
+    hits.extend(watch.finish(t_last).into_iter().map(|c| (c, false)));
+    hits.sort_by(|a, b| a.0.t.total_cmp(&b.0.t));
+    match terminal {
+        Some(c) => {
+            obs.inner.inner.observe(k, c.t, &c.x);
+            hits.push((c, true));
+        }
+        None if !grid => obs.finish(summary.steps, summary.t, &summary.x),
+        None => {}
+    }
+    Ok(summary)
+}
+
+/// The crossings of a watched run into `rec`, with the invariants' values there.
+fn attach_events<Mdl, X, FV>(model: &Mdl, rec: &mut Recording, hits: Vec<(Crossing<X>, bool)>)
+where
+    Mdl: Invariants<f64, X, FV> + ModelInfo + Declared<f64, X>,
+    X: State<f64>,
+    FV: State<f64>,
+{
+    let specs = model.events();
+    let mut f = FV::filled(FV::len_for(model.invariant_dim()), 0.0);
+    rec.invariant_names = component_names(
+        &model
+            .invariant_infos()
+            .iter()
+            .map(|i| i.slot)
+            .collect::<Vec<_>>(),
+    );
+    rec.invariant_names
+        .resize_with(model.invariant_dim(), String::new);
+    for (c, terminal) in hits {
+        model.invariants(&c.x, &mut f);
+        let hit = EventHit {
+            name: specs[c.event].name.to_string(),
+            t: c.t,
+            x: c.x.as_ref().to_vec(),
+            invariants: f.as_ref().to_vec(),
+            rising: c.rising,
+            touch: c.touch,
+        };
+        if terminal {
+            rec.stopped_by = Some(hit);
+        } else {
+            rec.events.push(hit);
+        }
     }
 }
 
@@ -316,7 +439,14 @@ where
         gains_initial: None,
         gains_final: None,
         failure,
-        every: spec.record_every(),
+        every: if spec.t_eval.is_empty() {
+            spec.record_every()
+        } else {
+            0
+        },
+        invariant_names: Vec::new(),
+        events: Vec::new(),
+        stopped_by: None,
     }
 }
 

@@ -40,6 +40,10 @@ pub struct RunSpec {
     /// The most steps the run may take (fixed-step runs longer than this are refused before
     /// they start; adaptive runs stop with an error when they reach it).
     pub max_steps: u64,
+    /// Output times (sorted, within [0, t_end]): the run records the state there, from each
+    /// method's continuous extension, instead of every [`RunSpec::every`]-th step; adaptive
+    /// methods keep their own steps. Empty: record steps.
+    pub t_eval: Vec<f64>,
 }
 
 impl RunSpec {
@@ -60,6 +64,7 @@ impl RunSpec {
             max_drift: DEFAULT_MAX_DRIFT,
             every: 0,
             max_steps: DEFAULT_MAX_STEPS,
+            t_eval: Vec::new(),
         }
     }
 
@@ -155,6 +160,22 @@ impl RunSpec {
                 self.max_steps
             ));
         }
+        if let Some(w) = self.t_eval.windows(2).find(|w| w[0] > w[1]) {
+            return bad(format!(
+                "--t-eval times must increase, got {} before {}",
+                w[0], w[1]
+            ));
+        }
+        if let Some(t) = self
+            .t_eval
+            .iter()
+            .find(|t| !(**t >= 0.0 && **t <= self.t_end))
+        {
+            return bad(format!(
+                "--t-eval time {t} lies outside the run's [0, --t-end {}]",
+                self.t_end
+            ));
+        }
         if !self.method.is_feedback() && self.gains != GainPolicy::Default {
             return bad(format!(
                 "--gains applies to feedback methods only, not to `{}`",
@@ -230,9 +251,17 @@ pub struct RunSpecBuilder {
     max_drift: Option<f64>,
     init: Option<String>,
     params: Vec<(String, Vec<f64>)>,
+    t_eval: Option<Vec<f64>>,
 }
 
 impl RunSpecBuilder {
+    /// Output times ([`RunSpec::t_eval`]; [`parse_t_eval`](crate::parse_t_eval) reads
+    /// `a:b:n` and lists).
+    pub fn t_eval(mut self, times: impl Into<Vec<f64>>) -> Self {
+        self.t_eval = Some(times.into());
+        self
+    }
+
     /// The method (default: the preset's, else `feedback-euler`).
     pub fn method(mut self, method: Method) -> Self {
         self.method = Some(method);
@@ -373,6 +402,7 @@ impl RunSpecBuilder {
         spec.every = self.every.or(preset.and_then(|p| p.every)).unwrap_or(0);
         spec.max_steps = self.max_steps.unwrap_or(spec.max_steps);
         spec.max_drift = self.max_drift.unwrap_or(spec.max_drift);
+        spec.t_eval = self.t_eval.clone().unwrap_or_default();
         spec.validate()?;
         Ok(spec)
     }

@@ -4,6 +4,7 @@
 
 use num_traits::Float;
 
+use crate::events::EventSpec;
 use crate::field::Partitioned;
 use crate::state::State;
 use crate::steppers::Splitting;
@@ -90,6 +91,14 @@ pub trait Declared<T: Float, X: State<T>> {
     fn check_guards(&self, _x: &X, _dt: T) -> Option<GuardFailure> {
         None
     }
+
+    /// The events the model file declares (`event NAME: g = 0 …;`), in order.
+    fn events(&self) -> &'static [EventSpec] {
+        &[]
+    }
+
+    /// The event functions g(x, t), one per [`Declared::events`], into `g`.
+    fn event_values(&self, _x: &X, _t: T, _g: &mut [T]) {}
 
     /// The model as a partitioned field, if its field is partitioned (Störmer–Verlet applies).
     fn partitioned(&self) -> Option<&dyn Partitioned<T, X>> {

@@ -275,6 +275,25 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
         Ok(summary)
     }
 
+    /// Integrates `field` from `x0` with `stepper`, calling `on_step(stepper, step, t, x)` at
+    /// the start (step 0) and after every accepted step, with the stepper, so that the caller
+    /// can read its continuous extension ([`Stepper::dense_output`]) — what events and output
+    /// times need ([`crate::events::Watch`]). Returning [`Control::Stop`] ends the run.
+    pub fn run_stepwise<F, S, C>(
+        &self,
+        stepper: &mut S,
+        field: &F,
+        x0: &X,
+        on_step: C,
+    ) -> Result<Summary<T, X>, StepError>
+    where
+        F: ?Sized,
+        S: Stepper<T, X, F>,
+        C: FnMut(&S, u64, T, &X) -> Control,
+    {
+        self.drive(stepper, field, x0, self.t_end, on_step)
+    }
+
     /// Integrates with a dense-output stepper up to the last of `times` (sorted, within
     /// [t₀, t_end]) and calls `observer(i, times[i], x(times[i]))` with the interpolated state
     /// at each output time, independent of the steps taken (HNW I §II.6).

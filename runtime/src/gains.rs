@@ -309,6 +309,11 @@ where
         format!("adaptive-gain({})", self.base.name())
     }
 
+    /// The base stepper's: the gains change between steps, not within one.
+    fn dense_output(&self) -> Option<&dyn crate::DenseOutput<T, X>> {
+        self.base.dense_output()
+    }
+
     fn is_adaptive(&self) -> bool {
         self.base.is_adaptive()
     }

@@ -37,6 +37,7 @@ mod divergence;
 mod driver;
 pub use lasalle_elliptic as elliptic;
 mod error;
+pub mod events;
 mod feedback;
 mod field;
 mod gains;
@@ -52,6 +53,7 @@ pub use divergence::{DriftBound, DEFAULT_MAX_DRIFT};
 pub use driver::{integrate, Driver, GuardFn, Summary};
 pub use elliptic::{ellipf, ellipj, ellipj_m1, ellipk, ellipkm1, Jacobi};
 pub use error::StepError;
+pub use events::{Crossing, EventDirection, EventSpec, Watch};
 pub use feedback::{default_lyapunov_gradient, expand_gains, FeedbackField};
 pub use field::{
     lit, Field, InvariantInfo, InvariantKind, Invariants, Lyapunov, ModelInfo, Partitioned, Shape,

@@ -885,6 +885,10 @@ impl<M: ?Sized, X: State<f64>> Stepper<f64, X, M> for Taylor<M> {
         format!("taylor({})", self.order)
     }
 
+    fn dense_output(&self) -> Option<&dyn DenseOutput<f64, X>> {
+        Some(self)
+    }
+
     fn is_adaptive(&self) -> bool {
         true
     }
@@ -947,6 +951,10 @@ where
 
     fn name(&self) -> String {
         format!("taylor({})", self.order)
+    }
+
+    fn dense_output(&self) -> Option<&dyn DenseOutput<f64, X>> {
+        Some(self)
     }
 
     fn is_adaptive(&self) -> bool {

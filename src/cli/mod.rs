@@ -11,6 +11,7 @@ mod normal_form;
 mod plot;
 mod progress;
 mod run;
+mod section;
 mod stability;
 mod stability_figure;
 mod sweep;
@@ -102,6 +103,8 @@ enum Command {
     /// CPU time of the JIT-compiled feedback field per state, one and k states per call, as
     /// one JSON line (for benchmarks against other integrators).
     BenchEval(bench::BenchEvalArgs),
+    /// A Poincaré section: the crossings of a model's event by many orbits, as CSV and a figure.
+    Section(section::SectionArgs),
 }
 
 /// Parses the command line and runs the subcommand. A malformed command line is a
@@ -126,6 +129,7 @@ pub fn main() -> CliResult {
         Command::SweepMerge(args) => sweep::merge(&args),
         Command::Stability(args) => stability::run(&args, &given),
         Command::BenchEval(args) => bench::run(&args),
+        Command::Section(args) => section::run(&args, &given),
     }
 }
 

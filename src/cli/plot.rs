@@ -336,7 +336,11 @@ where
         .x_desc(chart.x_label.as_str())
         .y_desc(chart.y_label.as_str())
         .y_label_formatter(&y_fmt)
-        .x_label_formatter(&|v: &f64| format!("{v}"))
+        // ten significant digits (0.30000000000000004 is written 0.3), and round-off zeros 0
+        .x_label_formatter(&|v: &f64| {
+            let r: f64 = format!("{v:.9e}").parse().unwrap_or(*v);
+            format!("{}", if r.abs() < 1e-12 { 0.0 } else { r })
+        })
         .label_style(("sans-serif", 12))
         .light_line_style(RGBColor(235, 235, 235))
         .draw()

@@ -86,6 +86,11 @@ pub struct RunArgs {
     /// this many times max(|f(x₀)|, 1).
     #[arg(long, default_value_t = lasalle::DEFAULT_MAX_DRIFT, value_parser = value::positive, allow_hyphen_values = true)]
     pub max_drift: f64,
+    /// Record the state at these times instead of every n-th step: `a:b:n` (n times from a
+    /// to b) or a comma-separated list, within [0, --t-end]; taken from each method's
+    /// continuous extension (adaptive methods keep their own steps).
+    #[arg(long, value_name = "A:B:N|T,…", allow_hyphen_values = true)]
+    pub t_eval: Option<String>,
     /// How the model's functions run: compiled to native code when the model is loaded
     /// (jit), or interpreted.
     #[arg(long, value_enum, default_value_t)]
@@ -149,6 +154,13 @@ fn run_spec(
     if let Some(init) = &args.init {
         builder = builder.init(init.as_str());
     }
+    if let Some(times) = &args.t_eval {
+        given.refuse(
+            &["every"],
+            "does not apply with --t-eval, which records the state at the times it lists",
+        )?;
+        builder = builder.t_eval(lasalle::run::parse_t_eval(times).map_err(usage)?);
+    }
     builder.prepare(model).map_err(|e| match e {
         RunError::Missing(what) => {
             let flag = format!("--{}", what.replace('_', "-"));
@@ -204,6 +216,10 @@ pub fn run(args: &RunArgs, given: &Given) -> CliResult {
         .unwrap_or_else(|| PathBuf::from(format!("out/{stem}-{method}")));
     std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     recording.write_csv(dir.join("trace.csv"))?;
+    let has_events = !lasalle::Declared::<f64, Vec<f64>>::events(&model).is_empty();
+    if has_events {
+        recording.write_events_csv(dir.join("events.csv"))?;
+    }
     let mut summary = recording.summary_json();
     summary["model"] = name.into();
     summary["model_file"] = stem.clone().into();
@@ -268,6 +284,12 @@ pub fn run(args: &RunArgs, given: &Given) -> CliResult {
             println!("  gains: {g:?}");
         }
         super::chaos::report(&summary);
+        if let Some(e) = &recording.stopped_by {
+            println!("  stopped by event `{}` at t = {}", e.name, e.t);
+        }
+        if has_events {
+            println!("  {} event crossings (events.csv)", recording.events.len());
+        }
         println!("wrote {}/trace.csv and summary.json", dir.display());
     }
     Ok(())

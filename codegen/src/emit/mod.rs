@@ -290,6 +290,8 @@ const IMPORTABLE: &[(&str, &str)] = &[
     ("Scalar", "lasalle_runtime::nalgebra"),
     ("lit", "lasalle_runtime"),
     ("Declared", "lasalle_runtime"),
+    ("EventDirection", "lasalle_runtime"),
+    ("EventSpec", "lasalle_runtime"),
     ("Field", "lasalle_runtime"),
     ("GuardFailure", "lasalle_runtime"),
     ("InvariantInfo", "lasalle_runtime"),

@@ -234,6 +234,51 @@ impl Emitter<'_> {
         }
     }
 
+    /// The `Declared` functions of the model's events (`event NAME: g = 0 …;`): their list and
+    /// g(x, t).
+    fn events(&mut self) -> TokenStream {
+        let model = self.model;
+        if model.events.is_empty() {
+            return TokenStream::new();
+        }
+        let n = u(self.n);
+        let outputs: Vec<Output> = model
+            .events
+            .iter()
+            .enumerate()
+            .map(|(i, e)| Output {
+                place: Place::Assign(place("g", i)),
+                id: e.value,
+                note: Some(note_for(model, &e.span)),
+            })
+            .collect();
+        let body = self.body(&outputs, &["x", "t", "g"]);
+        let x = body.arg("x", is_state);
+        let t = body.arg("t", |i| *i == lasalle_model::EVENT_TIME);
+        let tokens = &body.tokens;
+        let specs = model.events.iter().map(|e| {
+            let name = &e.name;
+            let direction = match e.direction {
+                lasalle_model::Direction::Both => quote!(EventDirection::Both),
+                lasalle_model::Direction::Rising => quote!(EventDirection::Rising),
+                lasalle_model::Direction::Falling => quote!(EventDirection::Falling),
+            };
+            let terminal = e.terminal;
+            quote!(EventSpec { name: #name, direction: #direction, terminal: #terminal })
+        });
+        let list = quote! {
+            fn events(&self) -> &'static [EventSpec] {
+                &[#(#specs),*]
+            }
+        };
+        quote! {
+            #list
+            fn event_values(&self, #x: &[T; #n], #t: T, g: &mut [T]) {
+                #tokens
+            }
+        }
+    }
+
     /// `impl Declared`: the model file's run presets, guards and structure-specific steppers.
     pub fn declared_impl(&mut self) -> TokenStream {
         let model = self.model;
@@ -317,6 +362,7 @@ impl Emitter<'_> {
                 }
             }
         };
+        let events = self.events();
         let partitioned = if self.d.partition.is_some() {
             quote! {
                 fn partitioned(&self) -> Option<&dyn Partitioned<T, [T; #n]>> {
@@ -343,6 +389,7 @@ impl Emitter<'_> {
             impl<T: Float> Declared<T, [T; #n]> for #prep<T> {
                 #presets
                 #guards
+                #events
                 #partitioned
                 #splitting
                 #taylor

@@ -1,4 +1,4 @@
-//! Lowering of what a model declares for running it: run presets and domain guards.
+//! Lowering of what a model declares for running it: run presets, domain guards and events.
 
 use super::lower::{Ctx, Kind, Lowerer, Symbol, L};
 use super::*;
@@ -236,6 +236,62 @@ impl Lowerer {
             margin,
             strict,
             condition: text.split_whitespace().collect::<Vec<_>>().join(" "),
+            span: span.clone(),
+        })
+    }
+
+    /// `event NAME: expr = 0 [rising | falling] [stop];` — a scalar over the state, the
+    /// parameters, `let`s and the time `t` (unless the model names something `t` itself).
+    pub(super) fn event(
+        &mut self,
+        name: &Ident,
+        expr: &Expr,
+        zero: &Expr,
+        direction: Option<&Ident>,
+        terminal: bool,
+        span: &Span,
+    ) -> L<Event> {
+        if !matches!(zero.kind, ExprKind::Num(z) if z == 0.0) {
+            return Err(
+                Diagnostic::new(&zero.span, "an event's right side must be 0")
+                    .help("move it to the left: `event escape: norm(x) - 10 = 0;`"),
+            );
+        }
+        // `t` means the time inside an event, where the model does not name something `t`.
+        let time = !self.symbols.contains_key("t");
+        if time {
+            self.symbols.insert(
+                "t".to_string(),
+                Symbol {
+                    kind: Kind::Let,
+                    value: Value::scalar(self.g.input(EVENT_TIME)),
+                    span: name.span.clone(),
+                },
+            );
+        }
+        let value = (|| {
+            let v = self.expr(expr, Ctx::Model)?;
+            self.expect_scalar(&v, expr, "an event's expression")
+        })();
+        if time {
+            self.symbols.remove("t");
+        }
+        let direction = match direction.map(|d| d.name.as_str()) {
+            Some("rising") => Direction::Rising,
+            Some("falling") => Direction::Falling,
+            _ => Direction::Both,
+        };
+        Ok(Event {
+            name: name.name.clone(),
+            value: value?,
+            direction,
+            terminal,
+            expr: expr
+                .span
+                .text()
+                .split_whitespace()
+                .collect::<Vec<_>>()
+                .join(" "),
             span: span.clone(),
         })
     }

@@ -344,6 +344,7 @@ fn size_names_item(item: &Item, out: &mut HashSet<String>) {
             heads_in(lhs, out);
             heads_in(rhs, out);
         }
+        Item::Event { expr, .. } => heads_in(expr, out),
         Item::Structure(..) | Item::Splitting(..) => {}
     }
 }

@@ -167,6 +167,39 @@ pub struct Guard {
 /// The step size `dt` in a guard's condition (0 for adaptive methods).
 pub const GUARD_STEP: crate::ir::Input = crate::ir::Input::Symbol(0);
 
+/// Which crossings of zero an [`Event`] counts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Direction {
+    /// Both (the default).
+    Both,
+    /// `rising`: from negative to positive.
+    Rising,
+    /// `falling`: from positive to negative.
+    Falling,
+}
+
+/// An event (`event pericentre: dot(x, v) = 0 rising;`): the times where a scalar of the state,
+/// the parameters and the time crosses zero, located during runs; a `stop` event ends the run.
+#[derive(Clone, Debug)]
+pub struct Event {
+    /// Name.
+    pub name: String,
+    /// The scalar g whose zeros are the event, of the state, the parameters and the time
+    /// [`EVENT_TIME`].
+    pub value: Id,
+    /// Which crossings count.
+    pub direction: Direction,
+    /// Does the event end the run?
+    pub terminal: bool,
+    /// The expression as written in the model file.
+    pub expr: String,
+    /// Where it is declared.
+    pub span: Span,
+}
+
+/// The time `t` in an event's expression.
+pub const EVENT_TIME: crate::ir::Input = crate::ir::Input::Symbol(1);
+
 /// A `let` binding, kept so generated code can name its temporaries after it.
 #[derive(Clone, Debug)]
 pub struct Binding {
@@ -213,6 +246,8 @@ pub struct Model {
     pub presets: Vec<Preset>,
     /// Domain guards.
     pub guards: Vec<Guard>,
+    /// Events, in declaration order.
+    pub events: Vec<Event>,
     /// The structure-specific splitting the model admits, if any.
     pub splitting: Option<crate::splitting::Splitting>,
 }

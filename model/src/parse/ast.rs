@@ -217,6 +217,19 @@ pub enum Item {
         /// Right side of the comparison.
         rhs: Expr,
     },
+    /// `event NAME: expr = 0 [rising | falling] [stop];`: a crossing to locate during runs.
+    Event {
+        /// The event's name.
+        name: Ident,
+        /// The scalar whose zeros are the event.
+        expr: Expr,
+        /// The zero after `=`, as written (it must be 0).
+        zero: Expr,
+        /// `rising`, `falling` or neither (both directions), with where it is written.
+        direction: Option<Ident>,
+        /// `stop`, if written: the event ends the run.
+        stop: Option<Ident>,
+    },
     /// `splitting KIND(args…);`: a structure-specific splitting method the model admits.
     Splitting(Ident, Vec<Ident>),
     /// `d/dt q[i] = …;`: the equation of one member of a family (or one component).

@@ -16,6 +16,7 @@
 //!           | "point" NAME "{" (NAME "=" expr ";")* "}"
 //!           | "run" NAME "{" (NAME "=" expr ";")* "}"
 //!           | "guard" NAME ":" expr ("<" | "<=" | ">" | ">=") expr ";"
+//!           | "event" NAME ":" expr "=" expr ["rising" | "falling"] ["stop"] ";"
 //!           | "splitting" NAME "(" NAME ("," NAME)* ")" ";"
 //! TYPE      = NAME ["[" expr "]"]                  (a family: `vec3[n]`)
 //! head      = clause ("," clause)*;  clause = NAME "in" expr ".." expr | expr CMP expr
@@ -342,6 +343,39 @@ impl Parser {
                 let rhs = self.expr()?;
                 self.expect_punct(';')?;
                 Item::Guard { name, lhs, op, rhs }
+            }
+            "event" => {
+                self.bump();
+                const HELP: &str =
+                    "write an event as `event pericentre: dot(x, v) = 0 rising;` (then optionally `rising` or `falling`, and `stop`)";
+                let name = self.ident("the event's name")?;
+                self.expect_punct(':').map_err(|d| d.help(HELP))?;
+                let expr = self.expr()?;
+                self.expect_punct('=').map_err(|d| d.help(HELP))?;
+                let zero = self.expr()?;
+                let mut direction = None;
+                let mut stop = None;
+                while let Tok::Ident(word) = &self.peek().tok {
+                    match word.as_str() {
+                        "rising" | "falling" if direction.is_none() && stop.is_none() => {
+                            direction = Some(self.ident("`rising` or `falling`")?);
+                        }
+                        "stop" if stop.is_none() => stop = Some(self.ident("`stop`")?),
+                        _ => {
+                            return Err(self
+                                .unexpected("`rising`, `falling`, `stop` or `;`")
+                                .help(HELP))
+                        }
+                    }
+                }
+                self.expect_punct(';').map_err(|d| d.help(HELP))?;
+                Item::Event {
+                    name,
+                    expr,
+                    zero,
+                    direction,
+                    stop,
+                }
             }
             "splitting" => {
                 self.bump();

@@ -354,6 +354,10 @@ impl<T: Float, X: State<T>, F: Field<T, X> + ?Sized> Stepper<T, X, F> for Dorman
         "dopri5".to_string()
     }
 
+    fn dense_output(&self) -> Option<&dyn DenseOutput<T, X>> {
+        Some(self)
+    }
+
     fn is_adaptive(&self) -> bool {
         true
     }

@@ -106,6 +106,14 @@ pub trait Stepper<T: Float, X: State<T>, F: ?Sized> {
     /// Call it when the state is changed outside the stepper.
     fn reset(&mut self) {}
 
+    /// The continuous extension of the last accepted step, for steppers that have their own
+    /// (DOPRI5's interpolant, the Taylor polynomial); `None` by default, and for wrappers
+    /// that change the state after the base step. Events and output times use it, and a
+    /// Hermite cubic otherwise ([`crate::events`]).
+    fn dense_output(&self) -> Option<&dyn DenseOutput<T, X>> {
+        None
+    }
+
     /// Named counters of the work done so far beyond steps and evaluations, for reports:
     /// [`Projection`] adds `newton_iterations` and `projected_steps`,
     /// [`AdaptiveGain`](crate::AdaptiveGain) `last_gauss_newton_norm`; a wrapper lists its
@@ -144,6 +152,9 @@ impl<T: Float, X: State<T>, F: ?Sized, S: Stepper<T, X, F> + ?Sized> Stepper<T, 
     }
     fn reset(&mut self) {
         (**self).reset()
+    }
+    fn dense_output(&self) -> Option<&dyn DenseOutput<T, X>> {
+        (**self).dense_output()
     }
     fn counters(&self) -> Vec<(&'static str, f64)> {
         (**self).counters()

@@ -4,7 +4,9 @@
 use super::{Ctx, Lowerer, L};
 use crate::error::{Diagnostic, DiagnosticKind, Span};
 use crate::ir::Id;
-use crate::model::{Binding, Gain, Guard, Invariant, InvariantKind, Point, Preset, StateVar};
+use crate::model::{
+    Binding, Event, Gain, Guard, Invariant, InvariantKind, Point, Preset, StateVar,
+};
 use crate::parse::ast::*;
 
 /// What pass 2 collects, item by item.
@@ -22,6 +24,7 @@ pub(super) struct Items<'a> {
     pub(super) points: Vec<Point>,
     pub(super) presets: Vec<Preset>,
     pub(super) guards: Vec<Guard>,
+    pub(super) events: Vec<Event>,
     /// The `splitting` item: its kind, arguments and span.
     pub(super) splitting: Option<(&'a Ident, &'a Vec<Ident>, Span)>,
 }
@@ -45,6 +48,7 @@ impl Lowerer {
             points: Vec::new(),
             presets: Vec::new(),
             guards: Vec::new(),
+            events: Vec::new(),
             splitting: None,
         };
         for it in &ast.items {
@@ -130,6 +134,33 @@ impl Lowerer {
             Item::Guard { name, lhs, op, rhs } => self
                 .guard(name, lhs, *op, rhs, &it.span)
                 .map(|g| acc.guards.push(g)),
+            Item::Event {
+                name,
+                expr,
+                zero,
+                direction,
+                stop,
+            } => {
+                if let Some(first) = acc.events.iter().find(|e| e.name == name.name) {
+                    let line = first.span.line_col().0;
+                    Err(
+                        Diagnostic::new(&name.span, format!("a second event `{}`", name.name))
+                            .help(format!(
+                                "the first is declared on line {line}; name each event once"
+                            )),
+                    )
+                } else {
+                    self.event(
+                        name,
+                        expr,
+                        zero,
+                        direction.as_ref(),
+                        stop.is_some(),
+                        &it.span,
+                    )
+                    .map(|e| acc.events.push(e))
+                }
+            }
             Item::Splitting(kind, args) => {
                 if acc.splitting.is_some() {
                     Err(Diagnostic::new(&it.span, "a second `splitting`")

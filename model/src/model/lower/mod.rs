@@ -5,7 +5,7 @@
 //! file order (`items`, with `let` bindings in `lets` and named points in `points`), the
 //! Hamiltonian route (`hamiltonian`), the check that every state component has an equation
 //! (`field`), V (`invariants`), then presets and the splitting. Expressions are lowered in
-//! `model::expr`; presets, guards and splittings in `model::declare`.
+//! `model::expr`; presets, guards and events in `model::declare`, splittings in `crate::splitting`.
 
 mod field;
 mod hamiltonian;
@@ -131,6 +131,7 @@ impl Lowerer {
             points,
             presets,
             guards,
+            events,
             splitting: splitting_decl,
         } = self.items(ast, &state, n);
         let hamiltonian = self.hamiltonian_route(
@@ -188,6 +189,7 @@ impl Lowerer {
             points,
             presets,
             guards,
+            events,
             splitting,
         })
     }
