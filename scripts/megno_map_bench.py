@@ -77,7 +77,7 @@ def run_lasalle(ics, t_end, tol, method, out_dir, threads, every):
     header, *rows = table.read_text().splitlines()
     col = header.split(",").index("megno")
     megno = np.array([float(r.split(",")[col]) if r.split(",")[col] else np.nan for r in rows])
-    return cpu, wall, megno, " ".join(cmd[1:])
+    return cpu, wall, megno, " ".join(cmd[1:]).replace(str(ROOT) + "/", "")
 
 
 def run_heyoka(ics, t_end, tol, threads):
