@@ -106,6 +106,22 @@ fn feedback_methods_are_refused() {
         err.contains("feedback-rk4") && err.contains("use euler, heun, rk4, dopri5 or taylor"),
         "{err}"
     );
+    let (ok, _, err) = lasalle_text(&[
+        "run",
+        "henon_heiles",
+        "-m",
+        "rk4",
+        "--megno",
+        "--renormalise-every",
+        "2",
+        "--out",
+        dir.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(
+        !ok && err.contains("--renormalise-every applies to --lyapunov-spectrum"),
+        "{err}"
+    );
 }
 
 /// A MEGNO map of Hénon–Heiles on the E = 1/12 section q₀ = 0 along p₁ = 0 (p₀ from the

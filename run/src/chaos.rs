@@ -6,7 +6,7 @@
 //! ([`lasalle_model::variational::Extension`]): the variational field (X, DX·Φ), or the unit
 //! tangent vector with the integrals of its growth rate, derived symbolically and compiled by
 //! the model's back end like any other field. [`extend`] builds that model from a loaded one
-//! (same back end, same parameters); [`simulate`](crate::simulate) then runs it as any model.
+//! (same back end, same parameters); [`simulate`] then runs it as any model.
 //!
 //! The methods that apply are those that integrate the extended field itself: `euler`, `heun`,
 //! `rk4`, `dopri5` and `taylor`. The feedback, projection, symplectic and splitting methods

@@ -11,7 +11,7 @@ use lasalle::{LoadedModel, ModelInfo, RunSpec};
 use serde_json::{json, Value};
 
 use super::plot::write_heat_map;
-use super::{usage, value, CliResult};
+use super::{usage, value, CliResult, Given};
 
 /// The variational flags of `lasalle run`.
 #[derive(Args, Debug, Default)]
@@ -55,7 +55,11 @@ pub fn extend_summary(
     spec: &RunSpec,
     dir: &Path,
     summary: &mut Value,
+    given: &Given,
 ) -> CliResult {
+    if !args.lyapunov_spectrum {
+        given.refuse(&["renormalise_every"], "applies to --lyapunov-spectrum")?;
+    }
     if !args.any() {
         return Ok(());
     }

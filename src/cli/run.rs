@@ -241,7 +241,8 @@ pub fn run(args: &RunArgs, given: &Given) -> CliResult {
         summary["projection_tol"] = spec.tol.into();
     }
     if recording.failure.is_none() {
-        super::chaos::extend_summary(&args.chaos, &model, &x0, &spec, &dir, &mut summary)?;
+        let chaos = &args.chaos;
+        super::chaos::extend_summary(chaos, &model, &x0, &spec, &dir, &mut summary, given)?;
     }
     std::fs::write(
         dir.join("summary.json"),
