@@ -67,7 +67,6 @@ pub use collinear::{c_n, gamma, linear_frequencies, position, Collinear};
 use crate::complex::Complex;
 use crate::error::NormalFormError;
 use crate::hamiltonian::{find_equilibrium, gradient_hessian, taylor, HamiltonianFn};
-use crate::lie::coordinate_maps;
 use crate::linalg::{matvec, Mat};
 use crate::linear::{complexification, symplectic_inverse};
 use crate::model::ModelHamiltonian;
@@ -94,6 +93,11 @@ pub struct CenterOptions {
     pub transform: bool,
     /// Newton iterations allowed for the equilibrium. Default: 50.
     pub max_newton: usize,
+    /// Drop, during the Lie series, every term whose degree plus hyperbolic degree
+    /// (a₁ + b₁) exceeds N: they cannot reach the reduced Hamiltonian (see the module docs).
+    /// The Birkhoff coefficients are then given for 2|a| + 2a₁ ≤ N, and the coordinate
+    /// changes are exact on the centre manifold but truncated off it. Default: true.
+    pub prune: bool,
 }
 
 impl Default for CenterOptions {
@@ -104,6 +108,7 @@ impl Default for CenterOptions {
             birkhoff: true,
             transform: true,
             max_newton: 50,
+            prune: true,
         }
     }
 }
@@ -324,6 +329,7 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(
         &lin_dd.omega,
         &lin.sigma,
         &kill_cm,
+        o.prune,
         &|_| {},
     );
     let mut hyperbolic_residual: f64 = 0.0;
@@ -373,13 +379,14 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(
             &lin_dd.omega,
             &lin.sigma,
             &kill_all,
+            o.prune,
             &|_| {},
         );
         let mut terms = Vec::new();
         for k in (2..=nmax).step_by(2) {
             for i in 0..table.count(k) {
                 let e = table.exponents(k, i);
-                if e[..n] != e[n..] {
+                if e[..n] != e[n..] || (o.prune && k + 2 * e[0] as usize > nmax) {
                     continue;
                 }
                 let c = hb.part(k).map_or(Complex::zero(), |p| p[i]);
@@ -410,8 +417,8 @@ fn run<R: Real, H: HamiltonianFn + ?Sized>(
             .collect();
         let cap = nmax.saturating_sub(1).max(1);
         Some((
-            coordinate_maps(&table, &parts, cap, false),
-            coordinate_maps(&table, &parts, cap, true),
+            crate::lie::coordinate_maps(&table, &parts, cap, false),
+            crate::lie::coordinate_maps(&table, &parts, cap, true),
         ))
     } else {
         None
