@@ -468,7 +468,33 @@ fn assemble<R: Real, H: HamiltonianFn + ?Sized>(
             .map(|r| r.iter().map(|x| x.to_f64()).collect())
             .collect()
     };
+    // rounding noise on coefficients that vanish by symmetry: below 64 unit roundoffs of the
+    // largest coefficient of their degree, they are set to zero
+    let mut raw = raw;
+    let eps = 64.0 * R::EPSILON;
     let rt = raw.reduced.table().clone();
+    for k in 2..=rt.max_degree() {
+        let big = raw.reduced.max_abs(k);
+        if big > 0.0 && raw.reduced.part(k).is_some() {
+            for c in raw.reduced.part_mut(k).iter_mut() {
+                if c.to_f64().abs() < eps * big {
+                    *c = R::zero();
+                }
+            }
+        }
+    }
+    let mut big_b = std::collections::BTreeMap::new();
+    for (e, v) in &raw.birkhoff {
+        let deg: u32 = e.iter().sum();
+        let b = big_b.entry(deg).or_insert(0.0f64);
+        *b = b.max(v.to_f64().abs());
+    }
+    for (e, v) in raw.birkhoff.iter_mut() {
+        let deg: u32 = e.iter().sum();
+        if v.to_f64().abs() < eps * big_b[&deg] {
+            *v = R::zero();
+        }
+    }
     let mut reduced = Vec::new();
     for k in 2..=rt.max_degree() {
         for i in 0..rt.count(k) {
