@@ -12,14 +12,22 @@ fn main() {
     println!("| model | point | precision | lambda | omega | reduced terms | reduction (s) | + Birkhoff (s) | + maps (s) | total (s) |");
     println!("|---|---|---|---:|---|---:|---:|---:|---:|---:|");
     for file in ["cr3bp.lsl", "cr3bp_spatial.lsl"] {
-        let model = lasalle_model::load_model(std::path::Path::new(&format!("{root}{file}"))).unwrap();
+        let model =
+            lasalle_model::load_model(std::path::Path::new(&format!("{root}{file}"))).unwrap();
         for point in ["L1", "L2", "L3"] {
             for precision in [Precision::F64, Precision::DoubleDouble] {
-                let o = CenterOptions { order, precision, ..CenterOptions::default() };
+                let o = CenterOptions {
+                    order,
+                    precision,
+                    ..CenterOptions::default()
+                };
                 let mut best: Option<lasalle_normal_form::center::CenterManifold> = None;
                 for _ in 0..repeats {
                     let cm = center_manifold_model(&model, &[], point, &o).unwrap();
-                    if best.as_ref().is_none_or(|b| cm.diagnostics.timings.total < b.diagnostics.timings.total) {
+                    if best
+                        .as_ref()
+                        .is_none_or(|b| cm.diagnostics.timings.total < b.diagnostics.timings.total)
+                    {
                         best = Some(cm);
                     }
                 }

@@ -30,15 +30,32 @@ fn dd(v: &lasalle_normal_form::Value) -> Dd {
 fn taylor_coefficients_along_the_axis_are_the_legendre_c_n() {
     let model = load("cr3bp.lsl");
     let h = ModelHamiltonian::new(&model, &[]).unwrap();
-    for (point, which) in [("L1", Collinear::L1), ("L2", Collinear::L2), ("L3", Collinear::L3)] {
-        let c = center_manifold_model(&model, &[], point, &CenterOptions { order: 2, birkhoff: false, transform: false, ..CenterOptions::default() }).unwrap();
+    for (point, which) in [
+        ("L1", Collinear::L1),
+        ("L2", Collinear::L2),
+        ("L3", Collinear::L3),
+    ] {
+        let c = center_manifold_model(
+            &model,
+            &[],
+            point,
+            &CenterOptions {
+                order: 2,
+                birkhoff: false,
+                transform: false,
+                ..CenterOptions::default()
+            },
+        )
+        .unwrap();
         let g = dd(c.gamma.as_ref().unwrap());
         let z: Vec<Dd> = c.equilibrium.iter().map(dd).collect();
         let table = Arc::new(MonomialTable::new(4, 12));
         let hz = taylor(&h, &z, &table);
         let coeff = |n: usize| hz.coeff(&[n as u8, 0, 0, 0]);
         // the orientation from n = 3
-        let s = -(coeff(3) / c_n(EARTH_MOON_MU, which, g, 3)).to_f64().signum();
+        let s = -(coeff(3) / c_n(EARTH_MOON_MU, which, g, 3))
+            .to_f64()
+            .signum();
         let pow = |x: Dd, k: i32| (0..k.abs()).fold(Dd::new(1.0), |a, _| a * x);
         for n in 2..=12u32 {
             let scale = Dd::new(1.0) / pow(g, n as i32 - 2);
@@ -49,8 +66,14 @@ fn taylor_coefficients_along_the_axis_are_the_legendre_c_n() {
         }
         // c₂ fixes the linear frequencies in closed form
         let (l, wp, wv) = linear_frequencies(c_n(EARTH_MOON_MU, which, g, 2));
-        assert!(((dd(&c.lambda) - l) / l).abs().to_f64() < 1e-28, "{point} lambda");
-        assert!(((dd(&c.omega[0]) - wp) / wp).abs().to_f64() < 1e-28, "{point} omega_p");
+        assert!(
+            ((dd(&c.lambda) - l) / l).abs().to_f64() < 1e-28,
+            "{point} lambda"
+        );
+        assert!(
+            ((dd(&c.omega[0]) - wp) / wp).abs().to_f64() < 1e-28,
+            "{point} omega_p"
+        );
         let _ = wv;
     }
 }
@@ -61,15 +84,51 @@ fn taylor_coefficients_along_the_axis_are_the_legendre_c_n() {
 #[test]
 fn linear_frequencies_against_published_values_and_the_characteristic_equation() {
     for (point, which, lam, wp, wv) in [
-        ("L1", Collinear::L1, 2.932055933642, 2.334385885086, 2.268831094972),
-        ("L2", Collinear::L2, 2.158674320345, 1.862645862177, 1.786176142892),
+        (
+            "L1",
+            Collinear::L1,
+            2.932055933642,
+            2.334385885086,
+            2.268831094972,
+        ),
+        (
+            "L2",
+            Collinear::L2,
+            2.158674320345,
+            1.862645862177,
+            1.786176142892,
+        ),
     ] {
-        let c = center_manifold_model(&load("cr3bp_spatial.lsl"), &[], point, &CenterOptions { order: 2, birkhoff: false, transform: false, ..CenterOptions::default() }).unwrap();
-        assert!((c.lambda.value - lam).abs() < 2e-12, "{point}: λ = {}", c.lambda.value);
-        assert!((c.omega[0].value - wp).abs() < 2e-12, "{point}: ω_p = {}", c.omega[0].value);
-        assert!((c.omega[1].value - wv).abs() < 2e-12, "{point}: ω_v = {}", c.omega[1].value);
+        let c = center_manifold_model(
+            &load("cr3bp_spatial.lsl"),
+            &[],
+            point,
+            &CenterOptions {
+                order: 2,
+                birkhoff: false,
+                transform: false,
+                ..CenterOptions::default()
+            },
+        )
+        .unwrap();
+        assert!(
+            (c.lambda.value - lam).abs() < 2e-12,
+            "{point}: λ = {}",
+            c.lambda.value
+        );
+        assert!(
+            (c.omega[0].value - wp).abs() < 2e-12,
+            "{point}: ω_p = {}",
+            c.omega[0].value
+        );
+        assert!(
+            (c.omega[1].value - wv).abs() < 2e-12,
+            "{point}: ω_v = {}",
+            c.omega[1].value
+        );
         let c2 = c_n(EARTH_MOON_MU, which, dd(c.gamma.as_ref().unwrap()), 2);
-        let q = |s: Dd| s * s + (Dd::new(2.0) - c2) * s + Dd::new(1.0) + c2 - Dd::new(2.0) * c2 * c2;
+        let q =
+            |s: Dd| s * s + (Dd::new(2.0) - c2) * s + Dd::new(1.0) + c2 - Dd::new(2.0) * c2 * c2;
         let l2 = dd(&c.lambda) * dd(&c.lambda);
         let w2 = dd(&c.omega[0]) * dd(&c.omega[0]);
         assert!(q(l2).abs().to_f64() < 1e-27 && q(-w2).abs().to_f64() < 1e-27);
@@ -83,20 +142,55 @@ fn linear_frequencies_against_published_values_and_the_characteristic_equation()
 #[test]
 fn pruning_leaves_the_reduced_hamiltonian_unchanged() {
     let model = load("cr3bp_spatial.lsl");
-    let o = CenterOptions { order: 10, transform: false, ..CenterOptions::default() };
-    let full = center_manifold_model(&model, &[], "L2", &CenterOptions { prune: false, ..o.clone() }).unwrap();
+    let o = CenterOptions {
+        order: 10,
+        transform: false,
+        ..CenterOptions::default()
+    };
+    let full = center_manifold_model(
+        &model,
+        &[],
+        "L2",
+        &CenterOptions {
+            prune: false,
+            ..o.clone()
+        },
+    )
+    .unwrap();
     let pruned = center_manifold_model(&model, &[], "L2", &o).unwrap();
-    let big = full.reduced.iter().map(|t| t.coeff.value.abs()).fold(0.0, f64::max);
+    let big = full
+        .reduced
+        .iter()
+        .map(|t| t.coeff.value.abs())
+        .fold(0.0, f64::max);
     assert_eq!(full.reduced.len(), pruned.reduced.len());
     for (a, b) in full.reduced.iter().zip(&pruned.reduced) {
         assert_eq!(a.exponents, b.exponents);
         let d = (dd(&a.coeff) - dd(&b.coeff)).abs().to_f64();
-        assert!(d <= 1e-26 * big.max(1.0) * 10f64.powi(a.degree as i32), "{:?}: {} vs {}", a.exponents, a.coeff.value, b.coeff.value);
+        assert!(
+            d <= 1e-26 * big.max(1.0) * 10f64.powi(a.degree as i32),
+            "{:?}: {} vs {}",
+            a.exponents,
+            a.coeff.value,
+            b.coeff.value
+        );
     }
     for b in &pruned.birkhoff {
-        let a = full.birkhoff.iter().find(|a| a.exponents == b.exponents).unwrap();
-        let rel = ((dd(&a.coeff) - dd(&b.coeff)) / dd(&a.coeff)).abs().to_f64();
-        assert!(rel < 1e-20, "{:?}: {} vs {}", a.exponents, a.coeff.value, b.coeff.value);
+        let a = full
+            .birkhoff
+            .iter()
+            .find(|a| a.exponents == b.exponents)
+            .unwrap();
+        let rel = ((dd(&a.coeff) - dd(&b.coeff)) / dd(&a.coeff))
+            .abs()
+            .to_f64();
+        assert!(
+            rel < 1e-20,
+            "{:?}: {} vs {}",
+            a.exponents,
+            a.coeff.value,
+            b.coeff.value
+        );
     }
 }
 
@@ -106,8 +200,12 @@ fn pruning_leaves_the_reduced_hamiltonian_unchanged() {
 #[test]
 fn centre_birkhoff_coefficients_equal_the_elliptic_normal_form_of_the_reduced_hamiltonian() {
     let c = cm("cr3bp_spatial.lsl", "L1", 10);
-    let h = PolynomialHamiltonian { poly: c.reduced_poly.clone() };
-    let o = Options::with_order(10).precision(Precision::DoubleDouble).transform(false);
+    let h = PolynomialHamiltonian {
+        poly: c.reduced_poly.clone(),
+    };
+    let o = Options::with_order(10)
+        .precision(Precision::DoubleDouble)
+        .transform(false);
     let nf = normalize(&h, &Point::Given(vec![0.0; 4]), &o).unwrap();
     assert!((nf.omega[0].value - c.omega[0].value).abs() < 1e-14);
     let mut checked = 0;
@@ -117,7 +215,12 @@ fn centre_birkhoff_coefficients_equal_the_elliptic_normal_form_of_the_reduced_ha
         let ours = c.birkhoff.iter().find(|b| b.exponents == e).unwrap();
         let rel = ((ours.coeff.value - t.coeff.value) / t.coeff.value).abs();
         // the reduced Hamiltonian is rounded to f64 before the second normal form
-        assert!(rel < 1e-9, "{e:?}: {} vs {}", ours.coeff.value, t.coeff.value);
+        assert!(
+            rel < 1e-9,
+            "{e:?}: {} vs {}",
+            ours.coeff.value,
+            t.coeff.value
+        );
         checked += 1;
     }
     assert_eq!(checked, 20); // actions of degree 1..5 in two variables
@@ -132,7 +235,13 @@ fn planar_reduced_hamiltonian_is_the_restriction_of_the_spatial_one() {
         for t in p.reduced.iter().filter(|t| t.coeff.value != 0.0) {
             let e = [t.exponents[0], 0, t.exponents[1], 0];
             let u = s.reduced.iter().find(|u| u.exponents == e).unwrap();
-            assert!((u.coeff.value - t.coeff.value).abs() <= 1e-20 + 1e-24 * 10f64.powi(t.degree as i32) + 1e-13 * t.coeff.value.abs(), "{point} {e:?}: {} vs {}", u.coeff.value, t.coeff.value);
+            assert!(
+                (u.coeff.value - t.coeff.value).abs()
+                    <= 1e-20 + 1e-24 * 10f64.powi(t.degree as i32) + 1e-13 * t.coeff.value.abs(),
+                "{point} {e:?}: {} vs {}",
+                u.coeff.value,
+                t.coeff.value
+            );
         }
     }
 }

@@ -6,7 +6,9 @@ use super::load::model_text;
 use super::normal_form::{parse_param, Format, NormalFormArgs, OutputFile, PrecisionArg};
 use super::plot::{write_figure, Chart, Style};
 use super::CliResult;
-use lasalle_normal_form::center::{center_manifold_model, center_manifold_model_at, poincare, CenterManifold, CenterOptions};
+use lasalle_normal_form::center::{
+    center_manifold_model, center_manifold_model_at, poincare, CenterManifold, CenterOptions,
+};
 use lasalle_normal_form::Precision;
 use std::path::Path;
 
@@ -28,7 +30,10 @@ pub fn run(args: &NormalFormArgs) -> CliResult {
             .split(',')
             .map(|v| match v.trim().parse::<f64>() {
                 Ok(x) if x.is_finite() && x > 0.0 => Ok(x),
-                _ => Err(format!("`--energies {}`: `{v}` is not a positive number", args.energies)),
+                _ => Err(format!(
+                    "`--energies {}`: `{v}` is not a positive number",
+                    args.energies
+                )),
             })
             .collect::<Result<_, _>>()
             .map_err(super::usage)?
@@ -43,9 +48,24 @@ pub fn run(args: &NormalFormArgs) -> CliResult {
             )));
         }
     }
-    let mut out_file = args.out.as_deref().map(|p| OutputFile::check("--out", p)).transpose().map_err(super::usage)?;
-    let mut rust_file = args.emit_rust.as_deref().map(|p| OutputFile::check("--emit-rust", p)).transpose().map_err(super::usage)?;
-    let mut model_file = args.emit_model.as_deref().map(|p| OutputFile::check("--emit-model", p)).transpose().map_err(super::usage)?;
+    let mut out_file = args
+        .out
+        .as_deref()
+        .map(|p| OutputFile::check("--out", p))
+        .transpose()
+        .map_err(super::usage)?;
+    let mut rust_file = args
+        .emit_rust
+        .as_deref()
+        .map(|p| OutputFile::check("--emit-rust", p))
+        .transpose()
+        .map_err(super::usage)?;
+    let mut model_file = args
+        .emit_model
+        .as_deref()
+        .map(|p| OutputFile::check("--emit-model", p))
+        .transpose()
+        .map_err(super::usage)?;
     let (path, _, text) = model_text(&args.model)?;
     let model = lasalle_codegen::lower_source(&path, &text).map_err(|e| e.to_string())?;
     let known: Vec<&str> = model.params.iter().map(|p| p.name.as_str()).collect();
@@ -89,7 +109,9 @@ pub fn run(args: &NormalFormArgs) -> CliResult {
         None => print!("{text}"),
     }
     if let Some(file) = &mut rust_file {
-        let code = cm.to_rust().ok_or("the coordinate changes were not computed")?;
+        let code = cm
+            .to_rust()
+            .ok_or("the coordinate changes were not computed")?;
         file.write(&code)?;
         eprintln!("wrote {}", file.path.display());
     }
@@ -113,13 +135,21 @@ fn poincare_figure(cm: &CenterManifold, dir: &Path, energies: &[f64]) -> CliResu
         .into());
     }
     let g = cm.gamma.map_or(1.0, |g| g.value);
-    let unit = if cm.gamma.is_some() { " (units of gamma)" } else { "" };
+    let unit = if cm.gamma.is_some() {
+        " (units of gamma)"
+    } else {
+        ""
+    };
     let mut panels = Vec::new();
     for &e in energies {
         let h = e * g * g;
-        let orbits = poincare::poincare_map(cm, h, 9, 150).expect("two centre degrees of freedom");
+        let orbits = poincare::poincare_map(cm, h, 12, 120).expect("two centre degrees of freedom");
         let mut chart = Chart::new(
-            &format!("{} {}: section Q3 = 0, h = {e}", cm.model.split('(').next().unwrap_or(""), cm.point),
+            &format!(
+                "{} {}: section Q3 = 0, h = {e}",
+                cm.model.split('(').next().unwrap_or(""),
+                cm.point
+            ),
             &format!("Q2{unit}"),
             &format!("P2{unit}"),
             false,

@@ -123,7 +123,12 @@ pub struct NormalFormArgs {
     pub(super) poincare: Option<PathBuf>,
     /// Energies H_cm − E0 of the Poincaré sections, in Jorba & Masdemont's units (lengths
     /// scaled by γ, energies by γ²), comma-separated.
-    #[arg(long, value_name = "H1,H2,…", default_value = "0.1,0.3,0.6", requires = "poincare")]
+    #[arg(
+        long,
+        value_name = "H1,H2,…",
+        default_value = "0.1,0.3,0.6",
+        requires = "poincare"
+    )]
     pub(super) energies: String,
 }
 

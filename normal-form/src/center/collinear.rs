@@ -46,25 +46,11 @@ fn quintic(mu: Dd, which: Collinear) -> [Dd; 6] {
     let two = Dd::new(2.0);
     let three = Dd::new(3.0);
     match which {
-        Collinear::L1 => [
-            one,
-            -(three - mu),
-            three - two * mu,
-            -mu,
-            two * mu,
-            -mu,
-        ],
+        Collinear::L1 => [one, -(three - mu), three - two * mu, -mu, two * mu, -mu],
         Collinear::L2 => [one, three - mu, three - two * mu, -mu, -two * mu, -mu],
         Collinear::L3 => {
             let m1 = one - mu;
-            [
-                one,
-                two + mu,
-                one + two * mu,
-                -m1,
-                -(two * m1),
-                -m1,
-            ]
+            [one, two + mu, one + two * mu, -m1, -(two * m1), -m1]
         }
     }
 }

@@ -13,7 +13,9 @@
 
 use crate::complex::Complex;
 use crate::error::{Eigenvalue, NormalFormError};
-use crate::linalg::{char_poly, matmul, max_diff, null_vector, poly_roots, symplectic_j, transpose, zeros, Mat};
+use crate::linalg::{
+    char_poly, matmul, max_diff, null_vector, poly_roots, symplectic_j, transpose, zeros, Mat,
+};
 use crate::linear::hamiltonian_matrix;
 use crate::scalar::{Coeff, Real};
 use crate::Dd;
@@ -87,7 +89,11 @@ pub(crate) fn saddle_centre(s: &Mat<Dd>) -> Result<SaddleCentre<Dd>, NormalFormE
     let c = char_poly(&m);
     let q: Vec<Dd> = (0..=n).map(|j| c[2 * j]).collect();
     let roots = poly_roots(&q);
-    let scale = roots.iter().map(|r| r.magnitude()).fold(0.0, f64::max).max(1e-300);
+    let scale = roots
+        .iter()
+        .map(|r| r.magnitude())
+        .fold(0.0, f64::max)
+        .max(1e-300);
     let tol = 1e-9 * scale;
     let not_saddle = || NormalFormError::NotSaddleCentre {
         eigenvalues: eigenvalue_list(&roots),
@@ -95,8 +101,16 @@ pub(crate) fn saddle_centre(s: &Mat<Dd>) -> Result<SaddleCentre<Dd>, NormalFormE
     if roots.iter().any(|r| r.im.abs().to_f64() > tol) {
         return Err(not_saddle());
     }
-    let positive: Vec<Dd> = roots.iter().filter(|r| r.re.to_f64() > tol).map(|r| r.re).collect();
-    let negative: Vec<Dd> = roots.iter().filter(|r| r.re.to_f64() < -tol).map(|r| r.re).collect();
+    let positive: Vec<Dd> = roots
+        .iter()
+        .filter(|r| r.re.to_f64() > tol)
+        .map(|r| r.re)
+        .collect();
+    let negative: Vec<Dd> = roots
+        .iter()
+        .filter(|r| r.re.to_f64() < -tol)
+        .map(|r| r.re)
+        .collect();
     if positive.len() != 1 || negative.len() != n - 1 {
         return Err(not_saddle());
     }
@@ -199,7 +213,11 @@ impl SaddleCentre<Dd> {
     /// Rounded to R, residuals recomputed there.
     pub(crate) fn rounded<R: Real>(&self, s: &Mat<R>) -> SaddleCentre<R> {
         let r = |x: &Dd| R::from_hi_lo(x.hi, x.lo);
-        let a: Mat<R> = self.a.iter().map(|row| row.iter().map(r).collect()).collect();
+        let a: Mat<R> = self
+            .a
+            .iter()
+            .map(|row| row.iter().map(r).collect())
+            .collect();
         let omega: Vec<R> = self.omega.iter().map(r).collect();
         let lambda = r(&self.lambda);
         let (symplectic_residual, diagonal_residual) =

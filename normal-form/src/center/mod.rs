@@ -256,7 +256,10 @@ fn blocks<R: Real>(n: usize, inverse: bool) -> Vec<[[Complex<R>; 2]; 2]> {
 
 /// The real part of a complex polynomial and the largest imaginary part.
 fn real_part<R: Real>(p: &Poly<Complex<R>>) -> (Poly<R>, f64) {
-    let imag = p.terms().map(|(_, _, c)| c.im.abs().to_f64()).fold(0.0, f64::max);
+    let imag = p
+        .terms()
+        .map(|(_, _, c)| c.im.abs().to_f64())
+        .fold(0.0, f64::max);
     (p.map(|c| c.re), imag)
 }
 

@@ -67,7 +67,12 @@ impl ReducedField {
     fn sum(terms: &[(f64, [u8; 4])], p: &[[f64; 4]]) -> f64 {
         terms
             .iter()
-            .map(|(c, e)| c * p[e[0] as usize][0] * p[e[1] as usize][1] * p[e[2] as usize][2] * p[e[3] as usize][3])
+            .map(|(c, e)| {
+                c * p[e[0] as usize][0]
+                    * p[e[1] as usize][1]
+                    * p[e[2] as usize][2]
+                    * p[e[3] as usize][3]
+            })
             .sum()
     }
 
@@ -85,7 +90,14 @@ impl ReducedField {
 
     /// One Runge–Kutta 4 step.
     pub fn rk4(&self, w: &[f64; 4], h: f64) -> [f64; 4] {
-        let add = |a: &[f64; 4], b: &[f64; 4], s: f64| [a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2], a[3] + s * b[3]];
+        let add = |a: &[f64; 4], b: &[f64; 4], s: f64| {
+            [
+                a[0] + s * b[0],
+                a[1] + s * b[1],
+                a[2] + s * b[2],
+                a[3] + s * b[3],
+            ]
+        };
         let k1 = self.field(w);
         let k2 = self.field(&add(w, &k1, h / 2.0));
         let k3 = self.field(&add(w, &k2, h / 2.0));
@@ -129,7 +141,13 @@ pub fn solve_p3(f: &ReducedField, q2: f64, p2: f64, h: f64, p_max: f64) -> Optio
 
 /// Integrates from `start` (on the section, Q₃ = 0) for `crossings` returns to Q₃ = 0 with
 /// Q̇₃ > 0, at step `dt`, stopping early after `t_max`.
-pub fn section_orbit(f: &ReducedField, start: [f64; 4], crossings: usize, dt: f64, t_max: f64) -> SectionOrbit {
+pub fn section_orbit(
+    f: &ReducedField,
+    start: [f64; 4],
+    crossings: usize,
+    dt: f64,
+    t_max: f64,
+) -> SectionOrbit {
     let h0 = f.energy(&start);
     let mut w = start;
     let mut t = 0.0;
@@ -166,26 +184,37 @@ pub fn section_orbit(f: &ReducedField, start: [f64; 4], crossings: usize, dt: f6
     }
 }
 
-/// A Poincaré map at reduced energy `h` (H_cm − E₀, model units): starts on a grid of
-/// `grid` × `grid` points (Q₂, P₂) over the energetically allowed region of the section, each
-/// followed for `crossings` returns. None unless the centre manifold has two degrees of
-/// freedom.
-pub fn poincare_map(cm: &CenterManifold, h: f64, grid: usize, crossings: usize) -> Option<Vec<SectionOrbit>> {
+/// A Poincaré map at reduced energy `h` (H_cm − E₀, model units): `seeds` starts on each of
+/// the axes P₂ = 0 and Q₂ = 0 of the section, across the energetically allowed region, each
+/// followed for `crossings` returns (100 Runge–Kutta steps per vertical period). None unless
+/// the centre manifold has two degrees of freedom.
+pub fn poincare_map(
+    cm: &CenterManifold,
+    h: f64,
+    seeds: usize,
+    crossings: usize,
+) -> Option<Vec<SectionOrbit>> {
     let f = ReducedField::new(&cm.reduced_poly)?;
     let wp = cm.omega[0].value;
     let wv = cm.omega[1].value;
     // linear extent of the section: ω_p (Q₂² + P₂²)/2 ≤ h
     let r = (2.0 * h / wp).sqrt();
-    let p_max = 2.0 * (2.0 * h / wv).sqrt();
+    let p_max = 4.0 * (2.0 * h / wv).sqrt();
     let period = 2.0 * std::f64::consts::PI / wv;
-    let dt = period / 200.0;
+    let dt = period / 100.0;
     let mut out = Vec::new();
-    for i in 0..grid {
-        for j in 0..grid {
-            let q2 = r * (2.0 * (i as f64 + 0.5) / grid as f64 - 1.0);
-            let p2 = r * (2.0 * (j as f64 + 0.5) / grid as f64 - 1.0) * (wp / wp);
+    for axis in 0..2 {
+        for i in 0..seeds {
+            let x = r * (2.0 * (i as f64 + 0.5) / seeds as f64 - 1.0);
+            let (q2, p2) = if axis == 0 { (x, 0.0) } else { (0.0, x) };
             if let Some(p3) = solve_p3(&f, q2, p2, h, p_max) {
-                out.push(section_orbit(&f, [q2, 0.0, p2, p3], crossings, dt, 4.0 * period * crossings as f64));
+                out.push(section_orbit(
+                    &f,
+                    [q2, 0.0, p2, p3],
+                    crossings,
+                    dt,
+                    4.0 * period * crossings as f64,
+                ));
             }
         }
     }

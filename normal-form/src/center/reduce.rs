@@ -60,7 +60,10 @@ pub(crate) fn normalize<R: Real>(
             let (a, b) = c.re.hi_lo();
             let (x, y) = c.im.hi_lo();
             let q = Complex::new(Dd::from_parts(a, b), Dd::from_parts(x, y)) / d;
-            g[i] = Complex::new(R::from_hi_lo(q.re.hi, q.re.lo), R::from_hi_lo(q.im.hi, q.im.lo));
+            g[i] = Complex::new(
+                R::from_hi_lo(q.re.hi, q.re.lo),
+                R::from_hi_lo(q.im.hi, q.im.lo),
+            );
             zr[i] = Complex::zero();
             any = true;
         }
@@ -115,7 +118,13 @@ struct Sparse<C> {
 }
 
 /// `sign · ∂a/∂u_v` of a homogeneous part of degree k ≥ 1, in sparse form.
-fn sparse_deriv<C: Coeff>(table: &MonomialTable, a: &[C], k: usize, v: usize, sign: f64) -> Sparse<C> {
+fn sparse_deriv<C: Coeff>(
+    table: &MonomialTable,
+    a: &[C],
+    k: usize,
+    v: usize,
+    sign: f64,
+) -> Sparse<C> {
     let n = table.nvars() / 2;
     let prev = table.degree(k - 1);
     let mut out = Sparse {
@@ -150,7 +159,11 @@ fn bracket<C: Coeff>(
     let nmax = table.max_degree();
     let od = deg + r - 2;
     let lk = &table.degree(od).lookup[..];
-    let room = if pruned { nmax.saturating_sub(od) } else { usize::MAX };
+    let room = if pruned {
+        nmax.saturating_sub(od)
+    } else {
+        usize::MAX
+    };
     for (v, g) in gd.iter().enumerate() {
         if g.vals.is_empty() {
             continue;
@@ -231,4 +244,3 @@ fn lie_transform<C: Coeff>(
         }
     }
 }
-

@@ -21,12 +21,12 @@ use crate::error::NormalFormError;
 use crate::hamiltonian::HamiltonianFn;
 
 use crate::Dd;
-pub(crate) use expansion::{integer_vectors, minus_i_pow};
 use assemble::assemble;
 use errors::{
     attach_errors, estimate_errors, fill_degree_errors, inaccurate_degree, precision_lost,
     prune_generating,
 };
+pub(crate) use expansion::{integer_vectors, minus_i_pow};
 use options::validate_options;
 use stages::run;
 
