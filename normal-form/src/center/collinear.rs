@@ -98,7 +98,7 @@ pub fn position(mu: f64, which: Collinear, gamma: Dd) -> Dd {
 pub fn c_n(mu: f64, which: Collinear, gamma: Dd, n: u32) -> Dd {
     let mu = Dd::new(mu);
     let one = Dd::new(1.0);
-    let sgn = if n % 2 == 0 { one } else { -one };
+    let sgn = if n.is_multiple_of(2) { one } else { -one };
     let pw = |x: Dd| crate::scalar::powi(x, n as i64 + 1);
     let g3 = gamma * gamma * gamma;
     match which {

@@ -216,6 +216,9 @@ pub struct CenterManifold {
     pub from_normal_map: Option<PolyMap>,
 }
 
+/// The coordinate maps (to normal, from normal), one polynomial per coordinate.
+type Maps<R> = (Vec<Poly<R>>, Vec<Poly<R>>);
+
 /// Internal result in the working precision.
 struct Raw<R> {
     eq: crate::hamiltonian::Equilibrium<R>,
@@ -231,7 +234,8 @@ struct Raw<R> {
     hyperbolic_residual: f64,
     birkhoff: Vec<(Vec<u32>, R)>,
     smallest_divisor: Option<f64>,
-    maps: Option<(Vec<Poly<R>>, Vec<Poly<R>>)>,
+    /// (to normal, from normal)
+    maps: Option<Maps<R>>,
     timings: CenterTimings,
 }
 

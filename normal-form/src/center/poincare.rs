@@ -121,14 +121,27 @@ pub struct SectionOrbit {
     pub energy_error: f64,
 }
 
-/// P₃ > 0 with H(q₂, 0, p₂, P₃) = h, if any (bisection on [0, p_max]).
+/// The smallest P₃ > 0 with H(q₂, 0, p₂, P₃) = h, if any below `p_max`: a scan from 0 in
+/// steps of p_max/400 to the first sign change, then bisection (far out the truncated series
+/// turns over, so the first root is the one on the manifold's energy level).
 pub fn solve_p3(f: &ReducedField, q2: f64, p2: f64, h: f64, p_max: f64) -> Option<f64> {
     let g = |p3: f64| f.energy(&[q2, 0.0, p2, p3]) - h;
-    let (mut a, mut b) = (0.0, p_max);
-    if g(a) > 0.0 || g(b) < 0.0 {
+    if g(0.0) > 0.0 {
         return None;
     }
-    for _ in 0..80 {
+    let steps = 400;
+    let mut a = 0.0;
+    let mut b = None;
+    for k in 1..=steps {
+        let x = p_max * k as f64 / steps as f64;
+        if g(x) >= 0.0 {
+            b = Some(x);
+            break;
+        }
+        a = x;
+    }
+    let mut b = b?;
+    for _ in 0..60 {
         let m = 0.5 * (a + b);
         if g(m) > 0.0 {
             b = m;

@@ -16,6 +16,7 @@ use crate::Dd;
 /// Normalises `h` (degrees ≥ 2, H₂ diagonal as above) degree by degree from `from` to `order`,
 /// transforming the whole of it to the table's degree; returns the generators by degree.
 /// `on_degree(r)` is called before degree r.
+#[allow(clippy::needless_range_loop)]
 pub(crate) fn normalize<R: Real>(
     h: &mut Poly<Complex<R>>,
     from: usize,
