@@ -78,11 +78,11 @@ fn taylor_coefficients_along_the_axis_are_the_legendre_c_n() {
     }
 }
 
-/// Jorba & Masdemont (1999), Table 1 (Earth–Moon, μ = 0.012150582): λ, ω_p, ω_v at L1 and
-/// L2 to the digits printed there, and the planar characteristic equation
+/// hiten 0.5.4's λ, ω_p, ω_v and γ at Earth–Moon L1 and L2 (`scripts/hiten_center_manifold.py`;
+/// it rounds the frequencies to 12 decimals), and the planar characteristic equation
 /// `s² + (2 − c₂)s + (1 + c₂ − 2c₂²) = 0` (s = λ², −ω_p²) to double-double.
 #[test]
-fn linear_frequencies_against_published_values_and_the_characteristic_equation() {
+fn linear_frequencies_against_hiten_and_the_characteristic_equation() {
     for (point, which, lam, wp, wv) in [
         (
             "L1",
