@@ -20,5 +20,5 @@ for idx in (1, 2):
     cm = CenterManifold(point, degree)
     cm.compute("center_manifold_real")
     for w in ([0.1, 0.0, 0.0, 0.0], [0.0, 0.1, 0.0, 0.0], [0.05, -0.04, 0.06, 0.03], [0.0, 0.0, 0.1, 0.0]):
-        s = cm.cm_point_to_synodic(np.array(w), energy=None)
+        s = cm.dynamics.cm_point_to_synodic(np.array(w), energy=None)
         print(f"L{idx}," + ",".join(repr(float(x)) for x in w) + "," + ",".join(repr(float(x)) for x in s), flush=True)
