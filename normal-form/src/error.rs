@@ -119,6 +119,13 @@ pub enum NormalFormError {
     /// argument does not fit it.
     #[error("model: {0}")]
     Model(String),
+    /// A centre-manifold reduction was asked at an equilibrium that is not of type
+    /// saddle × centre × … (exactly one real pair ±λ, the others on the imaginary axis).
+    #[error("equilibrium is not of type saddle × centre: eigenvalues {} (the centre-manifold reduction needs exactly one real pair ±λ and the others purely imaginary and distinct)", list(.eigenvalues))]
+    NotSaddleCentre {
+        /// All eigenvalues of the linearised field J·S.
+        eigenvalues: Vec<Eigenvalue>,
+    },
 }
 
 impl NormalFormError {

@@ -189,6 +189,7 @@
 #![warn(missing_docs)]
 
 pub mod bound;
+pub mod center;
 mod complex;
 mod dd;
 mod emit;

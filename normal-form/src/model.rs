@@ -68,7 +68,7 @@ impl<'a> ModelHamiltonian<'a> {
         Some(self.to_z(&self.model.point_values(name, &self.params)?))
     }
     /// A flat state of the model in z = (q, p) order.
-    fn to_z(&self, flat: &[f64]) -> Vec<f64> {
+    pub(crate) fn to_z(&self, flat: &[f64]) -> Vec<f64> {
         let mut z = vec![0.0; flat.len()];
         for (&x, &at) in flat.iter().zip(self.h.z_index()) {
             z[at] = x;

@@ -3,6 +3,7 @@
 mod args;
 mod attraction;
 mod bench;
+mod center_manifold;
 mod chaos;
 mod experiment;
 mod gen;

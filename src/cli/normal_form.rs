@@ -18,7 +18,7 @@ use std::sync::Arc;
 
 /// Output formats of `lasalle normal-form`.
 #[derive(Clone, Copy, ValueEnum)]
-enum Format {
+pub(super) enum Format {
     /// Human-readable tables.
     Table,
     /// Everything as JSON.
@@ -29,7 +29,7 @@ enum Format {
 
 /// `--precision`.
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum PrecisionArg {
+pub(super) enum PrecisionArg {
     /// f64, redone in double-double when a coefficient's estimated relative error exceeds
     /// `--max-rel-error`; the output says so.
     Auto,
@@ -60,25 +60,25 @@ enum EstimateArg {
 pub struct NormalFormArgs {
     /// The model: a `.lsl` file (with `hamiltonian` and `structure canonical(q, p)`) or the
     /// name of a built-in model (`cr3bp`, `cr3bp_spatial`, `coupled_oscillators`).
-    model: String,
+    pub(super) model: String,
     /// Override a scalar parameter, e.g. `--param mu=0.0121505856`. Repeatable.
     #[arg(long = "param", value_name = "NAME=VALUE")]
-    params: Vec<String>,
+    pub(super) params: Vec<String>,
     /// Truncation degree N of the normal form (2…120). Costs grow steeply with N and with the
     /// number of degrees of freedom (a progress bar is shown on a terminal).
     #[arg(long, default_value_t = 12, value_parser = super::value::size, allow_hyphen_values = true)]
-    order: usize,
+    pub(super) order: usize,
     /// The equilibrium: a point of the model (`L4`) or a comma-separated starting guess for
     /// Newton's method on ∇H = 0 (flat state order). Default: the model's first point.
     #[arg(long, value_name = "POINT|x1,x2,…")]
-    at: Option<String>,
+    pub(super) at: Option<String>,
     /// Working precision. `auto` computes in f64 and redoes the computation in double-double
     /// when a coefficient's estimated relative error exceeds `--max-rel-error`, and says so.
     #[arg(long, value_enum, default_value = "auto")]
-    precision: PrecisionArg,
+    pub(super) precision: PrecisionArg,
     /// Keep resonant terms instead of stopping at a (near-)resonance or a repeated frequency.
     #[arg(long)]
-    resonant: bool,
+    pub(super) resonant: bool,
     /// |m·ω| below this counts as a resonance (a finite number ≥ 0).
     #[arg(long, default_value_t = 1e-6, value_parser = super::value::non_negative, allow_hyphen_values = true)]
     resonance_tol: f64,
@@ -99,18 +99,42 @@ pub struct NormalFormArgs {
     no_error_estimate: bool,
     /// Output format.
     #[arg(long, value_enum, default_value = "table")]
-    format: Format,
+    pub(super) format: Format,
     /// Write the output here instead of standard output.
     #[arg(long, value_name = "FILE")]
-    out: Option<PathBuf>,
-    /// Also write Rust code for H̄(I), ∂H̄/∂I and the maps to and from normal coordinates.
+    pub(super) out: Option<PathBuf>,
+    /// Also write Rust code for H̄(I), ∂H̄/∂I and the maps to and from normal coordinates
+    /// (with `--center-manifold`: the reduced Hamiltonian, its field and the maps).
     #[arg(long, value_name = "FILE")]
-    emit_rust: Option<PathBuf>,
+    pub(super) emit_rust: Option<PathBuf>,
+    /// At a saddle × centre point (`--at L1`, `L2`, `L3` of the three-body models): the
+    /// Jorba–Masdemont reduction to the centre manifold, the reduced Hamiltonian, the
+    /// Birkhoff normal form there and the coordinate changes (see docs/center_manifold.md).
+    /// `--precision auto` means double-double here.
+    #[arg(long)]
+    pub(super) center_manifold: bool,
+    /// With `--center-manifold`: write the reduced Hamiltonian as a model file (`.lsl`),
+    /// which `lasalle run` compiles and integrates.
+    #[arg(long, value_name = "FILE", requires = "center_manifold")]
+    pub(super) emit_model: Option<PathBuf>,
+    /// With `--center-manifold` (spatial model): write Poincaré sections Q3 = 0 of the
+    /// reduced Hamiltonian at the `--energies` as `<DIR>/center_manifold_<point>.svg/.png`.
+    #[arg(long, value_name = "DIR", requires = "center_manifold")]
+    pub(super) poincare: Option<PathBuf>,
+    /// Energies H_cm − E0 of the Poincaré sections, in Jorba & Masdemont's units (lengths
+    /// scaled by γ, energies by γ²), comma-separated.
+    #[arg(
+        long,
+        value_name = "H1,H2,…",
+        default_value = "0.1,0.3,0.6",
+        requires = "poincare"
+    )]
+    pub(super) energies: String,
 }
 
 use lasalle_normal_form::DEFAULT_MAX_RELATIVE_ERROR;
 
-fn parse_param(s: &str) -> CliResult<(String, f64)> {
+pub(super) fn parse_param(s: &str) -> CliResult<(String, f64)> {
     let (name, value) = s
         .split_once('=')
         .ok_or_else(|| format!("`--param {s}`: expected NAME=VALUE"))?;
@@ -145,15 +169,15 @@ fn validate(args: &NormalFormArgs) -> CliResult {
 
 /// An output file named by `flag`, checked (and created, if missing) before the computation so
 /// that a bad path fails at once; removed again if the run fails before writing it.
-struct OutputFile<'a> {
+pub(super) struct OutputFile<'a> {
     flag: &'static str,
-    path: &'a Path,
+    pub(super) path: &'a Path,
     created: bool,
     written: bool,
 }
 
 impl<'a> OutputFile<'a> {
-    fn check(flag: &'static str, path: &'a Path) -> CliResult<Self> {
+    pub(super) fn check(flag: &'static str, path: &'a Path) -> CliResult<Self> {
         let shown = path.display();
         if path.is_dir() {
             return Err(format!("`{flag} {shown}`: is a directory; give a file name").into());
@@ -183,7 +207,7 @@ impl<'a> OutputFile<'a> {
         })
     }
 
-    fn write(&mut self, text: &str) -> CliResult {
+    pub(super) fn write(&mut self, text: &str) -> CliResult {
         std::fs::write(self.path, text).map_err(|e| {
             format!(
                 "`{} {}`: cannot write this file: {e}",
@@ -244,6 +268,9 @@ fn progress_bar() -> Option<(ProgressBar, Progress)> {
 /// Runs `lasalle normal-form`.
 pub fn run(args: &NormalFormArgs) -> CliResult {
     validate(args).map_err(super::usage)?;
+    if args.center_manifold {
+        return super::center_manifold::run(args);
+    }
     let params = args
         .params
         .iter()

@@ -66,7 +66,7 @@ pub(super) fn to_complex_coordinates<R: Real>(
 }
 
 /// (−i)^m
-pub(super) fn minus_i_pow<R: Real>(m: usize) -> Complex<R> {
+pub(crate) fn minus_i_pow<R: Real>(m: usize) -> Complex<R> {
     match m % 4 {
         0 => Complex::real(R::one()),
         1 => Complex::new(R::zero(), -R::one()),
@@ -76,7 +76,7 @@ pub(super) fn minus_i_pow<R: Real>(m: usize) -> Complex<R> {
 }
 
 /// All m ∈ ℤⁿ with 0 < |m|₁ ≤ n_max and first nonzero entry positive, by increasing |m|₁.
-pub(super) fn integer_vectors(n: usize, n_max: usize) -> Vec<Vec<i32>> {
+pub(crate) fn integer_vectors(n: usize, n_max: usize) -> Vec<Vec<i32>> {
     let mut out = Vec::new();
     fn rec(m: &mut Vec<i32>, k: usize, left: i32, out: &mut Vec<Vec<i32>>) {
         if k == m.len() {

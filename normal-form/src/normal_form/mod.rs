@@ -26,6 +26,7 @@ use errors::{
     attach_errors, estimate_errors, fill_degree_errors, inaccurate_degree, precision_lost,
     prune_generating,
 };
+pub(crate) use expansion::{integer_vectors, minus_i_pow};
 use options::validate_options;
 use stages::run;
 

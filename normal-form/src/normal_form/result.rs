@@ -27,7 +27,7 @@ fn is_zero(x: &f64) -> bool {
 }
 
 impl Value {
-    pub(super) fn of<R: Real>(x: R) -> Value {
+    pub(crate) fn of<R: Real>(x: R) -> Value {
         let (hi, lo) = x.hi_lo();
         Value {
             value: hi,

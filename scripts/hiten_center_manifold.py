@@ -1,0 +1,48 @@
+#!/usr/bin/env python3
+"""hiten's centre manifold and full normal form at Earth-Moon L1/L2, as CSV for the
+comparison in docs/center_manifold.md:
+
+    python3 -m venv /work/venvs/hiten && /work/venvs/hiten/bin/pip install hiten==0.5.4
+    /work/venvs/hiten/bin/python scripts/hiten_center_manifold.py DEGREE > hiten.csv
+
+Rows: point,form,exponents(q1 q2 q3 p1 p2 p3),degree,coefficient, plus `linear` rows
+(lambda, omega_p, omega_v, gamma) and `timing` rows (seconds, first call including numba
+compilation, then a second call on a fresh object).
+"""
+import sys
+import time
+
+import numpy as np
+from hiten import System
+from hiten.algorithms.polynomial.base import _decode_multiindex
+
+MU = 0.01215058560962404
+degree = int(sys.argv[1]) if len(sys.argv) > 1 else 16
+print("point,form,exponents,degree,value", flush=True)
+for idx in (1, 2):
+    for attempt in ("first", "second"):
+        system = System.from_mu(MU)
+        point = system.get_libration_point(idx)
+        t0 = time.perf_counter()
+        from hiten.system.center import CenterManifold
+        cm = CenterManifold(point, degree)
+        ham = cm.compute("center_manifold_real")
+        t1 = time.perf_counter()
+        full = cm.dynamics.pipeline.get_hamiltonian("real_full_normal")
+        t2 = time.perf_counter()
+        print(f"L{idx},timing,{attempt}_center_manifold,,{t1 - t0}")
+        print(f"L{idx},timing,{attempt}_full_normal,,{t2 - t1}")
+    lam, wp, wv = point.linear_modes
+    print(f"L{idx},linear,lambda,2,{lam!r}")
+    print(f"L{idx},linear,omega_p,2,{wp!r}")
+    print(f"L{idx},linear,omega_v,2,{wv!r}")
+    print(f"L{idx},linear,gamma,,{point.gamma!r}")
+    for form, h in (("center_manifold_real", ham), ("real_full_normal", full)):
+        clmo = h.dynamics.clmo
+        for d, arr in enumerate(h.poly_H):
+            for pos, c in enumerate(arr):
+                c = complex(c)
+                if abs(c) == 0.0:
+                    continue
+                e = _decode_multiindex(pos, d, clmo)
+                print(f"L{idx},{form},{' '.join(str(int(x)) for x in e)},{d},{c.real!r}")
