@@ -203,6 +203,7 @@ mod monomial;
 mod normal_form;
 mod output;
 pub mod poly;
+mod qd;
 mod scalar;
 pub mod validate;
 
@@ -222,4 +223,5 @@ pub use normal_form::{
     SmallDivisor, Stage, Term, Timings, Value, DEFAULT_MAX_RELATIVE_ERROR, MAX_ORDER,
 };
 pub use poly::Poly;
+pub use qd::Qd;
 pub use scalar::{Coeff, Real};
