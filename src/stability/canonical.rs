@@ -285,7 +285,12 @@ fn order_form(
         .remainder_degree
         .map_or(default_remainder_degree(n), |m| m.max(n + 1));
     let t = std::time::Instant::now();
-    let nf = normalize_model(model, params, &o.point, &options(n, Some(m)).precision(start))?;
+    let opts = Options {
+        // the bounds and the validation use the map to the normal coordinates only
+        inverse_transform: false,
+        ..options(n, Some(m)).precision(start)
+    };
+    let nf = normalize_model(model, params, &o.point, &opts)?;
     let rem = nf.remainder.as_ref().expect("remainder requested");
     let bound = Bound::new(rem, Norm::Gradient);
     let radial = Bound::new(rem, Norm::Radial);

@@ -169,6 +169,10 @@ pub struct Options {
     pub auto_precision: bool,
     /// Compute the transformation to and from normal coordinates. Default: true.
     pub transform: bool,
+    /// With `transform`: also the map from the normal coordinates back
+    /// ([`NormalForm::from_normal_map`]); the tube bounds need only the forward one, and each
+    /// costs as much as the normalisation at high order. Default: true.
+    pub inverse_transform: bool,
     /// Newton iterations allowed. Default: 50.
     pub max_newton: usize,
     /// |∇H| allowed at a [`Point::Given`]. Default: 1e-8.
@@ -203,6 +207,7 @@ impl Default for Options {
             max_relative_error: Some(DEFAULT_MAX_RELATIVE_ERROR),
             auto_precision: false,
             transform: true,
+            inverse_transform: true,
             max_newton: 50,
             equilibrium_tol: 1e-8,
             basis_rotation: Vec::new(),

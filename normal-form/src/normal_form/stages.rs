@@ -112,7 +112,8 @@ pub(super) fn run<R: Real, H: HamiltonianFn + ?Sized>(
         let cap = top - 1;
         (
             Some(lie::coordinate_maps(&table, &greal_parts, cap, false)),
-            Some(lie::coordinate_maps(&table, &greal_parts, cap, true)),
+            o.inverse_transform
+                .then(|| lie::coordinate_maps(&table, &greal_parts, cap, true)),
         )
     } else {
         (None, None)
