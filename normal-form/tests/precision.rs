@@ -90,7 +90,10 @@ fn quad_double_agrees_with_double_double_at_low_order() {
     assert!(e < 1e-29, "qd rotated: {e:e}");
     // the frequencies agree with the double-double ones to the last dd digit
     for (a, b) in qd.omega.iter().zip(&dd.omega) {
-        assert!(((a.value - b.value) + (a.lo - b.lo)).abs() < 1e-30, "{a:?} {b:?}");
+        assert!(
+            ((a.value - b.value) + (a.lo - b.lo)).abs() < 1e-30,
+            "{a:?} {b:?}"
+        );
     }
 }
 
@@ -106,11 +109,19 @@ fn automatic_precision_reaches_quad_double_at_sun_jupiter() {
         Err(lasalle_normal_form::NormalFormError::PrecisionLost { degree, .. }) => {
             assert!((20..=26).contains(&degree), "{degree}")
         }
-        other => panic!("expected dd to lose precision, got {:?}", other.map(|n| n.precision)),
+        other => panic!(
+            "expected dd to lose precision, got {:?}",
+            other.map(|n| n.precision)
+        ),
     }
     let nf = common::l4_normal_form(SUN_JUPITER_MU, &opts.auto_precision(true)).unwrap();
     assert_eq!(nf.precision, Precision::QuadDouble);
-    assert!(nf.diagnostics.precision_note.as_ref().unwrap().contains("quad-double"));
+    assert!(nf
+        .diagnostics
+        .precision_note
+        .as_ref()
+        .unwrap()
+        .contains("quad-double"));
     for d in &nf.diagnostics.hbar_degrees {
         assert!(d.max_relative_error.unwrap() < 1e-20, "{d:?}");
     }

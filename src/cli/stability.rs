@@ -71,7 +71,12 @@ pub struct CanonicalArgs {
     #[arg(long, value_name = "T", value_parser = value::positive, allow_hyphen_values = true)]
     pub for_time: Vec<f64>,
     /// With --for-time: the ratio k = d1/d0 of the tube (default 2).
-    #[arg(long, value_name = "K", allow_hyphen_values = true, requires = "for_time")]
+    #[arg(
+        long,
+        value_name = "K",
+        allow_hyphen_values = true,
+        requires = "for_time"
+    )]
     pub outer_ratio: Option<f64>,
     /// Canonical models: the remainder degree M (default min(2N, N + 8) for each order N).
     #[arg(long, value_name = "M", value_parser = value::size, allow_hyphen_values = true)]

@@ -581,11 +581,7 @@ pub fn analyse(
         }
         for (k, &time) in o.for_time.iter().enumerate() {
             // start from the previous order's radius (they change slowly with N)
-            let start = radii[k]
-                .iter()
-                .rev()
-                .find_map(|r| r.d0)
-                .unwrap_or(1e-3);
+            let start = radii[k].iter().rev().find_map(|r| r.d0).unwrap_or(1e-3);
             radii[k].push(radius_at_order(&f, time, o.outer_ratio, o.metric, start).map_err(at)?);
         }
         orders.push(n);
@@ -680,9 +676,9 @@ pub fn analyse(
             }
             _ => None,
         };
-        let optimum_bracketed = o.optimal.then(|| {
-            rows.last().map(|r| r.order) != best_order && best_order.is_some()
-        });
+        let optimum_bracketed = o
+            .optimal
+            .then(|| rows.last().map(|r| r.order) != best_order && best_order.is_some());
         report.tubes.push(Tube {
             d0,
             d1,
@@ -699,7 +695,12 @@ pub fn analyse(
         .zip(&forms)
         .filter(|((_, pts), _)| pts.len() >= 2)
         .map(|((&n, pts), f)| {
-            (n, fit_slope(pts), f.bound.lowest_degree().unwrap_or(0), pts.len())
+            (
+                n,
+                fit_slope(pts),
+                f.bound.lowest_degree().unwrap_or(0),
+                pts.len(),
+            )
         })
         .collect();
     report.seconds = started.elapsed().as_secs_f64();
