@@ -127,6 +127,8 @@ fn renorm5(c0: f64, c1: f64, c2: f64, c3: f64, c4: f64) -> Qd {
     }
 }
 
+// the trailing words of the constants are written with 19 digits, as published
+#[allow(clippy::excessive_precision)]
 impl Qd {
     /// An f64 as a quad-double (exact).
     #[inline(always)]
@@ -193,7 +195,7 @@ impl Qd {
     /// π
     pub const PI: Qd = Qd {
         x: [
-            3.141_592_653_589_793_116e0,
+            std::f64::consts::PI,
             1.224_646_799_147_353_207e-16,
             -2.994_769_809_718_339_666e-33,
             1.112_454_220_863_365_282e-49,
@@ -202,7 +204,7 @@ impl Qd {
     /// π/2
     pub const FRAC_PI_2: Qd = Qd {
         x: [
-            1.570_796_326_794_896_558e0,
+            std::f64::consts::FRAC_PI_2,
             6.123_233_995_736_766_036e-17,
             -1.497_384_904_859_169_833e-33,
             5.562_271_104_316_826_408e-50,
@@ -211,7 +213,7 @@ impl Qd {
     /// ln 2
     pub const LN_2: Qd = Qd {
         x: [
-            6.931_471_805_599_452_862e-1,
+            std::f64::consts::LN_2,
             2.319_046_813_846_299_558e-17,
             5.707_708_438_416_212_066e-34,
             -3.582_432_210_601_811_423e-50,
@@ -220,7 +222,7 @@ impl Qd {
     /// e
     pub const E: Qd = Qd {
         x: [
-            2.718_281_828_459_045_091e0,
+            std::f64::consts::E,
             1.445_646_891_729_250_158e-16,
             -2.127_717_108_038_176_765e-33,
             1.515_630_159_841_218_954e-49,
