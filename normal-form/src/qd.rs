@@ -660,7 +660,7 @@ mod tests {
         for _ in 0..2000 {
             let (a, b) = (random_qd(&mut st), random_qd(&mut st));
             // a + b with the exact sum of the eight words (including heavy cancellation)
-            let c = Qd::from_words([b.x[0] * -1.0, -b.x[1], b.x[2], 0.0]);
+            let c = Qd::from_words([-b.x[0], -b.x[1], b.x[2], 0.0]);
             for (x, y) in [(a, b), (a, c), (a, -a + Qd::new(a.x[0] * 1e-30))] {
                 let mut t = x.x.to_vec();
                 t.extend_from_slice(&y.x);
