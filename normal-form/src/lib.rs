@@ -1,7 +1,7 @@
 //! # lasalle-normal-form
 //!
 //! Birkhoff normal forms of Hamiltonian systems at elliptic equilibria, to any order, in
-//! f64 or double-double precision — the restricted three-body problem at L4 being the
+//! f64, double-double or quad-double ([`Qd`]) precision — the restricted three-body problem at L4 being the
 //! reference case (seed `004`, first paper pp. 8–22; `docs/equations.md` §3).
 //!
 //! ```
@@ -92,8 +92,12 @@
 //!
 //! ## Precision and error estimates
 //!
-//! All algebra is generic over the coefficient ([`Real`]: `f64` or [`Dd`], a double-double
-//! with ≈ 32 digits, and [`Complex`] of either). Small divisors amplify rounding; each
+//! All algebra is generic over the coefficient ([`Real`]: `f64`, [`Dd`], a double-double
+//! with ≈ 32 digits, or [`Qd`], a quad-double with ≈ 64 digits, and [`Complex`] of any).
+//! With `auto_precision` a run that fails the precision check is redone in the next wider
+//! precision, f64 → double-double → quad-double (Sun–Jupiter L4 needs quad-double from
+//! degree 24 on); the frequencies, the small divisors and the linear normalisation are
+//! formed in [`Real::Wide`] (double-double, or quad-double in a quad-double run). Small divisors amplify rounding; each
 //! coefficient of H̄ carries an error estimate ([`ErrorEstimate`]):
 //! [`ErrorEstimate::OtherPrecision`] (the library default) runs the other precision too,
 //! `error = |c_f64 − c_dd|` (f64 run) or `|c_f64 − c_dd|·2⁻⁵¹` (dd run: the same amplification
