@@ -26,6 +26,9 @@ fn options(tubes: &[(f64, f64)], order: usize, metric: Metric) -> CanonicalOptio
         point: ModelPoint::Named("L4".into()),
         tubes: tubes.to_vec(),
         max_order: order,
+        optimal: false,
+        for_time: Vec::new(),
+        outer_ratio: 2.0,
         remainder_degree: None,
         metric,
         validate: None,
@@ -210,4 +213,58 @@ fn command_line() {
         lasalle_text(&["stability", "models/cr3bp.lsl", "--time-bound", "1e-3,2e-3"]);
     assert!(!ok && err.contains("1 of 1 tubes have no bound"), "{err}");
     assert!(out.contains("condition number 29.6"), "{out}");
+}
+
+/// The order search: T(N) grows up to the order it reports, and with a ceiling below the
+/// optimum the report says the optimum was not bracketed.
+#[test]
+fn order_search_reports_the_largest_bound_and_whether_it_was_bracketed() {
+    let o = CanonicalOptions {
+        optimal: true,
+        ..options(&[(1e-2, 2e-2)], 8, Metric::LinearNormal)
+    };
+    let report = run(EARTH_MOON_MU, &o).unwrap();
+    assert!(report.order_search);
+    let tube = &report.tubes[0];
+    let times: Vec<f64> = tube
+        .orders
+        .iter()
+        .map(|r| r.gradient.unwrap().lower)
+        .collect();
+    // 0.44, 2.8, 8.6 at N = 4, 6, 8 (the table in docs/stability.md): still growing at 8
+    assert!(times.windows(2).all(|w| w[1] > w[0]), "{times:?}");
+    assert_eq!(tube.best_order, Some(8));
+    assert_eq!(tube.optimum_bracketed, Some(false));
+    for r in &tube.orders {
+        assert!(r.seconds > 0.0);
+    }
+}
+
+/// `for_time`: the radius found keeps its tube for T (measured again through the fixed-tube
+/// path) and is the largest within the bisection's tolerance at its order.
+#[test]
+fn radius_for_a_time_is_the_largest_that_holds() {
+    let time = 1e4;
+    let o = CanonicalOptions {
+        for_time: vec![time],
+        ..options(&[], 6, Metric::LinearNormal)
+    };
+    let report = run(EARTH_MOON_MU, &o).unwrap();
+    let r = &report.radii[0];
+    let at6 = r.orders.iter().find(|a| a.order == 6).unwrap();
+    let d0 = at6.d0.unwrap();
+    assert!(at6.time.unwrap() >= time);
+    let check = |d: f64| {
+        let rep = run(
+            EARTH_MOON_MU,
+            &options(&[(d, 2.0 * d)], 6, Metric::LinearNormal),
+        )
+        .unwrap();
+        rep.tubes[0].orders.last().unwrap().gradient.unwrap().lower
+    };
+    assert!(check(d0) >= time);
+    assert!(check(1.01 * d0) < time);
+    // a larger order keeps a larger radius here (the optimum lies beyond N = 6)
+    assert_eq!(r.best_order, Some(6));
+    assert!(r.orders[0].d0.unwrap() < d0);
 }

@@ -21,8 +21,17 @@ pub struct CanonicalOptions {
     pub point: ModelPoint,
     /// Tubes (d₀, d₁) to bound; empty: only the verdicts.
     pub tubes: Vec<(f64, f64)>,
-    /// The highest order N of the bounds (orders 4, 6, …, N).
+    /// The highest order N of the bounds (orders 4, 6, …, N); with `optimal`, the order at
+    /// which the search gives up.
     pub max_order: usize,
+    /// Search for the optimal order: N = 4, 6, 8, … until the bound of every tube (and the
+    /// radius of every `for_time`) stops growing, or `max_order`.
+    pub optimal: bool,
+    /// Times T for which the largest inner radius d0 with T(d0, k·d0) ≥ T is wanted
+    /// (k = `outer_ratio`).
+    pub for_time: Vec<f64>,
+    /// The ratio k = d1/d0 of the `for_time` tubes.
+    pub outer_ratio: f64,
     /// Remainder degree M for order N; `None`: min(2N, N + 8).
     pub remainder_degree: Option<usize>,
     /// How distances are measured.
@@ -123,6 +132,39 @@ pub struct OrderBound {
     pub gradient: Option<Time>,
     /// T with the radial norm.
     pub radial: Option<Time>,
+    /// Seconds spent on this order's normal form (all precisions tried) and its tube radii.
+    pub seconds: f64,
+}
+
+/// The largest inner radius for a time, at one order.
+#[derive(Clone, Debug, Serialize)]
+pub struct RadiusAtOrder {
+    /// N.
+    pub order: usize,
+    /// The precision of the normal form.
+    pub precision: Precision,
+    /// The largest d0 found with T_N(d0, k·d0) ≥ T (`None`: not even at the smallest radius
+    /// tried, 1e-7).
+    pub d0: Option<f64>,
+    /// ρ₀ and ρ₁ of that tube.
+    pub rho: Option<(f64, f64)>,
+    /// T_N(d0, k·d0) there (≥ T).
+    pub time: Option<f64>,
+}
+
+/// `--for-time`: the largest inner radius whose tube of ratio k is kept for T.
+#[derive(Clone, Debug, Serialize)]
+pub struct RadiusForTime {
+    /// T.
+    pub time: f64,
+    /// k = d1/d0.
+    pub outer_ratio: f64,
+    /// Per order.
+    pub orders: Vec<RadiusAtOrder>,
+    /// The order giving the largest d0.
+    pub best_order: Option<usize>,
+    /// The largest d0 over the orders.
+    pub d0: Option<f64>,
 }
 
 /// Per order: what integration measured on one tube.
@@ -158,6 +200,9 @@ pub struct Tube {
     pub validation: Option<TubeValidation>,
     /// Why no order gives a bound (`best_order` is `None`); the other tubes go on.
     pub failure: Option<String>,
+    /// With the order search: whether the bound was seen to decrease past `best_order`
+    /// (false: it still grew at the last order computed).
+    pub optimum_bracketed: Option<bool>,
 }
 
 /// Integration from one tube's inner sphere.
@@ -197,6 +242,12 @@ pub struct CanonicalReport {
     pub metric: Metric,
     /// The tubes.
     pub tubes: Vec<Tube>,
+    /// `--for-time`: the largest inner radii.
+    pub radii: Vec<RadiusForTime>,
+    /// Whether the orders were searched (`optimal`) or given.
+    pub order_search: bool,
+    /// Seconds for the whole analysis.
+    pub seconds: f64,
     /// With validation: per order with ≥ 2 radii where the drift is above the integration
     /// noise, the fitted exponent e of drift ∝ d₀ᵉ, the prediction (the lowest remainder
     /// degree, since dI/dt ≤ ρF(ρ) ~ ρ^{N+1}) and the number of radii used.
@@ -218,6 +269,149 @@ fn options(order: usize, remainder: Option<usize>) -> Options {
     }
 }
 
+/// The order search gives up here unless `--order` says otherwise.
+pub const SEARCH_MAX_ORDER: usize = 60;
+
+/// The normal form of order n with its remainder bounds, starting at precision `start`
+/// (the precision grows with the order, so the search starts where the previous order ended).
+fn order_form(
+    model: &Model,
+    params: &[(String, f64)],
+    o: &CanonicalOptions,
+    n: usize,
+    start: Precision,
+) -> Result<Form, NormalFormError> {
+    let m = o
+        .remainder_degree
+        .map_or(default_remainder_degree(n), |m| m.max(n + 1));
+    let t = std::time::Instant::now();
+    let opts = Options {
+        // the bounds and the validation use the map to the normal coordinates only
+        inverse_transform: false,
+        ..options(n, Some(m)).precision(start)
+    };
+    let nf = normalize_model(model, params, &o.point, &opts)?;
+    let rem = nf.remainder.as_ref().expect("remainder requested");
+    let bound = Bound::new(rem, Norm::Gradient);
+    let radial = Bound::new(rem, Norm::Radial);
+    Ok(Form {
+        nf,
+        bound,
+        radial,
+        m,
+        seconds: t.elapsed().as_secs_f64(),
+    })
+}
+
+/// One order's normal form and bounds.
+struct Form {
+    nf: NormalForm,
+    bound: Bound,
+    radial: Bound,
+    m: usize,
+    seconds: f64,
+}
+
+/// The bound of one tube with one order's normal form.
+fn tube_row(f: &Form, d0: f64, d1: f64, metric: Metric) -> Result<OrderBound, NormalFormError> {
+    let t = std::time::Instant::now();
+    let r = tube_radii(&f.nf, d0, d1, metric)?;
+    let ok = r.rho1 > r.rho0;
+    Ok(OrderBound {
+        order: f.nf.order,
+        remainder_degree: f.m,
+        precision: f.nf.precision,
+        rho0: r.rho0,
+        rho1: r.rho1,
+        lowest_degree: f.bound.lowest_degree(),
+        gradient: ok.then(|| f.bound.time(r.rho0, r.rho1)),
+        radial: ok.then(|| f.radial.time(r.rho0, r.rho1)),
+        seconds: f.seconds + t.elapsed().as_secs_f64(),
+    })
+}
+
+/// The largest d0 with T_N(d0, k·d0) ≥ `time` for one order. The sphere extrema are costly
+/// (thousands of evaluations of the maps), so the search runs on a model of them: the ratios
+/// ρ₀/d0 and ρ₁/d1 measured at a trial radius (they change slowly with the radius), a
+/// bisection in log d0 on T_N(c₀d0, c₁k·d0) to 1e-4 relative, and then the extrema are
+/// measured again at the result; until the measured tube gives T ≥ `time` (at most 8 rounds)
+/// the ratios are updated there and the search repeated. The radius reported is one whose
+/// measured tube holds.
+fn radius_at_order(
+    f: &Form,
+    time: f64,
+    k: f64,
+    metric: Metric,
+    start: f64,
+) -> Result<RadiusAtOrder, NormalFormError> {
+    let none = RadiusAtOrder {
+        order: f.nf.order,
+        precision: f.nf.precision,
+        d0: None,
+        rho: None,
+        time: None,
+    };
+    let mut trial = start;
+    let mut best: Option<(f64, f64, f64, f64)> = None;
+    for _ in 0..8 {
+        let r = tube_radii(&f.nf, trial, k * trial, metric)?;
+        let measured = (r.rho1 > r.rho0).then(|| f.bound.time(r.rho0, r.rho1).lower);
+        if let Some(t) = measured.filter(|&t| t >= time) {
+            if best.is_none_or(|b| trial > b.0) {
+                best = Some((trial, r.rho0, r.rho1, t));
+            }
+        }
+        if r.rho1 <= r.rho0 {
+            // the maps no longer separate the spheres: look smaller
+            trial /= 2.0;
+            if trial < 1e-7 {
+                break;
+            }
+            continue;
+        }
+        let (c0, c1) = (r.rho0 / trial, r.rho1 / (k * trial));
+        let model = |d: f64| f.bound.time(c0 * d, c1 * k * d).lower;
+        // bracket and bisect the model
+        let (mut lo, mut hi) = (trial, trial);
+        if model(lo) >= time {
+            while model(hi) >= time && hi < 0.5 {
+                lo = hi;
+                hi *= 2.0;
+            }
+        } else {
+            while model(lo) < time && lo > 1e-7 {
+                hi = lo;
+                lo /= 2.0;
+            }
+            if model(lo) < time {
+                break;
+            }
+        }
+        while hi / lo - 1.0 > 1e-4 {
+            let mid = (lo * hi).sqrt();
+            if model(mid) >= time {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        if (lo / trial - 1.0).abs() < 1e-3 && best.is_some_and(|b| b.0 == trial) {
+            break;
+        }
+        // the model may be slightly optimistic: aim 1e-4 low, then check by measuring
+        trial = lo * (1.0 - 1e-4);
+    }
+    Ok(match best {
+        Some((d0, r0, r1, t)) => RadiusAtOrder {
+            d0: Some(d0),
+            rho: Some((r0, r1)),
+            time: Some(t),
+            ..none
+        },
+        None => none,
+    })
+}
+
 /// The largest singular value ratio of a square matrix (from the eigenvalues of MᵀM).
 fn condition_number(m: &[Vec<f64>]) -> f64 {
     let a = nalgebra::DMatrix::from_fn(m.len(), m.len(), |i, j| m[i][j]);
@@ -236,8 +430,19 @@ impl CanonicalOptions {
                 ));
             }
         }
-        if !self.tubes.is_empty() && !(4..=lasalle_normal_form::MAX_ORDER).contains(&self.max_order)
-        {
+        for &t in &self.for_time {
+            if !(t > 0.0 && t.is_finite()) {
+                return Err(format!("--for-time {t}: need a finite time > 0"));
+            }
+        }
+        if !(self.outer_ratio > 1.0 && self.outer_ratio.is_finite()) {
+            return Err(format!(
+                "--outer-ratio {}: need a finite ratio d1/d0 > 1",
+                self.outer_ratio
+            ));
+        }
+        let bounds = !self.tubes.is_empty() || !self.for_time.is_empty();
+        if bounds && !(4..=lasalle_normal_form::MAX_ORDER).contains(&self.max_order) {
             return Err(format!(
                 "--order {}: the bounds need an order between 4 and {}",
                 self.max_order,
@@ -255,13 +460,14 @@ pub fn analyse(
     o: &CanonicalOptions,
 ) -> Result<CanonicalReport, String> {
     o.validate()?;
+    let started = std::time::Instant::now();
     let at = |e: NormalFormError| format!("{}: {e}", model.name);
     // order 4: ellipticity, resonances through order 4, D4
     let base = normalize_model(model, params, &o.point, &options(4, None));
     let base = match base {
         Ok(nf) => nf,
         Err(e @ (NormalFormError::NotElliptic { .. } | NormalFormError::Defective { .. })) => {
-            if !o.tubes.is_empty() {
+            if !o.tubes.is_empty() || !o.for_time.is_empty() {
                 return Err(format!("{}: no time bound: {e}", model.name));
             }
             return Ok(CanonicalReport {
@@ -273,6 +479,9 @@ pub fn analyse(
                 verdict: Verdict::LinearlyUnstable { why: e.to_string() },
                 metric: o.metric,
                 tubes: Vec::new(),
+                radii: Vec::new(),
+                order_search: false,
+                seconds: 0.0,
                 drift_exponents: Vec::new(),
             });
         }
@@ -285,7 +494,7 @@ pub fn analyse(
             // the normal form's own message suggests its `--resonant`, which bounds cannot use
             let resonance =
                 format!("resonance m = {m:?} at order {order}, m·ω = {m_dot_omega:.3e}");
-            if !o.tubes.is_empty() {
+            if !o.tubes.is_empty() || !o.for_time.is_empty() {
                 return Err(format!(
                     "{}: no time bound: {resonance}; the bound needs a normal form without \
                      resonances through order 4 (`lasalle normal-form --resonant` computes the \
@@ -337,47 +546,82 @@ pub fn analyse(
             },
         }
     };
-    if o.tubes.is_empty() {
+    if o.tubes.is_empty() && o.for_time.is_empty() {
+        report.seconds = started.elapsed().as_secs_f64();
         return Ok(report);
     }
-    let mut orders: Vec<usize> = (4..=o.max_order).step_by(2).collect();
-    if o.max_order % 2 == 1 {
-        orders.push(o.max_order);
+    report.order_search = o.optimal;
+    // the orders: given (4, 6, …, N), or searched until every bound stops growing
+    let mut orders: Vec<usize> = Vec::new();
+    let mut forms: Vec<Form> = Vec::new();
+    let mut rows_by_tube: Vec<Vec<OrderBound>> = vec![Vec::new(); o.tubes.len()];
+    let mut radii: Vec<Vec<RadiusAtOrder>> = vec![Vec::new(); o.for_time.len()];
+    let mut precision = Precision::F64;
+    let candidates: Vec<usize> = {
+        let mut v: Vec<usize> = (4..=o.max_order).step_by(2).collect();
+        if o.max_order % 2 == 1 {
+            v.push(o.max_order);
+        }
+        v
+    };
+    // is the last value below the best so far (None counts as below)?
+    fn past_best(values: &[Option<f64>]) -> bool {
+        let best = values[..values.len() - 1]
+            .iter()
+            .flatten()
+            .copied()
+            .fold(f64::NEG_INFINITY, f64::max);
+        best.is_finite() && values.last().copied().flatten().is_none_or(|v| v < best)
     }
-    let mut forms = Vec::new();
-    for &n in &orders {
-        let m = o
-            .remainder_degree
-            .map_or(default_remainder_degree(n), |m| m.max(n + 1));
-        let nf = normalize_model(model, params, &o.point, &options(n, Some(m))).map_err(at)?;
-        let bound = Bound::new(
-            nf.remainder.as_ref().expect("remainder requested"),
-            Norm::Gradient,
-        );
-        let radial = Bound::new(
-            nf.remainder.as_ref().expect("remainder requested"),
-            Norm::Radial,
-        );
-        forms.push((nf, bound, radial, m));
+    for &n in &candidates {
+        let f = order_form(model, params, o, n, precision).map_err(at)?;
+        precision = f.nf.precision;
+        for (k, &(d0, d1)) in o.tubes.iter().enumerate() {
+            rows_by_tube[k].push(tube_row(&f, d0, d1, o.metric).map_err(at)?);
+        }
+        for (k, &time) in o.for_time.iter().enumerate() {
+            // start from the previous order's radius (they change slowly with N)
+            let start = radii[k].iter().rev().find_map(|r| r.d0).unwrap_or(1e-3);
+            radii[k].push(radius_at_order(&f, time, o.outer_ratio, o.metric, start).map_err(at)?);
+        }
+        orders.push(n);
+        forms.push(f);
+        if o.optimal && orders.len() >= 2 {
+            let tubes_done = rows_by_tube.iter().all(|rows| {
+                let v: Vec<Option<f64>> =
+                    rows.iter().map(|r| r.gradient.map(|t| t.lower)).collect();
+                past_best(&v)
+            });
+            let radii_done = radii.iter().all(|rs| {
+                let v: Vec<Option<f64>> = rs.iter().map(|r| r.d0).collect();
+                past_best(&v)
+            });
+            if tubes_done && radii_done {
+                break;
+            }
+        }
     }
+    report.radii = o
+        .for_time
+        .iter()
+        .zip(radii)
+        .map(|(&time, orders)| {
+            let best = orders
+                .iter()
+                .filter_map(|r| r.d0.map(|d| (r.order, d)))
+                .max_by(|a, b| a.1.total_cmp(&b.1));
+            RadiusForTime {
+                time,
+                outer_ratio: o.outer_ratio,
+                best_order: best.map(|b| b.0),
+                d0: best.map(|b| b.1),
+                orders,
+            }
+        })
+        .collect();
     let h = ModelHamiltonian::new(model, params).map_err(at)?;
     let mut drift: Vec<Vec<(f64, f64)>> = vec![Vec::new(); orders.len()];
-    for &(d0, d1) in &o.tubes {
-        let mut rows = Vec::new();
-        for (nf, bound, radial, m) in &forms {
-            let r = tube_radii(nf, d0, d1, o.metric).map_err(at)?;
-            let ok = r.rho1 > r.rho0;
-            rows.push(OrderBound {
-                order: nf.order,
-                remainder_degree: *m,
-                precision: nf.precision,
-                rho0: r.rho0,
-                rho1: r.rho1,
-                lowest_degree: bound.lowest_degree(),
-                gradient: ok.then(|| bound.time(r.rho0, r.rho1)),
-                radial: ok.then(|| radial.time(r.rho0, r.rho1)),
-            });
-        }
+    for (&(d0, d1), rows) in o.tubes.iter().zip(rows_by_tube) {
         let best_order = rows
             .iter()
             .filter_map(|r| r.gradient.map(|t| (r.order, t.lower)))
@@ -402,7 +646,7 @@ pub fn analyse(
         let validation = match &o.validate {
             Some(v) if failure.is_none() => {
                 let charts: Vec<(&NormalForm, &Bound)> =
-                    forms.iter().map(|(nf, b, _, _)| (nf, b)).collect();
+                    forms.iter().map(|f| (&f.nf, &f.bound)).collect();
                 let run = TubeRun {
                     d0,
                     d1,
@@ -417,8 +661,8 @@ pub fn analyse(
                 let allowed: Vec<f64> = forms
                     .iter()
                     .zip(&rows)
-                    .map(|((_, b, _, _), r)| {
-                        let reach = b.reach(r.rho0, v.horizon);
+                    .map(|(f, r)| {
+                        let reach = f.bound.reach(r.rho0, v.horizon);
                         0.5 * (reach * reach - r.rho0 * r.rho0)
                     })
                     .collect();
@@ -432,6 +676,9 @@ pub fn analyse(
             }
             _ => None,
         };
+        let optimum_bracketed = o
+            .optimal
+            .then(|| rows.last().map(|r| r.order) != best_order && best_order.is_some());
         report.tubes.push(Tube {
             d0,
             d1,
@@ -439,6 +686,7 @@ pub fn analyse(
             best_order,
             validation,
             failure,
+            optimum_bracketed,
         });
     }
     report.drift_exponents = orders
@@ -446,10 +694,16 @@ pub fn analyse(
         .zip(&drift)
         .zip(&forms)
         .filter(|((_, pts), _)| pts.len() >= 2)
-        .map(|((&n, pts), (_, b, _, _))| {
-            (n, fit_slope(pts), b.lowest_degree().unwrap_or(0), pts.len())
+        .map(|((&n, pts), f)| {
+            (
+                n,
+                fit_slope(pts),
+                f.bound.lowest_degree().unwrap_or(0),
+                pts.len(),
+            )
         })
         .collect();
+    report.seconds = started.elapsed().as_secs_f64();
     Ok(report)
 }
 
@@ -463,6 +717,9 @@ fn report_of(nf: &NormalForm, metric: Metric) -> CanonicalReport {
         verdict: Verdict::NotDecided { why: String::new() },
         metric,
         tubes: Vec::new(),
+        radii: Vec::new(),
+        order_search: false,
+        seconds: 0.0,
         drift_exponents: Vec::new(),
     }
 }
@@ -556,8 +813,8 @@ impl CanonicalReport {
             }
             let _ = writeln!(
                 s,
-                "  {:>3} {:>3} {:>5} {:>12} {:>12} {:>5} {:>16} {:>16} {:>9}",
-                "N", "M", "prec", "ρ0", "ρ1", "R≥", "T (gradient)", "T (radial)", "quad gap"
+                "  {:>3} {:>3} {:>5} {:>12} {:>12} {:>5} {:>16} {:>16} {:>9} {:>8}",
+                "N", "M", "prec", "ρ0", "ρ1", "R≥", "T (gradient)", "T (radial)", "quad gap", "s"
             );
             for r in &t.orders {
                 let gap = r.gradient.map_or(String::new(), |g| {
@@ -565,7 +822,7 @@ impl CanonicalReport {
                 });
                 let _ = writeln!(
                     s,
-                    "  {:>3} {:>3} {:>5} {:>12.5e} {:>12.5e} {:>5} {:>16} {:>16} {:>9}{}",
+                    "  {:>3} {:>3} {:>5} {:>12.5e} {:>12.5e} {:>5} {:>16} {:>16} {:>9} {:>8.2}{}",
                     r.order,
                     r.remainder_degree,
                     r.precision.to_string(),
@@ -575,12 +832,35 @@ impl CanonicalReport {
                     fmt_time(r.gradient),
                     fmt_time(r.radial),
                     gap,
+                    r.seconds,
                     if Some(r.order) == t.best_order {
-                        "  ← best"
+                        if self.order_search {
+                            "  ← N_opt"
+                        } else {
+                            "  ← best"
+                        }
                     } else {
                         ""
                     }
                 );
+            }
+            match (t.optimum_bracketed, t.best_order) {
+                (Some(true), Some(n)) => {
+                    let best = t.orders.iter().find(|r| r.order == n);
+                    let _ = writeln!(
+                        s,
+                        "  optimal order N_opt = {n} ({}): T = {} (the bound decreases beyond it)",
+                        best.map_or(String::new(), |r| r.precision.to_string()),
+                        fmt_time(best.and_then(|r| r.gradient)),
+                    );
+                }
+                (Some(false), Some(n)) => {
+                    let _ = writeln!(
+                        s,
+                        "  the bound still grows at N = {n}, the last order computed (raise --order to search further)"
+                    );
+                }
+                _ => {}
             }
             if let Some(v) = &t.validation {
                 let _ = writeln!(
@@ -619,6 +899,50 @@ impl CanonicalReport {
                     );
                 }
             }
+        }
+        for r in &self.radii {
+            let _ = writeln!(
+                s,
+                "\nLargest inner radius d0 kept within d1 = {}·d0 for T = {:e}, distances {}:",
+                r.outer_ratio, r.time, self.metric
+            );
+            let _ = writeln!(
+                s,
+                "  {:>3} {:>5} {:>12} {:>12} {:>12} {:>14}",
+                "N", "prec", "d0", "ρ0", "ρ1", "T(d0, k·d0)"
+            );
+            for a in &r.orders {
+                let _ = writeln!(
+                    s,
+                    "  {:>3} {:>5} {:>12} {:>12} {:>12} {:>14}{}",
+                    a.order,
+                    a.precision.to_string(),
+                    a.d0.map_or("none".into(), |d| format!("{d:.5e}")),
+                    a.rho.map_or(String::new(), |p| format!("{:.5e}", p.0)),
+                    a.rho.map_or(String::new(), |p| format!("{:.5e}", p.1)),
+                    a.time.map_or(String::new(), |t| format!("{t:.4e}")),
+                    if Some(a.order) == r.best_order {
+                        "  ← best"
+                    } else {
+                        ""
+                    }
+                );
+            }
+            match r.d0 {
+                Some(d) => {
+                    let _ = writeln!(
+                        s,
+                        "  d0 = {d:.5e} at N = {} (the tube measured there holds; bisection to 1e-4)",
+                        r.best_order.unwrap_or(0)
+                    );
+                }
+                None => {
+                    let _ = writeln!(s, "  no radius ≥ 1e-7 is kept for this time at any order");
+                }
+            }
+        }
+        if self.tubes.iter().any(|t| t.failure.is_none()) || !self.radii.is_empty() {
+            let _ = writeln!(s, "\n({:.2} s in all)", self.seconds);
         }
         if !self.drift_exponents.is_empty() {
             let _ = writeln!(

@@ -1,9 +1,9 @@
 //! # lasalle-normal-form
 //!
 //! Birkhoff normal forms of Hamiltonian systems at elliptic equilibria, to any order, in
-//! f64 or double-double precision — the restricted three-body problem at L4 being the
-//! reference case (the first paper of NASA TM X-53478, *Progress Report No. 8*, Marshall
-//! Space Flight Center, 1966; `docs/normal-form.md`).
+//! f64, double-double or quad-double ([`Qd`]) precision — the restricted three-body problem at
+//! L4 being the reference case (the first paper of NASA TM X-53478, *Progress Report No. 8*,
+//! Marshall Space Flight Center, 1966; `docs/normal-form.md`).
 //!
 //! ```
 //! use lasalle_normal_form::validate::{deprit_d4, EARTH_MOON_MU};
@@ -93,8 +93,12 @@
 //!
 //! ## Precision and error estimates
 //!
-//! All algebra is generic over the coefficient ([`Real`]: `f64` or [`Dd`], a double-double
-//! with ≈ 32 digits, and [`Complex`] of either). Small divisors amplify rounding; each
+//! All algebra is generic over the coefficient ([`Real`]: `f64`, [`Dd`], a double-double
+//! with ≈ 32 digits, or [`Qd`], a quad-double with ≈ 64 digits, and [`Complex`] of any).
+//! With `auto_precision` a run that fails the precision check is redone in the next wider
+//! precision, f64 → double-double → quad-double (Sun–Jupiter L4 needs quad-double from
+//! degree 24 on); the frequencies, the small divisors and the linear normalisation are
+//! formed in [`Real::Wide`] (double-double, or quad-double in a quad-double run). Small divisors amplify rounding; each
 //! coefficient of H̄ carries an error estimate ([`ErrorEstimate`]):
 //! [`ErrorEstimate::OtherPrecision`] (the library default) runs the other precision too,
 //! `error = |c_f64 − c_dd|` (f64 run) or `|c_f64 − c_dd|·2⁻⁵¹` (dd run: the same amplification
@@ -205,6 +209,7 @@ mod monomial;
 mod normal_form;
 mod output;
 pub mod poly;
+mod qd;
 mod scalar;
 pub mod validate;
 
@@ -224,4 +229,5 @@ pub use normal_form::{
     SmallDivisor, Stage, Term, Timings, Value, DEFAULT_MAX_RELATIVE_ERROR, MAX_ORDER,
 };
 pub use poly::Poly;
+pub use qd::Qd;
 pub use scalar::{Coeff, Real};

@@ -324,16 +324,17 @@ pub(crate) fn canonical_m(m: &[i32], sigma: &[i8]) -> (Vec<i32>, bool) {
 /// Runs the normalisation of `h` (complex, degrees ≥ 2, H₂ = Σ λ_k x_k y_k) to degree
 /// `order` = N: generators G₃…G_N, and H transformed up to the table's degree M ≥ N (the
 /// degrees N+1…M of the result are H ∘ φ_{G₃} ∘ … ∘ φ_{G_N} there, not normalised: the
-/// remainder). `omega_dd`: the frequencies in double-double (the divisors are formed from them);
+/// remainder). `omega_w`: the frequencies in double-double or wider (the divisors are formed
+/// from them);
 /// `is_resonant(m)` decides whether the term is kept (resonant normal form); it is only
 /// asked about canonical m; brackets with output degree ≤ `compensate_to` are accumulated in
 /// double-double ([`bracket_real_compensated`]); `on_degree(r)` is called before degree r is
 /// normalised.
 #[allow(clippy::needless_range_loop)]
-pub(crate) fn normalize<R: Real>(
+pub(crate) fn normalize<R: Real, W: Real>(
     mut h: Poly<Complex<R>>,
     order: usize,
-    omega_dd: &[Dd],
+    omega_w: &[W],
     sigma: &[i8],
     is_resonant: &dyn Fn(&[i32]) -> bool,
     compensate_to: usize,
@@ -369,9 +370,9 @@ pub(crate) fn normalize<R: Real>(
             let entry = divisors.entry(cm.clone()).or_insert_with(|| {
                 let v = cm
                     .iter()
-                    .zip(omega_dd)
-                    .fold(Dd::new(0.0), |s, (&a, &w)| s + w.scale(a as f64));
-                let value = R::from_hi_lo(v.hi, v.lo);
+                    .zip(omega_w)
+                    .fold(W::zero(), |s, (&a, &w)| s + w.scale(a as f64));
+                let value = R::convert(v);
                 Divisor {
                     m: cm.clone(),
                     value,
@@ -388,16 +389,12 @@ pub(crate) fn normalize<R: Real>(
             // correctly rounded quotient (the small divisors amplify every rounding here)
             let s = m
                 .iter()
-                .zip(omega_dd)
+                .zip(omega_w)
                 .zip(sigma)
-                .fold(Dd::new(0.0), |acc, ((&mk, &w), &sg)| {
+                .fold(W::zero(), |acc, ((&mk, &w), &sg)| {
                     acc + w.scale((mk * sg as i32) as f64)
                 });
-            let q = |x: R| {
-                let (hi, lo) = x.hi_lo();
-                let v = Dd::from_parts(hi, lo) / s;
-                R::from_hi_lo(v.hi, v.lo)
-            };
+            let q = |x: R| R::convert(W::convert(x) / s);
             g[i] = Complex::new(q(c.im), q(-c.re));
             any = true;
         }

@@ -22,7 +22,6 @@ use crate::linalg::{
     symplectic_j, transpose, zeros, Mat,
 };
 use crate::scalar::{Coeff, Real};
-use crate::Dd;
 
 /// Result of the linear normalisation.
 #[derive(Clone, Debug)]
@@ -236,11 +235,11 @@ fn residuals<R: Real>(a: &Mat<R>, s: &Mat<R>, omega: &[R], sigma: &[i8]) -> (f64
     (symplectic, max_diff(&matmul(&matmul(&at, s), a), &dgl))
 }
 
-impl LinearNormalization<Dd> {
+impl<W: Real> LinearNormalization<W> {
     /// A and ω rounded to the working precision R, the residuals recomputed there (`s`: the
     /// Hessian in R).
     pub(crate) fn rounded<R: Real>(&self, s: &Mat<R>) -> LinearNormalization<R> {
-        let r = |x: &Dd| R::from_hi_lo(x.hi, x.lo);
+        let r = |x: &W| R::convert(*x);
         let a: Mat<R> = self
             .a
             .iter()

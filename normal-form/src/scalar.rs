@@ -118,12 +118,31 @@ pub(crate) fn generic_kernel<T: Copy + Coeff>(
     }
 }
 
-/// A real scalar with the elementary functions: `f64` or [`Dd`](crate::Dd).
+/// A real scalar with the elementary functions: `f64`, [`Dd`](crate::Dd) or
+/// [`Qd`](crate::Qd).
 pub trait Real: Coeff + PartialOrd {
-    /// Name of the precision, for reports ("f64", "dd").
+    /// Name of the precision, for reports ("f64", "dd", "qd").
     const NAME: &'static str;
-    /// Unit roundoff of the arithmetic (2⁻⁵³ for f64, about 2⁻¹⁰⁴ for double-double).
+    /// Unit roundoff of the arithmetic (2⁻⁵³ for f64, about 2⁻¹⁰⁴ for double-double, 2⁻²⁰⁹
+    /// for quad-double).
     const EPSILON: f64;
+    /// The precision of the frequencies, the small divisors and the linear normalisation of
+    /// a run in this precision: at least double-double (the divisors amplify every error in
+    /// ω), and this precision itself when it is wider.
+    type Wide: Real;
+    /// The value as four non-overlapping f64 words, largest first (exact for f64, Dd, Qd).
+    fn words(self) -> [f64; 4] {
+        let (hi, lo) = self.hi_lo();
+        [hi, lo, 0.0, 0.0]
+    }
+    /// The sum of four words in this precision (rounded when narrower).
+    fn from_words(w: [f64; 4]) -> Self {
+        Self::from_hi_lo(w[0], w[1] + (w[2] + w[3]))
+    }
+    /// A value of another precision, converted through its words (exact when widening).
+    fn convert<S: Real>(x: S) -> Self {
+        Self::from_words(x.words())
+    }
     /// Rounded to f64.
     fn to_f64(self) -> f64;
     /// The value as an unevaluated sum `hi + lo` of two f64 (lo = 0 for f64).
@@ -245,6 +264,7 @@ unsafe fn complex_kernel_f64_fma(
 
 impl Real for f64 {
     const NAME: &'static str = "f64";
+    type Wide = crate::Dd;
     fn complex_kernel(
         out: &mut [crate::Complex<f64>],
         a: &[crate::Complex<f64>],

@@ -73,3 +73,59 @@ fn error_estimates_are_reported() {
         );
     }
 }
+
+/// Quad-double against double-double at Earth–Moon through order 12: the same coefficients
+/// to double-double's own accuracy there (~1e-25, see the crate docs), and quad-double
+/// against itself in a rotated basis far below that (its unit roundoff is 2⁻²⁰⁹).
+#[test]
+fn quad_double_agrees_with_double_double_at_low_order() {
+    let dd = run(EARTH_MOON_MU, 12, Precision::DoubleDouble, vec![]);
+    let qd = run(EARTH_MOON_MU, 12, Precision::QuadDouble, vec![]);
+    let qd_rot = run(EARTH_MOON_MU, 12, Precision::QuadDouble, vec![0.7, -1.3]);
+    assert_eq!(qd.precision, Precision::QuadDouble);
+    let e = worst_relative(&dd, &qd, 12);
+    assert!(e < 1e-22, "dd against qd: {e:e}");
+    // the reported values carry double-double digits, so this compares qd runs to ~1e-31
+    let e = worst_relative(&qd_rot, &qd, 12);
+    assert!(e < 1e-29, "qd rotated: {e:e}");
+    // the frequencies agree with the double-double ones to the last dd digit
+    for (a, b) in qd.omega.iter().zip(&dd.omega) {
+        assert!(
+            ((a.value - b.value) + (a.lo - b.lo)).abs() < 1e-30,
+            "{a:?} {b:?}"
+        );
+    }
+}
+
+/// Sun–Jupiter beyond order 23: double-double loses the degree-24 coefficients and the
+/// automatic precision goes on to quad-double, which keeps them.
+#[test]
+fn automatic_precision_reaches_quad_double_at_sun_jupiter() {
+    let opts = Options::with_order(26)
+        .transform(false)
+        .estimate(lasalle_normal_form::ErrorEstimate::Rotation)
+        .precision(Precision::DoubleDouble);
+    match common::l4_normal_form(SUN_JUPITER_MU, &opts) {
+        Err(lasalle_normal_form::NormalFormError::PrecisionLost { degree, .. }) => {
+            assert!((20..=26).contains(&degree), "{degree}")
+        }
+        other => panic!(
+            "expected dd to lose precision, got {:?}",
+            other.map(|n| n.precision)
+        ),
+    }
+    let nf = common::l4_normal_form(SUN_JUPITER_MU, &opts.auto_precision(true)).unwrap();
+    assert_eq!(nf.precision, Precision::QuadDouble);
+    assert!(nf
+        .diagnostics
+        .precision_note
+        .as_ref()
+        .unwrap()
+        .contains("quad-double"));
+    for d in &nf.diagnostics.hbar_degrees {
+        assert!(d.max_relative_error.unwrap() < 1e-20, "{d:?}");
+    }
+}
+
+/// Sun–Jupiter: μ = m_J/(m_S + m_J) with m_S/m_J = 1047.35.
+const SUN_JUPITER_MU: f64 = 0.000953875;

@@ -64,8 +64,22 @@ pub struct CanonicalArgs {
     #[arg(long, value_name = "D0,D1")]
     pub time_bound: Vec<String>,
     /// Canonical models: the highest normal-form order N of the bounds (orders 4, 6, …, N).
-    #[arg(long, default_value_t = 12, value_parser = value::size, allow_hyphen_values = true)]
-    pub order: usize,
+    /// Without it the order is searched: N = 4, 6, … until every bound stops growing (at most
+    /// 60), and the optimal order is reported.
+    #[arg(long, value_parser = value::size, allow_hyphen_values = true)]
+    pub order: Option<usize>,
+    /// Canonical models: the largest inner radius d0 whose orbits stay within d1 = k·d0
+    /// (`--outer-ratio`) for at least this time; repeatable.
+    #[arg(long, value_name = "T", value_parser = value::positive, allow_hyphen_values = true)]
+    pub for_time: Vec<f64>,
+    /// With --for-time: the ratio k = d1/d0 of the tube (default 2).
+    #[arg(
+        long,
+        value_name = "K",
+        allow_hyphen_values = true,
+        requires = "for_time"
+    )]
+    pub outer_ratio: Option<f64>,
     /// Canonical models: the remainder degree M (default min(2N, N + 8) for each order N).
     #[arg(long, value_name = "M", value_parser = value::size, allow_hyphen_values = true)]
     pub remainder_degree: Option<usize>,
@@ -106,6 +120,8 @@ const LIE_POISSON_FLAGS: &[&str] = &["casimir", "range", "levels"];
 const CANONICAL_FLAGS: &[&str] = &[
     "time_bound",
     "order",
+    "for_time",
+    "outer_ratio",
     "remainder_degree",
     "metric",
     "equilibrium",
@@ -266,7 +282,12 @@ fn run_canonical(args: &StabilityArgs, model: &lasalle_codegen::Model) -> CliRes
     let opts = CanonicalOptions {
         point,
         tubes,
-        max_order: c.order,
+        max_order: c
+            .order
+            .unwrap_or(lasalle::stability::canonical::SEARCH_MAX_ORDER),
+        optimal: c.order.is_none(),
+        for_time: c.for_time.clone(),
+        outer_ratio: c.outer_ratio.unwrap_or(2.0),
         remainder_degree: c.remainder_degree,
         metric: match c.metric {
             MetricArg::Euclidean => Metric::Euclidean,

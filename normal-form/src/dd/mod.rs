@@ -340,6 +340,7 @@ impl Real for Dd {
         kernels::complex(out, a, ka, b, kb, lk)
     }
     const NAME: &'static str = "dd";
+    type Wide = Dd;
     const EPSILON: f64 = 4.930_380_657_631_324e-32; // 2^-104
     fn to_f64(self) -> f64 {
         self.hi + self.lo

@@ -51,6 +51,14 @@ pub(super) fn estimate_errors<H: HamiltonianFn + ?Sized>(
                 2f64.powi(-51),
                 "|f64 - dd| * 2^-51",
             ),
+            Precision::QuadDouble => (
+                Options {
+                    precision: Precision::DoubleDouble,
+                    ..options.clone()
+                },
+                2f64.powi(-105),
+                "|dd - qd| * 2^-105",
+            ),
         },
     };
     let other_opts = Options {
@@ -61,11 +69,13 @@ pub(super) fn estimate_errors<H: HamiltonianFn + ?Sized>(
     };
     Progress::report(&options.progress, Stage::Rerun(other_opts.precision));
     if let Ok(other) = run_assembled(h, point, &other_opts) {
+        let narrow_unit = other.precision.epsilon().max(nf.precision.epsilon());
         attach_errors(
             nf,
             &other,
             factor,
             options.error_estimate != ErrorEstimate::Rotation,
+            narrow_unit,
         );
         nf.diagnostics.error_method = Some(method.into());
         fill_degree_errors(nf);
@@ -79,10 +89,7 @@ const RESOLVABLE: f64 = 1e3;
 
 /// [`DegreeError::max_error`] and [`DegreeError::max_relative_error`] from the estimates.
 pub(super) fn fill_degree_errors(nf: &mut NormalForm) {
-    let unit = match nf.precision {
-        Precision::F64 => f64::EPSILON / 2.0,
-        Precision::DoubleDouble => Dd::EPSILON,
-    };
+    let unit = nf.precision.epsilon();
     for d in nf.diagnostics.hbar_degrees.iter_mut() {
         let floor = RESOLVABLE * unit * d.max_coeff;
         let (mut abs, mut rel, mut any) = (0.0f64, 0.0f64, false);
@@ -129,7 +136,10 @@ pub(super) fn precision_lost(
             Precision::F64 => {
                 format!("use `--precision dd` (or `auto`), or `--order {below}` or lower")
             }
-            Precision::DoubleDouble => format!("use `--order {below}` or lower"),
+            Precision::DoubleDouble => {
+                format!("use `--precision auto` (quad-double), or `--order {below}` or lower")
+            }
+            Precision::QuadDouble => format!("use `--order {below}` or lower"),
         },
     }
 }
@@ -137,10 +147,7 @@ pub(super) fn precision_lost(
 /// Drops generator coefficients that are rounding noise (the real form of a complex
 /// polynomial has exact zeros that come out as ~ε·max).
 pub(super) fn prune_generating(nf: &mut NormalForm) {
-    let eps = match nf.precision {
-        Precision::F64 => f64::EPSILON,
-        Precision::DoubleDouble => Dd::EPSILON,
-    };
+    let eps = 2.0 * nf.precision.epsilon();
     let mut max_by_degree = vec![0.0f64; nf.order + 1];
     for t in &nf.generating_function {
         max_by_degree[t.degree] = max_by_degree[t.degree].max(t.coeff.value.abs());
@@ -149,13 +156,14 @@ pub(super) fn prune_generating(nf: &mut NormalForm) {
         .retain(|t| t.coeff.value.abs() > 1e3 * eps * max_by_degree[t.degree]);
 }
 
-fn err(a: &Value, b: &Value, factor: f64) -> f64 {
+fn err(a: &Value, b: &Value, factor: f64, unit: f64) -> f64 {
     let diff = ((a.value - b.value) + (a.lo - b.lo)).abs() * factor;
-    // never claim better than the working precision
+    // never claim better than the working precision (`unit`: the run's own unit roundoff;
+    // the reported values carry double-double digits at most)
     let floor = if factor < 1.0 {
-        4.0 * Dd::EPSILON
+        4.0 * unit.max(Dd::EPSILON)
     } else {
-        f64::EPSILON / 2.0
+        unit
     } * a.value.abs();
     diff.max(floor)
 }
@@ -168,7 +176,10 @@ pub(super) fn attach_errors(
     other: &NormalForm,
     factor: f64,
     generators: bool,
+    narrow_unit: f64,
 ) {
+    let unit = nf.precision.epsilon();
+    let err = |a: &Value, b: &Value, factor: f64| err(a, b, factor, unit);
     let pairs = |a: &mut [Value], b: &[Value]| {
         for (x, y) in a.iter_mut().zip(b) {
             x.error = Some(err(x, y, factor));
@@ -187,8 +198,9 @@ pub(super) fn attach_errors(
             (&y.coeff, &x.coeff)
         };
         if dd.value != 0.0 {
-            amp = amp
-                .max(((f.value - dd.value) - dd.lo).abs() / (dd.value.abs() * f64::EPSILON / 2.0));
+            amp = amp.max(
+                ((f.value - dd.value) + (f.lo - dd.lo)).abs() / (dd.value.abs() * narrow_unit),
+            );
         }
     }
     nf.diagnostics.amplification = Some(amp);

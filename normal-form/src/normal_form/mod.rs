@@ -20,7 +20,7 @@ pub use result::{
 use crate::error::NormalFormError;
 use crate::hamiltonian::HamiltonianFn;
 
-use crate::Dd;
+use crate::{Dd, Qd};
 use assemble::assemble;
 use errors::{
     attach_errors, estimate_errors, fill_degree_errors, inaccurate_degree, precision_lost,
@@ -38,6 +38,7 @@ fn run_assembled<H: HamiltonianFn + ?Sized>(
     match o.precision {
         Precision::F64 => run::<f64, H>(h, point, o).map(|r| assemble(h, r, o)),
         Precision::DoubleDouble => run::<Dd, H>(h, point, o).map(|r| assemble(h, r, o)),
+        Precision::QuadDouble => run::<Qd, H>(h, point, o).map(|r| assemble(h, r, o)),
     }
 }
 
@@ -60,31 +61,41 @@ pub fn normalize<H: HamiltonianFn + ?Sized>(
     let mut nf = run_assembled(h, point, options)?;
     estimate_errors(&mut nf, h, point, options);
     if let Some(limit) = options.max_relative_error {
-        if let Some((degree, err)) = inaccurate_degree(&nf, limit) {
-            if options.auto_precision && options.precision == Precision::F64 {
-                Progress::report(&options.progress, Stage::Rerun(Precision::DoubleDouble));
-                let f64_time = nf.diagnostics.timings.total + nf.diagnostics.timings.error_estimate;
-                let dd_opts = Options {
-                    precision: Precision::DoubleDouble,
-                    ..options.clone()
-                };
-                let f64_nf = nf;
-                nf = run_assembled(h, point, &dd_opts)?;
-                // the f64 run is the other-precision estimate of the dd run, for free
-                attach_errors(&mut nf, &f64_nf, 2f64.powi(-51), true);
-                nf.diagnostics.error_method = Some("|f64 - dd| * 2^-51".into());
-                nf.diagnostics.precision_note = Some(format!(
-                    "f64 is not enough here: a coefficient of degree {degree} of Hbar had an \
-                     estimated relative error of {err:.1e} in f64 (limit {limit:.0e}), so the \
-                     normal form was recomputed in double-double ({f64_time:.3} s spent in f64)"
-                ));
-                fill_degree_errors(&mut nf);
-                if let Some((degree, err)) = inaccurate_degree(&nf, limit) {
-                    return Err(precision_lost(Precision::DoubleDouble, degree, err, limit));
+        let mut notes: Vec<String> = Vec::new();
+        let mut spent = 0.0;
+        while let Some((degree, err)) = inaccurate_degree(&nf, limit) {
+            let wider = match nf.precision.wider() {
+                Some(w) if options.auto_precision => w,
+                _ => return Err(precision_lost(nf.precision, degree, err, limit)),
+            };
+            Progress::report(&options.progress, Stage::Rerun(wider));
+            let narrow = nf.precision;
+            spent += nf.diagnostics.timings.total + nf.diagnostics.timings.error_estimate;
+            let wide_opts = Options {
+                precision: wider,
+                ..options.clone()
+            };
+            let narrow_nf = nf;
+            nf = run_assembled(h, point, &wide_opts)?;
+            // the narrower run is the other-precision estimate of the wider one, for free:
+            // the same amplification acting on a smaller unit roundoff
+            let factor = wider.epsilon() / narrow.epsilon();
+            attach_errors(&mut nf, &narrow_nf, factor, true, narrow.epsilon());
+            nf.diagnostics.error_method = Some(format!(
+                "|{narrow} - {wider}| * 2^{}",
+                factor.log2().round()
+            ));
+            notes.push(format!(
+                "{narrow} is not enough here: a coefficient of degree {degree} of Hbar had an \
+                 estimated relative error of {err:.1e} in {narrow} (limit {limit:.0e}), so the \
+                 normal form was recomputed in {} ({spent:.3} s spent before)",
+                match wider {
+                    Precision::DoubleDouble => "double-double",
+                    _ => "quad-double",
                 }
-            } else {
-                return Err(precision_lost(options.precision, degree, err, limit));
-            }
+            ));
+            nf.diagnostics.precision_note = Some(notes.join("; "));
+            fill_degree_errors(&mut nf);
         }
     }
     prune_generating(&mut nf);

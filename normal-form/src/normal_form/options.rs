@@ -16,6 +16,38 @@ pub enum Precision {
     /// Double-double (≈ 32 digits), 1.2–3.3× the f64 time (see the crate docs).
     #[serde(rename = "dd")]
     DoubleDouble,
+    /// Quad-double (≈ 64 digits, [`Qd`](crate::Qd)), for orders where double-double loses
+    /// the high coefficients.
+    #[serde(rename = "qd")]
+    QuadDouble,
+}
+
+impl Precision {
+    /// The precision of the scalar `R`.
+    pub fn of<R: crate::Real>() -> Precision {
+        match R::NAME {
+            "f64" => Precision::F64,
+            "dd" => Precision::DoubleDouble,
+            _ => Precision::QuadDouble,
+        }
+    }
+    /// Unit roundoff.
+    pub fn epsilon(self) -> f64 {
+        use crate::Real;
+        match self {
+            Precision::F64 => f64::EPSILON / 2.0,
+            Precision::DoubleDouble => crate::Dd::EPSILON,
+            Precision::QuadDouble => crate::Qd::EPSILON,
+        }
+    }
+    /// The next wider precision, if any.
+    pub fn wider(self) -> Option<Precision> {
+        match self {
+            Precision::F64 => Some(Precision::DoubleDouble),
+            Precision::DoubleDouble => Some(Precision::QuadDouble),
+            Precision::QuadDouble => None,
+        }
+    }
 }
 
 impl std::str::FromStr for Precision {
@@ -24,8 +56,9 @@ impl std::str::FromStr for Precision {
         match s {
             "f64" | "double" => Ok(Precision::F64),
             "dd" | "double-double" => Ok(Precision::DoubleDouble),
+            "qd" | "quad-double" => Ok(Precision::QuadDouble),
             _ => Err(NormalFormError::Invalid(format!(
-                "unknown precision `{s}` (expected `f64` or `dd`)"
+                "unknown precision `{s}` (expected `f64`, `dd` or `qd`)"
             ))),
         }
     }
@@ -36,6 +69,7 @@ impl std::fmt::Display for Precision {
         f.write_str(match self {
             Precision::F64 => "f64",
             Precision::DoubleDouble => "dd",
+            Precision::QuadDouble => "qd",
         })
     }
 }
@@ -135,6 +169,10 @@ pub struct Options {
     pub auto_precision: bool,
     /// Compute the transformation to and from normal coordinates. Default: true.
     pub transform: bool,
+    /// With `transform`: also the map from the normal coordinates back
+    /// ([`NormalForm::from_normal_map`]); the tube bounds need only the forward one, and each
+    /// costs as much as the normalisation at high order. Default: true.
+    pub inverse_transform: bool,
     /// Newton iterations allowed. Default: 50.
     pub max_newton: usize,
     /// |∇H| allowed at a [`Point::Given`]. Default: 1e-8.
@@ -169,6 +207,7 @@ impl Default for Options {
             max_relative_error: Some(DEFAULT_MAX_RELATIVE_ERROR),
             auto_precision: false,
             transform: true,
+            inverse_transform: true,
             max_newton: 50,
             equilibrium_tol: 1e-8,
             basis_rotation: Vec::new(),

@@ -7,7 +7,7 @@
 
 use super::assemble::Raw;
 use super::expansion::{
-    integer_vectors, minus_i_pow, pair_blocks, real_part, to_complex_coordinates, widen,
+    integer_vectors, minus_i_pow, pair_blocks, real_part, to_complex_coordinates,
 };
 use super::options::{Options, Point, Precision, Progress, Stage};
 use super::result::{DegreeError, Remainder, RemainderPart, ResonantTerm, SmallDivisor, Timings};
@@ -22,7 +22,6 @@ use crate::linear::{
 use crate::monomial::MonomialTable;
 use crate::poly::Poly;
 use crate::scalar::{Coeff, Real};
-use crate::Dd;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -32,11 +31,7 @@ pub(super) fn run<R: Real, H: HamiltonianFn + ?Sized>(
     o: &Options,
 ) -> Result<Raw<R>, NormalFormError> {
     let t_start = Instant::now();
-    let precision = if R::NAME == "f64" {
-        Precision::F64
-    } else {
-        Precision::DoubleDouble
-    };
+    let precision = Precision::of::<R>();
     Progress::report(&o.progress, Stage::Start(precision));
     let (n, nmax) = (h.n_dof(), o.order);
     let top = o.remainder_degree.unwrap_or(nmax).max(nmax);
@@ -64,7 +59,7 @@ pub(super) fn run<R: Real, H: HamiltonianFn + ?Sized>(
     let out = lie::normalize(
         linear.hc,
         nmax,
-        &linear.omega_dd,
+        &linear.omega_w,
         &linear.lin.sigma,
         &is_res,
         compensate_to,
@@ -117,7 +112,8 @@ pub(super) fn run<R: Real, H: HamiltonianFn + ?Sized>(
         let cap = top - 1;
         (
             Some(lie::coordinate_maps(&table, &greal_parts, cap, false)),
-            Some(lie::coordinate_maps(&table, &greal_parts, cap, true)),
+            o.inverse_transform
+                .then(|| lie::coordinate_maps(&table, &greal_parts, cap, true)),
         )
     } else {
         (None, None)
@@ -200,8 +196,8 @@ fn expand<R: Real, H: HamiltonianFn + ?Sized>(
 struct Linear<R: Real> {
     /// ω, σ, A rounded to the working precision.
     lin: LinearNormalization<R>,
-    /// ω in double-double, for the small divisors.
-    omega_dd: Vec<Dd>,
+    /// ω in the wide precision (double-double or wider), for the small divisors.
+    omega_w: Vec<R::Wide>,
     /// The complexification's inverse C⁻¹.
     ci: Mat<Complex<R>>,
     /// H in the complex normal coordinates, its quadratic part exactly Σ λ_k x_k y_k.
@@ -210,7 +206,7 @@ struct Linear<R: Real> {
     quadratic_residual: f64,
 }
 
-/// Stage 2: the linear normalisation (in double-double whatever the working precision: a
+/// Stage 2: the linear normalisation (in double-double, or the working precision if wider: a
 /// 2n×2n problem, and f64 frequencies and A come out correctly rounded — the small divisors
 /// amplify every error in ω) and H in complex normal coordinates.
 fn normalize_linear<R: Real>(
@@ -221,12 +217,12 @@ fn normalize_linear<R: Real>(
 ) -> Result<Linear<R>, NormalFormError> {
     let n = table.nvars() / 2;
     let (_, s) = gradient_hessian(hz);
-    let s_dd: Mat<Dd> = s
+    let s_w: Mat<R::Wide> = s
         .iter()
-        .map(|row| row.iter().map(|&x| widen(x)).collect())
+        .map(|row| row.iter().map(|&x| R::Wide::convert(x)).collect())
         .collect();
-    let lin_dd = linear_normalization(&s_dd, &o.basis_rotation)?;
-    let lin = lin_dd.rounded(&s);
+    let lin_w = linear_normalization(&s_w, &o.basis_rotation)?;
+    let lin = lin_w.rounded(&s);
     let (_, ci) = complexification::<R>(n);
     let mut hc = to_complex_coordinates(hz, &lin.a, compensate_to);
     let mut quadratic_residual: f64 = 0.0;
@@ -247,7 +243,7 @@ fn normalize_linear<R: Real>(
     hc.set_part(1, Vec::new());
     Ok(Linear {
         lin,
-        omega_dd: lin_dd.omega,
+        omega_w: lin_w.omega,
         ci,
         hc,
         quadratic_residual,
