@@ -284,7 +284,7 @@ fn run_canonical(args: &StabilityArgs, model: &lasalle_codegen::Model) -> CliRes
         tubes,
         max_order: c
             .order
-            .unwrap_or(lasalle::stability::canonical::SEARCH_MAX_ORDER),
+            .unwrap_or(lasalle_analysis::canonical::SEARCH_MAX_ORDER),
         optimal: c.order.is_none(),
         for_time: c.for_time.clone(),
         outer_ratio: c.outer_ratio.unwrap_or(2.0),

@@ -602,6 +602,12 @@ pub fn center_manifold<H: HamiltonianFn + ?Sized>(
     Ok(match o.precision {
         Precision::F64 => assemble(h, point, gamma, run::<f64, H>(h, start, o)?, o),
         Precision::DoubleDouble => assemble(h, point, gamma, run::<Dd, H>(h, start, o)?, o),
+        Precision::QuadDouble => {
+            return Err(NormalFormError::Invalid(
+                "the centre manifold is computed in f64 or double-double: use `--precision dd`"
+                    .to_string(),
+            ))
+        }
     })
 }
 
