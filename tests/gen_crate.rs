@@ -74,13 +74,13 @@ use {path}::Kepler;
 use lasalle_runtime::{{Field, Invariants}};
 #[test]
 fn kepler_from_outside() {{
-    let m = Kepler::<f64>::default();
+    let m = Kepler::<f64>::default().prepare();
     let x = m.point_paper();
     let mut f = [0.0; 6];
     m.invariants(&x, &mut f);
     assert!((f[2] - 1.8f64.sqrt()).abs() < 1e-15 && (f[3] - 0.8).abs() < 1e-15);
     let mut dx = [0.0; 6];
-    m.prepare().field(&x, &mut dx);
+    m.field(&x, &mut dx);
     assert_eq!(dx[3], -1.0);
 }}
 "#
