@@ -20,7 +20,7 @@ use lasalle_model::ir::{Rational, Scalar};
 use std::fmt;
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
 
-/// A quad-double number `x[0] + x[1] + x[2] + x[3]`, |x[k+1]| ≤ ½ ulp(x[k]).
+/// A quad-double number `x[0] + x[1] + x[2] + x[3]`, with `|x[k+1]| ≤ ½ ulp(x[k])`.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 #[repr(C)]
 pub struct Qd {
