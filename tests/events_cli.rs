@@ -344,7 +344,7 @@ fn emitted_jit_and_interpreter_event_values_agree_bitwise() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/cr3bp.lsl");
     let jit = LoadedModel::load(path, Backend::Jit).unwrap();
     let interp = LoadedModel::load(path, Backend::Interpreter).unwrap();
-    let emitted = CR3BP::<f64>::default();
+    let emitted = CR3BP::<f64>::default().prepare();
     assert_eq!(Declared::<f64, [f64; 4]>::events(&emitted), jit.events());
     assert_eq!(jit.events().len(), 1);
     for k in 0..100 {
