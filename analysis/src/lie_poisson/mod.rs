@@ -41,7 +41,7 @@ pub enum StabilityError {
         model: String,
     },
     /// A canonical Hamiltonian model given to the Lie–Poisson analysis (its analysis is
-    /// [`canonical::analyse`]).
+    /// [`canonical::analyse`](crate::canonical::analyse)).
     Canonical {
         /// Model name.
         model: String,

@@ -221,10 +221,10 @@ pub fn taylor_kernels<T: Float>(
         s.push_str(&super::lanes::lanes_items(&prep, tapes));
         let doc = format!(
             "\n/// The machine kernels of `{ty}`, generated from its tapes rather than written from its
-/// formulas: the parameter-only values of every function in f64 ([`Prelude`], a field of
-/// [`{prep}`](super::{prep})), the Taylor-coefficient kernels of X and X − ∇V
-/// ([`TaylorField`], [`TaylorFeedback`]) and every function for K states per call
-/// ([`Lanes`]). Straight-line code over numbered registers and table rows, each operation the
+/// formulas: the parameter-only values of every function in f64 ([`Prelude`](kernels::Prelude),
+/// a field of [`{prep}`]), the Taylor-coefficient kernels of X and X − ∇V
+/// ([`TaylorField`](kernels::TaylorField), [`TaylorFeedback`](kernels::TaylorFeedback)) and
+/// every function for K states per call ([`Lanes`](kernels::Lanes)). Straight-line code over numbered registers and table rows, each operation the
 /// IEEE operation of the functions above, so that they agree bitwise with them, with the JIT
 /// and with the tape interpreter; not meant to be read.
 pub mod kernels {{
