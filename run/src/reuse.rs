@@ -13,8 +13,8 @@ use std::sync::{Arc, Mutex};
 
 use lasalle_exec::LoadedModel;
 use lasalle_runtime::{
-    Declared, Field, GuardFailure, InvariantInfo, Invariants, Lyapunov, ModelInfo, Partitioned,
-    Preset, Slot, Splitting, StepError, TaylorError, TaylorKernel, TaylorKernels,
+    Declared, EventSpec, Field, GuardFailure, InvariantInfo, Invariants, Lyapunov, ModelInfo,
+    Partitioned, Preset, Slot, Splitting, StepError, TaylorError, TaylorKernel, TaylorKernels,
 };
 
 /// A Taylor kernel of a loaded model.
@@ -239,6 +239,15 @@ impl<'a> Declared<f64, Vec<f64>> for Reusing<'a> {
 
     fn splitting(&self) -> Option<Splitting<f64>> {
         self.model.splitting()
+    }
+
+    fn events(&self) -> &'static [EventSpec] {
+        self.model.events()
+    }
+
+    #[inline]
+    fn event_values(&self, x: &Vec<f64>, t: f64, g: &mut [f64]) {
+        self.model.event_values(x, t, g)
     }
 
     /// The pool's kernels for `max_order`, else new ones; back to the pool after the run.
