@@ -209,8 +209,14 @@ fn command_line() {
     assert_eq!(v["tubes"][0]["best_order"], 4);
     // a tube without a bound: its reason in the report, exit code 1 (the flags' own errors
     // are rows of tests/cli.rs)
-    let (ok, out, err) =
-        lasalle_text(&["stability", "models/cr3bp.lsl", "--time-bound", "1e-3,2e-3"]);
+    let (ok, out, err) = lasalle_text(&[
+        "stability",
+        "models/cr3bp.lsl",
+        "--time-bound",
+        "1e-3,2e-3",
+        "--order",
+        "12",
+    ]);
     assert!(!ok && err.contains("1 of 1 tubes have no bound"), "{err}");
     assert!(out.contains("condition number 29.6"), "{out}");
 }
