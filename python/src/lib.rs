@@ -12,8 +12,8 @@ use std::collections::HashMap;
 
 use lasalle_exec::{Backend, LoadError, LoadedModel};
 use lasalle_run::{
-    simulate, simulate_many, KernelPool, Member, Method, ModelSource, Recording, Reusing,
-    RunError, RunSpec,
+    simulate, simulate_many, KernelPool, Member, Method, ModelSource, Recording, Reusing, RunError,
+    RunSpec,
 };
 use lasalle_runtime::{
     component_names, Declared, GainPolicy, ModelInfo, Parameters, Shape, Slot, StepError,
