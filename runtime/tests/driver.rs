@@ -209,7 +209,7 @@ fn observers_stride_stop_and_recorder() {
     );
     assert_eq!(lines.count(), rec.len());
     assert_eq!(
-        component_names(RigidBody { inertia: [1.0; 3] }.state_slots())[..4],
+        component_names(rigid_body([1.0; 3]).state_slots())[..4],
         ["R[0,0]", "R[1,0]", "R[2,0]", "R[0,1]"]
     );
 }

@@ -119,7 +119,7 @@ fn stormer_verlet_pendulum() {
     let x0 = [2.0, 0.0];
     let t_end = 5.0;
     let mut dp = DormandPrince::with_tolerances(1e-13, 1e-13);
-    let reference = integrate(&mut dp, &Pendulum, &x0, 0.0, t_end, 0.0, &mut ())
+    let reference = integrate(&mut dp, &pendulum(), &x0, 0.0, t_end, 0.0, &mut ())
         .unwrap()
         .x;
     let ns = [200u64, 400, 800, 1600];
@@ -129,7 +129,7 @@ fn stormer_verlet_pendulum() {
         .map(|&n| {
             let end = integrate(
                 &mut StormerVerlet::a(),
-                &Pendulum,
+                &pendulum(),
                 &x0,
                 0.0,
                 t_end,
@@ -152,7 +152,7 @@ fn stormer_verlet_pendulum() {
 #[test]
 fn rigid_body_splitting_is_second_order() {
     let inertia = [3.0, 2.0, 1.0];
-    let body = RigidBody { inertia };
+    let body = rigid_body(inertia);
     let x0 = RigidBody::initial();
     let t_end = 5.0;
     let mut dp = DormandPrince::with_tolerances(1e-13, 1e-13);

@@ -35,7 +35,7 @@ fn casimir(x: &[f64; 12]) -> f64 {
 /// The total energy H is *not* kept by a single sub-flow (only by the exact full flow).
 #[test]
 fn sub_flows_are_exact_rotations() {
-    let body = RigidBody { inertia: INERTIA };
+    let body = rigid_body(INERTIA);
     let s = RigidBodySplitting::new(INERTIA);
     let x0 = generic_state();
     let pi0 = body.spatial_momentum(&x0);
@@ -99,7 +99,7 @@ fn sub_flows_are_exact_rotations() {
 /// round-off accumulation), keeps the energy bounded (symplectic), and is time-reversible.
 #[test]
 fn composition_conserves_momentum_and_orthogonality() {
-    let body = RigidBody { inertia: INERTIA };
+    let body = rigid_body(INERTIA);
     let x0 = RigidBody::initial();
     let mut s = RigidBodySplitting::new(INERTIA);
     let pi0 = body.spatial_momentum(&x0);
@@ -135,7 +135,7 @@ fn composition_conserves_momentum_and_orthogonality() {
 
 #[test]
 fn axis_order_is_configurable() {
-    let body = RigidBody { inertia: INERTIA };
+    let body = rigid_body(INERTIA);
     let x0 = RigidBody::initial();
     let mut a = RigidBodySplitting::new(INERTIA);
     let mut b = RigidBodySplitting::with_axes(INERTIA, [2, 1, 0]);
