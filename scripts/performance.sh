@@ -20,11 +20,12 @@ criterion="$target/criterion"
 work="$target/performance"
 mkdir -p "$work"
 
-all=(feedback backends run load adaptive-gains taylor-models taylor-kernels sweep heyoka)
+all=(feedback paper-runs backends run load adaptive-gains taylor-models taylor-kernels sweep heyoka)
 
 describe() {
     case "$1" in
     feedback) echo "cargo bench --bench feedback (generated vs hand-written fields, 10^7 steps)" ;;
+    paper-runs) echo "lasalle run kepler|rigid-body -m M against benches/handwritten (fat LTO), 5 interleaved rounds" ;;
     backends) echo "cargo bench --bench backends -- feedback/ (emitted, JIT, interpreter; independent and chained)" ;;
     run) echo "cargo bench --bench backends -- run/ (integrations, emitted vs JIT)" ;;
     load) echo "cargo bench --bench backends -- load/ (loading a model file with the JIT)" ;;
@@ -197,6 +198,53 @@ assert len(runs) == 5 and len(steps) == 1, "five runs with the same steps"
 cpu = min(r["cpu_seconds"] for r in runs)
 print(f"| {sys.argv[1]} | {sys.argv[2]} | {steps.pop()} | {cpu:.3g} |")' "$1" "$2"
     done
+}
+
+# The paper's fixed-step runs from the model files against the same runs written by hand
+# (benches/handwritten: fixed-size arrays, fat LTO, one codegen unit), five interleaved rounds,
+# the fastest of each: the run's CPU (`cpu_seconds`: the integration and its recording) and the
+# whole process's (loading, the run, writing the outputs).
+table_paper_runs() {
+    local bin hand
+    bin="$(lasalle_bin)"
+    cargo build --release --quiet --manifest-path benches/handwritten/Cargo.toml \
+        --target-dir "$target/handwritten" >&2
+    hand="$target/handwritten/release/handwritten-runs"
+    python3 - "$bin" "$hand" "$work" <<'EOF'
+import json, os, resource, subprocess, sys
+bin, hand, work = sys.argv[1:]
+# model, step, steps, samples of the invariants' errors (every `steps / samples` steps)
+models = [("kepler", 0.005, 1_404_962, 20_071), ("rigid-body", 1e-4, 1_000_000, 20_000)]
+methods = ["euler", "rk4", "feedback-euler", "feedback-rk4"]
+
+def process_cpu(cmd):
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    out = subprocess.run(cmd, check=True, capture_output=True, text=True).stdout
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return cpu, json.loads(out.strip().splitlines()[-1])
+
+print("| model | method | steps | hand-written, ns/step | lasalle run, ns/step | ratio | process CPU, hand-written / lasalle | final states agree to |")
+print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+for model, h, steps, samples in models:
+    for method in methods:
+        best = {"hand": (1e9, 1e9), "lasalle": (1e9, 1e9)}
+        states = {}
+        for _ in range(5):
+            cpu, r = process_cpu([hand, model, method, str(steps), str(samples)])
+            best["hand"] = min(best["hand"], (r["cpu_seconds"], cpu))
+            states["hand"] = r["final_state"]
+            cpu, r = process_cpu([bin, "run", model, "-m", method, "--dt", repr(h),
+                                  "--t-end", repr(steps * h), "--every", str(steps // samples),
+                                  "--format", "json", "--out", os.path.join(work, "paper-run")])
+            assert r["steps"] == steps, (model, method, r["steps"])
+            best["lasalle"] = min(best["lasalle"], (r["cpu_seconds"], cpu))
+            states["lasalle"] = r["final_state"]
+        agree = max(abs(a - b) / max(1.0, abs(b)) for a, b in zip(states["lasalle"], states["hand"]))
+        (hr, hp), (lr, lp) = best["hand"], best["lasalle"]
+        print(f"| {model} | {method} | {steps} | {hr / steps * 1e9:.1f} | {lr / steps * 1e9:.1f} "
+              f"| {lr / hr:.2f} | {hp:.3f} s / {lp:.3f} s | {agree:.0e} |")
+EOF
 }
 
 table_taylor_kernels() {

@@ -97,24 +97,32 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
         self
     }
 
-    /// The guard (on its period of steps) and the divergence check (on its period and at the
-    /// end, `last`) on the state after step `step`.
-    fn run_checks(&self, step: u64, last: bool, t: T, h: T, x: &X) -> Result<(), StepError> {
-        if let Some((every, check)) = &self.guard {
-            if step % every == 0 {
-                if let Some(message) = check(x) {
-                    return Err(StepError::Guard {
-                        t: to_f64(t),
-                        step,
-                        h: to_f64(h),
-                        message,
-                        state: state_to_vec(x.as_ref()),
-                    });
-                }
+    /// The guard and the divergence check on the state after step `step`, each if it is due
+    /// ([`Period`]; the divergence check also at the end, `last`).
+    #[allow(clippy::too_many_arguments)]
+    fn run_checks(
+        &self,
+        guard_due: bool,
+        divergence_due: bool,
+        step: u64,
+        last: bool,
+        t: T,
+        h: T,
+        x: &X,
+    ) -> Result<(), StepError> {
+        if let (true, Some((_, check))) = (guard_due, &self.guard) {
+            if let Some(message) = check(x) {
+                return Err(StepError::Guard {
+                    t: to_f64(t),
+                    step,
+                    h: to_f64(h),
+                    message,
+                    state: state_to_vec(x.as_ref()),
+                });
             }
         }
-        if let Some((every, check)) = &self.divergence {
-            if step > 0 && (last || step % every == 0) {
+        if let (true, Some((_, check))) = (divergence_due || last, &self.divergence) {
+            if step > 0 {
                 if let Some(message) = check(x) {
                     return Err(StepError::Diverged {
                         t: to_f64(t),
@@ -180,7 +188,10 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
         if !all_finite(x.as_ref()) {
             return Err(StepError::non_finite("state", t0, h, x.as_ref()));
         }
-        self.run_checks(0, false, t0, h, &x)?;
+        // the checks' periods, counted down (a division per step costs more than an Euler step)
+        let mut guard = Period::new(self.guard.as_ref().map(|g| g.0));
+        let mut divergence = Period::new(self.divergence.as_ref().map(|d| d.0));
+        self.run_checks(true, false, 0, false, t0, h, &x)?;
         if on_step(stepper, 0, t0, &x) == Control::Stop {
             summary.stopped_by_observer = true;
             return Ok(summary);
@@ -240,7 +251,16 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
                 );
             }
             let done = t >= t_end;
-            self.run_checks(summary.steps, done, t, outcome.h_taken, &x)?;
+            let (guard_due, divergence_due) = (guard.tick(), divergence.tick());
+            self.run_checks(
+                guard_due,
+                divergence_due,
+                summary.steps,
+                done,
+                t,
+                outcome.h_taken,
+                &x,
+            )?;
             if on_step(stepper, summary.steps, t, &x) == Control::Stop {
                 summary.stopped_by_observer = true;
                 break;
@@ -345,6 +365,31 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
         let t_done = if next > 0 { times[next - 1] } else { self.t0 };
         observer.finish(next as u64, t_done, &last_out);
         Ok(summary)
+    }
+}
+
+/// A check's period in steps: [`Period::tick`] is true at every `every`-th step (steps are
+/// counted from 1; never without a check).
+struct Period {
+    every: u64,
+    left: u64,
+}
+
+impl Period {
+    fn new(every: Option<u64>) -> Period {
+        let every = every.unwrap_or(u64::MAX);
+        Period { every, left: every }
+    }
+
+    /// Counts one step: is the check due after it?
+    fn tick(&mut self) -> bool {
+        self.left -= 1;
+        if self.left == 0 {
+            self.left = self.every;
+            true
+        } else {
+            false
+        }
     }
 }
 
