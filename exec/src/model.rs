@@ -21,17 +21,21 @@
 //! assert!((energy - 2.0).abs() < 1e-3);
 //! ```
 
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use lasalle_model::ir::Input;
+use lasalle_model::tape::step::rk_step;
 use lasalle_model::tape::{Dims, ModelTapes, Tape, TapeBuilder, TapeError};
 use lasalle_model::Conservation;
 use lasalle_model::Model;
 use lasalle_model::{derive, Derived};
 use lasalle_model::{Direction, EVENT_TIME, GUARD_STEP};
 use lasalle_runtime::{
-    Declared, EventDirection, EventSpec, Field, GuardFailure, InvariantInfo, Invariants, Lyapunov,
-    ModelInfo, ParamError, Parameters, Partitioned, Preset, Shape, Slot, Splitting,
+    CompiledStep, Declared, EventDirection, EventSpec, Field, FixedMethod, GuardFailure,
+    InvariantInfo, Invariants, Lyapunov, ModelInfo, ParamError, Parameters, Partitioned, Preset,
+    Shape, Slot, Splitting,
 };
 
 use crate::{Backend, ExecError, Kernel};
@@ -294,6 +298,12 @@ pub struct LoadedModel {
     /// The tape of X − ∇V, for the lanes of feedback ensembles ([`crate::FeedbackLanes`]),
     /// which compile it on demand.
     feedback_tape: Tape,
+    /// The tapes of the field and of the guards' margins, for compiled steps.
+    field_tape: Tape,
+    guards_tape: Option<Tape>,
+    /// The compiled steps built so far, by method name and whether on X − ∇V
+    /// ([`Declared::compiled_step`]).
+    steps: Mutex<HashMap<(&'static str, bool), Arc<Box<dyn Kernel>>>>,
     info: Info,
     load_time: Duration,
 }
@@ -354,7 +364,7 @@ impl LoadedModel {
                 targets: 0,
                 gains: 1,
             };
-            Some(c(&TapeBuilder::new(graph, dims).build(&margins)?)?)
+            Some(TapeBuilder::new(graph, dims).build(&margins)?)
         };
         let events = if model.events.is_empty() {
             None
@@ -392,7 +402,7 @@ impl LoadedModel {
                 Some(p) => Some((c(&p.field_q)?, c(&p.field_p)?, p.is_q.clone())),
                 None => None,
             },
-            guards,
+            guards: guards.as_ref().map(c).transpose()?,
             events,
         };
         let info = Info::new(model);
@@ -403,6 +413,9 @@ impl LoadedModel {
             params,
             kernels,
             feedback_tape: tapes.feedback,
+            field_tape: tapes.field,
+            guards_tape: guards,
+            steps: Mutex::default(),
             info,
             load_time: start.elapsed(),
         })
@@ -459,6 +472,32 @@ impl LoadedModel {
     /// A preset by name.
     pub fn preset(&self, name: &str) -> Option<&'static Preset> {
         self.info.presets.iter().find(|p| p.name == name)
+    }
+
+    /// The compiled step tape of `method` on the field or on X − ∇V (built and compiled at
+    /// its first use, then shared), on the back ends that hand out their code
+    /// ([`Kernel::raw_eval`]: the JIT).
+    fn step_kernel(
+        &self,
+        method: &FixedMethod<'_>,
+        feedback: bool,
+    ) -> Option<Arc<Box<dyn Kernel>>> {
+        if self.backend != Backend::Jit {
+            return None;
+        }
+        let mut steps = self.steps.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(k) = steps.get(&(method.name, feedback)) {
+            return Some(k.clone());
+        }
+        let field = if feedback {
+            &self.feedback_tape
+        } else {
+            &self.field_tape
+        };
+        let tape = rk_step(field, method.a, method.b, self.guards_tape.as_ref()).ok()?;
+        let kernel = Arc::new(self.backend.compile(&tape).ok()?);
+        steps.insert((method.name, feedback), kernel.clone());
+        Some(kernel)
     }
 
     /// The tape of X − ∇V.
@@ -689,6 +728,41 @@ impl Parameters for LoadedModel {
 impl Declared<f64, Vec<f64>> for LoadedModel {
     fn presets(&self) -> &'static [Preset] {
         self.info.presets
+    }
+
+    fn compiled_step(
+        &self,
+        method: &FixedMethod<'_>,
+        feedback: Option<(&[f64], &[f64])>,
+        guard_step: f64,
+    ) -> Option<CompiledStep> {
+        let kernel = self.step_kernel(method, feedback.is_some())?;
+        let (targets, gains) = feedback.unwrap_or((&[], &[]));
+        let d = kernel.dims();
+        if targets.len() != d.targets || gains.len() + 2 != d.gains {
+            return None;
+        }
+        let hoisted = kernel.hoist(&self.params).ok()?;
+        let code = kernel.raw_eval()?;
+        let guards = self.info.guards.clone();
+        // SAFETY: the kernel computes `rk_step`'s tape on this model's field (or X − ∇V) and
+        // guards: it reads its hoisted values (just computed), N state components, the
+        // targets and gains whose lengths were just compared with its own, plus the two step
+        // sizes, and writes N values and one margin per guard; `kernel` owns the code and goes
+        // into the stepper.
+        Some(unsafe {
+            CompiledStep::new(
+                method,
+                code,
+                kernel,
+                hoisted,
+                self.dim(),
+                targets.to_vec(),
+                gains,
+                guards,
+                guard_step,
+            )
+        })
     }
 
     fn check_guards(&self, x: &Vec<f64>, dt: f64) -> Option<GuardFailure> {

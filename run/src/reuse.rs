@@ -13,8 +13,9 @@ use std::sync::{Arc, Mutex};
 
 use lasalle_exec::LoadedModel;
 use lasalle_runtime::{
-    Declared, EventSpec, Field, GuardFailure, InvariantInfo, Invariants, Lyapunov, ModelInfo,
-    Partitioned, Preset, Slot, Splitting, StepError, TaylorError, TaylorKernel, TaylorKernels,
+    CompiledStep, Declared, EventSpec, Field, FixedMethod, GuardFailure, InvariantInfo, Invariants,
+    Lyapunov, ModelInfo, Partitioned, Preset, Slot, Splitting, StepError, TaylorError,
+    TaylorKernel, TaylorKernels,
 };
 
 /// A Taylor kernel of a loaded model.
@@ -239,6 +240,15 @@ impl<'a> Declared<f64, Vec<f64>> for Reusing<'a> {
 
     fn splitting(&self) -> Option<Splitting<f64>> {
         self.model.splitting()
+    }
+
+    fn compiled_step(
+        &self,
+        method: &FixedMethod<'_>,
+        feedback: Option<(&[f64], &[f64])>,
+        guard_step: f64,
+    ) -> Option<CompiledStep> {
+        self.model.compiled_step(method, feedback, guard_step)
     }
 
     fn events(&self) -> &'static [EventSpec] {

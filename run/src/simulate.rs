@@ -14,10 +14,11 @@ use std::marker::PhantomData;
 use std::time::Instant;
 
 use lasalle_runtime::{
-    component_names, sample_capacity, scaled_gains, step_gain_target, AdaptiveGain, Composition,
-    Control, Crossing, Declared, DormandPrince, DriftBound, Driver, ExplicitRk, FeedbackField,
-    Field, GainError, GainPolicy, Invariants, Lyapunov, ModelInfo, Observer, Projection, Recorder,
-    State, StepError, Stepper, StormerVerlet, Stride, Taylor, TaylorOptions, VerletVariant, Watch,
+    component_names, sample_capacity, scaled_gains, step_gain_target, AdaptiveGain, CompiledStep,
+    Composition, Control, Crossing, Declared, DormandPrince, DriftBound, Driver, ExplicitRk,
+    FeedbackField, Field, FixedMethod, GainError, GainPolicy, Invariants, Lyapunov, ModelInfo,
+    Observer, Projection, Recorder, State, StepError, Stepper, StormerVerlet, Stride, Tableau,
+    Taylor, TaylorOptions, VerletVariant, Watch,
 };
 
 use crate::{process_cpu_seconds, Base, EventHit, Method, Recording, RunError, RunSpec};
@@ -73,7 +74,10 @@ where
     // the innermost visitor on the model's own field
     let on_x = || drive(model, model, x0, spec, progress);
     match spec.method {
-        Method::Plain(b) => Ok(with_base(b, spec, on_x())),
+        Method::Plain(b) => match compiled_step(model, b, None, spec) {
+            Some(step) => Ok(on_x().visit(step)),
+            None => Ok(with_base(b, spec, on_x())),
+        },
         Method::Projection(b) => {
             let visit = Project {
                 inner: on_x(),
@@ -240,8 +244,10 @@ where
             },
         );
         let drift = DriftBound::new(model, &self.x0, spec.max_drift);
+        // a stepper that checks the guards itself leaves the driver the initial state's check
+        let guard_every = if stepper.checks_guards() { u64::MAX } else { 1 };
         driver = driver
-            .guard(1, move |x: &X| {
+            .guard(guard_every, move |x: &X| {
                 model.check_guards(x, h).map(|g| g.to_string())
             })
             .divergence(every, move |x: &X| drift.check(x));
@@ -505,6 +511,38 @@ where
 }
 
 /// Hands `visit` the explicit Runge–Kutta stepper `base`.
+/// The step of a fixed-step base method compiled whole by the model's back end, on the field
+/// or on X − ∇V with fixed `feedback` targets and gains, if the back end compiles one
+/// ([`Declared::compiled_step`]): bitwise the generic stepper's run.
+fn compiled_step<X: State<f64>>(
+    model: &impl Declared<f64, X>,
+    base: Base,
+    feedback: Option<(&[f64], &[f64])>,
+    spec: &RunSpec,
+) -> Option<CompiledStep> {
+    fn compile<const S: usize, X: State<f64>>(
+        model: &impl Declared<f64, X>,
+        t: Tableau<S>,
+        feedback: Option<(&[f64], &[f64])>,
+        dt: f64,
+    ) -> Option<CompiledStep> {
+        let a: Vec<&[f64]> = t.a.iter().map(|row| &row[..]).collect();
+        let method = FixedMethod {
+            name: t.name,
+            order: t.order,
+            a: &a,
+            b: &t.b,
+        };
+        model.compiled_step(&method, feedback, dt)
+    }
+    match base {
+        Base::Euler => compile(model, Tableau::euler(), feedback, spec.dt),
+        Base::Heun => compile(model, Tableau::heun(), feedback, spec.dt),
+        Base::Rk4 => compile(model, Tableau::rk4(), feedback, spec.dt),
+        Base::Dopri5 => None,
+    }
+}
+
 pub(crate) fn with_base<F, V, X>(base: Base, spec: &RunSpec, visit: V) -> V::Out
 where
     F: Field<f64, X> + ?Sized,
@@ -604,7 +642,18 @@ where
     let inner = drive(model, &fb, x0, spec, progress);
     let mut rec = match plan.wrap(inner) {
         Gained::Adaptive(adapt) => stepper.visit(spec, adapt),
-        Gained::Fixed(inner) => stepper.visit(spec, inner),
+        Gained::Fixed(inner) => {
+            // fixed gains and targets: a step compiled whole on X − ∇V, where the back end
+            // compiles one
+            let feedback = Some((fb.target().as_ref(), plan.initial.as_ref()));
+            match &stepper {
+                FeedbackStepper::Base(b) => match compiled_step(model, *b, feedback, spec) {
+                    Some(step) => inner.visit(step),
+                    None => stepper.visit(spec, inner),
+                },
+                FeedbackStepper::Taylor(_) => stepper.visit(spec, inner),
+            }
+        }
     };
     rec.gains_initial = Some(plan.initial.as_ref().to_vec());
     rec.gains_final = Some(fb.gains().as_ref().to_vec());

@@ -7,7 +7,7 @@ use num_traits::Float;
 use crate::events::EventSpec;
 use crate::field::Partitioned;
 use crate::state::State;
-use crate::steppers::Splitting;
+use crate::steppers::{CompiledStep, FixedMethod, Splitting};
 use crate::taylor::{TaylorError, TaylorKernels};
 
 /// A run preset (`run paper { method = feedback_euler; dt = 0.005; … }`): the settings a run uses
@@ -108,6 +108,20 @@ pub trait Declared<T: Float, X: State<T>> {
     /// The structure-specific splitting the model declares (`splitting KIND(ARGS);`), if any,
     /// with its parameters' current values.
     fn splitting(&self) -> Option<Splitting<T>> {
+        None
+    }
+
+    /// A step of the fixed-step explicit Runge–Kutta `method` compiled whole by the model's
+    /// back end, on the model's field or, with `feedback = Some((targets, gains))`, on
+    /// X − ∇V with those fixed targets and gains; the guards checked at step size
+    /// `guard_step` (see [`CompiledStep`]). `None` (the default) where the back end compiles
+    /// none, and [`ExplicitRk`](crate::ExplicitRk) runs.
+    fn compiled_step(
+        &self,
+        _method: &FixedMethod<'_>,
+        _feedback: Option<(&[f64], &[f64])>,
+        _guard_step: f64,
+    ) -> Option<CompiledStep> {
         None
     }
 

@@ -230,9 +230,12 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
                     state: state_to_vec(x.as_ref()),
                 });
             }
-            let outcome = stepper
-                .step(field, t, &mut x, h_step)
-                .map_err(|e| e.at_step(summary.steps + 1))?;
+            let outcome = stepper.step(field, t, &mut x, h_step).map_err(|e| {
+                // a fixed step's new time, as computed below
+                let t_new = if last { t_end } else { t0 + (n + T::one()) * h };
+                e.at_step(summary.steps + 1)
+                    .guard_at(summary.steps + 1, to_f64(t_new))
+            })?;
             summary.steps += 1;
             summary.rejections += u64::from(outcome.rejections);
             summary.evaluations += u64::from(outcome.evaluations);

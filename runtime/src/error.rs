@@ -171,6 +171,16 @@ impl StepError {
         self
     }
 
+    /// A guard's failure reported by a stepper ([`crate::CompiledStep`]) with the step number
+    /// and the time of the new state as the driver counts them.
+    pub(crate) fn guard_at(mut self, n: u64, time: f64) -> Self {
+        if let StepError::Guard { step, t, .. } = &mut self {
+            *step = n;
+            *t = time;
+        }
+        self
+    }
+
     /// A [`StepError::NonFinite`] for a state or field value.
     pub(crate) fn non_finite<T: Float>(what: &'static str, t: T, h: T, x: &[T]) -> Self {
         StepError::NonFinite {

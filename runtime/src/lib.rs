@@ -70,8 +70,9 @@ pub use output::{component_names, write_csv, Csv};
 pub use params::{ParamError, Parameters};
 pub use state::State;
 pub use steppers::{
-    pivoted_cholesky_solve, Composition, DenseOutput, DormandPrince, DormandPrinceOptions, Euler,
-    ExplicitRk, Heun, Projection, RigidBodySplitting, Rk4, Splitting, StepOutcome, Stepper,
-    StormerVerlet, Tableau, VerletVariant,
+    pivoted_cholesky_solve, CompiledStep, Composition, DenseOutput, DormandPrince,
+    DormandPrinceOptions, Euler, ExplicitRk, FixedMethod, Heun, Projection, RawStep,
+    RigidBodySplitting, Rk4, Splitting, StepOutcome, Stepper, StormerVerlet, Tableau,
+    VerletVariant,
 };
 pub use taylor::{Taylor, TaylorError, TaylorField, TaylorKernel, TaylorKernels, TaylorOptions};

@@ -58,6 +58,7 @@
 //! level of instructions, so the parameter-only prefix `c * mu` of `c * mu * x` is hoisted).
 
 mod model;
+pub mod step;
 pub mod taylor;
 
 pub use model::{ModelTapes, Partition};

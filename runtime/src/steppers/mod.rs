@@ -22,6 +22,7 @@ use num_traits::Float;
 use crate::error::StepError;
 use crate::state::State;
 
+mod compiled;
 mod composition;
 mod dormand_prince;
 mod explicit_rk;
@@ -31,6 +32,7 @@ mod splitting;
 mod stormer_verlet;
 mod tableau;
 
+pub use compiled::{CompiledStep, FixedMethod, RawStep};
 pub use composition::Composition;
 pub use dormand_prince::{DormandPrince, DormandPrinceOptions};
 pub use explicit_rk::{Euler, ExplicitRk, Heun, Rk4};
@@ -112,6 +114,12 @@ pub trait Stepper<T: Float, X: State<T>, F: ?Sized> {
     /// Hermite cubic otherwise ([`crate::events`]).
     fn dense_output(&self) -> Option<&dyn DenseOutput<T, X>> {
         None
+    }
+
+    /// True for steppers that check the model's guards on every new state themselves
+    /// ([`CompiledStep`]), so that the driver need not; false by default.
+    fn checks_guards(&self) -> bool {
+        false
     }
 
     /// Named counters of the work done so far beyond steps and evaluations, for reports:

@@ -1,0 +1,172 @@
+//! A fixed step compiled whole by a back end: the stages of an explicit Runge–Kutta method,
+//! the field and the guards' margins of the new state in one function, which the stepper calls
+//! once per step on the caller's state.
+//!
+//! A back end builds it ([`crate::Declared::compiled_step`]; the JIT of `lasalle-exec` from a
+//! step tape, `lasalle_model::tape::step`) so that the step does the IEEE operations of
+//! [`ExplicitRk`](super::ExplicitRk) in its order: a run with it is bitwise the run with the
+//! generic stepper, with the guards checked on the same states, only without the per-stage
+//! calls, the stage buffers and the separate guard call.
+
+use std::any::Any;
+use std::sync::Arc;
+
+use super::{StepOutcome, Stepper};
+use crate::declared::GuardFailure;
+use crate::error::{all_finite, StepError};
+use crate::field::Field;
+use crate::state::State;
+
+/// A fixed-step explicit Runge–Kutta method by its tableau, as [`crate::Declared::compiled_step`]
+/// receives it: row i of `a` holds a_i0 … a_i(i−1) (longer rows are read that far).
+#[derive(Clone, Copy, Debug)]
+pub struct FixedMethod<'a> {
+    /// The method's name, e.g. `"rk4"`.
+    pub name: &'static str,
+    /// Its order.
+    pub order: u32,
+    /// The coupling coefficients, row by row.
+    pub a: &'a [&'a [f64]],
+    /// The weights.
+    pub b: &'a [f64],
+}
+
+/// The code of a compiled step: `(hoisted, state, targets, gains, out)`, with the gains the
+/// field's, then the step size h, then the step size the guards read; `out` receives the new
+/// state, then the guards' margins.
+pub type RawStep = unsafe extern "C" fn(*const f64, *const f64, *const f64, *const f64, *mut f64);
+
+/// A step compiled whole (see the [module docs](self)).
+pub struct CompiledStep {
+    name: &'static str,
+    order: u32,
+    stages: u32,
+    code: RawStep,
+    /// What keeps `code` alive.
+    _owner: Arc<dyn Any + Send + Sync>,
+    hoisted: Vec<f64>,
+    targets: Vec<f64>,
+    /// The field's gains, then h (set at every step), then the guards' step size.
+    gains: Vec<f64>,
+    /// The new state (`n` values), then the margins.
+    out: Vec<f64>,
+    n: usize,
+    /// Name, condition and strictness of each guard, in the order of the margins.
+    guards: Vec<(&'static str, &'static str, bool)>,
+}
+
+impl std::fmt::Debug for CompiledStep {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CompiledStep")
+            .field("name", &self.name)
+            .field("n", &self.n)
+            .field("guards", &self.guards.len())
+            .finish_non_exhaustive()
+    }
+}
+
+impl CompiledStep {
+    /// A stepper calling `code` for `method` on states of `n` components.
+    ///
+    /// # Safety
+    ///
+    /// `code` must read `hoisted.len()` hoisted values, `n` state components,
+    /// `targets.len()` targets and `gains.len() + 2` gains, write `n + guards.len()` values,
+    /// and stay valid as long as `owner` is alive.
+    #[allow(clippy::too_many_arguments)]
+    pub unsafe fn new(
+        method: &FixedMethod<'_>,
+        code: RawStep,
+        owner: Arc<dyn Any + Send + Sync>,
+        hoisted: Vec<f64>,
+        n: usize,
+        targets: Vec<f64>,
+        gains: &[f64],
+        guards: Vec<(&'static str, &'static str, bool)>,
+        guard_step: f64,
+    ) -> CompiledStep {
+        let mut all_gains = gains.to_vec();
+        all_gains.extend([0.0, guard_step]);
+        CompiledStep {
+            name: method.name,
+            order: method.order,
+            stages: method.b.len() as u32,
+            code,
+            _owner: owner,
+            hoisted,
+            targets,
+            gains: all_gains,
+            out: vec![0.0; n + guards.len()],
+            n,
+            guards,
+        }
+    }
+}
+
+impl<X: State<f64>, F: Field<f64, X> + ?Sized> Stepper<f64, X, F> for CompiledStep {
+    fn step(
+        &mut self,
+        field: &F,
+        t: f64,
+        x: &mut X,
+        h: f64,
+    ) -> Result<StepOutcome<f64>, StepError> {
+        let n = self.n;
+        if x.len() != n {
+            return Err(StepError::InvalidInput(format!(
+                "the compiled step takes states of {n} components, not {}",
+                x.len()
+            )));
+        }
+        let at_h = self.gains.len() - 2;
+        self.gains[at_h] = h;
+        // SAFETY: the lengths are those `new`'s contract names: `x` has n components (checked
+        // above), the other buffers were sized in `new`.
+        unsafe {
+            (self.code)(
+                self.hoisted.as_ptr(),
+                x.as_ref().as_ptr(),
+                self.targets.as_ptr(),
+                self.gains.as_ptr(),
+                self.out.as_mut_ptr(),
+            )
+        };
+        let (next, margins) = self.out.split_at(n);
+        if !all_finite(next) {
+            // the generic stepper's report: a non-finite field at the step's start is its
+            // error; otherwise the driver finds the non-finite state
+            let mut k = x.clone();
+            field.field(x, &mut k);
+            if !all_finite(k.as_ref()) {
+                return Err(StepError::non_finite("field", t, h, x.as_ref()));
+            }
+            x.as_mut().copy_from_slice(next);
+            return Ok(StepOutcome::fixed(h, self.stages));
+        }
+        x.as_mut().copy_from_slice(next);
+        for (&(name, condition, strict), &margin) in self.guards.iter().zip(margins) {
+            if let Some(failure) = GuardFailure::check(name, condition, margin, strict) {
+                return Err(StepError::Guard {
+                    t: t + h,
+                    step: 0,
+                    h,
+                    message: failure.to_string(),
+                    state: x.as_ref().to_vec(),
+                });
+            }
+        }
+        Ok(StepOutcome::fixed(h, self.stages))
+    }
+
+    fn order(&self) -> u32 {
+        self.order
+    }
+
+    fn name(&self) -> String {
+        self.name.to_string()
+    }
+
+    fn checks_guards(&self) -> bool {
+        true
+    }
+}
