@@ -288,6 +288,9 @@ impl Info {
     }
 }
 
+/// A compiled step tape, shared by the steppers that call it.
+type StepKernel = Arc<Box<dyn Kernel>>;
+
 /// A model compiled at run time from its file; see the [module docs](crate::model).
 pub struct LoadedModel {
     derived: Derived,
@@ -303,7 +306,7 @@ pub struct LoadedModel {
     guards_tape: Option<Tape>,
     /// The compiled steps built so far, by method name and whether on X − ∇V
     /// ([`Declared::compiled_step`]).
-    steps: Mutex<HashMap<(&'static str, bool), Arc<Box<dyn Kernel>>>>,
+    steps: Mutex<HashMap<(&'static str, bool), StepKernel>>,
     info: Info,
     load_time: Duration,
 }

@@ -241,7 +241,7 @@ mod tests {
                 if c != 0.0 {
                     let hc = h * c;
                     for (yn, kn) in y.iter_mut().zip(&k[j]) {
-                        *yn = *yn + hc * *kn;
+                        *yn += hc * *kn;
                     }
                 }
             }
@@ -252,7 +252,7 @@ mod tests {
             if c != 0.0 {
                 let hc = h * c;
                 for (xn, kn) in next.iter_mut().zip(ki) {
-                    *xn = *xn + hc * *kn;
+                    *xn += hc * *kn;
                 }
             }
         }

@@ -36,7 +36,12 @@ pub struct FixedMethod<'a> {
 /// state, then the guards' margins.
 pub type RawStep = unsafe extern "C" fn(*const f64, *const f64, *const f64, *const f64, *mut f64);
 
-/// A step compiled whole (see the [module docs](self)).
+/// A fixed step compiled whole by a back end: the stages of an explicit Runge–Kutta method,
+/// the field and the guards' margins of the new state in one function, called once per step.
+///
+/// The step does the IEEE operations of [`ExplicitRk`](crate::ExplicitRk) in its order, so a
+/// run with it is bitwise the run with the generic stepper, the guards checked on the same
+/// states; [`crate::Declared::compiled_step`] hands it out where the back end compiles one.
 pub struct CompiledStep {
     name: &'static str,
     order: u32,
