@@ -44,6 +44,10 @@ class NativeModel:
     @property
     def gain_names(self) -> List[str]: ...
     @property
+    def event_names(self) -> List[str]: ...
+    @property
+    def event_terminal(self) -> List[bool]: ...
+    @property
     def point_names(self) -> List[str]: ...
     @property
     def load_seconds(self) -> float: ...
@@ -66,6 +70,7 @@ class NativeModel:
         every: Optional[int],
         max_steps: Optional[int],
         max_drift: Optional[float],
+        t_eval: Optional[Sequence[float]],
     ) -> Dict[str, Any]: ...
     def solve_many(
         self,
@@ -81,6 +86,7 @@ class NativeModel:
         every: Optional[int],
         max_steps: Optional[int],
         max_drift: Optional[float],
+        t_eval: Optional[Sequence[float]],
         threads: int,
         lanes: int,
     ) -> List[Union[Dict[str, Any], str]]: ...

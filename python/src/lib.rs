@@ -152,6 +152,8 @@ struct Options {
     every: Option<u64>,
     max_steps: Option<u64>,
     max_drift: Option<f64>,
+    /// Output times, from the run's start (t = 0).
+    t_eval: Option<Vec<f64>>,
 }
 
 impl Options {
@@ -166,6 +168,7 @@ impl Options {
         every: Option<u64>,
         max_steps: Option<u64>,
         max_drift: Option<f64>,
+        t_eval: Option<Vec<f64>>,
     ) -> PyResult<Options> {
         let method: Method = method.parse().map_err(run_error)?;
         let gains = if let Ok(text) = gains.extract::<String>() {
@@ -190,6 +193,7 @@ impl Options {
             every,
             max_steps,
             max_drift,
+            t_eval,
         })
     }
 
@@ -217,6 +221,9 @@ impl Options {
         if let Some(d) = self.max_drift {
             b = b.max_drift(d);
         }
+        if let Some(t) = &self.t_eval {
+            b = b.t_eval(t.clone());
+        }
         b.build().map_err(|e| match e {
             RunError::Missing("dt") => PyValueError::new_err(format!(
                 "method `{}` takes fixed steps: give dt=",
@@ -239,7 +246,8 @@ fn run_error(e: RunError) -> PyErr {
         .replace("--max-steps", "max_steps")
         .replace("--max-drift", "max_drift")
         .replace("--projection-tol", "projection tolerance")
-        .replace("--init", "y0");
+        .replace("--init", "y0")
+        .replace("--t-eval", "t_eval");
     PyValueError::new_err(text)
 }
 
@@ -275,8 +283,56 @@ fn failure_dict<'py>(py: Python<'py>, e: &StepError) -> PyResult<Bound<'py, PyDi
     Ok(d)
 }
 
-/// One run as a dict of the Python `Solution`'s fields; times shifted by `t0`.
-fn recording_dict<'py>(py: Python<'py>, rec: &Recording, t0: f64) -> PyResult<Bound<'py, PyDict>> {
+/// The crossings of the model's events (`events`, the declared names in order), scipy's way:
+/// `t_events` a list of arrays (k,) and `y_events` a list of arrays (k, n), one per declared
+/// event, the terminal crossing included; `stopped_by` the terminal event's name, time and
+/// state, or None. Times shifted by `t0`.
+fn events_into(
+    py: Python<'_>,
+    d: &Bound<'_, PyDict>,
+    rec: &Recording,
+    t0: f64,
+    events: &[&str],
+) -> PyResult<()> {
+    let n = rec.dim();
+    let mut ts: Vec<Vec<f64>> = vec![Vec::new(); events.len()];
+    let mut ys: Vec<Vec<f64>> = vec![Vec::new(); events.len()];
+    for hit in rec.events.iter().chain(&rec.stopped_by) {
+        if let Some(k) = events.iter().position(|e| *e == hit.name) {
+            ts[k].push(hit.t + t0);
+            ys[k].extend_from_slice(&hit.x);
+        }
+    }
+    let t_events = PyList::empty(py);
+    let y_events = PyList::empty(py);
+    for (t, y) in ts.into_iter().zip(ys) {
+        let k = t.len();
+        t_events.append(t.into_pyarray(py))?;
+        y_events.append(y.into_pyarray(py).reshape([k, n])?)?;
+    }
+    d.set_item("t_events", t_events)?;
+    d.set_item("y_events", y_events)?;
+    match &rec.stopped_by {
+        None => d.set_item("stopped_by", py.None())?,
+        Some(hit) => {
+            let s = PyDict::new(py);
+            s.set_item("event", &hit.name)?;
+            s.set_item("t", hit.t + t0)?;
+            s.set_item("state", hit.x.clone().into_pyarray(py))?;
+            d.set_item("stopped_by", s)?;
+        }
+    }
+    Ok(())
+}
+
+/// One run as a dict of the Python `Solution`'s fields; times shifted by `t0`; `events` the
+/// model's declared events, in order.
+fn recording_dict<'py>(
+    py: Python<'py>,
+    rec: &Recording,
+    t0: f64,
+    events: &[&str],
+) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     let (n, nt, m) = (rec.dim(), rec.len(), rec.blocks.len());
     let t: Vec<f64> = rec.t.iter().map(|t| t + t0).collect();
@@ -316,6 +372,7 @@ fn recording_dict<'py>(py: Python<'py>, rec: &Recording, t0: f64) -> PyResult<Bo
         None => d.set_item("failure", py.None())?,
         Some(e) => d.set_item("failure", failure_dict(py, e)?)?,
     }
+    events_into(py, &d, rec, t0, events)?;
     Ok(d)
 }
 
@@ -458,6 +515,18 @@ impl NativeModel {
         self.model.gain_names().to_vec()
     }
 
+    /// The declared events' names, in declaration order.
+    #[getter]
+    fn event_names(&self) -> Vec<&'static str> {
+        self.model.events().iter().map(|e| e.name).collect()
+    }
+
+    /// The declared events' terminal flags (`stop`), in declaration order.
+    #[getter]
+    fn event_terminal(&self) -> Vec<bool> {
+        self.model.events().iter().map(|e| e.terminal).collect()
+    }
+
     #[getter]
     fn point_names(&self) -> Vec<&'static str> {
         self.model.point_names().to_vec()
@@ -538,7 +607,7 @@ impl NativeModel {
     }
 
     /// One run from `y0` over [t0, t1]; `params` overrides parameters for this run only.
-    #[pyo3(signature = (y0, t0, t1, method, dt, rtol, atol, gains, params, every, max_steps, max_drift))]
+    #[pyo3(signature = (y0, t0, t1, method, dt, rtol, atol, gains, params, every, max_steps, max_drift, t_eval))]
     #[allow(clippy::too_many_arguments)]
     fn solve<'py>(
         &mut self,
@@ -555,6 +624,7 @@ impl NativeModel {
         every: Option<u64>,
         max_steps: Option<u64>,
         max_drift: Option<f64>,
+        t_eval: Option<Vec<f64>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let opts = Options::new(
             method,
@@ -566,6 +636,7 @@ impl NativeModel {
             every,
             max_steps,
             max_drift,
+            t_eval,
         )?;
         let spec = opts.spec()?;
         let y0: Vec<f64> = y0.as_array().iter().copied().collect();
@@ -590,12 +661,12 @@ impl NativeModel {
             .map_err(run_error)
         });
         self.restore(&saved);
-        recording_dict(py, &result?, t0)
+        recording_dict(py, &result?, t0, &self.event_names())
     }
 
     /// Runs of the rows of `y0s` (B, n) with per-row parameters `params` (name → (B, k)
     /// flat values), on `threads` threads (0: one per core), `lanes` rows at a time in lanes.
-    #[pyo3(signature = (y0s, t0, t1, method, dt, rtol, atol, gains, params, every, max_steps, max_drift, threads, lanes))]
+    #[pyo3(signature = (y0s, t0, t1, method, dt, rtol, atol, gains, params, every, max_steps, max_drift, t_eval, threads, lanes))]
     #[allow(clippy::too_many_arguments)]
     fn solve_many<'py>(
         &self,
@@ -612,6 +683,7 @@ impl NativeModel {
         every: Option<u64>,
         max_steps: Option<u64>,
         max_drift: Option<f64>,
+        t_eval: Option<Vec<f64>>,
         threads: usize,
         lanes: usize,
     ) -> PyResult<Bound<'py, PyList>> {
@@ -625,6 +697,7 @@ impl NativeModel {
             every,
             max_steps,
             max_drift,
+            t_eval,
         )?;
         let spec = opts.spec()?;
         let y0s = y0s.as_array();
@@ -680,9 +753,10 @@ impl NativeModel {
             .allow_threads(|| simulate_many(source, &members, &spec, threads, lanes))
             .map_err(run_error)?;
         let out = PyList::empty(py);
+        let events = self.event_names();
         for r in &ensemble.recordings {
             match r {
-                Ok(rec) => out.append(recording_dict(py, rec, t0)?)?,
+                Ok(rec) => out.append(recording_dict(py, rec, t0, &events)?)?,
                 Err(e) => out.append(run_error(e.clone()).value(py).to_string())?,
             }
         }
