@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import os
+import threading
 from collections.abc import MutableMapping
 from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
 
@@ -33,6 +34,7 @@ __all__ = [
     "GuardError",
     "LasalleError",
     "normal_form",
+    "stability",
     "builtin_models",
     "methods",
 ]
@@ -153,6 +155,11 @@ def _run_times(t_eval: Optional[np.ndarray], t0: float, t1: float) -> Optional[L
     if t_eval is None:
         return None
     return [float(v) for v in np.clip(t_eval - t0, 0.0, t1 - t0)]
+
+
+def _main_thread() -> bool:
+    """Does the caller run on the main thread (where Ctrl-C's KeyboardInterrupt is raised)?"""
+    return threading.current_thread() is threading.main_thread()
 
 
 _SUCCESS = "The solver successfully reached the end of the integration interval."
@@ -535,6 +542,7 @@ class Model:
             None if max_steps is None else int(max_steps),
             max_drift,
             _run_times(grid, t0, t1),
+            _main_thread(),
         )
         return Solution(d, self.integrals, self.event_names, grid)
 
@@ -662,6 +670,7 @@ def _solve_rows(model: Model, y: np.ndarray, span, cols, opts, threads: int, lan
         _run_times(opts["t_eval"], span[0], span[1]),
         threads,
         lanes,
+        _main_thread(),
     )
     return Solutions(rows, model.integrals, model.dim, model.event_names, opts["t_eval"])
 
@@ -748,5 +757,101 @@ def normal_form(
         float(resonance_tol),
         float(max_rel_error),
         str(error_estimate),
+    )
+    return _arrays(json.loads(text))
+
+
+def stability(
+    model: Union[Model, str],
+    *,
+    params: Optional[Mapping[str, Any]] = None,
+    at: Optional[Sequence[float]] = None,
+    casimir: Optional[float] = None,
+    range: Optional[Tuple[float, float]] = None,
+    levels: int = 121,
+    lyapunov: Optional[str] = None,
+    radius: Optional[float] = None,
+    time_bound: Optional[Sequence[Tuple[float, float]]] = None,
+    order: Optional[int] = None,
+    for_time: Optional[Sequence[float]] = None,
+    outer_ratio: Optional[float] = None,
+    remainder_degree: Optional[int] = None,
+    metric: str = "euclidean",
+    equilibrium: Union[str, Sequence[float], None] = None,
+    validate: bool = False,
+    horizon: float = 200.0,
+) -> Dict[str, Any]:
+    """The stability analysis the model's structure chooses: what ``lasalle stability
+    --format json`` prints, as dicts with arrays for the number lists.
+
+    - Lie–Poisson models on so(3)*: the equilibria on the Casimir level ``casimir`` (default:
+      |P| of the model's first point) or at the point ``at`` (P1, P2, P3), and the branches of
+      equilibria over ``range`` = (a, b) of levels (``levels`` of them);
+    - canonical Hamiltonian models: the normal-form verdict at ``equilibrium`` (a point's name
+      or a Newton start; default the first point) and, for each ``time_bound`` (d0, d1), the
+      time before an orbit from within d0 can reach d1 (orders up to ``order``, else the
+      optimal order is searched); ``for_time``, ``outer_ratio``, ``remainder_degree``,
+      ``metric`` (``euclidean`` or ``linear-normal``), ``validate`` (integrate orbits to
+      ``horizon``) as the command's flags;
+    - models without Hamiltonian structure (planar, dissipative): the domain of attraction of
+      the equilibrium ``at`` (x1, x2; default the first named asymptotically stable one), with
+      the model's ``let`` ``lyapunov`` (default ``energy``) and the search ``radius``.
+
+    ``params`` override the model's parameters for this analysis. A setting of another
+    analysis than the model's, or one out of range, raises ``ValueError``; so does an analysis
+    that cannot run (with the reason).
+    """
+    if not isinstance(model, Model):
+        model = Model(model)
+    if params:
+        values = {k: (np.array(v) if isinstance(v, np.ndarray) else v) for k, v in model.params.items()}
+        values.update(params)
+        model = Model.from_source(model.source, values, model.backend, model.path)
+
+    def numbers(name: str, v: Any) -> Optional[List[float]]:
+        if v is None:
+            return None
+        try:
+            a = np.asarray(v, dtype=float).ravel()
+        except (TypeError, ValueError):
+            raise ValueError(f"{name}: not a sequence of numbers: {v!r}") from None
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{name}: not finite: {v!r}")
+        return [float(x) for x in a]
+
+    tubes = []
+    for tb in time_bound or []:
+        t = numbers("time_bound", tb)
+        if len(t) != 2:
+            raise ValueError(f"time_bound: pairs (d0, d1), got {tb!r}")
+        tubes.append((t[0], t[1]))
+    span = None
+    if range is not None:
+        r = numbers("range", range)
+        if len(r) != 2:
+            raise ValueError(f"range: (a, b) with 0 < a < b, got {range!r}")
+        span = (r[0], r[1])
+    if int(levels) != levels or levels < 1:
+        raise ValueError(f"levels must be a positive integer, got {levels!r}")
+    for name, v in (("order", order), ("remainder_degree", remainder_degree)):
+        if v is not None and (int(v) != v or v < 1):
+            raise ValueError(f"{name} must be a positive integer, got {v!r}")
+    text = model._native.stability(
+        os.path.splitext(os.path.basename(model.path))[0],
+        None if casimir is None else float(casimir),
+        numbers("at", at),
+        span,
+        int(levels),
+        lyapunov,
+        None if radius is None else float(radius),
+        tubes,
+        None if order is None else int(order),
+        numbers("for_time", for_time) or [],
+        None if outer_ratio is None else float(outer_ratio),
+        None if remainder_degree is None else int(remainder_degree),
+        str(metric),
+        equilibrium,
+        bool(validate),
+        float(horizon),
     )
     return _arrays(json.loads(text))

@@ -71,6 +71,7 @@ class NativeModel:
         max_steps: Optional[int],
         max_drift: Optional[float],
         t_eval: Optional[Sequence[float]],
+        main_thread: bool = False,
     ) -> Dict[str, Any]: ...
     def solve_many(
         self,
@@ -89,6 +90,7 @@ class NativeModel:
         t_eval: Optional[Sequence[float]],
         threads: int,
         lanes: int,
+        main_thread: bool = False,
     ) -> List[Union[Dict[str, Any], str]]: ...
     def normal_form(
         self,
@@ -100,4 +102,23 @@ class NativeModel:
         resonance_tol: float,
         max_rel_error: float,
         error_estimate: str,
+    ) -> str: ...
+    def stability(
+        self,
+        file: str,
+        casimir: Optional[float],
+        at: Optional[Sequence[float]],
+        range: Optional[Tuple[float, float]],
+        levels: int,
+        lyapunov: Optional[str],
+        radius: Optional[float],
+        time_bound: Sequence[Tuple[float, float]],
+        order: Optional[int],
+        for_time: Sequence[float],
+        outer_ratio: Optional[float],
+        remainder_degree: Optional[int],
+        metric: str,
+        equilibrium: Union[str, Sequence[float], None],
+        validate: bool,
+        horizon: float,
     ) -> str: ...

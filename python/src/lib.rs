@@ -9,11 +9,13 @@
 //! ensembles release the GIL for their whole duration.
 
 use std::collections::HashMap;
+use std::sync::{mpsc, Arc, Mutex};
+use std::time::{Duration, Instant};
 
 use lasalle_exec::{Backend, LoadError, LoadedModel};
 use lasalle_run::{
-    simulate, simulate_many, KernelPool, Member, Method, ModelSource, Recording, Reusing, RunError,
-    RunSpec,
+    simulate, simulate_many, Interrupt, KernelPool, Member, Method, ModelSource, Recording,
+    Reusing, RunError, RunSpec,
 };
 use lasalle_runtime::{
     component_names, Declared, GainPolicy, ModelInfo, Parameters, Shape, Slot, StepError,
@@ -234,6 +236,75 @@ impl Options {
     }
 }
 
+/// How often a run asks the interpreter for pending signals (Ctrl-C).
+const SIGNAL_POLL: Duration = Duration::from_millis(50);
+
+/// A signal raised while a run was going on (`KeyboardInterrupt`), kept for the caller.
+type Pending = Arc<Mutex<Option<PyErr>>>;
+
+/// The pending signal's exception, if one stopped the run.
+fn take(pending: &Pending) -> Option<PyErr> {
+    pending.lock().unwrap_or_else(|p| p.into_inner()).take()
+}
+
+/// An interrupt for a run on the calling (main) thread with the GIL released: at most every
+/// [`SIGNAL_POLL`] it takes the GIL and runs the interpreter's signal handlers; an exception
+/// (Ctrl-C's `KeyboardInterrupt`) stops the run and waits in the returned slot.
+fn signal_poll() -> (Interrupt, Pending) {
+    let pending: Pending = Arc::default();
+    let slot = pending.clone();
+    let last = Mutex::new(Instant::now());
+    let interrupt = Interrupt::with_poll(move || {
+        let mut last = last.lock().unwrap_or_else(|p| p.into_inner());
+        if last.elapsed() < SIGNAL_POLL {
+            return false;
+        }
+        *last = Instant::now();
+        match Python::with_gil(|py| py.check_signals()) {
+            Ok(()) => false,
+            Err(e) => {
+                *slot.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
+                true
+            }
+        }
+    });
+    (interrupt, pending)
+}
+
+/// Runs `work` on a scoped thread with the GIL released while this (main) thread runs the
+/// interpreter's signal handlers every 20 ms; an exception there (Ctrl-C) stops `interrupt`,
+/// waits for `work` to wind down and is returned.
+fn watched<T: Send>(
+    py: Python<'_>,
+    interrupt: &Interrupt,
+    work: impl FnOnce() -> T + Send,
+) -> PyResult<T> {
+    py.allow_threads(|| {
+        std::thread::scope(|s| {
+            let (tx, rx) = mpsc::channel();
+            s.spawn(move || {
+                let _ = tx.send(work());
+            });
+            loop {
+                match rx.recv_timeout(Duration::from_millis(20)) {
+                    Ok(out) => return Ok(out),
+                    Err(mpsc::RecvTimeoutError::Timeout) => {
+                        if let Err(e) = Python::with_gil(|py| py.check_signals()) {
+                            interrupt.stop();
+                            // the runs stop within a few hundred steps; nothing is left behind
+                            let _ = rx.recv();
+                            return Err(e);
+                        }
+                    }
+                    Err(mpsc::RecvTimeoutError::Disconnected) => {
+                        return Err(PyException::new_err("the ensemble's thread failed"))
+                    }
+                }
+            }
+        })
+    })
+}
+
 /// The messages of the run engine name the command line's flags; here they are keywords.
 fn run_error(e: RunError) -> PyErr {
     let text = e
@@ -268,6 +339,7 @@ fn failure_dict<'py>(py: Python<'py>, e: &StepError) -> PyResult<Bound<'py, PyDi
         StepError::ProjectionNotConverged { .. } => "projection",
         StepError::Guard { .. } => "guard",
         StepError::Diverged { .. } => "diverged",
+        StepError::Interrupted { .. } => "interrupted",
         _ => "invalid",
     };
     d.set_item("kind", kind)?;
@@ -607,7 +679,7 @@ impl NativeModel {
     }
 
     /// One run from `y0` over [t0, t1]; `params` overrides parameters for this run only.
-    #[pyo3(signature = (y0, t0, t1, method, dt, rtol, atol, gains, params, every, max_steps, max_drift, t_eval))]
+    #[pyo3(signature = (y0, t0, t1, method, dt, rtol, atol, gains, params, every, max_steps, max_drift, t_eval, main_thread=false))]
     #[allow(clippy::too_many_arguments)]
     fn solve<'py>(
         &mut self,
@@ -625,6 +697,7 @@ impl NativeModel {
         max_steps: Option<u64>,
         max_drift: Option<f64>,
         t_eval: Option<Vec<f64>>,
+        main_thread: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let opts = Options::new(
             method,
@@ -638,7 +711,13 @@ impl NativeModel {
             max_drift,
             t_eval,
         )?;
-        let spec = opts.spec()?;
+        let mut spec = opts.spec()?;
+        // Ctrl-C: only the main thread runs the interpreter's signal handlers
+        let signal = main_thread.then(|| {
+            let (interrupt, signal) = signal_poll();
+            spec.interrupt = Some(interrupt);
+            signal
+        });
         let y0: Vec<f64> = y0.as_array().iter().copied().collect();
         // the overrides for this run, then the model's values back
         let saved = self.all_params();
@@ -661,12 +740,15 @@ impl NativeModel {
             .map_err(run_error)
         });
         self.restore(&saved);
+        if let Some(e) = signal.as_ref().and_then(take) {
+            return Err(e);
+        }
         recording_dict(py, &result?, t0, &self.event_names())
     }
 
     /// Runs of the rows of `y0s` (B, n) with per-row parameters `params` (name → (B, k)
     /// flat values), on `threads` threads (0: one per core), `lanes` rows at a time in lanes.
-    #[pyo3(signature = (y0s, t0, t1, method, dt, rtol, atol, gains, params, every, max_steps, max_drift, t_eval, threads, lanes))]
+    #[pyo3(signature = (y0s, t0, t1, method, dt, rtol, atol, gains, params, every, max_steps, max_drift, t_eval, threads, lanes, main_thread=false))]
     #[allow(clippy::too_many_arguments)]
     fn solve_many<'py>(
         &self,
@@ -686,6 +768,7 @@ impl NativeModel {
         t_eval: Option<Vec<f64>>,
         threads: usize,
         lanes: usize,
+        main_thread: bool,
     ) -> PyResult<Bound<'py, PyList>> {
         let opts = Options::new(
             method,
@@ -699,7 +782,9 @@ impl NativeModel {
             max_drift,
             t_eval,
         )?;
-        let spec = opts.spec()?;
+        let mut spec = opts.spec()?;
+        let interrupt = Interrupt::new();
+        spec.interrupt = Some(interrupt.clone());
         let y0s = y0s.as_array();
         let (b, n) = (y0s.nrows(), y0s.ncols());
         if n != self.model.state_dim() {
@@ -749,9 +834,14 @@ impl NativeModel {
             })
             .collect();
         let source = &self.source;
-        let ensemble = py
-            .allow_threads(|| simulate_many(source, &members, &spec, threads, lanes))
-            .map_err(run_error)?;
+        let run = || simulate_many(source, &members, &spec, threads, lanes);
+        // Ctrl-C: only the main thread runs the interpreter's signal handlers
+        let ensemble = if main_thread {
+            watched(py, &interrupt, run)?
+        } else {
+            py.allow_threads(run)
+        }
+        .map_err(run_error)?;
         let out = PyList::empty(py);
         let events = self.event_names();
         for r in &ensemble.recordings {
@@ -866,6 +956,144 @@ impl NativeModel {
         });
         result.map_err(PyValueError::new_err)
     }
+
+    /// The stability analysis the model's structure chooses, with the current parameters,
+    /// as the JSON text of `lasalle stability --format json`; `file` names the model file.
+    #[pyo3(signature = (file, casimir, at, range, levels, lyapunov, radius, time_bound, order, for_time, outer_ratio, remainder_degree, metric, equilibrium, validate, horizon))]
+    #[allow(clippy::too_many_arguments)]
+    fn stability(
+        &self,
+        py: Python<'_>,
+        file: &str,
+        casimir: Option<f64>,
+        at: Option<Vec<f64>>,
+        range: Option<(f64, f64)>,
+        levels: usize,
+        lyapunov: Option<String>,
+        radius: Option<f64>,
+        time_bound: Vec<(f64, f64)>,
+        order: Option<usize>,
+        for_time: Vec<f64>,
+        outer_ratio: Option<f64>,
+        remainder_degree: Option<usize>,
+        metric: &str,
+        equilibrium: Option<&Bound<'_, PyAny>>,
+        validate: bool,
+        horizon: f64,
+    ) -> PyResult<String> {
+        use lasalle_analysis::canonical::{Validation, SEARCH_MAX_ORDER};
+        use lasalle_analysis::stability::{analyse, StabilityKind, StabilityOptions};
+        use lasalle_normal_form::{bound::Metric, ModelPoint};
+        let kind = StabilityKind::of(&self.model);
+        let given = |name: &str, set: bool, kinds: &[StabilityKind]| {
+            if set && !kinds.contains(&kind) {
+                Err(PyValueError::new_err(format!(
+                    "{name}= does not apply: `{}` gets the {} analysis",
+                    self.model.model_name(),
+                    match kind {
+                        StabilityKind::LiePoisson => "Lie–Poisson (energy–Casimir)",
+                        StabilityKind::Canonical => "canonical (normal-form)",
+                        StabilityKind::Attraction => "domain-of-attraction",
+                    }
+                )))
+            } else {
+                Ok(())
+            }
+        };
+        use StabilityKind::{Attraction, Canonical, LiePoisson};
+        given("casimir", casimir.is_some(), &[LiePoisson])?;
+        given("range", range.is_some(), &[LiePoisson])?;
+        given("at", at.is_some(), &[LiePoisson, Attraction])?;
+        given("lyapunov", lyapunov.is_some(), &[Attraction])?;
+        given("radius", radius.is_some(), &[Attraction])?;
+        let canonical_set = !time_bound.is_empty()
+            || order.is_some()
+            || !for_time.is_empty()
+            || outer_ratio.is_some()
+            || remainder_degree.is_some()
+            || equilibrium.is_some()
+            || validate;
+        given(
+            "time_bound/order/for_time/outer_ratio/remainder_degree/equilibrium/validate",
+            canonical_set,
+            &[Canonical],
+        )?;
+        if validate && time_bound.is_empty() {
+            return Err(PyValueError::new_err(
+                "validate=True needs time_bound=[(d0, d1)]",
+            ));
+        }
+        if !(horizon > 0.0 && horizon.is_finite()) {
+            return Err(PyValueError::new_err(format!(
+                "horizon={horizon}: must be a positive finite time"
+            )));
+        }
+        let metric = match normalise(metric).as_str() {
+            "euclidean" => Metric::Euclidean,
+            "linearnormal" => Metric::LinearNormal,
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "metric={metric:?}: `euclidean` or `linear-normal`"
+                )))
+            }
+        };
+        let point = match equilibrium {
+            None => ModelPoint::Auto,
+            Some(a) => match a.extract::<String>() {
+                Ok(name) => ModelPoint::Named(name),
+                Err(_) => ModelPoint::Values(a.extract::<Vec<f64>>().map_err(|_| {
+                    PyValueError::new_err("equilibrium: a point's name or a sequence of numbers")
+                })?),
+            },
+        };
+        let mut opts = StabilityOptions {
+            casimir,
+            at,
+            range,
+            levels,
+            lyapunov,
+            radius,
+            ..StabilityOptions::default()
+        };
+        let c = &mut opts.canonical;
+        c.point = point;
+        c.tubes = time_bound;
+        c.max_order = order.unwrap_or(SEARCH_MAX_ORDER);
+        c.optimal = order.is_none();
+        c.for_time = for_time;
+        c.outer_ratio = outer_ratio.unwrap_or(2.0);
+        c.remainder_degree = remainder_degree;
+        c.metric = metric;
+        c.validate = validate.then(|| Validation {
+            horizon,
+            ..Validation::default()
+        });
+        let model = &self.model;
+        let report = py.allow_threads(|| analyse(model, file, &opts));
+        match report {
+            Ok(r) => serde_json::to_string(&r.to_json())
+                .map_err(|e| PyValueError::new_err(e.to_string())),
+            Err(e) => Err(PyValueError::new_err(keywords(
+                &e.message("with at=[x1, x2]"),
+            ))),
+        }
+    }
+}
+
+/// A message of the analyses with the command line's flags named as Python's keywords.
+fn keywords(message: &str) -> String {
+    [
+        ("--time-bound ", "time_bound="),
+        ("--for-time ", "for_time="),
+        ("--outer-ratio ", "outer_ratio="),
+        ("--order ", "order="),
+        ("--at ", "at="),
+        ("--equilibrium ", "equilibrium="),
+        ("--metric linear-normal", "metric=\"linear-normal\""),
+        ("--resonant", "resonant=True"),
+    ]
+    .iter()
+    .fold(message.to_string(), |m, (flag, key)| m.replace(flag, key))
 }
 
 impl NativeModel {

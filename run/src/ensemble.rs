@@ -104,6 +104,9 @@ impl<L: LaneField> Visit<L, Vec<f64>> for DriveLanes<'_, L> {
                 lanes.check_guards(x, spec.dt).map(|g| g.to_string())
             });
         }
+        if let Some(stop) = &spec.interrupt {
+            driver = driver.interrupt(move || stop.is_stopped());
+        }
         let (start, cpu_start) = (Instant::now(), process_cpu_seconds());
         let end = driver
             .run(&mut stepper, lanes, &lanes.pack(self.x0s).ok()?, &mut ())
@@ -409,6 +412,9 @@ pub fn simulate_many(
         groups
             .par_iter()
             .map(|group| {
+                if spec.interrupt.as_ref().is_some_and(|i| i.is_stopped()) {
+                    return vec![Err(RunError::Interrupted); group.len()];
+                }
                 let slot = &models[rayon::current_thread_index().unwrap_or(0)];
                 let mut slot = slot.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
                 match slot.get_or_insert_with(|| ThreadModel::load(source)) {
