@@ -305,21 +305,42 @@ fn watched<T: Send>(
     })
 }
 
-/// The messages of the run engine name the command line's flags; here they are keywords.
+/// The command line's flags in the run engine's messages and what Python calls them, in the
+/// order they are replaced (a flag with its value before the flag alone).
+const KEYWORDS: &[(&str, &str)] = &[
+    ("--gains step", "gains=\"step:c:m\""),
+    ("--gains adaptive", "gains=\"adaptive:m:c\""),
+    ("(--dt)", "(dt=)"),
+    ("the end time --t-end ", "the span t1 - t0 = "),
+    ("--t-end ", "the span t1 - t0 = "),
+    ("--projection-tol ", ""),
+    ("--rtol alone", "rtol= alone"),
+    ("--dt ", "dt="),
+    ("--rtol ", "rtol="),
+    ("--atol ", "atol="),
+    ("--t-eval ", "t_eval="),
+    ("--init ", "y0="),
+    ("--dt", "dt="),
+    ("--rtol", "rtol="),
+    ("--atol", "atol="),
+    ("--gains", "gains="),
+    ("--max-steps", "max_steps="),
+    ("--max-drift", "max_drift="),
+    ("--t-eval", "t_eval="),
+    ("--init", "y0="),
+];
+
+/// A message of the run engine (which names the command line's flags, `--dt 0.1`) with
+/// Python's keywords (`dt=0.1`).
+fn keyword_message(message: &str) -> String {
+    KEYWORDS
+        .iter()
+        .fold(message.to_string(), |m, (flag, key)| m.replace(flag, key))
+}
+
+/// A [`RunError`] as Python's `ValueError`, its message naming Python's keywords.
 fn run_error(e: RunError) -> PyErr {
-    let text = e
-        .to_string()
-        .replace("--dt ", "dt=")
-        .replace("--t-end ", "t_end=")
-        .replace("--rtol", "rtol")
-        .replace("--atol", "atol")
-        .replace("--gains", "gains")
-        .replace("--max-steps", "max_steps")
-        .replace("--max-drift", "max_drift")
-        .replace("--projection-tol", "projection tolerance")
-        .replace("--init", "y0")
-        .replace("--t-eval", "t_eval");
-    PyValueError::new_err(text)
+    PyValueError::new_err(keyword_message(&e.to_string()))
 }
 
 /// The guard's name in a guard failure's message (``guard `name` violated: …``).
@@ -343,7 +364,7 @@ fn failure_dict<'py>(py: Python<'py>, e: &StepError) -> PyResult<Bound<'py, PyDi
         _ => "invalid",
     };
     d.set_item("kind", kind)?;
-    d.set_item("message", e.to_string())?;
+    d.set_item("message", keyword_message(&e.to_string()))?;
     d.set_item("t", e.time())?;
     d.set_item("state", e.state().map(|s| s.to_vec().into_pyarray(py)))?;
     d.set_item("step", e.step())?;
@@ -847,7 +868,7 @@ impl NativeModel {
         for r in &ensemble.recordings {
             match r {
                 Ok(rec) => out.append(recording_dict(py, rec, t0, &events)?)?,
-                Err(e) => out.append(run_error(e.clone()).value(py).to_string())?,
+                Err(e) => out.append(keyword_message(&e.to_string()))?,
             }
         }
         Ok(out)
