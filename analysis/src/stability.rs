@@ -2,12 +2,12 @@
 //! result typed ([`StabilityReport`]) and as the JSON the command prints
 //! ([`StabilityReport::to_json`]).
 //!
-//! - a Lie–Poisson model on so(3)* ([`lie_poisson`](crate::lie_poisson)): the equilibria on a
+//! - a Lie–Poisson model on so(3)* ([`lie_poisson`](mod@crate::lie_poisson)): the equilibria on a
 //!   Casimir level (or one given point) and the verdict ranges of every branch of equilibria
 //!   over a range of levels ([`LiePoissonReport`]);
-//! - a canonical Hamiltonian model ([`canonical`](crate::canonical)): the normal-form verdicts
+//! - a canonical Hamiltonian model ([`canonical`](mod@crate::canonical)): the normal-form verdicts
 //!   and the time bounds of tubes ([`CanonicalReport`]);
-//! - a model without Hamiltonian structure ([`attraction`](crate::attraction)): the domain of
+//! - a model without Hamiltonian structure ([`attraction`](mod@crate::attraction)): the domain of
 //!   attraction of a planar equilibrium ([`AttractionReport`]).
 //!
 //! Each analysis takes the model with its current parameter values. Settings that name a
