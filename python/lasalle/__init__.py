@@ -217,6 +217,10 @@ class Solution:
     status: int
     message: str
     nfev: int
+    t_events: List[np.ndarray]
+    y_events: List[np.ndarray]
+    event_names: List[str]
+    stopped_by: Optional[Dict[str, Any]]
 
     def __init__(
         self,
