@@ -12,6 +12,9 @@
 //! - [`attraction`]: domains of attraction of a planar equilibrium, estimated by sublevel sets
 //!   of Lyapunov functions and compared with the stable manifolds of the saddles around it
 //!   (`lasalle stability` on a dissipative planar model);
+//! - [`stability`]: the analysis a model's structure chooses (one of the three above), as
+//!   `lasalle stability` runs it, with typed results and their JSON
+//!   ([`stability::StabilityReport::to_json`]);
 //! - [`closed_forms`]: the closed-form extremals of the SO(3) optimal-control problems, as
 //!   corrected and as printed in the thesis they come from.
 //!
@@ -23,3 +26,4 @@ pub mod attraction;
 pub mod canonical;
 pub mod closed_forms;
 pub mod lie_poisson;
+pub mod stability;

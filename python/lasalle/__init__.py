@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import os
+import threading
 from collections.abc import MutableMapping
 from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
 
@@ -33,6 +34,7 @@ __all__ = [
     "GuardError",
     "LasalleError",
     "normal_form",
+    "stability",
     "builtin_models",
     "methods",
 ]
@@ -128,6 +130,45 @@ def _check_tol(name: str, v: Optional[float]) -> Optional[float]:
     return v
 
 
+def _t_eval(t_eval: Any, t0: float, t1: float) -> Optional[np.ndarray]:
+    """The output times, checked: a 1-d array of finite increasing times within ``t_span``."""
+    if t_eval is None:
+        return None
+    try:
+        a = np.array(t_eval, dtype=float)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"t_eval: not an array of numbers ({e})") from None
+    if a.ndim != 1 or a.size == 0:
+        raise ValueError(f"t_eval must be a 1-d array of times, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError("t_eval is not finite")
+    if np.any(np.diff(a) < 0):
+        i = int(np.argmax(np.diff(a) < 0))
+        raise ValueError(f"t_eval must be sorted in increasing order, got {a[i]} before {a[i + 1]}")
+    if a[0] < t0 or a[-1] > t1:
+        raise ValueError(f"t_eval must lie within t_span = ({t0}, {t1}), got times from {a[0]} to {a[-1]}")
+    return a
+
+
+def _run_times(t_eval: Optional[np.ndarray], t0: float, t1: float) -> Optional[List[float]]:
+    """The output times from the run's start, clamped to [0, t1 - t0] against rounding."""
+    if t_eval is None:
+        return None
+    return [float(v) for v in np.clip(t_eval - t0, 0.0, t1 - t0)]
+
+
+def _main_thread() -> bool:
+    """Does the caller run on the main thread (where Ctrl-C's KeyboardInterrupt is raised)?"""
+    return threading.current_thread() is threading.main_thread()
+
+
+_SUCCESS = "The solver successfully reached the end of the integration interval."
+
+
+def _terminal_message(stopped: Dict[str, Any]) -> str:
+    return f"A termination event occurred: `{stopped['event']}` at t = {stopped['t']!r}."
+
+
 def _every(every: Optional[int]) -> Optional[int]:
     if every is None:
         return None
@@ -136,11 +177,30 @@ def _every(every: Optional[int]) -> Optional[int]:
     return int(every)
 
 
+def _on_grid(d: Dict[str, Any], t_eval: Optional[np.ndarray]) -> None:
+    """A run on output times as scipy gives it: the times exactly as asked, and no sample at a
+    terminal crossing (it is in ``t_events``)."""
+    if t_eval is None:
+        return
+    k = len(d["t"])
+    if d["stopped_by"] is not None:
+        k -= 1
+    if k < len(d["t"]):
+        d["y"] = d["y"][:, :k]
+        d["invariants"] = d["invariants"][:, :k]
+        d["max_drift"] = d["invariants"].max(axis=1, initial=0.0)
+    d["t"] = t_eval[:k].copy()
+
+
 class Solution:
     """One run, with scipy's ``solve_ivp`` names and shapes plus the invariants.
 
     Attributes: ``t`` (n_t,), ``y`` (n, n_t), ``success``, ``status`` (0: reached the end,
-    -1: stopped by a failure), ``message``, ``nfev``; ``invariants`` (m, n_t): the drift
+    1: a terminal event ended the run, -1: stopped by a failure), ``message``, ``nfev``;
+    ``t_events`` and ``y_events``: for each event the model declares (``event_names``, in
+    declaration order), the times (k,) and states (k, n) of its crossings, a terminal
+    crossing included; ``stopped_by``: the terminal event that ended the run (``event``,
+    ``t``, ``state``) or None; ``invariants`` (m, n_t): the drift
     ‖fᵢ(x(t)) − fᵢ(x₀)‖ of each declared integral or constraint, in the order of
     ``Model.integrals``; ``max_drift`` (m,) its largest recorded value; ``t_failure``,
     ``y_failure``, ``failure_kind`` (``guard``, ``diverged``, ``blow-up``, ``max-steps``,
@@ -157,14 +217,28 @@ class Solution:
     status: int
     message: str
     nfev: int
+    t_events: List[np.ndarray]
+    y_events: List[np.ndarray]
+    event_names: List[str]
+    stopped_by: Optional[Dict[str, Any]]
 
-    def __init__(self, d: Dict[str, Any], integrals: Sequence[str]) -> None:
+    def __init__(
+        self,
+        d: Dict[str, Any],
+        integrals: Sequence[str],
+        event_names: Sequence[str] = (),
+        t_eval: Optional[np.ndarray] = None,
+    ) -> None:
         failure = d.pop("failure")
+        _on_grid(d, t_eval)
         self.__dict__.update(d)
         self.integrals = list(integrals)
+        self.event_names = list(event_names)
         self.status = 0 if failure is None else -1
+        if self.stopped_by is not None:
+            self.status = 1
         if failure is None:
-            self.message = "The solver successfully reached the end of the integration interval."
+            self.message = _SUCCESS if self.stopped_by is None else _terminal_message(self.stopped_by)
             self.t_failure = None
             self.y_failure = None
             self.failure_kind = None
@@ -202,10 +276,24 @@ class Solutions:
     ``success`` (B,), ``status`` (B,), ``message`` (B,), ``nfev`` (B,), ``steps`` (B,),
     ``t_failure`` (B,) (NaN where a run succeeded). Rows with fewer samples than the longest
     (adaptive methods, failed runs) are padded with NaN; ``n_t`` (B,) holds each row's count.
+    Events: ``event_names``; ``t_events[i]`` and ``y_events[i]``, row i's crossings as
+    ``Solution`` has them (a list of arrays, one per declared event); ``stopped_by`` (B,) the
+    terminal event's name where one ended the row (``status`` 1), else None.
     """
 
-    def __init__(self, rows: List[Any], integrals: Sequence[str], n: int) -> None:
+    def __init__(
+        self,
+        rows: List[Any],
+        integrals: Sequence[str],
+        n: int,
+        event_names: Sequence[str] = (),
+        t_eval: Optional[np.ndarray] = None,
+    ) -> None:
         self.integrals = list(integrals)
+        self.event_names = list(event_names)
+        for r in rows:
+            if isinstance(r, dict):
+                _on_grid(r, t_eval)
         m = len(self.integrals)
         b = len(rows)
         lens = [len(r["t"]) if isinstance(r, dict) else 0 for r in rows]
@@ -221,11 +309,22 @@ class Solutions:
         self.steps = np.zeros(b, dtype=np.int64)
         self.t_failure = np.full(b, np.nan)
         self.message: List[str] = []
+        e = len(self.event_names)
+        self.t_events: List[List[np.ndarray]] = []
+        self.y_events: List[List[np.ndarray]] = []
+        self.stopped_by: List[Optional[str]] = []
         for i, r in enumerate(rows):
             if not isinstance(r, dict):
                 # the run could not start (the message says why)
                 self.message.append(str(r))
+                self.t_events.append([np.empty(0) for _ in range(e)])
+                self.y_events.append([np.empty((0, n)) for _ in range(e)])
+                self.stopped_by.append(None)
                 continue
+            self.t_events.append(r["t_events"])
+            self.y_events.append(r["y_events"])
+            stopped = r["stopped_by"]
+            self.stopped_by.append(None if stopped is None else stopped["event"])
             k = lens[i]
             self.t[i, :k] = r["t"]
             self.y[i, :, :k] = r["y"]
@@ -236,8 +335,8 @@ class Solutions:
             self.steps[i] = r["steps"]
             f = r["failure"]
             if f is None:
-                self.status[i] = 0
-                self.message.append("The solver successfully reached the end of the integration interval.")
+                self.status[i] = 0 if stopped is None else 1
+                self.message.append(_SUCCESS if stopped is None else _terminal_message(stopped))
             else:
                 self.message.append(f["message"])
                 if f["t"] is not None:
@@ -248,6 +347,7 @@ class Solutions:
         """The rows of `parts` in order, padded to the longest."""
         out = cls.__new__(cls)
         out.integrals = parts[0].integrals
+        out.event_names = parts[0].event_names
         nt = max(p.t.shape[1] for p in parts)
 
         def pad(a: np.ndarray) -> np.ndarray:
@@ -259,7 +359,8 @@ class Solutions:
         out.invariants = np.concatenate([pad(p.invariants) for p in parts])
         for name in ("n_t", "max_drift", "success", "status", "nfev", "steps", "t_failure"):
             setattr(out, name, np.concatenate([getattr(p, name) for p in parts]))
-        out.message = [msg for p in parts for msg in p.message]
+        for name in ("message", "t_events", "y_events", "stopped_by"):
+            setattr(out, name, [v for p in parts for v in getattr(p, name)])
         return out
 
     def __len__(self) -> int:
@@ -363,6 +464,11 @@ class Model:
         return list(self._native.gain_names)
 
     @property
+    def event_names(self) -> List[str]:
+        """The declared events, in declaration order (the order of ``Solution.t_events``)."""
+        return list(self._native.event_names)
+
+    @property
     def points(self) -> Dict[str, np.ndarray]:
         return {name: self._native.point(name) for name in self._native.point_names}
 
@@ -388,6 +494,7 @@ class Model:
         t_span: Tuple[float, float],
         method: str = "dopri5",
         *,
+        t_eval: Any = None,
         dt: Optional[float] = None,
         rtol: Optional[float] = None,
         atol: Optional[float] = None,
@@ -408,13 +515,22 @@ class Model:
         ``step:c:m`` or the numbers. ``params``: parameter values for this run only.
         ``every``: record every n-th step (default: about 20 000 samples). ``max_steps``: the
         step budget; ``max_drift``: an invariant drifting past this many times its scale ends
-        the run as diverged.
+        the run as diverged. ``t_eval``: the times (increasing, within ``t_span``) to record
+        the solution at instead of steps, from each method's continuous extension (adaptive
+        methods keep their own steps; ``every`` does not apply).
+
+        The model's events (``event NAME: g = 0 …;``) are located in every run:
+        ``t_events``/``y_events`` hold their crossings, one entry per declared event; a
+        terminal (``stop``) event ends the run with ``status`` 1.
 
         A run stopped by a guard, a blow-up or divergence returns ``success=False`` with its
         ``message``, ``t_failure`` and ``y_failure``; an initial state outside the guards
         raises ``GuardError``; bad arguments raise ``ValueError``.
         """
         t0, t1 = _t_span(t_span)
+        grid = _t_eval(t_eval, t0, t1)
+        if grid is not None and every is not None:
+            raise ValueError("every= and t_eval= exclude each other: t_eval gives the output times")
         values = {k: _param_values(self._native, k, v) for k, v in (params or {}).items()}
         d = self._native.solve(
             self._y0(y0),
@@ -429,8 +545,10 @@ class Model:
             _every(every),
             None if max_steps is None else int(max_steps),
             max_drift,
+            _run_times(grid, t0, t1),
+            _main_thread(),
         )
-        return Solution(d, self.integrals)
+        return Solution(d, self.integrals, self.event_names, grid)
 
     def solve_many(
         self,
@@ -439,6 +557,7 @@ class Model:
         method: str = "dopri5",
         *,
         params: Optional[Mapping[str, Any]] = None,
+        t_eval: Any = None,
         threads: Optional[int] = None,
         lanes: int = 8,
         executor: Any = None,
@@ -466,6 +585,9 @@ class Model:
         serial ones. Other options as in ``solve``.
         """
         t0, t1 = _t_span(t_span)
+        grid = _t_eval(t_eval, t0, t1)
+        if grid is not None and every is not None:
+            raise ValueError("every= and t_eval= exclude each other: t_eval gives the output times")
         y = _states(y0s, self)
         b = y.shape[0]
         cols = _param_columns(self, params, b)
@@ -478,6 +600,7 @@ class Model:
             every=_every(every) or 2**64 - 1,
             max_steps=None if max_steps is None else int(max_steps),
             max_drift=max_drift,
+            t_eval=grid,
         )
         threads = _threads(threads)
         if int(lanes) != lanes or lanes < 1:
@@ -548,10 +671,12 @@ def _solve_rows(model: Model, y: np.ndarray, span, cols, opts, threads: int, lan
         opts["every"],
         opts["max_steps"],
         opts["max_drift"],
+        _run_times(opts["t_eval"], span[0], span[1]),
         threads,
         lanes,
+        _main_thread(),
     )
-    return Solutions(rows, model.integrals, model.dim)
+    return Solutions(rows, model.integrals, model.dim, model.event_names, opts["t_eval"])
 
 
 def _run_shard(source: str, path: str, backend: str, params: Dict[str, Any], y, span, cols, opts, threads, lanes):
@@ -636,5 +761,101 @@ def normal_form(
         float(resonance_tol),
         float(max_rel_error),
         str(error_estimate),
+    )
+    return _arrays(json.loads(text))
+
+
+def stability(
+    model: Union[Model, str],
+    *,
+    params: Optional[Mapping[str, Any]] = None,
+    at: Optional[Sequence[float]] = None,
+    casimir: Optional[float] = None,
+    range: Optional[Tuple[float, float]] = None,
+    levels: int = 121,
+    lyapunov: Optional[str] = None,
+    radius: Optional[float] = None,
+    time_bound: Optional[Sequence[Tuple[float, float]]] = None,
+    order: Optional[int] = None,
+    for_time: Optional[Sequence[float]] = None,
+    outer_ratio: Optional[float] = None,
+    remainder_degree: Optional[int] = None,
+    metric: str = "euclidean",
+    equilibrium: Union[str, Sequence[float], None] = None,
+    validate: bool = False,
+    horizon: float = 200.0,
+) -> Dict[str, Any]:
+    """The stability analysis the model's structure chooses: what ``lasalle stability
+    --format json`` prints, as dicts with arrays for the number lists.
+
+    - Lie–Poisson models on so(3)*: the equilibria on the Casimir level ``casimir`` (default:
+      |P| of the model's first point) or at the point ``at`` (P1, P2, P3), and the branches of
+      equilibria over ``range`` = (a, b) of levels (``levels`` of them);
+    - canonical Hamiltonian models: the normal-form verdict at ``equilibrium`` (a point's name
+      or a Newton start; default the first point) and, for each ``time_bound`` (d0, d1), the
+      time before an orbit from within d0 can reach d1 (orders up to ``order``, else the
+      optimal order is searched); ``for_time``, ``outer_ratio``, ``remainder_degree``,
+      ``metric`` (``euclidean`` or ``linear-normal``), ``validate`` (integrate orbits to
+      ``horizon``) as the command's flags;
+    - models without Hamiltonian structure (planar, dissipative): the domain of attraction of
+      the equilibrium ``at`` (x1, x2; default the first named asymptotically stable one), with
+      the model's ``let`` ``lyapunov`` (default ``energy``) and the search ``radius``.
+
+    ``params`` override the model's parameters for this analysis. A setting of another
+    analysis than the model's, or one out of range, raises ``ValueError``; so does an analysis
+    that cannot run (with the reason).
+    """
+    if not isinstance(model, Model):
+        model = Model(model)
+    if params:
+        values = {k: (np.array(v) if isinstance(v, np.ndarray) else v) for k, v in model.params.items()}
+        values.update(params)
+        model = Model.from_source(model.source, values, model.backend, model.path)
+
+    def numbers(name: str, v: Any) -> Optional[List[float]]:
+        if v is None:
+            return None
+        try:
+            a = np.asarray(v, dtype=float).ravel()
+        except (TypeError, ValueError):
+            raise ValueError(f"{name}: not a sequence of numbers: {v!r}") from None
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{name}: not finite: {v!r}")
+        return [float(x) for x in a]
+
+    tubes = []
+    for tb in time_bound or []:
+        t = numbers("time_bound", tb)
+        if len(t) != 2:
+            raise ValueError(f"time_bound: pairs (d0, d1), got {tb!r}")
+        tubes.append((t[0], t[1]))
+    span = None
+    if range is not None:
+        r = numbers("range", range)
+        if len(r) != 2:
+            raise ValueError(f"range: (a, b) with 0 < a < b, got {range!r}")
+        span = (r[0], r[1])
+    if int(levels) != levels or levels < 1:
+        raise ValueError(f"levels must be a positive integer, got {levels!r}")
+    for name, v in (("order", order), ("remainder_degree", remainder_degree)):
+        if v is not None and (int(v) != v or v < 1):
+            raise ValueError(f"{name} must be a positive integer, got {v!r}")
+    text = model._native.stability(
+        os.path.splitext(os.path.basename(model.path))[0],
+        None if casimir is None else float(casimir),
+        numbers("at", at),
+        span,
+        int(levels),
+        lyapunov,
+        None if radius is None else float(radius),
+        tubes,
+        None if order is None else int(order),
+        numbers("for_time", for_time) or [],
+        None if outer_ratio is None else float(outer_ratio),
+        None if remainder_degree is None else int(remainder_degree),
+        str(metric),
+        equilibrium,
+        bool(validate),
+        float(horizon),
     )
     return _arrays(json.loads(text))

@@ -44,6 +44,10 @@ class NativeModel:
     @property
     def gain_names(self) -> List[str]: ...
     @property
+    def event_names(self) -> List[str]: ...
+    @property
+    def event_terminal(self) -> List[bool]: ...
+    @property
     def point_names(self) -> List[str]: ...
     @property
     def load_seconds(self) -> float: ...
@@ -66,6 +70,8 @@ class NativeModel:
         every: Optional[int],
         max_steps: Optional[int],
         max_drift: Optional[float],
+        t_eval: Optional[Sequence[float]],
+        main_thread: bool = False,
     ) -> Dict[str, Any]: ...
     def solve_many(
         self,
@@ -81,8 +87,10 @@ class NativeModel:
         every: Optional[int],
         max_steps: Optional[int],
         max_drift: Optional[float],
+        t_eval: Optional[Sequence[float]],
         threads: int,
         lanes: int,
+        main_thread: bool = False,
     ) -> List[Union[Dict[str, Any], str]]: ...
     def normal_form(
         self,
@@ -94,4 +102,23 @@ class NativeModel:
         resonance_tol: float,
         max_rel_error: float,
         error_estimate: str,
+    ) -> str: ...
+    def stability(
+        self,
+        file: str,
+        casimir: Optional[float],
+        at: Optional[Sequence[float]],
+        range: Optional[Tuple[float, float]],
+        levels: int,
+        lyapunov: Optional[str],
+        radius: Optional[float],
+        time_bound: Sequence[Tuple[float, float]],
+        order: Optional[int],
+        for_time: Sequence[float],
+        outer_ratio: Optional[float],
+        remainder_degree: Optional[int],
+        metric: str,
+        equilibrium: Union[str, Sequence[float], None],
+        validate: bool,
+        horizon: float,
     ) -> str: ...

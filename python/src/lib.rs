@@ -9,11 +9,13 @@
 //! ensembles release the GIL for their whole duration.
 
 use std::collections::HashMap;
+use std::sync::{mpsc, Arc, Mutex};
+use std::time::{Duration, Instant};
 
 use lasalle_exec::{Backend, LoadError, LoadedModel};
 use lasalle_run::{
-    simulate, simulate_many, KernelPool, Member, Method, ModelSource, Recording, Reusing, RunError,
-    RunSpec,
+    simulate, simulate_many, Interrupt, KernelPool, Member, Method, ModelSource, Recording,
+    Reusing, RunError, RunSpec,
 };
 use lasalle_runtime::{
     component_names, Declared, GainPolicy, ModelInfo, Parameters, Shape, Slot, StepError,
@@ -152,6 +154,8 @@ struct Options {
     every: Option<u64>,
     max_steps: Option<u64>,
     max_drift: Option<f64>,
+    /// Output times, from the run's start (t = 0).
+    t_eval: Option<Vec<f64>>,
 }
 
 impl Options {
@@ -166,6 +170,7 @@ impl Options {
         every: Option<u64>,
         max_steps: Option<u64>,
         max_drift: Option<f64>,
+        t_eval: Option<Vec<f64>>,
     ) -> PyResult<Options> {
         let method: Method = method.parse().map_err(run_error)?;
         let gains = if let Ok(text) = gains.extract::<String>() {
@@ -190,6 +195,7 @@ impl Options {
             every,
             max_steps,
             max_drift,
+            t_eval,
         })
     }
 
@@ -217,6 +223,9 @@ impl Options {
         if let Some(d) = self.max_drift {
             b = b.max_drift(d);
         }
+        if let Some(t) = &self.t_eval {
+            b = b.t_eval(t.clone());
+        }
         b.build().map_err(|e| match e {
             RunError::Missing("dt") => PyValueError::new_err(format!(
                 "method `{}` takes fixed steps: give dt=",
@@ -227,20 +236,111 @@ impl Options {
     }
 }
 
-/// The messages of the run engine name the command line's flags; here they are keywords.
+/// How often a run asks the interpreter for pending signals (Ctrl-C).
+const SIGNAL_POLL: Duration = Duration::from_millis(50);
+
+/// A signal raised while a run was going on (`KeyboardInterrupt`), kept for the caller.
+type Pending = Arc<Mutex<Option<PyErr>>>;
+
+/// The pending signal's exception, if one stopped the run.
+fn take(pending: &Pending) -> Option<PyErr> {
+    pending.lock().unwrap_or_else(|p| p.into_inner()).take()
+}
+
+/// An interrupt for a run on the calling (main) thread with the GIL released: at most every
+/// [`SIGNAL_POLL`] it takes the GIL and runs the interpreter's signal handlers; an exception
+/// (Ctrl-C's `KeyboardInterrupt`) stops the run and waits in the returned slot.
+fn signal_poll() -> (Interrupt, Pending) {
+    let pending: Pending = Arc::default();
+    let slot = pending.clone();
+    let last = Mutex::new(Instant::now());
+    let interrupt = Interrupt::with_poll(move || {
+        let mut last = last.lock().unwrap_or_else(|p| p.into_inner());
+        if last.elapsed() < SIGNAL_POLL {
+            return false;
+        }
+        *last = Instant::now();
+        match Python::with_gil(|py| py.check_signals()) {
+            Ok(()) => false,
+            Err(e) => {
+                *slot.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
+                true
+            }
+        }
+    });
+    (interrupt, pending)
+}
+
+/// Runs `work` on a scoped thread with the GIL released while this (main) thread runs the
+/// interpreter's signal handlers every 20 ms; an exception there (Ctrl-C) stops `interrupt`,
+/// waits for `work` to wind down and is returned.
+fn watched<T: Send>(
+    py: Python<'_>,
+    interrupt: &Interrupt,
+    work: impl FnOnce() -> T + Send,
+) -> PyResult<T> {
+    py.allow_threads(|| {
+        std::thread::scope(|s| {
+            let (tx, rx) = mpsc::channel();
+            s.spawn(move || {
+                let _ = tx.send(work());
+            });
+            loop {
+                match rx.recv_timeout(Duration::from_millis(20)) {
+                    Ok(out) => return Ok(out),
+                    Err(mpsc::RecvTimeoutError::Timeout) => {
+                        if let Err(e) = Python::with_gil(|py| py.check_signals()) {
+                            interrupt.stop();
+                            // the runs stop within a few hundred steps; nothing is left behind
+                            let _ = rx.recv();
+                            return Err(e);
+                        }
+                    }
+                    Err(mpsc::RecvTimeoutError::Disconnected) => {
+                        return Err(PyException::new_err("the ensemble's thread failed"))
+                    }
+                }
+            }
+        })
+    })
+}
+
+/// The command line's flags in the run engine's messages and what Python calls them, in the
+/// order they are replaced (a flag with its value before the flag alone).
+const KEYWORDS: &[(&str, &str)] = &[
+    ("--gains step", "gains=\"step:c:m\""),
+    ("--gains adaptive", "gains=\"adaptive:m:c\""),
+    ("(--dt)", "(dt=)"),
+    ("the end time --t-end ", "the span t1 - t0 = "),
+    ("--t-end ", "the span t1 - t0 = "),
+    ("--projection-tol ", ""),
+    ("--rtol alone", "rtol= alone"),
+    ("--dt ", "dt="),
+    ("--rtol ", "rtol="),
+    ("--atol ", "atol="),
+    ("--t-eval ", "t_eval="),
+    ("--init ", "y0="),
+    ("--dt", "dt="),
+    ("--rtol", "rtol="),
+    ("--atol", "atol="),
+    ("--gains", "gains="),
+    ("--max-steps", "max_steps="),
+    ("--max-drift", "max_drift="),
+    ("--t-eval", "t_eval="),
+    ("--init", "y0="),
+];
+
+/// A message of the run engine (which names the command line's flags, `--dt 0.1`) with
+/// Python's keywords (`dt=0.1`).
+fn keyword_message(message: &str) -> String {
+    KEYWORDS
+        .iter()
+        .fold(message.to_string(), |m, (flag, key)| m.replace(flag, key))
+}
+
+/// A [`RunError`] as Python's `ValueError`, its message naming Python's keywords.
 fn run_error(e: RunError) -> PyErr {
-    let text = e
-        .to_string()
-        .replace("--dt ", "dt=")
-        .replace("--t-end ", "t_end=")
-        .replace("--rtol", "rtol")
-        .replace("--atol", "atol")
-        .replace("--gains", "gains")
-        .replace("--max-steps", "max_steps")
-        .replace("--max-drift", "max_drift")
-        .replace("--projection-tol", "projection tolerance")
-        .replace("--init", "y0");
-    PyValueError::new_err(text)
+    PyValueError::new_err(keyword_message(&e.to_string()))
 }
 
 /// The guard's name in a guard failure's message (``guard `name` violated: …``).
@@ -260,10 +360,11 @@ fn failure_dict<'py>(py: Python<'py>, e: &StepError) -> PyResult<Bound<'py, PyDi
         StepError::ProjectionNotConverged { .. } => "projection",
         StepError::Guard { .. } => "guard",
         StepError::Diverged { .. } => "diverged",
+        StepError::Interrupted { .. } => "interrupted",
         _ => "invalid",
     };
     d.set_item("kind", kind)?;
-    d.set_item("message", e.to_string())?;
+    d.set_item("message", keyword_message(&e.to_string()))?;
     d.set_item("t", e.time())?;
     d.set_item("state", e.state().map(|s| s.to_vec().into_pyarray(py)))?;
     d.set_item("step", e.step())?;
@@ -275,8 +376,56 @@ fn failure_dict<'py>(py: Python<'py>, e: &StepError) -> PyResult<Bound<'py, PyDi
     Ok(d)
 }
 
-/// One run as a dict of the Python `Solution`'s fields; times shifted by `t0`.
-fn recording_dict<'py>(py: Python<'py>, rec: &Recording, t0: f64) -> PyResult<Bound<'py, PyDict>> {
+/// The crossings of the model's events (`events`, the declared names in order), scipy's way:
+/// `t_events` a list of arrays (k,) and `y_events` a list of arrays (k, n), one per declared
+/// event, the terminal crossing included; `stopped_by` the terminal event's name, time and
+/// state, or None. Times shifted by `t0`.
+fn events_into(
+    py: Python<'_>,
+    d: &Bound<'_, PyDict>,
+    rec: &Recording,
+    t0: f64,
+    events: &[&str],
+) -> PyResult<()> {
+    let n = rec.dim();
+    let mut ts: Vec<Vec<f64>> = vec![Vec::new(); events.len()];
+    let mut ys: Vec<Vec<f64>> = vec![Vec::new(); events.len()];
+    for hit in rec.events.iter().chain(&rec.stopped_by) {
+        if let Some(k) = events.iter().position(|e| *e == hit.name) {
+            ts[k].push(hit.t + t0);
+            ys[k].extend_from_slice(&hit.x);
+        }
+    }
+    let t_events = PyList::empty(py);
+    let y_events = PyList::empty(py);
+    for (t, y) in ts.into_iter().zip(ys) {
+        let k = t.len();
+        t_events.append(t.into_pyarray(py))?;
+        y_events.append(y.into_pyarray(py).reshape([k, n])?)?;
+    }
+    d.set_item("t_events", t_events)?;
+    d.set_item("y_events", y_events)?;
+    match &rec.stopped_by {
+        None => d.set_item("stopped_by", py.None())?,
+        Some(hit) => {
+            let s = PyDict::new(py);
+            s.set_item("event", &hit.name)?;
+            s.set_item("t", hit.t + t0)?;
+            s.set_item("state", hit.x.clone().into_pyarray(py))?;
+            d.set_item("stopped_by", s)?;
+        }
+    }
+    Ok(())
+}
+
+/// One run as a dict of the Python `Solution`'s fields; times shifted by `t0`; `events` the
+/// model's declared events, in order.
+fn recording_dict<'py>(
+    py: Python<'py>,
+    rec: &Recording,
+    t0: f64,
+    events: &[&str],
+) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     let (n, nt, m) = (rec.dim(), rec.len(), rec.blocks.len());
     let t: Vec<f64> = rec.t.iter().map(|t| t + t0).collect();
@@ -316,6 +465,7 @@ fn recording_dict<'py>(py: Python<'py>, rec: &Recording, t0: f64) -> PyResult<Bo
         None => d.set_item("failure", py.None())?,
         Some(e) => d.set_item("failure", failure_dict(py, e)?)?,
     }
+    events_into(py, &d, rec, t0, events)?;
     Ok(d)
 }
 
@@ -458,6 +608,18 @@ impl NativeModel {
         self.model.gain_names().to_vec()
     }
 
+    /// The declared events' names, in declaration order.
+    #[getter]
+    fn event_names(&self) -> Vec<&'static str> {
+        self.model.events().iter().map(|e| e.name).collect()
+    }
+
+    /// The declared events' terminal flags (`stop`), in declaration order.
+    #[getter]
+    fn event_terminal(&self) -> Vec<bool> {
+        self.model.events().iter().map(|e| e.terminal).collect()
+    }
+
     #[getter]
     fn point_names(&self) -> Vec<&'static str> {
         self.model.point_names().to_vec()
@@ -538,7 +700,7 @@ impl NativeModel {
     }
 
     /// One run from `y0` over [t0, t1]; `params` overrides parameters for this run only.
-    #[pyo3(signature = (y0, t0, t1, method, dt, rtol, atol, gains, params, every, max_steps, max_drift))]
+    #[pyo3(signature = (y0, t0, t1, method, dt, rtol, atol, gains, params, every, max_steps, max_drift, t_eval, main_thread=false))]
     #[allow(clippy::too_many_arguments)]
     fn solve<'py>(
         &mut self,
@@ -555,6 +717,8 @@ impl NativeModel {
         every: Option<u64>,
         max_steps: Option<u64>,
         max_drift: Option<f64>,
+        t_eval: Option<Vec<f64>>,
+        main_thread: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let opts = Options::new(
             method,
@@ -566,8 +730,15 @@ impl NativeModel {
             every,
             max_steps,
             max_drift,
+            t_eval,
         )?;
-        let spec = opts.spec()?;
+        let mut spec = opts.spec()?;
+        // Ctrl-C: only the main thread runs the interpreter's signal handlers
+        let signal = main_thread.then(|| {
+            let (interrupt, signal) = signal_poll();
+            spec.interrupt = Some(interrupt);
+            signal
+        });
         let y0: Vec<f64> = y0.as_array().iter().copied().collect();
         // the overrides for this run, then the model's values back
         let saved = self.all_params();
@@ -590,12 +761,15 @@ impl NativeModel {
             .map_err(run_error)
         });
         self.restore(&saved);
-        recording_dict(py, &result?, t0)
+        if let Some(e) = signal.as_ref().and_then(take) {
+            return Err(e);
+        }
+        recording_dict(py, &result?, t0, &self.event_names())
     }
 
     /// Runs of the rows of `y0s` (B, n) with per-row parameters `params` (name → (B, k)
     /// flat values), on `threads` threads (0: one per core), `lanes` rows at a time in lanes.
-    #[pyo3(signature = (y0s, t0, t1, method, dt, rtol, atol, gains, params, every, max_steps, max_drift, threads, lanes))]
+    #[pyo3(signature = (y0s, t0, t1, method, dt, rtol, atol, gains, params, every, max_steps, max_drift, t_eval, threads, lanes, main_thread=false))]
     #[allow(clippy::too_many_arguments)]
     fn solve_many<'py>(
         &self,
@@ -612,8 +786,10 @@ impl NativeModel {
         every: Option<u64>,
         max_steps: Option<u64>,
         max_drift: Option<f64>,
+        t_eval: Option<Vec<f64>>,
         threads: usize,
         lanes: usize,
+        main_thread: bool,
     ) -> PyResult<Bound<'py, PyList>> {
         let opts = Options::new(
             method,
@@ -625,8 +801,11 @@ impl NativeModel {
             every,
             max_steps,
             max_drift,
+            t_eval,
         )?;
-        let spec = opts.spec()?;
+        let mut spec = opts.spec()?;
+        let interrupt = Interrupt::new();
+        spec.interrupt = Some(interrupt.clone());
         let y0s = y0s.as_array();
         let (b, n) = (y0s.nrows(), y0s.ncols());
         if n != self.model.state_dim() {
@@ -676,14 +855,20 @@ impl NativeModel {
             })
             .collect();
         let source = &self.source;
-        let ensemble = py
-            .allow_threads(|| simulate_many(source, &members, &spec, threads, lanes))
-            .map_err(run_error)?;
+        let run = || simulate_many(source, &members, &spec, threads, lanes);
+        // Ctrl-C: only the main thread runs the interpreter's signal handlers
+        let ensemble = if main_thread {
+            watched(py, &interrupt, run)?
+        } else {
+            py.allow_threads(run)
+        }
+        .map_err(run_error)?;
         let out = PyList::empty(py);
+        let events = self.event_names();
         for r in &ensemble.recordings {
             match r {
-                Ok(rec) => out.append(recording_dict(py, rec, t0)?)?,
-                Err(e) => out.append(run_error(e.clone()).value(py).to_string())?,
+                Ok(rec) => out.append(recording_dict(py, rec, t0, &events)?)?,
+                Err(e) => out.append(keyword_message(&e.to_string()))?,
             }
         }
         Ok(out)
@@ -792,6 +977,144 @@ impl NativeModel {
         });
         result.map_err(PyValueError::new_err)
     }
+
+    /// The stability analysis the model's structure chooses, with the current parameters,
+    /// as the JSON text of `lasalle stability --format json`; `file` names the model file.
+    #[pyo3(signature = (file, casimir, at, range, levels, lyapunov, radius, time_bound, order, for_time, outer_ratio, remainder_degree, metric, equilibrium, validate, horizon))]
+    #[allow(clippy::too_many_arguments)]
+    fn stability(
+        &self,
+        py: Python<'_>,
+        file: &str,
+        casimir: Option<f64>,
+        at: Option<Vec<f64>>,
+        range: Option<(f64, f64)>,
+        levels: usize,
+        lyapunov: Option<String>,
+        radius: Option<f64>,
+        time_bound: Vec<(f64, f64)>,
+        order: Option<usize>,
+        for_time: Vec<f64>,
+        outer_ratio: Option<f64>,
+        remainder_degree: Option<usize>,
+        metric: &str,
+        equilibrium: Option<&Bound<'_, PyAny>>,
+        validate: bool,
+        horizon: f64,
+    ) -> PyResult<String> {
+        use lasalle_analysis::canonical::{Validation, SEARCH_MAX_ORDER};
+        use lasalle_analysis::stability::{analyse, StabilityKind, StabilityOptions};
+        use lasalle_normal_form::{bound::Metric, ModelPoint};
+        let kind = StabilityKind::of(&self.model);
+        let given = |name: &str, set: bool, kinds: &[StabilityKind]| {
+            if set && !kinds.contains(&kind) {
+                Err(PyValueError::new_err(format!(
+                    "{name}= does not apply: `{}` gets the {} analysis",
+                    self.model.model_name(),
+                    match kind {
+                        StabilityKind::LiePoisson => "Lie–Poisson (energy–Casimir)",
+                        StabilityKind::Canonical => "canonical (normal-form)",
+                        StabilityKind::Attraction => "domain-of-attraction",
+                    }
+                )))
+            } else {
+                Ok(())
+            }
+        };
+        use StabilityKind::{Attraction, Canonical, LiePoisson};
+        given("casimir", casimir.is_some(), &[LiePoisson])?;
+        given("range", range.is_some(), &[LiePoisson])?;
+        given("at", at.is_some(), &[LiePoisson, Attraction])?;
+        given("lyapunov", lyapunov.is_some(), &[Attraction])?;
+        given("radius", radius.is_some(), &[Attraction])?;
+        let canonical_set = !time_bound.is_empty()
+            || order.is_some()
+            || !for_time.is_empty()
+            || outer_ratio.is_some()
+            || remainder_degree.is_some()
+            || equilibrium.is_some()
+            || validate;
+        given(
+            "time_bound/order/for_time/outer_ratio/remainder_degree/equilibrium/validate",
+            canonical_set,
+            &[Canonical],
+        )?;
+        if validate && time_bound.is_empty() {
+            return Err(PyValueError::new_err(
+                "validate=True needs time_bound=[(d0, d1)]",
+            ));
+        }
+        if !(horizon > 0.0 && horizon.is_finite()) {
+            return Err(PyValueError::new_err(format!(
+                "horizon={horizon}: must be a positive finite time"
+            )));
+        }
+        let metric = match normalise(metric).as_str() {
+            "euclidean" => Metric::Euclidean,
+            "linearnormal" => Metric::LinearNormal,
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "metric={metric:?}: `euclidean` or `linear-normal`"
+                )))
+            }
+        };
+        let point = match equilibrium {
+            None => ModelPoint::Auto,
+            Some(a) => match a.extract::<String>() {
+                Ok(name) => ModelPoint::Named(name),
+                Err(_) => ModelPoint::Values(a.extract::<Vec<f64>>().map_err(|_| {
+                    PyValueError::new_err("equilibrium: a point's name or a sequence of numbers")
+                })?),
+            },
+        };
+        let mut opts = StabilityOptions {
+            casimir,
+            at,
+            range,
+            levels,
+            lyapunov,
+            radius,
+            ..StabilityOptions::default()
+        };
+        let c = &mut opts.canonical;
+        c.point = point;
+        c.tubes = time_bound;
+        c.max_order = order.unwrap_or(SEARCH_MAX_ORDER);
+        c.optimal = order.is_none();
+        c.for_time = for_time;
+        c.outer_ratio = outer_ratio.unwrap_or(2.0);
+        c.remainder_degree = remainder_degree;
+        c.metric = metric;
+        c.validate = validate.then(|| Validation {
+            horizon,
+            ..Validation::default()
+        });
+        let model = &self.model;
+        let report = py.allow_threads(|| analyse(model, file, &opts));
+        match report {
+            Ok(r) => serde_json::to_string(&r.to_json())
+                .map_err(|e| PyValueError::new_err(e.to_string())),
+            Err(e) => Err(PyValueError::new_err(keywords(
+                &e.message("with at=[x1, x2]"),
+            ))),
+        }
+    }
+}
+
+/// A message of the analyses with the command line's flags named as Python's keywords.
+fn keywords(message: &str) -> String {
+    [
+        ("--time-bound ", "time_bound="),
+        ("--for-time ", "for_time="),
+        ("--outer-ratio ", "outer_ratio="),
+        ("--order ", "order="),
+        ("--at ", "at="),
+        ("--equilibrium ", "equilibrium="),
+        ("--metric linear-normal", "metric=\"linear-normal\""),
+        ("--resonant", "resonant=True"),
+    ]
+    .iter()
+    .fold(message.to_string(), |m, (flag, key)| m.replace(flag, key))
 }
 
 impl NativeModel {

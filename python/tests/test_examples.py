@@ -30,3 +30,13 @@ def test_the_sweep_agrees_with_keplers_equation():
     assert error.max() < 1e-9
     # the motion stays in the plane z = 0
     assert np.all(sols.y[:, 2, -1] == 0)
+
+
+def test_a_new_users_model_sweep_and_dask_cluster_agree_bitwise_with_the_command_line():
+    import os
+
+    cli = pathlib.Path(os.environ.get("LASALLE_BIN", EXAMPLES.parents[1] / "target" / "release" / "lasalle"))
+    out = load("new_user").main(cli=str(cli) if cli.is_file() else None, rows=200)
+    # RK4 lets the Lotka–Volterra integral drift; its feedback form keeps it closer
+    assert out["drift"]["feedback-rk4"] < out["drift"]["rk4"] / 2
+    assert out.get("cli", "bitwise equal") == "bitwise equal"

@@ -100,7 +100,7 @@ def test_a_diverged_run_is_a_failed_solution(osc):
         (dict(method="nope"), "unknown method `nope`"),
         (dict(method="rk4"), "fixed steps: give dt="),
         (dict(method="rk4", dt=-1.0), "dt"),
-        (dict(method="rk4", dt=2.0), "exceeds the end time"),
+        (dict(method="rk4", dt=2.0), "exceeds the span"),
         (dict(method="dopri5", rtol=0.0), "rtol"),
         (dict(method="taylor", rtol=1e-12, atol=1e-10), "one tolerance"),
         (dict(method="dopri5", gains=[1.0, 2.0]), "feedback methods only"),
@@ -139,3 +139,24 @@ def test_taylor_runs_reuse_their_kernels_with_the_bits_of_new_ones(kepler):
     kepler.params["mu"] = 1.0
     assert np.array_equal(first.y, kepler.solve(y0, (0, 20), "feedback-taylor", rtol=1e-14).y)
     assert not np.array_equal(first.y, changed.y)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(method="rk4", dt=2.0), "step size dt=2 exceeds the span t1 - t0 = 1"),
+        (dict(method="rk4", dt=1e-3, max_steps=10), "raise it with max_steps= if that is intended"),
+        (dict(method="rk4", dt=1e-3, max_steps=10), "the span t1 - t0 = 1e0 with dt=0.001 would take"),
+        (dict(method="taylor", rtol=1e-12, atol=1e-10), "give rtol= alone, not rtol=0.000000000001 with atol=0.0000000001"),
+        (dict(method="dopri5", gains=[1.0, 2.0]), "gains= applies to feedback methods only, not to `dopri5`"),
+        (dict(method="feedback-rk4", dt=0.1, gains="step:1:10"), 'use gains="adaptive:m:c"'),
+        (dict(method="rk4", dt=0.1, max_drift=-1.0), "max_drift= must be positive and finite, got -1"),
+    ],
+)
+def test_errors_name_pythons_keywords_not_the_command_lines_flags(kepler, kwargs, message):
+    with pytest.raises(ValueError) as info:
+        kepler.solve("paper", (0, 1), **kwargs)
+    assert message in str(info.value) and "--" not in str(info.value), str(info.value)
+    with pytest.raises(ValueError) as info:
+        kepler.solve_many(np.tile(kepler.points["paper"], (2, 1)), (0, 1), **kwargs)
+    assert message in str(info.value) and "--" not in str(info.value), str(info.value)

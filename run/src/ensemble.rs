@@ -9,7 +9,9 @@ use std::time::Instant;
 
 use lasalle_exec::{Backend, LaneField, LoadedModel};
 use lasalle_model::variational::Extension;
-use lasalle_runtime::{DriftBound, Driver, ModelInfo, Observer, Parameters, Recorder, Stepper};
+use lasalle_runtime::{
+    Declared, DriftBound, Driver, ModelInfo, Observer, Parameters, Recorder, Stepper,
+};
 use rayon::prelude::*;
 
 use crate::simulate::{check_start, plan_gains, recording, with_base, GainPlan, Visit};
@@ -27,9 +29,9 @@ use crate::{
 /// `None` where lanes do not apply — fewer than two states, a method other than a fixed-step
 /// Runge–Kutta method on X or X − ∇V, gains that differ between the states or change during
 /// the run, samples between the first and the last state (`spec.every` below the run's step
-/// count), an initial state that [`simulate`] refuses, a run that fails (its guards or a
-/// blow-up stop every lane) — and then the caller runs each state alone, which gives each its
-/// own result.
+/// count), output times or events to watch (a model that declares events), an initial state
+/// that [`simulate`] refuses, a run that fails (its guards or a blow-up stop every lane) — and
+/// then the caller runs each state alone, which gives each its own result.
 pub fn simulate_lanes(
     model: &LoadedModel,
     x0s: &[Vec<f64>],
@@ -41,6 +43,8 @@ pub fn simulate_lanes(
     if base == Base::Dopri5
         || x0s.len() < 2
         || spec.record_every() < spec.steps()
+        || !spec.t_eval.is_empty()
+        || !model.events().is_empty()
         || x0s.iter().any(|x0| check_start(model, x0, spec).is_err())
     {
         return None;
@@ -99,6 +103,9 @@ impl<L: LaneField> Visit<L, Vec<f64>> for DriveLanes<'_, L> {
             driver = driver.guard(1, move |x: &Vec<f64>| {
                 lanes.check_guards(x, spec.dt).map(|g| g.to_string())
             });
+        }
+        if let Some(stop) = &spec.interrupt {
+            driver = driver.interrupt(move || stop.is_stopped());
         }
         let (start, cpu_start) = (Instant::now(), process_cpu_seconds());
         let end = driver
@@ -405,6 +412,9 @@ pub fn simulate_many(
         groups
             .par_iter()
             .map(|group| {
+                if spec.interrupt.as_ref().is_some_and(|i| i.is_stopped()) {
+                    return vec![Err(RunError::Interrupted); group.len()];
+                }
                 let slot = &models[rayon::current_thread_index().unwrap_or(0)];
                 let mut slot = slot.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
                 match slot.get_or_insert_with(|| ThreadModel::load(source)) {

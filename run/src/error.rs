@@ -25,6 +25,9 @@ pub enum RunError {
     Model(String),
     /// The model could not be read or loaded.
     Load(String),
+    /// The run was stopped from outside before it started or ended
+    /// ([`Interrupt`](crate::Interrupt)).
+    Interrupted,
 }
 
 impl fmt::Display for RunError {
@@ -41,6 +44,7 @@ impl fmt::Display for RunError {
                  (`run NAME {{ {what} = …; }}`)"
             ),
             RunError::Spec(m) | RunError::Model(m) | RunError::Load(m) => f.write_str(m),
+            RunError::Interrupted => f.write_str("interrupted"),
         }
     }
 }

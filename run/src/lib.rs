@@ -53,6 +53,7 @@ mod ensemble;
 mod error;
 mod events;
 mod input;
+mod interrupt;
 mod method;
 mod recording;
 mod reuse;
@@ -64,6 +65,7 @@ pub use ensemble::{simulate_lanes, simulate_many, Ensemble, Init, Member, ModelS
 pub use error::RunError;
 pub use events::{parse_t_eval, EventHit};
 pub use input::{initial_state, parse_numbers};
+pub use interrupt::Interrupt;
 pub use method::{Base, Method};
 pub use recording::{json_number, Recording};
 pub use reuse::{KernelPool, Reusing};

@@ -251,6 +251,9 @@ where
                 model.check_guards(x, h).map(|g| g.to_string())
             })
             .divergence(every, move |x: &X| drift.check(x));
+        if let Some(stop) = &spec.interrupt {
+            driver = driver.interrupt(move || stop.is_stopped());
+        }
         let mut obs = Stride::new(
             Progress {
                 inner: &mut rec,

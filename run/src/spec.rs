@@ -5,7 +5,7 @@
 use lasalle_runtime::{GainPolicy, ModelInfo, Parameters, Preset, DEFAULT_MAX_DRIFT};
 
 use crate::input::initial_state;
-use crate::{Base, Method, RunError};
+use crate::{Base, Interrupt, Method, RunError};
 
 /// The number of samples a run records when [`RunSpec::every`] is 0.
 pub const AUTO_SAMPLES: u64 = 20_000;
@@ -44,6 +44,8 @@ pub struct RunSpec {
     /// method's continuous extension, instead of every [`RunSpec::every`]-th step; adaptive
     /// methods keep their own steps. Empty: record steps.
     pub t_eval: Vec<f64>,
+    /// Stops the run from outside ([`Interrupt`]); `None`: the run goes to its end.
+    pub interrupt: Option<Interrupt>,
 }
 
 impl RunSpec {
@@ -65,6 +67,7 @@ impl RunSpec {
             every: 0,
             max_steps: DEFAULT_MAX_STEPS,
             t_eval: Vec::new(),
+            interrupt: None,
         }
     }
 

@@ -340,3 +340,81 @@ fn interpreter_and_jit_event_values_agree_bitwise() {
         assert!((a[3] - want).abs() < 1e-14 * (1.0 + want.abs()));
     }
 }
+
+/// An ensemble of an events model runs no member in lanes (lanes record neither events nor
+/// output times): every member's crossings and samples are those of its lone run.
+#[test]
+fn ensembles_keep_each_members_events_and_output_times() {
+    use lasalle_run::{simulate_many, Member, ModelSource};
+    let source = ModelSource::new("test.lsl", OSCILLATOR, Backend::Jit);
+    let model = load(OSCILLATOR, Backend::Jit);
+    let members: Vec<Member> = (0..8)
+        .map(|k| Member::at(vec![1.0 + 0.1 * k as f64, 0.0]))
+        .collect();
+    for t_eval in [vec![], vec![0.5, 1.0, 2.5, 9.0]] {
+        let spec = RunSpec::builder()
+            .method("rk4".parse().unwrap())
+            .dt(0.01)
+            .t_end(10.0)
+            .every(u64::MAX)
+            .t_eval(t_eval.clone())
+            .build()
+            .unwrap();
+        let many = simulate_many(&source, &members, &spec, 2, 8).unwrap();
+        for (m, rec) in members.iter().zip(&many.recordings) {
+            let rec = rec.as_ref().unwrap();
+            let lasalle_run::Init::State(x0) = &m.init else {
+                unreachable!()
+            };
+            let lone = simulate(&model, x0, &spec).unwrap();
+            // x = A cos t: zeros at π/2, 3π/2 (rising) and 5π/2 before t = 10
+            assert_eq!(rec.events, lone.events);
+            assert_eq!(rec.events_named("zero").count(), 3);
+            assert_eq!(rec.events_named("up").count(), 1);
+            assert_eq!((&rec.t, &rec.x), (&lone.t, &lone.x));
+            if !t_eval.is_empty() {
+                assert_eq!(rec.t, t_eval);
+            }
+        }
+    }
+}
+
+/// An interrupt stops a run within a few hundred steps of being set, and an ensemble starts
+/// no member after it.
+#[test]
+fn an_interrupt_stops_runs_and_ensembles() {
+    use lasalle_run::{simulate_many, Interrupt, Member, ModelSource, RunError};
+    use lasalle_runtime::StepError;
+    let model = load(OSCILLATOR, Backend::Jit);
+    let stop = Interrupt::new();
+    let mut spec = RunSpec::builder()
+        .method("rk4".parse().unwrap())
+        .dt(1e-5)
+        .t_end(1e3)
+        .build()
+        .unwrap();
+    spec.interrupt = Some(stop.clone());
+    let started = std::time::Instant::now();
+    let rec = std::thread::scope(|s| {
+        s.spawn(|| {
+            std::thread::sleep(std::time::Duration::from_millis(100));
+            stop.stop();
+        });
+        simulate(&model, &vec![1.0, 0.0], &spec).unwrap()
+    });
+    // 10⁹ steps would take many seconds
+    assert!(started.elapsed().as_secs_f64() < 5.0);
+    let Some(StepError::Interrupted { t, step, state }) = &rec.failure else {
+        panic!("{:?}", rec.failure);
+    };
+    assert!(*t > 0.0 && *t < 1e3 && step % 256 == 0);
+    assert!((state[0] - t.cos()).abs() < 1e-9);
+    // already stopped: nothing starts
+    let source = ModelSource::new("test.lsl", OSCILLATOR, Backend::Jit);
+    let members = vec![Member::at(vec![1.0, 0.0]); 4];
+    let many = simulate_many(&source, &members, &spec, 2, 1).unwrap();
+    assert!(many
+        .recordings
+        .iter()
+        .all(|r| matches!(r, Err(RunError::Interrupted))));
+}

@@ -58,7 +58,11 @@ pub struct Driver<'g, T, X> {
     max_steps: u64,
     guard: Option<(u64, Box<GuardFn<'g, X>>)>,
     divergence: Option<(u64, Box<GuardFn<'g, X>>)>,
+    interrupt: Option<Box<dyn Fn() -> bool + 'g>>,
 }
+
+/// Every how many steps the driver asks whether to stop ([`Driver::interrupt`]).
+pub const INTERRUPT_EVERY: u64 = 256;
 
 impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
     /// Integrates from `t0` to `t_end ≥ t0` with step `h` (fixed-step methods; for adaptive
@@ -71,6 +75,7 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
             max_steps: u64::MAX,
             guard: None,
             divergence: None,
+            interrupt: None,
         }
     }
 
@@ -97,8 +102,16 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
         self
     }
 
-    /// The guard and the divergence check on the state after step `step`, each if it is due
-    /// ([`Period`]; the divergence check also at the end, `last`).
+    /// Calls `stop` at the start and every [`INTERRUPT_EVERY`] steps and ends the run with
+    /// [`StepError::Interrupted`] once it returns true: a caller cancels a run this way (a
+    /// Ctrl-C, a scheduler), e.g. with `stop` reading an `AtomicBool` another thread sets.
+    pub fn interrupt(mut self, stop: impl Fn() -> bool + 'g) -> Self {
+        self.interrupt = Some(Box::new(stop));
+        self
+    }
+
+    /// The interrupt flag, and the guard and the divergence check on the state after step
+    /// `step`, each if it is due ([`Period`]; the divergence check also at the end, `last`).
     #[allow(clippy::too_many_arguments)]
     fn run_checks(
         &self,
@@ -110,6 +123,15 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
         h: T,
         x: &X,
     ) -> Result<(), StepError> {
+        if let Some(stop) = &self.interrupt {
+            if step % INTERRUPT_EVERY == 0 && stop() {
+                return Err(StepError::Interrupted {
+                    t: to_f64(t),
+                    step,
+                    state: state_to_vec(x.as_ref()),
+                });
+            }
+        }
         if let (true, Some((_, check))) = (guard_due, &self.guard) {
             if let Some(message) = check(x) {
                 return Err(StepError::Guard {
@@ -427,4 +449,45 @@ where
     O: Observer<T, X> + ?Sized,
 {
     Driver::new(t0, t_end, h).run(stepper, field, x0, observer)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::cell::Cell;
+
+    use super::*;
+    use crate::steppers::ExplicitRk;
+
+    struct Rotation;
+    impl crate::Field<f64, [f64; 2]> for Rotation {
+        fn field(&self, x: &[f64; 2], dx: &mut [f64; 2]) {
+            *dx = [-x[1], x[0]];
+        }
+    }
+
+    #[test]
+    fn an_interrupt_ends_the_run_at_its_next_check() {
+        // asked at the start and every INTERRUPT_EVERY steps; says stop at its fourth call
+        let calls = Cell::new(0u64);
+        let err = Driver::new(0.0, 100.0, 1e-3)
+            .interrupt(|| {
+                calls.set(calls.get() + 1);
+                calls.get() == 4
+            })
+            .run(&mut ExplicitRk::rk4(), &Rotation, &[1.0, 0.0], &mut ())
+            .unwrap_err();
+        let StepError::Interrupted { t, step, state } = &err else {
+            panic!("{err}");
+        };
+        assert_eq!(*step, 3 * INTERRUPT_EVERY);
+        assert!((t - 3.0 * INTERRUPT_EVERY as f64 * 1e-3).abs() < 1e-12);
+        assert!((state[0] - t.cos()).abs() < 1e-9 && (state[1] - t.sin()).abs() < 1e-9);
+        assert_eq!((err.step(), err.time()), (Some(768), Some(*t)));
+        // never asked to stop: the run reaches its end
+        let done = Driver::new(0.0, 1.0, 1e-3)
+            .interrupt(|| false)
+            .run(&mut ExplicitRk::rk4(), &Rotation, &[1.0, 0.0], &mut ())
+            .unwrap();
+        assert_eq!(done.steps, 1000);
+    }
 }

@@ -117,6 +117,17 @@ pub enum StepError {
         /// The offending state.
         state: Vec<f64>,
     },
+    /// The caller asked the run to stop ([`crate::Driver::interrupt`]): a Ctrl-C, a cancelled
+    /// job.
+    #[error("interrupted at step {step}, t = {t}")]
+    Interrupted {
+        /// Time reached.
+        t: f64,
+        /// Steps taken.
+        step: u64,
+        /// The state reached.
+        state: Vec<f64>,
+    },
     /// The arguments of a stepper or of the driver are inconsistent (e.g. h ≤ 0, t_end < t₀).
     #[error("invalid input: {0}")]
     InvalidInput(String),
@@ -132,7 +143,8 @@ impl StepError {
             | StepError::MaxSteps { t, .. }
             | StepError::ProjectionNotConverged { t, .. }
             | StepError::Guard { t, .. }
-            | StepError::Diverged { t, .. } => Some(*t),
+            | StepError::Diverged { t, .. }
+            | StepError::Interrupted { t, .. } => Some(*t),
             StepError::InvalidInput(_) => None,
         }
     }
@@ -146,7 +158,8 @@ impl StepError {
             | StepError::MaxSteps { state, .. }
             | StepError::ProjectionNotConverged { state, .. }
             | StepError::Guard { state, .. }
-            | StepError::Diverged { state, .. } => Some(state),
+            | StepError::Diverged { state, .. }
+            | StepError::Interrupted { state, .. } => Some(state),
             StepError::InvalidInput(_) => None,
         }
     }
@@ -157,7 +170,8 @@ impl StepError {
         match self {
             StepError::NonFinite { step, .. }
             | StepError::Guard { step, .. }
-            | StepError::Diverged { step, .. } => Some(*step),
+            | StepError::Diverged { step, .. }
+            | StepError::Interrupted { step, .. } => Some(*step),
             StepError::MaxSteps { steps, .. } => Some(*steps),
             _ => None,
         }

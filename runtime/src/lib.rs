@@ -50,7 +50,7 @@ pub mod taylor;
 
 pub use declared::{Declared, GuardFailure, Preset};
 pub use divergence::{DriftBound, DEFAULT_MAX_DRIFT};
-pub use driver::{integrate, Driver, GuardFn, Summary};
+pub use driver::{integrate, Driver, GuardFn, Summary, INTERRUPT_EVERY};
 pub use elliptic::{ellipf, ellipj, ellipj_m1, ellipk, ellipkm1, Jacobi};
 pub use error::StepError;
 pub use events::{Crossing, EventDirection, EventSpec, Watch};

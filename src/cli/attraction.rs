@@ -7,10 +7,11 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use lasalle::{LoadedModel, ModelInfo, Parameters};
+use lasalle::{LoadedModel, ModelInfo};
 use lasalle_analysis::attraction::{
-    self, Analysis, Estimate, LyapunovFunction, Mat2, Options, PlanarSystem, Saddle,
+    self, Analysis, Estimate, LyapunovFunction, Mat2, PlanarSystem, Saddle,
 };
+use lasalle_analysis::stability::{self, principal_axes, AttractionReport, StabilityOptions};
 
 use super::plot::{write_figure, Chart, Style};
 use super::CliResult;
@@ -31,42 +32,6 @@ pub struct AttractionArgs {
     /// as FILE's stem .svg and .png.
     #[arg(long, value_name = "FILE")]
     pub plot: Option<String>,
-}
-
-/// The equilibrium: `--at`, else the first named point of the model that is an equilibrium
-/// with a Hurwitz linearisation.
-fn equilibrium(model: &LoadedModel, at: Option<&str>) -> CliResult<PlanarSystem> {
-    if let Some(at) = at {
-        let x = parse_numbers(at).map_err(|e| format!("invalid --at `{at}`: {e}"))?;
-        if x.len() != model.dim() {
-            return Err(format!(
-                "--at needs {} numbers (the state), got {}",
-                model.dim(),
-                x.len()
-            )
-            .into());
-        }
-        return Ok(PlanarSystem::new(model.model(), model.params(), &x)?);
-    }
-    let mut tried = Vec::new();
-    for name in model.point_names() {
-        let x = model.point(name).unwrap_or_default();
-        match PlanarSystem::new(model.model(), model.params(), &x) {
-            Ok(sys) if sys.linearisation().is_ok() => return Ok(sys),
-            Ok(_) => tried.push(format!("`{name}` is not asymptotically stable")),
-            Err(e @ attraction::AttractionError::NotPlanar { .. }) => return Err(e.into()),
-            Err(_) => tried.push(format!("`{name}` is not an equilibrium")),
-        }
-    }
-    Err(format!(
-        "no named point of the model is an asymptotically stable equilibrium ({}); give one with --at x1,x2",
-        if tried.is_empty() {
-            "it has none".to_string()
-        } else {
-            tried.join(", ")
-        }
-    )
-    .into())
 }
 
 fn fmt_mat(p: Mat2) -> String {
@@ -98,25 +63,24 @@ fn row(name: &str, e: &Estimate) {
 
 /// The result where no estimate is bounded: V̇ < 0 at every sample out to the largest search
 /// radius (a linear field such as Duffing's with ε₂ = 0 attracts the whole plane).
-fn unbounded(sys: &PlanarSystem, stem: &str, radius: f64, json: bool) -> CliResult {
-    let xe = sys.equilibrium();
+fn unbounded(report: &AttractionReport, json: bool) -> CliResult {
+    let AttractionReport::Unbounded {
+        model,
+        file,
+        equilibrium: xe,
+        radius,
+    } = report
+    else {
+        return Ok(());
+    };
     if json {
-        let out = serde_json::json!({
-            "model": sys.name(),
-            "file": stem,
-            "equilibrium": xe,
-            "bounded": false,
-            "radius": radius,
-        });
-        println!("{}", serde_json::to_string_pretty(&out)?);
+        println!("{}", serde_json::to_string_pretty(&report.to_json())?);
     } else {
         println!(
-            "{} ({stem}): equilibrium ({:.6}, {:.6}) attracts everything sampled: V̇ < 0 for \
+            "{model} ({file}): equilibrium ({:.6}, {:.6}) attracts everything sampled: V̇ < 0 for \
              V = yᵀPy (AᵀP + PA = −I) out to radius {radius:.3e}, so no boundary of its domain \
              of attraction was found (a linear field's domain is the whole plane)",
-            sys.name(),
-            xe[0],
-            xe[1]
+            xe[0], xe[1]
         );
     }
     Ok(())
@@ -131,74 +95,55 @@ pub fn run(
     args: &AttractionArgs,
 ) -> CliResult {
     let figure = args.plot.as_deref().map(figure_target).transpose()?;
-    let sys = equilibrium(model, at)?;
-    let opts = Options {
-        radius: args.radius,
-        ..Options::default()
+    let at = match at {
+        Some(at) => {
+            let x = parse_numbers(at).map_err(|e| format!("invalid --at `{at}`: {e}"))?;
+            if x.len() != model.dim() {
+                return Err(format!(
+                    "--at needs {} numbers (the state), got {}",
+                    model.dim(),
+                    x.len()
+                )
+                .into());
+            }
+            Some(x)
+        }
+        None => None,
     };
-    let analysis = match sys.analyse(&opts) {
-        Err(attraction::AttractionError::Unbounded { radius }) => {
+    let opts = StabilityOptions {
+        at,
+        lyapunov: args.lyapunov.clone(),
+        radius: args.radius,
+        ..StabilityOptions::default()
+    };
+    let report =
+        stability::attraction(model, stem, &opts).map_err(|e| e.message("with --at x1,x2"))?;
+    let b = match &report {
+        AttractionReport::Bounded(b) => b,
+        AttractionReport::Unbounded { .. } => {
             if figure.is_some() {
                 eprintln!("note: no figure: there is no bounded estimate to draw");
             }
-            return unbounded(&sys, stem, radius, json);
+            return unbounded(&report, json);
         }
-        other => other?,
     };
-    let radius = analysis.radius;
-    let let_name = match &args.lyapunov {
-        Some(n) => Some(n.clone()),
-        None => sys.scalar_lets().into_iter().find(|n| n == "energy"),
-    };
-    let by_let = match &let_name {
-        Some(n) => Some((
-            n.clone(),
-            sys.estimate(LyapunovFunction::Let(n), radius, &opts)?,
-        )),
-        None => None,
-    };
-    let saddles = attraction::saddles_with_manifolds(&sys, model, radius)?;
-    let xe = analysis.equilibrium;
-    // the true boundary along the optimal ellipse's principal axes
-    let p = analysis.optimal.p;
-    let axes: Vec<([f64; 2], f64, Option<f64>)> = principal_axes(p)
-        .into_iter()
-        .flat_map(|(u, lambda)| [(u, lambda), ([-u[0], -u[1]], lambda)])
-        .map(|(u, lambda)| {
-            let r = (analysis.optimal.estimate.level / lambda).sqrt();
-            (u, r, attraction::manifold_distance(&saddles, xe, u))
-        })
-        .collect();
+    let (sys, analysis, saddles, axes) = (&b.system, &b.analysis, &b.saddles, &b.axes);
+    let (by_let, opts, xe) = (b.by_let.as_ref(), &b.options, analysis.equilibrium);
     if let Some((dir, name)) = &figure {
-        plot(model, &sys, &analysis, by_let.as_ref(), &saddles, dir, name)?;
+        plot(model, sys, analysis, by_let, saddles, dir, name)?;
     }
-    let params: serde_json::Map<String, serde_json::Value> = model
-        .model()
-        .params
-        .iter()
-        .map(|p| {
-            let v = model.param(&p.name).unwrap_or_default();
-            let v = match v.as_slice() {
-                [x] => serde_json::json!(x),
-                _ => serde_json::json!(v),
-            };
-            (p.name.clone(), v)
-        })
-        .collect();
     if json {
-        let out = serde_json::json!({
-            "model": model.model_name(),
-            "file": stem,
-            "params": params,
-            "analysis": analysis,
-            "lyapunov_let": by_let.as_ref().map(|(n, e)| serde_json::json!({"name": n, "estimate": e})),
-            "saddles": saddles.iter().map(|s| serde_json::json!({"x": s.x, "eigenvalues": s.eigenvalues})).collect::<Vec<_>>(),
-            "axes": axes.iter().map(|(u, r, m)| serde_json::json!({"direction": u, "estimate": r, "stable_manifold": m})).collect::<Vec<_>>(),
-        });
-        println!("{}", serde_json::to_string_pretty(&out)?);
+        println!("{}", serde_json::to_string_pretty(&report.to_json())?);
         return Ok(());
     }
-    let pstr: Vec<String> = params.iter().map(|(n, v)| format!("{n} = {v}")).collect();
+    let pstr: Vec<String> = b
+        .params
+        .iter()
+        .map(|(n, v)| match v.as_slice() {
+            [x] => format!("{n} = {}", serde_json::json!(x)),
+            _ => format!("{n} = {}", serde_json::json!(v)),
+        })
+        .collect();
     println!(
         "{} ({stem}): planar field without Hamiltonian structure; {}",
         model.model_name(),
@@ -218,7 +163,7 @@ pub fn run(
     );
     println!(
         "\nEstimates {{V < ℓ*}} of the domain of attraction, ℓ* = inf {{V : V̇ > 0}} ({} rays × {} radii within {:.4} of the equilibrium, refined; re-checked on {} points inside):",
-        opts.rays, opts.radii, radius, analysis.optimal.estimate.check.samples
+        opts.rays, opts.radii, analysis.radius, analysis.optimal.estimate.check.samples
     );
     println!(
         "  {:<28} {:>12} {:>12}   {:<40} certificate (sampled)",
@@ -229,7 +174,7 @@ pub fn run(
         "Lyapunov equation, Q = I",
         &analysis.lyapunov_equation.estimate,
     );
-    if let Some((n, e)) = &by_let {
+    if let Some((n, e)) = by_let {
         row(&format!("`let {n}`"), e);
     }
     let o = &analysis.optimal;
@@ -256,14 +201,14 @@ pub fn run(
         println!("\nNo saddle within the search radius.");
     } else {
         println!("\nSaddles (their stable manifolds, integrated backwards, bound the domain):");
-        for s in &saddles {
+        for s in saddles.iter() {
             println!(
                 "  ({:.6}, {:.6}): eigenvalues {:.6}, {:.6}",
                 s.x[0], s.x[1], s.eigenvalues[0], s.eigenvalues[1]
             );
         }
         println!("Along the optimal ellipse's principal axes: the estimate's radius and the nearest stable manifold:");
-        for (u, r, m) in &axes {
+        for (u, r, m) in axes.iter() {
             println!(
                 "  direction ({:+.4}, {:+.4}): estimate {:.4}, stable manifold {}",
                 u[0],
@@ -283,14 +228,6 @@ pub fn run(
 
 fn quad(p: Mat2, u: [f64; 2]) -> f64 {
     p[0][0] * u[0] * u[0] + 2.0 * p[0][1] * u[0] * u[1] + p[1][1] * u[1] * u[1]
-}
-
-/// Unit eigenvectors of a symmetric 2×2 P with their eigenvalues.
-fn principal_axes(p: Mat2) -> [([f64; 2], f64); 2] {
-    let (a, b, c) = (p[0][0], p[0][1], p[1][1]);
-    let t = 0.5 * (2.0 * b).atan2(a - c);
-    let (u, v) = ([t.cos(), t.sin()], [-t.sin(), t.cos()]);
-    [(u, quad(p, u)), (v, quad(p, v))]
 }
 
 /// Splits a polyline into the pieces inside the square window |x − c|∞ ≤ w.

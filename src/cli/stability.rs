@@ -9,11 +9,9 @@
 //!   dissipative planar field.
 
 use clap::Args;
-use lasalle::{ModelInfo, Parameters};
-use lasalle_analysis::lie_poisson::{
-    self as stability, Equilibrium, Family, Level, Options, Sweep,
-};
-use lasalle_codegen::Structure;
+use lasalle::{LoadedModel, ModelInfo};
+use lasalle_analysis::lie_poisson::{self, Equilibrium, Family, Sweep};
+use lasalle_analysis::stability::{self, StabilityKind, StabilityOptions};
 
 use super::args::apply_param;
 use super::load::{load, BackendArg};
@@ -218,7 +216,7 @@ fn print_sweep(s: &Sweep) {
                 fmt_p(g.p_from),
                 fmt_p(g.p_to)
             );
-            if let stability::Verdict::Undecided { .. } = g.verdict {
+            if let lie_poisson::Verdict::Undecided { .. } = g.verdict {
                 println!("      {}", g.verdict);
             }
         }
@@ -232,14 +230,14 @@ fn print_sweep(s: &Sweep) {
 }
 
 /// The canonical branch: normal-form verdicts and tube bounds.
-fn run_canonical(args: &StabilityArgs, model: &lasalle_codegen::Model) -> CliResult {
-    use lasalle_analysis::canonical::{analyse, CanonicalOptions, Validation};
+fn run_canonical(args: &StabilityArgs, model: &LoadedModel) -> CliResult {
+    use lasalle_analysis::canonical::{CanonicalOptions, Validation};
     use lasalle_normal_form::bound::Metric;
     use lasalle_normal_form::ModelPoint;
     let c = &args.canonical;
-    let mut params = Vec::new();
+    // the parameters are set on the model; the normal form takes scalars only
     for p in &args.param {
-        let (name, value) = p
+        let (_, value) = p
             .split_once('=')
             .ok_or_else(|| usage(format!("invalid --param `{p}`: expected `name=value`")))?;
         let v = parse_numbers(value).map_err(|e| usage(format!("invalid --param `{p}`: {e}")))?;
@@ -248,7 +246,6 @@ fn run_canonical(args: &StabilityArgs, model: &lasalle_codegen::Model) -> CliRes
                 "invalid --param `{p}`: one value per parameter here"
             )));
         }
-        params.push((name.trim().to_string(), v[0]));
     }
     let tubes = c
         .time_bound
@@ -307,11 +304,16 @@ fn run_canonical(args: &StabilityArgs, model: &lasalle_codegen::Model) -> CliRes
         }
     }
     opts.validate().map_err(usage)?;
-    let report = analyse(model, &params, &opts)?;
+    let opts = StabilityOptions {
+        canonical: opts,
+        ..StabilityOptions::default()
+    };
+    let report = stability::canonical(model, &opts)?;
     if let Some(dir) = &c.figure {
         super::stability_figure::write(&report, dir)?;
     }
     match args.format {
+        // the report's fields in their declared order
         Format::Json => println!("{}", serde_json::to_string_pretty(&report)?),
         Format::Csv => print!("{}", report.to_csv()),
         Format::Table => print!("{}", report.to_table()),
@@ -341,23 +343,22 @@ pub fn run(args: &StabilityArgs, given: &Given) -> CliResult {
         )
     };
     // one match on the structure chooses the analysis
-    let p_index = match model.model().hamiltonian.as_ref().map(|h| &h.structure) {
-        Some(Structure::LiePoissonSo3 { p }) => {
+    match StabilityKind::of(&model) {
+        StabilityKind::LiePoisson => {
             refuse(CANONICAL_FLAGS, "Lie–Poisson (energy–Casimir)")?;
             refuse(ATTRACTION_FLAGS, "Lie–Poisson (energy–Casimir)")?;
-            p.clone()
         }
-        Some(Structure::Canonical { .. }) => {
+        StabilityKind::Canonical => {
             refuse(LIE_POISSON_FLAGS, "canonical (normal-form)")?;
             refuse(ATTRACTION_FLAGS, "canonical (normal-form)")?;
             refuse(
                 &["at"],
                 "canonical (normal-form): give the point with --equilibrium",
             )?;
-            return run_canonical(args, model.model());
+            return run_canonical(args, &model);
         }
         // no Hamiltonian structure: the domain of attraction of a dissipative planar field
-        None => {
+        StabilityKind::Attraction => {
             let analysis =
                 "domain-of-attraction (a dissipative field without Hamiltonian structure)";
             refuse(LIE_POISSON_FLAGS, analysis)?;
@@ -375,23 +376,14 @@ pub fn run(args: &StabilityArgs, given: &Given) -> CliResult {
                 &args.attraction,
             );
         }
-    };
+    }
     if args.format == Format::Csv {
         return Err(usage(
             "--format csv: the Lie–Poisson analysis prints tables or JSON",
         ));
     }
-    let sys = stability::system(&model)?;
-    let opts = Options::default();
-    let params: Vec<(String, Vec<f64>)> = model
-        .model()
-        .params
-        .iter()
-        .map(|p| (p.name.clone(), model.param(&p.name).unwrap_or_default()))
-        .collect();
-    let level_rho = match (&args.casimir, &args.at) {
-        (Some(r), _) => *r,
-        (None, Some(at)) => {
+    let at = match &args.at {
+        Some(at) => {
             let v = parse_numbers(at).map_err(|e| usage(format!("invalid --at `{at}`: {e}")))?;
             if v.len() != 3 {
                 return Err(usage(format!(
@@ -399,17 +391,11 @@ pub fn run(args: &StabilityArgs, given: &Given) -> CliResult {
                     v.len()
                 )));
             }
-            (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+            Some(v)
         }
-        (None, None) => model
-            .point_names()
-            .first()
-            .and_then(|n| model.point(n))
-            .map(|x| p_index.iter().map(|&i| x[i] * x[i]).sum::<f64>().sqrt())
-            .filter(|r| *r > 0.0)
-            .unwrap_or(1.0),
+        None => None,
     };
-    let (range_lo, range_hi) = match &args.range {
+    let range = match &args.range {
         Some(r) => {
             let bad = || {
                 usage(format!(
@@ -422,42 +408,24 @@ pub fn run(args: &StabilityArgs, given: &Given) -> CliResult {
             if !(a > 0.0 && b > a && b.is_finite()) {
                 return Err(bad());
             }
-            (a, b)
-        }
-        None => {
-            let big = params
-                .iter()
-                .flat_map(|(_, v)| v.iter().map(|x| x.abs()))
-                .fold(level_rho.max(1.0), f64::max);
-            (3.0 * big / 120.0, 3.0 * big)
-        }
-    };
-    let point = match &args.at {
-        Some(at) => {
-            let v = parse_numbers(at)?;
-            Some(stability::analyse_point(&sys, [v[0], v[1], v[2]], &opts)?)
+            Some((a, b))
         }
         None => None,
     };
-    let level: Option<Level> = match point {
-        Some(_) => None,
-        None => Some(stability::analyse_level(&sys, level_rho, &opts)?),
+    let opts = StabilityOptions {
+        casimir: args.casimir,
+        at,
+        range,
+        levels: args.levels,
+        ..StabilityOptions::default()
     };
-    let sweep = stability::sweep(&sys, range_lo, range_hi, args.levels, &opts)?;
+    let report = stability::lie_poisson(&model, &stem, &opts)?;
     if args.format == Format::Json {
-        let json = serde_json::json!({
-            "model": model.model_name(),
-            "file": stem,
-            "params": params.iter().map(|(n, v)| (n.clone(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
-            "casimir": "C = |P|^2/2; lambda: grad H + lambda P = 0",
-            "point": point,
-            "level": level,
-            "sweep": sweep,
-        });
-        println!("{}", serde_json::to_string_pretty(&json)?);
+        println!("{}", serde_json::to_string_pretty(&report.to_json())?);
         return Ok(());
     }
-    let pstr: Vec<String> = params
+    let pstr: Vec<String> = report
+        .params
         .iter()
         .map(|(n, v)| {
             let v: Vec<String> = v.iter().map(|x| x.to_string()).collect();
@@ -466,17 +434,17 @@ pub fn run(args: &StabilityArgs, given: &Given) -> CliResult {
         .collect();
     println!(
         "{} ({stem}): Lie–Poisson on so(3)*, Ṗ = P × ∇H; {}",
-        model.model_name(),
+        report.model,
         pstr.join(", ")
     );
     println!(
         "Casimir C = ½|P|²; equilibria ∇H + λP = 0; δ² = second variation of H + λC on the tangent plane of the sphere |P| = ρ; linear = eigenvalues of the field's Jacobian there."
     );
-    if let Some(e) = &point {
+    if let Some(e) = &report.point {
         println!("\nThe equilibrium P = {} (|P| = {:.6}):", fmt_p(e.p), e.rho);
         print_table(std::slice::from_ref(e));
     }
-    if let Some(l) = &level {
+    if let Some(l) = &report.level {
         if l.all_equilibria {
             println!(
                 "\nOn the Casimir level |P| = {:.6} the field vanishes: every point is an equilibrium (trivially stable).",
@@ -487,6 +455,6 @@ pub fn run(args: &StabilityArgs, given: &Given) -> CliResult {
             print_table(&l.equilibria);
         }
     }
-    print_sweep(&sweep);
+    print_sweep(&report.sweep);
     Ok(())
 }
