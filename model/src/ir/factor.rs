@@ -18,9 +18,10 @@
 //! - Sums share sub-sums: a sum that holds all the terms of another sum of the function uses
 //!   it (`a + b − c` with `a + b` computed anyway is `(a + b) − c`).
 
+use super::{FxHashMap as HashMap, FxHashSet as HashSet};
 use super::{Graph, Id, Node, Rational};
 use std::cmp::Reverse;
-use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
+use std::collections::{BTreeMap, BTreeSet};
 
 /// Graphs with at least this many reachable nodes share products by recursive pairing, in
 /// near-linear time (see [`Graph::share_products`]); smaller ones, every model of `models/` among
@@ -44,7 +45,7 @@ impl Graph {
     pub fn share_sums(&mut self, roots: &[Id]) -> Vec<Id> {
         let order = self.reachable(roots);
         // Sums with two or more terms, by their smallest term.
-        let mut by_first: HashMap<Id, Vec<Id>> = HashMap::new();
+        let mut by_first: HashMap<Id, Vec<Id>> = HashMap::default();
         for &id in &order {
             if let Node::Add(ts) = self.node(id) {
                 if let Some(&first) = ts.iter().min() {
@@ -108,7 +109,7 @@ impl Graph {
     /// stays a division.
     pub fn share_roots(&mut self, roots: &[Id]) -> Vec<Id> {
         let order = self.reachable(roots);
-        let mut exponents: HashMap<Id, Vec<Rational>> = HashMap::new();
+        let mut exponents: HashMap<Id, Vec<Rational>> = HashMap::default();
         for &id in &order {
             if let Node::Pow(b, e) = *self.node(id) {
                 exponents.entry(b).or_default().push(e);
@@ -160,7 +161,7 @@ impl Graph {
     pub fn split_parameter_products(&mut self, roots: &[Id]) -> Vec<Id> {
         let order = self.reachable(roots);
         // Parameter-only nodes of the rebuilt graph, filled bottom-up.
-        let mut parameter_only: HashSet<Id> = HashSet::new();
+        let mut parameter_only: HashSet<Id> = HashSet::default();
         self.rebuild_raw(roots, &order, |g, _, node| {
             let id = match node {
                 Node::Add(c) | Node::Mul(c) => {
@@ -210,7 +211,8 @@ impl Graph {
         order: &[Id],
         mut rewrite: impl FnMut(&mut Graph, Id, &Node) -> Option<Id>,
     ) -> Vec<Id> {
-        let mut new: HashMap<Id, Id> = HashMap::with_capacity(order.len());
+        let mut new: HashMap<Id, Id> =
+            HashMap::with_capacity_and_hasher(order.len(), Default::default());
         for &id in order {
             let node = match self.node(id).clone() {
                 Node::Add(c) => Node::Add(c.iter().map(|k| new[k]).collect()),
@@ -287,13 +289,13 @@ impl Graph {
     fn factor_sum(&mut self, terms: Vec<Id>) -> Id {
         // Terms by sequence number: the order of the list (the grouped term goes last).
         let mut live: BTreeMap<usize, Id> = BTreeMap::new();
-        let mut factors: HashMap<usize, Vec<Id>> = HashMap::new();
+        let mut factors: HashMap<usize, Vec<Id>> = HashMap::default();
         // The ranking of the factors by (number of terms, first appearance), the best last.
         // For each factor, the terms holding it and its position in each (for the ties).
-        let mut holders: HashMap<Id, BTreeMap<usize, usize>> = HashMap::new();
+        let mut holders: HashMap<Id, BTreeMap<usize, usize>> = HashMap::default();
         type Key = (usize, Reverse<(usize, usize)>, Id);
         let mut ranking: BTreeSet<Key> = BTreeSet::new();
-        let mut key_of: HashMap<Id, Key> = HashMap::new();
+        let mut key_of: HashMap<Id, Key> = HashMap::default();
         let refresh = |f: Id,
                        holders: &HashMap<Id, BTreeMap<usize, usize>>,
                        ranking: &mut BTreeSet<Key>,
@@ -390,7 +392,7 @@ impl Graph {
         let mut roots = roots.to_vec();
         loop {
             let order = self.reachable(&roots);
-            let mut pairs: HashMap<(Id, Id), usize> = HashMap::new();
+            let mut pairs: HashMap<(Id, Id), usize> = HashMap::default();
             let mut first_seen: Vec<(Id, Id)> = Vec::new();
             for &id in &order {
                 if let Node::Mul(fs) = self.node(id) {
@@ -465,8 +467,8 @@ impl Graph {
         }
         let key = |a: Id, b: Id| if a < b { (a, b) } else { (b, a) };
         // Per pair: (count, sequence number of its first appearance), and the products holding it.
-        let mut count: HashMap<(Id, Id), (usize, usize)> = HashMap::new();
-        let mut holders: HashMap<(Id, Id), Vec<u32>> = HashMap::new();
+        let mut count: HashMap<(Id, Id), (usize, usize)> = HashMap::default();
+        let mut holders: HashMap<(Id, Id), Vec<u32>> = HashMap::default();
         let mut ranking: BTreeSet<(usize, Reverse<usize>, (Id, Id))> = BTreeSet::new();
         let mut seen = 0usize;
         let mut bump =
@@ -538,7 +540,8 @@ impl Graph {
             .filter(|(_, _, fs)| fs.iter().any(|f| f.index() >= base))
             .map(|(id, c, fs)| (id, (c, fs)))
             .collect();
-        let mut new: HashMap<Id, Id> = HashMap::with_capacity(order.len());
+        let mut new: HashMap<Id, Id> =
+            HashMap::with_capacity_and_hasher(order.len(), Default::default());
         let mut interned: Vec<Option<Id>> = vec![None; pairs.len()];
         fn resolve(
             g: &mut Graph,

@@ -20,11 +20,14 @@ mod eval;
 mod expand;
 mod factor;
 mod func;
+mod hash;
 
 pub use count::OpCount;
-pub use diff::{diff, gradient};
+pub use diff::{diff, gradient, jacobian};
 pub use eval::Scalar;
+pub use factor::LARGE_GRAPH;
 pub use func::{Func, Func2};
+pub(crate) use hash::{FxHashMap, FxHashSet};
 
 use std::collections::{HashMap, HashSet};
 use std::fmt;
@@ -161,7 +164,7 @@ pub enum Node {
 #[derive(Clone, Default)]
 pub struct Graph {
     nodes: Vec<Node>,
-    index: HashMap<Node, Id>,
+    index: FxHashMap<Node, Id>,
 }
 
 impl Graph {

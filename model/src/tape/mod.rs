@@ -63,7 +63,7 @@ pub mod taylor;
 pub use model::{ModelTapes, Partition};
 
 use crate::ir::{Func, Func2, Graph, Id, Input, Node, Rational, Scalar};
-use std::collections::{HashMap, HashSet};
+use crate::ir::{FxHashMap as HashMap, FxHashSet as HashSet};
 use std::fmt;
 
 /// A register: the index of the instruction that defines it, in its section.
@@ -557,7 +557,7 @@ impl TapeBuilder {
     pub fn new(graph: Graph, dims: Dims) -> Self {
         TapeBuilder {
             graph,
-            lets: HashSet::new(),
+            lets: HashSet::default(),
             dims,
         }
     }
@@ -589,7 +589,7 @@ impl TapeBuilder {
     pub fn lower(&self, roots: &[Id]) -> Result<Tape, TapeError> {
         let g = &self.graph;
         let order = g.reachable(roots);
-        let mut uses: HashMap<Id, usize> = HashMap::new();
+        let mut uses: HashMap<Id, usize> = HashMap::default();
         for &id in &order {
             for &c in g.children(id) {
                 *uses.entry(c).or_default() += 1;
@@ -609,9 +609,9 @@ impl TapeBuilder {
         let mut l = Lowering {
             g,
             dims: self.dims,
-            parameter_only: g.parameter_only(&order),
+            parameter_only: g.parameter_only(&order).into_iter().collect(),
             named,
-            memo: HashMap::new(),
+            memo: HashMap::default(),
             s: Sections::default(),
         };
         // Bottom-up, so that the recursion below stays shallow: children are memoised first.
