@@ -190,13 +190,15 @@ impl Graph {
 
     /// Interns a node as is (no simplification): returns the existing Id if present.
     fn intern(&mut self, node: Node) -> Id {
-        if let Some(&id) = self.index.get(&node) {
-            return id;
+        let next = Id(self.nodes.len() as u32);
+        match self.index.entry(node) {
+            std::collections::hash_map::Entry::Occupied(e) => *e.get(),
+            std::collections::hash_map::Entry::Vacant(e) => {
+                self.nodes.push(e.key().clone());
+                e.insert(next);
+                next
+            }
         }
-        let id = Id(self.nodes.len() as u32);
-        self.nodes.push(node.clone());
-        self.index.insert(node, id);
-        id
     }
 
     /// A numeric constant.
