@@ -507,8 +507,14 @@ impl Slp {
             for &u in &operands[v] {
                 remaining[u] -= 1;
             }
-            // ready users of the same operands may now be their last users
+            // ready users of the same operands may now be their last users: only when an
+            // operand has at most four uses left (a node, two lanes of two operands, holds an
+            // operand at most four times), so a value with many users is not revisited at
+            // each of them
             for &u in &operands[v] {
+                if remaining[u] > 4 {
+                    continue;
+                }
                 for &w in &users[u] {
                     if let Some(old) = filed[w] {
                         let g = growth(w, &remaining);

@@ -66,7 +66,9 @@ impl Hasher for FxHasher {
     }
     #[inline]
     fn finish(&self) -> u64 {
-        self.hash
+        // The multiplication leaves the entropy in the high bits; the table indexes by the
+        // low ones (`rustc-hash` 2 rotates the same way).
+        self.hash.rotate_left(26)
     }
 }
 
