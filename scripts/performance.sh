@@ -20,7 +20,7 @@ criterion="$target/criterion"
 work="$target/performance"
 mkdir -p "$work"
 
-all=(feedback paper-runs backends run load adaptive-gains taylor-models taylor-kernels sweep heyoka)
+all=(feedback paper-runs backends run load load-nbody load-fput adaptive-gains taylor-models taylor-kernels sweep heyoka)
 
 describe() {
     case "$1" in
@@ -29,6 +29,8 @@ describe() {
     backends) echo "cargo bench --bench backends -- feedback/ (emitted, JIT, interpreter; independent and chained)" ;;
     run) echo "cargo bench --bench backends -- run/ (integrations, emitted vs JIT)" ;;
     load) echo "cargo bench --bench backends -- load/ (loading a model file with the JIT)" ;;
+    load-nbody) echo "cargo run --release -p lasalle-exec --example load_scale (N-body load by stage, N = 3 ... 256)" ;;
+    load-fput) echo "cargo run --release -p lasalle-exec --example load_scale -- --model fput (FPUT load by stage)" ;;
     adaptive-gains) echo "lasalle experiment adaptive-gains (steps and errors; also the figure)" ;;
     taylor-models) echo "lasalle run <model> -m taylor --rtol 1e-15 … --format json, fastest of 5" ;;
     taylor-kernels) echo "cargo bench --bench taylor (emitted Taylor kernels vs the interpreted tape)" ;;
@@ -164,6 +166,18 @@ table_load() {
         [ "$m" = report ] && continue
         python3 -c 'import sys; print(f"| {sys.argv[1]} | {float(sys.argv[2]) / 1e6:.2g} |")' "$m" "$(median load "$m")"
     done
+}
+
+# The load of a family by stage, sizes in processes of their own; sizes past the one that took
+# longer than LOAD_LIMIT seconds (default 300) are skipped.
+table_load_nbody() {
+    cargo run --release --quiet -p lasalle-exec --example load_scale -- \
+        --limit "${LOAD_LIMIT:-300}" 3 6 12 24 48 96 128 256
+}
+
+table_load_fput() {
+    cargo run --release --quiet -p lasalle-exec --example load_scale -- \
+        --model fput --limit "${LOAD_LIMIT:-300}" 16 32 64 128 256 512 1024 2048 4096
 }
 
 table_adaptive_gains() {

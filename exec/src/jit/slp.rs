@@ -140,6 +140,7 @@ pub(crate) fn pair(tape: &Tape) -> Pairing {
         packs: Vec::new(),
         swapped: Vec::new(),
         seen: vec![0; n],
+        seen_up: vec![0; n],
         stamp: 0,
     };
     s.seed();
@@ -163,8 +164,9 @@ struct Slp {
     packs: Vec<[usize; 2]>,
     /// Lane-1 instructions whose operands were swapped (to undo a rejected tree).
     swapped: Vec<usize>,
-    /// Visit marks of the reachability search.
+    /// Visit marks of the reachability search: down the uses, up the operands.
     seen: Vec<u32>,
+    seen_up: Vec<u32>,
     stamp: u32,
 }
 
@@ -236,23 +238,46 @@ impl Slp {
     }
 
     /// Whether `to` is reachable from `from` along uses (packs merged).
+    ///
+    /// Two searches in lockstep, one instruction each in turn: down the uses from `from`, and
+    /// up the operands from `to`. The answer is yes as soon as either finds the other's start
+    /// or an instruction the other has visited (a path from `from` through it to `to`), and no
+    /// as soon as either has visited everything it can reach. So a search costs at most twice
+    /// the smaller of the two cones, not the cone of every transitive user of `from` (on a
+    /// large tape, most of the tape for an instruction near its inputs), with the same answer.
     fn reaches(&mut self, from: usize, to: usize) -> bool {
         self.stamp += 1;
-        let target = self.members(to);
-        let mut stack = vec![from];
-        while let Some(i) = stack.pop() {
+        let (source, target) = (self.members(from), self.members(to));
+        let mut down = vec![from];
+        let mut up = vec![to];
+        loop {
+            let Some(i) = down.pop() else {
+                return false;
+            };
             for m in self.members(i) {
                 if self.seen[m] == self.stamp {
                     continue;
                 }
                 self.seen[m] = self.stamp;
-                if target.contains(&m) {
+                if target.contains(&m) || self.seen_up[m] == self.stamp {
                     return true;
                 }
-                stack.extend(self.users[m].iter().copied());
+                down.extend(self.users[m].iter().copied());
+            }
+            let Some(i) = up.pop() else {
+                return false;
+            };
+            for m in self.members(i) {
+                if self.seen_up[m] == self.stamp {
+                    continue;
+                }
+                self.seen_up[m] = self.stamp;
+                if source.contains(&m) || self.seen[m] == self.stamp {
+                    return true;
+                }
+                up.extend(self.ops[m].operands().map(|r| r.index()));
             }
         }
-        false
     }
 
     /// Records the pack `(a, b)`.
@@ -482,8 +507,14 @@ impl Slp {
             for &u in &operands[v] {
                 remaining[u] -= 1;
             }
-            // ready users of the same operands may now be their last users
+            // ready users of the same operands may now be their last users: only when an
+            // operand has at most four uses left (a node, two lanes of two operands, holds an
+            // operand at most four times), so a value with many users is not revisited at
+            // each of them
             for &u in &operands[v] {
+                if remaining[u] > 4 {
+                    continue;
+                }
                 for &w in &users[u] {
                     if let Some(old) = filed[w] {
                         let g = growth(w, &remaining);

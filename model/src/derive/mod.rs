@@ -2,7 +2,7 @@
 //! and the feedback field X − ∇V, by the graph operations [`ir::diff`](crate::ir::diff) and
 //! [`ir::gradient`](crate::ir::gradient).
 
-use crate::ir::{diff, gradient, Id, Input};
+use crate::ir::{diff, gradient, jacobian, Id, Input, LARGE_GRAPH};
 use std::collections::HashMap;
 
 /// Everything the emitter needs beyond the model itself.
@@ -41,15 +41,21 @@ fn derivatives(model: &mut crate::Model) -> Derivatives {
     let vars: Vec<Input> = (0..n as u32).map(Input::State).collect();
     let f = model.invariant_ids();
     let g = &mut model.graph;
-    let mut memos: Vec<HashMap<Id, Id>> = vec![HashMap::new(); n];
-    let jacobian: Vec<Vec<Id>> = f
-        .iter()
-        .map(|&fc| {
-            (0..n)
-                .map(|i| diff(g, fc, vars[i], &mut memos[i]))
-                .collect()
-        })
-        .collect();
+    // A large graph's Jacobian by the sparse forward mode (each column through the nodes that
+    // depend on its variable); a small one's, every model of `models/`, entry by entry as
+    // always (the same expressions, in the order the emitted code has always had).
+    let jacobian: Vec<Vec<Id>> = if g.reachable(&f).len() >= LARGE_GRAPH {
+        jacobian(g, &f, &vars)
+    } else {
+        let mut memos: Vec<HashMap<Id, Id>> = vec![HashMap::new(); n];
+        f.iter()
+            .map(|&fc| {
+                (0..n)
+                    .map(|i| diff(g, fc, vars[i], &mut memos[i]))
+                    .collect()
+            })
+            .collect()
+    };
     let lie_derivatives = jacobian
         .iter()
         .map(|row| {

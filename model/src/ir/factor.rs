@@ -18,22 +18,15 @@
 //! - Sums share sub-sums: a sum that holds all the terms of another sum of the function uses
 //!   it (`a + b − c` with `a + b` computed anyway is `(a + b) − c`).
 
+use super::{FxHashMap as HashMap, FxHashSet as HashSet};
 use super::{Graph, Id, Node, Rational};
 use std::cmp::Reverse;
-use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
+use std::collections::{BTreeMap, BTreeSet};
 
-/// Graphs with at least this many reachable nodes share products many pairs per round (see
-/// [`Graph::share_products`]); smaller ones, every model of `models/` among them, one pair
-/// per round.
-pub const LARGE_GRAPH: usize = 20_000;
-
-/// The number of factors of a product node.
-fn node_factors(node: &Node) -> usize {
-    match node {
-        Node::Mul(c) => c.len(),
-        _ => 0,
-    }
-}
+/// Graphs with at least this many reachable nodes share products by recursive pairing, in
+/// near-linear time (see [`Graph::share_products`]); smaller ones, every model of `models/` among
+/// them (the largest has about 630), one pair per round with the graph rebuilt after each.
+pub const LARGE_GRAPH: usize = 1_000;
 
 impl Graph {
     /// The roots rewritten by both passes, for emission.
@@ -52,7 +45,7 @@ impl Graph {
     pub fn share_sums(&mut self, roots: &[Id]) -> Vec<Id> {
         let order = self.reachable(roots);
         // Sums with two or more terms, by their smallest term.
-        let mut by_first: HashMap<Id, Vec<Id>> = HashMap::new();
+        let mut by_first: HashMap<Id, Vec<Id>> = HashMap::default();
         for &id in &order {
             if let Node::Add(ts) = self.node(id) {
                 if let Some(&first) = ts.iter().min() {
@@ -116,7 +109,7 @@ impl Graph {
     /// stays a division.
     pub fn share_roots(&mut self, roots: &[Id]) -> Vec<Id> {
         let order = self.reachable(roots);
-        let mut exponents: HashMap<Id, Vec<Rational>> = HashMap::new();
+        let mut exponents: HashMap<Id, Vec<Rational>> = HashMap::default();
         for &id in &order {
             if let Node::Pow(b, e) = *self.node(id) {
                 exponents.entry(b).or_default().push(e);
@@ -168,7 +161,7 @@ impl Graph {
     pub fn split_parameter_products(&mut self, roots: &[Id]) -> Vec<Id> {
         let order = self.reachable(roots);
         // Parameter-only nodes of the rebuilt graph, filled bottom-up.
-        let mut parameter_only: HashSet<Id> = HashSet::new();
+        let mut parameter_only: HashSet<Id> = HashSet::default();
         self.rebuild_raw(roots, &order, |g, _, node| {
             let id = match node {
                 Node::Add(c) | Node::Mul(c) => {
@@ -218,7 +211,8 @@ impl Graph {
         order: &[Id],
         mut rewrite: impl FnMut(&mut Graph, Id, &Node) -> Option<Id>,
     ) -> Vec<Id> {
-        let mut new: HashMap<Id, Id> = HashMap::with_capacity(order.len());
+        let mut new: HashMap<Id, Id> =
+            HashMap::with_capacity_and_hasher(order.len(), Default::default());
         for &id in order {
             let node = match self.node(id).clone() {
                 Node::Add(c) => Node::Add(c.iter().map(|k| new[k]).collect()),
@@ -295,13 +289,13 @@ impl Graph {
     fn factor_sum(&mut self, terms: Vec<Id>) -> Id {
         // Terms by sequence number: the order of the list (the grouped term goes last).
         let mut live: BTreeMap<usize, Id> = BTreeMap::new();
-        let mut factors: HashMap<usize, Vec<Id>> = HashMap::new();
+        let mut factors: HashMap<usize, Vec<Id>> = HashMap::default();
         // The ranking of the factors by (number of terms, first appearance), the best last.
         // For each factor, the terms holding it and its position in each (for the ties).
-        let mut holders: HashMap<Id, BTreeMap<usize, usize>> = HashMap::new();
+        let mut holders: HashMap<Id, BTreeMap<usize, usize>> = HashMap::default();
         type Key = (usize, Reverse<(usize, usize)>, Id);
         let mut ranking: BTreeSet<Key> = BTreeSet::new();
-        let mut key_of: HashMap<Id, Key> = HashMap::new();
+        let mut key_of: HashMap<Id, Key> = HashMap::default();
         let refresh = |f: Id,
                        holders: &HashMap<Id, BTreeMap<usize, usize>>,
                        ranking: &mut BTreeSet<Key>,
@@ -384,14 +378,21 @@ impl Graph {
     }
 
     /// Introduces shared sub-products for factor pairs that occur in several products: the
-    /// most frequent pair first, one pair per round; in a graph of `LARGE_GRAPH` nodes or
-    /// more, every frequent pair that shares no factor with a more frequent one per round (one
-    /// round per pair would make the pass quadratic in the model's size).
+    /// most frequent pair first. Below [`LARGE_GRAPH`] reachable nodes, one pair per round, the
+    /// graph rebuilt after each (quadratic in the number of pairs, but these graphs are small);
+    /// from `LARGE_GRAPH` on, the same greedy choice by recursive pairing with the counts
+    /// updated in place and one rebuild ([`Graph::share_products_linear`]). The two differ
+    /// only in how ties between equally frequent pairs are broken: the rounds rank pairs by
+    /// their first appearance in the rebuilt graph, recursive pairing by their first
+    /// appearance in the pass.
     pub fn share_products(&mut self, roots: &[Id]) -> Vec<Id> {
+        if self.reachable(roots).len() >= LARGE_GRAPH {
+            return self.share_products_linear(roots);
+        }
         let mut roots = roots.to_vec();
         loop {
             let order = self.reachable(&roots);
-            let mut pairs: HashMap<(Id, Id), usize> = HashMap::new();
+            let mut pairs: HashMap<(Id, Id), usize> = HashMap::default();
             let mut first_seen: Vec<(Id, Id)> = Vec::new();
             for &id in &order {
                 if let Node::Mul(fs) = self.node(id) {
@@ -414,62 +415,6 @@ impl Graph {
                     }
                 }
             }
-            if order.len() >= LARGE_GRAPH {
-                // One pass per round over a large graph: every pair that occurs twice or more
-                // and shares no factor with a more frequent (or earlier) chosen pair.
-                let mut ranked: Vec<(usize, (Id, Id))> = first_seen
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, p)| pairs[*p] >= 2)
-                    .map(|(i, &p)| (i, p))
-                    .collect();
-                if ranked.is_empty() {
-                    return roots;
-                }
-                ranked.sort_by_key(|&(i, p)| (Reverse(pairs[&p]), i));
-                let mut used: HashSet<Id> = HashSet::new();
-                let mut chosen: HashMap<Id, (Id, Id)> = HashMap::new();
-                for (_, (a, b)) in ranked {
-                    if used.contains(&a) || used.contains(&b) {
-                        continue;
-                    }
-                    used.insert(a);
-                    used.insert(b);
-                    let pair = self.intern(Node::Mul(vec![a, b].into()));
-                    chosen.insert(a, (b, pair));
-                }
-                let pair_nodes: HashSet<Id> = chosen.values().map(|&(_, p)| p).collect();
-                roots = self.rebuild_raw(&roots, &order, |g, old, node| match node {
-                    Node::Mul(_) if pair_nodes.contains(&old) => Some(old),
-                    Node::Mul(c) => {
-                        let mut c = c.to_vec();
-                        let mut changed = true;
-                        // every chosen pair the product holds
-                        while changed {
-                            changed = false;
-                            for k in 0..c.len() {
-                                if let Some(&(b, pair)) = chosen.get(&c[k]) {
-                                    if c.contains(&b) {
-                                        let a = c[k];
-                                        c.retain(|&x| x != a && x != b);
-                                        c.push(pair);
-                                        changed = true;
-                                        break;
-                                    }
-                                }
-                            }
-                        }
-                        let before = node_factors(node);
-                        if c.len() == before {
-                            None
-                        } else {
-                            Some(g.raw_product(c))
-                        }
-                    }
-                    _ => None,
-                });
-                continue;
-            }
             let best = first_seen
                 .iter()
                 .enumerate()
@@ -491,6 +436,163 @@ impl Graph {
                 _ => None,
             });
         }
+    }
+
+    /// [`Graph::share_products`] on a large graph, in time near-linear in its size: the same
+    /// greedy choice (the pair held by the most products first; ties: the pair seen first), made
+    /// by recursive pairing (Larsson & Moffat's Re-Pair) on the products' factor sets. The pairs'
+    /// counts and the products holding each pair are kept in hash maps and updated as each chosen
+    /// pair replaces its two factors (a product of k factors costs O(k²) over the whole pass), and
+    /// the graph is rebuilt once at the end, not once per pair.
+    pub fn share_products_linear(&mut self, roots: &[Id]) -> Vec<Id> {
+        let order = self.reachable(roots);
+        // A pair chosen so far stands for a product node not yet interned: a virtual Id past
+        // the graph's end, its two factors in `pairs`.
+        let base = self.len();
+        let mut pairs: Vec<(Id, Id)> = Vec::new();
+        // The products that take part: (old Id, has a coefficient, non-numeric factors).
+        let mut products: Vec<(Id, bool, Vec<Id>)> = Vec::new();
+        for &id in &order {
+            if let Node::Mul(fs) = self.node(id) {
+                let coefficient = self.as_num(fs[0]).is_some();
+                let rest: Vec<Id> = fs
+                    .iter()
+                    .copied()
+                    .filter(|&f| self.as_num(f).is_none())
+                    .collect();
+                if rest.len() >= 3 || (coefficient && rest.len() >= 2) {
+                    products.push((id, coefficient, rest));
+                }
+            }
+        }
+        let key = |a: Id, b: Id| if a < b { (a, b) } else { (b, a) };
+        // Per pair: (count, sequence number of its first appearance), and the products holding it.
+        let mut count: HashMap<(Id, Id), (usize, usize)> = HashMap::default();
+        let mut holders: HashMap<(Id, Id), Vec<u32>> = HashMap::default();
+        let mut ranking: BTreeSet<(usize, Reverse<usize>, (Id, Id))> = BTreeSet::new();
+        let mut seen = 0usize;
+        let mut bump =
+            |p: (Id, Id),
+             by: isize,
+             count: &mut HashMap<(Id, Id), (usize, usize)>,
+             ranking: &mut BTreeSet<(usize, Reverse<usize>, (Id, Id))>| {
+                let entry = count.entry(p).or_insert_with(|| {
+                    seen += 1;
+                    (0, seen)
+                });
+                ranking.remove(&(entry.0, Reverse(entry.1), p));
+                entry.0 = entry
+                    .0
+                    .checked_add_signed(by)
+                    .expect("a pair's count stays ≥ 0");
+                if entry.0 >= 2 {
+                    ranking.insert((entry.0, Reverse(entry.1), p));
+                }
+            };
+        for (k, (_, _, fs)) in products.iter().enumerate() {
+            for i in 0..fs.len() {
+                for j in i + 1..fs.len() {
+                    let p = key(fs[i], fs[j]);
+                    bump(p, 1, &mut count, &mut ranking);
+                    holders.entry(p).or_default().push(k as u32);
+                }
+            }
+        }
+        while let Some(&(_, _, (a, b))) = ranking.last() {
+            let pair = Id(u32::try_from(base + pairs.len()).expect("Ids fit in u32"));
+            pairs.push((a, b));
+            for k in holders.remove(&(a, b)).unwrap_or_default() {
+                let (_, coefficient, fs) = &mut products[k as usize];
+                if !(fs.contains(&a) && fs.contains(&b)) {
+                    continue;
+                }
+                // The product's pairs before, out; after, in (a product left with two factors
+                // and no coefficient is a plain pair: its pair is no longer counted).
+                for i in 0..fs.len() {
+                    for j in i + 1..fs.len() {
+                        bump(key(fs[i], fs[j]), -1, &mut count, &mut ranking);
+                    }
+                }
+                fs.retain(|&x| x != a && x != b);
+                fs.push(pair);
+                if fs.len() >= 3 || (*coefficient && fs.len() >= 2) {
+                    for i in 0..fs.len() {
+                        for j in i + 1..fs.len() {
+                            let p = key(fs[i], fs[j]);
+                            bump(p, 1, &mut count, &mut ranking);
+                            if fs[i] == pair || fs[j] == pair {
+                                holders.entry(p).or_default().push(k);
+                            }
+                        }
+                    }
+                }
+            }
+            if let Some(&(c, s)) = count.get(&(a, b)) {
+                ranking.remove(&(c, Reverse(s), (a, b)));
+            }
+        }
+        if pairs.is_empty() {
+            return roots.to_vec();
+        }
+        // One rebuild: every product with its final factors, the chosen pairs interned on first use.
+        let rewritten: HashMap<Id, (bool, Vec<Id>)> = products
+            .into_iter()
+            .filter(|(_, _, fs)| fs.iter().any(|f| f.index() >= base))
+            .map(|(id, c, fs)| (id, (c, fs)))
+            .collect();
+        let mut new: HashMap<Id, Id> =
+            HashMap::with_capacity_and_hasher(order.len(), Default::default());
+        let mut interned: Vec<Option<Id>> = vec![None; pairs.len()];
+        fn resolve(
+            g: &mut Graph,
+            f: Id,
+            base: usize,
+            pairs: &[(Id, Id)],
+            interned: &mut [Option<Id>],
+            new: &HashMap<Id, Id>,
+        ) -> Id {
+            if f.index() < base {
+                return new[&f];
+            }
+            let k = f.index() - base;
+            if let Some(id) = interned[k] {
+                return id;
+            }
+            let (a, b) = pairs[k];
+            let a = resolve(g, a, base, pairs, interned, new);
+            let b = resolve(g, b, base, pairs, interned, new);
+            let id = g.raw_product(vec![a, b]);
+            interned[k] = Some(id);
+            id
+        }
+        for &id in &order {
+            let node = self.node(id).clone();
+            let rebuilt = match (&node, rewritten.get(&id)) {
+                (Node::Mul(c), Some((coefficient, fs))) => {
+                    let mut factors: Vec<Id> = Vec::with_capacity(fs.len() + 1);
+                    if *coefficient {
+                        factors.push(new[&c[0]]);
+                    }
+                    for &f in fs {
+                        factors.push(resolve(self, f, base, &pairs, &mut interned, &new));
+                    }
+                    self.raw_product(factors)
+                }
+                _ => {
+                    let node = match node {
+                        Node::Add(c) => Node::Add(c.iter().map(|k| new[k]).collect()),
+                        Node::Mul(c) => Node::Mul(c.iter().map(|k| new[k]).collect()),
+                        Node::Pow(b, e) => Node::Pow(new[&b], e),
+                        Node::Func(f, a) => Node::Func(f, new[&a]),
+                        Node::Func2(f, [a, m]) => Node::Func2(f, [new[&a], new[&m]]),
+                        leaf @ (Node::Num(_) | Node::Input(_)) => leaf,
+                    };
+                    self.intern_raw(node)
+                }
+            };
+            new.insert(id, rebuilt);
+        }
+        roots.iter().map(|r| new[r]).collect()
     }
 
     /// A sum node without flattening or reordering.
@@ -627,5 +729,44 @@ mod tests {
         assert_eq!(g.op_count(&[p1, p2]).dag, 4);
         let shared = g.share_products(&[p1, p2]);
         assert_eq!(g.op_count(&shared).dag, 3);
+    }
+
+    #[test]
+    fn recursive_pairing_shares_what_the_rounds_share() {
+        // Products c·xᵢ·yⱼ·zₖ·w over a grid of i, j, k, the shape of the N-body terms: both
+        // passes keep the values and leave the same number of operations.
+        let mut g = Graph::new();
+        let x: Vec<_> = (0..4).map(|i| g.input(Input::State(i))).collect();
+        let y: Vec<_> = (4..8).map(|i| g.input(Input::State(i))).collect();
+        let z: Vec<_> = (8..10).map(|i| g.input(Input::State(i))).collect();
+        let w = g.input(Input::Param(0));
+        let mut products = Vec::new();
+        for (n, &a) in x.iter().enumerate() {
+            for &b in &y {
+                for &c in &z {
+                    let k = g.num(n as f64 + 2.0);
+                    products.push(g.mul(&[k, a, b, c, w]));
+                }
+            }
+        }
+        let mut rounds = g.clone();
+        let by_rounds = rounds.share_products(&products);
+        let by_pairing = g.share_products_linear(&products);
+        assert!(g.op_count(&by_pairing).dag < g.op_count(&products).dag);
+        assert_eq!(g.op_count(&by_pairing).dag, rounds.op_count(&by_rounds).dag);
+        let value = |g: &Graph, ids: &[crate::ir::Id]| {
+            g.eval_f64(ids, &mut |i| match i {
+                Input::State(k) => 1.0 + 0.37 * k as f64,
+                Input::Param(_) => 0.81,
+                _ => 0.0,
+            })
+        };
+        let (before, after) = (value(&g, &products), value(&g, &by_pairing));
+        for (b, a) in before.iter().zip(&after) {
+            assert!(
+                (a - b).abs() <= 4.0 * f64::EPSILON * b.abs(),
+                "{a} against {b}"
+            );
+        }
     }
 }

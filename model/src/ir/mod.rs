@@ -20,11 +20,14 @@ mod eval;
 mod expand;
 mod factor;
 mod func;
+mod hash;
 
 pub use count::OpCount;
-pub use diff::{diff, gradient};
+pub use diff::{diff, gradient, jacobian};
 pub use eval::Scalar;
+pub use factor::LARGE_GRAPH;
 pub use func::{Func, Func2};
+pub(crate) use hash::{FxHashMap, FxHashSet};
 
 use std::collections::{HashMap, HashSet};
 use std::fmt;
@@ -161,7 +164,7 @@ pub enum Node {
 #[derive(Clone, Default)]
 pub struct Graph {
     nodes: Vec<Node>,
-    index: HashMap<Node, Id>,
+    index: FxHashMap<Node, Id>,
 }
 
 impl Graph {
@@ -187,13 +190,15 @@ impl Graph {
 
     /// Interns a node as is (no simplification): returns the existing Id if present.
     fn intern(&mut self, node: Node) -> Id {
-        if let Some(&id) = self.index.get(&node) {
-            return id;
+        let next = Id(self.nodes.len() as u32);
+        match self.index.entry(node) {
+            std::collections::hash_map::Entry::Occupied(e) => *e.get(),
+            std::collections::hash_map::Entry::Vacant(e) => {
+                self.nodes.push(e.key().clone());
+                e.insert(next);
+                next
+            }
         }
-        let id = Id(self.nodes.len() as u32);
-        self.nodes.push(node.clone());
-        self.index.insert(node, id);
-        id
     }
 
     /// A numeric constant.

@@ -64,8 +64,9 @@ pub mod taylor;
 pub use model::{ModelTapes, Partition};
 
 use crate::ir::{Func, Func2, Graph, Id, Input, Node, Rational, Scalar};
-use std::collections::{HashMap, HashSet};
+use crate::ir::{FxHashMap as HashMap, FxHashSet as HashSet};
 use std::fmt;
+use std::time::Duration;
 
 /// A register: the index of the instruction that defines it, in its section.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -544,22 +545,36 @@ impl Sections {
     }
 }
 
+/// The time [`ModelTapes::timed`] spent in each half of building the tapes.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TapeTimes {
+    /// The rewrites for emission (factoring, shared roots, shared products and sums).
+    pub rewrite: Duration,
+    /// Lowering the rewritten graphs to instructions.
+    pub lower: Duration,
+}
+
 /// Builds tapes from one graph, applying the emitter's rewrites to it tape after tape (so a
 /// sequence of builds sees the node Ids the emitter sees for the same sequence of bodies).
 #[derive(Clone)]
-pub struct TapeBuilder {
+pub struct TapeBuilder<'c> {
     graph: Graph,
     lets: HashSet<Id>,
     dims: Dims,
+    /// The clock of [`ModelTapes::timed`], if timed.
+    clock: Option<&'c dyn Fn() -> Duration>,
+    times: TapeTimes,
 }
 
-impl TapeBuilder {
+impl TapeBuilder<'_> {
     /// A builder owning (a copy of) the graph.
     pub fn new(graph: Graph, dims: Dims) -> Self {
         TapeBuilder {
             graph,
-            lets: HashSet::new(),
+            lets: HashSet::default(),
             dims,
+            clock: None,
+            times: TapeTimes::default(),
         }
     }
 
@@ -582,15 +597,22 @@ impl TapeBuilder {
 
     /// The tape of `roots`: rewritten for emission, then lowered (see the module docs).
     pub fn build(&mut self, roots: &[Id]) -> Result<Tape, TapeError> {
+        let now = || self.clock.map(|c| c()).unwrap_or_default();
+        let start = now();
         let roots = self.graph.optimize_for_emission(roots);
-        self.lower(&roots)
+        let rewritten = now();
+        let tape = self.lower(&roots);
+        let end = now();
+        self.times.rewrite += rewritten.saturating_sub(start);
+        self.times.lower += end.saturating_sub(rewritten);
+        tape
     }
 
     /// The tape of `roots` as they are, without the emission rewrites.
     pub fn lower(&self, roots: &[Id]) -> Result<Tape, TapeError> {
         let g = &self.graph;
         let order = g.reachable(roots);
-        let mut uses: HashMap<Id, usize> = HashMap::new();
+        let mut uses: HashMap<Id, usize> = HashMap::default();
         for &id in &order {
             for &c in g.children(id) {
                 *uses.entry(c).or_default() += 1;
@@ -610,9 +632,9 @@ impl TapeBuilder {
         let mut l = Lowering {
             g,
             dims: self.dims,
-            parameter_only: g.parameter_only(&order),
+            parameter_only: g.parameter_only(&order).into_iter().collect(),
             named,
-            memo: HashMap::new(),
+            memo: HashMap::default(),
             s: Sections::default(),
         };
         // Bottom-up, so that the recursion below stays shallow: children are memoised first.

@@ -1,9 +1,10 @@
 //! The tapes of every function of a model, built in the emitter's order.
 
-use super::{Dims, Tape, TapeBuilder, TapeError};
+use super::{Dims, Tape, TapeBuilder, TapeError, TapeTimes};
 use crate::derive::{Derivatives, Derived};
 use crate::ir::Id;
 use crate::model::Model;
+use std::time::Duration;
 
 /// Störmer–Verlet's half-fields of a partitioned model (q̇ = a(p), ṗ = b(q)).
 #[derive(Clone, Debug)]
@@ -46,6 +47,18 @@ impl ModelTapes {
     /// invariants, Jacobian, V, ∇V, X − ∇V, half-fields; H last, as the emitter has no function
     /// for it), so their results are bitwise the emitted Rust's.
     pub fn new(derived: &Derived) -> Result<ModelTapes, TapeError> {
+        Ok(ModelTapes::timed(derived, Duration::default)?.0)
+    }
+
+    /// [`ModelTapes::new`], with the time spent in the rewrites for emission
+    /// ([`Graph::optimize_for_emission`](crate::ir::Graph::optimize_for_emission): factoring,
+    /// shared roots and products, sub-sums) and in lowering the rewritten graphs to tapes, as
+    /// measured by `clock` (a monotonic clock of the caller's choice, e.g. the thread's CPU
+    /// time; differences of its readings are summed).
+    pub fn timed(
+        derived: &Derived,
+        clock: impl Fn() -> Duration,
+    ) -> Result<(ModelTapes, TapeTimes), TapeError> {
         let (model, d) = (&derived.model, &derived.derivatives);
         let dims = Dims {
             state: model.dim(),
@@ -65,6 +78,7 @@ impl ModelTapes {
             ..dims
         };
         let mut b = TapeBuilder::new(model.graph.clone(), plain).with_lets(lets);
+        b.clock = Some(&clock);
         let field = b.build(&model.field)?;
         let invariants = b.build(&model.invariant_ids())?;
         let jacobian = jacobian(&mut b, model, d)?;
@@ -93,7 +107,8 @@ impl ModelTapes {
             Some(h) => Some(b.build(&[h.h])?),
             None => None,
         };
-        Ok(ModelTapes {
+        let times = b.times;
+        let tapes = ModelTapes {
             field,
             invariants,
             jacobian,
@@ -102,7 +117,8 @@ impl ModelTapes {
             feedback,
             hamiltonian,
             partition,
-        })
+        };
+        Ok((tapes, times))
     }
 
     /// Every tape with its name: `field`, `invariants`, `jacobian`, `lyapunov`,
@@ -129,7 +145,7 @@ impl ModelTapes {
 
 /// The Jacobian tape: like the emitter, only the nonzero entries are rewritten and lowered
 /// together; the zero entries are constant outputs.
-fn jacobian(b: &mut TapeBuilder, model: &Model, d: &Derivatives) -> Result<Tape, TapeError> {
+fn jacobian(b: &mut TapeBuilder<'_>, model: &Model, d: &Derivatives) -> Result<Tape, TapeError> {
     let entries: Vec<Id> = d.jacobian.iter().flatten().copied().collect();
     let nonzero: Vec<Id> = entries
         .iter()
