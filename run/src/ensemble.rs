@@ -9,7 +9,9 @@ use std::time::Instant;
 
 use lasalle_exec::{Backend, LaneField, LoadedModel};
 use lasalle_model::variational::Extension;
-use lasalle_runtime::{DriftBound, Driver, ModelInfo, Observer, Parameters, Recorder, Stepper};
+use lasalle_runtime::{
+    Declared, DriftBound, Driver, ModelInfo, Observer, Parameters, Recorder, Stepper,
+};
 use rayon::prelude::*;
 
 use crate::simulate::{check_start, plan_gains, recording, with_base, GainPlan, Visit};
@@ -27,7 +29,7 @@ use crate::{
 /// `None` where lanes do not apply — fewer than two states, a method other than a fixed-step
 /// Runge–Kutta method on X or X − ∇V, gains that differ between the states or change during
 /// the run, samples between the first and the last state (`spec.every` below the run's step
-/// count), an initial state that [`simulate`] refuses, a run that fails (its guards or a
+/// count), events to watch or output times, an initial state that [`simulate`] refuses, a run that fails (its guards or a
 /// blow-up stop every lane) — and then the caller runs each state alone, which gives each its
 /// own result.
 pub fn simulate_lanes(
@@ -38,7 +40,14 @@ pub fn simulate_lanes(
     let (Method::Plain(base) | Method::Feedback(base)) = spec.method else {
         return None;
     };
+    // lanes watch no events and sample no output times: such runs go alone
+    let events = Declared::<f64, Vec<f64>>::events(model);
+    let watched = !spec.t_eval.is_empty()
+        || events
+            .iter()
+            .any(|e| e.terminal || spec.record_events);
     if base == Base::Dopri5
+        || watched
         || x0s.len() < 2
         || spec.record_every() < spec.steps()
         || x0s.iter().any(|x0| check_start(model, x0, spec).is_err())

@@ -44,6 +44,10 @@ pub struct RunSpec {
     /// method's continuous extension, instead of every [`RunSpec::every`]-th step; adaptive
     /// methods keep their own steps. Empty: record steps.
     pub t_eval: Vec<f64>,
+    /// Locate and record the model's events (default). `false`: only its `stop` events are
+    /// watched (they end the run), the others are not located — for runs whose crossings
+    /// nobody reads (sweeps), which then skip the watch's interpolations at every step.
+    pub record_events: bool,
 }
 
 impl RunSpec {
@@ -65,6 +69,7 @@ impl RunSpec {
             every: 0,
             max_steps: DEFAULT_MAX_STEPS,
             t_eval: Vec::new(),
+            record_events: true,
         }
     }
 
@@ -252,6 +257,7 @@ pub struct RunSpecBuilder {
     init: Option<String>,
     params: Vec<(String, Vec<f64>)>,
     t_eval: Option<Vec<f64>>,
+    record_events: Option<bool>,
 }
 
 impl RunSpecBuilder {
@@ -259,6 +265,13 @@ impl RunSpecBuilder {
     /// `a:b:n` and lists).
     pub fn t_eval(mut self, times: impl Into<Vec<f64>>) -> Self {
         self.t_eval = Some(times.into());
+        self
+    }
+
+    /// Whether to locate and record the model's non-terminal events
+    /// ([`RunSpec::record_events`]; default `true`).
+    pub fn record_events(mut self, record: bool) -> Self {
+        self.record_events = Some(record);
         self
     }
 
@@ -403,6 +416,7 @@ impl RunSpecBuilder {
         spec.max_steps = self.max_steps.unwrap_or(spec.max_steps);
         spec.max_drift = self.max_drift.unwrap_or(spec.max_drift);
         spec.t_eval = self.t_eval.clone().unwrap_or_default();
+        spec.record_events = self.record_events.unwrap_or(true);
         spec.validate()?;
         Ok(spec)
     }

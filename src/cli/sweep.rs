@@ -292,7 +292,9 @@ pub fn run(args: &SweepArgs, given: &Given) -> CliResult {
         None => (0, 1),
     };
     refuse_inapplicable(method, given)?;
+    // a sweep's table has no crossings: only `stop` events (they end runs) are watched
     let mut builder = RunSpec::builder()
+        .record_events(false)
         .method(method)
         .t_end(args.t_end)
         .gains(args.gains.parse::<GainPolicy>().map_err(usage)?)
