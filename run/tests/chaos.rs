@@ -248,6 +248,51 @@ fn megno_limits() {
     );
 }
 
+/// The FLI is the supremum of ln‖w‖ over the run (Froeschlé, Lega & Gonczi 1997), not its
+/// last value: for the oscillator q̈ = −ω²q, w(t) = Φ(t)w(0) with w(0) = (1, 1)/√2 has
+/// ‖w‖² = ½ vᵀMv, v = (cos ωt, sin ωt), M = [[2, 1/ω − ω], [1/ω − ω, 1/ω² + ω²]], whose
+/// largest value over a period is ½ λ_max(M): FLI = ½ ln(λ_max(M)/2) once t exceeds a period,
+/// while ln‖w(t)‖ oscillates below it.
+#[test]
+fn fli_is_the_supremum_of_the_log_growth() {
+    let osc = load(OSC, Backend::default());
+    let w = 1.7f64;
+    let (m11, m12, m22) = (2.0, 1.0 / w - w, 1.0 / (w * w) + w * w);
+    let lmax = (m11 + m22) / 2.0 + (((m11 - m22) / 2.0).powi(2) + m12 * m12).sqrt();
+    let sup = 0.5 * (lmax / 2.0).ln();
+    for (method, tol) in [(DOPRI5, 1e-12), (TAYLOR, 1e-14)] {
+        for t_end in [4.0, 10.0, 10.9] {
+            let (_, ind) = indicators(&osc, &[0.3, -0.2], &spec(method, t_end, tol)).unwrap();
+            let (c, s) = ((w * t_end).cos(), (w * t_end).sin());
+            let last = 0.5 * ((m11 * c * c + 2.0 * m12 * c * s + m22 * s * s) / 2.0).ln();
+            eprintln!("{method} t = {t_end}: FLI {} (sup {sup}), ln‖w(t)‖ {last}", ind.fli);
+            assert!((ind.fli - sup).abs() < 1e-9, "{method} t = {t_end}: {ind:?}");
+            assert!((ind.mle * t_end - last).abs() < 1e-9, "{ind:?}");
+            assert!(sup - last > 0.05, "t = {t_end}: ℓ(t) should lie below its sup");
+        }
+    }
+}
+
+/// The model file's points: `chaotic` in the chaotic sea of E = 1/8 (⟨Y⟩ grows like λt/2 with
+/// λ > 0), `regular` on a quasi-periodic orbit of E = 1/12 (⟨Y⟩ → 2, λ → 0).
+#[test]
+fn henon_heiles_points_are_what_they_are_named() {
+    let hh = load(&henon_heiles(), Backend::default());
+    let h = |x: &[f64]| {
+        (x[2] * x[2] + x[3] * x[3] + x[0] * x[0] + x[1] * x[1]) / 2.0 + x[0] * x[0] * x[1]
+            - x[1].powi(3) / 3.0
+    };
+    let chaotic = hh.point("chaotic").unwrap();
+    assert!((h(&chaotic) - 0.125).abs() < 1e-15, "{chaotic:?}");
+    let (_, ind) = indicators(&hh, &chaotic, &spec(TAYLOR, 5000.0, 1e-12)).unwrap();
+    eprintln!("chaotic: {ind:?}");
+    assert!(ind.megno_mean > 20.0 && ind.mle > 0.03, "{ind:?}");
+    let regular = hh.point("regular").unwrap();
+    let (_, ind) = indicators(&hh, &regular, &spec(TAYLOR, 5000.0, 1e-12)).unwrap();
+    eprintln!("regular: {ind:?}");
+    assert!((ind.megno_mean - 2.0).abs() < 0.1 && ind.mle < 0.01, "{ind:?}");
+}
+
 /// The same indicators from the JIT and the interpreter, and a method that changes x by
 /// something other than the field is refused.
 #[test]
