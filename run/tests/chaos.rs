@@ -6,8 +6,12 @@
 #![allow(clippy::needless_range_loop)] // matrices are compared entry by entry
 
 use lasalle_exec::{Backend, LoadedModel};
-use lasalle_run::chaos::{indicators, lyapunov_spectrum, state_transition};
-use lasalle_run::{simulate, Base, Method, RunSpec};
+use lasalle_run::chaos::{
+    extend, indicators, lyapunov_spectrum, read_indicators, state_transition, Extension,
+};
+use lasalle_run::{
+    simulate, simulate_lanes, simulate_many, Base, Init, Member, Method, ModelSource, RunSpec,
+};
 use lasalle_runtime::Parameters;
 
 const OSC: &str = "model Osc { state q: scalar, p: scalar; param w = 1.7;
@@ -314,4 +318,70 @@ fn back_ends_agree_and_feedback_is_refused() {
             .contains("use euler, heun, rk4, dopri5 or taylor"),
         "{err}"
     );
+}
+
+/// The indicators' model in an ensemble (what `lasalle sweep --indicator` runs): rk4 in lanes
+/// of 1, 3 and 8 rows gives every row's final extended state bitwise as the lone run of
+/// [`indicators`] does, and so its MEGNO and exponent; so does the Taylor method (which runs
+/// each row alone). The FLI needs the peaks of ln‖w‖, which lanes do not locate: an ensemble
+/// that records events runs each row alone and gives the lone run's supremum.
+#[test]
+fn indicators_in_lanes_are_the_lone_runs() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../models/henon_heiles.lsl");
+    let source = ModelSource::read(path, Backend::Jit)
+        .unwrap()
+        .extended(Extension::Indicators);
+    let hh = load(&henon_heiles(), Backend::Jit);
+    let starts: Vec<Vec<f64>> = (0..7)
+        .map(|k| {
+            let q1 = -0.3 + 0.1 * k as f64;
+            let p0 = (2.0 * (0.125 - q1 * q1 / 2.0 + q1.powi(3) / 3.0)).sqrt();
+            vec![0.0, q1, p0, 0.0]
+        })
+        .collect();
+    let members: Vec<Member> = starts
+        .iter()
+        .map(|x| Member::at(Extension::Indicators.extend_state(x)))
+        .collect();
+    for (method, dt, tol) in [(Method::Plain(Base::Rk4), 0.01, 1e-10), (TAYLOR, 0.0, 1e-12)] {
+        let mut s = spec(method, 100.0, tol);
+        s.dt = dt;
+        let alone: Vec<_> = starts
+            .iter()
+            .map(|x| indicators(&hh, x, &s).unwrap())
+            .collect();
+        for (lanes, record_events) in [(1, false), (3, false), (8, false), (8, true)] {
+            let s = RunSpec {
+                record_events,
+                ..s.clone()
+            };
+            if method == TAYLOR || lanes == 1 {
+                // no lanes: each row alone
+            } else {
+                // the lanes ran (and only where no events are to be located)
+                let extended = extend(&hh, Extension::Indicators).unwrap();
+                let x0s: Vec<Vec<f64>> = members
+                    .iter()
+                    .map(|m| match &m.init {
+                        Init::State(x) => x.clone(),
+                        _ => unreachable!(),
+                    })
+                    .collect();
+                let laned = simulate_lanes(&extended, &x0s[..lanes.min(x0s.len())], &s);
+                assert_eq!(laned.is_some(), !record_events, "{method}, {lanes} lanes");
+            }
+            let ensemble = simulate_many(&source, &members, &s, 1, lanes).unwrap();
+            for (k, (got, (rec, ind))) in ensemble.recordings.iter().zip(&alone).enumerate() {
+                let got = got.as_ref().unwrap();
+                let what = format!("{method}, {lanes} lanes, row {k}");
+                assert_eq!(got.last_state(), rec.last_state(), "{what}");
+                let found = read_indicators(got, 4).unwrap();
+                assert_eq!(found.megno_mean, ind.megno_mean, "{what}");
+                assert_eq!(found.mle, ind.mle, "{what}");
+                if record_events {
+                    assert_eq!(found.fli, ind.fli, "{what}");
+                }
+            }
+        }
+    }
 }
