@@ -116,12 +116,14 @@ pub fn read_indicators(rec: &Recording, n: usize) -> Option<Indicators> {
         .filter(|name| name.trim_end_matches('_') == PEAK_EVENT)
         .max_by_key(|name| name.len());
     let slot = lasalle_model::variational::IndicatorSlots { n }.log_growth();
-    Some(found.with_peaks(
-        rec.events
-            .iter()
-            .filter(|e| Some(e.name.as_str()) == peak)
-            .filter_map(|e| e.x.get(slot).copied()),
-    ))
+    Some(
+        found.with_peaks(
+            rec.events
+                .iter()
+                .filter(|e| Some(e.name.as_str()) == peak)
+                .filter_map(|e| e.x.get(slot).copied()),
+        ),
+    )
 }
 
 /// The Lyapunov spectrum of a run.

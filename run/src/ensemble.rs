@@ -42,10 +42,8 @@ pub fn simulate_lanes(
     };
     // lanes watch no events and sample no output times: such runs go alone
     let events = Declared::<f64, Vec<f64>>::events(model);
-    let watched = !spec.t_eval.is_empty()
-        || events
-            .iter()
-            .any(|e| e.terminal || spec.record_events);
+    let watched =
+        !spec.t_eval.is_empty() || events.iter().any(|e| e.terminal || spec.record_events);
     if base == Base::Dopri5
         || watched
         || x0s.len() < 2

@@ -269,10 +269,19 @@ fn fli_is_the_supremum_of_the_log_growth() {
             let (_, ind) = indicators(&osc, &[0.3, -0.2], &spec(method, t_end, tol)).unwrap();
             let (c, s) = ((w * t_end).cos(), (w * t_end).sin());
             let last = 0.5 * ((m11 * c * c + 2.0 * m12 * c * s + m22 * s * s) / 2.0).ln();
-            eprintln!("{method} t = {t_end}: FLI {} (sup {sup}), ln‖w(t)‖ {last}", ind.fli);
-            assert!((ind.fli - sup).abs() < 1e-9, "{method} t = {t_end}: {ind:?}");
+            eprintln!(
+                "{method} t = {t_end}: FLI {} (sup {sup}), ln‖w(t)‖ {last}",
+                ind.fli
+            );
+            assert!(
+                (ind.fli - sup).abs() < 1e-9,
+                "{method} t = {t_end}: {ind:?}"
+            );
             assert!((ind.mle * t_end - last).abs() < 1e-9, "{ind:?}");
-            assert!(sup - last > 0.05, "t = {t_end}: ℓ(t) should lie below its sup");
+            assert!(
+                sup - last > 0.05,
+                "t = {t_end}: ℓ(t) should lie below its sup"
+            );
         }
     }
 }
@@ -294,7 +303,10 @@ fn henon_heiles_points_are_what_they_are_named() {
     let regular = hh.point("regular").unwrap();
     let (_, ind) = indicators(&hh, &regular, &spec(TAYLOR, 5000.0, 1e-12)).unwrap();
     eprintln!("regular: {ind:?}");
-    assert!((ind.megno_mean - 2.0).abs() < 0.1 && ind.mle < 0.01, "{ind:?}");
+    assert!(
+        (ind.megno_mean - 2.0).abs() < 0.1 && ind.mle < 0.01,
+        "{ind:?}"
+    );
 }
 
 /// The same indicators from the JIT and the interpreter, and a method that changes x by
@@ -343,7 +355,10 @@ fn indicators_in_lanes_are_the_lone_runs() {
         .iter()
         .map(|x| Member::at(Extension::Indicators.extend_state(x)))
         .collect();
-    for (method, dt, tol) in [(Method::Plain(Base::Rk4), 0.01, 1e-10), (TAYLOR, 0.0, 1e-12)] {
+    for (method, dt, tol) in [
+        (Method::Plain(Base::Rk4), 0.01, 1e-10),
+        (TAYLOR, 0.0, 1e-12),
+    ] {
         let mut s = spec(method, 100.0, tol);
         s.dt = dt;
         let alone: Vec<_> = starts

@@ -634,10 +634,10 @@ pub struct Taylor<M: ?Sized> {
     split: bool,
     /// The last accepted step (t, h) and the kernel holding its expansion.
     last: Option<(f64, f64, Which)>,
-    /// The compensated state update: `low` holds what rounding took off each component of
-    /// the state the last step returned (`returned`, to recognise it at the next step).
-    low: Vec<f64>,
-    returned: Vec<f64>,
+    /// The compensated state update: the first half holds what rounding took off each
+    /// component of the state the last step returned, the second half that state (to
+    /// recognise it at the next step).
+    carry: Vec<f64>,
 }
 
 impl<M: ?Sized> std::fmt::Debug for Taylor<M> {
@@ -675,8 +675,7 @@ impl<M: ?Sized> Taylor<M> {
             mode: TaylorField::Plain,
             split: false,
             last: None,
-            low: vec![0.0; field.dim()],
-            returned: vec![f64::NAN; field.dim()],
+            carry: [vec![0.0; field.dim()], vec![f64::NAN; field.dim()]].concat(),
             field,
             feedback,
         })
@@ -820,17 +819,18 @@ impl<M: ?Sized> Taylor<M> {
     fn compensated_update(&mut self, which: Which, h: f64, x: &mut [f64]) {
         const LANES: usize = 8;
         let n = x.len();
-        if self.low.len() != n || self.returned.as_slice() != &*x {
-            self.low.clear();
-            self.low.resize(n, 0.0);
+        if self.carry.len() != 2 * n || self.carry[n..] != *x {
+            self.carry.clear();
+            self.carry.resize(2 * n, 0.0);
         }
         let kernel = match which {
             Which::Field => &*self.field,
             Which::Feedback => &*self.feedback,
         };
+        let (low, returned) = self.carry.split_at_mut(n);
         for (chunk, (outs, lows)) in x
             .chunks_mut(LANES)
-            .zip(self.low.chunks_mut(LANES))
+            .zip(low.chunks_mut(LANES))
             .enumerate()
         {
             let mut c: [&[f64]; LANES] = [&[]; LANES];
@@ -852,8 +852,7 @@ impl<M: ?Sized> Taylor<M> {
                 *xi = s;
             }
         }
-        self.returned.clear();
-        self.returned.extend_from_slice(x);
+        returned.copy_from_slice(x);
     }
 
     fn check_dim(&self, x: &[f64]) -> Result<(), StepError> {
@@ -960,7 +959,8 @@ impl<M: ?Sized, X: State<f64>> Stepper<f64, X, M> for Taylor<M> {
 
     fn reset(&mut self) {
         self.last = None;
-        self.returned.fill(f64::NAN);
+        let n = self.carry.len() / 2;
+        self.carry[n..].fill(f64::NAN);
     }
 }
 
@@ -1040,7 +1040,8 @@ where
 
     fn reset(&mut self) {
         self.last = None;
-        self.returned.fill(f64::NAN);
+        let n = self.carry.len() / 2;
+        self.carry[n..].fill(f64::NAN);
     }
 }
 

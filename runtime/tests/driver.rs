@@ -329,5 +329,8 @@ fn adaptive_time_is_the_compensated_sum_of_the_steps() {
         .unwrap();
     eprintln!("compensated: {worst_ulps:.2} ulp; plain sum: {naive_ulps:.0} ulp");
     assert!(worst_ulps <= 1.0, "{worst_ulps} ulp");
-    assert!(naive_ulps > 100.0, "the plain sum should drift: {naive_ulps}");
+    assert!(
+        naive_ulps > 100.0,
+        "the plain sum should drift: {naive_ulps}"
+    );
 }

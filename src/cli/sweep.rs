@@ -387,10 +387,7 @@ pub fn run(args: &SweepArgs, given: &Given) -> CliResult {
         }
         if let Some(ind) = &indicator {
             let at = cells.len() - 1;
-            cells.splice(
-                at..at,
-                ind.cells(recording, plain_dim),
-            );
+            cells.splice(at..at, ind.cells(recording, plain_dim));
             map.push((row, ind.value(recording, plain_dim)));
         }
         table.record(&cells)?;
