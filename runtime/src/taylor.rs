@@ -828,11 +828,7 @@ impl<M: ?Sized> Taylor<M> {
             Which::Feedback => &*self.feedback,
         };
         let (low, returned) = self.carry.split_at_mut(n);
-        for (chunk, (outs, lows)) in x
-            .chunks_mut(LANES)
-            .zip(low.chunks_mut(LANES))
-            .enumerate()
-        {
+        for (chunk, (outs, lows)) in x.chunks_mut(LANES).zip(low.chunks_mut(LANES)).enumerate() {
             let mut c: [&[f64]; LANES] = [&[]; LANES];
             for (l, cl) in c.iter_mut().enumerate().take(outs.len()) {
                 *cl = kernel.coefficients(chunk * LANES + l);
