@@ -12,8 +12,9 @@ model HenonHeiles {
     // (q₁, p₁): `lasalle section henon_heiles --event section --energy 0.125 --solve p[0] …`
     event section: q[0] = 0 rising;
 
-    // E = 0.12471…, in the chaotic sea of the E = 1/8 section
-    point chaotic { q = [0, 0.1]; p = [0.49, 0]; }
+    // E = 1/8 on the section q₀ = 0 at q₁ = −0.1, p₁ = 0 (p₀ > 0 from the energy): in the
+    // chaotic sea (MEGNO ⟨Y⟩ grows like λt/2, λ ≈ 0.05; `run/tests/chaos.rs`)
+    point chaotic { q = [0, -0.1]; p = [sqrt(0.25 - 0.01 - 0.002 / 3), 0]; }
     // E = 1/12 on the section q₀ = 0, q₁ = 0, p₁ = 0: a regular (quasi-periodic) orbit
     point regular { q = [0, 0]; p = [sqrt(1/6), 0]; }
 

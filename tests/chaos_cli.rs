@@ -171,3 +171,90 @@ fn sweep_indicator_writes_the_map() {
         assert!(dir.join(format!("map-{}.png", method[1])).exists());
     }
 }
+
+/// `--indicator fli` fills the `fli` column with the supremum of ln‖w‖ over the run — at least
+/// its final value mle·t, and the lone run's `--fli` — and the MEGNO map leaves it empty (its
+/// rows do not locate the peaks of ln‖w‖).
+#[test]
+fn sweep_fli_is_the_supremum() {
+    let dir = scratch("sweep-fli");
+    let list = dir.join("ics.csv");
+    let rows: [(f64, f64); 2] = [(-0.1, 0.0), (0.2, 0.1)];
+    let mut text = String::from("q[1],p[1],p[0]\n");
+    for (q1, p1) in rows {
+        let p0: f64 = (2.0 * (0.125 - q1 * q1 / 2.0 - p1 * p1 / 2.0 + q1 * q1 * q1 / 3.0)).sqrt();
+        text.push_str(&format!("{q1},{p1},{p0}\n"));
+    }
+    std::fs::write(&list, text).unwrap();
+    let t_end = 50.0;
+    let column = |indicator: &str, name: &str| -> Vec<String> {
+        let table = dir.join(format!("{indicator}.csv"));
+        let (ok, _, err) = lasalle_text(&[
+            "sweep",
+            "henon_heiles",
+            "--list",
+            list.to_str().unwrap(),
+            "--init",
+            "0,0,0,0",
+            "-m",
+            "dopri5",
+            "--rtol",
+            "1e-11",
+            "--atol",
+            "1e-11",
+            "--t-end",
+            "50",
+            "--indicator",
+            indicator,
+            "--out",
+            table.to_str().unwrap(),
+        ]);
+        assert!(ok, "{err}");
+        let csv = std::fs::read_to_string(&table).unwrap();
+        let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+        let col = header.iter().position(|h| *h == name).unwrap();
+        csv.lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(col).unwrap().to_string())
+            .collect()
+    };
+    assert!(column("megno", "fli").iter().all(String::is_empty));
+    let fli: Vec<f64> = column("fli", "fli")
+        .iter()
+        .map(|v| v.parse().unwrap())
+        .collect();
+    let mle: Vec<f64> = column("fli", "mle")
+        .iter()
+        .map(|v| v.parse().unwrap())
+        .collect();
+    for (k, (q1, p1)) in rows.iter().enumerate() {
+        assert!(fli[k] >= mle[k] * t_end && fli[k] >= 0.0, "{fli:?} {mle:?}");
+        let p0: f64 = (2.0 * (0.125 - q1 * q1 / 2.0 - p1 * p1 / 2.0 + q1 * q1 * q1 / 3.0)).sqrt();
+        let out = dir.join(format!("run-{k}"));
+        let (ok, _, err) = lasalle_text(&[
+            "run",
+            "henon_heiles",
+            "-m",
+            "dopri5",
+            "--rtol",
+            "1e-11",
+            "--atol",
+            "1e-11",
+            "--t-end",
+            "50",
+            "--init",
+            &format!("0,{q1},{p0},{p1}"),
+            "--fli",
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]);
+        assert!(ok, "{err}");
+        let alone = summary(&out)["fli"].as_f64().unwrap();
+        assert!(
+            (alone - fli[k]).abs() < 1e-12,
+            "row {k}: {alone} vs {}",
+            fli[k]
+        );
+    }
+}

@@ -14,8 +14,7 @@
 //!   u̇ = Au − λu,   ℓ̇ = λ,   τ̇ = 1,   ȧ = τλ,   ḃ = 2aτ/(τ² + ε),   ε = 10⁻²⁰
 //!   ```
 //!
-//!   so that, for a tangent vector w with w(0) = u(0) of unit length, ℓ(t) = ln‖w(t)‖ (the
-//!   fast Lyapunov indicator, Froeschlé, Lega & Gonczi 1997), ℓ(t)/t the finite-time maximal
+//!   so that, for a tangent vector w with w(0) = u(0) of unit length, ℓ(t) = ln‖w(t)‖, ℓ(t)/t the finite-time maximal
 //!   Lyapunov exponent, 2a(t)/t the MEGNO Y(t) = (2/t)∫₀ᵗ s λ(s) ds and b(t)/t its mean ⟨Y⟩(t)
 //!   (Cincotta & Simó 2000). The tangent vector never overflows however fast it grows. The
 //!   floor ε ([`CLOCK_FLOOR`]) makes the rate of b, 2a/τ, defined at τ = 0 (where a = 0) and
@@ -23,6 +22,12 @@
 //!   and its steps then grow geometrically; since a = O(τ²), it moves b by at most
 //!   max|λ|·ε·ln(τ/√ε) ≈ 10⁻¹⁸ max|λ| (time units in which the run is much longer than 10⁻¹⁰
 //!   are assumed).
+//!
+//!   The fast Lyapunov indicator of Froeschlé, Lega & Gonczi (1997) is the supremum of ℓ over
+//!   [0, t], not ℓ(t): ℓ peaks where λ crosses zero downwards, so the extended model declares
+//!   that crossing as its last event ([`PEAK_EVENT`], `λ = 0 falling`), which every method
+//!   locates on its continuous extension; the FLI is the largest of ℓ(0) = 0, ℓ(t) and ℓ at
+//!   those crossings ([`Indicators::with_peaks`]).
 //!
 //! The new model is an ordinary [`Model`]: every back end (emitted Rust, the JIT, the
 //! interpreter, lanes, the Taylor method) runs it without code of its own. It keeps the
@@ -52,7 +57,11 @@
 use std::collections::HashMap;
 
 use crate::ir::{diff, Graph, Id, Input};
-use crate::{Diagnostic, Model, Point, Shape, StateVar};
+use crate::{Diagnostic, Direction, Event, Model, Point, Shape, StateVar};
+
+/// The name of the event `λ = 0 falling` of an [`Extension::Indicators`] model, the peaks of
+/// ℓ = ln‖w‖ (suffixed with `_` while the model uses the name); it is the model's last event.
+pub const PEAK_EVENT: &str = "log_growth_peak";
 
 /// ε in the rate 2aτ/(τ² + ε) of the MEGNO sum b (see the [module docs](self)).
 pub const CLOCK_FLOOR: f64 = 1e-20;
@@ -104,7 +113,8 @@ impl IndicatorSlots {
 pub struct Indicators {
     /// The time over which they were accumulated.
     pub t: f64,
-    /// ln‖w(t)‖ with ‖w(0)‖ = 1: the fast Lyapunov indicator at t.
+    /// The fast Lyapunov indicator: sup over [0, t] of ln‖w‖ with ‖w(0)‖ = 1 once the run's
+    /// peaks are in ([`Indicators::with_peaks`]); ln‖w(t)‖ as read off the final state.
     pub fli: f64,
     /// ln‖w(t)‖ / t: the finite-time maximal Lyapunov exponent.
     pub mle: f64,
@@ -113,6 +123,15 @@ pub struct Indicators {
     /// ⟨Y⟩(t) = (1/t)∫₀ᵗ Y(s) ds, the mean MEGNO (→ 0 on isochronous periodic orbits, → 2 on
     /// quasi-periodic ones, ~ λ t / 2 on chaotic ones).
     pub megno_mean: f64,
+}
+
+impl Indicators {
+    /// The FLI as the supremum of ℓ = ln‖w‖ over the run, given ℓ at its peaks (the
+    /// crossings of [`PEAK_EVENT`]): the largest of them, of ℓ(0) = 0 and of ℓ(t).
+    pub fn with_peaks(mut self, peaks: impl IntoIterator<Item = f64>) -> Indicators {
+        self.fli = peaks.into_iter().fold(self.fli.max(0.0), f64::max);
+        self
+    }
 }
 
 impl Extension {
@@ -228,6 +247,14 @@ impl Extension {
                 add_state(&mut out.state, "clock", Shape::Scalar);
                 add_state(&mut out.state, "megno_sum", Shape::Scalar);
                 add_state(&mut out.state, "megno_mean", Shape::Scalar);
+                out.events.push(Event {
+                    name: fresh.take(PEAK_EVENT),
+                    value: lambda,
+                    direction: Direction::Falling,
+                    terminal: false,
+                    expr: "u·Au/u·u".to_string(),
+                    span: span.clone(),
+                });
             }
         }
         let dim = self.extended_dim(n);
@@ -312,6 +339,7 @@ impl Fresh {
         used.extend(model.lets.iter().map(|b| b.name.clone()));
         used.extend(model.invariants.iter().map(|f| f.name.clone()));
         used.extend(model.gains.iter().map(|k| k.name.clone()));
+        used.extend(model.events.iter().map(|e| e.name.clone()));
         used.push(model.name.clone());
         Fresh { used }
     }

@@ -14,7 +14,7 @@
 //! step with x: they are refused.
 
 use lasalle_exec::LoadedModel;
-pub use lasalle_model::variational::{Extension, Indicators};
+pub use lasalle_model::variational::{Extension, Indicators, PEAK_EVENT};
 use lasalle_runtime::{ModelInfo, Parameters};
 
 use crate::{simulate, Method, Recording, RunError, RunSpec};
@@ -82,7 +82,8 @@ pub fn state_transition(
 
 /// Integrates `model` from `x0` as `spec` says with a unit tangent vector (starting along
 /// (1, …, 1)/√N) and returns the run (of the extended state) with the maximal Lyapunov
-/// exponent, the FLI and MEGNO at its end.
+/// exponent and MEGNO at its end, and the FLI, the supremum of ln‖w‖ over the run (the run
+/// records its events whatever [`RunSpec::record_events`] says: the peaks are among them).
 pub fn indicators(
     model: &LoadedModel,
     x0: &[f64],
@@ -90,11 +91,39 @@ pub fn indicators(
 ) -> Result<(Recording, Indicators), RunError> {
     check_method(spec.method)?;
     let extended = extend(model, Extension::Indicators)?;
-    let recording = simulate(&extended, &Extension::Indicators.extend_state(x0), spec)?;
-    let found = Extension::Indicators
-        .indicators(model.dim(), recording.last_state())
+    let spec = RunSpec {
+        record_events: true,
+        ..spec.clone()
+    };
+    let recording = simulate(&extended, &Extension::Indicators.extend_state(x0), &spec)?;
+    let found = read_indicators(&recording, model.dim())
         .ok_or_else(|| RunError::Model("the run recorded no final state".into()))?;
     Ok((recording, found))
+}
+
+/// The indicators of a run of an [`Extension::Indicators`] model (of a model of dimension
+/// `n`): MEGNO and the maximal exponent at its end, the FLI the largest of 0, ℓ at the end and
+/// ℓ at the crossings of [`PEAK_EVENT`] the run recorded (all of them if it recorded its
+/// events: then the supremum over the run). `None` if the final state is not an extended one.
+pub fn read_indicators(rec: &Recording, n: usize) -> Option<Indicators> {
+    let found = Extension::Indicators.indicators(n, rec.last_state())?;
+    // the transform's event: the longest name that is PEAK_EVENT with `_`s appended (it takes
+    // the first such name the model leaves free)
+    let peak = rec
+        .events
+        .iter()
+        .map(|e| e.name.as_str())
+        .filter(|name| name.trim_end_matches('_') == PEAK_EVENT)
+        .max_by_key(|name| name.len());
+    let slot = lasalle_model::variational::IndicatorSlots { n }.log_growth();
+    Some(
+        found.with_peaks(
+            rec.events
+                .iter()
+                .filter(|e| Some(e.name.as_str()) == peak)
+                .filter_map(|e| e.x.get(slot).copied()),
+        ),
+    )
 }
 
 /// The Lyapunov spectrum of a run.

@@ -40,7 +40,12 @@ pub fn simulate_lanes(
     let (Method::Plain(base) | Method::Feedback(base)) = spec.method else {
         return None;
     };
+    // lanes watch no events and sample no output times: such runs go alone
+    let events = Declared::<f64, Vec<f64>>::events(model);
+    let watched =
+        !spec.t_eval.is_empty() || events.iter().any(|e| e.terminal || spec.record_events);
     if base == Base::Dopri5
+        || watched
         || x0s.len() < 2
         || spec.record_every() < spec.steps()
         || !spec.t_eval.is_empty()

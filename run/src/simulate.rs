@@ -263,7 +263,14 @@ where
             every,
         );
         let (start, cpu_start) = (Instant::now(), process_cpu_seconds());
-        let watched = !model.events().is_empty() || !spec.t_eval.is_empty();
+        // without `record_events`, only a model with a `stop` event needs the watch
+        let events = model.events();
+        let watched = !spec.t_eval.is_empty()
+            || if spec.record_events {
+                !events.is_empty()
+            } else {
+                events.iter().any(|e| e.terminal)
+            };
         let mut hits = Vec::new();
         let result = if watched {
             watched_run(

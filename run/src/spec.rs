@@ -46,6 +46,10 @@ pub struct RunSpec {
     pub t_eval: Vec<f64>,
     /// Stops the run from outside ([`Interrupt`]); `None`: the run goes to its end.
     pub interrupt: Option<Interrupt>,
+    /// Locate and record the model's events (default). `false`: only its `stop` events are
+    /// watched (they end the run), the others are not located — for runs whose crossings
+    /// nobody reads (sweeps), which then skip the watch's interpolations at every step.
+    pub record_events: bool,
 }
 
 impl RunSpec {
@@ -68,6 +72,7 @@ impl RunSpec {
             max_steps: DEFAULT_MAX_STEPS,
             t_eval: Vec::new(),
             interrupt: None,
+            record_events: true,
         }
     }
 
@@ -255,6 +260,7 @@ pub struct RunSpecBuilder {
     init: Option<String>,
     params: Vec<(String, Vec<f64>)>,
     t_eval: Option<Vec<f64>>,
+    record_events: Option<bool>,
 }
 
 impl RunSpecBuilder {
@@ -262,6 +268,13 @@ impl RunSpecBuilder {
     /// `a:b:n` and lists).
     pub fn t_eval(mut self, times: impl Into<Vec<f64>>) -> Self {
         self.t_eval = Some(times.into());
+        self
+    }
+
+    /// Whether to locate and record the model's non-terminal events
+    /// ([`RunSpec::record_events`]; default `true`).
+    pub fn record_events(mut self, record: bool) -> Self {
+        self.record_events = Some(record);
         self
     }
 
@@ -406,6 +419,7 @@ impl RunSpecBuilder {
         spec.max_steps = self.max_steps.unwrap_or(spec.max_steps);
         spec.max_drift = self.max_drift.unwrap_or(spec.max_drift);
         spec.t_eval = self.t_eval.clone().unwrap_or_default();
+        spec.record_events = self.record_events.unwrap_or(true);
         spec.validate()?;
         Ok(spec)
     }

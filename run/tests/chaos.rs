@@ -6,8 +6,12 @@
 #![allow(clippy::needless_range_loop)] // matrices are compared entry by entry
 
 use lasalle_exec::{Backend, LoadedModel};
-use lasalle_run::chaos::{indicators, lyapunov_spectrum, state_transition};
-use lasalle_run::{simulate, Base, Method, RunSpec};
+use lasalle_run::chaos::{
+    extend, indicators, lyapunov_spectrum, read_indicators, state_transition, Extension,
+};
+use lasalle_run::{
+    simulate, simulate_lanes, simulate_many, Base, Init, Member, Method, ModelSource, RunSpec,
+};
 use lasalle_runtime::Parameters;
 
 const OSC: &str = "model Osc { state q: scalar, p: scalar; param w = 1.7;
@@ -248,6 +252,63 @@ fn megno_limits() {
     );
 }
 
+/// The FLI is the supremum of ln‖w‖ over the run (Froeschlé, Lega & Gonczi 1997), not its
+/// last value: for the oscillator q̈ = −ω²q, w(t) = Φ(t)w(0) with w(0) = (1, 1)/√2 has
+/// ‖w‖² = ½ vᵀMv, v = (cos ωt, sin ωt), M = [[2, 1/ω − ω], [1/ω − ω, 1/ω² + ω²]], whose
+/// largest value over a period is ½ λ_max(M): FLI = ½ ln(λ_max(M)/2) once t exceeds a period,
+/// while ln‖w(t)‖ oscillates below it.
+#[test]
+fn fli_is_the_supremum_of_the_log_growth() {
+    let osc = load(OSC, Backend::default());
+    let w = 1.7f64;
+    let (m11, m12, m22) = (2.0, 1.0 / w - w, 1.0 / (w * w) + w * w);
+    let lmax = (m11 + m22) / 2.0 + (((m11 - m22) / 2.0).powi(2) + m12 * m12).sqrt();
+    let sup = 0.5 * (lmax / 2.0).ln();
+    for (method, tol) in [(DOPRI5, 1e-12), (TAYLOR, 1e-14)] {
+        for t_end in [4.0, 10.0, 10.9] {
+            let (_, ind) = indicators(&osc, &[0.3, -0.2], &spec(method, t_end, tol)).unwrap();
+            let (c, s) = ((w * t_end).cos(), (w * t_end).sin());
+            let last = 0.5 * ((m11 * c * c + 2.0 * m12 * c * s + m22 * s * s) / 2.0).ln();
+            eprintln!(
+                "{method} t = {t_end}: FLI {} (sup {sup}), ln‖w(t)‖ {last}",
+                ind.fli
+            );
+            assert!(
+                (ind.fli - sup).abs() < 1e-9,
+                "{method} t = {t_end}: {ind:?}"
+            );
+            assert!((ind.mle * t_end - last).abs() < 1e-9, "{ind:?}");
+            assert!(
+                sup - last > 0.05,
+                "t = {t_end}: ℓ(t) should lie below its sup"
+            );
+        }
+    }
+}
+
+/// The model file's points: `chaotic` in the chaotic sea of E = 1/8 (⟨Y⟩ grows like λt/2 with
+/// λ > 0), `regular` on a quasi-periodic orbit of E = 1/12 (⟨Y⟩ → 2, λ → 0).
+#[test]
+fn henon_heiles_points_are_what_they_are_named() {
+    let hh = load(&henon_heiles(), Backend::default());
+    let h = |x: &[f64]| {
+        (x[2] * x[2] + x[3] * x[3] + x[0] * x[0] + x[1] * x[1]) / 2.0 + x[0] * x[0] * x[1]
+            - x[1].powi(3) / 3.0
+    };
+    let chaotic = hh.point("chaotic").unwrap();
+    assert!((h(&chaotic) - 0.125).abs() < 1e-15, "{chaotic:?}");
+    let (_, ind) = indicators(&hh, &chaotic, &spec(TAYLOR, 5000.0, 1e-12)).unwrap();
+    eprintln!("chaotic: {ind:?}");
+    assert!(ind.megno_mean > 20.0 && ind.mle > 0.03, "{ind:?}");
+    let regular = hh.point("regular").unwrap();
+    let (_, ind) = indicators(&hh, &regular, &spec(TAYLOR, 5000.0, 1e-12)).unwrap();
+    eprintln!("regular: {ind:?}");
+    assert!(
+        (ind.megno_mean - 2.0).abs() < 0.1 && ind.mle < 0.01,
+        "{ind:?}"
+    );
+}
+
 /// The same indicators from the JIT and the interpreter, and a method that changes x by
 /// something other than the field is refused.
 #[test]
@@ -269,4 +330,73 @@ fn back_ends_agree_and_feedback_is_refused() {
             .contains("use euler, heun, rk4, dopri5 or taylor"),
         "{err}"
     );
+}
+
+/// The indicators' model in an ensemble (what `lasalle sweep --indicator` runs): rk4 in lanes
+/// of 1, 3 and 8 rows gives every row's final extended state bitwise as the lone run of
+/// [`indicators`] does, and so its MEGNO and exponent; so does the Taylor method (which runs
+/// each row alone). The FLI needs the peaks of ln‖w‖, which lanes do not locate: an ensemble
+/// that records events runs each row alone and gives the lone run's supremum.
+#[test]
+fn indicators_in_lanes_are_the_lone_runs() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../models/henon_heiles.lsl");
+    let source = ModelSource::read(path, Backend::Jit)
+        .unwrap()
+        .extended(Extension::Indicators);
+    let hh = load(&henon_heiles(), Backend::Jit);
+    let starts: Vec<Vec<f64>> = (0..7)
+        .map(|k| {
+            let q1 = -0.3 + 0.1 * k as f64;
+            let p0 = (2.0 * (0.125 - q1 * q1 / 2.0 + q1.powi(3) / 3.0)).sqrt();
+            vec![0.0, q1, p0, 0.0]
+        })
+        .collect();
+    let members: Vec<Member> = starts
+        .iter()
+        .map(|x| Member::at(Extension::Indicators.extend_state(x)))
+        .collect();
+    for (method, dt, tol) in [
+        (Method::Plain(Base::Rk4), 0.01, 1e-10),
+        (TAYLOR, 0.0, 1e-12),
+    ] {
+        let mut s = spec(method, 100.0, tol);
+        s.dt = dt;
+        let alone: Vec<_> = starts
+            .iter()
+            .map(|x| indicators(&hh, x, &s).unwrap())
+            .collect();
+        for (lanes, record_events) in [(1, false), (3, false), (8, false), (8, true)] {
+            let s = RunSpec {
+                record_events,
+                ..s.clone()
+            };
+            if method == TAYLOR || lanes == 1 {
+                // no lanes: each row alone
+            } else {
+                // the lanes ran (and only where no events are to be located)
+                let extended = extend(&hh, Extension::Indicators).unwrap();
+                let x0s: Vec<Vec<f64>> = members
+                    .iter()
+                    .map(|m| match &m.init {
+                        Init::State(x) => x.clone(),
+                        _ => unreachable!(),
+                    })
+                    .collect();
+                let laned = simulate_lanes(&extended, &x0s[..lanes.min(x0s.len())], &s);
+                assert_eq!(laned.is_some(), !record_events, "{method}, {lanes} lanes");
+            }
+            let ensemble = simulate_many(&source, &members, &s, 1, lanes).unwrap();
+            for (k, (got, (rec, ind))) in ensemble.recordings.iter().zip(&alone).enumerate() {
+                let got = got.as_ref().unwrap();
+                let what = format!("{method}, {lanes} lanes, row {k}");
+                assert_eq!(got.last_state(), rec.last_state(), "{what}");
+                let found = read_indicators(got, 4).unwrap();
+                assert_eq!(found.megno_mean, ind.megno_mean, "{what}");
+                assert_eq!(found.mle, ind.mle, "{what}");
+                if record_events {
+                    assert_eq!(found.fli, ind.fli, "{what}");
+                }
+            }
+        }
+    }
 }

@@ -230,6 +230,10 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
         };
         let n_total = n_full + if partial { T::one() } else { T::zero() };
         let mut t = t0;
+        // adaptive steps: t is the sum of the steps taken, kept as the unevaluated pair
+        // t + t_lo (error-free transformations), so that rounding does not accumulate in the
+        // time: t is the exact sum rounded, within half an ulp however many steps it holds
+        let mut t_lo = T::zero();
         let mut n = T::zero();
         while t < t_end {
             let (h_step, last) = if adaptive {
@@ -265,7 +269,9 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
             t = if last && outcome.h_taken >= h_step {
                 t_end
             } else if adaptive {
-                t + outcome.h_taken
+                let (hi, lo) = compensated_add(t, t_lo, outcome.h_taken);
+                t_lo = lo;
+                hi
             } else {
                 t0 + n * h
             };
@@ -449,6 +455,17 @@ where
     O: Observer<T, X> + ?Sized,
 {
     Driver::new(t0, t_end, h).run(stepper, field, x0, observer)
+}
+
+/// (t + t_lo) + h as a normalised pair (hi, lo), hi = the sum rounded to nearest up to the
+/// pair's own rounding (Knuth's two-sum, then Dekker's fast two-sum).
+fn compensated_add<T: Float>(t: T, t_lo: T, h: T) -> (T, T) {
+    let s = t + h;
+    let b = s - t;
+    let err = (t - (s - b)) + (h - b);
+    let e = err + t_lo;
+    let hi = s + e;
+    (hi, e - (hi - s))
 }
 
 #[cfg(test)]

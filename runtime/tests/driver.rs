@@ -272,3 +272,65 @@ fn f32_scalar_works() {
     let end = integrate(&mut proj, &Osc32, &x0, 0.0, 1.0, 0.01, &mut ()).unwrap();
     assert!((0.5 * (end.x[0] * end.x[0] + end.x[1] * end.x[1]) - 0.5).abs() <= 1e-6);
 }
+
+/// An adaptive stepper that always takes the step 0.1 (not a binary fraction) and moves x by
+/// it: the driver's time is the sum of the steps.
+struct TenthSteps;
+impl Stepper<f64, [f64; 1], Blow> for TenthSteps {
+    fn step(
+        &mut self,
+        _field: &Blow,
+        _t: f64,
+        x: &mut [f64; 1],
+        h: f64,
+    ) -> Result<StepOutcome<f64>, StepError> {
+        let h_taken = h.min(0.1);
+        x[0] += h_taken;
+        Ok(StepOutcome {
+            h_taken,
+            h_next: 0.1,
+            rejections: 0,
+            evaluations: 1,
+        })
+    }
+    fn order(&self) -> u32 {
+        1
+    }
+    fn name(&self) -> String {
+        "tenths".into()
+    }
+    fn is_adaptive(&self) -> bool {
+        true
+    }
+}
+
+/// The time of adaptive steps is their sum to within an ulp however many there are (the
+/// driver sums them with compensation): after n steps of the double h = 0.1 it is n·h rounded
+/// once, where the plain sum t += h has drifted by hundreds of ulps after 10⁶ steps.
+#[test]
+fn adaptive_time_is_the_compensated_sum_of_the_steps() {
+    let h = 0.1f64;
+    let n_steps = 1_000_000u64;
+    let mut worst_ulps = 0.0f64;
+    let mut naive = 0.0f64;
+    let mut naive_ulps = 0.0f64;
+    Driver::new(0.0, h * n_steps as f64 + 0.5, h)
+        .max_steps(2 * n_steps)
+        .run_stepwise(&mut TenthSteps, &Blow, &[0.0], |_, step, t, _| {
+            if step > 0 && step <= n_steps {
+                naive += h;
+                let exact = step as f64 * h; // the exact product n·h rounded once
+                let ulp = f64::EPSILON * exact;
+                worst_ulps = worst_ulps.max((t - exact).abs() / ulp);
+                naive_ulps = naive_ulps.max((naive - exact).abs() / ulp);
+            }
+            Control::Continue
+        })
+        .unwrap();
+    eprintln!("compensated: {worst_ulps:.2} ulp; plain sum: {naive_ulps:.0} ulp");
+    assert!(worst_ulps <= 1.0, "{worst_ulps} ulp");
+    assert!(
+        naive_ulps > 100.0,
+        "the plain sum should drift: {naive_ulps}"
+    );
+}

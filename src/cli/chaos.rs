@@ -33,8 +33,9 @@ pub struct ChaosArgs {
     /// chaotic ones), with Y(t_end) (`megno_y`) and the maximal exponent's estimate (`mle`).
     #[arg(long)]
     pub megno: bool,
-    /// Also compute the fast Lyapunov indicator ln‖w(t_end)‖ of a tangent vector w of unit
-    /// length at t = 0 (Froeschlé, Lega & Gonczi 1997) into summary.json (`fli`).
+    /// Also compute the fast Lyapunov indicator, the supremum of ln‖w(t)‖ over [0, t_end] for
+    /// a tangent vector w of unit length at t = 0 (Froeschlé, Lega & Gonczi 1997), into
+    /// summary.json (`fli`).
     #[arg(long)]
     pub fli: bool,
 }
@@ -128,7 +129,7 @@ pub enum Indicator {
     Megno,
     /// The maximal Lyapunov exponent's finite-time estimate ln‖w(t)‖/t.
     Mle,
-    /// The fast Lyapunov indicator ln‖w(t)‖ (Froeschlé, Lega & Gonczi 1997).
+    /// The fast Lyapunov indicator sup over [0, t] of ln‖w‖ (Froeschlé, Lega & Gonczi 1997).
     Fli,
 }
 
@@ -205,7 +206,7 @@ pub fn report(summary: &Value) {
     }
     for (key, what) in [
         ("megno", "MEGNO ⟨Y⟩"),
-        ("fli", "FLI ln‖w‖"),
+        ("fli", "FLI sup ln‖w‖"),
         ("mle", "ln‖w‖/t"),
     ] {
         if let Some(v) = summary.get(key) {
@@ -249,16 +250,24 @@ impl SweepIndicator {
         ["megno", "mle", "fli"]
     }
 
-    /// Their cells for a run of a model of dimension `n` (empty for a failed run).
-    pub fn cells(rec: &lasalle::Recording, n: usize) -> Vec<String> {
-        match (
-            &rec.failure,
-            chaos::Extension::Indicators.indicators(n, rec.last_state()),
-        ) {
+    /// Whether the runs must record their events: the FLI's supremum needs the peaks of ℓ
+    /// (watching them costs interpolations at every step, which the other maps skip).
+    pub fn needs_events(&self) -> bool {
+        self.indicator == Indicator::Fli
+    }
+
+    /// Their cells for a run of a model of dimension `n` (empty for a failed run; `fli` empty
+    /// unless the map is the FLI's, whose runs locate the peaks of ℓ).
+    pub fn cells(&self, rec: &lasalle::Recording, n: usize) -> Vec<String> {
+        match (&rec.failure, chaos::read_indicators(rec, n)) {
             (None, Some(ind)) => vec![
                 ind.megno_mean.to_string(),
                 ind.mle.to_string(),
-                ind.fli.to_string(),
+                if self.needs_events() {
+                    ind.fli.to_string()
+                } else {
+                    String::new()
+                },
             ],
             _ => vec![String::new(); 3],
         }
@@ -266,10 +275,7 @@ impl SweepIndicator {
 
     /// The indicator's value of a run (NaN for a failed run).
     pub fn value(&self, rec: &lasalle::Recording, n: usize) -> f64 {
-        match (
-            &rec.failure,
-            chaos::Extension::Indicators.indicators(n, rec.last_state()),
-        ) {
+        match (&rec.failure, chaos::read_indicators(rec, n)) {
             (None, Some(ind)) => self.indicator.of(&ind),
             _ => f64::NAN,
         }

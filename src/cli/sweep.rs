@@ -83,8 +83,9 @@ pub struct SweepArgs {
     pub out: PathBuf,
     /// A stability map: integrate each row with a unit tangent vector (the variational
     /// equations, derived symbolically) and add the columns megno (⟨Y⟩), mle (ln‖w‖/t) and fli
-    /// (ln‖w‖); the map of this indicator over the first two columns of the rows is drawn
-    /// into <out>.png and <out>.svg.
+    /// (sup of ln‖w‖ over the run; filled for `--indicator fli` only, whose runs locate the
+    /// peaks of ln‖w‖); the map of this indicator over the first two columns of the rows is
+    /// drawn into <out>.png and <out>.svg.
     #[arg(long, value_enum)]
     pub indicator: Option<super::chaos::Indicator>,
 }
@@ -292,7 +293,13 @@ pub fn run(args: &SweepArgs, given: &Given) -> CliResult {
         None => (0, 1),
     };
     refuse_inapplicable(method, given)?;
+    // a sweep's table has no crossings: only `stop` events (they end runs) are watched, and
+    // the peaks of ln‖w‖ for an FLI map
+    let fli_map = args
+        .indicator
+        .is_some_and(|i| i == super::chaos::Indicator::Fli);
     let mut builder = RunSpec::builder()
+        .record_events(fli_map)
         .method(method)
         .t_end(args.t_end)
         .gains(args.gains.parse::<GainPolicy>().map_err(usage)?)
@@ -380,10 +387,7 @@ pub fn run(args: &SweepArgs, given: &Given) -> CliResult {
         }
         if let Some(ind) = &indicator {
             let at = cells.len() - 1;
-            cells.splice(
-                at..at,
-                super::chaos::SweepIndicator::cells(recording, plain_dim),
-            );
+            cells.splice(at..at, ind.cells(recording, plain_dim));
             map.push((row, ind.value(recording, plain_dim)));
         }
         table.record(&cells)?;
