@@ -48,8 +48,6 @@ pub fn simulate_lanes(
         || watched
         || x0s.len() < 2
         || spec.record_every() < spec.steps()
-        || !spec.t_eval.is_empty()
-        || !model.events().is_empty()
         || x0s.iter().any(|x0| check_start(model, x0, spec).is_err())
     {
         return None;
