@@ -32,6 +32,7 @@ fn options(tubes: &[(f64, f64)], order: usize, metric: Metric) -> CanonicalOptio
         remainder_degree: None,
         metric,
         validate: None,
+        certified: false,
     }
 }
 
