@@ -610,16 +610,17 @@ pub fn analyse(
         }
     }
     let h = ModelHamiltonian::new(model, params).map_err(at)?;
-    let certify = |order: Option<usize>, d0: f64, d1: f64| -> Option<Result<CertifiedTube, String>> {
-        if !o.certified {
-            return None;
-        }
-        let f = forms.iter().find(|f| Some(f.nf.order) == order)?;
-        Some(
-            certified_tube(&h, &f.nf, d0, d1, o.metric, &CertifiedOptions::default())
-                .map_err(|e| e.to_string()),
-        )
-    };
+    let certify =
+        |order: Option<usize>, d0: f64, d1: f64| -> Option<Result<CertifiedTube, String>> {
+            if !o.certified {
+                return None;
+            }
+            let f = forms.iter().find(|f| Some(f.nf.order) == order)?;
+            Some(
+                certified_tube(&h, &f.nf, d0, d1, o.metric, &CertifiedOptions::default())
+                    .map_err(|e| e.to_string()),
+            )
+        };
     report.radii = o
         .for_time
         .iter()

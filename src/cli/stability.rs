@@ -276,7 +276,9 @@ fn run_canonical(args: &StabilityArgs, model: &lasalle_codegen::Model) -> CliRes
         )));
     }
     if c.certified && tubes.is_empty() && c.for_time.is_empty() {
-        return Err(usage("--certified needs --time-bound D0,D1 or --for-time T"));
+        return Err(usage(
+            "--certified needs --time-bound D0,D1 or --for-time T",
+        ));
     }
     if c.validate && tubes.is_empty() {
         return Err(usage("--validate needs --time-bound D0,D1"));

@@ -59,7 +59,6 @@ use crate::jet::Jet;
 use crate::monomial::MonomialTable;
 use crate::normal_form::NormalForm;
 use crate::poly::Poly;
-use crate::scalar::Real;
 use serde::Serialize;
 use std::sync::Arc;
 
@@ -125,7 +124,10 @@ impl Majorant {
     }
     /// m(r) rounded up, r ≥ 0.
     pub fn eval(&self, r: f64) -> f64 {
-        self.c.iter().rev().fold(0.0, |acc, &c| add_up(mul_up(acc, r), c))
+        self.c
+            .iter()
+            .rev()
+            .fold(0.0, |acc, &c| add_up(mul_up(acc, r), c))
     }
     /// m′(r) rounded up.
     pub fn derivative_at(&self, r: f64) -> f64 {
@@ -134,7 +136,9 @@ impl Majorant {
             .enumerate()
             .skip(1)
             .rev()
-            .fold(0.0, |acc, (s, &c)| add_up(mul_up(acc, r), mul_up(c, s as f64)))
+            .fold(0.0, |acc, (s, &c)| {
+                add_up(mul_up(acc, r), mul_up(c, s as f64))
+            })
     }
 }
 
@@ -205,8 +209,8 @@ impl Default for CertifiedOptions {
             field_degree: None,
             model_degree: None,
             intervals: 2048,
-            tolerance: 1e-2,
-            budget: 20_000,
+            tolerance: 2e-2,
+            budget: 4_000,
         }
     }
 }
@@ -493,8 +497,12 @@ impl Extremum {
         let n = self.n;
         let d2 = Iv::point(d).sqr();
         let meets = |bx: &[Iv]| -> bool {
-            let lo = bx.iter().fold(Iv::point(0.0), |s, b| s + Iv::point(b.mig()).sqr());
-            let hi = bx.iter().fold(Iv::point(0.0), |s, b| s + Iv::point(b.mag()).sqr());
+            let lo = bx
+                .iter()
+                .fold(Iv::point(0.0), |s, b| s + Iv::point(b.mig()).sqr());
+            let hi = bx
+                .iter()
+                .fold(Iv::point(0.0), |s, b| s + Iv::point(b.mag()).sqr());
             lo.lo <= d2.hi && (maximum || hi.hi >= d2.lo)
         };
         let enclose = |bx: &[Iv]| -> Iv {
@@ -532,11 +540,7 @@ impl Extremum {
                 break;
             };
             let bound = if maximum { key } else { -key };
-            let gap = if maximum {
-                bound - best
-            } else {
-                best - bound
-            };
+            let gap = if maximum { bound - best } else { best - bound };
             if gap <= tol * best.abs() || boxes >= budget {
                 return Bnb { bound, boxes };
             }
@@ -583,13 +587,17 @@ pub fn certified_tube<H: HamiltonianFn + ?Sized>(
 ) -> Result<CertifiedTube, NormalFormError> {
     let t0 = std::time::Instant::now();
     let map = nf.to_normal_map.as_ref().ok_or_else(|| {
-        NormalFormError::Invalid("the certified bound needs the map to the normal coordinates".into())
+        NormalFormError::Invalid(
+            "the certified bound needs the map to the normal coordinates".into(),
+        )
     })?;
     let n = 2 * nf.n_dof;
     let xe = nf.equilibrium_f64();
     let b = &nf.linear_inverse;
     let c = inverse_enclosure(b, &nf.linear_map).ok_or_else(|| {
-        NormalFormError::Invalid("the linear normalisation is too ill-conditioned to enclose its inverse".into())
+        NormalFormError::Invalid(
+            "the linear normalisation is too ill-conditioned to enclose its inverse".into(),
+        )
     })?;
     let bi: Vec<Vec<Iv>> = b
         .iter()
@@ -659,15 +667,17 @@ pub fn certified_tube<H: HamiltonianFn + ?Sized>(
             }
             let mut ec = vec![0.0; k + 2];
             ec[k + 1] = e;
-            Tm { p, e: Majorant { c: ec } }
+            Tm {
+                p,
+                e: Majorant { c: ec },
+            }
         })
         .collect();
     let field: Vec<Tm> = (0..n)
         .map(|i| {
-            (0..n).fold(
-                Tm::exact(Poly::zero(table.clone())),
-                |acc, j| acc.add(&grad[j].scaled(s[i][j])),
-            )
+            (0..n).fold(Tm::exact(Poly::zero(table.clone())), |acc, j| {
+                acc.add(&grad[j].scaled(s[i][j]))
+            })
         })
         .collect();
 

@@ -494,7 +494,13 @@ mod tests {
     #[test]
     fn division_encloses_exact_rationals() {
         // 1/3, 2/7, 22/7, 1e-300/3: lo·d ≤ n ≤ hi·d exactly
-        for &(n, d) in &[(1.0, 3.0), (2.0, 7.0), (22.0, 7.0), (1e-300, 3.0), (5.0, 1e10)] {
+        for &(n, d) in &[
+            (1.0, 3.0),
+            (2.0, 7.0),
+            (22.0, 7.0),
+            (1e-300, 3.0),
+            (5.0, 1e10),
+        ] {
             let q = Iv::point(n) / Iv::point(d);
             assert!(q.lo < q.hi);
             assert!(sign_ab_minus_c(q.lo, d, n) <= 0.0, "{n}/{d}: {q:?}");
@@ -563,9 +569,15 @@ mod tests {
         let w = Real::sin(Iv::new(0.0, 4.0));
         assert!(w.lo <= -0.7568 && w.hi >= 1.0 - 1e-15);
         // x^{3/2} at 4 is 8; x^{1/3} at 8 is 2
-        let r = Real::powf(Iv::point(4.0), lasalle_model::ir::Rational { num: 3, den: 2 });
+        let r = Real::powf(
+            Iv::point(4.0),
+            lasalle_model::ir::Rational { num: 3, den: 2 },
+        );
         assert!(r.contains(8.0));
-        let r = Real::powf(Iv::point(8.0), lasalle_model::ir::Rational { num: 1, den: 3 });
+        let r = Real::powf(
+            Iv::point(8.0),
+            lasalle_model::ir::Rational { num: 1, den: 3 },
+        );
         assert!(r.contains(2.0) && r.width() < 1e-14);
     }
 
