@@ -51,6 +51,9 @@
 //! majorant G (every monomial at its worst, as in the estimate's norm, but over the Taylor
 //! models' degrees above M too), and u(ρ) = R where the majorant τ is not small.
 
+// index loops over coordinates read as the formulas they implement
+#![allow(clippy::needless_range_loop)]
+
 use super::{add_up, mul_up, Iv};
 use crate::bound::Metric;
 use crate::error::NormalFormError;
@@ -535,10 +538,7 @@ impl Extremum {
         let e = enclose(&root);
         heap.push(Keyed(if maximum { e.hi } else { -e.lo }, root));
         let mut boxes = 1;
-        loop {
-            let Some(Keyed(key, bx)) = heap.pop() else {
-                break;
-            };
+        while let Some(Keyed(key, bx)) = heap.pop() {
             let bound = if maximum { key } else { -key };
             let gap = if maximum { bound - best } else { best - bound };
             if gap <= tol * best.abs() || boxes >= budget {
@@ -752,7 +752,7 @@ pub fn certified_tube<H: HamiltonianFn + ?Sized>(
     // ψ(r) = r − τ(r) must increase on [0, y1]: τ′ ≤ |(τ_i′)| ≤ its value at y1
     // where the majorant τ does not keep ψ increasing, |y| ≤ y1 is all that is used
     let monotone = tau_slope < 1.0;
-    if !(rho1 > rho0) {
+    if rho1 <= rho0 || rho1.is_nan() || rho0.is_nan() {
         out.seconds = seconds();
         return Ok(out);
     }
