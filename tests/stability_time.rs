@@ -32,6 +32,7 @@ fn options(tubes: &[(f64, f64)], order: usize, metric: Metric) -> CanonicalOptio
         remainder_degree: None,
         metric,
         validate: None,
+        certified: false,
     }
 }
 
@@ -273,4 +274,21 @@ fn radius_for_a_time_is_the_largest_that_holds() {
     // a larger order keeps a larger radius here (the optimum lies beyond N = 6)
     assert_eq!(r.best_order, Some(6));
     assert!(r.orders[0].d0.unwrap() < d0);
+}
+
+/// `certified`: the certified time of a tube at its best order is positive and below the
+/// estimate, and it is reported next to it.
+#[test]
+fn certified_time_below_the_estimate() {
+    let o = CanonicalOptions {
+        certified: true,
+        ..options(&[(1.25e-3, 2.5e-3)], 4, Metric::LinearNormal)
+    };
+    let r = run(EARTH_MOON_MU, &o).unwrap();
+    let t = &r.tubes[0];
+    let est = t.orders.last().unwrap().gradient.unwrap().lower;
+    let c = t.certified.as_ref().unwrap().as_ref().unwrap();
+    let time = c.time.expect("a certified time");
+    assert!(time > 0.0 && time <= est, "{time} vs {est}");
+    assert!(r.to_table().contains("certified (interval arithmetic"));
 }

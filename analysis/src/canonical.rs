@@ -7,6 +7,7 @@
 
 use lasalle_model::Model;
 use lasalle_normal_form::bound::{tube_radii, Bound, Metric, Norm, Time};
+use lasalle_normal_form::interval::certified::{certified_tube, CertifiedOptions, CertifiedTube};
 use lasalle_normal_form::validate::{tube_orbits, TubeOrbit, TubeRun};
 use lasalle_normal_form::{
     normalize_model, ErrorEstimate, ModelHamiltonian, ModelPoint, NormalForm, NormalFormError,
@@ -38,6 +39,9 @@ pub struct CanonicalOptions {
     pub metric: Metric,
     /// Integrate orbits from every tube's inner sphere (`None`: no validation).
     pub validate: Option<Validation>,
+    /// Also compute the certified time of every tube (and of every `for_time` radius) at
+    /// its best order ([`certified_tube`]).
+    pub certified: bool,
 }
 
 /// The validation runs of [`CanonicalOptions::validate`].
@@ -165,6 +169,8 @@ pub struct RadiusForTime {
     pub best_order: Option<usize>,
     /// The largest d0 over the orders.
     pub d0: Option<f64>,
+    /// With `certified`: the certified time of the tube (d0, k·d0) at `best_order`.
+    pub certified: Option<Result<CertifiedTube, String>>,
 }
 
 /// Per order: what integration measured on one tube.
@@ -203,6 +209,8 @@ pub struct Tube {
     /// With the order search: whether the bound was seen to decrease past `best_order`
     /// (false: it still grew at the last order computed).
     pub optimum_bracketed: Option<bool>,
+    /// With `certified`: the certified time at `best_order`, or why there is none.
+    pub certified: Option<Result<CertifiedTube, String>>,
 }
 
 /// Integration from one tube's inner sphere.
@@ -601,6 +609,18 @@ pub fn analyse(
             }
         }
     }
+    let h = ModelHamiltonian::new(model, params).map_err(at)?;
+    let certify =
+        |order: Option<usize>, d0: f64, d1: f64| -> Option<Result<CertifiedTube, String>> {
+            if !o.certified {
+                return None;
+            }
+            let f = forms.iter().find(|f| Some(f.nf.order) == order)?;
+            Some(
+                certified_tube(&h, &f.nf, d0, d1, o.metric, &CertifiedOptions::default())
+                    .map_err(|e| e.to_string()),
+            )
+        };
     report.radii = o
         .for_time
         .iter()
@@ -616,10 +636,10 @@ pub fn analyse(
                 best_order: best.map(|b| b.0),
                 d0: best.map(|b| b.1),
                 orders,
+                certified: best.and_then(|(n, d)| certify(Some(n), d, o.outer_ratio * d)),
             }
         })
         .collect();
-    let h = ModelHamiltonian::new(model, params).map_err(at)?;
     let mut drift: Vec<Vec<(f64, f64)>> = vec![Vec::new(); orders.len()];
     for (&(d0, d1), rows) in o.tubes.iter().zip(rows_by_tube) {
         let best_order = rows
@@ -679,6 +699,7 @@ pub fn analyse(
         let optimum_bracketed = o
             .optimal
             .then(|| rows.last().map(|r| r.order) != best_order && best_order.is_some());
+        let certified = best_order.and_then(|n| certify(Some(n), d0, d1));
         report.tubes.push(Tube {
             d0,
             d1,
@@ -687,6 +708,7 @@ pub fn analyse(
             validation,
             failure,
             optimum_bracketed,
+            certified,
         });
     }
     report.drift_exponents = orders
@@ -767,6 +789,38 @@ pub fn fit_slope(pts: &[(f64, f64)]) -> f64 {
     let num: f64 = v.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
     let den: f64 = v.iter().map(|p| (p.0 - mx).powi(2)).sum();
     num / den
+}
+
+/// One line for a certified time next to the estimate it certifies.
+fn certified_line(c: &Result<CertifiedTube, String>, estimate: Option<f64>) -> String {
+    match c {
+        Err(e) => format!("  certified: none ({e})"),
+        Ok(c) => {
+            let head = format!(
+                "  certified (interval arithmetic, Taylor models of the field to degree {}, branch and bound on the spheres; {:.1} s): ",
+                c.field_degree, c.seconds
+            );
+            match c.time {
+                Some(t) => {
+                    let ratio = estimate.map_or(String::new(), |e| {
+                        if t < 0.1 * e {
+                            format!(" — {:.1e} of the estimate {e:.4e}: much weaker", t / e)
+                        } else {
+                            format!(" ({:.3} of the estimate {e:.4e})", t / e)
+                        }
+                    });
+                    format!(
+                        "{head}T ≥ {t:.4e}{ratio}; ρ₀ ≤ {:.5e}, ρ₁ ≥ {:.5e}",
+                        c.rho0, c.rho1
+                    )
+                }
+                None => format!(
+                    "{head}no certified time: ρ₁ ≥ {:.5e} does not exceed ρ₀ ≤ {:.5e} (take a smaller or thinner tube)",
+                    c.rho1, c.rho0
+                ),
+            }
+        }
+    }
 }
 
 fn fmt_time(t: Option<Time>) -> String {
@@ -862,6 +916,13 @@ impl CanonicalReport {
                 }
                 _ => {}
             }
+            if let Some(c) = &t.certified {
+                let est = t
+                    .best_order
+                    .and_then(|n| t.orders.iter().find(|r| r.order == n))
+                    .and_then(|r| r.gradient);
+                let _ = writeln!(s, "{}", certified_line(c, est.map(|t| t.lower)));
+            }
             if let Some(v) = &t.validation {
                 let _ = writeln!(
                     s,
@@ -939,6 +1000,9 @@ impl CanonicalReport {
                 None => {
                     let _ = writeln!(s, "  no radius ≥ 1e-7 is kept for this time at any order");
                 }
+            }
+            if let Some(c) = &r.certified {
+                let _ = writeln!(s, "{}", certified_line(c, Some(r.time)));
             }
         }
         if self.tubes.iter().any(|t| t.failure.is_none()) || !self.radii.is_empty() {

@@ -244,7 +244,9 @@ pub fn series_powi<R: Real>(f: &Poly<R>, n: i32) -> Poly<R> {
         0 => Poly::constant(f.table().clone(), R::one()),
         1 => f.clone(),
         2 => f.mul(f),
-        _ if !f.constant_term().is_zero() => series_powf(f, Rational::int(n)),
+        // the recurrence divides by f₀: only when f₀ is certainly non-zero (an interval
+        // containing 0 goes through powering)
+        _ if f.constant_term().abs() > R::zero() => series_powf(f, Rational::int(n)),
         _ if n < 0 => series_powi(&series_recip(f), -n),
         _ => {
             let (mut acc, mut base, mut k) = (

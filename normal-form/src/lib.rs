@@ -199,6 +199,7 @@ mod dd;
 mod emit;
 mod error;
 mod hamiltonian;
+pub mod interval;
 pub mod jet;
 mod lie;
 pub mod linalg;
@@ -217,6 +218,7 @@ pub use complex::Complex;
 pub use dd::Dd;
 pub use error::{Eigenvalue, LoadError, NormalFormError};
 pub use hamiltonian::{find_equilibrium, taylor, Equilibrium, HamiltonianFn};
+pub use interval::Iv;
 pub use jet::Jet;
 /// Re-exported because they appear in this crate's API: [`HamiltonianFn::eval`] is generic
 /// over [`Scalar`], whose `powf` takes a [`Rational`].

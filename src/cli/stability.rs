@@ -98,6 +98,11 @@ pub struct CanonicalArgs {
     /// With --validate: write the figure `stability_time.svg`/`.png` into this directory.
     #[arg(long, value_name = "DIR", requires = "validate")]
     pub figure: Option<std::path::PathBuf>,
+    /// Canonical models: also print a certified time (interval arithmetic through the
+    /// field's Taylor models, branch and bound on the spheres) for every tube and
+    /// --for-time radius, at its best order.
+    #[arg(long)]
+    pub certified: bool,
 }
 
 /// What `lasalle stability` prints.
@@ -126,6 +131,7 @@ const CANONICAL_FLAGS: &[&str] = &[
     "validate",
     "horizon",
     "figure",
+    "certified",
 ];
 const ATTRACTION_FLAGS: &[&str] = &["lyapunov", "radius", "plot"];
 
@@ -266,6 +272,11 @@ fn run_canonical(args: &StabilityArgs, model: &LoadedModel) -> CliResult {
             c.horizon
         )));
     }
+    if c.certified && tubes.is_empty() && c.for_time.is_empty() {
+        return Err(usage(
+            "--certified needs --time-bound D0,D1 or --for-time T",
+        ));
+    }
     if c.validate && tubes.is_empty() {
         return Err(usage("--validate needs --time-bound D0,D1"));
     }
@@ -294,6 +305,7 @@ fn run_canonical(args: &StabilityArgs, model: &LoadedModel) -> CliResult {
             horizon: c.horizon,
             ..Validation::default()
         }),
+        certified: c.certified,
     };
     if let Some(dir) = &c.figure {
         if !dir.is_dir() {

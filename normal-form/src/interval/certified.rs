@@ -1,0 +1,796 @@
+//! Certified tube times: a lower bound on the time to leave a tube about an elliptic
+//! equilibrium that is a theorem about the model (its Hamiltonian as evaluated exactly, with
+//! the parameters' `f64` values), not about a truncated series.
+//!
+//! # What is proved, step by step
+//!
+//! Let `x_e` be the equilibrium as an `f64` vector and `B` the `f64` matrix
+//! [`NormalForm::linear_inverse`], and let `y = B(x − x_e)` (exact real arithmetic: this
+//! *defines* the linear normal coordinates, and `|y|` is the `linear-normal` distance the
+//! command prints). Let `T` be the polynomial map [`NormalForm::to_normal_map`] with its
+//! `f64` coefficients taken as exact, and `W(x) = |T(y)|²`, `ρ = √W`. Nothing requires
+//! `T` to be an exact conjugacy: `W` is just a function, and what follows bounds how fast
+//! the true flow can change it.
+//!
+//! 1. **The field in y, enclosed.** `C ∋ B⁻¹` is an interval matrix (the approximate inverse
+//!    `A` corrected by a Neumann-series bound on `I − BA`), `S ∋ B J Bᵀ`. With
+//!    `H̃(y) = H(x_e + B⁻¹y)`, `ẏ = S∇H̃(y)`. The Taylor polynomial of `H̃` at 0 to degree
+//!    K + 1 is computed by evaluating the model's expression over interval jets
+//!    ([`Jet`]`<`[`Iv`]`>`): every coefficient is an interval containing the exact one. The
+//!    rest of `∂_k H̃` beyond degree K is bounded by the Lagrange form: its coefficients at
+//!    degree K + 1 are derivatives of order K + 2 at some point of the segment `[0, y]`,
+//!    enclosed by the same jets evaluated at the interval box `[−R, R]ⁿ ⊃ {|y| ≤ R}`.
+//! 2. **Taylor models.** Every function is a polynomial with interval coefficients of degree
+//!    ≤ D plus a majorant `e(|y|) = Σ e_s |y|ˢ` of the difference, valid on `|y| ≤ R`
+//!    ([`Majorant`]); products drop the degrees above D into the majorant (each homogeneous
+//!    part `P_s` satisfies `|P_s(y)| ≤ (Σ|p_α|)|y|ˢ` since `|y^α| ≤ |y|^{|α|}`).
+//!    `Ẇ = 2 Σ_j (Σ_i T_i ∂_j T_i) ẏ_j` is such a model; its polynomial part keeps the
+//!    cancellations of the normal form (the degrees below N + 1 are zero up to the
+//!    coefficients' rounding, enclosed), so `|Ẇ(y)| ≤ G(|y|)` with a majorant G of degree
+//!    N + 1 and above, up to rounding-size terms.
+//! 3. **From |y| to ρ.** `T(y) = y + h(y)` with `|h(y)| ≤ τ(|y|)` (majorants of each
+//!    component); so `|y| − τ(|y|) ≤ ρ ≤ |y| + τ(|y|)`. ψ(r) = r − τ(r) is increasing on
+//!    `[0, R]` (checked; where it is not, u = R below), so a point with `|y| ≤ R` and
+//!    `ρ(y) = ρ` has `|y| ≤ u(ρ) = min(R, ψ⁻¹(ρ))`, and `dρ/dt = Ẇ/(2ρ) ≤ G(u(ρ))/(2ρ)`.
+//! 4. **The tube.** ρ₀ bounds ρ on the inner ball `|y| ≤ d₀` from above (the smaller of
+//!    `d₀ + τ(d₀)` and the interval branch and bound of `|T(y)|²` over the ball), ρ₁ bounds
+//!    ρ from below on the outer sphere `|y| = d₁ = R`: `ρ ≥ d₁ − max_{|y|≤d₁} |h(y)|`, the
+//!    maximum bounded by branch and bound of `|h|²` (or by τ(d₁)). An orbit from the
+//!    inner ball that reaches the outer sphere has ρ going from ≤ ρ₀ to ≥ ρ₁ while inside
+//!    the ball, so by comparison it needs at least
+//!    `∫_{ρ₀}^{ρ₁} 2ρ dρ / G(u(ρ)) ≥ Σ_k (ρ_{k+1} − ρ_k) 2ρ_k / G(u(ρ_{k+1}))`,
+//!    each term rounded down ([`CertifiedTube::time`]).
+//! 5. **Euclidean tubes** `|x − x_e| ≤ d` are reduced to the above by
+//!    `|y| ≤ ‖B‖_F |x − x_e|` and `|x − x_e| ≤ ‖C‖_F |y|`.
+//!
+//! Assumed, not proved: that the platform's `exp`, `ln`, `sin`, `cos`, `pow` are accurate
+//! to [`LIBM_ULPS`](super::LIBM_ULPS) ulps (IEEE arithmetic and `√` are exact to the
+//! rounding); the model's expression is what is evaluated, so the model file is the theorem's
+//! hypothesis (the parameters as `f64`). What makes the certified time weaker than the
+//! estimate: ρ₁ from the triangle inequality (the direction of h is not used), the ℓ¹
+//! majorant G (every monomial at its worst, as in the estimate's norm, but over the Taylor
+//! models' degrees above M too), and u(ρ) = R where the majorant τ is not small.
+
+// index loops over coordinates read as the formulas they implement
+#![allow(clippy::needless_range_loop)]
+
+use super::{add_up, mul_up, Iv};
+use crate::bound::Metric;
+use crate::error::NormalFormError;
+use crate::hamiltonian::HamiltonianFn;
+use crate::jet::Jet;
+use crate::monomial::MonomialTable;
+use crate::normal_form::NormalForm;
+use crate::poly::Poly;
+use serde::Serialize;
+use std::sync::Arc;
+
+/// A univariate majorant `m(r) = Σ_s c_s rˢ`, `c_s ≥ 0` upper bounds (rounded up), for
+/// `r = |y| ≥ 0`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Majorant {
+    /// `c_s` by degree s.
+    pub c: Vec<f64>,
+}
+
+impl Majorant {
+    /// Σ_s (Σ_{|α|=s} |p_α|) rˢ: `|p(y)| ≤ m(|y|)` (as `|y^α| ≤ |y|^{|α|}`).
+    pub fn of_poly(p: &Poly<Iv>) -> Majorant {
+        let c = (0..=p.max_degree())
+            .map(|k| {
+                p.part(k)
+                    .map_or(0.0, |part| part.iter().fold(0.0, |s, c| add_up(s, c.mag())))
+            })
+            .collect();
+        Majorant { c }
+    }
+    /// The coefficients above degree d only.
+    pub fn above(&self, d: usize) -> Majorant {
+        Majorant {
+            c: self
+                .c
+                .iter()
+                .enumerate()
+                .map(|(s, &c)| if s > d { c } else { 0.0 })
+                .collect(),
+        }
+    }
+    /// Sum (rounded up).
+    pub fn add(&self, o: &Majorant) -> Majorant {
+        let n = self.c.len().max(o.c.len());
+        let g = |v: &Vec<f64>, i: usize| v.get(i).copied().unwrap_or(0.0);
+        Majorant {
+            c: (0..n).map(|i| add_up(g(&self.c, i), g(&o.c, i))).collect(),
+        }
+    }
+    /// Product (rounded up).
+    pub fn mul(&self, o: &Majorant) -> Majorant {
+        if self.c.is_empty() || o.c.is_empty() {
+            return Majorant::default();
+        }
+        let mut c = vec![0.0; self.c.len() + o.c.len() - 1];
+        for (i, &a) in self.c.iter().enumerate() {
+            if a == 0.0 {
+                continue;
+            }
+            for (j, &b) in o.c.iter().enumerate() {
+                c[i + j] = add_up(c[i + j], mul_up(a, b));
+            }
+        }
+        Majorant { c }
+    }
+    /// `s · m` (rounded up), s ≥ 0.
+    pub fn scaled(&self, s: f64) -> Majorant {
+        Majorant {
+            c: self.c.iter().map(|&c| mul_up(c, s)).collect(),
+        }
+    }
+    /// m(r) rounded up, r ≥ 0.
+    pub fn eval(&self, r: f64) -> f64 {
+        self.c
+            .iter()
+            .rev()
+            .fold(0.0, |acc, &c| add_up(mul_up(acc, r), c))
+    }
+    /// m′(r) rounded up.
+    pub fn derivative_at(&self, r: f64) -> f64 {
+        self.c
+            .iter()
+            .enumerate()
+            .skip(1)
+            .rev()
+            .fold(0.0, |acc, (s, &c)| {
+                add_up(mul_up(acc, r), mul_up(c, s as f64))
+            })
+    }
+}
+
+/// A Taylor model on the ball `|y| ≤ R`: `f(y) ∈ p(y) + [−e(|y|), e(|y|)]`.
+#[derive(Clone, Debug)]
+struct Tm {
+    p: Poly<Iv>,
+    e: Majorant,
+}
+
+impl Tm {
+    fn exact(p: Poly<Iv>) -> Tm {
+        Tm {
+            p,
+            e: Majorant::default(),
+        }
+    }
+    fn add(&self, o: &Tm) -> Tm {
+        Tm {
+            p: self.p.add(&o.p),
+            e: self.e.add(&o.e),
+        }
+    }
+    fn mul(&self, o: &Tm) -> Tm {
+        let d = self.p.max_degree();
+        let (a, b) = (Majorant::of_poly(&self.p), Majorant::of_poly(&o.p));
+        let high = a.mul(&b).above(d);
+        let e = high
+            .add(&a.mul(&o.e))
+            .add(&self.e.mul(&b))
+            .add(&self.e.mul(&o.e));
+        Tm {
+            p: self.p.mul(&o.p),
+            e,
+        }
+    }
+    fn scaled(&self, c: Iv) -> Tm {
+        Tm {
+            p: self.p.scaled(c),
+            e: self.e.scaled(c.mag()),
+        }
+    }
+    fn majorant(&self) -> Majorant {
+        Majorant::of_poly(&self.p).add(&self.e)
+    }
+}
+
+/// Options of the certified bound.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct CertifiedOptions {
+    /// Degree K of the field's Taylor polynomial (default: the remainder degree M of the
+    /// normal form).
+    pub field_degree: Option<usize>,
+    /// Truncation degree D of the Taylor models (default: max(K, M − 1) + 1).
+    pub model_degree: Option<usize>,
+    /// Intervals of the final quadrature.
+    pub intervals: usize,
+    /// Relative gap at which the branch and bound for ρ₀², ρ₁² stops.
+    pub tolerance: f64,
+    /// Box budget of each branch and bound (the bound is certified when it runs out, only
+    /// less sharp).
+    pub budget: usize,
+}
+
+impl Default for CertifiedOptions {
+    fn default() -> Self {
+        CertifiedOptions {
+            field_degree: None,
+            model_degree: None,
+            intervals: 2048,
+            tolerance: 2e-2,
+            budget: 4_000,
+        }
+    }
+}
+
+/// The certified bound of one tube.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CertifiedTube {
+    /// The tube's radii in the given metric.
+    pub d0: f64,
+    /// Outer radius.
+    pub d1: f64,
+    /// Inner and outer radii in `|y|` (equal to d0, d1 in the linear-normal metric).
+    pub y0: f64,
+    /// Outer radius in `|y|`.
+    pub y1: f64,
+    /// Certified upper bound of ρ on the inner ball.
+    pub rho0: f64,
+    /// Certified lower bound of ρ on the outer sphere.
+    pub rho1: f64,
+    /// The certified time (a lower bound on the exit time); `None` when ρ₁ ≤ ρ₀.
+    pub time: Option<f64>,
+    /// K, the field's Taylor degree.
+    pub field_degree: usize,
+    /// D, the Taylor models' degree.
+    pub model_degree: usize,
+    /// The majorant G of |Ẇ| (coefficients by degree of |y|).
+    pub wdot: Majorant,
+    /// τ(d₁): the bound on |T(y) − y| on the outer sphere.
+    pub tau1: f64,
+    /// Boxes of the branch and bound (both extrema).
+    pub boxes: usize,
+    /// Seconds spent.
+    pub seconds: f64,
+}
+
+/// Interval enclosure of `B⁻¹` from the approximate inverse `a`: with `E = I − B·a`,
+/// `B⁻¹ = a(I − E)⁻¹ = a + aE(I − E)⁻¹`, so every entry of `B⁻¹ − a` is at most
+/// `‖aE‖_∞ / (1 − ‖E‖_∞)` in absolute value.
+fn inverse_enclosure(b: &[Vec<f64>], a: &[Vec<f64>]) -> Option<Vec<Vec<Iv>>> {
+    let n = b.len();
+    let iv = |m: &[Vec<f64>]| -> Vec<Vec<Iv>> {
+        m.iter()
+            .map(|r| r.iter().map(|&x| Iv::point(x)).collect())
+            .collect()
+    };
+    let (bi, ai) = (iv(b), iv(a));
+    let mm = |x: &Vec<Vec<Iv>>, y: &Vec<Vec<Iv>>| -> Vec<Vec<Iv>> {
+        (0..n)
+            .map(|i| {
+                (0..n)
+                    .map(|j| (0..n).fold(Iv::point(0.0), |s, k| s + x[i][k] * y[k][j]))
+                    .collect()
+            })
+            .collect()
+    };
+    let ba = mm(&bi, &ai);
+    let e: Vec<Vec<Iv>> = (0..n)
+        .map(|i| {
+            (0..n)
+                .map(|j| Iv::point(if i == j { 1.0 } else { 0.0 }) - ba[i][j])
+                .collect()
+        })
+        .collect();
+    let norm_inf = |m: &Vec<Vec<Iv>>| {
+        m.iter()
+            .map(|r| r.iter().fold(0.0, |s, c| add_up(s, c.mag())))
+            .fold(0.0, f64::max)
+    };
+    let eps = norm_inf(&e);
+    if eps >= 0.5 {
+        return None;
+    }
+    let ae = mm(&ai, &e);
+    // ‖aE‖/(1 − ε), rounded up (1 − ε rounded down)
+    let delta = (Iv::point(norm_inf(&ae)) / Iv::point((1.0 - eps).next_down())).hi;
+    Some(
+        ai.iter()
+            .map(|r| r.iter().map(|&c| c + Iv::symmetric(delta)).collect())
+            .collect(),
+    )
+}
+
+/// Frobenius norm of an interval matrix, rounded up (≥ the spectral norm).
+fn frobenius_up(m: &[Vec<Iv>]) -> f64 {
+    let s = m
+        .iter()
+        .flatten()
+        .fold(0.0, |s, c| add_up(s, mul_up(c.mag(), c.mag())));
+    s.sqrt().next_up()
+}
+
+/// Taylor polynomial of H at `x_e + C(base + t)` in t to the table's degree, over interval
+/// jets (base = 0 for the expansion at the equilibrium, a box for the Lagrange remainder).
+fn jet_at<H: HamiltonianFn + ?Sized>(
+    h: &H,
+    xe: &[f64],
+    c: &[Vec<Iv>],
+    base: &[Iv],
+    table: &Arc<MonomialTable>,
+) -> Poly<Iv> {
+    let n = xe.len();
+    let inputs: Vec<Jet<Iv>> = (0..n)
+        .map(|i| {
+            let c0 = (0..n).fold(Iv::point(xe[i]), |s, j| s + c[i][j] * base[j]);
+            let p = Poly::linear(table.clone(), &c[i]).add_constant(c0);
+            Jet::Series(p)
+        })
+        .collect();
+    h.eval(&inputs).into_poly(table)
+}
+
+/// Certified extrema of `ρ² = |T(y)|² = |y|² + 2y·h(y) + |h(y)|²` (`h = T − id`) by interval
+/// branch and bound on boxes of y: each box's enclosure uses the mean-value form
+/// `h(Y) ⊂ h(c) + Dh(Y)(Y − c)` (the dominant |y|² part is exact on the sphere, and bounded
+/// by the box on the ball).
+struct Extremum {
+    n: usize,
+    /// h = T − id.
+    hot: Vec<Flat>,
+    /// ∂h_i/∂y_j.
+    dhot: Vec<Vec<Flat>>,
+    /// The highest degree (for the power tables).
+    degree: usize,
+}
+
+/// A polynomial as a flat list of terms, for fast evaluation on many boxes.
+struct Flat {
+    coeffs: Vec<Iv>,
+    /// n exponents per term.
+    exps: Vec<u8>,
+}
+
+impl Flat {
+    fn new(p: &Poly<Iv>) -> Flat {
+        let (mut coeffs, mut exps) = (Vec::new(), Vec::new());
+        for (k, i, c) in p.terms() {
+            if !(c.lo == 0.0 && c.hi == 0.0) {
+                coeffs.push(c);
+                exps.extend_from_slice(p.exponents(k, i));
+            }
+        }
+        Flat { coeffs, exps }
+    }
+    /// Value with `pw[v][e]` = (box coordinate v)ᵉ.
+    fn eval(&self, pw: &[Vec<Iv>]) -> Iv {
+        let n = pw.len();
+        let mut sum = Iv::point(0.0);
+        for (t, &c) in self.coeffs.iter().enumerate() {
+            let mut m = c;
+            for (v, &e) in self.exps[t * n..(t + 1) * n].iter().enumerate() {
+                if e > 0 {
+                    m *= pw[v][e as usize];
+                }
+            }
+            sum += m;
+        }
+        sum
+    }
+}
+
+/// Powers of each coordinate of a box up to `degree` (even powers as squares: tighter on
+/// boxes containing 0).
+fn powers(bx: &[Iv], degree: usize) -> Vec<Vec<Iv>> {
+    bx.iter()
+        .map(|&b| {
+            let mut v = Vec::with_capacity(degree + 1);
+            v.push(Iv::point(1.0));
+            for e in 1..=degree {
+                let next = if e % 2 == 0 {
+                    v[e / 2].sqr()
+                } else {
+                    v[e - 1] * b
+                };
+                v.push(next);
+            }
+            v
+        })
+        .collect()
+}
+
+/// The result of a branch and bound: the certified bound, and the boxes used.
+#[derive(Clone, Copy, Debug)]
+struct Bnb {
+    bound: f64,
+    boxes: usize,
+}
+
+/// A box keyed by its bound, for the priority queue.
+#[derive(PartialEq)]
+struct Keyed(f64, Vec<Iv>);
+impl Eq for Keyed {}
+impl PartialOrd for Keyed {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Keyed {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        self.0.total_cmp(&o.0)
+    }
+}
+
+impl Extremum {
+    fn new(tmap: &[Poly<Iv>]) -> Extremum {
+        let n = tmap.len();
+        let hot: Vec<Poly<Iv>> = tmap
+            .iter()
+            .enumerate()
+            .map(|(i, ti)| {
+                let mut e = vec![0u8; n];
+                e[i] = 1;
+                let mut h = ti.clone();
+                let c1 = h.coeff(&e);
+                h.set_coeff(&e, c1 - Iv::point(1.0));
+                h
+            })
+            .collect();
+        let degree = hot.iter().map(|h| h.max_degree()).max().unwrap_or(1);
+        let dhot = hot
+            .iter()
+            .map(|h| (0..n).map(|j| Flat::new(&h.derivative(j))).collect())
+            .collect();
+        Extremum {
+            n,
+            hot: hot.iter().map(Flat::new).collect(),
+            dhot,
+            degree,
+        }
+    }
+    /// Enclosure of 2y·h(y) + |h(y)|² over the box, by the mean-value form.
+    fn q(&self, bx: &[Iv]) -> Iv {
+        let c: Vec<Iv> = bx.iter().map(|b| Iv::point(b.mid())).collect();
+        let dy: Vec<Iv> = bx.iter().zip(&c).map(|(b, c)| *b - *c).collect();
+        let pc = powers(&c, self.degree);
+        let pb = powers(bx, self.degree);
+        let mut acc = Iv::point(0.0);
+        for i in 0..self.n {
+            let mut h = self.hot[i].eval(&pc);
+            for j in 0..self.n {
+                h += self.dhot[i][j].eval(&pb) * dy[j];
+            }
+            acc += Iv::point(2.0) * bx[i] * h + h.sqr();
+        }
+        acc
+    }
+    /// h and Dh enclosed over a box of y (mean-value form for h).
+    fn h_dh(&self, yb: &[Iv]) -> (Vec<Iv>, Vec<Vec<Iv>>) {
+        let c: Vec<Iv> = yb.iter().map(|b| Iv::point(b.mid())).collect();
+        let pc = powers(&c, self.degree);
+        let pb = powers(yb, self.degree);
+        let dh: Vec<Vec<Iv>> = (0..self.n)
+            .map(|i| (0..self.n).map(|j| self.dhot[i][j].eval(&pb)).collect())
+            .collect();
+        let h = (0..self.n)
+            .map(|i| {
+                (0..self.n).fold(self.hot[i].eval(&pc), |acc, j| {
+                    acc + dh[i][j] * (yb[j] - c[j])
+                })
+            })
+            .collect();
+        (h, dh)
+    }
+    /// |h|² at a point.
+    fn h_at(&self, y: &[f64]) -> Iv {
+        let c: Vec<Iv> = y.iter().map(|&v| Iv::point(v)).collect();
+        let pc = powers(&c, self.degree);
+        (0..self.n).fold(Iv::point(0.0), |acc, i| acc + self.hot[i].eval(&pc).sqr())
+    }
+    /// ρ² at a point (an interval around the exact value).
+    fn at(&self, y: &[f64]) -> Iv {
+        let c: Vec<Iv> = y.iter().map(|&v| Iv::point(v)).collect();
+        let pc = powers(&c, self.degree);
+        let mut acc = Iv::point(0.0);
+        for i in 0..self.n {
+            let t = self.hot[i].eval(&pc) + c[i];
+            acc += t.sqr();
+        }
+        acc
+    }
+    /// max ρ² over the ball |y| ≤ d (`maximum`) or min over the sphere |y| = d, to a relative
+    /// gap `tol` or `budget` boxes (the bound is certified either way).
+    fn extremum(&self, d: f64, maximum: bool, of_h: bool, tol: f64, budget: usize) -> Bnb {
+        use std::collections::BinaryHeap;
+        let n = self.n;
+        let d2 = Iv::point(d).sqr();
+        let meets = |bx: &[Iv]| -> bool {
+            let lo = bx
+                .iter()
+                .fold(Iv::point(0.0), |s, b| s + Iv::point(b.mig()).sqr());
+            let hi = bx
+                .iter()
+                .fold(Iv::point(0.0), |s, b| s + Iv::point(b.mag()).sqr());
+            lo.lo <= d2.hi && (maximum || hi.hi >= d2.lo)
+        };
+        let enclose = |bx: &[Iv]| -> Iv {
+            if of_h {
+                let (h, _) = self.h_dh(bx);
+                return h.iter().fold(Iv::point(0.0), |s, x| s + x.sqr());
+            }
+            let r2 = if maximum {
+                let s = bx.iter().fold(Iv::point(0.0), |s, b| s + b.sqr());
+                Iv::new(0.0, s.hi.min(d2.hi))
+            } else {
+                d2
+            };
+            r2 + self.q(bx)
+        };
+        // a point of the region near the box's centre, projected on the sphere
+        let probe = |bx: &[Iv]| -> Option<Iv> {
+            let c: Vec<f64> = bx.iter().map(|b| b.mid()).collect();
+            let r = c.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if r == 0.0 {
+                return None;
+            }
+            let y: Vec<f64> = c.iter().map(|v| v * d / r).collect();
+            Some(if of_h { self.h_at(&y) } else { self.at(&y) })
+        };
+        // best value at a point (with a relative 1e-12 allowance for the projection)
+        let mut best = if maximum { 0.0 } else { f64::INFINITY };
+        let mut heap = BinaryHeap::new();
+        let root = vec![Iv::symmetric(d); n];
+        let e = enclose(&root);
+        heap.push(Keyed(if maximum { e.hi } else { -e.lo }, root));
+        let mut boxes = 1;
+        while let Some(Keyed(key, bx)) = heap.pop() {
+            let bound = if maximum { key } else { -key };
+            let gap = if maximum { bound - best } else { best - bound };
+            if gap <= tol * best.abs() || boxes >= budget {
+                return Bnb { bound, boxes };
+            }
+            // split the widest side
+            let k = (0..n)
+                .max_by(|&a, &b| bx[a].width().total_cmp(&bx[b].width()))
+                .unwrap_or(0);
+            let m = bx[k].mid();
+            for half in [Iv::new(bx[k].lo, m), Iv::new(m, bx[k].hi)] {
+                let mut child = bx.clone();
+                child[k] = half;
+                if !meets(&child) {
+                    continue;
+                }
+                boxes += 1;
+                if let Some(p) = probe(&child) {
+                    best = if maximum {
+                        best.max(p.lo * (1.0 - 1e-12))
+                    } else {
+                        best.min(p.hi * (1.0 + 1e-12))
+                    };
+                }
+                let e = enclose(&child);
+                heap.push(Keyed(if maximum { e.hi } else { -e.lo }, child));
+            }
+        }
+        // every box discarded: the region is empty (cannot happen for d > 0)
+        Bnb {
+            bound: if maximum { 0.0 } else { f64::INFINITY },
+            boxes,
+        }
+    }
+}
+
+/// The certified time of the tube `d0 → d1` in `metric` for the normal form `nf` of `h`
+/// (computed with a remainder degree M and its `to_normal_map`).
+pub fn certified_tube<H: HamiltonianFn + ?Sized>(
+    h: &H,
+    nf: &NormalForm,
+    d0: f64,
+    d1: f64,
+    metric: Metric,
+    options: &CertifiedOptions,
+) -> Result<CertifiedTube, NormalFormError> {
+    let t0 = std::time::Instant::now();
+    let map = nf.to_normal_map.as_ref().ok_or_else(|| {
+        NormalFormError::Invalid(
+            "the certified bound needs the map to the normal coordinates".into(),
+        )
+    })?;
+    let n = 2 * nf.n_dof;
+    let xe = nf.equilibrium_f64();
+    let b = &nf.linear_inverse;
+    let c = inverse_enclosure(b, &nf.linear_map).ok_or_else(|| {
+        NormalFormError::Invalid(
+            "the linear normalisation is too ill-conditioned to enclose its inverse".into(),
+        )
+    })?;
+    let bi: Vec<Vec<Iv>> = b
+        .iter()
+        .map(|r| r.iter().map(|&x| Iv::point(x)).collect())
+        .collect();
+    // radii in |y|
+    let (y0, y1) = match metric {
+        Metric::LinearNormal => (d0, d1),
+        Metric::Euclidean => (
+            mul_up(frobenius_up(&bi), d0),
+            (Iv::point(d1) / Iv::point(frobenius_up(&c))).lo,
+        ),
+    };
+    let m_deg = map
+        .components
+        .iter()
+        .map(|p| p.max_degree())
+        .max()
+        .unwrap_or(1);
+    let k = options.field_degree.unwrap_or(m_deg + 1).max(2);
+    let d = options.model_degree.unwrap_or(k.max(m_deg) + 1).max(k);
+    let table = Arc::new(MonomialTable::new(n, d));
+
+    // 1. the field ẏ = S ∇H̃, S = B J Bᵀ
+    let nd = nf.n_dof;
+    let s: Vec<Vec<Iv>> = (0..n)
+        .map(|i| {
+            (0..n)
+                .map(|j| {
+                    // (B J Bᵀ)_ij = Σ_k B_ik (J Bᵀ)_kj, (J Bᵀ)_kj = B_j,k+n (k < n/2), −B_j,k−n
+                    (0..n).fold(Iv::point(0.0), |acc, kk| {
+                        let jb = if kk < nd {
+                            bi[j][kk + nd]
+                        } else {
+                            -bi[j][kk - nd]
+                        };
+                        acc + bi[i][kk] * jb
+                    })
+                })
+                .collect()
+        })
+        .collect();
+    let t_k1 = Arc::new(MonomialTable::new(n, k + 1));
+    let zero = vec![Iv::point(0.0); n];
+    let hp = jet_at(h, &xe, &c, &zero, &t_k1);
+    let t_k2 = Arc::new(MonomialTable::new(n, k + 2));
+    let boxed = vec![Iv::symmetric(y1); n];
+    let hb = jet_at(h, &xe, &c, &boxed, &t_k2);
+    if !hp.is_finite() || !hb.is_finite() {
+        return Err(NormalFormError::Invalid(format!(
+            "the Hamiltonian's interval Taylor expansion is not finite on the ball |y| ≤ {y1:e} (a singularity within the tube?)"
+        )));
+    }
+    // gradient of H̃: polynomial to degree K, Lagrange remainder at degree K + 1
+    let top = hb.part(k + 2).map(|p| p.to_vec()).unwrap_or_default();
+    let grad: Vec<Tm> = (0..n)
+        .map(|v| {
+            let p = hp.derivative(v).retabled(table.clone());
+            let mut p = p;
+            p.truncate(k);
+            let mut e = 0.0;
+            for (i, c) in top.iter().enumerate() {
+                let ex = t_k2.exponents(k + 2, i);
+                if ex[v] > 0 {
+                    e = add_up(e, mul_up(ex[v] as f64, c.mag()));
+                }
+            }
+            let mut ec = vec![0.0; k + 2];
+            ec[k + 1] = e;
+            Tm {
+                p,
+                e: Majorant { c: ec },
+            }
+        })
+        .collect();
+    let field: Vec<Tm> = (0..n)
+        .map(|i| {
+            (0..n).fold(Tm::exact(Poly::zero(table.clone())), |acc, j| {
+                acc.add(&grad[j].scaled(s[i][j]))
+            })
+        })
+        .collect();
+
+    // 2. W = |T|², Ẇ = 2 Σ_j (Σ_i T_i ∂_j T_i) ẏ_j
+    let tmap: Vec<Poly<Iv>> = map
+        .components
+        .iter()
+        .map(|p| p.map(Iv::point).retabled(table.clone()))
+        .collect();
+    let mut wdot = Tm::exact(Poly::zero(table.clone()));
+    for j in 0..n {
+        let mut v = Tm::exact(Poly::zero(table.clone()));
+        for ti in &tmap {
+            v = v.add(&Tm::exact(ti.clone()).mul(&Tm::exact(ti.derivative(j))));
+        }
+        wdot = wdot.add(&v.mul(&field[j]));
+    }
+    let g = wdot.majorant().scaled(2.0);
+
+    // 3. τ: |T(y) − y| ≤ τ(|y|)
+    let taus: Vec<Majorant> = tmap
+        .iter()
+        .enumerate()
+        .map(|(i, ti)| {
+            let mut e = vec![0u8; n];
+            e[i] = 1;
+            let mut hot = ti.clone();
+            let c1 = hot.coeff(&e);
+            hot.set_coeff(&e, c1 - Iv::point(1.0));
+            Majorant::of_poly(&hot)
+        })
+        .collect();
+    let tau = |r: f64| -> f64 {
+        let s = taus
+            .iter()
+            .fold(0.0, |s, m| add_up(s, mul_up(m.eval(r), m.eval(r))));
+        s.sqrt().next_up()
+    };
+    let tau_slope = {
+        let s = taus.iter().fold(0.0, |s, m| {
+            let dm = m.derivative_at(y1);
+            add_up(s, mul_up(dm, dm))
+        });
+        s.sqrt().next_up()
+    };
+    let tau1 = tau(y1);
+    // ρ₀, ρ₁: the better of the majorant and the branch and bound
+    let ext = Extremum::new(&tmap);
+    let max0 = ext.extremum(y0, true, false, options.tolerance, options.budget);
+    // on the outer sphere ρ ≥ |y| − |h(y)| ≥ y1 − max_{|y| ≤ y1} |h|
+    let hmax1 = ext.extremum(y1, true, true, options.tolerance, options.budget);
+    let rho0 = add_up(y0, tau(y0)).min(max0.bound.sqrt().next_up());
+    let tau1 = tau1.min(hmax1.bound.sqrt().next_up());
+    let rho1 = (Iv::point(y1) - Iv::point(tau1)).lo;
+    let boxes = max0.boxes + hmax1.boxes;
+    let seconds = || t0.elapsed().as_secs_f64();
+    let mut out = CertifiedTube {
+        d0,
+        d1,
+        y0,
+        y1,
+        rho0,
+        rho1,
+        time: None,
+        field_degree: k,
+        model_degree: d,
+        wdot: g.clone(),
+        tau1,
+        boxes,
+        seconds: 0.0,
+    };
+    // ψ(r) = r − τ(r) must increase on [0, y1]: τ′ ≤ |(τ_i′)| ≤ its value at y1
+    // where the majorant τ does not keep ψ increasing, |y| ≤ y1 is all that is used
+    let monotone = tau_slope < 1.0;
+    if rho1 <= rho0 || rho1.is_nan() || rho0.is_nan() {
+        out.seconds = seconds();
+        return Ok(out);
+    }
+    // 4. u(ρ) = min(y1, ψ⁻¹(ρ)) rounded up: the smallest r found with ψ(r) ≥ ρ
+    let psi_lo = |r: f64| (Iv::point(r) - Iv::point(tau(r))).lo;
+    let u = |rho: f64| -> f64 {
+        if !monotone || psi_lo(y1) < rho {
+            return y1;
+        }
+        let (mut lo, mut hi) = (0.0, y1);
+        for _ in 0..60 {
+            let mid = 0.5 * (lo + hi);
+            if psi_lo(mid) >= rho {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        hi
+    };
+    let m = options.intervals.max(1);
+    let q = (rho1 / rho0).powf(1.0 / m as f64);
+    let mut total = Iv::point(0.0);
+    let mut a = rho0;
+    for i in 1..=m {
+        let bnd = if i == m { rho1 } else { (a * q).min(rho1) };
+        let gmax = g.eval(u(bnd));
+        let num = (Iv::point(bnd) - Iv::point(a)) * Iv::point(2.0 * a);
+        let term = num / Iv::point(gmax);
+        if gmax > 0.0 && term.lo.is_finite() {
+            total += Iv::point(term.lo.max(0.0));
+        } else if gmax == 0.0 {
+            total = Iv::point(f64::INFINITY);
+            break;
+        }
+        a = bnd;
+    }
+    out.time = Some(total.lo.max(0.0));
+    out.seconds = seconds();
+    Ok(out)
+}
