@@ -97,6 +97,7 @@ impl Default for StabilityOptions {
                 remainder_degree: None,
                 metric: Metric::Euclidean,
                 validate: None,
+                certified: false,
             },
         }
     }
