@@ -784,6 +784,7 @@ def stability(
     equilibrium: Union[str, Sequence[float], None] = None,
     validate: bool = False,
     horizon: float = 200.0,
+    certified: bool = False,
 ) -> Dict[str, Any]:
     """The stability analysis the model's structure chooses: what ``lasalle stability
     --format json`` prints, as dicts with arrays for the number lists.
@@ -796,7 +797,8 @@ def stability(
       time before an orbit from within d0 can reach d1 (orders up to ``order``, else the
       optimal order is searched); ``for_time``, ``outer_ratio``, ``remainder_degree``,
       ``metric`` (``euclidean`` or ``linear-normal``), ``validate`` (integrate orbits to
-      ``horizon``) as the command's flags;
+      ``horizon``) and ``certified`` (a certified time next to each estimate, by interval
+      arithmetic: slow, tens of seconds per tube) as the command's flags;
     - models without Hamiltonian structure (planar, dissipative): the domain of attraction of
       the equilibrium ``at`` (x1, x2; default the first named asymptotically stable one), with
       the model's ``let`` ``lyapunov`` (default ``energy``) and the search ``radius``.
@@ -857,5 +859,6 @@ def stability(
         equilibrium,
         bool(validate),
         float(horizon),
+        bool(certified),
     )
     return _arrays(json.loads(text))

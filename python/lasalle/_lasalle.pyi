@@ -121,4 +121,5 @@ class NativeModel:
         equilibrium: Union[str, Sequence[float], None],
         validate: bool,
         horizon: float,
+        certified: bool,
     ) -> str: ...

@@ -980,7 +980,7 @@ impl NativeModel {
 
     /// The stability analysis the model's structure chooses, with the current parameters,
     /// as the JSON text of `lasalle stability --format json`; `file` names the model file.
-    #[pyo3(signature = (file, casimir, at, range, levels, lyapunov, radius, time_bound, order, for_time, outer_ratio, remainder_degree, metric, equilibrium, validate, horizon))]
+    #[pyo3(signature = (file, casimir, at, range, levels, lyapunov, radius, time_bound, order, for_time, outer_ratio, remainder_degree, metric, equilibrium, validate, horizon, certified))]
     #[allow(clippy::too_many_arguments)]
     fn stability(
         &self,
@@ -1001,6 +1001,7 @@ impl NativeModel {
         equilibrium: Option<&Bound<'_, PyAny>>,
         validate: bool,
         horizon: f64,
+        certified: bool,
     ) -> PyResult<String> {
         use lasalle_analysis::canonical::{Validation, SEARCH_MAX_ORDER};
         use lasalle_analysis::stability::{analyse, StabilityKind, StabilityOptions};
@@ -1033,15 +1034,21 @@ impl NativeModel {
             || outer_ratio.is_some()
             || remainder_degree.is_some()
             || equilibrium.is_some()
-            || validate;
+            || validate
+            || certified;
         given(
-            "time_bound/order/for_time/outer_ratio/remainder_degree/equilibrium/validate",
+            "time_bound/order/for_time/outer_ratio/remainder_degree/equilibrium/validate/certified",
             canonical_set,
             &[Canonical],
         )?;
         if validate && time_bound.is_empty() {
             return Err(PyValueError::new_err(
                 "validate=True needs time_bound=[(d0, d1)]",
+            ));
+        }
+        if certified && time_bound.is_empty() && for_time.is_empty() {
+            return Err(PyValueError::new_err(
+                "certified=True needs time_bound=[(d0, d1)] or for_time=[T]",
             ));
         }
         if !(horizon > 0.0 && horizon.is_finite()) {
@@ -1089,6 +1096,7 @@ impl NativeModel {
             horizon,
             ..Validation::default()
         });
+        c.certified = certified;
         let model = &self.model;
         let report = py.allow_threads(|| analyse(model, file, &opts));
         match report {

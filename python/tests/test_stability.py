@@ -114,6 +114,8 @@ def test_the_command_lines_json(model, flags, kwargs):
         ("duffing", dict(at=[5, 0]), "not asymptotically stable"),
         ("cr3bp", dict(time_bound=[(2e-3, 1e-3)]), "time_bound=0.002,0.001"),
         ("cr3bp", dict(validate=True), "needs time_bound"),
+        ("cr3bp", dict(certified=True), "needs time_bound"),
+        ("duffing", dict(certified=True), "does not apply"),
         ("cr3bp", dict(metric="taxicab"), "metric"),
         ("so3_type_i", dict(range=(2, 1)), "0 < a < b"),
     ],
