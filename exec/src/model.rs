@@ -480,11 +480,7 @@ impl LoadedModel {
     /// The compiled step tape of `method` on the field or on X − ∇V (built and compiled at
     /// its first use, then shared), on the back ends that hand out their code
     /// ([`Kernel::raw_eval`]: the JIT).
-    fn step_kernel(
-        &self,
-        method: &FixedMethod<'_>,
-        feedback: bool,
-    ) -> Option<Arc<Box<dyn Kernel>>> {
+    fn step_kernel(&self, method: &FixedMethod<'_>, feedback: bool) -> Option<StepKernel> {
         if self.backend != Backend::Jit {
             return None;
         }

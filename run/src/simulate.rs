@@ -520,7 +520,6 @@ where
     }
 }
 
-/// Hands `visit` the explicit Runge–Kutta stepper `base`.
 /// The step of a fixed-step base method compiled whole by the model's back end, on the field
 /// or on X − ∇V with fixed `feedback` targets and gains, if the back end compiles one
 /// ([`Declared::compiled_step`]): bitwise the generic stepper's run.
@@ -553,6 +552,7 @@ fn compiled_step<X: State<f64>>(
     }
 }
 
+/// Hands `visit` the explicit Runge–Kutta stepper `base`.
 pub(crate) fn with_base<F, V, X>(base: Base, spec: &RunSpec, visit: V) -> V::Out
 where
     F: Field<f64, X> + ?Sized,
