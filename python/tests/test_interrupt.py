@@ -12,9 +12,13 @@ import pytest
 
 CHILD = textwrap.dedent(
     """
-    import os, sys, time
+    import os, signal, sys, time
     import numpy as np
     import lasalle
+
+    # Python's own Ctrl-C handler, whatever the parent left: a process started in the
+    # background by a non-interactive shell inherits SIGINT ignored
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
     def tasks():
         return len(os.listdir("/proc/self/task"))
