@@ -201,6 +201,10 @@ impl<O: Observer<f64, X>, X: ?Sized> Observer<f64, X> for Progress<'_, O> {
     fn finish(&mut self, step: u64, t: f64, x: &X) {
         self.inner.finish(step, t, x)
     }
+
+    fn next_wanted(&self, step: u64) -> u64 {
+        self.inner.next_wanted(step)
+    }
 }
 
 /// The innermost visitor: integrates `field` with the stepper and records the model's

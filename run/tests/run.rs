@@ -193,11 +193,15 @@ fn compiled_steps_are_bitwise_the_generic_steppers_runs() {
             "feedback-heun",
             "feedback-rk4",
         ] {
-            let spec = RunSpec::new(method.parse::<Method>().unwrap(), 1e-3, 2.0);
-            let a = simulate(&jit, &x0, &spec).unwrap();
-            let b = simulate(&interp, &x0, &spec).unwrap();
-            assert!(a.failure.is_none(), "{stem} {method}: {:?}", a.failure);
-            assert_same(&a, &b, &format!("{stem} {method}"));
+            // samples every few steps, and far apart (the steps between go in batches)
+            for every in [0, 7, 300] {
+                let mut spec = RunSpec::new(method.parse::<Method>().unwrap(), 1e-3, 2.0);
+                spec.every = every;
+                let a = simulate(&jit, &x0, &spec).unwrap();
+                let b = simulate(&interp, &x0, &spec).unwrap();
+                assert!(a.failure.is_none(), "{stem} {method}: {:?}", a.failure);
+                assert_same(&a, &b, &format!("{stem} {method} every {every}"));
+            }
         }
     }
     // Kepler's guard `resolved: dt * norm(v) <= norm(x)` fails near the pericentre of this
@@ -205,8 +209,16 @@ fn compiled_steps_are_bitwise_the_generic_steppers_runs() {
     let jit = load("kepler");
     let interp = LoadedModel::load(model_path("kepler"), Backend::Interpreter).unwrap();
     let x0 = vec![1.0, 0.0, 0.0, 0.0, 0.3, 0.0];
-    for method in ["euler", "rk4", "feedback-rk4"] {
-        let spec = RunSpec::new(method.parse::<Method>().unwrap(), 0.25, 10.0);
+    for (method, every) in [
+        ("euler", 0),
+        ("rk4", 0),
+        ("feedback-rk4", 0),
+        ("euler", 30),
+        ("rk4", 30),
+    ] {
+        // (with a sample every 30 steps the failing step lies inside a batch)
+        let mut spec = RunSpec::new(method.parse::<Method>().unwrap(), 0.25, 10.0);
+        spec.every = every;
         let a = simulate(&jit, &x0, &spec).unwrap();
         let b = simulate(&interp, &x0, &spec).unwrap();
         let failure = a

@@ -159,7 +159,10 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
     }
 
     /// The shared stepping loop; `on_step(stepper, steps, t, x)` is called at the start
-    /// (steps = 0) and after every accepted step.
+    /// (steps = 0) and after every accepted step it asks for: it returns whether to go on
+    /// and the next step it must see ([`Observer::next_wanted`]). Fixed steps that nothing
+    /// watches (no observation, no check due, not the last) go to the stepper in batches
+    /// ([`Stepper::fixed_steps`]) where it takes them.
     fn drive<F, S, C>(
         &self,
         stepper: &mut S,
@@ -171,7 +174,7 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
     where
         F: ?Sized,
         S: Stepper<T, X, F>,
-        C: FnMut(&S, u64, T, &X) -> Control,
+        C: FnMut(&S, u64, T, &X) -> (Control, u64),
     {
         let t0 = self.t0;
         if !(t0.is_finite() && t_end.is_finite() && t_end >= t0) {
@@ -214,10 +217,13 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
         let mut guard = Period::new(self.guard.as_ref().map(|g| g.0));
         let mut divergence = Period::new(self.divergence.as_ref().map(|d| d.0));
         self.run_checks(true, false, 0, false, t0, h, &x)?;
-        if on_step(stepper, 0, t0, &x) == Control::Stop {
+        let (control, mut wanted) = on_step(stepper, 0, t0, &x);
+        if control == Control::Stop {
             summary.stopped_by_observer = true;
             return Ok(summary);
         }
+        // whether the stepper takes batches of fixed steps (asked at the first chance)
+        let mut batches = !adaptive;
         // fixed steps: t_n = t0 + n h exactly, the last step shortened to hit t_end
         let (n_full, partial) = {
             let ratio = (t_end - t0) / h;
@@ -236,6 +242,35 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
         let mut t_lo = T::zero();
         let mut n = T::zero();
         while t < t_end {
+            if batches {
+                // the steps before the next one anything watches: the observer's, a check's,
+                // the interrupt's, the budget's and the last, shortened one
+                let next_interrupt = match self.interrupt {
+                    Some(_) => (summary.steps / INTERRUPT_EVERY + 1) * INTERRUPT_EVERY,
+                    None => u64::MAX,
+                };
+                let watched = wanted
+                    .min(summary.steps.saturating_add(guard.left))
+                    .min(summary.steps.saturating_add(divergence.left))
+                    .min(next_interrupt);
+                let before_last = to_f64(n_total - n - T::one()).max(0.0) as u64;
+                let k = (watched - summary.steps - 1)
+                    .min(before_last)
+                    .min(self.max_steps.saturating_sub(summary.steps));
+                if k > 1 {
+                    match stepper.fixed_steps(field, &mut x, h, k) {
+                        Some(batch) => {
+                            summary.steps += batch.steps;
+                            summary.evaluations += batch.evaluations;
+                            n = n + lit::<T>(batch.steps as f64);
+                            t = t0 + n * h;
+                            guard.skip(batch.steps);
+                            divergence.skip(batch.steps);
+                        }
+                        None => batches = false,
+                    }
+                }
+            }
             let (h_step, last) = if adaptive {
                 let remaining = t_end - t;
                 if h * lit(1.01) >= remaining {
@@ -292,7 +327,9 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
                 outcome.h_taken,
                 &x,
             )?;
-            if on_step(stepper, summary.steps, t, &x) == Control::Stop {
+            let control;
+            (control, wanted) = on_step(stepper, summary.steps, t, &x);
+            if control == Control::Stop {
                 summary.stopped_by_observer = true;
                 break;
             }
@@ -320,7 +357,7 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
         O: Observer<T, X> + ?Sized,
     {
         let summary = self.drive(stepper, field, x0, self.t_end, |_, step, t, x| {
-            observer.observe(step, t, x)
+            (observer.observe(step, t, x), observer.next_wanted(step))
         })?;
         observer.finish(summary.steps, summary.t, &summary.x);
         Ok(summary)
@@ -342,7 +379,10 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
         S: Stepper<T, X, F>,
         C: FnMut(&S, u64, T, &X) -> Control,
     {
-        self.drive(stepper, field, x0, self.t_end, on_step)
+        let mut on_step = on_step;
+        self.drive(stepper, field, x0, self.t_end, |s, step, t, x| {
+            (on_step(s, step, t, x), step + 1)
+        })
     }
 
     /// Integrates with a dense-output stepper up to the last of `times` (sorted, within
@@ -387,10 +427,10 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
                 next += 1;
                 if c == Control::Stop {
                     stopped = true;
-                    return Control::Stop;
+                    return (Control::Stop, step + 1);
                 }
             }
-            Control::Continue
+            (Control::Continue, step + 1)
         })?;
         summary.stopped_by_observer = stopped;
         let t_done = if next > 0 { times[next - 1] } else { self.t0 };
@@ -410,6 +450,12 @@ impl Period {
     fn new(every: Option<u64>) -> Period {
         let every = every.unwrap_or(u64::MAX);
         Period { every, left: every }
+    }
+
+    /// Counts `k` steps before the one the check is due after (`k < left`).
+    fn skip(&mut self, k: u64) {
+        debug_assert!(k < self.left);
+        self.left -= k;
     }
 
     /// Counts one step: is the check due after it?
@@ -506,5 +552,95 @@ mod tests {
             .run(&mut ExplicitRk::rk4(), &Rotation, &[1.0, 0.0], &mut ())
             .unwrap();
         assert_eq!(done.steps, 1000);
+    }
+
+    /// Euler, taking batches by stepping in a loop, and counting the steps taken in batches.
+    struct Batched {
+        euler: ExplicitRk<f64, 1, [f64; 2]>,
+        in_batches: u64,
+    }
+
+    impl Stepper<f64, [f64; 2], Rotation> for Batched {
+        fn step(
+            &mut self,
+            field: &Rotation,
+            t: f64,
+            x: &mut [f64; 2],
+            h: f64,
+        ) -> Result<crate::StepOutcome<f64>, StepError> {
+            self.euler.step(field, t, x, h)
+        }
+        fn order(&self) -> u32 {
+            1
+        }
+        fn name(&self) -> String {
+            "batched euler".to_string()
+        }
+        fn fixed_steps(
+            &mut self,
+            field: &Rotation,
+            x: &mut [f64; 2],
+            h: f64,
+            k: u64,
+        ) -> Option<crate::Batch> {
+            for _ in 0..k {
+                self.euler.step(field, 0.0, x, h).ok()?;
+            }
+            self.in_batches += k;
+            Some(crate::Batch {
+                steps: k,
+                evaluations: k,
+            })
+        }
+    }
+
+    /// A run to t = 10.0005 in steps of 10⁻³ with a step budget and an interrupt flag that
+    /// says stop at its `at`-th reading.
+    fn driver(calls: &Cell<u64>, budget: u64, at: u64) -> Driver<'_, f64, [f64; 2]> {
+        Driver::new(0.0, 10.000_5, 1e-3)
+            .max_steps(budget)
+            .interrupt(move || {
+                calls.set(calls.get() + 1);
+                calls.get() == at
+            })
+    }
+
+    #[test]
+    fn batches_leave_runs_as_they_were() {
+        let run = |batched: bool, driver: Driver<'_, f64, [f64; 2]>, every: u64| {
+            let mut seen = Vec::new();
+            let mut stride = crate::Stride::new(
+                |step: u64, t: f64, x: &[f64; 2]| {
+                    seen.push((step, t.to_bits(), x[0].to_bits()));
+                    Control::Continue
+                },
+                every,
+            );
+            let mut stepper = Batched {
+                euler: ExplicitRk::euler(),
+                in_batches: 0,
+            };
+            let out = if batched {
+                driver.run(&mut stepper, &Rotation, &[1.0, 0.0], &mut stride)
+            } else {
+                driver.run(&mut &mut stepper.euler, &Rotation, &[1.0, 0.0], &mut stride)
+            };
+            let out = out.map_err(|e| e.to_string());
+            (out, seen, stepper.in_batches)
+        };
+        // a sample every 100 steps, the last step shortened; a step budget; an interrupt at
+        // the interrupt flag's third reading
+        for (every, budget, interrupt_at) in
+            [(100, u64::MAX, 0), (100, 950, 0), (1000, u64::MAX, 3)]
+        {
+            let (calls_plain, calls_batched) = (Cell::new(0), Cell::new(0));
+            let (plain, plain_seen, _) =
+                run(false, driver(&calls_plain, budget, interrupt_at), every);
+            let (batched, batched_seen, in_batches) =
+                run(true, driver(&calls_batched, budget, interrupt_at), every);
+            assert_eq!(plain, batched, "every {every}, budget {budget}");
+            assert_eq!(plain_seen, batched_seen);
+            assert!(in_batches > 500, "{in_batches} steps in batches");
+        }
     }
 }

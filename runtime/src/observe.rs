@@ -32,12 +32,24 @@ pub trait Observer<T, X: ?Sized> {
     /// Called once when the integration ends without error (end time reached or stopped by an
     /// observer), with the final step count, time and state. The default does nothing.
     fn finish(&mut self, _step: u64, _t: T, _x: &X) {}
+
+    /// The first step after `step` that this observer must see: the driver may take the steps
+    /// in between without calling [`observe`](Self::observe) (a
+    /// [`CompiledStep`](crate::CompiledStep) takes them in one call). The default, `step + 1`,
+    /// sees every step; a sampling observer ([`Stride`], [`Recorder`]) names its next sample.
+    fn next_wanted(&self, step: u64) -> u64 {
+        step + 1
+    }
 }
 
 /// The observer that observes nothing.
 impl<T, X: ?Sized> Observer<T, X> for () {
     fn observe(&mut self, _step: u64, _t: T, _x: &X) -> Control {
         Control::Continue
+    }
+
+    fn next_wanted(&self, _step: u64) -> u64 {
+        u64::MAX
     }
 }
 
@@ -64,38 +76,48 @@ impl<T: Copy, X: ?Sized, A: Observer<T, X>, B: Observer<T, X>> Observer<T, X> fo
         self.0.finish(step, t, x);
         self.1.finish(step, t, x);
     }
+
+    fn next_wanted(&self, step: u64) -> u64 {
+        self.0.next_wanted(step).min(self.1.next_wanted(step))
+    }
 }
 
-/// The sampling rule every sampling observer shares: observations 0, n, 2n, … (the driver's
-/// steps 0, n, 2n, …) and, at the end, the final step if it was not sampled already. It counts
-/// down instead of dividing, so the hot loop of a run has no integer division.
+/// The sampling rule every sampling observer shares: steps 0, n, 2n, … (with n = 1, every
+/// observation, whatever its number) and, at the end, the final step if it was not sampled
+/// already. It keeps the next sampled step instead of
+/// dividing, so the hot loop of a run has no integer division, and names it to the driver
+/// ([`Observer::next_wanted`]), which need not show it the steps in between.
 #[derive(Clone, Copy, Debug)]
 struct Every {
     n: u64,
-    countdown: u64,
+    next: u64,
     last: Option<u64>,
 }
 
 impl Every {
-    /// Every `n`-th observation (0 is treated as 1).
+    /// Every `n`-th step (0 is treated as 1).
     fn new(n: u64) -> Self {
         Every {
             n: n.max(1),
-            countdown: 0,
+            next: 0,
             last: None,
         }
     }
 
-    /// Is this observation sampled? (Call once per observation.)
+    /// Is this step sampled? (Call once per observation.)
     #[inline]
     fn due(&mut self, step: u64) -> bool {
-        if self.countdown > 1 {
-            self.countdown -= 1;
+        if self.n > 1 && step < self.next {
             return false;
         }
-        self.countdown = self.n;
+        self.next = step.saturating_add(self.n);
         self.last = Some(step);
         true
+    }
+
+    /// The next sampled step after `step`.
+    fn next(&self, step: u64) -> u64 {
+        self.next.max(step + 1)
     }
 
     /// Is the final step still to be sampled? (Call once, from `finish`.)
@@ -140,6 +162,10 @@ impl<T: Copy, X: ?Sized, O: Observer<T, X>> Observer<T, X> for Stride<O> {
             let _ = self.inner.observe(step, t, x);
         }
         self.inner.finish(step, t, x);
+    }
+
+    fn next_wanted(&self, step: u64) -> u64 {
+        self.every.next(step)
     }
 }
 
@@ -223,6 +249,10 @@ impl<T: Copy, X: Clone> Observer<T, X> for StateRecorder<T, X> {
         if self.every.final_due(step) {
             self.push(t, x);
         }
+    }
+
+    fn next_wanted(&self, step: u64) -> u64 {
+        self.every.next(step)
     }
 }
 
@@ -379,5 +409,9 @@ where
         if self.every.final_due(step) {
             self.push(t, x);
         }
+    }
+
+    fn next_wanted(&self, step: u64) -> u64 {
+        self.every.next(step)
     }
 }

@@ -11,7 +11,7 @@
 use std::any::Any;
 use std::sync::Arc;
 
-use super::{StepOutcome, Stepper};
+use super::{Batch, StepOutcome, Stepper};
 use crate::declared::GuardFailure;
 use crate::error::{all_finite, StepError};
 use crate::field::Field;
@@ -55,6 +55,8 @@ pub struct CompiledStep {
     gains: Vec<f64>,
     /// The new state (`n` values), then the margins.
     out: Vec<f64>,
+    /// The other half of a batch's double buffer, shaped as `out`.
+    back: Vec<f64>,
     n: usize,
     /// Name, condition and strictness of each guard, in the order of the margins.
     guards: Vec<(&'static str, &'static str, bool)>,
@@ -102,6 +104,7 @@ impl CompiledStep {
             targets,
             gains: all_gains,
             out: vec![0.0; n + guards.len()],
+            back: vec![0.0; n + guards.len()],
             n,
             guards,
         }
@@ -161,6 +164,50 @@ impl<X: State<f64>, F: Field<f64, X> + ?Sized> Stepper<f64, X, F> for CompiledSt
             }
         }
         Ok(StepOutcome::fixed(h, self.stages))
+    }
+
+    fn fixed_steps(&mut self, _field: &F, x: &mut X, h: f64, k: u64) -> Option<Batch> {
+        let n = self.n;
+        if x.len() != n {
+            // `step` reports the mismatch
+            return None;
+        }
+        let at_h = self.gains.len() - 2;
+        self.gains[at_h] = h;
+        let (code, guards) = (self.code, &self.guards);
+        let (hoisted, targets, gains) = (
+            self.hoisted.as_ptr(),
+            self.targets.as_ptr(),
+            self.gains.as_ptr(),
+        );
+        // each step reads one buffer and writes the other: no copy between steps
+        let (mut from, mut to) = (&mut self.back, &mut self.out);
+        from[..n].copy_from_slice(x.as_ref());
+        let mut taken = 0;
+        while taken < k {
+            // SAFETY: as in `step`: `from` holds the n state components, `to` has room for
+            // the n new ones and the margins, the other buffers were sized in `new`.
+            unsafe { code(hoisted, from.as_ptr(), targets, gains, to.as_mut_ptr()) };
+            let (next, margins) = to.split_at(n);
+            let good = all_finite(next)
+                && guards
+                    .iter()
+                    .zip(margins)
+                    .all(|(&(name, condition, strict), &m)| {
+                        GuardFailure::check(name, condition, m, strict).is_none()
+                    });
+            if !good {
+                // `step` takes this one again and reports it
+                break;
+            }
+            std::mem::swap(&mut from, &mut to);
+            taken += 1;
+        }
+        x.as_mut().copy_from_slice(&from[..n]);
+        Some(Batch {
+            steps: taken,
+            evaluations: taken * u64::from(self.stages),
+        })
     }
 
     fn order(&self) -> u32 {

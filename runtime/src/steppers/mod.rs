@@ -42,6 +42,16 @@ pub use splitting::Splitting;
 pub use stormer_verlet::{StormerVerlet, VerletVariant};
 pub use tableau::Tableau;
 
+/// What one call to [`Stepper::fixed_steps`] did: the steps it took and their evaluations.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Batch {
+    /// Steps taken, each of the requested size, each with a finite new state on which the
+    /// model's guards hold.
+    pub steps: u64,
+    /// Field evaluations spent on them.
+    pub evaluations: u64,
+}
+
 /// What one successful call to [`Stepper::step`] did.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StepOutcome<T> {
@@ -122,6 +132,16 @@ pub trait Stepper<T: Float, X: State<T>, F: ?Sized> {
         false
     }
 
+    /// Takes up to `k` fixed steps of size `h` in one call, where the stepper can do so
+    /// cheaper than `k` calls of [`step`](Self::step) ([`CompiledStep`]): the steps are those
+    /// `step` would take, and the batch ends before the first one whose new state is not
+    /// finite or fails a guard, leaving `x` at the last good state, so that the caller's next
+    /// [`step`](Self::step) meets the failure and reports it as usual. `None` (the default) if
+    /// the stepper takes no batches; the [`Driver`](crate::Driver) then calls `step` each time.
+    fn fixed_steps(&mut self, _field: &F, _x: &mut X, _h: T, _k: u64) -> Option<Batch> {
+        None
+    }
+
     /// Named counters of the work done so far beyond steps and evaluations, for reports:
     /// [`Projection`] adds `newton_iterations` and `projected_steps`,
     /// [`AdaptiveGain`](crate::AdaptiveGain) `last_gauss_newton_norm`; a wrapper lists its
@@ -163,6 +183,12 @@ impl<T: Float, X: State<T>, F: ?Sized, S: Stepper<T, X, F> + ?Sized> Stepper<T, 
     }
     fn dense_output(&self) -> Option<&dyn DenseOutput<T, X>> {
         (**self).dense_output()
+    }
+    fn checks_guards(&self) -> bool {
+        (**self).checks_guards()
+    }
+    fn fixed_steps(&mut self, field: &F, x: &mut X, h: T, k: u64) -> Option<Batch> {
+        (**self).fixed_steps(field, x, h, k)
     }
     fn counters(&self) -> Vec<(&'static str, f64)> {
         (**self).counters()
