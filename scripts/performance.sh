@@ -20,7 +20,7 @@ criterion="$target/criterion"
 work="$target/performance"
 mkdir -p "$work"
 
-all=(feedback paper-runs backends run load load-nbody load-fput adaptive-gains taylor-models taylor-kernels sweep heyoka)
+all=(feedback paper-runs backends run load load-nbody load-fput nbody-heyoka adaptive-gains taylor-models taylor-kernels sweep heyoka)
 
 describe() {
     case "$1" in
@@ -31,6 +31,7 @@ describe() {
     load) echo "cargo bench --bench backends -- load/ (loading a model file with the JIT)" ;;
     load-nbody) echo "cargo run --release -p lasalle-exec --example load_scale (N-body load by stage, N = 3 ... 256)" ;;
     load-fput) echo "cargo run --release -p lasalle-exec --example load_scale -- --model fput (FPUT load by stage)" ;;
+    nbody-heyoka) echo "scripts/heyoka/nbody_scaling.py (N-body field and Taylor step vs N, lasalle and heyoka compact mode)" ;;
     adaptive-gains) echo "lasalle experiment adaptive-gains (steps and errors; also the figure)" ;;
     taylor-models) echo "lasalle run <model> -m taylor --rtol 1e-15 … --format json, fastest of 5" ;;
     taylor-kernels) echo "cargo bench --bench taylor (emitted Taylor kernels vs the interpreted tape)" ;;
@@ -287,6 +288,20 @@ sweep_time() {
         best=$(python3 -c "print(min(float('$t'), float('${best:-inf}')))")
     done
     echo "$best"
+}
+
+# heyoka from PyPI in the virtual environment scripts/heyoka/run.sh makes
+heyoka_python() {
+    local venv="$root/target/heyoka-venv"
+    if [ ! -x "$venv/bin/python" ]; then
+        python3 -m venv "$venv" >&2
+        "$venv/bin/pip" install --quiet "heyoka>=7" numpy matplotlib >&2
+    fi
+    echo "$venv/bin/python"
+}
+
+table_nbody_heyoka() {
+    "$(heyoka_python)" scripts/heyoka/nbody_scaling.py "$(lasalle_bin)" --sizes "${NBODY_SIZES:-3,6,12,24,48}"
 }
 
 table_sweep() {

@@ -1,7 +1,8 @@
-//! `lasalle bench-eval <model> [--lanes 1,4,8] [--chain]`: the CPU time of the JIT-compiled
-//! feedback field X − ∇V per state, one state per call and k states per call (structure of
-//! arrays, `Kernel::eval_lanes`), printed as a table or (`--format json`) one JSON line — the counterpart of heyoka's
-//! batched `make_cfunc` in `scripts/heyoka/bench.py`. With `--chain`, each call waits for the
+//! `lasalle bench-eval <model> [--lanes 1,4,8] [--chain] [--field feedback|model]`: the CPU
+//! time of the JIT-compiled feedback field X − ∇V (or the model's field X) per state, one
+//! state per call and k states per call (structure of arrays, `Kernel::eval_lanes`), printed
+//! as a table or (`--format json`) one JSON line — the counterpart of heyoka's batched
+//! `make_cfunc` in `scripts/heyoka/bench.py`. With `--chain`, each call waits for the
 //! last (latency, as in an integration) instead of independent calls (throughput).
 
 use std::hint::black_box;
@@ -40,9 +41,22 @@ pub struct BenchEvalArgs {
     /// evaluation rather than the throughput of independent ones. Only with `--lanes 1`.
     #[arg(long)]
     pub chain: bool,
+    /// Which field to time: the feedback field X − ∇V (the default) or the model's own field X.
+    #[arg(long, value_enum, default_value_t)]
+    pub field: Timed,
     /// What to print: one line per lane count (table) or one JSON line (json, for scripts).
     #[arg(long, value_enum, default_value_t)]
     pub format: Format,
+}
+
+/// The field `lasalle bench-eval` times.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Timed {
+    /// X − ∇V with the model's default gains, targets at the evaluation point.
+    #[default]
+    Feedback,
+    /// The model's field X.
+    Model,
 }
 
 /// What `lasalle bench-eval` prints.
@@ -89,17 +103,25 @@ pub fn run(args: &BenchEvalArgs) -> CliResult {
         .first()
         .and_then(|p| loaded.point(p))
         .ok_or_else(|| format!("model `{shown}` has no named point to evaluate at"))?;
-    let mut target = vec![0.0; loaded.invariant_dim()];
-    loaded.invariants(&x0, &mut target);
-    let gains = loaded.default_gain_values().to_vec();
+    // the feedback field's targets (the invariants at the point) and gains; X has none
+    let (target, gains) = match args.field {
+        Timed::Feedback => {
+            let mut target = vec![0.0; loaded.invariant_dim()];
+            loaded.invariants(&x0, &mut target);
+            (target, loaded.default_gain_values().to_vec())
+        }
+        Timed::Model => (Vec::new(), Vec::new()),
+    };
 
     let model = lasalle_codegen::lower_source(&shown, &text).map_err(|e| e.to_string())?;
     let derived = lasalle_codegen::derive(model);
     lasalle_codegen::check(&derived).map_err(|e| e.to_string())?;
     let tapes = ModelTapes::new(&derived).map_err(|e| e.to_string())?;
-    let kernel = Backend::Jit
-        .compile(&tapes.feedback)
-        .map_err(|e| e.to_string())?;
+    let (tape, what) = match args.field {
+        Timed::Feedback => (&tapes.feedback, "feedback field X - grad V"),
+        Timed::Model => (&tapes.field, "field X"),
+    };
+    let kernel = Backend::Jit.compile(tape).map_err(|e| e.to_string())?;
     let hoisted = kernel.hoist(loaded.params()).map_err(|e| e.to_string())?;
     let (n, m) = (x0.len(), kernel.n_outputs());
 
@@ -152,9 +174,9 @@ pub fn run(args: &BenchEvalArgs) -> CliResult {
     let report = json!({
         "model": stem,
         "what": if args.chain {
-            "feedback field X - grad V, JIT, CPU ns per chained evaluation (fastest of the repetitions)"
+            format!("{what}, JIT, CPU ns per chained evaluation (fastest of the repetitions)")
         } else {
-            "feedback field X - grad V, JIT, CPU ns per state (fastest of the repetitions)"
+            format!("{what}, JIT, CPU ns per state (fastest of the repetitions)")
         },
         "ns_per_state": results,
     });
