@@ -8,7 +8,8 @@
 //! [`NormalForm::linear_inverse`], and let `y = B(x − x_e)` (exact real arithmetic: this
 //! *defines* the linear normal coordinates, and `|y|` is the `linear-normal` distance the
 //! command prints). Let `T` be the polynomial map [`NormalForm::to_normal_map`] with its
-//! `f64` coefficients taken as exact, and `W(x) = |T(y)|²`, `ρ = √W`. Nothing requires
+//! `f64` coefficients taken as exact (in three or more degrees of freedom cut at degree N,
+//! [`CertifiedOptions::map_degree`]), and `W(x) = |T(y)|²`, `ρ = √W`. Nothing requires
 //! `T` to be an exact conjugacy: `W` is just a function, and what follows bounds how fast
 //! the true flow can change it.
 //!
@@ -22,20 +23,28 @@
 //!    enclosed by the same jets evaluated at the interval box `[−R, R]ⁿ ⊃ {|y| ≤ R}`.
 //! 2. **Taylor models.** Every function is a polynomial with interval coefficients of degree
 //!    ≤ D plus a majorant `e(|y|) = Σ e_s |y|ˢ` of the difference, valid on `|y| ≤ R`
-//!    ([`Majorant`]); products drop the degrees above D into the majorant (each homogeneous
-//!    part `P_s` satisfies `|P_s(y)| ≤ (Σ|p_α|)|y|ˢ` since `|y^α| ≤ |y|^{|α|}`).
+//!    ([`Majorant`]); products drop the degrees above D into the majorant. Each homogeneous
+//!    part `P_s = Σ p_α y^α` is bounded on spheres by `|P_s(y)| ≤ b_s |y|ˢ` with
+//!    `b_s = min(Σ|p_α|, (Σ|p_α|² α!/s!)^{1/2})`: the ℓ¹ sum (`|y^α| ≤ |y|^{|α|}`), or
+//!    Cauchy–Schwarz against the multinomial identity `|y|^{2s} = Σ (s!/α!) y^{2α}`, which
+//!    is never larger and is far smaller when many monomials share a degree.
 //!    `Ẇ = 2 Σ_j (Σ_i T_i ∂_j T_i) ẏ_j` is such a model; its polynomial part keeps the
 //!    cancellations of the normal form (the degrees below N + 1 are zero up to the
 //!    coefficients' rounding, enclosed), so `|Ẇ(y)| ≤ G(|y|)` with a majorant G of degree
 //!    N + 1 and above, up to rounding-size terms.
 //! 3. **From |y| to ρ.** `T(y) = y + h(y)` with `|h(y)| ≤ τ(|y|)` (majorants of each
-//!    component); so `|y| − τ(|y|) ≤ ρ ≤ |y| + τ(|y|)`. ψ(r) = r − τ(r) is increasing on
-//!    `[0, R]` (checked; where it is not, u = R below), so a point with `|y| ≤ R` and
-//!    `ρ(y) = ρ` has `|y| ≤ u(ρ) = min(R, ψ⁻¹(ρ))`, and `dρ/dt = Ẇ/(2ρ) ≤ G(u(ρ))/(2ρ)`.
+//!    component) and `|y·h(y)| ≤ κ(|y|)` (the majorant of the scalar polynomial y·h, which
+//!    uses the direction of h), so on `|y| = r`:
+//!    `max(r − τ(r), (r² − 2κ(r))^{1/2}) ≤ ρ ≤ min(r + τ(r), (r² + 2κ(r) + τ(r)²)^{1/2})`.
+//!    The lower bound ψ(r) is increasing on `[0, R]` (each of its two parts is used only
+//!    where its derivative is checked positive up to R; with neither, u = R below), so a
+//!    point with `|y| ≤ R` and `ρ(y) = ρ` has `|y| ≤ u(ρ) = min(R, ψ⁻¹(ρ))`, and
+//!    `dρ/dt = Ẇ/(2ρ) ≤ G(u(ρ))/(2ρ)`.
 //! 4. **The tube.** ρ₀ bounds ρ on the inner ball `|y| ≤ d₀` from above (the smaller of
-//!    `d₀ + τ(d₀)` and the interval branch and bound of `|T(y)|²` over the ball), ρ₁ bounds
-//!    ρ from below on the outer sphere `|y| = d₁ = R`: `ρ ≥ d₁ − max_{|y|≤d₁} |h(y)|`, the
-//!    maximum bounded by branch and bound of `|h|²` (or by τ(d₁)). An orbit from the
+//!    the bounds of step 3 at d₀ and the interval branch and bound of `|T(y)|²` over the
+//!    ball), ρ₁ bounds ρ from below on the outer sphere `|y| = d₁ = R`: the larger of
+//!    `(d₁² − 2κ(d₁))^{1/2}` and `d₁ − max_{|y|≤d₁} |h(y)|`, the maximum bounded by branch
+//!    and bound of `|h|²` (or by τ(d₁)). An orbit from the
 //!    inner ball that reaches the outer sphere has ρ going from ≤ ρ₀ to ≥ ρ₁ while inside
 //!    the ball, so by comparison it needs at least
 //!    `∫_{ρ₀}^{ρ₁} 2ρ dρ / G(u(ρ)) ≥ Σ_k (ρ_{k+1} − ρ_k) 2ρ_k / G(u(ρ_{k+1}))`,
@@ -46,10 +55,10 @@
 //! Assumed, not proved: that the platform's `exp`, `ln`, `sin`, `cos`, `pow` are accurate
 //! to [`LIBM_ULPS`](super::LIBM_ULPS) ulps (IEEE arithmetic and `√` are exact to the
 //! rounding); the model's expression is what is evaluated, so the model file is the theorem's
-//! hypothesis (the parameters as `f64`). What makes the certified time weaker than the
-//! estimate: ρ₁ from the triangle inequality (the direction of h is not used), the ℓ¹
-//! majorant G (every monomial at its worst, as in the estimate's norm, but over the Taylor
-//! models' degrees above M too), and u(ρ) = R where the majorant τ is not small.
+//! hypothesis (the parameters as `f64`). What the bound loses against the true exit time:
+//! G bounds |Ẇ| over whole spheres (every direction at once; at Earth–Moon L4 the largest
+//! |Ẇ| sampled on the spheres is within a factor 3–7 of it), the Taylor models' degrees
+//! above M, and u(ρ) ≥ |y|.
 
 // index loops over coordinates read as the formulas they implement
 #![allow(clippy::needless_range_loop)]
