@@ -8,7 +8,8 @@
 //! [`NormalForm::linear_inverse`], and let `y = B(x − x_e)` (exact real arithmetic: this
 //! *defines* the linear normal coordinates, and `|y|` is the `linear-normal` distance the
 //! command prints). Let `T` be the polynomial map [`NormalForm::to_normal_map`] with its
-//! `f64` coefficients taken as exact, and `W(x) = |T(y)|²`, `ρ = √W`. Nothing requires
+//! `f64` coefficients taken as exact (in three or more degrees of freedom cut at degree N,
+//! [`CertifiedOptions::map_degree`]), and `W(x) = |T(y)|²`, `ρ = √W`. Nothing requires
 //! `T` to be an exact conjugacy: `W` is just a function, and what follows bounds how fast
 //! the true flow can change it.
 //!
@@ -22,20 +23,28 @@
 //!    enclosed by the same jets evaluated at the interval box `[−R, R]ⁿ ⊃ {|y| ≤ R}`.
 //! 2. **Taylor models.** Every function is a polynomial with interval coefficients of degree
 //!    ≤ D plus a majorant `e(|y|) = Σ e_s |y|ˢ` of the difference, valid on `|y| ≤ R`
-//!    ([`Majorant`]); products drop the degrees above D into the majorant (each homogeneous
-//!    part `P_s` satisfies `|P_s(y)| ≤ (Σ|p_α|)|y|ˢ` since `|y^α| ≤ |y|^{|α|}`).
+//!    ([`Majorant`]); products drop the degrees above D into the majorant. Each homogeneous
+//!    part `P_s = Σ p_α y^α` is bounded on spheres by `|P_s(y)| ≤ b_s |y|ˢ` with
+//!    `b_s = min(Σ|p_α|, (Σ|p_α|² α!/s!)^{1/2})`: the ℓ¹ sum (`|y^α| ≤ |y|^{|α|}`), or
+//!    Cauchy–Schwarz against the multinomial identity `|y|^{2s} = Σ (s!/α!) y^{2α}`, which
+//!    is never larger and is far smaller when many monomials share a degree.
 //!    `Ẇ = 2 Σ_j (Σ_i T_i ∂_j T_i) ẏ_j` is such a model; its polynomial part keeps the
 //!    cancellations of the normal form (the degrees below N + 1 are zero up to the
 //!    coefficients' rounding, enclosed), so `|Ẇ(y)| ≤ G(|y|)` with a majorant G of degree
 //!    N + 1 and above, up to rounding-size terms.
 //! 3. **From |y| to ρ.** `T(y) = y + h(y)` with `|h(y)| ≤ τ(|y|)` (majorants of each
-//!    component); so `|y| − τ(|y|) ≤ ρ ≤ |y| + τ(|y|)`. ψ(r) = r − τ(r) is increasing on
-//!    `[0, R]` (checked; where it is not, u = R below), so a point with `|y| ≤ R` and
-//!    `ρ(y) = ρ` has `|y| ≤ u(ρ) = min(R, ψ⁻¹(ρ))`, and `dρ/dt = Ẇ/(2ρ) ≤ G(u(ρ))/(2ρ)`.
+//!    component) and `|y·h(y)| ≤ κ(|y|)` (the majorant of the scalar polynomial y·h, which
+//!    uses the direction of h), so on `|y| = r`:
+//!    `max(r − τ(r), (r² − 2κ(r))^{1/2}) ≤ ρ ≤ min(r + τ(r), (r² + 2κ(r) + τ(r)²)^{1/2})`.
+//!    The lower bound ψ(r) is increasing on `[0, R]` (each of its two parts is used only
+//!    where its derivative is checked positive up to R; with neither, u = R below), so a
+//!    point with `|y| ≤ R` and `ρ(y) = ρ` has `|y| ≤ u(ρ) = min(R, ψ⁻¹(ρ))`, and
+//!    `dρ/dt = Ẇ/(2ρ) ≤ G(u(ρ))/(2ρ)`.
 //! 4. **The tube.** ρ₀ bounds ρ on the inner ball `|y| ≤ d₀` from above (the smaller of
-//!    `d₀ + τ(d₀)` and the interval branch and bound of `|T(y)|²` over the ball), ρ₁ bounds
-//!    ρ from below on the outer sphere `|y| = d₁ = R`: `ρ ≥ d₁ − max_{|y|≤d₁} |h(y)|`, the
-//!    maximum bounded by branch and bound of `|h|²` (or by τ(d₁)). An orbit from the
+//!    the bounds of step 3 at d₀ and the interval branch and bound of `|T(y)|²` over the
+//!    ball), ρ₁ bounds ρ from below on the outer sphere `|y| = d₁ = R`: the larger of
+//!    `(d₁² − 2κ(d₁))^{1/2}` and `d₁ − max_{|y|≤d₁} |h(y)|`, the maximum bounded by branch
+//!    and bound of `|h|²` (or by τ(d₁)). An orbit from the
 //!    inner ball that reaches the outer sphere has ρ going from ≤ ρ₀ to ≥ ρ₁ while inside
 //!    the ball, so by comparison it needs at least
 //!    `∫_{ρ₀}^{ρ₁} 2ρ dρ / G(u(ρ)) ≥ Σ_k (ρ_{k+1} − ρ_k) 2ρ_k / G(u(ρ_{k+1}))`,
@@ -46,10 +55,10 @@
 //! Assumed, not proved: that the platform's `exp`, `ln`, `sin`, `cos`, `pow` are accurate
 //! to [`LIBM_ULPS`](super::LIBM_ULPS) ulps (IEEE arithmetic and `√` are exact to the
 //! rounding); the model's expression is what is evaluated, so the model file is the theorem's
-//! hypothesis (the parameters as `f64`). What makes the certified time weaker than the
-//! estimate: ρ₁ from the triangle inequality (the direction of h is not used), the ℓ¹
-//! majorant G (every monomial at its worst, as in the estimate's norm, but over the Taylor
-//! models' degrees above M too), and u(ρ) = R where the majorant τ is not small.
+//! hypothesis (the parameters as `f64`). What the bound loses against the true exit time:
+//! G bounds |Ẇ| over whole spheres (every direction at once; at Earth–Moon L4 the largest
+//! |Ẇ| sampled on the spheres is within a factor 3–7 of it), the Taylor models' degrees
+//! above M, and u(ρ) ≥ |y|.
 
 // index loops over coordinates read as the formulas they implement
 #![allow(clippy::needless_range_loop)]
@@ -73,9 +82,79 @@ pub struct Majorant {
     pub c: Vec<f64>,
 }
 
+/// `xᵏ` rounded up (x ≥ 0).
+fn pow_up(x: f64, k: usize) -> f64 {
+    (0..k).fold(1.0, |acc, _| mul_up(acc, x))
+}
+
+/// An upper bound on `α!/s!` (`s = |α|`), the reciprocal of the multinomial coefficient
+/// `s!/α!`: computed exactly in integers, then rounded so that the bound is never below it
+/// (1 when the integers overflow: `α!/s! ≤ 1` always).
+fn inverse_multinomial_up(alpha: &[u8]) -> f64 {
+    // s!/α! = Π_j C(a_1 + … + a_j, a_j), each binomial exact
+    let mut m: u128 = 1;
+    let mut total: u128 = 0;
+    for &a in alpha {
+        let a = a as u128;
+        total += a;
+        // C(total, a) = Π_{i=1..a} (total − a + i)/i, exact at every step
+        let mut b: u128 = 1;
+        for i in 1..=a {
+            b = match b.checked_mul(total - a + i) {
+                Some(x) => x / i,
+                None => return 1.0,
+            };
+        }
+        m = match m.checked_mul(b) {
+            Some(x) => x,
+            None => return 1.0,
+        };
+    }
+    // m as f64 is within half an ulp of m; one ulp down is below m
+    let mf = m as f64;
+    let m_lo = if mf < 9.007_199_254_740_992e15 {
+        mf
+    } else {
+        mf.next_down()
+    };
+    (Iv::point(1.0) / Iv::point(m_lo)).hi.min(1.0)
+}
+
+/// The bound of one homogeneous part on the unit sphere: `|P_s(y)| ≤ b_s |y|ˢ` with
+/// `b_s = min(Σ|p_α|, (Σ |p_α|² α!/s!)^{1/2})`, rounded up. The first is the triangle
+/// inequality with `|y^α| ≤ |y|^{|α|}`; the second is Cauchy–Schwarz against the multinomial
+/// identity `|y|^{2s} = Σ_{|α|=s} (s!/α!) y^{2α}`:
+/// `|Σ p_α y^α| = |Σ (p_α (α!/s!)^{1/2}) ((s!/α!)^{1/2} y^α)| ≤ (Σ p_α² α!/s!)^{1/2} |y|ˢ`.
+/// The weighted ℓ² form is never larger and is much smaller when many monomials share
+/// a degree (the ℓ¹ sum counts each at its worst direction, which no single y attains).
+fn sphere_bound(p: &Poly<Iv>, k: usize) -> f64 {
+    let Some(part) = p.part(k) else {
+        return 0.0;
+    };
+    let (mut l1, mut l2) = (0.0, 0.0);
+    for (i, c) in part.iter().enumerate() {
+        let m = c.mag();
+        if m == 0.0 {
+            continue;
+        }
+        l1 = add_up(l1, m);
+        let w = inverse_multinomial_up(p.exponents(k, i));
+        l2 = add_up(l2, mul_up(mul_up(m, m), w));
+    }
+    l1.min(l2.sqrt().next_up())
+}
+
 impl Majorant {
-    /// Σ_s (Σ_{|α|=s} |p_α|) rˢ: `|p(y)| ≤ m(|y|)` (as `|y^α| ≤ |y|^{|α|}`).
+    /// Σ_s b_s rˢ with `b_s` the bound of the homogeneous part of degree s on the unit
+    /// sphere (the smaller of the ℓ¹ sum Σ|p_α| and the weighted ℓ² norm
+    /// (Σ|p_α|² α!/s!)^{1/2}), so `|p(y)| ≤ m(|y|)`.
     pub fn of_poly(p: &Poly<Iv>) -> Majorant {
+        let c = (0..=p.max_degree()).map(|k| sphere_bound(p, k)).collect();
+        Majorant { c }
+    }
+    /// Σ_s (Σ_{|α|=s} |p_α|) rˢ: the ℓ¹ majorant alone (the bound before the weighted ℓ²
+    /// form; kept to report how much that form gains).
+    pub fn of_poly_l1(p: &Poly<Iv>) -> Majorant {
         let c = (0..=p.max_degree())
             .map(|k| {
                 p.part(k)
@@ -192,10 +271,14 @@ impl Tm {
 /// Options of the certified bound.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct CertifiedOptions {
-    /// Degree K of the field's Taylor polynomial (default: the remainder degree M of the
-    /// normal form).
+    /// Degree of the map T used in W = |T(y)|² (default: the whole map, degree M − 1, in
+    /// two degrees of freedom; the normal form's order N from three on, where the Taylor
+    /// models of degree M + 1 in six variables are too large).
+    pub map_degree: Option<usize>,
+    /// Degree K of the field's Taylor polynomial (default: the map's degree + 1 in two
+    /// degrees of freedom, N + 1 from three on).
     pub field_degree: Option<usize>,
-    /// Truncation degree D of the Taylor models (default: max(K, M − 1) + 1).
+    /// Truncation degree D of the Taylor models (default: max(K, the map's degree) + 1).
     pub model_degree: Option<usize>,
     /// Intervals of the final quadrature.
     pub intervals: usize,
@@ -209,6 +292,7 @@ pub struct CertifiedOptions {
 impl Default for CertifiedOptions {
     fn default() -> Self {
         CertifiedOptions {
+            map_degree: None,
             field_degree: None,
             model_degree: None,
             intervals: 2048,
@@ -235,6 +319,8 @@ pub struct CertifiedTube {
     pub rho1: f64,
     /// The certified time (a lower bound on the exit time); `None` when ρ₁ ≤ ρ₀.
     pub time: Option<f64>,
+    /// The degree of the map T in W = |T(y)|².
+    pub map_degree: usize,
     /// K, the field's Taylor degree.
     pub field_degree: usize,
     /// D, the Taylor models' degree.
@@ -611,13 +697,27 @@ pub fn certified_tube<H: HamiltonianFn + ?Sized>(
             (Iv::point(d1) / Iv::point(frobenius_up(&c))).lo,
         ),
     };
-    let m_deg = map
+    let full_degree = map
         .components
         .iter()
         .map(|p| p.max_degree())
         .max()
         .unwrap_or(1);
-    let k = options.field_degree.unwrap_or(m_deg + 1).max(2);
+    // from three degrees of freedom on, the map is cut at the normalisation order (W is any
+    // function: a shorter T keeps the cancellations of Ẇ through degree N + 1)
+    let reduced = nf.n_dof > 2;
+    let m_deg = options
+        .map_degree
+        .unwrap_or(if reduced {
+            full_degree.min(nf.order)
+        } else {
+            full_degree
+        })
+        .clamp(1, full_degree);
+    let k = options
+        .field_degree
+        .unwrap_or(if reduced { nf.order + 1 } else { m_deg + 1 })
+        .max(2);
     let d = options.model_degree.unwrap_or(k.max(m_deg) + 1).max(k);
     let table = Arc::new(MonomialTable::new(n, d));
 
@@ -685,7 +785,11 @@ pub fn certified_tube<H: HamiltonianFn + ?Sized>(
     let tmap: Vec<Poly<Iv>> = map
         .components
         .iter()
-        .map(|p| p.map(Iv::point).retabled(table.clone()))
+        .map(|p| {
+            let mut t = p.map(Iv::point);
+            t.truncate(m_deg);
+            t.retabled(table.clone())
+        })
         .collect();
     let mut wdot = Tm::exact(Poly::zero(table.clone()));
     for j in 0..n {
@@ -697,8 +801,8 @@ pub fn certified_tube<H: HamiltonianFn + ?Sized>(
     }
     let g = wdot.majorant().scaled(2.0);
 
-    // 3. τ: |T(y) − y| ≤ τ(|y|)
-    let taus: Vec<Majorant> = tmap
+    // 3. τ: |T(y) − y| ≤ τ(|y|), and κ: |y·h(y)| ≤ κ(|y|) (h = T − id)
+    let hots: Vec<Poly<Iv>> = tmap
         .iter()
         .enumerate()
         .map(|(i, ti)| {
@@ -707,9 +811,20 @@ pub fn certified_tube<H: HamiltonianFn + ?Sized>(
             let mut hot = ti.clone();
             let c1 = hot.coeff(&e);
             hot.set_coeff(&e, c1 - Iv::point(1.0));
-            Majorant::of_poly(&hot)
+            hot
         })
         .collect();
+    let taus: Vec<Majorant> = hots.iter().map(Majorant::of_poly).collect();
+    let kappa = Majorant::of_poly(
+        &hots
+            .iter()
+            .enumerate()
+            .fold(Poly::zero(table.clone()), |acc, (i, h)| {
+                acc.add(&Poly::variable(table.clone(), i, Iv::point(0.0)).mul(h))
+            }),
+    );
+    // ρ² = r² + 2y·h + |h|² on |y| = r: r² − 2κ(r) ≤ ρ² ≤ r² + 2κ(r) + τ(r)²
+    let kappa2 = |r: f64| mul_up(2.0, kappa.eval(r));
     let tau = |r: f64| -> f64 {
         let s = taus
             .iter()
@@ -729,9 +844,26 @@ pub fn certified_tube<H: HamiltonianFn + ?Sized>(
     let max0 = ext.extremum(y0, true, false, options.tolerance, options.budget);
     // on the outer sphere ρ ≥ |y| − |h(y)| ≥ y1 − max_{|y| ≤ y1} |h|
     let hmax1 = ext.extremum(y1, true, true, options.tolerance, options.budget);
-    let rho0 = add_up(y0, tau(y0)).min(max0.bound.sqrt().next_up());
+    // the lower bound of ρ² on the sphere |y| = r from κ
+    let phi_lo = |r: f64| (Iv::point(r).sqr() - Iv::point(kappa2(r))).lo;
+    let rho0_kappa = {
+        let t = tau(y0);
+        let up = add_up(add_up(mul_up(y0, y0), kappa2(y0)), mul_up(t, t));
+        up.sqrt().next_up()
+    };
+    let rho0 = add_up(y0, tau(y0))
+        .min(rho0_kappa)
+        .min(max0.bound.sqrt().next_up());
     let tau1 = tau1.min(hmax1.bound.sqrt().next_up());
-    let rho1 = (Iv::point(y1) - Iv::point(tau1)).lo;
+    let rho1_kappa = {
+        let p = phi_lo(y1);
+        if p > 0.0 {
+            p.sqrt().next_down()
+        } else {
+            0.0
+        }
+    };
+    let rho1 = (Iv::point(y1) - Iv::point(tau1)).lo.max(rho1_kappa);
     let boxes = max0.boxes + hmax1.boxes;
     let seconds = || t0.elapsed().as_secs_f64();
     let mut out = CertifiedTube {
@@ -742,6 +874,7 @@ pub fn certified_tube<H: HamiltonianFn + ?Sized>(
         rho0,
         rho1,
         time: None,
+        map_degree: m_deg,
         field_degree: k,
         model_degree: d,
         wdot: g.clone(),
@@ -752,14 +885,45 @@ pub fn certified_tube<H: HamiltonianFn + ?Sized>(
     // ψ(r) = r − τ(r) must increase on [0, y1]: τ′ ≤ |(τ_i′)| ≤ its value at y1
     // where the majorant τ does not keep ψ increasing, |y| ≤ y1 is all that is used
     let monotone = tau_slope < 1.0;
+    // r² − 2κ(r) increases on [0, y1] when 2κ′(r) < 2r there: Σ s κ_s r^{s−2} < 1 at y1
+    // (κ starts at degree 3: h does at degree 2)
+    let kappa_monotone = kappa.c.iter().take(3).all(|&c| c == 0.0)
+        && kappa
+            .c
+            .iter()
+            .enumerate()
+            .skip(3)
+            .fold(0.0, |acc, (s, &c)| {
+                add_up(acc, mul_up(mul_up(c, s as f64), pow_up(y1, s - 2)))
+            })
+            < 1.0;
     if rho1 <= rho0 || rho1.is_nan() || rho0.is_nan() {
         out.seconds = seconds();
         return Ok(out);
     }
-    // 4. u(ρ) = min(y1, ψ⁻¹(ρ)) rounded up: the smallest r found with ψ(r) ≥ ρ
-    let psi_lo = |r: f64| (Iv::point(r) - Iv::point(tau(r))).lo;
+    // 4. u(ρ) = min(y1, ψ⁻¹(ρ)) rounded up: the smallest r found with ψ(r) ≥ ρ, where
+    // ψ(r) ≤ ρ(y) on |y| = r is the larger of the increasing lower bounds r − τ(r) and
+    // (r² − 2κ(r))^{1/2}
+    let psi_lo = |r: f64| {
+        let a = if monotone {
+            (Iv::point(r) - Iv::point(tau(r))).lo
+        } else {
+            f64::NEG_INFINITY
+        };
+        let b = if kappa_monotone {
+            let p = phi_lo(r);
+            if p > 0.0 {
+                p.sqrt().next_down()
+            } else {
+                0.0
+            }
+        } else {
+            f64::NEG_INFINITY
+        };
+        a.max(b)
+    };
     let u = |rho: f64| -> f64 {
-        if !monotone || psi_lo(y1) < rho {
+        if !(monotone || kappa_monotone) || psi_lo(y1) < rho {
             return y1;
         }
         let (mut lo, mut hi) = (0.0, y1);

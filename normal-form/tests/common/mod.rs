@@ -57,6 +57,11 @@ pub fn cr3bp_spatial_model() -> &'static Model {
     M.get_or_init(|| load("models/cr3bp_spatial.lsl"))
 }
 
+/// The spatial CR3BP Hamiltonian of the model file at mass ratio μ.
+pub fn cr3bp_spatial(mu: f64) -> ModelHamiltonian<'static> {
+    ModelHamiltonian::new(cr3bp_spatial_model(), &[("mu".to_string(), mu)]).expect("cr3bp_spatial")
+}
+
 /// The normal form of the spatial CR3BP model at L4.
 pub fn spatial_l4_normal_form(mu: f64, options: &Options) -> Result<NormalForm, NormalFormError> {
     normalize_model(
