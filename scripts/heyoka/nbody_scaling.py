@@ -2,7 +2,7 @@
 """The N-body family against heyoka's compact mode, N by N: one evaluation of the field and the
 Taylor method's step.
 
-    scripts/heyoka/nbody_scaling.py LASALLE_BIN [--sizes 3,6,12,24,48] [--t-end 10] [--tol 1e-15]
+    scripts/heyoka/nbody_scaling.py LASALLE_BIN [--sizes 3,6,12,24,48] [--t-end 1] [--tol 1e-15]
 
 Run it with a Python that has heyoka (scripts/heyoka/run.sh makes one under
 target/heyoka-venv); `scripts/performance.sh nbody-heyoka` does both and writes the table into
@@ -15,7 +15,8 @@ process's CPU time, which adds loading, from the OS), and its field timed by
 
 heyoka: `heyoka.model.nbody` with the same masses (G = 1) and the same initial state in
 velocities, `taylor_adaptive(..., tol=TOL, compact_mode=True)` (its construction timed, then
-`propagate_until(T)`), and `cfunc(..., compact_mode=True)` called on 1024 states at once.
+`propagate_until(T)`; the first construction in the process, as heyoka caches compiled code),
+and `cfunc(..., compact_mode=True)` called on 1024 states at once.
 All times are CPU time, the fastest of `--repeat` runs.
 """
 import argparse
@@ -85,14 +86,15 @@ def lasalle(bin, path, t_end, tol, repeat, work):
 def heyoka(n, t_end, tol, repeat):
     m, x0 = initial(n)
     system = hy.model.nbody(n, masses=m, Gconst=1.0)
-    best_build, best_run, steps = math.inf, math.inf, None
+    build, best_run, steps = None, math.inf, None
     for _ in range(repeat):
         start = time.process_time()
         ta = hy.taylor_adaptive(system, x0, tol=tol, compact_mode=True)
         built = time.process_time()
         outcome = ta.propagate_until(t_end)
         done = time.process_time()
-        best_build = min(best_build, built - start)
+        # the first construction: heyoka caches the compiled code in the process after it
+        build = built - start if build is None else build
         best_run = min(best_run, done - built)
         steps = outcome[3]
     variables = [v for v, _ in system]
@@ -108,14 +110,14 @@ def heyoka(n, t_end, tol, repeat):
             cf(inputs, outputs=out)
             calls += 1
         best_eval = min(best_eval, (time.process_time() - start) / (calls * states))
-    return {"build": best_build, "run": best_run, "steps": steps, "eval_ns": best_eval * 1e9}
+    return {"build": build, "run": best_run, "steps": steps, "eval_ns": best_eval * 1e9}
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("bin", help="the lasalle binary")
     parser.add_argument("--sizes", default="3,6,12,24,48")
-    parser.add_argument("--t-end", type=float, default=10.0)
+    parser.add_argument("--t-end", type=float, default=1.0)
     parser.add_argument("--tol", type=float, default=1e-15)
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
