@@ -274,19 +274,6 @@ fn a_variational_crate_builds_with_plain_cargo() {
 }
 
 #[test]
-fn a_tangent_count_beyond_the_state_is_refused() {
-    let out = lasalle_gen(&["kepler", "--variational", "--tangents", "7"]);
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("--tangents 7") && err.contains("between 1 and") && err.contains("6"),
-        "{err}"
-    );
-    let out = lasalle_gen(&["kepler", "--tangents", "2"]);
-    assert!(!out.status.success(), "--tangents needs --variational");
-}
-
-#[test]
 fn a_runtime_path_is_written_as_given() {
     let dir = fresh("by-path");
     let out = lasalle_gen(&[

@@ -115,11 +115,10 @@ fn extension(args: &GenArgs, path: &str, text: &str) -> CliResult<Option<Extensi
     let n = lasalle_codegen::lower_source(path, text)?.dim();
     let tangents = args.tangents.unwrap_or(n);
     if !(1..=n).contains(&tangents) {
-        return Err(format!(
+        return Err(super::usage(format!(
             "--tangents {tangents}: the number of tangent vectors is between 1 and the state's \
              dimension, {n}, for {path}"
-        )
-        .into());
+        )));
     }
     Ok(Some(Extension::Variational { tangents }))
 }
