@@ -1,4 +1,5 @@
-//! Generates a module for every model in `models/` into `$OUT_DIR/models.rs`, and embeds the
+//! Generates a module for every model in `models/` (and the variational equations of a few)
+//! into `$OUT_DIR/models.rs`, and embeds the
 //! model files themselves (`$OUT_DIR/model_files.rs`) so the command line finds them by name
 //! from any directory.
 
@@ -6,7 +7,17 @@ use std::fmt::Write;
 use std::path::PathBuf;
 
 fn main() {
-    if let Err(e) = lasalle_codegen::Builder::new().models_in("models").build() {
+    // The variational equations of three models, as emitted Rust, for the tests that hold
+    // them against the JIT's: the state-transition matrix, and 2 tangent vectors.
+    use lasalle_codegen::variational::Extension::Variational;
+    let built = lasalle_codegen::Builder::new()
+        .models_in("models")
+        .model_extended("models/kepler.lsl", Variational { tangents: 6 })
+        .model_extended("models/henon_heiles.lsl", Variational { tangents: 4 })
+        .model_extended("models/henon_heiles.lsl", Variational { tangents: 2 })
+        .model_extended("models/rigid_body.lsl", Variational { tangents: 3 })
+        .build();
+    if let Err(e) = built {
         // Cargo shows a failing build script's stderr: file:line:col and the snippet.
         eprintln!("{e}");
         std::process::exit(1);

@@ -5,7 +5,11 @@
 //!   carries this checkout's `Cargo.lock`; `cargo test` there builds it and runs a test that
 //!   uses the model;
 //! - a crate of a user's own, with `lasalle_codegen::Builder` in its `build.rs`, builds and
-//!   passes its test the same way.
+//!   passes its test the same way;
+//! - `lasalle gen <model> --variational` writes the crate of the model's variational equations,
+//!   and the Builder emits them next to the plain model.
+//!
+//! Every build compiles the generated code without a warning.
 //!
 //! Both outside crates live under `target/gen-crate-test` and share one target directory, so
 //! the second build reuses what the first compiled. Neither passes `--offline`: with this
@@ -64,6 +68,12 @@ fn cargo(dir: &Path, command: &str) {
             dir.display()
         );
     }
+    // The generated code (and the runtime) compile without a warning.
+    assert!(
+        !stderr.contains("warning"),
+        "cargo {command} in {} warned:\n{stderr}",
+        dir.display()
+    );
 }
 
 /// A test of the Kepler model of `models/kepler.lsl`, the struct at `path`.
@@ -158,7 +168,12 @@ fn a_build_script_with_the_builder_builds_with_plain_cargo() {
     std::fs::write(
         dir.join("build.rs"),
         r#"fn main() {
-    if let Err(e) = lasalle_codegen::Builder::new().models_in("models").build() {
+    use lasalle_codegen::variational::Extension;
+    let built = lasalle_codegen::Builder::new()
+        .models_in("models")
+        .model_extended("models/oscillator.lsl", Extension::Variational { tangents: 1 })
+        .build();
+    if let Err(e) = built {
         eprintln!("{e}");
         std::process::exit(1);
     }
@@ -180,6 +195,16 @@ fn oscillator_from_outside() {
     m.prepare().field(&[1.0, 0.0], &mut dx);
     assert_eq!(dx, [0.0, -4.0]);
 }
+
+#[test]
+fn oscillator_tangent_from_outside() {
+    use lasalle_runtime::Field;
+    // (q, p, w_q, w_p): ẇ = DX·w = (w_p, −4 w_q)
+    let m = orbits::models::oscillator_variational_1::OscillatorVariational1::<f64>::default();
+    let mut dx = [0.0; 4];
+    m.prepare().field(&[1.0, 0.0, 0.5, 0.25], &mut dx);
+    assert_eq!(dx, [0.0, -4.0, 0.25, -2.0]);
+}
 "#;
     std::fs::write(
         dir.join("tests/smoke.rs"),
@@ -189,6 +214,61 @@ fn oscillator_from_outside() {
     // What `lasalle gen` does for its crates: this checkout's lock, so Cargo resolves to the
     // versions the workspace's build fetched, without the registry's index.
     std::fs::copy(root().join("Cargo.lock"), dir.join("Cargo.lock")).unwrap();
+    cargo(&dir, "build");
+    cargo(&dir, "test");
+}
+
+/// Hénon–Heiles' field, H = (p² + q²)/2 + q₀²q₁ − q₁³/3, and its Jacobian DX written out:
+/// the variational crate's field at (x, Φ = I) is (X, DX).
+const HENON_HEILES_VARIATIONAL_TEST: &str = r#"
+use henon_heiles_variational_model::henon_heiles_variational::HenonHeilesVariational;
+use lasalle_runtime::Field;
+#[test]
+fn the_variational_field_is_x_and_its_jacobian() {
+    let m = HenonHeilesVariational::<f64>::default().prepare();
+    let x = m.point_chaotic();
+    let (q0, q1) = (x[0], x[1]);
+    let mut identity = [0.0; 16];
+    (0..4).for_each(|i| identity[5 * i] = 1.0);
+    assert_eq!(x[4..], identity);
+    let mut dx = [0.0; 20];
+    m.field(&x, &mut dx);
+    let field = [x[2], x[3], -q0 - 2.0 * q0 * q1, -q1 - q0 * q0 + q1 * q1];
+    // DX by columns (∂/∂q₀, ∂/∂q₁, ∂/∂p₀, ∂/∂p₁)
+    let jacobian = [
+        [0.0, 0.0, -1.0 - 2.0 * q1, -2.0 * q0],
+        [0.0, 0.0, -2.0 * q0, -1.0 + 2.0 * q1],
+        [1.0, 0.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0, 0.0],
+    ];
+    let want: Vec<f64> = field.iter().chain(jacobian.as_flattened()).copied().collect();
+    for (k, (a, b)) in dx.iter().zip(&want).enumerate() {
+        assert!((a - b).abs() <= 1e-15 * b.abs().max(1.0), "[{k}]: {a} vs {b}");
+    }
+}
+"#;
+
+#[test]
+fn a_variational_crate_builds_with_plain_cargo() {
+    let dir = fresh("variational");
+    let out = lasalle_gen(&[
+        "henon_heiles",
+        "--variational",
+        "--crate",
+        "target/gen-crate-test/variational",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let manifest = std::fs::read_to_string(dir.join("Cargo.toml")).unwrap();
+    assert!(
+        manifest.contains("name = \"henon-heiles-variational-model\""),
+        "{manifest}"
+    );
+    std::fs::create_dir_all(dir.join("tests")).unwrap();
+    std::fs::write(dir.join("tests/stm.rs"), HENON_HEILES_VARIATIONAL_TEST).unwrap();
     cargo(&dir, "build");
     cargo(&dir, "test");
 }

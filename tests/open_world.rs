@@ -57,7 +57,8 @@ model HenonHeiles {
     hamiltonian H = (p[0]^2 + p[1]^2 + q[0]^2 + q[1]^2) / 2
                   + lambda * (q[0]^2 * q[1] - q[1]^3 / 3);
     structure canonical(q, p);
-    point chaotic { q = [0, 0.1]; p = [0.49, 0]; }   // H ≈ 0.125
+    // models/henon_heiles.lsl's point: E = 1/8 on the section q₀ = 0, in the chaotic sea
+    point chaotic { q = [0, -0.1]; p = [sqrt(0.25 - 0.01 - 0.002 / 3), 0]; }
 }
 ";
 

@@ -63,6 +63,7 @@
 mod emit;
 
 pub use emit::{emit, snake, Emitted, Ops, Stats};
+pub use lasalle_model::variational;
 pub use lasalle_model::{
     check, derive, ir, load_model, lower_source, tape, vocabulary, Binding, CanonicalHamiltonian,
     Checked, Conservation, Derivatives, Derived, Diagnostic, DiagnosticKind, Error, Gain, Guard,
@@ -114,24 +115,173 @@ pub struct GeneratedModel {
 /// Generates the code of one model text: the whole pipeline.
 pub fn generate_source(path: &str, text: &str) -> Result<GeneratedModel> {
     let start = Instant::now();
-    let derived = derive(lower_source(path, text)?);
+    generate_model(path, lower_source(path, text)?, start, None)
+}
+
+/// Generates the code of one model text extended by `extension`
+/// ([`lasalle_model::variational`]): the variational field (X, DX·Φ) of k tangent vectors
+/// (k = N: the state-transition matrix), or the unit tangent vector and the integrals of its
+/// growth rate behind the chaos indicators. DX is derived symbolically and the extended model
+/// is emitted like any other, so its field is the one the JIT and the interpreter compile for
+/// the same extension.
+///
+/// The model is renamed after the extension and so is its module, so a crate can hold a model
+/// and its extensions side by side: `model Kepler` in `kepler.lsl` becomes `KeplerVariational`
+/// in `kepler_variational` (the state-transition matrix), `KeplerVariational2` in
+/// `kepler_variational_2` (2 tangent vectors) or `KeplerIndicators` in `kepler_indicators`. Its
+/// state is the extended state: x, then Φ (an N×k state variable `Phi`, column by column);
+/// its points start Φ at the first k columns of the identity
+/// ([`Extension::extend_state`](variational::Extension::extend_state)). It declares no
+/// partition or splitting: only the methods that integrate the field as it is (Euler, Heun,
+/// RK4, DOPRI5, Taylor) keep Φ in step with x.
+pub fn generate_extended(
+    path: &str,
+    text: &str,
+    extension: variational::Extension,
+) -> Result<GeneratedModel> {
+    let start = Instant::now();
+    let model = lower_source(path, text)?;
+    let mut extended = extension.apply(&model)?;
+    extended.name = format!(
+        "{}{}",
+        model.name,
+        extension_suffix(extension, model.dim()).0
+    );
+    describe_extension(&mut extended, extension, model.state.len());
+    let base = (extension, model.name.clone(), model.dim());
+    generate_model(path, extended, start, Some(base))
+}
+
+/// The suffixes of an extended model's name and module, for a model of dimension `n`:
+/// `Variational`/`_variational` for the state-transition matrix, `Variational2`/
+/// `_variational_2` for 2 tangent vectors, `Indicators`/`_indicators`.
+fn extension_suffix(extension: variational::Extension, n: usize) -> (String, String) {
+    match extension {
+        variational::Extension::Variational { tangents } if tangents == n => {
+            ("Variational".into(), "_variational".into())
+        }
+        variational::Extension::Variational { tangents } => (
+            format!("Variational{tangents}"),
+            format!("_variational_{tangents}"),
+        ),
+        variational::Extension::Indicators => ("Indicators".into(), "_indicators".into()),
+    }
+}
+
+/// Points the field's added components at text of their own, quoted above them in the
+/// emitted code (`// d/dt Phi = DX * Phi …`) where a model line is quoted for the others.
+/// `first`: the index of the first state variable the extension added.
+fn describe_extension(model: &mut Model, extension: variational::Extension, first: usize) {
+    let added = &model.state[first..];
+    let name = |k: usize| added[k].name.as_str();
+    let lines: Vec<String> = match extension {
+        variational::Extension::Variational { .. } => vec![format!(
+            "d/dt {} = DX * {}   (the variational equations, DX = ∂X/∂x derived symbolically)",
+            name(0),
+            name(0)
+        )],
+        variational::Extension::Indicators => vec![
+            format!(
+                "d/dt {u} = DX * {u} - λ {u},   λ = {u}·DX·{u} / ({u}·{u})   (a unit tangent vector)",
+                u = name(0)
+            ),
+            format!("d/dt {} = λ", name(1)),
+            format!("d/dt {} = 1", name(2)),
+            format!("d/dt {} = {} λ", name(3), name(2)),
+            format!(
+                "d/dt {} = 2 {} {} / ({}² + {:e})",
+                name(4),
+                name(3),
+                name(2),
+                name(2),
+                variational::CLOCK_FLOOR
+            ),
+        ],
+    };
+    let source = std::sync::Arc::new(Source {
+        path: model.source.path.clone(),
+        text: lines.join("\n"),
+    });
+    let mut start = 0;
+    let spans: Vec<Span> = lines
+        .iter()
+        .map(|l| {
+            let span = Span {
+                source: source.clone(),
+                start,
+                end: start + l.len(),
+            };
+            start += l.len() + 1;
+            span
+        })
+        .collect();
+    for (k, s) in added.iter().enumerate() {
+        let span = &spans[k.min(spans.len() - 1)];
+        let range = s.offset..s.offset + s.shape.len();
+        model.field_spans[range].fill(span.clone());
+    }
+}
+
+/// The summary's lines on what the state carries beyond x.
+fn extension_note(extension: variational::Extension, base: &str, n: usize) -> String {
+    match extension {
+        variational::Extension::Variational { tangents } => {
+            let what = if tangents == n {
+                "the state-transition matrix Φ(t) = ∂x(t)/∂x(0)".to_string()
+            } else {
+                format!(
+                    "{tangents} tangent vector{}",
+                    if tangents == 1 { "" } else { "s" }
+                )
+            };
+            format!(
+                "\n\nThe variational equations of `{base}`: the state is (x, Φ), Φ the {n}×{tangents} \
+                 state variable `Phi` ({what}, column by column after the {n} components of x), \
+                 and the field is (X, DX·Φ), DX derived symbolically. The points start Φ at the \
+                 first {tangents} columns of the identity."
+            )
+        }
+        variational::Extension::Indicators => format!(
+            "\n\nThe chaos indicators of `{base}`: the state is (x, u, ℓ, τ, a, b), u a unit \
+             tangent vector, λ = u·DX·u/(u·u), u̇ = DX·u − λu, ℓ̇ = λ, τ̇ = 1, ȧ = τλ, \
+             ḃ = 2aτ/(τ² + ε): ℓ/τ is the finite-time maximal Lyapunov exponent, 2a/τ MEGNO and \
+             b/τ its mean (see `lasalle_model::variational`)."
+        ),
+    }
+}
+
+fn generate_model(
+    path: &str,
+    model: Model,
+    start: Instant,
+    extension: Option<(variational::Extension, String, usize)>,
+) -> Result<GeneratedModel> {
+    let derived = derive(model);
     let checked = check(&derived)?;
     let emitted = emit(&checked)?;
     let model = &derived.model;
     let mut code = emit::format(&emitted.items)?;
     code.push_str(&emitted.tape_code);
-    let module = emit::snake(
-        &Path::new(path)
-            .file_stem()
-            .map_or_else(|| model.name.clone(), |s| s.to_string_lossy().into_owned()),
-    )
-    .replace(|c: char| !c.is_ascii_alphanumeric() && c != '_', "_");
+    let stem = Path::new(path).file_stem().map_or_else(
+        || extension.as_ref().map_or(&model.name, |e| &e.1).clone(),
+        |s| s.to_string_lossy().into_owned(),
+    );
+    let module = emit::snake(&stem).replace(|c: char| !c.is_ascii_alphanumeric() && c != '_', "_");
+    let mut summary = emitted.summary;
+    let module = match extension {
+        Some((e, base, n)) => {
+            summary.truncate(summary.trim_end().len());
+            summary.push_str(&extension_note(e, &base, n));
+            format!("{module}{}", extension_suffix(e, n).1)
+        }
+        None => module,
+    };
     // `fn.lsl`, `self.lsl`, `1d.lsl`, `_.lsl` still name a valid module: `fn_`, `self_`, `v1d`, `v_`.
     let module = lasalle_model::names::identifier(&module);
     Ok(GeneratedModel {
         name: model.name.clone(),
         module,
-        summary: emitted.summary,
+        summary,
         report: Report {
             stats: emitted.stats,
             conservation: checked.into_conservation(),
@@ -196,11 +346,23 @@ impl GeneratedModel {
 /// Generates the code of a model file.
 pub fn generate_file(path: impl AsRef<Path>) -> Result<GeneratedModel> {
     let path = path.as_ref();
-    let text = std::fs::read_to_string(path).map_err(|e| Error::Io {
+    generate_source(&path.display().to_string(), &read(path)?)
+}
+
+/// Generates the code of a model file extended by `extension` (see [`generate_extended`]).
+pub fn generate_file_extended(
+    path: impl AsRef<Path>,
+    extension: variational::Extension,
+) -> Result<GeneratedModel> {
+    let path = path.as_ref();
+    generate_extended(&path.display().to_string(), &read(path)?, extension)
+}
+
+fn read(path: &Path) -> Result<String> {
+    std::fs::read_to_string(path).map_err(|e| Error::Io {
         path: path.display().to_string(),
         source: e,
-    })?;
-    generate_source(&path.display().to_string(), &text)
+    })
 }
 
 /// The generated code of a set of models, not yet written anywhere.
@@ -253,6 +415,7 @@ pub fn write_if_changed(path: &Path, contents: &str) -> std::io::Result<()> {
 #[derive(Clone, Debug, Default)]
 pub struct Builder {
     models: Vec<PathBuf>,
+    extended: Vec<(PathBuf, variational::Extension)>,
     dirs: Vec<PathBuf>,
     out_dir: Option<PathBuf>,
     out_file: Option<String>,
@@ -267,6 +430,20 @@ impl Builder {
     /// Adds one model file.
     pub fn model(&mut self, path: impl Into<PathBuf>) -> &mut Self {
         self.models.push(path.into());
+        self
+    }
+
+    /// Adds one model file extended by `extension`: its variational equations, as
+    /// `Extension::Variational { tangents }` (tangents = the state's dimension: the
+    /// state-transition matrix), or its chaos indicators. The module is named after the file
+    /// and the extension (`kepler_variational`, `kepler_variational_2`, `kepler_indicators`; see
+    /// [`generate_extended`]); it comes after the plain models, in the order added.
+    pub fn model_extended(
+        &mut self,
+        path: impl Into<PathBuf>,
+        extension: variational::Extension,
+    ) -> &mut Self {
+        self.extended.push((path.into(), extension));
         self
     }
 
@@ -309,8 +486,14 @@ impl Builder {
     pub fn generate(&self) -> Result<Generated> {
         let mut models = Vec::new();
         let mut diagnostics = Vec::new();
-        for path in self.paths()? {
-            match generate_file(&path) {
+        let plain = self.paths()?.into_iter().map(|p| (p, None));
+        let extended = self.extended.iter().map(|(p, e)| (p.clone(), Some(*e)));
+        for (path, extension) in plain.chain(extended) {
+            let generated = match extension {
+                None => generate_file(&path),
+                Some(e) => generate_file_extended(&path, e),
+            };
+            match generated {
                 Ok(m) => models.push(m),
                 Err(Error::Model(d)) => diagnostics.extend(d),
                 Err(e) => return Err(e),
@@ -337,7 +520,11 @@ impl Builder {
         for dir in &self.dirs {
             println!("cargo:rerun-if-changed={}", dir.display());
         }
-        for path in self.paths()? {
+        for path in self
+            .paths()?
+            .iter()
+            .chain(self.extended.iter().map(|(p, _)| p))
+        {
             println!("cargo:rerun-if-changed={}", path.display());
         }
         let generated = self.generate()?;

@@ -542,6 +542,19 @@ fn dense_output_against_steps() {
     assert!(taylor.interpolate(h, &mut y));
     assert_eq!(y, x);
     assert!(!taylor.interpolate(1.01 * h, &mut y));
+    // several times at once (five: a pass of four and one) are the times one by one, bitwise
+    let ts: Vec<f64> = [0.0, 0.25, 0.5, 0.75, 1.0].iter().map(|f| f * h).collect();
+    let mut many = vec![vec![0.0; 2]; ts.len()];
+    assert!(taylor.interpolate_many(&ts, &mut many));
+    for (&t, m) in ts.iter().zip(&many) {
+        assert!(taylor.interpolate(t, &mut y));
+        assert_eq!(
+            y.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+            m.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+            "t = {t}"
+        );
+    }
+    assert!(!taylor.interpolate_many(&[0.5 * h, 1.01 * h], &mut many[..2]));
     let (q0, p0, w) = (0.3, -0.8, 2.0f64);
     for theta in [0.1, 0.37, 0.5, 0.9] {
         let s = theta * h;

@@ -1059,6 +1059,76 @@ impl<M: ?Sized, X: State<f64>> DenseOutput<f64, X> for Taylor<M> {
         self.evaluate(which, s, out.as_mut());
         true
     }
+
+    /// The Taylor polynomial at up to four times per pass over its coefficients: the Horner
+    /// recurrences of the times are independent, so they run interleaved, each rounding as
+    /// [`interpolate`](DenseOutput::interpolate)'s.
+    fn interpolate_many(&self, ts: &[f64], outs: &mut [X]) -> bool {
+        let Some((t0, h, which)) = self.last else {
+            return false;
+        };
+        let slack = 1e-9 * h.abs().max(f64::MIN_POSITIVE);
+        let mut ok = true;
+        for (ts, outs) in ts.chunks(TIMES).zip(outs.chunks_mut(TIMES)) {
+            let mut s = [0.0; TIMES];
+            for (sk, &t) in s.iter_mut().zip(ts) {
+                *sk = t - t0;
+            }
+            let fits = |(sk, out): (&f64, &X)| {
+                *sk >= -slack && *sk <= h + slack && out.len() == self.field.dim()
+            };
+            if !s.iter().zip(outs.iter()).all(fits) {
+                ok = false;
+                continue;
+            }
+            self.evaluate_many(which, &s[..ts.len()], outs);
+        }
+        ok
+    }
+}
+
+/// The times [`Taylor`]'s `interpolate_many` evaluates together.
+const TIMES: usize = 4;
+
+impl<M: ?Sized> Taylor<M> {
+    /// [`Taylor::evaluate`] at up to [`TIMES`] offsets `s` from the step's start, each into
+    /// its `outs`: four components at a time, so that 16 independent Horner recurrences stay
+    /// in registers (a missing component repeats the last row, its values dropped).
+    fn evaluate_many<X: State<f64>>(&self, which: Which, s: &[f64], outs: &mut [X]) {
+        const GROUP: usize = 4;
+        let kernel = self.kernel(which);
+        let n = self.field.dim();
+        let mut times = [0.0; TIMES];
+        times[..s.len()].copy_from_slice(s);
+        for base in (0..n).step_by(GROUP) {
+            let width = GROUP.min(n - base);
+            let c: [&[f64]; GROUP] =
+                std::array::from_fn(|l| kernel.coefficients(base + l.min(width - 1)));
+            let len = c[0].len();
+            if c.iter().any(|cl| cl.len() != len) {
+                // rows of one length, as every kernel has them; else one time at a time
+                for (out, &sr) in outs.iter_mut().zip(s) {
+                    self.evaluate(which, sr, out.as_mut());
+                }
+                return;
+            }
+            let c = c.map(|cl| &cl[..len]);
+            let mut acc = [[0.0; TIMES]; GROUP];
+            for k in (0..len).rev() {
+                for (accl, cl) in acc.iter_mut().zip(&c) {
+                    let ck = cl[k];
+                    for (a, &sr) in accl.iter_mut().zip(&times) {
+                        *a = *a * sr + ck;
+                    }
+                }
+            }
+            for (r, out) in outs.iter_mut().enumerate().take(s.len()) {
+                for (l, accl) in acc.iter().enumerate().take(width) {
+                    out.as_mut()[base + l] = accl[r];
+                }
+            }
+        }
+    }
 }
 
 #[cfg(test)]

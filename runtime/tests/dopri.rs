@@ -145,6 +145,18 @@ fn dense_interval_ends() {
     assert!(dp.interpolate(t1, &mut y));
     assert!(dist(&y, &x) < 1e-15);
     assert!(!dp.interpolate(t1 + 0.05, &mut y));
+    // several times at once (a pass of four and one) are the times one by one, bitwise
+    let ts: Vec<f64> = [0.0, 0.2, 0.5, 0.9, 1.0]
+        .iter()
+        .map(|f| t0 + f * (t1 - t0))
+        .collect();
+    let mut many = [[0.0; 2]; 5];
+    assert!(dp.interpolate_many(&ts, &mut many));
+    for (&t, m) in ts.iter().zip(&many) {
+        assert!(dp.interpolate(t, &mut y));
+        assert_eq!(y.map(f64::to_bits), m.map(f64::to_bits), "t = {t}");
+    }
+    assert!(!dp.interpolate_many(&[t0, t1 + 0.05], &mut many[..2]));
 }
 
 /// The controller takes large steps on an easy problem and small ones near periapsis, and

@@ -1,8 +1,9 @@
-//! `lasalle gen <model> [--out <file>] [--stats]`; with `--crate <dir> [--runtime-path <path> |
-//! --runtime-registry]` a standalone crate.
+//! `lasalle gen <model> [--out <file>] [--stats] [--variational [--tangents K] | --indicators]`;
+//! with `--crate <dir> [--runtime-path <path> | --runtime-registry]` a standalone crate.
 
 use super::CliResult;
 use clap::Args;
+use lasalle_codegen::variational::Extension;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `lasalle gen`.
@@ -28,6 +29,21 @@ pub struct GenArgs {
     /// runtime sources this lasalle was built from are here (a crate to publish or to move).
     #[arg(long, requires = "crate_dir", conflicts_with = "runtime_path")]
     runtime_registry: bool,
+    /// Emit the model's variational equations: the state (x, Φ) and the field (X, DX·Φ), DX
+    /// derived symbolically, as the model `<Model>Variational` in the module
+    /// `<file>_variational`. Φ is the state-transition matrix (N×N, Φ(0) = I), or K tangent
+    /// vectors with --tangents K.
+    #[arg(long)]
+    variational: bool,
+    /// With --variational: the number K of tangent vectors (1 ≤ K ≤ N), the columns of the
+    /// N×K matrix Φ, which start as the first K columns of the identity.
+    #[arg(long, value_name = "K", requires = "variational")]
+    tangents: Option<usize>,
+    /// Emit the model extended for the chaos indicators (a unit tangent vector and the
+    /// integrals of its growth rate: the maximal Lyapunov exponent, MEGNO), as the model
+    /// `<Model>Indicators` in the module `<file>_indicators`.
+    #[arg(long, conflicts_with = "variational")]
+    indicators: bool,
     /// Print operation counts, conservation verdicts, time and size to standard error.
     #[arg(long)]
     stats: bool,
@@ -36,7 +52,10 @@ pub struct GenArgs {
 /// Runs `lasalle gen`.
 pub fn run(args: &GenArgs) -> CliResult {
     let (path, _, text) = super::load::model_text(&args.model)?;
-    let model = lasalle_codegen::generate_source(&path, &text)?;
+    let model = match extension(args, &path, &text)? {
+        Some(e) => lasalle_codegen::generate_extended(&path, &text, e)?,
+        None => lasalle_codegen::generate_source(&path, &text)?,
+    };
     if args.stats {
         print_stats(&model);
     }
@@ -83,6 +102,25 @@ pub fn run(args: &GenArgs) -> CliResult {
         (None, None) => print!("{}", generated.module_file()),
     }
     Ok(())
+}
+
+/// The extension `--variational [--tangents K]` or `--indicators` asks for.
+fn extension(args: &GenArgs, path: &str, text: &str) -> CliResult<Option<Extension>> {
+    if args.indicators {
+        return Ok(Some(Extension::Indicators));
+    }
+    if !args.variational {
+        return Ok(None);
+    }
+    let n = lasalle_codegen::lower_source(path, text)?.dim();
+    let tangents = args.tangents.unwrap_or(n);
+    if !(1..=n).contains(&tangents) {
+        return Err(super::usage(format!(
+            "--tangents {tangents}: the number of tangent vectors is between 1 and the state's \
+             dimension, {n}, for {path}"
+        )));
+    }
+    Ok(Some(Extension::Variational { tangents }))
 }
 
 fn cannot_write(path: &Path, e: std::io::Error) -> String {

@@ -145,6 +145,10 @@ pub(crate) fn note_for(model: &Model, span: &crate::Span) -> String {
 /// [`note_for`] with the line number already known (see [`LineIndex`]).
 pub(crate) fn note_at(model: &Model, span: &crate::Span, line: usize) -> String {
     let text = span.text().split_whitespace().collect::<Vec<_>>().join(" ");
+    if !std::sync::Arc::ptr_eq(&span.source, &model.source) {
+        // not from the model file: the text a transformation wrote for what it added
+        return text;
+    }
     let text = if text.chars().count() > 90 {
         format!("{}…", text.chars().take(89).collect::<String>())
     } else {

@@ -301,6 +301,12 @@ pub mod kernels {{
             .enumerate()
             .map(|(i, o)| format!("            t[{i}][k + 1] = t[{o}][k] * inv;\n"))
             .collect();
+        // a field without products, quotients or functions (linear) needs no helper of `rec`
+        let imports = if zeroth.contains("rec::") || higher.contains("rec::") {
+            "{rec, EMITTED_MAX_ORDER}"
+        } else {
+            "EMITTED_MAX_ORDER"
+        };
         format!(
             r#"/// The Taylor-coefficient kernel of {what} (`lasalle_runtime::TaylorKernel`).
 pub type {kernel} = lasalle_runtime::taylor::Emitted<{recurrences}>;
@@ -325,7 +331,7 @@ impl<T: Float> lasalle_runtime::taylor::Recurrences<super::{prep}<T>> for {recur
         x: &[f64],
         order: usize,
     ) {{
-        use lasalle_runtime::taylor::{{rec, EMITTED_MAX_ORDER}};
+        use lasalle_runtime::taylor::{imports};
         let t: &mut [[f64; EMITTED_MAX_ORDER + 1]; {rows}] = t.try_into().expect("rows: {rows}");
         let hoisted: &[f64; {nh}] = hoisted.try_into().expect("hoisted values: {nh}");
         let target: &[f64; {nt}] = target.try_into().expect("targets: {nt}");

@@ -47,6 +47,8 @@ pub struct Watch<'m, X> {
     gtmp: Vec<f64>,
     /// Node values, `(SUBINTERVALS + 1) × events`.
     nodes: Vec<f64>,
+    /// The states at the interior nodes and just before the step's end.
+    states: Vec<X>,
     found: Vec<Crossing<X>>,
     step_found: Vec<Crossing<X>>,
     /// Interpolations and event-function evaluations so far.
@@ -87,6 +89,7 @@ impl<'m, X: State<f64>> Watch<'m, X> {
             tmp: x0.clone(),
             gtmp: vec![0.0; m],
             nodes: vec![0.0; (SUBINTERVALS + 1) * m],
+            states: vec![x0.clone(); SUBINTERVALS],
             found: Vec::new(),
             step_found: Vec::new(),
             evaluations: 0,
@@ -198,6 +201,7 @@ impl<'m, X: State<f64>> Watch<'m, X> {
                         zero_at: &mut self.zero_at,
                         pending: &mut self.pending,
                         nodes: &mut self.nodes,
+                        states: &mut self.states,
                         tmp: &mut self.tmp,
                         gtmp: &mut self.gtmp,
                         found: &mut self.step_found,
@@ -251,6 +255,7 @@ struct Locate<'a, 'm, X> {
     zero_at: &'a mut Vec<Option<f64>>,
     pending: &'a mut Vec<Option<Crossing<X>>>,
     nodes: &'a mut Vec<f64>,
+    states: &'a mut [X],
     tmp: &'a mut X,
     gtmp: &'a mut Vec<f64>,
     found: &'a mut Vec<Crossing<X>>,
@@ -274,7 +279,16 @@ fn locate<X: State<f64>>(
             t0 + (t1 - t0) * j as f64 / SUBINTERVALS as f64
         }
     };
-    // the event functions at the nodes: t₀ from the last step, t₁ at the stepper's state
+    // The states at the interior nodes and just before the step's end (where g is looked at
+    // only if it comes nearer zero at the end), interpolated together; then the event
+    // functions at the nodes: t₀ from the last step, t₁ at the stepper's state.
+    let mut times = [0.0; SUBINTERVALS];
+    for (j, t) in times.iter_mut().enumerate().take(SUBINTERVALS - 1) {
+        *t = node_t(j + 1);
+    }
+    let t_near = t1 - 1e-6 * (t1 - node_t(SUBINTERVALS - 1));
+    times[SUBINTERVALS - 1] = t_near;
+    ext.eval_many(&times, l.states);
     l.nodes[..m].copy_from_slice(l.g0);
     for j in 1..=SUBINTERVALS {
         let t = node_t(j);
@@ -282,16 +296,20 @@ fn locate<X: State<f64>>(
         if j == SUBINTERVALS {
             (l.g)(x1, t, row);
         } else {
-            ext.eval(t, l.tmp);
-            (l.g)(l.tmp, t, row);
+            (l.g)(&l.states[j - 1], t, row);
         }
         *l.evaluations += 1;
     }
     let (g, tmp, gtmp, evaluations) = (l.g, &mut *l.tmp, &mut *l.gtmp, &mut *l.evaluations);
-    // g_i along the extension
+    let near_state = &l.states[SUBINTERVALS - 1];
+    // g_i along the extension; at t_near from the state interpolated above
     let mut gi = |i: usize, t: f64| -> f64 {
-        ext.eval(t, tmp);
-        g(tmp, t, gtmp);
+        if t == t_near {
+            g(near_state, t, gtmp);
+        } else {
+            ext.eval(t, tmp);
+            g(tmp, t, gtmp);
+        }
         *evaluations += 1;
         gtmp[i]
     };
@@ -341,7 +359,7 @@ fn locate<X: State<f64>>(
                 // nearer zero at the step's end than a sample before: if g already turned
                 // back (a value just before the end is nearer still), its extremum lies in
                 // the last subinterval; if it is still coming nearer, in the next step
-                let near = (xm.gi)(i, b - 1e-6 * (b - a));
+                let near = (xm.gi)(i, t_near);
                 if sgn(near) == s && near.abs() < vb.abs() {
                     let touch = xm.search(&mut roots, s, (a, va), (b, vb), (false, false));
                     edge_touch = touch.is_some_and(|tm| tm >= b - tiny);

@@ -441,4 +441,35 @@ impl<T: Float, X: State<T>> DenseOutput<T, X> for DormandPrince<T, X> {
         }
         true
     }
+
+    /// [`interpolate`](DenseOutput::interpolate) at each time, the step's data looked up once
+    /// and the times' θ computed first (their divisions overlap).
+    fn interpolate_many(&self, ts: &[T], outs: &mut [X]) -> bool {
+        let Some(w) = self.work.as_ref().filter(|_| self.has_dense) else {
+            return false;
+        };
+        const TIMES: usize = 4;
+        let slack = lit::<T>(1e-9);
+        let r = &w.dense;
+        let mut ok = true;
+        for (ts, outs) in ts.chunks(TIMES).zip(outs.chunks_mut(TIMES)) {
+            let mut thetas = [T::zero(); TIMES];
+            for (theta, &t) in thetas.iter_mut().zip(ts) {
+                *theta = (t - self.t_old) / self.h_old;
+            }
+            for (out, &theta) in outs.iter_mut().zip(&thetas) {
+                if !(theta >= -slack && theta <= T::one() + slack) {
+                    ok = false;
+                    continue;
+                }
+                let theta1 = T::one() - theta;
+                for n in 0..out.len() {
+                    out[n] = r[0][n]
+                        + theta
+                            * (r[1][n] + theta1 * (r[2][n] + theta * (r[3][n] + theta1 * r[4][n])));
+                }
+            }
+        }
+        ok
+    }
 }

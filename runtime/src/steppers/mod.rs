@@ -160,6 +160,17 @@ pub trait DenseOutput<T: Float, X: State<T>> {
     /// into `out`. Returns `false` if there is no step yet or `t` lies outside the interval
     /// (beyond a relative slack of a few ulps).
     fn interpolate(&self, t: T, out: &mut X) -> bool;
+
+    /// The interpolated states at the times `ts` into `outs` (as many): bitwise what
+    /// [`interpolate`](Self::interpolate) writes at each time; `false` if any time lies
+    /// outside the interval. Steppers override it where several times cost less together
+    /// (the Taylor polynomial's Horner recurrences, interleaved); by default one
+    /// `interpolate` per time.
+    fn interpolate_many(&self, ts: &[T], outs: &mut [X]) -> bool {
+        ts.iter()
+            .zip(outs)
+            .fold(true, |ok, (&t, out)| self.interpolate(t, out) && ok)
+    }
 }
 
 impl<T: Float, X: State<T>, F: ?Sized, S: Stepper<T, X, F> + ?Sized> Stepper<T, X, F> for &mut S {
