@@ -1,0 +1,175 @@
+use super::*;
+use crate::tape::Tape;
+
+const NBODY: &str = include_str!("../../../models/nbody.lsl");
+const FPUT: &str = include_str!("../../../models/fput.lsl");
+
+fn sized(text: &str, default: &str, n: usize) -> String {
+    assert!(text.contains(default));
+    text.replace(default, &format!("param n = {n};"))
+}
+
+/// Deterministic pseudo-random numbers in (-1, 1).
+fn numbers(seed: u64, len: usize) -> Vec<f64> {
+    let mut x = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    (0..len)
+        .map(|_| {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((x >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+        })
+        .collect()
+}
+
+/// The loop form's field and invariants against the unrolled model's tapes.
+fn agrees(text: &str, states: usize) -> LoopModel {
+    let lm = LoopModel::from_source("m.lsl", text, Families::Loops).expect("loop form");
+    assert!(!lm.families().is_empty(), "some family is a loop");
+    let tapes = lm.tapes().expect("loop tapes");
+    let model = crate::lower_source("m.lsl", text).expect("unrolled");
+    let dims = Dims {
+        state: model.dim(),
+        params: model.param_slots(),
+        targets: 0,
+        gains: 0,
+    };
+    let field = Tape::from_graph(&model.graph, &model.field, dims).unwrap();
+    let inv = Tape::from_graph(&model.graph, &model.invariant_ids(), dims).unwrap();
+    let params = model.default_params();
+    assert_eq!(params, lm.default_params());
+    for s in 0..states {
+        // Positions spread out so that no two bodies are close.
+        let x: Vec<f64> = numbers(s as u64, model.dim())
+            .iter()
+            .enumerate()
+            .map(|(i, v)| v + (i / 3) as f64 * 0.37)
+            .collect();
+        for (loops, plain) in [(&tapes.field, &field), (&tapes.invariants, &inv)] {
+            let a = loops.eval(&params, &x).unwrap();
+            let b = plain.eval(&params, &x, &[], &[]).unwrap();
+            assert_eq!(a.len(), b.len());
+            let scale = b.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+            for (i, (u, v)) in a.iter().zip(&b).enumerate() {
+                assert!(
+                    (u - v).abs() <= 1e-13 * scale,
+                    "output {i}: loops {u}, unrolled {v}"
+                );
+            }
+        }
+    }
+    lm
+}
+
+#[test]
+fn nbody_loops_agree_with_unrolled() {
+    for n in [3, 7, 12] {
+        let lm = agrees(&sized(NBODY, "param n = 5;", n), 4);
+        // kinetic, pair, momentum, angular momentum
+        assert_eq!(lm.families().len(), 4, "n = {n}");
+        let pairs = lm.families().iter().map(|f| f.count).max().unwrap();
+        assert_eq!(pairs, n * (n - 1) / 2);
+    }
+}
+
+#[test]
+fn fput_loops_agree_with_unrolled() {
+    for n in [5, 33] {
+        let lm = agrees(&sized(FPUT, "param n = 16;", n), 4);
+        assert_eq!(lm.families().len(), 2, "n = {n}");
+    }
+}
+
+#[test]
+fn loop_code_size_is_independent_of_n() {
+    let size = |n| {
+        let lm = LoopModel::from_source("m.lsl", &sized(NBODY, "param n = 5;", n), Families::Loops)
+            .unwrap();
+        let t = lm.tapes().unwrap();
+        t.field
+            .regions
+            .iter()
+            .map(|r| r.tape.body.len())
+            .sum::<usize>()
+    };
+    assert_eq!(size(8), size(40));
+}
+
+/// The field of four bodies against Newton's law written out by hand.
+#[test]
+fn nbody_field_is_newtons() {
+    let n = 4;
+    let lm =
+        LoopModel::from_source("m.lsl", &sized(NBODY, "param n = 5;", n), Families::Loops).unwrap();
+    let t = lm.tapes().unwrap();
+    let params = lm.default_params();
+    let m: Vec<f64> = (0..n).map(|i| 1.0 / (i as f64 + 1.0)).collect();
+    let x: Vec<f64> = numbers(9, 6 * n)
+        .iter()
+        .enumerate()
+        .map(|(i, v)| v + (i / 3) as f64)
+        .collect();
+    let (q, p) = x.split_at(3 * n);
+    let f = t.field.eval(&params, &x).unwrap();
+    for i in 0..n {
+        for c in 0..3 {
+            let qdot = p[3 * i + c] / m[i];
+            let mut pdot = 0.0;
+            for j in (0..n).filter(|&j| j != i) {
+                let d: Vec<f64> = (0..3).map(|k| q[3 * j + k] - q[3 * i + k]).collect();
+                let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                pdot += m[i] * m[j] * d[c] / (r * r * r);
+            }
+            assert!((f[3 * i + c] - qdot).abs() <= 1e-14 * qdot.abs().max(1.0));
+            let fp = f[3 * n + 3 * i + c];
+            assert!(
+                (fp - pdot).abs() <= 1e-13 * pdot.abs().max(1.0),
+                "{fp} vs {pdot}"
+            );
+        }
+    }
+}
+
+#[test]
+fn auto_keeps_small_families_unrolled() {
+    let lm =
+        LoopModel::from_source("m.lsl", &sized(NBODY, "param n = 5;", 5), Families::Auto).unwrap();
+    assert!(lm.families().is_empty());
+    let lm = LoopModel::from_source(
+        "m.lsl",
+        &sized(NBODY, "param n = 5;", 5),
+        Families::Unrolled,
+    )
+    .unwrap();
+    assert!(lm.families().is_empty());
+}
+
+#[test]
+fn an_index_used_as_a_number_is_unrolled() {
+    let text = "model M {\n param n = 4;\n state q: scalar[n], p: scalar[n];\n \
+                hamiltonian H = sum(i in 0..n: p[i]^2 / 2 + (i + 1) * q[i]^2 / 2);\n \
+                structure canonical(q, p);\n}\n";
+    let lm = LoopModel::from_source("m.lsl", text, Families::Loops).unwrap();
+    assert!(lm.families().is_empty());
+    let t = lm.tapes().unwrap();
+    // ṗ₂ = −3 q₂
+    let mut x = vec![0.0; 8];
+    x[2] = 0.5;
+    assert_eq!(t.field.eval(&[], &x).unwrap()[6], -1.5);
+}
+
+#[test]
+fn a_nonlinear_use_is_refused_with_its_place() {
+    let text = "model M {\n param n = 4;\n state q: scalar[n], p: scalar[n];\n \
+                hamiltonian H = sum(i in 0..n: p[i]^2 / 2 + q[i]^2 / 2);\n \
+                structure canonical(q, p);\n \
+                integral S = sum(i in 0..n: q[i] * p[i])^2;\n}\n";
+    let lm = LoopModel::from_source("m.lsl", text, Families::Loops).unwrap();
+    let e = lm.tapes().unwrap_err().to_string();
+    assert!(
+        e.contains("constant coefficient") && e.contains("m.lsl:6"),
+        "{e}"
+    );
+}
