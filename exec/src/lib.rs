@@ -29,10 +29,12 @@ pub mod ensemble;
 pub mod interp;
 #[cfg(feature = "jit")]
 pub mod jit;
+pub mod loops;
 pub mod model;
 pub mod taylor;
 
 pub use ensemble::{FeedbackLanes, LaneField, Lanes, PackError};
+pub use loops::LoopKernel;
 pub use model::{LoadError, LoadedModel};
 pub use taylor::{Taylor, TaylorError, TaylorField, TaylorOptions, TaylorTape};
 
