@@ -246,7 +246,15 @@ fn main() {
         } else {
             let s = |k| get(&r, k);
             let (sz, load, peak) = (s("size"), s("load"), s("peak_mib"));
-            let slope = |a: f64, b: f64, sz0: f64| format!("{:.2}", (a / b).ln() / (sz / sz0).ln());
+            // No exponent where a time is below the clock's resolution.
+            let slope = |a: f64, b: f64, sz0: f64| {
+                let e = (a / b).ln() / (sz / sz0).ln();
+                if e.is_finite() {
+                    format!("{e:.2}")
+                } else {
+                    String::new()
+                }
+            };
             let (e_load, e_peak) = match last {
                 Some((sz0, l0, p0)) if sz > sz0 => (slope(load, l0, sz0), slope(peak, p0, sz0)),
                 _ => (String::new(), String::new()),

@@ -24,6 +24,13 @@ pub struct LoopKernel {
     params_at: usize,
     dims: Dims,
     n_outputs: usize,
+    /// The output of each plain output, if not all outputs are plain ones in order.
+    base_at: Option<Vec<u32>>,
+}
+
+thread_local! {
+    /// The plain kernel's outputs, before they are placed.
+    static PLAIN: std::cell::Cell<Vec<f64>> = const { std::cell::Cell::new(Vec::new()) };
 }
 
 impl std::fmt::Debug for LoopKernel {
@@ -78,6 +85,7 @@ impl LoopKernel {
             params_at: at,
             dims,
             n_outputs: tape.n_outputs(),
+            base_at: (tape.base_at.len() != tape.n_outputs()).then(|| tape.base_at.clone()),
         })
     }
 
@@ -88,6 +96,31 @@ impl LoopKernel {
 
     fn hoisted_len(&self) -> usize {
         self.params_at + self.dims.params
+    }
+
+    /// Writes the plain outputs into `out` (the others 0).
+    fn plain(
+        &self,
+        hoisted: &[f64],
+        state: &[f64],
+        target: &[f64],
+        gains: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), ExecError> {
+        let Some(at) = &self.base_at else {
+            return self.base.eval(hoisted, state, target, gains, out);
+        };
+        out.iter_mut().for_each(|v| *v = 0.0);
+        PLAIN.with(|cell| {
+            let mut v = cell.take();
+            v.resize(at.len(), 0.0);
+            let r = self.base.eval(hoisted, state, target, gains, &mut v);
+            for (&o, x) in at.iter().zip(&v) {
+                out[o as usize] = *x;
+            }
+            cell.set(v);
+            r
+        })
     }
 
     /// Runs the regions after the plain kernel wrote `out`.
@@ -195,8 +228,7 @@ impl Kernel for LoopKernel {
         expect_len("hoisted", self.hoisted_len(), hoisted.len())?;
         expect_len("state", self.dims.state, state.len())?;
         expect_len("out", self.n_outputs, out.len())?;
-        self.base
-            .eval(&hoisted[..self.base_hoisted], state, target, gains, out)?;
+        self.plain(&hoisted[..self.base_hoisted], state, target, gains, out)?;
         // SAFETY: lengths checked above.
         unsafe { self.regions(hoisted, state, out) };
         Ok(())
@@ -210,12 +242,15 @@ impl Kernel for LoopKernel {
         gains: &[f64],
         out: &mut [f64],
     ) {
-        // SAFETY: the caller's guarantee, passed on.
-        unsafe {
-            self.base
-                .eval_unchecked(&hoisted[..self.base_hoisted], state, target, gains, out);
-            self.regions(hoisted, state, out);
+        if self
+            .plain(&hoisted[..self.base_hoisted], state, target, gains, out)
+            .is_err()
+        {
+            out.iter_mut().for_each(|v| *v = f64::NAN);
+            return;
         }
+        // SAFETY: the caller's guarantee, passed on.
+        unsafe { self.regions(hoisted, state, out) };
     }
 
     /// Lane by lane: each lane is [`Kernel::eval`] of its state, so bitwise equal to it.

@@ -156,8 +156,13 @@ pub struct LoopTapes {
 /// A function as a plain tape plus loop regions whose outputs are added to its outputs.
 #[derive(Clone, Debug)]
 pub struct LoopTape {
-    /// Everything outside the loop families (its dims are the function's).
+    /// Everything outside the loop families that is not the constant 0 (its dims are the
+    /// function's).
     pub base: Tape,
+    /// The function output of each output of `base`, increasing; outputs not listed start at 0.
+    pub base_at: Vec<u32>,
+    /// Number of outputs of the function.
+    pub outputs: usize,
     /// The families, run in order after `base`.
     pub regions: Vec<Region>,
 }
@@ -420,7 +425,12 @@ impl<'a> Builder<'a> {
     /// The loop tape of the plain `roots` and the family outputs `outs`.
     fn tape(&mut self, roots: &[Id], dims: Dims, outs: Outputs) -> Result<LoopTape, Error> {
         let internal = |e: TapeError| Error::Internal(format!("loop tape: {e}"));
-        let base = Tape::from_graph(&self.g, roots, dims).map_err(internal)?;
+        // Outputs that are 0 outside the families (most of a family model's) are not lowered.
+        let base_at: Vec<u32> = (0..roots.len() as u32)
+            .filter(|&o| self.g.as_num(roots[o as usize]) != Some(0.0))
+            .collect();
+        let nonzero: Vec<Id> = base_at.iter().map(|&o| roots[o as usize]).collect();
+        let base = Tape::from_graph(&self.g, &nonzero, dims).map_err(internal)?;
         let mut regions = Vec::with_capacity(outs.len());
         for (f, outs) in outs {
             let fam = &self.lm.families[f];
@@ -445,7 +455,12 @@ impl<'a> Builder<'a> {
                 count: fam.count,
             });
         }
-        Ok(LoopTape { base, regions })
+        Ok(LoopTape {
+            base,
+            base_at,
+            outputs: roots.len(),
+            regions,
+        })
     }
 
     /// The region's expressions in a graph of their own, where state input k is slot k; the
@@ -514,7 +529,7 @@ impl LoopTape {
 
     /// Number of outputs.
     pub fn n_outputs(&self) -> usize {
-        self.base.outputs.len()
+        self.outputs
     }
 
     /// Instructions of the code: the plain body and every region's body (independent of the
@@ -535,6 +550,15 @@ impl LoopTape {
         self.base.validate()?;
         let d = self.base.dims;
         let bad = |s: String| Err(TapeError::Malformed(s));
+        if self.base_at.len() != self.base.outputs.len()
+            || self.base_at.windows(2).any(|w| w[0] >= w[1])
+            || self
+                .base_at
+                .last()
+                .is_some_and(|&o| o as usize >= self.outputs)
+        {
+            return bad("the plain outputs' places are not increasing inside the outputs".into());
+        }
         for (i, r) in self.regions.iter().enumerate() {
             r.tape.validate()?;
             let (k, o) = (r.sources.len(), r.tape.outputs.len());
@@ -574,7 +598,11 @@ impl LoopTape {
     /// agree with bit for bit).
     pub fn eval(&self, params: &[f64], state: &[f64]) -> Result<Vec<f64>, TapeError> {
         self.validate()?;
-        let mut out = self.base.eval(params, state, &[], &[])?;
+        let mut out = vec![0.0; self.outputs];
+        let plain = self.base.eval(params, state, &[], &[])?;
+        for (&o, v) in self.base_at.iter().zip(plain) {
+            out[o as usize] = v;
+        }
         for r in &self.regions {
             let hoisted = r.tape.hoist(params)?;
             let k = r.sources.len();
