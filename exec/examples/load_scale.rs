@@ -13,9 +13,10 @@
 //! With `--families loops` (or `auto`) the model is lowered with its families kept as loops
 //! ([`lasalle_model::loops`]) and a row measures what that form builds: parse and lower,
 //! the loop tapes of the field and the integrals (Hamilton's equations of each family from one
-//! gradient, in `derive`), and their JIT compilation. It has no conservation proofs, rewrites
-//! for emission, Jacobian, V or Taylor program: those columns are `—`, and the load is not
-//! comparable to the unrolled one for the methods that need them.
+//! gradient, in `derive`), the conservation of the integrals on the families' bodies
+//! (`check`), and the JIT compilation of the two tapes. It has no rewrites for emission,
+//! Jacobian, V or Taylor program: those columns are `—`, and the load is not comparable to
+//! the unrolled one for the methods that need them.
 //!
 //! The stages, in the order `lasalle run` takes them: parse and lower (with Hamilton's
 //! equations, ∇H by reverse mode); derive (Df of the integrals, the Lie derivatives, ∇V,
@@ -86,6 +87,9 @@ fn loop_row(model: &str, n: usize, families: Families) {
     let tapes = lm.tapes().expect("the loop tapes");
     let derive = (cpu() - t).as_secs_f64();
     let t = cpu();
+    lm.check().expect("the integrals are conserved");
+    let check = (cpu() - t).as_secs_f64();
+    let t = cpu();
     for tape in [&tapes.field, &tapes.invariants] {
         LoopKernel::new(tape, Backend::Jit).expect("the JIT compiles");
     }
@@ -94,9 +98,9 @@ fn loop_row(model: &str, n: usize, families: Families) {
         .field
         .instructions()
         .max(tapes.invariants.instructions());
-    let load = parse_lower + derive + jit;
+    let load = parse_lower + derive + check + jit;
     println!(
-        "{{\"model\": \"{model}\", \"n\": {n}, \"size\": {size}, \"largest_tape\": {largest}, \"parse_lower\": {parse_lower:.6}, \"derive\": {derive:.6}, \"check\": -1, \"taylor\": -1, \"jit\": {jit:.6}, \"rewrite\": -1, \"lower_tapes\": -1, \"load\": {load:.6}, \"peak_mib\": {:.1}}}",
+        "{{\"model\": \"{model}\", \"n\": {n}, \"size\": {size}, \"largest_tape\": {largest}, \"parse_lower\": {parse_lower:.6}, \"derive\": {derive:.6}, \"check\": {check:.6}, \"taylor\": -1, \"jit\": {jit:.6}, \"rewrite\": -1, \"lower_tapes\": -1, \"load\": {load:.6}, \"peak_mib\": {:.1}}}",
         peak_mib()
     );
 }

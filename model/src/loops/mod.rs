@@ -195,6 +195,14 @@ impl LoopModel {
         Ok(LoopModel { model, families })
     }
 
+    /// The same model with every family unrolled, lowered again from its source: what the
+    /// stages without a loop form (the Jacobian, V, ∇V, X − ∇V, the Taylor program, the
+    /// emitted Rust, the lanes) need, built only when one of them is asked for.
+    pub fn unrolled(&self) -> Result<Model, Error> {
+        let source = &self.model.source;
+        crate::lower_source(&source.path, &source.text)
+    }
+
     /// The families kept as loops.
     pub fn families(&self) -> &[Family] {
         &self.families
@@ -233,31 +241,7 @@ impl LoopModel {
             targets: 0,
             gains: 0,
         };
-        // The field: explicit part plus reductions, plus Hamilton's equations of the families.
-        let mut field = Outputs::default();
-        let mut roots = Vec::with_capacity(m.field.len());
-        for (c, &f) in m.field.iter().enumerate() {
-            roots.push(b.split(f, c as u32, &m.field_spans[c], &mut field)?);
-        }
-        if let Some(h) = &m.hamiltonian {
-            let span = m
-                .invariants
-                .iter()
-                .find(|f| f.name == h.name)
-                .map_or_else(|| m.field_spans[0].clone(), |f| f.span.clone());
-            let mut terms = Outputs::default();
-            b.split(h.h, 0, &span, &mut terms)?;
-            if !terms.is_empty() {
-                let Structure::Canonical { q, p } = &h.structure else {
-                    return Err(b.refuse(
-                        &span,
-                        "a Lie–Poisson Hamiltonian with a family kept as a loop",
-                        "load the model with its families unrolled",
-                    ));
-                };
-                b.hamilton(&terms, q, p, &mut field)?;
-            }
-        }
+        let (roots, field) = b.field()?;
         let field = b.tape(&roots, dims, field)?;
         let mut inv = Outputs::default();
         let mut roots = Vec::new();
@@ -273,10 +257,10 @@ impl LoopModel {
 }
 
 /// Per family, the region outputs: (expression, scatter column).
-type Outputs = std::collections::BTreeMap<usize, Vec<(Id, Vec<u32>)>>;
+pub(crate) type Outputs = std::collections::BTreeMap<usize, Vec<(Id, Vec<u32>)>>;
 
 /// Builds the loop tapes on a copy of the model's graph.
-struct Builder<'a> {
+pub(crate) struct Builder<'a> {
     lm: &'a LoopModel,
     g: Graph,
     /// Placeholder symbol → (family, component).
@@ -296,6 +280,38 @@ impl<'a> Builder<'a> {
             g: lm.model.graph.clone(),
             placeholder,
         }
+    }
+
+    /// The field's plain part (per component) and the family outputs of the field.
+    fn field(&mut self) -> Result<(Vec<Id>, Outputs), Error> {
+        // The field: explicit part plus reductions, plus Hamilton's equations of the families.
+        let lm = self.lm;
+        let m = &lm.model;
+        let mut field = Outputs::default();
+        let mut roots = Vec::with_capacity(m.field.len());
+        for (c, &f) in m.field.iter().enumerate() {
+            roots.push(self.split(f, c as u32, &m.field_spans[c], &mut field)?);
+        }
+        if let Some(h) = &m.hamiltonian {
+            let span = m
+                .invariants
+                .iter()
+                .find(|f| f.name == h.name)
+                .map_or_else(|| m.field_spans[0].clone(), |f| f.span.clone());
+            let mut terms = Outputs::default();
+            self.split(h.h, 0, &span, &mut terms)?;
+            if !terms.is_empty() {
+                let Structure::Canonical { q, p } = &h.structure else {
+                    return Err(self.refuse(
+                        &span,
+                        "a Lie–Poisson Hamiltonian with a family kept as a loop",
+                        "load the model with its families unrolled",
+                    ));
+                };
+                self.hamilton(&terms, q, p, &mut field)?;
+            }
+        }
+        Ok((roots, field))
     }
 
     fn refuse(&self, span: &Span, what: &str, help: &str) -> Error {
@@ -626,5 +642,6 @@ impl LoopTape {
     }
 }
 
+mod check;
 #[cfg(test)]
 mod tests;

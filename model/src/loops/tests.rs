@@ -29,7 +29,7 @@ fn agrees(text: &str, states: usize) -> LoopModel {
     let lm = LoopModel::from_source("m.lsl", text, Families::Loops).expect("loop form");
     assert!(!lm.families().is_empty(), "some family is a loop");
     let tapes = lm.tapes().expect("loop tapes");
-    let model = crate::lower_source("m.lsl", text).expect("unrolled");
+    let model = lm.unrolled().expect("unrolled");
     let dims = Dims {
         state: model.dim(),
         params: model.param_slots(),
@@ -170,6 +170,95 @@ fn a_nonlinear_use_is_refused_with_its_place() {
     let e = lm.tapes().unwrap_err().to_string();
     assert!(
         e.contains("constant coefficient") && e.contains("m.lsl:6"),
+        "{e}"
+    );
+}
+
+fn verdicts(text: &str) -> Vec<(String, Verdict)> {
+    let lm = LoopModel::from_source("m.lsl", text, Families::Loops).unwrap();
+    lm.check()
+        .unwrap()
+        .into_iter()
+        .map(|c| (c.name, c.verdict))
+        .collect()
+}
+
+use crate::check::Verdict;
+
+#[test]
+fn nbody_integrals_are_proved_on_the_pair_term() {
+    for n in [4, 30] {
+        let v = verdicts(&sized(NBODY, "param n = 5;", n));
+        let names: Vec<&str> = v.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names, ["H", "P", "L"]);
+        for (name, verdict) in &v {
+            assert_eq!(*verdict, Verdict::Proved, "{name} at n = {n}");
+        }
+    }
+}
+
+#[test]
+fn fput_energy_is_proved_by_the_structure() {
+    let v = verdicts(&sized(FPUT, "param n = 16;", 20));
+    assert_eq!(v, [("H".to_string(), Verdict::Proved)]);
+}
+
+/// The energy written again as an integral is a pair family the argument does not cover: it
+/// is sampled, and found conserved.
+#[test]
+fn an_integral_the_argument_does_not_cover_is_sampled() {
+    let text = sized(NBODY, "param n = 5;", 6).replace(
+        "integral P =",
+        "integral E = sum(i in 0..n: dot(p[i], p[i]) / (2 * m[i])) \
+         - sum(i in 0..n, j in i+1..n: G * m[i] * m[j] / norm(q[i] - q[j]));\n    integral P =",
+    );
+    let v = verdicts(&text);
+    assert_eq!(v[0], ("H".to_string(), Verdict::Proved));
+    match &v[1] {
+        (
+            name,
+            Verdict::Sampled {
+                samples,
+                worst_relative,
+            },
+        ) => {
+            assert_eq!(name, "E");
+            assert!(
+                *samples > 100 && *worst_relative < 1e-12,
+                "{samples} {worst_relative}"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(v[2].1, Verdict::Proved);
+}
+
+/// The walls push the chain: its momentum is not conserved, and the check says so.
+#[test]
+fn a_momentum_the_walls_break_is_an_error() {
+    let text = sized(FPUT, "param n = 16;", 10).replace(
+        "structure canonical(q, p);",
+        "structure canonical(q, p);\n    integral P = sum(i in 0..n: p[i]);",
+    );
+    let lm = LoopModel::from_source("m.lsl", &text, Families::Loops).unwrap();
+    let e = lm.check().unwrap_err().to_string();
+    assert!(e.contains("integral `P` is not conserved"), "{e}");
+}
+
+/// A pair term that is not translation invariant: momentum is not conserved, the argument
+/// must not prove it, and sampling finds it.
+#[test]
+fn a_pair_term_that_breaks_momentum_is_not_proved() {
+    let text = sized(NBODY, "param n = 5;", 5)
+        .replace("norm(q[i] - q[j])", "norm(q[i] - 2 * q[j])")
+        .replace(
+            "    integral L = sum(i in 0..n: cross(q[i], p[i]));     // angular momentum\n",
+            "",
+        );
+    let lm = LoopModel::from_source("m.lsl", &text, Families::Loops).unwrap();
+    let e = lm.check().unwrap_err().to_string();
+    assert!(
+        e.contains("integral `P` (component 0) is not conserved"),
         "{e}"
     );
 }
