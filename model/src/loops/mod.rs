@@ -15,7 +15,7 @@
 //! - a sum in an integral or an equation is a reduction (its scatter column is constant);
 //! - Hamilton's equations of `H = h₀ + Σ c·family` are `J∇h₀` plus, per family, the body's
 //!   gradient with respect to its state slots, taken once symbolically, each partial scattered
-//!   to the partner component (∂g/∂q[i] to ṗ[i] with the sign −c, ∂g/∂p[i] to q̇[i] with +c).
+//!   to the partner component (`∂g/∂q[i]` to `ṗ[i]` with the sign −c, `∂g/∂p[i]` to `q̇[i]` with +c).
 //!
 //! A region's code and instruction count are independent of the number of tuples; its tables
 //! are linear in it. Outputs are accumulated in tuple order, output after output, after the
