@@ -25,6 +25,7 @@
 //! ```
 #![warn(missing_docs)]
 
+mod deferred;
 pub mod ensemble;
 pub mod interp;
 #[cfg(feature = "jit")]

@@ -120,3 +120,85 @@ fn region_code_is_independent_of_n() {
     };
     assert_eq!(ops(10), ops(60));
 }
+
+mod loaded {
+    use super::*;
+    use lasalle_exec::LoadedModel;
+    use lasalle_model::Verdict;
+    use lasalle_runtime::{Declared, Field, Invariants, Lyapunov, ModelInfo, Parameters};
+
+    fn close(a: &[f64], b: &[f64], what: &str) {
+        let scale = b.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+        for (i, (p, q)) in a.iter().zip(b).enumerate() {
+            assert!((p - q).abs() <= 1e-13 * scale, "{what}[{i}]: {p} vs {q}");
+        }
+    }
+
+    /// A model loaded with its families as loops computes what the unrolled one computes:
+    /// the field and integrals to rounding (loop kernels), the other functions bit for bit
+    /// (built from the unrolled model on first use), after a parameter change too.
+    #[test]
+    fn a_loaded_loop_model_agrees_with_the_unrolled_one() {
+        let text = sized(NBODY, "param n = 5;", 10);
+        let mut loops =
+            LoadedModel::from_source_with("m.lsl", &text, Backend::Jit, Families::Loops).unwrap();
+        let mut plain = LoadedModel::from_source("m.lsl", &text, Backend::Jit).unwrap();
+        for c in loops.conservation() {
+            assert_eq!(c.verdict, Verdict::Proved, "{}", c.name);
+        }
+        for round in 0..2 {
+            if round == 1 {
+                loops.set_param("G", &[0.7]).unwrap();
+                plain.set_param("G", &[0.7]).unwrap();
+            }
+            let x = loops.point("ring").unwrap();
+            assert_eq!(x, plain.point("ring").unwrap());
+            let n = x.len();
+            let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
+            loops.field(&x, &mut a);
+            plain.field(&x, &mut b);
+            close(&a, &b, "field");
+            let m = plain.invariant_dim();
+            let (mut fa, mut fb) = (vec![0.0; m], vec![0.0; m]);
+            loops.invariants(&x, &mut fa);
+            plain.invariants(&x, &mut fb);
+            close(&fa, &fb, "invariants");
+            let (mut ja, mut jb) = (vec![vec![0.0; n]; m], vec![vec![0.0; n]; m]);
+            loops.invariants_jacobian(&x, &mut ja);
+            plain.invariants_jacobian(&x, &mut jb);
+            assert_eq!(ja, jb);
+            let target = fb.clone();
+            let gains = plain.default_gain_values().to_vec();
+            let y: Vec<f64> = x.iter().map(|v| v * 1.01).collect();
+            let v = plain.lyapunov(&y, &target, &gains);
+            assert!(v.is_finite() && v > 0.0);
+            assert_eq!(loops.lyapunov(&y, &target, &gains).to_bits(), v.to_bits());
+            let (mut da, mut db) = (vec![0.0; n], vec![0.0; n]);
+            loops.feedback_field(&y, &target, &gains, &mut da);
+            plain.feedback_field(&y, &target, &gains, &mut db);
+            assert!(db.iter().all(|v| v.is_finite()));
+            assert_eq!(da, db);
+            let pa = loops.partitioned().expect("partitioned");
+            let pb = plain.partitioned().expect("partitioned");
+            assert_eq!(pa.is_q(), pb.is_q());
+            pa.field_p(&x, &mut da);
+            pb.field_p(&x, &mut db);
+            assert!(db.iter().all(|v| v.is_finite()));
+            assert_eq!(da, db);
+        }
+    }
+
+    /// Below the automatic threshold nothing is a loop: the model loads as usual.
+    #[test]
+    fn auto_loads_small_models_unrolled() {
+        let text = sized(NBODY, "param n = 5;", 5);
+        let m =
+            LoadedModel::from_source_with("m.lsl", &text, Backend::Jit, Families::Auto).unwrap();
+        let p = LoadedModel::from_source("m.lsl", &text, Backend::Jit).unwrap();
+        let x = p.point("ring").unwrap();
+        let (mut a, mut b) = (vec![0.0; x.len()], vec![0.0; x.len()]);
+        m.field(&x, &mut a);
+        p.field(&x, &mut b);
+        assert_eq!(a, b);
+    }
+}

@@ -262,3 +262,46 @@ fn a_pair_term_that_breaks_momentum_is_not_proved() {
         "{e}"
     );
 }
+
+/// A full double sum with a condition, halved: the same field as the triangular one.
+#[test]
+fn a_condition_selects_the_tuples() {
+    let text = sized(NBODY, "param n = 5;", 7).replace(
+        "sum(i in 0..n, j in i+1..n: G * m[i] * m[j] / norm(q[i] - q[j]))",
+        "sum(i in 0..n, j in 0..n, i != j: G * m[i] * m[j] / norm(q[i] - q[j])) / 2",
+    );
+    let lm = agrees(&text, 3);
+    assert!(lm.families().iter().any(|f| f.count == 7 * 6));
+}
+
+/// Periodic neighbours through `%`, and a sum in an equation (a reduction into one output).
+#[test]
+fn periodic_neighbours_and_a_sum_in_an_equation() {
+    let text = "model Ring {\n param n = 9;\n state q: scalar[n], p: scalar[n];\n \
+                hamiltonian H = sum(i in 0..n: p[i]^2 / 2 + (q[(i + 1) % n] - q[i])^4 / 4);\n \
+                structure canonical(q, p);\n integral P = sum(i in 0..n: p[i]);\n}\n";
+    agrees(text, 3);
+    let v = verdicts(text);
+    assert_eq!(v[1], ("P".to_string(), Verdict::Proved));
+    let text = "model Sink {\n param n = 6;\n state x: scalar[n], s: scalar;\n \
+                for i in 0..n: d/dt x[i] = -x[i];\n d/dt s = 3 * sum(i in 0..n: x[i]^2);\n}\n";
+    let lm = agrees(text, 3);
+    assert_eq!(lm.families().len(), 1);
+}
+
+/// An index out of range inside a loop family is reported as when it is unrolled.
+#[test]
+fn an_index_out_of_range_is_located() {
+    let text = "model M {\n param n = 5;\n state q: scalar[n], p: scalar[n];\n \
+                hamiltonian H = sum(i in 0..n: p[i]^2 / 2 + q[i + 1]^2);\n \
+                structure canonical(q, p);\n}\n";
+    let loops = LoopModel::from_source("m.lsl", text, Families::Loops)
+        .unwrap_err()
+        .to_string();
+    let unrolled = crate::lower_source("m.lsl", text).unwrap_err().to_string();
+    assert!(
+        loops.contains("index 5 is out of range 0..5 (where i = 4)"),
+        "{loops}"
+    );
+    assert_eq!(loops, unrolled);
+}
