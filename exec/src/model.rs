@@ -295,7 +295,10 @@ impl Info {
 /// The unrolled tapes of the field and of X − ∇V.
 enum StepTapes {
     /// Built when the model was loaded.
-    Built { field: Tape, feedback: Tape },
+    Built {
+        field: Box<Tape>,
+        feedback: Box<Tape>,
+    },
     /// A model loaded with its families kept as loops: no unrolled field (steps use the loop
     /// kernel), X − ∇V from the unrolled model at its first use.
     Deferred(Arc<crate::deferred::LazyTapes>),
@@ -378,8 +381,8 @@ impl LoadedModel {
             params,
             kernels,
             step_tapes: StepTapes::Built {
-                field: tapes.field,
-                feedback: tapes.feedback,
+                field: Box::new(tapes.field),
+                feedback: Box::new(tapes.feedback),
             },
             guards_tape: guards,
             steps: Mutex::default(),
