@@ -398,7 +398,9 @@ impl LoadedModel {
     /// Taylor kernels) are built from the unrolled model at their first use; the unrolled
     /// model is lowered and derived (for its declarations and those functions), never
     /// checked, rewritten or compiled at load. Otherwise the model loads as with
-    /// [`LoadedModel::from_source`].
+    /// [`LoadedModel::from_source`]; so does a model the loop form refuses (a sum that enters
+    /// an expression other than as a term with a constant coefficient, an integral it finds
+    /// not conserved) under [`Families::Auto`], while [`Families::Loops`] reports the refusal.
     pub fn from_source_with(
         path: &str,
         text: &str,
@@ -413,8 +415,15 @@ impl LoadedModel {
         if lm.families().is_empty() {
             return Self::compile(lm.unrolled()?, backend, start);
         }
-        let conservation = lm.check()?;
-        let tapes = lm.tapes()?;
+        let checked = lm.check().and_then(|c| Ok((c, lm.tapes()?)));
+        let (conservation, tapes) = match checked {
+            Ok(ct) => ct,
+            // `auto` falls back to the unrolled model, which checks on its own terms
+            Err(_) if families == Families::Auto => {
+                return Self::compile(lm.unrolled()?, backend, start)
+            }
+            Err(e) => return Err(e.into()),
+        };
         let derived = Arc::new(derive(lm.unrolled()?));
         let model = &derived.model;
         let params = model.default_params();

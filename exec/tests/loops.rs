@@ -201,4 +201,23 @@ mod loaded {
         p.field(&x, &mut b);
         assert_eq!(a, b);
     }
+
+    /// A model the loop form refuses loads unrolled under `auto`; `loops` reports why.
+    #[test]
+    fn auto_falls_back_to_unrolled_where_loops_refuse() {
+        let text = "model Squared {\n param n = 80;\n state q: scalar[n], p: scalar[n];\n \
+                    hamiltonian H = sum(i in 0..n: p[i]^2 / 2 + q[i]^2 / 2);\n \
+                    structure canonical(q, p);\n \
+                    integral S = sum(i in 0..n: p[i]^2 + q[i]^2)^2;\n}\n";
+        let m = LoadedModel::from_source_with("m.lsl", text, Backend::Jit, Families::Auto);
+        assert!(m.is_ok(), "{:?}", m.err());
+        let e = LoadedModel::from_source_with("m.lsl", text, Backend::Jit, Families::Loops)
+            .err()
+            .expect("refused")
+            .to_string();
+        assert!(
+            e.contains("m.lsl:6") && e.contains("constant coefficient"),
+            "{e}"
+        );
+    }
 }
