@@ -212,8 +212,7 @@ mod loaded {
         let m = LoadedModel::from_source_with("m.lsl", text, Backend::Jit, Families::Auto);
         assert!(m.is_ok(), "{:?}", m.err());
         let e = LoadedModel::from_source_with("m.lsl", text, Backend::Jit, Families::Loops)
-            .err()
-            .expect("refused")
+            .expect_err("refused")
             .to_string();
         assert!(
             e.contains("m.lsl:6") && e.contains("constant coefficient"),
