@@ -20,7 +20,7 @@ criterion="$target/criterion"
 work="$target/performance"
 mkdir -p "$work"
 
-all=(feedback paper-runs backends run load load-nbody load-fput nbody-heyoka adaptive-gains taylor-models taylor-kernels sweep heyoka)
+all=(feedback paper-runs backends run load load-nbody load-fput load-nbody-loops load-fput-loops family-eval nbody-heyoka adaptive-gains taylor-models taylor-kernels sweep heyoka)
 
 describe() {
     case "$1" in
@@ -31,6 +31,9 @@ describe() {
     load) echo "cargo bench --bench backends -- load/ (loading a model file with the JIT)" ;;
     load-nbody) echo "cargo run --release -p lasalle-exec --example load_scale (N-body load by stage, N = 3 ... 256)" ;;
     load-fput) echo "cargo run --release -p lasalle-exec --example load_scale -- --model fput (FPUT load by stage)" ;;
+    load-nbody-loops) echo "load_scale -- --families loops (N-body load with families kept as loops)" ;;
+    load-fput-loops) echo "load_scale -- --families loops --model fput (FPUT load with families kept as loops)" ;;
+    family-eval) echo "cargo run --release -p lasalle-exec --example family_eval (ns per field evaluation, unrolled vs loops)" ;;
     nbody-heyoka) echo "scripts/heyoka/nbody_scaling.py (N-body field and Taylor step vs N, lasalle and heyoka compact mode)" ;;
     adaptive-gains) echo "lasalle experiment adaptive-gains (steps and errors; also the figure)" ;;
     taylor-models) echo "lasalle run <model> -m taylor --rtol 1e-15 … --format json, fastest of 5" ;;
@@ -179,6 +182,22 @@ table_load_nbody() {
 table_load_fput() {
     cargo run --release --quiet -p lasalle-exec --example load_scale -- \
         --model fput --limit "${LOAD_LIMIT:-300}" 16 32 64 128 256 512 1024 2048 4096
+}
+
+table_load_nbody_loops() {
+    cargo run --release --quiet -p lasalle-exec --example load_scale -- \
+        --families loops 3 6 12 24 48 96 128 256
+}
+
+table_load_fput_loops() {
+    cargo run --release --quiet -p lasalle-exec --example load_scale -- \
+        --families loops --model fput 16 32 64 128 256 512 1024 2048 4096
+}
+
+table_family_eval() {
+    cargo run --release --quiet -p lasalle-exec --example family_eval -- 12 24 48 96
+    echo
+    cargo run --release --quiet -p lasalle-exec --example family_eval -- --model fput 64 256 1024 4096
 }
 
 table_adaptive_gains() {

@@ -206,3 +206,82 @@ fn nbody_size_is_one_line() {
     let o = lasalle(&["run", &file, "--param", "n=3", "--t-end", "0.1"]);
     assert!(!o.status.success());
 }
+
+/// The Pleiades with their masses as a parameter family, so that both sums of H are loops
+/// (`--families loops`): the explicit method on the loop field meets the IVP test set's
+/// reference, as the unrolled model does.
+#[test]
+fn pleiades_as_loops_meet_the_ivp_test_set() {
+    let text = PLEIADES_FAMILY
+        .replace("model PleiadesFamily {", "model PleiadesLoops {")
+        .replace(
+            "state q: scalar[2 * n], p: scalar[2 * n];",
+            "state q: scalar[2 * n], p: scalar[2 * n];\n    param m: scalar[n] = [i in 0..n: i + 1];",
+        )
+        .replace("/ (2 * (i + 1))", "/ (2 * m[i])")
+        .replace("(i + 1) * (j + 1) / sqrt", "m[i] * m[j] / sqrt");
+    assert!(text.contains("m[i] * m[j]"));
+    let file = model_file("pleiades_loops", &text);
+    let args = |families| {
+        [
+            file.as_str(),
+            "-m",
+            "dopri5",
+            "--rtol",
+            "1e-14",
+            "--atol",
+            "1e-14",
+            "--t-end",
+            "3",
+            "--init",
+            "start",
+            "--families",
+            families,
+        ]
+    };
+    let loops = final_state(&run("pleiades_loops", &args("loops")));
+    let unrolled = final_state(&run("pleiades_unrolled", &args("unrolled")));
+    for (i, &r) in REFERENCE.iter().enumerate() {
+        let v = |x: &[f64]| {
+            if i < 14 {
+                x[i]
+            } else {
+                x[i] / ((i % 7) + 1) as f64
+            }
+        };
+        assert!(
+            (v(&loops) - r).abs() < 1e-9,
+            "component {i}: {} against {r}",
+            v(&loops)
+        );
+        assert!((v(&loops) - v(&unrolled)).abs() < 1e-9, "component {i}");
+    }
+}
+
+/// A sum the loop form cannot take (squared) is refused with its place, not approximated.
+#[test]
+fn a_sum_the_loop_form_cannot_take_is_refused() {
+    let text = "model Squared {\n    param n = 4;\n    state q: scalar[n], p: scalar[n];\n    \
+                hamiltonian H = sum(i in 0..n: p[i]^2 / 2 + q[i]^2 / 2);\n    \
+                structure canonical(q, p);\n    integral S = sum(i in 0..n: q[i] * p[i])^2;\n    \
+                point start { q = [i in 0..n: 1]; p = [i in 0..n: 0]; }\n}\n";
+    let file = model_file("squared", text);
+    let o = lasalle(&[
+        "run",
+        &file,
+        "-m",
+        "rk4",
+        "--dt",
+        "0.1",
+        "--t-end",
+        "1",
+        "--families",
+        "loops",
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("squared.lsl:6") && err.contains("constant coefficient"),
+        "{err}"
+    );
+}

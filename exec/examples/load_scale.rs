@@ -7,7 +7,16 @@
 //! cargo run --release -p lasalle-exec --example load_scale -- 3 6 12 24         # chosen sizes
 //! cargo run --release -p lasalle-exec --example load_scale -- --model fput 16 64 256 1024
 //! cargo run --release -p lasalle-exec --example load_scale -- --json 3 6        # one JSON object a row
+//! cargo run --release -p lasalle-exec --example load_scale -- --families loops   # families as loops
 //! ```
+//!
+//! With `--families loops` (or `auto`) the model is lowered with its families kept as loops
+//! ([`lasalle_model::loops`]) and a row measures what that form builds: parse and lower,
+//! the loop tapes of the field and the integrals (Hamilton's equations of each family from one
+//! gradient, in `derive`), the conservation of the integrals on the families' bodies
+//! (`check`), and the JIT compilation of the two tapes. It has no rewrites for emission,
+//! Jacobian, V or Taylor program: those columns are `—`, and the load is not comparable to
+//! the unrolled one for the methods that need them.
 //!
 //! The stages, in the order `lasalle run` takes them: parse and lower (with Hamilton's
 //! equations, ∇H by reverse mode); derive (Df of the integrals, the Lie derivatives, ∇V,
@@ -25,7 +34,8 @@
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use lasalle_exec::Backend;
+use lasalle_exec::{Backend, LoopKernel};
+use lasalle_model::loops::{Families, LoopModel};
 use lasalle_model::tape::{taylor::TaylorProgram, ModelTapes};
 
 const NBODY: &str = include_str!("../../models/nbody.lsl");
@@ -65,6 +75,34 @@ fn source(model: &str, n: usize) -> (String, usize) {
         "{model}.lsl has its size on `{default}`"
     );
     (text.replace(default, &format!("param n = {n};")), size)
+}
+
+/// One row of the loop form, as a JSON object (stages it does not have are −1).
+fn loop_row(model: &str, n: usize, families: Families) {
+    let (text, size) = source(model, n);
+    let t = cpu();
+    let lm = LoopModel::from_source("model.lsl", &text, families).expect("the model lowers");
+    let parse_lower = (cpu() - t).as_secs_f64();
+    let t = cpu();
+    let tapes = lm.tapes().expect("the loop tapes");
+    let derive = (cpu() - t).as_secs_f64();
+    let t = cpu();
+    lm.check().expect("the integrals are conserved");
+    let check = (cpu() - t).as_secs_f64();
+    let t = cpu();
+    for tape in [&tapes.field, &tapes.invariants] {
+        LoopKernel::new(tape, Backend::Jit).expect("the JIT compiles");
+    }
+    let jit = (cpu() - t).as_secs_f64();
+    let largest = tapes
+        .field
+        .instructions()
+        .max(tapes.invariants.instructions());
+    let load = parse_lower + derive + check + jit;
+    println!(
+        "{{\"model\": \"{model}\", \"n\": {n}, \"size\": {size}, \"largest_tape\": {largest}, \"parse_lower\": {parse_lower:.6}, \"derive\": {derive:.6}, \"check\": {check:.6}, \"taylor\": -1, \"jit\": {jit:.6}, \"rewrite\": -1, \"lower_tapes\": -1, \"load\": {load:.6}, \"peak_mib\": {:.1}}}",
+        peak_mib()
+    );
 }
 
 /// One row, as a JSON object: the stages' CPU seconds for size `n`.
@@ -119,6 +157,15 @@ fn row(model: &str, n: usize) {
     );
 }
 
+/// Seconds with three decimals; `—` for a stage the row does not have.
+fn secs(x: f64) -> String {
+    if x < 0.0 {
+        "—".to_string()
+    } else {
+        format!("{x:.3}")
+    }
+}
+
 /// A number of a row's JSON object.
 fn get(row: &str, key: &str) -> f64 {
     let at = row.find(&format!("\"{key}\": ")).expect("the key") + key.len() + 4;
@@ -134,6 +181,7 @@ fn main() {
     let mut json = false;
     let mut sizes = Vec::new();
     let mut one = None;
+    let mut families = Families::Unrolled;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
@@ -145,14 +193,28 @@ fn main() {
                     .expect("--limit SECONDS")
             }
             "--json" => json = true,
+            "--families" => {
+                families = it
+                    .next()
+                    .and_then(|s| Families::parse(s))
+                    .expect("--families loops|auto|unrolled")
+            }
             "--row" => one = Some(it.next().and_then(|s| s.parse().ok()).expect("--row N")),
             n => sizes.push(n.parse::<usize>().expect("a size")),
         }
     }
     if let Some(n) = one {
-        row(&model, n);
+        match families {
+            Families::Unrolled => row(&model, n),
+            f => loop_row(&model, n, f),
+        }
         return;
     }
+    let families_arg = match families {
+        Families::Unrolled => "unrolled",
+        Families::Loops => "loops",
+        Families::Auto => "auto",
+    };
     if sizes.is_empty() {
         sizes = match model.as_str() {
             "fput" => vec![16, 32, 64, 128, 256, 512, 1024],
@@ -174,7 +236,8 @@ fn main() {
     for n in sizes {
         let t = Instant::now();
         let out = Command::new(&exe)
-            .args(["--model", &model, "--row", &n.to_string()])
+            .args(["--model", &model, "--families", families_arg])
+            .args(["--row", &n.to_string()])
             .output()
             .expect("the row runs");
         if !out.status.success() {
@@ -187,21 +250,29 @@ fn main() {
         } else {
             let s = |k| get(&r, k);
             let (sz, load, peak) = (s("size"), s("load"), s("peak_mib"));
-            let slope = |a: f64, b: f64, sz0: f64| format!("{:.2}", (a / b).ln() / (sz / sz0).ln());
+            // No exponent where a time is below the clock's resolution.
+            let slope = |a: f64, b: f64, sz0: f64| {
+                let e = (a / b).ln() / (sz / sz0).ln();
+                if e.is_finite() {
+                    format!("{e:.2}")
+                } else {
+                    String::new()
+                }
+            };
             let (e_load, e_peak) = match last {
                 Some((sz0, l0, p0)) if sz > sz0 => (slope(load, l0, sz0), slope(peak, p0, sz0)),
                 _ => (String::new(), String::new()),
             };
             println!(
-                "| {n} | {sz} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {load:.2} | {e_load} | {peak:.0} | {e_peak} |",
+                "| {n} | {sz} | {} | {} | {} | {} | {} | {} | {} | {} | {load:.2} | {e_load} | {peak:.0} | {e_peak} |",
                 s("largest_tape"),
-                s("parse_lower"),
-                s("derive"),
-                s("check"),
-                s("rewrite"),
-                s("lower_tapes"),
-                s("taylor"),
-                s("jit"),
+                secs(s("parse_lower")),
+                secs(s("derive")),
+                secs(s("check")),
+                secs(s("rewrite")),
+                secs(s("lower_tapes")),
+                secs(s("taylor")),
+                secs(s("jit")),
             );
             last = Some((sz, load, peak));
         }

@@ -144,7 +144,7 @@ impl LoadedModel {
     /// (see [`FeedbackLanes`]): compiles the tape of X − ∇V with the targets read as state
     /// components, with this model's back end and parameters.
     pub fn feedback_lanes(&self, k: usize, gains: &[f64]) -> Result<FeedbackLanes<'_>, ExecError> {
-        let tape = targets_as_state(self.feedback_tape());
+        let tape = targets_as_state(self.feedback_tape()?);
         lasalle_model::tape::expect_len("gains", tape.dims.gains, gains.len())?;
         let kernel = self.backend().compile(&tape)?;
         let hoisted = kernel.hoist(self.params())?;

@@ -83,7 +83,7 @@ thread_local! {
 const STACK_SLOTS: usize = 480;
 
 /// Runs `f` on a thread-local scratch slice of `len` values (contents unspecified).
-fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
+pub(crate) fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
     SCRATCH.with(|cell| {
         let mut v = cell.take();
         if v.len() < len {

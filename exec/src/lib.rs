@@ -25,14 +25,18 @@
 //! ```
 #![warn(missing_docs)]
 
+mod deferred;
 pub mod ensemble;
 pub mod interp;
 #[cfg(feature = "jit")]
 pub mod jit;
+pub mod loops;
 pub mod model;
 pub mod taylor;
 
 pub use ensemble::{FeedbackLanes, LaneField, Lanes, PackError};
+pub use lasalle_model::loops::Families;
+pub use loops::LoopKernel;
 pub use model::{LoadError, LoadedModel};
 pub use taylor::{Taylor, TaylorError, TaylorField, TaylorOptions, TaylorTape};
 

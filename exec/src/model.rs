@@ -26,6 +26,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use lasalle_model::ir::Input;
+use lasalle_model::loops::{Families, LoopModel};
 use lasalle_model::tape::step::rk_step;
 use lasalle_model::tape::{Dims, ModelTapes, Tape, TapeBuilder, TapeError};
 use lasalle_model::Conservation;
@@ -74,7 +75,10 @@ struct Compiled {
 
 impl Compiled {
     fn new(backend: Backend, tape: &Tape, params: &[f64]) -> Result<Compiled, ExecError> {
-        let kernel = backend.compile(tape)?;
+        Compiled::of(backend.compile(tape)?, params)
+    }
+
+    fn of(kernel: Box<dyn Kernel>, params: &[f64]) -> Result<Compiled, ExecError> {
         let hoisted = kernel.hoist(params)?.into_boxed_slice();
         let d = kernel.dims();
         let lens = [d.state, d.targets, d.gains, kernel.n_outputs()];
@@ -288,21 +292,32 @@ impl Info {
     }
 }
 
+/// The unrolled tapes of the field and of X − ∇V.
+enum StepTapes {
+    /// Built when the model was loaded.
+    Built {
+        field: Box<Tape>,
+        feedback: Box<Tape>,
+    },
+    /// A model loaded with its families kept as loops: no unrolled field (steps use the loop
+    /// kernel), X − ∇V from the unrolled model at its first use.
+    Deferred(Arc<crate::deferred::LazyTapes>),
+}
+
 /// A compiled step tape, shared by the steppers that call it.
 type StepKernel = Arc<Box<dyn Kernel>>;
 
 /// A model compiled at run time from its file; see the [module docs](crate::model).
 pub struct LoadedModel {
-    derived: Derived,
+    derived: Arc<Derived>,
     conservation: Vec<Conservation>,
     backend: Backend,
     params: Vec<f64>,
     kernels: Kernels,
-    /// The tape of X − ∇V, for the lanes of feedback ensembles ([`crate::FeedbackLanes`]),
-    /// which compile it on demand.
-    feedback_tape: Tape,
-    /// The tapes of the field and of the guards' margins, for compiled steps.
-    field_tape: Tape,
+    /// The tapes of the field and of X − ∇V, for compiled steps and the lanes of feedback
+    /// ensembles ([`crate::FeedbackLanes`]), which compile them on demand.
+    step_tapes: StepTapes,
+    /// The tape of the guards' margins, for compiled steps.
     guards_tape: Option<Tape>,
     /// The compiled steps built so far, by method name and whether on X − ∇V
     /// ([`Declared::compiled_step`]).
@@ -341,59 +356,9 @@ impl LoadedModel {
         let derived = derive(model);
         let conservation = lasalle_model::check(&derived)?.into_conservation();
         let tapes = ModelTapes::new(&derived)?;
-        let model = &derived.model;
-        let params = model.default_params();
+        let params = derived.model.default_params();
         let c = |tape: &Tape| Compiled::new(backend, tape, &params);
-        let guards = if model.guards.is_empty() {
-            None
-        } else {
-            // the step size `dt` becomes the tape's one gain
-            let mut graph = model.graph.clone();
-            let margins: Vec<_> = model.guards.iter().map(|g| g.margin).collect();
-            let margins =
-                graph.rename_inputs(
-                    &margins,
-                    |i| {
-                        if i == GUARD_STEP {
-                            Input::Gain(0)
-                        } else {
-                            i
-                        }
-                    },
-                );
-            let dims = Dims {
-                state: model.dim(),
-                params: model.param_slots(),
-                targets: 0,
-                gains: 1,
-            };
-            Some(TapeBuilder::new(graph, dims).build(&margins)?)
-        };
-        let events = if model.events.is_empty() {
-            None
-        } else {
-            // the time `t` becomes the tape's one gain
-            let mut graph = model.graph.clone();
-            let values: Vec<_> = model.events.iter().map(|e| e.value).collect();
-            let values =
-                graph.rename_inputs(
-                    &values,
-                    |i| {
-                        if i == EVENT_TIME {
-                            Input::Gain(0)
-                        } else {
-                            i
-                        }
-                    },
-                );
-            let dims = Dims {
-                state: model.dim(),
-                params: model.param_slots(),
-                targets: 0,
-                gains: 1,
-            };
-            Some(c(&TapeBuilder::new(graph, dims).build(&values)?)?)
-        };
+        let (guards, events) = guards_and_events(&derived.model, backend, &params)?;
         let kernels = Kernels {
             field: c(&tapes.field)?,
             invariants: c(&tapes.invariants)?,
@@ -408,6 +373,106 @@ impl LoadedModel {
             guards: guards.as_ref().map(c).transpose()?,
             events,
         };
+        let info = Info::new(&derived.model);
+        Ok(LoadedModel {
+            derived: Arc::new(derived),
+            conservation,
+            backend,
+            params,
+            kernels,
+            step_tapes: StepTapes::Built {
+                field: Box::new(tapes.field),
+                feedback: Box::new(tapes.feedback),
+            },
+            guards_tape: guards,
+            steps: Mutex::default(),
+            info,
+            load_time: start.elapsed(),
+        })
+    }
+
+    /// [`LoadedModel::from_source`], with the model's families lowered as `families` says
+    /// ([`lasalle_model::loops`]). When some family is kept as a loop, the field and the
+    /// integrals are loop kernels ([`crate::LoopKernel`]), the integrals are checked on the
+    /// families' terms, and the other functions (Jacobian, V, ∇V, X − ∇V, half-fields, the
+    /// Taylor kernels) are built from the unrolled model at their first use; the unrolled
+    /// model is lowered and derived (for its declarations and those functions), never
+    /// checked, rewritten or compiled at load. Otherwise the model loads as with
+    /// [`LoadedModel::from_source`]; so does a model the loop form refuses (a sum that enters
+    /// an expression other than as a term with a constant coefficient, an integral it finds
+    /// not conserved) under [`Families::Auto`], while [`Families::Loops`] reports the refusal.
+    pub fn from_source_with(
+        path: &str,
+        text: &str,
+        backend: Backend,
+        families: Families,
+    ) -> Result<LoadedModel, LoadError> {
+        let start = Instant::now();
+        if families == Families::Unrolled {
+            return Self::from_source(path, text, backend);
+        }
+        let lm = LoopModel::from_source(path, text, families)?;
+        if lm.families().is_empty() {
+            return Self::compile(lm.unrolled()?, backend, start);
+        }
+        let checked = lm.check().and_then(|c| Ok((c, lm.tapes()?)));
+        let (conservation, tapes) = match checked {
+            Ok(ct) => ct,
+            // `auto` falls back to the unrolled model, which checks on its own terms
+            Err(_) if families == Families::Auto => {
+                return Self::compile(lm.unrolled()?, backend, start)
+            }
+            Err(e) => return Err(e.into()),
+        };
+        let derived = Arc::new(derive(lm.unrolled()?));
+        let model = &derived.model;
+        let params = model.default_params();
+        let (guards, events) = guards_and_events(model, backend, &params)?;
+        let looped = |t: &lasalle_model::loops::LoopTape| -> Result<Compiled, ExecError> {
+            Compiled::of(Box::new(crate::LoopKernel::new(t, backend)?), &params)
+        };
+        let lazy = Arc::new(crate::deferred::LazyTapes::new(derived.clone()));
+        let (n, m) = (model.dim(), model.invariant_dim());
+        let plain = Dims {
+            state: n,
+            params: model.param_slots(),
+            targets: 0,
+            gains: 0,
+        };
+        let full = Dims {
+            targets: m,
+            gains: model.gains.len(),
+            ..plain
+        };
+        let deferred = |pick: crate::deferred::Pick, dims: Dims, outputs: usize| {
+            let k = crate::deferred::Deferred::new(lazy.clone(), pick, backend, dims, outputs);
+            Compiled::of(Box::new(k), &params)
+        };
+        let partition = match &derived.derivatives.partition {
+            Some(is_q) => {
+                let q = is_q.iter().filter(|&&b| b).count();
+                Some((
+                    deferred(|t| t.partition.as_ref().map(|p| &p.field_q), plain, q)?,
+                    deferred(|t| t.partition.as_ref().map(|p| &p.field_p), plain, n - q)?,
+                    is_q.clone(),
+                ))
+            }
+            None => None,
+        };
+        let kernels = Kernels {
+            field: looped(&tapes.field)?,
+            invariants: looped(&tapes.invariants)?,
+            jacobian: deferred(|t| Some(&t.jacobian), plain, m * n)?,
+            lyapunov: deferred(|t| Some(&t.lyapunov), full, 1)?,
+            lyapunov_gradient: deferred(|t| Some(&t.lyapunov_gradient), full, n)?,
+            feedback: deferred(|t| Some(&t.feedback), full, n)?,
+            partition,
+            guards: guards
+                .as_ref()
+                .map(|t| Compiled::new(backend, t, &params))
+                .transpose()?,
+            events,
+        };
         let info = Info::new(model);
         Ok(LoadedModel {
             derived,
@@ -415,8 +480,7 @@ impl LoadedModel {
             backend,
             params,
             kernels,
-            feedback_tape: tapes.feedback,
-            field_tape: tapes.field,
+            step_tapes: StepTapes::Deferred(lazy),
             guards_tape: guards,
             steps: Mutex::default(),
             info,
@@ -488,10 +552,12 @@ impl LoadedModel {
         if let Some(k) = steps.get(&(method.name, feedback)) {
             return Some(k.clone());
         }
-        let field = if feedback {
-            &self.feedback_tape
-        } else {
-            &self.field_tape
+        let field = match (&self.step_tapes, feedback) {
+            (StepTapes::Built { field, .. }, false) => field,
+            (StepTapes::Built { feedback, .. }, true) => feedback,
+            // the loop kernel steps the field through the generic steppers
+            (StepTapes::Deferred(_), false) => return None,
+            (StepTapes::Deferred(lazy), true) => &lazy.get().ok()?.feedback,
         };
         let tape = rk_step(field, method.a, method.b, self.guards_tape.as_ref()).ok()?;
         let kernel = Arc::new(self.backend.compile(&tape).ok()?);
@@ -499,9 +565,12 @@ impl LoadedModel {
         Some(kernel)
     }
 
-    /// The tape of X − ∇V.
-    pub(crate) fn feedback_tape(&self) -> &Tape {
-        &self.feedback_tape
+    /// The tape of X − ∇V (for a model with families kept as loops, built now if not yet).
+    pub(crate) fn feedback_tape(&self) -> Result<&Tape, ExecError> {
+        match &self.step_tapes {
+            StepTapes::Built { feedback, .. } => Ok(feedback),
+            StepTapes::Deferred(lazy) => Ok(&lazy.get()?.feedback),
+        }
     }
 
     /// The guards at k states in lanes ([`crate::LaneField`]), `x` the first N·k components of
@@ -813,4 +882,64 @@ impl Declared<f64, Vec<f64>> for LoadedModel {
         let values: Vec<f64> = s.params.iter().map(|&k| self.params[k as usize]).collect();
         Splitting::declared(s.kind, &values)
     }
+}
+
+/// The tapes of the guards' margins (the step size as the one gain) and the compiled event
+/// functions (the time as the one gain), if the model declares any.
+fn guards_and_events(
+    model: &Model,
+    backend: Backend,
+    params: &[f64],
+) -> Result<(Option<Tape>, Option<Compiled>), LoadError> {
+    let c = |tape: &Tape| Compiled::new(backend, tape, params);
+    let guards = if model.guards.is_empty() {
+        None
+    } else {
+        // the step size `dt` becomes the tape's one gain
+        let mut graph = model.graph.clone();
+        let margins: Vec<_> = model.guards.iter().map(|g| g.margin).collect();
+        let margins =
+            graph.rename_inputs(
+                &margins,
+                |i| {
+                    if i == GUARD_STEP {
+                        Input::Gain(0)
+                    } else {
+                        i
+                    }
+                },
+            );
+        let dims = Dims {
+            state: model.dim(),
+            params: model.param_slots(),
+            targets: 0,
+            gains: 1,
+        };
+        Some(TapeBuilder::new(graph, dims).build(&margins)?)
+    };
+    let events = if model.events.is_empty() {
+        None
+    } else {
+        // the time `t` becomes the tape's one gain
+        let mut graph = model.graph.clone();
+        let values: Vec<_> = model.events.iter().map(|e| e.value).collect();
+        let values = graph.rename_inputs(
+            &values,
+            |i| {
+                if i == EVENT_TIME {
+                    Input::Gain(0)
+                } else {
+                    i
+                }
+            },
+        );
+        let dims = Dims {
+            state: model.dim(),
+            params: model.param_slots(),
+            targets: 0,
+            gains: 1,
+        };
+        Some(c(&TapeBuilder::new(graph, dims).build(&values)?)?)
+    };
+    Ok((guards, events))
 }

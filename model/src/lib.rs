@@ -59,6 +59,7 @@ mod check;
 mod derive;
 mod error;
 pub mod ir;
+pub mod loops;
 mod model;
 pub mod names;
 mod parse;

@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use lasalle::exec::Families;
 use lasalle::{Backend, LoadedModel, MODEL_FILES};
 
 use super::args::normalise;
@@ -23,6 +24,28 @@ impl From<BackendArg> for Backend {
         match b {
             BackendArg::Jit => Backend::Jit,
             BackendArg::Interpreter => Backend::Interpreter,
+        }
+    }
+}
+
+/// How a model's families are compiled (`--families`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum FamiliesArg {
+    /// Loops for the sums of at least 64 index tuples, the others written out.
+    #[default]
+    Auto,
+    /// Every sum whose term reads members of indexed state and parameters is a loop.
+    Loops,
+    /// Every family written out term by term.
+    Unrolled,
+}
+
+impl From<FamiliesArg> for Families {
+    fn from(f: FamiliesArg) -> Families {
+        match f {
+            FamiliesArg::Auto => Families::Auto,
+            FamiliesArg::Loops => Families::Loops,
+            FamiliesArg::Unrolled => Families::Unrolled,
         }
     }
 }
@@ -60,7 +83,17 @@ pub fn model_text(arg: &str) -> CliResult<(String, String, String)> {
 
 /// Loads a model given as a path or a name and compiles it with `backend`.
 pub fn load(arg: &str, backend: Backend) -> CliResult<(LoadedModel, String)> {
+    load_with(arg, backend, Families::Unrolled)
+}
+
+/// [`load`], with its families compiled as `families` says.
+pub fn load_with(
+    arg: &str,
+    backend: Backend,
+    families: Families,
+) -> CliResult<(LoadedModel, String)> {
     let (path, stem, text) = model_text(arg)?;
-    let model = LoadedModel::from_source(&path, &text, backend).map_err(|e| e.to_string())?;
+    let model = LoadedModel::from_source_with(&path, &text, backend, families)
+        .map_err(|e| e.to_string())?;
     Ok((model, stem))
 }

@@ -9,7 +9,7 @@ use clap::{Args, ValueEnum};
 use lasalle::{find_preset, GainPolicy, Method, ModelInfo, Preset, RunError, RunSpec};
 
 use super::args::parse_param;
-use super::load::{load, BackendArg};
+use super::load::{load_with, BackendArg, FamiliesArg};
 use super::{usage, value, CliResult, Given};
 
 /// What `lasalle run` prints on standard output.
@@ -95,6 +95,13 @@ pub struct RunArgs {
     /// (jit), or interpreted.
     #[arg(long, value_enum, default_value_t)]
     pub backend: BackendArg,
+    /// How the model's families (`sum(i in 0..n: …)`) are compiled: as loops, one per sum,
+    /// for the sums of at least 64 index tuples (auto), for every sum that can be (loops), or
+    /// written out term by term (unrolled). Loops load large models in a fraction of the time;
+    /// the functions that have no loop form are built from the unrolled model when a method
+    /// first needs them.
+    #[arg(long, value_enum, default_value_t)]
+    pub families: FamiliesArg,
     /// Output directory (default: out/<model>-<method>/).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -202,7 +209,7 @@ pub fn refuse_inapplicable(method: Method, given: &Given) -> CliResult {
 
 /// Runs `lasalle run`.
 pub fn run(args: &RunArgs, given: &Given) -> CliResult {
-    let (mut model, stem) = load(&args.model, args.backend.into())?;
+    let (mut model, stem) = load_with(&args.model, args.backend.into(), args.families.into())?;
     let preset = find_preset(&model, args.preset.as_deref()).map_err(usage)?;
     let (spec, x0) = run_spec(args, given, &mut model, preset)?;
     let method = spec.method;

@@ -58,6 +58,7 @@ use cranelift_module::Module;
 use lasalle_model::ir::{Func, Func2, Rational};
 use lasalle_runtime::elliptic::ellipj;
 
+pub(crate) mod region;
 mod slp;
 pub mod taylor;
 

@@ -5,8 +5,8 @@
 //! with ρ² = s, see `prove.rs`); if it becomes the number 0 the integral is *proved*. Otherwise it is evaluated at random states (deterministic seed) and
 //! must be zero up to rounding relative to the size of its terms at each of them.
 
-mod prove;
-mod sampling;
+pub(crate) mod prove;
+pub(crate) mod sampling;
 
 use crate::derive::{Derivatives, Derived};
 use crate::error::{Diagnostic, DiagnosticKind, Error};

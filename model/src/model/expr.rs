@@ -191,6 +191,11 @@ impl Lowerer {
         match &e.kind {
             ExprKind::Num(x) => Ok(Value::scalar(self.g.num(*x))),
             ExprKind::Name(name) if self.index_value(&name.name).is_some() => {
+                if self.slot_index(&name.name)
+                    && !self.slot.as_ref().is_some_and(|s| s.in_subscript)
+                {
+                    self.slot_fail("an index used as a number");
+                }
                 let v = self.index_value(&name.name).unwrap_or_default();
                 Ok(Value::scalar(self.g.num(v as f64)))
             }
@@ -230,6 +235,9 @@ impl Lowerer {
             ExprKind::Comprehension(head, body) => self.comprehension(head, body, e, ctx),
             ExprKind::Index(base, idx) => {
                 let v = self.expr(base, ctx)?;
+                if let Some(member) = self.slot_member(base, &v, idx)? {
+                    return Ok(member);
+                }
                 if let Some(member) = self.member(base, &v, idx)? {
                     return Ok(member);
                 }

@@ -148,7 +148,7 @@ impl Lowerer {
     }
 
     /// Appends the bound indices to a message from inside a family (once, innermost first).
-    fn locate_in_family(&self, mut d: Diagnostic) -> Diagnostic {
+    pub(super) fn locate_in_family(&self, mut d: Diagnostic) -> Diagnostic {
         if d.kind != DiagnosticKind::AlreadyReported
             && !d.message.contains(" (where ")
             && !self.indices.is_empty()
@@ -172,6 +172,9 @@ impl Lowerer {
         e: &Expr,
         ctx: Ctx,
     ) -> L<Value> {
+        if let Some(v) = self.loop_family(op, head, body, ctx)? {
+            return Ok(v);
+        }
         let mut shape: Option<Shape> = None;
         let mut terms: Vec<Vec<Id>> = Vec::new();
         let mut count = 0;
@@ -228,6 +231,7 @@ impl Lowerer {
         e: &Expr,
         ctx: Ctx,
     ) -> L<Value> {
+        self.slot_fail("a list inside a loop family");
         let mut vals: Vec<Value> = Vec::new();
         let mut count = 0;
         self.for_each(head, 0, &mut count, &mut |lw| {
@@ -419,4 +423,11 @@ fn names_in(e: &Expr, out: &mut HashSet<String>) {
             names_in(body, out);
         }
     }
+}
+
+/// Does `e` mention any of `names`?
+pub(super) fn mentions(e: &Expr, names: &[String]) -> bool {
+    let mut all = HashSet::new();
+    names_in(e, &mut all);
+    names.iter().any(|n| all.contains(n))
 }

@@ -4,12 +4,14 @@ mod canonical;
 mod declare;
 mod expr;
 mod family;
+mod family_loop;
 mod lower;
 mod structure;
 mod value;
 
 pub use canonical::{CanonicalHamiltonian, NotCanonical};
 pub use lower::lower;
+pub(crate) use lower::lower_with;
 pub use value::{Shape, Value};
 
 use crate::error::{Source, Span};

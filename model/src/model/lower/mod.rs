@@ -85,12 +85,27 @@ pub(super) struct Lowerer {
     pub(super) families: HashMap<String, Shape>,
     /// Names used as sizes or range bounds: parameters among them are constants.
     pub(super) sizes: std::collections::HashSet<String>,
+    /// The families kept as loops, when loops are on (`crate::loops`).
+    pub(super) loops: Option<crate::loops::Collector>,
+    /// The family body being lowered with slots (`model::family_loop`).
+    pub(super) slot: Option<super::family_loop::SlotMode>,
 }
 
 pub(super) type L<T> = Result<T, Diagnostic>;
 
 /// Lowers a parsed model; reports every problem found, not just the first.
 pub fn lower(ast: &ModelAst, source: Arc<Source>) -> Result<Model, Error> {
+    lower_with(ast, source, None).map(|(m, _)| m)
+}
+
+/// [`lower`], keeping the sums of at least `loops` index tuples whose bodies qualify as loop
+/// families (`None`: unroll every family). The model's expressions then read each family's
+/// value as auxiliary symbols: it is for [`crate::loops`] only.
+pub(crate) fn lower_with(
+    ast: &ModelAst,
+    source: Arc<Source>,
+    loops: Option<u64>,
+) -> Result<(Model, Vec<crate::loops::Family>), Error> {
     let mut lw = Lowerer {
         source: source.clone(),
         g: Graph::new(),
@@ -104,10 +119,15 @@ pub fn lower(ast: &ModelAst, source: Arc<Source>) -> Result<Model, Error> {
         indices: Vec::new(),
         families: HashMap::new(),
         sizes: Lowerer::size_names(ast),
+        loops: loops.map(crate::loops::Collector::new),
+        slot: None,
     };
     let model = lw.model(ast);
+    let families = lw.loops.take().map(|c| c.families).unwrap_or_default();
     if lw.errors.is_empty() {
-        model.ok_or_else(|| Error::Internal("lowering failed without a diagnostic".into()))
+        model
+            .map(|m| (m, families))
+            .ok_or_else(|| Error::Internal("lowering failed without a diagnostic".into()))
     } else {
         Err(Error::Model(lw.errors))
     }

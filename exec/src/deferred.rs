@@ -1,0 +1,156 @@
+//! Functions of a model loaded with its families kept as loops that have no loop form (the
+//! Jacobian, V, ∇V, X − ∇V, the half-fields, the compiled steps on X − ∇V): built from the
+//! unrolled model when one of them is first evaluated, not when the model is loaded.
+//!
+//! The unrolled model's tapes are built once, for all of them ([`LazyTapes`]); each function
+//! is a [`Deferred`] kernel that compiles its tape at its first evaluation. Its "hoisted
+//! values" are the parameters themselves (nothing is known about the tape before it is
+//! built); it hoists the compiled kernel's own values when the parameters change.
+
+use std::sync::{Arc, Mutex, OnceLock};
+
+use lasalle_model::tape::{Dims, ModelTapes, Tape};
+use lasalle_model::Derived;
+
+use crate::{Backend, ExecError, Kernel};
+
+/// The unrolled model's tapes, built at the first request.
+pub(crate) struct LazyTapes {
+    derived: Arc<Derived>,
+    tapes: OnceLock<Result<ModelTapes, String>>,
+}
+
+impl LazyTapes {
+    pub(crate) fn new(derived: Arc<Derived>) -> LazyTapes {
+        LazyTapes {
+            derived,
+            tapes: OnceLock::new(),
+        }
+    }
+
+    /// The tapes (built now if not yet).
+    pub(crate) fn get(&self) -> Result<&ModelTapes, ExecError> {
+        self.tapes
+            .get_or_init(|| ModelTapes::new(&self.derived).map_err(|e| e.to_string()))
+            .as_ref()
+            .map_err(|e| ExecError::Jit(format!("the unrolled model's tapes: {e}")))
+    }
+}
+
+/// Which tape of [`ModelTapes`] a deferred kernel computes.
+pub(crate) type Pick = fn(&ModelTapes) -> Option<&Tape>;
+
+/// A kernel compiled from an unrolled tape at its first evaluation.
+pub(crate) struct Deferred {
+    lazy: Arc<LazyTapes>,
+    pick: Pick,
+    backend: Backend,
+    dims: Dims,
+    n_outputs: usize,
+    kernel: OnceLock<Result<Box<dyn Kernel>, String>>,
+    /// The parameters last seen and the compiled kernel's hoisted values for them.
+    hoisted: Mutex<Option<(Vec<f64>, Vec<f64>)>>,
+}
+
+impl Deferred {
+    /// The function `pick` of `lazy`'s tapes, whose dims and number of outputs are those given
+    /// (they must be the tape's: evaluating checks them).
+    pub(crate) fn new(
+        lazy: Arc<LazyTapes>,
+        pick: Pick,
+        backend: Backend,
+        dims: Dims,
+        n_outputs: usize,
+    ) -> Deferred {
+        Deferred {
+            lazy,
+            pick,
+            backend,
+            dims,
+            n_outputs,
+            kernel: OnceLock::new(),
+            hoisted: Mutex::new(None),
+        }
+    }
+
+    fn kernel(&self) -> Result<&dyn Kernel, ExecError> {
+        let k = self.kernel.get_or_init(|| {
+            let tapes = self.lazy.get().map_err(|e| e.to_string())?;
+            let tape = (self.pick)(tapes).ok_or("the unrolled model has no such function")?;
+            if tape.dims != self.dims || tape.outputs.len() != self.n_outputs {
+                return Err("the unrolled function's sizes differ from the loaded model's".into());
+            }
+            self.backend.compile(tape).map_err(|e| e.to_string())
+        });
+        match k {
+            Ok(k) => Ok(k.as_ref()),
+            Err(e) => Err(ExecError::Jit(e.clone())),
+        }
+    }
+
+    /// Runs `f` with the kernel and its hoisted values for `params`.
+    fn with<R>(
+        &self,
+        params: &[f64],
+        f: impl FnOnce(&dyn Kernel, &[f64]) -> Result<R, ExecError>,
+    ) -> Result<R, ExecError> {
+        let k = self.kernel()?;
+        let mut cache = self.hoisted.lock().unwrap_or_else(|e| e.into_inner());
+        let same = |p: &[f64]| {
+            p.len() == params.len()
+                && p.iter()
+                    .zip(params)
+                    .all(|(a, b)| a.to_bits() == b.to_bits())
+        };
+        match &*cache {
+            Some((p, h)) if same(p) => f(k, h),
+            _ => {
+                let h = k.hoist(params)?;
+                let r = f(k, &h);
+                *cache = Some((params.to_vec(), h));
+                r
+            }
+        }
+    }
+}
+
+impl Kernel for Deferred {
+    fn dims(&self) -> Dims {
+        self.dims
+    }
+
+    fn n_outputs(&self) -> usize {
+        self.n_outputs
+    }
+
+    /// The parameters: the kernel is not compiled yet.
+    fn hoist(&self, params: &[f64]) -> Result<Vec<f64>, ExecError> {
+        lasalle_model::tape::expect_len("params", self.dims.params, params.len())?;
+        Ok(params.to_vec())
+    }
+
+    fn eval(
+        &self,
+        hoisted: &[f64],
+        state: &[f64],
+        target: &[f64],
+        gains: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), ExecError> {
+        self.with(hoisted, |k, h| k.eval(h, state, target, gains, out))
+    }
+
+    fn eval_lanes(
+        &self,
+        k: usize,
+        hoisted: &[f64],
+        state: &[f64],
+        target: &[f64],
+        gains: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), ExecError> {
+        self.with(hoisted, |kernel, h| {
+            kernel.eval_lanes(k, h, state, target, gains, out)
+        })
+    }
+}

@@ -1,0 +1,222 @@
+//! Loop tapes on both back ends: bitwise equal to each other and to the loop tape's own
+//! evaluation, and equal to the unrolled model's tapes up to the order of summation.
+
+use lasalle_exec::{Backend, Kernel, LoopKernel};
+use lasalle_model::loops::{Families, LoopModel};
+use lasalle_model::tape::{Dims, Tape};
+
+const NBODY: &str = include_str!("../../models/nbody.lsl");
+const FPUT: &str = include_str!("../../models/fput.lsl");
+
+fn sized(text: &str, default: &str, n: usize) -> String {
+    assert!(text.contains(default));
+    text.replace(default, &format!("param n = {n};"))
+}
+
+fn numbers(seed: u64, len: usize) -> Vec<f64> {
+    let mut x = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    (0..len)
+        .map(|_| {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((x >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+        })
+        .collect()
+}
+
+fn eval(k: &dyn Kernel, params: &[f64], x: &[f64]) -> Vec<f64> {
+    let h = k.hoist(params).unwrap();
+    let mut out = vec![0.0; k.n_outputs()];
+    k.eval(&h, x, &[], &[], &mut out).unwrap();
+    out
+}
+
+fn check(text: &str) {
+    let lm = LoopModel::from_source("m.lsl", text, Families::Loops).unwrap();
+    assert!(!lm.families().is_empty());
+    let tapes = lm.tapes().unwrap();
+    let model = lasalle_model::lower_source("m.lsl", text).unwrap();
+    let dims = Dims {
+        state: model.dim(),
+        params: model.param_slots(),
+        targets: 0,
+        gains: 0,
+    };
+    let plain_field = Tape::from_graph(&model.graph, &model.field, dims).unwrap();
+    let plain_inv = Tape::from_graph(&model.graph, &model.invariant_ids(), dims).unwrap();
+    let params = lm.default_params();
+    for (loops, plain) in [
+        (&tapes.field, &plain_field),
+        (&tapes.invariants, &plain_inv),
+    ] {
+        let jit = LoopKernel::new(loops, Backend::Jit).unwrap();
+        let interp = LoopKernel::new(loops, Backend::Interpreter).unwrap();
+        let unrolled = Backend::Jit.compile(plain).unwrap();
+        for s in 0..5 {
+            let x: Vec<f64> = numbers(s, lm.dim())
+                .iter()
+                .enumerate()
+                .map(|(i, v)| v + (i / 3) as f64 * 0.41)
+                .collect();
+            let a = eval(&jit, &params, &x);
+            let b = eval(&interp, &params, &x);
+            let c = loops.eval(&params, &x).unwrap();
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&a), bits(&b), "JIT and interpreter differ");
+            assert_eq!(bits(&a), bits(&c), "JIT and the loop tape differ");
+            let u = eval(unrolled.as_ref(), &params, &x);
+            let scale = u.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+            for (i, (p, q)) in a.iter().zip(&u).enumerate() {
+                assert!(
+                    (p - q).abs() <= 1e-13 * scale,
+                    "output {i}: loops {p}, unrolled {q}"
+                );
+            }
+            // Lanes: each lane is one evaluation.
+            let k = 3;
+            let mut xs = vec![0.0; x.len() * k];
+            for (i, v) in x.iter().enumerate() {
+                for lane in 0..k {
+                    xs[i * k + lane] = v + lane as f64 * 1e-3;
+                }
+            }
+            let h = jit.hoist(&params).unwrap();
+            let mut out = vec![0.0; jit.n_outputs() * k];
+            jit.eval_lanes(k, &h, &xs, &[], &[], &mut out).unwrap();
+            for (j, v) in a.iter().enumerate() {
+                assert_eq!(out[j * k].to_bits(), v.to_bits());
+            }
+        }
+    }
+}
+
+#[test]
+fn nbody_loop_kernels_agree() {
+    for n in [3, 9, 20] {
+        check(&sized(NBODY, "param n = 5;", n));
+    }
+}
+
+#[test]
+fn fput_loop_kernels_agree() {
+    for n in [5, 40] {
+        check(&sized(FPUT, "param n = 16;", n));
+    }
+    // with the cubic and quartic springs
+    let text = sized(FPUT, "param n = 16;", 12).replace("param beta = 0;", "param beta = 0.7;");
+    check(&text);
+}
+
+/// The compiled code of a region does not grow with the number of tuples.
+#[test]
+fn region_code_is_independent_of_n() {
+    let ops = |n| {
+        let lm = LoopModel::from_source("m.lsl", &sized(NBODY, "param n = 5;", n), Families::Loops)
+            .unwrap();
+        lm.tapes().unwrap().field.instructions()
+    };
+    assert_eq!(ops(10), ops(60));
+}
+
+mod loaded {
+    use super::*;
+    use lasalle_exec::LoadedModel;
+    use lasalle_model::Verdict;
+    use lasalle_runtime::{Declared, Field, Invariants, Lyapunov, ModelInfo, Parameters};
+
+    fn close(a: &[f64], b: &[f64], what: &str) {
+        let scale = b.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+        for (i, (p, q)) in a.iter().zip(b).enumerate() {
+            assert!((p - q).abs() <= 1e-13 * scale, "{what}[{i}]: {p} vs {q}");
+        }
+    }
+
+    /// A model loaded with its families as loops computes what the unrolled one computes:
+    /// the field and integrals to rounding (loop kernels), the other functions bit for bit
+    /// (built from the unrolled model on first use), after a parameter change too.
+    #[test]
+    fn a_loaded_loop_model_agrees_with_the_unrolled_one() {
+        let text = sized(NBODY, "param n = 5;", 10);
+        let mut loops =
+            LoadedModel::from_source_with("m.lsl", &text, Backend::Jit, Families::Loops).unwrap();
+        let mut plain = LoadedModel::from_source("m.lsl", &text, Backend::Jit).unwrap();
+        for c in loops.conservation() {
+            assert_eq!(c.verdict, Verdict::Proved, "{}", c.name);
+        }
+        for round in 0..2 {
+            if round == 1 {
+                loops.set_param("G", &[0.7]).unwrap();
+                plain.set_param("G", &[0.7]).unwrap();
+            }
+            let x = loops.point("ring").unwrap();
+            assert_eq!(x, plain.point("ring").unwrap());
+            let n = x.len();
+            let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
+            loops.field(&x, &mut a);
+            plain.field(&x, &mut b);
+            close(&a, &b, "field");
+            let m = plain.invariant_dim();
+            let (mut fa, mut fb) = (vec![0.0; m], vec![0.0; m]);
+            loops.invariants(&x, &mut fa);
+            plain.invariants(&x, &mut fb);
+            close(&fa, &fb, "invariants");
+            let (mut ja, mut jb) = (vec![vec![0.0; n]; m], vec![vec![0.0; n]; m]);
+            loops.invariants_jacobian(&x, &mut ja);
+            plain.invariants_jacobian(&x, &mut jb);
+            assert_eq!(ja, jb);
+            let target = fb.clone();
+            let gains = plain.default_gain_values().to_vec();
+            let y: Vec<f64> = x.iter().map(|v| v * 1.01).collect();
+            let v = plain.lyapunov(&y, &target, &gains);
+            assert!(v.is_finite() && v > 0.0);
+            assert_eq!(loops.lyapunov(&y, &target, &gains).to_bits(), v.to_bits());
+            let (mut da, mut db) = (vec![0.0; n], vec![0.0; n]);
+            loops.feedback_field(&y, &target, &gains, &mut da);
+            plain.feedback_field(&y, &target, &gains, &mut db);
+            assert!(db.iter().all(|v| v.is_finite()));
+            assert_eq!(da, db);
+            let pa = loops.partitioned().expect("partitioned");
+            let pb = plain.partitioned().expect("partitioned");
+            assert_eq!(pa.is_q(), pb.is_q());
+            pa.field_p(&x, &mut da);
+            pb.field_p(&x, &mut db);
+            assert!(db.iter().all(|v| v.is_finite()));
+            assert_eq!(da, db);
+        }
+    }
+
+    /// Below the automatic threshold nothing is a loop: the model loads as usual.
+    #[test]
+    fn auto_loads_small_models_unrolled() {
+        let text = sized(NBODY, "param n = 5;", 5);
+        let m =
+            LoadedModel::from_source_with("m.lsl", &text, Backend::Jit, Families::Auto).unwrap();
+        let p = LoadedModel::from_source("m.lsl", &text, Backend::Jit).unwrap();
+        let x = p.point("ring").unwrap();
+        let (mut a, mut b) = (vec![0.0; x.len()], vec![0.0; x.len()]);
+        m.field(&x, &mut a);
+        p.field(&x, &mut b);
+        assert_eq!(a, b);
+    }
+
+    /// A model the loop form refuses loads unrolled under `auto`; `loops` reports why.
+    #[test]
+    fn auto_falls_back_to_unrolled_where_loops_refuse() {
+        let text = "model Squared {\n param n = 80;\n state q: scalar[n], p: scalar[n];\n \
+                    hamiltonian H = sum(i in 0..n: p[i]^2 / 2 + q[i]^2 / 2);\n \
+                    structure canonical(q, p);\n \
+                    integral S = sum(i in 0..n: p[i]^2 + q[i]^2)^2;\n}\n";
+        let m = LoadedModel::from_source_with("m.lsl", text, Backend::Jit, Families::Auto);
+        assert!(m.is_ok(), "{:?}", m.err());
+        let e = LoadedModel::from_source_with("m.lsl", text, Backend::Jit, Families::Loops)
+            .expect_err("refused")
+            .to_string();
+        assert!(
+            e.contains("m.lsl:6") && e.contains("constant coefficient"),
+            "{e}"
+        );
+    }
+}
