@@ -197,6 +197,241 @@ pub fn section_orbit(
     }
 }
 
+/// Integrates from `w0` by Runge–Kutta 4 at step `dt` until coordinate `coord` crosses zero
+/// (upward if `upward`, else downward; a start exactly on zero does not count), for at most
+/// `t_max`; the crossing is located by Newton's method in time on the last step. Returns the
+/// state there and the time.
+pub fn crossing(
+    f: &ReducedField,
+    w0: [f64; 4],
+    coord: usize,
+    upward: bool,
+    dt: f64,
+    t_max: f64,
+) -> Option<([f64; 4], f64)> {
+    let s = if upward { 1.0 } else { -1.0 };
+    let mut w = w0;
+    let mut t = 0.0;
+    while t < t_max {
+        let next = f.rk4(&w, dt);
+        if s * w[coord] < 0.0 && s * next[coord] >= 0.0 {
+            let mut tau = dt * (-w[coord]) / (next[coord] - w[coord]);
+            for _ in 0..8 {
+                let x = f.rk4(&w, tau);
+                let d = f.field(&x)[coord];
+                if d == 0.0 {
+                    break;
+                }
+                let step = x[coord] / d;
+                tau -= step;
+                if step.abs() < 1e-16 * dt.max(1.0) {
+                    break;
+                }
+            }
+            return Some((f.rk4(&w, tau), t + tau));
+        }
+        if !next.iter().all(|x| x.is_finite()) {
+            return None;
+        }
+        w = next;
+        t += dt;
+    }
+    None
+}
+
+/// Integrates from `w0` for exactly `t` in `steps` Runge–Kutta 4 steps.
+pub fn flow(f: &ReducedField, w0: [f64; 4], t: f64, steps: usize) -> [f64; 4] {
+    let dt = t / steps as f64;
+    (0..steps).fold(w0, |w, _| f.rk4(&w, dt))
+}
+
+/// The first root of `g` on (0, x_max]: a scan in `steps` steps to the first sign change
+/// from g(0) < 0, then bisection. None if g(0) > 0 or no sign change.
+fn first_root(g: &dyn Fn(f64) -> f64, x_max: f64, steps: usize) -> Option<f64> {
+    if g(0.0) > 0.0 {
+        return None;
+    }
+    let mut a = 0.0;
+    let mut b = None;
+    for k in 1..=steps {
+        let x = x_max * k as f64 / steps as f64;
+        if g(x) >= 0.0 {
+            b = Some(x);
+            break;
+        }
+        a = x;
+    }
+    let mut b = b?;
+    for _ in 0..60 {
+        let m = 0.5 * (a + b);
+        if g(m) > 0.0 {
+            b = m;
+        } else {
+            a = m;
+        }
+    }
+    Some(0.5 * (a + b))
+}
+
+/// The Poincaré map of the section `Q₃ = 0`, `Q̇₃ > 0` at reduced energy `h`: the point
+/// (Q₂, P₂) of the section is lifted to the energy level (P₃ > 0 from [`solve_p3`]) and
+/// followed to its next crossing. None where the lift or the return fails.
+pub fn section_map(f: &ReducedField, h: f64, x: [f64; 2], dt: f64, p_max: f64) -> Option<[f64; 2]> {
+    let p3 = solve_p3(f, x[0], x[1], h, p_max)?;
+    let (w, _) = crossing(f, [x[0], 0.0, x[1], p3], 1, true, dt, 400.0 * dt)?;
+    Some([w[0], w[2]])
+}
+
+/// The planar Lyapunov orbit at reduced energy `h` (the boundary of the section) and its
+/// vertical stability.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct PlanarOrbit {
+    /// Reduced energy H_cm − E₀.
+    pub h: f64,
+    /// Its start (Q₂ > 0, P₂ = 0).
+    pub q2: f64,
+    /// Its period.
+    pub period: f64,
+    /// The trace of its monodromy matrix in the vertical pair (Q₃, P₃): 2 cos(2π ω_v/ω_p)
+    /// at small amplitude, 2 at the halo bifurcation.
+    pub vertical_trace: f64,
+    /// Points (Q₂, P₂) along it (the boundary curve of the section).
+    pub curve: Vec<[f64; 2]>,
+}
+
+/// The planar Lyapunov orbit (Q₃ = P₃ = 0, invariant) at reduced energy `h`, found from the
+/// first root Q₂ > 0 of H(Q₂, 0, 0, 0) = h, integrated over one period (`steps` Runge–Kutta
+/// steps), with its vertical monodromy by central differences in (Q₃, P₃) (the reduced
+/// Hamiltonian is even in them, so the vertical block is decoupled at first order). None if
+/// the energy level does not cross the Q₂ axis within the search range `q_max`.
+pub fn planar_orbit(f: &ReducedField, h: f64, q_max: f64, steps: usize) -> Option<PlanarOrbit> {
+    let q2 = first_root(&|q| f.energy(&[q, 0.0, 0.0, 0.0]) - h, q_max, 400)?;
+    let start = [q2, 0.0, 0.0, 0.0];
+    // the linear period bounds the step of the search for the return
+    let g = f.field(&start);
+    let omega = (-g[2] / q2).abs().max(1e-3);
+    let guess = 2.0 * std::f64::consts::PI / omega;
+    let dt = guess / steps as f64;
+    // Ṗ₂ < 0 at Q₂ > 0: the orbit first leaves downward and returns downward after a period
+    let (_, period) = crossing(f, start, 2, false, dt, 4.0 * guess)?;
+    let n = steps.max(8);
+    let h_step = period / n as f64;
+    let mut curve = Vec::with_capacity(n + 1);
+    let mut w = start;
+    curve.push([w[0], w[2]]);
+    for _ in 0..n {
+        w = f.rk4(&w, h_step);
+        curve.push([w[0], w[2]]);
+    }
+    let eps = 1e-5 * q2.max(1e-3);
+    let column = |k: usize| {
+        let mut a = start;
+        let mut b = start;
+        a[k] += eps;
+        b[k] -= eps;
+        let fa = flow(f, a, period, n);
+        let fb = flow(f, b, period, n);
+        [(fa[1] - fb[1]) / (2.0 * eps), (fa[3] - fb[3]) / (2.0 * eps)]
+    };
+    let c1 = column(1);
+    let c3 = column(3);
+    Some(PlanarOrbit {
+        h,
+        q2,
+        period,
+        vertical_trace: c1[0] + c3[1],
+        curve,
+    })
+}
+
+/// The halo bifurcation of the reduced flow: the reduced energy at which the vertical trace of
+/// the planar Lyapunov orbit crosses 2 (bisection between `h_lo`, where it is below 2, and
+/// `h_hi`, where it is above), to relative tolerance `rtol`. None if there is no sign change.
+pub fn halo_bifurcation(
+    f: &ReducedField,
+    h_lo: f64,
+    h_hi: f64,
+    q_max: f64,
+    rtol: f64,
+) -> Option<f64> {
+    let g = |h: f64| planar_orbit(f, h, q_max, 400).map(|o| o.vertical_trace - 2.0);
+    let (mut a, mut b) = (h_lo, h_hi);
+    let (ga, gb) = (g(a)?, g(b)?);
+    if ga.signum() == gb.signum() {
+        return None;
+    }
+    while (b - a) > rtol * b.abs() {
+        let m = 0.5 * (a + b);
+        let gm = g(m)?;
+        if gm.signum() == ga.signum() {
+            a = m;
+        } else {
+            b = m;
+        }
+    }
+    Some(0.5 * (a + b))
+}
+
+/// A fixed point of the section map found by Newton's method.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct FixedPoint {
+    /// (Q₂, P₂).
+    pub point: [f64; 2],
+    /// |P(x) − x| at the end.
+    pub residual: f64,
+    /// The trace of the map's Jacobian there (|tr| < 2: elliptic, surrounded by tori).
+    pub trace: f64,
+}
+
+/// Newton's method on P(x) − x from `seed` (Jacobian by central differences of step `eps`),
+/// at most 30 iterations, accepted when |P(x) − x| < `tol`.
+pub fn fixed_point(
+    f: &ReducedField,
+    h: f64,
+    seed: [f64; 2],
+    dt: f64,
+    p_max: f64,
+    eps: f64,
+    tol: f64,
+) -> Option<FixedPoint> {
+    let map = |x: [f64; 2]| section_map(f, h, x, dt, p_max);
+    let mut x = seed;
+    for _ in 0..30 {
+        let px = map(x)?;
+        let r = [px[0] - x[0], px[1] - x[1]];
+        let mut j = [[0.0; 2]; 2];
+        for k in 0..2 {
+            let mut a = x;
+            let mut b = x;
+            a[k] += eps;
+            b[k] -= eps;
+            let (pa, pb) = (map(a)?, map(b)?);
+            for i in 0..2 {
+                j[i][k] = (pa[i] - pb[i]) / (2.0 * eps);
+            }
+        }
+        let trace = j[0][0] + j[1][1];
+        let residual = r[0].hypot(r[1]);
+        if residual < tol {
+            return Some(FixedPoint {
+                point: x,
+                residual,
+                trace,
+            });
+        }
+        // (J − I) δ = −r
+        let a = [[j[0][0] - 1.0, j[0][1]], [j[1][0], j[1][1] - 1.0]];
+        let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let d0 = (-r[0] * a[1][1] + r[1] * a[0][1]) / det;
+        let d1 = (-a[0][0] * r[1] + a[1][0] * r[0]) / det;
+        x = [x[0] + d0, x[1] + d1];
+    }
+    None
+}
+
 /// A Poincaré map at reduced energy `h` (H_cm − E₀, model units): `seeds` starts on each of
 /// the axes P₂ = 0 and Q₂ = 0 of the section, across the energetically allowed region, each
 /// followed for `crossings` returns (100 Runge–Kutta steps per vertical period). None unless
