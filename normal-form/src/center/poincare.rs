@@ -8,6 +8,12 @@
 //! The flow is integrated by classical Runge–Kutta 4 at a fixed step (the reduced field is a
 //! polynomial, smooth and cheap), and each crossing is located by Newton's method in time
 //! on the Runge–Kutta step from the last point before it.
+//!
+//! The landmarks are computed, not guessed: the boundary is the planar Lyapunov orbit
+//! ([`planar_orbit`], the invariant plane Q₃ = P₃ = 0); the vertical and halo orbits are
+//! fixed points of the section map ([`section_map`], [`fixed_point`]); and the halo
+//! bifurcation is the energy at which the planar orbit's vertical monodromy trace passes 2
+//! ([`halo_bifurcation`]), where the two halo fixed points leave the boundary.
 
 use super::CenterManifold;
 use crate::poly::Poly;
@@ -125,31 +131,7 @@ pub struct SectionOrbit {
 /// steps of p_max/400 to the first sign change, then bisection (far out the truncated series
 /// turns over, so the first root is the one on the manifold's energy level).
 pub fn solve_p3(f: &ReducedField, q2: f64, p2: f64, h: f64, p_max: f64) -> Option<f64> {
-    let g = |p3: f64| f.energy(&[q2, 0.0, p2, p3]) - h;
-    if g(0.0) > 0.0 {
-        return None;
-    }
-    let steps = 400;
-    let mut a = 0.0;
-    let mut b = None;
-    for k in 1..=steps {
-        let x = p_max * k as f64 / steps as f64;
-        if g(x) >= 0.0 {
-            b = Some(x);
-            break;
-        }
-        a = x;
-    }
-    let mut b = b?;
-    for _ in 0..60 {
-        let m = 0.5 * (a + b);
-        if g(m) > 0.0 {
-            b = m;
-        } else {
-            a = m;
-        }
-    }
-    Some(0.5 * (a + b))
+    first_root(&|p3| f.energy(&[q2, 0.0, p2, p3]) - h, p_max, 400)
 }
 
 /// Integrates from `start` (on the section, Q₃ = 0) for `crossings` returns to Q₃ = 0 with
@@ -432,17 +414,45 @@ pub fn fixed_point(
     None
 }
 
-/// A Poincaré map at reduced energy `h` (H_cm − E₀, model units): `seeds` starts on each of
-/// the axes P₂ = 0 and Q₂ = 0 of the section, across the energetically allowed region, each
-/// followed for `crossings` returns (100 Runge–Kutta steps per vertical period). None unless
-/// the centre manifold has two degrees of freedom.
+/// A Poincaré section of the reduced flow at one energy, with its landmarks.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Section {
+    /// Reduced energy H_cm − E₀ (model units).
+    pub h: f64,
+    /// The planar Lyapunov orbit: the boundary of the section.
+    pub boundary: PlanarOrbit,
+    /// The vertical Lyapunov orbit: the fixed point inside, if Newton's method found it.
+    pub vertical: Option<FixedPoint>,
+    /// The halo orbits: the other fixed points found (none below the bifurcation energy).
+    pub halos: Vec<FixedPoint>,
+    /// The orbits followed.
+    pub orbits: Vec<SectionOrbit>,
+    /// Seeds inside the boundary that could not be lifted to the energy level (H increasing
+    /// in P₃ up to h fails there: the truncated series is used outside its domain).
+    pub unlifted: usize,
+}
+
+/// A Poincaré map at reduced energy `h` (H_cm − E₀, model units): the planar Lyapunov orbit
+/// bounding the section ([`planar_orbit`]); the vertical Lyapunov orbit (Newton's method from
+/// the centre) and the halo orbits (Newton's method from points on the line P₂ = P₂(vertical)
+/// at 60…97 % of the way to the boundary); and orbits seeded on that line from boundary to
+/// boundary (`seeds` of them), on the perpendicular line (`seeds`/2), and between each halo
+/// point and the vertical one (4 each, for the quasi-halo tori), each followed for
+/// `crossings` returns (Runge–Kutta 4 at 100 steps per vertical period). An error if the
+/// centre manifold has not two degrees of freedom, or if the energy level of the truncated
+/// series does not close around the origin (the energy is outside its domain).
 pub fn poincare_map(
     cm: &CenterManifold,
     h: f64,
     seeds: usize,
     crossings: usize,
-) -> Option<Vec<SectionOrbit>> {
-    let f = ReducedField::new(&cm.reduced_poly)?;
+) -> Result<Section, String> {
+    let f = ReducedField::new(&cm.reduced_poly).ok_or_else(|| {
+        format!(
+            "the section Q3 = 0 needs a two-degree-of-freedom centre manifold (a spatial model); this one has {}",
+            cm.n_dof - 1
+        )
+    })?;
     let wp = cm.omega[0].value;
     let wv = cm.omega[1].value;
     // linear extent of the section: ω_p (Q₂² + P₂²)/2 ≤ h
@@ -450,21 +460,76 @@ pub fn poincare_map(
     let p_max = 4.0 * (2.0 * h / wv).sqrt();
     let period = 2.0 * std::f64::consts::PI / wv;
     let dt = period / 100.0;
-    let mut out = Vec::new();
-    for axis in 0..2 {
-        for i in 0..seeds {
-            let x = r * (2.0 * (i as f64 + 0.5) / seeds as f64 - 1.0);
-            let (q2, p2) = if axis == 0 { (x, 0.0) } else { (0.0, x) };
-            if let Some(p3) = solve_p3(&f, q2, p2, h, p_max) {
-                out.push(section_orbit(
-                    &f,
-                    [q2, 0.0, p2, p3],
-                    crossings,
-                    dt,
-                    4.0 * period * crossings as f64,
-                ));
+    let boundary = planar_orbit(&f, h, 3.0 * r, 400).ok_or_else(|| {
+        format!(
+            "at h = {h:e} the truncated reduced Hamiltonian does not reach h along Q2 > 0 within 3 linear radii, or its level curve does not close: the energy is outside the series' domain"
+        )
+    })?;
+    let q_right = boundary.curve.iter().map(|p| p[0]).fold(f64::MIN, f64::max);
+    let q_left = boundary.curve.iter().map(|p| p[0]).fold(f64::MAX, f64::min);
+    let p_top = boundary.curve.iter().map(|p| p[1]).fold(f64::MIN, f64::max);
+    let p_bottom = boundary.curve.iter().map(|p| p[1]).fold(f64::MAX, f64::min);
+    let scale = q_right - q_left;
+    let fine = period / 200.0;
+    let newton = |x: [f64; 2]| fixed_point(&f, h, x, fine, p_max, 1e-7 * scale, 1e-11 * scale);
+    let vertical = newton([0.0, 0.0]);
+    let c = vertical.as_ref().map_or([0.0, 0.0], |v| v.point);
+    let mut halos: Vec<FixedPoint> = Vec::new();
+    for edge in [q_right, q_left] {
+        for s in [0.6, 0.75, 0.85, 0.92, 0.97] {
+            let x = [c[0] + s * (edge - c[0]), c[1]];
+            if let Some(fp) = newton(x) {
+                let d = |p: &[f64; 2], q: &[f64; 2]| (p[0] - q[0]).hypot(p[1] - q[1]);
+                if d(&fp.point, &c) > 0.05 * scale
+                    && !halos.iter().any(|o| d(&o.point, &fp.point) < 1e-6 * scale)
+                {
+                    halos.push(fp);
+                }
             }
         }
     }
-    Some(out)
+    let mut starts: Vec<[f64; 2]> = Vec::new();
+    for i in 0..seeds {
+        let s = (i as f64 + 0.5) / seeds as f64;
+        starts.push([q_left + s * (q_right - q_left), c[1]]);
+    }
+    let half = (seeds / 2).max(1);
+    for i in 0..half {
+        let s = (i as f64 + 0.5) / half as f64;
+        starts.push([c[0], p_bottom + s * (p_top - p_bottom)]);
+    }
+    for halo in &halos {
+        for s in [0.1, 0.25, 0.45, 0.7] {
+            starts.push([
+                halo.point[0] + s * (c[0] - halo.point[0]),
+                halo.point[1] + s * (c[1] - halo.point[1]),
+            ]);
+        }
+    }
+    let mut orbits = Vec::new();
+    let mut unlifted = 0;
+    for x in starts {
+        match solve_p3(&f, x[0], x[1], h, p_max) {
+            Some(p3) => orbits.push(section_orbit(
+                &f,
+                [x[0], 0.0, x[1], p3],
+                crossings,
+                dt,
+                4.0 * period * crossings as f64,
+            )),
+            None => {
+                if f.energy(&[x[0], 0.0, x[1], 0.0]) <= h {
+                    unlifted += 1;
+                }
+            }
+        }
+    }
+    Ok(Section {
+        h,
+        boundary,
+        vertical,
+        halos,
+        orbits,
+        unlifted,
+    })
 }
