@@ -368,6 +368,6 @@ fn halo_fixed_points_appear_at_the_full_models_bifurcation_energy() {
     halos.sort_by(|a, b| a[0].total_cmp(&b[0]));
     assert_eq!(halos.len(), 2);
     // mirror images under Q2 → −Q2
-    assert!((halos[0][0] + halos[1][0]).abs() < 1e-8 * g, "{halos:?}");
-    assert!((halos[0][1] - halos[1][1]).abs() < 1e-8 * g, "{halos:?}");
+    assert!((halos[0][0] + halos[1][0]).abs() < 1e-6 * g, "{halos:?}");
+    assert!((halos[0][1] - halos[1][1]).abs() < 1e-6 * g, "{halos:?}");
 }

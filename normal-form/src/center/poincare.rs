@@ -434,8 +434,8 @@ pub struct Section {
 
 /// A Poincaré map at reduced energy `h` (H_cm − E₀, model units): the planar Lyapunov orbit
 /// bounding the section ([`planar_orbit`]); the vertical Lyapunov orbit (Newton's method from
-/// the centre) and the halo orbits (Newton's method from points on the line P₂ = P₂(vertical)
-/// at 60…97 % of the way to the boundary); and orbits seeded on that line from boundary to
+/// the centre) and the halo orbits (Newton's method from points on the lines P₂ = 0 and
+/// P₂ = P₂(vertical) at 60…99.5 % of the way to the boundary); and orbits seeded on that line from boundary to
 /// boundary (`seeds` of them), on the perpendicular line (`seeds`/2), and between each halo
 /// point and the vertical one (4 each, for the quasi-halo tori), each followed for
 /// `crossings` returns (Runge–Kutta 4 at 100 steps per vertical period). An error if the
@@ -475,9 +475,14 @@ pub fn poincare_map(
     let vertical = newton([0.0, 0.0]);
     let c = vertical.as_ref().map_or([0.0, 0.0], |v| v.point);
     let mut halos: Vec<FixedPoint> = Vec::new();
-    for edge in [q_right, q_left] {
-        for s in [0.6, 0.75, 0.85, 0.92, 0.97] {
-            let x = [c[0] + s * (edge - c[0]), c[1]];
+    for (edge, p2) in [
+        (q_right, 0.0),
+        (q_left, 0.0),
+        (q_right, c[1]),
+        (q_left, c[1]),
+    ] {
+        for s in [0.6, 0.75, 0.85, 0.92, 0.97, 0.985, 0.995] {
+            let x = [c[0] + s * (edge - c[0]), p2];
             if let Some(fp) = newton(x) {
                 let d = |p: &[f64; 2], q: &[f64; 2]| (p[0] - q[0]).hypot(p[1] - q[1]);
                 if d(&fp.point, &c) > 0.05 * scale
