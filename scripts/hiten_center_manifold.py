@@ -3,7 +3,10 @@
 comparison in docs/center_manifold.md:
 
     python3 -m venv /work/venvs/hiten && /work/venvs/hiten/bin/pip install hiten==0.5.4
-    /work/venvs/hiten/bin/python scripts/hiten_center_manifold.py DEGREE > hiten.csv
+    /work/venvs/hiten/bin/python scripts/hiten_center_manifold.py DEGREE [POINTS] [RUNS] > hiten.csv
+
+POINTS is 1, 2 or 12 (default 12: L1 and L2); RUNS is 1 or 2 (default 2: a second call on a
+fresh object after the first, which includes numba's compilation).
 
 Rows: point,form,exponents(q1 q2 q3 p1 p2 p3),degree,coefficient, plus `linear` rows
 (lambda, omega_p, omega_v, gamma) and `timing` rows (seconds, first call including numba
@@ -18,9 +21,11 @@ from hiten.algorithms.polynomial.base import _decode_multiindex
 
 MU = 0.01215058560962404
 degree = int(sys.argv[1]) if len(sys.argv) > 1 else 16
+points = [int(c) for c in (sys.argv[2] if len(sys.argv) > 2 else "12")]
+runs = ("first", "second")[: int(sys.argv[3]) if len(sys.argv) > 3 else 2]
 print("point,form,exponents,degree,value", flush=True)
-for idx in (1, 2):
-    for attempt in ("first", "second"):
+for idx in points:
+    for attempt in runs:
         system = System.from_mu(MU)
         point = system.get_libration_point(idx)
         t0 = time.perf_counter()

@@ -1,7 +1,9 @@
 //! Are hiten's centre-manifold states on the centre manifold? Reads the CSV of
 //! `scripts/hiten_states.py` and prints, for each state as hiten gives it and with the signs
 //! of y and vx flipped, lasalle's hyperbolic coordinates max(|Q1'|, |P1'|) at t = 0 and after
-//! integrating the model for t = 2 (DOPRI5, tolerance 1e-13):
+//! integrating the model for t = 2 (DOPRI5, tolerance 1e-13), and the centre coordinates
+//! lasalle reads from the state, in hiten's units and gauge (lengths / γ, the planar pair
+//! rotated by π):
 //! `cargo run -p lasalle-normal-form --release --example hiten_states -- hiten_states.csv`.
 
 use lasalle_normal_form::center::{center_manifold_model, CenterOptions};
@@ -16,8 +18,8 @@ fn main() {
     let file = concat!(env!("CARGO_MANIFEST_DIR"), "/../models/cr3bp_spatial.lsl");
     let model = lasalle_model::load_model(std::path::Path::new(file)).unwrap();
     let h = ModelHamiltonian::new(&model, &[]).unwrap();
-    println!("| point | (q2, p2, q3, p3) | hiten's state: t = 0 | t = 2 | y, vx flipped: t = 0 | t = 2 |");
-    println!("|---|---|---:|---:|---:|---:|");
+    println!("| point | hiten's (q2, p2, q3, p3) | hiten's state: t = 0 | t = 2 | its (q2, p2, q3, p3) by lasalle | y, vx flipped: t = 0 | t = 2 | its (q2, p2, q3, p3) by lasalle |");
+    println!("|---|---|---:|---:|---|---:|---:|---|");
     for line in text.lines().filter(|l| l.starts_with('L')) {
         let f: Vec<&str> = line.split(',').collect();
         let v: Vec<f64> = f[1..].iter().map(|x| x.parse().unwrap()).collect();
@@ -39,9 +41,28 @@ fn main() {
         };
         let (a0, a1) = run(&given);
         let (b0, b1) = run(&flipped);
+        // lasalle's centre coordinates of the state, in hiten's units and gauge
+        // (lengths / γ, the planar pair rotated by π)
+        let g = cm.gamma.as_ref().map_or(1.0, |g| g.value);
+        let centre = |z: &[f64]| {
+            let w = cm.to_normal(z).unwrap();
+            format!(
+                "({:.6}, {:.6}, {:.6}, {:.6})",
+                -w[1] / g,
+                -w[4] / g,
+                w[2] / g,
+                w[5] / g
+            )
+        };
         println!(
-            "| {} | ({}, {}, {}, {}) | {a0:.1e} | {a1:.1e} | {b0:.1e} | {b1:.1e} |",
-            f[0], v[0], v[1], v[2], v[3]
+            "| {} | ({}, {}, {}, {}) | {a0:.1e} | {a1:.1e} | {} | {b0:.1e} | {b1:.1e} | {} |",
+            f[0],
+            v[0],
+            v[1],
+            v[2],
+            v[3],
+            centre(&given),
+            centre(&flipped)
         );
     }
 }

@@ -125,7 +125,8 @@ pub fn run(args: &NormalFormArgs) -> CliResult {
     Ok(())
 }
 
-/// One panel per energy: the section Q3 = 0 in (Q2, P2), γ-scaled.
+/// One panel per energy: the section Q3 = 0 in (Q2, P2), γ-scaled, with the planar
+/// Lyapunov orbit (boundary), the vertical Lyapunov and halo fixed points, and the orbits.
 fn poincare_figure(cm: &CenterManifold, dir: &Path, energies: &[f64]) -> CliResult {
     if cm.n_dof != 3 {
         return Err(format!(
@@ -143,7 +144,30 @@ fn poincare_figure(cm: &CenterManifold, dir: &Path, energies: &[f64]) -> CliResu
     let mut panels = Vec::new();
     for &e in energies {
         let h = e * g * g;
-        let orbits = poincare::poincare_map(cm, h, 12, 120).expect("two centre degrees of freedom");
+        let section = poincare::poincare_map(cm, h, 16, 150)
+            .map_err(|m| format!("`--energies`: h = {e}: {m}"))?;
+        eprintln!(
+            "h = {e}: planar Lyapunov orbit Q2 = {:.6}, vertical trace {:.6}; vertical Lyapunov fixed point {}; {} halo fixed point(s){}",
+            section.boundary.q2 / g,
+            section.boundary.vertical_trace,
+            section.vertical.as_ref().map_or("not found".to_string(), |v| format!(
+                "({:.6}, {:.6})",
+                v.point[0] / g,
+                v.point[1] / g
+            )),
+            section.halos.len(),
+            section
+                .halos
+                .iter()
+                .map(|v| format!(" ({:.6}, {:.6})", v.point[0] / g, v.point[1] / g))
+                .collect::<String>()
+        );
+        if section.unlifted > 0 {
+            eprintln!(
+                "warning: h = {e}: {} seed(s) inside the boundary could not be lifted to the energy level (the truncated series is used outside its domain)",
+                section.unlifted
+            );
+        }
         let mut chart = Chart::new(
             &format!(
                 "{} {}: section Q3 = 0, h = {e}",
@@ -155,15 +179,43 @@ fn poincare_figure(cm: &CenterManifold, dir: &Path, energies: &[f64]) -> CliResu
             false,
         );
         chart.equal_aspect = true;
-        for (k, o) in orbits.iter().enumerate() {
+        for (k, o) in section.orbits.iter().enumerate() {
             let x = o.points.iter().map(|p| p[0] / g).collect();
             let y = o.points.iter().map(|p| p[1] / g).collect();
-            chart.add("", x, y, k % 5, Style::Dots);
+            chart.add("", x, y, [0, 2, 4][k % 3], Style::Dots);
+        }
+        let curve = &section.boundary.curve;
+        chart.add(
+            "planar Lyapunov (boundary)",
+            curve.iter().map(|p| p[0] / g).collect(),
+            curve.iter().map(|p| p[1] / g).collect(),
+            5,
+            Style::Line,
+        );
+        if let Some(v) = &section.vertical {
+            chart.add(
+                "vertical Lyapunov",
+                vec![v.point[0] / g],
+                vec![v.point[1] / g],
+                3,
+                Style::Markers,
+            );
+        }
+        if !section.halos.is_empty() {
+            chart.add(
+                "halo",
+                section.halos.iter().map(|v| v.point[0] / g).collect(),
+                section.halos.iter().map(|v| v.point[1] / g).collect(),
+                1,
+                Style::Markers,
+            );
         }
         panels.push(chart);
     }
     let stem = format!("center_manifold_{}", cm.point);
-    write_figure(dir, &stem, &panels, (1, panels.len()), (600, 600))?;
+    let cols = panels.len().min(2);
+    let rows = panels.len().div_ceil(cols);
+    write_figure(dir, &stem, &panels, (rows, cols), (600, 600))?;
     eprintln!("wrote {}/{stem}.svg and .png", dir.display());
     Ok(())
 }

@@ -126,7 +126,7 @@ pub struct NormalFormArgs {
     #[arg(
         long,
         value_name = "H1,H2,…",
-        default_value = "0.1,0.3,0.6",
+        default_value = "0.2,0.4,0.6,1.0",
         requires = "poincare"
     )]
     pub(super) energies: String,

@@ -20,6 +20,8 @@ pub enum Style {
     Line,
     /// A small dot at each point (orbits sampled at irregular phases).
     Dots,
+    /// A large filled circle at each point (landmarks such as fixed points).
+    Markers,
 }
 
 /// One curve.
@@ -379,6 +381,14 @@ where
                         .zip(&s.y)
                         .filter(finite)
                         .map(|p| Circle::new(point(p), 1, color.filled())),
+                )
+                .map_err(|e| e.to_string())?,
+            Style::Markers => ctx
+                .draw_series(
+                    s.x.iter()
+                        .zip(&s.y)
+                        .filter(finite)
+                        .map(|p| Circle::new(point(p), 4, color.filled())),
                 )
                 .map_err(|e| e.to_string())?,
         };

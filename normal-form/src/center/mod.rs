@@ -58,6 +58,7 @@
 
 mod collinear;
 mod linear;
+pub mod lyapunov;
 mod output;
 pub mod poincare;
 mod reduce;
