@@ -25,7 +25,7 @@ use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use lasalle_model::ir::Input;
+use lasalle_model::ir::{Id, Input};
 use lasalle_model::loops::{Families, LoopModel};
 use lasalle_model::tape::step::rk_step;
 use lasalle_model::tape::{Dims, ModelTapes, Tape, TapeBuilder, TapeError};
@@ -895,51 +895,28 @@ fn guards_and_events(
     let guards = if model.guards.is_empty() {
         None
     } else {
-        // the step size `dt` becomes the tape's one gain
-        let mut graph = model.graph.clone();
         let margins: Vec<_> = model.guards.iter().map(|g| g.margin).collect();
-        let margins =
-            graph.rename_inputs(
-                &margins,
-                |i| {
-                    if i == GUARD_STEP {
-                        Input::Gain(0)
-                    } else {
-                        i
-                    }
-                },
-            );
-        let dims = Dims {
-            state: model.dim(),
-            params: model.param_slots(),
-            targets: 0,
-            gains: 1,
-        };
-        Some(TapeBuilder::new(graph, dims).build(&margins)?)
+        Some(with_one_gain(model, &margins, GUARD_STEP)?)
     };
     let events = if model.events.is_empty() {
         None
     } else {
-        // the time `t` becomes the tape's one gain
-        let mut graph = model.graph.clone();
         let values: Vec<_> = model.events.iter().map(|e| e.value).collect();
-        let values = graph.rename_inputs(
-            &values,
-            |i| {
-                if i == EVENT_TIME {
-                    Input::Gain(0)
-                } else {
-                    i
-                }
-            },
-        );
-        let dims = Dims {
-            state: model.dim(),
-            params: model.param_slots(),
-            targets: 0,
-            gains: 1,
-        };
-        Some(c(&TapeBuilder::new(graph, dims).build(&values)?)?)
+        Some(c(&with_one_gain(model, &values, EVENT_TIME)?)?)
     };
     Ok((guards, events))
+}
+
+/// The tape of `outputs` with the input `gain` (the guards' step size, the events' time) as
+/// its one gain.
+fn with_one_gain(model: &Model, outputs: &[Id], gain: Input) -> Result<Tape, TapeError> {
+    let mut graph = model.graph.clone();
+    let outputs = graph.rename_inputs(outputs, |i| if i == gain { Input::Gain(0) } else { i });
+    let dims = Dims {
+        state: model.dim(),
+        params: model.param_slots(),
+        targets: 0,
+        gains: 1,
+    };
+    TapeBuilder::new(graph, dims).build(&outputs)
 }
