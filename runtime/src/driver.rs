@@ -254,7 +254,9 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
                     .min(summary.steps.saturating_add(divergence.left))
                     .min(next_interrupt);
                 let before_last = to_f64(n_total - n - T::one()).max(0.0) as u64;
-                let k = (watched - summary.steps - 1)
+                // (an observer that names a step already taken gets every step)
+                let k = watched
+                    .saturating_sub(summary.steps + 1)
                     .min(before_last)
                     .min(self.max_steps.saturating_sub(summary.steps));
                 if k > 1 {
