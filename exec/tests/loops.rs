@@ -13,18 +13,10 @@ fn sized(text: &str, default: &str, n: usize) -> String {
     text.replace(default, &format!("param n = {n};"))
 }
 
+/// Deterministic pseudo-random numbers in [-1, 1).
 fn numbers(seed: u64, len: usize) -> Vec<f64> {
-    let mut x = seed
-        .wrapping_mul(6364136223846793005)
-        .wrapping_add(1442695040888963407);
-    (0..len)
-        .map(|_| {
-            x = x
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((x >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-        })
-        .collect()
+    let mut rng = lasalle_testkit::Rng::new(seed);
+    (0..len).map(|_| rng.uniform(-1.0, 1.0)).collect()
 }
 
 fn eval(k: &dyn Kernel, params: &[f64], x: &[f64]) -> Vec<f64> {
