@@ -115,6 +115,13 @@ pub trait Kernel: Send + Sync {
         None
     }
 
+    /// For a step tape compiled with [`Backend::compile_step`], its batch of steps as a plain
+    /// function, if the back end compiles one (the JIT; see
+    /// [`lasalle_runtime::RawBatch`]). Valid while `self` is alive.
+    fn raw_batch(&self) -> Option<lasalle_runtime::RawBatch> {
+        None
+    }
+
     /// k states at once, structure of arrays: component i of state `lane` at
     /// `state[i*k + lane]`, output j at `out[j*k + lane]`; targets, gains and hoisted values
     /// are shared. Each lane's outputs equal [`Kernel::eval`]'s bitwise.
@@ -172,6 +179,28 @@ impl Backend {
             Backend::Jit => Ok(Box::new(jit::JitKernel::new(tape)?)),
             #[cfg(not(feature = "jit"))]
             Backend::Jit => Err(ExecError::JitUnavailable),
+        }
+    }
+}
+
+impl Backend {
+    /// Compiles a step tape (`lasalle_model::tape::step`) whose first `n` outputs are the new
+    /// state and the others the guards' margins (`strict` per margin): as
+    /// [`Backend::compile`], and the JIT also compiles the loop of a batch of steps
+    /// ([`Kernel::raw_batch`]).
+    pub fn compile_step(
+        self,
+        tape: &Tape,
+        n: usize,
+        strict: &[bool],
+    ) -> Result<Box<dyn Kernel>, ExecError> {
+        match self {
+            #[cfg(feature = "jit")]
+            Backend::Jit => {
+                tape.validate()?;
+                Ok(Box::new(jit::JitKernel::with_batch(tape, n, strict)?))
+            }
+            _ => self.compile(tape),
         }
     }
 }

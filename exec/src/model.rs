@@ -560,7 +560,9 @@ impl LoadedModel {
             (StepTapes::Deferred(lazy), true) => &lazy.get().ok()?.feedback,
         };
         let tape = rk_step(field, method.a, method.b, self.guards_tape.as_ref()).ok()?;
-        let kernel = Arc::new(self.backend.compile(&tape).ok()?);
+        let strict: Vec<bool> = self.info.guards.iter().map(|g| g.2).collect();
+        let kernel = self.backend.compile_step(&tape, self.dim(), &strict);
+        let kernel = Arc::new(kernel.ok()?);
         steps.insert((method.name, feedback), kernel.clone());
         Some(kernel)
     }
@@ -812,13 +814,14 @@ impl Declared<f64, Vec<f64>> for LoadedModel {
         }
         let hoisted = kernel.hoist(&self.params).ok()?;
         let code = kernel.raw_eval()?;
+        let batch = kernel.raw_batch();
         let guards = self.info.guards.clone();
         // SAFETY: the kernel computes `rk_step`'s tape on this model's field (or X − ∇V) and
         // guards: it reads its hoisted values (just computed), N state components, the
         // targets and gains whose lengths were just compared with its own, plus the two step
         // sizes, and writes N values and one margin per guard; `kernel` owns the code and goes
         // into the stepper.
-        Some(unsafe {
+        let step = unsafe {
             CompiledStep::new(
                 method,
                 code,
@@ -830,6 +833,12 @@ impl Declared<f64, Vec<f64>> for LoadedModel {
                 guards,
                 guard_step,
             )
+        };
+        // SAFETY: `compile_step` compiled the batch as the loop around this `code` (the JIT's
+        // `with_batch`), in the same module lifetime as `code`.
+        Some(match batch {
+            Some(batch) => unsafe { step.with_batch(batch) },
+            None => step,
         })
     }
 

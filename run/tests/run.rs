@@ -176,6 +176,38 @@ fn a_member_that_cannot_start_fails_alone() {
     ));
 }
 
+/// A batch of compiled steps stops before the first step whose new state is not finite or
+/// whose guard fails, strict or not, as the generic stepper does: the same step, state and
+/// message. x' = x³ from 2 with Euler and h = 1 overflows to infinity at the eighth step.
+#[test]
+fn compiled_batches_stop_where_the_generic_stepper_does() {
+    for (guard, expected) in [
+        ("", "non-finite"),
+        ("guard bounded: x < 1e100;", "guard `bounded`"),
+        ("guard bounded: x <= 1e100;", "guard `bounded`"),
+    ] {
+        let text = format!("model Blowup {{ state x: scalar; d/dt x = x^3; {guard} }}");
+        let jit = LoadedModel::from_source("blowup.lsl", &text, Backend::Jit).unwrap();
+        let interp = LoadedModel::from_source("blowup.lsl", &text, Backend::Interpreter).unwrap();
+        for every in [1, 1000] {
+            let mut spec = RunSpec::new("euler".parse::<Method>().unwrap(), 1.0, 100.0);
+            spec.every = every;
+            let a = simulate(&jit, &vec![2.0], &spec).unwrap();
+            let b = simulate(&interp, &vec![2.0], &spec).unwrap();
+            let failure = a
+                .failure
+                .as_ref()
+                .map(|e| e.to_string())
+                .unwrap_or_default();
+            assert!(
+                failure.contains(expected),
+                "{guard} every {every}: {failure}"
+            );
+            assert_same(&a, &b, &format!("blow-up, {guard} every {every}"));
+        }
+    }
+}
+
 /// A fixed step compiled whole by the JIT (the stages, the field and the guards in one
 /// function) gives bitwise the generic stepper's run, which the interpreter takes, for every
 /// fixed-step method on the field and on X − ∇V, a guard's failure included.

@@ -71,7 +71,7 @@ pub use params::{ParamError, Parameters};
 pub use state::State;
 pub use steppers::{
     pivoted_cholesky_solve, Batch, CompiledStep, Composition, DenseOutput, DormandPrince,
-    DormandPrinceOptions, Euler, ExplicitRk, FixedMethod, Heun, Projection, RawStep,
+    DormandPrinceOptions, Euler, ExplicitRk, FixedMethod, Heun, Projection, RawBatch, RawStep,
     RigidBodySplitting, Rk4, Splitting, StepOutcome, Stepper, StormerVerlet, Tableau,
     VerletVariant,
 };

@@ -9,7 +9,7 @@
 //! of the interpreter and of the emitted Rust. sn, cn and dn go through a per-call cache of the
 //! last `ellipj` arguments and values (a stack slot), so those of one (u | m) cost one call.
 //!
-//! Two functions are compiled per tape:
+//! Two functions are compiled per tape, three per step tape:
 //! - `eval(hoisted, state, target, gains, out)` for one state, with pairs of isomorphic,
 //!   independent instructions (the x, y, z components of a model running through the same
 //!   operations) computed as one two-lane `F64X2` instruction, as LLVM's SLP vectoriser does
@@ -27,6 +27,8 @@
 //!   Cranelift's e-graph (at `speed`) would elaborate the body depth first from the stores,
 //!   and has nothing to add to a tape that is already simplified and shared (the effect:
 //!   `docs/performance.md`, back ends);
+//! - for a step tape ([`JitKernel::with_batch`]), also `batch`, the loop of a batch of
+//!   steps around `eval`'s code (`batch.rs`);
 //! - `lanes(k, hoisted, state, target, gains, out)`, a loop over the k lanes of
 //!   structure-of-arrays inputs, four lanes at a time as two 128-bit vectors (the same IEEE
 //!   operations lane by lane; calls are made per lane), then two, then the odd last lane in
@@ -58,6 +60,7 @@ use cranelift_module::Module;
 use lasalle_model::ir::{Func, Func2, Rational};
 use lasalle_runtime::elliptic::ellipj;
 
+mod batch;
 pub(crate) mod region;
 mod slp;
 pub mod taylor;
@@ -175,6 +178,8 @@ pub struct JitKernel {
     _code: [Code; 2],
     eval: EvalFn,
     lanes: LanesFn,
+    /// The batch of steps, for a step tape compiled with [`JitKernel::with_batch`].
+    batch: Option<(Code, lasalle_runtime::RawBatch)>,
     /// Instructions of the body `eval` computes two at a time (see [`slp`]).
     paired: usize,
     /// The values [`Kernel::hoist`] appends to the tape's hoisted ones: the vector slots of
@@ -220,8 +225,8 @@ impl JitKernel {
     /// Compiles a tape (checked with [`Tape::validate`]).
     pub fn new(tape: &Tape) -> Result<JitKernel, ExecError> {
         tape.validate()?;
-        let (eval_code, eval, compiled) = Self::compile(tape, false)?;
-        let (lanes_code, lanes, _) = Self::compile(tape, true)?;
+        let (eval_code, eval, compiled) = Self::compile(tape, Mode::Eval)?;
+        let (lanes_code, lanes, _) = Self::compile(tape, Mode::Lanes)?;
         // SAFETY: the two functions were just defined with exactly these signatures (pointer
         // arguments and a usize, in the ISA's default calling convention, which is the C
         // convention of the host), and the modules that own their code live in `self`.
@@ -236,6 +241,7 @@ impl JitKernel {
             _code: [eval_code, lanes_code],
             eval,
             lanes,
+            batch: None,
             paired: compiled.paired,
             slots: compiled.slots,
         })
@@ -247,14 +253,16 @@ impl JitKernel {
         self.paired
     }
 
-    /// Compiles `eval` or `lanes` in a module of its own: `eval` at `opt_level = none`, so
-    /// Cranelift keeps the order of the pairing's schedule (its e-graph would elaborate the
-    /// body depth first from the stores, and the body is already simplified and shared by the
-    /// tape); `lanes` at `speed`.
-    fn compile(tape: &Tape, lanes: bool) -> Result<(Code, *const u8, EvalInfo), ExecError> {
+    /// Compiles `eval`, `lanes` or a batch of steps in a module of its own: `eval` at
+    /// `opt_level = none`, so Cranelift keeps the order of the pairing's schedule (its e-graph
+    /// would elaborate the body depth first from the stores, and the body is already
+    /// simplified and shared by the tape); `lanes` and the batch at `speed`, where the e-graph
+    /// also moves what does not change from one iteration to the next out of the loop.
+    fn compile(tape: &Tape, mode: Mode) -> Result<(Code, *const u8, EvalInfo), ExecError> {
         let large = tape.body.len() >= LARGE_TAPE;
-        let mut module = jit_module(if lanes && !large { "speed" } else { "none" }, large)?;
-        match Self::define(&mut module, tape, lanes) {
+        let speed = !matches!(mode, Mode::Eval) && !large;
+        let mut module = jit_module(if speed { "speed" } else { "none" }, large)?;
+        match Self::define(&mut module, tape, mode) {
             Ok((id, compiled)) => {
                 let f = module.get_finalized_function(id);
                 Ok((Code::new(module), f, compiled))
@@ -270,16 +278,20 @@ impl JitKernel {
     fn define(
         module: &mut JITModule,
         tape: &Tape,
-        lanes: bool,
+        mode: Mode,
     ) -> Result<(cranelift_module::FuncId, EvalInfo), ExecError> {
         let ptr = module.target_config().pointer_type();
         let mut ctx = module.make_context();
         let mut fctx = FunctionBuilderContext::new();
         let mut sig = module.make_signature();
-        if lanes {
+        if matches!(mode, Mode::Lanes) {
             sig.params.push(AbiParam::new(ptr));
         }
         sig.params.extend([AbiParam::new(ptr); 5]);
+        if let Mode::Batch { .. } = mode {
+            sig.params.push(AbiParam::new(types::I64));
+            sig.returns.push(AbiParam::new(types::I64));
+        }
         let id = module.declare_anonymous_function(&sig).map_err(jit_err)?;
         ctx.func.signature = sig;
         let mut compiled = EvalInfo::default();
@@ -289,10 +301,10 @@ impl JitKernel {
             b.append_block_params_for_function_params(entry);
             b.switch_to_block(entry);
             let p = b.block_params(entry).to_vec();
-            let (k, p) = if lanes {
-                (Some(p[0]), &p[1..])
-            } else {
-                (None, &p[..])
+            let (k, p) = match mode {
+                Mode::Lanes => (Some(p[0]), &p[1..]),
+                Mode::Eval => (None, &p[..]),
+                Mode::Batch { .. } => (Some(p[5]), &p[..5]),
             };
             let args = Args {
                 hoisted: p[0],
@@ -316,6 +328,7 @@ impl JitKernel {
                     ..Slots::default()
                 },
                 eval: None,
+                state_written: false,
             };
             let jacobi = |op: &Op| matches!(op, Op::Func2(Func2::Sn | Func2::Cn | Func2::Dn, ..));
             if tape.body.iter().any(jacobi) {
@@ -330,12 +343,16 @@ impl JitKernel {
                 }
                 e.jacobi_cache = Some(e.b.ins().stack_addr(ptr, slot, 0));
             }
-            match k {
-                None => {
+            match (mode, k) {
+                (Mode::Lanes, Some(k)) => e.lanes(tape, &args, k)?,
+                (Mode::Batch { n, strict }, Some(k)) => {
+                    compiled.paired = e.batch(tape, &args, k, n, strict)?;
+                    compiled.slots = std::mem::take(&mut e.slots.values);
+                }
+                _ => {
                     compiled.paired = e.scalar(tape, &args)?;
                     compiled.slots = std::mem::take(&mut e.slots.values);
                 }
-                Some(k) => e.lanes(tape, &args, k)?,
             }
             e.b.seal_all_blocks();
             e.b.finalize(module.target_config());
@@ -344,6 +361,25 @@ impl JitKernel {
         module.finalize_definitions().map_err(jit_err)?;
         Ok((id, compiled))
     }
+}
+
+/// Which function of a tape is compiled.
+#[derive(Clone, Copy)]
+enum Mode<'a> {
+    /// `eval`, one state.
+    Eval,
+    /// `lanes`, k states in structure of arrays.
+    Lanes,
+    /// A batch of steps of a step tape whose first `n` outputs are the new state and the
+    /// others the guards' margins, `strict` per margin ([`batch`]).
+    Batch { n: usize, strict: &'a [bool] },
+}
+
+/// An output value `eval` stored: one output, or two adjacent ones with one 128-bit store.
+#[derive(Clone, Copy)]
+enum Stored {
+    Single(Value),
+    Pair(Value),
 }
 
 /// Signatures of the math wrappers.
@@ -410,10 +446,13 @@ struct Emit<'a> {
     /// is loaded (and each unpaired constant materialised) at its first use, not where the
     /// schedule has it, and a negation is an `xor` with −0 from the constant pool.
     eval: Option<Args>,
+    /// In a batch of steps, the state is a buffer the function itself writes: its loads are
+    /// not marked pure.
+    state_written: bool,
 }
 
 /// A value that is the same for every call: a hoisted value or a constant.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 enum Invariant {
     Hoisted(usize),
     Const(f64),
@@ -490,9 +529,18 @@ impl Emit<'_> {
 
     /// The input element at byte offset `off` of `base`.
     fn load_at(&mut self, base: Value, off: i32) -> Value {
-        self.b
-            .ins()
-            .load(types::F64, load_flags(scalar_flags()), base, off)
+        let flags = self.input_flags(base, scalar_flags());
+        self.b.ins().load(types::F64, flags, base, off)
+    }
+
+    /// The flags of a load of an input from `base`: pure ([`load_flags`]) unless it is the
+    /// state of a batch of steps, which the function writes.
+    fn input_flags(&self, base: Value, f: MemFlagsData) -> MemFlagsData {
+        if self.state_written && self.eval.is_some_and(|a| a.state == base) {
+            f
+        } else {
+            load_flags(f)
+        }
     }
 
     /// A constant in the current mode.
@@ -826,7 +874,7 @@ impl Emit<'_> {
         let [a, b] = pairing.packs[p];
         let (oa, ob) = (self.ops[a], self.ops[b]);
         if let Some((base, i)) = input(args, oa) {
-            let flags = load_flags(vector_flags());
+            let flags = self.input_flags(base, vector_flags());
             return Ok(self.b.ins().load(F64X2, flags, base, offset(i as usize)?));
         }
         let (mut xs, mut ys) = (oa.operands(), ob.operands());
@@ -849,6 +897,14 @@ impl Emit<'_> {
     /// its order, then the stores, two adjacent outputs of one pack with one 128-bit store.
     /// Returns the number of instructions computed in pairs.
     fn scalar(&mut self, tape: &Tape, args: &Args) -> Result<usize, ExecError> {
+        let (paired, _) = self.scalar_body(tape, args)?;
+        self.b.ins().return_(&[]);
+        Ok(paired)
+    }
+
+    /// `eval`'s instructions and stores, without the return: the number of instructions
+    /// computed in pairs and the values stored, in order.
+    fn scalar_body(&mut self, tape: &Tape, args: &Args) -> Result<(usize, Vec<Stored>), ExecError> {
         let pairing = slp::pair(tape);
         self.ops.clone_from(&pairing.ops);
         for &op in &self.ops {
@@ -876,6 +932,7 @@ impl Emit<'_> {
                 }
             }
         }
+        let mut stored = Vec::with_capacity(tape.outputs.len());
         let mut j = 0;
         while j < tape.outputs.len() {
             let r = tape.outputs[j];
@@ -884,17 +941,18 @@ impl Emit<'_> {
                 Some(p) => {
                     let v = self.pack_vector(&pairing, p);
                     self.b.ins().store(vector_flags(), v, args.out, off);
+                    stored.push(Stored::Pair(v));
                     j += 2;
                 }
                 None => {
                     let v = self.scalar_value(&pairing, r);
                     self.b.ins().store(scalar_flags(), v, args.out, off);
+                    stored.push(Stored::Single(v));
                     j += 1;
                 }
             }
         }
-        self.b.ins().return_(&[]);
-        Ok(2 * pairing.packs.len())
+        Ok((2 * pairing.packs.len(), stored))
     }
 
     /// The per-lane instructions for the lane(s) at the byte offsets `offs` (one, or in the
@@ -1086,6 +1144,10 @@ impl Kernel for JitKernel {
 
     fn raw_eval(&self) -> Option<crate::RawEval> {
         Some(self.eval)
+    }
+
+    fn raw_batch(&self) -> Option<lasalle_runtime::RawBatch> {
+        self.batch.as_ref().map(|&(_, f)| f)
     }
 
     fn eval_lanes(

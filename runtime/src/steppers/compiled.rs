@@ -36,6 +36,15 @@ pub struct FixedMethod<'a> {
 /// state, then the guards' margins.
 pub type RawStep = unsafe extern "C" fn(*const f64, *const f64, *const f64, *const f64, *mut f64);
 
+/// The code of a batch of compiled steps: `(hoisted, a, targets, gains, b, k) -> taken`, the
+/// arguments as [`RawStep`]'s with two state buffers `a` and `b` (each with room for the new
+/// state and the margins): up to k steps from the state in `a`, each reading one buffer and
+/// writing the other, stopping before the first step whose new state is not finite or whose
+/// margins fail, as [`CompiledStep`]'s own loop does. The state after the `taken` steps is in
+/// `a` if `taken` is even, in `b` if odd.
+pub type RawBatch =
+    unsafe extern "C" fn(*const f64, *mut f64, *const f64, *const f64, *mut f64, u64) -> u64;
+
 /// A fixed step compiled whole by a back end: the stages of an explicit Runge–Kutta method,
 /// the field and the guards' margins of the new state in one function, called once per step.
 ///
@@ -47,7 +56,9 @@ pub struct CompiledStep {
     order: u32,
     stages: u32,
     code: RawStep,
-    /// What keeps `code` alive.
+    /// The back end's loop of a batch of steps, if it compiles one.
+    batch: Option<RawBatch>,
+    /// What keeps `code` and `batch` alive.
     _owner: Arc<dyn Any + Send + Sync>,
     hoisted: Vec<f64>,
     targets: Vec<f64>,
@@ -99,6 +110,7 @@ impl CompiledStep {
             order: method.order,
             stages: method.b.len() as u32,
             code,
+            batch: None,
             _owner: owner,
             hoisted,
             targets,
@@ -108,6 +120,20 @@ impl CompiledStep {
             n,
             guards,
         }
+    }
+}
+
+impl CompiledStep {
+    /// The same stepper, taking its batches of steps ([`Stepper::fixed_steps`]) with `batch`.
+    ///
+    /// # Safety
+    ///
+    /// `batch` must be the loop of [`RawBatch`] around this stepper's `code` (the same steps,
+    /// bitwise), read and write what `code` does, and stay valid as long as the `owner` given
+    /// to [`CompiledStep::new`] is alive.
+    pub unsafe fn with_batch(mut self, batch: RawBatch) -> CompiledStep {
+        self.batch = Some(batch);
+        self
     }
 }
 
@@ -174,6 +200,28 @@ impl<X: State<f64>, F: Field<f64, X> + ?Sized> Stepper<f64, X, F> for CompiledSt
         }
         let at_h = self.gains.len() - 2;
         self.gains[at_h] = h;
+        if let Some(batch) = self.batch {
+            let (a, b) = (&mut self.back, &mut self.out);
+            a[..n].copy_from_slice(x.as_ref());
+            // SAFETY: as in `step`, with both buffers sized for the new state and the margins
+            // (`new`), which `with_batch`'s contract asks of the batch.
+            let taken = unsafe {
+                batch(
+                    self.hoisted.as_ptr(),
+                    a.as_mut_ptr(),
+                    self.targets.as_ptr(),
+                    self.gains.as_ptr(),
+                    b.as_mut_ptr(),
+                    k,
+                )
+            };
+            let last = if taken % 2 == 0 { a } else { b };
+            x.as_mut().copy_from_slice(&last[..n]);
+            return Some(Batch {
+                steps: taken,
+                evaluations: taken * u64::from(self.stages),
+            });
+        }
         let (code, guards) = (self.code, &self.guards);
         let (hoisted, targets, gains) = (
             self.hoisted.as_ptr(),

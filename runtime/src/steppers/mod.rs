@@ -32,7 +32,7 @@ mod splitting;
 mod stormer_verlet;
 mod tableau;
 
-pub use compiled::{CompiledStep, FixedMethod, RawStep};
+pub use compiled::{CompiledStep, FixedMethod, RawBatch, RawStep};
 pub use composition::Composition;
 pub use dormand_prince::{DormandPrince, DormandPrinceOptions};
 pub use explicit_rk::{Euler, ExplicitRk, Heun, Rk4};
