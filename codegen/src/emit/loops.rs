@@ -40,7 +40,10 @@ pub(crate) fn emit_loops(
     let mut s = String::new();
     let _ = write!(
         s,
-        "use lasalle_runtime::{{Field, InvariantInfo, InvariantKind, ModelInfo, Shape, Slot}};
+        "// Loops index several arrays with the same index.
+#![allow(clippy::needless_range_loop)]
+
+use lasalle_runtime::{{Field, InvariantInfo, InvariantKind, ModelInfo, Shape, Slot}};
 
 /// State components.
 pub const DIM: usize = {n};
