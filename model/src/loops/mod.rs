@@ -25,8 +25,10 @@
 //! What the loop form does not do (yet) is refused rather than approximated: a family whose
 //! value enters a function other than linearly with a constant coefficient, or a Hamiltonian
 //! family under a Lie–Poisson structure. V, ∇V, X − ∇V, the Jacobian, the conservation proofs,
-//! the Taylor program and the emitted Rust have no loop form: they work on the unrolled model
-//! ([`Families::Unrolled`]).
+//! the Taylor program and the emitted Rust but its field and invariants have no loop form: they
+//! work on the unrolled model ([`Families::Unrolled`]). The emitted Rust writes the field and
+//! the invariants as loops from these tapes, with the index structure of [`index`]
+//! (`lasalle_codegen::generate_source_with`).
 
 use crate::error::{Diagnostic, Error, Span};
 use crate::ir::{FxHashMap, Graph, Id, Input, Node};
