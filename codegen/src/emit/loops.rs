@@ -136,12 +136,25 @@ impl ModelInfo for {prep} {{
         prepare = indent(&prepare_fields(tapes), 12),
         fields = indent(&struct_fields(tapes), 4),
         invariants = indent(
-            &function(
+            &(function(
                 lm,
                 &tapes.invariants,
                 "invariants",
                 "/// f(x), the stacked invariants.\npub fn invariants(&self, x: &[f64; DIM], out: &mut [f64; INVARIANT_DIM]) {",
-            ),
+                false,
+            ) + "\n" + &function(
+                lm,
+                &tapes.field,
+                "field",
+                "/// X for K states per call (structure of arrays): `x[i][l]` is component i of lane l,\n/// `out[i][l]` its rate; each lane equals `field` bit for bit.\npub fn field_lanes<const K: usize>(&self, x: &[[f64; K]; DIM], out: &mut [[f64; K]; DIM]) {",
+                true,
+            ) + "\n" + &function(
+                lm,
+                &tapes.invariants,
+                "invariants",
+                "/// f for K states per call, as [`Self::field_lanes`]; each lane equals `invariants`.\npub fn invariants_lanes<const K: usize>(&self, x: &[[f64; K]; DIM], out: &mut [[f64; K]; INVARIANT_DIM]) {",
+                true,
+            )),
             4
         ),
         field = indent(
@@ -150,6 +163,7 @@ impl ModelInfo for {prep} {{
                 &tapes.field,
                 "field",
                 "/// X(x).\nfn field(&self, x: &[f64; DIM], out: &mut [f64; DIM]) {",
+                false,
             ),
             4
         ),
@@ -318,7 +332,10 @@ fn prepare_fields(tapes: &LoopTapes) -> String {
 }
 
 /// One function: `header`, the plain part, then a loop per region.
-fn function(lm: &LoopModel, lt: &LoopTape, name: &str, header: &str) -> String {
+/// With `lanes`, K states per call: every value a `[f64; K]` (parameters and hoisted values
+/// shared), each operation a loop over the lanes, so each lane repeats the scalar function's
+/// operations in its order.
+fn function(lm: &LoopModel, lt: &LoopTape, name: &str, header: &str, lanes: bool) -> String {
     let mut s = format!("{header}\n");
     let len = lt.n_outputs();
     let reads_params = lt.regions.iter().any(|r| {
@@ -329,14 +346,29 @@ fn function(lm: &LoopModel, lt: &LoopTape, name: &str, header: &str) -> String {
     if reads_params {
         s.push_str("    let params = &self.params;\n");
     }
-    let _ = writeln!(s, "    *out = [0.0; {len}];");
+    if lanes {
+        let _ = writeln!(s, "    *out = [[0.0; K]; {len}];");
+    } else {
+        let _ = writeln!(s, "    *out = [0.0; {len}];");
+    }
     if !lt.base.outputs.is_empty() {
         s.push_str("    // the terms outside the families\n    {\n");
         let mut body = String::new();
         let plain = (!lt.base.hoisted.is_empty()).then(|| format!("{name}_plain"));
-        let r = straight(&lt.base, plain.as_deref(), &|k| format!("x[{k}]"), &mut body);
+        let state = |k| match lanes {
+            true => format!("x[{k}][l]"),
+            false => format!("x[{k}]"),
+        };
+        let r = straight(&lt.base, plain.as_deref(), &state, lanes, &mut body);
         for (&o, reg) in lt.base_at.iter().zip(&lt.base.outputs) {
-            let _ = writeln!(body, "out[{o}] = {};", r(*reg));
+            let value = r(*reg);
+            if lanes && value.ends_with("[l]") {
+                let _ = writeln!(body, "out[{o}] = core::array::from_fn(|l| {value});");
+            } else if lanes {
+                let _ = writeln!(body, "out[{o}] = [{value}; K];");
+            } else {
+                let _ = writeln!(body, "out[{o}] = {};", r(*reg));
+            }
         }
         s.push_str(&indent(&body, 8));
         s.push_str("    }\n");
@@ -345,7 +377,7 @@ fn function(lm: &LoopModel, lt: &LoopTape, name: &str, header: &str) -> String {
         let fam = &lm.families()[region.family];
         let hoisted = (!region.tape.hoisted.is_empty()).then(|| format!("{name}_loop_{k}"));
         s.push_str(&indent(
-            &region_code(lm.lowered(), fam, region, hoisted.as_deref(), k),
+            &region_code(lm.lowered(), fam, region, hoisted.as_deref(), k, lanes),
             4,
         ));
     }
@@ -355,10 +387,12 @@ fn function(lm: &LoopModel, lt: &LoopTape, name: &str, header: &str) -> String {
 
 /// The body of `tape` as `let`s into `s`; returns how to name a register (leaves inline).
 /// `state(k)` renders state input k; `hoisted` names the prepared field of the hoisted values.
+/// With `lanes`, registers are `[f64; K]` and the names are those of lane `l`.
 fn straight<'t>(
     tape: &'t Tape,
     hoisted: Option<&str>,
     state: &dyn Fn(u32) -> String,
+    lanes: bool,
     s: &mut String,
 ) -> impl Fn(Reg) -> String + 't {
     if let Some(h) = hoisted {
@@ -372,16 +406,23 @@ fn straight<'t>(
             _ => return None,
         })
     };
-    let names: Vec<String> = tape
-        .body
-        .iter()
-        .enumerate()
-        .map(|(i, op)| leaf(op).unwrap_or_else(|| format!("r{i}")))
-        .collect();
+    // with lanes: does the value differ between lanes (does it read the state)?
+    let mut varying = vec![false; tape.body.len()];
+    let mut names: Vec<String> = Vec::with_capacity(tape.body.len());
     for (i, op) in tape.body.iter().enumerate() {
-        if leaf(op).is_none() {
-            let e = op_expr(op, |r| names[r.index()].clone());
+        if let Some(text) = leaf(op) {
+            varying[i] = lanes && text.ends_with("[l]");
+            names.push(text);
+            continue;
+        }
+        varying[i] = lanes && op.operands().any(|r| varying[r.index()]);
+        let e = op_expr(op, |r| names[r.index()].clone());
+        if varying[i] {
+            let _ = writeln!(s, "let r{i}: [f64; K] = core::array::from_fn(|l| {e});");
+            names.push(format!("r{i}[l]"));
+        } else {
             let _ = writeln!(s, "let r{i} = {e};");
+            names.push(format!("r{i}"));
         }
     }
     move |r: Reg| names[r.index()].clone()
@@ -443,6 +484,7 @@ fn region_code(
     region: &Region,
     hoisted: Option<&str>,
     number: usize,
+    lanes: bool,
 ) -> String {
     let mut s = format!(
         "// {}\n",
@@ -452,6 +494,14 @@ fn region_code(
     let read = |c: usize, at: &str| match region.sources[c] {
         Source::State => format!("x[{at}]"),
         Source::Param => format!("params[{at}]"),
+    };
+    let slot = |c: u32| match (lanes, region.sources[c as usize]) {
+        (true, Source::State) => format!("s{c}[l]"),
+        _ => format!("s{c}"),
+    };
+    let add = |at: &str, value: &str| match lanes {
+        true => format!("for l in 0..K {{\n    out[{at}][l] += {value};\n}}"),
+        false => format!("out[{at}] += {value};"),
     };
     let used: Vec<bool> = (0..k)
         .map(|c| region.tape.body.contains(&Op::State(c as u32)))
@@ -477,9 +527,9 @@ fn region_code(
         for c in (0..k).filter(|&c| used[c]) {
             let _ = writeln!(body, "let s{c} = {};", read(c, &format!("g[{c}] as usize")));
         }
-        let r = straight(&region.tape, None, &|c| format!("s{c}"), &mut body);
+        let r = straight(&region.tape, None, &slot, lanes, &mut body);
         for (j, reg) in region.tape.outputs.iter().enumerate() {
-            let _ = writeln!(body, "out[w[{j}] as usize] += {};", r(*reg));
+            let _ = writeln!(body, "{}", add(&format!("w[{j}] as usize"), &r(*reg)));
         }
         s.push_str(&indent(&body, 8));
         s.push_str("    }\n}\n");
@@ -571,13 +621,13 @@ fn region_code(
         };
         let _ = writeln!(body, "let s{c} = {}; // {what}", read(c, &at));
     }
-    let r = straight(&region.tape, None, &|c| format!("s{c}"), &mut body);
+    let r = straight(&region.tape, None, &slot, lanes, &mut body);
     for (reg, place) in region.tape.outputs.iter().zip(&scatter) {
         let at = match place {
             Place::Fixed(at) => at.to_string(),
             Place::Indexed(i) => w.place(i),
         };
-        let _ = writeln!(body, "out[{at}] += {};", r(*reg));
+        let _ = writeln!(body, "{}", add(&at, &r(*reg)));
     }
     s.push_str(&indent(&body, 4 * depth));
     for d in (0..depth).rev() {

@@ -177,6 +177,115 @@ pub mod fput_loops {
                 out[0] += r13;
             }
         }
+
+        /// X for K states per call (structure of arrays): `x[i][l]` is component i of lane l,
+        /// `out[i][l]` its rate; each lane equals `field` bit for bit.
+        pub fn field_lanes<const K: usize>(&self, x: &[[f64; K]; DIM], out: &mut [[f64; K]; DIM]) {
+            *out = [[0.0; K]; 12];
+            // the terms outside the families
+            {
+                let h = &self.field_plain;
+                let r1: [f64; K] = core::array::from_fn(|l| x[0][l].powi(3));
+                let r3: [f64; K] = core::array::from_fn(|l| h[0] * r1[l]);
+                let r4: [f64; K] = core::array::from_fn(|l| x[0][l].powi(2));
+                let r6: [f64; K] = core::array::from_fn(|l| h[1] * r4[l]);
+                let r7: [f64; K] = core::array::from_fn(|l| x[0][l] + r3[l]);
+                let r8: [f64; K] = core::array::from_fn(|l| r7[l] + r6[l]);
+                let r9: [f64; K] = core::array::from_fn(|l| -r8[l]);
+                let r11: [f64; K] = core::array::from_fn(|l| x[5][l].powi(3));
+                let r12: [f64; K] = core::array::from_fn(|l| h[0] * r11[l]);
+                let r13: [f64; K] = core::array::from_fn(|l| x[5][l].powi(2));
+                let r14: [f64; K] = core::array::from_fn(|l| h[1] * r13[l]);
+                let r15: [f64; K] = core::array::from_fn(|l| x[5][l] + r12[l]);
+                let r16: [f64; K] = core::array::from_fn(|l| r15[l] - r14[l]);
+                let r17: [f64; K] = core::array::from_fn(|l| -r16[l]);
+                out[6] = core::array::from_fn(|l| r9[l]);
+                out[11] = core::array::from_fn(|l| r17[l]);
+            }
+            // fput_loops.lsl:11: p[i]^2 / 2
+            for i in 0..6 {
+                let s0 = x[i + 6]; // p[i]
+                for l in 0..K {
+                    out[i][l] += s0[l];
+                }
+            }
+            // fput_loops.lsl:12: (q[i+1] - q[i])^2 / 2 + alpha * (q[i+1] - q[i])^3 / 3 + beta * (q[i+1] - q[i])^4 / 4
+            let h = &self.field_loop_1;
+            for i in 0..5 {
+                let s0 = x[i + 1]; // q[i + 1]
+                let s1 = x[i]; // q[i]
+                let r2: [f64; K] = core::array::from_fn(|l| s0[l] - s1[l]);
+                let r3: [f64; K] = core::array::from_fn(|l| r2[l].powi(3));
+                let r5: [f64; K] = core::array::from_fn(|l| h[0] * r3[l]);
+                let r6: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
+                let r8: [f64; K] = core::array::from_fn(|l| h[1] * r6[l]);
+                let r9: [f64; K] = core::array::from_fn(|l| r2[l] + r5[l]);
+                let r10: [f64; K] = core::array::from_fn(|l| r9[l] + r8[l]);
+                let r11: [f64; K] = core::array::from_fn(|l| -r10[l]);
+                for l in 0..K {
+                    out[i + 7][l] += r11[l];
+                }
+                for l in 0..K {
+                    out[i + 6][l] += r10[l];
+                }
+            }
+        }
+
+        /// f for K states per call, as [`Self::field_lanes`]; each lane equals `invariants`.
+        pub fn invariants_lanes<const K: usize>(&self, x: &[[f64; K]; DIM], out: &mut [[f64; K]; INVARIANT_DIM]) {
+            *out = [[0.0; K]; 1];
+            // the terms outside the families
+            {
+                let h = &self.invariants_plain;
+                let r1: [f64; K] = core::array::from_fn(|l| x[0][l].powi(2));
+                let r3: [f64; K] = core::array::from_fn(|l| 0.5_f64 * r1[l]);
+                let r5: [f64; K] = core::array::from_fn(|l| x[5][l].powi(2));
+                let r6: [f64; K] = core::array::from_fn(|l| 0.5_f64 * r5[l]);
+                let r7: [f64; K] = core::array::from_fn(|l| x[5][l].powi(3));
+                let r9: [f64; K] = core::array::from_fn(|l| 0.3333333333333333_f64 * r7[l]);
+                let r10: [f64; K] = core::array::from_fn(|l| x[0][l].powi(3));
+                let r11: [f64; K] = core::array::from_fn(|l| 0.3333333333333333_f64 * r10[l]);
+                let r12: [f64; K] = core::array::from_fn(|l| r11[l] - r9[l]);
+                let r14: [f64; K] = core::array::from_fn(|l| h[0] * r12[l]);
+                let r15: [f64; K] = core::array::from_fn(|l| x[5][l].powi(4));
+                let r17: [f64; K] = core::array::from_fn(|l| 0.25_f64 * r15[l]);
+                let r18: [f64; K] = core::array::from_fn(|l| x[0][l].powi(4));
+                let r19: [f64; K] = core::array::from_fn(|l| 0.25_f64 * r18[l]);
+                let r20: [f64; K] = core::array::from_fn(|l| r17[l] + r19[l]);
+                let r22: [f64; K] = core::array::from_fn(|l| h[1] * r20[l]);
+                let r23: [f64; K] = core::array::from_fn(|l| r3[l] + r6[l]);
+                let r24: [f64; K] = core::array::from_fn(|l| r23[l] + r14[l]);
+                let r25: [f64; K] = core::array::from_fn(|l| r24[l] + r22[l]);
+                out[0] = core::array::from_fn(|l| r25[l]);
+            }
+            // fput_loops.lsl:11: p[i]^2 / 2
+            for i in 0..6 {
+                let s0 = x[i + 6]; // p[i]
+                let r1: [f64; K] = core::array::from_fn(|l| s0[l].powi(2));
+                let r3: [f64; K] = core::array::from_fn(|l| 0.5_f64 * r1[l]);
+                for l in 0..K {
+                    out[0][l] += r3[l];
+                }
+            }
+            // fput_loops.lsl:12: (q[i+1] - q[i])^2 / 2 + alpha * (q[i+1] - q[i])^3 / 3 + beta * (q[i+1] - q[i])^4 / 4
+            let h = &self.invariants_loop_1;
+            for i in 0..5 {
+                let s0 = x[i + 1]; // q[i + 1]
+                let s1 = x[i]; // q[i]
+                let r2: [f64; K] = core::array::from_fn(|l| s0[l] - s1[l]);
+                let r3: [f64; K] = core::array::from_fn(|l| r2[l].powi(2));
+                let r5: [f64; K] = core::array::from_fn(|l| 0.5_f64 * r3[l]);
+                let r6: [f64; K] = core::array::from_fn(|l| r2[l].powi(3));
+                let r8: [f64; K] = core::array::from_fn(|l| r6[l] * h[0]);
+                let r9: [f64; K] = core::array::from_fn(|l| r2[l].powi(4));
+                let r11: [f64; K] = core::array::from_fn(|l| r9[l] * h[1]);
+                let r12: [f64; K] = core::array::from_fn(|l| r5[l] + r8[l]);
+                let r13: [f64; K] = core::array::from_fn(|l| r12[l] + r11[l]);
+                for l in 0..K {
+                    out[0][l] += r13[l];
+                }
+            }
+        }
     }
 
     impl Field<f64, [f64; DIM]> for FputPrepared {
