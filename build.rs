@@ -49,16 +49,23 @@ fn main() {
         PathBuf::from(std::env::var("OUT_DIR").expect("set by cargo")).join("model_files.rs");
     std::fs::write(target, out).expect("OUT_DIR is writable");
     println!("cargo:rerun-if-changed=models");
+    println!("cargo:rerun-if-changed=tests/models/loop_ring.lsl");
 }
 
 /// The loop forms of the N-body and FPUT families at three sizes each (`param n` set on its
-/// line), into `$OUT_DIR/loop_forms.rs`, for the test that holds them against the JIT's loop
+/// line) and of the periodic chain of `tests/models/loop_ring.lsl`, into `$OUT_DIR/loop_forms.rs`, for the test that holds them against the JIT's loop
 /// kernels (`tests/loops_emitted.rs`, which sets the sizes the same way).
 fn loop_forms() {
     let mut models = Vec::new();
-    for (file, sizes) in [("nbody", [3, 9, 20]), ("fput", [5, 12, 40])] {
-        let text = std::fs::read_to_string(format!("models/{file}.lsl")).expect("a model file");
-        for n in sizes {
+    let forms: [(&str, &[usize]); 3] = [
+        ("models/nbody", &[3, 9, 20]),
+        ("models/fput", &[5, 12, 40]),
+        ("tests/models/loop_ring", &[7]),
+    ];
+    for (file, sizes) in forms {
+        let text = std::fs::read_to_string(format!("{file}.lsl")).expect("a model file");
+        let file = file.rsplit('/').next().expect("a file name");
+        for &n in sizes {
             let line = text
                 .lines()
                 .find(|l| l.trim_start().starts_with("param n = "))

@@ -17,11 +17,13 @@ mod forms {
     include!(concat!(env!("OUT_DIR"), "/loop_forms.rs"));
 }
 
-/// `models/<file>.lsl` with `param n = <n>;` on its size line, as `build.rs` writes it.
+/// `models/<file>.lsl` (or `tests/models/<file>.lsl`) with `param n = <n>;` on its size line,
+/// as `build.rs` writes it.
 fn sized(file: &str, n: usize) -> String {
-    let text =
-        std::fs::read_to_string(format!("{}/models/{file}.lsl", env!("CARGO_MANIFEST_DIR")))
-            .unwrap();
+    let root = env!("CARGO_MANIFEST_DIR");
+    let text = std::fs::read_to_string(format!("{root}/models/{file}.lsl"))
+        .or_else(|_| std::fs::read_to_string(format!("{root}/tests/models/{file}.lsl")))
+        .unwrap();
     let line = text
         .lines()
         .find(|l| l.trim_start().starts_with("param n = "))
@@ -94,7 +96,8 @@ fn lanes_agree<const N: usize, const M: usize>(
 ) {
     let mut rand = rng(0x2545_f491_4f6c_dd1d ^ N as u64);
     for _ in 0..20 {
-        let xs: [[f64; N]; 4] = std::array::from_fn(|_| std::array::from_fn(|k| rand() * (1 + k) as f64));
+        let xs: [[f64; N]; 4] =
+            std::array::from_fn(|_| std::array::from_fn(|k| rand() * (1 + k) as f64));
         let soa: [[f64; 4]; N] = std::array::from_fn(|i| std::array::from_fn(|l| xs[l][i]));
         let (mut dx, mut f) = ([[0.0; 4]; N], [[0.0; 4]; M]);
         field_lanes(&soa, &mut dx);
@@ -118,12 +121,9 @@ macro_rules! check {
         use forms::$module::{$ty, DIM, INVARIANT_DIM};
         let m = $ty::default().prepare();
         assert_eq!(m.state_dim(), DIM);
-        agrees::<DIM, INVARIANT_DIM>(
-            $file,
-            $n,
-            &|x, dx| m.field(x, dx),
-            &|x, f| m.invariants(x, f),
-        );
+        agrees::<DIM, INVARIANT_DIM>($file, $n, &|x, dx| m.field(x, dx), &|x, f| {
+            m.invariants(x, f)
+        });
         lanes_agree::<DIM, INVARIANT_DIM>(
             stringify!($module),
             &|x, dx| m.field(x, dx),
@@ -148,6 +148,24 @@ fn fput_loops_equal_the_jit_bit_for_bit() {
     check!(fput_40, Fput, "fput", 40);
 }
 
+/// A remainder, a remainder of a negative difference (computed in `i64`), a condition and a
+/// subscript without a loop form (a table), in the order the kernels add them.
+#[test]
+fn remainders_conditions_and_tables_equal_the_jit_bit_for_bit() {
+    let code = std::fs::read_to_string(concat!(env!("OUT_DIR"), "/loop_forms.rs")).unwrap();
+    let ring = &code[code.find("pub mod loop_ring_7").unwrap()..];
+    for text in [
+        "let s1 = x[(i + 1) % 7]; // q[(i + 1) % 7]",
+        "for i in 0_i64..7_i64 {",
+        "x[((i - 1).rem_euclid(7)) as usize]",
+        "if i != j {",
+        "const GATHER_4: [[u32; 1]; 7] = [[0], [1], [2], [3], [4], [5], [6]];",
+    ] {
+        assert!(ring.contains(text), "{text} in {ring}");
+    }
+    check!(loop_ring_7, LoopRing, "loop_ring", 7);
+}
+
 /// The energy of the emitted FPUT chain at its point is the closed form of the model file's
 /// Hamiltonian (independent of the tapes): ½Σ(q[i+1] − q[i])² + α/3 Σ(q[i+1] − q[i])³ with
 /// the walls, p = 0, β = 0.
@@ -168,7 +186,11 @@ fn the_emitted_fput_energy_is_the_closed_form() {
         .sum();
     let mut f = [0.0; 1];
     m.invariants(&x, &mut f);
-    assert!((f[0] - want).abs() < 1e-14 * want.abs(), "{} vs {want}", f[0]);
+    assert!(
+        (f[0] - want).abs() < 1e-14 * want.abs(),
+        "{} vs {want}",
+        f[0]
+    );
     // q(k) = sin(π k (i + 1)/(n + 1)) with k = 1: the model file's point
     for (i, &qi) in q.iter().enumerate() {
         let want = (std::f64::consts::PI * (i + 1) as f64 / 13.0).sin();
@@ -208,12 +230,9 @@ fn without_constants(code: &str) -> String {
 #[test]
 fn the_loop_form_does_not_grow_with_the_bodies() {
     let generate = |n: usize| {
-        let m = lasalle_codegen::generate_source_with(
-            "nbody.lsl",
-            &sized("nbody", n),
-            Families::Loops,
-        )
-        .unwrap();
+        let m =
+            lasalle_codegen::generate_source_with("nbody.lsl", &sized("nbody", n), Families::Loops)
+                .unwrap();
         // the shape's name holds the size: `mat3x12`
         lasalle_codegen::Generated { models: vec![m] }
             .module_file()
@@ -225,7 +244,10 @@ fn the_loop_form_does_not_grow_with_the_bodies() {
     assert_eq!(without_constants(&small), without_constants(&large));
     // loops over the pairs with index arithmetic, no tables
     assert!(large.contains("for j in (i + 1)..96 {"), "{large}");
-    assert!(large.contains("let s5 = x[3 * j]; // q[j], component 0"), "{large}");
+    assert!(
+        large.contains("let s5 = x[3 * j]; // q[j], component 0"),
+        "{large}"
+    );
     assert!(large.contains("out[3 * j + 288] += r22;"), "{large}");
     assert!(!large.contains("GATHER"), "{large}");
     // the unrolled form of the small model is larger already

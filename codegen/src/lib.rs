@@ -177,7 +177,11 @@ pub fn generate_source_with(path: &str, text: &str, families: Families) -> Resul
 
 /// The module of a model generated from `path` (its file stem, snake_case; the model's name if
 /// the path has none), with the extension's suffix.
-fn module_name(path: &str, name: &str, extension: Option<(variational::Extension, usize)>) -> String {
+fn module_name(
+    path: &str,
+    name: &str,
+    extension: Option<(variational::Extension, usize)>,
+) -> String {
     let stem = Path::new(path)
         .file_stem()
         .map_or_else(|| name.to_string(), |s| s.to_string_lossy().into_owned());

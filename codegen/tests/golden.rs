@@ -102,13 +102,23 @@ fn the_loop_form_of_the_chain_runs() {
     let x: [f64; 12] = std::array::from_fn(|k| ((k * 7 + 3) % 11) as f64 / 10.0 - 0.45);
     let mut dx = [0.0; 12];
     m.field(&x, &mut dx);
-    let q = |i: isize| if (0..6).contains(&i) { x[i as usize] } else { 0.0 };
+    let q = |i: isize| {
+        if (0..6).contains(&i) {
+            x[i as usize]
+        } else {
+            0.0
+        }
+    };
     let force = |r: f64| r + a * r * r + b * r * r * r;
     for i in 0..6 {
         assert_eq!(dx[i], x[6 + i], "q̇[{i}]");
         let j = i as isize;
         let want = force(q(j + 1) - q(j)) - force(q(j) - q(j - 1));
-        assert!((dx[6 + i] - want).abs() < 1e-14, "ṗ[{i}]: {} vs {want}", dx[6 + i]);
+        assert!(
+            (dx[6 + i] - want).abs() < 1e-14,
+            "ṗ[{i}]: {} vs {want}",
+            dx[6 + i]
+        );
     }
     let v = |r: f64| r * r / 2.0 + a * r * r * r / 3.0 + b * r * r * r * r / 4.0;
     let want: f64 = x[6..].iter().map(|p| p * p / 2.0).sum::<f64>()

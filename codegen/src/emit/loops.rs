@@ -254,7 +254,11 @@ fn declarations(model: &Model) -> String {
             f.gain
         );
     }
-    let gains: Vec<String> = model.gains.iter().map(|g| format!("{:?}", g.name)).collect();
+    let gains: Vec<String> = model
+        .gains
+        .iter()
+        .map(|g| format!("{:?}", g.name))
+        .collect();
     let defaults: Vec<String> = model.gains.iter().map(|g| f64_text(g.default)).collect();
     let _ = write!(
         s,
@@ -300,7 +304,10 @@ fn f64_text(x: f64) -> String {
 }
 
 fn list(xs: &[f64]) -> String {
-    xs.iter().map(|&x| f64_text(x)).collect::<Vec<_>>().join(", ")
+    xs.iter()
+        .map(|&x| f64_text(x))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// The tapes of a function: the plain one first, then the regions, with their names as
@@ -339,9 +346,10 @@ fn function(lm: &LoopModel, lt: &LoopTape, name: &str, header: &str, lanes: bool
     let mut s = format!("{header}\n");
     let len = lt.n_outputs();
     let reads_params = lt.regions.iter().any(|r| {
-        r.sources.iter().enumerate().any(|(c, s)| {
-            *s == Source::Param && r.tape.body.contains(&Op::State(c as u32))
-        })
+        r.sources
+            .iter()
+            .enumerate()
+            .any(|(c, s)| *s == Source::Param && r.tape.body.contains(&Op::State(c as u32)))
     });
     if reads_params {
         s.push_str("    let params = &self.params;\n");
@@ -460,7 +468,10 @@ fn places(fam: &Family, region: &Region) -> Option<(Vec<Place>, Vec<Place>)> {
         }
         // the component a state slot reads, shifted (∂H/∂q[i] into ṗ[i])
         let shifted = fam.slots.iter().enumerate().find_map(|(j, slot)| {
-            let index = slot.index.as_ref().filter(|_| slot.source == Source::State)?;
+            let index = slot
+                .index
+                .as_ref()
+                .filter(|_| slot.source == Source::State)?;
             let g = column(&region.gather, k, j);
             let d = i64::from(col[0]) - i64::from(g[0]);
             let same = g
@@ -616,8 +627,14 @@ fn region_code(
     s.push_str(&open);
     for (c, place) in gather.iter().enumerate().filter(|(c, _)| used[*c]) {
         let (at, what) = match place {
-            Place::Fixed(at) => (at.to_string(), describe(model, region.sources[c], i64::from(*at), None, &w)),
-            Place::Indexed(i) => (w.place(i), describe(model, region.sources[c], i.base, Some(i), &w)),
+            Place::Fixed(at) => (
+                at.to_string(),
+                describe(model, region.sources[c], i64::from(*at), None, &w),
+            ),
+            Place::Indexed(i) => (
+                w.place(i),
+                describe(model, region.sources[c], i.base, Some(i), &w),
+            ),
         };
         let _ = writeln!(body, "let s{c} = {}; // {what}", read(c, &at));
     }
@@ -651,7 +668,13 @@ fn rows(table: &[u32], width: usize) -> String {
 }
 
 /// `q[i + 1], component 2` for a comment.
-fn describe(model: &Model, source: Source, base: i64, index: Option<&SlotIndex>, w: &Writer) -> String {
+fn describe(
+    model: &Model,
+    source: Source,
+    base: i64,
+    index: Option<&SlotIndex>,
+    w: &Writer,
+) -> String {
     let found = match source {
         Source::State => model
             .state
@@ -670,7 +693,11 @@ fn describe(model: &Model, source: Source, base: i64, index: Option<&SlotIndex>,
     let c = base - offset as i64;
     match index {
         Some(i) => {
-            let member = Writer { names: w.names, unsigned: true }.dsl(&i.member, 0);
+            let member = Writer {
+                names: w.names,
+                unsigned: true,
+            }
+            .dsl(&i.member, 0);
             match shape {
                 Shape::Matrix(..) => format!("{name}[{member}], component {}", c % i.stride),
                 _ => format!("{name}[{member}]"),
@@ -811,6 +838,8 @@ impl Writer<'_> {
                 let text = terms.join(" + ");
                 return if self.unsigned {
                     text
+                } else if terms.len() == 1 && !text.contains(' ') {
+                    format!("{text} as usize")
                 } else {
                     format!("({text}) as usize")
                 };
@@ -826,6 +855,8 @@ impl Writer<'_> {
         };
         if self.unsigned {
             text
+        } else if text.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+            format!("{text} as usize")
         } else {
             format!("({text}) as usize")
         }
