@@ -95,8 +95,9 @@ fn the_loop_form_of_a_chain_matches_the_golden_file() {
 fn the_loop_form_of_the_chain_runs() {
     use fput_loops_generated::fput_loops::Fput;
     use lasalle_runtime::Field;
-    let mut model = Fput::default();
-    model.params = [0.25, 0.125]; // α, β
+    let model = Fput {
+        params: [0.25, 0.125], // α, β
+    };
     let (a, b) = (0.25, 0.125);
     let m = model.prepare();
     let x: [f64; 12] = std::array::from_fn(|k| ((k * 7 + 3) % 11) as f64 / 10.0 - 0.45);
