@@ -85,14 +85,17 @@ fn agrees<const N: usize, const M: usize>(
     }
 }
 
+/// A batched function of four states: `x[i][l]` is component i of lane l.
+type Batch<'a, const N: usize, const O: usize> = &'a dyn Fn(&[[f64; 4]; N], &mut [[f64; 4]; O]);
+
 /// Each lane of the emitted `*_lanes` functions (K = 4) against the scalar emitted functions,
 /// bit for bit, at 20 random batches.
 fn lanes_agree<const N: usize, const M: usize>(
     name: &str,
     field: &dyn Fn(&[f64; N], &mut [f64; N]),
     invariants: &dyn Fn(&[f64; N], &mut [f64; M]),
-    field_lanes: &dyn Fn(&[[f64; 4]; N], &mut [[f64; 4]; N]),
-    invariants_lanes: &dyn Fn(&[[f64; 4]; N], &mut [[f64; 4]; M]),
+    field_lanes: Batch<'_, N, N>,
+    invariants_lanes: Batch<'_, N, M>,
 ) {
     let mut rand = rng(0x2545_f491_4f6c_dd1d ^ N as u64);
     for _ in 0..20 {
