@@ -128,7 +128,7 @@ pub fn generate_source(path: &str, text: &str) -> Result<GeneratedModel> {
 /// whose size does not depend on the number of tuples, bitwise equal to the JIT's loop
 /// kernels; the prepared model implements `Field` and `ModelInfo` and has `invariants`, and
 /// the functions without a loop form (the Jacobian, V, ∇V, X − ∇V, the half-fields, the Taylor
-/// kernels, the lanes, guards, events) are left out. A model without such a family is
+/// kernels, their lanes, guards, events) are left out. A model without such a family is
 /// generated as [`generate_source`] does, and so is one whose families the loop form refuses
 /// under [`Families::Auto`] (under [`Families::Loops`] the refusal is the error).
 pub fn generate_source_with(path: &str, text: &str, families: Families) -> Result<GeneratedModel> {

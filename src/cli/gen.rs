@@ -49,7 +49,7 @@ pub struct GenArgs {
     /// written out term by term (unrolled). With loops the module has the field and the
     /// invariants as loops over the families' ranges, its size independent of theirs, and
     /// leaves out the functions that have no loop form (the Jacobian, V, ∇V, X − ∇V, the
-    /// Taylor kernels, the lanes); unrolled emits them all.
+    /// Taylor kernels and their lanes); unrolled emits them all.
     #[arg(long, value_enum, default_value_t)]
     families: super::load::FamiliesArg,
     /// Print operation counts, conservation verdicts, time and size to standard error.

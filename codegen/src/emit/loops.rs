@@ -17,8 +17,8 @@
 //! indices read and written, and a comment says so.
 //!
 //! What has no loop form is left out rather than written out term by term: the Jacobian of
-//! the invariants, V, ∇V, X − ∇V, the half-fields, the Taylor kernels, the lanes, guards and
-//! events; the module's docs say so, and `--families unrolled` emits the model whole.
+//! the invariants, V, ∇V, X − ∇V, the half-fields, the Taylor kernels, the batched forms of
+//! those, guards and events; the module's docs say so, and `--families unrolled` emits the model whole.
 
 use super::taylor::{f64_lit, op_expr, prelude_block};
 use lasalle_model::loops::index::{Ix, LoopClause, SlotIndex};
@@ -214,8 +214,9 @@ fn summary(lm: &LoopModel, conservation: &[Conservation]) -> String {
     let _ = write!(
         out,
         "\n{} families are loops, written once whatever their number of index tuples. \
-         `{}Prepared` implements `Field` and `ModelInfo` and has `invariants`; the Jacobian of \
-         the invariants, V, ∇V, X − ∇V, the half-fields, the Taylor kernels, the lanes, guards \
+         `{}Prepared` implements `Field` and `ModelInfo` and has `invariants`, `field_lanes` and \
+         `invariants_lanes` (K states per call); the Jacobian of \
+         the invariants, V, ∇V, X − ∇V, the half-fields, the Taylor kernels, their lanes, guards \
          and events have no loop form here: generate with `--families unrolled` for them.\n",
         lm.families().len(),
         model.name

@@ -9,7 +9,7 @@
 /// Invariants (stacked f):
 /// - `H`: scalar at f[0..1]; conservation proved symbolically
 ///
-/// 2 families are loops, written once whatever their number of index tuples. `FputPrepared` implements `Field` and `ModelInfo` and has `invariants`; the Jacobian of the invariants, V, ∇V, X − ∇V, the half-fields, the Taylor kernels, the lanes, guards and events have no loop form here: generate with `--families unrolled` for them.
+/// 2 families are loops, written once whatever their number of index tuples. `FputPrepared` implements `Field` and `ModelInfo` and has `invariants`, `field_lanes` and `invariants_lanes` (K states per call); the Jacobian of the invariants, V, ∇V, X − ∇V, the half-fields, the Taylor kernels, their lanes, guards and events have no loop form here: generate with `--families unrolled` for them.
 pub mod fput_loops {
     #![allow(clippy::approx_constant)]
     // Loops index several arrays with the same index.
