@@ -22,6 +22,7 @@ fn main() {
         eprintln!("{e}");
         std::process::exit(1);
     }
+    loop_forms();
     let dir =
         PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("set by cargo")).join("models");
     let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
@@ -48,4 +49,41 @@ fn main() {
         PathBuf::from(std::env::var("OUT_DIR").expect("set by cargo")).join("model_files.rs");
     std::fs::write(target, out).expect("OUT_DIR is writable");
     println!("cargo:rerun-if-changed=models");
+    println!("cargo:rerun-if-changed=tests/models/loop_ring.lsl");
+}
+
+/// The loop forms of the N-body and FPUT families at three sizes each (`param n` set on its
+/// line) and of the periodic chain of `tests/models/loop_ring.lsl`, into `$OUT_DIR/loop_forms.rs`, for the test that holds them against the JIT's loop
+/// kernels (`tests/loops_emitted.rs`, which sets the sizes the same way).
+fn loop_forms() {
+    let mut models = Vec::new();
+    let forms: [(&str, &[usize]); 3] = [
+        ("models/nbody", &[3, 9, 20]),
+        ("models/fput", &[5, 12, 40]),
+        ("tests/models/loop_ring", &[7]),
+    ];
+    for (file, sizes) in forms {
+        let text = std::fs::read_to_string(format!("{file}.lsl")).expect("a model file");
+        let file = file.rsplit('/').next().expect("a file name");
+        for &n in sizes {
+            let line = text
+                .lines()
+                .find(|l| l.trim_start().starts_with("param n = "))
+                .expect("a `param n = …;` line");
+            let sized = text.replace(line, &format!("    param n = {n};"));
+            let path = format!("{file}_{n}.lsl");
+            let families = lasalle_codegen::Families::Loops;
+            match lasalle_codegen::generate_source_with(&path, &sized, families) {
+                Ok(m) => models.push(m),
+                Err(e) => {
+                    eprintln!("{e}");
+                    std::process::exit(1);
+                }
+            }
+        }
+    }
+    let code = lasalle_codegen::Generated { models }.module_file();
+    let target =
+        PathBuf::from(std::env::var("OUT_DIR").expect("set by cargo")).join("loop_forms.rs");
+    lasalle_codegen::write_if_changed(&target, &code).expect("OUT_DIR is writable");
 }

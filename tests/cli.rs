@@ -145,6 +145,8 @@ const ROWS: &[(&[&str], &str)] = &[
     (&["gen", "kepler", "--variational", "--tangents", "0"], "--tangents 0"),
     (&["gen", "kepler", "--tangents", "2"], "--variational"),
     (&["gen", "kepler", "--variational", "--indicators"], "cannot be used with"),
+    (&["gen", "kepler", "--indicators", "--families", "loops"], "--families loops: the variational equations and the chaos indicators have no loop form"),
+    (&["gen", "kepler", "--families", "rolled"], "possible values"),
     (&["experiment", "double-pendulum"], "unknown experiment `double-pendulum`"),
     (&["experiment", "kepler", "--dt", "0"], "--dt"),
     (&["experiment", "kepler", "--periods", "nan"], "--periods"),

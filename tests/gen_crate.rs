@@ -7,7 +7,8 @@
 //! - a crate of a user's own, with `lasalle_codegen::Builder` in its `build.rs`, builds and
 //!   passes its test the same way;
 //! - `lasalle gen <model> --variational` writes the crate of the model's variational equations,
-//!   and the Builder emits them next to the plain model.
+//!   and the Builder emits them next to the plain model;
+//! - `lasalle gen <model> --families loops` writes the loop form of a model with families.
 //!
 //! Every build compiles the generated code without a warning.
 //!
@@ -269,6 +270,71 @@ fn a_variational_crate_builds_with_plain_cargo() {
     );
     std::fs::create_dir_all(dir.join("tests")).unwrap();
     std::fs::write(dir.join("tests/stm.rs"), HENON_HEILES_VARIATIONAL_TEST).unwrap();
+    cargo(&dir, "build");
+    cargo(&dir, "test");
+}
+
+/// The loop form of the N-body model of `models/` (5 bodies): its energy and momentum at its
+/// point against the sums written out here from the point and the masses.
+const NBODY_LOOPS_TEST: &str = r#"
+use n_body_model::nbody::{NBody, DIM};
+use lasalle_runtime::Field;
+#[test]
+fn nbody_loops_from_outside() {
+    let model = NBody::default();
+    let m = model.prepare();
+    let (_, x) = NBody::POINTS[0];
+    let (g, mass) = (model.params[0], &model.params[1..]);
+    let n = DIM / 6;
+    let (q, p) = (&x[..3 * n], &x[3 * n..]);
+    let mut energy = 0.0;
+    let mut momentum = [0.0; 3];
+    for i in 0..n {
+        let pi = &p[3 * i..3 * i + 3];
+        energy += (pi[0] * pi[0] + pi[1] * pi[1] + pi[2] * pi[2]) / (2.0 * mass[i]);
+        for c in 0..3 {
+            momentum[c] += pi[c];
+        }
+        for j in i + 1..n {
+            let d: Vec<f64> = (0..3).map(|c| q[3 * i + c] - q[3 * j + c]).collect();
+            let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            energy -= g * mass[i] * mass[j] / r;
+        }
+    }
+    let mut f = [0.0; 7];
+    m.invariants(&x, &mut f);
+    assert!((f[0] - energy).abs() < 1e-14 * energy.abs(), "{} vs {energy}", f[0]);
+    for c in 0..3 {
+        assert!((f[1 + c] - momentum[c]).abs() < 1e-15, "P[{c}]");
+    }
+    // q̇ = p/m
+    let mut dx = [0.0; DIM];
+    m.field(&x, &mut dx);
+    for k in 0..3 * n {
+        assert!((dx[k] - p[k] / mass[k / 3]).abs() < 1e-15, "q̇[{k}]");
+    }
+}
+"#;
+
+#[test]
+fn a_loop_form_crate_builds_with_plain_cargo() {
+    let dir = fresh("loops");
+    let out = lasalle_gen(&[
+        "models/nbody.lsl",
+        "--families",
+        "loops",
+        "--crate",
+        "target/gen-crate-test/loops",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let lib = std::fs::read_to_string(dir.join("src/lib.rs")).unwrap();
+    assert!(lib.contains("for j in (i + 1)..5 {"), "{lib}");
+    std::fs::create_dir_all(dir.join("tests")).unwrap();
+    std::fs::write(dir.join("tests/nbody.rs"), NBODY_LOOPS_TEST).unwrap();
     cargo(&dir, "build");
     cargo(&dir, "test");
 }

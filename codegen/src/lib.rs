@@ -63,6 +63,7 @@
 mod emit;
 
 pub use emit::{emit, snake, Emitted, Ops, Stats};
+pub use lasalle_model::loops::Families;
 pub use lasalle_model::variational;
 pub use lasalle_model::{
     check, derive, ir, load_model, lower_source, tape, vocabulary, Binding, CanonicalHamiltonian,
@@ -116,6 +117,81 @@ pub struct GeneratedModel {
 pub fn generate_source(path: &str, text: &str) -> Result<GeneratedModel> {
     let start = Instant::now();
     generate_model(path, lower_source(path, text)?, start, None)
+}
+
+/// Generates the code of one model text with its families (`sum(i in 0..n, …: …)`) kept as
+/// loops as `families` says ([`Families::Auto`]: the sums of at least
+/// [`AUTO_MIN_TUPLES`](lasalle_model::loops::AUTO_MIN_TUPLES) index tuples).
+///
+/// A model with a family kept as a loop is emitted in its loop form (see the module docs of
+/// `emit::loops`): the field and the invariants as loops over the families' index ranges,
+/// whose size does not depend on the number of tuples, bitwise equal to the JIT's loop
+/// kernels; the prepared model implements `Field` and `ModelInfo` and has `invariants`, and
+/// the functions without a loop form (the Jacobian, V, ∇V, X − ∇V, the half-fields, the Taylor
+/// kernels, their lanes, guards, events) are left out. A model without such a family is
+/// generated as [`generate_source`] does, and so is one whose families the loop form refuses
+/// under [`Families::Auto`] (under [`Families::Loops`] the refusal is the error).
+pub fn generate_source_with(path: &str, text: &str, families: Families) -> Result<GeneratedModel> {
+    let start = Instant::now();
+    if families == Families::Unrolled {
+        return generate_source(path, text);
+    }
+    let lm = lasalle_model::loops::LoopModel::from_source(path, text, families)?;
+    if lm.families().is_empty() {
+        return generate_model(path, lm.unrolled()?, start, None);
+    }
+    let (conservation, tapes) = match lm.check().and_then(|c| Ok((c, lm.tapes()?))) {
+        Ok(ct) => ct,
+        Err(_) if families == Families::Auto => {
+            return generate_model(path, lm.unrolled()?, start, None)
+        }
+        Err(e) => return Err(e),
+    };
+    let (code, summary) = emit::emit_loops(&lm, &tapes, &conservation);
+    let model = lm.lowered();
+    let instructions = |t: &lasalle_model::loops::LoopTape| Ops {
+        emitted: t.instructions() as u64,
+        ..Ops::default()
+    };
+    Ok(GeneratedModel {
+        name: model.name.clone(),
+        module: module_name(path, &model.name, None),
+        summary,
+        report: Report {
+            stats: Stats {
+                field: instructions(&tapes.field),
+                invariants: instructions(&tapes.invariants),
+                ..Stats::default()
+            },
+            conservation,
+            time: start.elapsed(),
+            bytes: code.len(),
+            lines: code.lines().count(),
+        },
+        items: String::new(),
+        tape_code: code.clone(),
+        code,
+        path: PathBuf::from(path),
+    })
+}
+
+/// The module of a model generated from `path` (its file stem, snake_case; the model's name if
+/// the path has none), with the extension's suffix.
+fn module_name(
+    path: &str,
+    name: &str,
+    extension: Option<(variational::Extension, usize)>,
+) -> String {
+    let stem = Path::new(path)
+        .file_stem()
+        .map_or_else(|| name.to_string(), |s| s.to_string_lossy().into_owned());
+    let module = emit::snake(&stem).replace(|c: char| !c.is_ascii_alphanumeric() && c != '_', "_");
+    let module = match extension {
+        Some((e, n)) => format!("{module}{}", extension_suffix(e, n).1),
+        None => module,
+    };
+    // `fn.lsl`, `self.lsl`, `1d.lsl`, `_.lsl` still name a valid module: `fn_`, `self_`, `v1d`, `v_`.
+    lasalle_model::names::identifier(&module)
 }
 
 /// Generates the code of one model text extended by `extension`
@@ -262,22 +338,13 @@ fn generate_model(
     let model = &derived.model;
     let mut code = emit::format(&emitted.items)?;
     code.push_str(&emitted.tape_code);
-    let stem = Path::new(path).file_stem().map_or_else(
-        || extension.as_ref().map_or(&model.name, |e| &e.1).clone(),
-        |s| s.to_string_lossy().into_owned(),
-    );
-    let module = emit::snake(&stem).replace(|c: char| !c.is_ascii_alphanumeric() && c != '_', "_");
+    let fallback = extension.as_ref().map_or(&model.name, |e| &e.1);
+    let module = module_name(path, fallback, extension.as_ref().map(|e| (e.0, e.2)));
     let mut summary = emitted.summary;
-    let module = match extension {
-        Some((e, base, n)) => {
-            summary.truncate(summary.trim_end().len());
-            summary.push_str(&extension_note(e, &base, n));
-            format!("{module}{}", extension_suffix(e, n).1)
-        }
-        None => module,
-    };
-    // `fn.lsl`, `self.lsl`, `1d.lsl`, `_.lsl` still name a valid module: `fn_`, `self_`, `v1d`, `v_`.
-    let module = lasalle_model::names::identifier(&module);
+    if let Some((e, base, n)) = extension {
+        summary.truncate(summary.trim_end().len());
+        summary.push_str(&extension_note(e, &base, n));
+    }
     Ok(GeneratedModel {
         name: model.name.clone(),
         module,
@@ -347,6 +414,13 @@ impl GeneratedModel {
 pub fn generate_file(path: impl AsRef<Path>) -> Result<GeneratedModel> {
     let path = path.as_ref();
     generate_source(&path.display().to_string(), &read(path)?)
+}
+
+/// Generates the code of a model file with its families kept as loops as `families` says (see
+/// [`generate_source_with`]).
+pub fn generate_file_with(path: impl AsRef<Path>, families: Families) -> Result<GeneratedModel> {
+    let path = path.as_ref();
+    generate_source_with(&path.display().to_string(), &read(path)?, families)
 }
 
 /// Generates the code of a model file extended by `extension` (see [`generate_extended`]).
@@ -419,6 +493,7 @@ pub struct Builder {
     dirs: Vec<PathBuf>,
     out_dir: Option<PathBuf>,
     out_file: Option<String>,
+    families: Families,
 }
 
 impl Builder {
@@ -444,6 +519,13 @@ impl Builder {
         extension: variational::Extension,
     ) -> &mut Self {
         self.extended.push((path.into(), extension));
+        self
+    }
+
+    /// How the models' families are emitted (default [`Families::Auto`]; see
+    /// [`generate_source_with`]). Extended models are always unrolled.
+    pub fn families(&mut self, families: Families) -> &mut Self {
+        self.families = families;
         self
     }
 
@@ -490,7 +572,7 @@ impl Builder {
         let extended = self.extended.iter().map(|(p, e)| (p.clone(), Some(*e)));
         for (path, extension) in plain.chain(extended) {
             let generated = match extension {
-                None => generate_file(&path),
+                None => generate_file_with(&path, self.families),
                 Some(e) => generate_file_extended(&path, e),
             };
             match generated {

@@ -44,6 +44,14 @@ pub struct GenArgs {
     /// `<Model>Indicators` in the module `<file>_indicators`.
     #[arg(long, conflicts_with = "variational")]
     indicators: bool,
+    /// How the model's families (`sum(i in 0..n: …)`) are compiled: as loops, one per sum,
+    /// for the sums of at least 64 index tuples (auto), for every sum that can be (loops), or
+    /// written out term by term (unrolled). With loops the module has the field and the
+    /// invariants as loops over the families' ranges, its size independent of theirs, and
+    /// leaves out the functions that have no loop form (the Jacobian, V, ∇V, X − ∇V, the
+    /// Taylor kernels and their lanes); unrolled emits them all.
+    #[arg(long, value_enum, default_value_t)]
+    families: super::load::FamiliesArg,
     /// Print operation counts, conservation verdicts, time and size to standard error.
     #[arg(long)]
     stats: bool,
@@ -54,7 +62,7 @@ pub fn run(args: &GenArgs) -> CliResult {
     let (path, _, text) = super::load::model_text(&args.model)?;
     let model = match extension(args, &path, &text)? {
         Some(e) => lasalle_codegen::generate_extended(&path, &text, e)?,
-        None => lasalle_codegen::generate_source(&path, &text)?,
+        None => lasalle_codegen::generate_source_with(&path, &text, args.families.into())?,
     };
     if args.stats {
         print_stats(&model);
@@ -106,11 +114,18 @@ pub fn run(args: &GenArgs) -> CliResult {
 
 /// The extension `--variational [--tangents K]` or `--indicators` asks for.
 fn extension(args: &GenArgs, path: &str, text: &str) -> CliResult<Option<Extension>> {
+    if !(args.indicators || args.variational) {
+        return Ok(None);
+    }
+    if args.families == super::load::FamiliesArg::Loops {
+        return Err(super::usage(
+            "--families loops: the variational equations and the chaos indicators have no loop \
+             form; use --families auto or unrolled (they are emitted unrolled)"
+                .to_string(),
+        ));
+    }
     if args.indicators {
         return Ok(Some(Extension::Indicators));
-    }
-    if !args.variational {
-        return Ok(None);
     }
     let n = lasalle_codegen::lower_source(path, text)?.dim();
     let tangents = args.tangents.unwrap_or(n);

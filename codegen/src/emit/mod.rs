@@ -55,10 +55,12 @@ mod body;
 mod items;
 mod lanes;
 mod leaves;
+mod loops;
 mod prepared;
 mod taylor;
 mod traits;
 
+pub(crate) use loops::emit_loops;
 pub use names::snake;
 
 use crate::ir::{Graph, OpCount};

@@ -99,7 +99,7 @@ pub(super) fn op_expr(op: &Op, r: impl Fn(crate::tape::Reg) -> String) -> String
 
 /// One tape's prelude (parameter slots `p` → its hoisted values), f64 op for f64 op as
 /// `Tape::hoist`: a block of `let`s ending in the array of hoisted values.
-fn prelude_block(tape: &Tape) -> String {
+pub(super) fn prelude_block(tape: &Tape) -> String {
     let mut s = String::from("{\n");
     for (i, op) in tape.prelude.iter().enumerate() {
         let e = match *op {

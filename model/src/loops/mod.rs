@@ -25,8 +25,10 @@
 //! What the loop form does not do (yet) is refused rather than approximated: a family whose
 //! value enters a function other than linearly with a constant coefficient, or a Hamiltonian
 //! family under a Lie–Poisson structure. V, ∇V, X − ∇V, the Jacobian, the conservation proofs,
-//! the Taylor program and the emitted Rust have no loop form: they work on the unrolled model
-//! ([`Families::Unrolled`]).
+//! the Taylor program and the emitted Rust but its field and invariants have no loop form: they
+//! work on the unrolled model ([`Families::Unrolled`]). The emitted Rust writes the field and
+//! the invariants as loops from these tapes, with the index structure of [`index`]
+//! (`lasalle_codegen::generate_source_with`).
 
 use crate::error::{Diagnostic, Error, Span};
 use crate::ir::{FxHashMap, Graph, Id, Input, Node};
@@ -112,6 +114,8 @@ pub struct Slot {
     pub source: Source,
     /// The index it reads, per tuple.
     pub column: Vec<u32>,
+    /// The same as an expression of the indices, where one reproduces `column`.
+    pub index: Option<index::SlotIndex>,
 }
 
 /// A sum kept as a loop.
@@ -125,6 +129,8 @@ pub struct Family {
     pub(crate) placeholders: Vec<u32>,
     /// The body in the model file.
     pub span: Span,
+    /// The head's ranges and conditions, where they reproduce the tuples (see [`index`]).
+    pub clauses: Option<Vec<index::LoopClause>>,
 }
 
 /// A model lowered with its large families kept as loops. Its functions exist only as
@@ -181,6 +187,8 @@ pub struct Region {
     pub scatter: Vec<u32>,
     /// Index tuples.
     pub count: usize,
+    /// The family ([`LoopModel::families`]) the region runs.
+    pub family: usize,
 }
 
 impl LoopModel {
@@ -206,6 +214,12 @@ impl LoopModel {
     /// The families kept as loops.
     pub fn families(&self) -> &[Family] {
         &self.families
+    }
+
+    /// The lowered model, whose family sums are auxiliary symbols: for its declarations (state,
+    /// parameters, invariants, gains, points), not to evaluate its functions.
+    pub fn lowered(&self) -> &Model {
+        &self.model
     }
 
     /// The model's name.
@@ -469,6 +483,7 @@ impl<'a> Builder<'a> {
                 gather,
                 scatter,
                 count: fam.count,
+                family: f,
             });
         }
         Ok(LoopTape {
@@ -643,5 +658,6 @@ impl LoopTape {
 }
 
 mod check;
+pub mod index;
 #[cfg(test)]
 mod tests;

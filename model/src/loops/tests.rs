@@ -299,3 +299,57 @@ fn an_index_out_of_range_is_located() {
     );
     assert_eq!(loops, unrolled);
 }
+
+/// The index structure kept for the back ends that write loops: the ranges and conditions of
+/// the head and each slot's subscript reproduce the tuples and the gathered indices, and a
+/// subscript outside the integer expressions (a division) keeps none.
+#[test]
+fn the_index_structure_reproduces_the_tables() {
+    use index::{tuples, Compare, Ix, LoopClause};
+    let text = "model Ring {
+        param n = 6;
+        state q: vec2[n], p: vec2[n];
+        hamiltonian H = sum(i in 0..n: dot(p[i], p[i]) / 2)
+            + sum(i in 0..n, j in 0..n, i != j: dot(q[i], q[(j + 1) % n]) / 10)
+            + sum(i in 0..n: q[(2 * i) / 2][0]^4);
+        structure canonical(q, p);
+    }";
+    let lm = LoopModel::from_source("ring.lsl", text, Families::Loops).unwrap();
+    let fams = lm.families();
+    assert_eq!(fams.len(), 3);
+    for fam in &fams[..2] {
+        let clauses = fam.clauses.as_ref().expect("ranges and conditions");
+        let all = tuples(clauses, usize::MAX).unwrap();
+        assert_eq!(all.len(), fam.count);
+        for slot in &fam.slots {
+            let index = slot.index.as_ref().expect("a subscript of the indices");
+            for (t, vars) in all.iter().enumerate() {
+                assert_eq!(index.eval(vars), Some(i64::from(slot.column[t])));
+            }
+        }
+    }
+    // i in 0..6, j in 0..6, i != j: 30 tuples
+    let pair = fams[1].clauses.as_ref().unwrap();
+    assert_eq!(fams[1].count, 30);
+    assert_eq!(
+        pair[2],
+        LoopClause::Cond {
+            lhs: Ix::Var(0),
+            op: Compare::Ne,
+            rhs: Ix::Var(1)
+        }
+    );
+    // q[(j + 1) % n], component 1: 2·((j + 1) mod 6) + 1
+    let q_next = fams[1]
+        .slots
+        .iter()
+        .filter_map(|s| s.index.as_ref())
+        .find(|i| i.base == 1 && i.member.reads(1))
+        .unwrap();
+    assert_eq!(q_next.stride, 2);
+    assert_eq!(q_next.eval(&[0, 5]), Some(1));
+    // the division has no index expression: the tables stand alone
+    assert!(fams[2].slots.iter().all(|s| s.index.is_none()));
+    // and the loops still compute the field the unrolled model does
+    agrees(text, 3);
+}

@@ -13,6 +13,7 @@ use super::family::mentions;
 use super::lower::{Ctx, Lowerer, L};
 use super::{Shape, Value};
 use crate::ir::{FxHashMap, Input, Node};
+use crate::loops::index::{tuples, Compare, Ix, LoopClause, SlotIndex};
 use crate::loops::{Family, Slot, Source};
 use crate::parse::ast::*;
 
@@ -104,6 +105,7 @@ impl Lowerer {
         if mode.failed.is_some() {
             return Ok(None);
         }
+        let clauses = self.loop_clauses(head, &mode.vars, &mode.tuples);
         let collector = self.loops.as_mut().expect("checked above");
         let placeholders: Vec<u32> = value.ids.iter().map(|_| collector.symbol()).collect();
         let ids = placeholders
@@ -117,6 +119,7 @@ impl Lowerer {
             body: value.ids,
             placeholders,
             span: body.span.clone(),
+            clauses,
         });
         Ok(Some(Value {
             shape: value.shape,
@@ -177,6 +180,17 @@ impl Lowerer {
         for (c, &x) in first.iter().enumerate() {
             self.indices[start + c].1 = x;
         }
+        // The subscript as an expression of the indices, if it reproduces every member read.
+        let (vars, tuples) = {
+            let mode = self.slot.as_ref().expect("checked above");
+            (mode.vars.clone(), mode.tuples.clone())
+        };
+        let member_ix = self.ix(&idx[0], &vars).filter(|ix| {
+            tuples
+                .iter()
+                .zip(&members)
+                .all(|(t, &m)| ix.eval(t) == Some(m as i64))
+        });
         let mut ids = Vec::with_capacity(k);
         for c in 0..k {
             let mut column = Vec::with_capacity(count);
@@ -199,6 +213,21 @@ impl Lowerer {
                 column.push(at);
             }
             let source = source.unwrap_or(Source::State);
+            let stride = k as i64;
+            let base = i64::from(column[0]) - stride * members[0] as i64;
+            let index = member_ix
+                .as_ref()
+                .filter(|_| {
+                    column
+                        .iter()
+                        .zip(&members)
+                        .all(|(&at, &m)| i64::from(at) == base + stride * m as i64)
+                })
+                .map(|member| SlotIndex {
+                    base,
+                    stride,
+                    member: member.clone(),
+                });
             let mode = self.slot.as_mut().expect("checked above");
             let key = (source, column);
             let slot = match mode.slot_of.get(&key) {
@@ -210,6 +239,7 @@ impl Lowerer {
                         symbol,
                         source,
                         column: key.1.clone(),
+                        index,
                     });
                     mode.slot_of.insert(key, mode.slots.len() - 1);
                     mode.slots.len() - 1
@@ -219,6 +249,72 @@ impl Lowerer {
             ids.push(self.g.input(Input::Symbol(symbol)));
         }
         Ok(Some(Value { shape: member, ids }))
+    }
+}
+
+impl Lowerer {
+    /// The head's clauses as index expressions, if they enumerate exactly `expected`.
+    fn loop_clauses(
+        &mut self,
+        head: &FamilyHead,
+        vars: &[String],
+        expected: &[Vec<i64>],
+    ) -> Option<Vec<LoopClause>> {
+        let mut clauses = Vec::with_capacity(head.clauses.len());
+        for c in &head.clauses {
+            clauses.push(match c {
+                Clause::Range { var, start, end } => LoopClause::Range {
+                    var: var.name.clone(),
+                    start: self.ix(start, vars)?,
+                    end: self.ix(end, vars)?,
+                },
+                Clause::Cond { lhs, op, rhs } => LoopClause::Cond {
+                    lhs: self.ix(lhs, vars)?,
+                    op: match op {
+                        IndexComparison::Eq => Compare::Eq,
+                        IndexComparison::Ne => Compare::Ne,
+                        IndexComparison::Less => Compare::Lt,
+                        IndexComparison::LessEq => Compare::Le,
+                        IndexComparison::Greater => Compare::Gt,
+                        IndexComparison::GreaterEq => Compare::Ge,
+                    },
+                    rhs: self.ix(rhs, vars)?,
+                },
+            });
+        }
+        (tuples(&clauses, expected.len() + 1)?.as_slice() == expected).then_some(clauses)
+    }
+
+    /// `e` as an integer expression of the indices `vars`: whole literals, the indices,
+    /// constants (by value) and `+ - * %`; `None` for anything else.
+    fn ix(&mut self, e: &Expr, vars: &[String]) -> Option<Ix> {
+        if !mentions(e, vars) {
+            let saved = self.slot.as_ref().map(|m| m.failed);
+            let k = self.integer(e, "an index").ok();
+            if let (Some(mode), Some(failed)) = (self.slot.as_mut(), saved) {
+                mode.failed = failed;
+            }
+            return k.map(Ix::Int);
+        }
+        match &e.kind {
+            ExprKind::Name(n) => vars.iter().position(|v| *v == n.name).map(Ix::Var),
+            ExprKind::Neg(a) => Some(Ix::Sub(Box::new(Ix::Int(0)), Box::new(self.ix(a, vars)?))),
+            ExprKind::Chain(first, rest) => {
+                let mut acc = self.ix(first, vars)?;
+                for (op, x) in rest {
+                    let (a, b) = (Box::new(acc), Box::new(self.ix(x, vars)?));
+                    acc = match op {
+                        BinOp::Add => Ix::Add(a, b),
+                        BinOp::Sub => Ix::Sub(a, b),
+                        BinOp::Mul => Ix::Mul(a, b),
+                        BinOp::Rem => Ix::Rem(a, b),
+                        BinOp::Div | BinOp::Pow => return None,
+                    };
+                }
+                Some(acc)
+            }
+            _ => None,
+        }
     }
 }
 
