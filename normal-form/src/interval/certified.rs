@@ -802,8 +802,36 @@ pub struct CertifiedSetup<'a, H: HamiltonianFn + ?Sized> {
     hots: Vec<Poly<Iv>>,
     taus: Vec<Majorant>,
     kappa: Majorant,
+    /// The normal form's order N (the certified time falls roughly like d^{−(N−1)}).
+    order: usize,
     /// Seconds spent building it.
     pub seconds: f64,
+}
+
+/// A certified radius for a time: the largest inner radius found whose tube of ratio k has
+/// a certified time ≥ T ([`CertifiedSetup::radius_for_time`]).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CertifiedRadius {
+    /// T.
+    pub time: f64,
+    /// k = d1/d0.
+    pub outer_ratio: f64,
+    /// The certified tube at the radius found (its time ≥ T), if any radius tried passed.
+    pub tube: Option<CertifiedTube>,
+    /// The smallest radius tried above it whose certified time is below T (or which has
+    /// none), with that time: the bracket's upper end.
+    pub failed: Option<(f64, Option<f64>)>,
+    /// Every radius tried, in order, with its certified time.
+    pub evaluations: Vec<(f64, Option<f64>)>,
+    /// Seconds spent (the setup excluded).
+    pub seconds: f64,
+}
+
+impl CertifiedRadius {
+    /// The certified radius d0.
+    pub fn d0(&self) -> Option<f64> {
+        self.tube.as_ref().map(|t| t.d0)
+    }
 }
 
 impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
@@ -958,6 +986,107 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
             hots,
             taus,
             kappa,
+            order: nf.order,
+            seconds: t0.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// The largest inner radius d0 whose tube `d0 → k·d0` has a certified time ≥ `time`,
+    /// searched from `start` (a tube already evaluated, usually at the estimate's radius):
+    /// the certified time decreases with the radius (roughly like d^{−(N−1)}: the remainder
+    /// starts at degree N + 1), so the search brackets the radius by steps predicted from
+    /// that power law (its exponent re-fitted from the last two radii), then narrows the
+    /// bracket [passes, fails] by the secant method in (log d, log T), safeguarded towards
+    /// bisection, until the upper end is within `rel_tol` of the lower one or `max_evals`
+    /// tubes have been evaluated. The radius reported is the largest one that passed, with
+    /// its tube; the bracket's upper end is the smallest radius tried above it that failed.
+    pub fn radius_for_time(
+        &self,
+        time: f64,
+        k: f64,
+        start: CertifiedTube,
+        rel_tol: f64,
+        max_evals: usize,
+    ) -> Result<CertifiedRadius, NormalFormError> {
+        let t0 = std::time::Instant::now();
+        let p0 = (self.order.max(3) - 1) as f64;
+        let mut evaluations = vec![(start.d0, start.time)];
+        let mut lo: Option<CertifiedTube> = None;
+        let mut hi: Option<(f64, Option<f64>)> = None;
+        let mut last = start;
+        let mut prev: Option<(f64, f64)> = None;
+        let passes = |t: &CertifiedTube| t.time.is_some_and(|x| x >= time);
+        loop {
+            // the exponent of T ∝ d^{−p}: fitted from the last two radii with a time
+            let p = match (prev, last.time) {
+                (Some((d, t)), Some(tl)) if d != last.d0 && t > 0.0 && tl > 0.0 => {
+                    let fit = -(tl / t).ln() / (last.d0 / d).ln();
+                    if fit.is_finite() {
+                        fit.clamp(0.5, 4.0 * p0)
+                    } else {
+                        p0
+                    }
+                }
+                _ => p0,
+            };
+            if let Some(t) = last.time.filter(|&t| t > 0.0) {
+                prev = Some((last.d0, t));
+            }
+            if passes(&last) {
+                if lo.as_ref().is_none_or(|l| last.d0 > l.d0) {
+                    lo = Some(last.clone());
+                }
+            } else if hi.is_none_or(|h| last.d0 < h.0) {
+                hi = Some((last.d0, last.time));
+            }
+            if evaluations.len() >= max_evals {
+                break;
+            }
+            let predicted = |d: f64, t: Option<f64>| -> Option<f64> {
+                t.filter(|&t| t > 0.0)
+                    .map(|t| d * (t / time).powf(1.0 / p))
+            };
+            let next = match (&lo, hi) {
+                (Some(l), Some((h, th))) => {
+                    if h / l.d0 <= 1.0 + rel_tol {
+                        break;
+                    }
+                    // secant in (log d, log T) between the bracket's ends, kept inside
+                    // its middle 80 % (in log d)
+                    let (a, b) = (l.d0.ln(), h.ln());
+                    let x = match (l.time, th) {
+                        (Some(ta), Some(tb)) if ta > 0.0 && tb > 0.0 && ta != tb => {
+                            let (fa, fb) = ((ta / time).ln(), (tb / time).ln());
+                            a + (b - a) * fa / (fa - fb)
+                        }
+                        _ => 0.5 * (a + b),
+                    };
+                    let x = x.clamp(a + 0.1 * (b - a), a + 0.9 * (b - a));
+                    x.exp()
+                }
+                (Some(l), None) => {
+                    // passes: predicted radius, at least 2 % and at most ×4 further out
+                    let d = predicted(l.d0, l.time).unwrap_or(4.0 * l.d0);
+                    (d * 1.01).clamp(1.02 * l.d0, 4.0 * l.d0)
+                }
+                (None, Some((h, th))) => {
+                    if h < 1e-9 {
+                        break;
+                    }
+                    let d = predicted(h, th).unwrap_or(0.5 * h);
+                    (d * 0.99).clamp(0.25 * h, h / 1.02)
+                }
+                (None, None) => break,
+            };
+            last = self.tube(next, k * next)?;
+            evaluations.push((last.d0, last.time));
+        }
+        Ok(CertifiedRadius {
+            time,
+            outer_ratio: k,
+            tube: lo,
+            failed: hi,
+            evaluations,
             seconds: t0.elapsed().as_secs_f64(),
         })
     }
