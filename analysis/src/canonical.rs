@@ -42,9 +42,8 @@ pub struct CanonicalOptions {
     /// Integrate orbits from every tube's inner sphere (`None`: no validation).
     pub validate: Option<Validation>,
     /// Also compute the certified time of every tube, and the certified radius of every
-    /// `for_time` ([`CertifiedSetup`]): with `optimal`, at the orders N = 4, 6, … while the
-    /// certified time (radius) grows, within [`CERTIFIED_SEARCH_SECONDS`]; otherwise at the
-    /// estimate's best order.
+    /// `for_time` ([`CertifiedSetup`]), at the orders N = 4, 6, … (up to `max_order`) while
+    /// the certified time (radius) grows, within [`CERTIFIED_SEARCH_SECONDS`].
     pub certified: bool,
 }
 
@@ -189,8 +188,7 @@ pub struct CertifiedSearch<T> {
     /// The order of the best result (the largest certified time or radius).
     pub best_order: Option<usize>,
     /// Why the search stopped: `Decreased` (the result fell below the best), `Budget` (the
-    /// time budget was spent while it still grew), `Ceiling` (the highest order allowed),
-    /// `Given` (no search: the estimate's best order only).
+    /// time budget was spent while it still grew), `Ceiling` (the highest order allowed).
     pub stop: SearchStop,
     /// Seconds spent (normal forms of orders the estimate did not compute included).
     pub seconds: f64,
@@ -203,10 +201,8 @@ pub enum SearchStop {
     Decreased,
     /// [`CERTIFIED_SEARCH_SECONDS`] were spent while it still grew.
     Budget,
-    /// The highest order allowed was reached.
+    /// The highest order allowed (`--order`, or the search's ceiling) was reached.
     Ceiling,
-    /// No search: one order, the estimate's best.
-    Given,
 }
 
 impl<T> CertifiedSearch<T> {
@@ -221,7 +217,8 @@ impl<T> CertifiedSearch<T> {
 }
 
 /// The time budget of one certified order search (one tube or one radius), in seconds: no
-/// further order is started once it is spent.
+/// further order is started once it is spent, or when the next order's cost, predicted
+/// from the last two (their ratio, at least 2), would overrun it.
 pub const CERTIFIED_SEARCH_SECONDS: f64 = 300.0;
 
 /// Per order: what integration measured on one tube.
@@ -260,8 +257,8 @@ pub struct Tube {
     /// With the order search: whether the bound was seen to decrease past `best_order`
     /// (false: it still grew at the last order computed).
     pub optimum_bracketed: Option<bool>,
-    /// With `certified`: the certified time at the certified search's best order (without
-    /// the search: at `best_order`), or why there is none.
+    /// With `certified`: the certified time at the certified search's best order, or (no
+    /// order gave one) the first order's result, which says why.
     pub certified: Option<Result<CertifiedTube, String>>,
     /// With `certified`: the certified times per order tried.
     pub certified_orders: Option<CertifiedSearch<CertifiedTube>>,
@@ -674,14 +671,8 @@ pub fn analyse(
         precision,
         setups: Vec::new(),
     };
-    // the certified search runs over the same orders as the estimate's
-    let certified_orders = |best: Option<usize>| -> Vec<usize> {
-        if o.optimal {
-            candidates.clone()
-        } else {
-            best.into_iter().collect()
-        }
-    };
+    // the certified search runs over the orders the estimate may use (4, 6, …, `--order`,
+    // or up to the search's ceiling), from the lowest, while its result grows
     let mut report_radii = Vec::new();
     for (&time, orders) in o.for_time.iter().zip(radii) {
         let best = orders
@@ -698,8 +689,7 @@ pub fn analyse(
                     .and_then(|s| s.tube(db, k * db).map_err(|e| e.to_string()));
                 let mut previous: Option<f64> = None;
                 let search = cert.search(
-                    &certified_orders(Some(nb)),
-                    o.optimal,
+                    &candidates,
                     |s, n, secs| {
                         let start = orders
                             .iter()
@@ -792,8 +782,7 @@ pub fn analyse(
             .then(|| rows.last().map(|r| r.order) != best_order && best_order.is_some());
         let certified_orders = (o.certified && best_order.is_some()).then(|| {
             cert.search(
-                &certified_orders(best_order),
-                o.optimal,
+                &candidates,
                 |s, _, secs| {
                     let mut t = s.tube(d0, d1).map_err(|e| e.to_string())?;
                     t.seconds += secs;
@@ -892,13 +881,11 @@ impl<'a> Certifier<'a> {
         CertifiedSetup::new(self.h, &f.nf, self.o.metric, &CertifiedOptions::default())
             .map_err(|e| e.to_string())
     }
-    /// Evaluates `eval` at the orders in turn; with `search`, stops at the first result
-    /// below the best (or without one, once there is a best), or when
-    /// [`CERTIFIED_SEARCH_SECONDS`] are spent.
+    /// Evaluates `eval` at the orders in turn; stops at the first result below the best (or
+    /// without one, once there is a best), or when [`CERTIFIED_SEARCH_SECONDS`] are spent.
     fn search<T>(
         &mut self,
         orders: &[usize],
-        search: bool,
         mut eval: impl FnMut(&Setup<'a>, usize, f64) -> Result<T, String>,
         value: impl Fn(&T) -> Option<f64>,
     ) -> CertifiedSearch<T> {
@@ -906,24 +893,27 @@ impl<'a> Certifier<'a> {
         let mut out = CertifiedSearch {
             orders: Vec::new(),
             best_order: None,
-            stop: if search {
-                SearchStop::Ceiling
-            } else {
-                SearchStop::Given
-            },
+            stop: SearchStop::Ceiling,
             seconds: 0.0,
         };
         let mut best: Option<f64> = None;
+        // the cost of the last two orders: the next one is predicted to cost the last times
+        // their ratio (at least 2), and is not started if it would overrun the budget
+        let mut costs: Vec<f64> = Vec::new();
         for &n in orders {
-            if search
-                && !out.orders.is_empty()
-                && t0.elapsed().as_secs_f64() >= CERTIFIED_SEARCH_SECONDS
-            {
+            let spent = t0.elapsed().as_secs_f64();
+            let predicted = match costs[..] {
+                [.., a, b] if a > 0.0 => b * (b / a).max(2.0),
+                [.., b] => 2.0 * b,
+                [] => 0.0,
+            };
+            if !out.orders.is_empty() && spent + predicted > CERTIFIED_SEARCH_SECONDS {
                 out.stop = SearchStop::Budget;
                 break;
             }
             let (setup, secs) = self.setup(n);
             let r = setup.and_then(|s| eval(s, n, secs));
+            costs.push(t0.elapsed().as_secs_f64() - spent);
             let v = r.as_ref().ok().and_then(&value);
             out.orders.push((n, r));
             match (v, best) {
@@ -935,7 +925,7 @@ impl<'a> Certifier<'a> {
                     best = Some(v);
                     out.best_order = Some(n);
                 }
-                (_, Some(_)) if search => {
+                (_, Some(_)) => {
                     out.stop = SearchStop::Decreased;
                     break;
                 }
@@ -1051,10 +1041,9 @@ fn stop_note(stop: SearchStop, best: Option<usize>, what: &str) -> String {
         SearchStop::Budget => format!(
             "best certified order so far N = {n}: the search stopped when its time budget ({CERTIFIED_SEARCH_SECONDS} s) was spent, the certified {what} still growing"
         ),
-        SearchStop::Ceiling => {
-            format!("best certified order N = {n}: the highest order allowed was reached")
-        }
-        SearchStop::Given => format!("certified at the estimate's best order N = {n}"),
+        SearchStop::Ceiling => format!(
+            "best certified order N = {n}: the highest order allowed (--order) was reached, the certified {what} still growing"
+        ),
     }
 }
 
@@ -1260,14 +1249,8 @@ impl CanonicalReport {
                 .and_then(|n| t.orders.iter().find(|r| r.order == n))
                 .and_then(|r| r.gradient)
                 .map(|t| t.lower);
-            match (&t.certified_orders, &t.certified) {
-                (Some(search), _) if search.stop != SearchStop::Given => {
-                    certified_tube_table(&mut s, search, est);
-                }
-                (_, Some(c)) => {
-                    let _ = writeln!(s, "{}", certified_line(c, est));
-                }
-                _ => {}
+            if let Some(search) = &t.certified_orders {
+                certified_tube_table(&mut s, search, est);
             }
             if let Some(v) = &t.validation {
                 let _ = writeln!(
