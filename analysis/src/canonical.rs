@@ -1087,7 +1087,7 @@ fn certified_tube_table(s: &mut String, c: &CertifiedSearch<CertifiedTube>, est:
     match c.best().and_then(|t| t.time) {
         Some(t) => {
             let ratio = est.map_or(String::new(), |e| {
-                format!(" ({:.3} of the estimate at its N_opt, {e:.4e})", t / e)
+                format!(" ({:.3e} of the estimate at its N_opt, {e:.4e})", t / e)
             });
             let _ = writeln!(s, "  {what}: T ≥ {t:.4e}{ratio} ({:.1} s)", c.seconds);
         }
