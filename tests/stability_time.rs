@@ -318,7 +318,11 @@ fn certified_radius_reported_with_the_estimate() {
     let tube = best.tube.as_ref().unwrap();
     assert!(tube.time.unwrap() >= time);
     let (failed, t) = best.failed.unwrap();
-    assert!(failed > tube.d0 && failed <= 1.011 * tube.d0, "{failed} vs {}", tube.d0);
+    assert!(
+        failed > tube.d0 && failed <= 1.011 * tube.d0,
+        "{failed} vs {}",
+        tube.d0
+    );
     assert!(t.is_none_or(|t| t < time));
     let table = r.to_table();
     assert!(table.contains("certified radius"), "{table}");

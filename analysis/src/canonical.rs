@@ -842,7 +842,10 @@ struct Certifier<'a> {
     forms: &'a [Form],
     extra: Vec<Form>,
     precision: Precision,
-    setups: Vec<(usize, Result<CertifiedSetup<'a, ModelHamiltonian<'a>>, String>)>,
+    setups: Vec<(
+        usize,
+        Result<CertifiedSetup<'a, ModelHamiltonian<'a>>, String>,
+    )>,
 }
 
 type Setup<'a> = CertifiedSetup<'a, ModelHamiltonian<'a>>;
@@ -863,9 +866,8 @@ impl<'a> Certifier<'a> {
         (self.setups[i].1.as_ref().map_err(|e| e.clone()), secs)
     }
     fn build(&mut self, n: usize) -> Result<Setup<'a>, String> {
-        let have = |forms: &[Form], extra: &[Form]| {
-            forms.iter().chain(extra).any(|f| f.nf.order == n)
-        };
+        let have =
+            |forms: &[Form], extra: &[Form]| forms.iter().chain(extra).any(|f| f.nf.order == n);
         if !have(self.forms, &self.extra) {
             let f = order_form(self.model, self.params, self.o, n, self.precision)
                 .map_err(|e| e.to_string())?;
@@ -1092,7 +1094,11 @@ fn certified_tube_table(s: &mut String, c: &CertifiedSearch<CertifiedTube>, est:
             let _ = writeln!(s, "  {what}: T ≥ {t:.4e}{ratio} ({:.1} s)", c.seconds);
         }
         None => {
-            let _ = writeln!(s, "  no certified time at any order tried ({:.1} s)", c.seconds);
+            let _ = writeln!(
+                s,
+                "  no certified time at any order tried ({:.1} s)",
+                c.seconds
+            );
         }
     }
 }
@@ -1146,7 +1152,11 @@ fn certified_radius_table(s: &mut String, c: &CertifiedSearch<CertifiedRadius>, 
             let _ = writeln!(s, "  {what}: d0 = {d:.5e}{ratio} ({:.1} s)", c.seconds);
         }
         None => {
-            let _ = writeln!(s, "  no certified radius at any order tried ({:.1} s)", c.seconds);
+            let _ = writeln!(
+                s,
+                "  no certified radius at any order tried ({:.1} s)",
+                c.seconds
+            );
         }
     }
 }

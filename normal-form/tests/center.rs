@@ -412,6 +412,9 @@ fn thin_l2_halo_islands_are_seeded() {
                     && o.points.iter().any(|p| p[0] > x[0])
             })
             .count();
-        assert!(trapped >= 2, "halo at {x:?}: {trapped} orbits in its island");
+        assert!(
+            trapped >= 2,
+            "halo at {x:?}: {trapped} orbits in its island"
+        );
     }
 }

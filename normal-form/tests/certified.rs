@@ -256,8 +256,8 @@ fn certified_radius_for_a_time_is_the_largest_that_holds() {
         ..Options::with_order(n)
     };
     let nf = common::l4_normal_form(EARTH_MOON_MU, &opts).unwrap();
-    let setup = CertifiedSetup::new(&h, &nf, Metric::LinearNormal, &CertifiedOptions::default())
-        .unwrap();
+    let setup =
+        CertifiedSetup::new(&h, &nf, Metric::LinearNormal, &CertifiedOptions::default()).unwrap();
     // the cached setup and the one-shot function agree exactly
     let (d0, k) = (2.5e-3, 2.0);
     let a = setup.tube(d0, k * d0).unwrap();
@@ -279,7 +279,10 @@ fn certified_radius_for_a_time_is_the_largest_that_holds() {
     assert!(d < d0, "{d}");
     assert!(tube.time.unwrap() >= time, "{:?} < {time}", tube.time);
     let (failed, _) = r.failed.expect("a bracket");
-    assert!(failed > d && failed <= 1.01 * d * (1.0 + 1e-12), "{failed} vs {d}");
+    assert!(
+        failed > d && failed <= 1.01 * d * (1.0 + 1e-12),
+        "{failed} vs {d}"
+    );
     // independently: the tube 10 % larger does not reach T, and the radius found reaches it
     let larger = setup.tube(1.1 * d, k * 1.1 * d).unwrap();
     assert!(larger.time.is_none_or(|t| t < time), "{:?}", larger.time);

@@ -965,10 +965,14 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
             })
             .collect();
         let taus: Vec<Majorant> = hots.iter().map(Majorant::of_poly).collect();
-        let kappa = Majorant::of_poly(&hots.iter().enumerate().fold(
-            Poly::zero(table.clone()),
-            |acc, (i, h)| acc.add(&Poly::variable(table.clone(), i, Iv::point(0.0)).mul(h)),
-        ));
+        let kappa = Majorant::of_poly(
+            &hots
+                .iter()
+                .enumerate()
+                .fold(Poly::zero(table.clone()), |acc, (i, h)| {
+                    acc.add(&Poly::variable(table.clone(), i, Iv::point(0.0)).mul(h))
+                }),
+        );
         Ok(CertifiedSetup {
             h,
             n,
@@ -1043,8 +1047,7 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
                 break;
             }
             let predicted = |d: f64, t: Option<f64>| -> Option<f64> {
-                t.filter(|&t| t > 0.0)
-                    .map(|t| d * (t / time).powf(1.0 / p))
+                t.filter(|&t| t > 0.0).map(|t| d * (t / time).powf(1.0 / p))
             };
             let next = match (&lo, hi) {
                 (Some(l), Some((h, th))) => {
