@@ -6,7 +6,7 @@
 //! the errors.
 
 use lasalle_analysis::canonical::{
-    analyse, CanonicalOptions, CanonicalReport, Validation, Verdict,
+    analyse, CanonicalOptions, CanonicalReport, SearchStop, Validation, Verdict,
 };
 use lasalle_codegen::Model;
 use lasalle_normal_form::bound::Metric;
@@ -295,4 +295,36 @@ fn certified_time_reported_with_the_estimate() {
     assert!(time > 0.0 && time.is_finite(), "{time} vs {est}");
     assert!(c.rho0 >= row.rho0 && c.rho1 <= row.rho1, "{c:?} vs {row:?}");
     assert!(r.to_table().contains("certified (interval arithmetic"));
+    // the certified order search stops at the ceiling `--order 4`
+    let search = t.certified_orders.as_ref().unwrap();
+    assert_eq!(search.best_order, Some(4));
+    assert_eq!(search.stop, SearchStop::Ceiling);
+}
+
+/// `certified` with `for_time`: the certified radius has a certified time ≥ T, the radius
+/// that failed lies within the search's tolerance above it, and both radii are printed.
+#[test]
+fn certified_radius_reported_with_the_estimate() {
+    let time = 1e4;
+    let o = CanonicalOptions {
+        certified: true,
+        for_time: vec![time],
+        ..options(&[], 4, Metric::LinearNormal)
+    };
+    let r = run(EARTH_MOON_MU, &o).unwrap();
+    let radius = &r.radii[0];
+    let search = radius.certified_radius.as_ref().unwrap();
+    let best = search.best().unwrap();
+    let tube = best.tube.as_ref().unwrap();
+    assert!(tube.time.unwrap() >= time);
+    let (failed, t) = best.failed.unwrap();
+    assert!(
+        failed > tube.d0 && failed <= 1.011 * tube.d0,
+        "{failed} vs {}",
+        tube.d0
+    );
+    assert!(t.is_none_or(|t| t < time));
+    let table = r.to_table();
+    assert!(table.contains("certified radius"), "{table}");
+    assert!(table.contains(&format!("{:.5e}", tube.d0)), "{table}");
 }

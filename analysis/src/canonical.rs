@@ -7,7 +7,9 @@
 
 use lasalle_model::Model;
 use lasalle_normal_form::bound::{tube_radii, Bound, Metric, Norm, Time};
-use lasalle_normal_form::interval::certified::{certified_tube, CertifiedOptions, CertifiedTube};
+use lasalle_normal_form::interval::certified::{
+    CertifiedOptions, CertifiedRadius, CertifiedSetup, CertifiedTube,
+};
 use lasalle_normal_form::validate::{tube_orbits, TubeOrbit, TubeRun};
 use lasalle_normal_form::{
     normalize_model, ErrorEstimate, ModelHamiltonian, ModelPoint, NormalForm, NormalFormError,
@@ -39,8 +41,9 @@ pub struct CanonicalOptions {
     pub metric: Metric,
     /// Integrate orbits from every tube's inner sphere (`None`: no validation).
     pub validate: Option<Validation>,
-    /// Also compute the certified time of every tube (and of every `for_time` radius) at
-    /// its best order ([`certified_tube`]).
+    /// Also compute the certified time of every tube, and the certified radius of every
+    /// `for_time` ([`CertifiedSetup`]), at the orders N = 4, 6, … (up to `max_order`) while
+    /// the certified time (radius) grows, within [`CERTIFIED_SEARCH_SECONDS`].
     pub certified: bool,
 }
 
@@ -169,9 +172,54 @@ pub struct RadiusForTime {
     pub best_order: Option<usize>,
     /// The largest d0 over the orders.
     pub d0: Option<f64>,
-    /// With `certified`: the certified time of the tube (d0, k·d0) at `best_order`.
+    /// With `certified`: the certified time of the estimate's tube (d0, k·d0) at
+    /// `best_order`.
     pub certified: Option<Result<CertifiedTube, String>>,
+    /// With `certified`: the certified radius, per order tried (the certified order search),
+    /// and which of them is the largest.
+    pub certified_radius: Option<CertifiedSearch<CertifiedRadius>>,
 }
+
+/// The certified bound of one tube or one radius, per order tried.
+#[derive(Clone, Debug, Serialize)]
+pub struct CertifiedSearch<T> {
+    /// (N, the certified result at order N, or why there is none).
+    pub orders: Vec<(usize, Result<T, String>)>,
+    /// The order of the best result (the largest certified time or radius).
+    pub best_order: Option<usize>,
+    /// Why the search stopped: `Decreased` (the result fell below the best), `Budget` (the
+    /// time budget was spent while it still grew), `Ceiling` (the highest order allowed).
+    pub stop: SearchStop,
+    /// Seconds spent (normal forms of orders the estimate did not compute included).
+    pub seconds: f64,
+}
+
+/// Why a certified order search stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum SearchStop {
+    /// The certified result fell below the best one.
+    Decreased,
+    /// [`CERTIFIED_SEARCH_SECONDS`] were spent while it still grew.
+    Budget,
+    /// The highest order allowed (`--order`, or the search's ceiling) was reached.
+    Ceiling,
+}
+
+impl<T> CertifiedSearch<T> {
+    /// The result at the best order.
+    pub fn best(&self) -> Option<&T> {
+        let n = self.best_order?;
+        self.orders
+            .iter()
+            .find(|(m, _)| *m == n)
+            .and_then(|(_, r)| r.as_ref().ok())
+    }
+}
+
+/// The time budget of one certified order search (one tube or one radius), in seconds: no
+/// further order is started once it is spent, or when the next order's cost, predicted
+/// from the last two (their ratio, at least 2), would overrun it.
+pub const CERTIFIED_SEARCH_SECONDS: f64 = 300.0;
 
 /// Per order: what integration measured on one tube.
 #[derive(Clone, Debug, Serialize)]
@@ -209,8 +257,11 @@ pub struct Tube {
     /// With the order search: whether the bound was seen to decrease past `best_order`
     /// (false: it still grew at the last order computed).
     pub optimum_bracketed: Option<bool>,
-    /// With `certified`: the certified time at `best_order`, or why there is none.
+    /// With `certified`: the certified time at the certified search's best order, or (no
+    /// order gave one) the first order's result, which says why.
     pub certified: Option<Result<CertifiedTube, String>>,
+    /// With `certified`: the certified times per order tried.
+    pub certified_orders: Option<CertifiedSearch<CertifiedTube>>,
 }
 
 /// Integration from one tube's inner sphere.
@@ -610,36 +661,66 @@ pub fn analyse(
         }
     }
     let h = ModelHamiltonian::new(model, params).map_err(at)?;
-    let certify =
-        |order: Option<usize>, d0: f64, d1: f64| -> Option<Result<CertifiedTube, String>> {
-            if !o.certified {
-                return None;
+    let mut cert = Certifier {
+        model,
+        params,
+        o,
+        h: &h,
+        forms: &forms,
+        extra: Vec::new(),
+        precision,
+        setups: Vec::new(),
+    };
+    // the certified search runs over the orders the estimate may use (4, 6, …, `--order`,
+    // or up to the search's ceiling), from the lowest, while its result grows
+    let mut report_radii = Vec::new();
+    for (&time, orders) in o.for_time.iter().zip(radii) {
+        let best = orders
+            .iter()
+            .filter_map(|r| r.d0.map(|d| (r.order, d)))
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        let k = o.outer_ratio;
+        let (certified, certified_radius) = match best.filter(|_| o.certified) {
+            None => (None, None),
+            Some((nb, db)) => {
+                let at_estimate = cert
+                    .setup(nb)
+                    .0
+                    .and_then(|s| s.tube(db, k * db).map_err(|e| e.to_string()));
+                let mut previous: Option<f64> = None;
+                let search = cert.search(
+                    &candidates,
+                    |s, n, secs| {
+                        let start = orders
+                            .iter()
+                            .find(|r| r.order == n)
+                            .and_then(|r| r.d0)
+                            .or(previous)
+                            .unwrap_or(db);
+                        let first = s.tube(start, k * start).map_err(|e| e.to_string())?;
+                        let mut r = s
+                            .radius_for_time(time, k, first, CERTIFIED_RADIUS_TOLERANCE, 16)
+                            .map_err(|e| e.to_string())?;
+                        r.seconds += secs;
+                        previous = r.d0().or(previous);
+                        Ok(r)
+                    },
+                    |r| r.d0(),
+                );
+                (Some(at_estimate), Some(search))
             }
-            let f = forms.iter().find(|f| Some(f.nf.order) == order)?;
-            Some(
-                certified_tube(&h, &f.nf, d0, d1, o.metric, &CertifiedOptions::default())
-                    .map_err(|e| e.to_string()),
-            )
         };
-    report.radii = o
-        .for_time
-        .iter()
-        .zip(radii)
-        .map(|(&time, orders)| {
-            let best = orders
-                .iter()
-                .filter_map(|r| r.d0.map(|d| (r.order, d)))
-                .max_by(|a, b| a.1.total_cmp(&b.1));
-            RadiusForTime {
-                time,
-                outer_ratio: o.outer_ratio,
-                best_order: best.map(|b| b.0),
-                d0: best.map(|b| b.1),
-                orders,
-                certified: best.and_then(|(n, d)| certify(Some(n), d, o.outer_ratio * d)),
-            }
-        })
-        .collect();
+        report_radii.push(RadiusForTime {
+            time,
+            outer_ratio: k,
+            best_order: best.map(|b| b.0),
+            d0: best.map(|b| b.1),
+            orders,
+            certified,
+            certified_radius,
+        });
+    }
+    report.radii = report_radii;
     let mut drift: Vec<Vec<(f64, f64)>> = vec![Vec::new(); orders.len()];
     for (&(d0, d1), rows) in o.tubes.iter().zip(rows_by_tube) {
         let best_order = rows
@@ -699,7 +780,25 @@ pub fn analyse(
         let optimum_bracketed = o
             .optimal
             .then(|| rows.last().map(|r| r.order) != best_order && best_order.is_some());
-        let certified = best_order.and_then(|n| certify(Some(n), d0, d1));
+        let certified_orders = (o.certified && best_order.is_some()).then(|| {
+            cert.search(
+                &candidates,
+                |s, _, secs| {
+                    let mut t = s.tube(d0, d1).map_err(|e| e.to_string())?;
+                    t.seconds += secs;
+                    Ok(t)
+                },
+                |t| t.time,
+            )
+        });
+        // the certified time at the search's best order, or the first result (which says
+        // why there is none)
+        let certified = certified_orders.as_ref().and_then(|c| {
+            c.best_order
+                .and_then(|n| c.orders.iter().find(|(m, _)| *m == n))
+                .or(c.orders.first())
+                .map(|(_, r)| r.clone())
+        });
         report.tubes.push(Tube {
             d0,
             d1,
@@ -709,6 +808,7 @@ pub fn analyse(
             failure,
             optimum_bracketed,
             certified,
+            certified_orders,
         });
     }
     report.drift_exponents = orders
@@ -727,6 +827,116 @@ pub fn analyse(
         .collect();
     report.seconds = started.elapsed().as_secs_f64();
     Ok(report)
+}
+
+/// The relative width of the bracket at which the certified radius search stops.
+pub const CERTIFIED_RADIUS_TOLERANCE: f64 = 1e-2;
+
+/// The certified bounds, order by order, with the normal forms and setups they need (the
+/// estimate's forms, and those of the further orders the certified search reaches).
+struct Certifier<'a> {
+    model: &'a Model,
+    params: &'a [(String, f64)],
+    o: &'a CanonicalOptions,
+    h: &'a ModelHamiltonian<'a>,
+    forms: &'a [Form],
+    extra: Vec<Form>,
+    precision: Precision,
+    setups: Vec<(
+        usize,
+        Result<CertifiedSetup<'a, ModelHamiltonian<'a>>, String>,
+    )>,
+}
+
+type Setup<'a> = CertifiedSetup<'a, ModelHamiltonian<'a>>;
+
+impl<'a> Certifier<'a> {
+    /// The setup at order n, with the seconds spent building it now (0 when cached).
+    fn setup(&mut self, n: usize) -> (Result<&Setup<'a>, String>, f64) {
+        let t = std::time::Instant::now();
+        let i = match self.setups.iter().position(|(m, _)| *m == n) {
+            Some(i) => i,
+            None => {
+                let built = self.build(n);
+                self.setups.push((n, built));
+                self.setups.len() - 1
+            }
+        };
+        let secs = t.elapsed().as_secs_f64();
+        (self.setups[i].1.as_ref().map_err(|e| e.clone()), secs)
+    }
+    fn build(&mut self, n: usize) -> Result<Setup<'a>, String> {
+        let have =
+            |forms: &[Form], extra: &[Form]| forms.iter().chain(extra).any(|f| f.nf.order == n);
+        if !have(self.forms, &self.extra) {
+            let f = order_form(self.model, self.params, self.o, n, self.precision)
+                .map_err(|e| e.to_string())?;
+            self.precision = f.nf.precision;
+            self.extra.push(f);
+        }
+        let f = self
+            .forms
+            .iter()
+            .chain(&self.extra)
+            .find(|f| f.nf.order == n)
+            .ok_or_else(|| format!("no normal form of order {n}"))?;
+        CertifiedSetup::new(self.h, &f.nf, self.o.metric, &CertifiedOptions::default())
+            .map_err(|e| e.to_string())
+    }
+    /// Evaluates `eval` at the orders in turn; stops at the first result below the best (or
+    /// without one, once there is a best), or when [`CERTIFIED_SEARCH_SECONDS`] are spent.
+    fn search<T>(
+        &mut self,
+        orders: &[usize],
+        mut eval: impl FnMut(&Setup<'a>, usize, f64) -> Result<T, String>,
+        value: impl Fn(&T) -> Option<f64>,
+    ) -> CertifiedSearch<T> {
+        let t0 = std::time::Instant::now();
+        let mut out = CertifiedSearch {
+            orders: Vec::new(),
+            best_order: None,
+            stop: SearchStop::Ceiling,
+            seconds: 0.0,
+        };
+        let mut best: Option<f64> = None;
+        // the cost of the last two orders: the next one is predicted to cost the last times
+        // their ratio (at least 2), and is not started if it would overrun the budget
+        let mut costs: Vec<f64> = Vec::new();
+        for &n in orders {
+            let spent = t0.elapsed().as_secs_f64();
+            let predicted = match costs[..] {
+                [.., a, b] if a > 0.0 => b * (b / a).max(2.0),
+                [.., b] => 2.0 * b,
+                [] => 0.0,
+            };
+            if !out.orders.is_empty() && spent + predicted > CERTIFIED_SEARCH_SECONDS {
+                out.stop = SearchStop::Budget;
+                break;
+            }
+            let (setup, secs) = self.setup(n);
+            let r = setup.and_then(|s| eval(s, n, secs));
+            costs.push(t0.elapsed().as_secs_f64() - spent);
+            let v = r.as_ref().ok().and_then(&value);
+            out.orders.push((n, r));
+            match (v, best) {
+                (Some(v), Some(b)) if v > b => {
+                    best = Some(v);
+                    out.best_order = Some(n);
+                }
+                (Some(v), None) => {
+                    best = Some(v);
+                    out.best_order = Some(n);
+                }
+                (_, Some(_)) => {
+                    out.stop = SearchStop::Decreased;
+                    break;
+                }
+                _ => {}
+            }
+        }
+        out.seconds = t0.elapsed().as_secs_f64();
+        out
+    }
 }
 
 fn report_of(nf: &NormalForm, metric: Metric) -> CanonicalReport {
@@ -819,6 +1029,134 @@ fn certified_line(c: &Result<CertifiedTube, String>, estimate: Option<f64>) -> S
                     c.rho1, c.rho0
                 ),
             }
+        }
+    }
+}
+
+/// Why the certified search stopped, as a sentence.
+fn stop_note(stop: SearchStop, best: Option<usize>, what: &str) -> String {
+    let n = best.map_or("-".into(), |n| n.to_string());
+    match stop {
+        SearchStop::Decreased => {
+            format!("certified optimal order N = {n}: the certified {what} decreases beyond it")
+        }
+        SearchStop::Budget => format!(
+            "best certified order so far N = {n}: the search stopped when its time budget ({CERTIFIED_SEARCH_SECONDS} s) was spent, the certified {what} still growing"
+        ),
+        SearchStop::Ceiling => format!(
+            "best certified order N = {n}: the highest order allowed (--order) was reached, the certified {what} still growing"
+        ),
+    }
+}
+
+/// The certified order search of one tube, one row per order.
+fn certified_tube_table(s: &mut String, c: &CertifiedSearch<CertifiedTube>, est: Option<f64>) {
+    use std::fmt::Write;
+    let _ = writeln!(
+        s,
+        "  certified (interval arithmetic, Taylor models of the field to degree K, branch and bound on the spheres), by order:"
+    );
+    let _ = writeln!(
+        s,
+        "  {:>3} {:>3} {:>12} {:>12} {:>12} {:>8}",
+        "N", "K", "ρ0 ≤", "ρ1 ≥", "T ≥", "s"
+    );
+    for (n, r) in &c.orders {
+        let mark = if Some(*n) == c.best_order {
+            "  ← certified N_opt"
+        } else {
+            ""
+        };
+        match r {
+            Ok(t) => {
+                let _ = writeln!(
+                    s,
+                    "  {:>3} {:>3} {:>12.5e} {:>12.5e} {:>12} {:>8.2}{mark}",
+                    n,
+                    t.field_degree,
+                    t.rho0,
+                    t.rho1,
+                    t.time.map_or("none".into(), |x| format!("{x:.4e}")),
+                    t.seconds
+                );
+            }
+            Err(e) => {
+                let _ = writeln!(s, "  {n:>3} none: {e}");
+            }
+        }
+    }
+    let what = stop_note(c.stop, c.best_order, "time");
+    match c.best().and_then(|t| t.time) {
+        Some(t) => {
+            let ratio = est.map_or(String::new(), |e| {
+                format!(" ({:.3e} of the estimate at its N_opt, {e:.4e})", t / e)
+            });
+            let _ = writeln!(s, "  {what}: T ≥ {t:.4e}{ratio} ({:.1} s)", c.seconds);
+        }
+        None => {
+            let _ = writeln!(
+                s,
+                "  no certified time at any order tried ({:.1} s)",
+                c.seconds
+            );
+        }
+    }
+}
+
+/// The certified radius search of one time, one row per order.
+fn certified_radius_table(s: &mut String, c: &CertifiedSearch<CertifiedRadius>, est: Option<f64>) {
+    use std::fmt::Write;
+    let _ = writeln!(
+        s,
+        "  certified radius (largest d0 found whose certified time of the tube d0 → k·d0 reaches T; bracket to {CERTIFIED_RADIUS_TOLERANCE:e}):"
+    );
+    let _ = writeln!(
+        s,
+        "  {:>3} {:>12} {:>12} {:>12} {:>12} {:>12} {:>5} {:>8}",
+        "N", "d0", "ρ0 ≤", "ρ1 ≥", "T ≥", "fails at d0", "evals", "s"
+    );
+    for (n, r) in &c.orders {
+        let mark = if Some(*n) == c.best_order {
+            "  ← certified N_opt"
+        } else {
+            ""
+        };
+        match r {
+            Ok(r) => {
+                let t = r.tube.as_ref();
+                let _ = writeln!(
+                    s,
+                    "  {:>3} {:>12} {:>12} {:>12} {:>12} {:>12} {:>5} {:>8.2}{mark}",
+                    n,
+                    t.map_or("none".into(), |t| format!("{:.5e}", t.d0)),
+                    t.map_or(String::new(), |t| format!("{:.5e}", t.rho0)),
+                    t.map_or(String::new(), |t| format!("{:.5e}", t.rho1)),
+                    t.and_then(|t| t.time)
+                        .map_or(String::new(), |x| format!("{x:.4e}")),
+                    r.failed.map_or("-".into(), |f| format!("{:.5e}", f.0)),
+                    r.evaluations.len(),
+                    r.seconds
+                );
+            }
+            Err(e) => {
+                let _ = writeln!(s, "  {n:>3} none: {e}");
+            }
+        }
+    }
+    let what = stop_note(c.stop, c.best_order, "radius");
+    match c.best().and_then(|r| r.d0()) {
+        Some(d) => {
+            let ratio = est.map_or(String::new(), |e| {
+                format!(" ({:.3} of the estimate's radius {e:.5e})", d / e)
+            });
+            let _ = writeln!(s, "  {what}: d0 = {d:.5e}{ratio} ({:.1} s)", c.seconds);
+        }
+        None => {
+            let _ = writeln!(
+                s,
+                "  no certified radius at any order tried ({:.1} s)",
+                c.seconds
+            );
         }
     }
 }
@@ -916,12 +1254,13 @@ impl CanonicalReport {
                 }
                 _ => {}
             }
-            if let Some(c) = &t.certified {
-                let est = t
-                    .best_order
-                    .and_then(|n| t.orders.iter().find(|r| r.order == n))
-                    .and_then(|r| r.gradient);
-                let _ = writeln!(s, "{}", certified_line(c, est.map(|t| t.lower)));
+            let est = t
+                .best_order
+                .and_then(|n| t.orders.iter().find(|r| r.order == n))
+                .and_then(|r| r.gradient)
+                .map(|t| t.lower);
+            if let Some(search) = &t.certified_orders {
+                certified_tube_table(&mut s, search, est);
             }
             if let Some(v) = &t.validation {
                 let _ = writeln!(
@@ -1002,7 +1341,14 @@ impl CanonicalReport {
                 }
             }
             if let Some(c) = &r.certified {
-                let _ = writeln!(s, "{}", certified_line(c, Some(r.time)));
+                let _ = writeln!(
+                    s,
+                    "  the estimate's radius, certified:\n  {}",
+                    certified_line(c, Some(r.time))
+                );
+            }
+            if let Some(search) = &r.certified_radius {
+                certified_radius_table(&mut s, search, r.d0);
             }
         }
         if self.tubes.iter().any(|t| t.failure.is_none()) || !self.radii.is_empty() {

@@ -371,3 +371,50 @@ fn halo_fixed_points_appear_at_the_full_models_bifurcation_energy() {
     assert!((halos[0][0] + halos[1][0]).abs() < 1e-6 * g, "{halos:?}");
     assert!((halos[0][1] - halos[1][1]).abs() < 1e-6 * g, "{halos:?}");
 }
+
+/// The quasi-halo islands at Earth–Moon L2, h = 0.4γ² (12 % above the halo bifurcation, where
+/// they are thin): the section's seeds near each halo fixed point land inside its island,
+/// i.e. at least two orbits per halo point stay close to it (within a fifth of its distance
+/// to the vertical Lyapunov point) over all their returns, and circle it (their returns
+/// lie on both sides of it in Q₂).
+#[test]
+fn thin_l2_halo_islands_are_seeded() {
+    use lasalle_normal_form::center::poincare::poincare_map;
+    let model = load("cr3bp_spatial.lsl");
+    let c = center_manifold_model(
+        &model,
+        &[],
+        "L2",
+        &CenterOptions {
+            order: 16,
+            transform: false,
+            birkhoff: false,
+            ..CenterOptions::default()
+        },
+    )
+    .unwrap();
+    let g = c.gamma.unwrap().value;
+    let s = poincare_map(&c, 0.4 * g * g, 4, 40).unwrap();
+    let v = s.vertical.as_ref().unwrap().point;
+    assert_eq!(s.halos.len(), 2, "{:?}", s.halos);
+    for halo in &s.halos {
+        let x = halo.point;
+        let reach = (x[0] - v[0]).hypot(x[1] - v[1]);
+        let trapped = s
+            .orbits
+            .iter()
+            .filter(|o| o.points.len() >= 20)
+            .filter(|o| {
+                o.points
+                    .iter()
+                    .all(|p| (p[0] - x[0]).hypot(p[1] - x[1]) < 0.2 * reach)
+                    && o.points.iter().any(|p| p[0] < x[0])
+                    && o.points.iter().any(|p| p[0] > x[0])
+            })
+            .count();
+        assert!(
+            trapped >= 2,
+            "halo at {x:?}: {trapped} orbits in its island"
+        );
+    }
+}

@@ -240,3 +240,75 @@ fn earth_moon_l4_certified_against_samples() {
         assert!(time > 0.0 && time.is_finite(), "{time} vs {est}");
     }
 }
+
+/// The certified radius for a time (Earth–Moon L4, N = 4, a small case): the radius found
+/// has a certified time ≥ T, a radius 10 % larger has not, the search's bracket is as
+/// narrow as asked, and the setup reused across radii gives the same tube as the one-shot
+/// [`certified_tube`].
+#[test]
+fn certified_radius_for_a_time_is_the_largest_that_holds() {
+    use lasalle_normal_form::interval::certified::CertifiedSetup;
+    let h = common::cr3bp(EARTH_MOON_MU);
+    let n = 4usize;
+    let opts = Options {
+        remainder_degree: Some(2 * n),
+        inverse_transform: false,
+        ..Options::with_order(n)
+    };
+    let nf = common::l4_normal_form(EARTH_MOON_MU, &opts).unwrap();
+    let setup =
+        CertifiedSetup::new(&h, &nf, Metric::LinearNormal, &CertifiedOptions::default()).unwrap();
+    // the cached setup and the one-shot function agree exactly
+    let (d0, k) = (2.5e-3, 2.0);
+    let a = setup.tube(d0, k * d0).unwrap();
+    let b = certified_tube(
+        &h,
+        &nf,
+        d0,
+        k * d0,
+        Metric::LinearNormal,
+        &CertifiedOptions::default(),
+    )
+    .unwrap();
+    assert_eq!((a.rho0, a.rho1, a.time), (b.rho0, b.rho1, b.time));
+    // a time ten times what this tube certifies: the radius must shrink
+    let time = 10.0 * a.time.expect("a certified time at 2.5e-3");
+    let r = setup.radius_for_time(time, k, a, 1e-2, 16).unwrap();
+    let tube = r.tube.as_ref().expect("a certified radius");
+    let d = tube.d0;
+    assert!(d < d0, "{d}");
+    assert!(tube.time.unwrap() >= time, "{:?} < {time}", tube.time);
+    let (failed, _) = r.failed.expect("a bracket");
+    assert!(
+        failed > d && failed <= 1.01 * d * (1.0 + 1e-12),
+        "{failed} vs {d}"
+    );
+    // independently: the tube 10 % larger does not reach T, and the radius found reaches it
+    let larger = setup.tube(1.1 * d, k * 1.1 * d).unwrap();
+    assert!(larger.time.is_none_or(|t| t < time), "{:?}", larger.time);
+    let again = certified_tube(
+        &h,
+        &nf,
+        d,
+        k * d,
+        Metric::LinearNormal,
+        &CertifiedOptions::default(),
+    )
+    .unwrap();
+    assert!(again.time.unwrap() >= time);
+    eprintln!(
+        "T = {time:.4e}: certified radius {d:.5e} (T ≥ {:.4e}), fails at {failed:.5e}; {} radii tried, {:.1} s (setup {:.1} s)",
+        tube.time.unwrap(),
+        r.evaluations.len(),
+        r.seconds,
+        setup.seconds
+    );
+    // the certified time falls with the radius over the radii tried
+    let mut tried: Vec<(f64, f64)> = r
+        .evaluations
+        .iter()
+        .filter_map(|&(d, t)| t.map(|t| (d, t)))
+        .collect();
+    tried.sort_by(|x, y| x.0.total_cmp(&y.0));
+    assert!(tried.windows(2).all(|w| w[1].1 <= w[0].1), "{tried:?}");
+}

@@ -99,8 +99,9 @@ pub struct CanonicalArgs {
     #[arg(long, value_name = "DIR", requires = "validate")]
     pub figure: Option<std::path::PathBuf>,
     /// Canonical models: also print a certified time (interval arithmetic through the
-    /// field's Taylor models, branch and bound on the spheres) for every tube and
-    /// --for-time radius, at its best order.
+    /// field's Taylor models, branch and bound on the spheres) for every tube, and a
+    /// certified radius for every --for-time, at the orders 4, 6, … (up to --order) while
+    /// it grows, within a time budget per tube or radius.
     #[arg(long)]
     pub certified: bool,
 }

@@ -437,7 +437,9 @@ pub struct Section {
 /// the centre) and the halo orbits (Newton's method from points on the lines P₂ = 0 and
 /// P₂ = P₂(vertical) at 60…99.5 % of the way to the boundary); and orbits seeded on that line from boundary to
 /// boundary (`seeds` of them), on the perpendicular line (`seeds`/2), and between each halo
-/// point and the vertical one (4 each, for the quasi-halo tori), each followed for
+/// point and the vertical one (8 each, for the quasi-halo tori: at 0.5, 1, 2, 4, 10, 25, 45
+/// and 70 % of the way, so that the thin islands just above the bifurcation get some), each
+/// followed for
 /// `crossings` returns (Runge–Kutta 4 at 100 steps per vertical period). An error if the
 /// centre manifold has not two degrees of freedom, or if the energy level of the truncated
 /// series does not close around the origin (the energy is outside its domain).
@@ -503,8 +505,10 @@ pub fn poincare_map(
         let s = (i as f64 + 0.5) / half as f64;
         starts.push([c[0], p_bottom + s * (p_top - p_bottom)]);
     }
+    // the quasi-halo seeds: geometric near the halo point (just above the bifurcation its
+    // island is a few per cent of the way to the vertical point wide), then across
     for halo in &halos {
-        for s in [0.1, 0.25, 0.45, 0.7] {
+        for s in [0.005, 0.01, 0.02, 0.04, 0.1, 0.25, 0.45, 0.7] {
             starts.push([
                 halo.point[0] + s * (c[0] - halo.point[0]),
                 halo.point[1] + s * (c[1] - halo.point[1]),

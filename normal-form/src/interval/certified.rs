@@ -331,6 +331,9 @@ pub struct CertifiedTube {
     pub tau1: f64,
     /// Boxes of the branch and bound (both extrema).
     pub boxes: usize,
+    /// The degrees L to which h = T − id enters the two branch and bounds (the rest is
+    /// bounded by its sphere bounds: [`CertifiedSetup`]).
+    pub extremum_degrees: (usize, usize),
     /// Seconds spent.
     pub seconds: f64,
 }
@@ -415,46 +418,108 @@ fn jet_at<H: HamiltonianFn + ?Sized>(
 /// branch and bound on boxes of y: each box's enclosure uses the mean-value form
 /// `h(Y) ⊂ h(c) + Dh(Y)(Y − c)` (the dominant |y|² part is exact on the sphere, and bounded
 /// by the box on the ball).
+///
+/// Only the low degrees of h enter the boxes: `h = h_L + h_>L` with L the lowest degree at
+/// which the sphere bounds of the higher parts give `|h_>L(y)| ≤ ε` on the ball `|y| ≤ d`
+/// with ε below a small fraction of the requested gap (`ε ≤ 10⁻³·tol·d`); ε is then added to
+/// every enclosure (`|T(y)| ∈ |y + h_L(y)| ± ε`, `|h(y)| ∈ |h_L(y)| ± ε`). The monomials of
+/// `h_L` and of its derivatives are evaluated once per box and shared by all of them.
 struct Extremum {
     n: usize,
-    /// h = T − id.
-    hot: Vec<Flat>,
-    /// ∂h_i/∂y_j.
-    dhot: Vec<Vec<Flat>>,
-    /// The highest degree (for the power tables).
+    /// The monomials of h_L and Dh_L.
+    monos: Monomials,
+    /// h_L = T − id cut at degree L.
+    hot: Vec<Sparse>,
+    /// ∂h_L,i/∂y_j.
+    dhot: Vec<Vec<Sparse>>,
+    /// L (for the power tables).
     degree: usize,
+    /// |h − h_L| ≤ ε on the ball (rounded up).
+    eps: f64,
 }
 
-/// A polynomial as a flat list of terms, for fast evaluation on many boxes.
-struct Flat {
-    coeffs: Vec<Iv>,
-    /// n exponents per term.
-    exps: Vec<u8>,
+/// Monomials of n variables, each computed from its parent (the same exponents with the
+/// last non-zero one cleared) times one power of one coordinate.
+struct Monomials {
+    n: usize,
+    index: std::collections::HashMap<Vec<u8>, u32>,
+    /// (parent, variable, exponent); entry 0 is the constant 1.
+    recipe: Vec<(u32, u8, u8)>,
 }
 
-impl Flat {
-    fn new(p: &Poly<Iv>) -> Flat {
-        let (mut coeffs, mut exps) = (Vec::new(), Vec::new());
+impl Monomials {
+    fn new(n: usize) -> Monomials {
+        let mut index = std::collections::HashMap::new();
+        index.insert(vec![0u8; n], 0);
+        Monomials {
+            n,
+            index,
+            recipe: vec![(0, 0, 0)],
+        }
+    }
+    fn insert(&mut self, e: &[u8]) -> u32 {
+        if let Some(&i) = self.index.get(e) {
+            return i;
+        }
+        let v = (0..self.n).rev().find(|&v| e[v] > 0).unwrap_or(0);
+        let mut parent = e.to_vec();
+        parent[v] = 0;
+        let p = self.insert(&parent);
+        let i = self.recipe.len() as u32;
+        self.recipe.push((p, v as u8, e[v]));
+        self.index.insert(e.to_vec(), i);
+        i
+    }
+    /// The value of every monomial, with `pw[v][e]` = (coordinate v)ᵉ.
+    fn values(&self, pw: &[Vec<Iv>]) -> Vec<Iv> {
+        let mut vals = Vec::with_capacity(self.recipe.len());
+        vals.push(Iv::point(1.0));
+        for &(p, v, e) in &self.recipe[1..] {
+            let x = pw[v as usize][e as usize];
+            let m = if p == 0 { x } else { vals[p as usize] * x };
+            vals.push(m);
+        }
+        vals
+    }
+}
+
+/// A polynomial as (monomial, coefficient) pairs over a [`Monomials`] table.
+struct Sparse {
+    terms: Vec<(u32, Iv)>,
+}
+
+/// `c·x` enclosed, with a fast path for a point coefficient.
+fn mul_coeff(c: Iv, x: Iv) -> Iv {
+    if c.lo == c.hi {
+        let a = c.lo;
+        if a == 0.0 {
+            return Iv::point(0.0);
+        }
+        let (p, q) = if a > 0.0 { (x.lo, x.hi) } else { (x.hi, x.lo) };
+        let lo = super::mul_bounds(a, p).0;
+        let hi = super::mul_bounds(a, q).1;
+        if lo.is_nan() || hi.is_nan() {
+            return Iv::point(f64::NAN);
+        }
+        return Iv { lo, hi };
+    }
+    c * x
+}
+
+impl Sparse {
+    fn new(p: &Poly<Iv>, monos: &mut Monomials) -> Sparse {
+        let mut terms = Vec::new();
         for (k, i, c) in p.terms() {
             if !(c.lo == 0.0 && c.hi == 0.0) {
-                coeffs.push(c);
-                exps.extend_from_slice(p.exponents(k, i));
+                terms.push((monos.insert(p.exponents(k, i)), c));
             }
         }
-        Flat { coeffs, exps }
+        Sparse { terms }
     }
-    /// Value with `pw[v][e]` = (box coordinate v)ᵉ.
-    fn eval(&self, pw: &[Vec<Iv>]) -> Iv {
-        let n = pw.len();
+    fn eval(&self, vals: &[Iv]) -> Iv {
         let mut sum = Iv::point(0.0);
-        for (t, &c) in self.coeffs.iter().enumerate() {
-            let mut m = c;
-            for (v, &e) in self.exps[t * n..(t + 1) * n].iter().enumerate() {
-                if e > 0 {
-                    m *= pw[v][e as usize];
-                }
-            }
-            sum += m;
+        for &(i, c) in &self.terms {
+            sum += mul_coeff(c, vals[i as usize]);
         }
         sum
     }
@@ -502,85 +567,129 @@ impl Ord for Keyed {
     }
 }
 
+/// `(√a ± ε)²` for the enclosure `a` of a square: the square of a norm moved by at most ε.
+fn widen_sq(a: Iv, eps: f64) -> Iv {
+    if eps == 0.0 {
+        return a;
+    }
+    let hi = {
+        let r = add_up(a.hi.max(0.0).sqrt().next_up(), eps);
+        mul_up(r, r)
+    };
+    let lo = {
+        let r = (a.lo.max(0.0).sqrt().next_down() - eps).next_down();
+        if r > 0.0 {
+            (r * r).next_down()
+        } else {
+            0.0
+        }
+    };
+    Iv::new(lo, hi)
+}
+
 impl Extremum {
-    fn new(tmap: &[Poly<Iv>]) -> Extremum {
-        let n = tmap.len();
-        let hot: Vec<Poly<Iv>> = tmap
+    /// For the ball `|y| ≤ radius`, h_L cut where the rest is below `eps_target` there.
+    fn new(hots: &[Poly<Iv>], radius: f64, eps_target: f64) -> Extremum {
+        let n = hots.len();
+        let full = hots.iter().map(|h| h.max_degree()).max().unwrap_or(1);
+        // |h_i,s(y)| ≤ b_is |y|ˢ; the tail beyond L on the ball, as a Euclidean norm
+        let parts: Vec<Vec<f64>> = hots
             .iter()
-            .enumerate()
-            .map(|(i, ti)| {
-                let mut e = vec![0u8; n];
-                e[i] = 1;
-                let mut h = ti.clone();
-                let c1 = h.coeff(&e);
-                h.set_coeff(&e, c1 - Iv::point(1.0));
+            .map(|h| {
+                (0..=full)
+                    .map(|s| mul_up(sphere_bound(h, s), pow_up(radius, s)))
+                    .collect()
+            })
+            .collect();
+        let tail = |l: usize| -> f64 {
+            let s = parts.iter().fold(0.0, |acc, b| {
+                let t = b.iter().skip(l + 1).fold(0.0, |a, &x| add_up(a, x));
+                add_up(acc, mul_up(t, t))
+            });
+            if s == 0.0 {
+                0.0
+            } else {
+                s.sqrt().next_up()
+            }
+        };
+        let degree = (2..=full)
+            .find(|&l| tail(l) <= eps_target)
+            .unwrap_or(full)
+            .max(2);
+        let eps = tail(degree);
+        let mut monos = Monomials::new(n);
+        let low: Vec<Poly<Iv>> = hots
+            .iter()
+            .map(|h| {
+                let mut h = h.clone();
+                h.truncate(degree);
                 h
             })
             .collect();
-        let degree = hot.iter().map(|h| h.max_degree()).max().unwrap_or(1);
-        let dhot = hot
+        let hot = low.iter().map(|h| Sparse::new(h, &mut monos)).collect();
+        let dhot = low
             .iter()
-            .map(|h| (0..n).map(|j| Flat::new(&h.derivative(j))).collect())
+            .map(|h| {
+                (0..n)
+                    .map(|j| Sparse::new(&h.derivative(j), &mut monos))
+                    .collect()
+            })
             .collect();
         Extremum {
             n,
-            hot: hot.iter().map(Flat::new).collect(),
+            monos,
+            hot,
             dhot,
             degree,
+            eps,
         }
     }
-    /// Enclosure of 2y·h(y) + |h(y)|² over the box, by the mean-value form.
-    fn q(&self, bx: &[Iv]) -> Iv {
-        let c: Vec<Iv> = bx.iter().map(|b| Iv::point(b.mid())).collect();
-        let dy: Vec<Iv> = bx.iter().zip(&c).map(|(b, c)| *b - *c).collect();
-        let pc = powers(&c, self.degree);
-        let pb = powers(bx, self.degree);
-        let mut acc = Iv::point(0.0);
-        for i in 0..self.n {
-            let mut h = self.hot[i].eval(&pc);
-            for j in 0..self.n {
-                h += self.dhot[i][j].eval(&pb) * dy[j];
-            }
-            acc += Iv::point(2.0) * bx[i] * h + h.sqr();
-        }
-        acc
-    }
-    /// h and Dh enclosed over a box of y (mean-value form for h).
+    /// h_L and Dh_L enclosed over a box of y (mean-value form for h_L).
     fn h_dh(&self, yb: &[Iv]) -> (Vec<Iv>, Vec<Vec<Iv>>) {
         let c: Vec<Iv> = yb.iter().map(|b| Iv::point(b.mid())).collect();
-        let pc = powers(&c, self.degree);
-        let pb = powers(yb, self.degree);
+        let vc = self.monos.values(&powers(&c, self.degree));
+        let vb = self.monos.values(&powers(yb, self.degree));
         let dh: Vec<Vec<Iv>> = (0..self.n)
-            .map(|i| (0..self.n).map(|j| self.dhot[i][j].eval(&pb)).collect())
+            .map(|i| (0..self.n).map(|j| self.dhot[i][j].eval(&vb)).collect())
             .collect();
         let h = (0..self.n)
             .map(|i| {
-                (0..self.n).fold(self.hot[i].eval(&pc), |acc, j| {
+                (0..self.n).fold(self.hot[i].eval(&vc), |acc, j| {
                     acc + dh[i][j] * (yb[j] - c[j])
                 })
             })
             .collect();
         (h, dh)
     }
-    /// |h|² at a point.
-    fn h_at(&self, y: &[f64]) -> Iv {
-        let c: Vec<Iv> = y.iter().map(|&v| Iv::point(v)).collect();
-        let pc = powers(&c, self.degree);
-        (0..self.n).fold(Iv::point(0.0), |acc, i| acc + self.hot[i].eval(&pc).sqr())
-    }
-    /// ρ² at a point (an interval around the exact value).
-    fn at(&self, y: &[f64]) -> Iv {
-        let c: Vec<Iv> = y.iter().map(|&v| Iv::point(v)).collect();
-        let pc = powers(&c, self.degree);
+    /// Enclosure of 2y·h_L(y) + |h_L(y)|² over the box, by the mean-value form.
+    fn q(&self, bx: &[Iv]) -> Iv {
+        let (h, _) = self.h_dh(bx);
         let mut acc = Iv::point(0.0);
         for i in 0..self.n {
-            let t = self.hot[i].eval(&pc) + c[i];
+            acc += Iv::point(2.0) * bx[i] * h[i] + h[i].sqr();
+        }
+        acc
+    }
+    /// |h_L|² at a point.
+    fn h_at(&self, y: &[f64]) -> Iv {
+        let c: Vec<Iv> = y.iter().map(|&v| Iv::point(v)).collect();
+        let vals = self.monos.values(&powers(&c, self.degree));
+        (0..self.n).fold(Iv::point(0.0), |acc, i| acc + self.hot[i].eval(&vals).sqr())
+    }
+    /// |y + h_L(y)|² at a point (an interval around the exact value).
+    fn at(&self, y: &[f64]) -> Iv {
+        let c: Vec<Iv> = y.iter().map(|&v| Iv::point(v)).collect();
+        let vals = self.monos.values(&powers(&c, self.degree));
+        let mut acc = Iv::point(0.0);
+        for i in 0..self.n {
+            let t = self.hot[i].eval(&vals) + c[i];
             acc += t.sqr();
         }
         acc
     }
-    /// max ρ² over the ball |y| ≤ d (`maximum`) or min over the sphere |y| = d, to a relative
-    /// gap `tol` or `budget` boxes (the bound is certified either way).
+    /// max ρ² over the ball |y| ≤ d (`maximum`) or min over the sphere |y| = d (of |h|²
+    /// instead of ρ² with `of_h`), to a relative gap `tol` or `budget` boxes (the bound is
+    /// certified either way). `d` must not exceed the radius the struct was built for.
     fn extremum(&self, d: f64, maximum: bool, of_h: bool, tol: f64, budget: usize) -> Bnb {
         use std::collections::BinaryHeap;
         let n = self.n;
@@ -597,7 +706,8 @@ impl Extremum {
         let enclose = |bx: &[Iv]| -> Iv {
             if of_h {
                 let (h, _) = self.h_dh(bx);
-                return h.iter().fold(Iv::point(0.0), |s, x| s + x.sqr());
+                let a = h.iter().fold(Iv::point(0.0), |s, x| s + x.sqr());
+                return widen_sq(a, self.eps);
             }
             let r2 = if maximum {
                 let s = bx.iter().fold(Iv::point(0.0), |s, b| s + b.sqr());
@@ -605,9 +715,10 @@ impl Extremum {
             } else {
                 d2
             };
-            r2 + self.q(bx)
+            widen_sq(r2 + self.q(bx), self.eps)
         };
-        // a point of the region near the box's centre, projected on the sphere
+        // a point of the region near the box's centre, projected on the sphere (only the
+        // stopping rule uses it: the bound returned is always a box's enclosure)
         let probe = |bx: &[Iv]| -> Option<Iv> {
             let c: Vec<f64> = bx.iter().map(|b| b.mid()).collect();
             let r = c.iter().map(|v| v * v).sum::<f64>().sqrt();
@@ -615,7 +726,10 @@ impl Extremum {
                 return None;
             }
             let y: Vec<f64> = c.iter().map(|v| v * d / r).collect();
-            Some(if of_h { self.h_at(&y) } else { self.at(&y) })
+            Some(widen_sq(
+                if of_h { self.h_at(&y) } else { self.at(&y) },
+                self.eps,
+            ))
         };
         // best value at a point (with a relative 1e-12 allowance for the projection)
         let mut best = if maximum { 0.0 } else { f64::INFINITY };
@@ -661,8 +775,516 @@ impl Extremum {
     }
 }
 
+/// What the certified bound of a tube needs that does not depend on its radii: the
+/// enclosures of B⁻¹ and of the field's Taylor polynomial, the Taylor model of Ẇ without the
+/// field's Lagrange remainder (which is the only part of G that depends on the outer
+/// radius), the map T and the majorants τ and κ. Built once per normal form
+/// ([`CertifiedSetup::new`]); [`CertifiedSetup::tube`] then costs the remainder's jet over the
+/// outer box, the branch and bound of the two extrema and the quadrature.
+pub struct CertifiedSetup<'a, H: HamiltonianFn + ?Sized> {
+    h: &'a H,
+    n: usize,
+    xe: Vec<f64>,
+    c: Vec<Vec<Iv>>,
+    bi: Vec<Vec<Iv>>,
+    s: Vec<Vec<Iv>>,
+    metric: Metric,
+    options: CertifiedOptions,
+    m_deg: usize,
+    k: usize,
+    d: usize,
+    /// 2·(majorant of Ẇ's polynomial part and of its truncations), with no field remainder.
+    g0: Majorant,
+    /// Per j: maj(v_j) + e(v_j), v_j = Σ_i T_i ∂_j T_i; Ẇ's majorant gains
+    /// 2·Σ_j (maj(v_j) + e(v_j))·e(ẏ_j) from the field's remainder e(ẏ_j).
+    vmaj: Vec<Majorant>,
+    /// h = T − id, per component.
+    hots: Vec<Poly<Iv>>,
+    taus: Vec<Majorant>,
+    kappa: Majorant,
+    /// The normal form's order N (the certified time falls roughly like d^{−(N−1)}).
+    order: usize,
+    /// Seconds spent building it.
+    pub seconds: f64,
+}
+
+/// A certified radius for a time: the largest inner radius found whose tube of ratio k has
+/// a certified time ≥ T ([`CertifiedSetup::radius_for_time`]).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CertifiedRadius {
+    /// T.
+    pub time: f64,
+    /// k = d1/d0.
+    pub outer_ratio: f64,
+    /// The certified tube at the radius found (its time ≥ T), if any radius tried passed.
+    pub tube: Option<CertifiedTube>,
+    /// The smallest radius tried above it whose certified time is below T (or which has
+    /// none), with that time: the bracket's upper end.
+    pub failed: Option<(f64, Option<f64>)>,
+    /// Every radius tried, in order, with its certified time.
+    pub evaluations: Vec<(f64, Option<f64>)>,
+    /// Seconds spent (the setup excluded).
+    pub seconds: f64,
+}
+
+impl CertifiedRadius {
+    /// The certified radius d0.
+    pub fn d0(&self) -> Option<f64> {
+        self.tube.as_ref().map(|t| t.d0)
+    }
+}
+
+impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
+    /// The radius-independent part of the bound for the normal form `nf` of `h` (computed
+    /// with a remainder degree M and its `to_normal_map`), distances in `metric`.
+    pub fn new(
+        h: &'a H,
+        nf: &NormalForm,
+        metric: Metric,
+        options: &CertifiedOptions,
+    ) -> Result<Self, NormalFormError> {
+        let t0 = std::time::Instant::now();
+        let map = nf.to_normal_map.as_ref().ok_or_else(|| {
+            NormalFormError::Invalid(
+                "the certified bound needs the map to the normal coordinates".into(),
+            )
+        })?;
+        let n = 2 * nf.n_dof;
+        let xe = nf.equilibrium_f64();
+        let b = &nf.linear_inverse;
+        let c = inverse_enclosure(b, &nf.linear_map).ok_or_else(|| {
+            NormalFormError::Invalid(
+                "the linear normalisation is too ill-conditioned to enclose its inverse".into(),
+            )
+        })?;
+        let bi: Vec<Vec<Iv>> = b
+            .iter()
+            .map(|r| r.iter().map(|&x| Iv::point(x)).collect())
+            .collect();
+        let full_degree = map
+            .components
+            .iter()
+            .map(|p| p.max_degree())
+            .max()
+            .unwrap_or(1);
+        // from three degrees of freedom on, the map is cut at the normalisation order (W is
+        // any function: a shorter T keeps the cancellations of Ẇ through degree N + 1)
+        let reduced = nf.n_dof > 2;
+        let m_deg = options
+            .map_degree
+            .unwrap_or(if reduced {
+                full_degree.min(nf.order)
+            } else {
+                full_degree
+            })
+            .clamp(1, full_degree);
+        let k = options
+            .field_degree
+            .unwrap_or(if reduced { nf.order + 1 } else { m_deg + 1 })
+            .max(2);
+        let d = options.model_degree.unwrap_or(k.max(m_deg) + 1).max(k);
+        let table = Arc::new(MonomialTable::new(n, d));
+
+        // 1. the field ẏ = S ∇H̃, S = B J Bᵀ
+        let nd = nf.n_dof;
+        let s: Vec<Vec<Iv>> = (0..n)
+            .map(|i| {
+                (0..n)
+                    .map(|j| {
+                        // (B J Bᵀ)_ij = Σ_k B_ik (J Bᵀ)_kj, (J Bᵀ)_kj = B_j,k+n (k < n/2), −B_j,k−n
+                        (0..n).fold(Iv::point(0.0), |acc, kk| {
+                            let jb = if kk < nd {
+                                bi[j][kk + nd]
+                            } else {
+                                -bi[j][kk - nd]
+                            };
+                            acc + bi[i][kk] * jb
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
+        let t_k1 = Arc::new(MonomialTable::new(n, k + 1));
+        let zero = vec![Iv::point(0.0); n];
+        let hp = jet_at(h, &xe, &c, &zero, &t_k1);
+        if !hp.is_finite() {
+            return Err(NormalFormError::Invalid(
+                "the Hamiltonian's interval Taylor expansion at the equilibrium is not finite"
+                    .into(),
+            ));
+        }
+        // the gradient of H̃ to degree K (its Lagrange remainder is added per radius)
+        let grad: Vec<Poly<Iv>> = (0..n)
+            .map(|v| {
+                let mut p = hp.derivative(v).retabled(table.clone());
+                p.truncate(k);
+                p
+            })
+            .collect();
+        let field: Vec<Tm> = (0..n)
+            .map(|i| {
+                (0..n).fold(Tm::exact(Poly::zero(table.clone())), |acc, j| {
+                    acc.add(&Tm::exact(grad[j].clone()).scaled(s[i][j]))
+                })
+            })
+            .collect();
+
+        // 2. W = |T|², Ẇ = 2 Σ_j v_j ẏ_j, v_j = Σ_i T_i ∂_j T_i
+        let tmap: Vec<Poly<Iv>> = map
+            .components
+            .iter()
+            .map(|p| {
+                let mut t = p.map(Iv::point);
+                t.truncate(m_deg);
+                t.retabled(table.clone())
+            })
+            .collect();
+        let mut wdot = Tm::exact(Poly::zero(table.clone()));
+        let mut vmaj = Vec::with_capacity(n);
+        for j in 0..n {
+            let mut v = Tm::exact(Poly::zero(table.clone()));
+            for ti in &tmap {
+                v = v.add(&Tm::exact(ti.clone()).mul(&Tm::exact(ti.derivative(j))));
+            }
+            vmaj.push(v.majorant());
+            wdot = wdot.add(&v.mul(&field[j]));
+        }
+        let g0 = wdot.majorant().scaled(2.0);
+
+        // 3. τ: |T(y) − y| ≤ τ(|y|), and κ: |y·h(y)| ≤ κ(|y|) (h = T − id)
+        let hots: Vec<Poly<Iv>> = tmap
+            .iter()
+            .enumerate()
+            .map(|(i, ti)| {
+                let mut e = vec![0u8; n];
+                e[i] = 1;
+                let mut hot = ti.clone();
+                let c1 = hot.coeff(&e);
+                hot.set_coeff(&e, c1 - Iv::point(1.0));
+                hot
+            })
+            .collect();
+        let taus: Vec<Majorant> = hots.iter().map(Majorant::of_poly).collect();
+        let kappa = Majorant::of_poly(
+            &hots
+                .iter()
+                .enumerate()
+                .fold(Poly::zero(table.clone()), |acc, (i, h)| {
+                    acc.add(&Poly::variable(table.clone(), i, Iv::point(0.0)).mul(h))
+                }),
+        );
+        Ok(CertifiedSetup {
+            h,
+            n,
+            xe,
+            c,
+            bi,
+            s,
+            metric,
+            options: *options,
+            m_deg,
+            k,
+            d,
+            g0,
+            vmaj,
+            hots,
+            taus,
+            kappa,
+            order: nf.order,
+            seconds: t0.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// The largest inner radius d0 whose tube `d0 → k·d0` has a certified time ≥ `time`,
+    /// searched from `start` (a tube already evaluated, usually at the estimate's radius):
+    /// the certified time decreases with the radius (roughly like d^{−(N−1)}: the remainder
+    /// starts at degree N + 1), so the search brackets the radius by steps predicted from
+    /// that power law (its exponent re-fitted from the last two radii), then narrows the
+    /// bracket [passes, fails] by the secant method in (log d, log T), safeguarded towards
+    /// bisection, until the upper end is within `rel_tol` of the lower one or `max_evals`
+    /// tubes have been evaluated. The radius reported is the largest one that passed, with
+    /// its tube; the bracket's upper end is the smallest radius tried above it that failed.
+    pub fn radius_for_time(
+        &self,
+        time: f64,
+        k: f64,
+        start: CertifiedTube,
+        rel_tol: f64,
+        max_evals: usize,
+    ) -> Result<CertifiedRadius, NormalFormError> {
+        let t0 = std::time::Instant::now();
+        let p0 = (self.order.max(3) - 1) as f64;
+        let mut evaluations = vec![(start.d0, start.time)];
+        let mut lo: Option<CertifiedTube> = None;
+        let mut hi: Option<(f64, Option<f64>)> = None;
+        let mut last = start;
+        let mut prev: Option<(f64, f64)> = None;
+        let passes = |t: &CertifiedTube| t.time.is_some_and(|x| x >= time);
+        loop {
+            // the exponent of T ∝ d^{−p}: fitted from the last two radii with a time
+            let p = match (prev, last.time) {
+                (Some((d, t)), Some(tl)) if d != last.d0 && t > 0.0 && tl > 0.0 => {
+                    let fit = -(tl / t).ln() / (last.d0 / d).ln();
+                    if fit.is_finite() {
+                        fit.clamp(0.5, 4.0 * p0)
+                    } else {
+                        p0
+                    }
+                }
+                _ => p0,
+            };
+            if let Some(t) = last.time.filter(|&t| t > 0.0) {
+                prev = Some((last.d0, t));
+            }
+            if passes(&last) {
+                if lo.as_ref().is_none_or(|l| last.d0 > l.d0) {
+                    lo = Some(last.clone());
+                }
+            } else if hi.is_none_or(|h| last.d0 < h.0) {
+                hi = Some((last.d0, last.time));
+            }
+            if evaluations.len() >= max_evals {
+                break;
+            }
+            let predicted = |d: f64, t: Option<f64>| -> Option<f64> {
+                t.filter(|&t| t > 0.0).map(|t| d * (t / time).powf(1.0 / p))
+            };
+            let next = match (&lo, hi) {
+                (Some(l), Some((h, th))) => {
+                    if h / l.d0 <= 1.0 + rel_tol {
+                        break;
+                    }
+                    // secant in (log d, log T) between the bracket's ends, kept inside
+                    // its middle 80 % (in log d)
+                    let (a, b) = (l.d0.ln(), h.ln());
+                    let x = match (l.time, th) {
+                        (Some(ta), Some(tb)) if ta > 0.0 && tb > 0.0 && ta != tb => {
+                            let (fa, fb) = ((ta / time).ln(), (tb / time).ln());
+                            a + (b - a) * fa / (fa - fb)
+                        }
+                        _ => 0.5 * (a + b),
+                    };
+                    let x = x.clamp(a + 0.1 * (b - a), a + 0.9 * (b - a));
+                    x.exp()
+                }
+                (Some(l), None) => {
+                    // passes: predicted radius, at least 2 % and at most ×4 further out
+                    let d = predicted(l.d0, l.time).unwrap_or(4.0 * l.d0);
+                    (d * 1.01).clamp(1.02 * l.d0, 4.0 * l.d0)
+                }
+                (None, Some((h, th))) => {
+                    if h < 1e-9 {
+                        break;
+                    }
+                    let d = predicted(h, th).unwrap_or(0.5 * h);
+                    (d * 0.99).clamp(0.25 * h, h / 1.02)
+                }
+                (None, None) => break,
+            };
+            last = self.tube(next, k * next)?;
+            evaluations.push((last.d0, last.time));
+        }
+        Ok(CertifiedRadius {
+            time,
+            outer_ratio: k,
+            tube: lo,
+            failed: hi,
+            evaluations,
+            seconds: t0.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// The certified time of the tube `d0 → d1` (radii in the setup's metric).
+    pub fn tube(&self, d0: f64, d1: f64) -> Result<CertifiedTube, NormalFormError> {
+        let t0 = std::time::Instant::now();
+        let (n, k) = (self.n, self.k);
+        // radii in |y|
+        let (y0, y1) = match self.metric {
+            Metric::LinearNormal => (d0, d1),
+            Metric::Euclidean => (
+                mul_up(frobenius_up(&self.bi), d0),
+                (Iv::point(d1) / Iv::point(frobenius_up(&self.c))).lo,
+            ),
+        };
+        // the Lagrange remainder of ∇H̃ beyond degree K on the box [−y1, y1]ⁿ
+        let t_k2 = Arc::new(MonomialTable::new(n, k + 2));
+        let boxed = vec![Iv::symmetric(y1); n];
+        let hb = jet_at(self.h, &self.xe, &self.c, &boxed, &t_k2);
+        if !hb.is_finite() {
+            return Err(NormalFormError::Invalid(format!(
+                "the Hamiltonian's interval Taylor expansion is not finite on the ball |y| ≤ {y1:e} (a singularity within the tube?)"
+            )));
+        }
+        let top = hb.part(k + 2).map(|p| p.to_vec()).unwrap_or_default();
+        let grad_e: Vec<f64> = (0..n)
+            .map(|v| {
+                let mut e = 0.0;
+                for (i, c) in top.iter().enumerate() {
+                    let ex = t_k2.exponents(k + 2, i);
+                    if ex[v] > 0 {
+                        e = add_up(e, mul_up(ex[v] as f64, c.mag()));
+                    }
+                }
+                e
+            })
+            .collect();
+        // e(ẏ_j) = Σ_i |S_ji| e_i r^{K+1}; G = G₀ + 2 Σ_j (maj(v_j) + e(v_j))·e(ẏ_j)
+        let mut g = self.g0.clone();
+        for j in 0..n {
+            let e = (0..n).fold(0.0, |acc, i| {
+                add_up(acc, mul_up(self.s[j][i].mag(), grad_e[i]))
+            });
+            let mut ec = vec![0.0; k + 2];
+            ec[k + 1] = e;
+            g = g.add(&self.vmaj[j].mul(&Majorant { c: ec }).scaled(2.0));
+        }
+
+        // ρ² = r² + 2y·h + |h|² on |y| = r: r² − 2κ(r) ≤ ρ² ≤ r² + 2κ(r) + τ(r)²
+        let kappa = &self.kappa;
+        let taus = &self.taus;
+        let kappa2 = |r: f64| mul_up(2.0, kappa.eval(r));
+        let tau = |r: f64| -> f64 {
+            let s = taus
+                .iter()
+                .fold(0.0, |s, m| add_up(s, mul_up(m.eval(r), m.eval(r))));
+            s.sqrt().next_up()
+        };
+        let tau_slope = {
+            let s = taus.iter().fold(0.0, |s, m| {
+                let dm = m.derivative_at(y1);
+                add_up(s, mul_up(dm, dm))
+            });
+            s.sqrt().next_up()
+        };
+        let tau1 = tau(y1);
+        // ρ₀, ρ₁: the better of the majorant and the branch and bound
+        let tol = self.options.tolerance;
+        let budget = self.options.budget;
+        let ext0 = Extremum::new(&self.hots, y0, 1e-3 * tol * y0);
+        let max0 = ext0.extremum(y0, true, false, tol, budget);
+        // on the outer sphere ρ ≥ |y| − |h(y)| ≥ y1 − max_{|y| ≤ y1} |h|
+        let ext1 = Extremum::new(&self.hots, y1, 1e-3 * tol * y1);
+        let hmax1 = ext1.extremum(y1, true, true, tol, budget);
+        // the lower bound of ρ² on the sphere |y| = r from κ
+        let phi_lo = |r: f64| (Iv::point(r).sqr() - Iv::point(kappa2(r))).lo;
+        let rho0_kappa = {
+            let t = tau(y0);
+            let up = add_up(add_up(mul_up(y0, y0), kappa2(y0)), mul_up(t, t));
+            up.sqrt().next_up()
+        };
+        let rho0 = add_up(y0, tau(y0))
+            .min(rho0_kappa)
+            .min(max0.bound.sqrt().next_up());
+        let tau1 = tau1.min(hmax1.bound.sqrt().next_up());
+        let rho1_kappa = {
+            let p = phi_lo(y1);
+            if p > 0.0 {
+                p.sqrt().next_down()
+            } else {
+                0.0
+            }
+        };
+        let rho1 = (Iv::point(y1) - Iv::point(tau1)).lo.max(rho1_kappa);
+        let boxes = max0.boxes + hmax1.boxes;
+        let seconds = || t0.elapsed().as_secs_f64();
+        let mut out = CertifiedTube {
+            d0,
+            d1,
+            y0,
+            y1,
+            rho0,
+            rho1,
+            time: None,
+            map_degree: self.m_deg,
+            field_degree: k,
+            model_degree: self.d,
+            wdot: g.clone(),
+            tau1,
+            boxes,
+            extremum_degrees: (ext0.degree, ext1.degree),
+            seconds: 0.0,
+        };
+        // ψ(r) = r − τ(r) must increase on [0, y1]: τ′ ≤ |(τ_i′)| ≤ its value at y1
+        // where the majorant τ does not keep ψ increasing, |y| ≤ y1 is all that is used
+        let monotone = tau_slope < 1.0;
+        // r² − 2κ(r) increases on [0, y1] when 2κ′(r) < 2r there: Σ s κ_s r^{s−2} < 1 at y1
+        // (κ starts at degree 3: h does at degree 2)
+        let kappa_monotone = kappa.c.iter().take(3).all(|&c| c == 0.0)
+            && kappa
+                .c
+                .iter()
+                .enumerate()
+                .skip(3)
+                .fold(0.0, |acc, (s, &c)| {
+                    add_up(acc, mul_up(mul_up(c, s as f64), pow_up(y1, s - 2)))
+                })
+                < 1.0;
+        if rho1 <= rho0 || rho1.is_nan() || rho0.is_nan() {
+            out.seconds = seconds();
+            return Ok(out);
+        }
+        // 4. u(ρ) = min(y1, ψ⁻¹(ρ)) rounded up: the smallest r found with ψ(r) ≥ ρ, where
+        // ψ(r) ≤ ρ(y) on |y| = r is the larger of the increasing lower bounds r − τ(r) and
+        // (r² − 2κ(r))^{1/2}
+        let psi_lo = |r: f64| {
+            let a = if monotone {
+                (Iv::point(r) - Iv::point(tau(r))).lo
+            } else {
+                f64::NEG_INFINITY
+            };
+            let b = if kappa_monotone {
+                let p = phi_lo(r);
+                if p > 0.0 {
+                    p.sqrt().next_down()
+                } else {
+                    0.0
+                }
+            } else {
+                f64::NEG_INFINITY
+            };
+            a.max(b)
+        };
+        let u = |rho: f64| -> f64 {
+            if !(monotone || kappa_monotone) || psi_lo(y1) < rho {
+                return y1;
+            }
+            let (mut lo, mut hi) = (0.0, y1);
+            for _ in 0..60 {
+                let mid = 0.5 * (lo + hi);
+                if psi_lo(mid) >= rho {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            hi
+        };
+        let m = self.options.intervals.max(1);
+        let q = (rho1 / rho0).powf(1.0 / m as f64);
+        let mut total = Iv::point(0.0);
+        let mut a = rho0;
+        for i in 1..=m {
+            let bnd = if i == m { rho1 } else { (a * q).min(rho1) };
+            let gmax = g.eval(u(bnd));
+            let num = (Iv::point(bnd) - Iv::point(a)) * Iv::point(2.0 * a);
+            let term = num / Iv::point(gmax);
+            if gmax > 0.0 && term.lo.is_finite() {
+                total += Iv::point(term.lo.max(0.0));
+            } else if gmax == 0.0 {
+                total = Iv::point(f64::INFINITY);
+                break;
+            }
+            a = bnd;
+        }
+        out.time = Some(total.lo.max(0.0));
+        out.seconds = seconds();
+        Ok(out)
+    }
+}
+
 /// The certified time of the tube `d0 → d1` in `metric` for the normal form `nf` of `h`
-/// (computed with a remainder degree M and its `to_normal_map`).
+/// (computed with a remainder degree M and its `to_normal_map`): [`CertifiedSetup::new`]
+/// then [`CertifiedSetup::tube`], the setup's seconds included.
 pub fn certified_tube<H: HamiltonianFn + ?Sized>(
     h: &H,
     nf: &NormalForm,
@@ -671,290 +1293,8 @@ pub fn certified_tube<H: HamiltonianFn + ?Sized>(
     metric: Metric,
     options: &CertifiedOptions,
 ) -> Result<CertifiedTube, NormalFormError> {
-    let t0 = std::time::Instant::now();
-    let map = nf.to_normal_map.as_ref().ok_or_else(|| {
-        NormalFormError::Invalid(
-            "the certified bound needs the map to the normal coordinates".into(),
-        )
-    })?;
-    let n = 2 * nf.n_dof;
-    let xe = nf.equilibrium_f64();
-    let b = &nf.linear_inverse;
-    let c = inverse_enclosure(b, &nf.linear_map).ok_or_else(|| {
-        NormalFormError::Invalid(
-            "the linear normalisation is too ill-conditioned to enclose its inverse".into(),
-        )
-    })?;
-    let bi: Vec<Vec<Iv>> = b
-        .iter()
-        .map(|r| r.iter().map(|&x| Iv::point(x)).collect())
-        .collect();
-    // radii in |y|
-    let (y0, y1) = match metric {
-        Metric::LinearNormal => (d0, d1),
-        Metric::Euclidean => (
-            mul_up(frobenius_up(&bi), d0),
-            (Iv::point(d1) / Iv::point(frobenius_up(&c))).lo,
-        ),
-    };
-    let full_degree = map
-        .components
-        .iter()
-        .map(|p| p.max_degree())
-        .max()
-        .unwrap_or(1);
-    // from three degrees of freedom on, the map is cut at the normalisation order (W is any
-    // function: a shorter T keeps the cancellations of Ẇ through degree N + 1)
-    let reduced = nf.n_dof > 2;
-    let m_deg = options
-        .map_degree
-        .unwrap_or(if reduced {
-            full_degree.min(nf.order)
-        } else {
-            full_degree
-        })
-        .clamp(1, full_degree);
-    let k = options
-        .field_degree
-        .unwrap_or(if reduced { nf.order + 1 } else { m_deg + 1 })
-        .max(2);
-    let d = options.model_degree.unwrap_or(k.max(m_deg) + 1).max(k);
-    let table = Arc::new(MonomialTable::new(n, d));
-
-    // 1. the field ẏ = S ∇H̃, S = B J Bᵀ
-    let nd = nf.n_dof;
-    let s: Vec<Vec<Iv>> = (0..n)
-        .map(|i| {
-            (0..n)
-                .map(|j| {
-                    // (B J Bᵀ)_ij = Σ_k B_ik (J Bᵀ)_kj, (J Bᵀ)_kj = B_j,k+n (k < n/2), −B_j,k−n
-                    (0..n).fold(Iv::point(0.0), |acc, kk| {
-                        let jb = if kk < nd {
-                            bi[j][kk + nd]
-                        } else {
-                            -bi[j][kk - nd]
-                        };
-                        acc + bi[i][kk] * jb
-                    })
-                })
-                .collect()
-        })
-        .collect();
-    let t_k1 = Arc::new(MonomialTable::new(n, k + 1));
-    let zero = vec![Iv::point(0.0); n];
-    let hp = jet_at(h, &xe, &c, &zero, &t_k1);
-    let t_k2 = Arc::new(MonomialTable::new(n, k + 2));
-    let boxed = vec![Iv::symmetric(y1); n];
-    let hb = jet_at(h, &xe, &c, &boxed, &t_k2);
-    if !hp.is_finite() || !hb.is_finite() {
-        return Err(NormalFormError::Invalid(format!(
-            "the Hamiltonian's interval Taylor expansion is not finite on the ball |y| ≤ {y1:e} (a singularity within the tube?)"
-        )));
-    }
-    // gradient of H̃: polynomial to degree K, Lagrange remainder at degree K + 1
-    let top = hb.part(k + 2).map(|p| p.to_vec()).unwrap_or_default();
-    let grad: Vec<Tm> = (0..n)
-        .map(|v| {
-            let p = hp.derivative(v).retabled(table.clone());
-            let mut p = p;
-            p.truncate(k);
-            let mut e = 0.0;
-            for (i, c) in top.iter().enumerate() {
-                let ex = t_k2.exponents(k + 2, i);
-                if ex[v] > 0 {
-                    e = add_up(e, mul_up(ex[v] as f64, c.mag()));
-                }
-            }
-            let mut ec = vec![0.0; k + 2];
-            ec[k + 1] = e;
-            Tm {
-                p,
-                e: Majorant { c: ec },
-            }
-        })
-        .collect();
-    let field: Vec<Tm> = (0..n)
-        .map(|i| {
-            (0..n).fold(Tm::exact(Poly::zero(table.clone())), |acc, j| {
-                acc.add(&grad[j].scaled(s[i][j]))
-            })
-        })
-        .collect();
-
-    // 2. W = |T|², Ẇ = 2 Σ_j (Σ_i T_i ∂_j T_i) ẏ_j
-    let tmap: Vec<Poly<Iv>> = map
-        .components
-        .iter()
-        .map(|p| {
-            let mut t = p.map(Iv::point);
-            t.truncate(m_deg);
-            t.retabled(table.clone())
-        })
-        .collect();
-    let mut wdot = Tm::exact(Poly::zero(table.clone()));
-    for j in 0..n {
-        let mut v = Tm::exact(Poly::zero(table.clone()));
-        for ti in &tmap {
-            v = v.add(&Tm::exact(ti.clone()).mul(&Tm::exact(ti.derivative(j))));
-        }
-        wdot = wdot.add(&v.mul(&field[j]));
-    }
-    let g = wdot.majorant().scaled(2.0);
-
-    // 3. τ: |T(y) − y| ≤ τ(|y|), and κ: |y·h(y)| ≤ κ(|y|) (h = T − id)
-    let hots: Vec<Poly<Iv>> = tmap
-        .iter()
-        .enumerate()
-        .map(|(i, ti)| {
-            let mut e = vec![0u8; n];
-            e[i] = 1;
-            let mut hot = ti.clone();
-            let c1 = hot.coeff(&e);
-            hot.set_coeff(&e, c1 - Iv::point(1.0));
-            hot
-        })
-        .collect();
-    let taus: Vec<Majorant> = hots.iter().map(Majorant::of_poly).collect();
-    let kappa = Majorant::of_poly(
-        &hots
-            .iter()
-            .enumerate()
-            .fold(Poly::zero(table.clone()), |acc, (i, h)| {
-                acc.add(&Poly::variable(table.clone(), i, Iv::point(0.0)).mul(h))
-            }),
-    );
-    // ρ² = r² + 2y·h + |h|² on |y| = r: r² − 2κ(r) ≤ ρ² ≤ r² + 2κ(r) + τ(r)²
-    let kappa2 = |r: f64| mul_up(2.0, kappa.eval(r));
-    let tau = |r: f64| -> f64 {
-        let s = taus
-            .iter()
-            .fold(0.0, |s, m| add_up(s, mul_up(m.eval(r), m.eval(r))));
-        s.sqrt().next_up()
-    };
-    let tau_slope = {
-        let s = taus.iter().fold(0.0, |s, m| {
-            let dm = m.derivative_at(y1);
-            add_up(s, mul_up(dm, dm))
-        });
-        s.sqrt().next_up()
-    };
-    let tau1 = tau(y1);
-    // ρ₀, ρ₁: the better of the majorant and the branch and bound
-    let ext = Extremum::new(&tmap);
-    let max0 = ext.extremum(y0, true, false, options.tolerance, options.budget);
-    // on the outer sphere ρ ≥ |y| − |h(y)| ≥ y1 − max_{|y| ≤ y1} |h|
-    let hmax1 = ext.extremum(y1, true, true, options.tolerance, options.budget);
-    // the lower bound of ρ² on the sphere |y| = r from κ
-    let phi_lo = |r: f64| (Iv::point(r).sqr() - Iv::point(kappa2(r))).lo;
-    let rho0_kappa = {
-        let t = tau(y0);
-        let up = add_up(add_up(mul_up(y0, y0), kappa2(y0)), mul_up(t, t));
-        up.sqrt().next_up()
-    };
-    let rho0 = add_up(y0, tau(y0))
-        .min(rho0_kappa)
-        .min(max0.bound.sqrt().next_up());
-    let tau1 = tau1.min(hmax1.bound.sqrt().next_up());
-    let rho1_kappa = {
-        let p = phi_lo(y1);
-        if p > 0.0 {
-            p.sqrt().next_down()
-        } else {
-            0.0
-        }
-    };
-    let rho1 = (Iv::point(y1) - Iv::point(tau1)).lo.max(rho1_kappa);
-    let boxes = max0.boxes + hmax1.boxes;
-    let seconds = || t0.elapsed().as_secs_f64();
-    let mut out = CertifiedTube {
-        d0,
-        d1,
-        y0,
-        y1,
-        rho0,
-        rho1,
-        time: None,
-        map_degree: m_deg,
-        field_degree: k,
-        model_degree: d,
-        wdot: g.clone(),
-        tau1,
-        boxes,
-        seconds: 0.0,
-    };
-    // ψ(r) = r − τ(r) must increase on [0, y1]: τ′ ≤ |(τ_i′)| ≤ its value at y1
-    // where the majorant τ does not keep ψ increasing, |y| ≤ y1 is all that is used
-    let monotone = tau_slope < 1.0;
-    // r² − 2κ(r) increases on [0, y1] when 2κ′(r) < 2r there: Σ s κ_s r^{s−2} < 1 at y1
-    // (κ starts at degree 3: h does at degree 2)
-    let kappa_monotone = kappa.c.iter().take(3).all(|&c| c == 0.0)
-        && kappa
-            .c
-            .iter()
-            .enumerate()
-            .skip(3)
-            .fold(0.0, |acc, (s, &c)| {
-                add_up(acc, mul_up(mul_up(c, s as f64), pow_up(y1, s - 2)))
-            })
-            < 1.0;
-    if rho1 <= rho0 || rho1.is_nan() || rho0.is_nan() {
-        out.seconds = seconds();
-        return Ok(out);
-    }
-    // 4. u(ρ) = min(y1, ψ⁻¹(ρ)) rounded up: the smallest r found with ψ(r) ≥ ρ, where
-    // ψ(r) ≤ ρ(y) on |y| = r is the larger of the increasing lower bounds r − τ(r) and
-    // (r² − 2κ(r))^{1/2}
-    let psi_lo = |r: f64| {
-        let a = if monotone {
-            (Iv::point(r) - Iv::point(tau(r))).lo
-        } else {
-            f64::NEG_INFINITY
-        };
-        let b = if kappa_monotone {
-            let p = phi_lo(r);
-            if p > 0.0 {
-                p.sqrt().next_down()
-            } else {
-                0.0
-            }
-        } else {
-            f64::NEG_INFINITY
-        };
-        a.max(b)
-    };
-    let u = |rho: f64| -> f64 {
-        if !(monotone || kappa_monotone) || psi_lo(y1) < rho {
-            return y1;
-        }
-        let (mut lo, mut hi) = (0.0, y1);
-        for _ in 0..60 {
-            let mid = 0.5 * (lo + hi);
-            if psi_lo(mid) >= rho {
-                hi = mid;
-            } else {
-                lo = mid;
-            }
-        }
-        hi
-    };
-    let m = options.intervals.max(1);
-    let q = (rho1 / rho0).powf(1.0 / m as f64);
-    let mut total = Iv::point(0.0);
-    let mut a = rho0;
-    for i in 1..=m {
-        let bnd = if i == m { rho1 } else { (a * q).min(rho1) };
-        let gmax = g.eval(u(bnd));
-        let num = (Iv::point(bnd) - Iv::point(a)) * Iv::point(2.0 * a);
-        let term = num / Iv::point(gmax);
-        if gmax > 0.0 && term.lo.is_finite() {
-            total += Iv::point(term.lo.max(0.0));
-        } else if gmax == 0.0 {
-            total = Iv::point(f64::INFINITY);
-            break;
-        }
-        a = bnd;
-    }
-    out.time = Some(total.lo.max(0.0));
-    out.seconds = seconds();
-    Ok(out)
+    let setup = CertifiedSetup::new(h, nf, metric, options)?;
+    let mut t = setup.tube(d0, d1)?;
+    t.seconds += setup.seconds;
+    Ok(t)
 }
