@@ -53,8 +53,9 @@ fn main() {
 }
 
 /// The loop forms of the N-body and FPUT families at three sizes each (`param n` set on its
-/// line) and of the periodic chain of `tests/models/loop_ring.lsl`, into `$OUT_DIR/loop_forms.rs`, for the test that holds them against the JIT's loop
-/// kernels (`tests/loops_emitted.rs`, which sets the sizes the same way).
+/// line) and of the periodic chain of `tests/models/loop_ring.lsl`, into
+/// `$OUT_DIR/loop_forms.rs`, for the test that holds them against the JIT's loop kernels
+/// (`tests/loops_emitted.rs`, which sets the sizes the same way).
 fn loop_forms() {
     let mut models = Vec::new();
     let forms: [(&str, &[usize]); 3] = [
