@@ -319,6 +319,9 @@ pub struct LoadedModel {
     step_tapes: StepTapes,
     /// The tape of the guards' margins, for compiled steps.
     guards_tape: Option<Tape>,
+    /// The field as a loop tape, for the loop form of its Taylor program (a model loaded with
+    /// its families kept as loops).
+    loop_field: Option<Box<lasalle_model::loops::LoopTape>>,
     /// The compiled steps built so far, by method name and whether on X − ∇V
     /// ([`Declared::compiled_step`]).
     steps: Mutex<HashMap<(&'static str, bool), StepKernel>>,
@@ -385,6 +388,7 @@ impl LoadedModel {
                 feedback: Box::new(tapes.feedback),
             },
             guards_tape: guards,
+            loop_field: None,
             steps: Mutex::default(),
             info,
             load_time: start.elapsed(),
@@ -482,6 +486,7 @@ impl LoadedModel {
             kernels,
             step_tapes: StepTapes::Deferred(lazy),
             guards_tape: guards,
+            loop_field: Some(Box::new(tapes.field)),
             steps: Mutex::default(),
             info,
             load_time: start.elapsed(),
@@ -563,6 +568,17 @@ impl LoadedModel {
         let kernel = Arc::new(self.backend.compile(&tape).ok()?);
         steps.insert((method.name, feedback), kernel.clone());
         Some(kernel)
+    }
+
+    /// The field's loop tape and the unrolled model's tapes, for a model loaded with its
+    /// families kept as loops.
+    pub(crate) fn loop_taylor(
+        &self,
+    ) -> Option<(&lasalle_model::loops::LoopTape, Arc<crate::deferred::LazyTapes>)> {
+        match (&self.loop_field, &self.step_tapes) {
+            (Some(field), StepTapes::Deferred(lazy)) => Some((field, lazy.clone())),
+            _ => None,
+        }
     }
 
     /// The tape of X − ∇V (for a model with families kept as loops, built now if not yet).

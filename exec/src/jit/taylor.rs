@@ -79,6 +79,9 @@ use lasalle_runtime::taylor::TaylorKernel;
 use lasalle_runtime::StepError;
 use std::collections::HashMap;
 
+mod loops;
+pub use loops::JitLoopTaylor;
+
 /// `(state, hoisted, target, gains, table)`: fills the state rows of `table` (N × (p + 1),
 /// row-major) with x^\[0..=p\] of the solution through `state`.
 type TaylorFn = unsafe extern "C" fn(*const f64, *const f64, *const f64, *const f64, *mut f64);

@@ -643,5 +643,8 @@ impl LoopTape {
 }
 
 mod check;
+pub mod taylor;
 #[cfg(test)]
 mod tests;
+
+pub use taylor::LoopTaylorProgram;
