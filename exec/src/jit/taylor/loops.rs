@@ -376,7 +376,7 @@ impl LoopEmit<'_> {
             let sum = e.fadd(old, v);
             e.b.ins().store(flags, sum, addr, off);
         }
-        let mut step = |e: &mut Emit<'_>, v: Value, by: i64| {
+        let step = |e: &mut Emit<'_>, v: Value, by: i64| {
             let by = e.b.ins().iconst(ptr, by);
             e.b.ins().iadd(v, by)
         };
