@@ -53,10 +53,15 @@ impl JitLoopTaylor {
     /// Compiles the loop form of the Taylor program of `tape` (a field) for the order
     /// `order`, with parameter values `params`.
     pub fn new(tape: &LoopTape, params: &[f64], order: u32) -> Result<JitLoopTaylor, TaylorError> {
-        let data = LoopTaylorTape::new(tape, params, order)?;
+        let mut data = LoopTaylorTape::new(tape, params, order)?;
         let p = order as usize;
+        let layouts: Vec<Layout> = data.program.regions.iter().map(|r| layout(r, p + 1)).collect();
+        // the compiled code's blocks are compact (the interpreter's layout is never used here)
+        for ((block, l), region) in data.blocks.iter_mut().zip(&layouts).zip(&tape.regions) {
+            *block = vec![0.0; l.size * region.count];
+        }
         let mut module = jit_module(OPT_LEVEL, false).map_err(TaylorError::kernels)?;
-        let id = match define(&mut module, tape, &data.program, p) {
+        let id = match define(&mut module, tape, &data.program, &layouts, p) {
             Ok(id) => id,
             Err(e) => {
                 // SAFETY: nothing compiled in this module has been handed out.
@@ -125,17 +130,74 @@ impl TaylorKernel<crate::LoadedModel> for JitLoopTaylor {
     }
 }
 
+/// Where the rows of a region's tuple block are (see [`Emit::layout`]) and the block's size.
+struct Layout {
+    rows: Vec<(usize, bool)>,
+    size: usize,
+}
+
+/// The compact layout of a region's block: the rows whose lower orders some recurrence reads
+/// after their order (operands of Cauchy sums, the results of the recurrences that read their
+/// own lower orders) hold all p + 1 orders; every other row holds one value, its current
+/// order (rows constant along the solution: their order 0). A tuple's block is then a few
+/// rows long instead of all of them, which keeps the blocks of all tuples in the cache.
+fn layout(program: &lasalle_model::tape::taylor::TaylorProgram, stride: usize) -> Layout {
+    use lasalle_model::tape::taylor::Rec;
+    let mut history = vec![false; program.rows];
+    for &(r, constant) in &program.recs {
+        if constant {
+            continue;
+        }
+        let all: &[usize] = match r {
+            Rec::Mul { a, b, .. } => &[a, b],
+            Rec::Square { a, .. } => &[a],
+            Rec::Div { b, d, .. } => &[b, d],
+            Rec::Pow { a, d, .. } | Rec::Exp { a, d, .. } | Rec::Ln { a, d, .. } => &[a, d],
+            Rec::Sqrt { d, .. } => &[d],
+            Rec::SinCos { s, c, a } => &[s, c, a],
+            Rec::Jacobi { rows, a, .. } => {
+                for r in rows.into_iter().chain([a]) {
+                    history[r] = true;
+                }
+                &[]
+            }
+            Rec::EllipF { a, w, .. } => &[a, w],
+            Rec::Leaf { .. }
+            | Rec::Add { .. }
+            | Rec::Sub { .. }
+            | Rec::Neg { .. }
+            | Rec::Scale { .. }
+            | Rec::DivConst { .. }
+            | Rec::EllipK { .. } => &[],
+        };
+        for &r in all {
+            history[r] = true;
+        }
+    }
+    let mut size = 0;
+    let rows = history
+        .into_iter()
+        .map(|h| {
+            let start = size;
+            size += if h { stride } else { 1 };
+            (start, h)
+        })
+        .collect();
+    Layout { rows, size }
+}
+
 /// Defines and finalises the function; returns its id.
 fn define(
     module: &mut JITModule,
     tape: &LoopTape,
     program: &LoopTaylorProgram,
+    layouts: &[Layout],
     p: usize,
 ) -> Result<cranelift_module::FuncId, ExecError> {
     let stride = p + 1;
     offset(program.base.rows * stride)?;
-    for r in &program.regions {
-        offset(r.rows * stride)?;
+    for l in layouts {
+        offset(l.size)?;
     }
     let ptr = module.target_config().pointer_type();
     let mut sig = module.make_signature();
@@ -181,6 +243,7 @@ fn define(
             ellipj,
             table,
             stride,
+            layout: None,
             rows: vec![0; program.base.rows],
             recent: Default::default(),
             early: HashMap::new(),
@@ -190,6 +253,7 @@ fn define(
         let mut l = LoopEmit {
             tape,
             program,
+            layouts,
             params,
             table,
             hoisted,
@@ -211,6 +275,7 @@ fn define(
 struct LoopEmit<'a> {
     tape: &'a LoopTape,
     program: &'a LoopTaylorProgram,
+    layouts: &'a [Layout],
     params: Value,
     /// The plain table (the state rows first).
     table: Value,
@@ -301,7 +366,7 @@ impl LoopEmit<'_> {
         let [hoisted, gather, scatter, blocks] = self.regions[r];
         let ptr = e.ptr;
         let stride = e.stride;
-        let block_bytes = (prog.rows * stride * 8) as i64;
+        let block_bytes = (self.layouts[r].size * 8) as i64;
         let slots = region.sources.len();
         let outs = prog.outputs.len();
         let span = e.b.ins().iconst(ptr, block_bytes * region.count as i64);
@@ -323,6 +388,7 @@ impl LoopEmit<'_> {
         // the emitter now works on the tuple's block
         std::mem::swap(&mut e.rows, &mut self.region_rows[r]);
         e.table = bp;
+        e.layout = Some(self.layouts[r].rows.clone());
         e.recent.clear();
         let ro = MemFlagsData::trusted().with_readonly();
         let flags = MemFlagsData::trusted();
@@ -394,6 +460,7 @@ impl LoopEmit<'_> {
         e.b.switch_to_block(exit);
         std::mem::swap(&mut e.rows, &mut self.region_rows[r]);
         e.table = self.table;
+        e.layout = None;
         e.recent.clear();
         Ok(())
     }
