@@ -126,3 +126,19 @@ fn loop_taylor_orders_and_parameters() {
     let changed = (0..lm.dim()).any(|i| k.state_coefficients(i)[1] != full[i][1]);
     assert!(changed, "new parameters change the field");
 }
+
+/// A chain whose pair term has a cosine, an exponential, a square root and a quotient: the
+/// recurrences of sine and cosine, exponential, power and division in loop form.
+#[test]
+fn transcendental_chain_loop_taylor_is_the_unrolled_programs() {
+    let text = "model Chain {
+        param n = 9;
+        state q: scalar[n], p: scalar[n];
+        param k: scalar[n] = [i in 0..n: 1 + i / 4];
+        hamiltonian H = sum(i in 0..n: p[i]^2 / 2)
+            + sum(i in 0..n-1: k[i] * (1 - cos(q[i+1] - q[i])) + 0.1 * exp(q[i] * q[i+1])
+                  + sqrt(1 + q[i]^2) / (2 + q[i+1]^2));
+        structure canonical(q, p);
+    }";
+    check(text, |seed, len| numbers(seed, len).iter().map(|v| 0.8 * v).collect());
+}
