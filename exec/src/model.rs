@@ -398,8 +398,10 @@ impl LoadedModel {
     /// [`LoadedModel::from_source`], with the model's families lowered as `families` says
     /// ([`lasalle_model::loops`]). When some family is kept as a loop, the field and the
     /// integrals are loop kernels ([`crate::LoopKernel`]), the integrals are checked on the
-    /// families' terms, and the other functions (Jacobian, V, ∇V, X − ∇V, half-fields, the
-    /// Taylor kernels) are built from the unrolled model at their first use; the unrolled
+    /// families' terms, the field's Taylor kernel is the loop form of its program
+    /// ([`crate::LoopTaylorTape`]), and the other functions (Jacobian, V, ∇V, X − ∇V,
+    /// half-fields, the Taylor kernel of X − ∇V) are built from the unrolled model at their
+    /// first use; the unrolled
     /// model is lowered and derived (for its declarations and those functions), never
     /// checked, rewritten or compiled at load. Otherwise the model loads as with
     /// [`LoadedModel::from_source`]; so does a model the loop form refuses (a sum that enters

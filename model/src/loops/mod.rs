@@ -24,8 +24,10 @@
 //!
 //! What the loop form does not do (yet) is refused rather than approximated: a family whose
 //! value enters a function other than linearly with a constant coefficient, or a Hamiltonian
-//! family under a Lie–Poisson structure. V, ∇V, X − ∇V, the Jacobian, the conservation proofs,
-//! the Taylor program and the emitted Rust have no loop form: they work on the unrolled model
+//! family under a Lie–Poisson structure. The field's Taylor program has a loop form
+//! ([`LoopTape::taylor`], [`taylor`]: the body's coefficient recurrences once per tuple, on the
+//! coefficients gathered from the state's). V, ∇V, X − ∇V, the Jacobian, the conservation
+//! proofs and the emitted Rust have no loop form: they work on the unrolled model
 //! ([`Families::Unrolled`]).
 
 use crate::error::{Diagnostic, Error, Span};
@@ -196,7 +198,7 @@ impl LoopModel {
     }
 
     /// The same model with every family unrolled, lowered again from its source: what the
-    /// stages without a loop form (the Jacobian, V, ∇V, X − ∇V, the Taylor program, the
+    /// stages without a loop form (the Jacobian, V, ∇V, X − ∇V, the Taylor program of X − ∇V, the
     /// emitted Rust, the lanes) need, built only when one of them is asked for.
     pub fn unrolled(&self) -> Result<Model, Error> {
         let source = &self.model.source;
