@@ -576,7 +576,10 @@ impl LoadedModel {
     /// families kept as loops.
     pub(crate) fn loop_taylor(
         &self,
-    ) -> Option<(&lasalle_model::loops::LoopTape, Arc<crate::deferred::LazyTapes>)> {
+    ) -> Option<(
+        &lasalle_model::loops::LoopTape,
+        Arc<crate::deferred::LazyTapes>,
+    )> {
         match (&self.loop_field, &self.step_tapes) {
             (Some(field), StepTapes::Deferred(lazy)) => Some((field, lazy.clone())),
             _ => None,

@@ -281,7 +281,11 @@ impl LoadedModel {
                 max_order,
             )?));
         }
-        Ok(Box::new(LoopTaylorTape::new(tape, self.params(), max_order)?))
+        Ok(Box::new(LoopTaylorTape::new(
+            tape,
+            self.params(),
+            max_order,
+        )?))
     }
 
     /// The kernel of one field tape for this model's back end (see
@@ -329,7 +333,14 @@ fn row(t: &[f64], stride: usize, r: usize) -> &[f64] {
 
 /// Order 0: the instruction's own f64 operation (the tape's value).
 #[inline]
-pub(crate) fn zeroth(t: &mut [f64], s: usize, r: Rec, hoisted: &[f64], target: &[f64], gains: &[f64]) {
+pub(crate) fn zeroth(
+    t: &mut [f64],
+    s: usize,
+    r: Rec,
+    hoisted: &[f64],
+    target: &[f64],
+    gains: &[f64],
+) {
     match r {
         Rec::Leaf { d, leaf } => {
             t[d * s] = match leaf {

@@ -55,14 +55,21 @@ fn check(text: &str, state: impl Fn(u64, usize) -> Vec<f64>) {
             let a = interp.state_coefficients(i);
             let b = TaylorKernel::<LoadedModel>::coefficients(&jit, i);
             assert_eq!(a.len(), ORDER as usize + 1);
-            assert_eq!(bits(a), bits(b), "component {i}: interpreter and JIT differ");
+            assert_eq!(
+                bits(a),
+                bits(b),
+                "component {i}: interpreter and JIT differ"
+            );
         }
         // against the unrolled program, per order relative to the order's largest coefficient
         for k in 0..=ORDER as usize {
             let scale = (0..n).fold(0.0f64, |m, i| m.max(plain.state_coefficients(i)[k].abs()));
             assert!(scale > 0.0 || k > 1, "order {k} is not trivial");
             for i in 0..n {
-                let (a, u) = (interp.state_coefficients(i)[k], plain.state_coefficients(i)[k]);
+                let (a, u) = (
+                    interp.state_coefficients(i)[k],
+                    plain.state_coefficients(i)[k],
+                );
                 assert!(
                     (a - u).abs() <= 1e-13 * scale,
                     "seed {seed}, component {i}, order {k}: loops {a:e}, unrolled {u:e} (scale {scale:e})"
@@ -97,7 +104,9 @@ fn nbody_loop_taylor_is_the_unrolled_programs() {
 fn fput_loop_taylor_is_the_unrolled_programs() {
     for n in [5, 12, 40] {
         let text = sized(FPUT, "param n = 16;", n).replace("param beta = 0;", "param beta = 0.7;");
-        check(&text, |seed, len| numbers(seed, len).iter().map(|v| 0.5 * v).collect());
+        check(&text, |seed, len| {
+            numbers(seed, len).iter().map(|v| 0.5 * v).collect()
+        });
     }
 }
 
@@ -112,7 +121,9 @@ fn loop_taylor_orders_and_parameters() {
     let mut k = LoopTaylorTape::new(&field, &params, ORDER).unwrap();
     let x = nbody_state(7, lm.dim());
     k.compute(&x, ORDER as usize);
-    let full: Vec<Vec<f64>> = (0..lm.dim()).map(|i| k.state_coefficients(i).to_vec()).collect();
+    let full: Vec<Vec<f64>> = (0..lm.dim())
+        .map(|i| k.state_coefficients(i).to_vec())
+        .collect();
     k.compute(&x, 5);
     for (i, c) in full.iter().enumerate() {
         assert_eq!(k.state_coefficients(i), &c[..6]);
@@ -140,5 +151,7 @@ fn transcendental_chain_loop_taylor_is_the_unrolled_programs() {
                   + sqrt(1 + q[i]^2) / (2 + q[i+1]^2));
         structure canonical(q, p);
     }";
-    check(text, |seed, len| numbers(seed, len).iter().map(|v| 0.8 * v).collect());
+    check(text, |seed, len| {
+        numbers(seed, len).iter().map(|v| 0.8 * v).collect()
+    });
 }

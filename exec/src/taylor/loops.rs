@@ -33,7 +33,11 @@ pub struct LoopTaylorTape {
 impl LoopTaylorTape {
     /// The kernel of `tape` (a field: as many outputs as state components) with parameter
     /// values `params`, for orders up to `max_order`.
-    pub fn new(tape: &LoopTape, params: &[f64], max_order: u32) -> Result<LoopTaylorTape, TaylorError> {
+    pub fn new(
+        tape: &LoopTape,
+        params: &[f64],
+        max_order: u32,
+    ) -> Result<LoopTaylorTape, TaylorError> {
         let program = tape.taylor().map_err(TaylorError::kernels)?;
         if max_order == 0 {
             return Err(TaylorError::Option("the order must be at least 1".into()));
@@ -107,7 +111,13 @@ impl LoopTaylorTape {
             for (&o, &row) in self.tape.base_at.iter().zip(&base.outputs) {
                 t[o as usize * s + k + 1] = t[row * s + k];
             }
-            for (ri, (region, prog)) in self.tape.regions.iter().zip(&self.program.regions).enumerate() {
+            for (ri, (region, prog)) in self
+                .tape
+                .regions
+                .iter()
+                .zip(&self.program.regions)
+                .enumerate()
+            {
                 let hoisted = &self.hoisted[ri + 1];
                 let block = prog.rows * s;
                 let slots = region.sources.len();
@@ -229,7 +239,8 @@ impl DeferredFeedback {
 
     fn kernel(&mut self) -> Result<&mut Box<dyn TaylorKernel<LoadedModel>>, StepError> {
         if self.kernel.is_none() {
-            let fail = |e: String| StepError::InvalidInput(format!("the Taylor kernel of X − ∇V: {e}"));
+            let fail =
+                |e: String| StepError::InvalidInput(format!("the Taylor kernel of X − ∇V: {e}"));
             let tapes = self.lazy.get().map_err(|e| fail(e.to_string()))?;
             let k = super::kernel_of(&tapes.feedback, self.backend, &self.params, self.max_order)
                 .map_err(|e| fail(e.to_string()))?;

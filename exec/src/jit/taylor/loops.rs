@@ -17,6 +17,7 @@ use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::JITModule;
 use cranelift_module::Module;
 use lasalle_model::loops::{LoopTape, LoopTaylorProgram, Source};
+use lasalle_model::tape::taylor::{EarlySum, Rec, Span, TaylorProgram};
 use lasalle_runtime::taylor::TaylorKernel;
 use lasalle_runtime::StepError;
 use std::collections::HashMap;
@@ -55,7 +56,12 @@ impl JitLoopTaylor {
     pub fn new(tape: &LoopTape, params: &[f64], order: u32) -> Result<JitLoopTaylor, TaylorError> {
         let mut data = LoopTaylorTape::new(tape, params, order)?;
         let p = order as usize;
-        let layouts: Vec<Layout> = data.program.regions.iter().map(|r| layout(r, p + 1)).collect();
+        let layouts: Vec<Layout> = data
+            .program
+            .regions
+            .iter()
+            .map(|r| layout(r, p + 1))
+            .collect();
         // the compiled code's blocks are compact (the interpreter's layout is never used here)
         for ((block, l), region) in data.blocks.iter_mut().zip(&layouts).zip(&tape.regions) {
             *block = vec![0.0; l.size * region.count];
@@ -141,8 +147,7 @@ struct Layout {
 /// own lower orders) hold all p + 1 orders; every other row holds one value, its current
 /// order (rows constant along the solution: their order 0). A tuple's block is then a few
 /// rows long instead of all of them, which keeps the blocks of all tuples in the cache.
-fn layout(program: &lasalle_model::tape::taylor::TaylorProgram, stride: usize) -> Layout {
-    use lasalle_model::tape::taylor::Rec;
+fn layout(program: &TaylorProgram, stride: usize) -> Layout {
     let mut history = vec![false; program.rows];
     for &(r, constant) in &program.recs {
         if constant {
@@ -355,7 +360,7 @@ impl LoopEmit<'_> {
         &mut self,
         e: &mut Emit<'_>,
         r: usize,
-        early: &[(lasalle_model::tape::taylor::Span, Vec<lasalle_model::tape::taylor::EarlySum>)],
+        early: &[(Span, Vec<EarlySum>)],
         k: usize,
     ) -> Result<(), ExecError> {
         let region = &self.tape.regions[r];
@@ -453,7 +458,11 @@ impl LoopEmit<'_> {
         e.b.ins().brif(
             more,
             body,
-            &[BlockArg::Value(bn), BlockArg::Value(gn), BlockArg::Value(sn)],
+            &[
+                BlockArg::Value(bn),
+                BlockArg::Value(gn),
+                BlockArg::Value(sn),
+            ],
             exit,
             &[],
         );
