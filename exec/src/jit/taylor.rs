@@ -79,7 +79,7 @@ use lasalle_runtime::taylor::TaylorKernel;
 use lasalle_runtime::StepError;
 use std::collections::HashMap;
 
-mod loops;
+pub mod loops;
 pub use loops::JitLoopTaylor;
 
 /// `(state, hoisted, target, gains, table)`: fills the state rows of `table` (N × (p + 1),

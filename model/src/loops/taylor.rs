@@ -38,7 +38,7 @@ pub struct LoopTaylorProgram {
 
 impl LoopTape {
     /// The Taylor program of this loop tape, a field (as many outputs as state components);
-    /// see the [module docs](self::taylor).
+    /// see the [module docs](crate::loops::taylor).
     pub fn taylor(&self) -> Result<LoopTaylorProgram, TapeError> {
         self.validate()?;
         let n = self.base.dims.state;

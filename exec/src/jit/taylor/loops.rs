@@ -1,11 +1,17 @@
 //! The loop form of the Taylor program ([`LoopTaylorProgram`]) compiled by Cranelift for one
 //! order p: [`JitLoopTaylor`]. One function: the orders unrolled as in [`JitTaylor`](super::JitTaylor)
-//! (the same emitter, [`Emit`]), and at each order, per region, one loop block over the
+//! (the same emitter), and at each order, per region, one loop block over the
 //! tuples whose body gathers the slots' order-k coefficients from the state rows, runs the
 //! body's recurrences at order k over the tuple's own table (the emitter's table pointer is
 //! the tuple's block) and adds the outputs' order k to the state rows' order k + 1 through
 //! the scatter table. The code is independent of the number of tuples; the operations and
 //! their order are those of the interpreter ([`LoopTaylorTape`]), so the two agree bitwise.
+//!
+//! The tuples' tables are compact: a row holds all p + 1 orders only if some recurrence reads
+//! its lower orders again (an operand of a Cauchy sum, the result of a recurrence that reads
+//! its own past); every other row holds one value, its current order. For the N-body pair
+//! term that is 6 rows of 29, so the tables of 1 128 pairs take 1.3 MB at p = 19 and stay in
+//! the cache (the interpreter keeps full tables, the same values).
 
 use super::{jit_err, jit_module, offset, Code, Emit, Leaves, EARLY_GROUP, OPT_LEVEL};
 use crate::taylor::{LoopTaylorTape, TaylorError};
@@ -340,8 +346,8 @@ impl LoopEmit<'_> {
             for (i, &v) in first.iter().enumerate() {
                 store(e, v, i, k + 1)?;
             }
-            for r in 0..self.program.regions.len() {
-                self.region(e, r, &region_early[r], k)?;
+            for (r, early) in region_early.iter().enumerate() {
+                self.region(e, r, early, k)?;
             }
             let inv = e.constant(1.0 / (k as f64 + 1.0));
             let flags = MemFlagsData::trusted();
