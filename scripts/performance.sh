@@ -320,7 +320,8 @@ heyoka_python() {
 }
 
 table_nbody_heyoka() {
-    "$(heyoka_python)" scripts/heyoka/nbody_scaling.py "$(lasalle_bin)" --sizes "${NBODY_SIZES:-3,6,12,24,48}"
+    "$(heyoka_python)" scripts/heyoka/nbody_scaling.py "$(lasalle_bin)" --sizes "${NBODY_SIZES:-3,6,12,24,48,96}" \
+        --families "${NBODY_FAMILIES:-loops}"
 }
 
 table_sweep() {

@@ -1,6 +1,8 @@
 //! Functions of a model loaded with its families kept as loops that have no loop form (the
-//! Jacobian, V, ∇V, X − ∇V, the half-fields, the compiled steps on X − ∇V): built from the
-//! unrolled model when one of them is first evaluated, not when the model is loaded.
+//! Jacobian, V, ∇V, X − ∇V, the half-fields, the compiled steps on X − ∇V, the Taylor program
+//! of X − ∇V): built from the unrolled model when one of them is first evaluated, not when
+//! the model is loaded. The field's Taylor program has a loop form
+//! ([`crate::taylor::LoopTaylorTape`], `crate::jit::taylor::JitLoopTaylor`).
 //!
 //! The unrolled model's tapes are built once, for all of them ([`LazyTapes`]); each function
 //! is a [`Deferred`] kernel that compiles its tape at its first evaluation. Its "hoisted

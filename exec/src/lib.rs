@@ -38,7 +38,7 @@ pub use ensemble::{FeedbackLanes, LaneField, Lanes, PackError};
 pub use lasalle_model::loops::Families;
 pub use loops::LoopKernel;
 pub use model::{LoadError, LoadedModel};
-pub use taylor::{Taylor, TaylorError, TaylorField, TaylorOptions, TaylorTape};
+pub use taylor::{LoopTaylorTape, Taylor, TaylorError, TaylorField, TaylorOptions, TaylorTape};
 
 pub use lasalle_model::tape::{Dims, Op, Reg, Tape, TapeError};
 

@@ -319,6 +319,9 @@ pub struct LoadedModel {
     step_tapes: StepTapes,
     /// The tape of the guards' margins, for compiled steps.
     guards_tape: Option<Tape>,
+    /// The field as a loop tape, for the loop form of its Taylor program (a model loaded with
+    /// its families kept as loops).
+    loop_field: Option<Box<lasalle_model::loops::LoopTape>>,
     /// The compiled steps built so far, by method name and whether on X − ∇V
     /// ([`Declared::compiled_step`]).
     steps: Mutex<HashMap<(&'static str, bool), StepKernel>>,
@@ -385,6 +388,7 @@ impl LoadedModel {
                 feedback: Box::new(tapes.feedback),
             },
             guards_tape: guards,
+            loop_field: None,
             steps: Mutex::default(),
             info,
             load_time: start.elapsed(),
@@ -394,8 +398,10 @@ impl LoadedModel {
     /// [`LoadedModel::from_source`], with the model's families lowered as `families` says
     /// ([`lasalle_model::loops`]). When some family is kept as a loop, the field and the
     /// integrals are loop kernels ([`crate::LoopKernel`]), the integrals are checked on the
-    /// families' terms, and the other functions (Jacobian, V, ∇V, X − ∇V, half-fields, the
-    /// Taylor kernels) are built from the unrolled model at their first use; the unrolled
+    /// families' terms, the field's Taylor kernel is the loop form of its program
+    /// ([`crate::LoopTaylorTape`]), and the other functions (Jacobian, V, ∇V, X − ∇V,
+    /// half-fields, the Taylor kernel of X − ∇V) are built from the unrolled model at their
+    /// first use; the unrolled
     /// model is lowered and derived (for its declarations and those functions), never
     /// checked, rewritten or compiled at load. Otherwise the model loads as with
     /// [`LoadedModel::from_source`]; so does a model the loop form refuses (a sum that enters
@@ -482,6 +488,7 @@ impl LoadedModel {
             kernels,
             step_tapes: StepTapes::Deferred(lazy),
             guards_tape: guards,
+            loop_field: Some(Box::new(tapes.field)),
             steps: Mutex::default(),
             info,
             load_time: start.elapsed(),
@@ -565,6 +572,20 @@ impl LoadedModel {
         let kernel = Arc::new(kernel.ok()?);
         steps.insert((method.name, feedback), kernel.clone());
         Some(kernel)
+    }
+
+    /// The field's loop tape and the unrolled model's tapes, for a model loaded with its
+    /// families kept as loops.
+    pub(crate) fn loop_taylor(
+        &self,
+    ) -> Option<(
+        &lasalle_model::loops::LoopTape,
+        Arc<crate::deferred::LazyTapes>,
+    )> {
+        match (&self.loop_field, &self.step_tapes) {
+            (Some(field), StepTapes::Deferred(lazy)) => Some((field, lazy.clone())),
+            _ => None,
+        }
     }
 
     /// The tape of X − ∇V (for a model with families kept as loops, built now if not yet).

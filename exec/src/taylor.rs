@@ -44,6 +44,9 @@ use lasalle_runtime::StepError;
 
 use crate::LoadedModel;
 
+pub mod loops;
+pub use loops::LoopTaylorTape;
+
 /// The Taylor-coefficient recurrences of one field tape ([`TaylorProgram`]) interpreted over
 /// their coefficient table: a [`TaylorKernel`] of [`LoadedModel`].
 ///
@@ -239,12 +242,50 @@ impl LoadedModel {
     /// budget, interpreted first and compiled after `DEFER_COMPUTES` computes
     /// (`lasalle_exec::jit::taylor::DeferredJit`); with the interpreter back end they are
     /// interpreted ([`TaylorTape`]). All compute the same coefficients, bitwise.
+    ///
+    /// A model loaded with its families kept as loops has the loop form of the field's
+    /// program ([`LoopTaylorTape`], or its JIT, `lasalle_exec::jit::taylor::JitLoopTaylor`),
+    /// and the program of X − ∇V built from the unrolled model when a feedback run first
+    /// sets its inputs ([`TaylorKernel::set_inputs`]).
     pub fn taylor_tapes(&self, max_order: u32) -> Result<TaylorKernels<LoadedModel>, TaylorError> {
+        if let Some((field, lazy)) = self.loop_taylor() {
+            return Ok(TaylorKernels {
+                field: self.loop_taylor_kernel(field, max_order)?,
+                feedback: Box::new(loops::DeferredFeedback::new(
+                    lazy,
+                    self.backend(),
+                    self.params(),
+                    self.dim(),
+                    max_order,
+                )?),
+            });
+        }
         let tapes = ModelTapes::new(self.derived()).map_err(TaylorError::kernels)?;
         Ok(TaylorKernels {
             field: self.taylor_kernel(&tapes.field, max_order)?,
             feedback: self.taylor_kernel(&tapes.feedback, max_order)?,
         })
+    }
+
+    /// The kernel of a loop field for this model's back end.
+    fn loop_taylor_kernel(
+        &self,
+        tape: &lasalle_model::loops::LoopTape,
+        max_order: u32,
+    ) -> Result<Box<dyn TaylorKernel<LoadedModel>>, TaylorError> {
+        #[cfg(feature = "jit")]
+        if self.backend() == crate::Backend::Jit {
+            return Ok(Box::new(crate::jit::taylor::JitLoopTaylor::new(
+                tape,
+                self.params(),
+                max_order,
+            )?));
+        }
+        Ok(Box::new(LoopTaylorTape::new(
+            tape,
+            self.params(),
+            max_order,
+        )?))
     }
 
     /// The kernel of one field tape for this model's back end (see
@@ -254,15 +295,7 @@ impl LoadedModel {
         tape: &Tape,
         max_order: u32,
     ) -> Result<Box<dyn TaylorKernel<LoadedModel>>, TaylorError> {
-        #[cfg(feature = "jit")]
-        if self.backend() == crate::Backend::Jit {
-            use crate::jit::taylor::{DeferredJit, JitTaylor};
-            return Ok(match JitTaylor::new(tape, self.params(), max_order)? {
-                Some(k) => Box::new(k),
-                None => Box::new(DeferredJit::new(tape, self.params(), max_order)?),
-            });
-        }
-        Ok(Box::new(TaylorTape::new(tape, self.params(), max_order)?))
+        kernel_of(tape, self.backend(), self.params(), max_order)
     }
 
     /// The adaptive Taylor integrator of the model (mode [`TaylorField::Plain`]), its kernels
@@ -273,6 +306,25 @@ impl LoadedModel {
     }
 }
 
+/// The kernel of one field tape for `backend` (see [`LoadedModel::taylor_tapes`]).
+pub(crate) fn kernel_of(
+    tape: &Tape,
+    backend: crate::Backend,
+    params: &[f64],
+    max_order: u32,
+) -> Result<Box<dyn TaylorKernel<LoadedModel>>, TaylorError> {
+    #[cfg(feature = "jit")]
+    if backend == crate::Backend::Jit {
+        use crate::jit::taylor::{DeferredJit, JitTaylor};
+        return Ok(match JitTaylor::new(tape, params, max_order)? {
+            Some(k) => Box::new(k),
+            None => Box::new(DeferredJit::new(tape, params, max_order)?),
+        });
+    }
+    let _ = backend;
+    Ok(Box::new(TaylorTape::new(tape, params, max_order)?))
+}
+
 /// A row of the table.
 #[inline(always)]
 fn row(t: &[f64], stride: usize, r: usize) -> &[f64] {
@@ -281,7 +333,14 @@ fn row(t: &[f64], stride: usize, r: usize) -> &[f64] {
 
 /// Order 0: the instruction's own f64 operation (the tape's value).
 #[inline]
-fn zeroth(t: &mut [f64], s: usize, r: Rec, hoisted: &[f64], target: &[f64], gains: &[f64]) {
+pub(crate) fn zeroth(
+    t: &mut [f64],
+    s: usize,
+    r: Rec,
+    hoisted: &[f64],
+    target: &[f64],
+    gains: &[f64],
+) {
     match r {
         Rec::Leaf { d, leaf } => {
             t[d * s] = match leaf {
@@ -333,7 +392,7 @@ fn zeroth(t: &mut [f64], s: usize, r: Rec, hoisted: &[f64], target: &[f64], gain
 
 /// Order k ≥ 1 of a non-constant instruction ([`rec`]).
 #[inline]
-fn coefficient(t: &mut [f64], s: usize, r: Rec, k: usize) {
+pub(crate) fn coefficient(t: &mut [f64], s: usize, r: Rec, k: usize) {
     let (d, v) = match r {
         Rec::Leaf { .. } => return,
         Rec::Add { d, a, b } => (d, t[a * s + k] + t[b * s + k]),

@@ -2,14 +2,17 @@
 """The N-body family against heyoka's compact mode, N by N: one evaluation of the field and the
 Taylor method's step.
 
-    scripts/heyoka/nbody_scaling.py LASALLE_BIN [--sizes 3,6,12,24,48] [--t-end 1] [--tol 1e-15]
+    scripts/heyoka/nbody_scaling.py LASALLE_BIN [--sizes 3,6,12,24,48,96] [--t-end 1] [--tol 1e-15]
+        [--families loops|auto|unrolled]
 
 Run it with a Python that has heyoka (scripts/heyoka/run.sh makes one under
 target/heyoka-venv); `scripts/performance.sh nbody-heyoka` does both and writes the table into
 docs/performance.md. Prints a markdown table on stdout, progress on stderr.
 
 lasalle: `models/nbody.lsl` with its `param n` line set to N, integrated from its point `ring`
-by `lasalle run -m taylor --rtol TOL` (JIT; the run's own CPU time from summary.json, the
+by `lasalle run -m taylor --rtol TOL --families FAMILIES` (JIT; FAMILIES `loops` by default: the
+field and its Taylor program in loop form, one loop per sum over the pairs; the run's own CPU
+time from summary.json, the
 process's CPU time, which adds loading, from the OS), and its field timed by
 `lasalle bench-eval --field model` (one state per call, and 4 and 8 states per call).
 
@@ -61,13 +64,13 @@ def children_cpu():
     return r.ru_utime + r.ru_stime
 
 
-def lasalle(bin, path, t_end, tol, repeat, work):
+def lasalle(bin, path, t_end, tol, repeat, work, families):
     best_run, best_process, steps = math.inf, math.inf, None
     for _ in range(repeat):
         before = children_cpu()
         out = subprocess.run(
             [bin, "run", path, "-m", "taylor", "--rtol", repr(tol), "--t-end", repr(t_end),
-             "--format", "json", "--out", work],
+             "--families", families, "--format", "json", "--out", work],
             check=True, capture_output=True, text=True).stdout
         process = children_cpu() - before
         summary = json.loads(out.strip().splitlines()[-1])
@@ -116,7 +119,8 @@ def heyoka(n, t_end, tol, repeat):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("bin", help="the lasalle binary")
-    parser.add_argument("--sizes", default="3,6,12,24,48")
+    parser.add_argument("--sizes", default="3,6,12,24,48,96")
+    parser.add_argument("--families", default="loops", choices=["loops", "auto", "unrolled"])
     parser.add_argument("--t-end", type=float, default=1.0)
     parser.add_argument("--tol", type=float, default=1e-15)
     parser.add_argument("--repeat", type=int, default=3)
@@ -128,7 +132,8 @@ def main():
             with open(path, "w", encoding="utf-8") as f:
                 f.write(model_text(n))
             print(f"N = {n}: lasalle", file=sys.stderr, flush=True)
-            a = lasalle(args.bin, path, args.t_end, args.tol, args.repeat, os.path.join(work, "out"))
+            a = lasalle(args.bin, path, args.t_end, args.tol, args.repeat, os.path.join(work, "out"),
+                        args.families)
             print(f"N = {n}: heyoka", file=sys.stderr, flush=True)
             b = heyoka(n, args.t_end, args.tol, args.repeat)
             rows.append((n, a, b))

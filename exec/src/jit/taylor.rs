@@ -79,6 +79,9 @@ use lasalle_runtime::taylor::TaylorKernel;
 use lasalle_runtime::StepError;
 use std::collections::HashMap;
 
+pub mod loops;
+pub use loops::JitLoopTaylor;
+
 /// `(state, hoisted, target, gains, table)`: fills the state rows of `table` (N × (p + 1),
 /// row-major) with x^\[0..=p\] of the solution through `state`.
 type TaylorFn = unsafe extern "C" fn(*const f64, *const f64, *const f64, *const f64, *mut f64);
@@ -442,6 +445,7 @@ fn define(
             ellipj,
             table,
             stride: p + 1,
+            layout: None,
             rows: vec![0; program.rows],
             recent: Default::default(),
             early: HashMap::new(),
@@ -482,6 +486,10 @@ struct Emit<'a> {
     /// The table's address and its stride p + 1.
     table: Value,
     stride: usize,
+    /// Where each row starts in the table and whether it holds every order (else only the
+    /// current one, in one place), if not every row holds p + 1 orders at r (p + 1): the
+    /// compact tables of the loop form (`loops::layout`).
+    layout: Option<Vec<(usize, bool)>>,
     /// How many orders of each row are in the table.
     rows: Vec<usize>,
     /// The last values stored, (row, order, value), read back without a load.
@@ -495,6 +503,17 @@ struct Emit<'a> {
 }
 
 impl Emit<'_> {
+    /// The table index of order k of row r.
+    fn at(&self, r: usize, k: usize) -> usize {
+        match &self.layout {
+            None => r * self.stride + k,
+            Some(l) => match l[r] {
+                (start, true) => start + k,
+                (start, false) => start,
+            },
+        }
+    }
+
     /// Order k of row r: a load from the table (0 past the order-0 value of a constant row).
     fn c(&mut self, r: usize, k: usize) -> Value {
         if k >= self.rows[r] {
@@ -503,7 +522,7 @@ impl Emit<'_> {
         if let Some(&(_, _, v)) = self.recent.iter().find(|&&(rr, kk, _)| rr == r && kk == k) {
             return v;
         }
-        let off = (r * self.stride + k) * 8;
+        let off = self.at(r, k) * 8;
         let off = i32::try_from(off).expect("table size checked in `define`");
         self.b
             .ins()
@@ -513,7 +532,7 @@ impl Emit<'_> {
     /// Stores order k of row `d`.
     fn push(&mut self, d: usize, k: usize, v: Value) {
         debug_assert_eq!(self.rows[d], k, "orders in sequence");
-        let off = (d * self.stride + k) * 8;
+        let off = self.at(d, k) * 8;
         let off = i32::try_from(off).expect("table size checked in `define`");
         self.b
             .ins()
@@ -655,8 +674,12 @@ impl Emit<'_> {
         self.b.ins().jump(body, &args);
         self.b.switch_to_block(body);
         let flags = MemFlagsData::trusted();
-        let stride = self.stride;
-        let row = |r: usize| (r * stride * 8) as i32;
+        let starts: Vec<(usize, i32)> = pairs
+            .iter()
+            .flat_map(|&(a, b)| [a, b])
+            .map(|r| (r, (self.at(r, 0) * 8) as i32))
+            .collect();
+        let row = |r: usize| starts.iter().find(|s| s.0 == r).expect("a summed row").1;
         for u in 0..LOOP_UNROLL as i32 {
             let mut loaded: Vec<((bool, usize), Value)> = Vec::new();
             for (m, &(a, b)) in pairs.iter().enumerate() {

@@ -24,11 +24,12 @@
 //!
 //! What the loop form does not do (yet) is refused rather than approximated: a family whose
 //! value enters a function other than linearly with a constant coefficient, or a Hamiltonian
-//! family under a Lie–Poisson structure. V, ∇V, X − ∇V, the Jacobian, the conservation proofs,
-//! the Taylor program and the emitted Rust but its field and invariants have no loop form: they
-//! work on the unrolled model ([`Families::Unrolled`]). The emitted Rust writes the field and
-//! the invariants as loops from these tapes, with the index structure of [`index`]
-//! (`lasalle_codegen::generate_source_with`).
+//! family under a Lie–Poisson structure. The field's Taylor program has a loop form
+//! ([`LoopTape::taylor`], [`taylor`]: the body's coefficient recurrences once per tuple, on the
+//! coefficients gathered from the state's). The emitted Rust writes the field and the
+//! invariants as loops from these tapes, with the index structure of [`index`]
+//! (`lasalle_codegen::generate_source_with`). V, ∇V, X − ∇V, the Jacobian and the conservation
+//! proofs have no loop form: they work on the unrolled model ([`Families::Unrolled`]).
 
 use crate::error::{Diagnostic, Error, Span};
 use crate::ir::{FxHashMap, Graph, Id, Input, Node};
@@ -204,7 +205,7 @@ impl LoopModel {
     }
 
     /// The same model with every family unrolled, lowered again from its source: what the
-    /// stages without a loop form (the Jacobian, V, ∇V, X − ∇V, the Taylor program, the
+    /// stages without a loop form (the Jacobian, V, ∇V, X − ∇V, the Taylor program of X − ∇V, the
     /// emitted Rust, the lanes) need, built only when one of them is asked for.
     pub fn unrolled(&self) -> Result<Model, Error> {
         let source = &self.model.source;
@@ -659,5 +660,8 @@ impl LoopTape {
 
 mod check;
 pub mod index;
+pub mod taylor;
 #[cfg(test)]
 mod tests;
+
+pub use taylor::LoopTaylorProgram;

@@ -262,17 +262,26 @@ impl TaylorProgram {
     /// square roots, integer powers and constant quotients are fused into power recurrences
     /// where that is cheaper (see the [module docs](self)).
     pub fn new(tape: &Tape) -> Result<TaylorProgram, TapeError> {
-        Self::lower(tape, true)
+        Self::field_check(tape)?;
+        Self::lower(tape, true, &[])
     }
 
-    /// The recurrences of `tape` without fused powers: every instruction by its own
-    /// recurrence (the reference the fused program is tested against).
-    pub fn unfused(tape: &Tape) -> Result<TaylorProgram, TapeError> {
-        Self::lower(tape, false)
+    /// The recurrences of any function of the state (as many outputs as it has), for a
+    /// caller that supplies the state rows' coefficients itself (the regions of a loop
+    /// form, [`crate::loops::LoopTaylorProgram`]): rows 0..N are the state, component k
+    /// constant along the solution where `constant_state[k]` (its higher coefficients are
+    /// never read as anything but 0, and the instructions on it are constants and scalings);
+    /// [`TaylorProgram::outputs`] are the rows of the tape's outputs.
+    pub fn function(tape: &Tape, constant_state: &[bool]) -> Result<TaylorProgram, TapeError> {
+        if constant_state.len() > tape.dims.state {
+            return Err(TapeError::Malformed(
+                "more constant flags than state components".into(),
+            ));
+        }
+        Self::lower(tape, true, constant_state)
     }
 
-    fn lower(tape: &Tape, fuse: bool) -> Result<TaylorProgram, TapeError> {
-        tape.validate()?;
+    fn field_check(tape: &Tape) -> Result<(), TapeError> {
         let n = tape.dims.state;
         if tape.outputs.len() != n {
             return Err(TapeError::Malformed(format!(
@@ -280,6 +289,21 @@ impl TaylorProgram {
                 tape.outputs.len()
             )));
         }
+        Ok(())
+    }
+
+    /// The recurrences of `tape` without fused powers: every instruction by its own
+    /// recurrence (the reference the fused program is tested against).
+    pub fn unfused(tape: &Tape) -> Result<TaylorProgram, TapeError> {
+        Self::field_check(tape)?;
+        Self::lower(tape, false, &[])
+    }
+
+    /// `constant_state[k]`: state component k is constant along the solution (missing: not).
+    fn lower(tape: &Tape, fuse: bool, constant_state: &[bool]) -> Result<TaylorProgram, TapeError> {
+        tape.validate()?;
+        let n = tape.dims.state;
+        let const_state = |k: u32| constant_state.get(k as usize).copied().unwrap_or(false);
         let mut b = Builder {
             rows: n,
             recs: Vec::with_capacity(tape.body.len()),
@@ -287,7 +311,7 @@ impl TaylorProgram {
             squares: HashMap::new(),
         };
         let powers = if fuse {
-            fused_powers(tape)
+            fused_powers(tape, &const_state)
         } else {
             vec![None; tape.body.len()]
         };
@@ -322,6 +346,7 @@ impl TaylorProgram {
             let leaf = match *op {
                 Op::State(k) => {
                     row_of[i] = k as usize;
+                    constant[i] = const_state(k);
                     continue;
                 }
                 Op::Const(c) => Some(Leaf::Const(c)),
@@ -708,12 +733,15 @@ fn powi_cost(n: i32) -> u32 {
 /// operand's) or by the power recurrence on s (which needs only s); one that is not may have
 /// none. The cheapest assignment is found over each chain's tree of registers, ties going to
 /// the own recurrence, then to none.
-fn fused_powers(tape: &Tape) -> Vec<Option<Power>> {
+fn fused_powers(tape: &Tape, const_state: &dyn Fn(u32) -> bool) -> Vec<Option<Power>> {
     let n = tape.body.len();
     let mut constant = vec![false; n];
     let mut node: Vec<Option<Link>> = vec![None; n];
     for (i, op) in tape.body.iter().enumerate() {
-        constant[i] = !matches!(op, Op::State(_)) && op.operands().all(|r| constant[r.index()]);
+        constant[i] = match *op {
+            Op::State(k) => const_state(k),
+            _ => op.operands().all(|r| constant[r.index()]),
+        };
         let next = |x: Reg, beta: &dyn Fn(f64) -> f64, own| {
             node[x.index()].map(|l| Link {
                 s: l.s,

@@ -1,0 +1,157 @@
+//! The Taylor program in loop form: interpreter and JIT bitwise equal, and the coefficients
+//! those of the unrolled model's Taylor program up to the order of summation, for the N-body
+//! and FPUT families at several sizes.
+
+use lasalle_exec::jit::taylor::JitLoopTaylor;
+use lasalle_exec::{LoadedModel, LoopTaylorTape, TaylorTape};
+use lasalle_model::loops::{Families, LoopModel};
+use lasalle_model::tape::{Dims, Tape};
+use lasalle_runtime::taylor::TaylorKernel;
+
+const NBODY: &str = include_str!("../../models/nbody.lsl");
+const FPUT: &str = include_str!("../../models/fput.lsl");
+
+fn sized(text: &str, default: &str, n: usize) -> String {
+    assert!(text.contains(default));
+    text.replace(default, &format!("param n = {n};"))
+}
+
+fn numbers(seed: u64, len: usize) -> Vec<f64> {
+    let mut rng = lasalle_testkit::Rng::new(seed);
+    (0..len).map(|_| rng.uniform(-1.0, 1.0)).collect()
+}
+
+const ORDER: u32 = 20;
+
+/// Coefficients of orders 0..=ORDER of every state component, from the loop form by the
+/// interpreter and the JIT (checked bitwise equal) and from the unrolled program.
+fn check(text: &str, state: impl Fn(u64, usize) -> Vec<f64>) {
+    let lm = LoopModel::from_source("m.lsl", text, Families::Loops).unwrap();
+    assert!(!lm.families().is_empty(), "the model has a loop family");
+    let field = lm.tapes().unwrap().field;
+    let program = field.taylor().unwrap();
+    // the code does not grow with the tuples: one body per region
+    assert_eq!(program.regions.len(), field.regions.len());
+    let model = lasalle_model::lower_source("m.lsl", text).unwrap();
+    let dims = Dims {
+        state: model.dim(),
+        params: model.param_slots(),
+        targets: 0,
+        gains: 0,
+    };
+    let unrolled = Tape::from_graph(&model.graph, &model.field, dims).unwrap();
+    let params = lm.default_params();
+    let mut interp = LoopTaylorTape::new(&field, &params, ORDER).unwrap();
+    let mut jit = JitLoopTaylor::new(&field, &params, ORDER).unwrap();
+    let mut plain = TaylorTape::new(&unrolled, &params, ORDER).unwrap();
+    let n = lm.dim();
+    for seed in 0..3 {
+        let x = state(seed, n);
+        interp.compute(&x, ORDER as usize);
+        TaylorKernel::<LoadedModel>::compute(&mut jit, &x, ORDER as usize);
+        plain.compute(&x, ORDER as usize);
+        let bits = |c: &[f64]| c.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        for i in 0..n {
+            let a = interp.state_coefficients(i);
+            let b = TaylorKernel::<LoadedModel>::coefficients(&jit, i);
+            assert_eq!(a.len(), ORDER as usize + 1);
+            assert_eq!(
+                bits(a),
+                bits(b),
+                "component {i}: interpreter and JIT differ"
+            );
+        }
+        // against the unrolled program, per order relative to the order's largest coefficient
+        for k in 0..=ORDER as usize {
+            let scale = (0..n).fold(0.0f64, |m, i| m.max(plain.state_coefficients(i)[k].abs()));
+            assert!(scale > 0.0 || k > 1, "order {k} is not trivial");
+            for i in 0..n {
+                let (a, u) = (
+                    interp.state_coefficients(i)[k],
+                    plain.state_coefficients(i)[k],
+                );
+                assert!(
+                    (a - u).abs() <= 1e-13 * scale,
+                    "seed {seed}, component {i}, order {k}: loops {a:e}, unrolled {u:e} (scale {scale:e})"
+                );
+            }
+        }
+    }
+}
+
+/// Bodies spread along a line (0.9 apart) with random offsets and momenta.
+fn nbody_state(seed: u64, n: usize) -> Vec<f64> {
+    let r = numbers(seed, n);
+    (0..n)
+        .map(|i| {
+            if i < n / 2 {
+                0.3 * r[i] + (i / 3) as f64 * 0.9
+            } else {
+                0.5 * r[i]
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn nbody_loop_taylor_is_the_unrolled_programs() {
+    for n in [3, 9, 20] {
+        check(&sized(NBODY, "param n = 5;", n), nbody_state);
+    }
+}
+
+#[test]
+fn fput_loop_taylor_is_the_unrolled_programs() {
+    for n in [5, 12, 40] {
+        let text = sized(FPUT, "param n = 16;", n).replace("param beta = 0;", "param beta = 0.7;");
+        check(&text, |seed, len| {
+            numbers(seed, len).iter().map(|v| 0.5 * v).collect()
+        });
+    }
+}
+
+/// The interpreter's coefficients at a lower order are the first ones of the full order's,
+/// and a change of parameters is picked up.
+#[test]
+fn loop_taylor_orders_and_parameters() {
+    let text = sized(NBODY, "param n = 5;", 4);
+    let lm = LoopModel::from_source("m.lsl", &text, Families::Loops).unwrap();
+    let field = lm.tapes().unwrap().field;
+    let mut params = lm.default_params();
+    let mut k = LoopTaylorTape::new(&field, &params, ORDER).unwrap();
+    let x = nbody_state(7, lm.dim());
+    k.compute(&x, ORDER as usize);
+    let full: Vec<Vec<f64>> = (0..lm.dim())
+        .map(|i| k.state_coefficients(i).to_vec())
+        .collect();
+    k.compute(&x, 5);
+    for (i, c) in full.iter().enumerate() {
+        assert_eq!(k.state_coefficients(i), &c[..6]);
+    }
+    // doubling every parameter doubles the masses and G, which changes the forces
+    for p in &mut params {
+        *p *= 2.0;
+    }
+    k.set_params(&params).unwrap();
+    k.compute(&x, ORDER as usize);
+    let changed = (0..lm.dim()).any(|i| k.state_coefficients(i)[1] != full[i][1]);
+    assert!(changed, "new parameters change the field");
+}
+
+/// A chain whose pair term has a cosine, an exponential, a square root and a quotient: the
+/// recurrences of sine and cosine, exponential, power and division in loop form.
+#[test]
+fn transcendental_chain_loop_taylor_is_the_unrolled_programs() {
+    let text = "model Chain {
+        param n = 9;
+        state q: scalar[n], p: scalar[n];
+        param k: scalar[n] = [i in 0..n: 1 + i / 4];
+        hamiltonian H = sum(i in 0..n: p[i]^2 / 2)
+            + sum(i in 0..n-1: k[i] * (1 - cos(q[i+1] - q[i])) + 0.1 * exp(q[i] * q[i+1])
+                  + sqrt(1 + q[i]^2) / (2 + q[i+1]^2));
+        structure canonical(q, p);
+    }";
+    check(text, |seed, len| {
+        numbers(seed, len).iter().map(|v| 0.8 * v).collect()
+    });
+}
