@@ -36,7 +36,7 @@ pub mod taylor;
 
 pub use ensemble::{FeedbackLanes, LaneField, Lanes, PackError};
 pub use lasalle_model::loops::Families;
-pub use loops::LoopKernel;
+pub use loops::{LoopKernel, Stage, StagedKernel};
 pub use model::{LoadError, LoadedModel};
 pub use taylor::{Taylor, TaylorError, TaylorField, TaylorOptions, TaylorTape};
 

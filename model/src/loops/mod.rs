@@ -203,6 +203,13 @@ impl LoopModel {
         crate::lower_source(&source.path, &source.text)
     }
 
+    /// The lowered model whose family sums are auxiliary symbols: its declarations (state,
+    /// parameters, invariants, gains, points, presets, guards, events) are the unrolled
+    /// model's; its expressions are not (evaluate its functions through the loop tapes).
+    pub fn declarations(&self) -> &Model {
+        &self.model
+    }
+
     /// The families kept as loops.
     pub fn families(&self) -> &[Family] {
         &self.families
@@ -613,9 +620,20 @@ impl LoopTape {
     /// Evaluates the function in f64 directly from the tapes (the reference the back ends
     /// agree with bit for bit).
     pub fn eval(&self, params: &[f64], state: &[f64]) -> Result<Vec<f64>, TapeError> {
+        self.eval_with(params, state, &[], &[])
+    }
+
+    /// [`LoopTape::eval`] of a function that also reads targets and gains (in its plain part).
+    pub fn eval_with(
+        &self,
+        params: &[f64],
+        state: &[f64],
+        targets: &[f64],
+        gains: &[f64],
+    ) -> Result<Vec<f64>, TapeError> {
         self.validate()?;
         let mut out = vec![0.0; self.outputs];
-        let plain = self.base.eval(params, state, &[], &[])?;
+        let plain = self.base.eval(params, state, targets, gains)?;
         for (&o, v) in self.base_at.iter().zip(plain) {
             out[o as usize] = v;
         }
@@ -643,5 +661,7 @@ impl LoopTape {
 }
 
 mod check;
+mod derived;
+pub use derived::{LoopFeedback, LoopPartition};
 #[cfg(test)]
 mod tests;
