@@ -35,7 +35,7 @@ pub mod model;
 pub mod taylor;
 
 pub use ensemble::{FeedbackLanes, LaneField, Lanes, PackError};
-pub use lasalle_model::loops::Families;
+pub use lasalle_model::loops::{Families, LoopModel};
 pub use loops::{LoopKernel, Stage, StagedKernel};
 pub use model::{LoadError, LoadedModel};
 pub use taylor::{Taylor, TaylorError, TaylorField, TaylorOptions, TaylorTape};
