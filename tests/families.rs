@@ -285,3 +285,63 @@ fn a_sum_the_loop_form_cannot_take_is_refused() {
         "{err}"
     );
 }
+
+/// The N-body family loaded with its families as loops integrates with the methods that need
+/// its derived functions — X − ∇V (feedback-euler, feedback-rk4), the half-fields
+/// (stormer-verlet-b) and Df (projection-rk4, which projects onto the integrals' level set
+/// along Df) — as the unrolled model does, to rounding; and each does what it is for: the
+/// feedback keeps the integrals far closer than the plain method, the projection keeps them to
+/// rounding.
+#[test]
+fn nbody_as_loops_integrates_with_its_derived_functions() {
+    let text = include_str!("../models/nbody.lsl").replace("param n = 5;", "param n = 6;");
+    let file = model_file("nbody6", &text);
+    let summary = |method: &str, families: &str| {
+        let mut args = vec![
+            file.as_str(),
+            "-m",
+            method,
+            "--dt",
+            "1e-3",
+            "--t-end",
+            "1",
+            "--families",
+            families,
+        ];
+        if method.starts_with("feedback") {
+            args.extend(["--gains", "10,10,10"]);
+        }
+        run(&format!("nbody6_{method}_{families}"), &args)
+    };
+    let euler_h = max_error(&summary("euler", "loops"), "H");
+    assert!(euler_h > 1e-5, "{euler_h}");
+    for method in [
+        "feedback-euler",
+        "feedback-rk4",
+        "stormer-verlet-b",
+        "projection-rk4",
+    ] {
+        let (loops, unrolled) = (summary(method, "loops"), summary(method, "unrolled"));
+        let (a, b) = (final_state(&loops), final_state(&unrolled));
+        assert_eq!(a.len(), 36);
+        for (i, (x, y)) in a.iter().zip(&b).enumerate() {
+            assert!(
+                (x - y).abs() <= 1e-12 * y.abs().max(1.0),
+                "{method}, component {i}: loops {x}, unrolled {y}"
+            );
+        }
+        for inv in ["H", "P", "L"] {
+            let (x, y) = (max_error(&loops, inv), max_error(&unrolled, inv));
+            assert!(
+                (x - y).abs() <= 1e-6 * y + 1e-14,
+                "{method}, {inv}: loops {x}, unrolled {y}"
+            );
+            if method == "projection-rk4" {
+                assert!(x < 1e-13, "{method}, {inv}: {x}");
+            }
+        }
+        if method == "feedback-euler" {
+            assert!(max_error(&loops, "H") < euler_h / 3.0);
+        }
+    }
+}

@@ -22,11 +22,20 @@
 //! plain tape: every back end adds in this order, so they agree bit for bit; the unrolled form
 //! sums in another order and agrees to rounding.
 //!
+//! The derived functions are loop tapes too ([`LoopModel::jacobian`], [`LoopModel::feedback`],
+//! [`LoopModel::partition`], in `derived`): Df of the integrals (each family term's partials
+//! by its state slots, scattered to `row·N + gather`), the half-fields (the field's loop tape
+//! restricted to each half), and V, ∇V and X − ∇V in three stages ([`LoopFeedback`]): the
+//! family sums S that V reads, then V and `w = ∂V/∂S` from `[x, S]`, then `∂V/∂x|_S` plus, per
+//! family, the gradient of `Σ w·body` (one symbolic gradient, the weights gathered as slots of
+//! a constant column) from `[x, S, w]`. The integrals are proved on the families' bodies
+//! ([`LoopModel::check`]).
+//!
 //! What the loop form does not do (yet) is refused rather than approximated: a family whose
-//! value enters a function other than linearly with a constant coefficient, or a Hamiltonian
-//! family under a Lie–Poisson structure. V, ∇V, X − ∇V, the Jacobian, the conservation proofs,
-//! the Taylor program and the emitted Rust have no loop form: they work on the unrolled model
-//! ([`Families::Unrolled`]).
+//! value enters the field or an integral other than linearly with a constant coefficient, a
+//! Hamiltonian family under a Lie–Poisson structure, a family that adds to both halves of a
+//! partitioned field. The Taylor program, the variational equations and the emitted Rust have
+//! no loop form: they work on the unrolled model ([`LoopModel::unrolled`]).
 
 use crate::error::{Diagnostic, Error, Span};
 use crate::ir::{FxHashMap, Graph, Id, Input, Node};
@@ -196,8 +205,8 @@ impl LoopModel {
     }
 
     /// The same model with every family unrolled, lowered again from its source: what the
-    /// stages without a loop form (the Jacobian, V, ∇V, X − ∇V, the Taylor program, the
-    /// emitted Rust, the lanes) need, built only when one of them is asked for.
+    /// stages without a loop form (the Taylor program, the emitted Rust, the variational
+    /// equations, the lanes) need, built only when one of them is asked for.
     pub fn unrolled(&self) -> Result<Model, Error> {
         let source = &self.model.source;
         crate::lower_source(&source.path, &source.text)
