@@ -39,12 +39,7 @@ impl Unrolled {
     /// The unrolled model with its derivatives (lowered and derived now if not yet).
     pub(crate) fn get(&self) -> Result<&Derived, ExecError> {
         self.derived
-            .get_or_init(|| {
-                self.lm
-                    .unrolled()
-                    .map(derive)
-                    .map_err(|e| e.to_string())
-            })
+            .get_or_init(|| self.lm.unrolled().map(derive).map_err(|e| e.to_string()))
             .as_ref()
             .map_err(|e| ExecError::Jit(format!("the unrolled model: {e}")))
     }

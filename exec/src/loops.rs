@@ -352,8 +352,11 @@ impl StagedKernel {
         }
         let zeros = vec![0.0; w.params];
         let hoisted = [sums.hoist(&zeros)?.len(), weights.hoist(&zeros)?.len()];
-        let hoisted_len =
-            hoisted[0] + hoisted[1] + last.as_ref().map_or(Ok(0), |l| l.hoist(&zeros).map(|h| h.len()))?;
+        let hoisted_len = hoisted[0]
+            + hoisted[1]
+            + last
+                .as_ref()
+                .map_or(Ok(0), |l| l.hoist(&zeros).map(|h| h.len()))?;
         Ok(StagedKernel {
             n_outputs: last.as_ref().map_or(1, |l| l.n_outputs()),
             sums,
@@ -364,6 +367,40 @@ impl StagedKernel {
             k,
             dims: Dims { state: n, ..w },
         })
+    }
+}
+
+impl StagedKernel {
+    /// The stages in order, `xsw` and `vw` the scratch for `[x, S, w]` and `[V, w]`.
+    #[allow(clippy::too_many_arguments)]
+    fn stages(
+        &self,
+        hoisted: &[f64],
+        state: &[f64],
+        target: &[f64],
+        gains: &[f64],
+        xsw: &mut Vec<f64>,
+        vw: &mut Vec<f64>,
+        out: &mut [f64],
+    ) -> Result<(), ExecError> {
+        let (n, k) = (self.dims.state, self.k);
+        let [a, b] = self.hoisted;
+        xsw.clear();
+        xsw.extend_from_slice(state);
+        xsw.resize(n + 2 * k, 0.0);
+        vw.resize(1 + k, 0.0);
+        let (x, rest) = xsw.split_at_mut(n);
+        self.sums.eval(&hoisted[..a], x, &[], &[], &mut rest[..k])?;
+        self.weights
+            .eval(&hoisted[a..a + b], &xsw[..n + k], target, gains, vw)?;
+        match &self.last {
+            None => out[0] = vw[0],
+            Some(l) => {
+                xsw[n + k..].copy_from_slice(&vw[1..]);
+                l.eval(&hoisted[a + b..], xsw, target, gains, out)?;
+            }
+        }
+        Ok(())
     }
 }
 
@@ -397,28 +434,9 @@ impl Kernel for StagedKernel {
         expect_len("hoisted", self.hoisted_len, hoisted.len())?;
         expect_len("state", self.dims.state, state.len())?;
         expect_len("out", self.n_outputs, out.len())?;
-        let (n, k) = (self.dims.state, self.k);
-        let [a, b] = self.hoisted;
         STAGES.with(|cell| {
             let (mut xsw, mut vw) = cell.take();
-            xsw.clear();
-            xsw.extend_from_slice(state);
-            xsw.resize(n + 2 * k, 0.0);
-            vw.resize(1 + k, 0.0);
-            let r = (|| {
-                let (x, rest) = xsw.split_at_mut(n);
-                self.sums.eval(&hoisted[..a], x, &[], &[], &mut rest[..k])?;
-                self.weights
-                    .eval(&hoisted[a..a + b], &xsw[..n + k], target, gains, &mut vw)?;
-                match &self.last {
-                    None => out[0] = vw[0],
-                    Some(l) => {
-                        xsw[n + k..].copy_from_slice(&vw[1..]);
-                        l.eval(&hoisted[a + b..], &xsw, target, gains, out)?;
-                    }
-                }
-                Ok(())
-            })();
+            let r = self.stages(hoisted, state, target, gains, &mut xsw, &mut vw, out);
             cell.set((xsw, vw));
             r
         })

@@ -472,9 +472,13 @@ impl LoadedModel {
             Ok(t) => looped(&t)?,
             Err(_) => deferred(|t| Some(&t.jacobian), plain, m * n)?,
         };
-        let staged = |fb: &lasalle_model::loops::LoopFeedback, stage| -> Result<Compiled, ExecError> {
-            Compiled::of(Box::new(crate::StagedKernel::new(fb, stage, backend)?), &params)
-        };
+        let staged =
+            |fb: &lasalle_model::loops::LoopFeedback, stage| -> Result<Compiled, ExecError> {
+                Compiled::of(
+                    Box::new(crate::StagedKernel::new(fb, stage, backend)?),
+                    &params,
+                )
+            };
         let (lyapunov, lyapunov_gradient, feedback, feedback_looped) = match lm.feedback() {
             Ok(fb) => (
                 staged(&fb, crate::Stage::Lyapunov)?,

@@ -268,7 +268,10 @@ mod derived {
         let jacobian = lm.jacobian().unwrap();
         let feedback = lm.feedback().unwrap();
         let partition = lm.partition().unwrap().expect("partitioned");
-        let up = plain.partition.as_ref().expect("the unrolled field is partitioned");
+        let up = plain
+            .partition
+            .as_ref()
+            .expect("the unrolled field is partitioned");
         assert_eq!(partition.is_q, up.is_q);
         let jit_jac = LoopKernel::new(&jacobian, Backend::Jit).unwrap();
         let int_jac = LoopKernel::new(&jacobian, Backend::Interpreter).unwrap();
@@ -286,8 +289,16 @@ mod derived {
                 .collect();
             // Df: back ends, the tapes, the unrolled Df, central differences.
             let a = eval(&jit_jac, &params, &x);
-            assert_eq!(bits(&a), bits(&eval(&int_jac, &params, &x)), "Df: JIT, interpreter");
-            assert_eq!(bits(&a), bits(&jacobian.eval(&params, &x).unwrap()), "Df: JIT, tape");
+            assert_eq!(
+                bits(&a),
+                bits(&eval(&int_jac, &params, &x)),
+                "Df: JIT, interpreter"
+            );
+            assert_eq!(
+                bits(&a),
+                bits(&jacobian.eval(&params, &x).unwrap()),
+                "Df: JIT, tape"
+            );
             let u = plain.jacobian.eval(&params, &x, &[], &[]).unwrap();
             assert!(u.iter().any(|v| *v != 0.0));
             close(&a, &u, 1e-13, "Df");
@@ -324,8 +335,12 @@ mod derived {
                     Stage::Lyapunov => vec![feedback
                         .eval_lyapunov(&params, &y, &target, &gains)
                         .unwrap()],
-                    Stage::Gradient => feedback.eval_gradient(&params, &y, &target, &gains).unwrap(),
-                    Stage::Feedback => feedback.eval_feedback(&params, &y, &target, &gains).unwrap(),
+                    Stage::Gradient => feedback
+                        .eval_gradient(&params, &y, &target, &gains)
+                        .unwrap(),
+                    Stage::Feedback => feedback
+                        .eval_feedback(&params, &y, &target, &gains)
+                        .unwrap(),
                 };
                 assert_eq!(bits(&a), bits(&r), "{stage:?}: JIT, tapes");
                 let u = want.eval(&params, &y, &target, &gains).unwrap();
@@ -340,7 +355,8 @@ mod derived {
                 }
                 let h = jit.hoist(&params).unwrap();
                 let mut out = vec![0.0; jit.n_outputs() * k];
-                jit.eval_lanes(k, &h, &ys, &target, &gains, &mut out).unwrap();
+                jit.eval_lanes(k, &h, &ys, &target, &gains, &mut out)
+                    .unwrap();
                 for (j, v) in a.iter().enumerate() {
                     assert_eq!(out[j * k].to_bits(), v.to_bits());
                 }
@@ -350,9 +366,22 @@ mod derived {
                 let jit = LoopKernel::new(loops, Backend::Jit).unwrap();
                 let int = LoopKernel::new(loops, Backend::Interpreter).unwrap();
                 let a = eval(&jit, &params, &x);
-                assert_eq!(bits(&a), bits(&eval(&int, &params, &x)), "half: JIT, interpreter");
-                assert_eq!(bits(&a), bits(&loops.eval(&params, &x).unwrap()), "half: tape");
-                close(&a, &want.eval(&params, &x, &[], &[]).unwrap(), 1e-13, "half-field");
+                assert_eq!(
+                    bits(&a),
+                    bits(&eval(&int, &params, &x)),
+                    "half: JIT, interpreter"
+                );
+                assert_eq!(
+                    bits(&a),
+                    bits(&loops.eval(&params, &x).unwrap()),
+                    "half: tape"
+                );
+                close(
+                    &a,
+                    &want.eval(&params, &x, &[], &[]).unwrap(),
+                    1e-13,
+                    "half-field",
+                );
             }
         }
     }
@@ -367,7 +396,8 @@ mod derived {
     #[test]
     fn fput_derived_loop_kernels_agree() {
         for n in [5, 12, 40] {
-            let text = sized(FPUT, "param n = 16;", n).replace("param beta = 0;", "param beta = 0.7;");
+            let text =
+                sized(FPUT, "param n = 16;", n).replace("param beta = 0;", "param beta = 0.7;");
             check(&text);
         }
     }

@@ -198,12 +198,9 @@ impl ModelSource {
     /// Parses, derives, checks and compiles the model.
     pub fn load(&self) -> Result<LoadedModel, RunError> {
         let loaded = match self.extension {
-            None => LoadedModel::from_source_with(
-                &self.path,
-                &self.text,
-                self.backend,
-                self.families,
-            ),
+            None => {
+                LoadedModel::from_source_with(&self.path, &self.text, self.backend, self.families)
+            }
             Some(ext) => {
                 let lowered = lasalle_model::lower_source(&self.path, &self.text)
                     .and_then(|m| ext.apply(&m))

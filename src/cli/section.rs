@@ -223,8 +223,7 @@ pub fn run(args: &SectionArgs, given: &Given) -> CliResult {
         ));
     }
     let (path, stem, text) = model_text(&args.model)?;
-    let source =
-        ModelSource::new(path, text, args.backend.into()).families(args.families.into());
+    let source = ModelSource::new(path, text, args.backend.into()).families(args.families.into());
     let mut model: LoadedModel = source.load().map_err(|e| e.to_string())?;
     let mut params = Vec::new();
     for p in &args.param {

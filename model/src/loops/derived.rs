@@ -94,15 +94,14 @@ impl LoopModel {
         let m = &self.model;
         let n = m.dim() as u32;
         // The sums V reads, in (family, component) order.
-        let mut used: Vec<(usize, usize, u32)> = b
-            .g
-            .reachable(&[m.lyapunov])
-            .into_iter()
-            .filter_map(|id| match b.g.node(id) {
-                Node::Input(Input::Symbol(s)) => b.placeholder.get(s).map(|&(f, c)| (f, c, *s)),
-                _ => None,
-            })
-            .collect();
+        let mut used: Vec<(usize, usize, u32)> =
+            b.g.reachable(&[m.lyapunov])
+                .into_iter()
+                .filter_map(|id| match b.g.node(id) {
+                    Node::Input(Input::Symbol(s)) => b.placeholder.get(s).map(|&(f, c)| (f, c, *s)),
+                    _ => None,
+                })
+                .collect();
         used.sort_unstable();
         let k = used.len() as u32;
         // Stage 1.
