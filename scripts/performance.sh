@@ -245,7 +245,7 @@ table_feedback_eval() {
         unrolled=$("$bin" bench-eval "$file" --families unrolled --lanes 1 --repeat 3 --format json)
         python3 -c 'import json, sys
 l, u = (json.loads(a)["ns_per_state"]["1"] for a in sys.argv[2:])
-print(f"| {sys.argv[1]} | {u:.0f} | {l:.0f} | {l / u:.2f} |")' "$n" "$unrolled" "$loops"
+print(f"| {sys.argv[1]} | {u:.0f} | {l:.0f} | {l / u:.2f} |")' "$n" "$loops" "$unrolled"
     done
 }
 

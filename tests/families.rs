@@ -345,3 +345,52 @@ fn nbody_as_loops_integrates_with_its_derived_functions() {
         }
     }
 }
+
+/// `--families` is one flag with one help text on every subcommand that loads a model file,
+/// and it takes effect there: `bench-eval --families loops` times the loop kernel of X − ∇V,
+/// `--families unrolled` the unrolled tape.
+#[test]
+fn families_is_the_same_flag_on_every_subcommand_that_loads_a_model() {
+    let help = |sub: &str| {
+        let o = lasalle(&[sub, "--help"]);
+        assert!(o.status.success(), "{sub}");
+        let text = String::from_utf8_lossy(&o.stdout).into_owned();
+        let start = text
+            .find("--families <FAMILIES>")
+            .unwrap_or_else(|| panic!("`{sub}` has no --families:\n{text}"));
+        let rest = &text[start..];
+        let end = rest.find("\n  -").unwrap_or(rest.len());
+        rest[..end].to_string()
+    };
+    let run = help("run");
+    assert!(run.contains("[possible values: auto, loops, unrolled]") || run.contains("auto"));
+    for sub in ["sweep", "stability", "bench-eval", "section"] {
+        assert_eq!(help(sub), run, "{sub}");
+    }
+    let text = include_str!("../models/nbody.lsl").replace("param n = 5;", "param n = 4;");
+    let file = model_file("nbody4_bench", &text);
+    let what = |families: &str| {
+        let o = lasalle(&[
+            "bench-eval",
+            &file,
+            "--families",
+            families,
+            "--lanes",
+            "1",
+            "--states",
+            "4",
+            "--repeat",
+            "1",
+            "--seconds",
+            "0.01",
+            "--format",
+            "json",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert!(v["ns_per_state"]["1"].as_f64().unwrap() > 0.0);
+        v["what"].as_str().unwrap().to_string()
+    };
+    assert!(what("loops").contains("families as loops"));
+    assert!(!what("unrolled").contains("loops"));
+}
