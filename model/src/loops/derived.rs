@@ -26,7 +26,7 @@ use crate::error::Error;
 use crate::ir::{gradient, Id, Input, Node};
 use crate::tape::{Dims, Tape, TapeError};
 
-/// V, ∇V and X − ∇V of a [`LoopModel`] in three stages (see the [module docs](self)); K is the
+/// V, ∇V and X − ∇V of a [`LoopModel`] in three stages (see the [module docs](super)); K is the
 /// number of family sums V reads, N the state's and M the invariants' components.
 #[derive(Clone, Debug)]
 pub struct LoopFeedback {
