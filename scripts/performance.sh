@@ -20,7 +20,7 @@ criterion="$target/criterion"
 work="$target/performance"
 mkdir -p "$work"
 
-all=(feedback paper-runs backends run load load-nbody load-fput load-nbody-loops load-fput-loops family-eval nbody-heyoka adaptive-gains taylor-models taylor-kernels sweep heyoka)
+all=(feedback paper-runs backends run load load-nbody load-fput load-nbody-loops load-fput-loops family-eval loops-runs feedback-eval nbody-heyoka adaptive-gains taylor-models taylor-kernels sweep heyoka)
 
 describe() {
     case "$1" in
@@ -34,6 +34,8 @@ describe() {
     load-nbody-loops) echo "load_scale -- --families loops (N-body load with families kept as loops)" ;;
     load-fput-loops) echo "load_scale -- --families loops --model fput (FPUT load with families kept as loops)" ;;
     family-eval) echo "cargo run --release -p lasalle-exec --example family_eval (ns per field evaluation, unrolled vs loops)" ;;
+    loops-runs) echo "lasalle run nbody (N = 48, 256) --families loops -m M: load and first run, per method" ;;
+    feedback-eval) echo "lasalle bench-eval nbody (N = 12, 48, 96) --families loops|unrolled (ns per X - grad V)" ;;
     nbody-heyoka) echo "scripts/heyoka/nbody_scaling.py (N-body field and Taylor step vs N, lasalle and heyoka compact mode)" ;;
     adaptive-gains) echo "lasalle experiment adaptive-gains (steps and errors; also the figure)" ;;
     taylor-models) echo "lasalle run <model> -m taylor --rtol 1e-15 … --format json, fastest of 5" ;;
@@ -198,6 +200,53 @@ table_family_eval() {
     cargo run --release --quiet -p lasalle-exec --example family_eval -- 12 24 48 96
     echo
     cargo run --release --quiet -p lasalle-exec --example family_eval -- --model fput 64 256 1024 4096
+}
+
+# models/nbody.lsl with N bodies, in $work
+nbody_file() {
+    sed "s/param n = 5;/param n = $1;/" models/nbody.lsl >"$work/nbody$1.lsl"
+    echo "$work/nbody$1.lsl"
+}
+
+# the N-body family with its families as loops: the load (the report's load_seconds) and the
+# whole process (wall clock) of a first run of 10 steps of each method that needs a derived
+# function (X - grad V, the half-fields, Df for the projection)
+table_loops_runs() {
+    local bin file t0 t1 json
+    bin="$(lasalle_bin)"
+    echo "| bodies N | method | load s | whole run s (wall) |"
+    echo "| --- | --- | --- | --- |"
+    for n in 48 256; do
+        file="$(nbody_file "$n")"
+        for m in feedback-euler feedback-rk4 stormer-verlet-b projection-rk4; do
+            t0=$(date +%s.%N)
+            json=$("$bin" run "$file" -m "$m" --dt 1e-5 --t-end 1e-4 --families loops \
+                --format json --out "$work/loops-run")
+            t1=$(date +%s.%N)
+            python3 -c 'import json, sys
+d = json.loads(sys.argv[4])
+assert d["failure"] is None, d["failure"]
+load = d["load_seconds"]
+print(f"| {sys.argv[1]} | {sys.argv[2]} | {load:.3f} | {float(sys.argv[3]):.2f} |")' \
+                "$n" "$m" "$(python3 -c "print($t1 - $t0)")" "$json"
+        done
+    done
+}
+
+# one evaluation of X - grad V with the families as loops and unrolled (bench-eval, JIT, CPU)
+table_feedback_eval() {
+    local bin file loops unrolled
+    bin="$(lasalle_bin)"
+    echo "| bodies N | unrolled ns | loops ns | loops / unrolled |"
+    echo "| --- | --- | --- | --- |"
+    for n in 12 48 96; do
+        file="$(nbody_file "$n")"
+        loops=$("$bin" bench-eval "$file" --families loops --lanes 1 --repeat 3 --format json)
+        unrolled=$("$bin" bench-eval "$file" --families unrolled --lanes 1 --repeat 3 --format json)
+        python3 -c 'import json, sys
+l, u = (json.loads(a)["ns_per_state"]["1"] for a in sys.argv[2:])
+print(f"| {sys.argv[1]} | {u:.0f} | {l:.0f} | {l / u:.2f} |")' "$n" "$loops" "$unrolled"
+    done
 }
 
 table_adaptive_gains() {

@@ -323,3 +323,116 @@ fn a_sum_the_loop_form_cannot_take_is_refused() {
         "{err}"
     );
 }
+
+/// The N-body family loaded with its families as loops integrates with the methods that need
+/// its derived functions — X − ∇V (feedback-euler, feedback-rk4), the half-fields
+/// (stormer-verlet-b) and Df (projection-rk4, which projects onto the integrals' level set
+/// along Df) — as the unrolled model does, to rounding; and each does what it is for: the
+/// feedback keeps the integrals far closer than the plain method, the projection keeps them to
+/// rounding.
+#[test]
+fn nbody_as_loops_integrates_with_its_derived_functions() {
+    let text = include_str!("../models/nbody.lsl").replace("param n = 5;", "param n = 6;");
+    let file = model_file("nbody6", &text);
+    let summary = |method: &str, families: &str| {
+        let mut args = vec![
+            file.as_str(),
+            "-m",
+            method,
+            "--dt",
+            "1e-3",
+            "--t-end",
+            "1",
+            "--families",
+            families,
+        ];
+        if method.starts_with("feedback") {
+            args.extend(["--gains", "10,10,10"]);
+        }
+        run(&format!("nbody6_{method}_{families}"), &args)
+    };
+    let euler_h = max_error(&summary("euler", "loops"), "H");
+    assert!(euler_h > 1e-5, "{euler_h}");
+    for method in [
+        "feedback-euler",
+        "feedback-rk4",
+        "stormer-verlet-b",
+        "projection-rk4",
+    ] {
+        let (loops, unrolled) = (summary(method, "loops"), summary(method, "unrolled"));
+        let (a, b) = (final_state(&loops), final_state(&unrolled));
+        assert_eq!(a.len(), 36);
+        for (i, (x, y)) in a.iter().zip(&b).enumerate() {
+            assert!(
+                (x - y).abs() <= 1e-12 * y.abs().max(1.0),
+                "{method}, component {i}: loops {x}, unrolled {y}"
+            );
+        }
+        for inv in ["H", "P", "L"] {
+            let (x, y) = (max_error(&loops, inv), max_error(&unrolled, inv));
+            assert!(
+                (x - y).abs() <= 1e-6 * y + 1e-14,
+                "{method}, {inv}: loops {x}, unrolled {y}"
+            );
+            if method == "projection-rk4" {
+                assert!(x < 1e-13, "{method}, {inv}: {x}");
+            }
+        }
+        if method == "feedback-euler" {
+            assert!(max_error(&loops, "H") < euler_h / 3.0);
+        }
+    }
+}
+
+/// `--families` is one flag with one help text on every subcommand that loads a model file,
+/// and it takes effect there: `bench-eval --families loops` times the loop kernel of X − ∇V,
+/// `--families unrolled` the unrolled tape.
+#[test]
+fn families_is_the_same_flag_on_every_subcommand_that_loads_a_model() {
+    let help = |sub: &str| {
+        let o = lasalle(&[sub, "--help"]);
+        assert!(o.status.success(), "{sub}");
+        let text = String::from_utf8_lossy(&o.stdout).into_owned();
+        let start = text
+            .find("--families <FAMILIES>")
+            .unwrap_or_else(|| panic!("`{sub}` has no --families:\n{text}"));
+        let rest = &text[start..];
+        let end = rest
+            .find("[default: auto]")
+            .unwrap_or_else(|| panic!("`{sub}`: --families has no default:\n{rest}"));
+        rest[..end].to_string()
+    };
+    let run = help("run");
+    for value in ["auto:", "loops:", "unrolled:"] {
+        assert!(run.contains(value), "{run}");
+    }
+    for sub in ["sweep", "stability", "bench-eval", "section"] {
+        assert_eq!(help(sub), run, "{sub}");
+    }
+    let text = include_str!("../models/nbody.lsl").replace("param n = 5;", "param n = 4;");
+    let file = model_file("nbody4_bench", &text);
+    let what = |families: &str| {
+        let o = lasalle(&[
+            "bench-eval",
+            &file,
+            "--families",
+            families,
+            "--lanes",
+            "1",
+            "--states",
+            "4",
+            "--repeat",
+            "1",
+            "--seconds",
+            "0.01",
+            "--format",
+            "json",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert!(v["ns_per_state"]["1"].as_f64().unwrap() > 0.0);
+        v["what"].as_str().unwrap().to_string()
+    };
+    assert!(what("loops").contains("families as loops"));
+    assert!(!what("unrolled").contains("loops"));
+}

@@ -13,10 +13,10 @@
 //! With `--families loops` (or `auto`) the model is lowered with its families kept as loops
 //! ([`lasalle_model::loops`]) and a row measures what that form builds: parse and lower,
 //! the loop tapes of the field and the integrals (Hamilton's equations of each family from one
-//! gradient, in `derive`), the conservation of the integrals on the families' bodies
-//! (`check`), and the JIT compilation of the two tapes. It has no rewrites for emission,
-//! Jacobian, V or Taylor program: those columns are `—`, and the load is not comparable to
-//! the unrolled one for the methods that need them.
+//! gradient) and of the derived functions (Df, V, ∇V, X − ∇V, the half-fields), in `derive`;
+//! the conservation of the integrals on the families' bodies (`check`), and the JIT
+//! compilation of every one of those tapes. It has no rewrites for emission or Taylor
+//! program: those columns are `—`.
 //!
 //! The stages, in the order `lasalle run` takes them: parse and lower (with Hamilton's
 //! equations, ∇H by reverse mode); derive (Df of the integrals, the Lie derivatives, ∇V,
@@ -34,7 +34,7 @@
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use lasalle_exec::{Backend, LoopKernel};
+use lasalle_exec::{Backend, LoopKernel, Stage, StagedKernel};
 use lasalle_model::loops::{Families, LoopModel};
 use lasalle_model::tape::{taylor::TaylorProgram, ModelTapes};
 
@@ -85,13 +85,23 @@ fn loop_row(model: &str, n: usize, families: Families) {
     let parse_lower = (cpu() - t).as_secs_f64();
     let t = cpu();
     let tapes = lm.tapes().expect("the loop tapes");
+    let jacobian = lm.jacobian().expect("the loop tape of Df");
+    let feedback = lm.feedback().expect("the loop tapes of V, ∇V and X − ∇V");
+    let partition = lm.partition().expect("the half-fields");
     let derive = (cpu() - t).as_secs_f64();
     let t = cpu();
     lm.check().expect("the integrals are conserved");
     let check = (cpu() - t).as_secs_f64();
     let t = cpu();
-    for tape in [&tapes.field, &tapes.invariants] {
+    let halves = partition.iter().flat_map(|p| [&p.field_q, &p.field_p]);
+    for tape in [&tapes.field, &tapes.invariants, &jacobian]
+        .into_iter()
+        .chain(halves)
+    {
         LoopKernel::new(tape, Backend::Jit).expect("the JIT compiles");
+    }
+    for stage in [Stage::Lyapunov, Stage::Gradient, Stage::Feedback] {
+        StagedKernel::new(&feedback, stage, Backend::Jit).expect("the JIT compiles");
     }
     let jit = (cpu() - t).as_secs_f64();
     let largest = tapes

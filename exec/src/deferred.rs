@@ -1,39 +1,77 @@
-//! Functions of a model loaded with its families kept as loops that have no loop form (the
-//! Jacobian, V, ∇V, X − ∇V, the half-fields, the compiled steps on X − ∇V, the Taylor program
-//! of X − ∇V): built from the unrolled model when one of them is first evaluated, not when
-//! the model is loaded. The field's Taylor program has a loop form
-//! ([`crate::taylor::LoopTaylorTape`], `crate::jit::taylor::JitLoopTaylor`).
+//! Functions of a model loaded with its families kept as loops that have no loop form (those
+//! the loop form refuses, the compiled steps and lanes on X − ∇V, the Taylor kernel of X − ∇V,
+//! the analyses that read the model's expressions): built from the unrolled model when one of
+//! them is first evaluated, not when the model is loaded. The field's Taylor program has a
+//! loop form ([`crate::taylor::LoopTaylorTape`], `crate::jit::taylor::JitLoopTaylor`).
 //!
-//! The unrolled model's tapes are built once, for all of them ([`LazyTapes`]); each function
+//! The unrolled model is lowered and derived once ([`Unrolled`]) and its tapes are built once,
+//! for all of them ([`LazyTapes`]); each function
 //! is a [`Deferred`] kernel that compiles its tape at its first evaluation. Its "hoisted
 //! values" are the parameters themselves (nothing is known about the tape before it is
 //! built); it hoists the compiled kernel's own values when the parameters change.
 
 use std::sync::{Arc, Mutex, OnceLock};
 
+use lasalle_model::loops::LoopModel;
 use lasalle_model::tape::{Dims, ModelTapes, Tape};
-use lasalle_model::Derived;
+use lasalle_model::{derive, Derived};
 
 use crate::{Backend, ExecError, Kernel};
 
+/// The unrolled model of a [`LoopModel`], lowered and derived at the first request.
+pub(crate) struct Unrolled {
+    lm: Arc<LoopModel>,
+    derived: OnceLock<Result<Derived, String>>,
+}
+
+impl Unrolled {
+    pub(crate) fn new(lm: Arc<LoopModel>) -> Unrolled {
+        Unrolled {
+            lm,
+            derived: OnceLock::new(),
+        }
+    }
+
+    /// The loop model.
+    pub(crate) fn loops(&self) -> &LoopModel {
+        &self.lm
+    }
+
+    /// The unrolled model with its derivatives (lowered and derived now if not yet).
+    pub(crate) fn get(&self) -> Result<&Derived, ExecError> {
+        self.derived
+            .get_or_init(|| self.lm.unrolled().map(derive).map_err(|e| e.to_string()))
+            .as_ref()
+            .map_err(|e| ExecError::Jit(format!("the unrolled model: {e}")))
+    }
+}
+
 /// The unrolled model's tapes, built at the first request.
 pub(crate) struct LazyTapes {
-    derived: Arc<Derived>,
+    unrolled: Unrolled,
     tapes: OnceLock<Result<ModelTapes, String>>,
 }
 
 impl LazyTapes {
-    pub(crate) fn new(derived: Arc<Derived>) -> LazyTapes {
+    pub(crate) fn new(unrolled: Unrolled) -> LazyTapes {
         LazyTapes {
-            derived,
+            unrolled,
             tapes: OnceLock::new(),
         }
+    }
+
+    /// The unrolled model.
+    pub(crate) fn unrolled(&self) -> &Unrolled {
+        &self.unrolled
     }
 
     /// The tapes (built now if not yet).
     pub(crate) fn get(&self) -> Result<&ModelTapes, ExecError> {
         self.tapes
-            .get_or_init(|| ModelTapes::new(&self.derived).map_err(|e| e.to_string()))
+            .get_or_init(|| {
+                let derived = self.unrolled.get().map_err(|e| e.to_string())?;
+                ModelTapes::new(derived).map_err(|e| e.to_string())
+            })
             .as_ref()
             .map_err(|e| ExecError::Jit(format!("the unrolled model's tapes: {e}")))
     }

@@ -35,8 +35,8 @@ pub mod model;
 pub mod taylor;
 
 pub use ensemble::{FeedbackLanes, LaneField, Lanes, PackError};
-pub use lasalle_model::loops::Families;
-pub use loops::LoopKernel;
+pub use lasalle_model::loops::{Families, LoopModel};
+pub use loops::{LoopKernel, Stage, StagedKernel};
 pub use model::{LoadError, LoadedModel};
 pub use taylor::{LoopTaylorTape, Taylor, TaylorError, TaylorField, TaylorOptions, TaylorTape};
 

@@ -8,7 +8,7 @@
 
 use crate::{Backend, Dims, ExecError, Kernel, Op};
 use lasalle_model::ir::Func;
-use lasalle_model::loops::{LoopTape, Region, Source};
+use lasalle_model::loops::{LoopFeedback, LoopTape, Region, Source};
 use lasalle_model::tape::powi;
 
 /// A loop tape compiled by one back end; a [`Kernel`] like any tape's.
@@ -251,6 +251,195 @@ impl Kernel for LoopKernel {
         }
         // SAFETY: the caller's guarantee, passed on.
         unsafe { self.regions(hoisted, state, out) };
+    }
+
+    /// Lane by lane: each lane is [`Kernel::eval`] of its state, so bitwise equal to it.
+    fn eval_lanes(
+        &self,
+        k: usize,
+        hoisted: &[f64],
+        state: &[f64],
+        target: &[f64],
+        gains: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), ExecError> {
+        use lasalle_model::tape::expect_len;
+        expect_len("state", self.dims.state * k, state.len())?;
+        expect_len("out", self.n_outputs * k, out.len())?;
+        let mut x = vec![0.0; self.dims.state];
+        let mut y = vec![0.0; self.n_outputs];
+        for lane in 0..k {
+            for (i, v) in x.iter_mut().enumerate() {
+                *v = state[i * k + lane];
+            }
+            self.eval(hoisted, &x, target, gains, &mut y)?;
+            for (j, v) in y.iter().enumerate() {
+                out[j * k + lane] = *v;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Which function of a [`LoopFeedback`] a [`StagedKernel`] computes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    /// V: one output.
+    Lyapunov,
+    /// ∇V: N outputs.
+    Gradient,
+    /// X − ∇V: N outputs.
+    Feedback,
+}
+
+/// V, ∇V or X − ∇V of a model with families kept as loops ([`LoopFeedback`]): the sums S as
+/// a loop kernel, V and w = ∂V/∂S as a plain kernel of `[x, S]`, then (for ∇V and X − ∇V) a
+/// loop kernel of `[x, S, w]`, each compiled by the chosen back end and run in this order, so
+/// the back ends agree bit for bit (and with [`LoopFeedback::eval_gradient`] and its kin).
+pub struct StagedKernel {
+    sums: LoopKernel,
+    weights: Box<dyn Kernel>,
+    last: Option<LoopKernel>,
+    /// Lengths of the hoisted values of `sums`, `weights` (then `last`'s follow).
+    hoisted: [usize; 2],
+    /// Hoisted values in all.
+    hoisted_len: usize,
+    /// The sums K.
+    k: usize,
+    dims: Dims,
+    n_outputs: usize,
+}
+
+impl std::fmt::Debug for StagedKernel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("StagedKernel")
+            .field("sums", &self.k)
+            .field("outputs", &self.n_outputs)
+            .finish_non_exhaustive()
+    }
+}
+
+thread_local! {
+    /// `[x, S, w]` and `[V, w]` of a staged evaluation.
+    static STAGES: std::cell::Cell<(Vec<f64>, Vec<f64>)> =
+        const { std::cell::Cell::new((Vec::new(), Vec::new())) };
+}
+
+impl StagedKernel {
+    /// Compiles the stages of `tapes` that `stage` needs.
+    pub fn new(tapes: &LoopFeedback, stage: Stage, backend: Backend) -> Result<Self, ExecError> {
+        let sums = LoopKernel::new(&tapes.sums, backend)?;
+        let weights = backend.compile(&tapes.weights)?;
+        let last = match stage {
+            Stage::Lyapunov => None,
+            Stage::Gradient => Some(LoopKernel::new(&tapes.gradient, backend)?),
+            Stage::Feedback => Some(LoopKernel::new(&tapes.feedback, backend)?),
+        };
+        let (n, k) = (tapes.sums.dims().state, tapes.sums.n_outputs());
+        let w = tapes.weights.dims;
+        if w.state != n + k || tapes.weights.outputs.len() != 1 + k {
+            return Err(ExecError::Jit(
+                "V's stages: the weights' sizes do not match the sums'".into(),
+            ));
+        }
+        if let Some(l) = &last {
+            let d = l.dims();
+            if d.state != n + 2 * k || d.targets != w.targets || d.gains != w.gains {
+                return Err(ExecError::Jit(
+                    "V's stages: the last stage's sizes do not match the weights'".into(),
+                ));
+            }
+        }
+        let zeros = vec![0.0; w.params];
+        let hoisted = [sums.hoist(&zeros)?.len(), weights.hoist(&zeros)?.len()];
+        let hoisted_len = hoisted[0]
+            + hoisted[1]
+            + last
+                .as_ref()
+                .map_or(Ok(0), |l| l.hoist(&zeros).map(|h| h.len()))?;
+        Ok(StagedKernel {
+            n_outputs: last.as_ref().map_or(1, |l| l.n_outputs()),
+            sums,
+            weights,
+            last,
+            hoisted,
+            hoisted_len,
+            k,
+            dims: Dims { state: n, ..w },
+        })
+    }
+}
+
+impl StagedKernel {
+    /// The stages in order, `xsw` and `vw` the scratch for `[x, S, w]` and `[V, w]`.
+    #[allow(clippy::too_many_arguments)]
+    fn stages(
+        &self,
+        hoisted: &[f64],
+        state: &[f64],
+        target: &[f64],
+        gains: &[f64],
+        xsw: &mut Vec<f64>,
+        vw: &mut Vec<f64>,
+        out: &mut [f64],
+    ) -> Result<(), ExecError> {
+        let (n, k) = (self.dims.state, self.k);
+        let [a, b] = self.hoisted;
+        xsw.clear();
+        xsw.extend_from_slice(state);
+        xsw.resize(n + 2 * k, 0.0);
+        vw.resize(1 + k, 0.0);
+        let (x, rest) = xsw.split_at_mut(n);
+        self.sums.eval(&hoisted[..a], x, &[], &[], &mut rest[..k])?;
+        self.weights
+            .eval(&hoisted[a..a + b], &xsw[..n + k], target, gains, vw)?;
+        match &self.last {
+            None => out[0] = vw[0],
+            Some(l) => {
+                xsw[n + k..].copy_from_slice(&vw[1..]);
+                l.eval(&hoisted[a + b..], xsw, target, gains, out)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Kernel for StagedKernel {
+    fn dims(&self) -> Dims {
+        self.dims
+    }
+
+    fn n_outputs(&self) -> usize {
+        self.n_outputs
+    }
+
+    fn hoist(&self, params: &[f64]) -> Result<Vec<f64>, ExecError> {
+        let mut h = self.sums.hoist(params)?;
+        h.extend(self.weights.hoist(params)?);
+        if let Some(l) = &self.last {
+            h.extend(l.hoist(params)?);
+        }
+        Ok(h)
+    }
+
+    fn eval(
+        &self,
+        hoisted: &[f64],
+        state: &[f64],
+        target: &[f64],
+        gains: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), ExecError> {
+        use lasalle_model::tape::expect_len;
+        expect_len("hoisted", self.hoisted_len, hoisted.len())?;
+        expect_len("state", self.dims.state, state.len())?;
+        expect_len("out", self.n_outputs, out.len())?;
+        STAGES.with(|cell| {
+            let (mut xsw, mut vw) = cell.take();
+            let r = self.stages(hoisted, state, target, gains, &mut xsw, &mut vw, out);
+            cell.set((xsw, vw));
+            r
+        })
     }
 
     /// Lane by lane: each lane is [`Kernel::eval`] of its state, so bitwise equal to it.

@@ -292,6 +292,13 @@ impl Info {
     }
 }
 
+/// The lowered model: unrolled, or with families kept as loops and the unrolled model built
+/// at its first use.
+enum Lowered {
+    Unrolled(Arc<Derived>),
+    Loops(Arc<crate::deferred::LazyTapes>),
+}
+
 /// The unrolled tapes of the field and of X − ∇V.
 enum StepTapes {
     /// Built when the model was loaded.
@@ -300,8 +307,12 @@ enum StepTapes {
         feedback: Box<Tape>,
     },
     /// A model loaded with its families kept as loops: no unrolled field (steps use the loop
-    /// kernel), X − ∇V from the unrolled model at its first use.
-    Deferred(Arc<crate::deferred::LazyTapes>),
+    /// kernel); X − ∇V from the unrolled model at its first use, unless it is a loop kernel
+    /// (`looped`), which the steppers call instead of a compiled step.
+    Deferred {
+        lazy: Arc<crate::deferred::LazyTapes>,
+        looped: bool,
+    },
 }
 
 /// A compiled step tape, shared by the steppers that call it.
@@ -309,7 +320,7 @@ type StepKernel = Arc<Box<dyn Kernel>>;
 
 /// A model compiled at run time from its file; see the [module docs](crate::model).
 pub struct LoadedModel {
-    derived: Arc<Derived>,
+    lowered: Lowered,
     conservation: Vec<Conservation>,
     backend: Backend,
     params: Vec<f64>,
@@ -378,7 +389,7 @@ impl LoadedModel {
         };
         let info = Info::new(&derived.model);
         Ok(LoadedModel {
-            derived: Arc::new(derived),
+            lowered: Lowered::Unrolled(Arc::new(derived)),
             conservation,
             backend,
             params,
@@ -396,17 +407,18 @@ impl LoadedModel {
     }
 
     /// [`LoadedModel::from_source`], with the model's families lowered as `families` says
-    /// ([`lasalle_model::loops`]). When some family is kept as a loop, the field and the
-    /// integrals are loop kernels ([`crate::LoopKernel`]), the integrals are checked on the
-    /// families' terms, the field's Taylor kernel is the loop form of its program
-    /// ([`crate::LoopTaylorTape`]), and the other functions (Jacobian, V, ∇V, X − ∇V,
-    /// half-fields, the Taylor kernel of X − ∇V) are built from the unrolled model at their
-    /// first use; the unrolled
-    /// model is lowered and derived (for its declarations and those functions), never
-    /// checked, rewritten or compiled at load. Otherwise the model loads as with
+    /// ([`lasalle_model::loops`]). When some family is kept as a loop, the field, the
+    /// integrals, their Jacobian and the half-fields are loop kernels ([`crate::LoopKernel`]),
+    /// V, ∇V and X − ∇V staged loop kernels ([`crate::StagedKernel`]), the field's Taylor
+    /// kernel the loop form of its program ([`crate::LoopTaylorTape`]), and the integrals are
+    /// checked on the families' terms. A function the loop form refuses, the compiled steps on
+    /// X − ∇V and the Taylor kernel of X − ∇V are built from the unrolled model at their first
+    /// use; the unrolled model itself is lowered and derived only then (or at the first call of
+    /// [`LoadedModel::model`]), never at load. Otherwise the model loads as with
     /// [`LoadedModel::from_source`]; so does a model the loop form refuses (a sum that enters
-    /// an expression other than as a term with a constant coefficient, an integral it finds
-    /// not conserved) under [`Families::Auto`], while [`Families::Loops`] reports the refusal.
+    /// the field or an integral other than as a term with a constant coefficient, an integral
+    /// it finds not conserved) under [`Families::Auto`], while [`Families::Loops`] reports the
+    /// refusal.
     pub fn from_source_with(
         path: &str,
         text: &str,
@@ -430,14 +442,20 @@ impl LoadedModel {
             }
             Err(e) => return Err(e.into()),
         };
-        let derived = Arc::new(derive(lm.unrolled()?));
-        let model = &derived.model;
+        let lm = Arc::new(lm);
+        let lazy = Arc::new(crate::deferred::LazyTapes::new(
+            crate::deferred::Unrolled::new(lm.clone()),
+        ));
+        let model = lm.declarations();
         let params = model.default_params();
-        let (guards, events) = guards_and_events(model, backend, &params)?;
+        // guards and events that read a family's sum are built from the unrolled model
+        let (guards, events) = match guards_and_events(model, backend, &params) {
+            Ok(ge) => ge,
+            Err(_) => guards_and_events(&lazy.unrolled().get()?.model, backend, &params)?,
+        };
         let looped = |t: &lasalle_model::loops::LoopTape| -> Result<Compiled, ExecError> {
             Compiled::of(Box::new(crate::LoopKernel::new(t, backend)?), &params)
         };
-        let lazy = Arc::new(crate::deferred::LazyTapes::new(derived.clone()));
         let (n, m) = (model.dim(), model.invariant_dim());
         let plain = Dims {
             state: n,
@@ -454,24 +472,54 @@ impl LoadedModel {
             let k = crate::deferred::Deferred::new(lazy.clone(), pick, backend, dims, outputs);
             Compiled::of(Box::new(k), &params)
         };
-        let partition = match &derived.derivatives.partition {
-            Some(is_q) => {
-                let q = is_q.iter().filter(|&&b| b).count();
-                Some((
-                    deferred(|t| t.partition.as_ref().map(|p| &p.field_q), plain, q)?,
-                    deferred(|t| t.partition.as_ref().map(|p| &p.field_p), plain, n - q)?,
-                    is_q.clone(),
-                ))
-            }
-            None => None,
+        // Each derived function in loop form where it has one, else from the unrolled model.
+        let jacobian = match lm.jacobian() {
+            Ok(t) => looped(&t)?,
+            Err(_) => deferred(|t| Some(&t.jacobian), plain, m * n)?,
+        };
+        let staged =
+            |fb: &lasalle_model::loops::LoopFeedback, stage| -> Result<Compiled, ExecError> {
+                Compiled::of(
+                    Box::new(crate::StagedKernel::new(fb, stage, backend)?),
+                    &params,
+                )
+            };
+        let (lyapunov, lyapunov_gradient, feedback, feedback_looped) = match lm.feedback() {
+            Ok(fb) => (
+                staged(&fb, crate::Stage::Lyapunov)?,
+                staged(&fb, crate::Stage::Gradient)?,
+                staged(&fb, crate::Stage::Feedback)?,
+                true,
+            ),
+            Err(_) => (
+                deferred(|t| Some(&t.lyapunov), full, 1)?,
+                deferred(|t| Some(&t.lyapunov_gradient), full, n)?,
+                deferred(|t| Some(&t.feedback), full, n)?,
+                false,
+            ),
+        };
+        let partition = match lm.partition() {
+            Ok(Some(p)) => Some((looped(&p.field_q)?, looped(&p.field_p)?, p.is_q)),
+            Ok(None) => None,
+            Err(_) => match &lazy.unrolled().get()?.derivatives.partition {
+                Some(is_q) => {
+                    let q = is_q.iter().filter(|&&b| b).count();
+                    Some((
+                        deferred(|t| t.partition.as_ref().map(|p| &p.field_q), plain, q)?,
+                        deferred(|t| t.partition.as_ref().map(|p| &p.field_p), plain, n - q)?,
+                        is_q.clone(),
+                    ))
+                }
+                None => None,
+            },
         };
         let kernels = Kernels {
             field: looped(&tapes.field)?,
             invariants: looped(&tapes.invariants)?,
-            jacobian: deferred(|t| Some(&t.jacobian), plain, m * n)?,
-            lyapunov: deferred(|t| Some(&t.lyapunov), full, 1)?,
-            lyapunov_gradient: deferred(|t| Some(&t.lyapunov_gradient), full, n)?,
-            feedback: deferred(|t| Some(&t.feedback), full, n)?,
+            jacobian,
+            lyapunov,
+            lyapunov_gradient,
+            feedback,
             partition,
             guards: guards
                 .as_ref()
@@ -481,12 +529,15 @@ impl LoadedModel {
         };
         let info = Info::new(model);
         Ok(LoadedModel {
-            derived,
+            lowered: Lowered::Loops(lazy.clone()),
             conservation,
             backend,
             params,
             kernels,
-            step_tapes: StepTapes::Deferred(lazy),
+            step_tapes: StepTapes::Deferred {
+                lazy,
+                looped: feedback_looped,
+            },
             guards_tape: guards,
             loop_field: Some(Box::new(tapes.field)),
             steps: Mutex::default(),
@@ -508,14 +559,39 @@ impl LoadedModel {
         Self::from_source(&path.display().to_string(), &text, backend)
     }
 
-    /// The lowered model (its DAG, names and declarations).
+    /// The lowered model (its DAG, names and declarations). For a model loaded with families
+    /// kept as loops, the unrolled model, lowered and derived at the first call of this or of
+    /// [`LoadedModel::derived`].
+    ///
+    /// # Panics
+    /// If the unrolled form of a model loaded with families kept as loops does not lower,
+    /// which it does whenever the loop form did (the same source through the same checks).
     pub fn model(&self) -> &Model {
-        &self.derived.model
+        &self.derived().model
     }
 
-    /// The model with its derivatives.
+    /// The model with its derivatives (for a model loaded with families kept as loops, built
+    /// at the first call, as [`LoadedModel::model`] says).
+    ///
+    /// # Panics
+    /// As [`LoadedModel::model`].
     pub fn derived(&self) -> &Derived {
-        &self.derived
+        match &self.lowered {
+            Lowered::Unrolled(d) => d,
+            Lowered::Loops(lazy) => match lazy.unrolled().get() {
+                Ok(d) => d,
+                Err(e) => panic!("{e}"),
+            },
+        }
+    }
+
+    /// The model's declarations (names, shapes, parameters, points, presets), without
+    /// building the unrolled model of a model loaded with families kept as loops.
+    fn declarations(&self) -> &Model {
+        match &self.lowered {
+            Lowered::Unrolled(d) => &d.model,
+            Lowered::Loops(lazy) => lazy.unrolled().loops().declarations(),
+        }
     }
 
     /// How each declared invariant was shown to be conserved.
@@ -535,7 +611,7 @@ impl LoadedModel {
 
     /// The dimension N of the state.
     pub fn dim(&self) -> usize {
-        self.derived.model.dim()
+        self.declarations().dim()
     }
 
     /// The current parameter slots.
@@ -563,8 +639,10 @@ impl LoadedModel {
             (StepTapes::Built { field, .. }, false) => field,
             (StepTapes::Built { feedback, .. }, true) => feedback,
             // the loop kernel steps the field through the generic steppers
-            (StepTapes::Deferred(_), false) => return None,
-            (StepTapes::Deferred(lazy), true) => &lazy.get().ok()?.feedback,
+            (StepTapes::Deferred { .. }, false) => return None,
+            // X − ∇V in loop form: the steppers call its staged kernel
+            (StepTapes::Deferred { looped: true, .. }, true) => return None,
+            (StepTapes::Deferred { lazy, .. }, true) => &lazy.get().ok()?.feedback,
         };
         let tape = rk_step(field, method.a, method.b, self.guards_tape.as_ref()).ok()?;
         let strict: Vec<bool> = self.info.guards.iter().map(|g| g.2).collect();
@@ -592,7 +670,7 @@ impl LoadedModel {
     pub(crate) fn feedback_tape(&self) -> Result<&Tape, ExecError> {
         match &self.step_tapes {
             StepTapes::Built { feedback, .. } => Ok(feedback),
-            StepTapes::Deferred(lazy) => Ok(&lazy.get()?.feedback),
+            StepTapes::Deferred { lazy, .. } => Ok(&lazy.get()?.feedback),
         }
     }
 
@@ -659,7 +737,7 @@ impl Field<f64, Vec<f64>> for LoadedModel {
 
 impl Invariants<f64, Vec<f64>, Vec<f64>> for LoadedModel {
     fn invariant_dim(&self) -> usize {
-        self.derived.model.invariant_dim()
+        self.declarations().invariant_dim()
     }
 
     #[inline]
@@ -772,10 +850,9 @@ impl ModelInfo for LoadedModel {
 
 impl Parameters for LoadedModel {
     fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
-        let Some(p) = self.derived.model.params.iter().find(|p| p.name == name) else {
+        let Some(p) = self.declarations().params.iter().find(|p| p.name == name) else {
             let known: Vec<String> = self
-                .derived
-                .model
+                .declarations()
                 .params
                 .iter()
                 .map(|p| format!("`{}`", p.name))
@@ -785,14 +862,15 @@ impl Parameters for LoadedModel {
                 known: known.join(", "),
             });
         };
-        if values.len() != p.slots() {
+        let (offset, slots) = (p.offset, p.slots());
+        if values.len() != slots {
             return Err(ParamError::WrongLength {
                 name: name.to_string(),
-                expected: p.slots(),
+                expected: slots,
                 given: values.len(),
             });
         }
-        self.params[p.offset..p.offset + p.slots()].copy_from_slice(values);
+        self.params[offset..offset + slots].copy_from_slice(values);
         // hoisting only evaluates the preludes, whose lengths were fixed at load
         if self.rehoist().is_err() {
             for c in self.kernels.all_mut() {
@@ -803,7 +881,7 @@ impl Parameters for LoadedModel {
     }
 
     fn param(&self, name: &str) -> Option<Vec<f64>> {
-        let p = self.derived.model.params.iter().find(|p| p.name == name)?;
+        let p = self.declarations().params.iter().find(|p| p.name == name)?;
         Some(self.params[p.offset..p.offset + p.slots()].to_vec())
     }
 
@@ -812,7 +890,7 @@ impl Parameters for LoadedModel {
     }
 
     fn point(&self, name: &str) -> Option<Vec<f64>> {
-        self.derived.model.point_values(name, &self.params)
+        self.declarations().point_values(name, &self.params)
     }
 }
 
@@ -908,7 +986,7 @@ impl Declared<f64, Vec<f64>> for LoadedModel {
     }
 
     fn splitting(&self) -> Option<Splitting<f64>> {
-        let s = self.derived.model.splitting.as_ref()?;
+        let s = self.declarations().splitting.as_ref()?;
         let values: Vec<f64> = s.params.iter().map(|&k| self.params[k as usize]).collect();
         Splitting::declared(s.kind, &values)
     }

@@ -8,6 +8,7 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use lasalle_exec::{Backend, LaneField, LoadedModel};
+use lasalle_model::loops::Families;
 use lasalle_model::variational::Extension;
 use lasalle_runtime::{
     Declared, DriftBound, Driver, ModelInfo, Observer, Parameters, Recorder, Stepper,
@@ -153,6 +154,9 @@ pub struct ModelSource {
     /// What the front end extends the model with before it is compiled (the variational
     /// equations, the chaos indicators), if anything.
     pub extension: Option<Extension>,
+    /// How the model's families are lowered ([`lasalle_model::loops`]); `Unrolled` unless
+    /// [`ModelSource::families`] says otherwise.
+    pub families: Families,
 }
 
 impl ModelSource {
@@ -163,7 +167,15 @@ impl ModelSource {
             text: text.into(),
             backend,
             extension: None,
+            families: Families::Unrolled,
         }
+    }
+
+    /// The same model with its families lowered as `families` says (an extended model is
+    /// always unrolled: its extension reads the model's expressions).
+    pub fn families(mut self, families: Families) -> Self {
+        self.families = families;
+        self
     }
 
     /// The same model extended by the front end ([`lasalle_model::variational`]): members'
@@ -186,7 +198,9 @@ impl ModelSource {
     /// Parses, derives, checks and compiles the model.
     pub fn load(&self) -> Result<LoadedModel, RunError> {
         let loaded = match self.extension {
-            None => LoadedModel::from_source(&self.path, &self.text, self.backend),
+            None => {
+                LoadedModel::from_source_with(&self.path, &self.text, self.backend, self.families)
+            }
             Some(ext) => {
                 let lowered = lasalle_model::lower_source(&self.path, &self.text)
                     .and_then(|m| ext.apply(&m))

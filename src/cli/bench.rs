@@ -8,12 +8,12 @@
 use std::hint::black_box;
 
 use clap::Args;
-use lasalle::exec::Backend;
+use lasalle::exec::{Backend, Families, Kernel, LoopKernel, LoopModel, Stage, StagedKernel};
 use lasalle::{Invariants, ModelInfo, Parameters};
 use lasalle_codegen::tape::ModelTapes;
 use serde_json::json;
 
-use super::load::{load, model_text};
+use super::load::{load_with, model_text, FamiliesOpt};
 use super::CliResult;
 use lasalle::{parse_numbers, process_cpu_seconds};
 
@@ -47,6 +47,8 @@ pub struct BenchEvalArgs {
     /// What to print: one line per lane count (table) or one JSON line (json, for scripts).
     #[arg(long, value_enum, default_value_t)]
     pub format: Format,
+    #[command(flatten)]
+    pub families: FamiliesOpt,
 }
 
 /// The field `lasalle bench-eval` times.
@@ -67,6 +69,41 @@ pub enum Format {
     Table,
     /// `{"model": …, "what": …, "ns_per_state": {"1": …}}` on one line.
     Json,
+}
+
+/// The timed function as a loop kernel, if `families` keeps some family of the model as a
+/// loop (under `auto`, `None` where the loop form refuses the model, which then loads
+/// unrolled).
+fn loop_kernel(
+    path: &str,
+    text: &str,
+    families: Families,
+    field: Timed,
+) -> Result<Option<Box<dyn Kernel>>, String> {
+    if families == Families::Unrolled {
+        return Ok(None);
+    }
+    let lm = LoopModel::from_source(path, text, families).map_err(|e| e.to_string())?;
+    if lm.families().is_empty() {
+        return Ok(None);
+    }
+    let kernel = match field {
+        Timed::Feedback => lm.feedback().map_err(|e| e.to_string()).and_then(|fb| {
+            StagedKernel::new(&fb, Stage::Feedback, Backend::Jit)
+                .map(|k| Box::new(k) as Box<dyn Kernel>)
+                .map_err(|e| e.to_string())
+        }),
+        Timed::Model => lm.tapes().map_err(|e| e.to_string()).and_then(|t| {
+            LoopKernel::new(&t.field, Backend::Jit)
+                .map(|k| Box::new(k) as Box<dyn Kernel>)
+                .map_err(|e| e.to_string())
+        }),
+    };
+    match kernel {
+        Ok(k) => Ok(Some(k)),
+        Err(_) if families == Families::Auto => Ok(None),
+        Err(e) => Err(e),
+    }
 }
 
 /// Runs `lasalle bench-eval`.
@@ -97,7 +134,8 @@ pub fn run(args: &BenchEvalArgs) -> CliResult {
     }
     process_cpu_seconds().ok_or("no process CPU clock on this platform")?;
     let (shown, stem, text) = model_text(&args.model)?;
-    let (loaded, _) = load(&args.model, Backend::Jit)?;
+    let families: Families = args.families.into();
+    let (loaded, _) = load_with(&args.model, Backend::Jit, families)?;
     let x0 = loaded
         .point_names()
         .first()
@@ -113,15 +151,25 @@ pub fn run(args: &BenchEvalArgs) -> CliResult {
         Timed::Model => (Vec::new(), Vec::new()),
     };
 
-    let model = lasalle_codegen::lower_source(&shown, &text).map_err(|e| e.to_string())?;
-    let derived = lasalle_codegen::derive(model);
-    lasalle_codegen::check(&derived).map_err(|e| e.to_string())?;
-    let tapes = ModelTapes::new(&derived).map_err(|e| e.to_string())?;
-    let (tape, what) = match args.field {
-        Timed::Feedback => (&tapes.feedback, "feedback field X - grad V"),
-        Timed::Model => (&tapes.field, "field X"),
+    let what = match args.field {
+        Timed::Feedback => "feedback field X - grad V",
+        Timed::Model => "field X",
     };
-    let kernel = Backend::Jit.compile(tape).map_err(|e| e.to_string())?;
+    let (kernel, what) = match loop_kernel(&shown, &text, families, args.field)? {
+        Some(k) => (k, format!("{what} (families as loops)")),
+        None => {
+            let model = lasalle_codegen::lower_source(&shown, &text).map_err(|e| e.to_string())?;
+            let derived = lasalle_codegen::derive(model);
+            lasalle_codegen::check(&derived).map_err(|e| e.to_string())?;
+            let tapes = ModelTapes::new(&derived).map_err(|e| e.to_string())?;
+            let tape = match args.field {
+                Timed::Feedback => &tapes.feedback,
+                Timed::Model => &tapes.field,
+            };
+            let kernel = Backend::Jit.compile(tape).map_err(|e| e.to_string())?;
+            (kernel, what.to_string())
+        }
+    };
     let hoisted = kernel.hoist(loaded.params()).map_err(|e| e.to_string())?;
     let (n, m) = (x0.len(), kernel.n_outputs());
 

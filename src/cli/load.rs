@@ -40,6 +40,24 @@ pub enum FamiliesArg {
     Unrolled,
 }
 
+/// `--families`, declared once for every subcommand that loads a model file.
+#[derive(Clone, Copy, Debug, Default, clap::Args)]
+pub struct FamiliesOpt {
+    /// How the model's families (`sum(i in 0..n: …)`) are compiled: as loops, one per sum,
+    /// for the sums of at least 64 index tuples (auto), for every sum that can be (loops), or
+    /// written out term by term (unrolled). Loops load large models in a fraction of the time;
+    /// the functions that have no loop form (the Taylor kernels, anything a loop refuses) are
+    /// built from the unrolled model when a method first needs them.
+    #[arg(long, value_enum, default_value_t)]
+    pub families: FamiliesArg,
+}
+
+impl From<FamiliesOpt> for Families {
+    fn from(f: FamiliesOpt) -> Families {
+        f.families.into()
+    }
+}
+
 impl From<FamiliesArg> for Families {
     fn from(f: FamiliesArg) -> Families {
         match f {

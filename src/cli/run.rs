@@ -9,7 +9,7 @@ use clap::{Args, ValueEnum};
 use lasalle::{find_preset, GainPolicy, Method, ModelInfo, Preset, RunError, RunSpec};
 
 use super::args::parse_param;
-use super::load::{load_with, BackendArg, FamiliesArg};
+use super::load::{load_with, BackendArg, FamiliesOpt};
 use super::{usage, value, CliResult, Given};
 
 /// What `lasalle run` prints on standard output.
@@ -95,13 +95,8 @@ pub struct RunArgs {
     /// (jit), or interpreted.
     #[arg(long, value_enum, default_value_t)]
     pub backend: BackendArg,
-    /// How the model's families (`sum(i in 0..n: …)`) are compiled: as loops, one per sum,
-    /// for the sums of at least 64 index tuples (auto), for every sum that can be (loops), or
-    /// written out term by term (unrolled). Loops load large models in a fraction of the time;
-    /// the functions that have no loop form are built from the unrolled model when a method
-    /// first needs them.
-    #[arg(long, value_enum, default_value_t)]
-    pub families: FamiliesArg,
+    #[command(flatten)]
+    pub families: FamiliesOpt,
     /// Output directory (default: out/<model>-<method>/).
     #[arg(long)]
     pub out: Option<PathBuf>,

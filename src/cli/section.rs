@@ -16,7 +16,7 @@ use lasalle::{
 };
 
 use super::args::parse_param;
-use super::load::{model_text, BackendArg};
+use super::load::{model_text, BackendArg, FamiliesOpt};
 use super::plot::{write_figure, Chart, Style};
 use super::run::refuse_inapplicable;
 use super::{usage, value, CliResult, Given};
@@ -81,6 +81,8 @@ pub struct SectionArgs {
     /// How the model's functions run.
     #[arg(long, value_enum, default_value_t)]
     pub backend: BackendArg,
+    #[command(flatten)]
+    pub families: FamiliesOpt,
     /// The figure's title (default: the model, the event and the level).
     #[arg(long)]
     pub title: Option<String>,
@@ -221,7 +223,7 @@ pub fn run(args: &SectionArgs, given: &Given) -> CliResult {
         ));
     }
     let (path, stem, text) = model_text(&args.model)?;
-    let source = ModelSource::new(path, text, args.backend.into());
+    let source = ModelSource::new(path, text, args.backend.into()).families(args.families.into());
     let mut model: LoadedModel = source.load().map_err(|e| e.to_string())?;
     let mut params = Vec::new();
     for p in &args.param {

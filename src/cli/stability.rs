@@ -14,7 +14,7 @@ use lasalle_analysis::lie_poisson::{self, Equilibrium, Family, Sweep};
 use lasalle_analysis::stability::{self, StabilityKind, StabilityOptions};
 
 use super::args::apply_param;
-use super::load::{load, BackendArg};
+use super::load::{load_with, BackendArg, FamiliesOpt};
 use super::{usage, value, CliResult, Given};
 use lasalle::parse_numbers;
 
@@ -47,6 +47,8 @@ pub struct StabilityArgs {
     /// How the model's functions run (the analysis itself evaluates the symbolic derivatives).
     #[arg(long, value_enum, default_value_t)]
     pub backend: BackendArg,
+    #[command(flatten)]
+    pub families: FamiliesOpt,
     /// Dissipative planar models: domain-of-attraction options.
     #[command(flatten)]
     pub attraction: super::attraction::AttractionArgs,
@@ -344,7 +346,7 @@ fn run_canonical(args: &StabilityArgs, model: &LoadedModel) -> CliResult {
 
 /// Runs `lasalle stability`.
 pub fn run(args: &StabilityArgs, given: &Given) -> CliResult {
-    let (mut model, stem) = load(&args.model, args.backend.into())?;
+    let (mut model, stem) = load_with(&args.model, args.backend.into(), args.families.into())?;
     for p in &args.param {
         apply_param(&mut model, p).map_err(usage)?;
     }

@@ -19,7 +19,7 @@ use lasalle::{
     Recording, RunError, RunSpec,
 };
 
-use super::load::{model_text, BackendArg};
+use super::load::{model_text, BackendArg, FamiliesOpt};
 use super::run::refuse_inapplicable;
 use super::{usage, value, CliResult, Given};
 
@@ -78,6 +78,8 @@ pub struct SweepArgs {
     /// How the model's functions run.
     #[arg(long, value_enum, default_value_t)]
     pub backend: BackendArg,
+    #[command(flatten)]
+    pub families: FamiliesOpt,
     /// The table to write (CSV).
     #[arg(long)]
     pub out: PathBuf,
@@ -320,7 +322,8 @@ pub fn run(args: &SweepArgs, given: &Given) -> CliResult {
     })?;
     let rows = rows(args).map_err(usage)?;
     let (path, _, text) = model_text(&args.model)?;
-    let mut source = ModelSource::new(path, text, args.backend.into());
+    let mut source =
+        ModelSource::new(path, text, args.backend.into()).families(args.families.into());
     let plain_dim = source.load().map_err(|e| e.to_string())?.dim();
     let indicator = args
         .indicator

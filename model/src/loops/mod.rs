@@ -22,14 +22,24 @@
 //! plain tape: every back end adds in this order, so they agree bit for bit; the unrolled form
 //! sums in another order and agrees to rounding.
 //!
+//! The derived functions are loop tapes too ([`LoopModel::jacobian`], [`LoopModel::feedback`],
+//! [`LoopModel::partition`], in `derived`): Df of the integrals (each family term's partials
+//! by its state slots, scattered to `row·N + gather`), the half-fields (the field's loop tape
+//! restricted to each half), and V, ∇V and X − ∇V in three stages ([`LoopFeedback`]): the
+//! family sums S that V reads, then V and `w = ∂V/∂S` from `[x, S]`, then `∂V/∂x|_S` plus, per
+//! family, the gradient of `Σ w·body` (one symbolic gradient, the weights gathered as slots of
+//! a constant column) from `[x, S, w]`. The integrals are proved on the families' bodies
+//! ([`LoopModel::check`]).
+//!
 //! What the loop form does not do (yet) is refused rather than approximated: a family whose
-//! value enters a function other than linearly with a constant coefficient, or a Hamiltonian
-//! family under a Lie–Poisson structure. The field's Taylor program has a loop form
-//! ([`LoopTape::taylor`], [`taylor`]: the body's coefficient recurrences once per tuple, on the
-//! coefficients gathered from the state's). The emitted Rust writes the field and the
-//! invariants as loops from these tapes, with the index structure of [`index`]
-//! (`lasalle_codegen::generate_source_with`). V, ∇V, X − ∇V, the Jacobian and the conservation
-//! proofs have no loop form: they work on the unrolled model ([`Families::Unrolled`]).
+//! value enters the field or an integral other than linearly with a constant coefficient, a
+//! Hamiltonian family under a Lie–Poisson structure, a family that adds to both halves of a
+//! partitioned field. The field's Taylor program has a loop form ([`LoopTape::taylor`],
+//! [`taylor`]: the body's coefficient recurrences once per tuple, on the coefficients gathered
+//! from the state's). The emitted Rust writes the field and the invariants as loops from these
+//! tapes, with the index structure of [`index`] (`lasalle_codegen::generate_source_with`). The
+//! Taylor program of X − ∇V and the variational equations have no loop form: they work on the
+//! unrolled model ([`LoopModel::unrolled`]).
 
 use crate::error::{Diagnostic, Error, Span};
 use crate::ir::{FxHashMap, Graph, Id, Input, Node};
@@ -205,11 +215,19 @@ impl LoopModel {
     }
 
     /// The same model with every family unrolled, lowered again from its source: what the
-    /// stages without a loop form (the Jacobian, V, ∇V, X − ∇V, the Taylor program of X − ∇V, the
-    /// emitted Rust, the lanes) need, built only when one of them is asked for.
+    /// stages without a loop form (the Taylor program of X − ∇V, the variational equations, the
+    /// emitted Rust's derived functions, the lanes on X − ∇V) need, built only when one of them
+    /// is asked for.
     pub fn unrolled(&self) -> Result<Model, Error> {
         let source = &self.model.source;
         crate::lower_source(&source.path, &source.text)
+    }
+
+    /// The lowered model whose family sums are auxiliary symbols: its declarations (state,
+    /// parameters, invariants, gains, points, presets, guards, events) are the unrolled
+    /// model's; its expressions are not (evaluate its functions through the loop tapes).
+    pub fn declarations(&self) -> &Model {
+        &self.model
     }
 
     /// The families kept as loops.
@@ -629,9 +647,20 @@ impl LoopTape {
     /// Evaluates the function in f64 directly from the tapes (the reference the back ends
     /// agree with bit for bit).
     pub fn eval(&self, params: &[f64], state: &[f64]) -> Result<Vec<f64>, TapeError> {
+        self.eval_with(params, state, &[], &[])
+    }
+
+    /// [`LoopTape::eval`] of a function that also reads targets and gains (in its plain part).
+    pub fn eval_with(
+        &self,
+        params: &[f64],
+        state: &[f64],
+        targets: &[f64],
+        gains: &[f64],
+    ) -> Result<Vec<f64>, TapeError> {
         self.validate()?;
         let mut out = vec![0.0; self.outputs];
-        let plain = self.base.eval(params, state, &[], &[])?;
+        let plain = self.base.eval(params, state, targets, gains)?;
         for (&o, v) in self.base_at.iter().zip(plain) {
             out[o as usize] = v;
         }
@@ -659,8 +688,10 @@ impl LoopTape {
 }
 
 mod check;
+mod derived;
 pub mod index;
 pub mod taylor;
+pub use derived::{LoopFeedback, LoopPartition};
 #[cfg(test)]
 mod tests;
 

@@ -31,6 +31,14 @@ impl Model {
                 }
             }
         }
+        self.colour_blocks(&edges)
+    }
+
+    /// The partition of [`Model::partition`] from its edges between state variables (`edges[b]`
+    /// lists the variables whose rates depend on b's, or on which b's rate depends), no
+    /// variable's rate reading its own group: a 2-colouring, the first variable's group q.
+    pub(crate) fn colour_blocks(&self, edges: &[Vec<usize>]) -> Option<Vec<bool>> {
+        let nb = self.state.len();
         if edges.iter().all(Vec::is_empty) {
             return None;
         }

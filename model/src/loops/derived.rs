@@ -1,0 +1,396 @@
+//! The derived functions of a [`LoopModel`] as loop tapes: the Jacobian Df of the invariants,
+//! V, ∇V and X − ∇V, and the half-fields of a partitioned field.
+//!
+//! - **Df.** An invariant is a plain part plus family terms `c·body` reduced into its output
+//!   `o`. Row `o` of Df is the plain part's gradient plus, per family term, the body's partial
+//!   with respect to each state component it reads — a slot `k` of tuple `t` reads
+//!   `gather[t, k]`, so the partial is scattered to `o·N + gather[t, k]`.
+//! - **V, ∇V, X − ∇V** in three stages. V reads the state x, the targets, the gains and the
+//!   family sums `S_k` its invariants hold. Stage 1 ([`LoopFeedback::sums`]) computes the sums,
+//!   a loop tape of the state. Stage 2 ([`LoopFeedback::weights`]) computes V and the weights
+//!   `w_k = ∂V/∂S_k` from `[x, S]`, a plain tape. Stage 3 is the chain rule
+//!   `∇V = ∂V/∂x|_S + Σ_k w_k ∇S_k`: a loop tape of `[x, S, w]` whose plain part is `∂V/∂x|_S`
+//!   and whose regions are, per family, the gradient of `Σ_k w_k·body_k` with respect to the
+//!   body's state slots (one symbolic gradient, the weights read as slots of a constant
+//!   column), scattered to the components the slots read. X − ∇V is the same with the field's
+//!   plain part and regions added (a family in both runs as one region).
+//! - **Half-fields.** The field's loop tape restricted to the outputs of each half of the
+//!   partition; the partition is the 2-colouring of [`Model::partition`](crate::Model::partition)
+//!   with the edges read from the plain part and the regions' gather and scatter tables.
+//!
+//! Every stage is an ordinary [`LoopTape`] or [`Tape`], so the back ends that agree bit for bit
+//! on those agree on the stages, run in this order.
+
+use super::{Builder, LoopModel, LoopTape, Outputs, Source};
+use crate::error::Error;
+use crate::ir::{gradient, Id, Input, Node};
+use crate::tape::{Dims, Tape, TapeError};
+
+/// V, ∇V and X − ∇V of a [`LoopModel`] in three stages (see the [module docs](super)); K is the
+/// number of family sums V reads, N the state's and M the invariants' components.
+#[derive(Clone, Debug)]
+pub struct LoopFeedback {
+    /// Stage 1: the sums S from the state (N inputs, K outputs).
+    pub sums: LoopTape,
+    /// Stage 2: V and w = ∂V/∂S (1 + K outputs) from `[x, S]` (N + K state inputs), the M
+    /// targets and the gains.
+    pub weights: Tape,
+    /// Stage 3: ∇V (N outputs) from `[x, S, w]` (N + 2K state inputs), the targets and gains.
+    pub gradient: LoopTape,
+    /// Stage 3: X − ∇V (N outputs), with the inputs of `gradient`.
+    pub feedback: LoopTape,
+}
+
+/// The half-fields of a partitioned loop field (q̇ = a(p), ṗ = b(q)).
+#[derive(Clone, Debug)]
+pub struct LoopPartition {
+    /// `true` at the q components of the state.
+    pub is_q: Vec<bool>,
+    /// The field components where `is_q`, in order.
+    pub field_q: LoopTape,
+    /// The field components where `!is_q`, in order.
+    pub field_p: LoopTape,
+}
+
+/// Where a state variable of a family reads, per tuple.
+#[derive(Clone, Copy)]
+enum Column {
+    /// Slot k of the family.
+    Slot(usize),
+    /// The same component every tuple (state the body reads directly).
+    Fixed(u32),
+}
+
+impl LoopModel {
+    /// Df, row-major: M × N outputs, `∂f_c/∂x_i` at `c·N + i` (the layout of
+    /// [`ModelTapes::jacobian`](crate::tape::ModelTapes)).
+    pub fn jacobian(&self) -> Result<LoopTape, Error> {
+        let mut b = Builder::new(self);
+        let m = &self.model;
+        let n = m.dim();
+        let vars: Vec<Input> = (0..n as u32).map(Input::State).collect();
+        let mut roots = Vec::with_capacity(m.invariant_dim() * n);
+        let mut outs = Outputs::default();
+        for f in &m.invariants {
+            for (c, &id) in f.value.ids.iter().enumerate() {
+                let o = (f.offset + c) as u32;
+                let mut terms = Outputs::default();
+                let e0 = b.split(id, o, &f.span, &mut terms)?;
+                roots.extend(gradient(&mut b.g, e0, &vars));
+                for (fam, list) in terms {
+                    for (term, col) in list {
+                        b.partials(fam, term, |t, at| col[t] * n as u32 + at, &mut outs);
+                    }
+                }
+            }
+        }
+        b.tape(&roots, b.dims(0, false), outs)
+    }
+
+    /// V, ∇V and X − ∇V in three stages. Refused (with a located message) where the field is:
+    /// see [`LoopModel::tapes`].
+    pub fn feedback(&self) -> Result<LoopFeedback, Error> {
+        let mut b = Builder::new(self);
+        let m = &self.model;
+        let n = m.dim() as u32;
+        // The sums V reads, in (family, component) order.
+        let mut used: Vec<(usize, usize, u32)> =
+            b.g.reachable(&[m.lyapunov])
+                .into_iter()
+                .filter_map(|id| match b.g.node(id) {
+                    Node::Input(Input::Symbol(s)) => b.placeholder.get(s).map(|&(f, c)| (f, c, *s)),
+                    _ => None,
+                })
+                .collect();
+        used.sort_unstable();
+        let k = used.len() as u32;
+        // Stage 1.
+        let mut outs = Outputs::default();
+        for (i, &(f, c, _)) in used.iter().enumerate() {
+            let fam = &self.families[f];
+            outs.entry(f)
+                .or_default()
+                .push((fam.body[c], vec![i as u32; fam.count]));
+        }
+        let zero = b.g.num(0.0);
+        let sums = b.tape(&vec![zero; used.len()], b.dims(0, false), outs)?;
+        // Stage 2: V and its partials by the state (with S fixed) and by the sums.
+        let mut vars: Vec<Input> = (0..n).map(Input::State).collect();
+        vars.extend(used.iter().map(|&(_, _, s)| Input::Symbol(s)));
+        let grad = gradient(&mut b.g, m.lyapunov, &vars);
+        let at: crate::ir::FxHashMap<u32, u32> = used
+            .iter()
+            .enumerate()
+            .map(|(i, &(_, _, s))| (s, n + i as u32))
+            .collect();
+        let mut v_w = vec![m.lyapunov];
+        v_w.extend_from_slice(&grad[n as usize..]);
+        let v_w = b.g.rename_inputs(&v_w, |i| match i {
+            Input::Symbol(s) => at.get(&s).map_or(i, |&x| Input::State(x)),
+            _ => i,
+        });
+        let explicit = b.g.rename_inputs(&grad[..n as usize], |i| match i {
+            Input::Symbol(s) => at.get(&s).map_or(i, |&x| Input::State(x)),
+            _ => i,
+        });
+        let internal = |e: TapeError| Error::Internal(format!("loop tape of V: {e}"));
+        let weights = Tape::from_graph(&b.g, &v_w, b.dims(k as usize, true)).map_err(internal)?;
+        // Stage 3: per family, the gradient of Σ w·body by its state slots.
+        let mut grad_outs = Outputs::default();
+        let mut neg_outs = Outputs::default();
+        let mut i = 0;
+        while i < used.len() {
+            let f = used[i].0;
+            let mut terms = Vec::new();
+            while i < used.len() && used[i].0 == f {
+                let w = b.g.input(Input::State(n + k + i as u32));
+                terms.push(b.g.mul(&[w, self.families[f].body[used[i].1]]));
+                i += 1;
+            }
+            let term = b.g.add(&terms);
+            b.partials(f, term, |_, at| at, &mut grad_outs);
+            let neg = b.g.neg(term);
+            b.partials(f, neg, |_, at| at, &mut neg_outs);
+        }
+        let dims = b.dims(2 * k as usize, true);
+        let gradient_tape = b.tape(&explicit, dims, grad_outs)?;
+        let (field_roots, mut field_outs) = b.field()?;
+        for (f, list) in neg_outs {
+            field_outs.entry(f).or_default().extend(list);
+        }
+        let roots: Vec<Id> = field_roots
+            .iter()
+            .zip(&explicit)
+            .map(|(&x, &d)| b.g.sub(x, d))
+            .collect();
+        let feedback = b.tape(&roots, dims, field_outs)?;
+        Ok(LoopFeedback {
+            sums,
+            weights,
+            gradient: gradient_tape,
+            feedback,
+        })
+    }
+
+    /// The half-fields, if the field is partitioned (as [`Model::partition`](crate::Model::partition)
+    /// decides on the unrolled field). Refused where a family adds to both halves.
+    pub fn partition(&self) -> Result<Option<LoopPartition>, Error> {
+        let mut b = Builder::new(self);
+        let (roots, field) = b.field()?;
+        let m = &self.model;
+        let nb = m.state.len();
+        let mut block_of = vec![0usize; m.dim()];
+        for (i, s) in m.state.iter().enumerate() {
+            block_of[s.offset..s.offset + s.shape.len()].fill(i);
+        }
+        let mut edge = vec![false; nb * nb];
+        let mut add = |a: usize, c: usize| {
+            if a == c {
+                return false; // a rate that depends on its own group
+            }
+            edge[a * nb + c] = true;
+            edge[c * nb + a] = true;
+            true
+        };
+        for (o, &r) in roots.iter().enumerate() {
+            for id in b.g.reachable(&[r]) {
+                if let Node::Input(Input::State(s)) = b.g.node(id) {
+                    if !add(block_of[o], block_of[*s as usize]) {
+                        return Ok(None);
+                    }
+                }
+            }
+        }
+        for (&f, list) in &field {
+            let fam = &self.families[f];
+            for (e, col) in list {
+                for (_, v) in b.state_vars(f, &[*e]) {
+                    for (t, &o) in col.iter().enumerate() {
+                        let s = match v {
+                            Column::Slot(k) => fam.slots[k].column[t],
+                            Column::Fixed(s) => s,
+                        };
+                        if !add(block_of[o as usize], block_of[s as usize]) {
+                            return Ok(None);
+                        }
+                    }
+                }
+            }
+        }
+        let edges: Vec<Vec<usize>> = (0..nb)
+            .map(|a| (0..nb).filter(|&c| edge[a * nb + c]).collect())
+            .collect();
+        let Some(is_q) = m.colour_blocks(&edges) else {
+            return Ok(None);
+        };
+        let mut half = |q: bool| -> Result<LoopTape, Error> {
+            let mut pos = vec![u32::MAX; is_q.len()];
+            let mut next = 0;
+            for (o, &x) in is_q.iter().enumerate() {
+                if x == q {
+                    pos[o] = next;
+                    next += 1;
+                }
+            }
+            let part: Vec<Id> = (roots.iter().zip(&is_q))
+                .filter(|(_, &x)| x == q)
+                .map(|(&id, _)| id)
+                .collect();
+            let mut outs = Outputs::default();
+            for (&f, list) in &field {
+                for (e, col) in list {
+                    let inside = col.iter().filter(|&&o| is_q[o as usize] == q).count();
+                    if inside == 0 {
+                        continue;
+                    }
+                    if inside != col.len() {
+                        return Err(b.refuse(
+                            &self.families[f].span,
+                            "this family adds to both halves of the partitioned field",
+                            "load the model with its families unrolled",
+                        ));
+                    }
+                    let col = col.iter().map(|&o| pos[o as usize]).collect();
+                    outs.entry(f).or_default().push((*e, col));
+                }
+            }
+            b.tape(&part, b.dims(0, false), outs)
+        };
+        let field_q = half(true)?;
+        let field_p = half(false)?;
+        Ok(Some(LoopPartition {
+            is_q,
+            field_q,
+            field_p,
+        }))
+    }
+}
+
+impl Builder<'_> {
+    /// The model's dims with `extra` more state inputs, with or without its targets and gains.
+    fn dims(&self, extra: usize, feedback: bool) -> Dims {
+        let m = &self.lm.model;
+        Dims {
+            state: m.dim() + extra,
+            params: m.param_slots(),
+            targets: if feedback { m.invariant_dim() } else { 0 },
+            gains: if feedback { m.gains.len() } else { 0 },
+        }
+    }
+
+    /// The state family `f`'s expressions `exprs` read, as variables with where they read:
+    /// its state slots, then the model's state they read directly (components beyond the
+    /// model's state — the weights of ∇V — are not variables).
+    fn state_vars(&self, f: usize, exprs: &[Id]) -> Vec<(Input, Column)> {
+        let fam = &self.lm.families[f];
+        let n = self.lm.model.dim() as u32;
+        let reach = self.g.reachable(exprs);
+        let mut symbols = crate::ir::FxHashMap::default();
+        let mut fixed = Vec::new();
+        for id in reach {
+            match self.g.node(id) {
+                Node::Input(Input::Symbol(s)) => {
+                    symbols.insert(*s, ());
+                }
+                Node::Input(Input::State(s)) if *s < n => fixed.push(*s),
+                _ => {}
+            }
+        }
+        fixed.sort_unstable();
+        let mut vars: Vec<(Input, Column)> = fam
+            .slots
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.source == Source::State && symbols.contains_key(&s.symbol))
+            .map(|(k, s)| (Input::Symbol(s.symbol), Column::Slot(k)))
+            .collect();
+        vars.extend(
+            fixed
+                .into_iter()
+                .map(|s| (Input::State(s), Column::Fixed(s))),
+        );
+        vars
+    }
+
+    /// Adds to `outs` the partials of family `f`'s expression `term` by its state variables,
+    /// each scattered per tuple `t` to `place(t, component the variable reads)`.
+    fn partials(
+        &mut self,
+        f: usize,
+        term: Id,
+        place: impl Fn(usize, u32) -> u32,
+        outs: &mut Outputs,
+    ) {
+        let vars = self.state_vars(f, &[term]);
+        let inputs: Vec<Input> = vars.iter().map(|v| v.0).collect();
+        let grad = gradient(&mut self.g, term, &inputs);
+        let fam = &self.lm.families[f];
+        for ((_, v), d) in vars.into_iter().zip(grad) {
+            if self.g.as_num(d) == Some(0.0) {
+                continue;
+            }
+            let column = (0..fam.count)
+                .map(|t| {
+                    let at = match v {
+                        Column::Slot(k) => fam.slots[k].column[t],
+                        Column::Fixed(s) => s,
+                    };
+                    place(t, at)
+                })
+                .collect();
+            outs.entry(f).or_default().push((d, column));
+        }
+    }
+}
+
+impl LoopFeedback {
+    /// `[x, S, w]` and V at a state, in f64 from the tapes (stages 1 and 2).
+    fn stages(
+        &self,
+        params: &[f64],
+        x: &[f64],
+        targets: &[f64],
+        gains: &[f64],
+    ) -> Result<(f64, Vec<f64>), TapeError> {
+        let mut xs = x.to_vec();
+        xs.extend(self.sums.eval(params, x)?);
+        let vw = self.weights.eval(params, &xs, targets, gains)?;
+        xs.extend_from_slice(&vw[1..]);
+        Ok((vw[0], xs))
+    }
+
+    /// V evaluated from the tapes (the reference the back ends agree with bit for bit).
+    pub fn eval_lyapunov(
+        &self,
+        params: &[f64],
+        x: &[f64],
+        targets: &[f64],
+        gains: &[f64],
+    ) -> Result<f64, TapeError> {
+        Ok(self.stages(params, x, targets, gains)?.0)
+    }
+
+    /// ∇V evaluated from the tapes.
+    pub fn eval_gradient(
+        &self,
+        params: &[f64],
+        x: &[f64],
+        targets: &[f64],
+        gains: &[f64],
+    ) -> Result<Vec<f64>, TapeError> {
+        let xsw = self.stages(params, x, targets, gains)?.1;
+        self.gradient.eval_with(params, &xsw, targets, gains)
+    }
+
+    /// X − ∇V evaluated from the tapes.
+    pub fn eval_feedback(
+        &self,
+        params: &[f64],
+        x: &[f64],
+        targets: &[f64],
+        gains: &[f64],
+    ) -> Result<Vec<f64>, TapeError> {
+        let xsw = self.stages(params, x, targets, gains)?.1;
+        self.feedback.eval_with(params, &xsw, targets, gains)
+    }
+}
