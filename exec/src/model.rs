@@ -661,7 +661,7 @@ impl LoadedModel {
         Arc<crate::deferred::LazyTapes>,
     )> {
         match (&self.loop_field, &self.step_tapes) {
-            (Some(field), StepTapes::Deferred(lazy)) => Some((field, lazy.clone())),
+            (Some(field), StepTapes::Deferred { lazy, .. }) => Some((field, lazy.clone())),
             _ => None,
         }
     }
