@@ -263,21 +263,7 @@ impl Kernel for LoopKernel {
         gains: &[f64],
         out: &mut [f64],
     ) -> Result<(), ExecError> {
-        use lasalle_model::tape::expect_len;
-        expect_len("state", self.dims.state * k, state.len())?;
-        expect_len("out", self.n_outputs * k, out.len())?;
-        let mut x = vec![0.0; self.dims.state];
-        let mut y = vec![0.0; self.n_outputs];
-        for lane in 0..k {
-            for (i, v) in x.iter_mut().enumerate() {
-                *v = state[i * k + lane];
-            }
-            self.eval(hoisted, &x, target, gains, &mut y)?;
-            for (j, v) in y.iter().enumerate() {
-                out[j * k + lane] = *v;
-            }
-        }
-        Ok(())
+        lane_by_lane(self, k, hoisted, state, target, gains, out)
     }
 }
 
@@ -452,20 +438,34 @@ impl Kernel for StagedKernel {
         gains: &[f64],
         out: &mut [f64],
     ) -> Result<(), ExecError> {
-        use lasalle_model::tape::expect_len;
-        expect_len("state", self.dims.state * k, state.len())?;
-        expect_len("out", self.n_outputs * k, out.len())?;
-        let mut x = vec![0.0; self.dims.state];
-        let mut y = vec![0.0; self.n_outputs];
-        for lane in 0..k {
-            for (i, v) in x.iter_mut().enumerate() {
-                *v = state[i * k + lane];
-            }
-            self.eval(hoisted, &x, target, gains, &mut y)?;
-            for (j, v) in y.iter().enumerate() {
-                out[j * k + lane] = *v;
-            }
-        }
-        Ok(())
+        lane_by_lane(self, k, hoisted, state, target, gains, out)
     }
+}
+
+/// [`Kernel::eval_lanes`] as one [`Kernel::eval`] per lane, so each lane is bitwise that call.
+fn lane_by_lane(
+    kernel: &dyn Kernel,
+    k: usize,
+    hoisted: &[f64],
+    state: &[f64],
+    target: &[f64],
+    gains: &[f64],
+    out: &mut [f64],
+) -> Result<(), ExecError> {
+    use lasalle_model::tape::expect_len;
+    let (n, m) = (kernel.dims().state, kernel.n_outputs());
+    expect_len("state", n * k, state.len())?;
+    expect_len("out", m * k, out.len())?;
+    let mut x = vec![0.0; n];
+    let mut y = vec![0.0; m];
+    for lane in 0..k {
+        for (i, v) in x.iter_mut().enumerate() {
+            *v = state[i * k + lane];
+        }
+        kernel.eval(hoisted, &x, target, gains, &mut y)?;
+        for (j, v) in y.iter().enumerate() {
+            out[j * k + lane] = *v;
+        }
+    }
+    Ok(())
 }

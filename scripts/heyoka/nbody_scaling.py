@@ -14,7 +14,8 @@ by `lasalle run -m taylor --rtol TOL --families FAMILIES` (JIT; FAMILIES `loops`
 field and its Taylor program in loop form, one loop per sum over the pairs; the run's own CPU
 time from summary.json, the
 process's CPU time, which adds loading, from the OS), and its field timed by
-`lasalle bench-eval --field model` (one state per call, and 4 and 8 states per call).
+`lasalle bench-eval --field model --families FAMILIES` (one state per call, and 4 and 8 states
+per call).
 
 heyoka: `heyoka.model.nbody` with the same masses (G = 1) and the same initial state in
 velocities, `taylor_adaptive(..., tol=TOL, compact_mode=True)` (its construction timed, then
@@ -79,7 +80,7 @@ def lasalle(bin, path, t_end, tol, repeat, work, families):
         steps = summary["steps"]
     out = subprocess.run(
         [bin, "bench-eval", path, "--field", "model", "--lanes", "1,4,8", "--format", "json",
-         "--repeat", str(repeat)],
+         "--families", families, "--repeat", str(repeat)],
         check=True, capture_output=True, text=True).stdout
     ns = json.loads(out.strip().splitlines()[-1])["ns_per_state"]
     return {"run": best_run, "process": best_process, "steps": steps,
