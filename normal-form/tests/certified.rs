@@ -3,7 +3,7 @@
 
 mod common;
 
-use lasalle_normal_form::bound::{tube_radii, Bound, Metric, Norm};
+use lasalle_normal_form::bound::{tube_radii, Bound, Metric, Norm, TubeRadii};
 use lasalle_normal_form::interval::certified::{certified_tube, CertifiedOptions, CertifiedTube};
 use lasalle_normal_form::models::PolynomialHamiltonian;
 
@@ -160,6 +160,23 @@ fn check_majorant<H: HamiltonianFn>(
     worst
 }
 
+/// The certified tube d0 → d1 in the linear normal metric, the estimate's radii of the same
+/// tube and the estimate's time.
+fn certified_and_estimate<H: HamiltonianFn>(
+    h: &H,
+    nf: &NormalForm,
+    d0: f64,
+    d1: f64,
+) -> (CertifiedTube, TubeRadii, f64) {
+    let metric = Metric::LinearNormal;
+    let c = certified_tube(h, nf, d0, d1, metric, &CertifiedOptions::default()).unwrap();
+    let r = tube_radii(nf, d0, d1, metric).unwrap();
+    let est = Bound::new(nf.remainder.as_ref().unwrap(), Norm::Gradient)
+        .time(r.rho0, r.rho1)
+        .lower;
+    (c, r, est)
+}
+
 /// The spatial problem at Earth–Moon L4 (three degrees of freedom, the map cut at degree N):
 /// a positive certified time, whose majorant of |Ẇ| holds at sampled points of the spheres.
 #[test]
@@ -174,19 +191,7 @@ fn spatial_earth_moon_l4_certified() {
     let nf = common::spatial_l4_normal_form(EARTH_MOON_MU, &opts).unwrap();
     let (d0, d1) = (2.5e-3, 5e-3);
     let start = std::time::Instant::now();
-    let c = certified_tube(
-        &h,
-        &nf,
-        d0,
-        d1,
-        Metric::LinearNormal,
-        &CertifiedOptions::default(),
-    )
-    .unwrap();
-    let r = tube_radii(&nf, d0, d1, Metric::LinearNormal).unwrap();
-    let est = Bound::new(nf.remainder.as_ref().unwrap(), Norm::Gradient)
-        .time(r.rho0, r.rho1)
-        .lower;
+    let (c, _, est) = certified_and_estimate(&h, &nf, d0, d1);
     let worst = check_majorant(&h, &nf, &c, 200);
     eprintln!(
         "spatial N = {n}: certified {:?} (ρ₀ ≤ {:.5e}, ρ₁ ≥ {:.5e}, map degree {}, K = {}, D = {}, {:.1} s), estimate {est:.4e}; sampled |Ẇ|/G ≤ {worst:.3e}",
@@ -213,19 +218,7 @@ fn earth_moon_l4_certified_against_samples() {
         let nf = common::l4_normal_form(EARTH_MOON_MU, &opts).unwrap();
         let d1 = 2.0 * d0;
         let start = std::time::Instant::now();
-        let c = certified_tube(
-            &h,
-            &nf,
-            d0,
-            d1,
-            Metric::LinearNormal,
-            &CertifiedOptions::default(),
-        )
-        .unwrap();
-        let r = tube_radii(&nf, d0, d1, Metric::LinearNormal).unwrap();
-        let est = Bound::new(nf.remainder.as_ref().unwrap(), Norm::Gradient)
-            .time(r.rho0, r.rho1)
-            .lower;
+        let (c, r, est) = certified_and_estimate(&h, &nf, d0, d1);
         eprintln!(
             "N = {n}, d0 = {d0}: certified {:?} (ρ₀ ≤ {:.5e}, ρ₁ ≥ {:.5e}, {:.2} s), estimate {est:.4e} (ρ₀ {:.5e}, ρ₁ {:.5e})",
             c.time, c.rho0, c.rho1, start.elapsed().as_secs_f64(), r.rho0, r.rho1
