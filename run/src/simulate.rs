@@ -443,11 +443,7 @@ where
         stepper,
         state_names: names,
         blocks: rec.blocks().iter().map(|(n, _)| n.to_string()).collect(),
-        x: rec
-            .x
-            .iter()
-            .flat_map(|s| s.as_ref().iter().copied())
-            .collect(),
+        x: rec.x,
         t: rec.t,
         errors: rec.errors,
         wall_seconds,

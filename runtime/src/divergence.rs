@@ -8,6 +8,7 @@
 //! (a constraint RᵀR − I, a momentum that starts at zero). [`crate::Driver::divergence`] runs
 //! the check where a run records its samples.
 
+use std::cell::RefCell;
 use std::ops::Range;
 
 use num_traits::Float;
@@ -25,6 +26,8 @@ pub const DEFAULT_MAX_DRIFT: f64 = 1e3;
 pub struct DriftBound<'m, Mdl: ?Sized, T, F> {
     model: &'m Mdl,
     target: F,
+    /// Scratch for f(x), so that a check allocates nothing.
+    f: RefCell<F>,
     /// (name, range in f, bound on the block's error).
     blocks: Vec<(&'static str, Range<usize>, T)>,
     max_drift: T,
@@ -55,6 +58,7 @@ where
             .collect();
         DriftBound {
             model,
+            f: RefCell::new(target.clone()),
             target,
             blocks,
             max_drift,
@@ -67,7 +71,7 @@ where
         Mdl: Invariants<T, X, F>,
         X: State<T>,
     {
-        let mut f = self.target.clone();
+        let mut f = self.f.borrow_mut();
         self.model.invariants(x, &mut f);
         self.blocks.iter().find_map(|(name, range, bound)| {
             let drift = norm(

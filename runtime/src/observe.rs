@@ -6,6 +6,7 @@
 //! or add a stop condition ([`StopWhen`]); [`Recorder`] stores states and invariant errors in
 //! preallocated vectors.
 
+use std::marker::PhantomData;
 use std::ops::Range;
 
 use num_traits::Float;
@@ -275,12 +276,16 @@ pub struct Recorder<'m, Mdl: ?Sized, T, X, F> {
     f: F,
     blocks: Vec<(&'static str, Range<usize>)>,
     every: Every,
+    /// Components per state.
+    dim: usize,
     /// Sample times.
     pub t: Vec<T>,
-    /// Sampled states.
-    pub x: Vec<X>,
+    /// Sampled states, [`Recorder::dim`] components per sample, sample-major (one buffer, so
+    /// that a sample costs no allocation; [`Recorder::state`] is sample i).
+    pub x: Vec<T>,
     /// Invariant errors, `blocks().len()` per sample, sample-major.
     pub errors: Vec<T>,
+    state: PhantomData<fn(&X)>,
 }
 
 impl<'m, Mdl, T, X, F> Recorder<'m, Mdl, T, X, F>
@@ -315,16 +320,18 @@ where
     ) -> Self {
         let mut target = F::filled(F::len_for(model.invariant_dim()), T::zero());
         model.invariants(x0, &mut target);
-        let nb = blocks.len();
+        let (nb, dim) = (blocks.len(), x0.as_ref().len());
         Recorder {
             model,
             f: target.clone(),
             target,
             blocks,
             every: Every::new(every),
+            dim,
             t: Vec::with_capacity(capacity),
-            x: Vec::with_capacity(capacity),
+            x: Vec::with_capacity(capacity * dim),
             errors: Vec::with_capacity(capacity * nb),
+            state: PhantomData,
         }
     }
 
@@ -346,6 +353,16 @@ where
     /// True if nothing was recorded.
     pub fn is_empty(&self) -> bool {
         self.t.is_empty()
+    }
+
+    /// Components per recorded state.
+    pub fn dim(&self) -> usize {
+        self.dim
+    }
+
+    /// The state of sample `i`.
+    pub fn state(&self, i: usize) -> &[T] {
+        &self.x[i * self.dim..(i + 1) * self.dim]
     }
 
     /// The invariant errors of sample `i`, one per block.
@@ -379,7 +396,7 @@ where
     fn push(&mut self, t: T, x: &X) {
         self.model.invariants(x, &mut self.f);
         self.t.push(t);
-        self.x.push(x.clone());
+        self.x.extend_from_slice(x.as_ref());
         for (_, range) in &self.blocks {
             let mut s = T::zero();
             for i in range.clone() {

@@ -95,7 +95,7 @@ where
     X: State<T>,
     F: State<T>,
 {
-    let n = rec.x.first().map_or(0, |x| x.len());
+    let n = rec.dim();
     let mut names = component_names(state);
     names.truncate(n);
     while names.len() < n {
@@ -108,7 +108,7 @@ where
     csv.record(header)?;
     for i in 0..rec.len() {
         let row = std::iter::once(&rec.t[i])
-            .chain(rec.x[i].as_ref())
+            .chain(rec.state(i))
             .chain(rec.errors_at(i));
         csv.record(row)?;
     }
