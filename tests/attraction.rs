@@ -23,7 +23,7 @@ fn duffing() -> LoadedModel {
 }
 
 fn system(m: &LoadedModel) -> PlanarSystem {
-    PlanarSystem::new(m.model(), m.params(), &m.point("origin").unwrap()).unwrap()
+    PlanarSystem::new(m.model().unwrap(), m.params(), &m.point("origin").unwrap()).unwrap()
 }
 
 fn quad(p: Mat2, y: [f64; 2]) -> f64 {
@@ -302,10 +302,14 @@ fn lasalle_duffing_energy() {
 fn errors() {
     let m = duffing();
     let err = |r: Result<PlanarSystem, AttractionError>| r.unwrap_err().to_string();
-    assert!(
-        err(PlanarSystem::new(m.model(), m.params(), &[1.0, 0.0])).contains("not an equilibrium")
-    );
-    let saddle = PlanarSystem::new(m.model(), m.params(), &m.point("saddle").unwrap()).unwrap();
+    assert!(err(PlanarSystem::new(
+        m.model().unwrap(),
+        m.params(),
+        &[1.0, 0.0]
+    ))
+    .contains("not an equilibrium"));
+    let saddle =
+        PlanarSystem::new(m.model().unwrap(), m.params(), &m.point("saddle").unwrap()).unwrap();
     let e = saddle.analyse(&Options::default()).unwrap_err().to_string();
     assert!(e.contains("not asymptotically stable"), "{e}");
     let sys = system(&m);
@@ -328,7 +332,11 @@ fn errors() {
         .unwrap_err();
     assert!(e.to_string().contains("search radius"), "{e}");
     let l = LoadedModel::from_source("lasalle.lsl", LASALLE, Backend::Jit).unwrap();
-    let e = err(PlanarSystem::new(l.model(), l.params(), &[0.0, 0.0, 0.0]));
+    let e = err(PlanarSystem::new(
+        l.model().unwrap(),
+        l.params(),
+        &[0.0, 0.0, 0.0],
+    ));
     assert!(
         e.contains("planar fields without Hamiltonian structure"),
         "{e}"

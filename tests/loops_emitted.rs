@@ -59,7 +59,10 @@ fn agrees<const N: usize, const M: usize>(
     for &backend in Backend::available() {
         let model = LoadedModel::from_source_with(&path, &text, backend, Families::Loops)
             .unwrap_or_else(|e| panic!("{path}: {e}"));
-        assert_eq!((model.dim(), model.model().invariant_dim()), (N, M));
+        assert_eq!(
+            (model.dim(), model.model().unwrap().invariant_dim()),
+            (N, M)
+        );
         let mut rand = rng(0x9e37_79b9_7f4a_7c15 ^ n as u64);
         for _ in 0..100 {
             let x: [f64; N] = std::array::from_fn(|k| rand() * (1 + k) as f64);

@@ -42,12 +42,14 @@ pub enum StabilityKind {
 
 impl StabilityKind {
     /// The analysis of `model`.
-    pub fn of(model: &LoadedModel) -> StabilityKind {
-        match model.model().hamiltonian.as_ref().map(|h| &h.structure) {
-            Some(Structure::LiePoissonSo3 { .. }) => StabilityKind::LiePoisson,
-            Some(Structure::Canonical { .. }) => StabilityKind::Canonical,
-            None => StabilityKind::Attraction,
-        }
+    pub fn of(model: &LoadedModel) -> Result<StabilityKind, ReportError> {
+        Ok(
+            match lowered(model)?.hamiltonian.as_ref().map(|h| &h.structure) {
+                Some(Structure::LiePoissonSo3 { .. }) => StabilityKind::LiePoisson,
+                Some(Structure::Canonical { .. }) => StabilityKind::Canonical,
+                None => StabilityKind::Attraction,
+            },
+        )
     }
 }
 
@@ -198,20 +200,27 @@ pub fn analyse(
     file: &str,
     opts: &StabilityOptions,
 ) -> Result<StabilityReport, ReportError> {
-    Ok(match StabilityKind::of(model) {
+    Ok(match StabilityKind::of(model)? {
         StabilityKind::LiePoisson => StabilityReport::LiePoisson(lie_poisson(model, file, opts)?),
         StabilityKind::Canonical => StabilityReport::Canonical(canonical(model, opts)?),
         StabilityKind::Attraction => StabilityReport::Attraction(attraction(model, file, opts)?),
     })
 }
 
+/// The lowered model the analyses read (for a model loaded with families kept as loops, the
+/// unrolled one).
+fn lowered(model: &LoadedModel) -> Result<&lasalle_model::Model, ReportError> {
+    model
+        .model()
+        .map_err(|e| ReportError::Failed(e.to_string()))
+}
+
 /// A model's parameters with their current values, in declaration order.
 fn parameters(model: &LoadedModel) -> Vec<(String, Vec<f64>)> {
     model
-        .model()
-        .params
+        .param_slots()
         .iter()
-        .map(|p| (p.name.clone(), model.param(&p.name).unwrap_or_default()))
+        .map(|p| (p.name.to_string(), model.param(p.name).unwrap_or_default()))
         .collect()
 }
 
@@ -254,7 +263,7 @@ pub fn lie_poisson(
     file: &str,
     opts: &StabilityOptions,
 ) -> Result<LiePoissonReport, ReportError> {
-    let p_index = match model.model().hamiltonian.as_ref().map(|h| &h.structure) {
+    let p_index = match lowered(model)?.hamiltonian.as_ref().map(|h| &h.structure) {
         Some(Structure::LiePoissonSo3 { p }) => p.clone(),
         _ => {
             return Err(ReportError::Options(format!(
@@ -338,7 +347,7 @@ pub fn canonical(
         .map(|(n, v)| (n, v[0]))
         .collect();
     opts.canonical.validate().map_err(ReportError::Options)?;
-    canonical::analyse(model.model(), &params, &opts.canonical).map_err(ReportError::Failed)
+    canonical::analyse(lowered(model)?, &params, &opts.canonical).map_err(ReportError::Failed)
 }
 
 /// The domain of attraction of a planar equilibrium.
@@ -442,12 +451,13 @@ fn planar_equilibrium(
                 x.len()
             )));
         }
-        return Ok(PlanarSystem::new(model.model(), model.params(), x)?);
+        return Ok(PlanarSystem::new(lowered(model)?, model.params(), x)?);
     }
     let mut tried = Vec::new();
+    let lowered = lowered(model)?;
     for name in model.point_names() {
         let x = model.point(name).unwrap_or_default();
-        match PlanarSystem::new(model.model(), model.params(), &x) {
+        match PlanarSystem::new(lowered, model.params(), &x) {
             Ok(sys) if sys.linearisation().is_ok() => return Ok(sys),
             Ok(_) => tried.push(format!("`{name}` is not asymptotically stable")),
             Err(e @ AttractionError::NotPlanar { .. }) => return Err(e.into()),

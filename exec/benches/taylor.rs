@@ -19,7 +19,9 @@ fn model(name: &str, backend: Backend) -> LoadedModel {
 
 /// The field kernel of `m`'s back end at order `p` without fused powers.
 fn unfused(m: &LoadedModel, p: u32) -> Box<dyn TaylorKernel<LoadedModel>> {
-    let tape = ModelTapes::new(m.derived()).expect("tapes").field;
+    let tape = ModelTapes::new(m.derived().expect("the model lowers"))
+        .expect("tapes")
+        .field;
     let program = TaylorProgram::unfused(&tape).expect("program");
     #[cfg(feature = "jit")]
     if m.backend() == Backend::Jit {

@@ -561,27 +561,18 @@ impl LoadedModel {
 
     /// The lowered model (its DAG, names and declarations). For a model loaded with families
     /// kept as loops, the unrolled model, lowered and derived at the first call of this or of
-    /// [`LoadedModel::derived`].
-    ///
-    /// # Panics
-    /// If the unrolled form of a model loaded with families kept as loops does not lower,
-    /// which it does whenever the loop form did (the same source through the same checks).
-    pub fn model(&self) -> &Model {
-        &self.derived().model
+    /// [`LoadedModel::derived`]; the error says why it did not lower (it does whenever the
+    /// loop form did: the same source through the same checks).
+    pub fn model(&self) -> Result<&Model, LoadError> {
+        Ok(&self.derived()?.model)
     }
 
     /// The model with its derivatives (for a model loaded with families kept as loops, built
     /// at the first call, as [`LoadedModel::model`] says).
-    ///
-    /// # Panics
-    /// As [`LoadedModel::model`].
-    pub fn derived(&self) -> &Derived {
+    pub fn derived(&self) -> Result<&Derived, LoadError> {
         match &self.lowered {
-            Lowered::Unrolled(d) => d,
-            Lowered::Loops(lazy) => match lazy.unrolled().get() {
-                Ok(d) => d,
-                Err(e) => panic!("{e}"),
-            },
+            Lowered::Unrolled(d) => Ok(d),
+            Lowered::Loops(lazy) => Ok(lazy.unrolled().get()?),
         }
     }
 

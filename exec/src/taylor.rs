@@ -260,7 +260,8 @@ impl LoadedModel {
                 )?),
             });
         }
-        let tapes = ModelTapes::new(self.derived()).map_err(TaylorError::kernels)?;
+        let derived = self.derived().map_err(TaylorError::kernels)?;
+        let tapes = ModelTapes::new(derived).map_err(TaylorError::kernels)?;
         Ok(TaylorKernels {
             field: self.taylor_kernel(&tapes.field, max_order)?,
             feedback: self.taylor_kernel(&tapes.feedback, max_order)?,

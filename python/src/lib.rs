@@ -1006,7 +1006,8 @@ impl NativeModel {
         use lasalle_analysis::canonical::{Validation, SEARCH_MAX_ORDER};
         use lasalle_analysis::stability::{analyse, StabilityKind, StabilityOptions};
         use lasalle_normal_form::{bound::Metric, ModelPoint};
-        let kind = StabilityKind::of(&self.model);
+        let kind = StabilityKind::of(&self.model)
+            .map_err(|e| PyValueError::new_err(keywords(&e.message("with at=[x1, x2]"))))?;
         let given = |name: &str, set: bool, kinds: &[StabilityKind]| {
             if set && !kinds.contains(&kind) {
                 Err(PyValueError::new_err(format!(

@@ -22,8 +22,9 @@ use crate::{simulate, Method, Recording, RunError, RunSpec};
 /// A model extended by `extension`, compiled by `model`'s back end, with `model`'s current
 /// parameter values.
 pub fn extend(model: &LoadedModel, extension: Extension) -> Result<LoadedModel, RunError> {
+    let unrolled = model.model().map_err(|e| RunError::Load(e.to_string()))?;
     let lowered = extension
-        .apply(model.model())
+        .apply(unrolled)
         .map_err(|e| RunError::Model(e.to_string()))?;
     let mut out = LoadedModel::from_model(lowered, model.backend())
         .map_err(|e| RunError::Load(e.to_string()))?;

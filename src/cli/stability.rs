@@ -358,7 +358,8 @@ pub fn run(args: &StabilityArgs, given: &Given) -> CliResult {
         )
     };
     // one match on the structure chooses the analysis
-    match StabilityKind::of(&model) {
+    let kind = StabilityKind::of(&model).map_err(|e| e.message("with --at x1,x2"))?;
+    match kind {
         StabilityKind::LiePoisson => {
             refuse(CANONICAL_FLAGS, "Lie–Poisson (energy–Casimir)")?;
             refuse(ATTRACTION_FLAGS, "Lie–Poisson (energy–Casimir)")?;

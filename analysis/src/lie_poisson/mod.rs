@@ -29,7 +29,7 @@ pub use system::{LiePoissonSystem, Local};
 use std::fmt;
 
 use lasalle_exec::LoadedModel;
-use lasalle_runtime::{Control, DormandPrince, DormandPrinceOptions, Driver};
+use lasalle_runtime::{Control, DormandPrince, DormandPrinceOptions, Driver, ModelInfo};
 use nalgebra::{DMatrix, DVector, Vector3};
 
 /// Why an analysis cannot run.
@@ -1108,5 +1108,9 @@ pub fn max_excursion(
 
 /// The P-subsystem of a loaded model with its current parameters.
 pub fn system(model: &LoadedModel) -> Result<LiePoissonSystem, StabilityError> {
-    LiePoissonSystem::new(model.model(), model.params())
+    let lowered = model.model().map_err(|e| StabilityError::Unsupported {
+        model: model.model_name().to_string(),
+        why: e.to_string(),
+    })?;
+    LiePoissonSystem::new(lowered, model.params())
 }
