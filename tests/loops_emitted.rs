@@ -384,6 +384,71 @@ fn the_derived_functions_equal_the_jit_bit_for_bit() {
     eprintln!("largest relative difference from the unrolled model: {worst:?}");
 }
 
+/// The guards and the events of the emitted loop form (straight-line code outside the
+/// families) against the loaded model's, with the loop kernels of every back end and
+/// unrolled, bit for bit: the failing guard with its margin, the event functions.
+#[test]
+fn guards_and_events_equal_the_jit_bit_for_bit() {
+    use forms::loop_ring_7::{LoopRing, DIM};
+    let m = LoopRing::default().prepare();
+    let names: Vec<&str> = m.events().iter().map(|e| e.name).collect();
+    assert_eq!(names, ["turn", "late"]);
+    assert!(m.events()[1].terminal);
+    let text = sized("loop_ring", 7);
+    let mut loaded = Vec::new();
+    for &backend in Backend::available() {
+        for families in [Families::Loops, Families::Unrolled] {
+            let model =
+                LoadedModel::from_source_with("loop_ring_7.lsl", &text, backend, families).unwrap();
+            loaded.push((model, families == Families::Loops));
+        }
+    }
+    let mut rand = rng(0x1405_7b7e_f767_814f);
+    let (mut held, mut failed) = (0, 0);
+    for _ in 0..200 {
+        let x: [f64; DIM] = std::array::from_fn(|_| rand() * 2.0);
+        let (dt, t) = (rand().abs() * 0.2, rand() * 3.0);
+        let got = m.check_guards(&x, dt);
+        let mut g = [0.0; 2];
+        m.event_values(&x, t, &mut g);
+        match &got {
+            Some(_) => failed += 1,
+            None => held += 1,
+        }
+        for (model, bitwise) in &loaded {
+            let theirs = model.check_guards(&x.to_vec(), dt);
+            let mut want = [0.0; 2];
+            model.event_values(&x.to_vec(), t, &mut want);
+            if *bitwise {
+                assert_eq!(got, theirs, "guards at {x:?}, dt {dt}");
+                assert!(
+                    same(g[0], want[0]) && same(g[1], want[1]),
+                    "{g:?} vs {want:?}"
+                );
+            } else {
+                // the unrolled model's own tapes: the same guard fails, the values to rounding
+                assert_eq!(
+                    got.as_ref().map(|f| f.name),
+                    theirs.as_ref().map(|f| f.name)
+                );
+                if let (Some(a), Some(b)) = (&got, &theirs) {
+                    assert!((a.margin - b.margin).abs() <= 1e-14 * b.margin.abs().max(1.0));
+                }
+                assert!(relative(&g, &want) <= 1e-15, "{g:?} vs {want:?}");
+            }
+        }
+        // independent of the tapes: the events' functions as written in the model file
+        assert_eq!(g[0], x[7]);
+        assert!(
+            (g[1] - (t - x[1] - 2.0)).abs() <= 1e-15 * 8.0,
+            "{} vs {}",
+            g[1],
+            t - x[1] - 2.0
+        );
+    }
+    assert!(held > 20 && failed > 20, "{held} held, {failed} failed");
+}
+
 /// Störmer–Verlet and the feedback integrator run on the emitted loop form as on the JIT's.
 #[test]
 fn stormer_verlet_and_feedback_runs_equal_the_jit() {

@@ -130,7 +130,8 @@ pub fn generate_source(path: &str, text: &str) -> Result<GeneratedModel> {
 /// `Invariants` (with Df), `Lyapunov` (V, ∇V, X − ∇V, in the staged kernels' three stages),
 /// `Partitioned` (the half-fields, where the field is partitioned), `Declared` and
 /// `ModelInfo`. What has no loop form (the Taylor kernels, the derived functions' lanes,
-/// `Parameters`, guards, events) is left out. A model without such a family is
+/// `Parameters`) is left out; a guard or an event that reads a family's sum is refused. A
+/// model without such a family is
 /// generated as [`generate_source`] does, and so is one whose families the loop form refuses
 /// under [`Families::Auto`] (under [`Families::Loops`] the refusal is the error).
 pub fn generate_source_with(path: &str, text: &str, families: Families) -> Result<GeneratedModel> {

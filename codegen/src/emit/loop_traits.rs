@@ -11,14 +11,17 @@
 //!   gradient of Σ w·term).
 //! - **The half-fields** are the field's loop tape restricted to the q or the p components,
 //!   written into those components of `dx`.
+//! - **Guards and events** are straight-line code (a guard or an event that reads a family's
+//!   sum is refused: `--families unrolled` emits it).
 //!
 //! Each function repeats its tape's operations in the tape's order, so it equals the loop
 //! kernels bit for bit, and its size does not depend on the number of index tuples.
 
 use super::loops::{f64_text as float, function, indent};
+use lasalle_model::ir::{Id, Input};
 use lasalle_model::loops::{LoopFeedback, LoopModel, LoopTape, Source};
-use lasalle_model::tape::Op;
-use lasalle_model::Model;
+use lasalle_model::tape::{Dims, Op, TapeBuilder};
+use lasalle_model::{Diagnostic, Model, Span, EVENT_TIME, GUARD_STEP};
 use std::fmt::Write;
 
 /// The loop tapes of the derived functions of a loop model.
@@ -34,6 +37,10 @@ pub(crate) struct LoopDerived {
     halves: Option<Halves>,
     /// The field is partitioned but a family adds to both halves: no loop form.
     halves_refused: bool,
+    /// The guards' margins, the step size as gain 0, if the model has guards.
+    guards: Option<LoopTape>,
+    /// The events' functions g, the time as gain 0, if the model has events.
+    events: Option<LoopTape>,
 }
 
 struct Halves {
@@ -72,12 +79,17 @@ impl LoopDerived {
             Ok(None) => (None, false),
             Err(_) => (None, true),
         };
+        let model = lm.declarations();
+        let guards: Vec<(Id, &Span)> = model.guards.iter().map(|g| (g.margin, &g.span)).collect();
+        let events: Vec<(Id, &Span)> = model.events.iter().map(|e| (e.value, &e.span)).collect();
         Ok(LoopDerived {
             jacobian,
             feedback,
             weights,
             halves,
             halves_refused,
+            guards: one_gain(model, &guards, GUARD_STEP)?,
+            events: one_gain(model, &events, EVENT_TIME)?,
         })
     }
 
@@ -97,6 +109,12 @@ impl LoopDerived {
         ];
         if let Some(h) = &self.halves {
             out.extend([("field_q", &h.q), ("field_p", &h.p)]);
+        }
+        if let Some(g) = &self.guards {
+            out.push(("guards", g));
+        }
+        if let Some(e) = &self.events {
+            out.push(("events", e));
         }
         out
     }
@@ -125,22 +143,72 @@ impl LoopDerived {
         if model.splitting.is_some() {
             out.push("Splitting");
         }
+        if self.guards.is_some() {
+            out.push("GuardFailure");
+        }
+        if self.events.is_some() {
+            out.extend(["EventDirection", "EventSpec"]);
+        }
         out
     }
 
     /// What the module docs say of the derived functions.
     pub(crate) fn summary(&self) -> &'static str {
         if self.halves_refused {
-            "`Invariants` (with Df), `Lyapunov` (V, ∇V, X − ∇V) and `Declared`; the field is \
+            "`Invariants` (with Df), `Lyapunov` (V, ∇V, X − ∇V) and `Declared` (the presets, \
+             guards, events and splitting); the field is \
              partitioned but a family adds to both halves, so the half-fields (`Partitioned`, \
              Störmer–Verlet) have no loop form here"
         } else if self.halves.is_some() {
             "`Invariants` (with Df), `Lyapunov` (V, ∇V, X − ∇V), `Partitioned` (the half-fields \
-             of Störmer–Verlet) and `Declared`"
+             of Störmer–Verlet) and `Declared` (the presets, guards, events, half-fields and \
+             splitting)"
         } else {
-            "`Invariants` (with Df), `Lyapunov` (V, ∇V, X − ∇V) and `Declared`"
+            "`Invariants` (with Df), `Lyapunov` (V, ∇V, X − ∇V) and `Declared` (the presets, \
+             guards, events and splitting)"
         }
     }
+}
+
+/// The plain tape of the guards' margins or the events' functions, with `input` (the step
+/// size, the time) as its one gain; `None` without any. Refused, located, where one reads a
+/// family's sum.
+fn one_gain(
+    model: &Model,
+    outputs: &[(Id, &Span)],
+    input: Input,
+) -> lasalle_model::Result<Option<LoopTape>> {
+    if outputs.is_empty() {
+        return Ok(None);
+    }
+    let mut graph = model.graph.clone();
+    let ids: Vec<Id> = outputs.iter().map(|o| o.0).collect();
+    let ids = graph.rename_inputs(&ids, |i| if i == input { Input::Gain(0) } else { i });
+    if let Some(k) = ids
+        .iter()
+        .position(|&id| graph.depends_on(id, |i| matches!(i, Input::Symbol(_))))
+    {
+        return Err(lasalle_model::Error::Model(vec![Diagnostic::new(
+            outputs[k].1,
+            "this reads a family's sum: the emitted loop form has no code for it",
+        )
+        .help("generate the model with `--families unrolled`")]));
+    }
+    let dims = Dims {
+        state: model.dim(),
+        params: model.param_slots(),
+        targets: 0,
+        gains: 1,
+    };
+    let base = TapeBuilder::new(graph, dims).build(&ids).map_err(|e| {
+        lasalle_model::Error::Internal(format!("tape of the guards or events: {e}"))
+    })?;
+    Ok(Some(LoopTape {
+        base,
+        base_at: (0..ids.len() as u32).collect(),
+        outputs: ids.len(),
+        regions: Vec::new(),
+    }))
 }
 
 /// `t` with its outputs moved to the components `at` of an N-vector.
@@ -307,6 +375,38 @@ impl LoopDerived {
             None,
             &extra,
         ));
+        s.push_str(&self.guards_and_events(lm));
+        s
+    }
+
+    /// The guards' margins and the events' functions as private methods (the step size and
+    /// the time are the tapes' one gain), each preceded by a blank line.
+    fn guards_and_events(&self, lm: &LoopModel) -> String {
+        let mut s = String::new();
+        let items = [
+            (&self.guards, "guards", "guard_margins", "dt", "The guards' margins (the guard holds where its margin is positive, or\n/// non-negative for `>=` and `<=`) at step size `dt`."),
+            (&self.events, "events", "event_functions", "t", "The events' functions g(x, t), whose zeros are the events."),
+        ];
+        for (tape, field, name, gain, doc) in items {
+            let Some(tape) = tape else { continue };
+            let x = arg(reads_state(tape), "x");
+            let g = arg(reads(tape, |op| matches!(op, Op::Gain(_))), gain);
+            let code = function(
+                lm,
+                tape,
+                field,
+                &format!(
+                    "/// {doc}\nfn {name}(&self, {x}: &[f64; DIM], {g}: f64, out: &mut [f64; {}]) {{",
+                    tape.outputs
+                ),
+                false,
+                None,
+                &[],
+            );
+            // the tape's one gain is the step size or the time
+            s.push('\n');
+            s.push_str(&code.replace("gains[0]", gain));
+        }
         s
     }
 
@@ -488,6 +588,53 @@ impl LoopDerived {
                 "fn partitioned(&self) -> Option<&dyn Partitioned<f64, [f64; DIM]>> {\n    Some(self)\n}\n"
                     .into(),
             );
+        }
+        if let Some(g) = &self.guards {
+            let checks: Vec<String> = model
+                .guards
+                .iter()
+                .enumerate()
+                .map(|(i, g)| {
+                    format!(
+                        "GuardFailure::check({:?}, {:?}, margin[{i}], {})",
+                        g.name, g.condition, g.strict
+                    )
+                })
+                .collect();
+            items.push(format!(
+                "fn check_guards(&self, x: &[f64; DIM], dt: f64) -> Option<GuardFailure> {{\n    \
+                 let mut margin = [0.0; {}];\n    self.guard_margins(x, dt, &mut margin);\n    {}\n}}\n",
+                g.outputs,
+                checks.join("\n        .or_else(|| ")
+                    + &")".repeat(checks.len() - 1)
+            ));
+        }
+        if let Some(e) = &self.events {
+            let specs: Vec<String> = model
+                .events
+                .iter()
+                .map(|e| {
+                    let direction = match e.direction {
+                        lasalle_model::Direction::Both => "Both",
+                        lasalle_model::Direction::Rising => "Rising",
+                        lasalle_model::Direction::Falling => "Falling",
+                    };
+                    format!(
+                        "EventSpec {{ name: {:?}, direction: EventDirection::{direction}, terminal: {} }},",
+                        e.name, e.terminal
+                    )
+                })
+                .collect();
+            items.push(format!(
+                "fn events(&self) -> &'static [EventSpec] {{\n    &[\n{}    ]\n}}\n",
+                indent(&specs.join("\n"), 8)
+            ));
+            items.push(format!(
+                "fn event_values(&self, x: &[f64; DIM], t: f64, g: &mut [f64]) {{\n    \
+                 let mut values = [0.0; {k}];\n    self.event_functions(x, t, &mut values);\n    \
+                 g[..{k}].copy_from_slice(&values);\n}}\n",
+                k = e.outputs
+            ));
         }
         if let Some(sp) = &model.splitting {
             let values: Vec<String> = sp

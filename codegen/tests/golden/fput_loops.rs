@@ -9,7 +9,7 @@
 /// Invariants (stacked f):
 /// - `H`: scalar at f[0..1]; conservation proved symbolically
 ///
-/// 2 families are loops, written once whatever their number of index tuples. `FputPrepared` implements `Field`, `ModelInfo`, `Invariants` (with Df), `Lyapunov` (V, ∇V, X − ∇V), `Partitioned` (the half-fields of Störmer–Verlet) and `Declared`, and has `field_lanes` and `invariants_lanes` (K states per call); the Taylor kernels, the lanes of the derived functions, `Parameters`, guards and events have no loop form here: generate with `--families unrolled` for them.
+/// 2 families are loops, written once whatever their number of index tuples. `FputPrepared` implements `Field`, `ModelInfo`, `Invariants` (with Df), `Lyapunov` (V, ∇V, X − ∇V), `Partitioned` (the half-fields of Störmer–Verlet) and `Declared` (the presets, guards, events, half-fields and splitting), and has `field_lanes` and `invariants_lanes` (K states per call); the Taylor kernels, the lanes of the derived functions and `Parameters` have no loop form here: generate with `--families unrolled` for them.
 pub mod fput_loops {
     #![allow(clippy::approx_constant)]
     // Loops index several arrays with the same index.
