@@ -128,9 +128,10 @@ pub fn generate_source(path: &str, text: &str) -> Result<GeneratedModel> {
 /// whose size does not depend on the number of tuples, bitwise equal to the JIT's loop
 /// kernels; so are the derived functions: the prepared model implements `Field`,
 /// `Invariants` (with Df), `Lyapunov` (V, ∇V, X − ∇V, in the staged kernels' three stages),
-/// `Partitioned` (the half-fields, where the field is partitioned), `Declared` and
-/// `ModelInfo`. What has no loop form (the Taylor kernels, the derived functions' lanes,
-/// `Parameters`) is left out; a guard or an event that reads a family's sum is refused. A
+/// `Partitioned` (the half-fields, where the field is partitioned), `Declared`, `Parameters`
+/// and `ModelInfo`. What has no loop form (the Taylor kernels, the derived functions' lanes,
+/// the points at other than the default parameters) is left out; a guard or an event that
+/// reads a family's sum is refused. A
 /// model without such a family is
 /// generated as [`generate_source`] does, and so is one whose families the loop form refuses
 /// under [`Families::Auto`] (under [`Families::Loops`] the refusal is the error).

@@ -183,6 +183,34 @@ fn the_loop_form_of_the_chain_runs() {
         assert_eq!((p_rate[k], p_rate[k + 6]), (7.0, dx[k + 6]), "ṗ[{k}]");
     }
     assert_eq!(m.presets()[0].method, Some("stormer-verlet-b"));
+    // parameters by name: setting α prepares again, as a model built with that α
+    use lasalle_runtime::{ParamError, Parameters};
+    let mut by_name = Fput::default().prepare();
+    assert_eq!(by_name.param("alpha"), Some(vec![0.25]));
+    assert_eq!(by_name.point_names(), &["mode1"]);
+    assert_eq!(by_name.point("mode1"), Some(Fput::POINTS[0].1.to_vec()));
+    by_name.set_param("beta", &[0.125]).unwrap();
+    let mut again = [0.0; 12];
+    by_name.field(&x, &mut again);
+    assert_eq!(again, dx, "β = 0.125 set by name");
+    assert_eq!(by_name.param("beta"), Some(vec![0.125]));
+    assert_eq!(
+        by_name.point("mode1"),
+        None,
+        "known at the default parameters only"
+    );
+    assert!(matches!(
+        by_name.set_param("alpha", &[1.0, 2.0]),
+        Err(ParamError::WrongLength {
+            expected: 1,
+            given: 2,
+            ..
+        })
+    ));
+    match by_name.set_param("gamma", &[1.0]) {
+        Err(ParamError::Unknown { known, .. }) => assert_eq!(known, "`alpha`, `beta`"),
+        other => panic!("{other:?}"),
+    }
 }
 
 #[test]

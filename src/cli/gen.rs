@@ -49,8 +49,7 @@ pub struct GenArgs {
     /// written out term by term (unrolled). With loops the module has the field, the
     /// invariants, their Jacobian, V, ∇V, X − ∇V and the half-fields as loops over the
     /// families' ranges, its size independent of theirs, and leaves out what has no loop form
-    /// (the Taylor kernels, the lanes of the derived functions, `Parameters`); unrolled emits
-    /// them all.
+    /// (the Taylor kernels, the lanes of the derived functions); unrolled emits them all.
     #[arg(long, value_enum, default_value_t)]
     families: super::load::FamiliesArg,
     /// Print operation counts, conservation verdicts, time and size to standard error.

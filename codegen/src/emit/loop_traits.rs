@@ -133,7 +133,13 @@ impl LoopDerived {
     /// The names of the runtime traits beyond `Field` and `ModelInfo` the items implement, for
     /// the `use` line.
     pub(crate) fn imports(&self, model: &Model) -> Vec<&'static str> {
-        let mut out = vec!["Declared", "Invariants", "Lyapunov"];
+        let mut out = vec![
+            "Declared",
+            "Invariants",
+            "Lyapunov",
+            "ParamError",
+            "Parameters",
+        ];
         if self.halves.is_some() {
             out.push("Partitioned");
         }
@@ -504,6 +510,8 @@ impl LoopDerived {
             s.push_str("}\n\n");
         }
         s.push_str(&self.declared(model, prep));
+        s.push('\n');
+        s.push_str(&Self::parameters(model, prep));
         s
     }
 
@@ -536,6 +544,107 @@ impl LoopDerived {
             }
             s.push_str("    is_q\n};\n");
         }
+        s
+    }
+
+    /// `impl Parameters`: the parameters by name, as slots (the diagonal of a `diag(…)`
+    /// parameter); setting one prepares the model again. The points are known at the default
+    /// parameters only (`POINTS`: their comprehensions have no loop form).
+    pub(crate) fn parameters(model: &Model, prep: &str) -> String {
+        let ty = &model.name;
+        let known: Vec<String> = model
+            .params
+            .iter()
+            .map(|p| format!("`{}`", p.name))
+            .collect();
+        let known = if known.is_empty() {
+            "(none)".to_string()
+        } else {
+            known.join(", ")
+        };
+        let unknown = format!(
+            "Err(ParamError::Unknown {{\n    name: name.to_string(),\n    known: {known:?}.to_string(),\n}})"
+        );
+        let mut s = format!(
+            "/// Parameters by name (their slots; the diagonal of a `diag(…)` parameter); setting one\n\
+             /// prepares the model again. The points are known at the default parameters only\n\
+             /// ([`{ty}::POINTS`]; their comprehensions have no loop form): `point` is `None` after\n\
+             /// a parameter changed.\nimpl Parameters for {prep} {{\n"
+        );
+        let slots: Vec<String> = model
+            .params
+            .iter()
+            .map(|p| format!("{:?} => {}..{},", p.name, p.offset, p.offset + p.slots()))
+            .collect();
+        let mut items = Vec::new();
+        if model.params.is_empty() {
+            items.push(format!(
+                "fn set_param(&mut self, name: &str, _values: &[f64]) -> Result<(), ParamError> {{\n{}}}\n",
+                indent(&unknown, 4)
+            ));
+            items.push("fn param(&self, _name: &str) -> Option<Vec<f64>> {\n    None\n}\n".into());
+        } else {
+            let slots = indent(&slots.join("\n"), 8);
+            let unknown = indent(&unknown, 12);
+            items.push(format!(
+                "fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {{
+    let at = match name {{
+{slots}        _ => {{
+            return {unknown_first}
+        }}
+    }};
+    if values.len() != at.len() {{
+        return Err(ParamError::WrongLength {{
+            name: name.to_string(),
+            expected: at.len(),
+            given: values.len(),
+        }});
+    }}
+    let mut params = self.params;
+    params[at].copy_from_slice(values);
+    *self = {ty} {{ params }}.prepare();
+    Ok(())
+}}
+",
+                unknown_first = unknown.trim()
+            ));
+            items.push(format!(
+                "fn param(&self, name: &str) -> Option<Vec<f64>> {{
+    let at = match name {{
+{slots}        _ => return None,
+    }};
+    Some(self.params[at].to_vec())
+}}
+"
+            ));
+        }
+        let names: Vec<String> = model
+            .points
+            .iter()
+            .map(|p| format!("{:?}", p.name))
+            .collect();
+        items.push(format!(
+            "fn point_names(&self) -> &'static [&'static str] {{\n    &[{}]\n}}\n",
+            names.join(", ")
+        ));
+        if model.points.is_empty() {
+            items.push("fn point(&self, _name: &str) -> Option<Vec<f64>> {\n    None\n}\n".into());
+        } else {
+            items.push(format!(
+                "fn point(&self, name: &str) -> Option<Vec<f64>> {{
+    if self.params != {ty}::DEFAULT_PARAMS {{
+        return None;
+    }}
+    {ty}::POINTS
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, x)| x.to_vec())
+}}
+"
+            ));
+        }
+        s.push_str(&indent(&items.join("\n"), 4));
+        s.push_str("}\n");
         s
     }
 

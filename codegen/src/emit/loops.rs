@@ -19,7 +19,8 @@
 //! The derived functions (Df, V, ∇V, X − ∇V, the half-fields) and the traits they fill are
 //! written the same way from their loop tapes ([`super::loop_traits`]). What has no loop form
 //! is left out rather than written out term by term: the Taylor kernels, the batched forms of
-//! the derived functions and `Parameters`; the module's docs say so, and
+//! the derived functions, and the points at other than the default parameters; the module's
+//! docs say so, and
 //! `--families unrolled` emits the model whole.
 
 use super::loop_traits::LoopDerived;
@@ -235,9 +236,10 @@ fn summary(lm: &LoopModel, derived: &LoopDerived, conservation: &[Conservation])
     let _ = write!(
         out,
         "\n{} families are loops, written once whatever their number of index tuples. \
-         `{}Prepared` implements `Field`, `ModelInfo`, {}, and has `field_lanes` and \
-         `invariants_lanes` (K states per call); the Taylor kernels, the lanes of the derived \
-         functions and `Parameters` have no loop form here: generate with \
+         `{}Prepared` implements `Field`, `ModelInfo`, `Parameters`, {}, and has `field_lanes` \
+         and `invariants_lanes` (K states per call); the Taylor kernels, the lanes of the \
+         derived functions and the points at other than the default parameters have no loop \
+         form here: generate with \
          `--families unrolled` for them.\n",
         lm.families().len(),
         model.name,

@@ -9,13 +9,13 @@
 /// Invariants (stacked f):
 /// - `H`: scalar at f[0..1]; conservation proved symbolically
 ///
-/// 2 families are loops, written once whatever their number of index tuples. `FputPrepared` implements `Field`, `ModelInfo`, `Invariants` (with Df), `Lyapunov` (V, ∇V, X − ∇V), `Partitioned` (the half-fields of Störmer–Verlet) and `Declared` (the presets, guards, events, half-fields and splitting), and has `field_lanes` and `invariants_lanes` (K states per call); the Taylor kernels, the lanes of the derived functions and `Parameters` have no loop form here: generate with `--families unrolled` for them.
+/// 2 families are loops, written once whatever their number of index tuples. `FputPrepared` implements `Field`, `ModelInfo`, `Parameters`, `Invariants` (with Df), `Lyapunov` (V, ∇V, X − ∇V), `Partitioned` (the half-fields of Störmer–Verlet) and `Declared` (the presets, guards, events, half-fields and splitting), and has `field_lanes` and `invariants_lanes` (K states per call); the Taylor kernels, the lanes of the derived functions and the points at other than the default parameters have no loop form here: generate with `--families unrolled` for them.
 pub mod fput_loops {
     #![allow(clippy::approx_constant)]
     // Loops index several arrays with the same index.
     #![allow(clippy::needless_range_loop)]
 
-    use lasalle_runtime::{Declared, Field, InvariantInfo, InvariantKind, Invariants, Lyapunov, ModelInfo, Partitioned, Preset, Shape, Slot};
+    use lasalle_runtime::{Declared, Field, InvariantInfo, InvariantKind, Invariants, Lyapunov, ModelInfo, ParamError, Parameters, Partitioned, Preset, Shape, Slot};
 
     /// State components.
     pub const DIM: usize = 12;
@@ -793,6 +793,59 @@ pub mod fput_loops {
 
         fn partitioned(&self) -> Option<&dyn Partitioned<f64, [f64; DIM]>> {
             Some(self)
+        }
+    }
+
+    /// Parameters by name (their slots; the diagonal of a `diag(…)` parameter); setting one
+    /// prepares the model again. The points are known at the default parameters only
+    /// ([`Fput::POINTS`]; their comprehensions have no loop form): `point` is `None` after
+    /// a parameter changed.
+    impl Parameters for FputPrepared {
+        fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
+            let at = match name {
+                "alpha" => 0..1,
+                "beta" => 1..2,
+                _ => {
+                    return Err(ParamError::Unknown {
+                        name: name.to_string(),
+                        known: "`alpha`, `beta`".to_string(),
+                    })
+                }
+            };
+            if values.len() != at.len() {
+                return Err(ParamError::WrongLength {
+                    name: name.to_string(),
+                    expected: at.len(),
+                    given: values.len(),
+                });
+            }
+            let mut params = self.params;
+            params[at].copy_from_slice(values);
+            *self = Fput { params }.prepare();
+            Ok(())
+        }
+
+        fn param(&self, name: &str) -> Option<Vec<f64>> {
+            let at = match name {
+                "alpha" => 0..1,
+                "beta" => 1..2,
+                _ => return None,
+            };
+            Some(self.params[at].to_vec())
+        }
+
+        fn point_names(&self) -> &'static [&'static str] {
+            &["mode1"]
+        }
+
+        fn point(&self, name: &str) -> Option<Vec<f64>> {
+            if self.params != Fput::DEFAULT_PARAMS {
+                return None;
+            }
+            Fput::POINTS
+                .iter()
+                .find(|(n, _)| *n == name)
+                .map(|(_, x)| x.to_vec())
         }
     }
 
