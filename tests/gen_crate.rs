@@ -277,8 +277,8 @@ fn a_variational_crate_builds_with_plain_cargo() {
 /// The loop form of the N-body model of `models/` (5 bodies): its energy and momentum at its
 /// point against the sums written out here from the point and the masses.
 const NBODY_LOOPS_TEST: &str = r#"
-use n_body_model::nbody::{NBody, DIM};
-use lasalle_runtime::Field;
+use n_body_model::nbody::{NBody, DIM, INVARIANT_DIM};
+use lasalle_runtime::{Declared, Field, Invariants};
 #[test]
 fn nbody_loops_from_outside() {
     let model = NBody::default();
@@ -313,6 +313,22 @@ fn nbody_loops_from_outside() {
     for k in 0..3 * n {
         assert!((dx[k] - p[k] / mass[k / 3]).abs() < 1e-15, "q̇[{k}]");
     }
+    // Df: ∂H/∂p = p/m, ∂P_c/∂p = e_c, ∂P/∂q = 0
+    let mut jac = [[f64::NAN; DIM]; INVARIANT_DIM];
+    m.invariants_jacobian(&x, &mut jac);
+    for k in 0..3 * n {
+        assert!((jac[0][3 * n + k] - p[k] / mass[k / 3]).abs() < 1e-15, "∂H/∂p[{k}]");
+        for c in 0..3 {
+            assert_eq!(jac[1 + c][k], 0.0, "∂P/∂q");
+            assert_eq!(jac[1 + c][3 * n + k], if k % 3 == c { 1.0 } else { 0.0 }, "∂P/∂p");
+        }
+    }
+    // the half-fields: q̇ = p/m into q's components
+    let half = m.partitioned().expect("canonical");
+    let mut q_rate = [7.0; DIM];
+    half.field_q(&x, &mut q_rate);
+    assert_eq!(&q_rate[..3 * n], &dx[..3 * n]);
+    assert!(q_rate[3 * n..].iter().all(|&v| v == 7.0));
 }
 "#;
 

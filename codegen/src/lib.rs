@@ -126,9 +126,13 @@ pub fn generate_source(path: &str, text: &str) -> Result<GeneratedModel> {
 /// A model with a family kept as a loop is emitted in its loop form (see the module docs of
 /// `emit::loops`): the field and the invariants as loops over the families' index ranges,
 /// whose size does not depend on the number of tuples, bitwise equal to the JIT's loop
-/// kernels; the prepared model implements `Field` and `ModelInfo` and has `invariants`, and
-/// the functions without a loop form (the Jacobian, V, ∇V, X − ∇V, the half-fields, the Taylor
-/// kernels, their lanes, guards, events) are left out. A model without such a family is
+/// kernels; so are the derived functions: the prepared model implements `Field`,
+/// `Invariants` (with Df), `Lyapunov` (V, ∇V, X − ∇V, in the staged kernels' three stages),
+/// `Partitioned` (the half-fields, where the field is partitioned), `Declared`, `Parameters`
+/// and `ModelInfo`. What has no loop form (the Taylor kernels, the derived functions' lanes,
+/// the points at other than the default parameters) is left out; a guard or an event that
+/// reads a family's sum is refused. A
+/// model without such a family is
 /// generated as [`generate_source`] does, and so is one whose families the loop form refuses
 /// under [`Families::Auto`] (under [`Families::Loops`] the refusal is the error).
 pub fn generate_source_with(path: &str, text: &str, families: Families) -> Result<GeneratedModel> {
@@ -140,19 +144,28 @@ pub fn generate_source_with(path: &str, text: &str, families: Families) -> Resul
     if lm.families().is_empty() {
         return generate_model(path, lm.unrolled()?, start, None);
     }
-    let (conservation, tapes) = match lm.check().and_then(|c| Ok((c, lm.tapes()?))) {
-        Ok(ct) => ct,
+    let built = lm.check().and_then(|c| {
+        let tapes = lm.tapes()?;
+        Ok((c, tapes, emit::LoopDerived::new(&lm)?))
+    });
+    let (conservation, tapes, derived) = match built {
+        Ok(ctd) => ctd,
         Err(_) if families == Families::Auto => {
             return generate_model(path, lm.unrolled()?, start, None)
         }
         Err(e) => return Err(e),
     };
-    let (code, summary) = emit::emit_loops(&lm, &tapes, &conservation);
+    let (code, summary) = emit::emit_loops(&lm, &tapes, &derived, &conservation);
     let model = lm.lowered();
     let instructions = |t: &lasalle_model::loops::LoopTape| Ops {
         emitted: t.instructions() as u64,
         ..Ops::default()
     };
+    let [jacobian, lyapunov, lyapunov_gradient, feedback_field] =
+        derived.instructions().map(|k| Ops {
+            emitted: k as u64,
+            ..Ops::default()
+        });
     Ok(GeneratedModel {
         name: model.name.clone(),
         module: module_name(path, &model.name, None),
@@ -161,7 +174,10 @@ pub fn generate_source_with(path: &str, text: &str, families: Families) -> Resul
             stats: Stats {
                 field: instructions(&tapes.field),
                 invariants: instructions(&tapes.invariants),
-                ..Stats::default()
+                jacobian,
+                lyapunov,
+                lyapunov_gradient,
+                feedback_field,
             },
             conservation,
             time: start.elapsed(),

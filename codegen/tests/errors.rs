@@ -392,3 +392,37 @@ fn huge_powers_of_sums_give_up_the_proof_not_the_time() {
         result.map(|_| ())
     );
 }
+
+/// The loop form writes guards and events as straight-line code: one that reads a family's
+/// sum is refused at its line under `--families loops`, and `auto` emits the model unrolled.
+#[test]
+fn a_guard_reading_a_family_sum_has_no_emitted_loop_form() {
+    use lasalle_codegen::{generate_source_with, Families};
+    let text = "model Chain {
+    param n = 80;
+    state q: scalar[n], p: scalar[n];
+    hamiltonian H = sum(i in 0..n: p[i]^2 / 2 + q[i]^2 / 2);
+    structure canonical(q, p);
+    guard small: sum(i in 0..n: q[i]^2) < 100;
+}
+";
+    let msg = match generate_source_with("models/chain.lsl", text, Families::Loops) {
+        Ok(_) => panic!("the guard reads a family's sum"),
+        Err(e) => e.to_string(),
+    };
+    for needle in [
+        "models/chain.lsl:6:",
+        "reads a family's sum",
+        "--families unrolled",
+    ] {
+        assert!(msg.contains(needle), "expected `{needle}` in:\n{msg}");
+    }
+    let auto = generate_source_with("models/chain.lsl", text, Families::Auto).unwrap();
+    assert!(!auto.code.contains("fn lyapunov_sums"), "unrolled");
+    assert!(auto.code.contains("fn check_guards"));
+    // without the guard the same model is emitted as loops
+    let plain = text.replace("    guard small: sum(i in 0..n: q[i]^2) < 100;\n", "");
+    let loops = generate_source_with("models/chain.lsl", &plain, Families::Auto).unwrap();
+    assert!(loops.code.contains("fn lyapunov_sums"));
+    assert!(loops.code.contains("for i in 0..80 {"));
+}

@@ -94,7 +94,7 @@ fn the_loop_form_of_a_chain_matches_the_golden_file() {
 #[test]
 fn the_loop_form_of_the_chain_runs() {
     use fput_loops_generated::fput_loops::Fput;
-    use lasalle_runtime::Field;
+    use lasalle_runtime::{Declared, Field, Invariants, Lyapunov, Partitioned};
     let model = Fput {
         params: [0.25, 0.125], // α, β
     };
@@ -127,6 +127,90 @@ fn the_loop_form_of_the_chain_runs() {
     let mut f = [0.0; 1];
     m.invariants(&x, &mut f);
     assert!((f[0] - want).abs() < 1e-14, "H: {} vs {want}", f[0]);
+    // ∇H = (−ṗ, p) from the same closed forms
+    let grad_h: [f64; 12] = std::array::from_fn(|k| {
+        if k < 6 {
+            let j = k as isize;
+            force(q(j) - q(j - 1)) - force(q(j + 1) - q(j))
+        } else {
+            x[k]
+        }
+    });
+    let mut jac = [[f64::NAN; 12]; 1];
+    m.invariants_jacobian(&x, &mut jac);
+    for k in 0..12 {
+        assert!(
+            (jac[0][k] - grad_h[k]).abs() < 1e-14,
+            "∂H/∂x[{k}]: {} vs {}",
+            jac[0][k],
+            grad_h[k]
+        );
+    }
+    // V = k/2 (H − H₀)², ∇V = k (H − H₀) ∇H, X − ∇V
+    let (h0, gain) = (0.3, [2.5]);
+    let dh = want - h0;
+    let v = m.lyapunov(&x, &[h0], &gain);
+    assert!(
+        (v - 1.25 * dh * dh).abs() < 1e-14,
+        "V: {v} vs {}",
+        1.25 * dh * dh
+    );
+    let (mut grad, mut fb) = ([f64::NAN; 12], [f64::NAN; 12]);
+    m.lyapunov_gradient(&x, &[h0], &gain, &mut grad);
+    m.feedback_field(&x, &[h0], &gain, &mut fb);
+    for k in 0..12 {
+        let g = 2.5 * dh * grad_h[k];
+        assert!(
+            (grad[k] - g).abs() < 1e-14,
+            "∂V/∂x[{k}]: {} vs {g}",
+            grad[k]
+        );
+        let want = dx[k] - g;
+        assert!(
+            (fb[k] - want).abs() < 1e-14,
+            "(X − ∇V)[{k}]: {} vs {want}",
+            fb[k]
+        );
+    }
+    // the half-fields: q̇ = p into q's components, ṗ into p's, the others left alone
+    assert_eq!(m.is_q(), &[[true; 6], [false; 6]].concat()[..]);
+    assert!(m.partitioned().is_some());
+    let (mut q_rate, mut p_rate) = ([7.0; 12], [7.0; 12]);
+    m.field_q(&x, &mut q_rate);
+    m.field_p(&x, &mut p_rate);
+    for k in 0..6 {
+        assert_eq!((q_rate[k], q_rate[k + 6]), (dx[k], 7.0), "q̇[{k}]");
+        assert_eq!((p_rate[k], p_rate[k + 6]), (7.0, dx[k + 6]), "ṗ[{k}]");
+    }
+    assert_eq!(m.presets()[0].method, Some("stormer-verlet-b"));
+    // parameters by name: setting α prepares again, as a model built with that α
+    use lasalle_runtime::{ParamError, Parameters};
+    let mut by_name = Fput::default().prepare();
+    assert_eq!(by_name.param("alpha"), Some(vec![0.25]));
+    assert_eq!(by_name.point_names(), &["mode1"]);
+    assert_eq!(by_name.point("mode1"), Some(Fput::POINTS[0].1.to_vec()));
+    by_name.set_param("beta", &[0.125]).unwrap();
+    let mut again = [0.0; 12];
+    by_name.field(&x, &mut again);
+    assert_eq!(again, dx, "β = 0.125 set by name");
+    assert_eq!(by_name.param("beta"), Some(vec![0.125]));
+    assert_eq!(
+        by_name.point("mode1"),
+        None,
+        "known at the default parameters only"
+    );
+    assert!(matches!(
+        by_name.set_param("alpha", &[1.0, 2.0]),
+        Err(ParamError::WrongLength {
+            expected: 1,
+            given: 2,
+            ..
+        })
+    ));
+    match by_name.set_param("gamma", &[1.0]) {
+        Err(ParamError::Unknown { known, .. }) => assert_eq!(known, "`alpha`, `beta`"),
+        other => panic!("{other:?}"),
+    }
 }
 
 #[test]

@@ -46,10 +46,10 @@ pub struct GenArgs {
     indicators: bool,
     /// How the model's families (`sum(i in 0..n: …)`) are compiled: as loops, one per sum,
     /// for the sums of at least 64 index tuples (auto), for every sum that can be (loops), or
-    /// written out term by term (unrolled). With loops the module has the field and the
-    /// invariants as loops over the families' ranges, its size independent of theirs, and
-    /// leaves out the functions that have no loop form (the Jacobian, V, ∇V, X − ∇V, the
-    /// Taylor kernels and their lanes); unrolled emits them all.
+    /// written out term by term (unrolled). With loops the module has the field, the
+    /// invariants, their Jacobian, V, ∇V, X − ∇V and the half-fields as loops over the
+    /// families' ranges, its size independent of theirs, and leaves out what has no loop form
+    /// (the Taylor kernels, the lanes of the derived functions); unrolled emits them all.
     #[arg(long, value_enum, default_value_t)]
     families: super::load::FamiliesArg,
     /// Print operation counts, conservation verdicts, time and size to standard error.

@@ -16,10 +16,14 @@
 //! component is no such expression, the family's tuples are written as `const` tables of the
 //! indices read and written, and a comment says so.
 //!
-//! What has no loop form is left out rather than written out term by term: the Jacobian of
-//! the invariants, V, ∇V, X − ∇V, the half-fields, the Taylor kernels, the batched forms of
-//! those, guards and events; the module's docs say so, and `--families unrolled` emits the model whole.
+//! The derived functions (Df, V, ∇V, X − ∇V, the half-fields) and the traits they fill are
+//! written the same way from their loop tapes ([`super::loop_traits`]). What has no loop form
+//! is left out rather than written out term by term: the Taylor kernels, the batched forms of
+//! the derived functions, and the points at other than the default parameters; the module's
+//! docs say so, and
+//! `--families unrolled` emits the model whole.
 
+use super::loop_traits::LoopDerived;
 use super::taylor::{f64_lit, op_expr, prelude_block};
 use lasalle_model::loops::index::{Ix, LoopClause, SlotIndex};
 use lasalle_model::loops::{Family, LoopModel, LoopTape, LoopTapes, Region, Source};
@@ -31,19 +35,32 @@ use std::fmt::Write;
 pub(crate) fn emit_loops(
     lm: &LoopModel,
     tapes: &LoopTapes,
+    derived: &LoopDerived,
     conservation: &[Conservation],
 ) -> (String, String) {
     let model = lm.lowered();
     let ty = &model.name;
     let prep = format!("{ty}Prepared");
     let (n, m, np) = (model.dim(), model.invariant_dim(), model.param_slots());
+    let mut functions = vec![("field", &tapes.field), ("invariants", &tapes.invariants)];
+    functions.extend(derived.functions());
+    let mut imports = vec![
+        "Field",
+        "InvariantInfo",
+        "InvariantKind",
+        "ModelInfo",
+        "Shape",
+        "Slot",
+    ];
+    imports.extend(derived.imports(model));
+    imports.sort_unstable();
     let mut s = String::new();
     let _ = write!(
         s,
         "// Loops index several arrays with the same index.
 #![allow(clippy::needless_range_loop)]
 
-use lasalle_runtime::{{Field, InvariantInfo, InvariantKind, ModelInfo, Shape, Slot}};
+use lasalle_runtime::{{{imports}}};
 
 /// State components.
 pub const DIM: usize = {n};
@@ -54,6 +71,7 @@ pub const INVARIANT_DIM: usize = {m};
 /// Parameter slots.
 pub const PARAM_SLOTS: usize = {np};
 
+{constants}
 /// The parameters of the model `{ty}` as flat slots (where each parameter sits:
 /// [`{ty}::PARAMS`]), read by index in the families' loops.
 #[derive(Clone, Debug, PartialEq)]
@@ -95,11 +113,12 @@ impl {prep} {{
         &self.params
     }}
 
-{invariants}}}
+{inherent}}}
 
 impl Field<f64, [f64; DIM]> for {prep} {{
 {field}}}
 
+{traits}
 impl ModelInfo for {prep} {{
     fn model_name(&self) -> &'static str {{
         {ty}::NAME
@@ -127,34 +146,35 @@ impl ModelInfo for {prep} {{
 }}
 ",
         name = model.name,
-        let_p = if named(tapes).iter().any(|(_, t)| t.prelude.iter().any(|op| matches!(op, Op::Param(_)))) {
+        imports = imports.join(", "),
+        constants = derived.constants(model),
+        traits = derived.trait_impls(lm, &tapes.invariants, &prep),
+        let_p = if named(&functions).iter().any(|(_, t)| t.prelude.iter().any(|op| matches!(op, Op::Param(_)))) {
             "        let p = &self.params;\n"
         } else {
             ""
         },
         decls = indent(&declarations(model), 4),
-        prepare = indent(&prepare_fields(tapes), 12),
-        fields = indent(&struct_fields(tapes), 4),
-        invariants = indent(
+        prepare = indent(&prepare_fields(&functions), 12),
+        fields = indent(&struct_fields(&functions), 4),
+        inherent = indent(
             &(function(
-                lm,
-                &tapes.invariants,
-                "invariants",
-                "/// f(x), the stacked invariants.\npub fn invariants(&self, x: &[f64; DIM], out: &mut [f64; INVARIANT_DIM]) {",
-                false,
-            ) + "\n" + &function(
                 lm,
                 &tapes.field,
                 "field",
                 "/// X for K states per call (structure of arrays): `x[i][l]` is component i of lane l,\n/// `out[i][l]` its rate; each lane equals `field` bit for bit.\npub fn field_lanes<const K: usize>(&self, x: &[[f64; K]; DIM], out: &mut [[f64; K]; DIM]) {",
                 true,
+                None,
+                &[],
             ) + "\n" + &function(
                 lm,
                 &tapes.invariants,
                 "invariants",
                 "/// f for K states per call, as [`Self::field_lanes`]; each lane equals `invariants`.\npub fn invariants_lanes<const K: usize>(&self, x: &[[f64; K]; DIM], out: &mut [[f64; K]; INVARIANT_DIM]) {",
                 true,
-            )),
+                None,
+                &[],
+            ) + "\n" + &derived.stage_methods(lm)),
             4
         ),
         field = indent(
@@ -164,15 +184,17 @@ impl ModelInfo for {prep} {{
                 "field",
                 "/// X(x).\nfn field(&self, x: &[f64; DIM], out: &mut [f64; DIM]) {",
                 false,
+                None,
+                &[],
             ),
             4
         ),
     );
-    (s, summary(lm, conservation))
+    (s, summary(lm, derived, conservation))
 }
 
 /// The module docs.
-fn summary(lm: &LoopModel, conservation: &[Conservation]) -> String {
+fn summary(lm: &LoopModel, derived: &LoopDerived, conservation: &[Conservation]) -> String {
     let model = lm.lowered();
     let mut out = format!(
         "The model `{}` from `{}`, generated by lasalle-codegen with its families as loops.\n\n",
@@ -214,12 +236,14 @@ fn summary(lm: &LoopModel, conservation: &[Conservation]) -> String {
     let _ = write!(
         out,
         "\n{} families are loops, written once whatever their number of index tuples. \
-         `{}Prepared` implements `Field` and `ModelInfo` and has `invariants`, `field_lanes` and \
-         `invariants_lanes` (K states per call); the Jacobian of \
-         the invariants, V, ∇V, X − ∇V, the half-fields, the Taylor kernels, their lanes, guards \
-         and events have no loop form here: generate with `--families unrolled` for them.\n",
+         `{}Prepared` implements `Field`, `ModelInfo`, `Parameters`, {}, and has `field_lanes` \
+         and `invariants_lanes` (K states per call); the Taylor kernels, the lanes of the \
+         derived functions and the points at other than the default parameters have no loop \
+         form here: generate with \
+         `--families unrolled` for them.\n",
         lm.families().len(),
-        model.name
+        model.name,
+        derived.summary()
     );
     out
 }
@@ -296,7 +320,7 @@ fn declarations(model: &Model) -> String {
 }
 
 /// `1.0`, `-0.5`: a float literal whose type the context gives.
-fn f64_text(x: f64) -> String {
+pub(super) fn f64_text(x: f64) -> String {
     if x.is_finite() {
         format!("{x:?}")
     } else {
@@ -311,11 +335,11 @@ fn list(xs: &[f64]) -> String {
         .join(", ")
 }
 
-/// The tapes of a function: the plain one first, then the regions, with their names as
-/// fields of the prepared model.
-fn named(tapes: &LoopTapes) -> Vec<(String, &Tape)> {
+/// The tapes of the functions: per function the plain one first, then the regions, with their
+/// names as fields of the prepared model.
+fn named<'t>(functions: &[(&str, &'t LoopTape)]) -> Vec<(String, &'t Tape)> {
     let mut out = Vec::new();
-    for (f, lt) in [("field", &tapes.field), ("invariants", &tapes.invariants)] {
+    for (f, lt) in functions {
         out.push((format!("{f}_plain"), &lt.base));
         for (k, r) in lt.regions.iter().enumerate() {
             out.push((format!("{f}_loop_{k}"), &r.tape));
@@ -325,15 +349,15 @@ fn named(tapes: &LoopTapes) -> Vec<(String, &Tape)> {
     out
 }
 
-fn struct_fields(tapes: &LoopTapes) -> String {
-    named(tapes)
+fn struct_fields(functions: &[(&str, &LoopTape)]) -> String {
+    named(functions)
         .iter()
         .map(|(name, t)| format!("{name}: [f64; {}],\n", t.hoisted.len()))
         .collect()
 }
 
-fn prepare_fields(tapes: &LoopTapes) -> String {
-    named(tapes)
+fn prepare_fields(functions: &[(&str, &LoopTape)]) -> String {
+    named(functions)
         .iter()
         .map(|(name, t)| format!("{name}: {},\n", prelude_block(t)))
         .collect()
@@ -342,8 +366,17 @@ fn prepare_fields(tapes: &LoopTapes) -> String {
 /// One function: `header`, the plain part, then a loop per region.
 /// With `lanes`, K states per call: every value a `[f64; K]` (parameters and hoisted values
 /// shared), each operation a loop over the lanes, so each lane repeats the scalar function's
-/// operations in its order.
-fn function(lm: &LoopModel, lt: &LoopTape, name: &str, header: &str, lanes: bool) -> String {
+/// operations in its order. `init` replaces the line that zeroes `out`; `extra` names the
+/// state inputs beyond the model's state (the sums and weights of V's stages) in comments.
+pub(super) fn function(
+    lm: &LoopModel,
+    lt: &LoopTape,
+    name: &str,
+    header: &str,
+    lanes: bool,
+    init: Option<&str>,
+    extra: &[String],
+) -> String {
     let mut s = format!("{header}\n");
     let len = lt.n_outputs();
     let reads_params = lt.regions.iter().any(|r| {
@@ -355,7 +388,9 @@ fn function(lm: &LoopModel, lt: &LoopTape, name: &str, header: &str, lanes: bool
     if reads_params {
         s.push_str("    let params = &self.params;\n");
     }
-    if lanes {
+    if let Some(init) = init {
+        s.push_str(&indent(init, 4));
+    } else if lanes {
         let _ = writeln!(s, "    *out = [[0.0; K]; {len}];");
     } else {
         let _ = writeln!(s, "    *out = [0.0; {len}];");
@@ -386,7 +421,15 @@ fn function(lm: &LoopModel, lt: &LoopTape, name: &str, header: &str, lanes: bool
         let fam = &lm.families()[region.family];
         let hoisted = (!region.tape.hoisted.is_empty()).then(|| format!("{name}_loop_{k}"));
         s.push_str(&indent(
-            &region_code(lm.lowered(), fam, region, hoisted.as_deref(), k, lanes),
+            &region_code(
+                lm.lowered(),
+                fam,
+                region,
+                hoisted.as_deref(),
+                k,
+                lanes,
+                extra,
+            ),
             4,
         ));
     }
@@ -412,6 +455,9 @@ fn straight<'t>(
             Op::State(k) => state(k),
             Op::Const(c) => f64_lit(c),
             Op::Hoisted(k) => format!("h[{k}]"),
+            Op::Target(k) => format!("target[{k}]"),
+            Op::Gain(k) => format!("gains[{k}]"),
+            Op::Param(k) => format!("self.params[{k}]"),
             _ => return None,
         })
     };
@@ -497,6 +543,7 @@ fn region_code(
     hoisted: Option<&str>,
     number: usize,
     lanes: bool,
+    extra: &[String],
 ) -> String {
     let mut s = format!(
         "// {}\n",
@@ -630,14 +677,19 @@ fn region_code(
         let (at, what) = match place {
             Place::Fixed(at) => (
                 at.to_string(),
-                describe(model, region.sources[c], i64::from(*at), None, &w),
+                describe(model, region.sources[c], i64::from(*at), None, &w, extra),
             ),
             Place::Indexed(i) => (
                 w.place(i),
-                describe(model, region.sources[c], i.base, Some(i), &w),
+                describe(model, region.sources[c], i.base, Some(i), &w, extra),
             ),
         };
-        let _ = writeln!(body, "let s{c} = {}; // {what}", read(c, &at));
+        let what = if what.is_empty() {
+            what
+        } else {
+            format!(" // {what}")
+        };
+        let _ = writeln!(body, "let s{c} = {};{what}", read(c, &at));
     }
     let r = straight(&region.tape, None, &slot, lanes, &mut body);
     for (reg, place) in region.tape.outputs.iter().zip(&scatter) {
@@ -675,7 +727,14 @@ fn describe(
     base: i64,
     index: Option<&SlotIndex>,
     w: &Writer,
+    extra: &[String],
 ) -> String {
+    if source == Source::State && index.is_none() && base >= model.dim() as i64 {
+        return extra
+            .get((base - model.dim() as i64) as usize)
+            .cloned()
+            .unwrap_or_default();
+    }
     let found = match source {
         Source::State => model
             .state
@@ -896,7 +955,7 @@ fn affine(e: &Ix) -> Option<(Vec<i64>, i64)> {
 }
 
 /// Indents every non-empty line of `text` by `by` spaces.
-fn indent(text: &str, by: usize) -> String {
+pub(super) fn indent(text: &str, by: usize) -> String {
     text.lines()
         .map(|l| {
             if l.is_empty() {

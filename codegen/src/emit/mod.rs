@@ -55,11 +55,13 @@ mod body;
 mod items;
 mod lanes;
 mod leaves;
+mod loop_traits;
 mod loops;
 mod prepared;
 mod taylor;
 mod traits;
 
+pub(crate) use loop_traits::LoopDerived;
 pub(crate) use loops::emit_loops;
 pub use names::snake;
 

@@ -9,13 +9,13 @@
 /// Invariants (stacked f):
 /// - `H`: scalar at f[0..1]; conservation proved symbolically
 ///
-/// 2 families are loops, written once whatever their number of index tuples. `FputPrepared` implements `Field` and `ModelInfo` and has `invariants`, `field_lanes` and `invariants_lanes` (K states per call); the Jacobian of the invariants, V, ∇V, X − ∇V, the half-fields, the Taylor kernels, their lanes, guards and events have no loop form here: generate with `--families unrolled` for them.
+/// 2 families are loops, written once whatever their number of index tuples. `FputPrepared` implements `Field`, `ModelInfo`, `Parameters`, `Invariants` (with Df), `Lyapunov` (V, ∇V, X − ∇V), `Partitioned` (the half-fields of Störmer–Verlet) and `Declared` (the presets, guards, events, half-fields and splitting), and has `field_lanes` and `invariants_lanes` (K states per call); the Taylor kernels, the lanes of the derived functions and the points at other than the default parameters have no loop form here: generate with `--families unrolled` for them.
 pub mod fput_loops {
     #![allow(clippy::approx_constant)]
     // Loops index several arrays with the same index.
     #![allow(clippy::needless_range_loop)]
 
-    use lasalle_runtime::{Field, InvariantInfo, InvariantKind, ModelInfo, Shape, Slot};
+    use lasalle_runtime::{Declared, Field, InvariantInfo, InvariantKind, Invariants, Lyapunov, ModelInfo, ParamError, Parameters, Partitioned, Preset, Shape, Slot};
 
     /// State components.
     pub const DIM: usize = 12;
@@ -25,6 +25,24 @@ pub mod fput_loops {
 
     /// Parameter slots.
     pub const PARAM_SLOTS: usize = 2;
+
+    /// Gains.
+    pub const GAINS: usize = 1;
+
+    /// The family sums S that V reads, computed first by V, ∇V and X − ∇V.
+    const SUMS: usize = 2;
+
+    /// `true` at the components of q, the group whose rate reads only p (Störmer–Verlet's half-fields).
+    const IS_Q: [bool; DIM] = {
+        let mut is_q = [false; DIM];
+        let mut i = 0;
+        while i < 6 {
+            // q
+            is_q[i] = true;
+            i += 1;
+        }
+        is_q
+    };
 
     /// The parameters of the model `Fput` as flat slots (where each parameter sits:
     /// [`Fput::PARAMS`]), read by index in the families' loops.
@@ -105,6 +123,60 @@ pub mod fput_loops {
                     let p5: f64 = p4 * p3;
                     [p2, p5]
                 },
+                jacobian_plain: {
+                    let p0: f64 = p[1];
+                    let p1: f64 = p[0];
+                    [p0, p1]
+                },
+                jacobian_loop_1: {
+                    let p0: f64 = p[1];
+                    let p1: f64 = p[0];
+                    [p0, p1]
+                },
+                sums_loop_1: {
+                    let p0: f64 = p[0];
+                    let p1: f64 = 0.3333333333333333_f64;
+                    let p2: f64 = p1 * p0;
+                    let p3: f64 = p[1];
+                    let p4: f64 = 0.25_f64;
+                    let p5: f64 = p4 * p3;
+                    [p2, p5]
+                },
+                weights_plain: {
+                    let p0: f64 = p[0];
+                    let p1: f64 = p[1];
+                    [p0, p1]
+                },
+                gradient_plain: {
+                    let p0: f64 = p[0];
+                    let p1: f64 = p[1];
+                    [p0, p1]
+                },
+                gradient_loop_1: {
+                    let p0: f64 = p[1];
+                    let p1: f64 = p[0];
+                    [p0, p1]
+                },
+                feedback_plain: {
+                    let p0: f64 = p[1];
+                    let p1: f64 = p[0];
+                    [p0, p1]
+                },
+                feedback_loop_1: {
+                    let p0: f64 = p[1];
+                    let p1: f64 = p[0];
+                    [p0, p1]
+                },
+                field_p_plain: {
+                    let p0: f64 = p[1];
+                    let p1: f64 = p[0];
+                    [p0, p1]
+                },
+                field_p_loop_0: {
+                    let p0: f64 = p[1];
+                    let p1: f64 = p[0];
+                    [p0, p1]
+                },
                 params: self.params,
             }
         }
@@ -117,6 +189,16 @@ pub mod fput_loops {
         field_loop_1: [f64; 2],
         invariants_plain: [f64; 2],
         invariants_loop_1: [f64; 2],
+        jacobian_plain: [f64; 2],
+        jacobian_loop_1: [f64; 2],
+        sums_loop_1: [f64; 2],
+        weights_plain: [f64; 2],
+        gradient_plain: [f64; 2],
+        gradient_loop_1: [f64; 2],
+        feedback_plain: [f64; 2],
+        feedback_loop_1: [f64; 2],
+        field_p_plain: [f64; 2],
+        field_p_loop_0: [f64; 2],
         params: [f64; PARAM_SLOTS],
     }
 
@@ -124,58 +206,6 @@ pub mod fput_loops {
         /// The parameter slots it was prepared from.
         pub fn params(&self) -> &[f64; PARAM_SLOTS] {
             &self.params
-        }
-
-        /// f(x), the stacked invariants.
-        pub fn invariants(&self, x: &[f64; DIM], out: &mut [f64; INVARIANT_DIM]) {
-            *out = [0.0; 1];
-            // the terms outside the families
-            {
-                let h = &self.invariants_plain;
-                let r1 = x[0].powi(2);
-                let r3 = 0.5_f64 * r1;
-                let r5 = x[5].powi(2);
-                let r6 = 0.5_f64 * r5;
-                let r7 = x[5].powi(3);
-                let r9 = 0.3333333333333333_f64 * r7;
-                let r10 = x[0].powi(3);
-                let r11 = 0.3333333333333333_f64 * r10;
-                let r12 = r11 - r9;
-                let r14 = h[0] * r12;
-                let r15 = x[5].powi(4);
-                let r17 = 0.25_f64 * r15;
-                let r18 = x[0].powi(4);
-                let r19 = 0.25_f64 * r18;
-                let r20 = r17 + r19;
-                let r22 = h[1] * r20;
-                let r23 = r3 + r6;
-                let r24 = r23 + r14;
-                let r25 = r24 + r22;
-                out[0] = r25;
-            }
-            // fput_loops.lsl:11: p[i]^2 / 2
-            for i in 0..6 {
-                let s0 = x[i + 6]; // p[i]
-                let r1 = s0.powi(2);
-                let r3 = 0.5_f64 * r1;
-                out[0] += r3;
-            }
-            // fput_loops.lsl:12: (q[i+1] - q[i])^2 / 2 + alpha * (q[i+1] - q[i])^3 / 3 + beta * (q[i+1] - q[i])^4 / 4
-            let h = &self.invariants_loop_1;
-            for i in 0..5 {
-                let s0 = x[i + 1]; // q[i + 1]
-                let s1 = x[i]; // q[i]
-                let r2 = s0 - s1;
-                let r3 = r2.powi(2);
-                let r5 = 0.5_f64 * r3;
-                let r6 = r2.powi(3);
-                let r8 = r6 * h[0];
-                let r9 = r2.powi(4);
-                let r11 = r9 * h[1];
-                let r12 = r5 + r8;
-                let r13 = r12 + r11;
-                out[0] += r13;
-            }
         }
 
         /// X for K states per call (structure of arrays): `x[i][l]` is component i of lane l,
@@ -286,6 +316,238 @@ pub mod fput_loops {
                 }
             }
         }
+
+        /// Stage 1 of V, ∇V and X − ∇V: the family sums S that V reads.
+        fn lyapunov_sums(&self, x: &[f64; DIM], out: &mut [f64; SUMS]) {
+            *out = [0.0; 2];
+            // fput_loops.lsl:11: p[i]^2 / 2
+            for i in 0..6 {
+                let s0 = x[i + 6]; // p[i]
+                let r1 = s0.powi(2);
+                let r3 = 0.5_f64 * r1;
+                out[0] += r3;
+            }
+            // fput_loops.lsl:12: (q[i+1] - q[i])^2 / 2 + alpha * (q[i+1] - q[i])^3 / 3 + beta * (q[i+1] - q[i])^4 / 4
+            let h = &self.sums_loop_1;
+            for i in 0..5 {
+                let s0 = x[i + 1]; // q[i + 1]
+                let s1 = x[i]; // q[i]
+                let r2 = s0 - s1;
+                let r3 = r2.powi(2);
+                let r5 = 0.5_f64 * r3;
+                let r6 = r2.powi(3);
+                let r8 = r6 * h[0];
+                let r9 = r2.powi(4);
+                let r11 = r9 * h[1];
+                let r12 = r5 + r8;
+                let r13 = r12 + r11;
+                out[1] += r13;
+            }
+        }
+
+        /// Stage 2: V and the weights w = ∂V/∂S from x and S (`x[..DIM + SUMS]`).
+        fn lyapunov_weights(&self, x: &[f64; DIM + 2 * SUMS], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS], out: &mut [f64; 1 + SUMS]) {
+            *out = [0.0; 3];
+            // the terms outside the families
+            {
+                let h = &self.weights_plain;
+                let r1 = x[0].powi(2);
+                let r3 = 0.5_f64 * r1;
+                let r5 = x[5].powi(2);
+                let r6 = 0.5_f64 * r5;
+                let r10 = x[5].powi(3);
+                let r12 = 0.3333333333333333_f64 * r10;
+                let r13 = x[0].powi(3);
+                let r14 = 0.3333333333333333_f64 * r13;
+                let r15 = r14 - r12;
+                let r17 = h[0] * r15;
+                let r18 = x[5].powi(4);
+                let r20 = 0.25_f64 * r18;
+                let r21 = x[0].powi(4);
+                let r22 = 0.25_f64 * r21;
+                let r23 = r20 + r22;
+                let r25 = h[1] * r23;
+                let r26 = r3 + r6;
+                let r27 = r26 + x[12];
+                let r28 = r27 + x[13];
+                let r29 = r28 + r17;
+                let r30 = r29 + r25;
+                let r31 = r30 - target[0];
+                let r33 = gains[0] * r31;
+                let r34 = r31.powi(2);
+                let r35 = 0.5_f64 * gains[0];
+                let r36 = r35 * r34;
+                out[0] = r36;
+                out[1] = r33;
+                out[2] = r33;
+            }
+        }
+
+        /// Stages 1 and 2: V and `[x, S, w]`, the input of stage 3.
+        fn lyapunov_stages(&self, x: &[f64; DIM], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS]) -> (f64, [f64; DIM + 2 * SUMS]) {
+            let mut xsw = [0.0; DIM + 2 * SUMS];
+            xsw[..DIM].copy_from_slice(x);
+            let mut sums = [0.0; SUMS];
+            self.lyapunov_sums(x, &mut sums);
+            xsw[DIM..DIM + SUMS].copy_from_slice(&sums);
+            let mut vw = [0.0; 1 + SUMS];
+            self.lyapunov_weights(&xsw, target, gains, &mut vw);
+            xsw[DIM + SUMS..].copy_from_slice(&vw[1..]);
+            (vw[0], xsw)
+        }
+
+        /// Stage 3 of ∇V: ∂V/∂x at fixed S, plus per family the gradient of Σ w·term.
+        fn lyapunov_gradient_stage(&self, x: &[f64; DIM + 2 * SUMS], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS], out: &mut [f64; DIM]) {
+            *out = [0.0; 12];
+            // the terms outside the families
+            {
+                let h = &self.gradient_plain;
+                let r1 = x[0].powi(2);
+                let r2 = x[0].powi(3);
+                let r4 = x[5].powi(2);
+                let r5 = x[5].powi(3);
+                let r8 = 0.5_f64 * r1;
+                let r9 = 0.5_f64 * r4;
+                let r14 = 0.3333333333333333_f64 * r5;
+                let r15 = 0.3333333333333333_f64 * r2;
+                let r16 = r15 - r14;
+                let r18 = h[0] * r16;
+                let r19 = x[5].powi(4);
+                let r21 = 0.25_f64 * r19;
+                let r22 = x[0].powi(4);
+                let r23 = 0.25_f64 * r22;
+                let r24 = r21 + r23;
+                let r26 = h[1] * r24;
+                let r27 = r8 + r9;
+                let r28 = r27 + x[12];
+                let r29 = r28 + x[13];
+                let r30 = r29 + r18;
+                let r31 = r30 + r26;
+                let r32 = r31 - target[0];
+                let r33 = gains[0] * r32;
+                let r34 = h[1] * r2;
+                let r35 = h[0] * r1;
+                let r36 = x[0] + r34;
+                let r37 = r36 + r35;
+                let r38 = r37 * r33;
+                let r39 = h[1] * r5;
+                let r40 = h[0] * r4;
+                let r41 = x[5] + r39;
+                let r42 = r41 - r40;
+                let r43 = r42 * r33;
+                out[0] = r38;
+                out[5] = r43;
+            }
+            // fput_loops.lsl:11: p[i]^2 / 2
+            for i in 0..6 {
+                let s0 = x[i + 6]; // p[i]
+                let s1 = x[14]; // w[0] = ∂V/∂S[0]
+                let r2 = s0 * s1;
+                out[i + 6] += r2;
+            }
+            // fput_loops.lsl:12: (q[i+1] - q[i])^2 / 2 + alpha * (q[i+1] - q[i])^3 / 3 + beta * (q[i+1] - q[i])^4 / 4
+            let h = &self.gradient_loop_1;
+            for i in 0..5 {
+                let s0 = x[i + 1]; // q[i + 1]
+                let s1 = x[i]; // q[i]
+                let s2 = x[15]; // w[1] = ∂V/∂S[1]
+                let r2 = s0 - s1;
+                let r3 = r2.powi(3);
+                let r5 = h[0] * r3;
+                let r6 = r2.powi(2);
+                let r8 = h[1] * r6;
+                let r9 = r2 + r5;
+                let r10 = r9 + r8;
+                let r12 = s2 * r10;
+                let r13 = -r12;
+                out[i + 1] += r12;
+                out[i] += r13;
+            }
+        }
+
+        /// Stage 3 of X − ∇V: X − ∂V/∂x at fixed S, per family its terms of X minus the
+        /// gradient of Σ w·term.
+        fn feedback_stage(&self, x: &[f64; DIM + 2 * SUMS], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS], out: &mut [f64; DIM]) {
+            *out = [0.0; 12];
+            // the terms outside the families
+            {
+                let h = &self.feedback_plain;
+                let r1 = x[0].powi(2);
+                let r2 = x[0].powi(3);
+                let r4 = x[5].powi(2);
+                let r5 = x[5].powi(3);
+                let r7 = h[0] * r5;
+                let r9 = h[1] * r4;
+                let r10 = x[5] + r7;
+                let r11 = r10 - r9;
+                let r12 = h[0] * r2;
+                let r13 = h[1] * r1;
+                let r14 = x[0] + r12;
+                let r15 = r14 + r13;
+                let r18 = 0.5_f64 * r1;
+                let r19 = 0.5_f64 * r4;
+                let r24 = 0.3333333333333333_f64 * r5;
+                let r25 = 0.3333333333333333_f64 * r2;
+                let r26 = r25 - r24;
+                let r27 = h[1] * r26;
+                let r28 = x[5].powi(4);
+                let r30 = 0.25_f64 * r28;
+                let r31 = x[0].powi(4);
+                let r32 = 0.25_f64 * r31;
+                let r33 = r30 + r32;
+                let r34 = h[0] * r33;
+                let r35 = r18 + r19;
+                let r36 = r35 + x[12];
+                let r37 = r36 + x[13];
+                let r38 = r37 + r27;
+                let r39 = r38 + r34;
+                let r40 = r39 - target[0];
+                let r41 = gains[0] * r40;
+                let r42 = r15 * r41;
+                let r43 = -r42;
+                let r44 = r11 * r41;
+                let r45 = -r44;
+                let r46 = -r15;
+                let r47 = -r11;
+                out[0] = r43;
+                out[5] = r45;
+                out[6] = r46;
+                out[11] = r47;
+            }
+            // fput_loops.lsl:11: p[i]^2 / 2
+            for i in 0..6 {
+                let s0 = x[i + 6]; // p[i]
+                let s1 = x[14]; // w[0] = ∂V/∂S[0]
+                let r2 = s0 * s1;
+                let r3 = -r2;
+                out[i] += s0;
+                out[i + 6] += r3;
+            }
+            // fput_loops.lsl:12: (q[i+1] - q[i])^2 / 2 + alpha * (q[i+1] - q[i])^3 / 3 + beta * (q[i+1] - q[i])^4 / 4
+            let h = &self.feedback_loop_1;
+            for i in 0..5 {
+                let s0 = x[i + 1]; // q[i + 1]
+                let s1 = x[i]; // q[i]
+                let s2 = x[15]; // w[1] = ∂V/∂S[1]
+                let r2 = s0 - s1;
+                let r3 = r2.powi(2);
+                let r4 = r2.powi(3);
+                let r6 = h[0] * r4;
+                let r8 = h[1] * r3;
+                let r9 = -r6;
+                let r10 = r9 - r8;
+                let r11 = r10 - r2;
+                let r12 = r2 + r6;
+                let r13 = r12 + r8;
+                let r14 = -r13;
+                let r16 = s2 * r11;
+                let r17 = -r16;
+                out[i + 7] += r14;
+                out[i + 6] += r13;
+                out[i + 1] += r16;
+                out[i] += r17;
+            }
+        }
     }
 
     impl Field<f64, [f64; DIM]> for FputPrepared {
@@ -333,6 +595,257 @@ pub mod fput_loops {
                 out[i + 7] += r11;
                 out[i + 6] += r10;
             }
+        }
+    }
+
+    impl Invariants<f64, [f64; DIM], [f64; INVARIANT_DIM]> for FputPrepared {
+        /// f(x), the stacked invariants.
+        fn invariants(&self, x: &[f64; DIM], out: &mut [f64; INVARIANT_DIM]) {
+            *out = [0.0; 1];
+            // the terms outside the families
+            {
+                let h = &self.invariants_plain;
+                let r1 = x[0].powi(2);
+                let r3 = 0.5_f64 * r1;
+                let r5 = x[5].powi(2);
+                let r6 = 0.5_f64 * r5;
+                let r7 = x[5].powi(3);
+                let r9 = 0.3333333333333333_f64 * r7;
+                let r10 = x[0].powi(3);
+                let r11 = 0.3333333333333333_f64 * r10;
+                let r12 = r11 - r9;
+                let r14 = h[0] * r12;
+                let r15 = x[5].powi(4);
+                let r17 = 0.25_f64 * r15;
+                let r18 = x[0].powi(4);
+                let r19 = 0.25_f64 * r18;
+                let r20 = r17 + r19;
+                let r22 = h[1] * r20;
+                let r23 = r3 + r6;
+                let r24 = r23 + r14;
+                let r25 = r24 + r22;
+                out[0] = r25;
+            }
+            // fput_loops.lsl:11: p[i]^2 / 2
+            for i in 0..6 {
+                let s0 = x[i + 6]; // p[i]
+                let r1 = s0.powi(2);
+                let r3 = 0.5_f64 * r1;
+                out[0] += r3;
+            }
+            // fput_loops.lsl:12: (q[i+1] - q[i])^2 / 2 + alpha * (q[i+1] - q[i])^3 / 3 + beta * (q[i+1] - q[i])^4 / 4
+            let h = &self.invariants_loop_1;
+            for i in 0..5 {
+                let s0 = x[i + 1]; // q[i + 1]
+                let s1 = x[i]; // q[i]
+                let r2 = s0 - s1;
+                let r3 = r2.powi(2);
+                let r5 = 0.5_f64 * r3;
+                let r6 = r2.powi(3);
+                let r8 = r6 * h[0];
+                let r9 = r2.powi(4);
+                let r11 = r9 * h[1];
+                let r12 = r5 + r8;
+                let r13 = r12 + r11;
+                out[0] += r13;
+            }
+        }
+
+        /// Df(x), row c = ∇f_c(x), through its flat view `out` (row-major): the plain
+        /// part's gradient, then each family term's partials added at
+        /// `row · DIM +` the component they read.
+        fn invariants_jacobian(&self, x: &[f64; DIM], jac: &mut [[f64; DIM]; INVARIANT_DIM]) {
+            let out = jac.as_flattened_mut();
+            out.fill(0.0);
+            // the terms outside the families
+            {
+                let h = &self.jacobian_plain;
+                let r1 = x[0].powi(3);
+                let r3 = h[0] * r1;
+                let r4 = x[0].powi(2);
+                let r6 = h[1] * r4;
+                let r7 = x[0] + r3;
+                let r8 = r7 + r6;
+                let r10 = x[5].powi(3);
+                let r11 = h[0] * r10;
+                let r12 = x[5].powi(2);
+                let r13 = h[1] * r12;
+                let r14 = x[5] + r11;
+                let r15 = r14 - r13;
+                out[0] = r8;
+                out[5] = r15;
+            }
+            // fput_loops.lsl:11: p[i]^2 / 2
+            for i in 0..6 {
+                let s0 = x[i + 6]; // p[i]
+                out[i + 6] += s0;
+            }
+            // fput_loops.lsl:12: (q[i+1] - q[i])^2 / 2 + alpha * (q[i+1] - q[i])^3 / 3 + beta * (q[i+1] - q[i])^4 / 4
+            let h = &self.jacobian_loop_1;
+            for i in 0..5 {
+                let s0 = x[i + 1]; // q[i + 1]
+                let s1 = x[i]; // q[i]
+                let r2 = s0 - s1;
+                let r3 = r2.powi(3);
+                let r5 = h[0] * r3;
+                let r6 = r2.powi(2);
+                let r8 = h[1] * r6;
+                let r9 = r2 + r5;
+                let r10 = r9 + r8;
+                let r11 = -r10;
+                out[i + 1] += r10;
+                out[i] += r11;
+            }
+        }
+    }
+
+    impl Lyapunov<f64, [f64; DIM], [f64; INVARIANT_DIM], [f64; GAINS]> for FputPrepared {
+        /// V(x): the sums it reads (stage 1), then V (stage 2).
+        fn lyapunov(&self, x: &[f64; DIM], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS]) -> f64 {
+            self.lyapunov_stages(x, target, gains).0
+        }
+
+        /// ∇V(x), in three stages.
+        fn lyapunov_gradient(&self, x: &[f64; DIM], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS], grad: &mut [f64; DIM]) {
+            let (_, xsw) = self.lyapunov_stages(x, target, gains);
+            self.lyapunov_gradient_stage(&xsw, target, gains, grad);
+        }
+
+        /// X(x) − ∇V(x), in three stages.
+        fn feedback_field(&self, x: &[f64; DIM], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS], dx: &mut [f64; DIM]) {
+            let (_, xsw) = self.lyapunov_stages(x, target, gains);
+            self.feedback_stage(&xsw, target, gains, dx);
+        }
+    }
+
+    impl Partitioned<f64, [f64; DIM]> for FputPrepared {
+        fn is_q(&self) -> &[bool] {
+            &IS_Q
+        }
+
+        /// q̇ = a(p) into its components of `out` (the others are left alone).
+        fn field_q(&self, x: &[f64; DIM], out: &mut [f64; DIM]) {
+            out[0..6].fill(0.0);
+            // fput_loops.lsl:11: p[i]^2 / 2
+            for i in 0..6 {
+                let s0 = x[i + 6]; // p[i]
+                out[i] += s0;
+            }
+        }
+
+        /// ṗ = b(q) into its components of `out` (the others are left alone).
+        fn field_p(&self, x: &[f64; DIM], out: &mut [f64; DIM]) {
+            out[6..12].fill(0.0);
+            // the terms outside the families
+            {
+                let h = &self.field_p_plain;
+                let r1 = x[0].powi(3);
+                let r3 = h[0] * r1;
+                let r4 = x[0].powi(2);
+                let r6 = h[1] * r4;
+                let r7 = x[0] + r3;
+                let r8 = r7 + r6;
+                let r9 = -r8;
+                let r11 = x[5].powi(3);
+                let r12 = h[0] * r11;
+                let r13 = x[5].powi(2);
+                let r14 = h[1] * r13;
+                let r15 = x[5] + r12;
+                let r16 = r15 - r14;
+                let r17 = -r16;
+                out[6] = r9;
+                out[11] = r17;
+            }
+            // fput_loops.lsl:12: (q[i+1] - q[i])^2 / 2 + alpha * (q[i+1] - q[i])^3 / 3 + beta * (q[i+1] - q[i])^4 / 4
+            let h = &self.field_p_loop_0;
+            for i in 0..5 {
+                let s0 = x[i + 1]; // q[i + 1]
+                let s1 = x[i]; // q[i]
+                let r2 = s0 - s1;
+                let r3 = r2.powi(3);
+                let r5 = h[0] * r3;
+                let r6 = r2.powi(2);
+                let r8 = h[1] * r6;
+                let r9 = r2 + r5;
+                let r10 = r9 + r8;
+                let r11 = -r10;
+                out[i + 7] += r11;
+                out[i + 6] += r10;
+            }
+        }
+    }
+
+    impl Declared<f64, [f64; DIM]> for FputPrepared {
+        fn presets(&self) -> &'static [Preset] {
+            &[
+                Preset {
+                    name: "mode1",
+                    method: Some("stormer-verlet-b"),
+                    dt: Some(0.05),
+                    t_end: Some(1000.0),
+                    every: Some(20),
+                    init: Some("mode1"),
+                    gains: None,
+                    params: &[],
+                },
+            ]
+        }
+
+        fn partitioned(&self) -> Option<&dyn Partitioned<f64, [f64; DIM]>> {
+            Some(self)
+        }
+    }
+
+    /// Parameters by name (their slots; the diagonal of a `diag(…)` parameter); setting one
+    /// prepares the model again. The points are known at the default parameters only
+    /// ([`Fput::POINTS`]; their comprehensions have no loop form): `point` is `None` after
+    /// a parameter changed.
+    impl Parameters for FputPrepared {
+        fn set_param(&mut self, name: &str, values: &[f64]) -> Result<(), ParamError> {
+            let at = match name {
+                "alpha" => 0..1,
+                "beta" => 1..2,
+                _ => {
+                    return Err(ParamError::Unknown {
+                        name: name.to_string(),
+                        known: "`alpha`, `beta`".to_string(),
+                    })
+                }
+            };
+            if values.len() != at.len() {
+                return Err(ParamError::WrongLength {
+                    name: name.to_string(),
+                    expected: at.len(),
+                    given: values.len(),
+                });
+            }
+            let mut params = self.params;
+            params[at].copy_from_slice(values);
+            *self = Fput { params }.prepare();
+            Ok(())
+        }
+
+        fn param(&self, name: &str) -> Option<Vec<f64>> {
+            let at = match name {
+                "alpha" => 0..1,
+                "beta" => 1..2,
+                _ => return None,
+            };
+            Some(self.params[at].to_vec())
+        }
+
+        fn point_names(&self) -> &'static [&'static str] {
+            &["mode1"]
+        }
+
+        fn point(&self, name: &str) -> Option<Vec<f64>> {
+            if self.params != Fput::DEFAULT_PARAMS {
+                return None;
+            }
+            Fput::POINTS
+                .iter()
+                .find(|(n, _)| *n == name)
+                .map(|(_, x)| x.to_vec())
         }
     }
 
