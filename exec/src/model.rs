@@ -333,6 +333,9 @@ pub struct LoadedModel {
     /// The field as a loop tape, for the loop form of its Taylor program (a model loaded with
     /// its families kept as loops).
     loop_field: Option<Box<lasalle_model::loops::LoopTape>>,
+    /// V, ∇V and X − ∇V in loop form, for the loop form of the Taylor program of X − ∇V
+    /// (where the loop form takes them).
+    loop_feedback: Option<Box<lasalle_model::loops::LoopFeedback>>,
     /// The compiled steps built so far, by method name and whether on X − ∇V
     /// ([`Declared::compiled_step`]).
     steps: Mutex<HashMap<(&'static str, bool), StepKernel>>,
@@ -400,6 +403,7 @@ impl LoadedModel {
             },
             guards_tape: guards,
             loop_field: None,
+            loop_feedback: None,
             steps: Mutex::default(),
             info,
             load_time: start.elapsed(),
@@ -484,20 +488,20 @@ impl LoadedModel {
                     &params,
                 )
             };
-        let (lyapunov, lyapunov_gradient, feedback, feedback_looped) = match lm.feedback() {
-            Ok(fb) => (
-                staged(&fb, crate::Stage::Lyapunov)?,
-                staged(&fb, crate::Stage::Gradient)?,
-                staged(&fb, crate::Stage::Feedback)?,
-                true,
+        let loop_feedback = lm.feedback().ok();
+        let (lyapunov, lyapunov_gradient, feedback) = match &loop_feedback {
+            Some(fb) => (
+                staged(fb, crate::Stage::Lyapunov)?,
+                staged(fb, crate::Stage::Gradient)?,
+                staged(fb, crate::Stage::Feedback)?,
             ),
-            Err(_) => (
+            None => (
                 deferred(|t| Some(&t.lyapunov), full, 1)?,
                 deferred(|t| Some(&t.lyapunov_gradient), full, n)?,
                 deferred(|t| Some(&t.feedback), full, n)?,
-                false,
             ),
         };
+        let feedback_looped = loop_feedback.is_some();
         let partition = match lm.partition() {
             Ok(Some(p)) => Some((looped(&p.field_q)?, looped(&p.field_p)?, p.is_q)),
             Ok(None) => None,
@@ -540,6 +544,7 @@ impl LoadedModel {
             },
             guards_tape: guards,
             loop_field: Some(Box::new(tapes.field)),
+            loop_feedback: loop_feedback.map(Box::new),
             steps: Mutex::default(),
             info,
             load_time: start.elapsed(),
@@ -652,16 +657,20 @@ impl LoadedModel {
         Some(kernel)
     }
 
-    /// The field's loop tape and the unrolled model's tapes, for a model loaded with its
-    /// families kept as loops.
+    /// The field's loop tape, the stages of X − ∇V in loop form (where the loop form takes
+    /// them) and the unrolled model's tapes, for a model loaded with its families kept as loops.
+    #[allow(clippy::type_complexity)]
     pub(crate) fn loop_taylor(
         &self,
     ) -> Option<(
         &lasalle_model::loops::LoopTape,
+        Option<&lasalle_model::loops::LoopFeedback>,
         Arc<crate::deferred::LazyTapes>,
     )> {
         match (&self.loop_field, &self.step_tapes) {
-            (Some(field), StepTapes::Deferred { lazy, .. }) => Some((field, lazy.clone())),
+            (Some(field), StepTapes::Deferred { lazy, .. }) => {
+                Some((field, self.loop_feedback.as_deref(), lazy.clone()))
+            }
             _ => None,
         }
     }

@@ -689,10 +689,12 @@ impl LoopTape {
 
 mod check;
 mod derived;
+pub mod feedback_taylor;
 pub mod index;
 pub mod taylor;
 pub use derived::{LoopFeedback, LoopPartition};
 #[cfg(test)]
 mod tests;
 
+pub use feedback_taylor::FeedbackTaylorProgram;
 pub use taylor::LoopTaylorProgram;
