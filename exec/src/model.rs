@@ -413,11 +413,11 @@ impl LoadedModel {
     /// [`LoadedModel::from_source`], with the model's families lowered as `families` says
     /// ([`lasalle_model::loops`]). When some family is kept as a loop, the field, the
     /// integrals, their Jacobian and the half-fields are loop kernels ([`crate::LoopKernel`]),
-    /// V, ∇V and X − ∇V staged loop kernels ([`crate::StagedKernel`]), the field's Taylor
-    /// kernel the loop form of its program ([`crate::LoopTaylorTape`]), and the integrals are
-    /// checked on the families' terms. A function the loop form refuses, the compiled steps on
-    /// X − ∇V and the Taylor kernel of X − ∇V are built from the unrolled model at their first
-    /// use; the unrolled model itself is lowered and derived only then (or at the first call of
+    /// V, ∇V and X − ∇V staged loop kernels ([`crate::StagedKernel`]), the Taylor kernels of
+    /// the field and of X − ∇V the loop forms of their programs ([`crate::LoopTaylorTape`],
+    /// [`crate::LoopFeedbackTaylor`]), and the integrals are checked on the families' terms. A
+    /// function the loop form refuses and the compiled steps on X − ∇V are built from the
+    /// unrolled model at their first use; the unrolled model itself is lowered and derived only then (or at the first call of
     /// [`LoadedModel::model`]), never at load. Otherwise the model loads as with
     /// [`LoadedModel::from_source`]; so does a model the loop form refuses (a sum that enters
     /// the field or an integral other than as a term with a constant coefficient, an integral

@@ -192,14 +192,16 @@ fn check_feedback(text: &str, state: impl Fn(u64, usize) -> Vec<f64>) {
         TaylorKernel::<LoadedModel>::compute(&mut jit, &x, ORDER as usize);
         plain.compute(&x, ORDER as usize);
         let bits = |c: &[f64]| c.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
-        let field = stages
-            .eval_feedback(&params, &x, &target, &gains)
-            .unwrap();
+        let field = stages.eval_feedback(&params, &x, &target, &gains).unwrap();
         for i in 0..n {
             let a = interp.state_coefficients(i);
             let b = TaylorKernel::<LoadedModel>::coefficients(&jit, i);
             assert_eq!(a.len(), ORDER as usize + 1);
-            assert_eq!(bits(a), bits(b), "component {i}: interpreter and JIT differ");
+            assert_eq!(
+                bits(a),
+                bits(b),
+                "component {i}: interpreter and JIT differ"
+            );
             assert_eq!(a[0].to_bits(), x[i].to_bits());
             assert_eq!(
                 a[1].to_bits(),

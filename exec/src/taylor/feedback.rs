@@ -57,7 +57,11 @@ fn hoist_loop(tape: &LoopTape, params: &[f64]) -> Result<Vec<Vec<f64>>, TaylorEr
     Ok(h)
 }
 
-fn blocks(tape: &LoopTape, program: &lasalle_model::loops::LoopTaylorProgram, stride: usize) -> Vec<Vec<f64>> {
+fn blocks(
+    tape: &LoopTape,
+    program: &lasalle_model::loops::LoopTaylorProgram,
+    stride: usize,
+) -> Vec<Vec<f64>> {
     tape.regions
         .iter()
         .zip(&program.regions)
@@ -159,7 +163,17 @@ impl LoopFeedbackTaylor {
             }
             let to = Scatter { first: n, shift: 0 };
             let blocks = &mut self.sums_blocks;
-            regions(t, s, k, to, &tapes.sums, &p.sums, blocks, &h.sums[1..], &self.params);
+            regions(
+                t,
+                s,
+                k,
+                to,
+                &tapes.sums,
+                &p.sums,
+                blocks,
+                &h.sums[1..],
+                &self.params,
+            );
             // 2. w
             plain(t, &p.weights, &h.weights, k);
             for (i, &row) in p.weights.outputs[1..].iter().enumerate() {
@@ -176,7 +190,17 @@ impl LoopFeedbackTaylor {
             let to = Scatter { first: 0, shift: 1 };
             let blocks = &mut self.feedback_blocks;
             let (fb, prog) = (&tapes.feedback, &p.feedback);
-            regions(t, s, k, to, fb, prog, blocks, &h.feedback[1..], &self.params);
+            regions(
+                t,
+                s,
+                k,
+                to,
+                fb,
+                prog,
+                blocks,
+                &h.feedback[1..],
+                &self.params,
+            );
             let inv = 1.0 / (k as f64 + 1.0);
             for i in 0..n {
                 t[i * s + k + 1] *= inv;

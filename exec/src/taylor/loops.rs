@@ -113,7 +113,17 @@ impl LoopTaylorTape {
             }
             let to = Scatter { first: 0, shift: 1 };
             let (tape, program) = (&self.tape, &self.program);
-            regions(t, s, k, to, tape, program, &mut self.blocks, &self.hoisted[1..], &self.params);
+            regions(
+                t,
+                s,
+                k,
+                to,
+                tape,
+                program,
+                &mut self.blocks,
+                &self.hoisted[1..],
+                &self.params,
+            );
             let inv = 1.0 / (k as f64 + 1.0);
             for i in 0..n {
                 t[i * s + k + 1] *= inv;
@@ -223,8 +233,9 @@ impl TaylorKernel<LoadedModel> for LoopTaylorTape {
     }
 }
 
-/// The Taylor kernel of X − ∇V of a model loaded with its families kept as loops: X − ∇V has
-/// no loop form, so its program is built from the unrolled model's tape (by
+/// The Taylor kernel of X − ∇V of a model loaded with its families kept as loops where the loop
+/// form refuses X − ∇V (V reading a family through a guard; otherwise the kernel is
+/// [`super::LoopFeedbackTaylor`]): its program is built from the unrolled model's tape (by
 /// [`super::kernel_of`], as for any model) when a run first sets its targets and gains, which
 /// every feedback run does before its first compute; a run of the plain field never builds it.
 pub(crate) struct DeferredFeedback {

@@ -69,7 +69,11 @@ impl LoopFeedback {
     pub fn taylor(&self) -> Result<FeedbackTaylorProgram, TapeError> {
         let n = self.sums.dims().state;
         let k = self.sums.n_outputs();
-        let bad = |what: &str| Err(TapeError::Malformed(format!("the stages of X − ∇V: {what}")));
+        let bad = |what: &str| {
+            Err(TapeError::Malformed(format!(
+                "the stages of X − ∇V: {what}"
+            )))
+        };
         if self.weights.dims.state != n + k || self.weights.outputs.len() != 1 + k {
             return bad("the weights' sizes do not match the sums'");
         }

@@ -78,7 +78,12 @@ impl JitLoopFeedbackTaylor {
         let mut data = LoopFeedbackTaylor::new(tapes, params, order)?;
         let p = order as usize;
         let layouts = [
-            compact(&data.program.sums, &tapes.sums, &mut data.sums_blocks, p + 1),
+            compact(
+                &data.program.sums,
+                &tapes.sums,
+                &mut data.sums_blocks,
+                p + 1,
+            ),
             compact(
                 &data.program.feedback,
                 &tapes.feedback,
@@ -145,7 +150,11 @@ impl TaylorKernel<crate::LoadedModel> for JitLoopFeedbackTaylor {
         ptrs.push(d.hoisted.feedback[0].as_ptr().cast());
         let stages = [
             (&d.tapes.sums, &d.hoisted.sums, &mut d.sums_blocks),
-            (&d.tapes.feedback, &d.hoisted.feedback, &mut d.feedback_blocks),
+            (
+                &d.tapes.feedback,
+                &d.hoisted.feedback,
+                &mut d.feedback_blocks,
+            ),
         ];
         for (tape, hoisted, blocks) in stages {
             for (r, region) in tape.regions.iter().enumerate() {
