@@ -384,6 +384,61 @@ fn nbody_as_loops_integrates_with_its_derived_functions() {
     }
 }
 
+/// The Taylor method on X − ∇V with its program in loop form (`-m feedback-taylor --families
+/// loops`, the three stages of X − ∇V propagated as Taylor series): the 6-body family and an
+/// FPUT chain take the unrolled model's steps (to one, at the end) and end at its final state to
+/// the tolerance, with the integrals kept as tightly.
+#[test]
+fn feedback_taylor_as_loops_is_the_unrolled_run() {
+    let nbody = include_str!("../models/nbody.lsl").replace("param n = 5;", "param n = 6;");
+    let fput = include_str!("../models/fput.lsl")
+        .replace("param n = 16;", "param n = 12;")
+        .replace("param beta = 0;", "param beta = 0.7;");
+    for (name, text, t_end, invariants) in [
+        ("nbody6_fbtaylor", nbody, "2", &["H", "P", "L"][..]),
+        ("fput12_fbtaylor", fput, "5", &["H"][..]),
+    ] {
+        let file = model_file(name, &text);
+        let summary = |families: &str| {
+            let args = [
+                file.as_str(),
+                "-m",
+                "feedback-taylor",
+                "--rtol",
+                "1e-13",
+                "--t-end",
+                t_end,
+                "--families",
+                families,
+            ];
+            run(&format!("{name}_{families}"), &args)
+        };
+        let (loops, unrolled) = (summary("loops"), summary("unrolled"));
+        assert_eq!(loops["method"], "feedback-taylor");
+        // the step sizes differ by rounding, so a step may fall on either side of t_end
+        let steps = |s: &serde_json::Value| s["steps"].as_i64().unwrap();
+        assert!(
+            (steps(&loops) - steps(&unrolled)).abs() <= 1,
+            "{name}: steps"
+        );
+        let (a, b) = (final_state(&loops), final_state(&unrolled));
+        assert_eq!(a.len(), b.len());
+        for (i, (x, y)) in a.iter().zip(&b).enumerate() {
+            assert!(
+                (x - y).abs() <= 1e-11 * y.abs().max(1.0),
+                "{name}, component {i}: loops {x}, unrolled {y}"
+            );
+        }
+        for inv in invariants {
+            let (x, y) = (max_error(&loops, inv), max_error(&unrolled, inv));
+            assert!(
+                x < 1e-11 && y < 1e-11,
+                "{name}, {inv}: loops {x}, unrolled {y}"
+            );
+        }
+    }
+}
+
 /// `--families` is one flag with one help text on every subcommand that loads a model file,
 /// and it takes effect there: `bench-eval --families loops` times the loop kernel of X − ∇V,
 /// `--families unrolled` the unrolled tape.

@@ -38,7 +38,9 @@ pub use ensemble::{FeedbackLanes, LaneField, Lanes, PackError};
 pub use lasalle_model::loops::{Families, LoopModel};
 pub use loops::{LoopKernel, Stage, StagedKernel};
 pub use model::{LoadError, LoadedModel};
-pub use taylor::{LoopTaylorTape, Taylor, TaylorError, TaylorField, TaylorOptions, TaylorTape};
+pub use taylor::{
+    LoopFeedbackTaylor, LoopTaylorTape, Taylor, TaylorError, TaylorField, TaylorOptions, TaylorTape,
+};
 
 pub use lasalle_model::tape::{Dims, Op, Reg, Tape, TapeError};
 

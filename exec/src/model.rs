@@ -333,6 +333,9 @@ pub struct LoadedModel {
     /// The field as a loop tape, for the loop form of its Taylor program (a model loaded with
     /// its families kept as loops).
     loop_field: Option<Box<lasalle_model::loops::LoopTape>>,
+    /// V, ∇V and X − ∇V in loop form, for the loop form of the Taylor program of X − ∇V
+    /// (where the loop form takes them).
+    loop_feedback: Option<Box<lasalle_model::loops::LoopFeedback>>,
     /// The compiled steps built so far, by method name and whether on X − ∇V
     /// ([`Declared::compiled_step`]).
     steps: Mutex<HashMap<(&'static str, bool), StepKernel>>,
@@ -400,6 +403,7 @@ impl LoadedModel {
             },
             guards_tape: guards,
             loop_field: None,
+            loop_feedback: None,
             steps: Mutex::default(),
             info,
             load_time: start.elapsed(),
@@ -409,11 +413,11 @@ impl LoadedModel {
     /// [`LoadedModel::from_source`], with the model's families lowered as `families` says
     /// ([`lasalle_model::loops`]). When some family is kept as a loop, the field, the
     /// integrals, their Jacobian and the half-fields are loop kernels ([`crate::LoopKernel`]),
-    /// V, ∇V and X − ∇V staged loop kernels ([`crate::StagedKernel`]), the field's Taylor
-    /// kernel the loop form of its program ([`crate::LoopTaylorTape`]), and the integrals are
-    /// checked on the families' terms. A function the loop form refuses, the compiled steps on
-    /// X − ∇V and the Taylor kernel of X − ∇V are built from the unrolled model at their first
-    /// use; the unrolled model itself is lowered and derived only then (or at the first call of
+    /// V, ∇V and X − ∇V staged loop kernels ([`crate::StagedKernel`]), the Taylor kernels of
+    /// the field and of X − ∇V the loop forms of their programs ([`crate::LoopTaylorTape`],
+    /// [`crate::LoopFeedbackTaylor`]), and the integrals are checked on the families' terms. A
+    /// function the loop form refuses and the compiled steps on X − ∇V are built from the
+    /// unrolled model at their first use; the unrolled model itself is lowered and derived only then (or at the first call of
     /// [`LoadedModel::model`]), never at load. Otherwise the model loads as with
     /// [`LoadedModel::from_source`]; so does a model the loop form refuses (a sum that enters
     /// the field or an integral other than as a term with a constant coefficient, an integral
@@ -484,20 +488,20 @@ impl LoadedModel {
                     &params,
                 )
             };
-        let (lyapunov, lyapunov_gradient, feedback, feedback_looped) = match lm.feedback() {
-            Ok(fb) => (
-                staged(&fb, crate::Stage::Lyapunov)?,
-                staged(&fb, crate::Stage::Gradient)?,
-                staged(&fb, crate::Stage::Feedback)?,
-                true,
+        let loop_feedback = lm.feedback().ok();
+        let (lyapunov, lyapunov_gradient, feedback) = match &loop_feedback {
+            Some(fb) => (
+                staged(fb, crate::Stage::Lyapunov)?,
+                staged(fb, crate::Stage::Gradient)?,
+                staged(fb, crate::Stage::Feedback)?,
             ),
-            Err(_) => (
+            None => (
                 deferred(|t| Some(&t.lyapunov), full, 1)?,
                 deferred(|t| Some(&t.lyapunov_gradient), full, n)?,
                 deferred(|t| Some(&t.feedback), full, n)?,
-                false,
             ),
         };
+        let feedback_looped = loop_feedback.is_some();
         let partition = match lm.partition() {
             Ok(Some(p)) => Some((looped(&p.field_q)?, looped(&p.field_p)?, p.is_q)),
             Ok(None) => None,
@@ -540,6 +544,7 @@ impl LoadedModel {
             },
             guards_tape: guards,
             loop_field: Some(Box::new(tapes.field)),
+            loop_feedback: loop_feedback.map(Box::new),
             steps: Mutex::default(),
             info,
             load_time: start.elapsed(),
@@ -643,16 +648,20 @@ impl LoadedModel {
         Some(kernel)
     }
 
-    /// The field's loop tape and the unrolled model's tapes, for a model loaded with its
-    /// families kept as loops.
+    /// The field's loop tape, the stages of X − ∇V in loop form (where the loop form takes
+    /// them) and the unrolled model's tapes, for a model loaded with its families kept as loops.
+    #[allow(clippy::type_complexity)]
     pub(crate) fn loop_taylor(
         &self,
     ) -> Option<(
         &lasalle_model::loops::LoopTape,
+        Option<&lasalle_model::loops::LoopFeedback>,
         Arc<crate::deferred::LazyTapes>,
     )> {
         match (&self.loop_field, &self.step_tapes) {
-            (Some(field), StepTapes::Deferred { lazy, .. }) => Some((field, lazy.clone())),
+            (Some(field), StepTapes::Deferred { lazy, .. }) => {
+                Some((field, self.loop_feedback.as_deref(), lazy.clone()))
+            }
             _ => None,
         }
     }

@@ -44,7 +44,9 @@ use lasalle_runtime::StepError;
 
 use crate::LoadedModel;
 
+pub mod feedback;
 pub mod loops;
+pub use feedback::LoopFeedbackTaylor;
 pub use loops::LoopTaylorTape;
 
 /// The Taylor-coefficient recurrences of one field tape ([`TaylorProgram`]) interpreted over
@@ -244,20 +246,27 @@ impl LoadedModel {
     /// interpreted ([`TaylorTape`]). All compute the same coefficients, bitwise.
     ///
     /// A model loaded with its families kept as loops has the loop form of the field's
-    /// program ([`LoopTaylorTape`], or its JIT, `lasalle_exec::jit::taylor::JitLoopTaylor`),
-    /// and the program of X − ∇V built from the unrolled model when a feedback run first
-    /// sets its inputs ([`TaylorKernel::set_inputs`]).
+    /// program ([`LoopTaylorTape`], or its JIT, `lasalle_exec::jit::taylor::JitLoopTaylor`)
+    /// and of the program of X − ∇V, its three stages propagated as Taylor series
+    /// ([`LoopFeedbackTaylor`], or its JIT, `lasalle_exec::jit::taylor::JitLoopFeedbackTaylor`).
+    /// Where the loop form refuses X − ∇V (V reading a family through a guard), its program
+    /// is built from the unrolled model when a feedback run first sets its inputs
+    /// ([`TaylorKernel::set_inputs`]).
     pub fn taylor_tapes(&self, max_order: u32) -> Result<TaylorKernels<LoadedModel>, TaylorError> {
-        if let Some((field, lazy)) = self.loop_taylor() {
-            return Ok(TaylorKernels {
-                field: self.loop_taylor_kernel(field, max_order)?,
-                feedback: Box::new(loops::DeferredFeedback::new(
+        if let Some((field, staged, lazy)) = self.loop_taylor() {
+            let feedback: Box<dyn TaylorKernel<LoadedModel>> = match staged {
+                Some(fb) => self.loop_feedback_kernel(fb, max_order)?,
+                None => Box::new(loops::DeferredFeedback::new(
                     lazy,
                     self.backend(),
                     self.params(),
                     self.dim(),
                     max_order,
                 )?),
+            };
+            return Ok(TaylorKernels {
+                field: self.loop_taylor_kernel(field, max_order)?,
+                feedback,
             });
         }
         let derived = self.derived().map_err(TaylorError::kernels)?;
@@ -284,6 +293,27 @@ impl LoadedModel {
         }
         Ok(Box::new(LoopTaylorTape::new(
             tape,
+            self.params(),
+            max_order,
+        )?))
+    }
+
+    /// The kernel of X − ∇V in loop form for this model's back end.
+    fn loop_feedback_kernel(
+        &self,
+        tapes: &lasalle_model::loops::LoopFeedback,
+        max_order: u32,
+    ) -> Result<Box<dyn TaylorKernel<LoadedModel>>, TaylorError> {
+        #[cfg(feature = "jit")]
+        if self.backend() == crate::Backend::Jit {
+            return Ok(Box::new(crate::jit::taylor::JitLoopFeedbackTaylor::new(
+                tapes,
+                self.params(),
+                max_order,
+            )?));
+        }
+        Ok(Box::new(LoopFeedbackTaylor::new(
+            tapes,
             self.params(),
             max_order,
         )?))

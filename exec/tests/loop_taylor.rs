@@ -2,8 +2,8 @@
 //! those of the unrolled model's Taylor program up to the order of summation, for the N-body
 //! and FPUT families at several sizes.
 
-use lasalle_exec::jit::taylor::JitLoopTaylor;
-use lasalle_exec::{LoadedModel, LoopTaylorTape, TaylorTape};
+use lasalle_exec::jit::taylor::{JitLoopFeedbackTaylor, JitLoopTaylor};
+use lasalle_exec::{LoadedModel, LoopFeedbackTaylor, LoopTaylorTape, TaylorTape};
 use lasalle_model::loops::{Families, LoopModel};
 use lasalle_model::tape::{Dims, Tape};
 use lasalle_runtime::taylor::TaylorKernel;
@@ -154,4 +154,102 @@ fn transcendental_chain_loop_taylor_is_the_unrolled_programs() {
     check(text, |seed, len| {
         numbers(seed, len).iter().map(|v| 0.8 * v).collect()
     });
+}
+
+/// The Taylor program of X − ∇V in loop form ([`LoopFeedbackTaylor`], [`JitLoopFeedbackTaylor`]):
+/// interpreter and JIT bitwise equal, order 1 bitwise X − ∇V of the staged tapes, and every
+/// order the unrolled model's program of X − ∇V up to the order of summation, with targets off
+/// the state's level set and distinct gains.
+fn check_feedback(text: &str, state: impl Fn(u64, usize) -> Vec<f64>) {
+    let lm = LoopModel::from_source("m.lsl", text, Families::Loops).unwrap();
+    assert!(!lm.families().is_empty(), "the model has a loop family");
+    let stages = lm.feedback().unwrap();
+    let program = stages.taylor().unwrap();
+    assert!(program.sums_count > 0, "V reads a family's sum");
+    let unrolled = lasalle_model::derive(lasalle_model::lower_source("m.lsl", text).unwrap());
+    let tapes = lasalle_model::tape::ModelTapes::new(&unrolled).unwrap();
+    let params = lm.default_params();
+    let invariants = lm.tapes().unwrap().invariants;
+    let gains: Vec<f64> = (0..unrolled.model.gains.len())
+        .map(|i| 0.7 + 0.3 * i as f64)
+        .collect();
+    let mut interp = LoopFeedbackTaylor::new(&stages, &params, ORDER).unwrap();
+    let mut jit = JitLoopFeedbackTaylor::new(&stages, &params, ORDER).unwrap();
+    let mut plain = TaylorTape::new(&tapes.feedback, &params, ORDER).unwrap();
+    let n = lm.dim();
+    for seed in 0..3 {
+        let x = state(seed, n);
+        let target: Vec<f64> = invariants
+            .eval(&params, &state(seed + 10, n))
+            .unwrap()
+            .iter()
+            .map(|v| 0.9 * v + 0.05)
+            .collect();
+        TaylorKernel::<LoadedModel>::set_inputs(&mut interp, &target, &gains).unwrap();
+        TaylorKernel::<LoadedModel>::set_inputs(&mut jit, &target, &gains).unwrap();
+        TaylorKernel::<LoadedModel>::set_inputs(&mut plain, &target, &gains).unwrap();
+        interp.compute(&x, ORDER as usize);
+        TaylorKernel::<LoadedModel>::compute(&mut jit, &x, ORDER as usize);
+        plain.compute(&x, ORDER as usize);
+        let bits = |c: &[f64]| c.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        let field = stages.eval_feedback(&params, &x, &target, &gains).unwrap();
+        for i in 0..n {
+            let a = interp.state_coefficients(i);
+            let b = TaylorKernel::<LoadedModel>::coefficients(&jit, i);
+            assert_eq!(a.len(), ORDER as usize + 1);
+            assert_eq!(
+                bits(a),
+                bits(b),
+                "component {i}: interpreter and JIT differ"
+            );
+            assert_eq!(a[0].to_bits(), x[i].to_bits());
+            assert_eq!(
+                a[1].to_bits(),
+                field[i].to_bits(),
+                "component {i}: order 1 is not X − ∇V"
+            );
+        }
+        for k in 0..=ORDER as usize {
+            let scale = (0..n).fold(0.0f64, |m, i| m.max(plain.state_coefficients(i)[k].abs()));
+            assert!(scale > 0.0, "order {k} is not trivial");
+            for i in 0..n {
+                let (a, u) = (
+                    interp.state_coefficients(i)[k],
+                    plain.state_coefficients(i)[k],
+                );
+                assert!(
+                    (a - u).abs() <= 1e-13 * scale,
+                    "seed {seed}, component {i}, order {k}: loops {a:e}, unrolled {u:e} (scale {scale:e})"
+                );
+            }
+        }
+    }
+    // the gains enter: doubling them changes order 1 where ∇V does not vanish
+    let x = state(0, n);
+    let before: Vec<f64> = (0..n).map(|i| interp.state_coefficients(i)[1]).collect();
+    let doubled: Vec<f64> = gains.iter().map(|g| 2.0 * g).collect();
+    let target = vec![0.5; invariants.n_outputs()];
+    TaylorKernel::<LoadedModel>::set_inputs(&mut interp, &target, &doubled).unwrap();
+    interp.compute(&x, ORDER as usize);
+    assert!((0..n).any(|i| interp.state_coefficients(i)[1] != before[i]));
+    // wrong lengths are refused, not read past
+    let short = TaylorKernel::<LoadedModel>::set_inputs(&mut jit, &target[1..], &gains);
+    assert!(short.is_err());
+}
+
+#[test]
+fn nbody_loop_feedback_taylor_is_the_unrolled_programs() {
+    for n in [4, 6] {
+        check_feedback(&sized(NBODY, "param n = 5;", n), nbody_state);
+    }
+}
+
+#[test]
+fn fput_loop_feedback_taylor_is_the_unrolled_programs() {
+    for n in [5, 12] {
+        let text = sized(FPUT, "param n = 16;", n).replace("param beta = 0;", "param beta = 0.7;");
+        check_feedback(&text, |seed, len| {
+            numbers(seed, len).iter().map(|v| 0.5 * v).collect()
+        });
+    }
 }

@@ -46,8 +46,8 @@ pub struct FamiliesOpt {
     /// How the model's families (`sum(i in 0..n: …)`) are compiled: as loops, one per sum,
     /// for the sums of at least 64 index tuples (auto), for every sum that can be (loops), or
     /// written out term by term (unrolled). Loops load large models in a fraction of the time;
-    /// the functions that have no loop form (the Taylor kernels, anything a loop refuses) are
-    /// built from the unrolled model when a method first needs them.
+    /// the functions that have no loop form (the variational equations, anything a loop
+    /// refuses) are built from the unrolled model when a method first needs them.
     #[arg(long, value_enum, default_value_t)]
     pub families: FamiliesArg,
 }

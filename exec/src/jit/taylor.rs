@@ -79,7 +79,9 @@ use lasalle_runtime::taylor::TaylorKernel;
 use lasalle_runtime::StepError;
 use std::collections::HashMap;
 
+pub mod feedback;
 pub mod loops;
+pub use feedback::JitLoopFeedbackTaylor;
 pub use loops::JitLoopTaylor;
 
 /// `(state, hoisted, target, gains, table)`: fills the state rows of `table` (N × (p + 1),

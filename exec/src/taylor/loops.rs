@@ -111,40 +111,19 @@ impl LoopTaylorTape {
             for (&o, &row) in self.tape.base_at.iter().zip(&base.outputs) {
                 t[o as usize * s + k + 1] = t[row * s + k];
             }
-            for (ri, (region, prog)) in self
-                .tape
-                .regions
-                .iter()
-                .zip(&self.program.regions)
-                .enumerate()
-            {
-                let hoisted = &self.hoisted[ri + 1];
-                let block = prog.rows * s;
-                let slots = region.sources.len();
-                let outs = prog.outputs.len();
-                for (u, b) in self.blocks[ri].chunks_exact_mut(block).enumerate() {
-                    let gather = &region.gather[u * slots..(u + 1) * slots];
-                    for (j, (src, &at)) in region.sources.iter().zip(gather).enumerate() {
-                        let at = at as usize;
-                        match src {
-                            Source::State => b[j * s + k] = t[at * s + k],
-                            Source::Param if k == 0 => b[j * s] = self.params[at],
-                            Source::Param => {}
-                        }
-                    }
-                    for &(r, constant) in &prog.recs {
-                        if k == 0 {
-                            zeroth(b, s, r, hoisted, &[], &[]);
-                        } else if !constant {
-                            coefficient(b, s, r, k);
-                        }
-                    }
-                    let scatter = &region.scatter[u * outs..(u + 1) * outs];
-                    for (&o, &row) in scatter.iter().zip(&prog.outputs) {
-                        t[o as usize * s + k + 1] += b[row * s + k];
-                    }
-                }
-            }
+            let to = Scatter { first: 0, shift: 1 };
+            let (tape, program) = (&self.tape, &self.program);
+            regions(
+                t,
+                s,
+                k,
+                to,
+                tape,
+                program,
+                &mut self.blocks,
+                &self.hoisted[1..],
+                &self.params,
+            );
             let inv = 1.0 / (k as f64 + 1.0);
             for i in 0..n {
                 t[i * s + k + 1] *= inv;
@@ -165,6 +144,60 @@ impl LoopTaylorTape {
         }
         self.set_params(params)
             .map_err(|e| StepError::InvalidInput(e.to_string()))
+    }
+}
+
+/// Where the regions of a loop tape add their outputs' order k in the table: to order
+/// k + `shift` of row `first` + the output.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Scatter {
+    pub(crate) first: usize,
+    pub(crate) shift: usize,
+}
+
+/// Order k of every region of `tape` (programs `program`, per-tuple tables `blocks`, hoisted
+/// values `hoisted` per region): per region, per tuple, the slots' order k gathered from the
+/// rows of `t` (order 0 also from `params`), the body's recurrences at order k, and each
+/// output's order k added to the row of `t` that `to` and its scatter column name.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn regions(
+    t: &mut [f64],
+    s: usize,
+    k: usize,
+    to: Scatter,
+    tape: &LoopTape,
+    program: &LoopTaylorProgram,
+    blocks: &mut [Vec<f64>],
+    hoisted: &[Vec<f64>],
+    params: &[f64],
+) {
+    for (ri, (region, prog)) in tape.regions.iter().zip(&program.regions).enumerate() {
+        let hoisted = &hoisted[ri];
+        let block = prog.rows * s;
+        let slots = region.sources.len();
+        let outs = prog.outputs.len();
+        for (u, b) in blocks[ri].chunks_exact_mut(block).enumerate() {
+            let gather = &region.gather[u * slots..(u + 1) * slots];
+            for (j, (src, &at)) in region.sources.iter().zip(gather).enumerate() {
+                let at = at as usize;
+                match src {
+                    Source::State => b[j * s + k] = t[at * s + k],
+                    Source::Param if k == 0 => b[j * s] = params[at],
+                    Source::Param => {}
+                }
+            }
+            for &(r, constant) in &prog.recs {
+                if k == 0 {
+                    zeroth(b, s, r, hoisted, &[], &[]);
+                } else if !constant {
+                    coefficient(b, s, r, k);
+                }
+            }
+            let scatter = &region.scatter[u * outs..(u + 1) * outs];
+            for (&o, &row) in scatter.iter().zip(&prog.outputs) {
+                t[(to.first + o as usize) * s + k + to.shift] += b[row * s + k];
+            }
+        }
     }
 }
 
@@ -200,8 +233,9 @@ impl TaylorKernel<LoadedModel> for LoopTaylorTape {
     }
 }
 
-/// The Taylor kernel of X − ∇V of a model loaded with its families kept as loops: X − ∇V has
-/// no loop form, so its program is built from the unrolled model's tape (by
+/// The Taylor kernel of X − ∇V of a model loaded with its families kept as loops where the loop
+/// form refuses X − ∇V (V reading a family through a guard; otherwise the kernel is
+/// [`super::LoopFeedbackTaylor`]): its program is built from the unrolled model's tape (by
 /// [`super::kernel_of`], as for any model) when a run first sets its targets and gains, which
 /// every feedback run does before its first compute; a run of the plain field never builds it.
 pub(crate) struct DeferredFeedback {

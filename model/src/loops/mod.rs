@@ -36,10 +36,12 @@
 //! Hamiltonian family under a Lie–Poisson structure, a family that adds to both halves of a
 //! partitioned field. The field's Taylor program has a loop form ([`LoopTape::taylor`],
 //! [`taylor`]: the body's coefficient recurrences once per tuple, on the coefficients gathered
-//! from the state's). The emitted Rust writes the field and the invariants as loops from these
-//! tapes, with the index structure of [`index`] (`lasalle_codegen::generate_source_with`). The
-//! Taylor program of X − ∇V and the variational equations have no loop form: they work on the
-//! unrolled model ([`LoopModel::unrolled`]).
+//! from the state's), and so has the Taylor program of X − ∇V ([`LoopFeedback::taylor`],
+//! [`feedback_taylor`]: the three stages propagated as Taylor series — S's coefficients from
+//! x's, w's from x's and S's, then X − ∇V's from x's, S's and w's — on one table). The emitted
+//! Rust writes the field and the invariants as loops from these tapes, with the index
+//! structure of [`index`] (`lasalle_codegen::generate_source_with`). The variational equations
+//! have no loop form: they work on the unrolled model ([`LoopModel::unrolled`]).
 
 use crate::error::{Diagnostic, Error, Span};
 use crate::ir::{FxHashMap, Graph, Id, Input, Node};
@@ -215,9 +217,9 @@ impl LoopModel {
     }
 
     /// The same model with every family unrolled, lowered again from its source: what the
-    /// stages without a loop form (the Taylor program of X − ∇V, the variational equations, the
-    /// emitted Rust's derived functions, the lanes on X − ∇V) need, built only when one of them
-    /// is asked for.
+    /// stages without a loop form (the variational equations, the emitted Rust's derived
+    /// functions, the lanes on X − ∇V, a derived function the loop form refuses) need, built
+    /// only when one of them is asked for.
     pub fn unrolled(&self) -> Result<Model, Error> {
         let source = &self.model.source;
         crate::lower_source(&source.path, &source.text)
@@ -264,7 +266,7 @@ impl LoopModel {
     /// The field and the invariants as loop tapes. A family whose value enters a function
     /// other than as a term with a constant coefficient, or a Hamiltonian family under a
     /// Lie–Poisson structure, is refused with a located message. V, ∇V and X − ∇V (which read
-    /// the invariants) have no loop tapes: build them from the unrolled model.
+    /// the invariants) are staged loop tapes of their own ([`LoopModel::feedback`]).
     pub fn tapes(&self) -> Result<LoopTapes, Error> {
         let mut b = Builder::new(self);
         let m = &self.model;
@@ -689,10 +691,12 @@ impl LoopTape {
 
 mod check;
 mod derived;
+pub mod feedback_taylor;
 pub mod index;
 pub mod taylor;
 pub use derived::{LoopFeedback, LoopPartition};
 #[cfg(test)]
 mod tests;
 
+pub use feedback_taylor::FeedbackTaylorProgram;
 pub use taylor::LoopTaylorProgram;

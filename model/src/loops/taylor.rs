@@ -40,7 +40,6 @@ impl LoopTape {
     /// The Taylor program of this loop tape, a field (as many outputs as state components);
     /// see the [module docs](crate::loops::taylor).
     pub fn taylor(&self) -> Result<LoopTaylorProgram, TapeError> {
-        self.validate()?;
         let n = self.base.dims.state;
         if self.outputs != n {
             return Err(TapeError::Malformed(format!(
@@ -48,6 +47,14 @@ impl LoopTape {
                 self.outputs
             )));
         }
+        self.taylor_function()
+    }
+
+    /// The recurrences of this loop tape as a function of the state (any number of outputs),
+    /// for a caller that places the outputs' coefficients itself: the stages of X − ∇V
+    /// ([`crate::loops::FeedbackTaylorProgram`]).
+    pub fn taylor_function(&self) -> Result<LoopTaylorProgram, TapeError> {
+        self.validate()?;
         let base = TaylorProgram::function(&self.base, &[])?;
         let regions = self
             .regions

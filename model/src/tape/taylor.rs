@@ -216,6 +216,74 @@ pub enum Rec {
     },
 }
 
+impl Rec {
+    /// The same recurrence with every row `r` it names replaced by `f(r)` (to place a program's
+    /// rows in a table shared with other programs).
+    pub fn map_rows(self, f: impl Fn(usize) -> usize) -> Rec {
+        match self {
+            Rec::Leaf { d, leaf } => Rec::Leaf { d: f(d), leaf },
+            Rec::Add { d, a, b } => Rec::Add {
+                d: f(d),
+                a: f(a),
+                b: f(b),
+            },
+            Rec::Sub { d, a, b } => Rec::Sub {
+                d: f(d),
+                a: f(a),
+                b: f(b),
+            },
+            Rec::Neg { d, a } => Rec::Neg { d: f(d), a: f(a) },
+            Rec::Mul { d, a, b } => Rec::Mul {
+                d: f(d),
+                a: f(a),
+                b: f(b),
+            },
+            Rec::Scale { d, a, c } => Rec::Scale {
+                d: f(d),
+                a: f(a),
+                c: f(c),
+            },
+            Rec::Square { d, a } => Rec::Square { d: f(d), a: f(a) },
+            Rec::Div { d, a, b } => Rec::Div {
+                d: f(d),
+                a: f(a),
+                b: f(b),
+            },
+            Rec::DivConst { d, a, c } => Rec::DivConst {
+                d: f(d),
+                a: f(a),
+                c: f(c),
+            },
+            Rec::Pow { d, a, alpha, zero } => Rec::Pow {
+                d: f(d),
+                a: f(a),
+                alpha,
+                zero,
+            },
+            Rec::Sqrt { d, a } => Rec::Sqrt { d: f(d), a: f(a) },
+            Rec::Exp { d, a } => Rec::Exp { d: f(d), a: f(a) },
+            Rec::Ln { d, a } => Rec::Ln { d: f(d), a: f(a) },
+            Rec::SinCos { s, c, a } => Rec::SinCos {
+                s: f(s),
+                c: f(c),
+                a: f(a),
+            },
+            Rec::Jacobi { rows, a, m } => Rec::Jacobi {
+                rows: rows.map(&f),
+                a: f(a),
+                m: f(m),
+            },
+            Rec::EllipK { d, a } => Rec::EllipK { d: f(d), a: f(a) },
+            Rec::EllipF { d, a, m, w } => Rec::EllipF {
+                d: f(d),
+                a: f(a),
+                m: f(m),
+                w: f(w),
+            },
+        }
+    }
+}
+
 /// Sources of the order-0 value of a leaf.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Leaf {

@@ -143,9 +143,9 @@ impl TaylorKernel<crate::LoadedModel> for JitLoopTaylor {
 }
 
 /// Where the rows of a region's tuple block are (see [`Emit::layout`]) and the block's size.
-struct Layout {
-    rows: Vec<(usize, bool)>,
-    size: usize,
+pub(super) struct Layout {
+    pub(super) rows: Vec<(usize, bool)>,
+    pub(super) size: usize,
 }
 
 /// The compact layout of a region's block: the rows whose lower orders some recurrence reads
@@ -153,7 +153,7 @@ struct Layout {
 /// own lower orders) hold all p + 1 orders; every other row holds one value, its current
 /// order (rows constant along the solution: their order 0). A tuple's block is then a few
 /// rows long instead of all of them, which keeps the blocks of all tuples in the cache.
-fn layout(program: &TaylorProgram, stride: usize) -> Layout {
+pub(super) fn layout(program: &TaylorProgram, stride: usize) -> Layout {
     let mut history = vec![false; program.rows];
     for &(r, constant) in &program.recs {
         if constant {
@@ -270,6 +270,8 @@ fn define(
             hoisted,
             regions,
             region_rows: program.regions.iter().map(|r| vec![0; r.rows]).collect(),
+            first: 0,
+            shift: 1,
         };
         l.body(&mut e, state, p)?;
         e.b.ins().return_(&[]);
@@ -283,19 +285,23 @@ fn define(
 }
 
 /// What the loop form adds to the emitter.
-struct LoopEmit<'a> {
-    tape: &'a LoopTape,
-    program: &'a LoopTaylorProgram,
-    layouts: &'a [Layout],
-    params: Value,
+pub(super) struct LoopEmit<'a> {
+    pub(super) tape: &'a LoopTape,
+    pub(super) program: &'a LoopTaylorProgram,
+    pub(super) layouts: &'a [Layout],
+    pub(super) params: Value,
     /// The plain table (the state rows first).
-    table: Value,
+    pub(super) table: Value,
     /// The plain tape's hoisted values.
-    hoisted: Value,
+    pub(super) hoisted: Value,
     /// Per region: hoisted values, gather table, scatter table, block table.
-    regions: Vec<[Value; 4]>,
+    pub(super) regions: Vec<[Value; 4]>,
     /// Per region, how many orders of each row its blocks hold.
-    region_rows: Vec<Vec<usize>>,
+    pub(super) region_rows: Vec<Vec<usize>>,
+    /// Where the regions add their outputs' order k: to order k + `shift` of row
+    /// `first` + the output (the field's: 0 and 1).
+    pub(super) first: usize,
+    pub(super) shift: usize,
 }
 
 impl LoopEmit<'_> {
@@ -362,7 +368,7 @@ impl LoopEmit<'_> {
     }
 
     /// Order k of region `r`: a loop over its tuples.
-    fn region(
+    pub(super) fn region(
         &mut self,
         e: &mut Emit<'_>,
         r: usize,
@@ -448,7 +454,7 @@ impl LoopEmit<'_> {
             let idx = e.b.ins().uload32(ro, sp, (4 * j) as i32);
             let scaled = e.b.ins().imul(idx, row_bytes);
             let addr = e.b.ins().iadd(self.table, scaled);
-            let off = offset(k + 1)?;
+            let off = offset(self.first * stride + k + self.shift)?;
             let old = e.b.ins().load(types::F64, flags, addr, off);
             let sum = e.fadd(old, v);
             e.b.ins().store(flags, sum, addr, off);
