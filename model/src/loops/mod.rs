@@ -691,8 +691,10 @@ mod check;
 mod derived;
 pub mod index;
 pub mod taylor;
+pub mod variational;
 pub use derived::{LoopFeedback, LoopPartition};
 #[cfg(test)]
 mod tests;
 
 pub use taylor::LoopTaylorProgram;
+pub use variational::{ExtendedField, LoopExtension};
