@@ -76,9 +76,18 @@ impl ExtendedField {
 
 impl LoopModel {
     /// The model extended by `extension` in loop form (see the
-    /// [module docs](crate::loops::variational)). Refused as [`Extension::apply`] refuses.
+    /// [module docs](crate::loops::variational)). Refused as [`Extension::apply`] refuses,
+    /// and for a model with events of its own (the extension's event functions are the peak
+    /// alone).
     pub fn extend(&self, extension: Extension) -> Result<LoopExtension, Error> {
         let span = extension.span_of(&self.model)?;
+        if let Some(ev) = self.model.events.first() {
+            return Err(Error::Model(vec![crate::error::Diagnostic::new(
+                &ev.span,
+                "the extension of a model with events has no loop form".to_string(),
+            )
+            .help("load the model with its families unrolled".to_string())]));
+        }
         let n = self.model.dim();
         let mut model = self.model.clone();
         let zero = model.graph.num(0.0);
