@@ -121,7 +121,10 @@ fn loop_families_give_the_unrolled_megno_and_fli() {
     let (a, b) = (run("loops"), run("unrolled"));
     for key in ["megno", "megno_y", "fli", "mle"] {
         let (x, y) = (a[key].as_f64().unwrap(), b[key].as_f64().unwrap());
-        assert!(y > 0.0 && (x - y).abs() <= 1e-9 * y, "{key}: loops {x}, unrolled {y}");
+        assert!(
+            y > 0.0 && (x - y).abs() <= 1e-9 * y,
+            "{key}: loops {x}, unrolled {y}"
+        );
     }
 }
 

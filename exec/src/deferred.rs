@@ -13,8 +13,8 @@
 use std::sync::{Arc, Mutex, OnceLock};
 
 use lasalle_model::loops::LoopModel;
-use lasalle_model::variational::Extension;
 use lasalle_model::tape::{Dims, ModelTapes, Tape};
+use lasalle_model::variational::Extension;
 use lasalle_model::{derive, Derived};
 
 use crate::{Backend, ExecError, Kernel};

@@ -410,22 +410,18 @@ fn indicators_in_lanes_are_the_lone_runs() {
 fn loop_families_give_the_unrolled_indicators() {
     use lasalle_exec::Families;
     let read = |name: &str| {
-        std::fs::read_to_string(format!(
-            "{}/../models/{name}",
-            env!("CARGO_MANIFEST_DIR")
-        ))
-        .unwrap()
+        std::fs::read_to_string(format!("{}/../models/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap()
     };
     let fput = read("fput.lsl").replace("param n = 16;", "param n = 7;");
-    for (text, point, t_end) in [
-        (read("nbody.lsl"), "ring", 6.0),
-        (fput, "mode1", 30.0),
-    ] {
+    for (text, point, t_end) in [(read("nbody.lsl"), "ring", 6.0), (fput, "mode1", 30.0)] {
         for backend in Backend::available() {
-            let loops = LoadedModel::from_source_with("m.lsl", &text, *backend, Families::Loops)
-                .unwrap();
+            let loops =
+                LoadedModel::from_source_with("m.lsl", &text, *backend, Families::Loops).unwrap();
             let unrolled = load(&text, *backend);
-            for ext in [Extension::Indicators, Extension::Variational { tangents: 2 }] {
+            for ext in [
+                Extension::Indicators,
+                Extension::Variational { tangents: 2 },
+            ] {
                 assert!(
                     matches!(loops.extended(ext), Some(Ok(_))),
                     "{point}: the loop form of {ext:?}"

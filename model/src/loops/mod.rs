@@ -38,8 +38,15 @@
 //! [`taylor`]: the body's coefficient recurrences once per tuple, on the coefficients gathered
 //! from the state's). The emitted Rust writes the field and the invariants as loops from these
 //! tapes, with the index structure of [`index`] (`lasalle_codegen::generate_source_with`). The
-//! Taylor program of X − ∇V and the variational equations have no loop form: they work on the
-//! unrolled model ([`LoopModel::unrolled`]).
+//! Taylor program of X − ∇V has no loop form: it works on the unrolled model
+//! ([`LoopModel::unrolled`]).
+//!
+//! The variational equations and the chaos indicators have a loop form ([`LoopModel::extend`],
+//! in [`variational`]): A·w is, per family, the body's directional derivative along the tangent
+//! (its components gathered as slots of a copy of the family), taken once and scattered to the
+//! tangent rows. The variational field (X, A·Φ) is one loop tape; the indicators' field, whose
+//! rates read λ = u·Au/(u·u), is staged as V's functions are (A·u, then λ and the rates, then X
+//! with them), and so has no loop form of its Taylor program.
 
 use crate::error::{Diagnostic, Error, Span};
 use crate::ir::{FxHashMap, Graph, Id, Input, Node};
@@ -215,9 +222,9 @@ impl LoopModel {
     }
 
     /// The same model with every family unrolled, lowered again from its source: what the
-    /// stages without a loop form (the Taylor program of X − ∇V, the variational equations, the
-    /// emitted Rust's derived functions, the lanes on X − ∇V) need, built only when one of them
-    /// is asked for.
+    /// stages without a loop form (the Taylor program of X − ∇V and of the indicators' field,
+    /// the emitted Rust's derived functions, the lanes on X − ∇V) need, built only when one of
+    /// them is asked for.
     pub fn unrolled(&self) -> Result<Model, Error> {
         let source = &self.model.source;
         crate::lower_source(&source.path, &source.text)
