@@ -60,7 +60,7 @@ pub enum ExtendedField {
     Loop(LoopTape),
     /// Staged (the indicators): the field is the `feedback` stage of the [`LoopFeedback`],
     /// whose sums and weights are stages 1 and 2 (see the [module docs](self)).
-    Staged(LoopFeedback),
+    Staged(Box<LoopFeedback>),
 }
 
 impl ExtendedField {
@@ -198,12 +198,12 @@ impl LoopExtension {
                 let mut last = roots[..n].to_vec();
                 last.extend((0..k).map(|i| b.g.input(Input::State((e + k + i) as u32))));
                 let feedback = b.tape(&last, plain(2 * k), x_outs)?;
-                Ok(ExtendedField::Staged(LoopFeedback {
+                Ok(ExtendedField::Staged(Box::new(LoopFeedback {
                     sums,
                     weights,
                     gradient: feedback.clone(),
                     feedback,
-                }))
+                })))
             }
         }
     }
