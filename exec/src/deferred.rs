@@ -15,13 +15,16 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use lasalle_model::loops::LoopModel;
 use lasalle_model::tape::{Dims, ModelTapes, Tape};
+use lasalle_model::variational::Extension;
 use lasalle_model::{derive, Derived};
 
 use crate::{Backend, ExecError, Kernel};
 
-/// The unrolled model of a [`LoopModel`], lowered and derived at the first request.
+/// The unrolled model of a [`LoopModel`] (extended by the front end if it is the
+/// declarations of an extension), lowered and derived at the first request.
 pub(crate) struct Unrolled {
     lm: Arc<LoopModel>,
+    extension: Option<Extension>,
     derived: OnceLock<Result<Derived, String>>,
 }
 
@@ -29,6 +32,18 @@ impl Unrolled {
     pub(crate) fn new(lm: Arc<LoopModel>) -> Unrolled {
         Unrolled {
             lm,
+            extension: None,
+            derived: OnceLock::new(),
+        }
+    }
+
+    /// The unrolled model of an extension whose declarations are `lm`'s
+    /// ([`lasalle_model::loops::LoopExtension::loops`]): `extension` applied to `lm`'s
+    /// unrolled model.
+    pub(crate) fn extended(lm: Arc<LoopModel>, extension: Extension) -> Unrolled {
+        Unrolled {
+            lm,
+            extension: Some(extension),
             derived: OnceLock::new(),
         }
     }
@@ -41,7 +56,14 @@ impl Unrolled {
     /// The unrolled model with its derivatives (lowered and derived now if not yet).
     pub(crate) fn get(&self) -> Result<&Derived, ExecError> {
         self.derived
-            .get_or_init(|| self.lm.unrolled().map(derive).map_err(|e| e.to_string()))
+            .get_or_init(|| {
+                let model = self.lm.unrolled();
+                let model = match self.extension {
+                    Some(ext) => model.and_then(|m| ext.apply(&m)),
+                    None => model,
+                };
+                model.map(derive).map_err(|e| e.to_string())
+            })
             .as_ref()
             .map_err(|e| ExecError::Jit(format!("the unrolled model: {e}")))
     }

@@ -551,6 +551,114 @@ impl LoadedModel {
         })
     }
 
+    /// The model extended by `extension` (the variational equations or the chaos indicators)
+    /// in loop form ([`lasalle_model::loops::variational`]), for a model loaded with its
+    /// families kept as loops: its field is a loop kernel (the variational equations) or a
+    /// staged loop kernel (the indicators, whose peak event is one too), its invariants and
+    /// their Jacobian loop kernels of the extended state, with this model's conservation;
+    /// V, ∇V, X − ∇V, the Taylor program of a staged field and [`LoadedModel::model`] come
+    /// from the unrolled extension ([`Extension::apply`](lasalle_model::variational::Extension::apply)
+    /// of the unrolled model) at their first use. The functions have the model file's
+    /// parameter values (set this model's on it). It declares no partition (the tangent's
+    /// rates read the tangent).
+    ///
+    /// `None` for a model without loop families (apply the extension to
+    /// [`LoadedModel::model`] and load it with [`LoadedModel::from_model`]); an error where the
+    /// loop form refuses (a model with events of its own, guards that read a family's sum).
+    pub fn extended(
+        &self,
+        extension: lasalle_model::variational::Extension,
+    ) -> Option<Result<LoadedModel, LoadError>> {
+        let Lowered::Loops(lazy) = &self.lowered else {
+            return None;
+        };
+        Some(self.extend_loops(lazy.unrolled().loops(), extension))
+    }
+
+    fn extend_loops(
+        &self,
+        lm: &LoopModel,
+        extension: lasalle_model::variational::Extension,
+    ) -> Result<LoadedModel, LoadError> {
+        use lasalle_model::loops::ExtendedField;
+        let start = Instant::now();
+        let backend = self.backend;
+        let le = lm.extend(extension)?;
+        let model = le.declarations();
+        let params = model.default_params();
+        let of = |k: Box<dyn Kernel>| Compiled::of(k, &params);
+        let looped = |t: &lasalle_model::loops::LoopTape| -> Result<Compiled, ExecError> {
+            of(Box::new(crate::LoopKernel::new(t, backend)?))
+        };
+        let (field, loop_field) = match le.field()? {
+            ExtendedField::Loop(t) => (looped(&t)?, Some(Box::new(t))),
+            ExtendedField::Staged(s) => (
+                of(Box::new(crate::StagedKernel::new(
+                    &s,
+                    crate::Stage::Feedback,
+                    backend,
+                )?))?,
+                None,
+            ),
+        };
+        let events = match le.peak()? {
+            Some(p) => Some(of(Box::new(crate::StagedKernel::new(
+                &p,
+                crate::Stage::Lyapunov,
+                backend,
+            )?))?),
+            None => None,
+        };
+        let mut no_events = model.clone();
+        no_events.events.clear();
+        let (guards, _) = guards_and_events(&no_events, backend, &params)?;
+        let lazy = Arc::new(crate::deferred::LazyTapes::new(
+            crate::deferred::Unrolled::extended(Arc::new(le.loops().clone()), extension),
+        ));
+        let (n, m) = (model.dim(), model.invariant_dim());
+        let full = Dims {
+            state: n,
+            params: model.param_slots(),
+            targets: m,
+            gains: model.gains.len(),
+        };
+        let deferred = |pick: crate::deferred::Pick, outputs: usize| {
+            let k = crate::deferred::Deferred::new(lazy.clone(), pick, backend, full, outputs);
+            of(Box::new(k))
+        };
+        let kernels = Kernels {
+            field,
+            invariants: looped(&le.invariants()?)?,
+            jacobian: looped(&le.jacobian()?)?,
+            lyapunov: deferred(|t| Some(&t.lyapunov), 1)?,
+            lyapunov_gradient: deferred(|t| Some(&t.lyapunov_gradient), n)?,
+            feedback: deferred(|t| Some(&t.feedback), n)?,
+            partition: None,
+            guards: guards
+                .as_ref()
+                .map(|t| Compiled::new(backend, t, &params))
+                .transpose()?,
+            events,
+        };
+        let info = Info::new(model);
+        Ok(LoadedModel {
+            lowered: Lowered::Loops(lazy.clone()),
+            conservation: self.conservation.clone(),
+            backend,
+            params,
+            kernels,
+            step_tapes: StepTapes::Deferred {
+                lazy,
+                looped: false,
+            },
+            guards_tape: guards,
+            loop_field,
+            steps: Mutex::default(),
+            info,
+            load_time: start.elapsed(),
+        })
+    }
+
     /// Reads and loads a model file.
     pub fn load(
         path: impl AsRef<std::path::Path>,

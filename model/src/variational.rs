@@ -57,7 +57,7 @@
 use std::collections::HashMap;
 
 use crate::ir::{diff, Graph, Id, Input};
-use crate::{Diagnostic, Direction, Event, Model, Point, Shape, StateVar};
+use crate::{Diagnostic, Direction, Event, Model, Shape, StateVar};
 
 /// The name of the event `λ = 0 falling` of an [`Extension::Indicators`] model, the peaks of
 /// ℓ = ln‖w‖ (suffixed with `_` while the model uses the name); it is the model's last event.
@@ -184,7 +184,35 @@ impl Extension {
     /// The extended model (see the [module docs](self)). Fails for zero tangent vectors or a
     /// model without state.
     pub fn apply(self, model: &Model) -> crate::Result<Model> {
+        let span = self.span_of(model)?;
         let n = model.dim();
+        let mut out = model.clone();
+        let g = &mut out.graph;
+        let a = field_jacobian(g, &model.field);
+        let mut lambda = None;
+        match self {
+            Extension::Variational { tangents } => {
+                for j in 0..tangents {
+                    let w: Vec<Id> = (0..n).map(|i| g.input(state(n * (1 + j) + i))).collect();
+                    let aw = mat_vec(g, &a, &w);
+                    out.field.extend(aw);
+                }
+            }
+            Extension::Indicators => {
+                let u: Vec<Id> = (0..n).map(|i| g.input(state(n + i))).collect();
+                let au = mat_vec(g, &a, &u);
+                let (rates, l) = indicator_rates(g, n, &u, &au);
+                out.field.extend(rates);
+                lambda = Some(l);
+            }
+        }
+        self.declare(&mut out, n, span, lambda);
+        Ok(out)
+    }
+
+    /// The span the new declarations point at (the first state variable's), or the refusal
+    /// of a model without state or of zero tangent vectors.
+    pub(crate) fn span_of(self, model: &Model) -> crate::Result<crate::Span> {
         let span = model
             .state
             .first()
@@ -196,11 +224,16 @@ impl Extension {
                 "the variational equations need at least one tangent vector",
             ));
         }
-        let mut out = model.clone();
+        Ok(span)
+    }
+
+    /// The declarations of the extended model on `out`, a copy of a model of dimension `n`
+    /// whose field already has the extended rates: the new state variables, the peak event
+    /// (value `lambda`, for the indicators), the field's spans and the points' tangent part.
+    /// It declares no splitting.
+    pub(crate) fn declare(self, out: &mut Model, n: usize, span: crate::Span, lambda: Option<Id>) {
         out.splitting = None;
-        let g = &mut out.graph;
-        let a = field_jacobian(g, &model.field);
-        let mut fresh = Fresh::new(model);
+        let mut fresh = Fresh::new(out);
         let mut add_state = |out_state: &mut Vec<StateVar>, name: &str, shape: Shape| {
             let offset = out_state.last().map_or(0, |s| s.offset + s.shape.len());
             out_state.push(StateVar {
@@ -212,44 +245,18 @@ impl Extension {
         };
         match self {
             Extension::Variational { tangents } => {
-                for j in 0..tangents {
-                    let w: Vec<Id> = (0..n).map(|i| g.input(state(n * (1 + j) + i))).collect();
-                    let aw = mat_vec(g, &a, &w);
-                    out.field.extend(aw);
-                }
                 add_state(&mut out.state, "Phi", Shape::Matrix(n, tangents));
             }
             Extension::Indicators => {
-                let u: Vec<Id> = (0..n).map(|i| g.input(state(n + i))).collect();
-                let au = mat_vec(g, &a, &u);
-                let uau = dot(g, &u, &au);
-                let uu = dot(g, &u, &u);
-                let lambda = g.div(uau, uu);
-                for (&aui, &ui) in au.iter().zip(&u) {
-                    let lu = g.mul(&[lambda, ui]);
-                    let rate = g.sub(aui, lu);
-                    out.field.push(rate);
-                }
-                let s = IndicatorSlots { n };
-                let tau = g.input(state(s.clock()));
-                let a_sum = g.input(state(s.megno_sum()));
-                let one = g.num(1.0);
-                let two = g.num(2.0);
-                let floor = g.num(CLOCK_FLOOR);
-                let tau_lambda = g.mul(&[tau, lambda]);
-                let tau2 = g.mul(&[tau, tau]);
-                let den = g.add(&[tau2, floor]);
-                let num = g.mul(&[two, a_sum, tau]);
-                let mean_rate = g.div(num, den);
-                out.field.extend([lambda, one, tau_lambda, mean_rate]);
                 add_state(&mut out.state, "tangent", Shape::Vector(n));
                 add_state(&mut out.state, "log_growth", Shape::Scalar);
                 add_state(&mut out.state, "clock", Shape::Scalar);
                 add_state(&mut out.state, "megno_sum", Shape::Scalar);
                 add_state(&mut out.state, "megno_mean", Shape::Scalar);
+                let value = lambda.unwrap_or_else(|| out.graph.num(0.0));
                 out.events.push(Event {
                     name: fresh.take(PEAK_EVENT),
-                    value: lambda,
+                    value,
                     direction: Direction::Falling,
                     terminal: false,
                     expr: "u·Au/u·u".to_string(),
@@ -263,21 +270,36 @@ impl Extension {
         // the tangent part of every point: its initial value, the same for all
         let tail: Vec<f64> = self.extend_state(&vec![0.0; n])[n..].to_vec();
         let tail: Vec<Id> = tail.iter().map(|&v| out.graph.num(v)).collect();
-        out.points = model
-            .points
-            .iter()
-            .map(|p| {
-                let mut values = p.values.clone();
-                values.extend(&tail);
-                Point {
-                    name: p.name.clone(),
-                    values,
-                    span: p.span.clone(),
-                }
-            })
-            .collect();
-        Ok(out)
+        for p in &mut out.points {
+            p.values.extend(&tail);
+        }
     }
+}
+
+/// The rates of (u, ℓ, τ, a, b) of the indicators and λ, from the tangent vector `u`
+/// (state components N..2N) and `au` = A·u, for a model of dimension `n`.
+pub(crate) fn indicator_rates(g: &mut Graph, n: usize, u: &[Id], au: &[Id]) -> (Vec<Id>, Id) {
+    let uau = dot(g, u, au);
+    let uu = dot(g, u, u);
+    let lambda = g.div(uau, uu);
+    let mut rates = Vec::with_capacity(n + 4);
+    for (&aui, &ui) in au.iter().zip(u) {
+        let lu = g.mul(&[lambda, ui]);
+        rates.push(g.sub(aui, lu));
+    }
+    let s = IndicatorSlots { n };
+    let tau = g.input(state(s.clock()));
+    let a_sum = g.input(state(s.megno_sum()));
+    let one = g.num(1.0);
+    let two = g.num(2.0);
+    let floor = g.num(CLOCK_FLOOR);
+    let tau_lambda = g.mul(&[tau, lambda]);
+    let tau2 = g.mul(&[tau, tau]);
+    let den = g.add(&[tau2, floor]);
+    let num = g.mul(&[two, a_sum, tau]);
+    let mean_rate = g.div(num, den);
+    rates.extend([lambda, one, tau_lambda, mean_rate]);
+    (rates, lambda)
 }
 
 /// DX: `a[i][l] = ∂X_i/∂x_l`.

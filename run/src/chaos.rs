@@ -6,7 +6,8 @@
 //! ([`lasalle_model::variational::Extension`]): the variational field (X, DX·Φ), or the unit
 //! tangent vector with the integrals of its growth rate, derived symbolically and compiled by
 //! the model's back end like any other field. [`extend`] builds that model from a loaded one
-//! (same back end, same parameters); [`simulate`] then runs it as any model.
+//! (same back end, same parameters; in loop form for a model loaded with its families kept
+//! as loops, [`lasalle_model::loops::variational`]); [`simulate`] then runs it as any model.
 //!
 //! The methods that apply are those that integrate the extended field itself: `euler`, `heun`,
 //! `rk4`, `dopri5` and `taylor`. The feedback, projection, symplectic and splitting methods
@@ -20,14 +21,21 @@ use lasalle_runtime::{ModelInfo, Parameters};
 use crate::{simulate, Method, Recording, RunError, RunSpec};
 
 /// A model extended by `extension`, compiled by `model`'s back end, with `model`'s current
-/// parameter values.
+/// parameter values. A model loaded with its families kept as loops is extended in loop form
+/// ([`LoadedModel::extended`], without unrolling it) unless the loop form refuses it (a model
+/// with events of its own), which is extended as an unrolled model is.
 pub fn extend(model: &LoadedModel, extension: Extension) -> Result<LoadedModel, RunError> {
-    let unrolled = model.model().map_err(|e| RunError::Load(e.to_string()))?;
-    let lowered = extension
-        .apply(unrolled)
-        .map_err(|e| RunError::Model(e.to_string()))?;
-    let mut out = LoadedModel::from_model(lowered, model.backend())
-        .map_err(|e| RunError::Load(e.to_string()))?;
+    let mut out = match model.extended(extension) {
+        Some(Ok(out)) => out,
+        _ => {
+            let unrolled = model.model().map_err(|e| RunError::Load(e.to_string()))?;
+            let lowered = extension
+                .apply(unrolled)
+                .map_err(|e| RunError::Model(e.to_string()))?;
+            LoadedModel::from_model(lowered, model.backend())
+                .map_err(|e| RunError::Load(e.to_string()))?
+        }
+    };
     for slot in model.param_slots() {
         if let Some(values) = model.param(slot.name) {
             out.set_param(slot.name, &values)

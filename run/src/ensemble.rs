@@ -171,8 +171,8 @@ impl ModelSource {
         }
     }
 
-    /// The same model with its families lowered as `families` says (an extended model is
-    /// always unrolled: its extension reads the model's expressions).
+    /// The same model with its families lowered as `families` says (an extended model with
+    /// families kept as loops is extended in loop form, [`crate::chaos::extend`]).
     pub fn families(mut self, families: Families) -> Self {
         self.families = families;
         self
@@ -200,6 +200,16 @@ impl ModelSource {
         let loaded = match self.extension {
             None => {
                 LoadedModel::from_source_with(&self.path, &self.text, self.backend, self.families)
+            }
+            Some(ext) if self.families != Families::Unrolled => {
+                let base = LoadedModel::from_source_with(
+                    &self.path,
+                    &self.text,
+                    self.backend,
+                    self.families,
+                )
+                .map_err(|e| RunError::Load(e.to_string()))?;
+                return crate::chaos::extend(&base, ext);
             }
             Some(ext) => {
                 let lowered = lasalle_model::lower_source(&self.path, &self.text)

@@ -120,7 +120,7 @@ fn extension(args: &GenArgs, path: &str, text: &str) -> CliResult<Option<Extensi
     if args.families == super::load::FamiliesArg::Loops {
         return Err(super::usage(
             "--families loops: the variational equations and the chaos indicators have no loop \
-             form; use --families auto or unrolled (they are emitted unrolled)"
+             form in the emitted Rust; use --families auto or unrolled (they are emitted unrolled)"
                 .to_string(),
         ));
     }

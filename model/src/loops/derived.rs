@@ -54,7 +54,7 @@ pub struct LoopPartition {
 
 /// Where a state variable of a family reads, per tuple.
 #[derive(Clone, Copy)]
-enum Column {
+pub(super) enum Column {
     /// Slot k of the family.
     Slot(usize),
     /// The same component every tuple (state the body reads directly).
@@ -281,7 +281,7 @@ impl Builder<'_> {
     /// The state family `f`'s expressions `exprs` read, as variables with where they read:
     /// its state slots, then the model's state they read directly (components beyond the
     /// model's state — the weights of ∇V — are not variables).
-    fn state_vars(&self, f: usize, exprs: &[Id]) -> Vec<(Input, Column)> {
+    pub(super) fn state_vars(&self, f: usize, exprs: &[Id]) -> Vec<(Input, Column)> {
         let fam = &self.lm.families[f];
         let n = self.lm.model.dim() as u32;
         let reach = self.g.reachable(exprs);

@@ -39,9 +39,15 @@
 //! from the state's), and so has the Taylor program of X − ∇V ([`LoopFeedback::taylor`],
 //! [`feedback_taylor`]: the three stages propagated as Taylor series — S's coefficients from
 //! x's, w's from x's and S's, then X − ∇V's from x's, S's and w's — on one table). The emitted
-//! Rust writes the field and the invariants as loops from these tapes, with the index
-//! structure of [`index`] (`lasalle_codegen::generate_source_with`). The variational equations
-//! have no loop form: they work on the unrolled model ([`LoopModel::unrolled`]).
+//! Rust writes the field, the invariants and the derived functions as loops from these tapes,
+//! with the index structure of [`index`] (`lasalle_codegen::generate_source_with`).
+//!
+//! The variational equations and the chaos indicators have a loop form ([`LoopModel::extend`],
+//! in [`variational`]): A·w is, per family, the body's directional derivative along the tangent
+//! (its components gathered as slots of a copy of the family), taken once and scattered to the
+//! tangent rows. The variational field (X, A·Φ) is one loop tape; the indicators' field, whose
+//! rates read λ = u·Au/(u·u), is staged as V's functions are (A·u, then λ and the rates, then X
+//! with them), and so has no loop form of its Taylor program.
 
 use crate::error::{Diagnostic, Error, Span};
 use crate::ir::{FxHashMap, Graph, Id, Input, Node};
@@ -217,9 +223,9 @@ impl LoopModel {
     }
 
     /// The same model with every family unrolled, lowered again from its source: what the
-    /// stages without a loop form (the variational equations, the emitted Rust's derived
-    /// functions, the lanes on X − ∇V, a derived function the loop form refuses) need, built
-    /// only when one of them is asked for.
+    /// stages without a loop form (the Taylor program of the indicators' field, the lanes on
+    /// X − ∇V, a derived function the loop form refuses) need, built only when one of them is
+    /// asked for.
     pub fn unrolled(&self) -> Result<Model, Error> {
         let source = &self.model.source;
         crate::lower_source(&source.path, &source.text)
@@ -694,9 +700,11 @@ mod derived;
 pub mod feedback_taylor;
 pub mod index;
 pub mod taylor;
+pub mod variational;
 pub use derived::{LoopFeedback, LoopPartition};
 #[cfg(test)]
 mod tests;
 
 pub use feedback_taylor::FeedbackTaylorProgram;
 pub use taylor::LoopTaylorProgram;
+pub use variational::{ExtendedField, LoopExtension};

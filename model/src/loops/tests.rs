@@ -353,3 +353,133 @@ fn the_index_structure_reproduces_the_tables() {
     // and the loops still compute the field the unrolled model does
     agrees(text, 3);
 }
+
+/// The loop form of the variational equations and of the indicators against
+/// [`Extension::apply`] of the unrolled model: the same declarations, the same field and the
+/// same peak event value at random extended states.
+fn extension_agrees(text: &str, ext: crate::variational::Extension, states: usize) {
+    use crate::variational::Extension;
+    let lm = LoopModel::from_source("m.lsl", text, Families::Loops).expect("loop form");
+    assert!(!lm.families().is_empty(), "some family is a loop");
+    let le = lm.extend(ext).expect("loop extension");
+    let field = le.field().expect("extended field");
+    assert_eq!(
+        matches!(field, ExtendedField::Loop(_)),
+        ext != Extension::Indicators
+    );
+    let model = le.unrolled().expect("unrolled extension");
+    let decl = le.declarations();
+    let names = |m: &crate::Model| -> Vec<(String, usize, usize)> {
+        m.state
+            .iter()
+            .map(|s| (s.name.clone(), s.offset, s.shape.len()))
+            .collect()
+    };
+    assert_eq!(names(decl), names(&model));
+    let events =
+        |m: &crate::Model| -> Vec<String> { m.events.iter().map(|e| e.name.clone()).collect() };
+    assert_eq!(events(decl), events(&model));
+    let (n, e) = (lm.dim(), model.dim());
+    assert_eq!(e, ext.extended_dim(n));
+    let dims = Dims {
+        state: e,
+        params: model.param_slots(),
+        targets: 0,
+        gains: 0,
+    };
+    let plain = Tape::from_graph(&model.graph, &model.field, dims).unwrap();
+    let inv = Tape::from_graph(&model.graph, &model.invariant_ids(), dims).unwrap();
+    let loop_inv = le.invariants().unwrap();
+    let peak = le.peak().unwrap();
+    assert_eq!(peak.is_some(), ext == Extension::Indicators);
+    let params = model.default_params();
+    for s in 0..states {
+        let mut x: Vec<f64> = numbers(100 + s as u64, e)
+            .iter()
+            .enumerate()
+            .map(|(i, v)| if i < n { v + (i / 3) as f64 * 0.37 } else { *v })
+            .collect();
+        if ext == Extension::Indicators {
+            let clock = crate::variational::IndicatorSlots { n }.clock();
+            x[clock] = x[clock].abs() + 0.5;
+        }
+        let a = field.eval(&params, &x).unwrap();
+        let b = plain.eval(&params, &x, &[], &[]).unwrap();
+        assert_eq!(a.len(), b.len());
+        let scale = b.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+        for (i, (u, v)) in a.iter().zip(&b).enumerate() {
+            assert!(
+                (u - v).abs() <= 2e-14 * scale,
+                "{ext:?} output {i}: loops {u}, unrolled {v}"
+            );
+        }
+        // the tangent rows are not trivially equal
+        assert!(b[n..2 * n].iter().any(|v| v.abs() > 1e-3), "{ext:?}");
+        let (u, v) = (
+            loop_inv.eval(&params, &x).unwrap(),
+            inv.eval(&params, &x, &[], &[]).unwrap(),
+        );
+        for (u, v) in u.iter().zip(&v) {
+            assert!((u - v).abs() <= 1e-13 * v.abs().max(1.0));
+        }
+        if let Some(peak) = &peak {
+            let event = model.events.last().unwrap().value;
+            let lambda = model.graph.eval_f64(&[event], &mut |i| match i {
+                Input::State(k) => x[k as usize],
+                Input::Param(k) => params[k as usize],
+                _ => 0.0,
+            })[0];
+            let l = peak.eval_lyapunov(&params, &x, &[], &[0.25]).unwrap();
+            assert!(
+                (l - lambda).abs() <= 1e-14 * scale,
+                "λ: loops {l}, unrolled {lambda}"
+            );
+            assert_eq!(l, a[2 * n], "λ is ℓ's rate");
+        }
+    }
+}
+
+#[test]
+fn nbody_extensions_agree_with_unrolled() {
+    use crate::variational::Extension;
+    for n in [4, 5] {
+        let text = sized(NBODY, "param n = 5;", n);
+        extension_agrees(&text, Extension::Indicators, 3);
+        extension_agrees(&text, Extension::Variational { tangents: 3 }, 3);
+    }
+}
+
+#[test]
+fn fput_extensions_agree_with_unrolled() {
+    use crate::variational::Extension;
+    let text = sized(FPUT, "param n = 16;", 9);
+    extension_agrees(&text, Extension::Indicators, 3);
+    extension_agrees(&text, Extension::Variational { tangents: 18 }, 2);
+}
+
+#[test]
+fn extension_region_code_is_independent_of_n() {
+    use crate::variational::Extension;
+    let regions = |t: &LoopTape| t.regions.iter().map(|r| r.tape.body.len()).sum::<usize>();
+    let size = |n| {
+        let lm = LoopModel::from_source("m.lsl", &sized(NBODY, "param n = 5;", n), Families::Loops)
+            .unwrap();
+        let ind = match lm.extend(Extension::Indicators).unwrap().field().unwrap() {
+            ExtendedField::Staged(s) => (regions(&s.sums), regions(&s.feedback)),
+            ExtendedField::Loop(_) => panic!("the indicators are staged"),
+        };
+        let var = match lm
+            .extend(Extension::Variational { tangents: 2 })
+            .unwrap()
+            .field()
+            .unwrap()
+        {
+            ExtendedField::Loop(t) => regions(&t),
+            ExtendedField::Staged(_) => panic!("the variational equations are one loop tape"),
+        };
+        (ind, var)
+    };
+    let (small, large) = (size(6), size(30));
+    assert_eq!(small, large);
+    assert!(small.0 .0 > 0 && small.1 > small.0 .1);
+}
