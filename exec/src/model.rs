@@ -653,6 +653,8 @@ impl LoadedModel {
             },
             guards_tape: guards,
             loop_field,
+            // X − ∇V of the extension comes from the unrolled extension (`kernels.feedback`)
+            loop_feedback: None,
             steps: Mutex::default(),
             info,
             load_time: start.elapsed(),
