@@ -22,6 +22,7 @@
 //! b; overlapping intervals are unordered. [`Real::hi_lo`] and [`Real::to_f64`] return the
 //! midpoint (intervals have no exact two-word split); the certified code does not use them.
 
+pub mod ball;
 pub mod certified;
 
 use crate::scalar::{Coeff, Real};
