@@ -1020,6 +1020,9 @@ pub struct CertifiedSetup<'a, H: HamiltonianFn + ?Sized> {
     /// The half-width of the proved box around the true equilibrium (max over the
     /// coordinates, in x), or `None` when the centre is the `f64` equilibrium.
     pub centre_radius: Option<f64>,
+    /// The box proved to contain the true equilibrium, in balls with double-double centres
+    /// (`None` when the proof failed).
+    pub centre: Option<Vec<Ball>>,
     c: Vec<Vec<Iv>>,
     bi: Vec<Vec<Iv>>,
     s: Vec<Vec<Iv>>,
@@ -1279,6 +1282,7 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
             n,
             xe,
             centre_radius,
+            centre: proved,
             c,
             bi,
             s,
