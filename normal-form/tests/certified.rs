@@ -343,7 +343,11 @@ fn sun_jupiter_l4_certified_above_the_rounding_floor() {
         c.centre_radius,
         &c.wdot.c[..4]
     );
-    assert!(c.wdot.c[0] < 1e-300 && c.wdot.c[1] < 1e-300, "{:?}", c.wdot.c);
+    assert!(
+        c.wdot.c[0] < 1e-300 && c.wdot.c[1] < 1e-300,
+        "{:?}",
+        c.wdot.c
+    );
     assert!(c.wdot.c[2] < 1e-12, "{:?}", c.wdot.c);
     let time = c.time.expect("a certified time");
     assert!(time > 6e8, "{time}");

@@ -243,6 +243,8 @@ impl Ball {
 
 impl Div for Ball {
     type Output = Ball;
+    // a/b = a·(1/b), with 1/b enclosed
+    #[allow(clippy::suspicious_arithmetic_impl)]
     fn div(self, o: Ball) -> Ball {
         if self.is_zero() {
             return Ball::point(0.0);
@@ -424,7 +426,11 @@ mod tests {
             assert!((q.hi - n / d).abs() < f64::EPSILON);
         }
         // √2, √3·10⁻⁸, √(1/3) against quad-double
-        for x in [Ball::point(2.0), Ball::point(3e-8), Ball::point(1.0) / Ball::point(3.0)] {
+        for x in [
+            Ball::point(2.0),
+            Ball::point(3e-8),
+            Ball::point(1.0) / Ball::point(3.0),
+        ] {
             let s = Real::sqrt(x);
             assert!(s.rad < 1e-31 * s.hi, "{x:?}: {s:?}");
             let q = crate::Qd::from_words([x.hi, x.lo, 0.0, 0.0]);

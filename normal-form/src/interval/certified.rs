@@ -4,8 +4,11 @@
 //!
 //! # What is proved, step by step
 //!
-//! Let `x_e` be the equilibrium as an `f64` vector and `B` the `f64` matrix
-//! [`NormalForm::linear_inverse`], and let `y = B(x − x_e)` (exact real arithmetic: this
+//! Let `x*` be the true equilibrium (`∇H(x*) = 0`, enclosed in a box proved by the
+//! Krawczyk operator in ball arithmetic, [`Ball`]; if that proof fails, the `f64`
+//! equilibrium `x_e` takes its place and everything below holds with `x_e` for `x*` except
+//! that the degree-1 coefficients are enclosed instead of zero) and `B` the `f64` matrix
+//! [`NormalForm::linear_inverse`], and let `y = B(x − x*)` (exact real arithmetic: this
 //! *defines* the linear normal coordinates, and `|y|` is the `linear-normal` distance the
 //! command prints). Let `T` be the polynomial map [`NormalForm::to_normal_map`] with its
 //! `f64` coefficients taken as exact (in three or more degrees of freedom cut at degree N,
@@ -14,10 +17,12 @@
 //! the true flow can change it.
 //!
 //! 1. **The field in y, enclosed.** `C ∋ B⁻¹` is an interval matrix (the approximate inverse
-//!    `A` corrected by a Neumann-series bound on `I − BA`), `S ∋ B J Bᵀ`. With
-//!    `H̃(y) = H(x_e + B⁻¹y)`, `ẏ = S∇H̃(y)`. The Taylor polynomial of `H̃` at 0 to degree
-//!    K + 1 is computed by evaluating the model's expression over interval jets
-//!    ([`Jet`]`<`[`Iv`]`>`): every coefficient is an interval containing the exact one. The
+//!    `A`, refined in double-double, corrected by a Neumann-series bound on `I − BA`, in
+//!    balls), `S ∋ B J Bᵀ` (in balls). With `H̃(y) = H(x* + B⁻¹y)`, `ẏ = S∇H̃(y)`. The
+//!    Taylor polynomial of `H̃` at 0 to degree K + 1 is computed by evaluating the model's
+//!    expression over interval jets ([`Jet`]`<`[`Iv`]`>`) at the box of `x*`: every
+//!    coefficient is an interval containing the exact one; the degree-1 coefficients,
+//!    `Cᵀ∇H(x*)`, are exactly 0 and set so. The
 //!    rest of `∂_k H̃` beyond degree K is bounded by the Lagrange form: its coefficients at
 //!    degree K + 1 are derivatives of order K + 2 at some point of the segment `[0, y]`,
 //!    enclosed by the same jets evaluated at the interval box `[−R, R]ⁿ ⊃ {|y| ≤ R}`.
@@ -28,7 +33,8 @@
 //!    `b_s = min(Σ|p_α|, (Σ|p_α|² α!/s!)^{1/2})`: the ℓ¹ sum (`|y^α| ≤ |y|^{|α|}`), or
 //!    Cauchy–Schwarz against the multinomial identity `|y|^{2s} = Σ (s!/α!) y^{2α}`, which
 //!    is never larger and is far smaller when many monomials share a degree.
-//!    `Ẇ = 2 Σ_j (Σ_i T_i ∂_j T_i) ẏ_j` is such a model; its polynomial part keeps the
+//!    `Ẇ = 2 Σ_j (Σ_i T_i ∂_j T_i) ẏ_j` is such a model (its degree-2 part, the lowest,
+//!    intersected with its enclosure in balls); its polynomial part keeps the
 //!    cancellations of the normal form (the degrees below N + 1 are zero up to the
 //!    coefficients' rounding, enclosed), so `|Ẇ(y)| ≤ G(|y|)` with a majorant G of degree
 //!    N + 1 and above, up to rounding-size terms.
@@ -49,8 +55,8 @@
 //!    the ball, so by comparison it needs at least
 //!    `∫_{ρ₀}^{ρ₁} 2ρ dρ / G(u(ρ)) ≥ Σ_k (ρ_{k+1} − ρ_k) 2ρ_k / G(u(ρ_{k+1}))`,
 //!    each term rounded down ([`CertifiedTube::time`]).
-//! 5. **Euclidean tubes** `|x − x_e| ≤ d` are reduced to the above by
-//!    `|y| ≤ ‖B‖_F |x − x_e|` and `|x − x_e| ≤ ‖C‖_F |y|`.
+//! 5. **Euclidean tubes** `|x − x*| ≤ d` are reduced to the above by
+//!    `|y| ≤ ‖B‖_F |x − x*|` and `|x − x*| ≤ ‖C‖_F |y|`.
 //!
 //! Assumed, not proved: that the platform's `exp`, `ln`, `sin`, `cos`, `pow` are accurate
 //! to [`LIBM_ULPS`](super::LIBM_ULPS) ulps (IEEE arithmetic and `√` are exact to the
@@ -465,6 +471,9 @@ fn grad_hess(p: &Poly<Ball>, n: usize) -> (Vec<Ball>, Vec<Vec<Ball>>) {
     (g, hs)
 }
 
+/// A matrix of balls.
+type BallMatrix = Vec<Vec<Ball>>;
+
 fn ball_matmul(a: &[Vec<Ball>], b: &[Vec<Ball>]) -> Vec<Vec<Ball>> {
     let (n, m, l) = (a.len(), b.len(), b.first().map_or(0, |r| r.len()));
     (0..n)
@@ -500,7 +509,10 @@ fn prove_equilibrium<H: HamiltonianFn + ?Sized>(h: &H, nf: &NormalForm) -> Optio
         .collect();
     let hess_f64 = |x: &[Ball]| -> Option<(Vec<Ball>, Vec<Vec<f64>>)> {
         let (g, hs) = grad_hess(&ball_jet(h, x, None, &t1), n);
-        let hm: Vec<Vec<f64>> = hs.iter().map(|r| r.iter().map(|c| c.mid()).collect()).collect();
+        let hm: Vec<Vec<f64>> = hs
+            .iter()
+            .map(|r| r.iter().map(|c| c.mid()).collect())
+            .collect();
         let y = crate::linalg::inverse(&hm)?;
         y.iter().flatten().all(|v| v.is_finite()).then_some((g, y))
     };
@@ -552,11 +564,7 @@ fn prove_equilibrium<H: HamiltonianFn + ?Sized>(h: &H, nf: &NormalForm) -> Optio
 /// refined by one Newton step to A₂ = A + A(I − BA) in double-double, then the
 /// Neumann-series bound of [`inverse_enclosure`] with E = I − BA₂ enclosed in balls) and
 /// `S ∋ BJBᵀ`, both to about 10⁻³⁰ instead of the `f64` rounding.
-fn linear_balls(
-    b: &[Vec<f64>],
-    a: &[Vec<f64>],
-    nd: usize,
-) -> Option<(Vec<Vec<Ball>>, Vec<Vec<Ball>>)> {
+fn linear_balls(b: &[Vec<f64>], a: &[Vec<f64>], nd: usize) -> Option<(BallMatrix, BallMatrix)> {
     let n = b.len();
     let (bb, ab) = (ball_points(b), ball_points(a));
     let id = |i: usize, j: usize| Ball::point(if i == j { 1.0 } else { 0.0 });
@@ -578,23 +586,32 @@ fn linear_balls(
             .fold(0.0, f64::max)
     };
     let eps = norm_inf(&e);
-    if !(eps < 0.5) {
+    if eps.is_nan() || eps >= 0.5 {
         return None;
     }
-    let delta = (Iv::point(norm_inf(&ball_matmul(&a2, &e))) / Iv::point((1.0 - eps).next_down())).hi;
+    let delta =
+        (Iv::point(norm_inf(&ball_matmul(&a2, &e))) / Iv::point((1.0 - eps).next_down())).hi;
     if !delta.is_finite() {
         return None;
     }
     let c = a2
         .iter()
-        .map(|r| r.iter().map(|x| x.with_radius(add_up(x.rad, delta))).collect())
+        .map(|r| {
+            r.iter()
+                .map(|x| x.with_radius(add_up(x.rad, delta)))
+                .collect()
+        })
         .collect();
     let s = (0..n)
         .map(|i| {
             (0..n)
                 .map(|j| {
                     (0..n).fold(Ball::point(0.0), |acc, k| {
-                        let jb = if k < nd { bb[j][k + nd] } else { -bb[j][k - nd] };
+                        let jb = if k < nd {
+                            bb[j][k + nd]
+                        } else {
+                            -bb[j][k - nd]
+                        };
                         acc + bb[i][k] * jb
                     })
                 })
@@ -1108,8 +1125,7 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
                 .collect(),
             None => inverse_enclosure(b, &nf.linear_map).ok_or_else(|| {
                 NormalFormError::Invalid(
-                    "the linear normalisation is too ill-conditioned to enclose its inverse"
-                        .into(),
+                    "the linear normalisation is too ill-conditioned to enclose its inverse".into(),
                 )
             })?,
         };
