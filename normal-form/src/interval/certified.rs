@@ -426,7 +426,8 @@ fn jet_at<H: HamiltonianFn + ?Sized>(
     h.eval(&inputs).into_poly(table)
 }
 
-/// Taylor polynomial of H at `x + C(base + t)` in t over ball jets (double-double centres).
+/// Taylor polynomial of H at `x + Ct` (`x + t` without C) in t over ball jets (double-double
+/// centres), for every x in the balls `x` and every matrix in the balls `C`.
 fn ball_jet<H: HamiltonianFn + ?Sized>(
     h: &H,
     x: &[Ball],
