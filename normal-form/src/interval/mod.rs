@@ -1,5 +1,5 @@
-//! Interval arithmetic over `f64` with outward rounding, and the certified tube bounds built
-//! on it ([`certified`]).
+//! Interval arithmetic over `f64` with outward rounding, ball arithmetic with double-double
+//! centres ([`ball`]), and the certified tube bounds built on them ([`certified`]).
 //!
 //! # The interval type
 //!
