@@ -307,7 +307,7 @@ fn certified_radius_for_a_time_is_the_largest_that_holds() {
 }
 
 /// Sun–Jupiter L4, N = 8: the tube is centred at the true equilibrium, proved (Krawczyk, in
-/// balls with double-double centres) to lie in a box below 10⁻²⁷ wide that contains the
+/// balls with double-double centres) to lie in a box of half-width below 10⁻²⁷ that contains the
 /// closed form of L4, q = (½ − μ, √3/2), p = (−√3/2, ½ − μ) (checked in quad-double). So Ẇ
 /// has no degree-1 term, and its degree-2 term, enclosed in balls, is far below what the
 /// `f64` centre and the `f64` enclosures of B⁻¹ and BJBᵀ left (2.5·10⁻¹³ r and
