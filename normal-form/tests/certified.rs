@@ -305,3 +305,50 @@ fn certified_radius_for_a_time_is_the_largest_that_holds() {
     tried.sort_by(|x, y| x.0.total_cmp(&y.0));
     assert!(tried.windows(2).all(|w| w[1].1 <= w[0].1), "{tried:?}");
 }
+
+/// Sun–Jupiter L4, N = 8: the tube is centred at the true equilibrium, proved (Krawczyk, in
+/// balls with double-double centres) to lie in a box of half-width below 10⁻²⁷ that contains the
+/// closed form of L4, q = (½ − μ, √3/2), p = (−√3/2, ½ − μ) (checked in quad-double). So Ẇ
+/// has no degree-1 term, and its degree-2 term, enclosed in balls, is far below what the
+/// `f64` centre and the `f64` enclosures of B⁻¹ and BJBᵀ left (2.5·10⁻¹³ r and
+/// 7·10⁻¹¹ r², which held the certified time below 2·10⁹ at every order: 4.1696e8 here).
+#[test]
+fn sun_jupiter_l4_certified_above_the_rounding_floor() {
+    use lasalle_normal_form::interval::certified::CertifiedSetup;
+    use lasalle_normal_form::{Coeff, Qd, Real};
+    let mu = 0.000953875;
+    let h = common::cr3bp(mu);
+    let n = 8usize;
+    let opts = Options {
+        remainder_degree: Some((2 * n).min(n + 8)),
+        inverse_transform: false,
+        ..Options::with_order(n)
+    };
+    let nf = common::l4_normal_form(mu, &opts).unwrap();
+    let setup =
+        CertifiedSetup::new(&h, &nf, Metric::LinearNormal, &CertifiedOptions::default()).unwrap();
+    let centre = setup.centre.as_ref().expect("the equilibrium proved");
+    let half = Qd::from_f64(0.5) - Qd::from_f64(mu);
+    let s3 = Real::sqrt(Qd::from_f64(3.0)) / Qd::from_f64(2.0);
+    for (b, exact) in centre.iter().zip([half, s3, -s3, half]) {
+        let d = exact - Qd::from_words([b.hi, b.lo, 0.0, 0.0]);
+        let d = if d < Qd::from_f64(0.0) { -d } else { d };
+        assert!(d <= Qd::from_f64(b.rad), "{b:?} misses {exact}");
+        assert!(b.rad < 1e-27, "{b:?}");
+    }
+    let c = setup.tube(5e-4, 1e-3).unwrap();
+    eprintln!(
+        "Sun–Jupiter N = {n}: T ≥ {:?}, centre ± {:?}, Ẇ majorant by degree {:?}",
+        c.time,
+        c.centre_radius,
+        &c.wdot.c[..4]
+    );
+    assert!(
+        c.wdot.c[0] < 1e-300 && c.wdot.c[1] < 1e-300,
+        "{:?}",
+        c.wdot.c
+    );
+    assert!(c.wdot.c[2] < 1e-12, "{:?}", c.wdot.c);
+    let time = c.time.expect("a certified time");
+    assert!(time > 6e8, "{time}");
+}

@@ -4,8 +4,11 @@
 //!
 //! # What is proved, step by step
 //!
-//! Let `x_e` be the equilibrium as an `f64` vector and `B` the `f64` matrix
-//! [`NormalForm::linear_inverse`], and let `y = B(x − x_e)` (exact real arithmetic: this
+//! Let `x*` be the true equilibrium (`∇H(x*) = 0`, enclosed in a box proved by the
+//! Krawczyk operator in ball arithmetic, [`Ball`]; if that proof fails, the `f64`
+//! equilibrium `x_e` takes its place and everything below holds with `x_e` for `x*` except
+//! that the degree-1 coefficients are enclosed instead of zero) and `B` the `f64` matrix
+//! [`NormalForm::linear_inverse`], and let `y = B(x − x*)` (exact real arithmetic: this
 //! *defines* the linear normal coordinates, and `|y|` is the `linear-normal` distance the
 //! command prints). Let `T` be the polynomial map [`NormalForm::to_normal_map`] with its
 //! `f64` coefficients taken as exact (in three or more degrees of freedom cut at degree N,
@@ -14,10 +17,12 @@
 //! the true flow can change it.
 //!
 //! 1. **The field in y, enclosed.** `C ∋ B⁻¹` is an interval matrix (the approximate inverse
-//!    `A` corrected by a Neumann-series bound on `I − BA`), `S ∋ B J Bᵀ`. With
-//!    `H̃(y) = H(x_e + B⁻¹y)`, `ẏ = S∇H̃(y)`. The Taylor polynomial of `H̃` at 0 to degree
-//!    K + 1 is computed by evaluating the model's expression over interval jets
-//!    ([`Jet`]`<`[`Iv`]`>`): every coefficient is an interval containing the exact one. The
+//!    `A`, refined in double-double, corrected by a Neumann-series bound on `I − BA`, in
+//!    balls), `S ∋ B J Bᵀ` (in balls). With `H̃(y) = H(x* + B⁻¹y)`, `ẏ = S∇H̃(y)`. The
+//!    Taylor polynomial of `H̃` at 0 to degree K + 1 is computed by evaluating the model's
+//!    expression over interval jets ([`Jet`]`<`[`Iv`]`>`) at the box of `x*`: every
+//!    coefficient is an interval containing the exact one; the degree-1 coefficients,
+//!    `Cᵀ∇H(x*)`, are exactly 0 and set so. The
 //!    rest of `∂_k H̃` beyond degree K is bounded by the Lagrange form: its coefficients at
 //!    degree K + 1 are derivatives of order K + 2 at some point of the segment `[0, y]`,
 //!    enclosed by the same jets evaluated at the interval box `[−R, R]ⁿ ⊃ {|y| ≤ R}`.
@@ -28,7 +33,8 @@
 //!    `b_s = min(Σ|p_α|, (Σ|p_α|² α!/s!)^{1/2})`: the ℓ¹ sum (`|y^α| ≤ |y|^{|α|}`), or
 //!    Cauchy–Schwarz against the multinomial identity `|y|^{2s} = Σ (s!/α!) y^{2α}`, which
 //!    is never larger and is far smaller when many monomials share a degree.
-//!    `Ẇ = 2 Σ_j (Σ_i T_i ∂_j T_i) ẏ_j` is such a model; its polynomial part keeps the
+//!    `Ẇ = 2 Σ_j (Σ_i T_i ∂_j T_i) ẏ_j` is such a model (its degree-2 part, the lowest,
+//!    intersected with its enclosure in balls); its polynomial part keeps the
 //!    cancellations of the normal form (the degrees below N + 1 are zero up to the
 //!    coefficients' rounding, enclosed), so `|Ẇ(y)| ≤ G(|y|)` with a majorant G of degree
 //!    N + 1 and above, up to rounding-size terms.
@@ -49,8 +55,8 @@
 //!    the ball, so by comparison it needs at least
 //!    `∫_{ρ₀}^{ρ₁} 2ρ dρ / G(u(ρ)) ≥ Σ_k (ρ_{k+1} − ρ_k) 2ρ_k / G(u(ρ_{k+1}))`,
 //!    each term rounded down ([`CertifiedTube::time`]).
-//! 5. **Euclidean tubes** `|x − x_e| ≤ d` are reduced to the above by
-//!    `|y| ≤ ‖B‖_F |x − x_e|` and `|x − x_e| ≤ ‖C‖_F |y|`.
+//! 5. **Euclidean tubes** `|x − x*| ≤ d` are reduced to the above by
+//!    `|y| ≤ ‖B‖_F |x − x*|` and `|x − x*| ≤ ‖C‖_F |y|`.
 //!
 //! Assumed, not proved: that the platform's `exp`, `ln`, `sin`, `cos`, `pow` are accurate
 //! to [`LIBM_ULPS`](super::LIBM_ULPS) ulps (IEEE arithmetic and `√` are exact to the
@@ -63,6 +69,7 @@
 // index loops over coordinates read as the formulas they implement
 #![allow(clippy::needless_range_loop)]
 
+use super::ball::Ball;
 use super::{add_up, mul_up, Iv};
 use crate::bound::Metric;
 use crate::error::NormalFormError;
@@ -334,6 +341,10 @@ pub struct CertifiedTube {
     /// The degrees L to which h = T − id enters the two branch and bounds (the rest is
     /// bounded by its sphere bounds: [`CertifiedSetup`]).
     pub extremum_degrees: (usize, usize),
+    /// The half-width (in x, the largest coordinate's) of the box proved to contain the
+    /// true equilibrium, the tube's centre; `None` when the proof failed and the centre is
+    /// the `f64` equilibrium (then Ẇ keeps a degree-1 term of rounding size).
+    pub centre_radius: Option<f64>,
     /// Seconds spent.
     pub seconds: f64,
 }
@@ -394,11 +405,12 @@ fn frobenius_up(m: &[Vec<Iv>]) -> f64 {
     s.sqrt().next_up()
 }
 
-/// Taylor polynomial of H at `x_e + C(base + t)` in t to the table's degree, over interval
-/// jets (base = 0 for the expansion at the equilibrium, a box for the Lagrange remainder).
+/// Taylor polynomial of H at `x + C(base + t)` in t to the table's degree, over interval
+/// jets, for every x in the box `xe` (base = 0 for the expansion at the equilibrium, a box
+/// for the Lagrange remainder).
 fn jet_at<H: HamiltonianFn + ?Sized>(
     h: &H,
-    xe: &[f64],
+    xe: &[Iv],
     c: &[Vec<Iv>],
     base: &[Iv],
     table: &Arc<MonomialTable>,
@@ -406,12 +418,248 @@ fn jet_at<H: HamiltonianFn + ?Sized>(
     let n = xe.len();
     let inputs: Vec<Jet<Iv>> = (0..n)
         .map(|i| {
-            let c0 = (0..n).fold(Iv::point(xe[i]), |s, j| s + c[i][j] * base[j]);
+            let c0 = (0..n).fold(xe[i], |s, j| s + c[i][j] * base[j]);
             let p = Poly::linear(table.clone(), &c[i]).add_constant(c0);
             Jet::Series(p)
         })
         .collect();
     h.eval(&inputs).into_poly(table)
+}
+
+/// Taylor polynomial of H at `x + Ct` (`x + t` without C) in t over ball jets (double-double
+/// centres), for every x in the balls `x` and every matrix in the balls `C`.
+fn ball_jet<H: HamiltonianFn + ?Sized>(
+    h: &H,
+    x: &[Ball],
+    c: Option<&[Vec<Ball>]>,
+    table: &Arc<MonomialTable>,
+) -> Poly<Ball> {
+    let n = x.len();
+    let inputs: Vec<Jet<Ball>> = (0..n)
+        .map(|i| {
+            let p = match c {
+                Some(c) => Poly::linear(table.clone(), &c[i]).add_constant(x[i]),
+                None => Poly::variable(table.clone(), i, x[i]),
+            };
+            Jet::Series(p)
+        })
+        .collect();
+    h.eval(&inputs).into_poly(table)
+}
+
+/// The gradient (degree-1 coefficients) and Hessian (from the degree-2 ones) of a Taylor
+/// polynomial of degree ≥ 2.
+fn grad_hess(p: &Poly<Ball>, n: usize) -> (Vec<Ball>, Vec<Vec<Ball>>) {
+    let mut g = vec![Ball::point(0.0); n];
+    let mut hs = vec![vec![Ball::point(0.0); n]; n];
+    for i in 0..n {
+        let mut e = vec![0u8; n];
+        e[i] = 1;
+        g[i] = p.coeff(&e);
+        for j in i..n {
+            let mut e = vec![0u8; n];
+            e[i] += 1;
+            e[j] += 1;
+            let c = p.coeff(&e);
+            if i == j {
+                hs[i][i] = c * Ball::point(2.0);
+            } else {
+                hs[i][j] = c;
+                hs[j][i] = c;
+            }
+        }
+    }
+    (g, hs)
+}
+
+/// A matrix of balls.
+type BallMatrix = Vec<Vec<Ball>>;
+
+fn ball_matmul(a: &[Vec<Ball>], b: &[Vec<Ball>]) -> Vec<Vec<Ball>> {
+    let (n, m, l) = (a.len(), b.len(), b.first().map_or(0, |r| r.len()));
+    (0..n)
+        .map(|i| {
+            (0..l)
+                .map(|j| (0..m).fold(Ball::point(0.0), |s, k| s + a[i][k] * b[k][j]))
+                .collect()
+        })
+        .collect()
+}
+
+fn ball_points(m: &[Vec<f64>]) -> Vec<Vec<Ball>> {
+    m.iter()
+        .map(|r| r.iter().map(|&x| Ball::point(x)).collect())
+        .collect()
+}
+
+/// The true equilibrium x* (∇H(x*) = 0) enclosed in a box of double-double balls by the
+/// Krawczyk operator: from x̃ (the normal form's double-double equilibrium, refined by two
+/// Newton steps) and a box X = x̃ + [−w, w]ⁿ,
+/// `K(X) = x̃ − Y∇H(x̃) + (I − Y∇²H(X))(X − x̃)` with Y ≈ ∇²H(x̃)⁻¹ (any real matrix) and
+/// ∇²H(X) enclosing the Hessian over the whole box (ball jets at the box). If K(X) lies in
+/// the interior of X, ∇H has exactly one zero in X and it lies in K(X) (Krawczyk 1969;
+/// Moore, *Methods and applications of interval analysis*, 1979, §5.2). `None` when the
+/// test fails for every w tried (e.g. a model whose functions the balls do not enclose).
+fn prove_equilibrium<H: HamiltonianFn + ?Sized>(h: &H, nf: &NormalForm) -> Option<Vec<Ball>> {
+    let n = 2 * nf.n_dof;
+    let t1 = Arc::new(MonomialTable::new(n, 2));
+    let mut x: Vec<Ball> = nf
+        .equilibrium
+        .iter()
+        .map(|v| Ball::new(v.value, v.lo, 0.0))
+        .collect();
+    let hess_f64 = |x: &[Ball]| -> Option<(Vec<Ball>, Vec<Vec<f64>>)> {
+        let (g, hs) = grad_hess(&ball_jet(h, x, None, &t1), n);
+        let hm: Vec<Vec<f64>> = hs
+            .iter()
+            .map(|r| r.iter().map(|c| c.mid()).collect())
+            .collect();
+        let y = crate::linalg::inverse(&hm)?;
+        y.iter().flatten().all(|v| v.is_finite()).then_some((g, y))
+    };
+    for _ in 0..2 {
+        let (g, y) = hess_f64(&x)?;
+        let yb = ball_points(&y);
+        x = (0..n)
+            .map(|i| {
+                let step = (0..n).fold(Ball::point(0.0), |s, j| s + yb[i][j] * g[j]);
+                (x[i] - step).centre()
+            })
+            .collect();
+    }
+    let (g, y) = hess_f64(&x)?;
+    let yb = ball_points(&y);
+    let yg: Vec<Ball> = (0..n)
+        .map(|i| (0..n).fold(Ball::point(0.0), |s, j| s + yb[i][j] * g[j]))
+        .collect();
+    let scale = x.iter().map(|b| b.mid().abs()).fold(1.0, f64::max);
+    let mut w = (1e-28 * scale).max(4.0 * yg.iter().map(|b| b.mag()).fold(0.0, f64::max));
+    for _ in 0..6 {
+        let xb: Vec<Ball> = x.iter().map(|b| b.with_radius(w)).collect();
+        let (_, hs) = grad_hess(&ball_jet(h, &xb, None, &t1), n);
+        let yh = ball_matmul(&yb, &hs);
+        let dk: Vec<Ball> = (0..n)
+            .map(|i| {
+                (0..n).fold(-yg[i], |s, j| {
+                    let id = if i == j { 1.0 } else { 0.0 };
+                    s + (Ball::point(id) - yh[i][j]) * Ball::point(0.0).with_radius(w)
+                })
+            })
+            .collect();
+        if dk.iter().all(|d| crate::Coeff::is_finite(d) && d.mag() < w) {
+            return Some(
+                (0..n)
+                    .map(|i| {
+                        let c = x[i] + dk[i].centre();
+                        c.with_radius(add_up(c.rad, dk[i].rad))
+                    })
+                    .collect(),
+            );
+        }
+        w *= 1e3;
+    }
+    None
+}
+
+/// The linear normalisation in ball arithmetic: `C ∋ B⁻¹` (the approximate inverse A
+/// refined by one Newton step to A₂ = A + A(I − BA) in double-double, then the
+/// Neumann-series bound of [`inverse_enclosure`] with E = I − BA₂ enclosed in balls) and
+/// `S ∋ BJBᵀ`, both to about 10⁻³⁰ instead of the `f64` rounding.
+fn linear_balls(b: &[Vec<f64>], a: &[Vec<f64>], nd: usize) -> Option<(BallMatrix, BallMatrix)> {
+    let n = b.len();
+    let (bb, ab) = (ball_points(b), ball_points(a));
+    let id = |i: usize, j: usize| Ball::point(if i == j { 1.0 } else { 0.0 });
+    let ba = ball_matmul(&bb, &ab);
+    let e0: Vec<Vec<Ball>> = (0..n)
+        .map(|i| (0..n).map(|j| id(i, j) - ba[i][j]).collect())
+        .collect();
+    let corr = ball_matmul(&ab, &e0);
+    let a2: Vec<Vec<Ball>> = (0..n)
+        .map(|i| (0..n).map(|j| (ab[i][j] + corr[i][j]).centre()).collect())
+        .collect();
+    let ba2 = ball_matmul(&bb, &a2);
+    let e: Vec<Vec<Ball>> = (0..n)
+        .map(|i| (0..n).map(|j| id(i, j) - ba2[i][j]).collect())
+        .collect();
+    let norm_inf = |m: &Vec<Vec<Ball>>| {
+        m.iter()
+            .map(|r| r.iter().fold(0.0, |s, c| add_up(s, c.mag())))
+            .fold(0.0, f64::max)
+    };
+    let eps = norm_inf(&e);
+    if eps.is_nan() || eps >= 0.5 {
+        return None;
+    }
+    let delta =
+        (Iv::point(norm_inf(&ball_matmul(&a2, &e))) / Iv::point((1.0 - eps).next_down())).hi;
+    if !delta.is_finite() {
+        return None;
+    }
+    let c = a2
+        .iter()
+        .map(|r| {
+            r.iter()
+                .map(|x| x.with_radius(add_up(x.rad, delta)))
+                .collect()
+        })
+        .collect();
+    let s = (0..n)
+        .map(|i| {
+            (0..n)
+                .map(|j| {
+                    (0..n).fold(Ball::point(0.0), |acc, k| {
+                        let jb = if k < nd {
+                            bb[j][k + nd]
+                        } else {
+                            -bb[j][k - nd]
+                        };
+                        acc + bb[i][k] * jb
+                    })
+                })
+                .collect()
+        })
+        .collect();
+    Some((c, s))
+}
+
+/// The degree-2 part of Ẇ in balls, as the coefficients of y_a y_b (a ≤ b): with L the
+/// linear part of T, v = LᵀL y to first order and ẏ = S H̃₂'' y, so
+/// `Ẇ₂ = 2 yᵀ (LᵀL) S H̃₂'' y`. Needs H̃'s degree-2 coefficients at the proved equilibrium.
+fn wdot2_balls<H: HamiltonianFn + ?Sized>(
+    h: &H,
+    centre: &[Ball],
+    c: &[Vec<Ball>],
+    s: &[Vec<Ball>],
+    lin: &[Vec<f64>],
+) -> Vec<Vec<Ball>> {
+    let n = centre.len();
+    let t2 = Arc::new(MonomialTable::new(n, 2));
+    let (_, hh) = grad_hess(&ball_jet(h, centre, Some(c), &t2), n);
+    let l = ball_points(lin);
+    let lt: Vec<Vec<Ball>> = (0..n).map(|i| (0..n).map(|j| l[j][i]).collect()).collect();
+    let q = ball_matmul(&ball_matmul(&ball_matmul(&lt, &l), s), &hh);
+    (0..n)
+        .map(|a| {
+            (0..n)
+                .map(|b| {
+                    if b < a {
+                        Ball::point(0.0)
+                    } else if a == b {
+                        q[a][a] * Ball::point(2.0)
+                    } else {
+                        (q[a][b] + q[b][a]) * Ball::point(2.0)
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The intersection of two enclosures of the same number (`None` if they are disjoint,
+/// which would mean an enclosure is wrong).
+fn intersect(a: Iv, b: Iv) -> Option<Iv> {
+    let (lo, hi) = (a.lo.max(b.lo), a.hi.min(b.hi));
+    (lo <= hi).then(|| Iv::new(lo, hi))
 }
 
 /// Certified extrema of `ρ² = |T(y)|² = |y|² + 2y·h(y) + |h(y)|²` (`h = T − id`) by interval
@@ -784,7 +1032,15 @@ impl Extremum {
 pub struct CertifiedSetup<'a, H: HamiltonianFn + ?Sized> {
     h: &'a H,
     n: usize,
-    xe: Vec<f64>,
+    /// The tube's centre: the box proved to contain the true equilibrium, or the `f64`
+    /// equilibrium as a point.
+    xe: Vec<Iv>,
+    /// The half-width of the proved box around the true equilibrium (max over the
+    /// coordinates, in x), or `None` when the centre is the `f64` equilibrium.
+    pub centre_radius: Option<f64>,
+    /// The box proved to contain the true equilibrium, in balls with double-double centres
+    /// (`None` when the proof failed).
+    pub centre: Option<Vec<Ball>>,
     c: Vec<Vec<Iv>>,
     bi: Vec<Vec<Iv>>,
     s: Vec<Vec<Iv>>,
@@ -850,13 +1106,30 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
             )
         })?;
         let n = 2 * nf.n_dof;
-        let xe = nf.equilibrium_f64();
+        let nd = nf.n_dof;
         let b = &nf.linear_inverse;
-        let c = inverse_enclosure(b, &nf.linear_map).ok_or_else(|| {
-            NormalFormError::Invalid(
-                "the linear normalisation is too ill-conditioned to enclose its inverse".into(),
-            )
-        })?;
+        // the centre: the true equilibrium in a proved box, else the f64 equilibrium
+        let proved = prove_equilibrium(h, nf);
+        let xe: Vec<Iv> = match &proved {
+            Some(x) => x.iter().map(|b| b.to_iv()).collect(),
+            None => nf.equilibrium_f64().into_iter().map(Iv::point).collect(),
+        };
+        let centre_radius = proved
+            .as_ref()
+            .map(|x| x.iter().map(|b| b.rad).fold(0.0, f64::max));
+        // C ∋ B⁻¹ and S ∋ BJBᵀ in balls (rounded out to f64 intervals), else in intervals
+        let balls = linear_balls(b, &nf.linear_map, nd);
+        let c = match &balls {
+            Some((cb, _)) => cb
+                .iter()
+                .map(|r| r.iter().map(|x| x.to_iv()).collect())
+                .collect(),
+            None => inverse_enclosure(b, &nf.linear_map).ok_or_else(|| {
+                NormalFormError::Invalid(
+                    "the linear normalisation is too ill-conditioned to enclose its inverse".into(),
+                )
+            })?,
+        };
         let bi: Vec<Vec<Iv>> = b
             .iter()
             .map(|r| r.iter().map(|&x| Iv::point(x)).collect())
@@ -886,8 +1159,7 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
         let table = Arc::new(MonomialTable::new(n, d));
 
         // 1. the field ẏ = S ∇H̃, S = B J Bᵀ
-        let nd = nf.n_dof;
-        let s: Vec<Vec<Iv>> = (0..n)
+        let s_iv: Vec<Vec<Iv>> = (0..n)
             .map(|i| {
                 (0..n)
                     .map(|j| {
@@ -904,9 +1176,28 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
                     .collect()
             })
             .collect();
+        let s: Vec<Vec<Iv>> = match &balls {
+            Some((_, sb)) => (0..n)
+                .map(|i| {
+                    (0..n)
+                        .map(|j| intersect(s_iv[i][j], sb[i][j].to_iv()).unwrap_or(s_iv[i][j]))
+                        .collect()
+                })
+                .collect(),
+            None => s_iv,
+        };
         let t_k1 = Arc::new(MonomialTable::new(n, k + 1));
         let zero = vec![Iv::point(0.0); n];
-        let hp = jet_at(h, &xe, &c, &zero, &t_k1);
+        let mut hp = jet_at(h, &xe, &c, &zero, &t_k1);
+        if proved.is_some() {
+            // at the true equilibrium the degree-1 coefficients, C^T ∇H(x*), are exactly 0;
+            // the others are enclosed over the box, which contains x*
+            for i in 0..n {
+                let mut e = vec![0u8; n];
+                e[i] = 1;
+                hp.set_coeff(&e, Iv::point(0.0));
+            }
+        }
         if !hp.is_finite() {
             return Err(NormalFormError::Invalid(
                 "the Hamiltonian's interval Taylor expansion at the equilibrium is not finite"
@@ -949,6 +1240,36 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
             vmaj.push(v.majorant());
             wdot = wdot.add(&v.mul(&field[j]));
         }
+        // Ẇ's degree 2 (its lowest with the proved centre): the intersection with its
+        // enclosure in balls, 10⁻³⁰ wide where the f64 intervals are 10⁻¹⁶
+        if let (Some(centre), Some((cb, sb))) = (&proved, &balls) {
+            let lin: Vec<Vec<f64>> = (0..n)
+                .map(|i| {
+                    (0..n)
+                        .map(|j| {
+                            let mut e = vec![0u8; n];
+                            e[j] = 1;
+                            map.components[i].coeff(&e)
+                        })
+                        .collect()
+                })
+                .collect();
+            let w2 = wdot2_balls(h, centre, cb, sb, &lin);
+            for a in 0..n {
+                for b in a..n {
+                    let mut e = vec![0u8; n];
+                    e[a] += 1;
+                    e[b] += 1;
+                    let old = wdot.p.coeff(&e);
+                    let tight = intersect(old, w2[a][b].to_iv()).ok_or_else(|| {
+                        NormalFormError::Invalid(
+                            "two enclosures of a coefficient of Ẇ are disjoint".into(),
+                        )
+                    })?;
+                    wdot.p.set_coeff(&e, tight);
+                }
+            }
+        }
         let g0 = wdot.majorant().scaled(2.0);
 
         // 3. τ: |T(y) − y| ≤ τ(|y|), and κ: |y·h(y)| ≤ κ(|y|) (h = T − id)
@@ -977,6 +1298,8 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
             h,
             n,
             xe,
+            centre_radius,
+            centre: proved,
             c,
             bi,
             s,
@@ -1202,6 +1525,7 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
             tau1,
             boxes,
             extremum_degrees: (ext0.degree, ext1.degree),
+            centre_radius: self.centre_radius,
             seconds: 0.0,
         };
         // ψ(r) = r − τ(r) must increase on [0, y1]: τ′ ≤ |(τ_i′)| ≤ its value at y1

@@ -1,5 +1,5 @@
-//! Interval arithmetic over `f64` with outward rounding, and the certified tube bounds built
-//! on it ([`certified`]).
+//! Interval arithmetic over `f64` with outward rounding, ball arithmetic with double-double
+//! centres ([`ball`]), and the certified tube bounds built on them ([`certified`]).
 //!
 //! # The interval type
 //!
@@ -22,6 +22,7 @@
 //! b; overlapping intervals are unordered. [`Real::hi_lo`] and [`Real::to_f64`] return the
 //! midpoint (intervals have no exact two-word split); the certified code does not use them.
 
+pub mod ball;
 pub mod certified;
 
 use crate::scalar::{Coeff, Real};
