@@ -6,6 +6,13 @@ mod cli;
 /// Exit codes: 0 success, 1 a model error or a run that failed (diverged, left its domain),
 /// 2 a mistake in the command line.
 fn main() {
+    // A reader that closes the pipe early (`lasalle run … | head -1`) ends the process quietly,
+    // as it ends `cat`; Rust ignores SIGPIPE by default, and the next print would panic.
+    #[cfg(unix)]
+    // SAFETY: sets the default disposition of one signal, before any other thread exists.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     if let Err(e) = cli::main() {
         let text = e.to_string();
         // Model diagnostics already start with `error:` and carry file:line:col.

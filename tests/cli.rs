@@ -196,3 +196,24 @@ fn hostile_flags_are_refused_in_one_line_with_exit_code_2() {
         failures.join("\n")
     );
 }
+
+/// A reader that closes the pipe before lasalle prints (`lasalle … | head -1`) ends it quietly,
+/// as it ends `cat`: no panic on the write.
+#[cfg(unix)]
+#[test]
+fn a_closed_pipe_ends_the_output_without_a_panic() {
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::{Command, Stdio};
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lasalle"))
+        .args(["gen", "models/kepler.lsl"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the lasalle binary runs");
+    // the read end closes before the model is even parsed
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("lasalle ends");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(out.status.signal(), Some(libc::SIGPIPE), "{stderr}");
+}
