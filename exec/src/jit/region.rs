@@ -8,7 +8,7 @@
 //! the two agree bit for bit.
 
 use super::{call_cbrt, call_cos, call_ellipf, call_ellipk, call_exp, call_ln, call_powf};
-use super::{call_sin, jit_err, jit_module, Code};
+use super::{call_sin, jit_err, jit_module, Code, Math};
 use crate::{ExecError, Op};
 use cranelift_codegen::ir::condcodes::IntCC;
 use cranelift_codegen::ir::immediates::Ieee64;
@@ -50,18 +50,12 @@ fn define(module: &mut JITModule, r: &Region) -> Result<cranelift_module::FuncId
     sig.params.extend([AbiParam::new(ptr); 6]);
     let id = module.declare_anonymous_function(&sig).map_err(jit_err)?;
     ctx.func.signature = sig;
-    let mut unary = module.make_signature();
-    unary.params.push(AbiParam::new(types::F64));
-    unary.returns.push(AbiParam::new(types::F64));
-    let mut binary = unary.clone();
-    binary.params.push(AbiParam::new(types::F64));
-    let mut powf = module.make_signature();
-    powf.params.extend([
-        AbiParam::new(types::F64),
-        AbiParam::new(types::I32),
-        AbiParam::new(types::I32),
-    ]);
-    powf.returns.push(AbiParam::new(types::F64));
+    let Math {
+        unary,
+        binary,
+        powf,
+        ..
+    } = Math::new(module);
     {
         let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
         let entry = b.create_block();

@@ -427,16 +427,7 @@ fn define(
         b.append_block_params_for_function_params(entry);
         b.switch_to_block(entry);
         let args: [Value; 5] = b.block_params(entry).try_into().expect("five parameters");
-        let mut unary = module.make_signature();
-        unary.params.push(AbiParam::new(types::F64));
-        unary.returns.push(AbiParam::new(types::F64));
-        let mut binary = unary.clone();
-        binary.params.push(AbiParam::new(types::F64));
-        let mut ellipj = module.make_signature();
-        ellipj
-            .params
-            .extend([AbiParam::new(types::F64), AbiParam::new(types::F64)]);
-        ellipj.params.push(AbiParam::new(ptr));
+        let [unary, binary, ellipj] = call_signatures(module);
         let zero = b.ins().f64const(Ieee64::with_bits(0f64.to_bits()));
         let [state, hoisted, target, gains, table] = args;
         let mut e = Emit {
@@ -1075,4 +1066,20 @@ struct Leaves {
     hoisted: Value,
     target: Value,
     gains: Value,
+}
+
+/// The signatures of the math wrappers the recurrences call: x ↦ f(x), (x, y) ↦ f(x, y) and
+/// `ellipj`'s (u, m, out).
+fn call_signatures(module: &JITModule) -> [Signature; 3] {
+    let mut unary = module.make_signature();
+    unary.params.push(AbiParam::new(types::F64));
+    unary.returns.push(AbiParam::new(types::F64));
+    let mut binary = unary.clone();
+    binary.params.push(AbiParam::new(types::F64));
+    let mut ellipj = binary.clone();
+    ellipj.returns.clear();
+    ellipj
+        .params
+        .push(AbiParam::new(module.target_config().pointer_type()));
+    [unary, binary, ellipj]
 }

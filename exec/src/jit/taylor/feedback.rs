@@ -9,7 +9,9 @@
 //! two agree bitwise. The tuples' tables are compact, as the field's.
 
 use super::loops::{layout, Layout, LoopEmit};
-use super::{jit_err, jit_module, offset, Code, Emit, Leaves, EARLY_GROUP, OPT_LEVEL};
+use super::{
+    call_signatures, jit_err, jit_module, offset, Code, Emit, Leaves, EARLY_GROUP, OPT_LEVEL,
+};
 use crate::taylor::{LoopFeedbackTaylor, TaylorError};
 use crate::ExecError;
 use cranelift_codegen::ir::immediates::Ieee64;
@@ -204,16 +206,7 @@ fn define(
         b.switch_to_block(entry);
         let [state, pointers]: [Value; 2] =
             b.block_params(entry).try_into().expect("two parameters");
-        let mut unary = module.make_signature();
-        unary.params.push(AbiParam::new(types::F64));
-        unary.returns.push(AbiParam::new(types::F64));
-        let mut binary = unary.clone();
-        binary.params.push(AbiParam::new(types::F64));
-        let mut ellipj = module.make_signature();
-        ellipj
-            .params
-            .extend([AbiParam::new(types::F64), AbiParam::new(types::F64)]);
-        ellipj.params.push(AbiParam::new(ptr));
+        let [unary, binary, ellipj] = call_signatures(module);
         let zero = b.ins().f64const(Ieee64::with_bits(0f64.to_bits()));
         let flags = MemFlagsData::trusted().with_readonly().with_can_move();
         let at = |b: &mut FunctionBuilder, i: usize| {

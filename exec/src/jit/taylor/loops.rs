@@ -13,7 +13,9 @@
 //! term that is 6 rows of 29, so the tables of 1 128 pairs take 1.3 MB at p = 19 and stay in
 //! the cache (the interpreter keeps full tables, the same values).
 
-use super::{jit_err, jit_module, offset, Code, Emit, Leaves, EARLY_GROUP, OPT_LEVEL};
+use super::{
+    call_signatures, jit_err, jit_module, offset, Code, Emit, Leaves, EARLY_GROUP, OPT_LEVEL,
+};
 use crate::taylor::{LoopTaylorTape, TaylorError};
 use crate::ExecError;
 use cranelift_codegen::ir::condcodes::IntCC;
@@ -224,16 +226,7 @@ fn define(
         b.switch_to_block(entry);
         let [state, pointers]: [Value; 2] =
             b.block_params(entry).try_into().expect("two parameters");
-        let mut unary = module.make_signature();
-        unary.params.push(AbiParam::new(types::F64));
-        unary.returns.push(AbiParam::new(types::F64));
-        let mut binary = unary.clone();
-        binary.params.push(AbiParam::new(types::F64));
-        let mut ellipj = module.make_signature();
-        ellipj
-            .params
-            .extend([AbiParam::new(types::F64), AbiParam::new(types::F64)]);
-        ellipj.params.push(AbiParam::new(ptr));
+        let [unary, binary, ellipj] = call_signatures(module);
         let zero = b.ins().f64const(Ieee64::with_bits(0f64.to_bits()));
         let flags = MemFlagsData::trusted().with_readonly().with_can_move();
         let at = |b: &mut FunctionBuilder, i: usize| {
