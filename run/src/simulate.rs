@@ -207,6 +207,69 @@ impl<O: Observer<f64, X>, X: ?Sized> Observer<f64, X> for Progress<'_, O> {
     }
 }
 
+/// The recorder, and the drift check on what it records: a sample's invariant errors are
+/// the drifts [`DriftBound`] bounds, so each sample evaluates the invariants once. A sample
+/// past the bound ends the run with [`StepError::Diverged`], as the driver's check would,
+/// and is not recorded.
+struct Checked<'o, R, D> {
+    rec: &'o mut R,
+    drift: Option<&'o D>,
+    diverged: Option<StepError>,
+}
+
+impl<Mdl, X, FV> Checked<'_, Recorder<'_, Mdl, f64, X, FV>, DriftBound<'_, Mdl, f64, FV>>
+where
+    Mdl: Invariants<f64, X, FV> + ModelInfo + ?Sized,
+    X: State<f64>,
+    FV: State<f64>,
+{
+    /// Checks the sample the recorder took at `step`, if it took one.
+    fn check(&mut self, samples_before: usize, step: u64, t: f64, x: &X) -> Control {
+        let (Some(drift), true) = (self.drift, self.rec.len() > samples_before && step > 0) else {
+            return Control::Continue;
+        };
+        match drift.check_errors(self.rec.errors_at(samples_before)) {
+            None => Control::Continue,
+            Some(message) => {
+                self.rec.pop();
+                self.diverged = Some(StepError::Diverged {
+                    t,
+                    step,
+                    message,
+                    state: x.as_ref().to_vec(),
+                });
+                Control::Stop
+            }
+        }
+    }
+}
+
+impl<Mdl, X, FV> Observer<f64, X>
+    for Checked<'_, Recorder<'_, Mdl, f64, X, FV>, DriftBound<'_, Mdl, f64, FV>>
+where
+    Mdl: Invariants<f64, X, FV> + ModelInfo + ?Sized,
+    X: State<f64>,
+    FV: State<f64>,
+{
+    fn observe(&mut self, step: u64, t: f64, x: &X) -> Control {
+        let before = self.rec.len();
+        self.rec.observe(step, t, x);
+        self.check(before, step, t, x)
+    }
+
+    fn finish(&mut self, step: u64, t: f64, x: &X) {
+        if self.diverged.is_none() {
+            let before = self.rec.len();
+            self.rec.finish(step, t, x);
+            self.check(before, step, t, x);
+        }
+    }
+
+    fn next_wanted(&self, step: u64) -> u64 {
+        self.rec.next_wanted(step)
+    }
+}
+
 /// The innermost visitor: integrates `field` with the stepper and records the model's
 /// invariants.
 struct Drive<'a, Mdl, F: ?Sized, X, FV> {
@@ -237,6 +300,7 @@ where
             1,
             sample_capacity(spec.steps(), every),
         );
+        let drift = DriftBound::new(self.model, &self.x0, spec.max_drift);
         let mut driver = Driver::new(0.0, spec.t_end, spec.dt).max_steps(spec.max_steps);
         // the model's guards, with the step size (0 for adaptive methods, which shrink theirs)
         let (model, h) = (
@@ -247,26 +311,6 @@ where
                 spec.dt
             },
         );
-        let drift = DriftBound::new(model, &self.x0, spec.max_drift);
-        // a stepper that checks the guards itself leaves the driver the initial state's check
-        let guard_every = if stepper.checks_guards() { u64::MAX } else { 1 };
-        driver = driver
-            .guard(guard_every, move |x: &X| {
-                model.check_guards(x, h).map(|g| g.to_string())
-            })
-            .divergence(every, move |x: &X| drift.check(x));
-        if let Some(stop) = &spec.interrupt {
-            driver = driver.interrupt(move || stop.is_stopped());
-        }
-        let mut obs = Stride::new(
-            Progress {
-                inner: &mut rec,
-                progress: self.progress,
-                every,
-            },
-            every,
-        );
-        let (start, cpu_start) = (Instant::now(), process_cpu_seconds());
         // without `record_events`, only a model with a `stop` event needs the watch
         let events = model.events();
         let watched = !spec.t_eval.is_empty()
@@ -275,6 +319,34 @@ where
             } else {
                 events.iter().any(|e| e.terminal)
             };
+        // a stepper that checks the guards itself leaves the driver the initial state's check
+        let guard_every = if stepper.checks_guards() { u64::MAX } else { 1 };
+        driver = driver.guard(guard_every, move |x: &X| {
+            model.check_guards(x, h).map(|g| g.to_string())
+        });
+        // a watched run records output times and crossings, not steps: the driver checks
+        // the drift there; otherwise it checks the samples, as the recorder computes them
+        if watched {
+            let drift = &drift;
+            driver = driver.divergence(every, move |x: &X| drift.check(x));
+        }
+        if let Some(stop) = &spec.interrupt {
+            driver = driver.interrupt(move || stop.is_stopped());
+        }
+        let mut checked = Checked {
+            rec: &mut rec,
+            drift: (!watched).then_some(&drift),
+            diverged: None,
+        };
+        let mut obs = Stride::new(
+            Progress {
+                inner: &mut checked,
+                progress: self.progress,
+                every,
+            },
+            every,
+        );
+        let (start, cpu_start) = (Instant::now(), process_cpu_seconds());
         let mut hits = Vec::new();
         let result = if watched {
             watched_run(
@@ -289,6 +361,10 @@ where
             )
         } else {
             driver.run(&mut stepper, self.field, &self.x0, &mut obs)
+        };
+        let result = match checked.diverged {
+            Some(diverged) => Err(diverged),
+            None => result,
         };
         let wall_seconds = start.elapsed().as_secs_f64();
         let cpu_seconds = process_cpu_seconds()

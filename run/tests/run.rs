@@ -8,7 +8,7 @@ use lasalle_run::{
     find_preset, simulate, simulate_many, simulate_with_progress, Init, Member, Method,
     ModelSource, Recording, RunError, RunSpec,
 };
-use lasalle_runtime::{GainPolicy, Parameters};
+use lasalle_runtime::{GainPolicy, Parameters, StepError};
 
 fn model_path(stem: &str) -> String {
     format!("{}/../models/{stem}.lsl", env!("CARGO_MANIFEST_DIR"))
@@ -205,6 +205,39 @@ fn compiled_batches_stop_where_the_generic_stepper_does() {
             );
             assert_same(&a, &b, &format!("blow-up, {guard} every {every}"));
         }
+    }
+}
+
+/// Euler on the free rigid body amplifies every rotation by √(1 + ω²h²) a step: at h = 0.1
+/// the energy passes its drift bound within a few hundred steps. The run stops at the first
+/// sample past the bound, with batches of compiled steps between the samples (JIT) as with
+/// one step at a time (interpreter), and does not record the diverged sample.
+#[test]
+fn a_drifting_run_stops_at_its_first_sample_past_the_bound() {
+    let jit = load("rigid_body");
+    let interp = LoadedModel::load(model_path("rigid_body"), Backend::Interpreter).unwrap();
+    let x0 = jit.point("paper").unwrap();
+    for every in [1, 7, 40] {
+        let mut spec = RunSpec::new("euler".parse::<Method>().unwrap(), 0.1, 1e4);
+        spec.every = every;
+        spec.max_drift = 10.0;
+        let a = simulate(&jit, &x0, &spec).unwrap();
+        let b = simulate(&interp, &x0, &spec).unwrap();
+        assert_same(&a, &b, &format!("drift, every {every}"));
+        let Some(StepError::Diverged { step, t, .. }) = &a.failure else {
+            panic!("every {every}: expected a divergence, got {:?}", a.failure);
+        };
+        assert_eq!(step % every, 0, "checked at the samples: {step}");
+        assert!(*step > every, "{step}");
+        let samples = a.t.len();
+        assert_eq!(samples as u64, step / every, "every sample up to the failure's");
+        assert!(a.t_final() < *t);
+        // within the bound at the last sample, past it at the next: the run of the same
+        // spec to the last sample's time ends without a failure
+        let mut before = spec.clone();
+        before.t_end = a.t_final();
+        let c = simulate(&interp, &x0, &before).unwrap();
+        assert!(c.failure.is_none(), "{:?}", c.failure);
     }
 }
 

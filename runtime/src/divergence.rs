@@ -73,21 +73,40 @@ where
     {
         let mut f = self.f.borrow_mut();
         self.model.invariants(x, &mut f);
-        self.blocks.iter().find_map(|(name, range, bound)| {
-            let drift = norm(
+        self.first_past(self.blocks.iter().map(|(_, range, _)| {
+            norm(
                 range
                     .clone()
                     .map(|i| f.as_ref()[i] - self.target.as_ref()[i]),
-            );
-            (!(drift <= *bound)).then(|| {
-                format!(
-                    "invariant {name} drifted by |Δ{name}| = {:e}, past {:e} × max(|{name}(x₀)|, 1) = {:e}",
-                    to_f64(drift),
-                    to_f64(self.max_drift),
-                    to_f64(*bound)
-                )
+            )
+        }))
+    }
+
+    /// [`check`](Self::check) on the blocks' drifts |fᵢ(x) − fᵢ(x₀)| already computed, one
+    /// per declared invariant block in the model's order, as a
+    /// [`Recorder`](crate::Recorder) of the same model records them
+    /// ([`Recorder::errors_at`](crate::Recorder::errors_at)): a run that records what it checks
+    /// evaluates the invariants once.
+    pub fn check_errors(&self, errors: &[T]) -> Option<String> {
+        debug_assert_eq!(errors.len(), self.blocks.len());
+        self.first_past(errors.iter().copied())
+    }
+
+    /// The message of the first block whose drift is past its bound (or not a number).
+    fn first_past(&self, drifts: impl Iterator<Item = T>) -> Option<String> {
+        self.blocks
+            .iter()
+            .zip(drifts)
+            .find_map(|((name, _, bound), drift)| {
+                (!(drift <= *bound)).then(|| {
+                    format!(
+                        "invariant {name} drifted by |Δ{name}| = {:e}, past {:e} × max(|{name}(x₀)|, 1) = {:e}",
+                        to_f64(drift),
+                        to_f64(self.max_drift),
+                        to_f64(*bound)
+                    )
+                })
             })
-        })
     }
 }
 

@@ -254,9 +254,12 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
                     .min(summary.steps.saturating_add(divergence.left))
                     .min(next_interrupt);
                 let before_last = to_f64(n_total - n - T::one()).max(0.0) as u64;
-                // (an observer that names a step already taken gets every step)
+                // up to the watched step itself, short of the last, shortened one (an
+                // observer that names a step already taken gets every step; one that wants
+                // the very next may read the stepper's continuous extension of it, which a
+                // batch does not leave, so k > 1)
                 let k = watched
-                    .saturating_sub(summary.steps + 1)
+                    .saturating_sub(summary.steps)
                     .min(before_last)
                     .min(self.max_steps.saturating_sub(summary.steps));
                 if k > 1 {
@@ -266,6 +269,29 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
                             summary.evaluations += batch.evaluations;
                             n = n + lit::<T>(batch.steps as f64);
                             t = t0 + n * h;
+                            if batch.steps == k && summary.steps == watched {
+                                // the watched step was the batch's last, finite and within
+                                // the guards: its checks and its observer, as after a step
+                                guard.skip(k - 1);
+                                divergence.skip(k - 1);
+                                let (guard_due, divergence_due) = (guard.tick(), divergence.tick());
+                                self.run_checks(
+                                    guard_due,
+                                    divergence_due,
+                                    summary.steps,
+                                    t >= t_end,
+                                    t,
+                                    h,
+                                    &x,
+                                )?;
+                                let control;
+                                (control, wanted) = on_step(stepper, summary.steps, t, &x);
+                                if control == Control::Stop {
+                                    summary.stopped_by_observer = true;
+                                    break;
+                                }
+                                continue;
+                            }
                             guard.skip(batch.steps);
                             divergence.skip(batch.steps);
                         }

@@ -393,6 +393,14 @@ where
         self.blocks.iter().position(|(n, _)| *n == name)
     }
 
+    /// Forgets the last sample (a run that stops at a state it does not report).
+    pub fn pop(&mut self) {
+        if self.t.pop().is_some() {
+            self.x.truncate(self.t.len() * self.dim);
+            self.errors.truncate(self.t.len() * self.blocks.len());
+        }
+    }
+
     fn push(&mut self, t: T, x: &X) {
         self.model.invariants(x, &mut self.f);
         self.t.push(t);
