@@ -26,16 +26,21 @@ use crate::error::Error;
 use crate::ir::{gradient, Id, Input, Node};
 use crate::tape::{Dims, Tape, TapeError};
 
-/// V, ∇V and X − ∇V of a [`LoopModel`] in three stages (see the [module docs](super)); K is the
-/// number of family sums V reads, N the state's and M the invariants' components.
+/// V, ∇V and X − ∇V of a [`LoopModel`] in stages (see the [module docs](super)); K is the
+/// number of family sums V reads, D the number of values the pass carries to the last stage
+/// ([`LoopFeedback::carried`]), N the state's and M the invariants' components.
 #[derive(Clone, Debug)]
 pub struct LoopFeedback {
-    /// Stage 1: the sums S from the state (N inputs, K outputs).
+    /// V's stage 1: the sums S from the state (N inputs, K outputs).
     pub sums: LoopTape,
     /// Stage 2: V and w = ∂V/∂S (1 + K outputs) from `[x, S]` (N + K state inputs), the M
     /// targets and the gains.
     pub weights: Tape,
-    /// Stage 3: ∇V (N outputs) from `[x, S, w]` (N + 2K state inputs), the targets and gains.
+    /// Stage 1 of ∇V and X − ∇V: the sums S and the carried values (K + D outputs) from the
+    /// state, in one pass over each family's tuples. Where nothing is carried, `sums`.
+    pub pass: LoopTape,
+    /// Stage 3: ∇V (N outputs) from `[x, S, carried, w]` (N + 2K + D state inputs), the
+    /// targets and gains.
     pub gradient: LoopTape,
     /// Stage 3: X − ∇V (N outputs), with the inputs of `gradient`.
     pub feedback: LoopTape,
@@ -135,38 +140,145 @@ impl LoopModel {
         });
         let internal = |e: TapeError| Error::Internal(format!("loop tape of V: {e}"));
         let weights = Tape::from_graph(&b.g, &v_w, b.dims(k as usize, true)).map_err(internal)?;
-        // Stage 3: per family, the gradient of Σ w·body by its state slots.
-        let mut grad_outs = Outputs::default();
-        let mut neg_outs = Outputs::default();
-        let mut i = 0;
-        while i < used.len() {
-            let f = used[i].0;
-            let mut terms = Vec::new();
-            while i < used.len() && used[i].0 == f {
-                let w = b.g.input(Input::State(n + k + i as u32));
-                terms.push(b.g.mul(&[w, self.families[f].body[used[i].1]]));
-                i += 1;
+        // The pass: per family, its sums, their partials (the entries of ∇S_k) and its
+        // outputs of the field, scattered to `[S, D]`.
+        let mut pass_outs = Outputs::default();
+        for (i, &(f, c, _)) in used.iter().enumerate() {
+            let fam = &self.families[f];
+            pass_outs
+                .entry(f)
+                .or_default()
+                .push((fam.body[c], vec![i as u32; fam.count]));
+        }
+        // ∇S_i's entries at the components they reach (`reach[i]`, increasing).
+        let mut grads: Vec<Outputs> = Vec::with_capacity(used.len());
+        let mut reach: Vec<Vec<u32>> = Vec::with_capacity(used.len());
+        for &(f, c, _) in &used {
+            let mut outs = Outputs::default();
+            let body = self.families[f].body[c];
+            b.partials(f, body, |_, at| at, &mut outs);
+            let mut r: Vec<u32> = outs.values().flatten().flat_map(|(_, col)| col.clone()).collect();
+            r.sort_unstable();
+            r.dedup();
+            grads.push(outs);
+            reach.push(r);
+        }
+        // The field: its plain part, its explicit family outputs, and the Hamiltonian's terms;
+        // a term whose body is a sum V reads (the energy's) is not run again, its equations
+        // are read from that sum's gradient: c·J∇S_i.
+        let (field_roots, mut field_outs, hamiltonian) = b.field_parts()?;
+        let mut shared: Vec<(usize, f64, Vec<(u32, f64)>)> = Vec::new();
+        if let Some(h) = hamiltonian {
+            // validates the terms as the field does (canonical pairs, consistent members)
+            let mut check = Outputs::default();
+            b.hamilton(&h.terms, &h.q, &h.p, &mut check)?;
+            let mut partner: Vec<Option<(u32, f64)>> = vec![None; n as usize];
+            for (&qa, &pa) in h.q.iter().zip(&h.p) {
+                partner[qa] = Some((pa as u32, -1.0));
+                partner[pa] = Some((qa as u32, 1.0));
             }
-            let term = b.g.add(&terms);
-            b.partials(f, term, |_, at| at, &mut grad_outs);
-            let neg = b.g.neg(term);
-            b.partials(f, neg, |_, at| at, &mut neg_outs);
+            let mut rest = Outputs::default();
+            for &(f, c, coeff) in &h.coefficients {
+                let body = self.families[f].body[c];
+                let direct = b
+                    .state_vars(f, &[body])
+                    .iter()
+                    .all(|(_, v)| matches!(v, Column::Slot(_)));
+                let i = used.iter().position(|&(uf, uc, _)| (uf, uc) == (f, c));
+                let to: Option<Vec<(u32, f64)>> = i.and_then(|i| {
+                    reach[i].iter().map(|&s| partner[s as usize]).collect()
+                });
+                match (i, to) {
+                    (Some(i), Some(to)) if direct => shared.push((i, coeff, to)),
+                    _ => {
+                        let k = b.g.num(coeff);
+                        let term = b.g.mul(&[k, body]);
+                        let count = self.families[f].count;
+                        rest.entry(f).or_default().push((term, vec![0; count]));
+                    }
+                }
+            }
+            b.hamilton(&rest, &h.q, &h.p, &mut field_outs)?;
         }
-        let dims = b.dims(2 * k as usize, true);
-        let gradient_tape = b.tape(&explicit, dims, grad_outs)?;
-        let (field_roots, mut field_outs) = b.field()?;
-        for (f, list) in neg_outs {
-            field_outs.entry(f).or_default().extend(list);
+        // D: the gradients' entries, then the field's family outputs, each compacted.
+        let mut offset = Vec::with_capacity(used.len());
+        let mut d = 0u32;
+        for r in &reach {
+            offset.push(d);
+            d += r.len() as u32;
         }
-        let roots: Vec<Id> = field_roots
-            .iter()
-            .zip(&explicit)
-            .map(|(&x, &d)| b.g.sub(x, d))
+        let mut field_reach: Vec<u32> = field_outs
+            .values()
+            .flatten()
+            .flat_map(|(_, col)| col.clone())
             .collect();
-        let feedback = b.tape(&roots, dims, field_outs)?;
+        field_reach.sort_unstable();
+        field_reach.dedup();
+        let field_at = d;
+        d += field_reach.len() as u32;
+        let pos = |r: &[u32], s: u32| r.binary_search(&s).expect("a reached component") as u32;
+        for (i, outs) in grads.into_iter().enumerate() {
+            for (f, list) in outs {
+                for (e, col) in list {
+                    let col = col.iter().map(|&s| k + offset[i] + pos(&reach[i], s)).collect();
+                    pass_outs.entry(f).or_default().push((e, col));
+                }
+            }
+        }
+        for (f, list) in field_outs {
+            for (e, col) in list {
+                let col = col
+                    .iter()
+                    .map(|&o| k + field_at + pos(&field_reach, o))
+                    .collect();
+                pass_outs.entry(f).or_default().push((e, col));
+            }
+        }
+        let pass = b.tape(
+            &vec![zero; (k + d) as usize],
+            b.dims(0, false),
+            pass_outs,
+        )?;
+        // The last stage, plain, of `[x, S, D, w]`: ∇V = ∂V/∂x|_S + Σ_i w_i ∇S_i, and
+        // X − ∇V = X's plain part + its family outputs + c·J∇S_i of the shared terms − ∇V.
+        let input = |b: &mut Builder<'_>, at: u32| b.g.input(Input::State(at));
+        let mut grad_terms: Vec<Vec<Id>> = explicit.iter().map(|&e| vec![e]).collect();
+        let mut field_terms: Vec<Vec<Id>> = field_roots.iter().map(|&e| vec![e]).collect();
+        for (i, r) in reach.iter().enumerate() {
+            let w = input(&mut b, n + k + d + i as u32);
+            for (j, &s) in r.iter().enumerate() {
+                let g = input(&mut b, n + k + offset[i] + j as u32);
+                let wg = b.g.mul(&[w, g]);
+                grad_terms[s as usize].push(wg);
+            }
+        }
+        for (j, &o) in field_reach.iter().enumerate() {
+            let v = input(&mut b, n + k + field_at + j as u32);
+            field_terms[o as usize].push(v);
+        }
+        for (i, coeff, to) in &shared {
+            for (j, &(o, sign)) in to.iter().enumerate() {
+                let g = input(&mut b, n + k + offset[*i] + j as u32);
+                let c = b.g.num(coeff * sign);
+                let v = b.g.mul(&[c, g]);
+                field_terms[o as usize].push(v);
+            }
+        }
+        let mut grad_roots = Vec::with_capacity(n as usize);
+        let mut roots = Vec::with_capacity(n as usize);
+        for (gt, ft) in grad_terms.iter().zip(&field_terms) {
+            let g = b.g.add(gt);
+            let x = b.g.add(ft);
+            grad_roots.push(g);
+            roots.push(b.g.sub(x, g));
+        }
+        let dims = b.dims((2 * k + d) as usize, true);
+        let gradient_tape = b.tape(&grad_roots, dims, Outputs::default())?;
+        let feedback = b.tape(&roots, dims, Outputs::default())?;
         Ok(LoopFeedback {
             sums,
             weights,
+            pass,
             gradient: gradient_tape,
             feedback,
         })
@@ -344,19 +456,40 @@ impl Builder<'_> {
 }
 
 impl LoopFeedback {
-    /// `[x, S, w]` and V at a state, in f64 from the tapes (stages 1 and 2).
+    /// The number D of values the pass carries to the last stage after the sums.
+    pub fn carried(&self) -> usize {
+        self.pass.n_outputs() - self.sums.n_outputs()
+    }
+
+    /// V at a state, in f64 from the tapes (stages 1 and 2).
+    fn value(
+        &self,
+        params: &[f64],
+        x: &[f64],
+        targets: &[f64],
+        gains: &[f64],
+    ) -> Result<f64, TapeError> {
+        let mut xs = x.to_vec();
+        xs.extend(self.sums.eval(params, x)?);
+        Ok(self.weights.eval(params, &xs, targets, gains)?[0])
+    }
+
+    /// `[x, S, carried, w]` at a state, in f64 from the tapes (the pass, then stage 2).
     fn stages(
         &self,
         params: &[f64],
         x: &[f64],
         targets: &[f64],
         gains: &[f64],
-    ) -> Result<(f64, Vec<f64>), TapeError> {
+    ) -> Result<Vec<f64>, TapeError> {
+        let k = self.sums.n_outputs();
         let mut xs = x.to_vec();
-        xs.extend(self.sums.eval(params, x)?);
-        let vw = self.weights.eval(params, &xs, targets, gains)?;
+        xs.extend(self.pass.eval(params, x)?);
+        let vw = self
+            .weights
+            .eval(params, &xs[..x.len() + k], targets, gains)?;
         xs.extend_from_slice(&vw[1..]);
-        Ok((vw[0], xs))
+        Ok(xs)
     }
 
     /// V evaluated from the tapes (the reference the back ends agree with bit for bit).
@@ -367,7 +500,7 @@ impl LoopFeedback {
         targets: &[f64],
         gains: &[f64],
     ) -> Result<f64, TapeError> {
-        Ok(self.stages(params, x, targets, gains)?.0)
+        self.value(params, x, targets, gains)
     }
 
     /// ∇V evaluated from the tapes.
@@ -378,7 +511,7 @@ impl LoopFeedback {
         targets: &[f64],
         gains: &[f64],
     ) -> Result<Vec<f64>, TapeError> {
-        let xsw = self.stages(params, x, targets, gains)?.1;
+        let xsw = self.stages(params, x, targets, gains)?;
         self.gradient.eval_with(params, &xsw, targets, gains)
     }
 
@@ -390,7 +523,7 @@ impl LoopFeedback {
         targets: &[f64],
         gains: &[f64],
     ) -> Result<Vec<f64>, TapeError> {
-        let xsw = self.stages(params, x, targets, gains)?.1;
+        let xsw = self.stages(params, x, targets, gains)?;
         self.feedback.eval_with(params, &xsw, targets, gains)
     }
 }

@@ -297,6 +297,17 @@ impl LoopModel {
     }
 }
 
+/// The family terms of a Hamiltonian under a canonical structure.
+pub(crate) struct HamiltonTerms {
+    /// The terms `c·body` as reductions into output 0, per family.
+    pub(crate) terms: Outputs,
+    /// The same terms as `(family, component, c)`.
+    pub(crate) coefficients: Vec<(usize, usize, f64)>,
+    /// The canonical pairs.
+    pub(crate) q: Vec<usize>,
+    pub(crate) p: Vec<usize>,
+}
+
 /// Per family, the region outputs: (expression, scatter column).
 pub(crate) type Outputs = std::collections::BTreeMap<usize, Vec<(Id, Vec<u32>)>>;
 
@@ -325,6 +336,19 @@ impl<'a> Builder<'a> {
 
     /// The field's plain part (per component) and the family outputs of the field.
     fn field(&mut self) -> Result<(Vec<Id>, Outputs), Error> {
+        let (roots, mut field, hamiltonian) = self.field_parts()?;
+        if let Some(h) = hamiltonian {
+            self.hamilton(&h.terms, &h.q, &h.p, &mut field)?;
+        }
+        Ok((roots, field))
+    }
+
+    /// The field's plain part, the family outputs of its explicit part (the reductions it
+    /// reads), and the Hamiltonian's family terms whose equations it adds, if any (under a
+    /// canonical structure; refused under a Lie–Poisson one).
+    pub(crate) fn field_parts(
+        &mut self,
+    ) -> Result<(Vec<Id>, Outputs, Option<HamiltonTerms>), Error> {
         // The field: explicit part plus reductions, plus Hamilton's equations of the families.
         let lm = self.lm;
         let m = &lm.model;
@@ -333,6 +357,7 @@ impl<'a> Builder<'a> {
         for (c, &f) in m.field.iter().enumerate() {
             roots.push(self.split(f, c as u32, &m.field_spans[c], &mut field)?);
         }
+        let mut hamiltonian = None;
         if let Some(h) = &m.hamiltonian {
             let span = m
                 .invariants
@@ -349,10 +374,39 @@ impl<'a> Builder<'a> {
                         "load the model with its families unrolled",
                     ));
                 };
-                self.hamilton(&terms, q, p, &mut field)?;
+                let coefficients = self.coefficients(h.h);
+                hamiltonian = Some(HamiltonTerms {
+                    terms,
+                    coefficients,
+                    q: q.clone(),
+                    p: p.clone(),
+                });
             }
         }
-        Ok((roots, field))
+        Ok((roots, field, hamiltonian))
+    }
+
+    /// The family terms `(family, component, c)` of `e = e₀ + Σ c·sum`, in symbol order (that of
+    /// [`Builder::split`]'s terms), for an `e` that `split` accepts.
+    pub(crate) fn coefficients(&mut self, e: Id) -> Vec<(usize, usize, f64)> {
+        let used: Vec<u32> = self
+            .g
+            .reachable(&[e])
+            .into_iter()
+            .filter_map(|id| match self.g.node(id) {
+                Node::Input(Input::Symbol(s)) if self.placeholder.contains_key(s) => Some(*s),
+                _ => None,
+            })
+            .collect();
+        let vars: Vec<Input> = used.iter().map(|&s| Input::Symbol(s)).collect();
+        let grad = crate::ir::gradient(&mut self.g, e, &vars);
+        used.iter()
+            .zip(&grad)
+            .filter_map(|(s, &d)| {
+                let (f, c) = self.placeholder[s];
+                self.g.as_num(d).map(|k| (f, c, k))
+            })
+            .collect()
     }
 
     fn refuse(&self, span: &Span, what: &str, help: &str) -> Error {
@@ -422,7 +476,7 @@ impl<'a> Builder<'a> {
     /// Hamilton's equations of the family terms `terms` of H (reductions into output 0 with
     /// their coefficients): each body's gradient with respect to its state slots, once,
     /// scattered to the partner components.
-    fn hamilton(
+    pub(crate) fn hamilton(
         &mut self,
         terms: &Outputs,
         q: &[usize],
