@@ -21,7 +21,7 @@
 //! Every stage is an ordinary [`LoopTape`] or [`Tape`], so the back ends that agree bit for bit
 //! on those agree on the stages, run in this order.
 
-use super::{Builder, LoopModel, LoopTape, Outputs, Source};
+use super::{Builder, Family, LoopModel, LoopTape, Outputs, Region, Source};
 use crate::error::Error;
 use crate::ir::{gradient, Id, Input, Node};
 use crate::tape::{Dims, Tape, TapeError};
@@ -44,6 +44,10 @@ pub struct LoopFeedback {
     pub gradient: LoopTape,
     /// Stage 3: X − ∇V (N outputs), with the inputs of `gradient`.
     pub feedback: LoopTape,
+    /// The loops of stage 3 over the state's members, as families: region `r` of `gradient`
+    /// or `feedback` with `r.family` ≥ F (the model's [`LoopModel::families`]) runs
+    /// `families[r.family − F]`.
+    pub families: Vec<Family>,
 }
 
 /// The half-fields of a partitioned loop field (q̇ = a(p), ṗ = b(q)).
@@ -163,11 +167,28 @@ impl LoopModel {
             grads.push(outs);
             reach.push(r);
         }
+        // The state's members: the combination runs as one loop per member.
+        let members: Vec<(u32, u32)> = m
+            .state
+            .iter()
+            .map(|v| (v.offset as u32, v.shape.len() as u32))
+            .collect();
+        let mut member_of = vec![0usize; n as usize];
+        for (j, &(o, len)) in members.iter().enumerate() {
+            member_of[o as usize..(o + len) as usize].fill(j);
+        }
+        let touched = |r: &[u32]| -> Vec<usize> {
+            let mut t: Vec<usize> = r.iter().map(|&s| member_of[s as usize]).collect();
+            t.dedup();
+            t
+        };
+        let grad_members: Vec<Vec<usize>> = reach.iter().map(|r| touched(r)).collect();
         // The field: its plain part, its explicit family outputs, and the Hamiltonian's terms;
         // a term whose body is a sum V reads (the energy's) is not run again, its equations
-        // are read from that sum's gradient: c·J∇S_i.
+        // are read from that sum's gradient: c·J∇S_i, member by member.
         let (field_roots, mut field_outs, hamiltonian) = b.field_parts()?;
-        let mut shared: Vec<(usize, f64, Vec<(u32, f64)>)> = Vec::new();
+        // (sum i, factor c·sign, member read, member written)
+        let mut shared: Vec<(usize, f64, usize, usize)> = Vec::new();
         if let Some(h) = hamiltonian {
             // validates the terms as the field does (canonical pairs, consistent members)
             let mut check = Outputs::default();
@@ -177,6 +198,18 @@ impl LoopModel {
                 partner[qa] = Some((pa as u32, -1.0));
                 partner[pa] = Some((qa as u32, 1.0));
             }
+            // member j's partner member and sign, where the pairing maps it whole and in order
+            let paired: Vec<Option<(usize, f64)>> = members
+                .iter()
+                .map(|&(o, len)| {
+                    let (to, sign) = partner[o as usize]?;
+                    let to_member = member_of[to as usize];
+                    let (to_o, to_len) = members[to_member];
+                    let whole = to_len == len
+                        && (0..len).all(|s| partner[(o + s) as usize] == Some((to_o + s, sign)));
+                    whole.then_some((to_member, sign))
+                })
+                .collect();
             let mut rest = Outputs::default();
             for &(f, c, coeff) in &h.coefficients {
                 let body = self.families[f].body[c];
@@ -185,11 +218,14 @@ impl LoopModel {
                     .iter()
                     .all(|(_, v)| matches!(v, Column::Slot(_)));
                 let i = used.iter().position(|&(uf, uc, _)| (uf, uc) == (f, c));
-                let to: Option<Vec<(u32, f64)>> = i.and_then(|i| {
-                    reach[i].iter().map(|&s| partner[s as usize]).collect()
+                let pairs = i.and_then(|i| {
+                    grad_members[i]
+                        .iter()
+                        .map(|&j| paired[j].map(|(to, sign)| (i, coeff * sign, j, to)))
+                        .collect::<Option<Vec<_>>>()
                 });
-                match (i, to) {
-                    (Some(i), Some(to)) if direct => shared.push((i, coeff, to)),
+                match pairs {
+                    Some(pairs) if direct => shared.extend(pairs),
                     _ => {
                         let k = b.g.num(coeff);
                         let term = b.g.mul(&[k, body]);
@@ -200,13 +236,18 @@ impl LoopModel {
             }
             b.hamilton(&rest, &h.q, &h.p, &mut field_outs)?;
         }
-        // D: the gradients' entries, then the field's family outputs, each compacted.
-        let mut offset = Vec::with_capacity(used.len());
+        // The carried values: per sum, its gradient on each member it reaches, then the
+        // field's family outputs on each member they reach, each block the member's length.
         let mut d = 0u32;
-        for r in &reach {
-            offset.push(d);
-            d += r.len() as u32;
-        }
+        let mut block = |j: usize| {
+            let at = d;
+            d += members[j].1;
+            at
+        };
+        let grad_at: Vec<Vec<u32>> = grad_members
+            .iter()
+            .map(|js| js.iter().map(|&j| block(j)).collect())
+            .collect();
         let mut field_reach: Vec<u32> = field_outs
             .values()
             .flatten()
@@ -214,13 +255,21 @@ impl LoopModel {
             .collect();
         field_reach.sort_unstable();
         field_reach.dedup();
-        let field_at = d;
-        d += field_reach.len() as u32;
-        let pos = |r: &[u32], s: u32| r.binary_search(&s).expect("a reached component") as u32;
+        let field_members = touched(&field_reach);
+        let field_at: Vec<u32> = field_members.iter().map(|&j| block(j)).collect();
+        // carried index of component s in sum i's gradient, in the field's part
+        let in_block = |js: &[usize], at: &[u32], s: u32| -> u32 {
+            let j = member_of[s as usize];
+            let pos = js.iter().position(|&x| x == j).expect("a reached member");
+            at[pos] + s - members[j].0
+        };
         for (i, outs) in grads.into_iter().enumerate() {
             for (f, list) in outs {
                 for (e, col) in list {
-                    let col = col.iter().map(|&s| k + offset[i] + pos(&reach[i], s)).collect();
+                    let col = col
+                        .iter()
+                        .map(|&s| k + in_block(&grad_members[i], &grad_at[i], s))
+                        .collect();
                     pass_outs.entry(f).or_default().push((e, col));
                 }
             }
@@ -229,59 +278,152 @@ impl LoopModel {
             for (e, col) in list {
                 let col = col
                     .iter()
-                    .map(|&o| k + field_at + pos(&field_reach, o))
+                    .map(|&o| k + in_block(&field_members, &field_at, o))
                     .collect();
                 pass_outs.entry(f).or_default().push((e, col));
             }
         }
-        let pass = b.tape(
-            &vec![zero; (k + d) as usize],
-            b.dims(0, false),
-            pass_outs,
-        )?;
-        // The last stage, plain, of `[x, S, D, w]`: ∇V = ∂V/∂x|_S + Σ_i w_i ∇S_i, and
-        // X − ∇V = X's plain part + its family outputs + c·J∇S_i of the shared terms − ∇V.
-        let input = |b: &mut Builder<'_>, at: u32| b.g.input(Input::State(at));
-        let mut grad_terms: Vec<Vec<Id>> = explicit.iter().map(|&e| vec![e]).collect();
-        let mut field_terms: Vec<Vec<Id>> = field_roots.iter().map(|&e| vec![e]).collect();
-        for (i, r) in reach.iter().enumerate() {
-            let w = input(&mut b, n + k + d + i as u32);
-            for (j, &s) in r.iter().enumerate() {
-                let g = input(&mut b, n + k + offset[i] + j as u32);
-                let wg = b.g.mul(&[w, g]);
-                grad_terms[s as usize].push(wg);
-            }
-        }
-        for (j, &o) in field_reach.iter().enumerate() {
-            let v = input(&mut b, n + k + field_at + j as u32);
-            field_terms[o as usize].push(v);
-        }
-        for (i, coeff, to) in &shared {
-            for (j, &(o, sign)) in to.iter().enumerate() {
-                let g = input(&mut b, n + k + offset[*i] + j as u32);
-                let c = b.g.num(coeff * sign);
-                let v = b.g.mul(&[c, g]);
-                field_terms[o as usize].push(v);
-            }
-        }
-        let mut grad_roots = Vec::with_capacity(n as usize);
-        let mut roots = Vec::with_capacity(n as usize);
-        for (gt, ft) in grad_terms.iter().zip(&field_terms) {
-            let g = b.g.add(gt);
-            let x = b.g.add(ft);
-            grad_roots.push(g);
-            roots.push(b.g.sub(x, g));
-        }
+        let pass = b.tape(&vec![zero; (k + d) as usize], b.dims(0, false), pass_outs)?;
+        // The last stage, of `[x, S, C, w]`: ∇V = ∂V/∂x|_S + Σ_i w_i ∇S_i and X − ∇V = X's
+        // plain part + its family outputs + c·J∇S_i of the shared terms − ∇V: the plain parts,
+        // then per member a loop over its components.
         let dims = b.dims((2 * k + d) as usize, true);
-        let gradient_tape = b.tape(&grad_roots, dims, Outputs::default())?;
-        let feedback = b.tape(&roots, dims, Outputs::default())?;
+        let mut gradient_tape = b.tape(&explicit, dims, Outputs::default())?;
+        let roots: Vec<Id> = field_roots
+            .iter()
+            .zip(&explicit)
+            .map(|(&x, &e)| b.g.sub(x, e))
+            .collect();
+        let mut feedback = b.tape(&roots, dims, Outputs::default())?;
+        let carried = n + k;
+        let weight = |i: usize| n + k + d + i as u32;
+        let mut families = Vec::new();
+        let first = self.families.len();
+        for (to, &(o, len)) in members.iter().enumerate() {
+            // ∇V: Σ w_i ∇S_i on this member
+            let mut grad_terms = Vec::new(); // (carried block, weight)
+            for (i, js) in grad_members.iter().enumerate() {
+                if let Some(pos) = js.iter().position(|&j| j == to) {
+                    grad_terms.push((carried + grad_at[i][pos], weight(i)));
+                }
+            }
+            let mut plus = Vec::new(); // (carried block, factor)
+            if let Some(pos) = field_members.iter().position(|&j| j == to) {
+                plus.push((carried + field_at[pos], 1.0));
+            }
+            for &(i, factor, from, _) in shared.iter().filter(|sh| sh.3 == to) {
+                let pos = grad_members[i].iter().position(|&j| j == from);
+                plus.push((carried + grad_at[i][pos.expect("a reached member")], factor));
+            }
+            let span = &m.state[to].span;
+            if !grad_terms.is_empty() {
+                let r = self.combination(&[], &grad_terms, 1.0, (o, len), span, dims)?;
+                gradient_tape.regions.push(r.0.with_family(first + families.len()));
+                families.push(r.1);
+            }
+            if !grad_terms.is_empty() || !plus.is_empty() {
+                let r = self.combination(&plus, &grad_terms, -1.0, (o, len), span, dims)?;
+                feedback.regions.push(r.0.with_family(first + families.len()));
+                families.push(r.1);
+            }
+        }
         Ok(LoopFeedback {
             sums,
             weights,
             pass,
             gradient: gradient_tape,
             feedback,
+            families,
         })
+    }
+
+    /// One loop of the last stage over the components `o..o + len` of a member, adding to
+    /// component `o + c` `Σ factor·C[block + c]` over `plus` plus `sign·Σ w·C[block + c]` over
+    /// `weighted` (`(block, weight's input)`); its loop's structure as a family.
+    fn combination(
+        &self,
+        plus: &[(u32, f64)],
+        weighted: &[(u32, u32)],
+        sign: f64,
+        (o, len): (u32, u32),
+        span: &crate::error::Span,
+        dims: Dims,
+    ) -> Result<(Region, Family), Error> {
+        use super::index::{Ix, LoopClause, SlotIndex};
+        use super::Slot;
+        let indexed: Vec<u32> = plus
+            .iter()
+            .map(|p| p.0)
+            .chain(weighted.iter().map(|w| w.0))
+            .collect();
+        let slots = indexed.len() + weighted.len();
+        let mut g = crate::ir::Graph::new();
+        let mut terms = Vec::new();
+        for (j, &(_, factor)) in plus.iter().enumerate() {
+            let v = g.input(Input::State(j as u32));
+            terms.push(if factor == 1.0 {
+                v
+            } else {
+                let c = g.num(factor);
+                g.mul(&[c, v])
+            });
+        }
+        let mut products = Vec::new();
+        for j in 0..weighted.len() {
+            let v = g.input(Input::State((plus.len() + j) as u32));
+            let w = g.input(Input::State((indexed.len() + j) as u32));
+            products.push(g.mul(&[w, v]));
+        }
+        if !products.is_empty() {
+            let sum = g.add(&products);
+            terms.push(if sign == 1.0 { sum } else { g.neg(sum) });
+        }
+        let root = g.add(&terms);
+        let rdims = Dims {
+            state: slots,
+            params: dims.params,
+            targets: 0,
+            gains: 0,
+        };
+        let tape = Tape::from_graph(&g, &[root], rdims)
+            .map_err(|e| Error::Internal(format!("loop tape of X − ∇V: {e}")))?;
+        let count = len as usize;
+        let mut gather = Vec::with_capacity(count * slots);
+        for c in 0..len {
+            gather.extend(indexed.iter().map(|&at| at + c));
+            gather.extend(weighted.iter().map(|w| w.1));
+        }
+        let slot = |at: u32| Slot {
+            symbol: 0,
+            source: Source::State,
+            column: (0..len).map(|c| at + c).collect(),
+            index: Some(SlotIndex {
+                base: i64::from(at),
+                stride: 1,
+                member: Ix::Var(0),
+            }),
+        };
+        let family = Family {
+            count,
+            slots: indexed.iter().map(|&at| slot(at)).collect(),
+            body: Vec::new(),
+            placeholders: Vec::new(),
+            span: span.clone(),
+            clauses: Some(vec![LoopClause::Range {
+                var: "c".into(),
+                start: Ix::Int(0),
+                end: Ix::Int(i64::from(len)),
+            }]),
+        };
+        let region = Region {
+            tape,
+            sources: vec![Source::State; slots],
+            gather,
+            scatter: (o..o + len).collect(),
+            count,
+            family: 0,
+        };
+        Ok((region, family))
     }
 
     /// The half-fields, if the field is partitioned (as [`Model::partition`](crate::Model::partition)

@@ -633,6 +633,14 @@ impl<'a> Builder<'a> {
     }
 }
 
+impl Region {
+    /// The same region, running family `family`.
+    pub(crate) fn with_family(mut self, family: usize) -> Region {
+        self.family = family;
+        self
+    }
+}
+
 impl LoopTape {
     /// Input sizes (those of the plain tape).
     pub fn dims(&self) -> Dims {

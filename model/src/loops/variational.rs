@@ -204,6 +204,7 @@ impl LoopExtension {
                     weights,
                     gradient: feedback.clone(),
                     feedback,
+                    families: Vec::new(),
                 })))
             }
         }
@@ -233,6 +234,7 @@ impl LoopExtension {
             weights,
             gradient: last.clone(),
             feedback: last,
+            families: Vec::new(),
         }))
     }
 
