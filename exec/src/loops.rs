@@ -310,7 +310,7 @@ impl std::fmt::Debug for StagedKernel {
 }
 
 thread_local! {
-    /// `[x, S, w]` and `[V, w]` of a staged evaluation.
+    /// `[x, S, C, w]` and `[V, w]` of a staged evaluation.
     static STAGES: std::cell::Cell<(Vec<f64>, Vec<f64>)> =
         const { std::cell::Cell::new((Vec::new(), Vec::new())) };
 }

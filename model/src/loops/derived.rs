@@ -6,14 +6,20 @@
 //!   with respect to each state component it reads — a slot `k` of tuple `t` reads
 //!   `gather[t, k]`, so the partial is scattered to `o·N + gather[t, k]`.
 //! - **V, ∇V, X − ∇V** in three stages. V reads the state x, the targets, the gains and the
-//!   family sums `S_k` its invariants hold. Stage 1 ([`LoopFeedback::sums`]) computes the sums,
-//!   a loop tape of the state. Stage 2 ([`LoopFeedback::weights`]) computes V and the weights
-//!   `w_k = ∂V/∂S_k` from `[x, S]`, a plain tape. Stage 3 is the chain rule
-//!   `∇V = ∂V/∂x|_S + Σ_k w_k ∇S_k`: a loop tape of `[x, S, w]` whose plain part is `∂V/∂x|_S`
-//!   and whose regions are, per family, the gradient of `Σ_k w_k·body_k` with respect to the
-//!   body's state slots (one symbolic gradient, the weights read as slots of a constant
-//!   column), scattered to the components the slots read. X − ∇V is the same with the field's
-//!   plain part and regions added (a family in both runs as one region).
+//!   family sums `S_k` its invariants hold. Stage 1 computes the sums, a loop tape of the
+//!   state: for V alone [`LoopFeedback::sums`]; for ∇V and X − ∇V [`LoopFeedback::pass`], which
+//!   in the same loop over each family's tuples carries C: per sum, its gradient `∇S_k` (the
+//!   body's partials, scattered to the components the slots read) on each state member it
+//!   reaches, then the field's family outputs on each member they reach. A Hamiltonian term
+//!   `c·body` whose body is a sum V reads (the energy's) is not run again: its equations are
+//!   `c·J∇S_k`, read from that sum's gradient. Stage 2 ([`LoopFeedback::weights`]) computes V
+//!   and the weights `w_k = ∂V/∂S_k` from `[x, S]`, a plain tape. Stage 3 is the chain rule
+//!   `∇V = ∂V/∂x|_S + Σ_k w_k ∇S_k`, a loop tape of `[x, S, C, w]` whose plain part is
+//!   `∂V/∂x|_S` and whose regions are, per state member, a loop over its components adding
+//!   `Σ_k w_k ∇S_k` there (their structure as families of one index,
+//!   [`LoopFeedback::families`]). X − ∇V is the same with the field's plain part, its carried
+//!   family outputs and the shared Hamiltonian terms added. So each family's body runs once
+//!   per tuple, and the code stays independent of the number of tuples.
 //! - **Half-fields.** The field's loop tape restricted to the outputs of each half of the
 //!   partition; the partition is the 2-colouring of [`Model::partition`](crate::Model::partition)
 //!   with the edges read from the plain part and the regions' gather and scatter tables.

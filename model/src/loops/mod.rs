@@ -25,10 +25,11 @@
 //! The derived functions are loop tapes too ([`LoopModel::jacobian`], [`LoopModel::feedback`],
 //! [`LoopModel::partition`], in `derived`): Df of the integrals (each family term's partials
 //! by its state slots, scattered to `row·N + gather`), the half-fields (the field's loop tape
-//! restricted to each half), and V, ∇V and X − ∇V in three stages ([`LoopFeedback`]): the
-//! family sums S that V reads, then V and `w = ∂V/∂S` from `[x, S]`, then `∂V/∂x|_S` plus, per
-//! family, the gradient of `Σ w·body` (one symbolic gradient, the weights gathered as slots of
-//! a constant column) from `[x, S, w]`. The integrals are proved on the families' bodies
+//! restricted to each half), and V, ∇V and X − ∇V in three stages ([`LoopFeedback`]): one
+//! pass over each family's tuples giving the family sums S that V reads and carrying C, the
+//! families' parts of ∇S and of the field, then V and `w = ∂V/∂S` from `[x, S]`, then
+//! `∂V/∂x|_S` plus, per state member, a loop combining C with w, from `[x, S, C, w]`. The
+//! integrals are proved on the families' bodies
 //! ([`LoopModel::check`]).
 //!
 //! What the loop form does not do (yet) is refused rather than approximated: a family whose
@@ -37,8 +38,9 @@
 //! partitioned field. The field's Taylor program has a loop form ([`LoopTape::taylor`],
 //! [`taylor`]: the body's coefficient recurrences once per tuple, on the coefficients gathered
 //! from the state's), and so has the Taylor program of X − ∇V ([`LoopFeedback::taylor`],
-//! [`feedback_taylor`]: the three stages propagated as Taylor series — S's coefficients from
-//! x's, w's from x's and S's, then X − ∇V's from x's, S's and w's — on one table). The emitted
+//! [`feedback_taylor`]: the three stages propagated as Taylor series — the coefficients of S
+//! and C from x's in one pass, w's from x's and S's, then X − ∇V's from x's, S's, C's and w's —
+//! on one table). The emitted
 //! Rust writes the field, the invariants and the derived functions as loops from these tapes,
 //! with the index structure of [`index`] (`lasalle_codegen::generate_source_with`).
 //!
