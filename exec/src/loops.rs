@@ -390,7 +390,8 @@ impl StagedKernel {
         xsw.resize(n + 2 * k + c, 0.0);
         vw.resize(1 + k, 0.0);
         let (x, rest) = xsw.split_at_mut(n);
-        self.sums.eval(&hoisted[..a], x, &[], &[], &mut rest[..k + c])?;
+        self.sums
+            .eval(&hoisted[..a], x, &[], &[], &mut rest[..k + c])?;
         self.weights
             .eval(&hoisted[a..a + b], &xsw[..n + k], target, gains, vw)?;
         match &self.last {

@@ -270,46 +270,39 @@ mod derived {
         gains: &[f64],
     ) {
         let n = y.len();
-    for (stage, want) in [
-        (Stage::Lyapunov, &plain.lyapunov),
-        (Stage::Gradient, &plain.lyapunov_gradient),
-        (Stage::Feedback, &plain.feedback),
-    ] {
-        let jit = StagedKernel::new(feedback, stage, Backend::Jit).unwrap();
-        let int = StagedKernel::new(feedback, stage, Backend::Interpreter).unwrap();
-        let a = eval_full(&jit, params, y, target, gains);
-        let b = eval_full(&int, params, y, target, gains);
-        assert_eq!(bits(&a), bits(&b), "{stage:?}: JIT, interpreter");
-        let r = match stage {
-            Stage::Lyapunov => vec![feedback
-                .eval_lyapunov(params, y, target, gains)
-                .unwrap()],
-            Stage::Gradient => feedback
-                .eval_gradient(params, y, target, gains)
-                .unwrap(),
-            Stage::Feedback => feedback
-                .eval_feedback(params, y, target, gains)
-                .unwrap(),
-        };
-        assert_eq!(bits(&a), bits(&r), "{stage:?}: JIT, tapes");
-        let u = want.eval(params, y, target, gains).unwrap();
-        assert!(u.iter().any(|v| *v != 0.0), "{stage:?} vanishes");
-        close(&a, &u, 1e-13, &format!("{stage:?}"));
-        // lanes: each lane one evaluation
-        let k = 2;
-        let mut ys = vec![0.0; n * k];
-        for (i, v) in y.iter().enumerate() {
-            ys[i * k] = *v;
-            ys[i * k + 1] = v + 1e-3;
+        for (stage, want) in [
+            (Stage::Lyapunov, &plain.lyapunov),
+            (Stage::Gradient, &plain.lyapunov_gradient),
+            (Stage::Feedback, &plain.feedback),
+        ] {
+            let jit = StagedKernel::new(feedback, stage, Backend::Jit).unwrap();
+            let int = StagedKernel::new(feedback, stage, Backend::Interpreter).unwrap();
+            let a = eval_full(&jit, params, y, target, gains);
+            let b = eval_full(&int, params, y, target, gains);
+            assert_eq!(bits(&a), bits(&b), "{stage:?}: JIT, interpreter");
+            let r = match stage {
+                Stage::Lyapunov => vec![feedback.eval_lyapunov(params, y, target, gains).unwrap()],
+                Stage::Gradient => feedback.eval_gradient(params, y, target, gains).unwrap(),
+                Stage::Feedback => feedback.eval_feedback(params, y, target, gains).unwrap(),
+            };
+            assert_eq!(bits(&a), bits(&r), "{stage:?}: JIT, tapes");
+            let u = want.eval(params, y, target, gains).unwrap();
+            assert!(u.iter().any(|v| *v != 0.0), "{stage:?} vanishes");
+            close(&a, &u, 1e-13, &format!("{stage:?}"));
+            // lanes: each lane one evaluation
+            let k = 2;
+            let mut ys = vec![0.0; n * k];
+            for (i, v) in y.iter().enumerate() {
+                ys[i * k] = *v;
+                ys[i * k + 1] = v + 1e-3;
+            }
+            let h = jit.hoist(params).unwrap();
+            let mut out = vec![0.0; jit.n_outputs() * k];
+            jit.eval_lanes(k, &h, &ys, target, gains, &mut out).unwrap();
+            for (j, v) in a.iter().enumerate() {
+                assert_eq!(out[j * k].to_bits(), v.to_bits());
+            }
         }
-        let h = jit.hoist(params).unwrap();
-        let mut out = vec![0.0; jit.n_outputs() * k];
-        jit.eval_lanes(k, &h, &ys, target, gains, &mut out)
-            .unwrap();
-        for (j, v) in a.iter().enumerate() {
-            assert_eq!(out[j * k].to_bits(), v.to_bits());
-        }
-    }
     }
 
     fn check(text: &str) {

@@ -167,7 +167,11 @@ impl LoopModel {
             let mut outs = Outputs::default();
             let body = self.families[f].body[c];
             b.partials(f, body, |_, at| at, &mut outs);
-            let mut r: Vec<u32> = outs.values().flatten().flat_map(|(_, col)| col.clone()).collect();
+            let mut r: Vec<u32> = outs
+                .values()
+                .flatten()
+                .flat_map(|(_, col)| col.clone())
+                .collect();
             r.sort_unstable();
             r.dedup();
             grads.push(outs);
@@ -324,12 +328,16 @@ impl LoopModel {
             let span = &m.state[to].span;
             if !grad_terms.is_empty() {
                 let r = self.combination(&[], &grad_terms, 1.0, (o, len), span, dims)?;
-                gradient_tape.regions.push(r.0.with_family(first + families.len()));
+                gradient_tape
+                    .regions
+                    .push(r.0.with_family(first + families.len()));
                 families.push(r.1);
             }
             if !grad_terms.is_empty() || !plus.is_empty() {
                 let r = self.combination(&plus, &grad_terms, -1.0, (o, len), span, dims)?;
-                feedback.regions.push(r.0.with_family(first + families.len()));
+                feedback
+                    .regions
+                    .push(r.0.with_family(first + families.len()));
                 families.push(r.1);
             }
         }
