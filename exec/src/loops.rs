@@ -278,10 +278,12 @@ pub enum Stage {
     Feedback,
 }
 
-/// V, ∇V or X − ∇V of a model with families kept as loops ([`LoopFeedback`]): the sums S as
-/// a loop kernel, V and w = ∂V/∂S as a plain kernel of `[x, S]`, then (for ∇V and X − ∇V) a
-/// loop kernel of `[x, S, w]`, each compiled by the chosen back end and run in this order, so
-/// the back ends agree bit for bit (and with [`LoopFeedback::eval_gradient`] and its kin).
+/// V, ∇V or X − ∇V of a model with families kept as loops ([`LoopFeedback`]): the sums S (for
+/// V) or the pass, which gives S and the carried values C in one loop over each family's
+/// tuples (for ∇V and X − ∇V), as a loop kernel; V and w = ∂V/∂S as a plain kernel of
+/// `[x, S]`; then (for ∇V and X − ∇V) the last stage, a kernel of `[x, S, C, w]`; each
+/// compiled by the chosen back end and run in this order, so the back ends agree bit for bit
+/// (and with [`LoopFeedback::eval_gradient`] and its kin).
 pub struct StagedKernel {
     sums: LoopKernel,
     weights: Box<dyn Kernel>,
@@ -292,6 +294,8 @@ pub struct StagedKernel {
     hoisted_len: usize,
     /// The sums K.
     k: usize,
+    /// The carried values D (0 for V).
+    carried: usize,
     dims: Dims,
     n_outputs: usize,
 }
@@ -306,7 +310,7 @@ impl std::fmt::Debug for StagedKernel {
 }
 
 thread_local! {
-    /// `[x, S, w]` and `[V, w]` of a staged evaluation.
+    /// `[x, S, C, w]` and `[V, w]` of a staged evaluation.
     static STAGES: std::cell::Cell<(Vec<f64>, Vec<f64>)> =
         const { std::cell::Cell::new((Vec::new(), Vec::new())) };
 }
@@ -314,7 +318,11 @@ thread_local! {
 impl StagedKernel {
     /// Compiles the stages of `tapes` that `stage` needs.
     pub fn new(tapes: &LoopFeedback, stage: Stage, backend: Backend) -> Result<Self, ExecError> {
-        let sums = LoopKernel::new(&tapes.sums, backend)?;
+        let first = match stage {
+            Stage::Lyapunov => &tapes.sums,
+            Stage::Gradient | Stage::Feedback => &tapes.pass,
+        };
+        let sums = LoopKernel::new(first, backend)?;
         let weights = backend.compile(&tapes.weights)?;
         let last = match stage {
             Stage::Lyapunov => None,
@@ -322,15 +330,20 @@ impl StagedKernel {
             Stage::Feedback => Some(LoopKernel::new(&tapes.feedback, backend)?),
         };
         let (n, k) = (tapes.sums.dims().state, tapes.sums.n_outputs());
+        let carried = first.n_outputs().saturating_sub(k);
         let w = tapes.weights.dims;
-        if w.state != n + k || tapes.weights.outputs.len() != 1 + k {
+        if w.state != n + k
+            || tapes.weights.outputs.len() != 1 + k
+            || first.dims() != tapes.sums.dims()
+            || first.n_outputs() < k
+        {
             return Err(ExecError::Jit(
                 "V's stages: the weights' sizes do not match the sums'".into(),
             ));
         }
         if let Some(l) = &last {
             let d = l.dims();
-            if d.state != n + 2 * k || d.targets != w.targets || d.gains != w.gains {
+            if d.state != n + 2 * k + carried || d.targets != w.targets || d.gains != w.gains {
                 return Err(ExecError::Jit(
                     "V's stages: the last stage's sizes do not match the weights'".into(),
                 ));
@@ -351,13 +364,14 @@ impl StagedKernel {
             hoisted,
             hoisted_len,
             k,
+            carried,
             dims: Dims { state: n, ..w },
         })
     }
 }
 
 impl StagedKernel {
-    /// The stages in order, `xsw` and `vw` the scratch for `[x, S, w]` and `[V, w]`.
+    /// The stages in order, `xsw` and `vw` the scratch for `[x, S, C, w]` and `[V, w]`.
     #[allow(clippy::too_many_arguments)]
     fn stages(
         &self,
@@ -369,20 +383,21 @@ impl StagedKernel {
         vw: &mut Vec<f64>,
         out: &mut [f64],
     ) -> Result<(), ExecError> {
-        let (n, k) = (self.dims.state, self.k);
+        let (n, k, c) = (self.dims.state, self.k, self.carried);
         let [a, b] = self.hoisted;
         xsw.clear();
         xsw.extend_from_slice(state);
-        xsw.resize(n + 2 * k, 0.0);
+        xsw.resize(n + 2 * k + c, 0.0);
         vw.resize(1 + k, 0.0);
         let (x, rest) = xsw.split_at_mut(n);
-        self.sums.eval(&hoisted[..a], x, &[], &[], &mut rest[..k])?;
+        self.sums
+            .eval(&hoisted[..a], x, &[], &[], &mut rest[..k + c])?;
         self.weights
             .eval(&hoisted[a..a + b], &xsw[..n + k], target, gains, vw)?;
         match &self.last {
             None => out[0] = vw[0],
             Some(l) => {
-                xsw[n + k..].copy_from_slice(&vw[1..]);
+                xsw[n + k + c..].copy_from_slice(&vw[1..]);
                 l.eval(&hoisted[a + b..], xsw, target, gains, out)?;
             }
         }

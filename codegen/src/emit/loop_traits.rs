@@ -5,10 +5,12 @@
 //!
 //! - **Df** is one loop tape with M·N outputs, row-major: each family term's partials are
 //!   added at `row · DIM + the component they read`, into the flat view of `jac`.
-//! - **V, ∇V, X − ∇V** run in three stages, as the staged kernels do: the family sums S that V
-//!   reads (a loop tape of x), then V and the weights w = ∂V/∂S (straight-line code of x and
-//!   S), then ∇V or X − ∇V (a loop tape of `[x, S, w]`: ∂V/∂x at fixed S, plus per family the
-//!   gradient of Σ w·term).
+//! - **V, ∇V, X − ∇V** run in stages, as the staged kernels do: the family sums S that V reads
+//!   (a loop tape of x; for ∇V and X − ∇V the pass, which also carries the family parts C of
+//!   ∇S and of the field, in the same loop over each family's tuples), then V and the weights
+//!   w = ∂V/∂S (straight-line code of x and S), then ∇V or X − ∇V (a loop tape of
+//!   `[x, S, C, w]`: ∂V/∂x at fixed S, then per state member a loop over its components
+//!   combining C with w).
 //! - **The half-fields** are the field's loop tape restricted to the q or the p components,
 //!   written into those components of `dx`.
 //! - **Guards and events** are straight-line code (a guard or an event that reads a family's
@@ -17,7 +19,7 @@
 //! Each function repeats its tape's operations in the tape's order, so it equals the loop
 //! kernels bit for bit, and its size does not depend on the number of index tuples.
 
-use super::loops::{f64_text as float, function, indent};
+use super::loops::{f64_text as float, function, function_with, indent};
 use lasalle_model::ir::{Id, Input};
 use lasalle_model::loops::{LoopFeedback, LoopModel, LoopTape, Source};
 use lasalle_model::tape::{Dims, Op, TapeBuilder};
@@ -98,11 +100,17 @@ impl LoopDerived {
         self.feedback.sums.outputs
     }
 
+    /// The number D of values the pass carries to the last stage.
+    fn carried(&self) -> usize {
+        self.feedback.carried()
+    }
+
     /// The derived functions' loop tapes with the names of their prepared fields.
     pub(crate) fn functions(&self) -> Vec<(&'static str, &LoopTape)> {
         let mut out = vec![
             ("jacobian", &self.jacobian),
             ("sums", &self.feedback.sums),
+            ("pass", &self.feedback.pass),
             ("weights", &self.weights),
             ("gradient", &self.feedback.gradient),
             ("feedback", &self.feedback.feedback),
@@ -121,12 +129,14 @@ impl LoopDerived {
 
     /// The instruction counts of Df, V (stages 1 and 2), ∇V and X − ∇V (all three stages).
     pub(crate) fn instructions(&self) -> [usize; 4] {
-        let v = self.feedback.sums.instructions() + self.weights.instructions();
+        let w = self.weights.instructions();
+        let v = self.feedback.sums.instructions() + w;
+        let pass = self.feedback.pass.instructions() + w;
         [
             self.jacobian.instructions(),
             v,
-            v + self.feedback.gradient.instructions(),
-            v + self.feedback.feedback.instructions(),
+            pass + self.feedback.gradient.instructions(),
+            pass + self.feedback.feedback.instructions(),
         ]
     }
 
@@ -298,10 +308,11 @@ fn runs(is_q: &[bool], q: bool) -> Vec<(usize, usize)> {
 }
 
 /// The names of the state inputs of V's third stage beyond the model's state, for comments:
-/// the sums S and the weights w.
-fn stage_names(k: usize) -> Vec<String> {
+/// the sums S, the carried values C and the weights w.
+fn stage_names(k: usize, carried: usize) -> Vec<String> {
     (0..k)
         .map(|i| format!("S[{i}], a family sum V reads"))
+        .chain((0..carried).map(|i| format!("C[{i}], carried by the pass")))
         .chain((0..k).map(|i| format!("w[{i}] = ∂V/∂S[{i}]")))
         .collect()
 }
@@ -310,18 +321,19 @@ impl LoopDerived {
     /// The inherent methods of the prepared model that V's stages need (private), as text.
     pub(crate) fn stage_methods(&self, lm: &LoopModel) -> String {
         let k = self.sums();
-        let extra = stage_names(k);
+        let extra = stage_names(k, self.carried());
         let fb = &self.feedback;
         let (wx, wt, wg) = args(&self.weights);
         let (gx, gt, gg) = args(&fb.gradient);
         let (fx, ft, fg) = args(&fb.feedback);
         let sx = arg(reads_state(&fb.sums), "x");
+        let px = arg(reads_state(&fb.pass), "x");
         let mut s = function(
             lm,
             &fb.sums,
             "sums",
             &format!(
-                "/// Stage 1 of V, ∇V and X − ∇V: the family sums S that V reads.\n\
+                "/// Stage 1 of V: the family sums S that V reads.\n\
                  fn lyapunov_sums(&self, {sx}: &[f64; DIM], out: &mut [f64; SUMS]) {{"
             ),
             false,
@@ -331,51 +343,80 @@ impl LoopDerived {
         s.push('\n');
         s.push_str(&function(
             lm,
+            &fb.pass,
+            "pass",
+            &format!(
+                "/// Stage 1 of ∇V and X − ∇V: the sums S, then the values C carried to stage 3 (the\n\
+                 /// family parts of ∇S and of the field), in one loop over each family's tuples.\n\
+                 fn lyapunov_pass(&self, {px}: &[f64; DIM], out: &mut [f64; SUMS + CARRIED]) {{"
+            ),
+            false,
+            None,
+            &[],
+        ));
+        s.push('\n');
+        s.push_str(&function(
+            lm,
             &self.weights,
             "weights",
             &format!(
-                "/// Stage 2: V and the weights w = ∂V/∂S from x and S (`x[..DIM + SUMS]`).\n\
-                 fn lyapunov_weights(&self, {wx}: &[f64; DIM + 2 * SUMS], {wt}: &[f64; INVARIANT_DIM], {wg}: &[f64; GAINS], out: &mut [f64; 1 + SUMS]) {{"
+                "/// Stage 2: V and the weights w = ∂V/∂S from x and S.\n\
+                 fn lyapunov_weights(&self, {wx}: &[f64; DIM + SUMS], {wt}: &[f64; INVARIANT_DIM], {wg}: &[f64; GAINS], out: &mut [f64; 1 + SUMS]) {{"
             ),
             false,
             None,
             &extra,
         ));
         s.push_str(
-            "\n/// Stages 1 and 2: V and `[x, S, w]`, the input of stage 3.\n\
-             fn lyapunov_stages(&self, x: &[f64; DIM], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS]) -> (f64, [f64; DIM + 2 * SUMS]) {\n\
-             \x20   let mut xsw = [0.0; DIM + 2 * SUMS];\n\
-             \x20   xsw[..DIM].copy_from_slice(x);\n\
+            "\n/// Stages 1 and 2 of V.\n\
+             fn lyapunov_value(&self, x: &[f64; DIM], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS]) -> f64 {\n\
+             \x20   let mut xs = [0.0; DIM + SUMS];\n\
+             \x20   xs[..DIM].copy_from_slice(x);\n\
              \x20   let mut sums = [0.0; SUMS];\n\
              \x20   self.lyapunov_sums(x, &mut sums);\n\
-             \x20   xsw[DIM..DIM + SUMS].copy_from_slice(&sums);\n\
+             \x20   xs[DIM..].copy_from_slice(&sums);\n\
              \x20   let mut vw = [0.0; 1 + SUMS];\n\
-             \x20   self.lyapunov_weights(&xsw, target, gains, &mut vw);\n\
-             \x20   xsw[DIM + SUMS..].copy_from_slice(&vw[1..]);\n\
-             \x20   (vw[0], xsw)\n\
+             \x20   self.lyapunov_weights(&xs, target, gains, &mut vw);\n\
+             \x20   vw[0]\n\
+             }\n\n\
+             /// The pass and stage 2: `[x, S, C, w]`, the input of stage 3.\n\
+             fn lyapunov_stages(&self, x: &[f64; DIM], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS]) -> [f64; DIM + 2 * SUMS + CARRIED] {\n\
+             \x20   let mut xsw = [0.0; DIM + 2 * SUMS + CARRIED];\n\
+             \x20   xsw[..DIM].copy_from_slice(x);\n\
+             \x20   let mut pass = [0.0; SUMS + CARRIED];\n\
+             \x20   self.lyapunov_pass(x, &mut pass);\n\
+             \x20   xsw[DIM..DIM + SUMS + CARRIED].copy_from_slice(&pass);\n\
+             \x20   let mut xs = [0.0; DIM + SUMS];\n\
+             \x20   xs.copy_from_slice(&xsw[..DIM + SUMS]);\n\
+             \x20   let mut vw = [0.0; 1 + SUMS];\n\
+             \x20   self.lyapunov_weights(&xs, target, gains, &mut vw);\n\
+             \x20   xsw[DIM + SUMS + CARRIED..].copy_from_slice(&vw[1..]);\n\
+             \x20   xsw\n\
              }\n\n",
         );
-        s.push_str(&function(
+        s.push_str(&function_with(
             lm,
+            &fb.families,
             &fb.gradient,
             "gradient",
             &format!(
-                "/// Stage 3 of ∇V: ∂V/∂x at fixed S, plus per family the gradient of Σ w·term.\n\
-                 fn lyapunov_gradient_stage(&self, {gx}: &[f64; DIM + 2 * SUMS], {gt}: &[f64; INVARIANT_DIM], {gg}: &[f64; GAINS], out: &mut [f64; DIM]) {{"
+                "/// Stage 3 of ∇V: ∂V/∂x at fixed S, plus Σ w·∇S from the carried values.\n\
+                 fn lyapunov_gradient_stage(&self, {gx}: &[f64; DIM + 2 * SUMS + CARRIED], {gt}: &[f64; INVARIANT_DIM], {gg}: &[f64; GAINS], out: &mut [f64; DIM]) {{"
             ),
             false,
             None,
             &extra,
         ));
         s.push('\n');
-        s.push_str(&function(
+        s.push_str(&function_with(
             lm,
+            &fb.families,
             &fb.feedback,
             "feedback",
             &format!(
-                "/// Stage 3 of X − ∇V: X − ∂V/∂x at fixed S, per family its terms of X minus the\n\
-                 /// gradient of Σ w·term.\n\
-                 fn feedback_stage(&self, {fx}: &[f64; DIM + 2 * SUMS], {ft}: &[f64; INVARIANT_DIM], {fg}: &[f64; GAINS], out: &mut [f64; DIM]) {{"
+                "/// Stage 3 of X − ∇V: X − ∂V/∂x at fixed S, plus from the carried values the\n\
+                 /// family parts of X minus Σ w·∇S.\n\
+                 fn feedback_stage(&self, {fx}: &[f64; DIM + 2 * SUMS + CARRIED], {ft}: &[f64; INVARIANT_DIM], {fg}: &[f64; GAINS], out: &mut [f64; DIM]) {{"
             ),
             false,
             None,
@@ -460,18 +501,18 @@ impl LoopDerived {
             "impl Lyapunov<f64, [f64; DIM], [f64; INVARIANT_DIM], [f64; GAINS]> for {prep} {{
     /// V(x): the sums it reads (stage 1), then V (stage 2).
     fn lyapunov(&self, x: &[f64; DIM], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS]) -> f64 {{
-        self.lyapunov_stages(x, target, gains).0
+        self.lyapunov_value(x, target, gains)
     }}
 
     /// ∇V(x), in three stages.
     fn lyapunov_gradient(&self, x: &[f64; DIM], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS], grad: &mut [f64; DIM]) {{
-        let (_, xsw) = self.lyapunov_stages(x, target, gains);
+        let xsw = self.lyapunov_stages(x, target, gains);
         self.lyapunov_gradient_stage(&xsw, target, gains, grad);
     }}
 
     /// X(x) − ∇V(x), in three stages.
     fn feedback_field(&self, x: &[f64; DIM], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS], dx: &mut [f64; DIM]) {{
-        let (_, xsw) = self.lyapunov_stages(x, target, gains);
+        let xsw = self.lyapunov_stages(x, target, gains);
         self.feedback_stage(&xsw, target, gains, dx);
     }}
 }}
@@ -520,9 +561,12 @@ impl LoopDerived {
         let mut s = format!(
             "/// Gains.\npub const GAINS: usize = {};\n\n\
              /// The family sums S that V reads, computed first by V, ∇V and X − ∇V.\n\
-             const SUMS: usize = {};\n",
+             const SUMS: usize = {};\n\n\
+             /// The values the pass of ∇V and X − ∇V carries to their last stage after S.\n\
+             const CARRIED: usize = {};\n",
             model.gains.len(),
-            self.sums()
+            self.sums(),
+            self.carried()
         );
         if let Some(h) = &self.halves {
             s.push_str(

@@ -377,6 +377,23 @@ pub(super) fn function(
     init: Option<&str>,
     extra: &[String],
 ) -> String {
+    function_with(lm, &[], lt, name, header, lanes, init, extra)
+}
+
+/// [`function`] of a tape whose regions may run families beyond the model's: region `r` with
+/// `r.family` ≥ F (the model's families) runs `more[r.family − F]` (the loops of V's last stage
+/// over the state's members, [`lasalle_model::loops::LoopFeedback::families`]).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn function_with(
+    lm: &LoopModel,
+    more: &[Family],
+    lt: &LoopTape,
+    name: &str,
+    header: &str,
+    lanes: bool,
+    init: Option<&str>,
+    extra: &[String],
+) -> String {
     let mut s = format!("{header}\n");
     let len = lt.n_outputs();
     let reads_params = lt.regions.iter().any(|r| {
@@ -418,7 +435,10 @@ pub(super) fn function(
         s.push_str("    }\n");
     }
     for (k, region) in lt.regions.iter().enumerate() {
-        let fam = &lm.families()[region.family];
+        let own = lm.families();
+        let fam = own
+            .get(region.family)
+            .unwrap_or_else(|| &more[region.family - own.len()]);
         let hoisted = (!region.tape.hoisted.is_empty()).then(|| format!("{name}_loop_{k}"));
         s.push_str(&indent(
             &region_code(

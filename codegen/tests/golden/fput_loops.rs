@@ -32,6 +32,9 @@ pub mod fput_loops {
     /// The family sums S that V reads, computed first by V, ∇V and X − ∇V.
     const SUMS: usize = 2;
 
+    /// The values the pass of ∇V and X − ∇V carries to their last stage after S.
+    const CARRIED: usize = 12;
+
     /// `true` at the components of q, the group whose rate reads only p (Störmer–Verlet's half-fields).
     const IS_Q: [bool; DIM] = {
         let mut is_q = [false; DIM];
@@ -142,6 +145,15 @@ pub mod fput_loops {
                     let p5: f64 = p4 * p3;
                     [p2, p5]
                 },
+                pass_loop_1: {
+                    let p0: f64 = p[1];
+                    let p1: f64 = p[0];
+                    let p2: f64 = 0.3333333333333333_f64;
+                    let p3: f64 = p2 * p1;
+                    let p4: f64 = 0.25_f64;
+                    let p5: f64 = p4 * p0;
+                    [p0, p1, p3, p5]
+                },
                 weights_plain: {
                     let p0: f64 = p[0];
                     let p1: f64 = p[1];
@@ -152,17 +164,7 @@ pub mod fput_loops {
                     let p1: f64 = p[1];
                     [p0, p1]
                 },
-                gradient_loop_1: {
-                    let p0: f64 = p[1];
-                    let p1: f64 = p[0];
-                    [p0, p1]
-                },
                 feedback_plain: {
-                    let p0: f64 = p[1];
-                    let p1: f64 = p[0];
-                    [p0, p1]
-                },
-                feedback_loop_1: {
                     let p0: f64 = p[1];
                     let p1: f64 = p[0];
                     [p0, p1]
@@ -192,11 +194,10 @@ pub mod fput_loops {
         jacobian_plain: [f64; 2],
         jacobian_loop_1: [f64; 2],
         sums_loop_1: [f64; 2],
+        pass_loop_1: [f64; 4],
         weights_plain: [f64; 2],
         gradient_plain: [f64; 2],
-        gradient_loop_1: [f64; 2],
         feedback_plain: [f64; 2],
-        feedback_loop_1: [f64; 2],
         field_p_plain: [f64; 2],
         field_p_loop_0: [f64; 2],
         params: [f64; PARAM_SLOTS],
@@ -317,7 +318,7 @@ pub mod fput_loops {
             }
         }
 
-        /// Stage 1 of V, ∇V and X − ∇V: the family sums S that V reads.
+        /// Stage 1 of V: the family sums S that V reads.
         fn lyapunov_sums(&self, x: &[f64; DIM], out: &mut [f64; SUMS]) {
             *out = [0.0; 2];
             // fput_loops.lsl:11: p[i]^2 / 2
@@ -345,8 +346,45 @@ pub mod fput_loops {
             }
         }
 
-        /// Stage 2: V and the weights w = ∂V/∂S from x and S (`x[..DIM + SUMS]`).
-        fn lyapunov_weights(&self, x: &[f64; DIM + 2 * SUMS], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS], out: &mut [f64; 1 + SUMS]) {
+        /// Stage 1 of ∇V and X − ∇V: the sums S, then the values C carried to stage 3 (the
+        /// family parts of ∇S and of the field), in one loop over each family's tuples.
+        fn lyapunov_pass(&self, x: &[f64; DIM], out: &mut [f64; SUMS + CARRIED]) {
+            *out = [0.0; 14];
+            // fput_loops.lsl:11: p[i]^2 / 2
+            for i in 0..6 {
+                let s0 = x[i + 6]; // p[i]
+                let r1 = s0.powi(2);
+                let r3 = 0.5_f64 * r1;
+                out[0] += r3;
+                out[i + 2] += s0;
+            }
+            // fput_loops.lsl:12: (q[i+1] - q[i])^2 / 2 + alpha * (q[i+1] - q[i])^3 / 3 + beta * (q[i+1] - q[i])^4 / 4
+            let h = &self.pass_loop_1;
+            for i in 0..5 {
+                let s0 = x[i + 1]; // q[i + 1]
+                let s1 = x[i]; // q[i]
+                let r2 = s0 - s1;
+                let r3 = r2.powi(2);
+                let r4 = r2.powi(3);
+                let r6 = h[0] * r4;
+                let r8 = h[1] * r3;
+                let r9 = r2 + r6;
+                let r10 = r9 + r8;
+                let r12 = 0.5_f64 * r3;
+                let r14 = r4 * h[2];
+                let r15 = r2.powi(4);
+                let r17 = r15 * h[3];
+                let r18 = r12 + r14;
+                let r19 = r18 + r17;
+                let r20 = -r10;
+                out[1] += r19;
+                out[i + 9] += r10;
+                out[i + 8] += r20;
+            }
+        }
+
+        /// Stage 2: V and the weights w = ∂V/∂S from x and S.
+        fn lyapunov_weights(&self, x: &[f64; DIM + SUMS], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS], out: &mut [f64; 1 + SUMS]) {
             *out = [0.0; 3];
             // the terms outside the families
             {
@@ -383,21 +421,35 @@ pub mod fput_loops {
             }
         }
 
-        /// Stages 1 and 2: V and `[x, S, w]`, the input of stage 3.
-        fn lyapunov_stages(&self, x: &[f64; DIM], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS]) -> (f64, [f64; DIM + 2 * SUMS]) {
-            let mut xsw = [0.0; DIM + 2 * SUMS];
-            xsw[..DIM].copy_from_slice(x);
+        /// Stages 1 and 2 of V.
+        fn lyapunov_value(&self, x: &[f64; DIM], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS]) -> f64 {
+            let mut xs = [0.0; DIM + SUMS];
+            xs[..DIM].copy_from_slice(x);
             let mut sums = [0.0; SUMS];
             self.lyapunov_sums(x, &mut sums);
-            xsw[DIM..DIM + SUMS].copy_from_slice(&sums);
+            xs[DIM..].copy_from_slice(&sums);
             let mut vw = [0.0; 1 + SUMS];
-            self.lyapunov_weights(&xsw, target, gains, &mut vw);
-            xsw[DIM + SUMS..].copy_from_slice(&vw[1..]);
-            (vw[0], xsw)
+            self.lyapunov_weights(&xs, target, gains, &mut vw);
+            vw[0]
         }
 
-        /// Stage 3 of ∇V: ∂V/∂x at fixed S, plus per family the gradient of Σ w·term.
-        fn lyapunov_gradient_stage(&self, x: &[f64; DIM + 2 * SUMS], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS], out: &mut [f64; DIM]) {
+        /// The pass and stage 2: `[x, S, C, w]`, the input of stage 3.
+        fn lyapunov_stages(&self, x: &[f64; DIM], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS]) -> [f64; DIM + 2 * SUMS + CARRIED] {
+            let mut xsw = [0.0; DIM + 2 * SUMS + CARRIED];
+            xsw[..DIM].copy_from_slice(x);
+            let mut pass = [0.0; SUMS + CARRIED];
+            self.lyapunov_pass(x, &mut pass);
+            xsw[DIM..DIM + SUMS + CARRIED].copy_from_slice(&pass);
+            let mut xs = [0.0; DIM + SUMS];
+            xs.copy_from_slice(&xsw[..DIM + SUMS]);
+            let mut vw = [0.0; 1 + SUMS];
+            self.lyapunov_weights(&xs, target, gains, &mut vw);
+            xsw[DIM + SUMS + CARRIED..].copy_from_slice(&vw[1..]);
+            xsw
+        }
+
+        /// Stage 3 of ∇V: ∂V/∂x at fixed S, plus Σ w·∇S from the carried values.
+        fn lyapunov_gradient_stage(&self, x: &[f64; DIM + 2 * SUMS + CARRIED], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS], out: &mut [f64; DIM]) {
             *out = [0.0; 12];
             // the terms outside the families
             {
@@ -438,36 +490,25 @@ pub mod fput_loops {
                 out[0] = r38;
                 out[5] = r43;
             }
-            // fput_loops.lsl:11: p[i]^2 / 2
-            for i in 0..6 {
-                let s0 = x[i + 6]; // p[i]
-                let s1 = x[14]; // w[0] = ∂V/∂S[0]
+            // fput_loops.lsl:7: q
+            for c in 0..6 {
+                let s0 = x[c + 20];
+                let s1 = x[27]; // w[1] = ∂V/∂S[1]
                 let r2 = s0 * s1;
-                out[i + 6] += r2;
+                out[c] += r2;
             }
-            // fput_loops.lsl:12: (q[i+1] - q[i])^2 / 2 + alpha * (q[i+1] - q[i])^3 / 3 + beta * (q[i+1] - q[i])^4 / 4
-            let h = &self.gradient_loop_1;
-            for i in 0..5 {
-                let s0 = x[i + 1]; // q[i + 1]
-                let s1 = x[i]; // q[i]
-                let s2 = x[15]; // w[1] = ∂V/∂S[1]
-                let r2 = s0 - s1;
-                let r3 = r2.powi(3);
-                let r5 = h[0] * r3;
-                let r6 = r2.powi(2);
-                let r8 = h[1] * r6;
-                let r9 = r2 + r5;
-                let r10 = r9 + r8;
-                let r12 = s2 * r10;
-                let r13 = -r12;
-                out[i + 1] += r12;
-                out[i] += r13;
+            // fput_loops.lsl:7: p
+            for c in 0..6 {
+                let s0 = x[c + 14];
+                let s1 = x[26]; // w[0] = ∂V/∂S[0]
+                let r2 = s0 * s1;
+                out[c + 6] += r2;
             }
         }
 
-        /// Stage 3 of X − ∇V: X − ∂V/∂x at fixed S, per family its terms of X minus the
-        /// gradient of Σ w·term.
-        fn feedback_stage(&self, x: &[f64; DIM + 2 * SUMS], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS], out: &mut [f64; DIM]) {
+        /// Stage 3 of X − ∇V: X − ∂V/∂x at fixed S, plus from the carried values the
+        /// family parts of X minus Σ w·∇S.
+        fn feedback_stage(&self, x: &[f64; DIM + 2 * SUMS + CARRIED], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS], out: &mut [f64; DIM]) {
             *out = [0.0; 12];
             // the terms outside the families
             {
@@ -514,38 +555,24 @@ pub mod fput_loops {
                 out[6] = r46;
                 out[11] = r47;
             }
-            // fput_loops.lsl:11: p[i]^2 / 2
-            for i in 0..6 {
-                let s0 = x[i + 6]; // p[i]
-                let s1 = x[14]; // w[0] = ∂V/∂S[0]
-                let r2 = s0 * s1;
-                let r3 = -r2;
-                out[i] += s0;
-                out[i + 6] += r3;
+            // fput_loops.lsl:7: q
+            for c in 0..6 {
+                let s0 = x[c + 14];
+                let s1 = x[c + 20];
+                let s2 = x[27]; // w[1] = ∂V/∂S[1]
+                let r3 = s1 * s2;
+                let r4 = s0 - r3;
+                out[c] += r4;
             }
-            // fput_loops.lsl:12: (q[i+1] - q[i])^2 / 2 + alpha * (q[i+1] - q[i])^3 / 3 + beta * (q[i+1] - q[i])^4 / 4
-            let h = &self.feedback_loop_1;
-            for i in 0..5 {
-                let s0 = x[i + 1]; // q[i + 1]
-                let s1 = x[i]; // q[i]
-                let s2 = x[15]; // w[1] = ∂V/∂S[1]
-                let r2 = s0 - s1;
-                let r3 = r2.powi(2);
-                let r4 = r2.powi(3);
-                let r6 = h[0] * r4;
-                let r8 = h[1] * r3;
-                let r9 = -r6;
-                let r10 = r9 - r8;
-                let r11 = r10 - r2;
-                let r12 = r2 + r6;
-                let r13 = r12 + r8;
-                let r14 = -r13;
-                let r16 = s2 * r11;
-                let r17 = -r16;
-                out[i + 7] += r14;
-                out[i + 6] += r13;
-                out[i + 1] += r16;
-                out[i] += r17;
+            // fput_loops.lsl:7: p
+            for c in 0..6 {
+                let s0 = x[c + 20];
+                let s1 = x[c + 14];
+                let s2 = x[26]; // w[0] = ∂V/∂S[0]
+                let r3 = s1 * s2;
+                let r4 = -s0;
+                let r5 = r4 - r3;
+                out[c + 6] += r5;
             }
         }
     }
@@ -702,18 +729,18 @@ pub mod fput_loops {
     impl Lyapunov<f64, [f64; DIM], [f64; INVARIANT_DIM], [f64; GAINS]> for FputPrepared {
         /// V(x): the sums it reads (stage 1), then V (stage 2).
         fn lyapunov(&self, x: &[f64; DIM], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS]) -> f64 {
-            self.lyapunov_stages(x, target, gains).0
+            self.lyapunov_value(x, target, gains)
         }
 
         /// ∇V(x), in three stages.
         fn lyapunov_gradient(&self, x: &[f64; DIM], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS], grad: &mut [f64; DIM]) {
-            let (_, xsw) = self.lyapunov_stages(x, target, gains);
+            let xsw = self.lyapunov_stages(x, target, gains);
             self.lyapunov_gradient_stage(&xsw, target, gains, grad);
         }
 
         /// X(x) − ∇V(x), in three stages.
         fn feedback_field(&self, x: &[f64; DIM], target: &[f64; INVARIANT_DIM], gains: &[f64; GAINS], dx: &mut [f64; DIM]) {
-            let (_, xsw) = self.lyapunov_stages(x, target, gains);
+            let xsw = self.lyapunov_stages(x, target, gains);
             self.feedback_stage(&xsw, target, gains, dx);
         }
     }

@@ -1,7 +1,8 @@
 //! A loop region ([`lasalle_model::loops::Region`]) compiled to one function with a loop block:
 //! per tuple, gather the slots through the tuple's row of the gather table, run the region's
-//! body, and add each output to the function output its row of the scatter table names. The
-//! code is the body once, whatever the number of tuples.
+//! body, and add each output to the function output its row of the scatter table names (a slot
+//! that gathers the same index for every tuple is loaded once, before the loop). The code is
+//! the body once, whatever the number of tuples.
 //!
 //! Every instruction is the IEEE operation (or the call of the `extern "C"` wrapper of the
 //! same `std` function) that [`crate::loops`]'s interpreter performs, in the same order, so
@@ -65,10 +66,26 @@ fn define(module: &mut JITModule, r: &Region) -> Result<cranelift_module::FuncId
         let (hoisted, state, params, gather, scatter, out) = (p[0], p[1], p[2], p[3], p[4], p[5]);
         let flags = MemFlagsData::trusted();
         let ops = &r.tape.body;
-        // Values the same for every tuple, computed before the loop.
+        // Values the same for every tuple, computed before the loop: the constants, the
+        // hoisted values, and the slots that gather the same index for every tuple (loaded
+        // once; the region writes only `out`, which is not its input).
         let mut values: Vec<Option<Value>> = vec![None; ops.len()];
+        let width = r.sources.len();
         for (i, op) in ops.iter().enumerate() {
             match *op {
+                Op::State(s) if r.count > 0 => {
+                    let s = s as usize;
+                    let at = r.gather[s];
+                    let fixed = (1..r.count).all(|t| r.gather[t * width + s] == at);
+                    let off = i32::try_from(8 * at as usize).ok();
+                    if let (true, Some(off)) = (fixed, off) {
+                        let base = match r.sources[s] {
+                            Source::State => state,
+                            Source::Param => params,
+                        };
+                        values[i] = Some(b.ins().load(types::F64, flags, base, off));
+                    }
+                }
                 Op::Const(c) => {
                     values[i] = Some(b.ins().f64const(Ieee64::with_bits(c.to_bits())));
                 }

@@ -1,8 +1,8 @@
 //! The Taylor kernel of X − ∇V of a model loaded with its families kept as loops
 //! ([`LoopFeedbackTaylor`]): the three stages of [`LoopFeedback`] propagated as Taylor series
-//! ([`FeedbackTaylorProgram`]: S's coefficients from x's by the sums' loop recurrences, w's
-//! from x's and S's by the weights' recurrences, then order k + 1 of x from the last stage's
-//! loop recurrences on x, S and w), interpreted in the order the program's docs
+//! ([`FeedbackTaylorProgram`]: the coefficients of S and of the carried values C from x's by
+//! the pass's loop recurrences, w's from x's and S's by the weights' recurrences, then order
+//! k + 1 of x from the last stage's recurrences on x, S, C and w), interpreted in the order the program's docs
 //! (`lasalle_model::loops::feedback_taylor`) fix. The JIT's kernel
 //! (`lasalle_exec::jit::taylor::JitLoopFeedbackTaylor`) runs the same operations in the same
 //! order, so the two agree bitwise. Code independent of the number of tuples, storage linear
@@ -30,9 +30,9 @@ pub struct LoopFeedbackTaylor {
     pub(crate) hoisted: Hoisted,
     pub(crate) max_order: usize,
     pub(crate) stride: usize,
-    /// The shared table: rows × (p + 1), row-major, x, S and w first.
+    /// The shared table: rows × (p + 1), row-major, x, S, C and w first.
     pub(crate) table: Vec<f64>,
-    /// Per region of the sums, then per region of the last stage: tuples × its rows × (p + 1).
+    /// Per region of the pass, then per region of the last stage: tuples × its rows × (p + 1).
     pub(crate) sums_blocks: Vec<Vec<f64>>,
     pub(crate) feedback_blocks: Vec<Vec<f64>>,
     /// The order of the last compute.
@@ -42,7 +42,7 @@ pub struct LoopFeedbackTaylor {
 /// The hoisted values of the stages' tapes.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Hoisted {
-    /// The sums' plain tape, then each of its regions'.
+    /// The pass's plain tape, then each of its regions'.
     pub(crate) sums: Vec<Vec<f64>>,
     pub(crate) weights: Vec<f64>,
     /// The last stage's plain tape, then each of its regions'.
@@ -86,7 +86,7 @@ impl LoopFeedbackTaylor {
         let w = tapes.weights.dims;
         let mut k = LoopFeedbackTaylor {
             table: vec![0.0; program.rows * stride],
-            sums_blocks: blocks(&tapes.sums, &program.sums, stride),
+            sums_blocks: blocks(&tapes.pass, &program.sums, stride),
             feedback_blocks: blocks(&tapes.feedback, &program.feedback, stride),
             tapes: tapes.clone(),
             program,
@@ -105,7 +105,7 @@ impl LoopFeedbackTaylor {
     /// Recomputes the hoisted values for new parameter values.
     pub fn set_params(&mut self, params: &[f64]) -> Result<(), TaylorError> {
         self.hoisted = Hoisted {
-            sums: hoist_loop(&self.tapes.sums, params)?,
+            sums: hoist_loop(&self.tapes.pass, params)?,
             weights: self
                 .tapes
                 .weights
@@ -131,7 +131,7 @@ impl LoopFeedbackTaylor {
     /// If `x.len()` is not the state dimension.
     pub fn compute(&mut self, x: &[f64], order: usize) {
         let p = &self.program;
-        let (n, nk) = (p.dim, p.sums_count);
+        let (n, nk) = (p.dim, p.pass_outputs());
         assert_eq!(x.len(), n, "state dimension");
         let order = order.min(self.max_order);
         self.order = order;
@@ -153,12 +153,12 @@ impl LoopFeedbackTaylor {
         };
         let tapes = &self.tapes;
         for k in 0..order {
-            // 1. S
+            // 1. S and the carried values
             plain(t, &p.sums.base, &h.sums[0], k);
             for i in 0..nk {
                 t[p.sum_row(i) * s + k] = 0.0;
             }
-            for (&o, &row) in tapes.sums.base_at.iter().zip(&p.sums.base.outputs) {
+            for (&o, &row) in tapes.pass.base_at.iter().zip(&p.sums.base.outputs) {
                 t[p.sum_row(o as usize) * s + k] = t[row * s + k];
             }
             let to = Scatter { first: n, shift: 0 };
@@ -168,7 +168,7 @@ impl LoopFeedbackTaylor {
                 s,
                 k,
                 to,
-                &tapes.sums,
+                &tapes.pass,
                 &p.sums,
                 blocks,
                 &h.sums[1..],

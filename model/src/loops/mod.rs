@@ -25,10 +25,11 @@
 //! The derived functions are loop tapes too ([`LoopModel::jacobian`], [`LoopModel::feedback`],
 //! [`LoopModel::partition`], in `derived`): Df of the integrals (each family term's partials
 //! by its state slots, scattered to `row·N + gather`), the half-fields (the field's loop tape
-//! restricted to each half), and V, ∇V and X − ∇V in three stages ([`LoopFeedback`]): the
-//! family sums S that V reads, then V and `w = ∂V/∂S` from `[x, S]`, then `∂V/∂x|_S` plus, per
-//! family, the gradient of `Σ w·body` (one symbolic gradient, the weights gathered as slots of
-//! a constant column) from `[x, S, w]`. The integrals are proved on the families' bodies
+//! restricted to each half), and V, ∇V and X − ∇V in three stages ([`LoopFeedback`]): one
+//! pass over each family's tuples giving the family sums S that V reads and carrying C, the
+//! families' parts of ∇S and of the field, then V and `w = ∂V/∂S` from `[x, S]`, then
+//! `∂V/∂x|_S` plus, per state member, a loop combining C with w, from `[x, S, C, w]`. The
+//! integrals are proved on the families' bodies
 //! ([`LoopModel::check`]).
 //!
 //! What the loop form does not do (yet) is refused rather than approximated: a family whose
@@ -37,8 +38,9 @@
 //! partitioned field. The field's Taylor program has a loop form ([`LoopTape::taylor`],
 //! [`taylor`]: the body's coefficient recurrences once per tuple, on the coefficients gathered
 //! from the state's), and so has the Taylor program of X − ∇V ([`LoopFeedback::taylor`],
-//! [`feedback_taylor`]: the three stages propagated as Taylor series — S's coefficients from
-//! x's, w's from x's and S's, then X − ∇V's from x's, S's and w's — on one table). The emitted
+//! [`feedback_taylor`]: the three stages propagated as Taylor series — the coefficients of S
+//! and C from x's in one pass, w's from x's and S's, then X − ∇V's from x's, S's, C's and w's —
+//! on one table). The emitted
 //! Rust writes the field, the invariants and the derived functions as loops from these tapes,
 //! with the index structure of [`index`] (`lasalle_codegen::generate_source_with`).
 //!
@@ -297,6 +299,17 @@ impl LoopModel {
     }
 }
 
+/// The family terms of a Hamiltonian under a canonical structure.
+pub(crate) struct HamiltonTerms {
+    /// The terms `c·body` as reductions into output 0, per family.
+    pub(crate) terms: Outputs,
+    /// The same terms as `(family, component, c)`.
+    pub(crate) coefficients: Vec<(usize, usize, f64)>,
+    /// The canonical pairs.
+    pub(crate) q: Vec<usize>,
+    pub(crate) p: Vec<usize>,
+}
+
 /// Per family, the region outputs: (expression, scatter column).
 pub(crate) type Outputs = std::collections::BTreeMap<usize, Vec<(Id, Vec<u32>)>>;
 
@@ -325,6 +338,19 @@ impl<'a> Builder<'a> {
 
     /// The field's plain part (per component) and the family outputs of the field.
     fn field(&mut self) -> Result<(Vec<Id>, Outputs), Error> {
+        let (roots, mut field, hamiltonian) = self.field_parts()?;
+        if let Some(h) = hamiltonian {
+            self.hamilton(&h.terms, &h.q, &h.p, &mut field)?;
+        }
+        Ok((roots, field))
+    }
+
+    /// The field's plain part, the family outputs of its explicit part (the reductions it
+    /// reads), and the Hamiltonian's family terms whose equations it adds, if any (under a
+    /// canonical structure; refused under a Lie–Poisson one).
+    pub(crate) fn field_parts(
+        &mut self,
+    ) -> Result<(Vec<Id>, Outputs, Option<HamiltonTerms>), Error> {
         // The field: explicit part plus reductions, plus Hamilton's equations of the families.
         let lm = self.lm;
         let m = &lm.model;
@@ -333,6 +359,7 @@ impl<'a> Builder<'a> {
         for (c, &f) in m.field.iter().enumerate() {
             roots.push(self.split(f, c as u32, &m.field_spans[c], &mut field)?);
         }
+        let mut hamiltonian = None;
         if let Some(h) = &m.hamiltonian {
             let span = m
                 .invariants
@@ -349,10 +376,39 @@ impl<'a> Builder<'a> {
                         "load the model with its families unrolled",
                     ));
                 };
-                self.hamilton(&terms, q, p, &mut field)?;
+                let coefficients = self.coefficients(h.h);
+                hamiltonian = Some(HamiltonTerms {
+                    terms,
+                    coefficients,
+                    q: q.clone(),
+                    p: p.clone(),
+                });
             }
         }
-        Ok((roots, field))
+        Ok((roots, field, hamiltonian))
+    }
+
+    /// The family terms `(family, component, c)` of `e = e₀ + Σ c·sum`, in symbol order (that of
+    /// [`Builder::split`]'s terms), for an `e` that `split` accepts.
+    pub(crate) fn coefficients(&mut self, e: Id) -> Vec<(usize, usize, f64)> {
+        let used: Vec<u32> = self
+            .g
+            .reachable(&[e])
+            .into_iter()
+            .filter_map(|id| match self.g.node(id) {
+                Node::Input(Input::Symbol(s)) if self.placeholder.contains_key(s) => Some(*s),
+                _ => None,
+            })
+            .collect();
+        let vars: Vec<Input> = used.iter().map(|&s| Input::Symbol(s)).collect();
+        let grad = crate::ir::gradient(&mut self.g, e, &vars);
+        used.iter()
+            .zip(&grad)
+            .filter_map(|(s, &d)| {
+                let (f, c) = self.placeholder[s];
+                self.g.as_num(d).map(|k| (f, c, k))
+            })
+            .collect()
     }
 
     fn refuse(&self, span: &Span, what: &str, help: &str) -> Error {
@@ -422,7 +478,7 @@ impl<'a> Builder<'a> {
     /// Hamilton's equations of the family terms `terms` of H (reductions into output 0 with
     /// their coefficients): each body's gradient with respect to its state slots, once,
     /// scattered to the partner components.
-    fn hamilton(
+    pub(crate) fn hamilton(
         &mut self,
         terms: &Outputs,
         q: &[usize],
@@ -576,6 +632,14 @@ impl<'a> Builder<'a> {
             gather.extend(columns.iter().map(|c| c[t]));
         }
         Ok((g, roots, sources, gather))
+    }
+}
+
+impl Region {
+    /// The same region, running family `family`.
+    pub(crate) fn with_family(mut self, family: usize) -> Region {
+        self.family = family;
+        self
     }
 }
 

@@ -199,10 +199,12 @@ impl LoopExtension {
                 last.extend((0..k).map(|i| b.g.input(Input::State((e + k + i) as u32))));
                 let feedback = b.tape(&last, plain(2 * k), x_outs)?;
                 Ok(ExtendedField::Staged(Box::new(LoopFeedback {
+                    pass: sums.clone(),
                     sums,
                     weights,
                     gradient: feedback.clone(),
                     feedback,
+                    families: Vec::new(),
                 })))
             }
         }
@@ -227,10 +229,12 @@ impl LoopExtension {
         let zero = b.g.num(0.0);
         let last = b.tape(&[zero], dims, Outputs::default())?;
         Ok(Some(LoopFeedback {
+            pass: sums.clone(),
             sums,
             weights,
             gradient: last.clone(),
             feedback: last,
+            families: Vec::new(),
         }))
     }
 

@@ -1,8 +1,8 @@
 //! The Taylor program of X − ∇V in loop form ([`FeedbackTaylorProgram`]) compiled by
 //! Cranelift for one order p: [`JitLoopFeedbackTaylor`]. One function: the orders unrolled as
 //! in [`JitTaylor`](super::JitTaylor) (the same emitter), and at each order the three stages
-//! on the shared table — the sums' plain recurrences and one loop block over the tuples per
-//! region (as [`JitLoopTaylor`](super::JitLoopTaylor)'s, adding to order k of the S rows), the
+//! on the shared table — the pass's plain recurrences and one loop block over the tuples per
+//! region (as [`JitLoopTaylor`](super::JitLoopTaylor)'s, adding to order k of the S and C rows), the
 //! weights' recurrences, then the last stage's plain recurrences and its regions' loops (adding
 //! to order k + 1 of the x rows). The code is independent of the number of tuples; the
 //! operations and their order are those of the interpreter ([`LoopFeedbackTaylor`]), so the
@@ -82,7 +82,7 @@ impl JitLoopFeedbackTaylor {
         let layouts = [
             compact(
                 &data.program.sums,
-                &tapes.sums,
+                &tapes.pass,
                 &mut data.sums_blocks,
                 p + 1,
             ),
@@ -106,7 +106,7 @@ impl JitLoopFeedbackTaylor {
         // SAFETY: defined just now with this signature (two pointers, the host's C calling
         // convention); the module owning the code lives in the result.
         let func = unsafe { std::mem::transmute::<*const u8, FeedbackTaylorFn>(code) };
-        let regions = tapes.sums.regions.len() + tapes.feedback.regions.len();
+        let regions = tapes.pass.regions.len() + tapes.feedback.regions.len();
         Ok(JitLoopFeedbackTaylor {
             pointers: Vec::with_capacity(7 + 4 * regions),
             data,
@@ -151,7 +151,7 @@ impl TaylorKernel<crate::LoadedModel> for JitLoopFeedbackTaylor {
         ptrs.push(d.hoisted.weights.as_ptr().cast());
         ptrs.push(d.hoisted.feedback[0].as_ptr().cast());
         let stages = [
-            (&d.tapes.sums, &d.hoisted.sums, &mut d.sums_blocks),
+            (&d.tapes.pass, &d.hoisted.sums, &mut d.sums_blocks),
             (
                 &d.tapes.feedback,
                 &d.hoisted.feedback,
@@ -215,7 +215,7 @@ fn define(
         };
         let [params, table, target, gains, h_sums, h_weights, h_feedback] =
             std::array::from_fn(|i| at(&mut b, i));
-        let first = tapes.sums.regions.len();
+        let first = tapes.pass.regions.len();
         let sums_regions: Vec<[Value; 4]> = (0..first)
             .map(|r| std::array::from_fn(|j| at(&mut b, 7 + 4 * r + j)))
             .collect();
@@ -242,7 +242,7 @@ fn define(
             program,
             tapes,
             sums: loop_emit(
-                (&tapes.sums, &program.sums, &layouts[0]),
+                (&tapes.pass, &program.sums, &layouts[0]),
                 [params, table, h_sums],
                 sums_regions,
                 n,
@@ -309,7 +309,7 @@ impl Stages<'_> {
     /// Orders 0..p, as [`LoopFeedbackTaylor::compute`].
     fn body(&mut self, e: &mut Emit<'_>, state: Value, p: usize) -> Result<(), ExecError> {
         let prog = self.program;
-        let (n, nk) = (prog.dim, prog.sums_count);
+        let (n, nk) = (prog.dim, prog.pass_outputs());
         for i in 0..n {
             let x = e.load(state, i)?;
             e.push(i, 0, x);
@@ -345,10 +345,10 @@ impl Stages<'_> {
             Ok::<_, ExecError>(())
         };
         for k in 0..p {
-            // 1. S: order k of the S rows
+            // 1. S and the carried values: order k of their rows
             plain(e, 0, &self.leaves[0], k)?;
             let mut first: Vec<Value> = vec![e.zero; nk];
-            for (&o, &row) in self.tapes.sums.base_at.iter().zip(&prog.sums.base.outputs) {
+            for (&o, &row) in self.tapes.pass.base_at.iter().zip(&prog.sums.base.outputs) {
                 first[o as usize] = e.c(row, k);
             }
             for (i, &v) in first.iter().enumerate() {
