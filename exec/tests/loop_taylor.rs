@@ -253,3 +253,99 @@ fn fput_loop_feedback_taylor_is_the_unrolled_programs() {
         });
     }
 }
+
+/// The chaos indicators' field of the loop-form extension (staged as X − ∇V is): interpreter
+/// and JIT bitwise equal, order 1 bitwise the staged field, and every order the unrolled
+/// extension's program up to the order of summation, at random extended states (x, then a
+/// tangent u, then ℓ, τ, a, b).
+fn check_indicators(text: &str, state: impl Fn(u64, usize) -> Vec<f64>) {
+    use lasalle_model::loops::ExtendedField;
+    use lasalle_model::variational::Extension;
+    let lm = LoopModel::from_source("m.lsl", text, Families::Loops).unwrap();
+    assert!(!lm.families().is_empty(), "the model has a loop family");
+    let ext = lm.extend(Extension::Indicators).unwrap();
+    let ExtendedField::Staged(stages) = ext.field().unwrap() else {
+        panic!("the indicators' field is staged")
+    };
+    let program = stages.taylor().unwrap();
+    let n = lm.dim();
+    assert_eq!(program.sums_count, n + 4, "S = (A·u, 0, 0, 0, 0)");
+    let model = ext.unrolled().unwrap();
+    let e = model.dim();
+    assert_eq!(e, 2 * n + 4);
+    let dims = Dims {
+        state: e,
+        params: model.param_slots(),
+        targets: 0,
+        gains: 0,
+    };
+    let unrolled = Tape::from_graph(&model.graph, &model.field, dims).unwrap();
+    let params = lm.default_params();
+    let mut interp = LoopFeedbackTaylor::new(&stages, &params, ORDER).unwrap();
+    let mut jit = JitLoopFeedbackTaylor::new(&stages, &params, ORDER).unwrap();
+    let mut plain = TaylorTape::new(&unrolled, &params, ORDER).unwrap();
+    for seed in 0..3 {
+        let mut x = state(seed, n);
+        x.extend(numbers(seed + 20, n + 4));
+        interp.compute(&x, ORDER as usize);
+        TaylorKernel::<LoadedModel>::compute(&mut jit, &x, ORDER as usize);
+        plain.compute(&x, ORDER as usize);
+        let bits = |c: &[f64]| c.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        let field = ExtendedField::Staged(stages.clone())
+            .eval(&params, &x)
+            .unwrap();
+        for i in 0..e {
+            let a = interp.state_coefficients(i);
+            let b = TaylorKernel::<LoadedModel>::coefficients(&jit, i);
+            assert_eq!(a.len(), ORDER as usize + 1);
+            assert_eq!(
+                bits(a),
+                bits(b),
+                "component {i}: interpreter and JIT differ"
+            );
+            assert_eq!(a[0].to_bits(), x[i].to_bits());
+            assert_eq!(
+                a[1].to_bits(),
+                field[i].to_bits(),
+                "component {i}: order 1 is not the staged field"
+            );
+        }
+        // per order and block (x, u, then ℓ, τ, a, b), relative to the block's largest
+        // coefficient: the blocks' scales differ by orders of magnitude
+        for k in 0..=ORDER as usize {
+            for block in [0..n, n..2 * n, 2 * n..e] {
+                let scale = block
+                    .clone()
+                    .fold(0.0f64, |m, i| m.max(plain.state_coefficients(i)[k].abs()));
+                assert!(scale > 0.0 || k > 1, "order {k} is not trivial");
+                for i in block {
+                    let (a, u) = (
+                        interp.state_coefficients(i)[k],
+                        plain.state_coefficients(i)[k],
+                    );
+                    assert!(
+                        (a - u).abs() <= 1e-13 * scale,
+                        "seed {seed}, component {i}, order {k}: loops {a:e}, unrolled {u:e} (scale {scale:e})"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn nbody_loop_indicators_taylor_is_the_unrolled_extensions() {
+    for n in [4, 6] {
+        check_indicators(&sized(NBODY, "param n = 5;", n), nbody_state);
+    }
+}
+
+#[test]
+fn fput_loop_indicators_taylor_is_the_unrolled_extensions() {
+    for n in [5, 12] {
+        let text = sized(FPUT, "param n = 16;", n).replace("param beta = 0;", "param beta = 0.7;");
+        check_indicators(&text, |seed, len| {
+            numbers(seed, len).iter().map(|v| 0.5 * v).collect()
+        });
+    }
+}
