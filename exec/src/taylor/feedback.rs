@@ -6,7 +6,8 @@
 //! (`lasalle_model::loops::feedback_taylor`) fix. The JIT's kernel
 //! (`lasalle_exec::jit::taylor::JitLoopFeedbackTaylor`) runs the same operations in the same
 //! order, so the two agree bitwise. Code independent of the number of tuples, storage linear
-//! in it; nothing is built from the unrolled model.
+//! in it; nothing is built from the unrolled model. The chaos indicators' field of a loop-form
+//! extension is staged the same way, and this kernel (or its JIT) is its Taylor kernel too.
 
 use super::loops::{regions, Scatter};
 use super::{coefficient, zeroth};

@@ -6,7 +6,8 @@
 //! weights' recurrences, then the last stage's plain recurrences and its regions' loops (adding
 //! to order k + 1 of the x rows). The code is independent of the number of tuples; the
 //! operations and their order are those of the interpreter ([`LoopFeedbackTaylor`]), so the
-//! two agree bitwise. The tuples' tables are compact, as the field's.
+//! two agree bitwise. The tuples' tables are compact, as the field's. It also compiles the
+//! chaos indicators' staged field (the same three stages).
 
 use super::loops::{layout, Layout, LoopEmit};
 use super::{
