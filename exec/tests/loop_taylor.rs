@@ -2,7 +2,9 @@
 //! those of the unrolled model's Taylor program up to the order of summation, for the N-body
 //! and FPUT families at several sizes.
 
-use lasalle_exec::jit::taylor::{JitLoopFeedbackTaylor, JitLoopTaylor};
+use lasalle_exec::jit::taylor::{
+    JitLoopFeedbackTaylor, JitLoopTaylor, JitTaylor, MAX_INSTRUCTIONS,
+};
 use lasalle_exec::{LoadedModel, LoopFeedbackTaylor, LoopTaylorTape, TaylorTape};
 use lasalle_model::loops::{Families, LoopModel};
 use lasalle_model::tape::{Dims, Tape};
@@ -166,6 +168,9 @@ fn check_feedback(text: &str, state: impl Fn(u64, usize) -> Vec<f64>) {
     let stages = lm.feedback().unwrap();
     let program = stages.taylor().unwrap();
     assert!(program.sums_count > 0, "V reads a family's sum");
+    // the JIT compiles every stage (the weights' program is small)
+    let size = JitTaylor::instructions(&program.weights, ORDER as usize);
+    assert!(size <= MAX_INSTRUCTIONS, "{size}");
     let unrolled = lasalle_model::derive(lasalle_model::lower_source("m.lsl", text).unwrap());
     let tapes = lasalle_model::tape::ModelTapes::new(&unrolled).unwrap();
     let params = lm.default_params();
@@ -270,6 +275,9 @@ fn check_indicators(text: &str, state: impl Fn(u64, usize) -> Vec<f64>) {
     let program = stages.taylor().unwrap();
     let n = lm.dim();
     assert_eq!(program.sums_count, n + 4, "S = (A·u, 0, 0, 0, 0)");
+    // the JIT's code calls the interpreter for stage 2 (λ and the rates: too large to unroll)
+    let size = JitTaylor::instructions(&program.weights, ORDER as usize);
+    assert!(size > MAX_INSTRUCTIONS, "{size}");
     let model = ext.unrolled().unwrap();
     let e = model.dim();
     assert_eq!(e, 2 * n + 4);

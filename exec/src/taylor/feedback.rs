@@ -70,6 +70,26 @@ fn blocks(
         .collect()
 }
 
+/// Order k of a stage's plain program on the shared table `t` (stride `s`): order 0 from
+/// `[hoisted, target, gains]`, the higher orders of the non-constant rows by their recurrences.
+/// Also run from the JIT's code for a program too large to compile
+/// (`lasalle_exec::jit::taylor::JitLoopFeedbackTaylor`).
+pub(crate) fn plain_order(
+    t: &mut [f64],
+    s: usize,
+    prog: &TaylorProgram,
+    [hoisted, target, gains]: [&[f64]; 3],
+    k: usize,
+) {
+    for &(r, constant) in &prog.recs {
+        if k == 0 {
+            zeroth(t, s, r, hoisted, target, gains);
+        } else if !constant {
+            coefficient(t, s, r, k);
+        }
+    }
+}
+
 impl LoopFeedbackTaylor {
     /// The kernel of X − ∇V given by the stages `tapes`, with parameter values `params`, for
     /// orders up to `max_order`. Targets and gains start at 0; set them with
@@ -144,13 +164,7 @@ impl LoopFeedbackTaylor {
         let h = &self.hoisted;
         let (target, gains) = (&self.target[..], &self.gains[..]);
         let plain = |t: &mut [f64], prog: &TaylorProgram, hoisted: &[f64], k: usize| {
-            for &(r, constant) in &prog.recs {
-                if k == 0 {
-                    zeroth(t, s, r, hoisted, target, gains);
-                } else if !constant {
-                    coefficient(t, s, r, k);
-                }
-            }
+            plain_order(t, s, prog, [hoisted, target, gains], k)
         };
         let tapes = &self.tapes;
         for k in 0..order {
