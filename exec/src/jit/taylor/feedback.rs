@@ -1,6 +1,6 @@
 //! The Taylor program of X − ∇V in loop form ([`FeedbackTaylorProgram`]) compiled by
 //! Cranelift for one order p: [`JitLoopFeedbackTaylor`]. One function: the orders unrolled as
-//! in [`JitTaylor`](super::JitTaylor) (the same emitter), and at each order the three stages
+//! in [`JitTaylor`] (the same emitter), and at each order the three stages
 //! on the shared table — the sums' plain recurrences and one loop block over the tuples per
 //! region (as [`JitLoopTaylor`](super::JitLoopTaylor)'s, adding to order k of the S rows), the
 //! weights' recurrences, then the last stage's plain recurrences and its regions' loops (adding
@@ -10,7 +10,7 @@
 //! chaos indicators' staged field (the same three stages).
 //!
 //! A stage's plain program above [`MAX_INSTRUCTIONS`] estimated instructions
-//! ([`JitTaylor::instructions`](super::JitTaylor::instructions)) is not compiled: the code
+//! ([`JitTaylor::instructions`]) is not compiled: the code
 //! calls the interpreter's loop over its recurrences at each order (`plain_order`, the same
 //! operations), so the code stays independent of its size. This is the indicators' stage 2,
 //! whose λ = u·Au/(u·u) and rates are a few Cauchy products per state component: unrolled,
