@@ -158,6 +158,49 @@ fn transcendental_chain_loop_taylor_is_the_unrolled_programs() {
     });
 }
 
+/// The staged Taylor kernels' coefficients at `x` (after a compute at ORDER): the interpreter's
+/// and the JIT's bitwise equal, order 0 `x` and order 1 `field` bitwise, and every order the
+/// unrolled program's to 10⁻¹³ of its order's largest coefficient in each of `blocks`.
+fn staged_agree(
+    [interp, jit]: [&dyn TaylorKernel<LoadedModel>; 2],
+    plain: &TaylorTape,
+    (x, field): (&[f64], &[f64]),
+    blocks: &[std::ops::Range<usize>],
+    what: &str,
+) {
+    let bits = |c: &[f64]| c.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    for i in 0..x.len() {
+        let (a, b) = (interp.coefficients(i), jit.coefficients(i));
+        assert_eq!(a.len(), ORDER as usize + 1);
+        assert_eq!(
+            bits(a),
+            bits(b),
+            "{what}, component {i}: interpreter and JIT differ"
+        );
+        assert_eq!(a[0].to_bits(), x[i].to_bits());
+        assert_eq!(
+            a[1].to_bits(),
+            field[i].to_bits(),
+            "{what}, component {i}: order 1 is not the staged field"
+        );
+    }
+    for k in 0..=ORDER as usize {
+        for block in blocks {
+            let scale = block
+                .clone()
+                .fold(0.0f64, |m, i| m.max(plain.state_coefficients(i)[k].abs()));
+            assert!(scale > 0.0, "{what}: order {k} is not trivial");
+            for i in block.clone() {
+                let (a, u) = (interp.coefficients(i)[k], plain.state_coefficients(i)[k]);
+                assert!(
+                    (a - u).abs() <= 1e-13 * scale,
+                    "{what}, component {i}, order {k}: loops {a:e}, unrolled {u:e} (scale {scale:e})"
+                );
+            }
+        }
+    }
+}
+
 /// The Taylor program of X − ∇V in loop form ([`LoopFeedbackTaylor`], [`JitLoopFeedbackTaylor`]):
 /// interpreter and JIT bitwise equal, order 1 bitwise X − ∇V of the staged tapes, and every
 /// order the unrolled model's program of X − ∇V up to the order of summation, with targets off
@@ -196,38 +239,14 @@ fn check_feedback(text: &str, state: impl Fn(u64, usize) -> Vec<f64>) {
         interp.compute(&x, ORDER as usize);
         TaylorKernel::<LoadedModel>::compute(&mut jit, &x, ORDER as usize);
         plain.compute(&x, ORDER as usize);
-        let bits = |c: &[f64]| c.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
         let field = stages.eval_feedback(&params, &x, &target, &gains).unwrap();
-        for i in 0..n {
-            let a = interp.state_coefficients(i);
-            let b = TaylorKernel::<LoadedModel>::coefficients(&jit, i);
-            assert_eq!(a.len(), ORDER as usize + 1);
-            assert_eq!(
-                bits(a),
-                bits(b),
-                "component {i}: interpreter and JIT differ"
-            );
-            assert_eq!(a[0].to_bits(), x[i].to_bits());
-            assert_eq!(
-                a[1].to_bits(),
-                field[i].to_bits(),
-                "component {i}: order 1 is not X − ∇V"
-            );
-        }
-        for k in 0..=ORDER as usize {
-            let scale = (0..n).fold(0.0f64, |m, i| m.max(plain.state_coefficients(i)[k].abs()));
-            assert!(scale > 0.0, "order {k} is not trivial");
-            for i in 0..n {
-                let (a, u) = (
-                    interp.state_coefficients(i)[k],
-                    plain.state_coefficients(i)[k],
-                );
-                assert!(
-                    (a - u).abs() <= 1e-13 * scale,
-                    "seed {seed}, component {i}, order {k}: loops {a:e}, unrolled {u:e} (scale {scale:e})"
-                );
-            }
-        }
+        staged_agree(
+            [&interp, &jit],
+            &plain,
+            (&x, &field),
+            &[0..n],
+            &format!("seed {seed}"),
+        );
     }
     // the gains enter: doubling them changes order 1 where ∇V does not vanish
     let x = state(0, n);
@@ -298,46 +317,17 @@ fn check_indicators(text: &str, state: impl Fn(u64, usize) -> Vec<f64>) {
         interp.compute(&x, ORDER as usize);
         TaylorKernel::<LoadedModel>::compute(&mut jit, &x, ORDER as usize);
         plain.compute(&x, ORDER as usize);
-        let bits = |c: &[f64]| c.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
         let field = ExtendedField::Staged(stages.clone())
             .eval(&params, &x)
             .unwrap();
-        for i in 0..e {
-            let a = interp.state_coefficients(i);
-            let b = TaylorKernel::<LoadedModel>::coefficients(&jit, i);
-            assert_eq!(a.len(), ORDER as usize + 1);
-            assert_eq!(
-                bits(a),
-                bits(b),
-                "component {i}: interpreter and JIT differ"
-            );
-            assert_eq!(a[0].to_bits(), x[i].to_bits());
-            assert_eq!(
-                a[1].to_bits(),
-                field[i].to_bits(),
-                "component {i}: order 1 is not the staged field"
-            );
-        }
-        // per order and block (x, u, then ℓ, τ, a, b), relative to the block's largest
-        // coefficient: the blocks' scales differ by orders of magnitude
-        for k in 0..=ORDER as usize {
-            for block in [0..n, n..2 * n, 2 * n..e] {
-                let scale = block
-                    .clone()
-                    .fold(0.0f64, |m, i| m.max(plain.state_coefficients(i)[k].abs()));
-                assert!(scale > 0.0 || k > 1, "order {k} is not trivial");
-                for i in block {
-                    let (a, u) = (
-                        interp.state_coefficients(i)[k],
-                        plain.state_coefficients(i)[k],
-                    );
-                    assert!(
-                        (a - u).abs() <= 1e-13 * scale,
-                        "seed {seed}, component {i}, order {k}: loops {a:e}, unrolled {u:e} (scale {scale:e})"
-                    );
-                }
-            }
-        }
+        // per block (x, u, then ℓ, τ, a, b): their scales differ by orders of magnitude
+        staged_agree(
+            [&interp, &jit],
+            &plain,
+            (&x, &field),
+            &[0..n, n..2 * n, 2 * n..e],
+            &format!("seed {seed}"),
+        );
     }
 }
 
