@@ -244,7 +244,7 @@ fn check_feedback(text: &str, state: impl Fn(u64, usize) -> Vec<f64>) {
             [&interp, &jit],
             &plain,
             (&x, &field),
-            &[0..n],
+            std::slice::from_ref(&(0..n)),
             &format!("seed {seed}"),
         );
     }
