@@ -88,19 +88,20 @@ fn run_writes_the_stm_spectrum_and_megno() {
     assert!(s["fli"].as_f64().unwrap().abs() < 2.0, "{}", s["fli"]);
 }
 
-/// `--megno --fli` on 5 bodies with `--families loops` (the indicators' field in loop form)
+/// `--megno --fli` on 5 bodies with `--families loops` (the indicators' field, and with
+/// `-m taylor` its Taylor program, in loop form)
 /// and `--families unrolled` give the same numbers, to the rounding of the two summation
 /// orders.
 #[test]
 fn loop_families_give_the_unrolled_megno_and_fli() {
     let dir = scratch("loops");
-    let run = |families: &str| {
-        let out = dir.join(families);
+    let run = |method: &str, families: &str| {
+        let out = dir.join(format!("{method}_{families}"));
         let (ok, _, err) = lasalle_text(&[
             "run",
             concat!(env!("CARGO_MANIFEST_DIR"), "/models/nbody.lsl"),
             "-m",
-            "dopri5",
+            method,
             "--t-end",
             "6",
             "--rtol",
@@ -115,16 +116,19 @@ fn loop_families_give_the_unrolled_megno_and_fli() {
             out.to_str().unwrap(),
             "--quiet",
         ]);
-        assert!(ok, "{families}: {err}");
+        assert!(ok, "{method} {families}: {err}");
         summary(&out)
     };
-    let (a, b) = (run("loops"), run("unrolled"));
-    for key in ["megno", "megno_y", "fli", "mle"] {
-        let (x, y) = (a[key].as_f64().unwrap(), b[key].as_f64().unwrap());
-        assert!(
-            y > 0.0 && (x - y).abs() <= 1e-9 * y,
-            "{key}: loops {x}, unrolled {y}"
-        );
+    // taylor: the staged field's Taylor program in loop form
+    for method in ["dopri5", "taylor"] {
+        let (a, b) = (run(method, "loops"), run(method, "unrolled"));
+        for key in ["megno", "megno_y", "fli", "mle"] {
+            let (x, y) = (a[key].as_f64().unwrap(), b[key].as_f64().unwrap());
+            assert!(
+                y > 0.0 && (x - y).abs() <= 1e-9 * y,
+                "{method} {key}: loops {x}, unrolled {y}"
+            );
+        }
     }
 }
 

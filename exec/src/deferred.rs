@@ -1,9 +1,10 @@
 //! Functions of a model loaded with its families kept as loops that have no loop form (those
 //! the loop form refuses, the compiled steps and lanes on X − ∇V, the analyses that read the
 //! model's expressions): built from the unrolled model when one of them is first evaluated,
-//! not when the model is loaded. The Taylor programs of the field and of X − ∇V have loop
-//! forms ([`crate::taylor::LoopTaylorTape`], [`crate::taylor::LoopFeedbackTaylor`] and their
-//! JITs); only where the loop form refuses X − ∇V is its Taylor program built from here.
+//! not when the model is loaded. The Taylor programs of the field (also the chaos indicators'
+//! staged field of an extension) and of X − ∇V have loop forms
+//! ([`crate::taylor::LoopTaylorTape`], [`crate::taylor::LoopFeedbackTaylor`] and their JITs);
+//! only where the loop form refuses X − ∇V is its Taylor program built from here.
 //!
 //! The unrolled model is lowered and derived once ([`Unrolled`]) and its tapes are built once,
 //! for all of them ([`LazyTapes`]); each function

@@ -330,9 +330,10 @@ pub struct LoadedModel {
     step_tapes: StepTapes,
     /// The tape of the guards' margins, for compiled steps.
     guards_tape: Option<Tape>,
-    /// The field as a loop tape, for the loop form of its Taylor program (a model loaded with
-    /// its families kept as loops).
-    loop_field: Option<Box<lasalle_model::loops::LoopTape>>,
+    /// The field in loop form, for the loop form of its Taylor program (a model loaded with
+    /// its families kept as loops): a loop tape, or staged (the chaos indicators' field of an
+    /// extension, [`LoadedModel::extended`]).
+    loop_field: Option<Box<lasalle_model::loops::ExtendedField>>,
     /// V, ∇V and X − ∇V in loop form, for the loop form of the Taylor program of X − ∇V
     /// (where the loop form takes them).
     loop_feedback: Option<Box<lasalle_model::loops::LoopFeedback>>,
@@ -543,7 +544,9 @@ impl LoadedModel {
                 looped: feedback_looped,
             },
             guards_tape: guards,
-            loop_field: Some(Box::new(tapes.field)),
+            loop_field: Some(Box::new(lasalle_model::loops::ExtendedField::Loop(
+                tapes.field,
+            ))),
             loop_feedback: loop_feedback.map(Box::new),
             steps: Mutex::default(),
             info,
@@ -556,8 +559,9 @@ impl LoadedModel {
     /// families kept as loops: its field is a loop kernel (the variational equations) or a
     /// staged loop kernel (the indicators, whose peak event is one too), its invariants and
     /// their Jacobian loop kernels of the extended state, with this model's conservation;
-    /// V, ∇V, X − ∇V, the Taylor program of a staged field and [`LoadedModel::model`] come
-    /// from the unrolled extension ([`Extension::apply`](lasalle_model::variational::Extension::apply)
+    /// the Taylor program of the field is its loop form (that of a loop tape, or the staged
+    /// program of [`crate::LoopFeedbackTaylor`] for the indicators' staged field);
+    /// V, ∇V, X − ∇V and [`LoadedModel::model`] come from the unrolled extension ([`Extension::apply`](lasalle_model::variational::Extension::apply)
     /// of the unrolled model) at their first use. The functions have the model file's
     /// parameter values (set this model's on it). It declares no partition (the tangent's
     /// rates read the tangent).
@@ -590,16 +594,14 @@ impl LoadedModel {
         let looped = |t: &lasalle_model::loops::LoopTape| -> Result<Compiled, ExecError> {
             of(Box::new(crate::LoopKernel::new(t, backend)?))
         };
-        let (field, loop_field) = match le.field()? {
-            ExtendedField::Loop(t) => (looped(&t)?, Some(Box::new(t))),
-            ExtendedField::Staged(s) => (
-                of(Box::new(crate::StagedKernel::new(
-                    &s,
-                    crate::Stage::Feedback,
-                    backend,
-                )?))?,
-                None,
-            ),
+        let loop_field = le.field()?;
+        let field = match &loop_field {
+            ExtendedField::Loop(t) => looped(t)?,
+            ExtendedField::Staged(s) => of(Box::new(crate::StagedKernel::new(
+                s,
+                crate::Stage::Feedback,
+                backend,
+            )?))?,
         };
         let events = match le.peak()? {
             Some(p) => Some(of(Box::new(crate::StagedKernel::new(
@@ -652,7 +654,7 @@ impl LoadedModel {
                 looped: false,
             },
             guards_tape: guards,
-            loop_field,
+            loop_field: Some(Box::new(loop_field)),
             // X − ∇V of the extension comes from the unrolled extension (`kernels.feedback`)
             loop_feedback: None,
             steps: Mutex::default(),
@@ -758,13 +760,14 @@ impl LoadedModel {
         Some(kernel)
     }
 
-    /// The field's loop tape, the stages of X − ∇V in loop form (where the loop form takes
-    /// them) and the unrolled model's tapes, for a model loaded with its families kept as loops.
+    /// The field in loop form (a loop tape, or staged), the stages of X − ∇V in loop form
+    /// (where the loop form takes them) and the unrolled model's tapes, for a model loaded with
+    /// its families kept as loops.
     #[allow(clippy::type_complexity)]
     pub(crate) fn loop_taylor(
         &self,
     ) -> Option<(
-        &lasalle_model::loops::LoopTape,
+        &lasalle_model::loops::ExtendedField,
         Option<&lasalle_model::loops::LoopFeedback>,
         Arc<crate::deferred::LazyTapes>,
     )> {

@@ -33,6 +33,7 @@
 //! `Stepper<f64, Vec<f64>, FeedbackField<LoadedModel, Vec<f64>, Vec<f64>>>`, or with the target
 //! and gains held by the stepper ([`TaylorField::Feedback`]).
 
+use lasalle_model::loops::ExtendedField;
 use lasalle_model::tape::taylor::{Leaf, PowZero, Rec, TaylorProgram};
 use lasalle_model::tape::{expect_len, ModelTapes, Tape};
 use lasalle_runtime::taylor::rec;
@@ -249,6 +250,8 @@ impl LoadedModel {
     /// program ([`LoopTaylorTape`], or its JIT, `lasalle_exec::jit::taylor::JitLoopTaylor`)
     /// and of the program of X − ∇V, its three stages propagated as Taylor series
     /// ([`LoopFeedbackTaylor`], or its JIT, `lasalle_exec::jit::taylor::JitLoopFeedbackTaylor`).
+    /// The chaos indicators' field of a loop-form extension ([`LoadedModel::extended`]) is
+    /// staged as X − ∇V is, and its program is the same staged kernel on its stages.
     /// Where the loop form refuses X − ∇V (V reading a family through a guard), its program
     /// is built from the unrolled model when a feedback run first sets its inputs
     /// ([`TaylorKernel::set_inputs`]).
@@ -264,10 +267,12 @@ impl LoadedModel {
                     max_order,
                 )?),
             };
-            return Ok(TaylorKernels {
-                field: self.loop_taylor_kernel(field, max_order)?,
-                feedback,
-            });
+            let field = match field {
+                ExtendedField::Loop(tape) => self.loop_taylor_kernel(tape, max_order)?,
+                // the chaos indicators' field: stages as those of X − ∇V
+                ExtendedField::Staged(stages) => self.loop_feedback_kernel(stages, max_order)?,
+            };
+            return Ok(TaylorKernels { field, feedback });
         }
         let derived = self.derived().map_err(TaylorError::kernels)?;
         let tapes = ModelTapes::new(derived).map_err(TaylorError::kernels)?;

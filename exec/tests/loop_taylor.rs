@@ -2,7 +2,9 @@
 //! those of the unrolled model's Taylor program up to the order of summation, for the N-body
 //! and FPUT families at several sizes.
 
-use lasalle_exec::jit::taylor::{JitLoopFeedbackTaylor, JitLoopTaylor};
+use lasalle_exec::jit::taylor::{
+    JitLoopFeedbackTaylor, JitLoopTaylor, JitTaylor, MAX_INSTRUCTIONS,
+};
 use lasalle_exec::{LoadedModel, LoopFeedbackTaylor, LoopTaylorTape, TaylorTape};
 use lasalle_model::loops::{Families, LoopModel};
 use lasalle_model::tape::{Dims, Tape};
@@ -156,6 +158,49 @@ fn transcendental_chain_loop_taylor_is_the_unrolled_programs() {
     });
 }
 
+/// The staged Taylor kernels' coefficients at `x` (after a compute at ORDER): the interpreter's
+/// and the JIT's bitwise equal, order 0 `x` and order 1 `field` bitwise, and every order the
+/// unrolled program's to 10⁻¹³ of its order's largest coefficient in each of `blocks`.
+fn staged_agree(
+    [interp, jit]: [&dyn TaylorKernel<LoadedModel>; 2],
+    plain: &TaylorTape,
+    (x, field): (&[f64], &[f64]),
+    blocks: &[std::ops::Range<usize>],
+    what: &str,
+) {
+    let bits = |c: &[f64]| c.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    for i in 0..x.len() {
+        let (a, b) = (interp.coefficients(i), jit.coefficients(i));
+        assert_eq!(a.len(), ORDER as usize + 1);
+        assert_eq!(
+            bits(a),
+            bits(b),
+            "{what}, component {i}: interpreter and JIT differ"
+        );
+        assert_eq!(a[0].to_bits(), x[i].to_bits());
+        assert_eq!(
+            a[1].to_bits(),
+            field[i].to_bits(),
+            "{what}, component {i}: order 1 is not the staged field"
+        );
+    }
+    for k in 0..=ORDER as usize {
+        for block in blocks {
+            let scale = block
+                .clone()
+                .fold(0.0f64, |m, i| m.max(plain.state_coefficients(i)[k].abs()));
+            assert!(scale > 0.0, "{what}: order {k} is not trivial");
+            for i in block.clone() {
+                let (a, u) = (interp.coefficients(i)[k], plain.state_coefficients(i)[k]);
+                assert!(
+                    (a - u).abs() <= 1e-13 * scale,
+                    "{what}, component {i}, order {k}: loops {a:e}, unrolled {u:e} (scale {scale:e})"
+                );
+            }
+        }
+    }
+}
+
 /// The Taylor program of X − ∇V in loop form ([`LoopFeedbackTaylor`], [`JitLoopFeedbackTaylor`]):
 /// interpreter and JIT bitwise equal, order 1 bitwise X − ∇V of the staged tapes, and every
 /// order the unrolled model's program of X − ∇V up to the order of summation, with targets off
@@ -166,6 +211,9 @@ fn check_feedback(text: &str, state: impl Fn(u64, usize) -> Vec<f64>) {
     let stages = lm.feedback().unwrap();
     let program = stages.taylor().unwrap();
     assert!(program.sums_count > 0, "V reads a family's sum");
+    // the JIT compiles every stage (the weights' program is small)
+    let size = JitTaylor::instructions(&program.weights, ORDER as usize);
+    assert!(size <= MAX_INSTRUCTIONS, "{size}");
     let unrolled = lasalle_model::derive(lasalle_model::lower_source("m.lsl", text).unwrap());
     let tapes = lasalle_model::tape::ModelTapes::new(&unrolled).unwrap();
     let params = lm.default_params();
@@ -191,38 +239,14 @@ fn check_feedback(text: &str, state: impl Fn(u64, usize) -> Vec<f64>) {
         interp.compute(&x, ORDER as usize);
         TaylorKernel::<LoadedModel>::compute(&mut jit, &x, ORDER as usize);
         plain.compute(&x, ORDER as usize);
-        let bits = |c: &[f64]| c.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
         let field = stages.eval_feedback(&params, &x, &target, &gains).unwrap();
-        for i in 0..n {
-            let a = interp.state_coefficients(i);
-            let b = TaylorKernel::<LoadedModel>::coefficients(&jit, i);
-            assert_eq!(a.len(), ORDER as usize + 1);
-            assert_eq!(
-                bits(a),
-                bits(b),
-                "component {i}: interpreter and JIT differ"
-            );
-            assert_eq!(a[0].to_bits(), x[i].to_bits());
-            assert_eq!(
-                a[1].to_bits(),
-                field[i].to_bits(),
-                "component {i}: order 1 is not X − ∇V"
-            );
-        }
-        for k in 0..=ORDER as usize {
-            let scale = (0..n).fold(0.0f64, |m, i| m.max(plain.state_coefficients(i)[k].abs()));
-            assert!(scale > 0.0, "order {k} is not trivial");
-            for i in 0..n {
-                let (a, u) = (
-                    interp.state_coefficients(i)[k],
-                    plain.state_coefficients(i)[k],
-                );
-                assert!(
-                    (a - u).abs() <= 1e-13 * scale,
-                    "seed {seed}, component {i}, order {k}: loops {a:e}, unrolled {u:e} (scale {scale:e})"
-                );
-            }
-        }
+        staged_agree(
+            [&interp, &jit],
+            &plain,
+            (&x, &field),
+            std::slice::from_ref(&(0..n)),
+            &format!("seed {seed}"),
+        );
     }
     // the gains enter: doubling them changes order 1 where ∇V does not vanish
     let x = state(0, n);
@@ -249,6 +273,76 @@ fn fput_loop_feedback_taylor_is_the_unrolled_programs() {
     for n in [5, 12] {
         let text = sized(FPUT, "param n = 16;", n).replace("param beta = 0;", "param beta = 0.7;");
         check_feedback(&text, |seed, len| {
+            numbers(seed, len).iter().map(|v| 0.5 * v).collect()
+        });
+    }
+}
+
+/// The chaos indicators' field of the loop-form extension (staged as X − ∇V is): interpreter
+/// and JIT bitwise equal, order 1 bitwise the staged field, and every order the unrolled
+/// extension's program up to the order of summation, at random extended states (x, then a
+/// tangent u, then ℓ, τ, a, b).
+fn check_indicators(text: &str, state: impl Fn(u64, usize) -> Vec<f64>) {
+    use lasalle_model::loops::ExtendedField;
+    use lasalle_model::variational::Extension;
+    let lm = LoopModel::from_source("m.lsl", text, Families::Loops).unwrap();
+    assert!(!lm.families().is_empty(), "the model has a loop family");
+    let ext = lm.extend(Extension::Indicators).unwrap();
+    let ExtendedField::Staged(stages) = ext.field().unwrap() else {
+        panic!("the indicators' field is staged")
+    };
+    let program = stages.taylor().unwrap();
+    let n = lm.dim();
+    assert_eq!(program.sums_count, n + 4, "S = (A·u, 0, 0, 0, 0)");
+    // the JIT's code calls the interpreter for stage 2 (λ and the rates: too large to unroll)
+    let size = JitTaylor::instructions(&program.weights, ORDER as usize);
+    assert!(size > MAX_INSTRUCTIONS, "{size}");
+    let model = ext.unrolled().unwrap();
+    let e = model.dim();
+    assert_eq!(e, 2 * n + 4);
+    let dims = Dims {
+        state: e,
+        params: model.param_slots(),
+        targets: 0,
+        gains: 0,
+    };
+    let unrolled = Tape::from_graph(&model.graph, &model.field, dims).unwrap();
+    let params = lm.default_params();
+    let mut interp = LoopFeedbackTaylor::new(&stages, &params, ORDER).unwrap();
+    let mut jit = JitLoopFeedbackTaylor::new(&stages, &params, ORDER).unwrap();
+    let mut plain = TaylorTape::new(&unrolled, &params, ORDER).unwrap();
+    for seed in 0..3 {
+        let mut x = state(seed, n);
+        x.extend(numbers(seed + 20, n + 4));
+        interp.compute(&x, ORDER as usize);
+        TaylorKernel::<LoadedModel>::compute(&mut jit, &x, ORDER as usize);
+        plain.compute(&x, ORDER as usize);
+        let field = ExtendedField::Staged(stages.clone())
+            .eval(&params, &x)
+            .unwrap();
+        // per block (x, u, then ℓ, τ, a, b): their scales differ by orders of magnitude
+        staged_agree(
+            [&interp, &jit],
+            &plain,
+            (&x, &field),
+            &[0..n, n..2 * n, 2 * n..e],
+            &format!("seed {seed}"),
+        );
+    }
+}
+
+#[test]
+fn nbody_loop_indicators_taylor_is_the_unrolled_extensions() {
+    for n in [4, 6] {
+        check_indicators(&sized(NBODY, "param n = 5;", n), nbody_state);
+    }
+}
+
+#[test]
+fn fput_loop_indicators_taylor_is_the_unrolled_extensions() {
+    for n in [5, 12] {
+        let text = sized(FPUT, "param n = 16;", n).replace("param beta = 0;", "param beta = 0.7;");
+        check_indicators(&text, |seed, len| {
             numbers(seed, len).iter().map(|v| 0.5 * v).collect()
         });
     }

@@ -6,7 +6,8 @@
 //! (`lasalle_model::loops::feedback_taylor`) fix. The JIT's kernel
 //! (`lasalle_exec::jit::taylor::JitLoopFeedbackTaylor`) runs the same operations in the same
 //! order, so the two agree bitwise. Code independent of the number of tuples, storage linear
-//! in it; nothing is built from the unrolled model.
+//! in it; nothing is built from the unrolled model. The chaos indicators' field of a loop-form
+//! extension is staged the same way, and this kernel (or its JIT) is its Taylor kernel too.
 
 use super::loops::{regions, Scatter};
 use super::{coefficient, zeroth};
@@ -67,6 +68,26 @@ fn blocks(
         .zip(&program.regions)
         .map(|(r, p)| vec![0.0; r.count * p.rows * stride])
         .collect()
+}
+
+/// Order k of a stage's plain program on the shared table `t` (stride `s`): order 0 from
+/// `[hoisted, target, gains]`, the higher orders of the non-constant rows by their recurrences.
+/// Also run from the JIT's code for a program too large to compile
+/// (`lasalle_exec::jit::taylor::JitLoopFeedbackTaylor`).
+pub(crate) fn plain_order(
+    t: &mut [f64],
+    s: usize,
+    prog: &TaylorProgram,
+    [hoisted, target, gains]: [&[f64]; 3],
+    k: usize,
+) {
+    for &(r, constant) in &prog.recs {
+        if k == 0 {
+            zeroth(t, s, r, hoisted, target, gains);
+        } else if !constant {
+            coefficient(t, s, r, k);
+        }
+    }
 }
 
 impl LoopFeedbackTaylor {
@@ -143,13 +164,7 @@ impl LoopFeedbackTaylor {
         let h = &self.hoisted;
         let (target, gains) = (&self.target[..], &self.gains[..]);
         let plain = |t: &mut [f64], prog: &TaylorProgram, hoisted: &[f64], k: usize| {
-            for &(r, constant) in &prog.recs {
-                if k == 0 {
-                    zeroth(t, s, r, hoisted, target, gains);
-                } else if !constant {
-                    coefficient(t, s, r, k);
-                }
-            }
+            plain_order(t, s, prog, [hoisted, target, gains], k)
         };
         let tapes = &self.tapes;
         for k in 0..order {

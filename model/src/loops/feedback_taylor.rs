@@ -1,6 +1,11 @@
 //! The Taylor program of X − ∇V in loop form: the three stages of [`LoopFeedback`] propagated
 //! as Taylor series.
 //!
+//! The same program serves every field staged as a [`LoopFeedback`]: the chaos indicators'
+//! field of an extension ([`crate::loops::variational`]: S = (A·u, 0, 0, 0, 0) and no carried
+//! values, w the rates of (u, ℓ, τ, a, b) after λ, stage 3 X followed by `w` read back) runs
+//! these steps as they are, with no targets and no gains.
+//!
 //! X − ∇V is computed in three stages (see [`LoopFeedback`]): the pass, which gives the family
 //! sums S and the carried values C (the family parts of ∇S and of the field) from the state x
 //! in one loop over each family's tuples, then V and the weights w = ∂V/∂S from `[x, S]`, then
@@ -74,8 +79,8 @@ impl FeedbackTaylorProgram {
 }
 
 impl LoopFeedback {
-    /// The Taylor program of X − ∇V in loop form; see the
-    /// [module docs](crate::loops::feedback_taylor).
+    /// The Taylor program of X − ∇V (or of any field staged as these three stages, as the chaos
+    /// indicators' field is) in loop form; see the [module docs](crate::loops::feedback_taylor).
     pub fn taylor(&self) -> Result<FeedbackTaylorProgram, TapeError> {
         let n = self.sums.dims().state;
         let k = self.sums.n_outputs();

@@ -49,7 +49,7 @@
 //! (its components gathered as slots of a copy of the family), taken once and scattered to the
 //! tangent rows. The variational field (X, A·Φ) is one loop tape; the indicators' field, whose
 //! rates read λ = u·Au/(u·u), is staged as V's functions are (A·u, then λ and the rates, then X
-//! with them), and so has no loop form of its Taylor program.
+//! with them), and its Taylor program is that of [`feedback_taylor`] on its stages.
 
 use crate::error::{Diagnostic, Error, Span};
 use crate::ir::{FxHashMap, Graph, Id, Input, Node};

@@ -22,7 +22,10 @@
 //!   `A·u = S`); stage 3, a loop tape of `[x, S, w]`, is X (the field's plain part and
 //!   regions) followed by the stage-2 rates read back from `w`. The peak event `λ = 0 falling`
 //!   is stages 1 and 2 with the time as the one gain ([`LoopExtension::peak`]). The field's
-//!   Taylor program has no loop form in this case (build it from the unrolled extension).
+//!   Taylor program is [`LoopFeedback::taylor`] of its stages (stage 1's recurrences, then
+//!   stage 2's, then stage 3's, at each order on one table, as for X − ∇V,
+//!   [`crate::loops::feedback_taylor`]): the rates read back from `w` give their order k + 1
+//!   as X's do.
 //!
 //! The extended model's declarations ([`LoopExtension::declarations`]) are those of
 //! [`Extension::apply`] (state, event, points); its invariants are the model's, as loop tapes

@@ -1,17 +1,27 @@
 //! The Taylor program of X − ∇V in loop form ([`FeedbackTaylorProgram`]) compiled by
 //! Cranelift for one order p: [`JitLoopFeedbackTaylor`]. One function: the orders unrolled as
-//! in [`JitTaylor`](super::JitTaylor) (the same emitter), and at each order the three stages
+//! in [`JitTaylor`] (the same emitter), and at each order the three stages
 //! on the shared table — the pass's plain recurrences and one loop block over the tuples per
 //! region (as [`JitLoopTaylor`](super::JitLoopTaylor)'s, adding to order k of the S and C rows), the
 //! weights' recurrences, then the last stage's plain recurrences and its regions' loops (adding
 //! to order k + 1 of the x rows). The code is independent of the number of tuples; the
 //! operations and their order are those of the interpreter ([`LoopFeedbackTaylor`]), so the
-//! two agree bitwise. The tuples' tables are compact, as the field's.
+//! two agree bitwise. The tuples' tables are compact, as the field's. It also compiles the
+//! chaos indicators' staged field (the same three stages).
+//!
+//! A stage's plain program above [`MAX_INSTRUCTIONS`] estimated instructions
+//! ([`JitTaylor::instructions`]) is not compiled: the code
+//! calls the interpreter's loop over its recurrences at each order (`plain_order`, the same
+//! operations), so the code stays independent of its size. This is the indicators' stage 2,
+//! whose λ = u·Au/(u·u) and rates are a few Cauchy products per state component: unrolled,
+//! they made the code grow as N·p² (at 256 bodies, minutes of compiling and a gigabyte).
 
 use super::loops::{layout, Layout, LoopEmit};
 use super::{
-    call_signatures, jit_err, jit_module, offset, Code, Emit, Leaves, EARLY_GROUP, OPT_LEVEL,
+    call_signatures, jit_err, jit_module, offset, Code, Emit, JitTaylor, Leaves, EARLY_GROUP,
+    MAX_INSTRUCTIONS, OPT_LEVEL,
 };
+use crate::taylor::feedback::plain_order;
 use crate::taylor::{LoopFeedbackTaylor, TaylorError};
 use crate::ExecError;
 use cranelift_codegen::ir::immediates::Ieee64;
@@ -20,14 +30,15 @@ use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::JITModule;
 use cranelift_module::Module;
 use lasalle_model::loops::{FeedbackTaylorProgram, LoopFeedback, LoopTape, LoopTaylorProgram};
+use lasalle_model::tape::taylor::TaylorProgram;
 use lasalle_runtime::taylor::TaylorKernel;
 use lasalle_runtime::StepError;
 use std::collections::HashMap;
 
 /// `(state, pointers)`: `pointers` is [params, table, target, gains, the hoisted values of the
-/// sums' plain tape, of the weights' and of the last stage's plain tape, then per region of
-/// the sums and then of the last stage its hoisted values, gather table, scatter table and
-/// block table].
+/// sums' plain tape, of the weights' and of the last stage's plain tape, the three stages'
+/// [`PlainCall`]s, then per region of the sums and then of the last stage its hoisted values,
+/// gather table, scatter table and block table].
 type FeedbackTaylorFn = unsafe extern "C" fn(*const f64, *const *const u8);
 
 /// The loop form of the Taylor program of X − ∇V compiled for the order p; see the
@@ -52,6 +63,33 @@ impl std::fmt::Debug for JitLoopFeedbackTaylor {
             .field("order", &self.data.max_order)
             .finish_non_exhaustive()
     }
+}
+
+/// A stage's plain program run by the interpreter from the compiled code ([`call_plain`]);
+/// built at every compute from the kernel's current inputs.
+struct PlainCall<'a> {
+    program: &'a TaylorProgram,
+    /// Its hoisted values, the targets and the gains.
+    inputs: [&'a [f64]; 3],
+    /// The shared table's length and stride.
+    len: usize,
+    stride: usize,
+}
+
+/// Order `k` of the plain program of `call` on the shared table `table`.
+///
+/// # Safety
+/// `call` points to a live [`PlainCall`] and `table` to its `len` f64, which nothing else
+/// accesses during the call.
+unsafe extern "C" fn call_plain(call: *const PlainCall<'_>, table: *mut f64, k: usize) {
+    // SAFETY: see above
+    let (c, t) = unsafe { (&*call, std::slice::from_raw_parts_mut(table, (*call).len)) };
+    plain_order(t, c.stride, c.program, c.inputs, k);
+}
+
+/// Whether a stage's plain program is interpreted from the code (see the [module docs](self)).
+fn interpreted(program: &TaylorProgram, p: usize) -> bool {
+    JitTaylor::instructions(program, p) > MAX_INSTRUCTIONS
 }
 
 /// The compact layouts of a loop stage's regions, and its blocks resized to them.
@@ -108,7 +146,7 @@ impl JitLoopFeedbackTaylor {
         let func = unsafe { std::mem::transmute::<*const u8, FeedbackTaylorFn>(code) };
         let regions = tapes.pass.regions.len() + tapes.feedback.regions.len();
         Ok(JitLoopFeedbackTaylor {
-            pointers: Vec::with_capacity(7 + 4 * regions),
+            pointers: Vec::with_capacity(10 + 4 * regions),
             data,
             _code: Code::new(module),
             func,
@@ -150,6 +188,22 @@ impl TaylorKernel<crate::LoadedModel> for JitLoopFeedbackTaylor {
         ptrs.push(d.hoisted.sums[0].as_ptr().cast());
         ptrs.push(d.hoisted.weights.as_ptr().cast());
         ptrs.push(d.hoisted.feedback[0].as_ptr().cast());
+        let (len, stride) = (d.table.len(), d.stride);
+        let (target, gains) = (&d.target[..], &d.gains[..]);
+        let calls = [
+            (&d.program.sums.base, &d.hoisted.sums[0][..]),
+            (&d.program.weights, &d.hoisted.weights[..]),
+            (&d.program.feedback.base, &d.hoisted.feedback[0][..]),
+        ]
+        .map(|(program, hoisted)| PlainCall {
+            program,
+            inputs: [hoisted, target, gains],
+            len,
+            stride,
+        });
+        for call in &calls {
+            ptrs.push(std::ptr::from_ref(call).cast());
+        }
         let stages = [
             (&d.tapes.pass, &d.hoisted.sums, &mut d.sums_blocks),
             (
@@ -170,7 +224,8 @@ impl TaylorKernel<crate::LoadedModel> for JitLoopFeedbackTaylor {
         // gather and scatter tables at the sizes the program was compiled for (the tapes were
         // validated, so every gathered and scattered index is in range, and `set_inputs` keeps
         // the targets and gains at their sizes), and writes the table and the blocks,
-        // allocated for the compiled order; nothing else accesses them meanwhile.
+        // allocated for the compiled order; nothing else accesses them meanwhile. The
+        // `PlainCall`s it hands to `call_plain` live until the end of this function.
         unsafe { (self.func)(x.as_ptr(), self.pointers.as_ptr()) }
     }
 
@@ -215,13 +270,19 @@ fn define(
         };
         let [params, table, target, gains, h_sums, h_weights, h_feedback] =
             std::array::from_fn(|i| at(&mut b, i));
+        let plains = [&program.sums.base, &program.weights, &program.feedback.base];
+        let calls = std::array::from_fn(|s| interpreted(plains[s], p).then(|| at(&mut b, 7 + s)));
         let first = tapes.pass.regions.len();
         let sums_regions: Vec<[Value; 4]> = (0..first)
-            .map(|r| std::array::from_fn(|j| at(&mut b, 7 + 4 * r + j)))
+            .map(|r| std::array::from_fn(|j| at(&mut b, 10 + 4 * r + j)))
             .collect();
         let feedback_regions: Vec<[Value; 4]> = (0..tapes.feedback.regions.len())
-            .map(|r| std::array::from_fn(|j| at(&mut b, 7 + 4 * (first + r) + j)))
+            .map(|r| std::array::from_fn(|j| at(&mut b, 10 + 4 * (first + r) + j)))
             .collect();
+        let mut call_sig = module.make_signature();
+        call_sig
+            .params
+            .extend([ptr, ptr, types::I64].map(AbiParam::new));
         let mut e = Emit {
             b,
             ptr,
@@ -259,6 +320,8 @@ fn define(
                 target,
                 gains,
             }),
+            calls,
+            call_sig,
         };
         stages.body(&mut e, state, p)?;
         e.b.ins().return_(&[]);
@@ -303,6 +366,10 @@ struct Stages<'a> {
     feedback: LoopEmit<'a>,
     /// The leaves of the sums', the weights' and the last stage's plain programs.
     leaves: [Leaves; 3],
+    /// Per plain program, its [`PlainCall`] if it is interpreted (see the [module docs](self)),
+    /// and the signature of [`call_plain`].
+    calls: [Option<Value>; 3],
+    call_sig: cranelift_codegen::ir::Signature,
 }
 
 impl Stages<'_> {
@@ -330,7 +397,36 @@ impl Stages<'_> {
             e.b.ins().store(MemFlagsData::trusted(), v, e.table, off);
             Ok(())
         };
+        // the rows of each plain program's own recurrences (its inputs are the rows below its
+        // dimension, placed where they are)
+        let own: [Vec<usize>; 3] = plains.map(|p| {
+            let rows = std::cell::RefCell::new(std::collections::BTreeSet::new());
+            for &(r, _) in &p.recs {
+                r.map_rows(|row| {
+                    if row >= p.dim {
+                        rows.borrow_mut().insert(row);
+                    }
+                    row
+                });
+            }
+            rows.into_inner().into_iter().collect()
+        });
+        let (calls, call_sig) = (self.calls, &self.call_sig);
         let plain = |e: &mut Emit<'_>, s: usize, leaves: &Leaves, k: usize| {
+            if let Some(call) = calls[s] {
+                // the interpreter's recurrences at order k; the constant rows' higher orders
+                // are the table's 0, as the emitted code's
+                let kv = e.b.ins().iconst(types::I64, k as i64);
+                e.call(
+                    call_plain as *const () as usize,
+                    call_sig,
+                    &[call, e.table, kv],
+                );
+                for &r in &own[s] {
+                    e.rows[r] = k + 1;
+                }
+                return Ok(());
+            }
             if k >= 1 {
                 e.early_sums(&early[s], k);
             }
