@@ -352,14 +352,13 @@ pub struct CertifiedTube {
 /// Interval enclosure of `B⁻¹` from the approximate inverse `a`: with `E = I − B·a`,
 /// `B⁻¹ = a(I − E)⁻¹ = a + aE(I − E)⁻¹`, so every entry of `B⁻¹ − a` is at most
 /// `‖aE‖_∞ / (1 − ‖E‖_∞)` in absolute value.
-fn inverse_enclosure(b: &[Vec<f64>], a: &[Vec<f64>]) -> Option<Vec<Vec<Iv>>> {
-    let n = b.len();
-    let iv = |m: &[Vec<f64>]| -> Vec<Vec<Iv>> {
-        m.iter()
-            .map(|r| r.iter().map(|&x| Iv::point(x)).collect())
-            .collect()
-    };
-    let (bi, ai) = (iv(b), iv(a));
+fn inverse_enclosure(bi: &[Vec<Iv>], a: &[Vec<f64>]) -> Option<Vec<Vec<Iv>>> {
+    let n = bi.len();
+    let bi = bi.to_vec();
+    let ai: Vec<Vec<Iv>> = a
+        .iter()
+        .map(|r| r.iter().map(|&x| Iv::point(x)).collect())
+        .collect();
     let mm = |x: &Vec<Vec<Iv>>, y: &Vec<Vec<Iv>>| -> Vec<Vec<Iv>> {
         (0..n)
             .map(|i| {
@@ -561,13 +560,13 @@ fn prove_equilibrium<H: HamiltonianFn + ?Sized>(h: &H, nf: &NormalForm) -> Optio
     None
 }
 
-/// The linear normalisation in ball arithmetic: `C ∋ B⁻¹` (the approximate inverse A
+/// The linear normalisation in ball arithmetic (B and A exact double-doubles, the normal
+/// form's in its working precision): `C ∋ B⁻¹` (the approximate inverse A
 /// refined by one Newton step to A₂ = A + A(I − BA) in double-double, then the
 /// Neumann-series bound of [`inverse_enclosure`] with E = I − BA₂ enclosed in balls) and
 /// `S ∋ BJBᵀ`, both to about 10⁻³⁰ instead of the `f64` rounding.
-fn linear_balls(b: &[Vec<f64>], a: &[Vec<f64>], nd: usize) -> Option<(BallMatrix, BallMatrix)> {
-    let n = b.len();
-    let (bb, ab) = (ball_points(b), ball_points(a));
+fn linear_balls(bb: &[Vec<Ball>], ab: &[Vec<Ball>], nd: usize) -> Option<(BallMatrix, BallMatrix)> {
+    let n = bb.len();
     let id = |i: usize, j: usize| Ball::point(if i == j { 1.0 } else { 0.0 });
     let ba = ball_matmul(&bb, &ab);
     let e0: Vec<Vec<Ball>> = (0..n)
@@ -622,37 +621,68 @@ fn linear_balls(b: &[Vec<f64>], a: &[Vec<f64>], nd: usize) -> Option<(BallMatrix
     Some((c, s))
 }
 
-/// The degree-2 part of Ẇ in balls, as the coefficients of y_a y_b (a ≤ b): with L the
-/// linear part of T, v = LᵀL y to first order and ẏ = S H̃₂'' y, so
-/// `Ẇ₂ = 2 yᵀ (LᵀL) S H̃₂'' y`. Needs H̃'s degree-2 coefficients at the proved equilibrium.
-fn wdot2_balls<H: HamiltonianFn + ?Sized>(
+/// The degrees ≤ l of `Ẇ/2 = Σ_j v_j ẏ_j` (`v_j = Σ_i T_i ∂_j T_i`, `ẏ = S∇H̃`) in balls:
+/// H̃'s Taylor polynomial to degree l + 1 from ball jets of H at the proved box of x\* with
+/// C ∋ B⁻¹ (its degree-1 coefficients, C^T∇H(x\*), exactly 0), S ∋ BJBᵀ, and the map T
+/// with its double-double coefficients (`t`, taken as exact). These are the degrees where
+/// the normal form's cancellations leave only rounding: in balls they come out near 10⁻³⁰
+/// of the coefficients that cancel, where the `f64` intervals leave 10⁻¹⁶.
+fn wdot_low_balls<H: HamiltonianFn + ?Sized>(
     h: &H,
     centre: &[Ball],
     c: &[Vec<Ball>],
     s: &[Vec<Ball>],
-    lin: &[Vec<f64>],
-) -> Vec<Vec<Ball>> {
+    t: &[Poly<Ball>],
+    l: usize,
+) -> Poly<Ball> {
     let n = centre.len();
-    let t2 = Arc::new(MonomialTable::new(n, 2));
-    let (_, hh) = grad_hess(&ball_jet(h, centre, Some(c), &t2), n);
-    let l = ball_points(lin);
-    let lt: Vec<Vec<Ball>> = (0..n).map(|i| (0..n).map(|j| l[j][i]).collect()).collect();
-    let q = ball_matmul(&ball_matmul(&ball_matmul(&lt, &l), s), &hh);
-    (0..n)
-        .map(|a| {
-            (0..n)
-                .map(|b| {
-                    if b < a {
-                        Ball::point(0.0)
-                    } else if a == b {
-                        q[a][a] * Ball::point(2.0)
-                    } else {
-                        (q[a][b] + q[b][a]) * Ball::point(2.0)
-                    }
-                })
-                .collect()
-        })
-        .collect()
+    let t_l1 = Arc::new(MonomialTable::new(n, l + 1));
+    let t_l = Arc::new(MonomialTable::new(n, l));
+    let mut hb = ball_jet(h, centre, Some(c), &t_l1);
+    for i in 0..n {
+        let mut e = vec![0u8; n];
+        e[i] = 1;
+        hb.set_coeff(&e, Ball::point(0.0));
+    }
+    let grad: Vec<Poly<Ball>> = (0..n)
+        .map(|v| hb.derivative(v).retabled(t_l.clone()))
+        .collect();
+    let tl: Vec<Poly<Ball>> = t.iter().map(|p| p.retabled(t_l.clone())).collect();
+    let mut w = Poly::zero(t_l.clone());
+    for j in 0..n {
+        let ydot = (0..n).fold(Poly::zero(t_l.clone()), |acc: Poly<Ball>, i| {
+            acc.add(&grad[i].scaled(s[j][i]))
+        });
+        let v = tl
+            .iter()
+            .fold(Poly::zero(t_l.clone()), |acc: Poly<Ball>, ti| {
+                acc.add(&ti.mul(&ti.derivative(j)))
+            });
+        w = w.add(&v.mul(&ydot));
+    }
+    w
+}
+
+/// A polynomial whose coefficients are `hi + lo` (`lo` on the same table, or none), mapped
+/// coefficient-wise by `f(hi, lo)`.
+fn dd_poly<T: crate::Coeff>(
+    hi: &Poly<f64>,
+    lo: Option<&Poly<f64>>,
+    f: impl Fn(f64, f64) -> T,
+) -> Poly<T> {
+    let mut p = Poly::zero(hi.table().clone());
+    for k in 0..=hi.max_degree() {
+        if let Some(ph) = hi.part(k) {
+            let pl = lo.and_then(|l| l.part(k));
+            let part = ph
+                .iter()
+                .enumerate()
+                .map(|(i, &x)| f(x, pl.and_then(|pl| pl.get(i).copied()).unwrap_or(0.0)))
+                .collect();
+            p.set_part(k, part);
+        }
+    }
+    p
 }
 
 /// The intersection of two enclosures of the same number (`None` if they are disjoint,
@@ -1117,23 +1147,42 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
         let centre_radius = proved
             .as_ref()
             .map(|x| x.iter().map(|b| b.rad).fold(0.0, f64::max));
+        // B = A⁻¹ in the normal form's working precision, hi + lo taken as exact (the
+        // double-double B keeps the linear normalisation symplectic to 10⁻³², which Ẇ's
+        // degree 2 needs); A likewise (only an approximate inverse)
+        let dd_mat = |hi: &[Vec<f64>], lo: &[Vec<f64>]| -> BallMatrix {
+            hi.iter()
+                .enumerate()
+                .map(|(i, r)| {
+                    r.iter()
+                        .enumerate()
+                        .map(|(j, &x)| {
+                            let l = lo.get(i).and_then(|r| r.get(j)).copied().unwrap_or(0.0);
+                            Ball::new(x, l, 0.0)
+                        })
+                        .collect()
+                })
+                .collect()
+        };
+        let bb = dd_mat(b, &nf.linear_inverse_lo);
+        let ab = dd_mat(&nf.linear_map, &nf.linear_map_lo);
+        let bi: Vec<Vec<Iv>> = bb
+            .iter()
+            .map(|r| r.iter().map(|x| x.to_iv()).collect())
+            .collect();
         // C ∋ B⁻¹ and S ∋ BJBᵀ in balls (rounded out to f64 intervals), else in intervals
-        let balls = linear_balls(b, &nf.linear_map, nd);
+        let balls = linear_balls(&bb, &ab, nd);
         let c = match &balls {
             Some((cb, _)) => cb
                 .iter()
                 .map(|r| r.iter().map(|x| x.to_iv()).collect())
                 .collect(),
-            None => inverse_enclosure(b, &nf.linear_map).ok_or_else(|| {
+            None => inverse_enclosure(&bi, &nf.linear_map).ok_or_else(|| {
                 NormalFormError::Invalid(
                     "the linear normalisation is too ill-conditioned to enclose its inverse".into(),
                 )
             })?,
         };
-        let bi: Vec<Vec<Iv>> = b
-            .iter()
-            .map(|r| r.iter().map(|&x| Iv::point(x)).collect())
-            .collect();
         let full_degree = map
             .components
             .iter()
@@ -1221,14 +1270,22 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
             .collect();
 
         // 2. W = |T|², Ẇ = 2 Σ_j v_j ẏ_j, v_j = Σ_i T_i ∂_j T_i
-        let tmap: Vec<Poly<Iv>> = map
+        // T's coefficients are hi + lo (double-double in a double-double run), each enclosed
+        let map_lo = nf.to_normal_map_lo.as_ref();
+        let tball: Vec<Poly<Ball>> = map
             .components
             .iter()
-            .map(|p| {
-                let mut t = p.map(Iv::point);
+            .enumerate()
+            .map(|(i, p)| {
+                let lo = map_lo.and_then(|m| m.components.get(i));
+                let mut t = dd_poly(p, lo, |hi, lo| Ball::new(hi, lo, 0.0));
                 t.truncate(m_deg);
-                t.retabled(table.clone())
+                t
             })
+            .collect();
+        let tmap: Vec<Poly<Iv>> = tball
+            .iter()
+            .map(|t| t.map(|b| b.to_iv()).retabled(table.clone()))
             .collect();
         let mut wdot = Tm::exact(Poly::zero(table.clone()));
         let mut vmaj = Vec::with_capacity(n);
@@ -1240,34 +1297,23 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
             vmaj.push(v.majorant());
             wdot = wdot.add(&v.mul(&field[j]));
         }
-        // Ẇ's degree 2 (its lowest with the proved centre): the intersection with its
-        // enclosure in balls, 10⁻³⁰ wide where the f64 intervals are 10⁻¹⁶
+        // Ẇ's degrees ≤ N + 1 (those where the normal form's cancellations leave rounding,
+        // and the first of the remainder): each coefficient the intersection with its
+        // enclosure in balls (both contain it), 10⁻³⁰ wide where the f64 intervals are 10⁻¹⁶
         if let (Some(centre), Some((cb, sb))) = (&proved, &balls) {
-            let lin: Vec<Vec<f64>> = (0..n)
-                .map(|i| {
-                    (0..n)
-                        .map(|j| {
-                            let mut e = vec![0u8; n];
-                            e[j] = 1;
-                            map.components[i].coeff(&e)
-                        })
-                        .collect()
-                })
-                .collect();
-            let w2 = wdot2_balls(h, centre, cb, sb, &lin);
-            for a in 0..n {
-                for b in a..n {
-                    let mut e = vec![0u8; n];
-                    e[a] += 1;
-                    e[b] += 1;
-                    let old = wdot.p.coeff(&e);
-                    let tight = intersect(old, w2[a][b].to_iv()).ok_or_else(|| {
-                        NormalFormError::Invalid(
-                            "two enclosures of a coefficient of Ẇ are disjoint".into(),
-                        )
-                    })?;
-                    wdot.p.set_coeff(&e, tight);
-                }
+            let low = (nf.order + 1).min(d);
+            let wb = wdot_low_balls(h, centre, cb, sb, &tball, low);
+            let all = (0..=low).flat_map(|deg| (0..wb.table().count(deg)).map(move |i| (deg, i)));
+            for (deg, i) in all {
+                let cball = wb.part(deg).map_or(Ball::point(0.0), |p| p[i]);
+                let e = wb.exponents(deg, i).to_vec();
+                let old = wdot.p.coeff(&e);
+                let tight = intersect(old, cball.to_iv()).ok_or_else(|| {
+                    NormalFormError::Invalid(
+                        "two enclosures of a coefficient of Ẇ are disjoint".into(),
+                    )
+                })?;
+                wdot.p.set_coeff(&e, tight);
             }
         }
         let g0 = wdot.majorant().scaled(2.0);
