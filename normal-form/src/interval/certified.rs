@@ -647,17 +647,22 @@ fn wdot_low_balls<H: HamiltonianFn + ?Sized>(
     let grad: Vec<Poly<Ball>> = (0..n)
         .map(|v| hb.derivative(v).retabled(t_l.clone()))
         .collect();
-    let tl: Vec<Poly<Ball>> = t.iter().map(|p| p.retabled(t_l.clone())).collect();
+    // v_j = Σ_i T_i ∂_j T_i = ½ ∂_j Σ_i T_i², its degrees ≤ l from the squares cut at l + 1
+    let sq = t
+        .iter()
+        .fold(Poly::zero(t_l1.clone()), |acc: Poly<Ball>, p| {
+            let p = p.retabled(t_l1.clone());
+            acc.add(&p.mul(&p))
+        });
     let mut w = Poly::zero(t_l.clone());
     for j in 0..n {
         let ydot = (0..n).fold(Poly::zero(t_l.clone()), |acc: Poly<Ball>, i| {
             acc.add(&grad[i].scaled(s[j][i]))
         });
-        let v = tl
-            .iter()
-            .fold(Poly::zero(t_l.clone()), |acc: Poly<Ball>, ti| {
-                acc.add(&ti.mul(&ti.derivative(j)))
-            });
+        let v = sq
+            .derivative(j)
+            .scaled(Ball::point(0.5))
+            .retabled(t_l.clone());
         w = w.add(&v.mul(&ydot));
     }
     w
@@ -1287,13 +1292,31 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
             .iter()
             .map(|t| t.map(|b| b.to_iv()).retabled(table.clone()))
             .collect();
+        // v_j = Σ_i T_i ∂_j T_i = ½ ∂_j W: its degrees ≤ D are those of ½ ∂_j (Σ_i T_i²) cut
+        // at D + 1 (n products instead of n²), and the degrees above D, dropped, are bounded
+        // as a product of Taylor models bounds them, by Σ_i (maj T_i · maj ∂_j T_i) above D
+        let table1 = Arc::new(MonomialTable::new(n, d + 1));
+        let w_poly = tmap.iter().fold(Poly::zero(table1.clone()), |acc, ti| {
+            let t1 = ti.retabled(table1.clone());
+            acc.add(&t1.mul(&t1))
+        });
+        let tmaj: Vec<Majorant> = tmap.iter().map(Majorant::of_poly).collect();
         let mut wdot = Tm::exact(Poly::zero(table.clone()));
         let mut vmaj = Vec::with_capacity(n);
         for j in 0..n {
-            let mut v = Tm::exact(Poly::zero(table.clone()));
-            for ti in &tmap {
-                v = v.add(&Tm::exact(ti.clone()).mul(&Tm::exact(ti.derivative(j))));
-            }
+            let e = tmap
+                .iter()
+                .zip(&tmaj)
+                .fold(Majorant::default(), |acc, (ti, mi)| {
+                    acc.add(&mi.mul(&Majorant::of_poly(&ti.derivative(j))).above(d))
+                });
+            let v = Tm {
+                p: w_poly
+                    .derivative(j)
+                    .scaled(Iv::point(0.5))
+                    .retabled(table.clone()),
+                e,
+            };
             vmaj.push(v.majorant());
             wdot = wdot.add(&v.mul(&field[j]));
         }
@@ -1301,7 +1324,8 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
         // and the first of the remainder): each coefficient the intersection with its
         // enclosure in balls (both contain it), 10⁻³⁰ wide where the f64 intervals are 10⁻¹⁶
         if let (Some(centre), Some((cb, sb))) = (&proved, &balls) {
-            let low = (nf.order + 1).min(d);
+            // the degrees that cancel: ≤ N, and N + 1 where the map is cut at N
+            let low = if reduced { nf.order + 1 } else { nf.order }.min(d);
             let wb = wdot_low_balls(h, centre, cb, sb, &tball, low);
             let all = (0..=low).flat_map(|deg| (0..wb.table().count(deg)).map(move |i| (deg, i)));
             for (deg, i) in all {
