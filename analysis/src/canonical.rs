@@ -43,7 +43,9 @@ pub struct CanonicalOptions {
     pub validate: Option<Validation>,
     /// Also compute the certified time of every tube, and the certified radius of every
     /// `for_time` ([`CertifiedSetup`]), at the orders N = 4, 6, … (up to `max_order`) while
-    /// the certified time (radius) grows, within [`CERTIFIED_SEARCH_SECONDS`].
+    /// the certified time (radius) grows, within [`CERTIFIED_SEARCH_SECONDS`]; each from a
+    /// normal form in double-double at least (an order the estimate ran in `f64` is
+    /// normalised again for it).
     pub certified: bool,
 }
 

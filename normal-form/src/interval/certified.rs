@@ -7,11 +7,14 @@
 //! Let `x*` be the true equilibrium (`∇H(x*) = 0`, enclosed in a box proved by the
 //! Krawczyk operator in ball arithmetic, [`Ball`]; if that proof fails, the `f64`
 //! equilibrium `x_e` takes its place and everything below holds with `x_e` for `x*` except
-//! that the degree-1 coefficients are enclosed instead of zero) and `B` the `f64` matrix
-//! [`NormalForm::linear_inverse`], and let `y = B(x − x*)` (exact real arithmetic: this
+//! that the degree-1 coefficients are enclosed instead of zero) and `B` the matrix
+//! [`NormalForm::linear_inverse`] + [`NormalForm::linear_inverse_lo`] (the normal form's A⁻¹
+//! in its working precision, the two `f64` words taken as an exact double-double; the
+//! `f64` matrix of an `f64` run), and let `y = B(x − x*)` (exact real arithmetic: this
 //! *defines* the linear normal coordinates, and `|y|` is the `linear-normal` distance the
 //! command prints). Let `T` be the polynomial map [`NormalForm::to_normal_map`] with its
-//! `f64` coefficients taken as exact (in three or more degrees of freedom cut at degree N,
+//! coefficients `hi + lo` ([`NormalForm::to_normal_map_lo`]) taken as exact (in three or
+//! more degrees of freedom cut at degree N,
 //! [`CertifiedOptions::map_degree`]), and `W(x) = |T(y)|²`, `ρ = √W`. Nothing requires
 //! `T` to be an exact conjugacy: `W` is just a function, and what follows bounds how fast
 //! the true flow can change it.
@@ -33,8 +36,9 @@
 //!    `b_s = min(Σ|p_α|, (Σ|p_α|² α!/s!)^{1/2})`: the ℓ¹ sum (`|y^α| ≤ |y|^{|α|}`), or
 //!    Cauchy–Schwarz against the multinomial identity `|y|^{2s} = Σ (s!/α!) y^{2α}`, which
 //!    is never larger and is far smaller when many monomials share a degree.
-//!    `Ẇ = 2 Σ_j (Σ_i T_i ∂_j T_i) ẏ_j` is such a model (its degree-2 part, the lowest,
-//!    intersected with its enclosure in balls); its polynomial part keeps the
+//!    `Ẇ = 2 Σ_j v_j ẏ_j`, `v_j = Σ_i T_i ∂_j T_i = ½ ∂_j Σ_i T_i²`, is such a model (its
+//!    degrees ≤ N, and N + 1 where the map is cut at N, intersected with their enclosure in
+//!    balls from ball jets of H, the double-double T and B, [`Ball`]); its polynomial part keeps the
 //!    cancellations of the normal form (the degrees below N + 1 are zero up to the
 //!    coefficients' rounding, enclosed), so `|Ẇ(y)| ≤ G(|y|)` with a majorant G of degree
 //!    N + 1 and above, up to rounding-size terms.
