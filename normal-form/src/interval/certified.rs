@@ -903,16 +903,32 @@ impl Extremum {
             .find(|&l| tail(l) <= eps_target)
             .unwrap_or(full)
             .max(2);
-        let eps = tail(degree);
         let mut monos = Monomials::new(n);
+        // point coefficients (two products per term, not four): h_L = m + (h_L − m), m the
+        // coefficients' midpoints, |h_L,i(y) − m_i(y)| ≤ Σ_α rad_α |y|^|α| on the ball, and
+        // the norm of those bounds is added to ε (T's double-double coefficients are
+        // enclosed in intervals an ulp wide)
+        let mut rad_sq = 0.0;
         let low: Vec<Poly<Iv>> = hots
             .iter()
             .map(|h| {
                 let mut h = h.clone();
                 h.truncate(degree);
-                h
+                let mut r = 0.0;
+                for (k, _, c) in h.terms() {
+                    if crate::Coeff::is_finite(&c) {
+                        let m = c.mid();
+                        let rad = (Iv::point(c.hi) - Iv::point(m))
+                            .hi
+                            .max((Iv::point(m) - Iv::point(c.lo)).hi);
+                        r = add_up(r, mul_up(rad, pow_up(radius, k)));
+                    }
+                }
+                rad_sq = add_up(rad_sq, mul_up(r, r));
+                h.map(|c| if crate::Coeff::is_finite(&c) { Iv::point(c.mid()) } else { c })
             })
             .collect();
+        let eps = add_up(tail(degree), rad_sq.sqrt().next_up());
         let hot = low.iter().map(|h| Sparse::new(h, &mut monos)).collect();
         let dhot = low
             .iter()
@@ -977,7 +993,18 @@ impl Extremum {
     /// max ρ² over the ball |y| ≤ d (`maximum`) or min over the sphere |y| = d (of |h|²
     /// instead of ρ² with `of_h`), to a relative gap `tol` or `budget` boxes (the bound is
     /// certified either way). `d` must not exceed the radius the struct was built for.
-    fn extremum(&self, d: f64, maximum: bool, of_h: bool, tol: f64, budget: usize) -> Bnb {
+    /// With `stop_at`, a maximum stops as soon as a point of the region is found where the
+    /// value is at least that (the caller needs no sharper bound then; the bound returned is
+    /// still certified).
+    fn extremum(
+        &self,
+        d: f64,
+        maximum: bool,
+        of_h: bool,
+        tol: f64,
+        budget: usize,
+        stop_at: Option<f64>,
+    ) -> Bnb {
         use std::collections::BinaryHeap;
         let n = self.n;
         let d2 = Iv::point(d).sqr();
@@ -1028,7 +1055,8 @@ impl Extremum {
         while let Some(Keyed(key, bx)) = heap.pop() {
             let bound = if maximum { key } else { -key };
             let gap = if maximum { bound - best } else { best - bound };
-            if gap <= tol * best.abs() || boxes >= budget {
+            let enough = maximum && stop_at.is_some_and(|s| best >= s);
+            if gap <= tol * best.abs() || boxes >= budget || enough {
                 return Bnb { bound, boxes };
             }
             // split the widest side
@@ -1558,10 +1586,7 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
         let tol = self.options.tolerance;
         let budget = self.options.budget;
         let ext0 = Extremum::new(&self.hots, y0, 1e-3 * tol * y0);
-        let max0 = ext0.extremum(y0, true, false, tol, budget);
-        // on the outer sphere ρ ≥ |y| − |h(y)| ≥ y1 − max_{|y| ≤ y1} |h|
-        let ext1 = Extremum::new(&self.hots, y1, 1e-3 * tol * y1);
-        let hmax1 = ext1.extremum(y1, true, true, tol, budget);
+        let max0 = ext0.extremum(y0, true, false, tol, budget, None);
         // the lower bound of ρ² on the sphere |y| = r from κ
         let phi_lo = |r: f64| (Iv::point(r).sqr() - Iv::point(kappa2(r))).lo;
         let rho0_kappa = {
@@ -1572,7 +1597,6 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
         let rho0 = add_up(y0, tau(y0))
             .min(rho0_kappa)
             .min(max0.bound.sqrt().next_up());
-        let tau1 = tau1.min(hmax1.bound.sqrt().next_up());
         let rho1_kappa = {
             let p = phi_lo(y1);
             if p > 0.0 {
@@ -1581,6 +1605,16 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
                 0.0
             }
         };
+        // on the outer sphere ρ ≥ |y| − |h(y)| ≥ y1 − max_{|y| ≤ y1} |h|; where κ's bound
+        // leaves ρ₁ ≤ ρ₀, the search stops once |h|² ≥ (y1 − ρ₀)² is seen somewhere
+        // (then no bound from it can give ρ₁ > ρ₀: there is no certified time to sharpen)
+        let ext1 = Extremum::new(&self.hots, y1, 1e-3 * tol * y1);
+        let hopeless = (rho1_kappa <= rho0).then(|| {
+            let gap = (y1 - rho0).max(0.0);
+            gap * gap
+        });
+        let hmax1 = ext1.extremum(y1, true, true, tol, budget, hopeless);
+        let tau1 = tau1.min(hmax1.bound.sqrt().next_up());
         let rho1 = (Iv::point(y1) - Iv::point(tau1)).lo.max(rho1_kappa);
         let boxes = max0.boxes + hmax1.boxes;
         let seconds = || t0.elapsed().as_secs_f64();
