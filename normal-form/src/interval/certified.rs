@@ -572,15 +572,15 @@ fn prove_equilibrium<H: HamiltonianFn + ?Sized>(h: &H, nf: &NormalForm) -> Optio
 fn linear_balls(bb: &[Vec<Ball>], ab: &[Vec<Ball>], nd: usize) -> Option<(BallMatrix, BallMatrix)> {
     let n = bb.len();
     let id = |i: usize, j: usize| Ball::point(if i == j { 1.0 } else { 0.0 });
-    let ba = ball_matmul(&bb, &ab);
+    let ba = ball_matmul(bb, ab);
     let e0: Vec<Vec<Ball>> = (0..n)
         .map(|i| (0..n).map(|j| id(i, j) - ba[i][j]).collect())
         .collect();
-    let corr = ball_matmul(&ab, &e0);
+    let corr = ball_matmul(ab, &e0);
     let a2: Vec<Vec<Ball>> = (0..n)
         .map(|i| (0..n).map(|j| (ab[i][j] + corr[i][j]).centre()).collect())
         .collect();
-    let ba2 = ball_matmul(&bb, &a2);
+    let ba2 = ball_matmul(bb, &a2);
     let e: Vec<Vec<Ball>> = (0..n)
         .map(|i| (0..n).map(|j| id(i, j) - ba2[i][j]).collect())
         .collect();
@@ -925,7 +925,13 @@ impl Extremum {
                     }
                 }
                 rad_sq = add_up(rad_sq, mul_up(r, r));
-                h.map(|c| if crate::Coeff::is_finite(&c) { Iv::point(c.mid()) } else { c })
+                h.map(|c| {
+                    if crate::Coeff::is_finite(&c) {
+                        Iv::point(c.mid())
+                    } else {
+                        c
+                    }
+                })
             })
             .collect();
         let eps = add_up(tail(degree), rad_sq.sqrt().next_up());
