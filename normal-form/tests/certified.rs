@@ -359,7 +359,7 @@ fn sun_jupiter_l4_certified_above_the_rounding_floor() {
 /// the majorant's degree-3 coefficient below 10⁻²⁰ (it was 10⁻¹⁰ with T's `f64`
 /// coefficients and `f64` intervals, which capped this tube's certified time near 10¹³), and
 /// degrees 2…N together below 10⁻⁶ of the remainder's first degree N + 1 at ρ₀ (they were
-/// 5·10⁻⁴ of it). The tightened majorant still holds at sampled points of the inner and
+/// 6·10⁻⁴ of it). The tightened majorant still holds at sampled points of the inner and
 /// outer spheres, where |Ẇ| comes from the model's gradient in `f64` (independent of the
 /// Taylor models; its rounding, about 10⁻¹⁹ here, is allowed for).
 #[test]
