@@ -43,7 +43,9 @@ pub struct CanonicalOptions {
     pub validate: Option<Validation>,
     /// Also compute the certified time of every tube, and the certified radius of every
     /// `for_time` ([`CertifiedSetup`]), at the orders N = 4, 6, … (up to `max_order`) while
-    /// the certified time (radius) grows, within [`CERTIFIED_SEARCH_SECONDS`].
+    /// the certified time (radius) grows, within [`CERTIFIED_SEARCH_SECONDS`]; each from a
+    /// normal form in double-double at least (an order the estimate ran in `f64` is
+    /// normalised again for it).
     pub certified: bool,
 }
 
@@ -869,8 +871,13 @@ impl<'a> Certifier<'a> {
         let have =
             |forms: &[Form], extra: &[Form]| forms.iter().chain(extra).any(|f| f.nf.order == n);
         if !have(self.forms, &self.extra) {
-            let f = order_form(self.model, self.params, self.o, n, self.precision)
-                .map_err(|e| e.to_string())?;
+            // orders beyond the estimate's serve the certified bound alone: double-double
+            let start = match self.precision {
+                Precision::F64 => Precision::DoubleDouble,
+                p => p,
+            };
+            let f =
+                order_form(self.model, self.params, self.o, n, start).map_err(|e| e.to_string())?;
             self.precision = f.nf.precision;
             self.extra.push(f);
         }
@@ -880,7 +887,17 @@ impl<'a> Certifier<'a> {
             .chain(&self.extra)
             .find(|f| f.nf.order == n)
             .ok_or_else(|| format!("no normal form of order {n}"))?;
-        CertifiedSetup::new(self.h, &f.nf, self.o.metric, &CertifiedOptions::default())
+        // the certified bound takes T and A⁻¹ in double-double at least: in f64 their
+        // rounding leaves Ẇ's low degrees (which cancel for the exact normal form) at 10⁻¹⁶
+        // of their terms, a floor on the certified time
+        let nf = if f.nf.precision == Precision::F64 {
+            let dd = order_form(self.model, self.params, self.o, n, Precision::DoubleDouble)
+                .map_err(|e| e.to_string())?;
+            std::borrow::Cow::Owned(dd.nf)
+        } else {
+            std::borrow::Cow::Borrowed(&f.nf)
+        };
+        CertifiedSetup::new(self.h, &nf, self.o.metric, &CertifiedOptions::default())
             .map_err(|e| e.to_string())
     }
     /// Evaluates `eval` at the orders in turn; stops at the first result below the best (or

@@ -352,3 +352,73 @@ fn sun_jupiter_l4_certified_above_the_rounding_floor() {
     let time = c.time.expect("a certified time");
     assert!(time > 6e8, "{time}");
 }
+
+/// Sun–Jupiter L4, N = 8, the normal form in double-double: with T and A⁻¹ taken as the
+/// double-double numbers they are and Ẇ's degrees ≤ N + 1 enclosed in balls, the degrees
+/// that cancel for the exact normal form (2…N) come out at the rounding of double-double:
+/// the majorant's degree-3 coefficient below 10⁻²⁰ (it was 10⁻¹⁰ with T's `f64`
+/// coefficients and `f64` intervals, which capped this tube's certified time near 10¹³), and
+/// degrees 2…N together below 10⁻⁶ of the remainder's first degree N + 1 at ρ₀ (they were
+/// 6·10⁻⁴ of it). The tightened majorant still holds at sampled points of the inner and
+/// outer spheres, where |Ẇ| comes from the model's gradient in `f64` (independent of the
+/// Taylor models; its rounding, about 10⁻¹⁹ here, is allowed for).
+#[test]
+fn sun_jupiter_l4_low_degrees_of_wdot_cancel_in_double_double() {
+    use lasalle_normal_form::Precision;
+    let mu = 0.000953875;
+    let h = common::cr3bp(mu);
+    let n = 8usize;
+    let opts = Options {
+        remainder_degree: Some((2 * n).min(n + 8)),
+        inverse_transform: false,
+        precision: Precision::DoubleDouble,
+        ..Options::with_order(n)
+    };
+    let nf = common::l4_normal_form(mu, &opts).unwrap();
+    let c = certified_tube(
+        &h,
+        &nf,
+        5e-4,
+        1e-3,
+        Metric::LinearNormal,
+        &CertifiedOptions::default(),
+    )
+    .unwrap();
+    let g = &c.wdot.c;
+    eprintln!(
+        "Sun–Jupiter N = {n} (dd): T ≥ {:?}, G by degree {g:?}",
+        c.time
+    );
+    assert!(g[0] < 1e-300 && g[1] < 1e-300, "{g:?}");
+    assert!(g[3] < 1e-20, "degree 3 of Ẇ: {:e}", g[3]);
+    let r = c.rho0;
+    let low: f64 = (2..=n).map(|s| g[s] * r.powi(s as i32)).sum();
+    let first = g[n + 1] * r.powi(n as i32 + 1);
+    assert!(
+        low < 1e-6 * first,
+        "degrees 2…{n}: {low:e} against {first:e}"
+    );
+    let time = c.time.expect("a certified time");
+    assert!(time > 7.0918e8, "{time}");
+    // the majorant against |Ẇ| from the model's gradient, on the inner and outer spheres
+    let mut seed = 0x2545_f491_4f6c_dd1du64;
+    let mut next = || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    };
+    for rad in [c.y0, c.y1] {
+        let bound = c.wdot.eval(rad) + 1e-18;
+        for _ in 0..100 {
+            let v: Vec<f64> = (0..4).map(|_| next()).collect();
+            let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            let y: Vec<f64> = v.iter().map(|x| x * rad / norm).collect();
+            let wd = wdot_at(&h, &nf, c.map_degree, &y);
+            assert!(
+                wd <= bound,
+                "|Ẇ| = {wd:e} > G({rad:e}) = {bound:e} at {y:?}"
+            );
+        }
+    }
+}

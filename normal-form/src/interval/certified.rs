@@ -7,11 +7,14 @@
 //! Let `x*` be the true equilibrium (`∇H(x*) = 0`, enclosed in a box proved by the
 //! Krawczyk operator in ball arithmetic, [`Ball`]; if that proof fails, the `f64`
 //! equilibrium `x_e` takes its place and everything below holds with `x_e` for `x*` except
-//! that the degree-1 coefficients are enclosed instead of zero) and `B` the `f64` matrix
-//! [`NormalForm::linear_inverse`], and let `y = B(x − x*)` (exact real arithmetic: this
+//! that the degree-1 coefficients are enclosed instead of zero) and `B` the matrix
+//! [`NormalForm::linear_inverse`] + [`NormalForm::linear_inverse_lo`] (the normal form's A⁻¹
+//! in its working precision, the two `f64` words taken as an exact double-double; the
+//! `f64` matrix of an `f64` run), and let `y = B(x − x*)` (exact real arithmetic: this
 //! *defines* the linear normal coordinates, and `|y|` is the `linear-normal` distance the
 //! command prints). Let `T` be the polynomial map [`NormalForm::to_normal_map`] with its
-//! `f64` coefficients taken as exact (in three or more degrees of freedom cut at degree N,
+//! coefficients `hi + lo` ([`NormalForm::to_normal_map_lo`]) taken as exact (in three or
+//! more degrees of freedom cut at degree N,
 //! [`CertifiedOptions::map_degree`]), and `W(x) = |T(y)|²`, `ρ = √W`. Nothing requires
 //! `T` to be an exact conjugacy: `W` is just a function, and what follows bounds how fast
 //! the true flow can change it.
@@ -33,8 +36,9 @@
 //!    `b_s = min(Σ|p_α|, (Σ|p_α|² α!/s!)^{1/2})`: the ℓ¹ sum (`|y^α| ≤ |y|^{|α|}`), or
 //!    Cauchy–Schwarz against the multinomial identity `|y|^{2s} = Σ (s!/α!) y^{2α}`, which
 //!    is never larger and is far smaller when many monomials share a degree.
-//!    `Ẇ = 2 Σ_j (Σ_i T_i ∂_j T_i) ẏ_j` is such a model (its degree-2 part, the lowest,
-//!    intersected with its enclosure in balls); its polynomial part keeps the
+//!    `Ẇ = 2 Σ_j v_j ẏ_j`, `v_j = Σ_i T_i ∂_j T_i = ½ ∂_j Σ_i T_i²`, is such a model (its
+//!    degrees ≤ N, and N + 1 where the map is cut at N, intersected with their enclosure in
+//!    balls from ball jets of H, the double-double T and B, [`Ball`]); its polynomial part keeps the
 //!    cancellations of the normal form (the degrees below N + 1 are zero up to the
 //!    coefficients' rounding, enclosed), so `|Ẇ(y)| ≤ G(|y|)` with a majorant G of degree
 //!    N + 1 and above, up to rounding-size terms.
@@ -352,14 +356,13 @@ pub struct CertifiedTube {
 /// Interval enclosure of `B⁻¹` from the approximate inverse `a`: with `E = I − B·a`,
 /// `B⁻¹ = a(I − E)⁻¹ = a + aE(I − E)⁻¹`, so every entry of `B⁻¹ − a` is at most
 /// `‖aE‖_∞ / (1 − ‖E‖_∞)` in absolute value.
-fn inverse_enclosure(b: &[Vec<f64>], a: &[Vec<f64>]) -> Option<Vec<Vec<Iv>>> {
-    let n = b.len();
-    let iv = |m: &[Vec<f64>]| -> Vec<Vec<Iv>> {
-        m.iter()
-            .map(|r| r.iter().map(|&x| Iv::point(x)).collect())
-            .collect()
-    };
-    let (bi, ai) = (iv(b), iv(a));
+fn inverse_enclosure(bi: &[Vec<Iv>], a: &[Vec<f64>]) -> Option<Vec<Vec<Iv>>> {
+    let n = bi.len();
+    let bi = bi.to_vec();
+    let ai: Vec<Vec<Iv>> = a
+        .iter()
+        .map(|r| r.iter().map(|&x| Iv::point(x)).collect())
+        .collect();
     let mm = |x: &Vec<Vec<Iv>>, y: &Vec<Vec<Iv>>| -> Vec<Vec<Iv>> {
         (0..n)
             .map(|i| {
@@ -561,23 +564,23 @@ fn prove_equilibrium<H: HamiltonianFn + ?Sized>(h: &H, nf: &NormalForm) -> Optio
     None
 }
 
-/// The linear normalisation in ball arithmetic: `C ∋ B⁻¹` (the approximate inverse A
+/// The linear normalisation in ball arithmetic (B and A exact double-doubles, the normal
+/// form's in its working precision): `C ∋ B⁻¹` (the approximate inverse A
 /// refined by one Newton step to A₂ = A + A(I − BA) in double-double, then the
 /// Neumann-series bound of [`inverse_enclosure`] with E = I − BA₂ enclosed in balls) and
 /// `S ∋ BJBᵀ`, both to about 10⁻³⁰ instead of the `f64` rounding.
-fn linear_balls(b: &[Vec<f64>], a: &[Vec<f64>], nd: usize) -> Option<(BallMatrix, BallMatrix)> {
-    let n = b.len();
-    let (bb, ab) = (ball_points(b), ball_points(a));
+fn linear_balls(bb: &[Vec<Ball>], ab: &[Vec<Ball>], nd: usize) -> Option<(BallMatrix, BallMatrix)> {
+    let n = bb.len();
     let id = |i: usize, j: usize| Ball::point(if i == j { 1.0 } else { 0.0 });
-    let ba = ball_matmul(&bb, &ab);
+    let ba = ball_matmul(bb, ab);
     let e0: Vec<Vec<Ball>> = (0..n)
         .map(|i| (0..n).map(|j| id(i, j) - ba[i][j]).collect())
         .collect();
-    let corr = ball_matmul(&ab, &e0);
+    let corr = ball_matmul(ab, &e0);
     let a2: Vec<Vec<Ball>> = (0..n)
         .map(|i| (0..n).map(|j| (ab[i][j] + corr[i][j]).centre()).collect())
         .collect();
-    let ba2 = ball_matmul(&bb, &a2);
+    let ba2 = ball_matmul(bb, &a2);
     let e: Vec<Vec<Ball>> = (0..n)
         .map(|i| (0..n).map(|j| id(i, j) - ba2[i][j]).collect())
         .collect();
@@ -622,37 +625,73 @@ fn linear_balls(b: &[Vec<f64>], a: &[Vec<f64>], nd: usize) -> Option<(BallMatrix
     Some((c, s))
 }
 
-/// The degree-2 part of Ẇ in balls, as the coefficients of y_a y_b (a ≤ b): with L the
-/// linear part of T, v = LᵀL y to first order and ẏ = S H̃₂'' y, so
-/// `Ẇ₂ = 2 yᵀ (LᵀL) S H̃₂'' y`. Needs H̃'s degree-2 coefficients at the proved equilibrium.
-fn wdot2_balls<H: HamiltonianFn + ?Sized>(
+/// The degrees ≤ l of `Ẇ/2 = Σ_j v_j ẏ_j` (`v_j = Σ_i T_i ∂_j T_i`, `ẏ = S∇H̃`) in balls:
+/// H̃'s Taylor polynomial to degree l + 1 from ball jets of H at the proved box of x\* with
+/// C ∋ B⁻¹ (its degree-1 coefficients, C^T∇H(x\*), exactly 0), S ∋ BJBᵀ, and the map T
+/// with its double-double coefficients (`t`, taken as exact). These are the degrees where
+/// the normal form's cancellations leave only rounding: in balls they come out near 10⁻³⁰
+/// of the coefficients that cancel, where the `f64` intervals leave 10⁻¹⁶.
+fn wdot_low_balls<H: HamiltonianFn + ?Sized>(
     h: &H,
     centre: &[Ball],
     c: &[Vec<Ball>],
     s: &[Vec<Ball>],
-    lin: &[Vec<f64>],
-) -> Vec<Vec<Ball>> {
+    t: &[Poly<Ball>],
+    l: usize,
+) -> Poly<Ball> {
     let n = centre.len();
-    let t2 = Arc::new(MonomialTable::new(n, 2));
-    let (_, hh) = grad_hess(&ball_jet(h, centre, Some(c), &t2), n);
-    let l = ball_points(lin);
-    let lt: Vec<Vec<Ball>> = (0..n).map(|i| (0..n).map(|j| l[j][i]).collect()).collect();
-    let q = ball_matmul(&ball_matmul(&ball_matmul(&lt, &l), s), &hh);
-    (0..n)
-        .map(|a| {
-            (0..n)
-                .map(|b| {
-                    if b < a {
-                        Ball::point(0.0)
-                    } else if a == b {
-                        q[a][a] * Ball::point(2.0)
-                    } else {
-                        (q[a][b] + q[b][a]) * Ball::point(2.0)
-                    }
-                })
-                .collect()
-        })
-        .collect()
+    let t_l1 = Arc::new(MonomialTable::new(n, l + 1));
+    let t_l = Arc::new(MonomialTable::new(n, l));
+    let mut hb = ball_jet(h, centre, Some(c), &t_l1);
+    for i in 0..n {
+        let mut e = vec![0u8; n];
+        e[i] = 1;
+        hb.set_coeff(&e, Ball::point(0.0));
+    }
+    let grad: Vec<Poly<Ball>> = (0..n)
+        .map(|v| hb.derivative(v).retabled(t_l.clone()))
+        .collect();
+    // v_j = Σ_i T_i ∂_j T_i = ½ ∂_j Σ_i T_i², its degrees ≤ l from the squares cut at l + 1
+    let sq = t
+        .iter()
+        .fold(Poly::zero(t_l1.clone()), |acc: Poly<Ball>, p| {
+            let p = p.retabled(t_l1.clone());
+            acc.add(&p.mul(&p))
+        });
+    let mut w = Poly::zero(t_l.clone());
+    for j in 0..n {
+        let ydot = (0..n).fold(Poly::zero(t_l.clone()), |acc: Poly<Ball>, i| {
+            acc.add(&grad[i].scaled(s[j][i]))
+        });
+        let v = sq
+            .derivative(j)
+            .scaled(Ball::point(0.5))
+            .retabled(t_l.clone());
+        w = w.add(&v.mul(&ydot));
+    }
+    w
+}
+
+/// A polynomial whose coefficients are `hi + lo` (`lo` on the same table, or none), mapped
+/// coefficient-wise by `f(hi, lo)`.
+fn dd_poly<T: crate::Coeff>(
+    hi: &Poly<f64>,
+    lo: Option<&Poly<f64>>,
+    f: impl Fn(f64, f64) -> T,
+) -> Poly<T> {
+    let mut p = Poly::zero(hi.table().clone());
+    for k in 0..=hi.max_degree() {
+        if let Some(ph) = hi.part(k) {
+            let pl = lo.and_then(|l| l.part(k));
+            let part = ph
+                .iter()
+                .enumerate()
+                .map(|(i, &x)| f(x, pl.and_then(|pl| pl.get(i).copied()).unwrap_or(0.0)))
+                .collect();
+            p.set_part(k, part);
+        }
+    }
+    p
 }
 
 /// The intersection of two enclosures of the same number (`None` if they are disjoint,
@@ -864,16 +903,38 @@ impl Extremum {
             .find(|&l| tail(l) <= eps_target)
             .unwrap_or(full)
             .max(2);
-        let eps = tail(degree);
         let mut monos = Monomials::new(n);
+        // point coefficients (two products per term, not four): h_L = m + (h_L − m), m the
+        // coefficients' midpoints, |h_L,i(y) − m_i(y)| ≤ Σ_α rad_α |y|^|α| on the ball, and
+        // the norm of those bounds is added to ε (T's double-double coefficients are
+        // enclosed in intervals an ulp wide)
+        let mut rad_sq = 0.0;
         let low: Vec<Poly<Iv>> = hots
             .iter()
             .map(|h| {
                 let mut h = h.clone();
                 h.truncate(degree);
-                h
+                let mut r = 0.0;
+                for (k, _, c) in h.terms() {
+                    if crate::Coeff::is_finite(&c) {
+                        let m = c.mid();
+                        let rad = (Iv::point(c.hi) - Iv::point(m))
+                            .hi
+                            .max((Iv::point(m) - Iv::point(c.lo)).hi);
+                        r = add_up(r, mul_up(rad, pow_up(radius, k)));
+                    }
+                }
+                rad_sq = add_up(rad_sq, mul_up(r, r));
+                h.map(|c| {
+                    if crate::Coeff::is_finite(&c) {
+                        Iv::point(c.mid())
+                    } else {
+                        c
+                    }
+                })
             })
             .collect();
+        let eps = add_up(tail(degree), rad_sq.sqrt().next_up());
         let hot = low.iter().map(|h| Sparse::new(h, &mut monos)).collect();
         let dhot = low
             .iter()
@@ -938,7 +999,18 @@ impl Extremum {
     /// max ρ² over the ball |y| ≤ d (`maximum`) or min over the sphere |y| = d (of |h|²
     /// instead of ρ² with `of_h`), to a relative gap `tol` or `budget` boxes (the bound is
     /// certified either way). `d` must not exceed the radius the struct was built for.
-    fn extremum(&self, d: f64, maximum: bool, of_h: bool, tol: f64, budget: usize) -> Bnb {
+    /// With `stop_at`, a maximum stops as soon as a point of the region is found where the
+    /// value is at least that (the caller needs no sharper bound then; the bound returned is
+    /// still certified).
+    fn extremum(
+        &self,
+        d: f64,
+        maximum: bool,
+        of_h: bool,
+        tol: f64,
+        budget: usize,
+        stop_at: Option<f64>,
+    ) -> Bnb {
         use std::collections::BinaryHeap;
         let n = self.n;
         let d2 = Iv::point(d).sqr();
@@ -989,7 +1061,8 @@ impl Extremum {
         while let Some(Keyed(key, bx)) = heap.pop() {
             let bound = if maximum { key } else { -key };
             let gap = if maximum { bound - best } else { best - bound };
-            if gap <= tol * best.abs() || boxes >= budget {
+            let enough = maximum && stop_at.is_some_and(|s| best >= s);
+            if gap <= tol * best.abs() || boxes >= budget || enough {
                 return Bnb { bound, boxes };
             }
             // split the widest side
@@ -1117,23 +1190,42 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
         let centre_radius = proved
             .as_ref()
             .map(|x| x.iter().map(|b| b.rad).fold(0.0, f64::max));
+        // B = A⁻¹ in the normal form's working precision, hi + lo taken as exact (the
+        // double-double B keeps the linear normalisation symplectic to 10⁻³², which Ẇ's
+        // degree 2 needs); A likewise (only an approximate inverse)
+        let dd_mat = |hi: &[Vec<f64>], lo: &[Vec<f64>]| -> BallMatrix {
+            hi.iter()
+                .enumerate()
+                .map(|(i, r)| {
+                    r.iter()
+                        .enumerate()
+                        .map(|(j, &x)| {
+                            let l = lo.get(i).and_then(|r| r.get(j)).copied().unwrap_or(0.0);
+                            Ball::new(x, l, 0.0)
+                        })
+                        .collect()
+                })
+                .collect()
+        };
+        let bb = dd_mat(b, &nf.linear_inverse_lo);
+        let ab = dd_mat(&nf.linear_map, &nf.linear_map_lo);
+        let bi: Vec<Vec<Iv>> = bb
+            .iter()
+            .map(|r| r.iter().map(|x| x.to_iv()).collect())
+            .collect();
         // C ∋ B⁻¹ and S ∋ BJBᵀ in balls (rounded out to f64 intervals), else in intervals
-        let balls = linear_balls(b, &nf.linear_map, nd);
+        let balls = linear_balls(&bb, &ab, nd);
         let c = match &balls {
             Some((cb, _)) => cb
                 .iter()
                 .map(|r| r.iter().map(|x| x.to_iv()).collect())
                 .collect(),
-            None => inverse_enclosure(b, &nf.linear_map).ok_or_else(|| {
+            None => inverse_enclosure(&bi, &nf.linear_map).ok_or_else(|| {
                 NormalFormError::Invalid(
                     "the linear normalisation is too ill-conditioned to enclose its inverse".into(),
                 )
             })?,
         };
-        let bi: Vec<Vec<Iv>> = b
-            .iter()
-            .map(|r| r.iter().map(|&x| Iv::point(x)).collect())
-            .collect();
         let full_degree = map
             .components
             .iter()
@@ -1221,53 +1313,69 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
             .collect();
 
         // 2. W = |T|², Ẇ = 2 Σ_j v_j ẏ_j, v_j = Σ_i T_i ∂_j T_i
-        let tmap: Vec<Poly<Iv>> = map
+        // T's coefficients are hi + lo (double-double in a double-double run), each enclosed
+        let map_lo = nf.to_normal_map_lo.as_ref();
+        let tball: Vec<Poly<Ball>> = map
             .components
             .iter()
-            .map(|p| {
-                let mut t = p.map(Iv::point);
+            .enumerate()
+            .map(|(i, p)| {
+                let lo = map_lo.and_then(|m| m.components.get(i));
+                let mut t = dd_poly(p, lo, |hi, lo| Ball::new(hi, lo, 0.0));
                 t.truncate(m_deg);
-                t.retabled(table.clone())
+                t
             })
             .collect();
+        let tmap: Vec<Poly<Iv>> = tball
+            .iter()
+            .map(|t| t.map(|b| b.to_iv()).retabled(table.clone()))
+            .collect();
+        // v_j = Σ_i T_i ∂_j T_i = ½ ∂_j W: its degrees ≤ D are those of ½ ∂_j (Σ_i T_i²) cut
+        // at D + 1 (n products instead of n²), and the degrees above D, dropped, are bounded
+        // as a product of Taylor models bounds them, by Σ_i (maj T_i · maj ∂_j T_i) above D
+        let table1 = Arc::new(MonomialTable::new(n, d + 1));
+        let w_poly = tmap.iter().fold(Poly::zero(table1.clone()), |acc, ti| {
+            let t1 = ti.retabled(table1.clone());
+            acc.add(&t1.mul(&t1))
+        });
+        let tmaj: Vec<Majorant> = tmap.iter().map(Majorant::of_poly).collect();
         let mut wdot = Tm::exact(Poly::zero(table.clone()));
         let mut vmaj = Vec::with_capacity(n);
         for j in 0..n {
-            let mut v = Tm::exact(Poly::zero(table.clone()));
-            for ti in &tmap {
-                v = v.add(&Tm::exact(ti.clone()).mul(&Tm::exact(ti.derivative(j))));
-            }
+            let e = tmap
+                .iter()
+                .zip(&tmaj)
+                .fold(Majorant::default(), |acc, (ti, mi)| {
+                    acc.add(&mi.mul(&Majorant::of_poly(&ti.derivative(j))).above(d))
+                });
+            let v = Tm {
+                p: w_poly
+                    .derivative(j)
+                    .scaled(Iv::point(0.5))
+                    .retabled(table.clone()),
+                e,
+            };
             vmaj.push(v.majorant());
             wdot = wdot.add(&v.mul(&field[j]));
         }
-        // Ẇ's degree 2 (its lowest with the proved centre): the intersection with its
-        // enclosure in balls, 10⁻³⁰ wide where the f64 intervals are 10⁻¹⁶
+        // Ẇ's degrees ≤ N + 1 (those where the normal form's cancellations leave rounding,
+        // and the first of the remainder): each coefficient the intersection with its
+        // enclosure in balls (both contain it), 10⁻³⁰ wide where the f64 intervals are 10⁻¹⁶
         if let (Some(centre), Some((cb, sb))) = (&proved, &balls) {
-            let lin: Vec<Vec<f64>> = (0..n)
-                .map(|i| {
-                    (0..n)
-                        .map(|j| {
-                            let mut e = vec![0u8; n];
-                            e[j] = 1;
-                            map.components[i].coeff(&e)
-                        })
-                        .collect()
-                })
-                .collect();
-            let w2 = wdot2_balls(h, centre, cb, sb, &lin);
-            for a in 0..n {
-                for b in a..n {
-                    let mut e = vec![0u8; n];
-                    e[a] += 1;
-                    e[b] += 1;
-                    let old = wdot.p.coeff(&e);
-                    let tight = intersect(old, w2[a][b].to_iv()).ok_or_else(|| {
-                        NormalFormError::Invalid(
-                            "two enclosures of a coefficient of Ẇ are disjoint".into(),
-                        )
-                    })?;
-                    wdot.p.set_coeff(&e, tight);
-                }
+            // the degrees that cancel: ≤ N, and N + 1 where the map is cut at N
+            let low = if reduced { nf.order + 1 } else { nf.order }.min(d);
+            let wb = wdot_low_balls(h, centre, cb, sb, &tball, low);
+            let all = (0..=low).flat_map(|deg| (0..wb.table().count(deg)).map(move |i| (deg, i)));
+            for (deg, i) in all {
+                let cball = wb.part(deg).map_or(Ball::point(0.0), |p| p[i]);
+                let e = wb.exponents(deg, i).to_vec();
+                let old = wdot.p.coeff(&e);
+                let tight = intersect(old, cball.to_iv()).ok_or_else(|| {
+                    NormalFormError::Invalid(
+                        "two enclosures of a coefficient of Ẇ are disjoint".into(),
+                    )
+                })?;
+                wdot.p.set_coeff(&e, tight);
             }
         }
         let g0 = wdot.majorant().scaled(2.0);
@@ -1484,10 +1592,7 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
         let tol = self.options.tolerance;
         let budget = self.options.budget;
         let ext0 = Extremum::new(&self.hots, y0, 1e-3 * tol * y0);
-        let max0 = ext0.extremum(y0, true, false, tol, budget);
-        // on the outer sphere ρ ≥ |y| − |h(y)| ≥ y1 − max_{|y| ≤ y1} |h|
-        let ext1 = Extremum::new(&self.hots, y1, 1e-3 * tol * y1);
-        let hmax1 = ext1.extremum(y1, true, true, tol, budget);
+        let max0 = ext0.extremum(y0, true, false, tol, budget, None);
         // the lower bound of ρ² on the sphere |y| = r from κ
         let phi_lo = |r: f64| (Iv::point(r).sqr() - Iv::point(kappa2(r))).lo;
         let rho0_kappa = {
@@ -1498,7 +1603,6 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
         let rho0 = add_up(y0, tau(y0))
             .min(rho0_kappa)
             .min(max0.bound.sqrt().next_up());
-        let tau1 = tau1.min(hmax1.bound.sqrt().next_up());
         let rho1_kappa = {
             let p = phi_lo(y1);
             if p > 0.0 {
@@ -1507,6 +1611,16 @@ impl<'a, H: HamiltonianFn + ?Sized> CertifiedSetup<'a, H> {
                 0.0
             }
         };
+        // on the outer sphere ρ ≥ |y| − |h(y)| ≥ y1 − max_{|y| ≤ y1} |h|; where κ's bound
+        // leaves ρ₁ ≤ ρ₀, the search stops once |h|² ≥ (y1 − ρ₀)² is seen somewhere
+        // (then no bound from it can give ρ₁ > ρ₀: there is no certified time to sharpen)
+        let ext1 = Extremum::new(&self.hots, y1, 1e-3 * tol * y1);
+        let hopeless = (rho1_kappa <= rho0).then(|| {
+            let gap = (y1 - rho0).max(0.0);
+            gap * gap
+        });
+        let hmax1 = ext1.extremum(y1, true, true, tol, budget, hopeless);
+        let tau1 = tau1.min(hmax1.bound.sqrt().next_up());
         let rho1 = (Iv::point(y1) - Iv::point(tau1)).lo.max(rho1_kappa);
         let boxes = max0.boxes + hmax1.boxes;
         let seconds = || t0.elapsed().as_secs_f64();

@@ -46,6 +46,19 @@ fn to_f64_mat<R: Real>(m: &Mat<R>) -> Vec<Vec<f64>> {
         .collect()
 }
 
+/// `x − x.to_f64()` to the next double: the value is `to_f64() + lo_part` to about 10⁻³²
+/// relative (0 in `f64`).
+fn lo_part<R: Real>(x: R) -> f64 {
+    let (h, l) = x.hi_lo();
+    (h - x.to_f64()) + l
+}
+
+fn lo_mat<R: Real>(m: &Mat<R>) -> Vec<Vec<f64>> {
+    m.iter()
+        .map(|r| r.iter().map(|&x| lo_part(x)).collect())
+        .collect()
+}
+
 pub(super) fn assemble<R: Real, H: HamiltonianFn + ?Sized>(
     h: &H,
     raw: Raw<R>,
@@ -56,6 +69,12 @@ pub(super) fn assemble<R: Real, H: HamiltonianFn + ?Sized>(
             components: v.iter().map(|p| p.map(|c| c.to_f64())).collect(),
         })
     };
+    let map_lo = |ps: &Option<Vec<Poly<R>>>| {
+        ps.as_ref().map(|v| PolyMap {
+            components: v.iter().map(|p| p.map(lo_part)).collect(),
+        })
+    };
+    let to_normal_map_lo = map_lo(&raw.to_normal);
     let d4 = raw.d4.map(|[a, b, c, d]| ArnoldMoser {
         a: Value::of(a),
         b: Value::of(b),
@@ -116,5 +135,8 @@ pub(super) fn assemble<R: Real, H: HamiltonianFn + ?Sized>(
         to_normal_map: map(raw.to_normal),
         from_normal_map: map(raw.from_normal),
         linear_inverse: to_f64_mat(&raw.ainv),
+        linear_inverse_lo: lo_mat(&raw.ainv),
+        linear_map_lo: lo_mat(&raw.a),
+        to_normal_map_lo,
     }
 }

@@ -284,6 +284,17 @@ pub struct NormalForm {
     /// A⁻¹
     #[serde(skip)]
     pub linear_inverse: Vec<Vec<f64>>,
+    /// The low parts of A⁻¹ in a double-double or quad-double run: A⁻¹ in the working
+    /// precision is `linear_inverse + linear_inverse_lo` to about 10⁻³² (zeros in `f64`).
+    #[serde(skip)]
+    pub linear_inverse_lo: Vec<Vec<f64>>,
+    /// The low parts of A (as [`NormalForm::linear_inverse_lo`]).
+    #[serde(skip)]
+    pub linear_map_lo: Vec<Vec<f64>>,
+    /// The low parts of the coefficients of [`NormalForm::to_normal_map`] (same tables: a
+    /// coefficient is `hi + lo`; zeros in `f64`).
+    #[serde(skip)]
+    pub to_normal_map_lo: Option<PolyMap>,
 }
 
 impl NormalForm {
