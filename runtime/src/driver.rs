@@ -242,9 +242,10 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
         let mut t_lo = T::zero();
         let mut n = T::zero();
         while t < t_end {
+            // whether a batch took the watched step as its last
+            let mut took_watched = false;
             if batches {
-                // the steps before the next one anything watches: the observer's, a check's,
-                // the interrupt's, the budget's and the last, shortened one
+                // the next step anything watches: the observer's, a check's, the interrupt's
                 let next_interrupt = match self.interrupt {
                     Some(_) => (summary.steps / INTERRUPT_EVERY + 1) * INTERRUPT_EVERY,
                     None => u64::MAX,
@@ -254,10 +255,10 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
                     .min(summary.steps.saturating_add(divergence.left))
                     .min(next_interrupt);
                 let before_last = to_f64(n_total - n - T::one()).max(0.0) as u64;
-                // up to the watched step itself, short of the last, shortened one (an
-                // observer that names a step already taken gets every step; one that wants
-                // the very next may read the stepper's continuous extension of it, which a
-                // batch does not leave, so k > 1)
+                // the steps up to it, short of the budget's end and of the last, shortened
+                // step (an observer that names a step already taken gets every step; one
+                // that wants the very next may read the stepper's continuous extension of
+                // it, which a batch does not leave, so k > 1)
                 let k = watched
                     .saturating_sub(summary.steps)
                     .min(before_last)
@@ -269,81 +270,70 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
                             summary.evaluations += batch.evaluations;
                             n = n + lit::<T>(batch.steps as f64);
                             t = t0 + n * h;
-                            if batch.steps == k && summary.steps == watched {
-                                // the watched step was the batch's last, finite and within
-                                // the guards: its checks and its observer, as after a step
-                                guard.skip(k - 1);
-                                divergence.skip(k - 1);
-                                let (guard_due, divergence_due) = (guard.tick(), divergence.tick());
-                                self.run_checks(
-                                    guard_due,
-                                    divergence_due,
-                                    summary.steps,
-                                    t >= t_end,
-                                    t,
-                                    h,
-                                    &x,
-                                )?;
-                                let control;
-                                (control, wanted) = on_step(stepper, summary.steps, t, &x);
-                                if control == Control::Stop {
-                                    summary.stopped_by_observer = true;
-                                    break;
-                                }
-                                continue;
-                            }
-                            guard.skip(batch.steps);
-                            divergence.skip(batch.steps);
+                            // the watched step, finite and within the guards, is left
+                            // only its checks and its observer, as after a step
+                            took_watched = batch.steps == k && summary.steps == watched;
+                            let before = batch.steps - u64::from(took_watched);
+                            guard.skip(before);
+                            divergence.skip(before);
                         }
                         None => batches = false,
                     }
                 }
             }
-            let (h_step, last) = if adaptive {
-                let remaining = t_end - t;
-                if h * lit(1.01) >= remaining {
-                    (remaining, true)
+            let h_taken = if took_watched {
+                h
+            } else {
+                let (h_step, last) = if adaptive {
+                    let remaining = t_end - t;
+                    if h * lit(1.01) >= remaining {
+                        (remaining, true)
+                    } else {
+                        (h, false)
+                    }
+                } else if n + T::one() >= n_total {
+                    (t_end - t, true)
                 } else {
                     (h, false)
+                };
+                if summary.steps >= self.max_steps {
+                    return Err(StepError::MaxSteps {
+                        t: to_f64(t),
+                        h: to_f64(h_step),
+                        steps: summary.steps,
+                        state: state_to_vec(x.as_ref()),
+                    });
                 }
-            } else if n + T::one() >= n_total {
-                (t_end - t, true)
-            } else {
-                (h, false)
+                let outcome = stepper.step(field, t, &mut x, h_step).map_err(|e| {
+                    // a fixed step's new time, as computed below
+                    let t_new = if last { t_end } else { t0 + (n + T::one()) * h };
+                    e.at_step(summary.steps + 1)
+                        .guard_at(summary.steps + 1, to_f64(t_new))
+                })?;
+                summary.steps += 1;
+                summary.rejections += u64::from(outcome.rejections);
+                summary.evaluations += u64::from(outcome.evaluations);
+                n = n + T::one();
+                t = if last && outcome.h_taken >= h_step {
+                    t_end
+                } else if adaptive {
+                    let (hi, lo) = compensated_add(t, t_lo, outcome.h_taken);
+                    t_lo = lo;
+                    hi
+                } else {
+                    t0 + n * h
+                };
+                if !all_finite(x.as_ref()) {
+                    return Err(
+                        StepError::non_finite("state", t, outcome.h_taken, x.as_ref())
+                            .at_step(summary.steps),
+                    );
+                }
+                if adaptive {
+                    h = outcome.h_next;
+                }
+                outcome.h_taken
             };
-            if summary.steps >= self.max_steps {
-                return Err(StepError::MaxSteps {
-                    t: to_f64(t),
-                    h: to_f64(h_step),
-                    steps: summary.steps,
-                    state: state_to_vec(x.as_ref()),
-                });
-            }
-            let outcome = stepper.step(field, t, &mut x, h_step).map_err(|e| {
-                // a fixed step's new time, as computed below
-                let t_new = if last { t_end } else { t0 + (n + T::one()) * h };
-                e.at_step(summary.steps + 1)
-                    .guard_at(summary.steps + 1, to_f64(t_new))
-            })?;
-            summary.steps += 1;
-            summary.rejections += u64::from(outcome.rejections);
-            summary.evaluations += u64::from(outcome.evaluations);
-            n = n + T::one();
-            t = if last && outcome.h_taken >= h_step {
-                t_end
-            } else if adaptive {
-                let (hi, lo) = compensated_add(t, t_lo, outcome.h_taken);
-                t_lo = lo;
-                hi
-            } else {
-                t0 + n * h
-            };
-            if !all_finite(x.as_ref()) {
-                return Err(
-                    StepError::non_finite("state", t, outcome.h_taken, x.as_ref())
-                        .at_step(summary.steps),
-                );
-            }
             let done = t >= t_end;
             let (guard_due, divergence_due) = (guard.tick(), divergence.tick());
             self.run_checks(
@@ -352,7 +342,7 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
                 summary.steps,
                 done,
                 t,
-                outcome.h_taken,
+                h_taken,
                 &x,
             )?;
             let control;
@@ -360,9 +350,6 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
             if control == Control::Stop {
                 summary.stopped_by_observer = true;
                 break;
-            }
-            if adaptive {
-                h = outcome.h_next;
             }
         }
         summary.t = t;
