@@ -167,15 +167,8 @@ impl LoopModel {
             let mut outs = Outputs::default();
             let body = self.families[f].body[c];
             b.partials(f, body, |_, at| at, &mut outs);
-            let mut r: Vec<u32> = outs
-                .values()
-                .flatten()
-                .flat_map(|(_, col)| col.clone())
-                .collect();
-            r.sort_unstable();
-            r.dedup();
+            reach.push(reached(&outs));
             grads.push(outs);
-            reach.push(r);
         }
         // The state's members: the combination runs as one loop per member.
         let members: Vec<(u32, u32)> = m
@@ -258,13 +251,7 @@ impl LoopModel {
             .iter()
             .map(|js| js.iter().map(|&j| block(j)).collect())
             .collect();
-        let mut field_reach: Vec<u32> = field_outs
-            .values()
-            .flatten()
-            .flat_map(|(_, col)| col.clone())
-            .collect();
-        field_reach.sort_unstable();
-        field_reach.dedup();
+        let field_reach = reached(&field_outs);
         let field_members = touched(&field_reach);
         let field_at: Vec<u32> = field_members.iter().map(|&j| block(j)).collect();
         // carried index of component s in sum i's gradient, in the field's part
@@ -682,4 +669,16 @@ impl LoopFeedback {
         let xsw = self.stages(params, x, targets, gains)?;
         self.feedback.eval_with(params, &xsw, targets, gains)
     }
+}
+
+/// The components the outputs' scatter columns reach, increasing.
+fn reached(outs: &Outputs) -> Vec<u32> {
+    let mut r: Vec<u32> = outs
+        .values()
+        .flatten()
+        .flat_map(|(_, col)| col.iter().copied())
+        .collect();
+    r.sort_unstable();
+    r.dedup();
+    r
 }
