@@ -230,7 +230,11 @@ fn a_drifting_run_stops_at_its_first_sample_past_the_bound() {
         assert_eq!(step % every, 0, "checked at the samples: {step}");
         assert!(*step > every, "{step}");
         let samples = a.t.len();
-        assert_eq!(samples as u64, step / every, "every sample up to the failure's");
+        assert_eq!(
+            samples as u64,
+            step / every,
+            "every sample up to the failure's"
+        );
         assert!(a.t_final() < *t);
         // within the bound at the last sample, past it at the next: the run of the same
         // spec to the last sample's time ends without a failure
