@@ -391,15 +391,7 @@ impl<'a> Builder<'a> {
     /// The family terms `(family, component, c)` of `e = e₀ + Σ c·sum`, in symbol order (that of
     /// [`Builder::split`]'s terms), for an `e` that `split` accepts.
     pub(crate) fn coefficients(&mut self, e: Id) -> Vec<(usize, usize, f64)> {
-        let used: Vec<u32> = self
-            .g
-            .reachable(&[e])
-            .into_iter()
-            .filter_map(|id| match self.g.node(id) {
-                Node::Input(Input::Symbol(s)) if self.placeholder.contains_key(s) => Some(*s),
-                _ => None,
-            })
-            .collect();
+        let used = self.placeholders_in(e);
         let vars: Vec<Input> = used.iter().map(|&s| Input::Symbol(s)).collect();
         let grad = crate::ir::gradient(&mut self.g, e, &vars);
         used.iter()
@@ -407,6 +399,18 @@ impl<'a> Builder<'a> {
             .filter_map(|(s, &d)| {
                 let (f, c) = self.placeholder[s];
                 self.g.as_num(d).map(|k| (f, c, k))
+            })
+            .collect()
+    }
+
+    /// The family placeholders `e` reads, in the order of [`Graph::reachable`].
+    fn placeholders_in(&self, e: Id) -> Vec<u32> {
+        self.g
+            .reachable(&[e])
+            .into_iter()
+            .filter_map(|id| match self.g.node(id) {
+                Node::Input(Input::Symbol(s)) if self.placeholder.contains_key(s) => Some(*s),
+                _ => None,
             })
             .collect()
     }
@@ -430,15 +434,7 @@ impl<'a> Builder<'a> {
         if !self.reads_families(e) {
             return Ok(e);
         }
-        let used: Vec<u32> = self
-            .g
-            .reachable(&[e])
-            .into_iter()
-            .filter_map(|id| match self.g.node(id) {
-                Node::Input(Input::Symbol(s)) if self.placeholder.contains_key(s) => Some(*s),
-                _ => None,
-            })
-            .collect();
+        let used = self.placeholders_in(e);
         if used.len() != self.g.reachable(&[e]).iter().filter(|&&id| {
             matches!(self.g.node(id), Node::Input(Input::Symbol(s)) if *s >= SYMBOL_BASE)
         }).count()
