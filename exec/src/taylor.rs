@@ -78,6 +78,22 @@ pub(crate) struct Inputs {
     pub(crate) gains: Vec<f64>,
 }
 
+/// [`TaylorKernel::set_inputs`] of a kernel whose targets and gains are `into`: copies a
+/// run's, checking their lengths.
+pub(crate) fn copy_inputs(
+    (target, gains): (&[f64], &[f64]),
+    into: (&mut [f64], &mut [f64]),
+) -> Result<(), StepError> {
+    let check = |kind, expected, given| {
+        expect_len(kind, expected, given).map_err(|e| StepError::InvalidInput(e.to_string()))
+    };
+    check("target", into.0.len(), target.len())?;
+    check("gains", into.1.len(), gains.len())?;
+    into.0.copy_from_slice(target);
+    into.1.copy_from_slice(gains);
+    Ok(())
+}
+
 impl Inputs {
     /// The hoisted values of `tape` for `params`; targets and gains 0.
     pub(crate) fn new(tape: &Tape, params: &[f64]) -> Result<Inputs, TaylorError> {
@@ -108,14 +124,7 @@ impl Inputs {
 
     /// [`TaylorKernel::set_inputs`].
     pub(crate) fn set_inputs(&mut self, target: &[f64], gains: &[f64]) -> Result<(), StepError> {
-        let check = |kind, expected, given| {
-            expect_len(kind, expected, given).map_err(|e| StepError::InvalidInput(e.to_string()))
-        };
-        check("target", self.target.len(), target.len())?;
-        check("gains", self.gains.len(), gains.len())?;
-        self.target.copy_from_slice(target);
-        self.gains.copy_from_slice(gains);
-        Ok(())
+        copy_inputs((target, gains), (&mut self.target, &mut self.gains))
     }
 }
 

@@ -12,7 +12,6 @@
 use super::loops::{regions, Scatter};
 use super::{coefficient, zeroth};
 use lasalle_model::loops::{FeedbackTaylorProgram, LoopFeedback, LoopTape};
-use lasalle_model::tape::expect_len;
 use lasalle_model::tape::taylor::TaylorProgram;
 use lasalle_runtime::taylor::{TaylorError, TaylorKernel};
 use lasalle_runtime::StepError;
@@ -240,14 +239,7 @@ impl LoopFeedbackTaylor {
 
     /// [`TaylorKernel::set_inputs`].
     pub(crate) fn set_targets(&mut self, target: &[f64], gains: &[f64]) -> Result<(), StepError> {
-        let check = |kind, expected, given| {
-            expect_len(kind, expected, given).map_err(|e| StepError::InvalidInput(e.to_string()))
-        };
-        check("target", self.target.len(), target.len())?;
-        check("gains", self.gains.len(), gains.len())?;
-        self.target.copy_from_slice(target);
-        self.gains.copy_from_slice(gains);
-        Ok(())
+        super::copy_inputs((target, gains), (&mut self.target, &mut self.gains))
     }
 }
 
