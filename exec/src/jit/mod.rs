@@ -159,6 +159,27 @@ impl Code {
     pub(crate) fn new(module: JITModule) -> Code {
         Code(Some(module))
     }
+
+    /// The code of one function compiled in `module`, a module of its own: `define` declares,
+    /// defines and finalises it and returns its id. Returns the code and the function's
+    /// address (to be transmuted to the signature `define` gave it); on an error the
+    /// module's memory is freed.
+    pub(crate) fn compile(
+        mut module: JITModule,
+        define: impl FnOnce(&mut JITModule) -> Result<cranelift_module::FuncId, ExecError>,
+    ) -> Result<(Code, *const u8), ExecError> {
+        match define(&mut module) {
+            Ok(id) => {
+                let f = module.get_finalized_function(id);
+                Ok((Code::new(module), f))
+            }
+            Err(e) => {
+                // SAFETY: nothing compiled in this module has been handed out.
+                unsafe { module.free_memory() };
+                Err(e)
+            }
+        }
+    }
 }
 
 impl Drop for Code {

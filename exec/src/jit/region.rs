@@ -26,21 +26,11 @@ pub(crate) type RegionFn =
 
 /// Compiles a region (validated by the caller with its loop tape).
 pub(crate) fn compile(r: &Region) -> Result<(Code, RegionFn), ExecError> {
-    let mut module = jit_module("speed", false)?;
-    match define(&mut module, r) {
-        Ok(id) => {
-            let f = module.get_finalized_function(id);
-            // SAFETY: defined just now with exactly this signature (six pointers, the host's
-            // C convention); the module that owns the code is returned with it.
-            let f = unsafe { std::mem::transmute::<*const u8, RegionFn>(f) };
-            Ok((Code::new(module), f))
-        }
-        Err(e) => {
-            // SAFETY: nothing compiled in this module has been handed out.
-            unsafe { module.free_memory() };
-            Err(e)
-        }
-    }
+    let (code, f) = Code::compile(jit_module("speed", false)?, |m| define(m, r))?;
+    // SAFETY: defined just now with exactly this signature (six pointers, the host's C
+    // convention); the module that owns the code is returned with it.
+    let f = unsafe { std::mem::transmute::<*const u8, RegionFn>(f) };
+    Ok((code, f))
 }
 
 fn define(module: &mut JITModule, r: &Region) -> Result<cranelift_module::FuncId, ExecError> {

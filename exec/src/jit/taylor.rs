@@ -188,22 +188,15 @@ impl JitTaylor {
         }
         let p = order as usize;
         let inputs = Inputs::new(tape, params)?;
-        let mut module = jit_module(OPT_LEVEL, false).map_err(TaylorError::kernels)?;
-        let id = match define(&mut module, &program, p) {
-            Ok(id) => id,
-            Err(e) => {
-                // SAFETY: nothing compiled in this module has been handed out.
-                unsafe { module.free_memory() };
-                return Err(TaylorError::kernels(e));
-            }
-        };
-        let code = module.get_finalized_function(id);
+        let (code, func) = jit_module(OPT_LEVEL, false)
+            .and_then(|module| Code::compile(module, |m| define(m, &program, p)))
+            .map_err(TaylorError::kernels)?;
         // SAFETY: the function was just defined with this signature (five pointers, the host's
         // C calling convention), and the module owning its code lives in the result.
-        let func = unsafe { std::mem::transmute::<*const u8, TaylorFn>(code) };
+        let func = unsafe { std::mem::transmute::<*const u8, TaylorFn>(func) };
         Ok(JitTaylor {
             inputs,
-            _code: Code::new(module),
+            _code: code,
             func,
             dim: program.dim,
             order: p,

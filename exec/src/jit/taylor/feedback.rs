@@ -131,24 +131,19 @@ impl JitLoopFeedbackTaylor {
                 p + 1,
             ),
         ];
-        let mut module = jit_module(OPT_LEVEL, false).map_err(TaylorError::kernels)?;
-        let id = match define(&mut module, tapes, &data.program, &layouts, p) {
-            Ok(id) => id,
-            Err(e) => {
-                // SAFETY: nothing compiled in this module has been handed out.
-                unsafe { module.free_memory() };
-                return Err(TaylorError::kernels(e));
-            }
-        };
-        let code = module.get_finalized_function(id);
+        let (code, func) = jit_module(OPT_LEVEL, false)
+            .and_then(|module| {
+                Code::compile(module, |m| define(m, tapes, &data.program, &layouts, p))
+            })
+            .map_err(TaylorError::kernels)?;
         // SAFETY: defined just now with this signature (two pointers, the host's C calling
         // convention); the module owning the code lives in the result.
-        let func = unsafe { std::mem::transmute::<*const u8, FeedbackTaylorFn>(code) };
+        let func = unsafe { std::mem::transmute::<*const u8, FeedbackTaylorFn>(func) };
         let regions = tapes.pass.regions.len() + tapes.feedback.regions.len();
         Ok(JitLoopFeedbackTaylor {
             pointers: Vec::with_capacity(10 + 4 * regions),
             data,
-            _code: Code::new(module),
+            _code: code,
             func,
         })
     }

@@ -74,23 +74,18 @@ impl JitLoopTaylor {
         for ((block, l), region) in data.blocks.iter_mut().zip(&layouts).zip(&tape.regions) {
             *block = vec![0.0; l.size * region.count];
         }
-        let mut module = jit_module(OPT_LEVEL, false).map_err(TaylorError::kernels)?;
-        let id = match define(&mut module, tape, &data.program, &layouts, p) {
-            Ok(id) => id,
-            Err(e) => {
-                // SAFETY: nothing compiled in this module has been handed out.
-                unsafe { module.free_memory() };
-                return Err(TaylorError::kernels(e));
-            }
-        };
-        let code = module.get_finalized_function(id);
+        let (code, func) = jit_module(OPT_LEVEL, false)
+            .and_then(|module| {
+                Code::compile(module, |m| define(m, tape, &data.program, &layouts, p))
+            })
+            .map_err(TaylorError::kernels)?;
         // SAFETY: defined just now with this signature (two pointers, the host's C calling
         // convention); the module owning the code lives in the result.
-        let func = unsafe { std::mem::transmute::<*const u8, LoopTaylorFn>(code) };
+        let func = unsafe { std::mem::transmute::<*const u8, LoopTaylorFn>(func) };
         Ok(JitLoopTaylor {
             pointers: Vec::with_capacity(3 + 4 * tape.regions.len()),
             data,
-            _code: Code::new(module),
+            _code: code,
             func,
         })
     }
