@@ -7,21 +7,27 @@
 //! guard, `m ≥ 0` otherwise; NaN fails both), as the Rust loop does. It returns the steps
 //! taken: the state after them is in `a` if that number is even, in `b` if odd. Each step is
 //! `eval`'s instructions, in its order, so the states are bitwise those of k calls of
-//! `eval`; what the batch saves is the call per step and the check in Rust, and:
-//! - the state a step reads is the one the previous step computed, carried in registers
-//!   (only the first step loads it from `a`): read back from the buffer just stored, it
-//!   would wait for the stores on the loop's critical path, and a 128-bit load of two
-//!   components that two stores wrote (`x[3]`, `x[4]` after the stores of `x[2..4]` and
-//!   `x[4..6]`) cannot be forwarded from them at all;
-//! - what is the same for every step (the instructions and operand vectors of targets,
-//!   gains, hoisted values and constants alone) is computed once, before the loop, into a
-//!   stack area that the loop reads at each use, so it holds no register;
-//! - an operand vector put together from scalars and lanes is put together once per step.
+//! `eval`; what the batch saves is the call per step and the check in Rust, and the loop
+//! keeps the pointers and the counter in registers.
 //!
-//! The batch is compiled at `opt_level = none`, like `eval` (see `mod.rs`): at `speed`,
-//! Cranelift's e-graph would move the invariants out of the loop itself, but into registers
-//! spilled and reloaded around the body, and it would re-order the body away from the
-//! pairing's schedule.
+//! A state of at most [`CARRIED`] components (rigid body, Kepler, the SO(3) models, …), the
+//! batch also
+//! - carries in registers, as the previous step computed it (only the first step loads it
+//!   from `a`): read back from the buffer just stored, each step would wait for the stores
+//!   on the loop's critical path, and a 128-bit load of two components that two stores
+//!   wrote (`x[3]`, `x[4]` after the stores of `x[2..4]` and `x[4..6]`) cannot be forwarded
+//!   from them at all;
+//! - computes what is the same for every step (the instructions, packs and operand vectors
+//!   of targets, gains, hoisted values and constants alone) once, before the loop, into a
+//!   stack area the loop reads at each use, so none of it holds a register;
+//! - puts each operand vector gathered from scalars and lanes together once per step;
+//!
+//! and is compiled at `opt_level = none`, like `eval` (see `mod.rs`), in the pairing's
+//! order: at `speed`, Cranelift's e-graph re-orders the body (depth first from the stores)
+//! and keeps the invariants in registers spilled around it, which made the rigid body's
+//! steps slower by a seventh. A longer state is read from the buffers and the batch compiled
+//! at `speed`: there (a chain of 16 particles, 32 components) the pairing's order spills
+//! more than the e-graph's.
 //!
 //! [`CompiledStep`]: lasalle_runtime::CompiledStep
 
@@ -35,6 +41,16 @@ use cranelift_codegen::ir::{
 use super::{input, offset, scalar_flags, slp, vector_flags, Args, Emit, JitKernel, Mode};
 use super::{Stored, F64X2};
 use crate::{ExecError, Op, Reg, Tape};
+
+/// The most state components a batch carries in registers from step to step: 8 two-lane
+/// vectors, half the vector registers of x86-64.
+pub(super) const CARRIED: usize = 16;
+
+/// Whether a batch of steps on `n` state components carries them in registers (and is
+/// compiled at `opt_level = none`, see the module's documentation).
+pub(super) fn carries(n: usize) -> bool {
+    n <= CARRIED
+}
 
 impl JitKernel {
     /// Compiles a step tape whose first `n` outputs are the new state and the others the
@@ -91,9 +107,14 @@ impl Emit<'_> {
         self.b.switch_to_block(pre);
         let pairing = self.pairing(tape, args)?;
         self.number_slots(&pairing, args);
-        self.gathered = Some(HashMap::new());
-        self.hoist_invariants(&pairing, args)?;
-        let pieces = state_pieces(tape, &pairing, n);
+        let carry = carries(n);
+        let pieces = if carry {
+            self.gathered = Some(HashMap::new());
+            self.hoist_invariants(&pairing, args)?;
+            state_pieces(tape, &pairing, n)
+        } else {
+            Vec::new()
+        };
         let mut start: Vec<BlockArg> = [zero, args.state, args.out].map(BlockArg::Value).into();
         let mut carried = Vec::with_capacity(n);
         for &(j, pair) in &pieces {
@@ -114,7 +135,11 @@ impl Emit<'_> {
         self.b.ins().jump(head, &start);
 
         self.b.switch_to_block(head);
-        self.carried = Some(carried);
+        if carry {
+            self.carried = Some(carried);
+        } else {
+            self.state_written = true;
+        }
         let step = Args {
             state: from,
             out: to,
@@ -275,6 +300,7 @@ impl Emit<'_> {
         if let Some(g) = &mut self.gathered {
             g.clear();
         }
+        self.squares.clear();
         self.invariants = Some(Invariants { same, base, at });
         Ok(())
     }

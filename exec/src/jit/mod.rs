@@ -28,7 +28,7 @@
 //!   and has nothing to add to a tape that is already simplified and shared (the effect:
 //!   `docs/performance.md`, back ends);
 //! - for a step tape ([`JitKernel::with_batch`]), also `batch`, the loop of a batch of
-//!   steps around `eval`'s code (`batch.rs`);
+//!   steps around `eval`'s code (`batch.rs`, also compiled at `none` for short states);
 //! - `lanes(k, hoisted, state, target, gains, out)`, a loop over the k lanes of
 //!   structure-of-arrays inputs, four lanes at a time as two 128-bit vectors (the same IEEE
 //!   operations lane by lane; calls are made per lane), then two, then the odd last lane in
@@ -256,11 +256,17 @@ impl JitKernel {
     /// Compiles `eval`, `lanes` or a batch of steps in a module of its own: `eval` at
     /// `opt_level = none`, so Cranelift keeps the order of the pairing's schedule (its e-graph
     /// would elaborate the body depth first from the stores, and the body is already
-    /// simplified and shared by the tape); `lanes` and the batch at `speed`, where the e-graph
-    /// also moves what does not change from one iteration to the next out of the loop.
+    /// simplified and shared by the tape), and so is a batch that carries its state in
+    /// registers (`batch.rs`, which moves the invariants out of the loop itself); `lanes` and
+    /// the other batches at `speed`, where the e-graph also moves what does not change from
+    /// one iteration to the next out of the loop.
     fn compile(tape: &Tape, mode: Mode) -> Result<(Code, *const u8, EvalInfo), ExecError> {
         let large = tape.body.len() >= LARGE_TAPE;
-        let speed = matches!(mode, Mode::Lanes) && !large;
+        let speed = match mode {
+            Mode::Eval => false,
+            Mode::Lanes => true,
+            Mode::Batch { n, .. } => !batch::carries(n),
+        } && !large;
         let mut module = jit_module(if speed { "speed" } else { "none" }, large)?;
         match Self::define(&mut module, tape, mode) {
             Ok((id, compiled)) => {
@@ -328,7 +334,9 @@ impl JitKernel {
                     ..Slots::default()
                 },
                 eval: None,
+                state_written: false,
                 gathered: None,
+                squares: std::collections::HashMap::new(),
                 invariants: None,
                 carried: None,
             };
@@ -448,9 +456,15 @@ struct Emit<'a> {
     /// is loaded (and each unpaired constant materialised) at its first use, not where the
     /// schedule has it, and a negation is an `xor` with −0 from the constant pool.
     eval: Option<Args>,
+    /// In a batch of steps that reads its state from the buffers, the state is a buffer the
+    /// function itself writes: its loads are not marked pure.
+    state_written: bool,
     /// In a batch of steps, the operand vectors [`Emit::gather`] put together in the current
     /// step, by their registers: at `opt_level = none` nothing shares them otherwise.
     gathered: Option<std::collections::HashMap<(crate::Reg, crate::Reg), Value>>,
+    /// In `eval` and a batch of steps, the squares x^(2^k), k ≥ 1, of the values powers
+    /// were taken of, by value ([`Emit::square`]).
+    squares: std::collections::HashMap<Value, Vec<Value>>,
     /// In a batch of steps, what is the same for every step, computed before the loop.
     invariants: Option<batch::Invariants>,
     /// In a batch of steps, each state component as the previous step computed it: a
@@ -536,9 +550,18 @@ impl Emit<'_> {
 
     /// The input element at byte offset `off` of `base`.
     fn load_at(&mut self, base: Value, off: i32) -> Value {
-        self.b
-            .ins()
-            .load(types::F64, load_flags(scalar_flags()), base, off)
+        let flags = self.input_flags(base, scalar_flags());
+        self.b.ins().load(types::F64, flags, base, off)
+    }
+
+    /// The flags of a load of an input from `base`: pure ([`load_flags`]) unless it is the
+    /// state of a batch of steps, which the function writes.
+    fn input_flags(&self, base: Value, f: MemFlagsData) -> MemFlagsData {
+        if self.state_written && self.eval.is_some_and(|a| a.state == base) {
+            f
+        } else {
+            load_flags(f)
+        }
     }
 
     /// A constant in the current mode.
@@ -616,6 +639,7 @@ impl Emit<'_> {
     fn powi(&mut self, x: Value, n: i32) -> Value {
         let mut bits = n.unsigned_abs();
         let mut square = x;
+        let mut k = 0;
         let mut result: Option<Value> = None;
         while bits != 0 {
             if bits & 1 == 1 {
@@ -626,7 +650,8 @@ impl Emit<'_> {
             }
             bits >>= 1;
             if bits != 0 {
-                square = self.b.ins().fmul(square, square);
+                square = self.square(x, k, square);
+                k += 1;
             }
         }
         let r = match result {
@@ -639,6 +664,21 @@ impl Emit<'_> {
         } else {
             r
         }
+    }
+
+    /// x^(2^(k+1)) from `square` = x^(2^k): in `eval` and a batch (one block each, compiled
+    /// at `opt_level = none`) computed once for all powers of x (`x²` and `x³` share the
+    /// multiplication x · x), the same multiplication whichever power asks first.
+    fn square(&mut self, x: Value, k: usize, square: Value) -> Value {
+        if self.eval.is_none() {
+            return self.b.ins().fmul(square, square);
+        }
+        if let Some(&v) = self.squares.get(&x).and_then(|s| s.get(k)) {
+            return v;
+        }
+        let v = self.b.ins().fmul(square, square);
+        self.squares.entry(x).or_default().push(v);
+        v
     }
 
     /// `+ − · /`, negation, `sqrt` or `powi` (`op`, folded) of the values `x` and `y` (`None`
@@ -924,7 +964,7 @@ impl Emit<'_> {
             }
         }
         if let Some((base, i)) = input(args, oa) {
-            let flags = load_flags(vector_flags());
+            let flags = self.input_flags(base, vector_flags());
             return Ok(self.b.ins().load(F64X2, flags, base, offset(i as usize)?));
         }
         let (mut xs, mut ys) = (oa.operands(), ob.operands());
