@@ -103,7 +103,7 @@ impl Emit<'_> {
             .ins()
             .brif(k, pre, &[], exit, &[BlockArg::Value(zero)]);
 
-        // before the loop: the invariants, and the state of the first step from `a`
+        // before the loop, for a carried state: the invariants, and the first step's state
         self.b.switch_to_block(pre);
         let pairing = self.pairing(tape, args)?;
         self.number_slots(&pairing, args);

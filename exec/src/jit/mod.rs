@@ -688,8 +688,8 @@ impl Emit<'_> {
         match op {
             // c + y and c · y as y + c and y · c, the same IEEE operations (c is not NaN, so
             // no NaN payload depends on the order): x86-64 reads a second operand that is a
-            // constant from the constant pool, a first one it builds in a register (`eval`
-            // is compiled without the e-graph, which would swap them)
+            // constant from the constant pool, a first one it builds in a register with two
+            // instructions (Cranelift does not swap them itself)
             Op::Add(..) if self.eval.is_some() && !self.vector && self.is_constant(x) => {
                 self.b.ins().fadd(y(), x)
             }
