@@ -28,7 +28,7 @@
 //!   and has nothing to add to a tape that is already simplified and shared (the effect:
 //!   `docs/performance.md`, back ends);
 //! - for a step tape ([`JitKernel::with_batch`]), also `batch`, the loop of a batch of
-//!   steps around `eval`'s code (`batch.rs`);
+//!   steps around `eval`'s code (`batch.rs`, also compiled at `none` for short states);
 //! - `lanes(k, hoisted, state, target, gains, out)`, a loop over the k lanes of
 //!   structure-of-arrays inputs, four lanes at a time as two 128-bit vectors (the same IEEE
 //!   operations lane by lane; calls are made per lane), then two, then the odd last lane in
@@ -50,8 +50,8 @@ use crate::{Common, Dims, ExecError, Kernel, Op, Tape};
 use cranelift_codegen::ir::condcodes::IntCC;
 use cranelift_codegen::ir::immediates::Ieee64;
 use cranelift_codegen::ir::{
-    types, AbiParam, BlockArg, Endianness, InstBuilder, MemFlagsData, Signature, StackSlotData,
-    StackSlotKind, Value,
+    types, AbiParam, BlockArg, Endianness, InstBuilder, InstructionData, MemFlagsData, Signature,
+    StackSlotData, StackSlotKind, Value,
 };
 use cranelift_codegen::settings::{self, Configurable};
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
@@ -277,11 +277,17 @@ impl JitKernel {
     /// Compiles `eval`, `lanes` or a batch of steps in a module of its own: `eval` at
     /// `opt_level = none`, so Cranelift keeps the order of the pairing's schedule (its e-graph
     /// would elaborate the body depth first from the stores, and the body is already
-    /// simplified and shared by the tape); `lanes` and the batch at `speed`, where the e-graph
-    /// also moves what does not change from one iteration to the next out of the loop.
+    /// simplified and shared by the tape), and so is a batch that carries its state in
+    /// registers (`batch.rs`, which moves the invariants out of the loop itself); `lanes` and
+    /// the other batches at `speed`, where the e-graph also moves what does not change from
+    /// one iteration to the next out of the loop.
     fn compile(tape: &Tape, mode: Mode) -> Result<(Code, *const u8, EvalInfo), ExecError> {
         let large = tape.body.len() >= LARGE_TAPE;
-        let speed = !matches!(mode, Mode::Eval) && !large;
+        let speed = match mode {
+            Mode::Eval => false,
+            Mode::Lanes => true,
+            Mode::Batch { n, .. } => !batch::carries(n),
+        } && !large;
         let mut module = jit_module(if speed { "speed" } else { "none" }, large)?;
         match Self::define(&mut module, tape, mode) {
             Ok((id, compiled)) => {
@@ -350,6 +356,10 @@ impl JitKernel {
                 },
                 eval: None,
                 state_written: false,
+                gathered: None,
+                squares: std::collections::HashMap::new(),
+                invariants: None,
+                carried: None,
             };
             let jacobi = |op: &Op| matches!(op, Op::Func2(Func2::Sn | Func2::Cn | Func2::Dn, ..));
             if tape.body.iter().any(jacobi) {
@@ -467,9 +477,20 @@ struct Emit<'a> {
     /// is loaded (and each unpaired constant materialised) at its first use, not where the
     /// schedule has it, and a negation is an `xor` with −0 from the constant pool.
     eval: Option<Args>,
-    /// In a batch of steps, the state is a buffer the function itself writes: its loads are
-    /// not marked pure.
+    /// In a batch of steps that reads its state from the buffers, the state is a buffer the
+    /// function itself writes: its loads are not marked pure.
     state_written: bool,
+    /// In a batch of steps, the operand vectors [`Emit::gather`] put together in the current
+    /// step, by their registers: at `opt_level = none` nothing shares them otherwise.
+    gathered: Option<std::collections::HashMap<(crate::Reg, crate::Reg), Value>>,
+    /// In `eval` and a batch of steps, the squares x^(2^k), k ≥ 1, of the values powers
+    /// were taken of, by value ([`Emit::square`]).
+    squares: std::collections::HashMap<Value, Vec<Value>>,
+    /// In a batch of steps, what is the same for every step, computed before the loop.
+    invariants: Option<batch::Invariants>,
+    /// In a batch of steps, each state component as the previous step computed it: a
+    /// vector and the lane holding it, or a scalar (see `batch.rs`).
+    carried: Option<Vec<(Value, Option<u8>)>>,
 }
 
 /// A value that is the same for every call: a hoisted value or a constant.
@@ -574,6 +595,15 @@ impl Emit<'_> {
         }
     }
 
+    /// Whether `v` is a scalar constant other than NaN.
+    fn is_constant(&self, v: Value) -> bool {
+        let dfg = &self.b.func.dfg;
+        dfg.value_def(v).inst().is_some_and(|i| {
+            matches!(dfg.insts[i], InstructionData::UnaryIeee64 { imm, .. }
+                if !f64::from_bits(imm.bits()).is_nan())
+        })
+    }
+
     /// The vector `(c[0], c[1])`, from the constant pool.
     fn vector_constant(&mut self, c: [f64; 2]) -> Value {
         let bytes: Vec<u8> = c.iter().flat_map(|v| v.to_le_bytes()).collect();
@@ -630,6 +660,7 @@ impl Emit<'_> {
     fn powi(&mut self, x: Value, n: i32) -> Value {
         let mut bits = n.unsigned_abs();
         let mut square = x;
+        let mut k = 0;
         let mut result: Option<Value> = None;
         while bits != 0 {
             if bits & 1 == 1 {
@@ -640,7 +671,8 @@ impl Emit<'_> {
             }
             bits >>= 1;
             if bits != 0 {
-                square = self.b.ins().fmul(square, square);
+                square = self.square(x, k, square);
+                k += 1;
             }
         }
         let r = match result {
@@ -655,11 +687,36 @@ impl Emit<'_> {
         }
     }
 
+    /// x^(2^(k+1)) from `square` = x^(2^k): in `eval` and a batch (one block each, compiled
+    /// at `opt_level = none`) computed once for all powers of x (`x²` and `x³` share the
+    /// multiplication x · x), the same multiplication whichever power asks first.
+    fn square(&mut self, x: Value, k: usize, square: Value) -> Value {
+        if self.eval.is_none() {
+            return self.b.ins().fmul(square, square);
+        }
+        if let Some(&v) = self.squares.get(&x).and_then(|s| s.get(k)) {
+            return v;
+        }
+        let v = self.b.ins().fmul(square, square);
+        self.squares.entry(x).or_default().push(v);
+        v
+    }
+
     /// `+ − · /`, negation, `sqrt` or `powi` (`op`, folded) of the values `x` and `y` (`None`
     /// for the unary ones), in the current mode.
     fn arith(&mut self, op: Op, x: Value, y: Option<Value>) -> Value {
         let y = || y.expect("a binary operation has two operands");
         match op {
+            // c + y and c · y as y + c and y · c, the same IEEE operations (c is not NaN, so
+            // no NaN payload depends on the order): x86-64 reads a second operand that is a
+            // constant from the constant pool, a first one it builds in a register with two
+            // instructions (Cranelift does not swap them itself)
+            Op::Add(..) if self.eval.is_some() && !self.vector && self.is_constant(x) => {
+                self.b.ins().fadd(y(), x)
+            }
+            Op::Mul(..) if self.eval.is_some() && !self.vector && self.is_constant(x) => {
+                self.b.ins().fmul(y(), x)
+            }
             Op::Add(..) => self.b.ins().fadd(x, y()),
             Op::Sub(..) => self.b.ins().fsub(x, y()),
             Op::Mul(..) => self.b.ins().fmul(x, y()),
@@ -772,14 +829,23 @@ impl Emit<'_> {
         if let Some(v) = self.values[r.index()] {
             return v;
         }
-        if let (Some(args), None) = (self.eval, pairing.lane[r.index()]) {
+        if let Some(v) = self.hoisted(batch::Hoisted::Scalar(r)) {
+            return v;
+        }
+        // a batch's loop has no packs of invariants: their leaves are loaded singly
+        let lane = pairing.lane[r.index()].filter(|_| !self.is_invariant(r));
+        if let (Some(args), None) = (self.eval, lane) {
             let v = match self.ops[r.index()] {
                 Op::Const(c) => Some(self.constant(c)),
+                Op::State(i) if self.carried.is_some() => self.carried_scalar(i as usize),
                 // `scalar` checked the offsets of all input elements
                 op => input(&args, op).map(|(base, i)| self.load_at(base, 8 * i as i32)),
             };
             if let Some(v) = v {
-                self.values[r.index()] = Some(v);
+                // in a batch's loop, an invariant is loaded at each use: it holds no register
+                if !self.is_invariant(r) {
+                    self.values[r.index()] = Some(v);
+                }
                 return v;
             }
         }
@@ -790,8 +856,12 @@ impl Emit<'_> {
         v
     }
 
-    /// The vector of pack `p` in `eval`.
-    fn pack_vector(&self, pairing: &slp::Pairing, p: usize) -> Value {
+    /// The vector of pack `p` in `eval` (in a batch's loop, of an invariant pack: loaded).
+    fn pack_vector(&mut self, pairing: &slp::Pairing, p: usize) -> Value {
+        let [a, b] = pairing.packs[p].map(|i| crate::Reg(i as u32));
+        if let Some(v) = self.hoisted(batch::Hoisted::Vector(a, b)) {
+            return v;
+        }
         self.vectors[pairing.packs[p][0]].expect("scheduled: packs come first")
     }
 
@@ -808,6 +878,9 @@ impl Emit<'_> {
             return Ok(self.pack_vector(pairing, p));
         }
         let (ox, oy) = (self.ops[x.index()], self.ops[y.index()]);
+        if let Some(v) = self.hoisted(batch::Hoisted::Vector(x, y)) {
+            return Ok(v);
+        }
         if slp::invariant_pair(ox, oy) {
             let i = self.slot(x, y);
             let flags = load_flags(vector_flags());
@@ -839,6 +912,18 @@ impl Emit<'_> {
     /// together from the packs and scalars holding x and y with one instruction (two for two
     /// scalars).
     fn gather(&mut self, pairing: &slp::Pairing, x: crate::Reg, y: crate::Reg) -> Value {
+        if let Some(&v) = self.gathered.as_ref().and_then(|g| g.get(&(x, y))) {
+            return v;
+        }
+        let v = self.put_together(pairing, x, y);
+        if let Some(g) = &mut self.gathered {
+            g.insert((x, y), v);
+        }
+        v
+    }
+
+    /// [`Emit::gather`]'s instructions.
+    fn put_together(&mut self, pairing: &slp::Pairing, x: crate::Reg, y: crate::Reg) -> Value {
         if let (Op::Const(c), Op::Const(d)) = (self.ops[x.index()], self.ops[y.index()]) {
             return self.vector_constant([c, d]);
         }
@@ -846,7 +931,7 @@ impl Emit<'_> {
             let s = self.scalar_value(pairing, x);
             return self.b.ins().splat(F64X2, s);
         }
-        let place = |e: &Self, r: crate::Reg| {
+        let place = |e: &mut Self, r: crate::Reg| {
             pairing.lane[r.index()].map(|(p, lane)| (e.pack_vector(pairing, p), lane))
         };
         match (place(self, x), place(self, y)) {
@@ -894,6 +979,11 @@ impl Emit<'_> {
     fn pack(&mut self, pairing: &slp::Pairing, p: usize, args: &Args) -> Result<Value, ExecError> {
         let [a, b] = pairing.packs[p];
         let (oa, ob) = (self.ops[a], self.ops[b]);
+        if let Op::State(i) = oa {
+            if let Some(v) = self.carried_pair(i as usize) {
+                return Ok(v);
+            }
+        }
         if let Some((base, i)) = input(args, oa) {
             let flags = self.input_flags(base, vector_flags());
             return Ok(self.b.ins().load(F64X2, flags, base, offset(i as usize)?));
@@ -926,6 +1016,13 @@ impl Emit<'_> {
     /// `eval`'s instructions and stores, without the return: the number of instructions
     /// computed in pairs and the values stored, in order.
     fn scalar_body(&mut self, tape: &Tape, args: &Args) -> Result<(usize, Vec<Stored>), ExecError> {
+        let pairing = self.pairing(tape, args)?;
+        self.body(tape, &pairing, args)
+    }
+
+    /// The pairing of `tape`'s body, its instructions taken as those emitted, after checking
+    /// the offsets of all input elements.
+    fn pairing(&mut self, tape: &Tape, args: &Args) -> Result<slp::Pairing, ExecError> {
         let pairing = slp::pair(tape);
         self.ops.clone_from(&pairing.ops);
         for &op in &self.ops {
@@ -933,22 +1030,45 @@ impl Emit<'_> {
                 offset(i as usize)?;
             }
         }
+        Ok(pairing)
+    }
+
+    /// [`Emit::scalar_body`] for a pairing: the instructions (in a batch's loop, those not
+    /// computed before it) and the stores.
+    fn body(
+        &mut self,
+        tape: &Tape,
+        pairing: &slp::Pairing,
+        args: &Args,
+    ) -> Result<(usize, Vec<Stored>), ExecError> {
         self.eval = Some(*args);
         let leaf = |op| matches!(op, Op::Const(_)) || input(args, op).is_some();
         let base = args.state;
         for &node in &pairing.order {
+            if self.hoisted_node(pairing, node) {
+                continue;
+            }
             match node {
                 // emitted at their first use, see `scalar_value`
                 slp::Node::Single(i) if leaf(self.ops[i]) => {}
                 slp::Node::Single(i) => {
+                    // the operands an invariant batch loads at this use, for `op` only
+                    let mut fresh = Vec::new();
                     for r in pairing.ops[i].operands() {
-                        self.scalar_value(&pairing, r);
+                        let v = self.scalar_value(pairing, r);
+                        if self.values[r.index()].is_none() {
+                            self.values[r.index()] = Some(v);
+                            fresh.push(r);
+                        }
                     }
                     let v = self.op(i, args, &mut |e, k| e.load(base, k))?;
+                    for r in fresh {
+                        self.values[r.index()] = None;
+                    }
                     self.values[i] = Some(v);
                 }
                 slp::Node::Pack(p) => {
-                    let v = self.pack(&pairing, p, args)?;
+                    let v = self.pack(pairing, p, args)?;
                     self.vectors[pairing.packs[p][0]] = Some(v);
                 }
             }
@@ -960,13 +1080,13 @@ impl Emit<'_> {
             let off = offset(j)?;
             match tape.outputs.get(j + 1).and_then(|&s| pairing.pack_of(r, s)) {
                 Some(p) => {
-                    let v = self.pack_vector(&pairing, p);
+                    let v = self.pack_vector(pairing, p);
                     self.b.ins().store(vector_flags(), v, args.out, off);
                     stored.push(Stored::Pair(v));
                     j += 2;
                 }
                 None => {
-                    let v = self.scalar_value(&pairing, r);
+                    let v = self.scalar_value(pairing, r);
                     self.b.ins().store(scalar_flags(), v, args.out, off);
                     stored.push(Stored::Single(v));
                     j += 1;
