@@ -102,6 +102,38 @@ fn fput_loop_kernels_agree() {
     check(&text);
 }
 
+/// The JIT runs a region's tuples two at a time and the odd last one alone, adding the
+/// outputs of each pair to `out` in the interpreter's order: equal bit for bit at odd and
+/// even counts (N-body with 5 bodies: 10 pairs, 6: 15; FPUT with n odd and even: n − 1
+/// neighbours and n kinetic terms), and where the two tuples of a pair add to the same
+/// elements, three contributions each, their slots 128-bit loads (a second-neighbour chain).
+#[test]
+fn two_tuples_at_a_time_agree_with_the_interpreter_at_odd_and_even_counts() {
+    let counts = |text: &str| {
+        let lm = LoopModel::from_source("m.lsl", text, Families::Loops).unwrap();
+        let field = lm.tapes().unwrap().field;
+        field.regions.iter().map(|r| r.count).collect::<Vec<_>>()
+    };
+    let nbody5 = sized(NBODY, "param n = 5;", 5);
+    let nbody6 = sized(NBODY, "param n = 5;", 6);
+    assert!(counts(&nbody5).contains(&10) && counts(&nbody6).contains(&15));
+    let beta = |n| sized(FPUT, "param n = 16;", n).replace("param beta = 0;", "param beta = 0.7;");
+    let (fput7, fput8) = (beta(7), beta(8));
+    let c = [counts(&fput7), counts(&fput8)].concat();
+    assert!(c.iter().any(|n| n % 2 == 1) && c.iter().any(|n| n % 2 == 0));
+    let chain = |n: usize| {
+        format!(
+            "model Chain {{\n param n = {n};\n state q: scalar[n], p: scalar[n];\n \
+             hamiltonian H = sum(i in 0..n: p[i]^2 / 2)\n \
+             + sum(i in 0..n-2: (q[i+1] - q[i])^2 / 2 + (q[i+2] - q[i])^4 / 4);\n \
+             structure canonical(q, p);\n}}\n"
+        )
+    };
+    for text in [nbody5, nbody6, fput7, fput8, chain(9), chain(10)] {
+        check(&text);
+    }
+}
+
 /// The compiled code of a region does not grow with the number of tuples.
 #[test]
 fn region_code_is_independent_of_n() {
