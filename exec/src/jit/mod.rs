@@ -288,18 +288,14 @@ impl JitKernel {
             Mode::Lanes => true,
             Mode::Batch { n, .. } => !batch::carries(n),
         } && !large;
-        let mut module = jit_module(if speed { "speed" } else { "none" }, large)?;
-        match Self::define(&mut module, tape, mode) {
-            Ok((id, compiled)) => {
-                let f = module.get_finalized_function(id);
-                Ok((Code::new(module), f, compiled))
-            }
-            Err(e) => {
-                // SAFETY: nothing compiled in this module has been handed out.
-                unsafe { module.free_memory() };
-                Err(e)
-            }
-        }
+        let module = jit_module(if speed { "speed" } else { "none" }, large)?;
+        let mut info = EvalInfo::default();
+        let (code, f) = Code::compile(module, |m| {
+            let (id, compiled) = Self::define(m, tape, mode)?;
+            info = compiled;
+            Ok(id)
+        })?;
+        Ok((code, f, info))
     }
 
     fn define(
