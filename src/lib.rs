@@ -31,8 +31,8 @@ pub use lasalle_run as run;
 pub use lasalle_run::{
     find_preset, initial_state, json_number, parse_numbers, process_cpu_seconds, simulate,
     simulate_lanes, simulate_many, simulate_with_progress, Base, Ensemble, Init, Member, Method,
-    ModelSource, Recording, RunError, RunModel, RunSpec, RunSpecBuilder, AUTO_SAMPLES,
-    DEFAULT_MAX_STEPS,
+    MethodSetting, ModelSource, Recording, RunError, RunModel, RunSpec, RunSpecBuilder,
+    AUTO_SAMPLES, DEFAULT_MAX_STEPS,
 };
 pub use lasalle_runtime::*;
 

@@ -3,8 +3,8 @@
 
 mod cli;
 
-/// Exit codes: 0 success, 1 a model error or a run that failed (diverged, left its domain),
-/// 2 a mistake in the command line.
+/// Exit codes: 0 success, then [`cli::exit_code`]'s table (1 a failed run, 2 a mistake in
+/// the command line, 3 a model that does not load).
 fn main() {
     // A reader that closes the pipe early (`lasalle run … | head -1`) ends the process quietly,
     // as it ends `cat`; Rust ignores SIGPIPE by default, and the next print would panic.
@@ -21,6 +21,6 @@ fn main() {
         } else {
             eprintln!("error: {text}");
         }
-        std::process::exit(if e.is::<cli::Usage>() { 2 } else { 1 });
+        std::process::exit(cli::exit_code(e.as_ref()));
     }
 }

@@ -217,3 +217,40 @@ fn a_closed_pipe_ends_the_output_without_a_panic() {
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert_eq!(out.status.signal(), Some(libc::SIGPIPE), "{stderr}");
 }
+
+/// A model file that does not load is exit code 3 in every subcommand that reads one, with
+/// the diagnostic located in the file (a run that fails is 1, a mistyped flag 2).
+#[test]
+fn a_broken_model_is_exit_code_3_in_every_subcommand() {
+    let scratch = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("cli-model-error");
+    std::fs::create_dir_all(&scratch).unwrap();
+    let file = scratch.join("broken.lsl");
+    std::fs::write(
+        &file,
+        "model Broken {\n    state x: vec2;\n    param a = 1;\n    d/dt x = [x[1], -a * y];\n}\n",
+    )
+    .unwrap();
+    let file = file.to_str().unwrap();
+    let out = scratch.join("out");
+    let out = out.to_str().unwrap();
+    let rows: &[&[&str]] = &[
+        &["run", file, "--dt", "0.1", "--t-end", "1", "--init", "1,0"],
+        &["gen", file],
+        &[
+            "sweep", file, "--grid", "a=1:2:2", "--dt", "0.1", "--t-end", "1", "--out", out,
+        ],
+        &["normal-form", file],
+        &["stability", file],
+    ];
+    for args in rows {
+        let o = lasalle_within(args, 60).expect("ends within 60 s");
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(3), "`{}`: {stderr}", args.join(" "));
+        assert!(
+            stderr.contains("broken.lsl:4"),
+            "`{}`: {stderr}",
+            args.join(" ")
+        );
+        assert!(stderr.contains("`y`"), "`{}`: {stderr}", args.join(" "));
+    }
+}

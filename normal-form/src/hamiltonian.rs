@@ -137,15 +137,26 @@ pub fn find_equilibrium<R: Real, H: HamiltonianFn + ?Sized>(
         if best.as_ref().is_none_or(|b| gn < b.0) {
             best = Some((gn, z.clone(), it));
         }
+        // a gradient at rounding level is an equilibrium, whatever the Hessian (a singular
+        // one is reported by the expansion as degenerate, with its directions)
+        if gn <= floor {
+            return Ok(Equilibrium {
+                z,
+                initial_gradient: initial,
+                gradient: gn,
+                iterations: it,
+            });
+        }
         let rhs: Vec<R> = g.iter().map(|&x| -x).collect();
         let Some(dz) = solve(s, rhs) else {
             return Err(NormalFormError::NewtonFailed {
                 iterations: it,
                 residual: gn,
+                singular_hessian: true,
             });
         };
         let step = norm(&dz);
-        if gn <= floor || step <= 16.0 * R::EPSILON * scale {
+        if step <= 16.0 * R::EPSILON * scale {
             return Ok(Equilibrium {
                 z,
                 initial_gradient: initial,
@@ -171,8 +182,69 @@ pub fn find_equilibrium<R: Real, H: HamiltonianFn + ?Sized>(
             return Err(NormalFormError::NewtonFailed {
                 iterations: it,
                 residual: gn,
+                singular_hessian: false,
             });
         }
     }
     unreachable!()
+}
+
+/// Hessian eigenvalues at most this times max(1, ‖S‖) count as zero: H₂ vanishes in their
+/// directions (zero frequencies), and no Birkhoff normal form exists at the equilibrium.
+pub const DEGENERATE_HESSIAN: f64 = 1e-8;
+
+/// Where H₂ = ½ δzᵀ S δz vanishes at the equilibrium `z`: the unit eigenvectors of the
+/// Hessian `s` with eigenvalues at most [`DEGENERATE_HESSIAN`]·max(1, ‖S‖), each marked
+/// when H does not change along it at all (a translation symmetry: its conjugate momentum is
+/// conserved and the equilibria are not isolated).
+pub fn null_directions<R: Real, H: HamiltonianFn + ?Sized>(
+    h: &H,
+    z: &[R],
+    s: &Mat<R>,
+) -> Vec<NullDirection> {
+    use crate::complex::Complex;
+    let g: Mat<Complex<R>> = s
+        .iter()
+        .map(|row| row.iter().map(|&x| Complex::real(x)).collect())
+        .collect();
+    let (values, vectors) = crate::linalg::hermitian_eigen(g);
+    let size = values.iter().map(|v| v.to_f64().abs()).fold(0.0, f64::max);
+    let z: Vec<f64> = z.iter().map(|x| x.to_f64()).collect();
+    let h0 = h.eval(&z);
+    values
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.to_f64().abs() <= DEGENERATE_HESSIAN * size.max(1.0))
+        .map(|(k, v)| {
+            let mut direction: Vec<f64> = vectors.iter().map(|row| row[k].re.to_f64()).collect();
+            // the sign that makes the largest component positive
+            let largest = direction
+                .iter()
+                .fold(0.0, |m: f64, c| if c.abs() > m.abs() { *c } else { m });
+            if largest < 0.0 {
+                direction.iter_mut().for_each(|c| *c = -*c);
+            }
+            // H along the line z + t·v, far beyond the quadratic part's reach
+            let symmetry = [-1.0, -0.25, 0.5, 2.0].iter().all(|t| {
+                let moved: Vec<f64> = z.iter().zip(&direction).map(|(a, b)| a + t * b).collect();
+                (h.eval(&moved) - h0).abs() <= 1e-12 * h0.abs().max(1.0)
+            });
+            NullDirection {
+                eigenvalue: v.to_f64(),
+                direction,
+                symmetry,
+            }
+        })
+        .collect()
+}
+
+/// A direction in which the Hessian of H vanishes ([`null_directions`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct NullDirection {
+    /// The Hessian's eigenvalue (zero up to [`DEGENERATE_HESSIAN`]).
+    pub eigenvalue: f64,
+    /// Its unit eigenvector, in the flat coordinates (q, p).
+    pub direction: Vec<f64>,
+    /// H is unchanged along the whole line through the equilibrium: a translation symmetry.
+    pub symmetry: bool,
 }

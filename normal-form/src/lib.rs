@@ -217,7 +217,10 @@ pub mod validate;
 pub use complex::Complex;
 pub use dd::Dd;
 pub use error::{Eigenvalue, LoadError, NormalFormError};
-pub use hamiltonian::{find_equilibrium, taylor, Equilibrium, HamiltonianFn};
+pub use hamiltonian::{
+    find_equilibrium, null_directions, taylor, Equilibrium, HamiltonianFn, NullDirection,
+    DEGENERATE_HESSIAN,
+};
 pub use interval::Iv;
 pub use jet::Jet;
 /// Re-exported because they appear in this crate's API: [`HamiltonianFn::eval`] is generic

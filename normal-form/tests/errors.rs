@@ -169,3 +169,72 @@ fn model_files_that_do_not_load_keep_their_diagnostics() {
         lasalle_model::DiagnosticKind::UnknownName
     );
 }
+
+fn model_normal_form(text: &str) -> Result<lasalle_normal_form::NormalForm, NormalFormError> {
+    let model = lasalle_model::lower_source("degenerate.lsl", text).unwrap();
+    lasalle_normal_form::normalize_model(
+        &model,
+        &[],
+        &lasalle_normal_form::ModelPoint::Auto,
+        &Options::with_order(4),
+    )
+}
+
+/// Coupled quartic oscillators have no quadratic potential: zero frequencies, named as a
+/// degeneracy (not as a resonance m = (0, 1) of a frequency 1e-9).
+#[test]
+fn zero_frequencies_are_a_degenerate_equilibrium() {
+    let e = model_normal_form(
+        "model Quartic { state q: vec2, p: vec2;
+            hamiltonian H = (p[0]^2 + p[1]^2)/2 + (q[0]^4 + q[1]^4)/4 + q[0]^2*q[1]^2/2;
+            structure canonical(q, p); point start { q = [0.1, 0.05]; p = [0, 0]; } }",
+    )
+    .unwrap_err();
+    let NormalFormError::Degenerate { directions, .. } = &e else {
+        panic!("expected a degenerate equilibrium, got {e}");
+    };
+    // the whole q-plane, and no symmetry
+    assert_eq!(directions.len(), 2, "{e}");
+    assert!(directions
+        .iter()
+        .all(|d| !d.symmetry && d.direction[2..] == [0.0, 0.0]));
+    let msg = e.to_string();
+    assert!(
+        msg.contains("H₂ vanishes") && msg.contains("zero frequencies"),
+        "{msg}"
+    );
+    assert!(!msg.contains("resonance"), "{msg}");
+}
+
+/// The Toda lattice's Hessian is singular along the translation q → q + t(1, 1, 1): the
+/// equilibrium is found at once (∇H = 0 there) and the degeneracy names its symmetry and the
+/// conserved momentum, instead of a Newton failure "at |∇H| = 0".
+#[test]
+fn a_translation_symmetry_is_named_with_its_momentum() {
+    let e = model_normal_form(
+        "model Toda { state q: vec3, p: vec3;
+            hamiltonian H = (p[0]^2 + p[1]^2 + p[2]^2)/2 + exp(q[0] - q[1]) + exp(q[1] - q[2])
+                + exp(q[2] - q[0]) - 3;
+            structure canonical(q, p); point start { q = [0, 0, 0]; p = [0, 0, 0]; } }",
+    )
+    .unwrap_err();
+    let NormalFormError::Degenerate { directions, .. } = &e else {
+        panic!("expected a degenerate equilibrium, got {e}");
+    };
+    assert_eq!(directions.len(), 1, "{e}");
+    let d = &directions[0];
+    assert!(d.symmetry, "{e}");
+    let third = 1.0 / 3f64.sqrt();
+    assert!(
+        d.direction[..3]
+            .iter()
+            .all(|c| (c.abs() - third).abs() < 1e-12),
+        "{e}"
+    );
+    let msg = e.to_string();
+    assert!(
+        msg.contains("conserved momentum (0.577 p[0] + 0.577 p[1] + 0.577 p[2])"),
+        "{msg}"
+    );
+    assert!(!msg.contains("newton"), "{msg}");
+}

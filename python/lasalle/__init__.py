@@ -42,6 +42,11 @@ __all__ = [
 __version__ = "0.1.0"
 
 
+def __dir__() -> List[str]:
+    """The public names only (``dir(lasalle)``), not the modules and typing names used inside."""
+    return sorted(__all__ + ["__version__"])
+
+
 def builtin_models() -> List[str]:
     """The names of the built-in models (``Model("kepler")``, ``Model("rigid_body")``, …)."""
     return list(_lasalle.builtin_models())
@@ -116,8 +121,10 @@ def _t_span(t_span: Any) -> Tuple[float, float]:
         t0, t1 = (float(v) for v in t_span)
     except (TypeError, ValueError):
         raise ValueError(f"t_span must be (t0, t1), got {t_span!r}") from None
-    if not (np.isfinite(t0) and np.isfinite(t1) and t1 > t0):
-        raise ValueError(f"t_span must be (t0, t1) with finite t0 < t1, got {t_span!r}")
+    if not (np.isfinite(t0) and np.isfinite(t1) and t1 != t0):
+        raise ValueError(
+            f"t_span must be (t0, t1) with finite t0 != t1 (t1 < t0 integrates backwards), got {t_span!r}"
+        )
     return t0, t1
 
 
@@ -131,7 +138,8 @@ def _check_tol(name: str, v: Optional[float]) -> Optional[float]:
 
 
 def _t_eval(t_eval: Any, t0: float, t1: float) -> Optional[np.ndarray]:
-    """The output times, checked: a 1-d array of finite increasing times within ``t_span``."""
+    """The output times, checked: a 1-d array of finite times within ``t_span``, sorted from
+    ``t0`` towards ``t1`` (decreasing for a backward run, as scipy's ``solve_ivp``)."""
     if t_eval is None:
         return None
     try:
@@ -142,19 +150,23 @@ def _t_eval(t_eval: Any, t0: float, t1: float) -> Optional[np.ndarray]:
         raise ValueError(f"t_eval must be a 1-d array of times, got shape {a.shape}")
     if not np.all(np.isfinite(a)):
         raise ValueError("t_eval is not finite")
-    if np.any(np.diff(a) < 0):
-        i = int(np.argmax(np.diff(a) < 0))
-        raise ValueError(f"t_eval must be sorted in increasing order, got {a[i]} before {a[i + 1]}")
-    if a[0] < t0 or a[-1] > t1:
+    sign = 1.0 if t1 > t0 else -1.0
+    if np.any(sign * np.diff(a) < 0):
+        i = int(np.argmax(sign * np.diff(a) < 0))
+        order = "increasing" if sign > 0 else "decreasing (t1 < t0)"
+        raise ValueError(f"t_eval must be sorted in {order} order, got {a[i]} before {a[i + 1]}")
+    if sign * (a[0] - t0) < 0 or sign * (a[-1] - t1) > 0:
         raise ValueError(f"t_eval must lie within t_span = ({t0}, {t1}), got times from {a[0]} to {a[-1]}")
     return a
 
 
 def _run_times(t_eval: Optional[np.ndarray], t0: float, t1: float) -> Optional[List[float]]:
-    """The output times from the run's start, clamped to [0, t1 - t0] against rounding."""
+    """The output times from the run's start, clamped to the span [0, t1 - t0] against
+    rounding."""
     if t_eval is None:
         return None
-    return [float(v) for v in np.clip(t_eval - t0, 0.0, t1 - t0)]
+    span = t1 - t0
+    return [float(v) for v in np.clip(t_eval - t0, min(0.0, span), max(0.0, span))]
 
 
 def _main_thread() -> bool:
@@ -170,11 +182,7 @@ def _terminal_message(stopped: Dict[str, Any]) -> str:
 
 
 def _every(every: Optional[int]) -> Optional[int]:
-    if every is None:
-        return None
-    if int(every) != every or every < 1:
-        raise ValueError(f"every must be a positive integer, got {every!r}")
-    return int(every)
+    return None if every is None else _positive_int("every", every)
 
 
 def _on_grid(d: Dict[str, Any], t_eval: Optional[np.ndarray]) -> None:
@@ -515,9 +523,13 @@ class Model:
         ``step:c:m`` or the numbers. ``params``: parameter values for this run only.
         ``every``: record every n-th step (default: about 20 000 samples). ``max_steps``: the
         step budget; ``max_drift``: an invariant drifting past this many times its scale ends
-        the run as diverged. ``t_eval``: the times (increasing, within ``t_span``) to record
+        the run as diverged. ``t_eval``: the times (from t0 towards t1, within ``t_span``) to record
         the solution at instead of steps, from each method's continuous extension (adaptive
         methods keep their own steps; ``every`` does not apply).
+
+        ``t_span = (t0, t1)`` with t1 < t0 integrates backwards, with every method that has a
+        time-reversed form (all but ``feedback-taylor``, ``split-taylor`` and ``splitting``,
+        which raise ``ValueError``); events keep their direction in the model's time.
 
         The model's events (``event NAME: g = 0 …;``) are located in every run:
         ``t_events``/``y_events`` hold their crossings, one entry per declared event; a
@@ -543,7 +555,7 @@ class Model:
             gains,
             values,
             _every(every),
-            None if max_steps is None else int(max_steps),
+            None if max_steps is None else _positive_int("max_steps", max_steps),
             max_drift,
             _run_times(grid, t0, t1),
             _main_thread(),
@@ -574,7 +586,8 @@ class Model:
         the one ``solve`` gives it with the same options.
 
         ``params``: name → values per row, (B,) for a scalar parameter, (B, k) for one of k
-        slots (the other parameters keep the model's values). ``threads``: threads in Rust
+        slots, or one value of the parameter's own shape for every row (the other parameters
+        keep the model's values). ``threads``: threads in Rust
         (default: one per core), with the GIL released for the whole call; ``lanes``: rows with
         equal parameters integrated together (fixed-step Runge–Kutta methods; 1: each alone).
         ``every``: default records the start and the end only (what lanes need); give it to
@@ -598,13 +611,12 @@ class Model:
             atol=_check_tol("atol", atol),
             gains=gains if isinstance(gains, str) else [float(g) for g in gains],
             every=_every(every) or 2**64 - 1,
-            max_steps=None if max_steps is None else int(max_steps),
+            max_steps=None if max_steps is None else _positive_int("max_steps", max_steps),
             max_drift=max_drift,
             t_eval=grid,
         )
         threads = _threads(threads)
-        if int(lanes) != lanes or lanes < 1:
-            raise ValueError(f"lanes must be a positive integer, got {lanes!r}")
+        lanes = _positive_int("lanes", lanes)
         if executor is None:
             return _solve_rows(self, y, (t0, t1), cols, opts, threads, int(lanes))
         return _solve_sharded(self, y, (t0, t1), cols, opts, threads, int(lanes), executor, shards)
@@ -612,12 +624,19 @@ class Model:
     # -- analyses ---------------------------------------------------------------------------
 
 
+def _positive_int(name: str, v: Any) -> int:
+    """``v`` as a whole number ≥ 1, or ``ValueError`` naming the argument ``name``."""
+    try:
+        whole = int(v) == v and not isinstance(v, bool)
+    except (TypeError, ValueError, OverflowError):
+        whole = False
+    if not whole or not 1 <= v < 2**63:
+        raise ValueError(f"{name} must be a whole number ≥ 1 (and below 2⁶³), got {v!r}")
+    return int(v)
+
+
 def _threads(threads: Optional[int]) -> int:
-    if threads is None:
-        return 0
-    if int(threads) != threads or threads < 1:
-        raise ValueError(f"threads must be a positive integer, got {threads!r}")
-    return int(threads)
+    return 0 if threads is None else _positive_int("threads", threads)
 
 
 def _states(y0s: Any, model: Model) -> np.ndarray:
@@ -644,9 +663,16 @@ def _param_columns(model: Model, params: Optional[Mapping[str, Any]], b: int) ->
             raise ValueError(
                 f"unknown parameter {name!r}; the model {model.name!r} has: {', '.join(model.param_names)}"
             )
-        k = int(np.prod(model._native.param_shape(name), dtype=np.int64))
-        a = np.asarray(value, dtype=float)
-        if a.ndim == 1 and k == 1:
+        shape = tuple(model._native.param_shape(name))
+        k = int(np.prod(shape, dtype=np.int64))
+        try:
+            a = np.asarray(value, dtype=float)
+        except (TypeError, ValueError) as e:
+            raise ValueError(f"params[{name!r}]: not an array of numbers ({e})") from None
+        if a.shape == shape or (k == 1 and a.ndim == 0):
+            # one value for every row
+            a = np.broadcast_to(np.ravel(a, order="F"), (b, k))
+        elif a.ndim == 1 and k == 1:
             a = a[:, None]
         elif a.ndim == 3:
             # matrices (B, r, c) → column-major slots
@@ -750,6 +776,9 @@ def normal_form(
     default the model's first point). A resonance, a non-elliptic equilibrium or lost
     precision raise ``ValueError`` with the reason.
     """
+    _positive_int("order", order)
+    for name, v in (("resonance_tol", resonance_tol), ("max_rel_error", max_rel_error)):
+        _check_tol(name, v)
     if not isinstance(model, Model):
         model = Model(model)
     text = model._native.normal_form(
@@ -840,8 +869,8 @@ def stability(
     if int(levels) != levels or levels < 1:
         raise ValueError(f"levels must be a positive integer, got {levels!r}")
     for name, v in (("order", order), ("remainder_degree", remainder_degree)):
-        if v is not None and (int(v) != v or v < 1):
-            raise ValueError(f"{name} must be a positive integer, got {v!r}")
+        if v is not None:
+            _positive_int(name, v)
     text = model._native.stability(
         os.path.splitext(os.path.basename(model.path))[0],
         None if casimir is None else float(casimir),

@@ -340,7 +340,14 @@ fn keyword_message(message: &str) -> String {
 
 /// A [`RunError`] as Python's `ValueError`, its message naming Python's keywords.
 fn run_error(e: RunError) -> PyErr {
-    PyValueError::new_err(keyword_message(&e.to_string()))
+    match e {
+        RunError::Inapplicable { setting, method } => PyValueError::new_err(format!(
+            "{}= {}",
+            setting.name(),
+            method.refuses(setting).unwrap_or_default()
+        )),
+        e => PyValueError::new_err(keyword_message(&e.to_string())),
+    }
 }
 
 /// The guard's name in a guard failure's message (``guard `name` violated: …``).

@@ -55,6 +55,15 @@ def test_parameters_per_row(kepler):
     assert kepler.params["mu"] == 1.0
 
 
+def test_one_value_applies_to_every_row(kepler):
+    y0s = kepler_rows(6)
+    one = kepler.solve_many(y0s, (0, 5), "rk4", dt=0.01, params={"mu": 0.9})
+    per_row = kepler.solve_many(y0s, (0, 5), "rk4", dt=0.01, params={"mu": np.full(6, 0.9)})
+    assert np.array_equal(one.y, per_row.y)
+    zero_d = kepler.solve_many(y0s, (0, 5), "rk4", dt=0.01, params={"mu": np.float64(0.9)})
+    assert np.array_equal(one.y, zero_d.y)
+
+
 def test_intermediate_samples_when_asked(osc):
     y0s = np.array([[1.0, 0.0], [0.5, 0.5]])
     many = osc.solve_many(y0s, (0, 1), "rk4", dt=0.01, every=10)
@@ -80,6 +89,10 @@ def test_bad_batches_are_value_errors(kepler):
         kepler.solve_many(kepler_rows(3), (0, 1), "rk4", dt=0.1, params={"nu": [1.0, 2.0, 3.0]})
     with pytest.raises(ValueError, match="threads"):
         kepler.solve_many(kepler_rows(3), (0, 1), "rk4", dt=0.1, threads=0)
+    with pytest.raises(ValueError, match="lanes must be a whole number"):
+        kepler.solve_many(kepler_rows(3), (0, 1), "rk4", dt=0.1, lanes=1.5)
+    with pytest.raises(ValueError, match="rtol= applies to adaptive methods"):
+        kepler.solve_many(kepler_rows(3), (0, 1), "rk4", dt=0.1, rtol=1e-8)
 
 
 def test_a_process_pool_gives_the_serial_bits(kepler):

@@ -31,6 +31,11 @@ def test_the_models_own_parameters_are_used():
 def test_bad_arguments():
     with pytest.raises(ValueError, match="order"):
         lasalle.normal_form("cr3bp", order=1)
+    for order in (-1, 0, 2.5, 10**30 + 0.5, "twelve"):
+        with pytest.raises(ValueError, match="order must be a whole number ≥ 1"):
+            lasalle.normal_form("cr3bp", order=order)
+    with pytest.raises(ValueError, match="resonance_tol"):
+        lasalle.normal_form("cr3bp", resonance_tol=-1.0)
     with pytest.raises(ValueError, match="precision"):
         lasalle.normal_form("cr3bp", precision="quad")
     with pytest.raises(ValueError, match="unknown parameter"):

@@ -103,7 +103,10 @@ def test_a_diverged_run_is_a_failed_solution(osc):
         (dict(method="rk4", dt=2.0), "exceeds the span"),
         (dict(method="dopri5", rtol=0.0), "rtol"),
         (dict(method="taylor", rtol=1e-12, atol=1e-10), "one tolerance"),
-        (dict(method="dopri5", gains=[1.0, 2.0]), "feedback methods only"),
+        (dict(method="dopri5", gains=[1.0, 2.0]), "applies to feedback methods"),
+        (dict(method="rk4", dt=0.01, rtol=1e-8), "rtol= applies to adaptive methods"),
+        (dict(method="rk4", dt=0.01, atol=1e-8), "atol= applies to adaptive methods"),
+        (dict(method="symplectic6", dt=0.01, rtol=1e-8), "`symplectic6` takes fixed steps"),
         (dict(method="feedback-rk4", dt=0.1, gains=[1.0]), "gains"),
         (dict(method="feedback-rk4", dt=0.1, gains="nope"), "gains"),
         (dict(method="stormer-verlet-a", dt=0.1, params={"nope": 1.0}), "unknown parameter"),
@@ -122,7 +125,7 @@ def test_bad_states_and_spans_are_value_errors(kepler):
     with pytest.raises(ValueError, match="finite"):
         kepler.solve([np.nan, 0, 0, 0, 1, 0], (0, 1))
     with pytest.raises(ValueError, match="t_span"):
-        kepler.solve("paper", (1, 0))
+        kepler.solve("paper", (1, 1))
     with pytest.raises(ValueError, match="unknown point"):
         kepler.solve("aphelion", (0, 1))
 
@@ -148,7 +151,8 @@ def test_taylor_runs_reuse_their_kernels_with_the_bits_of_new_ones(kepler):
         (dict(method="rk4", dt=1e-3, max_steps=10), "raise it with max_steps= if that is intended"),
         (dict(method="rk4", dt=1e-3, max_steps=10), "the span t1 - t0 = 1e0 with dt=0.001 would take"),
         (dict(method="taylor", rtol=1e-12, atol=1e-10), "give rtol= alone, not rtol=0.000000000001 with atol=0.0000000001"),
-        (dict(method="dopri5", gains=[1.0, 2.0]), "gains= applies to feedback methods only, not to `dopri5`"),
+        (dict(method="dopri5", gains=[1.0, 2.0]), "gains= applies to feedback methods (feedback-*, feedback-taylor, split-taylor), not to `dopri5`"),
+        (dict(method="rk4", dt=0.1, rtol=1e-8), "rtol= applies to adaptive methods"),
         (dict(method="feedback-rk4", dt=0.1, gains="step:1:10"), 'use gains="adaptive:m:c"'),
         (dict(method="rk4", dt=0.1, max_drift=-1.0), "max_drift= must be positive and finite, got -1"),
     ],
@@ -160,3 +164,65 @@ def test_errors_name_pythons_keywords_not_the_command_lines_flags(kepler, kwargs
     with pytest.raises(ValueError) as info:
         kepler.solve_many(np.tile(kepler.points["paper"], (2, 1)), (0, 1), **kwargs)
     assert message in str(info.value) and "--" not in str(info.value), str(info.value)
+
+
+# a field without integrals: nothing for feedback to keep
+DAMPED = """model Damped {
+    state q: scalar, p: scalar;
+    d/dt q = p;
+    d/dt p = -q - p / 10;
+    point start { q = 1; p = 0; }
+}
+"""
+
+
+@pytest.mark.parametrize("method, opts", [("feedback-rk4", dict(dt=0.01)), ("feedback-taylor", {})])
+def test_feedback_on_a_model_without_integrals_is_refused(method, opts):
+    m = lasalle.Model.from_source(DAMPED, path="damped.lsl")
+    with pytest.raises(ValueError, match="declares none: use a method without feedback"):
+        m.solve("start", (0, 1), method, **opts)
+    assert m.solve("start", (0, 1), method.removeprefix("feedback-"), **opts).success
+
+
+def test_the_package_lists_its_public_names_only():
+    names = dir(lasalle)
+    assert set(names) == set(lasalle.__all__) | {"__version__"}
+    assert "Any" not in names and "json" not in names and "np" not in names
+
+
+@pytest.mark.parametrize(
+    "method, opts, tol",
+    [
+        ("dopri5", dict(rtol=1e-12, atol=1e-12), 1e-9),
+        ("taylor", dict(rtol=1e-15), 1e-12),
+        ("rk4", dict(dt=1e-3), 1e-10),
+        ("symplectic6", dict(dt=1e-2), 1e-9),
+        ("feedback-rk4", dict(dt=1e-3), 1e-10),
+        ("feedback-dopri5", dict(rtol=1e-12, atol=1e-12), 1e-9),
+    ],
+)
+def test_a_backward_span_integrates_backwards(osc, method, opts, tol):
+    # from (cos 2·3, -2 sin 2·3) at t = 3 back to t = 0: q = cos 2t, p = -2 sin 2t
+    t0 = 3.0
+    y0 = [np.cos(2 * t0), -2 * np.sin(2 * t0)]
+    grid = np.linspace(t0, 0.0, 7)
+    sol = osc.solve(y0, (t0, 0.0), method, t_eval=grid, **opts)
+    assert sol.success, sol.message
+    np.testing.assert_array_equal(sol.t, grid)
+    np.testing.assert_allclose(sol.y[0], np.cos(2 * grid), rtol=0, atol=tol)
+    np.testing.assert_allclose(sol.y[1], -2 * np.sin(2 * grid), rtol=0, atol=tol)
+
+
+def test_backwards_then_forwards_returns_to_the_start(kepler):
+    there = kepler.solve("paper", (0, 10), "taylor", rtol=1e-15)
+    back = kepler.solve(there.y[:, -1], (10, 0), "taylor", rtol=1e-15)
+    assert back.t[0] == 10 and back.t[-1] == 0 and np.all(np.diff(back.t) < 0)
+    np.testing.assert_allclose(back.y[:, -1], kepler.points["paper"], rtol=0, atol=1e-11)
+
+
+@pytest.mark.parametrize("method", ["feedback-taylor", "split-taylor"])
+def test_methods_without_a_reversed_form_refuse_backward_spans(kepler, method):
+    with pytest.raises(ValueError, match="cannot integrate backwards"):
+        kepler.solve("paper", (1, 0), method)
+    with pytest.raises(ValueError, match="decreasing"):
+        kepler.solve("paper", (1, 0), "rk4", dt=0.1, t_eval=[0.0, 1.0])

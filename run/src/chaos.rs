@@ -57,6 +57,17 @@ pub fn check_method(method: Method) -> Result<(), RunError> {
     }
 }
 
+/// Refuses a backward run (a negative end time) for `what`, whose clock runs forwards.
+fn forward_only(spec: &RunSpec, what: &str) -> Result<(), RunError> {
+    if spec.t_end < 0.0 {
+        return Err(RunError::Spec(format!(
+            "{what} measure growth forwards in time: give a positive end time, not {}",
+            spec.t_end
+        )));
+    }
+    Ok(())
+}
+
 /// A run with the state-transition matrix: its recording (of the extended state) and
 /// Φ(t_end).
 #[derive(Clone, Debug)]
@@ -99,6 +110,7 @@ pub fn indicators(
     spec: &RunSpec,
 ) -> Result<(Recording, Indicators), RunError> {
     check_method(spec.method)?;
+    forward_only(spec, "the chaos indicators")?;
     let extended = extend(model, Extension::Indicators)?;
     let spec = RunSpec {
         record_events: true,
@@ -159,6 +171,7 @@ pub fn lyapunov_spectrum(
     interval: f64,
 ) -> Result<Spectrum, RunError> {
     check_method(spec.method)?;
+    forward_only(spec, "the Lyapunov spectrum")?;
     if !(interval > 0.0 && interval.is_finite()) {
         return Err(RunError::Spec(format!(
             "the re-orthonormalisation interval must be a positive number, not {interval}"

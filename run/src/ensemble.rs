@@ -41,6 +41,10 @@ pub fn simulate_lanes(
     let (Method::Plain(base) | Method::Feedback(base)) = spec.method else {
         return None;
     };
+    // backward runs go alone, each through its reversed model
+    if spec.t_end < 0.0 {
+        return None;
+    }
     // lanes watch no events and sample no output times: such runs go alone
     let events = Declared::<f64, Vec<f64>>::events(model);
     let watched =

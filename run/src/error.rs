@@ -20,6 +20,14 @@ pub enum RunError {
     /// Settings out of range or contradicting each other (a negative step, a tolerance of 0,
     /// gains for a method without feedback, …).
     Spec(String),
+    /// A setting given for a method it does not apply to: tolerances for a fixed-step method,
+    /// gains for a method without feedback ([`Method::refuses`](crate::Method::refuses)).
+    Inapplicable {
+        /// The setting given.
+        setting: crate::MethodSetting,
+        /// The method it does not apply to.
+        method: crate::Method,
+    },
     /// What the model cannot do: a method that needs structure it does not declare, gains of
     /// the wrong count, an unknown parameter or point, an initial state outside its domain.
     Model(String),
@@ -42,6 +50,12 @@ impl fmt::Display for RunError {
                 f,
                 "no `{what}`: give one, or declare it in the model's run preset \
                  (`run NAME {{ {what} = …; }}`)"
+            ),
+            RunError::Inapplicable { setting, method } => write!(
+                f,
+                "`{}` {}",
+                setting.name(),
+                method.refuses(*setting).unwrap_or_default()
             ),
             RunError::Spec(m) | RunError::Model(m) | RunError::Load(m) => f.write_str(m),
             RunError::Interrupted => f.write_str("interrupted"),

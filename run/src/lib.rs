@@ -47,6 +47,7 @@
 //! command-line, terminal or plotting crates.
 #![warn(missing_docs)]
 
+mod backward;
 pub mod chaos;
 mod clock;
 mod ensemble;
@@ -66,7 +67,7 @@ pub use error::RunError;
 pub use events::{parse_t_eval, EventHit};
 pub use input::{initial_state, parse_numbers};
 pub use interrupt::Interrupt;
-pub use method::{Base, Method};
+pub use method::{Base, Method, MethodSetting};
 pub use recording::{json_number, Recording};
 pub use reuse::{KernelPool, Reusing};
 pub use simulate::{simulate, simulate_with_progress, RunModel};

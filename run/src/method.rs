@@ -144,6 +144,58 @@ impl Method {
     pub fn is_taylor(self) -> bool {
         matches!(self, Method::Taylor { .. } | Method::SplitTaylor)
     }
+
+    /// Why `setting` does not apply to this method, or `None` where it does: what every front
+    /// end refuses, each naming the setting its own way (`--rtol`, `rtol=`).
+    pub fn refuses(self, setting: MethodSetting) -> Option<String> {
+        match setting {
+            MethodSetting::Rtol | MethodSetting::Atol if !self.is_adaptive() => Some(format!(
+                "applies to adaptive methods (dopri5, feedback-dopri5, projection-dopri5, taylor, \
+                 feedback-taylor, split-taylor); `{self}` takes fixed steps of dt"
+            )),
+            MethodSetting::Gains if !self.is_feedback() => Some(format!(
+                "applies to feedback methods (feedback-*, feedback-taylor, split-taylor), not to \
+                 `{self}`"
+            )),
+            MethodSetting::ProjectionTol if !matches!(self, Method::Projection(_)) => Some(
+                format!("applies to the projection methods (projection-*), not to `{self}`"),
+            ),
+            _ => None,
+        }
+    }
+}
+
+/// A setting that applies to some methods only ([`Method::refuses`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum MethodSetting {
+    /// The relative tolerance of adaptive methods.
+    Rtol,
+    /// The absolute tolerance of adaptive methods.
+    Atol,
+    /// The gains of feedback methods.
+    Gains,
+    /// The tolerance of the projection methods.
+    ProjectionTol,
+}
+
+impl MethodSetting {
+    /// Every setting, in the order front ends check them.
+    pub const ALL: [MethodSetting; 4] = [
+        MethodSetting::Rtol,
+        MethodSetting::Atol,
+        MethodSetting::Gains,
+        MethodSetting::ProjectionTol,
+    ];
+
+    /// The setting's name, as [`RunSpecBuilder`](crate::RunSpecBuilder)'s setter calls it.
+    pub fn name(self) -> &'static str {
+        match self {
+            MethodSetting::Rtol => "rtol",
+            MethodSetting::Atol => "atol",
+            MethodSetting::Gains => "gains",
+            MethodSetting::ProjectionTol => "projection_tol",
+        }
+    }
 }
 
 impl fmt::Display for Method {

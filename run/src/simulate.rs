@@ -21,6 +21,7 @@ use lasalle_runtime::{
     Taylor, TaylorOptions, VerletVariant, Watch,
 };
 
+use crate::backward::{self, Backward, BackwardTaylor};
 use crate::{process_cpu_seconds, Base, EventHit, Method, Recording, RunError, RunSpec};
 
 /// Everything [`simulate`] needs of a model, with states, invariants and gains stored as
@@ -56,8 +57,44 @@ where
 }
 
 /// [`simulate`], calling `progress` with the time reached about every 2¹⁶ steps (for a
-/// progress bar over [0, `spec.t_end`]).
+/// progress bar over [0, `spec.t_end`]; the distance |t| for a backward run).
+///
+/// A negative `spec.t_end` integrates backwards, to t = `spec.t_end`: every method that has a
+/// time-reversed form runs the model's reversed field forwards (`backward`'s docs), and the
+/// recording's times are the model's, from 0 down to `spec.t_end`.
 pub fn simulate_with_progress<Mdl, X, FV, K>(
+    model: &Mdl,
+    x0: &X,
+    spec: &RunSpec,
+    progress: &dyn Fn(f64),
+) -> Result<Recording, RunError>
+where
+    Mdl: RunModel<X, FV, K>,
+    X: State<f64>,
+    FV: State<f64>,
+    K: State<f64>,
+{
+    if spec.t_end >= 0.0 {
+        return simulate_forward(model, x0, spec, progress);
+    }
+    if let Some(why) = backward::refusal(spec.method) {
+        return Err(RunError::Spec(why));
+    }
+    check_start(model, x0, spec)?;
+    let reversed = Backward::new(model, x0);
+    let forward = spec.reversed();
+    let recording = match spec.method {
+        Method::Taylor { feedback: false } => {
+            let stepper = BackwardTaylor::new(taylor(model, &forward)?);
+            drive(&reversed, &reversed, x0, &forward, progress).visit(stepper)
+        }
+        _ => simulate_forward(&reversed, x0, &forward, progress)?,
+    };
+    Ok(backward::reverse(recording))
+}
+
+/// [`simulate_with_progress`] forwards in time.
+fn simulate_forward<Mdl, X, FV, K>(
     model: &Mdl,
     x0: &X,
     spec: &RunSpec,
@@ -150,6 +187,13 @@ where
 {
     spec.validate()?;
     let name = model.model_name();
+    if spec.method.is_feedback() && model.invariant_dim() == 0 {
+        return Err(RunError::Model(format!(
+            "method `{}` feeds back the deviation of the model's integrals, and `{name}` declares \
+             none: use a method without feedback, or declare `integral NAME = …;` in the model",
+            spec.method
+        )));
+    }
     let shown = x0.as_ref();
     if shown.len() != model.state_dim() {
         return Err(RunError::Model(format!(

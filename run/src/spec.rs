@@ -5,7 +5,7 @@
 use lasalle_runtime::{GainPolicy, ModelInfo, Parameters, Preset, DEFAULT_MAX_DRIFT};
 
 use crate::input::initial_state;
-use crate::{Base, Interrupt, Method, RunError};
+use crate::{Base, Interrupt, Method, MethodSetting, RunError};
 
 /// The number of samples a run records when [`RunSpec::every`] is 0.
 pub const AUTO_SAMPLES: u64 = 20_000;
@@ -22,7 +22,7 @@ pub struct RunSpec {
     /// Step size (fixed-step methods) or initial step (adaptive methods; 0 = chosen by the
     /// method: Hairer, Nørsett & Wanner's starting step for DOPRI5, Jorba & Zou's for Taylor).
     pub dt: f64,
-    /// End time (the run starts at t = 0).
+    /// End time (the run starts at t = 0); negative: the run goes backwards, to t_end.
     pub t_end: f64,
     /// Gains of feedback methods.
     pub gains: GainPolicy,
@@ -40,7 +40,7 @@ pub struct RunSpec {
     /// The most steps the run may take (fixed-step runs longer than this are refused before
     /// they start; adaptive runs stop with an error when they reach it).
     pub max_steps: u64,
-    /// Output times (sorted, within [0, t_end]): the run records the state there, from each
+    /// Output times (sorted in the run's direction, within [0, t_end]): the run records the state there, from each
     /// method's continuous extension, instead of every [`RunSpec::every`]-th step; adaptive
     /// methods keep their own steps. Empty: record steps.
     pub t_eval: Vec<f64>,
@@ -94,7 +94,7 @@ impl RunSpec {
     /// The number of steps of a fixed-step run (an estimate for adaptive ones).
     pub fn steps(&self) -> u64 {
         if self.dt > 0.0 {
-            (self.t_end / self.dt).ceil().max(1.0) as u64
+            (self.t_end.abs() / self.dt).ceil().max(1.0) as u64
         } else {
             1000
         }
@@ -110,8 +110,18 @@ impl RunSpec {
         }
     }
 
-    /// Checks the numbers: positive finite step and end time, tolerances in range, a step
-    /// count within the budget, gains only for feedback methods.
+    /// The same run forwards in time, of the reversed field: the end time and the output
+    /// times negated.
+    pub(crate) fn reversed(&self) -> RunSpec {
+        RunSpec {
+            t_end: -self.t_end,
+            t_eval: self.t_eval.iter().map(|t| -t).collect(),
+            ..self.clone()
+        }
+    }
+
+    /// Checks the numbers: positive finite step, a finite end time other than 0, tolerances
+    /// in range, a step count within the budget, gains only for feedback methods.
     pub fn validate(&self) -> Result<(), RunError> {
         let bad = |m: String| Err(RunError::Spec(m));
         if let Method::Symplectic { order } = self.method {
@@ -128,13 +138,15 @@ impl RunSpec {
                 self.dt
             ));
         }
-        if !(self.t_end.is_finite() && self.t_end > 0.0) {
+        if !(self.t_end.is_finite() && self.t_end != 0.0) {
             return bad(format!(
-                "end time must be positive and finite, got --t-end {}",
+                "end time must be finite and not 0 (negative to integrate backwards), got \
+                 --t-end {}",
                 self.t_end
             ));
         }
-        if self.dt > self.t_end {
+        let span = self.t_end.abs();
+        if self.dt > span {
             return bad(format!(
                 "step size --dt {} exceeds the end time --t-end {}",
                 self.dt, self.t_end
@@ -158,26 +170,32 @@ impl RunSpec {
                 self.max_drift
             ));
         }
-        if !adaptive && self.t_end / self.dt > self.max_steps as f64 {
+        if !adaptive && span / self.dt > self.max_steps as f64 {
             return bad(format!(
                 "--t-end {:e} with --dt {} would take {:.3e} steps, more than the limit of {}: \
                  raise it with --max-steps if that is intended",
                 self.t_end,
                 self.dt,
-                self.t_end / self.dt,
+                span / self.dt,
                 self.max_steps
             ));
         }
-        if let Some(w) = self.t_eval.windows(2).find(|w| w[0] > w[1]) {
+        let sign = self.t_end.signum();
+        if let Some(w) = self.t_eval.windows(2).find(|w| sign * w[0] > sign * w[1]) {
+            let order = if sign > 0.0 {
+                "increase"
+            } else {
+                "decrease (a backward run)"
+            };
             return bad(format!(
-                "--t-eval times must increase, got {} before {}",
+                "--t-eval times must {order}, got {} before {}",
                 w[0], w[1]
             ));
         }
         if let Some(t) = self
             .t_eval
             .iter()
-            .find(|t| !(**t >= 0.0 && **t <= self.t_end))
+            .find(|t| !(sign * **t >= 0.0 && sign * **t <= span))
         {
             return bad(format!(
                 "--t-eval time {t} lies outside the run's [0, --t-end {}]",
@@ -185,10 +203,10 @@ impl RunSpec {
             ));
         }
         if !self.method.is_feedback() && self.gains != GainPolicy::Default {
-            return bad(format!(
-                "--gains applies to feedback methods only, not to `{}`",
-                self.method
-            ));
+            return Err(RunError::Inapplicable {
+                setting: MethodSetting::Gains,
+                method: self.method,
+            });
         }
         if matches!(self.gains, GainPolicy::Step { .. }) && !adaptive {
             return bad(format!(
@@ -372,6 +390,21 @@ impl RunSpecBuilder {
     /// ([`RunSpec::validate`]).
     pub fn build(&self) -> Result<RunSpec, RunError> {
         let method = self.resolved_method()?;
+        let given = |setting| match setting {
+            MethodSetting::Rtol => self.rtol.is_some(),
+            MethodSetting::Atol => self.atol.is_some(),
+            MethodSetting::Gains => self
+                .gains
+                .as_ref()
+                .is_some_and(|g| *g != GainPolicy::Default),
+            MethodSetting::ProjectionTol => self.projection_tol.is_some(),
+        };
+        if let Some(setting) = MethodSetting::ALL
+            .into_iter()
+            .find(|s| given(*s) && method.refuses(*s).is_some())
+        {
+            return Err(RunError::Inapplicable { setting, method });
+        }
         let preset = self.preset.as_ref();
         // the preset's step and gains are for its own method, or for any fixed-step one
         let own = preset.filter(|p| {

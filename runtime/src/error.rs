@@ -177,6 +177,25 @@ impl StepError {
         }
     }
 
+    /// The error of a run of the time-reversed field as the model's own time tells it: the
+    /// time and step size negated (a backward run, t = −s).
+    pub fn reversed_in_time(mut self) -> Self {
+        match &mut self {
+            StepError::NonFinite { t, h, .. }
+            | StepError::StepSizeTooSmall { t, h, .. }
+            | StepError::TooManyRejections { t, h, .. }
+            | StepError::MaxSteps { t, h, .. }
+            | StepError::ProjectionNotConverged { t, h, .. }
+            | StepError::Guard { t, h, .. } => {
+                *t = -*t;
+                *h = -*h;
+            }
+            StepError::Diverged { t, .. } | StepError::Interrupted { t, .. } => *t = -*t,
+            StepError::InvalidInput(_) => {}
+        }
+        self
+    }
+
     /// The error with its step number set (the driver knows it; a stepper does not).
     pub(crate) fn at_step(mut self, n: u64) -> Self {
         if let StepError::NonFinite { step, .. } = &mut self {

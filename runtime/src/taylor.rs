@@ -632,6 +632,9 @@ pub struct Taylor<M: ?Sized> {
     /// With a [`FeedbackField`]: the split step (a step of X, then a gradient step on V)
     /// instead of the Taylor step of X − ∇V; see [`Taylor::set_split`].
     split: bool,
+    /// −1 where the stepper integrates the time-reversed field −X of its kernels' X
+    /// ([`Taylor::set_reversed`]), else 1.
+    direction: f64,
     /// The last accepted step (t, h) and the kernel holding its expansion.
     last: Option<(f64, f64, Which)>,
     /// The compensated state update: the first half holds what rounding took off each
@@ -674,6 +677,7 @@ impl<M: ?Sized> Taylor<M> {
             control: JorbaZou::new(order),
             mode: TaylorField::Plain,
             split: false,
+            direction: 1.0,
             last: None,
             carry: [vec![0.0; field.dim()], vec![f64::NAN; field.dim()]].concat(),
             field,
@@ -719,6 +723,15 @@ impl<M: ?Sized> Taylor<M> {
     /// for arrays; one for `Vec` states).
     pub fn set_split(&mut self, split: bool) {
         self.split = split;
+        self.last = None;
+    }
+
+    /// Integrates the time-reversed field −X instead of X, from the same kernels: the
+    /// solution of −X through x is x(−s), whose Taylor coefficients are (−1)ᵏ x⁽ᵏ⁾, so each
+    /// step and each dense output evaluates the kernels' polynomial at −s. A backward run
+    /// (t₁ < t₀) is a forward run of −X in s = t₀ − t.
+    pub fn set_reversed(&mut self, reversed: bool) {
+        self.direction = if reversed { -1.0 } else { 1.0 };
         self.last = None;
     }
 
@@ -889,7 +902,7 @@ impl<M: ?Sized> Taylor<M> {
         let h_own = h_jz.min(self.opts.h_max);
         let h_taken = h.min(h_own);
         // Horner into x; the coefficients stay in the kernel for the dense output
-        self.compensated_update(which, h_taken, x);
+        self.compensated_update(which, self.direction * h_taken, x);
         self.last = Some((t, h_taken, which));
         let h_next = if h_own.is_finite() { h_own } else { h };
         Ok(StepOutcome {
@@ -1056,7 +1069,7 @@ impl<M: ?Sized, X: State<f64>> DenseOutput<f64, X> for Taylor<M> {
         if !(s >= -slack && s <= h + slack) || out.len() != self.field.dim() {
             return false;
         }
-        self.evaluate(which, s, out.as_mut());
+        self.evaluate(which, self.direction * s, out.as_mut());
         true
     }
 
@@ -1081,6 +1094,7 @@ impl<M: ?Sized, X: State<f64>> DenseOutput<f64, X> for Taylor<M> {
                 ok = false;
                 continue;
             }
+            s.iter_mut().for_each(|sk| *sk *= self.direction);
             self.evaluate_many(which, &s[..ts.len()], outs);
         }
         ok

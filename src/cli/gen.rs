@@ -61,8 +61,11 @@ pub struct GenArgs {
 pub fn run(args: &GenArgs) -> CliResult {
     let (path, _, text) = super::load::model_text(&args.model)?;
     let model = match extension(args, &path, &text)? {
-        Some(e) => lasalle_codegen::generate_extended(&path, &text, e)?,
-        None => lasalle_codegen::generate_source_with(&path, &text, args.families.into())?,
+        Some(e) => {
+            lasalle_codegen::generate_extended(&path, &text, e).map_err(super::model_failure)?
+        }
+        None => lasalle_codegen::generate_source_with(&path, &text, args.families.into())
+            .map_err(super::model_failure)?,
     };
     if args.stats {
         print_stats(&model);
@@ -127,7 +130,9 @@ fn extension(args: &GenArgs, path: &str, text: &str) -> CliResult<Option<Extensi
     if args.indicators {
         return Ok(Some(Extension::Indicators));
     }
-    let n = lasalle_codegen::lower_source(path, text)?.dim();
+    let n = lasalle_codegen::lower_source(path, text)
+        .map_err(super::model_failure)?
+        .dim();
     let tangents = args.tangents.unwrap_or(n);
     if !(1..=n).contains(&tangents) {
         return Err(super::usage(format!(

@@ -7,7 +7,7 @@ use lasalle::exec::Families;
 use lasalle::{Backend, LoadedModel, MODEL_FILES};
 
 use super::args::normalise;
-use super::{usage, CliResult};
+use super::{model_failure, usage, CliResult};
 
 /// Which back end runs a loaded model (`--backend`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -111,7 +111,7 @@ pub fn load_with(
     families: Families,
 ) -> CliResult<(LoadedModel, String)> {
     let (path, stem, text) = model_text(arg)?;
-    let model = LoadedModel::from_source_with(&path, &text, backend, families)
-        .map_err(|e| e.to_string())?;
+    let model =
+        LoadedModel::from_source_with(&path, &text, backend, families).map_err(model_failure)?;
     Ok((model, stem))
 }

@@ -44,6 +44,38 @@ pub fn usage(message: impl fmt::Display) -> Box<dyn std::error::Error> {
     Box::new(Usage(message.to_string()))
 }
 
+/// A model file that does not read, check or compile — a syntax error, an unknown symbol, a
+/// shape mismatch, a declared integral that is not conserved: exit code 3, so that a script
+/// can tell a broken model from a run that failed and from a mistyped flag.
+#[derive(Debug)]
+pub struct ModelFailure(pub String);
+
+impl fmt::Display for ModelFailure {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for ModelFailure {}
+
+/// A model's diagnostic as a [`ModelFailure`].
+pub fn model_failure(diagnostic: impl fmt::Display) -> Box<dyn std::error::Error> {
+    Box::new(ModelFailure(diagnostic.to_string()))
+}
+
+/// The exit code of a command that ended with `error`, the same for every subcommand:
+/// 1 a run or computation that failed (diverged, left its domain, found no bound), 2 a
+/// mistake in the command line ([`Usage`]), 3 a model that does not load ([`ModelFailure`]).
+pub fn exit_code(error: &(dyn std::error::Error + 'static)) -> i32 {
+    if error.is::<Usage>() {
+        2
+    } else if error.is::<ModelFailure>() {
+        3
+    } else {
+        1
+    }
+}
+
 /// The flags given on the command line (not defaults), by argument id (`time_bound`), so that
 /// a flag that does not apply to the chosen method or model is refused instead of ignored.
 #[derive(Debug, Default)]
@@ -164,6 +196,17 @@ pub mod value {
         match s.trim().parse::<f64>() {
             Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
             _ => Err(format!("`{s}` is not a positive finite number")),
+        }
+    }
+
+    /// An end time: a finite number other than 0; a negative one integrates backwards.
+    pub fn end_time(s: &str) -> Result<f64, String> {
+        match s.trim().parse::<f64>() {
+            Ok(v) if v.is_finite() && v != 0.0 => Ok(v),
+            _ => Err(format!(
+                "`{s}` is not a finite number other than 0 (a negative end time integrates \
+                 backwards)"
+            )),
         }
     }
 

@@ -305,7 +305,7 @@ pub fn run(args: &NormalFormArgs) -> CliResult {
         .transpose()
         .map_err(super::usage)?;
     let (path, _, text) = model_text(&args.model)?;
-    let model = lasalle_codegen::lower_source(&path, &text).map_err(|e| e.to_string())?;
+    let model = lasalle_codegen::lower_source(&path, &text).map_err(super::model_failure)?;
     // names the command line gives, checked before anything is computed
     let params_known: Vec<&str> = model.params.iter().map(|p| p.name.as_str()).collect();
     if let Some((name, _)) = params.iter().find(|(n, _)| model.param(n).is_none()) {

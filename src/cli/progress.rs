@@ -35,7 +35,7 @@ where
     K: State<f64>,
 {
     let bar = progress_bar(shown, &spec.method.to_string());
-    let t_end = spec.t_end;
+    let t_end = spec.t_end.abs();
     let recording = simulate_with_progress(model, x0, spec, &|t| {
         bar.set_position((t / t_end * 1000.0) as u64)
     });

@@ -6,7 +6,9 @@
 use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
-use lasalle::{find_preset, GainPolicy, Method, ModelInfo, Preset, RunError, RunSpec};
+use lasalle::{
+    find_preset, GainPolicy, Method, MethodSetting, ModelInfo, Preset, RunError, RunSpec,
+};
 
 use super::args::parse_param;
 use super::load::{load_with, BackendArg, FamiliesOpt};
@@ -46,8 +48,9 @@ pub struct RunArgs {
     /// of adaptive ones (default: chosen by the method).
     #[arg(long, value_parser = value::positive, allow_hyphen_values = true)]
     pub dt: Option<f64>,
-    /// End time; default: the preset's.
-    #[arg(long, value_parser = value::positive, allow_hyphen_values = true)]
+    /// End time (the run starts at t = 0; a negative one integrates backwards); default: the
+    /// preset's.
+    #[arg(long, value_parser = value::end_time, allow_hyphen_values = true)]
     pub t_end: Option<f64>,
     /// Set a parameter, `name=value[,value…]` (e.g. `--param I=3,2,1`, `--param mu=1`);
     /// repeatable.
@@ -175,29 +178,14 @@ fn run_spec(
     })
 }
 
-/// Refuses the flags that do not apply to `method`: the tolerances for fixed-step methods,
-/// `--gains` for methods without feedback, `--projection-tol` for non-projection methods.
+/// Refuses the flags that do not apply to `method` ([`Method::refuses`]): the tolerances for
+/// fixed-step methods, `--gains` for methods without feedback, `--projection-tol` for
+/// non-projection methods.
 pub fn refuse_inapplicable(method: Method, given: &Given) -> CliResult {
-    if !method.is_adaptive() {
-        given.refuse(
-            &["rtol", "atol"],
-            &format!(
-                "applies to adaptive methods (dopri5, feedback-dopri5, projection-dopri5, taylor, \
-                 feedback-taylor, split-taylor); `{method}` takes fixed steps of --dt"
-            ),
-        )?;
-    }
-    if !method.is_feedback() {
-        given.refuse(
-            &["gains"],
-            &format!("applies to feedback methods (feedback-*, split-taylor), not to `{method}`"),
-        )?;
-    }
-    if !matches!(method, Method::Projection(_)) {
-        given.refuse(
-            &["projection_tol"],
-            &format!("applies to the projection methods (projection-*), not to `{method}`"),
-        )?;
+    for setting in MethodSetting::ALL {
+        if let Some(why) = method.refuses(setting) {
+            given.refuse(&[setting.name()], &why)?;
+        }
     }
     Ok(())
 }

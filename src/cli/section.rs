@@ -63,8 +63,8 @@ pub struct SectionArgs {
     /// Step size of fixed-step methods; the first step of adaptive ones.
     #[arg(long, value_parser = value::positive, allow_hyphen_values = true)]
     pub dt: Option<f64>,
-    /// Each orbit's end time.
-    #[arg(long, value_parser = value::positive, allow_hyphen_values = true)]
+    /// Each orbit's end time (negative: backwards).
+    #[arg(long, value_parser = value::end_time, allow_hyphen_values = true)]
     pub t_end: f64,
     /// Relative tolerance of adaptive methods (the Taylor tolerance ε). Default 1e-13.
     #[arg(long, value_parser = value::positive, allow_hyphen_values = true)]
@@ -224,7 +224,7 @@ pub fn run(args: &SectionArgs, given: &Given) -> CliResult {
     }
     let (path, stem, text) = model_text(&args.model)?;
     let source = ModelSource::new(path, text, args.backend.into()).families(args.families.into());
-    let mut model: LoadedModel = source.load().map_err(|e| e.to_string())?;
+    let mut model: LoadedModel = source.load().map_err(super::model_failure)?;
     let mut params = Vec::new();
     for p in &args.param {
         let (name, values) = parse_param(p).map_err(usage)?;

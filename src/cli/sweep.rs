@@ -45,8 +45,8 @@ pub struct SweepArgs {
     /// chosen by the method), as in `lasalle run`.
     #[arg(long, value_parser = value::positive, allow_hyphen_values = true)]
     pub dt: Option<f64>,
-    /// End time.
-    #[arg(long, value_parser = value::positive, allow_hyphen_values = true)]
+    /// End time (the runs start at t = 0; a negative one integrates backwards).
+    #[arg(long, value_parser = value::end_time, allow_hyphen_values = true)]
     pub t_end: f64,
     /// The initial state: a point of the model (evaluated with each row's parameters) or
     /// comma-separated numbers; default: the model's first point.
@@ -324,7 +324,7 @@ pub fn run(args: &SweepArgs, given: &Given) -> CliResult {
     let (path, _, text) = model_text(&args.model)?;
     let mut source =
         ModelSource::new(path, text, args.backend.into()).families(args.families.into());
-    let plain_dim = source.load().map_err(|e| e.to_string())?.dim();
+    let plain_dim = source.load().map_err(super::model_failure)?.dim();
     let indicator = args
         .indicator
         .map(|indicator| super::chaos::SweepIndicator { indicator });
@@ -333,7 +333,7 @@ pub fn run(args: &SweepArgs, given: &Given) -> CliResult {
         source = ind.source(source);
     }
     // the header, from one model
-    let probe: LoadedModel = source.load().map_err(|e| e.to_string())?;
+    let probe: LoadedModel = source.load().map_err(super::model_failure)?;
     let mut header = vec!["row".to_string()];
     header.extend(rows[0].iter().map(|(n, _)| n.clone()));
     header.extend(["t_final", "steps", "evaluations", "wall_seconds"].map(String::from));

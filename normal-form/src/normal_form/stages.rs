@@ -13,7 +13,9 @@ use super::options::{Options, Point, Precision, Progress, Stage};
 use super::result::{DegreeError, Remainder, RemainderPart, ResonantTerm, SmallDivisor, Timings};
 use crate::complex::Complex;
 use crate::error::NormalFormError;
-use crate::hamiltonian::{find_equilibrium, gradient_hessian, taylor, Equilibrium, HamiltonianFn};
+use crate::hamiltonian::{
+    find_equilibrium, gradient_hessian, null_directions, taylor, Equilibrium, HamiltonianFn,
+};
 use crate::lie;
 use crate::linalg::Mat;
 use crate::linear::{
@@ -188,6 +190,14 @@ fn expand<R: Real, H: HamiltonianFn + ?Sized>(
     let hz = taylor(h, &eq.z, &table);
     if !hz.is_finite() {
         return Err(NormalFormError::NonFinite("the Taylor expansion"));
+    }
+    let directions = null_directions(h, &eq.z, &gradient_hessian(&hz).1);
+    if !directions.is_empty() {
+        return Err(NormalFormError::Degenerate {
+            point: eq.z.iter().map(|x| x.to_f64()).collect(),
+            directions,
+            coordinates: h.coordinate_names(),
+        });
     }
     Ok(Expansion { eq, hz, table })
 }
