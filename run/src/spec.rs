@@ -2,9 +2,7 @@
 //! [`RunSpecBuilder`], which resolves one from a model's run preset and the caller's overrides
 //! as `lasalle run` does from its flags.
 
-use lasalle_runtime::{
-    rtol_floor, GainPolicy, ModelInfo, Parameters, Preset, DEFAULT_MAX_DRIFT,
-};
+use lasalle_runtime::{rtol_floor, GainPolicy, ModelInfo, Parameters, Preset, DEFAULT_MAX_DRIFT};
 
 use crate::input::initial_state;
 use crate::{Base, Interrupt, Method, RunError};

@@ -182,7 +182,11 @@ fn tolerances_below_the_floor_are_refused_and_at_the_floor_runs_end() {
     );
     let floor = lasalle_runtime::rtol_floor::<f64>();
     let rec = simulate(&model, &x0, &build("dopri5", floor).unwrap()).unwrap();
-    assert!(rec.failure.is_none() && rec.steps < 5000, "{} steps", rec.steps);
+    assert!(
+        rec.failure.is_none() && rec.steps < 5000,
+        "{} steps",
+        rec.steps
+    );
     assert!((rec.last_state()[0] - 1f64.cos()).abs() < 1e-13);
     let e = build("taylor", 1e-33).unwrap_err().to_string();
     assert!(e.contains("below 1.233e-32"), "{e}");
@@ -193,7 +197,10 @@ fn tolerances_below_the_floor_are_refused_and_at_the_floor_runs_end() {
         rec.steps
     };
     let (tight, usual) = (steps(1e-30), steps(1e-15));
-    assert!(tight <= usual + 2, "{tight} steps at 1e-30, {usual} at 1e-15");
+    assert!(
+        tight <= usual + 2,
+        "{tight} steps at 1e-30, {usual} at 1e-15"
+    );
 }
 
 /// Taylor cannot pass a collision: its Jorba–Zou step shrinks with the radius of convergence
@@ -213,7 +220,10 @@ fn taylor_stops_at_a_collision_with_a_step_underflow() {
     let e = rec.failure.expect("the run cannot pass the collision");
     let t_collision = std::f64::consts::PI / (2.0 * 2f64.sqrt());
     assert!(matches!(e, StepError::StepSizeTooSmall { .. }), "{e}");
-    assert!(e.to_string().starts_with("step size underflow at t = "), "{e}");
+    assert!(
+        e.to_string().starts_with("step size underflow at t = "),
+        "{e}"
+    );
     let t = e.time().unwrap();
     assert!((t - t_collision).abs() < 1e-6, "t = {t}, {e}");
 }

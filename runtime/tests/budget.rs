@@ -114,20 +114,20 @@ fn every_dopri5_run_ends_within_its_budget() {
             Kind::Oscillator | Kind::Stiff => [1.0, 0.5],
             Kind::Escape | Kind::Discontinuous => [1.0, 0.0],
         };
-        let what = format!("case {case} {kind:?} {opts:?} t_end {t_end:e} h0 {h0:e} budget {budget}");
-        let out = Driver::new(0.0, t_end, h0.min(t_end)).max_steps(budget).run(
-            &mut DormandPrince::new(opts),
-            &field,
-            &x0,
-            &mut (),
-        );
+        let what =
+            format!("case {case} {kind:?} {opts:?} t_end {t_end:e} h0 {h0:e} budget {budget}");
+        let out = Driver::new(0.0, t_end, h0.min(t_end))
+            .max_steps(budget)
+            .run(&mut DormandPrince::new(opts), &field, &x0, &mut ());
         match out {
             Ok(s) => {
                 assert_eq!(s.t, t_end, "{what}");
                 assert!(s.steps + s.rejections <= budget + 51, "{what}: {s:?}");
                 reached += 1;
             }
-            Err(StepError::MaxSteps { steps, rejected, .. }) => {
+            Err(StepError::MaxSteps {
+                steps, rejected, ..
+            }) => {
                 assert_eq!(steps, budget, "{what}");
                 assert!(rejected <= budget + 51, "{what}");
                 budgets += 1;
@@ -196,5 +196,9 @@ fn a_tolerance_below_the_floor_is_refused_and_the_floor_runs() {
     let end = integrate(&mut dp, &Oscillator, &[1.0, 0.0], 0.0, 1.0, 0.0, &mut ()).unwrap();
     assert!(end.steps < 5000, "{} steps", end.steps);
     // the error is near the floor's size: the tolerance is met, not only accepted
-    assert!((end.x[0] - 1f64.cos()).abs() < 1e-13, "{:e}", end.x[0] - 1f64.cos());
+    assert!(
+        (end.x[0] - 1f64.cos()).abs() < 1e-13,
+        "{:e}",
+        end.x[0] - 1f64.cos()
+    );
 }
