@@ -522,8 +522,9 @@ class Model:
         feedback methods — ``default``, ``model``, ``auto``, ``fixed:c``, ``adaptive:m:c``,
         ``step:c:m`` or the numbers. ``params``: parameter values for this run only.
         ``every``: record every n-th step (default: about 20 000 samples). ``max_steps``: the
-        step budget; ``max_drift``: an invariant drifting past this many times its scale ends
-        the run as diverged. ``t_eval``: the times (from t0 towards t1, within ``t_span``) to record
+        step budget (default 10⁹, rejected steps included); ``max_drift``: an invariant drifting
+        past this many times its scale ends the run as diverged. ``t_eval``: the times (from t0
+        towards t1, within ``t_span``) to record
         the solution at instead of steps, from each method's continuous extension (adaptive
         methods keep their own steps; ``every`` does not apply).
 

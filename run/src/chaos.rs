@@ -18,7 +18,7 @@ use lasalle_exec::LoadedModel;
 pub use lasalle_model::variational::{Extension, Indicators, PEAK_EVENT};
 use lasalle_runtime::{ModelInfo, Parameters};
 
-use crate::{simulate, Method, Recording, RunError, RunSpec};
+use crate::{simulate_with_progress, Method, Recording, RunError, RunSpec};
 
 /// A model extended by `extension`, compiled by `model`'s back end, with `model`'s current
 /// parameter values. A model loaded with its families kept as loops is extended in loop form
@@ -87,11 +87,22 @@ pub fn state_transition(
     x0: &[f64],
     spec: &RunSpec,
 ) -> Result<Transition, RunError> {
+    state_transition_with_progress(model, x0, spec, &|_| {})
+}
+
+/// [`state_transition`], calling `progress` with the time reached (as
+/// [`simulate_with_progress`] does).
+pub fn state_transition_with_progress(
+    model: &LoadedModel,
+    x0: &[f64],
+    spec: &RunSpec,
+    progress: &dyn Fn(f64),
+) -> Result<Transition, RunError> {
     check_method(spec.method)?;
     let n = model.dim();
     let ext = Extension::Variational { tangents: n };
     let extended = extend(model, ext)?;
-    let recording = simulate(&extended, &ext.extend_state(x0), spec)?;
+    let recording = simulate_with_progress(&extended, &ext.extend_state(x0), spec, progress)?;
     let last = recording.last_state();
     let x = last[..n].to_vec();
     let phi = (0..n)
@@ -109,6 +120,17 @@ pub fn indicators(
     x0: &[f64],
     spec: &RunSpec,
 ) -> Result<(Recording, Indicators), RunError> {
+    indicators_with_progress(model, x0, spec, &|_| {})
+}
+
+/// [`indicators`], calling `progress` with the time reached (as [`simulate_with_progress`]
+/// does).
+pub fn indicators_with_progress(
+    model: &LoadedModel,
+    x0: &[f64],
+    spec: &RunSpec,
+    progress: &dyn Fn(f64),
+) -> Result<(Recording, Indicators), RunError> {
     check_method(spec.method)?;
     forward_only(spec, "the chaos indicators")?;
     let extended = extend(model, Extension::Indicators)?;
@@ -116,7 +138,8 @@ pub fn indicators(
         record_events: true,
         ..spec.clone()
     };
-    let recording = simulate(&extended, &Extension::Indicators.extend_state(x0), &spec)?;
+    let x0 = Extension::Indicators.extend_state(x0);
+    let recording = simulate_with_progress(&extended, &x0, &spec, progress)?;
     let found = read_indicators(&recording, model.dim())
         .ok_or_else(|| RunError::Model("the run recorded no final state".into()))?;
     Ok((recording, found))
@@ -150,8 +173,15 @@ pub fn read_indicators(rec: &Recording, n: usize) -> Option<Indicators> {
 /// The Lyapunov spectrum of a run.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Spectrum {
-    /// The exponents, largest first.
+    /// The exponents in decreasing order.
     pub exponents: Vec<f64>,
+    /// The same exponents in the order of the Gram–Schmidt columns they were accumulated in:
+    /// the k-th is the growth rate of the k-volume spanned by the first k tangent vectors
+    /// over that of the first k − 1. Benettin et al. show this order tends to the decreasing
+    /// one as t → ∞ (their §3), so where it still differs from [`Spectrum::exponents`] the
+    /// averages have not converged: pairs ±λ of a Hamiltonian flow, for one, come out of
+    /// order over a run too short to separate them from the zero exponents.
+    pub qr_order: Vec<f64>,
     /// The time they were averaged over.
     pub t: f64,
     /// The number of QR re-orthonormalisations.
@@ -170,6 +200,18 @@ pub fn lyapunov_spectrum(
     spec: &RunSpec,
     interval: f64,
 ) -> Result<Spectrum, RunError> {
+    lyapunov_spectrum_with_progress(model, x0, spec, interval, &|_| {})
+}
+
+/// [`lyapunov_spectrum`], calling `progress` with the time reached: after every interval and,
+/// within a long one, as [`simulate_with_progress`] does.
+pub fn lyapunov_spectrum_with_progress(
+    model: &LoadedModel,
+    x0: &[f64],
+    spec: &RunSpec,
+    interval: f64,
+    progress: &dyn Fn(f64),
+) -> Result<Spectrum, RunError> {
     check_method(spec.method)?;
     forward_only(spec, "the Lyapunov spectrum")?;
     if !(interval > 0.0 && interval.is_finite()) {
@@ -183,15 +225,22 @@ pub fn lyapunov_spectrum(
     let mut state = ext.extend_state(x0);
     let mut sums = vec![0.0; n];
     let (mut t, mut renormalisations, mut steps) = (0.0, 0u64, 0u64);
+    // the step budget is the whole run's: accepted and rejected steps of every interval
+    let mut spent = 0u64;
     let mut chunk = spec.clone();
     chunk.every = u64::MAX;
     while t < spec.t_end {
         let h = interval.min(spec.t_end - t);
         chunk.t_end = h;
-        if !spec.method.is_adaptive() {
-            chunk.max_steps = spec.max_steps.saturating_sub(steps).max(1);
+        chunk.max_steps = spec.max_steps.saturating_sub(spent);
+        if chunk.max_steps == 0 {
+            return Err(RunError::Model(format!(
+                "the variational run spent its step budget of {} steps at t = {t} (raise it \
+                 with --max-steps)",
+                spec.max_steps
+            )));
         }
-        let rec = simulate(&extended, &state, &chunk)?;
+        let rec = simulate_with_progress(&extended, &state, &chunk, &|s| progress(t + s))?;
         if let Some(e) = &rec.failure {
             return Err(RunError::Model(format!(
                 "the variational run stopped at t = {}: {e}",
@@ -199,6 +248,7 @@ pub fn lyapunov_spectrum(
             )));
         }
         steps += rec.steps;
+        spent = spent.saturating_add(rec.steps + rec.rejections);
         state = rec.last_state().to_vec();
         let mut columns: Vec<Vec<f64>> = (0..n)
             .map(|j| state[n * (1 + j)..n * (2 + j)].to_vec())
@@ -218,9 +268,14 @@ pub fn lyapunov_spectrum(
         }
         t += h;
         renormalisations += 1;
+        progress(t);
     }
+    let qr_order: Vec<f64> = sums.iter().map(|s| s / t).collect();
+    let mut exponents = qr_order.clone();
+    exponents.sort_by(|a, b| b.total_cmp(a));
     Ok(Spectrum {
-        exponents: sums.iter().map(|s| s / t).collect(),
+        exponents,
+        qr_order,
         t,
         renormalisations,
         steps,

@@ -22,7 +22,9 @@ use lasalle_runtime::{
 };
 
 use crate::backward::{self, Backward, BackwardTaylor};
-use crate::{process_cpu_seconds, Base, EventHit, Method, Recording, RunError, RunSpec};
+use crate::{
+    process_cpu_seconds, Base, EventHit, Method, Recording, RunError, RunSpec, AUTO_SAMPLES,
+};
 
 /// Everything [`simulate`] needs of a model, with states, invariants and gains stored as
 /// `X`, `FV` and `K`: the runtime's traits and the model file's declarations.
@@ -382,14 +384,18 @@ where
             drift: (!watched).then_some(&drift),
             diverged: None,
         };
-        let mut obs = Stride::new(
-            Progress {
-                inner: &mut checked,
-                progress: self.progress,
-                every,
-            },
+        let progress = Progress {
+            inner: &mut checked,
+            progress: self.progress,
             every,
-        );
+        };
+        // an adaptive run's step count is unknown: sampled every step at first, ever more
+        // sparsely after, so that a long run's samples fit in memory
+        let mut obs = if spec.method.is_adaptive() && spec.every == 0 {
+            Stride::widening(progress, every, AUTO_SAMPLES)
+        } else {
+            Stride::new(progress, every)
+        };
         let (start, cpu_start) = (Instant::now(), process_cpu_seconds());
         let mut hits = Vec::new();
         let result = if watched {
@@ -556,7 +562,13 @@ where
     names.resize_with(model.state_dim(), String::new);
     let ((steps, evaluations, rejections), failure) = match counts {
         Ok(c) => (c, None),
-        Err(e) => ((e.step().unwrap_or(0), 0, 0), Some(e)),
+        Err(e) => {
+            let rejected = match &e {
+                StepError::MaxSteps { rejected, .. } => *rejected,
+                _ => 0,
+            };
+            ((e.step().unwrap_or(0), 0, rejected), Some(e))
+        }
     };
     Recording {
         method: spec.method.to_string(),

@@ -2,7 +2,7 @@
 //! [`RunSpecBuilder`], which resolves one from a model's run preset and the caller's overrides
 //! as `lasalle run` does from its flags.
 
-use lasalle_runtime::{GainPolicy, ModelInfo, Parameters, Preset, DEFAULT_MAX_DRIFT};
+use lasalle_runtime::{rtol_floor, GainPolicy, ModelInfo, Parameters, Preset, DEFAULT_MAX_DRIFT};
 
 use crate::input::initial_state;
 use crate::{Base, Interrupt, Method, MethodSetting, RunError};
@@ -35,7 +35,10 @@ pub struct RunSpec {
     /// An invariant whose error exceeds `max_drift` times its scale ends the run as diverged
     /// ([`DriftBound`](lasalle_runtime::DriftBound)).
     pub max_drift: f64,
-    /// Record every `every`-th step (0: about [`AUTO_SAMPLES`] samples).
+    /// Record every `every`-th step (0: about [`AUTO_SAMPLES`] samples; an adaptive run,
+    /// whose step count is not known in advance, records every step for its first
+    /// [`AUTO_SAMPLES`] samples, every second step for as many, every fourth, …, so that a
+    /// run of n steps keeps about [`AUTO_SAMPLES`]·log₂(n/[`AUTO_SAMPLES`]) samples).
     pub every: u64,
     /// The most steps the run may take (fixed-step runs longer than this are refused before
     /// they start; adaptive runs stop with an error when they reach it).
@@ -164,6 +167,7 @@ impl RunSpec {
                 self.rtol, self.atol
             ));
         }
+        self.check_tolerance_floor()?;
         if !(self.max_drift.is_finite() && self.max_drift > 0.0) {
             return bad(format!(
                 "--max-drift must be positive and finite, got {}",
@@ -217,6 +221,55 @@ impl RunSpec {
         }
         Ok(())
     }
+}
+
+impl RunSpec {
+    /// Refuses a tolerance below what the method can meet in f64: `dopri5` and its forms
+    /// need rtol ≥ 10 u ([`rtol_floor`]: below it the embedded error estimate is rounding and
+    /// the steps shrink until the run crawls), the Taylor methods ε ≥ u²
+    /// ([`TOL_FLOOR`](lasalle_runtime::taylor::TOL_FLOOR): the compensated state holds no
+    /// more), u = 2⁻⁵³ the unit roundoff. Refused rather than raised: the caller asked for an
+    /// accuracy the run cannot give.
+    fn check_tolerance_floor(&self) -> Result<(), RunError> {
+        if !self.method.is_adaptive() {
+            return Ok(());
+        }
+        let (floor, why) = if self.method.is_taylor() {
+            (
+                lasalle_runtime::taylor::TOL_FLOOR,
+                "u², u = 2⁻⁵³ the unit roundoff: the compensated Taylor state holds no more",
+            )
+        } else {
+            (
+                rtol_floor::<f64>(),
+                "ten unit roundoffs: below it the error estimate of the embedded pair is \
+                 rounding, no step passes it, and the steps shrink until the run crawls",
+            )
+        };
+        // the floor as the message shows it, rounded up: a tolerance copied from it passes
+        let shown = round_up(floor);
+        if self.rtol < floor {
+            return Err(RunError::Spec(format!(
+                "--rtol {:e} is below {floor:.3e}, the smallest tolerance `{}` meets in f64 \
+                 ({why}): give --rtol {shown} or more",
+                self.rtol, self.method
+            )));
+        }
+        if self.method.is_taylor() && self.rtol >= 1.0 {
+            return Err(RunError::Spec(format!(
+                "--rtol {} is not a tolerance: `{}` needs ε in [{shown}, 1)",
+                self.rtol, self.method
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// `x > 0` rounded up to three significant digits, as `d.dde±n`.
+fn round_up(x: f64) -> String {
+    let e = x.log10().floor();
+    let m = (x / 10f64.powf(e) * 100.0 * (1.0 - 1e-12)).ceil() / 100.0;
+    format!("{m:.2}e{e}")
 }
 
 /// The preset `name`, or the model's first one if `name` is `None` (`None` if it declares
@@ -529,6 +582,13 @@ mod tests {
             .unwrap();
         assert_eq!((spec.dt, spec.tol), (0.0, 1e-10));
         assert_eq!(spec.gains, GainPolicy::Default);
+    }
+
+    #[test]
+    fn the_floor_shown_is_rounded_up() {
+        assert_eq!(round_up(lasalle_runtime::rtol_floor()), "1.12e-15");
+        assert_eq!(round_up(lasalle_runtime::taylor::TOL_FLOOR), "1.24e-32");
+        assert_eq!(round_up(2.5e-3), "2.50e-3");
     }
 
     #[test]

@@ -206,6 +206,24 @@ fn damped_oscillator_spectrum_sums_to_the_divergence() {
     }
 }
 
+/// ẋ = −x, ẏ = y/2: the tangent vectors start on the eigenvectors e₁, e₂, so Gram–Schmidt
+/// keeps them there and accumulates −1 in the first column and 1/2 in the second — the
+/// decreasing order is (1/2, −1), the columns' (−1, 1/2), both exact.
+#[test]
+fn the_spectrum_is_decreasing_and_the_columns_order_kept_apart() {
+    let m = load(
+        "model Split { state x: scalar, y: scalar; d/dt x = -x; d/dt y = y / 2;
+         point start { x = 1; y = 1; } }",
+        Backend::default(),
+    );
+    let sp = lyapunov_spectrum(&m, &[1.0, 1.0], &spec(DOPRI5, 20.0, 1e-12), 1.0).unwrap();
+    for (got, exact) in [(&sp.exponents, [0.5, -1.0]), (&sp.qr_order, [-1.0, 0.5])] {
+        for (l, e) in got.iter().zip(exact) {
+            assert!((l - e).abs() < 1e-9, "{sp:?}");
+        }
+    }
+}
+
 /// Hénon–Heiles in its chaotic sea: the spectrum is (λ, 0, 0, −λ) with λ > 0, and sums to 0.
 #[test]
 fn henon_heiles_spectrum_comes_in_pairs() {

@@ -79,8 +79,10 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
         }
     }
 
-    /// Fails with [`StepError::MaxSteps`] after `n` accepted steps short of the end time
-    /// (default: unlimited).
+    /// Fails with [`StepError::MaxSteps`] once `n` steps, accepted and rejected together, are
+    /// spent short of the end time (default: unlimited). The budget is checked before each
+    /// step, so an adaptive step's own trials (at most its `max_rejections`, 50 for
+    /// [`crate::DormandPrince`]) may pass it by that many.
     pub fn max_steps(mut self, n: u64) -> Self {
         self.max_steps = n;
         self
@@ -296,11 +298,14 @@ impl<'g, T: Float, X: State<T>> Driver<'g, T, X> {
                 } else {
                     (h, false)
                 };
-                if summary.steps >= self.max_steps {
+                // rejected trial steps spend the budget as accepted ones do: a run whose
+                // steps are all rejected ends too
+                if summary.steps.saturating_add(summary.rejections) >= self.max_steps {
                     return Err(StepError::MaxSteps {
                         t: to_f64(t),
                         h: to_f64(h_step),
-                        steps: summary.steps,
+                        steps: self.max_steps,
+                        rejected: summary.rejections,
                         state: state_to_vec(x.as_ref()),
                     });
                 }

@@ -35,8 +35,16 @@ pub enum StepError {
         /// The state (after the step for `"state"`, before it for `"field"`).
         state: Vec<f64>,
     },
-    /// An adaptive stepper needed a step below the smallest admissible one.
-    #[error("step size too small at t = {t}: h = {h:e} < h_min = {h_min:e}; state = {state:?}")]
+    /// An adaptive stepper needed a step below the smallest admissible one: the larger of
+    /// its own `h_min` and ten ulps of t (ten times the machine epsilon times |t|, below which
+    /// t + h hardly moves), or the smallest normal number at t = 0. The solution cannot be
+    /// resolved there at the requested tolerance — a singularity ahead (a collision, a finite
+    /// escape time), a discontinuity of the field, or a tolerance below what f64 delivers.
+    #[error(
+        "step size underflow at t = {t}: the method needs h = {h:e}, below the smallest step \
+         h_min = {h_min:e} (ten ulps of t); a singularity or a discontinuity ahead, or a \
+         tolerance beyond f64; state = {state:?}"
+    )]
     StepSizeTooSmall {
         /// Time at the start of the failed step.
         t: f64,
@@ -59,8 +67,12 @@ pub enum StepError {
         /// The state at the start of the failed step.
         state: Vec<f64>,
     },
-    /// The driver reached its step budget before the end time.
-    #[error("maximum number of steps ({steps}) reached at t = {t} (h = {h:e}); state = {state:?}")]
+    /// The driver reached its step budget before the end time. Accepted and rejected steps
+    /// both count against the budget ([`crate::Driver::max_steps`]).
+    #[error(
+        "step budget of {steps} steps spent at t = {t} ({rejected} of them rejected, h = {h:e}); \
+         state = {state:?}"
+    )]
     MaxSteps {
         /// Time reached.
         t: f64,
@@ -68,6 +80,8 @@ pub enum StepError {
         h: f64,
         /// The step budget.
         steps: u64,
+        /// How many of the steps spent were rejected trial steps of an adaptive method.
+        rejected: u64,
         /// The state reached.
         state: Vec<f64>,
     },
@@ -165,14 +179,16 @@ impl StepError {
     }
 
     /// The step at which the run failed, where the error knows it (blow-ups, guards,
-    /// divergence and the step budget).
+    /// divergence and the step budget: the accepted steps when it ran out).
     pub fn step(&self) -> Option<u64> {
         match self {
             StepError::NonFinite { step, .. }
             | StepError::Guard { step, .. }
             | StepError::Diverged { step, .. }
             | StepError::Interrupted { step, .. } => Some(*step),
-            StepError::MaxSteps { steps, .. } => Some(*steps),
+            StepError::MaxSteps {
+                steps, rejected, ..
+            } => Some(steps - rejected),
             _ => None,
         }
     }

@@ -70,9 +70,9 @@ pub use output::{component_names, write_csv, Csv};
 pub use params::{ParamError, Parameters};
 pub use state::State;
 pub use steppers::{
-    pivoted_cholesky_solve, Batch, CompiledStep, Composition, DenseOutput, DormandPrince,
-    DormandPrinceOptions, Euler, ExplicitRk, FixedMethod, Heun, Projection, RawBatch, RawStep,
-    RigidBodySplitting, Rk4, Splitting, StepOutcome, Stepper, StormerVerlet, Tableau,
-    VerletVariant,
+    pivoted_cholesky_solve, rtol_floor, Batch, CompiledStep, Composition, DenseOutput,
+    DormandPrince, DormandPrinceOptions, Euler, ExplicitRk, FixedMethod, Heun, Projection,
+    RawBatch, RawStep, RigidBodySplitting, Rk4, Splitting, StepOutcome, Stepper, StormerVerlet,
+    Tableau, VerletVariant,
 };
 pub use taylor::{Taylor, TaylorError, TaylorField, TaylorKernel, TaylorKernels, TaylorOptions};

@@ -88,11 +88,18 @@ impl<T: Copy, X: ?Sized, A: Observer<T, X>, B: Observer<T, X>> Observer<T, X> fo
 /// already. It keeps the next sampled step instead of
 /// dividing, so the hot loop of a run has no integer division, and names it to the driver
 /// ([`Observer::next_wanted`]), which need not show it the steps in between.
+///
+/// A widening rule ([`Stride::widening`]) doubles n after every `widen_after` samples, so
+/// that a run of unknown length keeps about `widen_after`·log₂(steps/`widen_after`) of them.
 #[derive(Clone, Copy, Debug)]
 struct Every {
     n: u64,
     next: u64,
     last: Option<u64>,
+    /// Samples at the current n before it doubles (0: never).
+    widen_after: u64,
+    /// Samples taken at the current n.
+    taken: u64,
 }
 
 impl Every {
@@ -102,6 +109,8 @@ impl Every {
             n: n.max(1),
             next: 0,
             last: None,
+            widen_after: 0,
+            taken: 0,
         }
     }
 
@@ -110,6 +119,13 @@ impl Every {
     fn due(&mut self, step: u64) -> bool {
         if self.n > 1 && step < self.next {
             return false;
+        }
+        if self.widen_after > 0 {
+            self.taken += 1;
+            if self.taken == self.widen_after {
+                self.taken = 0;
+                self.n = self.n.saturating_mul(2);
+            }
         }
         self.next = step.saturating_add(self.n);
         self.last = Some(step);
@@ -145,6 +161,17 @@ impl<O> Stride<O> {
             inner,
             every: Every::new(every),
         }
+    }
+
+    /// Forwards every `every`-th step for `samples` observations, then every 2·`every`-th
+    /// for as many, every 4·`every`-th, …: a run of unknown length (an adaptive one) is
+    /// sampled densely at its start and keeps about `samples`·log₂(steps/`samples`)
+    /// observations however long it runs (`samples` = 0: never widens, as
+    /// [`Stride::new`]).
+    pub fn widening(inner: O, every: u64, samples: u64) -> Self {
+        let mut every = Every::new(every);
+        every.widen_after = samples;
+        Stride { inner, every }
     }
 }
 

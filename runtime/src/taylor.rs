@@ -527,10 +527,31 @@ pub mod rec {
     }
 }
 
+/// The smallest tolerance ε [`Taylor`] accepts: u² = 2⁻¹⁰⁶ ≈ 1.2·10⁻³², u = 2⁻⁵³ the unit
+/// roundoff (Jorba & Zou's order for it is 38).
+///
+/// Unlike an embedded Runge–Kutta pair, the Taylor method's tolerance is not compared with a
+/// rounded error estimate: it sets the order and the step (the last two terms of the series
+/// about ε), so tolerances below u are meaningful — the compensated update carries the state
+/// as the pair x + (its rounding error), about u² of it, and ε = 10⁻¹⁷ still removes
+/// truncation error (module docs). Below u² the extra orders buy nothing that pair can hold,
+/// and far below it (p beyond about 170 for an entire solution, whose coefficients
+/// 1/k! underflow) the step rule sees vanishing coefficients and takes unbounded steps.
+pub const TOL_FLOOR: f64 = f64::EPSILON * f64::EPSILON / 4.0;
+
+/// The smallest step [`Taylor`] takes at time t: ten ulps of t (ten machine epsilons times
+/// |t|, as DOPRI5's), at t = 0 the smallest normal number. A Jorba–Zou step below it (the
+/// radius of convergence shrinking to zero: a collision, a finite escape time) ends the run
+/// with [`StepError::StepSizeTooSmall`].
+pub fn min_step(t: f64) -> f64 {
+    (10.0 * f64::EPSILON * t.abs()).max(f64::MIN_POSITIVE)
+}
+
 /// Options of [`Taylor`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TaylorOptions {
-    /// The tolerance ε, absolute for ‖x‖∞ ≤ 1 and relative above (default `1e-15`).
+    /// The tolerance ε, absolute for ‖x‖∞ ≤ 1 and relative above (default `1e-15`; in
+    /// [[`TOL_FLOOR`], 1)).
     pub tol: f64,
     /// The order p; `None` (default) for Jorba & Zou's ⌈−½ ln ε + 1⌉.
     pub order: Option<u32>,
@@ -559,9 +580,10 @@ impl TaylorOptions {
 
     /// The order these options ask for, after checking them.
     pub fn checked_order(&self) -> Result<u32, TaylorError> {
-        if !(self.tol > 0.0 && self.tol < 1.0) {
+        if !(self.tol >= TOL_FLOOR && self.tol < 1.0) {
             return Err(TaylorError::Option(format!(
-                "the tolerance must lie in (0, 1), got {}",
+                "the tolerance must lie in [{TOL_FLOOR:.2e}, 1), got {:e} (the floor is u², u the \
+                 unit roundoff: the compensated state holds no more)",
                 self.tol
             )));
         }
@@ -900,6 +922,15 @@ impl<M: ?Sized> Taylor<M> {
             });
         }
         let h_own = h_jz.min(self.opts.h_max);
+        let h_min = min_step(t);
+        if h_own < h_min && h > h_own {
+            return Err(StepError::StepSizeTooSmall {
+                t,
+                h: h_own,
+                h_min,
+                state: x.to_vec(),
+            });
+        }
         let h_taken = h.min(h_own);
         // Horner into x; the coefficients stay in the kernel for the dense output
         self.compensated_update(which, self.direction * h_taken, x);

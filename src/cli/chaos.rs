@@ -4,6 +4,7 @@
 //! the map's figure.
 
 use std::path::Path;
+use std::time::Instant;
 
 use clap::{Args, ValueEnum};
 use lasalle::run::chaos;
@@ -11,6 +12,7 @@ use lasalle::{LoadedModel, ModelInfo, RunSpec};
 use serde_json::{json, Value};
 
 use super::plot::write_heat_map;
+use super::progress::RunProgress;
 use super::{usage, value, CliResult, Given};
 
 /// The variational flags of `lasalle run`.
@@ -48,15 +50,16 @@ impl ChaosArgs {
 }
 
 /// The variational runs `args` asks for, from the run's own model, start and spec; their
-/// results go into `summary` (and Φ into `dir/stm.csv`).
+/// results go into `summary` (and Φ into `dir/stm.csv`), with the time and the steps each run
+/// took under `extended_runs`. Each run draws a progress bar if `shown` (on a terminal, once
+/// it has taken a few seconds).
 pub fn extend_summary(
     args: &ChaosArgs,
-    model: &LoadedModel,
-    x0: &[f64],
-    spec: &RunSpec,
+    (model, x0, spec): (&LoadedModel, &[f64], &RunSpec),
     dir: &Path,
     summary: &mut Value,
     given: &Given,
+    shown: bool,
 ) -> CliResult {
     if !args.lyapunov_spectrum {
         given.refuse(&["renormalise_every"], "applies to --lyapunov-spectrum")?;
@@ -67,23 +70,23 @@ pub fn extend_summary(
     chaos::check_method(spec.method).map_err(usage)?;
     let mut spec = spec.clone();
     spec.every = u64::MAX;
-    let names = lasalle::component_names(model.state_slots());
+    let mut runs = serde_json::Map::new();
+    // times the run `name` (from its start: deriving and compiling the extension included)
+    let mut timed = |name: &str, start: Instant, steps: u64| {
+        runs.insert(
+            name.into(),
+            json!({ "seconds": start.elapsed().as_secs_f64(), "steps": steps }),
+        );
+    };
+    let bar = |label: &str| RunProgress::new(shown, label, spec.t_end);
     if args.variational {
-        let tr = chaos::state_transition(model, x0, &spec).map_err(usage)?;
+        let (start, bar) = (Instant::now(), bar("variational"));
+        let tr = chaos::state_transition_with_progress(model, x0, &spec, &|t| bar.set(t));
+        bar.finish();
+        let tr = tr.map_err(usage)?;
         failed(&tr.recording, "--variational")?;
-        let mut csv = String::from("d/dx0");
-        for n in &names {
-            csv.push_str(&format!(",{n}"));
-        }
-        csv.push('\n');
-        for (n, row) in names.iter().zip(&tr.phi) {
-            csv.push_str(&format!("{n}(T)"));
-            for v in row {
-                csv.push_str(&format!(",{v:e}"));
-            }
-            csv.push('\n');
-        }
-        std::fs::write(dir.join("stm.csv"), csv)?;
+        write_stm(dir, model, &tr.phi)?;
+        timed("variational", start, tr.recording.steps);
         summary["variational"] = json!({
             "t": tr.recording.t_final(),
             "x": tr.x,
@@ -93,16 +96,26 @@ pub fn extend_summary(
         });
     }
     if args.lyapunov_spectrum {
+        let (start, bar) = (Instant::now(), bar("lyapunov spectrum"));
+        let interval = args.renormalise_every;
         let sp =
-            chaos::lyapunov_spectrum(model, x0, &spec, args.renormalise_every).map_err(usage)?;
+            chaos::lyapunov_spectrum_with_progress(model, x0, &spec, interval, &|t| bar.set(t));
+        bar.finish();
+        let sp = sp.map_err(usage)?;
+        timed("lyapunov_spectrum", start, sp.steps);
         summary["lyapunov_spectrum"] = sp.exponents.clone().into();
+        summary["lyapunov_spectrum_qr_order"] = sp.qr_order.clone().into();
         summary["lyapunov_spectrum_sum"] = sp.exponents.iter().sum::<f64>().into();
         summary["renormalise_every"] = args.renormalise_every.into();
         summary["renormalisations"] = sp.renormalisations.into();
     }
     if args.megno || args.fli {
-        let (rec, ind) = chaos::indicators(model, x0, &spec).map_err(usage)?;
+        let (start, bar) = (Instant::now(), bar("indicators"));
+        let found = chaos::indicators_with_progress(model, x0, &spec, &|t| bar.set(t));
+        bar.finish();
+        let (rec, ind) = found.map_err(usage)?;
         failed(&rec, if args.megno { "--megno" } else { "--fli" })?;
+        timed("indicators", start, rec.steps);
         if args.megno {
             summary["megno"] = lasalle::json_number(ind.megno_mean);
             summary["megno_y"] = lasalle::json_number(ind.megno);
@@ -112,6 +125,28 @@ pub fn extend_summary(
         }
         summary["mle"] = lasalle::json_number(ind.mle);
     }
+    let total: f64 = runs.values().filter_map(|r| r["seconds"].as_f64()).sum();
+    summary["extended_runs"] = runs.into();
+    summary["extended_seconds"] = total.into();
+    Ok(())
+}
+
+/// Φ(t_end) as `dir/stm.csv`: a header of the state's components, a row ∂xᵢ(T)/∂x₀ each.
+fn write_stm(dir: &Path, model: &LoadedModel, phi: &[Vec<f64>]) -> CliResult {
+    let names = lasalle::component_names(model.state_slots());
+    let mut csv = String::from("d/dx0");
+    for n in &names {
+        csv.push_str(&format!(",{n}"));
+    }
+    csv.push('\n');
+    for (n, row) in names.iter().zip(phi) {
+        csv.push_str(&format!("{n}(T)"));
+        for v in row {
+            csv.push_str(&format!(",{v:e}"));
+        }
+        csv.push('\n');
+    }
+    std::fs::write(dir.join("stm.csv"), csv)?;
     Ok(())
 }
 
@@ -190,19 +225,36 @@ pub fn write_map(
     write_heat_map(dir, &stem, title, axes, indicator.column(), cells, (lo, hi))
 }
 
-/// The report lines of the variational results in `summary` (for `--format table`).
+/// The report lines of the variational results in `summary` (for `--format table`), each
+/// with the time its run took.
 pub fn report(summary: &Value) {
-    if let Some(v) = summary.get("variational") {
+    let took = |run: &str| {
+        let r = &summary["extended_runs"][run];
+        format!(
+            "{:.3} s, {} steps",
+            r["seconds"].as_f64().unwrap_or(f64::NAN),
+            r["steps"]
+        )
+    };
+    if summary.get("variational").is_some() {
         println!(
-            "  Φ(t_end) = ∂x(t_end)/∂x0 in stm.csv ({} steps)",
-            v["steps"]
+            "  Φ(t_end) = ∂x(t_end)/∂x0 in stm.csv ({})",
+            took("variational")
         );
     }
     if let Some(l) = summary.get("lyapunov_spectrum") {
         println!(
-            "  Lyapunov spectrum {l} (sum {})",
-            summary["lyapunov_spectrum_sum"]
+            "  Lyapunov spectrum, largest first: {l} (sum {}; {})",
+            summary["lyapunov_spectrum_sum"],
+            took("lyapunov_spectrum")
         );
+        if summary.get("lyapunov_spectrum_qr_order") != Some(l) {
+            println!(
+                "    not converged: the Gram–Schmidt order {} is not yet the decreasing one \
+                 (a longer --t-end separates them)",
+                summary["lyapunov_spectrum_qr_order"]
+            );
+        }
     }
     for (key, what) in [
         ("megno", "MEGNO ⟨Y⟩"),
@@ -212,6 +264,9 @@ pub fn report(summary: &Value) {
         if let Some(v) = summary.get(key) {
             println!("  {what} = {v}");
         }
+    }
+    if summary["extended_runs"].get("indicators").is_some() {
+        println!("    ({})", took("indicators"));
     }
 }
 

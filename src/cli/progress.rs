@@ -1,24 +1,62 @@
-//! The progress bar of a run on standard error (only if it is a terminal).
+//! The progress bar of a run on standard error: only if it is a terminal, and only once the
+//! run has taken longer than [`SHOW_AFTER`] (a short run draws nothing).
 
 use std::io::IsTerminal;
+use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lasalle::{simulate_with_progress, Recording, RunError, RunModel, RunSpec, State};
 
-/// A progress bar over [0, 1000], drawn on standard error only if `enabled` and it is a
-/// terminal.
-pub fn progress_bar(enabled: bool, label: &str) -> ProgressBar {
-    if !enabled || !std::io::stderr().is_terminal() {
-        return ProgressBar::hidden();
+/// How long a run goes before its progress bar appears.
+pub const SHOW_AFTER: Duration = Duration::from_secs(2);
+
+/// A progress bar over a run's time span [0, `t_end`], drawn on standard error once the run
+/// has taken [`SHOW_AFTER`], if it was asked for and standard error is a terminal; hidden
+/// otherwise.
+pub struct RunProgress {
+    bar: ProgressBar,
+    t_end: f64,
+    start: Instant,
+    /// Whether to draw once [`SHOW_AFTER`] has passed (asked for, and a terminal).
+    drawable: bool,
+}
+
+impl RunProgress {
+    /// A bar labelled `label` over [0, `t_end`], drawn only if `enabled`.
+    pub fn new(enabled: bool, label: &str, t_end: f64) -> RunProgress {
+        let bar = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::hidden());
+        if let Ok(style) = ProgressStyle::with_template(
+            "{msg:>28} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}",
+        ) {
+            bar.set_style(style.progress_chars("=> "));
+        }
+        bar.set_message(label.to_string());
+        RunProgress {
+            bar,
+            t_end,
+            start: Instant::now(),
+            drawable: enabled && std::io::stderr().is_terminal(),
+        }
     }
-    let bar = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::stderr());
-    if let Ok(style) = ProgressStyle::with_template(
-        "{msg:>28} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}",
-    ) {
-        bar.set_style(style.progress_chars("=> "));
+
+    /// The run has reached time `t`.
+    pub fn set(&self, t: f64) {
+        if self.drawable && self.bar.is_hidden() && self.start.elapsed() >= SHOW_AFTER {
+            self.bar.set_draw_target(ProgressDrawTarget::stderr());
+        }
+        let fraction = if self.t_end > 0.0 {
+            t / self.t_end
+        } else {
+            0.0
+        };
+        self.bar
+            .set_position((fraction.clamp(0.0, 1.0) * 1000.0) as u64);
     }
-    bar.set_message(label.to_string());
-    bar
+
+    /// The run is over: the bar goes.
+    pub fn finish(&self) {
+        self.bar.finish_and_clear();
+    }
 }
 
 /// [`lasalle::simulate`] with a progress bar labelled with the method if `shown`.
@@ -34,11 +72,8 @@ where
     FV: State<f64>,
     K: State<f64>,
 {
-    let bar = progress_bar(shown, &spec.method.to_string());
-    let t_end = spec.t_end.abs();
-    let recording = simulate_with_progress(model, x0, spec, &|t| {
-        bar.set_position((t / t_end * 1000.0) as u64)
-    });
-    bar.finish_and_clear();
+    let bar = RunProgress::new(shown, &spec.method.to_string(), spec.t_end.abs());
+    let recording = simulate_with_progress(model, x0, spec, &|t| bar.set(t));
+    bar.finish();
     recording
 }

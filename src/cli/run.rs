@@ -232,7 +232,8 @@ pub fn run(args: &RunArgs, given: &Given) -> CliResult {
     }
     if recording.failure.is_none() {
         let chaos = &args.chaos;
-        super::chaos::extend_summary(chaos, &model, &x0, &spec, &dir, &mut summary, given)?;
+        let extended = (&model, x0.as_slice(), &spec);
+        super::chaos::extend_summary(chaos, extended, &dir, &mut summary, given, shown)?;
     }
     std::fs::write(
         dir.join("summary.json"),
@@ -244,8 +245,12 @@ pub fn run(args: &RunArgs, given: &Given) -> CliResult {
         Format::Table => {}
     }
     if let Some(e) = &recording.failure {
+        let hint = match e {
+            lasalle::StepError::MaxSteps { .. } => "; --max-steps raises the budget",
+            _ => "",
+        };
         return Err(format!(
-            "{method} on `{name}` stopped: {e}\n(samples up to the failure are in {})",
+            "{method} on `{name}` stopped: {e}\n(samples up to the failure are in {}{hint})",
             dir.display()
         )
         .into());
@@ -256,8 +261,13 @@ pub fn run(args: &RunArgs, given: &Given) -> CliResult {
         } else {
             "dt chosen by the method".to_string()
         };
+        // the variational runs' time, after the run's own
+        let extended = match summary["extended_seconds"].as_f64() {
+            Some(s) => format!(" + {s:.3} s of variational runs"),
+            None => String::new(),
+        };
         println!(
-            "{name} {method} {dt} to t = {}: {} steps, {} evaluations, {:.3} s (model loaded in {:.1} ms)",
+            "{name} {method} {dt} to t = {}: {} steps, {} evaluations, {:.3} s{extended} (model loaded in {:.1} ms)",
             spec.t_end,
             recording.steps,
             recording.evaluations,

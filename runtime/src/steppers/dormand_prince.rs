@@ -21,12 +21,25 @@ use crate::error::{all_finite, state_to_vec, to_f64, StepError};
 use crate::field::{lit, Field};
 use crate::state::State;
 
+/// The smallest relative tolerance [`DormandPrince`] accepts: ten unit roundoffs, 10·u with
+/// u = ε/2 the unit roundoff of `T` (1.1·10⁻¹⁵ for f64).
+///
+/// The error estimate h Σ (bᵢ − b̂ᵢ) kᵢ is a difference of stages each rounded to about u|x|:
+/// below a few u the estimate is rounding, not truncation, no step passes it, and the
+/// controller shrinks the step until the run crawls (a harmonic oscillator at rtol = 10⁻³⁰
+/// takes steps of 10⁻¹⁴). Hairer's codes refuse the same tolerances (`RTOL ≤ 10·UROUND`:
+/// "TOLERANCES ARE TOO SMALL", RADAU5 and SEULEX of Hairer & Wanner, *Solving ODEs II*).
+pub fn rtol_floor<T: Float>() -> T {
+    lit::<T>(5.0) * T::epsilon()
+}
+
 /// Tolerances and controller parameters of [`DormandPrince`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DormandPrinceOptions<T> {
-    /// Relative tolerance (default `1e-6`).
+    /// Relative tolerance (default `1e-6`); at least [`rtol_floor`] (a smaller one fails the
+    /// first step with [`StepError::InvalidInput`]).
     pub rtol: T,
-    /// Absolute tolerance (default `1e-9`).
+    /// Absolute tolerance (default `1e-9`; positive).
     pub atol: T,
     /// Safety factor `fac` of the controller (default `0.9`).
     pub safety: T,
@@ -40,7 +53,8 @@ pub struct DormandPrinceOptions<T> {
     /// Largest step size (default `+∞`).
     pub h_max: T,
     /// Smallest step size; a smaller step is an error (default `0`, i.e. only the round-off
-    /// limit `10·ε·|t|` applies).
+    /// limit `10·ε·|t|`, ten ulps of t, applies — `dopri5.f`'s `0.1|h| ≤ UROUND·|x|` — and at
+    /// t = 0 the smallest normal number).
     pub h_min: T,
     /// Consecutive rejections allowed within one step before giving up (default `50`).
     pub max_rejections: u32,
@@ -174,6 +188,22 @@ impl<T: Float, X: State<T>> DormandPrince<T, X> {
         &self.opts
     }
 
+    /// Checks the tolerances: a relative tolerance at least [`rtol_floor`], a positive
+    /// absolute one.
+    pub fn check_tolerances(rtol: T, atol: T) -> Result<(), StepError> {
+        let floor = rtol_floor::<T>();
+        if !(rtol >= floor && rtol.is_finite() && atol > T::zero() && atol.is_finite()) {
+            return Err(StepError::InvalidInput(format!(
+                "dopri5: need rtol ≥ {:e} (ten unit roundoffs: below it the error estimate \
+                 is rounding and no step passes it) and atol > 0, got rtol = {:e}, atol = {:e}",
+                to_f64(floor),
+                to_f64(rtol),
+                to_f64(atol)
+            )));
+        }
+        Ok(())
+    }
+
     /// RMS norm of `v` scaled by `atol + rtol·|x|` (HNW I, eq. (4.11) with one state).
     fn scaled_norm(&self, v: &[T], x: &[T]) -> T {
         let mut s = T::zero();
@@ -232,8 +262,9 @@ impl<T: Float, X: State<T>, F: Field<T, X> + ?Sized> Stepper<T, X, F> for Dorman
                 to_f64(h)
             )));
         }
-        let mut evaluations = self.ensure_k1(field, t, x, h)?;
         let o = self.opts;
+        Self::check_tolerances(o.rtol, o.atol)?;
+        let mut evaluations = self.ensure_k1(field, t, x, h)?;
         let mut h = h.min(o.h_max);
         let mut rejections = 0u32;
         let ten = lit::<T>(10.0);
@@ -241,7 +272,10 @@ impl<T: Float, X: State<T>, F: Field<T, X> + ?Sized> Stepper<T, X, F> for Dorman
         let n_dim = x.len();
         let w = self.work.as_mut().expect("allocated by ensure_k1");
         loop {
-            let h_min = o.h_min.max(ten * T::epsilon() * t.abs());
+            let h_min = o
+                .h_min
+                .max(ten * T::epsilon() * t.abs())
+                .max(T::min_positive_value());
             if h < h_min {
                 return Err(StepError::StepSizeTooSmall {
                     t: to_f64(t),
@@ -366,6 +400,11 @@ impl<T: Float, X: State<T>, F: Field<T, X> + ?Sized> Stepper<T, X, F> for Dorman
     fn initial_step(&mut self, field: &F, t0: T, x0: &X, t_end: T) -> Option<T> {
         let n_dim = x0.len();
         let opts = self.opts;
+        let span = (t_end - t0).abs();
+        if Self::check_tolerances(opts.rtol, opts.atol).is_err() {
+            // tolerances the first step refuses (with the reason): any step will do
+            return Some(if span > T::zero() { span } else { T::one() });
+        }
         let mut f0 = X::filled(X::len_for(n_dim), T::zero());
         field.field(x0, &mut f0);
         let d0 = self.scaled_norm(x0.as_ref(), x0.as_ref());
@@ -376,7 +415,6 @@ impl<T: Float, X: State<T>, F: Field<T, X> + ?Sized> Stepper<T, X, F> for Dorman
         } else {
             lit::<T>(0.01) * d0 / d1
         };
-        let span = (t_end - t0).abs();
         if span > T::zero() {
             h0 = h0.min(span);
         }

@@ -34,7 +34,7 @@ mod tableau;
 
 pub use compiled::{CompiledStep, FixedMethod, RawBatch, RawStep};
 pub use composition::Composition;
-pub use dormand_prince::{DormandPrince, DormandPrinceOptions};
+pub use dormand_prince::{rtol_floor, DormandPrince, DormandPrinceOptions};
 pub use explicit_rk::{Euler, ExplicitRk, Heun, Rk4};
 pub use projection::{pivoted_cholesky_solve, Projection};
 pub use rigid_body_splitting::RigidBodySplitting;
