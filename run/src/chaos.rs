@@ -7,7 +7,7 @@
 //! tangent vector with the integrals of its growth rate, derived symbolically and compiled by
 //! the model's back end like any other field. [`extend`] builds that model from a loaded one
 //! (same back end, same parameters; in loop form for a model loaded with its families kept
-//! as loops, [`lasalle_model::loops::variational`]); [`simulate`] then runs it as any model.
+//! as loops, [`lasalle_model::loops::variational`]); [`simulate`](crate::simulate) then runs it as any model.
 //!
 //! The methods that apply are those that integrate the extended field itself: `euler`, `heun`,
 //! `rk4`, `dopri5` and `taylor`. The feedback, projection, symplectic and splitting methods
