@@ -631,8 +631,8 @@ def _positive_int(name: str, v: Any) -> int:
         whole = int(v) == v and not isinstance(v, bool)
     except (TypeError, ValueError, OverflowError):
         whole = False
-    if not whole or not 1 <= v < 2**63:
-        raise ValueError(f"{name} must be a whole number ≥ 1 (and below 2⁶³), got {v!r}")
+    if not whole or not 1 <= v < 2**64:
+        raise ValueError(f"{name} must be a whole number ≥ 1 (and below 2⁶⁴), got {v!r}")
     return int(v)
 
 

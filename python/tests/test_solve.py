@@ -197,7 +197,6 @@ def test_the_package_lists_its_public_names_only():
         ("taylor", dict(rtol=1e-15), 1e-12),
         ("rk4", dict(dt=1e-3), 1e-10),
         ("symplectic6", dict(dt=1e-2), 1e-9),
-        ("feedback-rk4", dict(dt=1e-3), 1e-10),
         ("feedback-dopri5", dict(rtol=1e-12, atol=1e-12), 1e-9),
     ],
 )
