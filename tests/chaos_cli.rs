@@ -307,8 +307,8 @@ fn sweep_fli_is_the_supremum() {
 /// `lasalle sweep` line reads, both rows lie on E = 1/8 (p₀ from the energy), and both run.
 #[test]
 fn docs_list_example_runs() {
-    let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/chaos.md"))
-        .unwrap();
+    let doc =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/chaos.md")).unwrap();
     let mut lines = doc.lines().skip_while(|l| !l.starts_with("printf '"));
     let printf = lines.next().expect("the printf line of the --list example");
     let sweep = lines.next().expect("the sweep line after it");

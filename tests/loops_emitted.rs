@@ -430,7 +430,10 @@ fn guards_and_events_equal_the_jit_bit_for_bit() {
                     }
                     _ => false,
                 };
-                assert!(same_failure, "guards at {x:?}, dt {dt}: {got:?} vs {theirs:?}");
+                assert!(
+                    same_failure,
+                    "guards at {x:?}, dt {dt}: {got:?} vs {theirs:?}"
+                );
                 assert!(
                     same(g[0], want[0]) && same(g[1], want[1]),
                     "{g:?} vs {want:?}"

@@ -151,9 +151,15 @@ fn unseen_models_run_from_their_files() {
         let all = v.as_array().expect("an array of numbers");
         all.iter().map(|x| x.as_f64().expect("a number")).collect()
     };
-    let (a, b) = (numbers(&lv_interp["final_state"]), numbers(&lv["final_state"]));
+    let (a, b) = (
+        numbers(&lv_interp["final_state"]),
+        numbers(&lv["final_state"]),
+    );
     assert!(!a.is_empty() && a.len() == b.len());
-    assert!(a.iter().zip(&b).all(|(&u, &v)| same(u, v)), "{a:?} vs {b:?}");
+    assert!(
+        a.iter().zip(&b).all(|(&u, &v)| same(u, v)),
+        "{a:?} vs {b:?}"
+    );
 }
 
 /// The Taylor method (adaptive order and step, from the model's tapes) through the command

@@ -83,7 +83,11 @@ where
     m.invariants(x, &mut f);
     let mut jac = F::rows(target.as_ref().len(), x.clone());
     m.invariants_jacobian(x, &mut jac);
-    let jac: Vec<f64> = jac.as_ref().iter().flat_map(|r| r.as_ref().to_vec()).collect();
+    let jac: Vec<f64> = jac
+        .as_ref()
+        .iter()
+        .flat_map(|r| r.as_ref().to_vec())
+        .collect();
     let (mut grad, mut fb) = (x.clone(), x.clone());
     m.lyapunov_gradient(x, target, gains, &mut grad);
     m.feedback_field(x, target, gains, &mut fb);
@@ -102,7 +106,10 @@ where
         let is_q = p.is_q();
         let pick = |v: &X, q: bool| -> Vec<f64> {
             let v = v.as_ref();
-            (0..v.len()).filter(|&k| is_q[k] == q).map(|k| v[k]).collect()
+            (0..v.len())
+                .filter(|&k| is_q[k] == q)
+                .map(|k| v[k])
+                .collect()
         };
         out.push(("field_q", pick(&dq, true)));
         out.push(("field_p", pick(&dp, false)));
@@ -184,7 +191,11 @@ fn check<P, const N: usize, const M: usize, const G: usize>(
             let theirs = functions(m, &x.to_vec(), &target.to_vec(), &gains.to_vec());
             assert_eq!(theirs.len(), emitted.len(), "{file}: {backend:?} loaded");
             for ((what, a), (_, b)) in emitted.iter().zip(&theirs) {
-                assert_same(b, a, format!("{file}: {what} at {x:?}: {backend:?} loaded vs emitted"));
+                assert_same(
+                    b,
+                    a,
+                    format!("{file}: {what} at {x:?}: {backend:?} loaded vs emitted"),
+                );
             }
         }
     }
@@ -196,7 +207,13 @@ macro_rules! check_model {
         fn $module() {
             use models::$module::$ty as Model;
             let sys = Model::default().prepare();
-            check($file, &sys, |x| sys.targets(x), Model::default_gains(), $loops);
+            check(
+                $file,
+                &sys,
+                |x| sys.targets(x),
+                Model::default_gains(),
+                $loops,
+            );
         }
     };
 }

@@ -372,7 +372,11 @@ fn jit_vector_slots_follow_the_parameters() {
         .collect();
     let (hoisted, tape_hoisted) = (jit.hoist(&params).unwrap(), tape.hoist(&params).unwrap());
     assert!(hoisted.len() > tape_hoisted.len(), "no vector slot");
-    assert_same(&hoisted[..tape_hoisted.len()], &tape_hoisted, "hoisted values");
+    assert_same(
+        &hoisted[..tape_hoisted.len()],
+        &tape_hoisted,
+        "hoisted values",
+    );
     let d = jit.dims();
     let mut rng = Rng::new(7);
     let x: Vec<f64> = (0..d.state).map(|_| component(&mut rng)).collect();

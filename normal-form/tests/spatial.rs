@@ -41,7 +41,10 @@ fn spatial_l4_to_order_16_in_double_double() {
 
     let planar = common::l4_normal_form(EARTH_MOON, &opts).expect("planar normal form");
     let wp = planar.frequencies_linear();
-    assert!(wp.len() == 2 && same(wp[0], w[k1]) && same(wp[1], w[k2]), "{wp:?} vs {w:?}");
+    assert!(
+        wp.len() == 2 && same(wp[0], w[k1]) && same(wp[1], w[k2]),
+        "{wp:?} vs {w:?}"
+    );
     assert_eq!(planar.signs, vec![nf.signs[k1], nf.signs[k2]]);
     // with I_z = 0 every coefficient is the planar model's: compare the whole tables
     let mut compared = 0;
