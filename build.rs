@@ -17,11 +17,14 @@ fn main() {
         .model_extended("models/henon_heiles.lsl", Variational { tangents: 2 })
         .model_extended("models/rigid_body.lsl", Variational { tangents: 3 })
         .build();
-    if let Err(e) = built {
-        // Cargo shows a failing build script's stderr: file:line:col and the snippet.
-        eprintln!("{e}");
-        std::process::exit(1);
-    }
+    let built = match built {
+        Ok(built) => built,
+        Err(e) => {
+            // Cargo shows a failing build script's stderr: file:line:col and the snippet.
+            eprintln!("{e}");
+            std::process::exit(1);
+        }
+    };
     loop_forms();
     let dir =
         PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("set by cargo")).join("models");
@@ -31,6 +34,7 @@ fn main() {
         .filter(|p| p.extension().is_some_and(|x| x == "lsl"))
         .collect();
     files.sort();
+    model_list(&built, &files);
     let mut out = String::from(
         "/// The repository's model files, embedded: (file stem, text), sorted by name.\n\
          pub const MODEL_FILES: &[(&str, &str)] = &[\n",
@@ -50,6 +54,49 @@ fn main() {
     std::fs::write(target, out).expect("OUT_DIR is writable");
     println!("cargo:rerun-if-changed=models");
     println!("cargo:rerun-if-changed=tests/models/loop_ring.lsl");
+}
+
+/// `$OUT_DIR/model_list.rs`: the macro `for_each_model!(callback)`, which calls
+/// `callback!(module, Type, TypePrepared, "file.lsl", loops: _, invariants: _, partitioned: _,
+/// hamiltonian: _);` for every model file of `models/` (`files`, sorted), so that a test covers
+/// every model file, present and future, by `include!`-ing it. The flags are read off the
+/// generated model: `loops` for a model emitted in its loop form (which has no Taylor kernels or
+/// lanes), `invariants` where the model declares integrals or constraints (so that V reads
+/// targets and gains), `partitioned` where the prepared model implements `Partitioned` (and the
+/// lanes the half-fields), `hamiltonian` where the lanes evaluate the Hamiltonian; a wrong flag
+/// fails to compile, and the tests that use them check them against the model's tapes.
+fn model_list(built: &lasalle_codegen::Generated, files: &[PathBuf]) {
+    let mut calls = String::new();
+    for f in files {
+        // the plain models come first, the extended ones (same file) after them
+        let m = built
+            .models
+            .iter()
+            .find(|m| m.path.file_name() == f.file_name())
+            .expect("every model file is generated");
+        let loops = !m.code.contains("pub type TaylorField");
+        let invariants = !m.report.conservation.is_empty();
+        let partitioned = m.code.contains("fn field_q(");
+        let hamiltonian = m.code.contains("pub fn hamiltonian<const K");
+        let file = f.file_name().expect("a file").to_string_lossy();
+        writeln!(
+            calls,
+            "        $m!({module}, {name}, {name}Prepared, {file:?}, loops: {loops}, \
+             invariants: {invariants}, partitioned: {partitioned}, hamiltonian: {hamiltonian});",
+            module = m.module,
+            name = m.name
+        )
+        .unwrap();
+    }
+    let text = format!(
+        "/// Calls `$m!(module, Type, TypePrepared, \"file.lsl\", loops: bool, invariants: bool,\n\
+         /// partitioned: bool, hamiltonian: bool);` for every model file of `models/`, sorted by file name.\n\
+         #[allow(unused_macros)]\n\
+         macro_rules! for_each_model {{\n    ($m:ident) => {{\n{calls}    }};\n}}\n"
+    );
+    let target =
+        PathBuf::from(std::env::var("OUT_DIR").expect("set by cargo")).join("model_list.rs");
+    lasalle_codegen::write_if_changed(&target, &text).expect("OUT_DIR is writable");
 }
 
 /// The loop forms of the N-body and FPUT families at three sizes each (`param n` set on its

@@ -17,8 +17,13 @@ integrator once, shown apart.
 
     /work/venvs/heyoka/bin/python scripts/megno_map_bench.py --out docs/chaos
 
-writes the table (`megno_bench.md`), both maps (`megno_map.csv` and lasalle's figure
-`megno_map.png`) and prints the table.
+writes the initial conditions (`megno_ics.csv`, the `--list` of `lasalle sweep`), the table
+(`megno_bench.md`), both maps (`megno_map.csv` and lasalle's figure `megno_map.png`) and prints
+the table.
+
+    python3 scripts/megno_map_bench.py --ics-only --out docs/chaos
+
+writes `megno_ics.csv` alone (the standard library suffices: no numpy, no heyoka).
 """
 
 import argparse
@@ -30,7 +35,10 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
+try:
+    import numpy as np
+except ImportError:  # --ics-only needs the standard library alone
+    np = None
 
 ROOT = Path(__file__).resolve().parent.parent
 E = 1.0 / 8.0
@@ -43,14 +51,28 @@ def grid(points):
     n = int(math.sqrt(points))
     while True:
         out = []
-        for q1 in np.linspace(q_lo, q_hi, n):
-            for p1 in np.linspace(p_lo, p_hi, n):
+        for q1 in linspace(q_lo, q_hi, n):
+            for p1 in linspace(p_lo, p_hi, n):
                 p0sq = 2.0 * E - p1 * p1 - q1 * q1 + 2.0 * q1 ** 3 / 3.0
                 if p0sq > 0.0:
                     out.append((float(q1), float(p1), math.sqrt(p0sq)))
         if len(out) >= points:
             return n, out
         n += 1
+
+
+def linspace(lo, hi, n):
+    """numpy's linspace, value for value: lo + k·step, the last one hi itself."""
+    step = (hi - lo) / (n - 1)
+    return [lo + k * step for k in range(n - 1)] + [hi]
+
+
+def write_listing(ics, path):
+    """The `--list` CSV of `lasalle sweep`: a header of state components, a row per orbit."""
+    with open(path, "w") as f:
+        f.write("q[1],p[1],q[0],p[0]\n")
+        for q1, p1, p0 in ics:
+            f.write(f"{q1!r},{p1!r},0,{p0!r}\n")
 
 
 def children_cpu():
@@ -61,10 +83,7 @@ def children_cpu():
 def run_lasalle(ics, t_end, tol, method, out_dir, threads, every):
     suffix = "" if every == 1 else f"_every{every}"
     listing = out_dir / f"megno_ics{suffix}.csv"
-    with open(listing, "w") as f:
-        f.write("q[1],p[1],q[0],p[0]\n")
-        for q1, p1, p0 in ics:
-            f.write(f"{q1!r},{p1!r},0,{p0!r}\n")
+    write_listing(ics, listing)
     table = out_dir / (f"megno_map{suffix}.csv" if method == "taylor"
                        else f"megno_map_{method}{suffix}.csv")
     exe = os.environ.get("LASALLE", str(ROOT / "target/release/lasalle"))
@@ -138,10 +157,17 @@ def main():
     ap.add_argument("--no-dopri5", action="store_true")
     ap.add_argument("--every", type=int, default=1,
                     help="time every k-th initial condition of the grid only")
+    ap.add_argument("--ics-only", action="store_true",
+                    help="write the initial conditions (megno_ics.csv) and stop")
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     n, ics = grid(args.points)
     ics = ics[:: args.every]
+    if args.ics_only:
+        suffix = "" if args.every == 1 else f"_every{args.every}"
+        write_listing(ics, args.out / f"megno_ics{suffix}.csv")
+        print(f"{len(ics)} initial conditions -> {args.out}/megno_ics{suffix}.csv", file=sys.stderr)
+        return
     print(f"{len(ics)} initial conditions ({n}x{n} grid on the E = 1/8 section), "
           f"t_end = {args.t_end}, tol = {args.tol}, {args.threads} threads", file=sys.stderr)
     rows = []

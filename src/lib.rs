@@ -6,8 +6,8 @@
 //! re-exported here integrate.
 //!
 //! The run engine ([`lasalle_run`], re-exported here) does what `lasalle run` does: this is
-//! `lasalle run kepler -m feedback-rk4 --t-end 702.481`, the README's example
-//! (`tests/readme_example.rs` checks that the two agree):
+//! `lasalle run kepler -m feedback-rk4 --t-end 702.481`, as in the README (whose Rust blocks
+//! are doctests too):
 //!
 //! ```
 //! use lasalle::{simulate, Backend, LoadedModel, RunSpec};
@@ -37,6 +37,11 @@ pub use lasalle_run::{
 pub use lasalle_runtime::*;
 
 include!(concat!(env!("OUT_DIR"), "/model_files.rs"));
+
+/// The README, whose Rust blocks `cargo test --doc` compiles and runs as it does this crate's.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;
 
 /// The models generated from `models/*.lsl` at build time.
 #[allow(missing_docs)]

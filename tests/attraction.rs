@@ -141,10 +141,119 @@ fn optimum_reproduces_the_report() {
     assert!((e.area / exact - 1.0).abs() < 2e-3, "{} vs {exact}", e.area);
 }
 
+/// ℓ*(P) as `level_by_hand` finds it, but to rounding: the minimum of r²(θ)·uᵀPu over 3600
+/// directions of the half circle, each of the five smallest local minima refined by a
+/// golden-section search in the angle.
+fn level_refined(p: Mat2, eps1: f64, eps2: f64) -> f64 {
+    let q = [
+        [2.0 * p[0][1], p[1][1] + eps1 * p[0][1] - p[0][0]],
+        [
+            p[1][1] + eps1 * p[0][1] - p[0][0],
+            2.0 * eps1 * p[1][1] - 2.0 * p[0][1],
+        ],
+    ];
+    let g = |t: f64| {
+        let u = [t.cos(), t.sin()];
+        let c = 2.0 * eps2 * u[0].powi(3) * (p[0][1] * u[0] + p[1][1] * u[1]);
+        if c > 0.0 {
+            quad(q, u).max(0.0) / c * quad(p, u)
+        } else {
+            f64::INFINITY
+        }
+    };
+    let n = 3600;
+    let dt = PI / n as f64;
+    let values: Vec<f64> = (0..n).map(|k| g(k as f64 * dt)).collect();
+    let mut minima: Vec<usize> = (0..n)
+        .filter(|&k| {
+            let (before, after) = (values[(k + n - 1) % n], values[(k + 1) % n]);
+            values[k].is_finite() && values[k] <= before && values[k] <= after
+        })
+        .collect();
+    minima.sort_by(|&i, &j| values[i].total_cmp(&values[j]));
+    minima
+        .iter()
+        .take(5)
+        .map(|&k| {
+            let (mut a, mut b) = ((k as f64 - 1.0) * dt, (k as f64 + 1.0) * dt);
+            let r = (5f64.sqrt() - 1.0) / 2.0;
+            let (mut x1, mut x2) = (b - r * (b - a), a + r * (b - a));
+            let (mut g1, mut g2) = (g(x1), g(x2));
+            for _ in 0..80 {
+                if g1 <= g2 {
+                    (b, x2, g2) = (x2, x1, g1);
+                    x1 = b - r * (b - a);
+                    g1 = g(x1);
+                } else {
+                    (a, x1, g1) = (x1, x2, g2);
+                    x2 = a + r * (b - a);
+                    g2 = g(x2);
+                }
+            }
+            g1.min(g2).min(values[k])
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// The largest area π ℓ*(P)/√det P over trace-1 Q ⪰ 0, independently of the analysis: P from
+/// AᵀP + PA = −Q solved by hand for A = [[0, 1], [−1, −ε₁]], Q = [[(1 + a)/2, b/2],
+/// [b/2, (1 − a)/2]] for (a, b) on the unit disc, ℓ* by `level_refined`; a 41 × 72 polar grid
+/// of (a, b), then 8 rounds of a 21 × 21 grid around the best point, each 5 times finer.
+/// Returns the area and its (a, b).
+fn best_area_by_search(eps1: f64, eps2: f64) -> (f64, [f64; 2]) {
+    let area = |ab: [f64; 2]| {
+        if ab[0].hypot(ab[1]) > 1.0 {
+            return f64::NEG_INFINITY;
+        }
+        let q = [
+            [(1.0 + ab[0]) / 2.0, ab[1] / 2.0],
+            [ab[1] / 2.0, (1.0 - ab[0]) / 2.0],
+        ];
+        // −2P₁₂ = −Q₁₁, 2P₁₂ − 2ε₁P₂₂ = −Q₂₂, P₁₁ − ε₁P₁₂ − P₂₂ = −Q₁₂
+        let p12 = q[0][0] / 2.0;
+        let p22 = (q[0][0] + q[1][1]) / (2.0 * eps1);
+        let p11 = -q[0][1] + eps1 * p12 + p22;
+        let p = [[p11, p12], [p12, p22]];
+        let det = p11 * p22 - p12 * p12;
+        if det <= 0.0 {
+            return f64::NEG_INFINITY;
+        }
+        PI * level_refined(p, eps1, eps2) / det.sqrt()
+    };
+    let mut best = (f64::NEG_INFINITY, [0.0, 0.0]);
+    for i in 0..=40 {
+        for j in 0..72 {
+            let (r, phi) = (i as f64 / 40.0, 2.0 * PI * j as f64 / 72.0);
+            let ab = [r * phi.cos(), r * phi.sin()];
+            let v = area(ab);
+            if v > best.0 {
+                best = (v, ab);
+            }
+        }
+    }
+    let mut half = 2.0 * PI / 72.0;
+    for _ in 0..8 {
+        let centre = best.1;
+        for i in -10..=10 {
+            for j in -10..=10 {
+                let ab = [
+                    centre[0] + half * i as f64 / 10.0,
+                    centre[1] + half * j as f64 / 10.0,
+                ];
+                let v = area(ab);
+                if v > best.0 {
+                    best = (v, ab);
+                }
+            }
+        }
+        half /= 5.0;
+    }
+    best
+}
+
 /// Other parameters (ε₁ = 0.5, ε₂ = 0.1): the optimum is no longer at the saddles (it touches
-/// V̇ = 0 at (2.73, 0.60), the saddles are at (±√10, 0)); its area agrees with an independent
-/// brute-force search (the closed form of `level_by_hand` on a 41 × 72 polar grid of trace-1 Q,
-/// refined on a 21 × 21 grid; Python, docs/stability.md): 34.00083.
+/// V̇ = 0 at (2.73, 0.60), the saddles are at (±√10, 0)); its area, 34.00083 (docs/stability.md),
+/// agrees with the independent search of `best_area_by_search`.
 #[test]
 fn optimum_for_other_parameters() {
     let mut m = duffing();
@@ -152,13 +261,20 @@ fn optimum_for_other_parameters() {
     m.set_param("eps2", &[0.1]).unwrap();
     let a = system(&m).analyse(&Options::default()).unwrap();
     let o = &a.optimal;
+    let (searched, ab) = best_area_by_search(0.5, 0.1);
+    println!(
+        "area: analysis {:.7}, search {searched:.7} at (a, b) = ({:.6}, {:.6})",
+        o.estimate.area, ab[0], ab[1]
+    );
+    assert!((searched - 34.00083).abs() < 1e-5, "search: {searched}");
     assert!(
-        (o.estimate.area - 34.00083).abs() < 2e-4,
-        "{}",
+        (o.estimate.area - searched).abs() < 2e-4,
+        "analysis {} vs search {searched}",
         o.estimate.area
     );
     let by_hand = level_by_hand(o.p, 0.5, 0.1);
     assert!((o.estimate.level / by_hand - 1.0).abs() < 1e-6);
+    assert!((level_refined(o.p, 0.5, 0.1) / by_hand - 1.0).abs() < 1e-6);
     assert!(o.estimate.check.holds());
 }
 

@@ -302,3 +302,51 @@ fn sweep_fli_is_the_supremum() {
         );
     }
 }
+
+/// The `--list` example of docs/chaos.md as printed: its `printf` line makes the file that its
+/// `lasalle sweep` line reads, both rows lie on E = 1/8 (p₀ from the energy), and both run.
+#[test]
+fn docs_list_example_runs() {
+    let doc =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/chaos.md")).unwrap();
+    let mut lines = doc.lines().skip_while(|l| !l.starts_with("printf '"));
+    let printf = lines.next().expect("the printf line of the --list example");
+    let sweep = lines.next().expect("the sweep line after it");
+    let text = printf
+        .strip_prefix("printf '")
+        .and_then(|l| l.strip_suffix("' > ics.csv"))
+        .expect("printf '…' > ics.csv")
+        .replace("\\n", "\n");
+    let dir = scratch("docs-list");
+    let (list, table) = (dir.join("ics.csv"), dir.join("map.csv"));
+    std::fs::write(&list, &text).unwrap();
+    let mut rows = text.lines();
+    assert_eq!(rows.next(), Some("q[1],p[1],q[0],p[0]"));
+    for row in rows {
+        let v: Vec<f64> = row.split(',').map(|x| x.parse().unwrap()).collect();
+        let (q1, p1, q0, p0) = (v[0], v[1], v[2], v[3]);
+        let h = (p0 * p0 + p1 * p1 + q0 * q0 + q1 * q1) / 2.0 + q0 * q0 * q1 - q1.powi(3) / 3.0;
+        assert!((h - 0.125).abs() < 1e-16, "{row}: H = {h}");
+    }
+    let args: Vec<String> = sweep
+        .split_whitespace()
+        .skip(1)
+        .map(|a| match a {
+            "ics.csv" => list.to_str().unwrap().to_string(),
+            "map.csv" => table.to_str().unwrap().to_string(),
+            a => a.to_string(),
+        })
+        .collect();
+    assert_eq!(args[0], "sweep", "{sweep}");
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let (ok, _, err) = lasalle_text(&args);
+    assert!(ok, "{sweep}: {err}");
+    let csv = std::fs::read_to_string(&table).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = header.iter().position(|h| *h == "megno").unwrap();
+    assert_eq!(csv.lines().count(), 3, "{csv}");
+    for line in csv.lines().skip(1) {
+        let megno: f64 = line.split(',').nth(col).unwrap().parse().unwrap();
+        assert!(megno.is_finite() && line.ends_with(','), "{line}");
+    }
+}

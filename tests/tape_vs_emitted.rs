@@ -1,13 +1,22 @@
-//! The tapes of `lasalle_codegen::tape` and their back ends compute what the emitted Rust
-//! computes, bitwise: every function of every model in `models/`, at random states.
+//! The tapes of `lasalle_codegen::tape`, their back ends and the loaded models compute what the
+//! emitted Rust computes, bitwise: every function (X, f, Df, V, ∇V, X − ∇V and, where the field
+//! is partitioned, the half-fields) of every model in `models/`, at random states.
+//!
+//! The models are the ones `build.rs` generates from the directory (its `for_each_model!`), so
+//! a model file added there is checked here without a line of this file changing;
+//! `every_model_file_is_checked` holds that list against the directory. A model emitted in
+//! its loop form (a family of at least `AUTO_MIN_TUPLES` index tuples) is checked against the
+//! loaded model's loop kernels, which it equals, rather than against the unrolled tapes.
 
 use lasalle::models;
-use lasalle_codegen::tape::Tape;
-use lasalle_exec::{Backend, Kernel};
-use lasalle_runtime::{Field, Invariants, Lyapunov, Partitioned};
+use lasalle_codegen::tape::{ModelTapes, Tape};
+use lasalle_exec::{Backend, Families, Kernel, LoadedModel};
+use lasalle_runtime::{Declared, Lyapunov, State};
 
 mod common;
-use common::{same, tapes};
+use common::{assert_same, tapes};
+
+include!(concat!(env!("OUT_DIR"), "/model_list.rs"));
 
 /// A tape with its kernel on every back end and their hoisted values.
 struct Compiled<'a> {
@@ -44,12 +53,148 @@ impl<'a> Compiled<'a> {
             results.push((format!("{backend:?}"), out));
         }
         for (name, got) in results {
-            assert_eq!(got.len(), emitted.len(), "{}", self.what);
-            for (j, (&a, &b)) in got.iter().zip(emitted).enumerate() {
-                assert!(
-                    same(a, b),
-                    "{} [{j}] at x = {x:?}: {name} {a:e} vs emitted {b:e}",
-                    self.what
+            assert_same(
+                &got,
+                emitted,
+                format!("{} at x = {x:?}: {name} vs emitted", self.what),
+            );
+        }
+    }
+}
+
+/// Numbers in ±[0.5, 1.5), from a fixed seed.
+fn rng() -> impl FnMut() -> f64 {
+    let mut rng = lasalle_testkit::Rng::new(0x9e37_79b9_7f4a_7c15);
+    move || (0.5 + rng.unit()) * rng.sign()
+}
+
+/// Every function of a model at `x`, by name, in the layout of the tapes' outputs (Df by rows;
+/// the half-fields as their q and p components only, in the order of the state).
+fn functions<P, X, F, K>(m: &P, x: &X, target: &F, gains: &K) -> Vec<(&'static str, Vec<f64>)>
+where
+    P: Lyapunov<f64, X, F, K> + Declared<f64, X>,
+    X: State<f64>,
+    F: State<f64>,
+    K: State<f64>,
+{
+    let mut dx = x.clone();
+    m.field(x, &mut dx);
+    let mut f = target.clone();
+    m.invariants(x, &mut f);
+    let mut jac = F::rows(target.as_ref().len(), x.clone());
+    m.invariants_jacobian(x, &mut jac);
+    let jac: Vec<f64> = jac
+        .as_ref()
+        .iter()
+        .flat_map(|r| r.as_ref().to_vec())
+        .collect();
+    let (mut grad, mut fb) = (x.clone(), x.clone());
+    m.lyapunov_gradient(x, target, gains, &mut grad);
+    m.feedback_field(x, target, gains, &mut fb);
+    let mut out = vec![
+        ("field", dx.as_ref().to_vec()),
+        ("invariants", f.as_ref().to_vec()),
+        ("jacobian", jac),
+        ("lyapunov", vec![m.lyapunov(x, target, gains)]),
+        ("lyapunov_gradient", grad.as_ref().to_vec()),
+        ("feedback", fb.as_ref().to_vec()),
+    ];
+    if let Some(p) = m.partitioned() {
+        let (mut dq, mut dp) = (x.clone(), x.clone());
+        p.field_q(x, &mut dq);
+        p.field_p(x, &mut dp);
+        let is_q = p.is_q();
+        let pick = |v: &X, q: bool| -> Vec<f64> {
+            let v = v.as_ref();
+            (0..v.len())
+                .filter(|&k| is_q[k] == q)
+                .map(|k| v[k])
+                .collect()
+        };
+        out.push(("field_q", pick(&dq, true)));
+        out.push(("field_p", pick(&dp, false)));
+    }
+    out
+}
+
+/// The emitted model `sys` of `file` against its tapes on every back end (unless `loops`: the
+/// loop form equals the loop kernels, not the unrolled tapes) and against the model loaded
+/// from its file on every back end, as `build.rs` loads it (`Families::Auto`), at 200 random
+/// states, the targets those of a random state and the model's default gains.
+fn check<P, const N: usize, const M: usize, const G: usize>(
+    file: &str,
+    sys: &P,
+    targets: impl Fn(&[f64; N]) -> [f64; M],
+    gains: [f64; G],
+    loops: bool,
+) where
+    P: Lyapunov<f64, [f64; N], [f64; M], [f64; G]> + Declared<f64, [f64; N]>,
+{
+    let (model, tapes) = tapes(file);
+    let params = model.default_params();
+    let p = &params[..];
+    let ModelTapes {
+        field,
+        invariants,
+        jacobian,
+        lyapunov,
+        lyapunov_gradient,
+        feedback,
+        partition,
+        ..
+    } = &tapes;
+    let is_q = sys.partitioned().map(|s| s.is_q().to_vec());
+    assert_eq!(
+        is_q,
+        partition.as_ref().map(|part| part.is_q.clone()),
+        "{file}: the emitted partition and the tapes'"
+    );
+    let mut compiled = vec![];
+    if !loops {
+        compiled = [
+            ("field", field),
+            ("invariants", invariants),
+            ("jacobian", jacobian),
+            ("lyapunov", lyapunov),
+            ("lyapunov_gradient", lyapunov_gradient),
+            ("feedback", feedback),
+        ]
+        .map(|(what, tape)| Compiled::new(what, tape, p))
+        .into_iter()
+        .collect();
+        if let Some(part) = partition {
+            compiled.push(Compiled::new("field_q", &part.field_q, p));
+            compiled.push(Compiled::new("field_p", &part.field_p, p));
+        }
+    }
+    let path = format!("{}/models/{file}", env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(&path).unwrap();
+    let loaded: Vec<(Backend, LoadedModel)> = Backend::available()
+        .iter()
+        .map(|&b| {
+            let m = LoadedModel::from_source_with(file, &text, b, Families::Auto)
+                .unwrap_or_else(|e| panic!("{file}: {e}"));
+            (b, m)
+        })
+        .collect();
+    let mut rand = rng();
+    let target = targets(&std::array::from_fn(|_| rand()));
+    for _ in 0..200 {
+        let x: [f64; N] = std::array::from_fn(|_| rand());
+        let emitted = functions(sys, &x, &target, &gains);
+        assert_eq!(emitted.len(), 6 + 2 * usize::from(is_q.is_some()));
+        for (c, (what, values)) in compiled.iter().zip(&emitted) {
+            assert_eq!(c.what, *what);
+            c.agree(p, &x, &target, &gains, values);
+        }
+        for (backend, m) in &loaded {
+            let theirs = functions(m, &x.to_vec(), &target.to_vec(), &gains.to_vec());
+            assert_eq!(theirs.len(), emitted.len(), "{file}: {backend:?} loaded");
+            for ((what, a), (_, b)) in emitted.iter().zip(&theirs) {
+                assert_same(
+                    b,
+                    a,
+                    format!("{file}: {what} at {x:?}: {backend:?} loaded vs emitted"),
                 );
             }
         }
@@ -57,90 +202,41 @@ impl<'a> Compiled<'a> {
 }
 
 macro_rules! check_model {
-    ($test:ident, $file:literal, $ty:ty, partitioned: $part:tt) => {
+    ($module:ident, $ty:ident, $prepared:ident, $file:literal, loops: $loops:tt, $($flags:tt)*) => {
         #[test]
-        fn $test() {
-            type Model = $ty;
-            const N: usize = Model::N;
-            const M: usize = Model::M;
-            let (model, tapes) = tapes($file);
+        fn $module() {
+            use models::$module::$ty as Model;
             let sys = Model::default().prepare();
-            let params = model.default_params();
-            let gains = Model::default_gains();
-            let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
-            let mut rand = move || {
-                seed ^= seed << 13;
-                seed ^= seed >> 7;
-                seed ^= seed << 17;
-                let u = (seed >> 11) as f64 / (1u64 << 53) as f64;
-                if seed & 1 == 0 { 0.5 + u } else { -0.5 - u }
-            };
-            let mut x0 = [0.0; N];
-            x0.iter_mut().for_each(|v| *v = rand());
-            let target = sys.targets(&x0);
-            let p = &params[..];
-            let [field, invariants, jacobian, lyapunov, gradient, feedback] = [
-                ("field", &tapes.field),
-                ("invariants", &tapes.invariants),
-                ("jacobian", &tapes.jacobian),
-                ("lyapunov", &tapes.lyapunov),
-                ("lyapunov_gradient", &tapes.lyapunov_gradient),
-                ("feedback", &tapes.feedback),
-            ]
-            .map(|(what, tape)| Compiled::new(what, tape, p));
-            let halves = tapes.partition.as_ref().map(|part| {
-                (
-                    Compiled::new("field_q", &part.field_q, p),
-                    Compiled::new("field_p", &part.field_p, p),
-                )
-            });
-            for _ in 0..200 {
-                let mut x = [0.0; N];
-                x.iter_mut().for_each(|v| *v = rand());
-                let (t, g) = (&target[..], &gains[..]);
-                let mut dx = [0.0; N];
-                sys.field(&x, &mut dx);
-                field.agree(p, &x, t, g, &dx);
-                let mut f = [0.0; M];
-                sys.invariants(&x, &mut f);
-                invariants.agree(p, &x, t, g, &f);
-                let mut jac = [[0.0; N]; M];
-                sys.invariants_jacobian(&x, &mut jac);
-                jacobian.agree(p, &x, t, g, jac.as_flattened());
-                let v = sys.lyapunov(&x, &target, &gains);
-                lyapunov.agree(p, &x, t, g, &[v]);
-                let mut grad = [0.0; N];
-                sys.lyapunov_gradient(&x, &target, &gains, &mut grad);
-                gradient.agree(p, &x, t, g, &grad);
-                let mut fb = [0.0; N];
-                sys.feedback_field(&x, &target, &gains, &mut fb);
-                feedback.agree(p, &x, t, g, &fb);
-                check_model!(@partitioned $part, sys, tapes, halves, x, p, t, g, N);
-            }
+            check(
+                $file,
+                &sys,
+                |x| sys.targets(x),
+                Model::default_gains(),
+                $loops,
+            );
         }
-    };
-    (@partitioned true, $sys:ident, $tapes:ident, $halves:ident, $x:ident, $p:ident, $t:ident, $g:ident, $n:ident) => {
-        let part = $tapes.partition.as_ref().expect("partitioned");
-        let (cq, cp) = $halves.as_ref().expect("partitioned");
-        let (mut dq, mut dp) = ([0.0; $n], [0.0; $n]);
-        $sys.field_q(&$x, &mut dq);
-        $sys.field_p(&$x, &mut dp);
-        let q: Vec<f64> = (0..$n).filter(|&k| part.is_q[k]).map(|k| dq[k]).collect();
-        let pp: Vec<f64> = (0..$n).filter(|&k| !part.is_q[k]).map(|k| dp[k]).collect();
-        cq.agree($p, &$x, $t, $g, &q);
-        cp.agree($p, &$x, $t, $g, &pp);
-    };
-    (@partitioned false, $sys:ident, $tapes:ident, $halves:ident, $($rest:tt)*) => {
-        let _ = &$halves;
-        assert!($tapes.partition.is_none(), "the model is partitioned: check field_q/field_p");
     };
 }
 
-check_model!(coupled_oscillators, "coupled_oscillators.lsl", models::coupled_oscillators::CoupledOscillators, partitioned: true);
-check_model!(cr3bp, "cr3bp.lsl", models::cr3bp::CR3BP, partitioned: false);
-check_model!(duffing, "duffing.lsl", models::duffing::Duffing, partitioned: false);
-check_model!(kepler, "kepler.lsl", models::kepler::Kepler, partitioned: true);
-check_model!(pendulum_closed_form, "pendulum_closed_form.lsl", models::pendulum_closed_form::PendulumClosedForm, partitioned: true);
-check_model!(perturbed_kepler, "perturbed_kepler.lsl", models::perturbed_kepler::PerturbedKepler, partitioned: true);
-check_model!(rigid_body, "rigid_body.lsl", models::rigid_body::RigidBody, partitioned: false);
-check_model!(so3_type_i, "so3_type_i.lsl", models::so3_type_i::So3TypeI, partitioned: false);
+for_each_model!(check_model);
+
+/// The models checked above are every model file of `models/`.
+#[test]
+fn every_model_file_is_checked() {
+    let mut checked = Vec::new();
+    macro_rules! name {
+        ($module:ident, $ty:ident, $prepared:ident, $file:literal, $($rest:tt)*) => {
+            checked.push($file.to_string());
+        };
+    }
+    for_each_model!(name);
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/models");
+    let mut files: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "lsl"))
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    files.sort();
+    assert_eq!(checked, files);
+}

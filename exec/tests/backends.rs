@@ -15,16 +15,12 @@ use lasalle_model::ir::{Id, Input};
 use lasalle_model::tape::{ModelTapes, Tape};
 use lasalle_model::Model;
 use lasalle_model::{derive, Derived};
-use lasalle_testkit::Rng;
+use lasalle_testkit::{assert_same, same, Rng};
 
 /// ±[0.5, 1.5): away from 0, so |x| of a vec3 is ≥ 0.86 (Kepler's r).
 fn component(rng: &mut Rng) -> f64 {
     let m = 0.5 + rng.unit();
     m * rng.sign()
-}
-
-fn same(a: f64, b: f64) -> bool {
-    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
 }
 
 /// A model with its derivatives and tapes, and the DAG roots of each tape.
@@ -376,7 +372,11 @@ fn jit_vector_slots_follow_the_parameters() {
         .collect();
     let (hoisted, tape_hoisted) = (jit.hoist(&params).unwrap(), tape.hoist(&params).unwrap());
     assert!(hoisted.len() > tape_hoisted.len(), "no vector slot");
-    assert_eq!(hoisted[..tape_hoisted.len()], tape_hoisted[..]);
+    assert_same(
+        &hoisted[..tape_hoisted.len()],
+        &tape_hoisted,
+        "hoisted values",
+    );
     let d = jit.dims();
     let mut rng = Rng::new(7);
     let x: Vec<f64> = (0..d.state).map(|_| component(&mut rng)).collect();

@@ -175,7 +175,7 @@ mod loaded {
                 plain.set_param("G", &[0.7]).unwrap();
             }
             let x = loops.point("ring").unwrap();
-            assert_eq!(x, plain.point("ring").unwrap());
+            lasalle_testkit::assert_same(&x, &plain.point("ring").unwrap(), "the point");
             let n = x.len();
             let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
             loops.field(&x, &mut a);
@@ -237,7 +237,7 @@ mod loaded {
         let (mut a, mut b) = (vec![0.0; x.len()], vec![0.0; x.len()]);
         m.field(&x, &mut a);
         p.field(&x, &mut b);
-        assert_eq!(a, b);
+        lasalle_testkit::assert_same(&a, &b, "the field under `auto` and unrolled");
     }
 
     /// A model the loop form refuses loads unrolled under `auto`; `loops` reports why.

@@ -20,7 +20,7 @@ use lasalle_runtime::{
     integrate, DenseOutput, Driver, FeedbackField, Field, Invariants, Parameters, Stepper,
     TaylorKernel,
 };
-use lasalle_testkit::{allocations, CountingAllocator};
+use lasalle_testkit::{allocations, assert_same, same, CountingAllocator};
 
 // ---------------------------------------------------------------------------------------
 // Allocation counting (per thread: the test harness runs tests in parallel)
@@ -504,7 +504,7 @@ fn feedback_field() {
         })
         .unwrap();
     let end_b = integrate(&mut b, &m, &x0, 0.0, t_end, 0.0, &mut ()).unwrap();
-    assert_eq!(end_a.x, end_b.x);
+    assert_same(&end_a.x, &end_b.x, "feedback field vs feedback kernel");
     assert_eq!(end_a.steps, end_b.steps);
     let mut f1 = vec![0.0; 6];
     m.invariants(&end_a.x, &mut f1);
@@ -540,7 +540,7 @@ fn dense_output_against_steps() {
     );
     let mut y = vec![0.0; 2];
     assert!(taylor.interpolate(h, &mut y));
-    assert_eq!(y, x);
+    assert_same(&y, &x, "the polynomial at the step's end");
     assert!(!taylor.interpolate(1.01 * h, &mut y));
     // several times at once (five: a pass of four and one) are the times one by one, bitwise
     let ts: Vec<f64> = [0.0, 0.25, 0.5, 0.75, 1.0].iter().map(|f| f * h).collect();
@@ -548,11 +548,7 @@ fn dense_output_against_steps() {
     assert!(taylor.interpolate_many(&ts, &mut many));
     for (&t, m) in ts.iter().zip(&many) {
         assert!(taylor.interpolate(t, &mut y));
-        assert_eq!(
-            y.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-            m.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-            "t = {t}"
-        );
+        assert_same(&y, m, format!("t = {t}"));
     }
     assert!(!taylor.interpolate_many(&[0.5 * h, 1.01 * h], &mut many[..2]));
     let (q0, p0, w) = (0.3, -0.8, 2.0f64);
@@ -565,7 +561,7 @@ fn dense_output_against_steps() {
         let mut z = x0.clone();
         let o = fresh.step(&m, 0.0, &mut z, s).unwrap();
         assert_eq!(o.h_taken, s);
-        assert_eq!(z, y, "θ = {theta}");
+        assert_same(&z, &y, format!("θ = {theta}"));
     }
     // through the driver: output times between steps
     let times: Vec<f64> = (0..=40).map(|i| i as f64 * 0.25).collect();
@@ -881,7 +877,6 @@ fn jit_kernel_agrees_with_the_tape_bitwise() {
     use lasalle_exec::jit::taylor::JitTaylor;
     let mut rng = lasalle_testkit::Rng::new(0x9e37_79b9_7f4a_7c15);
     let mut rand = move || rng.uniform(0.25, 1.25);
-    let same = |a: f64, b: f64| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
     let mut texts = model_and_expression_texts();
     texts.push((
         "elliptic".into(),

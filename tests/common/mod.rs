@@ -50,11 +50,7 @@ pub fn lasalle_text(args: &[&str]) -> (bool, String, String) {
     )
 }
 
-/// The same f64, bit for bit (any NaN equals any NaN: NaN sign bits may differ between back
-/// ends).
-pub fn same(a: f64, b: f64) -> bool {
-    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
-}
+pub use lasalle_testkit::{assert_same, same};
 
 /// The tapes of a model file of `models/`, built as `generate_file` builds the emitted code.
 pub fn tapes(file: &str) -> (lasalle_codegen::Model, ModelTapes) {
