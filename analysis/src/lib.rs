@@ -17,6 +17,8 @@
 //!   ([`stability::StabilityReport::to_json`]);
 //! - [`closed_forms`]: the closed-form extremals of the SO(3) optimal-control problems, as
 //!   corrected and as printed in the thesis they come from;
+//! - [`infante`]: Infante's quadratic Liapunov functions of the n-th order linear equation,
+//!   AᵀB + BA = −C solved for the companion matrix symbolically in its coefficients;
 //! - [`primer`]: the primer vector (the Lagrange multipliers of the minimum-fuel problem) on a
 //!   Kepler coast arc in closed form, for every eccentricity.
 //!
@@ -27,6 +29,7 @@
 pub mod attraction;
 pub mod canonical;
 pub mod closed_forms;
+pub mod infante;
 pub mod lie_poisson;
 pub mod primer;
 pub mod stability;

@@ -340,7 +340,8 @@ impl Coast {
         let k3 = al + de;
         let fdot = ga + conic.mu * be / s.r.powi(3);
         let [k4, k5] = solve2([[s.x, s.y], [s.vx, s.vy]], [al - 2.0 * k3, fdot]);
-        let g_free = -3.0 * k3 * t0 + k4 * form.k4_term(&conic, &s, t0) + k5 * GForm::k5_term(&conic, &s);
+        let g_free =
+            -3.0 * k3 * t0 + k4 * form.k4_term(&conic, &s, t0) + k5 * GForm::k5_term(&conic, &s);
         let k6 = be - g_free;
         let [k1, k2] = solve2([[s.x, s.y], [s.vx, s.vy]], [lambda[2], dlambda[2]]);
         Ok(Coast {
@@ -370,7 +371,11 @@ impl Coast {
         let b = k3 - f;
         Ok(Primer {
             lambda: [f * s.x + g * s.vx, f * s.y + g * s.vy, k1 * s.x + k2 * s.y],
-            dlambda: [a * s.x + b * s.vx, a * s.y + b * s.vy, k1 * s.vx + k2 * s.vy],
+            dlambda: [
+                a * s.x + b * s.vx,
+                a * s.y + b * s.vy,
+                k1 * s.vx + k2 * s.vy,
+            ],
         })
     }
 }

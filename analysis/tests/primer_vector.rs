@@ -67,7 +67,10 @@ fn the_closed_form_meets_the_integrated_adjoint_equation_for_every_conic() {
         let cf = closed(conic, form, 1000.0, 1100.0);
         let d_lambda = digits(&num[6..9], &cf[..3]);
         let d_dlambda = digits(&num[9..12], &cf[3..]);
-        assert!(d_lambda > 11.0 && d_dlambda > 11.0, "e = {e}: {d_lambda} {d_dlambda} digits");
+        assert!(
+            d_lambda > 11.0 && d_dlambda > 11.0,
+            "e = {e}: {d_lambda} {d_dlambda} digits"
+        );
         // the integrated orbit is the universal-variable one
         let s = conic.state(1100.0).unwrap();
         assert!(digits(&num[..2], &[s.x, s.y]) > 11.0, "e = {e}: orbit");
@@ -78,7 +81,11 @@ fn the_closed_form_meets_the_integrated_adjoint_equation_for_every_conic() {
 fn the_closed_form_starts_where_it_was_set_up() {
     for e in [0.0, 0.3, 1.0, 2.0] {
         let conic = Conic::new(MU, RP, e).unwrap();
-        let form = if e == 1.0 { GForm::Parabolic } else { GForm::Exact };
+        let form = if e == 1.0 {
+            GForm::Parabolic
+        } else {
+            GForm::Exact
+        };
         let cf = closed(conic, form, 1000.0, 1000.0);
         assert!(digits(&LAMBDA0, &cf[..3]) > 14.0, "e = {e}");
         assert!(digits(&DLAMBDA0, &cf[3..]) > 14.0, "e = {e}");
@@ -90,7 +97,11 @@ fn conic_relations(conic: &Conic, s: &KeplerState) -> (f64, f64, f64) {
     let energy = 0.5 * (s.vx * s.vx + s.vy * s.vy) - conic.mu / s.r;
     // r = p − e x on every conic (the focus–directrix property)
     let focus = s.r - (conic.p() - conic.e * s.x);
-    (h - conic.h(), energy + conic.mu * conic.alpha() / 2.0, focus)
+    (
+        h - conic.h(),
+        energy + conic.mu * conic.alpha() / 2.0,
+        focus,
+    )
 }
 
 #[test]
@@ -100,9 +111,18 @@ fn the_kepler_solution_keeps_h_the_energy_and_the_conic() {
         for t in [-3000.0, 0.0, 1.0, 1000.0, 1100.0, 5000.0, 1e5] {
             let s = conic.state(t).unwrap();
             let (dh, de, df) = conic_relations(&conic, &s);
-            assert!(dh.abs() < 1e-12 * conic.h(), "e = {e}, t = {t}: h off by {dh}");
-            assert!(de.abs() < 1e-12 * MU / RP, "e = {e}, t = {t}: energy off by {de}");
-            assert!(df.abs() < 1e-11 * s.r, "e = {e}, t = {t}: r ≠ p − ex by {df}");
+            assert!(
+                dh.abs() < 1e-12 * conic.h(),
+                "e = {e}, t = {t}: h off by {dh}"
+            );
+            assert!(
+                de.abs() < 1e-12 * MU / RP,
+                "e = {e}, t = {t}: energy off by {de}"
+            );
+            assert!(
+                df.abs() < 1e-11 * s.r,
+                "e = {e}, t = {t}: r ≠ p − ex by {df}"
+            );
         }
     }
 }
@@ -124,7 +144,12 @@ fn the_kepler_solution_meets_keplers_equation_in_the_eccentric_anomaly() {
 #[test]
 fn the_k4_and_k5_terms_are_the_integrals_of_minus_2x_and_minus_2y() {
     // dG/dt = K₃ − 2F: the K₄ term's rate is −2x, the K₅ term's −2y (centred differences)
-    for (e, form) in [(0.0, GForm::Exact), (0.5, GForm::Exact), (1.0, GForm::Parabolic), (1.5, GForm::Exact)] {
+    for (e, form) in [
+        (0.0, GForm::Exact),
+        (0.5, GForm::Exact),
+        (1.0, GForm::Parabolic),
+        (1.5, GForm::Exact),
+    ] {
         let conic = Conic::new(MU, RP, e).unwrap();
         let (t, dt) = (1000.0, 1e-2);
         let k4 = |t: f64| form.k4_term(&conic, &conic.state(t).unwrap(), t);
@@ -132,8 +157,16 @@ fn the_k4_and_k5_terms_are_the_integrals_of_minus_2x_and_minus_2y() {
         let s = conic.state(t).unwrap();
         let rate4 = (k4(t + dt) - k4(t - dt)) / (2.0 * dt);
         let rate5 = (k5(t + dt) - k5(t - dt)) / (2.0 * dt);
-        assert!((rate4 + 2.0 * s.x).abs() < 1e-7 * s.r, "e = {e}: K₄ rate {rate4} vs {}", -2.0 * s.x);
-        assert!((rate5 + 2.0 * s.y).abs() < 1e-7 * s.r, "e = {e}: K₅ rate {rate5} vs {}", -2.0 * s.y);
+        assert!(
+            (rate4 + 2.0 * s.x).abs() < 1e-7 * s.r,
+            "e = {e}: K₄ rate {rate4} vs {}",
+            -2.0 * s.x
+        );
+        assert!(
+            (rate5 + 2.0 * s.y).abs() < 1e-7 * s.r,
+            "e = {e}: K₅ rate {rate5} vs {}",
+            -2.0 * s.y
+        );
     }
 }
 
@@ -166,7 +199,11 @@ fn the_series_errs_by_eps_squared_and_the_printed_25_and_18_by_eps() {
         assert!((60.0..160.0).contains(&series), "series: ratio {series}");
         for form in [GForm::Printed, GForm::Parabolic] {
             let ratio = k4_error(e2, form) / k4_error(e3, form);
-            assert!((6.0..16.0).contains(&ratio), "{}: ratio {ratio}", form.name());
+            assert!(
+                (6.0..16.0).contains(&ratio),
+                "{}: ratio {ratio}",
+                form.name()
+            );
         }
     }
 }
