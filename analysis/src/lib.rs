@@ -16,7 +16,11 @@
 //!   `lasalle stability` runs it, with typed results and their JSON
 //!   ([`stability::StabilityReport::to_json`]);
 //! - [`closed_forms`]: the closed-form extremals of the SO(3) optimal-control problems, as
-//!   corrected and as printed in the thesis they come from.
+//!   corrected and as printed in the thesis they come from;
+//! - [`infante`]: Infante's quadratic Liapunov functions of the n-th order linear equation,
+//!   AᵀB + BA = −C solved for the companion matrix symbolically in its coefficients;
+//! - [`primer`]: the primer vector (the Lagrange multipliers of the minimum-fuel problem) on a
+//!   Kepler coast arc in closed form, for every eccentricity.
 //!
 //! The derivations, the checks and the measured numbers are in `docs/stability.md` and
 //! `docs/so3.md`.
@@ -25,5 +29,7 @@
 pub mod attraction;
 pub mod canonical;
 pub mod closed_forms;
+pub mod infante;
 pub mod lie_poisson;
+pub mod primer;
 pub mod stability;

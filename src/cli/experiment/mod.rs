@@ -1,6 +1,7 @@
 //! `lasalle experiment <name>`: the paper's §4 experiments (rigid-body, kepler,
 //! perturbed-kepler; Chang, Jiménez & Perlmutter 2016, Figs. 1–10), the gain study (gains), the
-//! gains of adaptive methods (adaptive-gains) and the thesis' SO(3) systems (so3).
+//! gains of adaptive methods (adaptive-gains), the thesis' SO(3) systems (so3), and from NASA
+//! TM X-53478 the primer vector on coast arcs (primer-vector) and Infante's Table I (infante).
 //!
 //! Each experiment runs its methods through the same core as `lasalle run`
 //! ([`lasalle::simulate`]) and writes into `--out` (default `out/experiment-<name>/`):
@@ -10,8 +11,10 @@
 
 mod adaptive_gains;
 mod gains;
+mod infante;
 mod kepler;
 mod perturbed_kepler;
+mod primer;
 mod rigid_body;
 mod so3;
 
@@ -31,7 +34,9 @@ use super::CliResult;
 pub struct ExperimentArgs {
     /// rigid-body (Figs. 1–4), kepler (Figs. 5–7), perturbed-kepler (Figs. 8–10), gains (the
     /// gain study), adaptive-gains (gains for DOPRI5 and Taylor; not part of `all`), so3 (the
-    /// thesis' four extremal systems with reconstruction), or all.
+    /// thesis' four extremal systems with reconstruction), primer-vector (the primer vector on
+    /// Kepler coast arcs, closed form against integration; not part of `all`), infante
+    /// (Infante's Table I, solved symbolically; not part of `all`), or all.
     pub name: String,
     /// Output directory (default: out/experiment-<name>/).
     #[arg(long)]
@@ -80,6 +85,8 @@ enum Which {
     Gains,
     AdaptiveGains,
     So3,
+    Primer,
+    Infante,
     All,
 }
 
@@ -89,6 +96,8 @@ pub fn run(args: &ExperimentArgs) -> CliResult {
         "gains" | "gain" => Which::Gains,
         "adaptive-gains" => Which::AdaptiveGains,
         "so3" => Which::So3,
+        "primer-vector" | "primer" => Which::Primer,
+        "infante" => Which::Infante,
         "all" => Which::All,
         other => Which::Paper(
             Paper::ALL
@@ -96,7 +105,7 @@ pub fn run(args: &ExperimentArgs) -> CliResult {
                 .find(|p| normalise(p.name()) == normalise(other))
                 .ok_or_else(|| {
                     super::usage(format!(
-                        "unknown experiment `{other}`; experiments: rigid-body, kepler, perturbed-kepler, gains, adaptive-gains, so3, all (use `lasalle run {other}` to integrate a model)"
+                        "unknown experiment `{other}`; experiments: rigid-body, kepler, perturbed-kepler, gains, adaptive-gains, so3, primer-vector, infante, all (use `lasalle run {other}` to integrate a model)"
                     ))
                 })?,
         ),
@@ -106,6 +115,8 @@ pub fn run(args: &ExperimentArgs) -> CliResult {
         Which::Gains => gains::run(args, &out_dir(args, "gains")?),
         Which::AdaptiveGains => adaptive_gains::run(args, &out_dir(args, "adaptive-gains")?),
         Which::So3 => so3::run(args, &out_dir(args, "so3")?),
+        Which::Primer => primer::run(args, &out_dir(args, "primer-vector")?),
+        Which::Infante => infante::run(args, &out_dir(args, "infante")?),
         Which::All => {
             for p in Paper::ALL {
                 run_one(args, p)?;
