@@ -69,6 +69,26 @@ where
     FV: State<f64>,
     K: State<f64>,
 {
+    if !model.switches().is_empty() {
+        let plain = |x: &X, s: &RunSpec, p: &dyn Fn(f64)| simulate_mode(model, x, s, p);
+        return crate::switching::switched_run(model, x0, spec, progress, &plain);
+    }
+    simulate_mode(model, x0, spec, progress)
+}
+
+/// [`simulate_with_progress`] with the modes of a discontinuous field held fixed.
+fn simulate_mode<Mdl, X, FV, K>(
+    model: &Mdl,
+    x0: &X,
+    spec: &RunSpec,
+    progress: &dyn Fn(f64),
+) -> Result<Recording, RunError>
+where
+    Mdl: RunModel<X, FV, K>,
+    X: State<f64>,
+    FV: State<f64>,
+    K: State<f64>,
+{
     let f = check_start(model, x0, spec)?;
     let name = model.model_name();
     // the innermost visitor on the model's own field
