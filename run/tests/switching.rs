@@ -73,7 +73,7 @@ fn strategy2_reaches_the_origin_classically_and_rests_at_1_0_in_the_sense_of_fil
     assert!(a.abs() < 1e-12 && b.abs() < 1e-12);
 
     // Filippov: the fields above and below the x₁-axis point into it, K[X] ∋ 0 there
-    let grid = [0.5, 1.0, 1.5, 2.0, 2.5, 3.0];
+    let grid = [0.5, 0.75, 1.5, 2.0, 2.5, 3.0];
     let filippov = run(&mut model, "strategy2", Switching::Filippov, &grid);
     let rest = switch_at(&filippov, [1.0, 0.0]);
     let [a, b] = last(&filippov);
