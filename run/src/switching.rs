@@ -78,7 +78,9 @@ where
         x.as_mut()[sw.mode] = 1.0;
         let g = event_values(model, &x)[sw.event];
         if g == 0.0 {
-            decide(model, &mut x, sw, Stop::Crossing, true, spec.switching);
+            if decide(model, &mut x, sw, Stop::Crossing, true, spec.switching).is_err() {
+                return Err(chatter(spec, 0.0, sw.surface));
+            }
         } else {
             x.as_mut()[sw.mode] = g.signum();
         }
@@ -125,7 +127,9 @@ where
         }
         x.as_mut().copy_from_slice(&hit.x);
         t0 = hit.t;
-        decide(model, &mut x, sw, kind, hit.rising, spec.switching);
+        if decide(model, &mut x, sw, kind, hit.rising, spec.switching).is_err() {
+            return Err(chatter(spec, t0, sw.surface));
+        }
         rec.events.push(hit);
         total = Some(merge(total, rec));
         if t0 >= spec.t_end {
@@ -133,14 +137,19 @@ where
         }
     }
     let surface = switches.first().map_or("", |s| s.surface);
-    Err(RunError::Model(format!(
-        "the solution switches more than {MAX_SWITCHES_PER_RUN} times before t = {t0} (on the surfaces of `sign`, e.g. `{surface}` = 0): it chatters, and a {} solution does not continue{}",
+    Err(chatter(spec, t0, surface))
+}
+
+/// The error of a solution that chatters at time `t` on the surface `surface` = 0.
+fn chatter(spec: &RunSpec, t: f64, surface: &str) -> RunError {
+    RunError::Model(format!(
+        "the solution chatters on the surface `{surface}` = 0 at t = {t} (the field there points back to it, or it switched more than {MAX_SWITCHES_PER_RUN} times): a {} solution does not continue{}",
         spec.switching.name(),
         match spec.switching {
             Switching::Classical => "; a Filippov solution may (`--filippov`)",
             Switching::Filippov => "",
         }
-    )))
+    ))
 }
 
 /// The model's event functions at `x`.
@@ -183,7 +192,8 @@ fn decide<Mdl, X, FV, K>(
     stop: Stop,
     rising: bool,
     sense: Switching,
-) where
+) -> Result<(), ()>
+where
     Mdl: RunModel<X, FV, K>,
     X: State<f64>,
     FV: State<f64>,
@@ -208,7 +218,14 @@ fn decide<Mdl, X, FV, K>(
             let tiny = TANGENT * ap.abs().max(am.abs()).max(c.abs());
             match sense {
                 Switching::Classical if c.abs() <= tiny => (0.0, 0.0),
-                Switching::Classical => (c.signum(), 0.0),
+                Switching::Classical => {
+                    // the side the surface's case points to must not point back
+                    let side = if c > 0.0 { ap } else { am };
+                    if side * c < -tiny * tiny.max(1.0) {
+                        return Err(());
+                    }
+                    (c.signum(), 0.0)
+                }
                 Switching::Filippov => {
                     let (pos, neg) = (|a: f64| a > tiny, |a: f64| a < -tiny);
                     if !pos(ap) && !neg(am) && (neg(ap) || pos(am)) {
@@ -230,6 +247,7 @@ fn decide<Mdl, X, FV, K>(
     };
     x.as_mut()[sw.mode] = mode;
     x.as_mut()[sw.slide] = slide;
+    Ok(())
 }
 
 /// Shifts a segment's times by its start `t0`.

@@ -84,11 +84,9 @@ fn strategy2_reaches_the_origin_classically_and_rests_at_1_0_in_the_sense_of_fil
         let x = filippov.state(i);
         let want = [1.0, (1.0 - t).max(0.0)];
         assert!((x[0] - want[0]).abs() < 1e-12 && (x[1] - want[1]).abs() < 1e-12);
-        assert_eq!(
-            x[3],
-            if t > 1.0 { 1.0 } else { 0.0 },
-            "slide flag at t = {t}"
-        );
+        // the slide flag of x₂'s surface, the second one
+        let k = filippov.state_names.iter().position(|n| n == "slide_1");
+        assert_eq!(x[k.unwrap()], if t > 1.0 { 1.0 } else { 0.0 }, "at t = {t}");
     }
 }
 
