@@ -21,6 +21,7 @@ fn example(name: &str) -> &'static str {
         "log" => "log(2 + u^2)",
         "sin" => "sin(u)",
         "cos" => "cos(u)",
+        "sign" => "sign(u)",
         "norm" => "norm(x)",
         "dot" => "dot(x, x)",
         "cross" => "cross(x, x)[0]",
