@@ -36,7 +36,7 @@ use lasalle_model::{Direction, EVENT_TIME, GUARD_STEP};
 use lasalle_runtime::{
     CompiledStep, Declared, EventDirection, EventSpec, Field, FixedMethod, GuardFailure,
     InvariantInfo, Invariants, Lyapunov, ModelInfo, ParamError, Parameters, Partitioned, Preset,
-    Shape, Slot, Splitting,
+    Shape, Slot, Splitting, SwitchSpec,
 };
 
 use crate::{Backend, ExecError, Kernel};
@@ -193,6 +193,7 @@ struct Info {
     presets: &'static [Preset],
     guards: Vec<(&'static str, &'static str, bool)>,
     events: &'static [EventSpec],
+    switches: &'static [SwitchSpec],
 }
 
 fn leak<T>(v: Vec<T>) -> &'static [T] {
@@ -285,6 +286,18 @@ impl Info {
                             Direction::Falling => EventDirection::Falling,
                         },
                         terminal: e.terminal,
+                    })
+                    .collect(),
+            ),
+            switches: leak(
+                model
+                    .switches
+                    .iter()
+                    .map(|s| SwitchSpec {
+                        surface: leak_str(&s.text),
+                        mode: s.mode,
+                        slide: s.slide,
+                        event: s.event,
                     })
                     .collect(),
             ),
@@ -1078,6 +1091,10 @@ impl Declared<f64, Vec<f64>> for LoadedModel {
 
     fn events(&self) -> &'static [EventSpec] {
         self.info.events
+    }
+
+    fn switches(&self) -> &'static [SwitchSpec] {
+        self.info.switches
     }
 
     fn event_values(&self, x: &Vec<f64>, t: f64, g: &mut [f64]) {

@@ -41,6 +41,9 @@ pub enum Lowering {
     Quotient(Option<Func2>, Option<Func2>),
     /// Lowered by its own code in `model::expr` (shapes other than scalars, names as arguments).
     Structural,
+    /// sign(g) of a scalar of the state: the mode of the switching surface g = 0, a state
+    /// component the run keeps constant between switches (`model::switching`).
+    Sign,
 }
 
 /// One built-in function of the model language.
@@ -152,6 +155,15 @@ pub const BUILTINS: &[Builtin] = &[
     func(Func::Ln, "log(x)", "natural logarithm", "1/x"),
     func(Func::Sin, "sin(x)", "sine", "cos x"),
     func(Func::Cos, "cos(x)", "cosine", "−sin x"),
+    Builtin {
+        name: "sign",
+        call: "sign(g)",
+        arity: Arity::Exactly(1),
+        shapes: "scalar of the state → scalar",
+        doc: "−1, 0 or 1 as g < 0, g = 0, g > 0: a discontinuous field, switching on g = 0 (classical or Filippov solutions, [switching.md](switching.md))",
+        derivative: "0 (g = 0 is located as an event)",
+        lowering: Lowering::Sign,
+    },
     structural(
         "norm",
         "norm(a)",

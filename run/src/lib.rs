@@ -60,6 +60,7 @@ mod recording;
 mod reuse;
 mod simulate;
 mod spec;
+mod switching;
 
 pub use clock::process_cpu_seconds;
 pub use ensemble::{simulate_lanes, simulate_many, Ensemble, Init, Member, ModelSource};
@@ -72,3 +73,4 @@ pub use recording::{json_number, Recording};
 pub use reuse::{KernelPool, Reusing};
 pub use simulate::{simulate, simulate_with_progress, RunModel};
 pub use spec::{find_preset, RunSpec, RunSpecBuilder, AUTO_SAMPLES, DEFAULT_MAX_STEPS};
+pub use switching::{Switching, MAX_SWITCHES_PER_RUN};

@@ -76,6 +76,17 @@ where
     FV: State<f64>,
     K: State<f64>,
 {
+    if !model.switches().is_empty() {
+        if spec.t_end < 0.0 {
+            return Err(RunError::Spec(
+                "a discontinuous field (`sign`) integrates forwards only: its switching \
+                 surfaces are located as events of the forward flow (give a positive t_end)"
+                    .into(),
+            ));
+        }
+        let plain = |x: &X, s: &RunSpec, p: &dyn Fn(f64)| simulate_forward(model, x, s, p);
+        return crate::switching::switched_run(model, x0, spec, progress, &plain);
+    }
     if spec.t_end >= 0.0 {
         return simulate_forward(model, x0, spec, progress);
     }
@@ -95,7 +106,8 @@ where
     Ok(backward::reverse(recording))
 }
 
-/// [`simulate_with_progress`] forwards in time.
+/// [`simulate_with_progress`] forwards in time, with the modes of a discontinuous field held
+/// fixed.
 fn simulate_forward<Mdl, X, FV, K>(
     model: &Mdl,
     x0: &X,

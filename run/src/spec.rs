@@ -53,6 +53,8 @@ pub struct RunSpec {
     /// watched (they end the run), the others are not located — for runs whose crossings
     /// nobody reads (sweeps), which then skip the watch's interpolations at every step.
     pub record_events: bool,
+    /// The solutions of a discontinuous field (`sign(g)`): classical or Filippov's.
+    pub switching: crate::Switching,
 }
 
 impl RunSpec {
@@ -76,6 +78,7 @@ impl RunSpec {
             t_eval: Vec::new(),
             interrupt: None,
             record_events: true,
+            switching: crate::Switching::Classical,
         }
     }
 
@@ -332,6 +335,7 @@ pub struct RunSpecBuilder {
     params: Vec<(String, Vec<f64>)>,
     t_eval: Option<Vec<f64>>,
     record_events: Option<bool>,
+    switching: Option<crate::Switching>,
 }
 
 impl RunSpecBuilder {
@@ -339,6 +343,12 @@ impl RunSpecBuilder {
     /// `a:b:n` and lists).
     pub fn t_eval(mut self, times: impl Into<Vec<f64>>) -> Self {
         self.t_eval = Some(times.into());
+        self
+    }
+
+    /// The solutions of a discontinuous field ([`RunSpec::switching`]; default classical).
+    pub fn switching(mut self, sense: crate::Switching) -> Self {
+        self.switching = Some(sense);
         self
     }
 
@@ -505,6 +515,7 @@ impl RunSpecBuilder {
         spec.max_steps = self.max_steps.unwrap_or(spec.max_steps);
         spec.max_drift = self.max_drift.unwrap_or(spec.max_drift);
         spec.t_eval = self.t_eval.clone().unwrap_or_default();
+        spec.switching = self.switching.unwrap_or_default();
         spec.record_events = self.record_events.unwrap_or(true);
         spec.validate()?;
         Ok(spec)

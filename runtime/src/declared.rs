@@ -76,6 +76,24 @@ impl std::fmt::Display for GuardFailure {
     }
 }
 
+/// A switching surface g = 0 of a discontinuous field (`sign(g)` in a model file): the state
+/// components of its mode s = sign(g) and slide flag σ, and its four `stop` events, from
+/// `event` on: the crossing, the ends of a Filippov slide on the + and the − side, the end of
+/// a classical slide. A run integrates the field with the modes fixed and decides them anew
+/// at each of these events (`lasalle_run`'s switching loop, `docs/switching.md`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SwitchSpec {
+    /// g as written in the model file.
+    pub surface: &'static str,
+    /// The state component of the mode s.
+    pub mode: usize,
+    /// The state component of the slide flag σ.
+    pub slide: usize,
+    /// The index of the crossing event among [`Declared::events`]; the three ends of slides
+    /// follow it.
+    pub event: usize,
+}
+
 /// The declarations of a model file that a run can use.
 ///
 /// Every method has a default meaning "nothing declared", so hand-written models implement it
@@ -99,6 +117,11 @@ pub trait Declared<T: Float, X: State<T>> {
 
     /// The event functions g(x, t), one per [`Declared::events`], into `g`.
     fn event_values(&self, _x: &X, _t: T, _g: &mut [T]) {}
+
+    /// The switching surfaces of a discontinuous field (`sign(g)`), in order.
+    fn switches(&self) -> &'static [SwitchSpec] {
+        &[]
+    }
 
     /// The model as a partitioned field, if its field is partitioned (Störmer–Verlet applies).
     fn partitioned(&self) -> Option<&dyn Partitioned<T, X>> {

@@ -94,6 +94,10 @@ pub struct RunArgs {
     /// continuous extension (adaptive methods keep their own steps).
     #[arg(long, value_name = "A:B:N|T,…", allow_hyphen_values = true)]
     pub t_eval: Option<String>,
+    /// A discontinuous field (`sign(g)`) in the sense of Filippov: sliding on a switching
+    /// surface both sides' fields point into (default: classical solutions, docs/switching.md).
+    #[arg(long)]
+    pub filippov: bool,
     /// How the model's functions run: compiled to native code when the model is loaded
     /// (jit), or interpreted.
     #[arg(long, value_enum, default_value_t)]
@@ -165,6 +169,15 @@ fn run_spec(
             "does not apply with --t-eval, which records the state at the times it lists",
         )?;
         builder = builder.t_eval(lasalle::run::parse_t_eval(times).map_err(usage)?);
+    }
+    if args.filippov {
+        if lasalle::Declared::<f64, Vec<f64>>::switches(model).is_empty() {
+            return Err(usage(format!(
+                "--filippov applies to discontinuous fields, and model `{}` switches on no `sign(g)`",
+                model.model_name()
+            )));
+        }
+        builder = builder.switching(lasalle::run::Switching::Filippov);
     }
     builder.prepare(model).map_err(|e| match e {
         RunError::Missing(what) => {
@@ -288,10 +301,53 @@ pub fn run(args: &RunArgs, given: &Given) -> CliResult {
         if let Some(e) = &recording.stopped_by {
             println!("  stopped by event `{}` at t = {}", e.name, e.t);
         }
+        switches_report(&model, &spec, &recording);
         if has_events {
             println!("  {} event crossings (events.csv)", recording.events.len());
         }
         println!("wrote {}/trace.csv and summary.json", dir.display());
     }
     Ok(())
+}
+
+/// The switches of a run of a discontinuous field: each one's time and state, then the final
+/// state (the first 20 switches).
+fn switches_report(model: &lasalle::LoadedModel, spec: &RunSpec, recording: &lasalle::Recording) {
+    let switches = lasalle::Declared::<f64, Vec<f64>>::switches(model);
+    if switches.is_empty() {
+        return;
+    }
+    let n = model.dim() - 2 * switches.len();
+    let show = |x: &[f64]| {
+        x[..n]
+            .iter()
+            .map(|v| format!("{v}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    println!("  {} solution", spec.switching.name());
+    let names: Vec<&str> = lasalle::Declared::<f64, Vec<f64>>::events(model)
+        .iter()
+        .map(|e| e.name)
+        .collect();
+    let hits = recording.events.iter().filter(|h| {
+        switches
+            .iter()
+            .any(|s| (s.event..s.event + 4).any(|i| names[i] == h.name))
+    });
+    for h in hits.take(20) {
+        println!(
+            "  switch at `{}` at t = {}: x = ({})",
+            h.name,
+            h.t,
+            show(&h.x)
+        );
+    }
+    if !recording.is_empty() {
+        println!(
+            "  at t = {}: x = ({})",
+            recording.t_final(),
+            show(recording.last_state())
+        );
+    }
 }

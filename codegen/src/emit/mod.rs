@@ -314,6 +314,7 @@ const IMPORTABLE: &[(&str, &str)] = &[
     ("Shape", "lasalle_runtime"),
     ("Slot", "lasalle_runtime"),
     ("Splitting", "lasalle_runtime"),
+    ("SwitchSpec", "lasalle_runtime"),
 ];
 
 /// The `use` items for the names `items` uses: [`IMPORTABLE`] names, and nalgebra's

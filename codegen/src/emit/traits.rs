@@ -266,10 +266,24 @@ impl Emitter<'_> {
             let terminal = e.terminal;
             quote!(EventSpec { name: #name, direction: #direction, terminal: #terminal })
         });
+        let switches = model.switches.iter().map(|s| {
+            let (surface, mode, slide, event) = (&s.text, s.mode, s.slide, s.event);
+            quote!(SwitchSpec { surface: #surface, mode: #mode, slide: #slide, event: #event })
+        });
+        let switches = if model.switches.is_empty() {
+            TokenStream::new()
+        } else {
+            quote! {
+                fn switches(&self) -> &'static [SwitchSpec] {
+                    &[#(#switches),*]
+                }
+            }
+        };
         let list = quote! {
             fn events(&self) -> &'static [EventSpec] {
                 &[#(#specs),*]
             }
+            #switches
         };
         quote! {
             #list

@@ -609,6 +609,10 @@ impl Lowerer {
                 self.g.div(p, q)
             }
             Lowering::Structural => return self.structural(f, args, e, ctx),
+            Lowering::Sign => {
+                let g = self.scalar_argument(builtin, args, 0, ctx)?;
+                self.sign(g, &args[0])?
+            }
         };
         Ok(Value::scalar(y))
     }

@@ -7,11 +7,13 @@ mod family;
 mod family_loop;
 mod lower;
 mod structure;
+mod switching;
 mod value;
 
 pub use canonical::{CanonicalHamiltonian, NotCanonical};
 pub use lower::lower;
 pub(crate) use lower::lower_with;
+pub use switching::Switch;
 pub use value::{Shape, Value};
 
 use crate::error::{Source, Span};
@@ -252,6 +254,8 @@ pub struct Model {
     pub events: Vec<Event>,
     /// The structure-specific splitting the model admits, if any.
     pub splitting: Option<crate::splitting::Splitting>,
+    /// The switching surfaces of its `sign(g)`s, in order of appearance (`model::switching`).
+    pub switches: Vec<Switch>,
 }
 
 impl Model {

@@ -89,6 +89,10 @@ pub(super) struct Lowerer {
     pub(super) loops: Option<crate::loops::Collector>,
     /// The family body being lowered with slots (`model::family_loop`).
     pub(super) slot: Option<super::family_loop::SlotMode>,
+    /// The switching functions g of the `sign(g)`s met so far (`model::switching`).
+    pub(super) switches: Vec<super::switching::Surface>,
+    /// The number of declared state components: the modes of the switches follow them.
+    pub(super) declared_dim: usize,
 }
 
 pub(super) type L<T> = Result<T, Diagnostic>;
@@ -121,6 +125,8 @@ pub(crate) fn lower_with(
         sizes: Lowerer::size_names(ast),
         loops: loops.map(crate::loops::Collector::new),
         slot: None,
+        switches: Vec::new(),
+        declared_dim: 0,
     };
     let model = lw.model(ast);
     let families = lw.loops.take().map(|c| c.families).unwrap_or_default();
@@ -138,7 +144,8 @@ impl Lowerer {
     fn model(&mut self, ast: &ModelAst) -> Option<Model> {
         self.check_model_name(&ast.name);
         // Pass 1: state and parameters, which may be used anywhere.
-        let (state, params, n) = self.state_and_params(ast);
+        let (mut state, params, n) = self.state_and_params(ast);
+        self.declared_dim = n;
         // Pass 2: everything else, in order.
         let items::Items {
             mut field,
@@ -170,8 +177,23 @@ impl Lowerer {
         if !self.errors.is_empty() {
             return None;
         }
-        let (field, field_spans): (Vec<Id>, Vec<Span>) =
+        let (mut field, mut field_spans): (Vec<Id>, Vec<Span>) =
             field.into_iter().map(|f| f.expect("checked above")).unzip();
+        let mut events = events;
+        let mut points = points;
+        let switches = match self.switching(
+            &mut state,
+            &mut field,
+            &mut field_spans,
+            &mut events,
+            &mut points,
+        ) {
+            Ok(s) => s,
+            Err(d) => {
+                self.errors.push(d);
+                return None;
+            }
+        };
         let splitting = match splitting_decl {
             Some((kind, args, span)) => {
                 let decl = crate::splitting::Declaration {
@@ -211,6 +233,7 @@ impl Lowerer {
             guards,
             events,
             splitting,
+            switches,
         })
     }
 }
