@@ -16,6 +16,9 @@ use lasalle::models::rigid_body::RigidBody;
 use lasalle::{DriftBound, Driver, ExplicitRk, StepError};
 
 const PLEIADES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/models/pleiades.lsl");
+/// The same Pleiades as a family, with the test set's point and preset.
+const PLEIADES_MODEL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/models/pleiades.lsl");
+const ARENSTORF: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/models/arenstorf.lsl");
 
 /// x₁…x₇, y₁…y₇, ẋ₁…ẋ₇, ẏ₁…ẏ₇ at t = 3, the 16 digits as published.
 #[allow(clippy::excessive_precision)]
@@ -270,7 +273,15 @@ fn stability(summary: &serde_json::Value) -> (bool, f64, f64) {
 fn pleiades_feedback_rk4_default_gains_are_no_worse_than_rk4() {
     let args = |method| {
         [
-            "pleiades", "-m", method, "--dt", "1e-4", "--t-end", "3", "--every", "1",
+            PLEIADES_MODEL,
+            "-m",
+            method,
+            "--dt",
+            "1e-4",
+            "--t-end",
+            "3",
+            "--every",
+            "1",
         ]
     };
     let (code, rk4, stderr) = run("pleiades-rk4", &args("rk4"));
@@ -288,7 +299,10 @@ fn pleiades_feedback_rk4_default_gains_are_no_worse_than_rk4() {
     let (code, fb, stderr) = run("pleiades-feedback-rk4-model", &model_gains);
     let (left, hkl, beta) = stability(&fb);
     assert!(left && hkl > beta, "{hkl} {beta}");
-    assert!(stderr.contains("warning: the feedback gains left"), "{stderr}");
+    assert!(
+        stderr.contains("warning: the feedback gains left"),
+        "{stderr}"
+    );
     let t = fb["stability"]["first_outside_t"].as_f64().unwrap();
     assert!(t > 0.0 && t < 3.0, "{t}");
     println!("--gains model: exit {code:?}, h·k·L up to {hkl:.3e}, first at t = {t}");
@@ -302,7 +316,7 @@ fn arenstorf_feedback_rk4_default_gains_are_no_worse_than_rk4() {
     let period = "17.0652165601579625588917206249";
     let args = |method| {
         [
-            "arenstorf", "-m", method, "--dt", "1e-4", "--t-end", period, "--every", "1",
+            ARENSTORF, "-m", method, "--dt", "1e-4", "--t-end", period, "--every", "1",
         ]
     };
     let closure = |s: &serde_json::Value| {
@@ -313,7 +327,10 @@ fn arenstorf_feedback_rk4_default_gains_are_no_worse_than_rk4() {
             .map(|v| v.as_f64().unwrap())
             .collect();
         let x0 = [0.994, 0.0, 0.0, -2.001_585_106_379_082_5];
-        x.iter().zip(x0).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max)
+        x.iter()
+            .zip(x0)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max)
     };
     let (code, rk4, stderr) = run("arenstorf-rk4", &args("rk4"));
     assert_eq!(code, Some(0), "{stderr}");
@@ -328,5 +345,8 @@ fn arenstorf_feedback_rk4_default_gains_are_no_worse_than_rk4() {
     let (_, fb, stderr) = run("arenstorf-feedback-rk4-stiff", &stiff);
     let (left, hkl, beta) = stability(&fb);
     assert!(left && hkl > beta, "{hkl} {beta}");
-    assert!(stderr.contains("warning: the feedback gains left"), "{stderr}");
+    assert!(
+        stderr.contains("warning: the feedback gains left"),
+        "{stderr}"
+    );
 }

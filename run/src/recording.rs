@@ -96,7 +96,9 @@ impl Stability {
             max_h_k_l: get("max_h_k_L")?,
             steps_outside: get("steps_outside_stability")? as u64,
             first_outside_t: (!first.is_nan()).then_some(first),
-            capped: get("capped_steps").zip(get("min_gain_factor")).map(|(n, f)| (n as u64, f)),
+            capped: get("capped_steps")
+                .zip(get("min_gain_factor"))
+                .map(|(n, f)| (n as u64, f)),
         })
     }
 

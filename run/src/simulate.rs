@@ -15,16 +15,13 @@ use std::time::Instant;
 
 use lasalle_runtime::{
     component_names, real_stability_interval, sample_capacity, scaled_gains, step_gain_target,
-    AdaptiveGain, BoundMode, CompiledStep, Composition, Control, Crossing, Declared,
-    DormandPrince, DriftBound, Driver, ExplicitRk, FeedbackField, Field, FixedMethod, GainBound,
-    GainError, GainPolicy, Invariants, Lyapunov, ModelInfo, Observer, Projection, Recorder, State,
-    StepError, Stepper, StormerVerlet, Stride, Tableau, Taylor, TaylorOptions, VerletVariant,
-    Watch,
+    AdaptiveGain, BoundMode, CompiledStep, Composition, Control, Crossing, Declared, DormandPrince,
+    DriftBound, Driver, ExplicitRk, FeedbackField, Field, FixedMethod, GainBound, GainError,
+    GainPolicy, Invariants, Lyapunov, ModelInfo, Observer, Projection, Recorder, State, StepError,
+    Stepper, StormerVerlet, Stride, Tableau, Taylor, TaylorOptions, VerletVariant, Watch,
 };
 
-use crate::{
-    process_cpu_seconds, Base, EventHit, Method, Recording, RunError, RunSpec, Stability,
-};
+use crate::{process_cpu_seconds, Base, EventHit, Method, Recording, RunError, RunSpec, Stability};
 
 /// Everything [`simulate`] needs of a model, with states, invariants and gains stored as
 /// `X`, `FV` and `K`: the runtime's traits and the model file's declarations.
@@ -731,8 +728,8 @@ where
     let fb = FeedbackField::from_initial(model, x0, plan.initial.clone());
     // a fixed-step base method: h·k·L is capped or watched against its stability interval
     let bound = match &stepper {
-        FeedbackStepper::Base(b) if *b != Base::Dopri5 => real_stability_interval(b.order())
-            .map(|limit| Bound {
+        FeedbackStepper::Base(b) if *b != Base::Dopri5 => {
+            real_stability_interval(b.order()).map(|limit| Bound {
                 inner: drive(model, &fb, x0, spec, progress),
                 mode: match spec.gains.clone().resolve(false) {
                     GainPolicy::Bounded { c } => BoundMode::Cap {
@@ -742,7 +739,8 @@ where
                     _ => BoundMode::Watch,
                 },
                 limit,
-            }),
+            })
+        }
         _ => None,
     };
     let mut rec = match (bound, stepper) {

@@ -26,7 +26,6 @@
 //! Either way it reports the largest h·k·L estimate of the run, the number of steps past β
 //! and the time of the first one ([`GainBound::counters`]), which a run's summary shows.
 
-
 use crate::error::StepError;
 use crate::feedback::FeedbackField;
 use crate::field::{Lyapunov, ModelInfo};
@@ -246,7 +245,11 @@ mod tests {
                     .map(|j| z.powi(j as i32) / (1..=j).product::<u32>() as f64)
                     .sum::<f64>()
             };
-            assert!((r(-beta).abs() - 1.0).abs() < 1e-12, "p = {p}: {}", r(-beta));
+            assert!(
+                (r(-beta).abs() - 1.0).abs() < 1e-12,
+                "p = {p}: {}",
+                r(-beta)
+            );
             for i in 1..1000 {
                 let z = -beta * f64::from(i) / 1000.0;
                 assert!(r(z).abs() <= 1.0 + 1e-12, "p = {p}, z = {z}");

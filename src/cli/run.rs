@@ -294,7 +294,9 @@ pub fn run(args: &RunArgs, given: &Given) -> CliResult {
         if let Some(s) = &recording.stability {
             let capped = match s.capped {
                 Some((0, _)) => ", the model's gains throughout".to_string(),
-                Some((n, f)) => format!(", the model's gains scaled down in {n} steps (by {f:.2e} at most)"),
+                Some((n, f)) => {
+                    format!(", the model's gains scaled down in {n} steps (by {f:.2e} at most)")
+                }
                 None => String::new(),
             };
             println!(
