@@ -20,8 +20,8 @@ model PerturbedKepler {
     // §4.3: E(0) = −0.5390625, L(0) = (0, 0, 0.8)
     point paper { x = [1 - e, 0, 0]; v = [0, sqrt((1 + e) / (1 - e)), 0]; }
 
-    // §4.3: the paper's run
-    run paper { method = feedback_euler; dt = 0.03; t_end = 200; init = paper; }
+    // §4.3: the paper's run, with the paper's gains (the model's)
+    run paper { method = feedback_euler; dt = 0.03; t_end = 200; init = paper; gains = [2, 3]; }
 
     // The field is singular at x = 0 (see kepler.lsl).
     guard collision: norm(x) > 1e-6;

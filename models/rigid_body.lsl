@@ -19,8 +19,8 @@ model RigidBody {
     // §4.1: E(0) = 3, π(0) = (3, 2, 1), period of Ω(t) T_Ω ≈ 6.4227
     point paper { R = eye(3); Omega = [1, 1, 1]; }
 
-    // §4.1: the paper's run
-    run paper { method = feedback_euler; dt = 1e-4; t_end = 1000; init = paper; }
+    // §4.1: the paper's run, with the paper's gains (the model's)
+    run paper { method = feedback_euler; dt = 1e-4; t_end = 1000; init = paper; gains = [50, 100, 50]; }
 
     // GNI §VII.5: the three-rotation splitting (`--method splitting`); the generator checks
     // that the field above is the free rigid body's.

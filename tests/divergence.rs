@@ -16,6 +16,9 @@ use lasalle::models::rigid_body::RigidBody;
 use lasalle::{DriftBound, Driver, ExplicitRk, StepError};
 
 const PLEIADES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/models/pleiades.lsl");
+/// The same Pleiades as a family, with the test set's point and preset.
+const PLEIADES_MODEL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/models/pleiades.lsl");
+const ARENSTORF: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/models/arenstorf.lsl");
 
 /// x₁…x₇, y₁…y₇, ẋ₁…ẋ₇, ẏ₁…ẏ₇ at t = 3, the 16 digits as published.
 #[allow(clippy::excessive_precision)]
@@ -219,4 +222,131 @@ fn a_fixed_step_blow_up_exits_with_1_and_says_where() {
     let message = s["failure"]["message"].as_str().unwrap();
     assert!(message.contains("blow-up: non-finite"), "{message}");
     assert!(s["failure"]["step"].as_u64().is_some_and(|n| n > 0), "{s}");
+}
+
+/// The largest error of every invariant of a run (its summary's `invariant_errors`).
+fn largest_errors(summary: &serde_json::Value) -> Vec<(String, f64)> {
+    summary["invariant_errors"]
+        .as_object()
+        .unwrap()
+        .iter()
+        .map(|(name, e)| (name.clone(), e["max"].as_f64().expect("a finite error")))
+        .collect()
+}
+
+/// `feedback` is no worse than `plain`: every invariant's largest error within `factor` of
+/// the plain method's (or below `floor`, rounding on an invariant the plain method keeps
+/// exactly, as RK4 keeps a linear one), and the distance `orbit` within `factor` too.
+fn no_worse(
+    plain: &serde_json::Value,
+    feedback: &serde_json::Value,
+    orbit: impl Fn(&serde_json::Value) -> f64,
+    factor: f64,
+    floor: f64,
+) -> String {
+    let mut report = Vec::new();
+    for ((name, p), (_, f)) in largest_errors(plain).iter().zip(largest_errors(feedback)) {
+        report.push(format!("|Δ{name}| max: rk4 {p:.3e}, feedback-rk4 {f:.3e}"));
+        assert!(f <= factor * p.max(floor), "{}", report.join("\n"));
+    }
+    let (p, f) = (orbit(plain), orbit(feedback));
+    report.push(format!("orbit error: rk4 {p:.3e}, feedback-rk4 {f:.3e}"));
+    assert!(f <= factor * p, "{}", report.join("\n"));
+    report.join("\n")
+}
+
+/// The stability report of a fixed-step feedback run.
+fn stability(summary: &serde_json::Value) -> (bool, f64, f64) {
+    let s = &summary["stability"];
+    (
+        s["left_interval"].as_bool().expect("a stability report"),
+        s["max_h_k_L"].as_f64().unwrap(),
+        s["interval"].as_f64().unwrap(),
+    )
+}
+
+/// The Pleiades with RK4 at h = 10⁻⁴ to t = 3: with the default (bounded) gains feedback-RK4
+/// keeps each invariant's largest error and the distance from the test set's reference within
+/// 3× plain RK4's; the model file's gains (1 each) leave RK4's stability interval in the close
+/// encounters (h·k·L ≫ 2.785) and the run says so.
+#[test]
+fn pleiades_feedback_rk4_default_gains_are_no_worse_than_rk4() {
+    let args = |method| {
+        [
+            PLEIADES_MODEL,
+            "-m",
+            method,
+            "--dt",
+            "1e-4",
+            "--t-end",
+            "3",
+            "--every",
+            "1",
+        ]
+    };
+    let (code, rk4, stderr) = run("pleiades-rk4", &args("rk4"));
+    assert_eq!(code, Some(0), "{stderr}");
+    let (code, fb, stderr) = run("pleiades-feedback-rk4", &args("feedback-rk4"));
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(!stderr.contains("warning"), "{stderr}");
+    let report = no_worse(&rk4, &fb, distance_from_reference, 3.0, 1e-11);
+    let (left, hkl, beta) = stability(&fb);
+    assert!(!left && hkl <= 0.1 * beta * (1.0 + 1e-12), "{hkl} {beta}");
+    assert!(fb["stability"]["capped_steps"].as_u64().unwrap() > 0);
+    println!("{report}");
+
+    let model_gains = [&args("feedback-rk4")[..], &["--gains", "model"]].concat();
+    let (code, fb, stderr) = run("pleiades-feedback-rk4-model", &model_gains);
+    let (left, hkl, beta) = stability(&fb);
+    assert!(left && hkl > beta, "{hkl} {beta}");
+    assert!(
+        stderr.contains("warning: the feedback gains left"),
+        "{stderr}"
+    );
+    let t = fb["stability"]["first_outside_t"].as_f64().unwrap();
+    assert!(t > 0.0 && t < 3.0, "{t}");
+    println!("--gains model: exit {code:?}, h·k·L up to {hkl:.3e}, first at t = {t}");
+}
+
+/// Arenstorf's periodic orbit (one period, RK4 at h = 10⁻⁴): with the default gains
+/// feedback-RK4 keeps the Jacobi integral's largest error and the orbit's closure error within
+/// 3× RK4's; explicit gains too stiff for the step are reported.
+#[test]
+fn arenstorf_feedback_rk4_default_gains_are_no_worse_than_rk4() {
+    let period = "17.0652165601579625588917206249";
+    let args = |method| {
+        [
+            ARENSTORF, "-m", method, "--dt", "1e-4", "--t-end", period, "--every", "1",
+        ]
+    };
+    let closure = |s: &serde_json::Value| {
+        let x: Vec<f64> = s["final_state"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        let x0 = [0.994, 0.0, 0.0, -2.001_585_106_379_082_5];
+        x.iter()
+            .zip(x0)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max)
+    };
+    let (code, rk4, stderr) = run("arenstorf-rk4", &args("rk4"));
+    assert_eq!(code, Some(0), "{stderr}");
+    let (code, fb, stderr) = run("arenstorf-feedback-rk4", &args("feedback-rk4"));
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(!stderr.contains("warning"), "{stderr}");
+    let report = no_worse(&rk4, &fb, closure, 3.0, 0.0);
+    assert!(!stability(&fb).0);
+    println!("{report}");
+
+    let stiff = [&args("feedback-rk4")[..], &["--gains", "1000"]].concat();
+    let (_, fb, stderr) = run("arenstorf-feedback-rk4-stiff", &stiff);
+    let (left, hkl, beta) = stability(&fb);
+    assert!(left && hkl > beta, "{hkl} {beta}");
+    assert!(
+        stderr.contains("warning: the feedback gains left"),
+        "{stderr}"
+    );
 }

@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import os
 import threading
+import warnings
 from collections.abc import MutableMapping
 from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
 
@@ -214,7 +215,13 @@ class Solution:
     ``y_failure``, ``failure_kind`` (``guard``, ``diverged``, ``blow-up``, ``max-steps``,
     ``step-size``, ``rejections``, ``projection``) and ``guard`` when a failure stopped the run
     (the samples end just before it); ``steps``, ``rejections``, ``gains_initial``,
-    ``gains_final``, ``cpu_seconds``, ``wall_seconds``, ``method``, ``counters``.
+    ``gains_final``, ``cpu_seconds``, ``wall_seconds``, ``method``, ``counters``;
+    ``stability`` (fixed-step feedback methods, else None): ``interval`` (the base method's
+    real stability interval β), ``max_h_k_L`` (the largest h·k·L estimate of the run),
+    ``left_interval`` (True if some step started with h·k·L > β: the gains were too stiff for
+    the step there, and a warning is issued), ``steps_outside``, ``first_outside_t``,
+    ``capped_steps`` and ``min_gain_factor`` (default gains: the steps whose gains were scaled
+    down, and the smallest factor).
     """
 
     t: np.ndarray
@@ -229,6 +236,7 @@ class Solution:
     y_events: List[np.ndarray]
     event_names: List[str]
     stopped_by: Optional[Dict[str, Any]]
+    stability: Optional[Dict[str, Any]]
 
     def __init__(
         self,
@@ -242,6 +250,17 @@ class Solution:
         self.__dict__.update(d)
         self.integrals = list(integrals)
         self.event_names = list(event_names)
+        stability = d.get("stability")
+        if stability is not None and stability["left_interval"]:
+            warnings.warn(
+                f"the feedback gains left the base method's stability interval: h·k·L reached "
+                f"{stability['max_h_k_L']:.3e} > {stability['interval']:.4f} in "
+                f"{stability['steps_outside']} steps from t = {stability['first_outside_t']}; "
+                "the invariants' errors may be larger than the base method's "
+                "(use gains='default', smaller gains or a smaller dt)",
+                RuntimeWarning,
+                stacklevel=3,
+            )
         self.status = 0 if failure is None else -1
         if self.stopped_by is not None:
             self.status = 1

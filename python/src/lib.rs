@@ -468,6 +468,20 @@ fn recording_dict<'py>(
         counters.set_item(name, v)?;
     }
     d.set_item("counters", counters)?;
+    match &rec.stability {
+        None => d.set_item("stability", py.None())?,
+        Some(s) => {
+            let sd = PyDict::new(py);
+            sd.set_item("interval", s.interval)?;
+            sd.set_item("max_h_k_L", s.max_h_k_l)?;
+            sd.set_item("left_interval", s.left_interval())?;
+            sd.set_item("steps_outside", s.steps_outside)?;
+            sd.set_item("first_outside_t", s.first_outside_t)?;
+            sd.set_item("capped_steps", s.capped.map(|c| c.0))?;
+            sd.set_item("min_gain_factor", s.capped.map(|c| c.1))?;
+            d.set_item("stability", sd)?;
+        }
+    }
     match &rec.failure {
         None => d.set_item("failure", py.None())?,
         Some(e) => d.set_item("failure", failure_dict(py, e)?)?,

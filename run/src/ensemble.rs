@@ -15,7 +15,7 @@ use lasalle_runtime::{
 };
 use rayon::prelude::*;
 
-use crate::simulate::{check_start, plan_gains, recording, with_base, GainPlan, Visit};
+use crate::simulate::{check_start, recording, with_base, Visit};
 use crate::RunSpec;
 use crate::{
     initial_state, process_cpu_seconds, simulate, Base, KernelPool, Method, Recording, Reusing,
@@ -28,8 +28,8 @@ use crate::{
 /// except for the wall and CPU time, the group's divided by the number of lanes.
 ///
 /// `None` where lanes do not apply — fewer than two states, a method other than a fixed-step
-/// Runge–Kutta method on X or X − ∇V, gains that differ between the states or change during
-/// the run, samples between the first and the last state (`spec.every` below the run's step
+/// Runge–Kutta method on X (a feedback run's gains are bounded step by step, state by
+/// state), samples between the first and the last state (`spec.every` below the run's step
 /// count), output times or events to watch (a model that declares events), an initial state
 /// that [`simulate`] refuses, a run that fails (its guards or a blow-up stop every lane) — and
 /// then the caller runs each state alone, which gives each its own result.
@@ -38,7 +38,9 @@ pub fn simulate_lanes(
     x0s: &[Vec<f64>],
     spec: &RunSpec,
 ) -> Option<Vec<Recording>> {
-    let (Method::Plain(base) | Method::Feedback(base)) = spec.method else {
+    // a fixed-step feedback run estimates h·k·L before every step, state by state, and caps
+    // or watches its gains ([`lasalle_runtime::GainBound`]): each runs alone
+    let Method::Plain(base) = spec.method else {
         return None;
     };
     // backward runs go alone, each through its reversed model
@@ -57,40 +59,15 @@ pub fn simulate_lanes(
     {
         return None;
     }
-    let k = x0s.len();
-    if !spec.method.is_feedback() {
-        return with_base(
-            base,
+    with_base(
+        base,
+        spec,
+        DriveLanes {
+            lanes: model.lanes(x0s.len()),
+            x0s,
             spec,
-            DriveLanes {
-                lanes: model.lanes(k),
-                x0s,
-                spec,
-            },
-        );
-    }
-    // one gain vector for all lanes, fixed during the run
-    let mut plans = x0s
-        .iter()
-        .map(|x0| plan_gains::<_, _, Vec<f64>, Vec<f64>>(model, x0, spec, base.order()).ok());
-    let plan = plans.next()??;
-    let same = |p: &GainPlan<Vec<f64>>| {
-        p.adapt.is_none()
-            && p.initial
-                .iter()
-                .zip(&plan.initial)
-                .all(|(a, b)| a.to_bits() == b.to_bits())
-    };
-    if plan.adapt.is_some() || !plans.all(|p| p.as_ref().is_some_and(same)) {
-        return None;
-    }
-    let lanes = model.feedback_lanes(k, &plan.initial).ok()?;
-    let mut recordings = with_base(base, spec, DriveLanes { lanes, x0s, spec })?;
-    for r in &mut recordings {
-        r.gains_initial = Some(plan.initial.clone());
-        r.gains_final = Some(plan.initial.clone());
-    }
-    Some(recordings)
+        },
+    )
 }
 
 /// The visitor of [`simulate_lanes`].

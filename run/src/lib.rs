@@ -69,7 +69,7 @@ pub use events::{parse_t_eval, EventHit};
 pub use input::{initial_state, parse_numbers};
 pub use interrupt::Interrupt;
 pub use method::{Base, Method, MethodSetting};
-pub use recording::{json_number, Recording};
+pub use recording::{json_number, Recording, Stability};
 pub use reuse::{KernelPool, Reusing};
 pub use simulate::{simulate, simulate_with_progress, RunModel};
 pub use spec::{find_preset, RunSpec, RunSpecBuilder, AUTO_SAMPLES, DEFAULT_MAX_STEPS};

@@ -57,6 +57,80 @@ pub struct Recording {
     /// The crossing of a terminal (`stop`) event that ended the run, if one did: the run
     /// succeeded, and its last sample is that crossing.
     pub stopped_by: Option<EventHit>,
+    /// Where h·k·L stood against the base method's stability interval (fixed-step feedback
+    /// methods).
+    pub stability: Option<Stability>,
+}
+
+/// h·k·L of a fixed-step feedback run against the real stability interval (−β, 0] of its
+/// base method ([`GainBound`](lasalle_runtime::GainBound)): h the step, k·L the largest
+/// eigenvalue of the Hessian of V (estimated before every step).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Stability {
+    /// β: 2 for Euler and Heun, 2.785 for RK4.
+    pub interval: f64,
+    /// The largest estimate of h·k·L over the run's steps.
+    pub max_h_k_l: f64,
+    /// Steps that started with h·k·L past β (0: the run stayed inside).
+    pub steps_outside: u64,
+    /// The time of the first of them.
+    pub first_outside_t: Option<f64>,
+    /// With bounded gains (`--gains bounded`): the steps whose gains were scaled down, and the
+    /// smallest factor applied to the model's gains.
+    pub capped: Option<(u64, f64)>,
+}
+
+impl Stability {
+    /// Whether some step left the stability interval.
+    pub fn left_interval(&self) -> bool {
+        self.steps_outside > 0
+    }
+
+    /// Read from the counters of a [`GainBound`](lasalle_runtime::GainBound) (None without
+    /// them).
+    pub fn from_counters(counters: &[(&'static str, f64)]) -> Option<Stability> {
+        let get = |name: &str| counters.iter().find(|(n, _)| *n == name).map(|(_, v)| *v);
+        let first = get("first_outside_stability_t")?;
+        Some(Stability {
+            interval: get("stability_interval")?,
+            max_h_k_l: get("max_h_k_L")?,
+            steps_outside: get("steps_outside_stability")? as u64,
+            first_outside_t: (!first.is_nan()).then_some(first),
+            capped: get("capped_steps")
+                .zip(get("min_gain_factor"))
+                .map(|(n, f)| (n as u64, f)),
+        })
+    }
+
+    /// The warning a command line prints for a run that left the interval (None if it did not).
+    pub fn warning(&self) -> Option<String> {
+        self.left_interval().then(|| {
+            format!(
+                "warning: the feedback gains left the base method's stability interval: h·k·L \
+                 reached {:.3e} > {:.4} in {} steps from t = {}; the invariants' errors may be \
+                 larger than the base method's (use the default `--gains bounded`, smaller \
+                 gains or a smaller --dt)",
+                self.max_h_k_l,
+                self.interval,
+                self.steps_outside,
+                self.first_outside_t.unwrap_or(f64::NAN)
+            )
+        })
+    }
+
+    /// As JSON: `interval`, `max_h_k_L`, `left_interval`, `steps_outside`,
+    /// `first_outside_t`, `capped_steps`, `min_gain_factor`.
+    pub fn to_json(&self) -> serde_json::Value {
+        json!({
+            "interval": self.interval,
+            "max_h_k_L": json_number(self.max_h_k_l),
+            "left_interval": self.left_interval(),
+            "steps_outside": self.steps_outside,
+            "first_outside_t": self.first_outside_t,
+            "capped_steps": self.capped.map(|c| c.0),
+            "min_gain_factor": self.capped.map(|c| json_number(c.1)),
+        })
+    }
 }
 
 impl Recording {
@@ -176,8 +250,8 @@ impl Recording {
         Ok(())
     }
 
-    /// The run's summary as JSON: counters, wall and CPU time, final and maximal invariant
-    /// errors, final state, gains, failure. Non-finite numbers are strings
+    /// The run's summary as JSON: counters, wall and CPU time, maximal and final invariant
+    /// errors, final state, gains and their stability, failure. Non-finite numbers are strings
     /// ([`json_number`]).
     pub fn summary_json(&self) -> serde_json::Value {
         let invariants: serde_json::Map<String, serde_json::Value> = self
@@ -188,8 +262,8 @@ impl Recording {
                 (
                     name.clone(),
                     json!({
-                        "final": json_number(self.final_error(b)),
                         "max": json_number(self.max_error(b)),
+                        "final": json_number(self.final_error(b)),
                     }),
                 )
             })
@@ -214,6 +288,7 @@ impl Recording {
             "final_state": self.last_state().iter().map(|v| json_number(*v)).collect::<Vec<_>>(),
             "gains_initial": self.gains_initial,
             "gains_final": self.gains_final,
+            "stability": self.stability.as_ref().map(Stability::to_json),
             "stats": counters,
             "events": self.events_json(),
             "failure": self.failure.as_ref().map(|e| json!({

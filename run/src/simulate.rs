@@ -14,16 +14,17 @@ use std::marker::PhantomData;
 use std::time::Instant;
 
 use lasalle_runtime::{
-    component_names, sample_capacity, scaled_gains, step_gain_target, AdaptiveGain, CompiledStep,
-    Composition, Control, Crossing, Declared, DormandPrince, DriftBound, Driver, ExplicitRk,
-    FeedbackField, Field, FixedMethod, GainError, GainPolicy, Invariants, Lyapunov, ModelInfo,
-    Observer, Projection, Recorder, State, StepError, Stepper, StormerVerlet, Stride, Tableau,
-    Taylor, TaylorOptions, VerletVariant, Watch,
+    component_names, real_stability_interval, sample_capacity, scaled_gains, step_gain_target,
+    AdaptiveGain, BoundMode, CompiledStep, Composition, Control, Crossing, Declared, DormandPrince,
+    DriftBound, Driver, ExplicitRk, FeedbackField, Field, FixedMethod, GainBound, GainError,
+    GainPolicy, Invariants, Lyapunov, ModelInfo, Observer, Projection, Recorder, State, StepError,
+    Stepper, StormerVerlet, Stride, Tableau, Taylor, TaylorOptions, VerletVariant, Watch,
 };
 
 use crate::backward::{self, Backward, BackwardTaylor};
 use crate::{
-    process_cpu_seconds, Base, EventHit, Method, Recording, RunError, RunSpec, AUTO_SAMPLES,
+    process_cpu_seconds, Base, EventHit, Method, Recording, RunError, RunSpec, Stability,
+    AUTO_SAMPLES,
 };
 
 /// Everything [`simulate`] needs of a model, with states, invariants and gains stored as
@@ -607,6 +608,7 @@ where
         invariant_names: Vec::new(),
         events: Vec::new(),
         stopped_by: None,
+        stability: None,
     }
 }
 
@@ -793,12 +795,59 @@ where
     };
     let plan: GainPlan<K> = plan_gains(model, x0, spec, order)?;
     let fb = FeedbackField::from_initial(model, x0, plan.initial.clone());
-    let inner = drive(model, &fb, x0, spec, progress);
-    let mut rec = match plan.wrap(inner) {
+    // a fixed-step base method: h·k·L is capped or watched against its stability interval
+    let bound = match &stepper {
+        FeedbackStepper::Base(b) if *b != Base::Dopri5 => {
+            real_stability_interval(b.order()).map(|limit| Bound {
+                inner: drive(model, &fb, x0, spec, progress),
+                mode: match spec.gains.clone().resolve(false) {
+                    GainPolicy::Bounded { c } => BoundMode::Cap {
+                        model: plan.initial.clone(),
+                        theta: c * limit,
+                    },
+                    _ => BoundMode::Watch,
+                },
+                limit,
+            })
+        }
+        _ => None,
+    };
+    let mut rec = match (bound, stepper) {
+        (Some(bound), FeedbackStepper::Base(b)) => {
+            feedback_bounded(model, spec, b, &fb, &plan, bound)
+        }
+        (_, stepper) => {
+            let inner = drive(model, &fb, x0, spec, progress);
+            feedback_plain(model, spec, stepper, &fb, &plan, inner)
+        }
+    };
+    rec.gains_initial = Some(plan.initial.as_ref().to_vec());
+    rec.gains_final = Some(fb.gains().as_ref().to_vec());
+    rec.stability = Stability::from_counters(&rec.counters);
+    Ok(rec)
+}
+
+/// A feedback run without a stability bound (adaptive methods): the adaptive gain's wrapper if
+/// the plan has one, else a step compiled whole on X − ∇V where the back end compiles one.
+fn feedback_plain<'a, Mdl, X, FV, K, V>(
+    model: &'a Mdl,
+    spec: &RunSpec,
+    stepper: FeedbackStepper<Mdl>,
+    fb: &FeedbackField<'a, Mdl, FV, K>,
+    plan: &GainPlan<K>,
+    inner: V,
+) -> Recording
+where
+    Mdl: RunModel<X, FV, K>,
+    X: State<f64>,
+    FV: State<f64>,
+    K: State<f64>,
+    V: Visit<FeedbackField<'a, Mdl, FV, K>, X, Out = Recording>,
+    Taylor<Mdl>: Stepper<f64, X, FeedbackField<'a, Mdl, FV, K>>,
+{
+    match plan.wrap(inner) {
         Gained::Adaptive(adapt) => stepper.visit(spec, adapt),
         Gained::Fixed(inner) => {
-            // fixed gains and targets: a step compiled whole on X − ∇V, where the back end
-            // compiles one
             let feedback = Some((fb.target().as_ref(), plan.initial.as_ref()));
             match &stepper {
                 FeedbackStepper::Base(b) => match compiled_step(model, *b, feedback, spec) {
@@ -808,10 +857,84 @@ where
                 FeedbackStepper::Taylor(_) => stepper.visit(spec, inner),
             }
         }
-    };
-    rec.gains_initial = Some(plan.initial.as_ref().to_vec());
-    rec.gains_final = Some(fb.gains().as_ref().to_vec());
-    Ok(rec)
+    }
+}
+
+/// A fixed-step feedback run inside [`GainBound`]: capped gains on the generic stepper; fixed
+/// gains watched on the step compiled whole where the back end compiles one; the adaptive
+/// gain's wrapper watched from outside.
+fn feedback_bounded<'a, Mdl, X, FV, K, V>(
+    model: &'a Mdl,
+    spec: &RunSpec,
+    b: Base,
+    fb: &FeedbackField<'a, Mdl, FV, K>,
+    plan: &GainPlan<K>,
+    bound: Bound<V, K>,
+) -> Recording
+where
+    Mdl: RunModel<X, FV, K>,
+    X: State<f64>,
+    FV: State<f64>,
+    K: State<f64>,
+    V: Visit<FeedbackField<'a, Mdl, FV, K>, X, Out = Recording>,
+{
+    if let BoundMode::Cap { .. } = bound.mode {
+        // the gains change between steps: the generic stepper reads them from the field
+        return with_base(b, spec, bound);
+    }
+    let (mode, limit) = (bound.mode, bound.limit);
+    match plan.wrap(bound.inner) {
+        Gained::Adaptive(adapt) => with_base(
+            b,
+            spec,
+            Adapt {
+                inner: Bound {
+                    inner: adapt.inner,
+                    mode,
+                    limit,
+                },
+                unit: adapt.unit,
+                every: adapt.every,
+                c: adapt.c,
+                safety: adapt.safety,
+            },
+        ),
+        Gained::Fixed(inner) => {
+            let bound = Bound { inner, mode, limit };
+            let feedback = Some((fb.target().as_ref(), plan.initial.as_ref()));
+            match compiled_step(model, b, feedback, spec) {
+                Some(step) => bound.visit(step),
+                None => with_base(b, spec, bound),
+            }
+        }
+    }
+}
+
+/// Wraps the stepper in [`GainBound`] (the capped or watched h·k·L of a fixed-step feedback
+/// run).
+struct Bound<V, K> {
+    inner: V,
+    mode: BoundMode<K>,
+    limit: f64,
+}
+
+impl<'a, Mdl, V, X, FV, K> Visit<FeedbackField<'a, Mdl, FV, K>, X> for Bound<V, K>
+where
+    Mdl: Lyapunov<f64, X, FV, K> + ModelInfo,
+    V: Visit<FeedbackField<'a, Mdl, FV, K>, X>,
+    X: State<f64>,
+    FV: State<f64>,
+    K: State<f64>,
+{
+    type Out = V::Out;
+
+    fn visit<S>(self, stepper: S) -> V::Out
+    where
+        S: Stepper<f64, X, FeedbackField<'a, Mdl, FV, K>>,
+    {
+        self.inner
+            .visit(GainBound::new(stepper, self.mode, self.limit))
+    }
 }
 
 /// The gains of a feedback run: the initial ones and, for the adaptive policies, how the

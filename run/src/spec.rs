@@ -58,8 +58,9 @@ pub struct RunSpec {
 }
 
 impl RunSpec {
-    /// A spec with the defaults of `lasalle run`: default gains (the model's for fixed-step
-    /// methods, the step-tracking rule for adaptive ones), projection tolerance dt (rtol if dt
+    /// A spec with the defaults of `lasalle run`: default gains (the model's, bounded by the
+    /// stability interval, for fixed-step methods; the step-tracking rule for adaptive ones),
+    /// projection tolerance dt (rtol if dt
     /// is 0), rtol = atol = 1e-10, divergence past [`DEFAULT_MAX_DRIFT`], about
     /// [`AUTO_SAMPLES`] samples, at most [`DEFAULT_MAX_STEPS`] steps.
     pub fn new(method: Method, dt: f64, t_end: f64) -> Self {
@@ -219,6 +220,12 @@ impl RunSpec {
             return bad(format!(
                 "--gains step follows the step of an adaptive method (feedback-dopri5, \
                  feedback-taylor, split-taylor); `{}` takes fixed steps: use --gains adaptive",
+                self.method
+            ));
+        }
+        if matches!(self.gains, GainPolicy::Bounded { .. }) && adaptive {
+            return bad(format!(
+                "--gains bounded keeps h·k·L inside the stability interval of a fixed step;                  `{}` chooses its own steps: use --gains step",
                 self.method
             ));
         }

@@ -185,7 +185,7 @@ pub enum GainError {
         got: usize,
     },
     /// A gain specification that does not parse.
-    #[error("invalid gain specification `{0}`: expected `default`, `auto`, `fixed[:c]`, `adaptive[:m[:c]]`, `step[:c[:m]]` or `k1,k2,...`")]
+    #[error("invalid gain specification `{0}`: expected `default`, `model`, `bounded[:c]`, `auto`, `fixed[:c]`, `adaptive[:m[:c]]`, `step[:c[:m]]` or `k1,k2,...`")]
     Parse(String),
     /// A non-positive or non-finite step size, or c outside (0, 2).
     #[error("invalid gain parameter: {0}")]
@@ -387,8 +387,9 @@ pub fn step_gain_target(c: f64, tol: f64, order: u32) -> f64 {
 ///
 /// | text | policy |
 /// | --- | --- |
-/// | `default` | `model` for fixed-step methods (the paper's gains), `step` for adaptive ones, whose steps the model file's fixed gains cannot follow ([`GainPolicy::resolve`]) |
-/// | `model` | the gains written in the model file ([`ModelInfo::default_gain_values`]) |
+/// | `default` | `bounded` for fixed-step methods, `step` for adaptive ones, whose steps the model file's fixed gains cannot follow ([`GainPolicy::resolve`]) |
+/// | `model` | the gains written in the model file ([`ModelInfo::default_gain_values`]), unchanged along the run (a fixed-step run reports where h·k·L leaves the stability interval: [`crate::GainBound`]) |
+/// | `bounded`, `bounded:c` | fixed-step methods: the model file's gains, scaled down before every step where h·k·L would pass c·β, β the method's real stability interval ([`crate::GainBound`], default c = [`crate::DEFAULT_BOUND_FRACTION`]) |
 /// | `auto` | `adaptive` (m = 100, c = 1) for fixed-step methods, `step` (c = 2, m = 10) for adaptive ones ([`GainPolicy::resolve`]) |
 /// | `fixed`, `fixed:c` | [`scaled_gains`] at x₀ with unit gains and c (default 1) |
 /// | `adaptive`, `adaptive:m`, `adaptive:m:c` | [`AdaptiveGain`] every m steps (default 100), c (default 1) |
@@ -396,11 +397,17 @@ pub fn step_gain_target(c: f64, tol: f64, order: u32) -> f64 {
 /// | `k1,k2,…` | these gains |
 #[derive(Clone, Debug, PartialEq)]
 pub enum GainPolicy {
-    /// What applies when nothing is said: `ModelDefault` or `Step` according to the method
+    /// What applies when nothing is said: `Bounded` or `Step` according to the method
     /// ([`GainPolicy::resolve`]).
     Default,
     /// The model file's gains.
     ModelDefault,
+    /// The model file's gains, capped so that h·k·L ≤ c·β along a fixed-step run
+    /// ([`crate::GainBound`]).
+    Bounded {
+        /// The fraction of the base method's real stability interval β, in (0, 1].
+        c: f64,
+    },
     /// `Adaptive` or `Step` according to the method ([`GainPolicy::resolve`]).
     Auto,
     /// The scaled fixed gain c/(h·L) at x₀ times unit gains.
@@ -452,6 +459,18 @@ impl FromStr for GainPolicy {
         match head {
             "default" if rest.is_empty() => Ok(GainPolicy::Default),
             "model" if rest.is_empty() => Ok(GainPolicy::ModelDefault),
+            "bounded" => match rest.as_slice() {
+                [] => Ok(GainPolicy::Bounded {
+                    c: crate::DEFAULT_BOUND_FRACTION,
+                }),
+                [c] => match num(c)? {
+                    c if c > 0.0 && c <= 1.0 => Ok(GainPolicy::Bounded { c }),
+                    c => Err(GainError::Invalid(format!(
+                        "c = {c} is not in (0, 1] (the fraction of the stability interval)"
+                    ))),
+                },
+                _ => Err(bad()),
+            },
             "auto" if rest.is_empty() => Ok(GainPolicy::Auto),
             "step" => {
                 let c = match rest.first() {
@@ -511,7 +530,9 @@ impl GainPolicy {
     pub fn resolve(self, adaptive_method: bool) -> GainPolicy {
         match self {
             GainPolicy::Default if adaptive_method => GainPolicy::Step { c: 2.0, every: 10 },
-            GainPolicy::Default => GainPolicy::ModelDefault,
+            GainPolicy::Default => GainPolicy::Bounded {
+                c: crate::DEFAULT_BOUND_FRACTION,
+            },
             GainPolicy::Auto if adaptive_method => GainPolicy::Step { c: 2.0, every: 10 },
             GainPolicy::Auto => GainPolicy::Adaptive { every: 100, c: 1.0 },
             other => other,
@@ -519,7 +540,8 @@ impl GainPolicy {
     }
 
     /// The gains to start with at x₀ for step size h (for `Adaptive` and `Auto`, the scaled
-    /// gains at x₀; wrap the stepper in [`AdaptiveGain`] to keep adapting them; `Default` as
+    /// gains at x₀; wrap the stepper in [`AdaptiveGain`] to keep adapting them; for `Bounded`
+    /// the model's, which [`crate::GainBound`] scales before every step; `Default` as
     /// for a fixed-step method: resolve it first for an adaptive one). `Step` needs
     /// the method's tolerance and order: use [`scaled_gains`] with [`step_gain_target`].
     pub fn initial_gains<Mdl, T, X, F, K>(&self, model: &Mdl, x0: &X, h: T) -> Result<K, GainError>
@@ -545,7 +567,9 @@ impl GainPolicy {
             Ok(k)
         };
         match self {
-            GainPolicy::ModelDefault | GainPolicy::Default => from(model.default_gain_values()),
+            GainPolicy::ModelDefault | GainPolicy::Default | GainPolicy::Bounded { .. } => {
+                from(model.default_gain_values())
+            }
             GainPolicy::Explicit(v) => from(v),
             GainPolicy::Scaled { c } | GainPolicy::Adaptive { c, .. } => {
                 let unit = K::filled(K::len_for(g), T::one());
@@ -594,7 +618,18 @@ mod tests {
             GainPolicy::Default.resolve(true),
             GainPolicy::Step { c: 2.0, every: 10 }
         );
-        assert_eq!(GainPolicy::Default.resolve(false), GainPolicy::ModelDefault);
+        assert_eq!(
+            GainPolicy::Default.resolve(false),
+            GainPolicy::Bounded {
+                c: crate::DEFAULT_BOUND_FRACTION
+            }
+        );
+        assert_eq!(
+            "bounded:0.5".parse::<GainPolicy>().unwrap(),
+            GainPolicy::Bounded { c: 0.5 }
+        );
+        assert!("bounded:1.5".parse::<GainPolicy>().is_err());
+        assert!("bounded:0".parse::<GainPolicy>().is_err());
         assert!("step:2:0".parse::<GainPolicy>().is_err());
         assert!("adaptive:0".parse::<GainPolicy>().is_err());
         assert_eq!("auto".parse::<GainPolicy>().unwrap(), GainPolicy::Auto);

@@ -40,6 +40,7 @@ mod error;
 pub mod events;
 mod feedback;
 mod field;
+mod gain_bound;
 mod gains;
 mod observe;
 mod output;
@@ -59,6 +60,7 @@ pub use field::{
     lit, Field, InvariantInfo, InvariantKind, Invariants, Lyapunov, ModelInfo, Partitioned, Shape,
     Slot,
 };
+pub use gain_bound::{real_stability_interval, BoundMode, GainBound, DEFAULT_BOUND_FRACTION};
 pub use gains::{
     gauss_newton_hessian, gauss_newton_norm, gauss_newton_trace, scaled_gains, step_gain_target,
     symmetric_spectral_norm, AdaptiveGain, GainError, GainPolicy,

@@ -1,7 +1,7 @@
 //! `lasalle run <model> [--method m] [--dt h] [--t-end T] [--param k=v] [--init p] [--gains g]
 //! [--rtol r] [--atol a] [--format table|json|csv] [--out dir]`: one integration, written as
 //! `trace.csv` (t, state, each invariant's error) and `summary.json` (counters, wall time,
-//! final and maximal errors, failure).
+//! maximal and final errors, the feedback gains' stability, failure).
 
 use std::path::PathBuf;
 
@@ -17,7 +17,7 @@ use super::{usage, value, CliResult, Given};
 /// What `lasalle run` prints on standard output.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
 pub enum Format {
-    /// A short report: steps, evaluations, time, each invariant's final and largest error.
+    /// A short report: steps, evaluations, time, each invariant's largest and final error.
     #[default]
     Table,
     /// The summary (counters, CPU and wall time, invariant errors) as one JSON line.
@@ -60,8 +60,10 @@ pub struct RunArgs {
     /// point) or the flat state as comma-separated numbers.
     #[arg(long, allow_hyphen_values = true)]
     pub init: Option<String>,
-    /// Gains of feedback methods: default (the model's for fixed-step methods, `step` for
-    /// adaptive ones), model (the model file's), auto (adaptive for fixed-step methods, step
+    /// Gains of feedback methods: default (`bounded` for fixed-step methods, `step` for
+    /// adaptive ones), model (the model file's, unchanged), bounded[:c] (the model file's,
+    /// scaled down where h·k·L would pass c times the method's stability interval, default
+    /// c = 0.1), auto (adaptive for fixed-step methods, step
     /// for adaptive ones), fixed[:c], adaptive[:m[:c]], step[:c[:m]] (h·k·L = c·rtol^(1/p) at
     /// every step of an adaptive method), or k1,k2,…
     #[arg(long, default_value = "default", allow_hyphen_values = true)]
@@ -257,6 +259,9 @@ pub fn run(args: &RunArgs, given: &Given) -> CliResult {
         Format::Csv => recording.write_csv_to(std::io::stdout().lock())?,
         Format::Table => {}
     }
+    if let Some(warning) = recording.stability.as_ref().and_then(|s| s.warning()) {
+        eprintln!("{warning}");
+    }
     if let Some(e) = &recording.failure {
         let hint = match e {
             lasalle::StepError::MaxSteps { .. } => "; --max-steps raises the budget",
@@ -289,13 +294,26 @@ pub fn run(args: &RunArgs, given: &Given) -> CliResult {
         );
         for (b, name) in recording.blocks.iter().enumerate() {
             println!(
-                "  |Δ{name}|: final {:.3e}, max {:.3e}",
-                recording.final_error(b),
-                recording.max_error(b)
+                "  |Δ{name}|: max {:.3e}, final {:.3e}",
+                recording.max_error(b),
+                recording.final_error(b)
             );
         }
         if let Some(g) = &recording.gains_final {
             println!("  gains: {g:?}");
+        }
+        if let Some(s) = &recording.stability {
+            let capped = match s.capped {
+                Some((0, _)) => ", the model's gains throughout".to_string(),
+                Some((n, f)) => {
+                    format!(", the model's gains scaled down in {n} steps (by {f:.2e} at most)")
+                }
+                None => String::new(),
+            };
+            println!(
+                "  h·k·L: max {:.3e} (stability interval {:.4}){capped}",
+                s.max_h_k_l, s.interval
+            );
         }
         super::chaos::report(&summary);
         if let Some(e) = &recording.stopped_by {

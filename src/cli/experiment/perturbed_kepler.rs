@@ -14,7 +14,7 @@ use lasalle::{Control, Declared, DormandPrince, Driver, VerletVariant};
 use serde_json::json;
 
 use super::super::plot::{thin, write_figure, Chart, Style};
-use lasalle::{json_number as num, Base, Method, Recording, RunSpec};
+use lasalle::{json_number as num, Base, GainPolicy, Method, Recording, RunSpec};
 
 use super::super::progress::simulate;
 use super::{
@@ -75,6 +75,10 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
     for (method, _, _) in METHODS {
         let adaptive = method == Method::Plain(Base::Dopri5);
         let mut spec = RunSpec::new(method, if adaptive { 0.0 } else { dt }, t_end);
+        // the paper's runs: the model file's gains, as the paper gives them
+        if method.is_feedback() {
+            spec.gains = GainPolicy::ModelDefault;
+        }
         spec.every = 1;
         spec.tol = 1e-8;
         spec.rtol = REFERENCE_TOL;

@@ -10,7 +10,7 @@ use lasalle::models::rigid_body::RigidBody;
 use serde_json::json;
 
 use super::super::plot::{thin, write_figure, Chart, Style};
-use lasalle::{json_number as num, Base, Method, Recording, RunSpec};
+use lasalle::{json_number as num, Base, GainPolicy, Method, Recording, RunSpec};
 
 use super::super::progress::simulate;
 use super::{
@@ -38,6 +38,10 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
     let mut traces = Vec::new();
     for (method, _, _) in METHODS {
         let mut spec = RunSpec::new(method, dt, t_end);
+        // the paper's runs: the model file's gains, as the paper gives them
+        if method.is_feedback() {
+            spec.gains = GainPolicy::ModelDefault;
+        }
         // about 10⁴ samples: every 0.1 time units at the paper's step
         spec.every = (spec.steps() / 10_000).max(1);
         spec.tol = dt;

@@ -14,7 +14,7 @@ use serde_json::json;
 
 use super::super::load::load;
 use super::super::plot::{thin, write_figure, Chart, Style};
-use lasalle::{Base, Method, Recording, RunSpec};
+use lasalle::{Base, GainPolicy, Method, Recording, RunSpec};
 
 use super::super::progress::simulate;
 use super::{
@@ -71,6 +71,10 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
         let mut traces = Vec::new();
         for (method, _, _) in METHODS {
             let mut spec = RunSpec::new(method, dt, t_end);
+            // the paper's runs: the model file's gains, as the paper gives them
+            if method.is_feedback() {
+                spec.gains = GainPolicy::ModelDefault;
+            }
             // every accepted step of the adaptive method (≈ 5·10⁴), ≈ 10⁴ samples otherwise
             spec.every = if method.is_adaptive() {
                 1
