@@ -12,8 +12,8 @@ use lasalle_normal_form::interval::certified::{
 };
 use lasalle_normal_form::validate::{tube_orbits, TubeOrbit, TubeRun};
 use lasalle_normal_form::{
-    normalize_model, normalize_model_orders, ErrorEstimate, ModelHamiltonian, ModelPoint,
-    NormalForm, NormalFormError, Options, Precision, Progress,
+    normalize_model, ErrorEstimate, ModelHamiltonian, ModelPoint, NormalForm, NormalFormError,
+    Options, Precision, Progress,
 };
 use serde::Serialize;
 
