@@ -6,7 +6,8 @@
 //! the errors.
 
 use lasalle_analysis::canonical::{
-    analyse, CanonicalOptions, CanonicalReport, SearchStop, Validation, Verdict,
+    analyse, analyse_with, CanonicalOptions, CanonicalReport, SearchEnd, SearchEvent, SearchStop,
+    Validation, Verdict,
 };
 use lasalle_codegen::Model;
 use lasalle_normal_form::bound::Metric;
@@ -33,6 +34,8 @@ fn options(tubes: &[(f64, f64)], order: usize, metric: Metric) -> CanonicalOptio
         metric,
         validate: None,
         certified: false,
+        budget: None,
+        progress: None,
     }
 }
 
@@ -245,6 +248,68 @@ fn order_search_reports_the_largest_bound_and_whether_it_was_bracketed() {
     for r in &tube.orders {
         assert!(r.seconds > 0.0);
     }
+}
+
+/// The order search stops a tube without a bound after its first order, with its reason,
+/// while the other tubes go on; each row is told as soon as its order is computed.
+#[test]
+fn order_search_stops_a_tube_without_bound_at_once() {
+    let o = CanonicalOptions {
+        optimal: true,
+        ..options(&[(3e-2, 6e-2), (1e-2, 2e-2)], 8, Metric::LinearNormal)
+    };
+    let mut events: Vec<String> = Vec::new();
+    let report = analyse_with(
+        &cr3bp(),
+        &[("mu".to_string(), EARTH_MOON_MU)],
+        &o,
+        &mut |e| match e {
+            SearchEvent::Row { tube, row } => events.push(format!("row {tube} {}", row.order)),
+            SearchEvent::TubeEnd { tube, end } => events.push(format!("end {tube} {end:?}")),
+            _ => {}
+        },
+    )
+    .unwrap();
+    let wide = &report.tubes[0];
+    assert_eq!(wide.orders.len(), 1);
+    assert_eq!(wide.search_end, Some(SearchEnd::NoBound { order: 4 }));
+    assert!(wide.failure.as_ref().unwrap().contains("too wide"));
+    let good = &report.tubes[1];
+    assert_eq!(good.orders.len(), 3);
+    assert_eq!(good.search_end, Some(SearchEnd::Ceiling { last: 8 }));
+    assert_eq!(
+        events,
+        [
+            "row 0 4",
+            "row 1 4",
+            "end 0 NoBound { order: 4 }",
+            "row 1 6",
+            "row 1 8"
+        ]
+    );
+}
+
+/// The time budget ends a search whose bound still grows, with the best order so far.
+#[test]
+fn budget_ends_a_search_that_still_grows() {
+    let o = CanonicalOptions {
+        optimal: true,
+        budget: Some(0.0),
+        ..options(&[(5e-3, 1e-2)], 60, Metric::LinearNormal)
+    };
+    let report = run(EARTH_MOON_MU, &o).unwrap();
+    let tube = &report.tubes[0];
+    assert_eq!(tube.orders.len(), 1);
+    assert_eq!(tube.best_order, Some(4));
+    assert_eq!(
+        tube.search_end,
+        Some(SearchEnd::Budget {
+            budget: 0.0,
+            last: 4
+        })
+    );
+    assert_eq!(tube.optimum_bracketed, Some(false));
+    assert!(report.to_table().contains("still growing at N = 4"));
 }
 
 /// `for_time`: the radius found keeps its tube for T (measured again through the fixed-tube

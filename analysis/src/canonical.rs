@@ -13,9 +13,12 @@ use lasalle_normal_form::interval::certified::{
 use lasalle_normal_form::validate::{tube_orbits, TubeOrbit, TubeRun};
 use lasalle_normal_form::{
     normalize_model, ErrorEstimate, ModelHamiltonian, ModelPoint, NormalForm, NormalFormError,
-    Options, Precision,
+    Options, Precision, Progress,
 };
 use serde::Serialize;
+
+mod search;
+use search::{search_orders, Searched};
 
 /// What to compute.
 #[derive(Clone, Debug)]
@@ -47,6 +50,92 @@ pub struct CanonicalOptions {
     /// normal form in double-double at least (an order the estimate ran in `f64` is
     /// normalised again for it).
     pub certified: bool,
+    /// The time budget of the order search (`optimal`) in seconds: no further order is
+    /// started once it is spent, or when the next order, costing at least as much as the last
+    /// one, would overrun it; the tubes still growing then end with [`SearchEnd::Budget`].
+    /// `None`: no limit. The certified searches have their own
+    /// ([`CERTIFIED_SEARCH_SECONDS`]).
+    pub budget: Option<f64>,
+    /// Told the stages of each normal form (each degree normalised), e.g. for a progress
+    /// line.
+    pub progress: Option<Progress>,
+}
+
+/// The default time budget of the order search ([`CanonicalOptions::budget`]), seconds.
+pub const SEARCH_BUDGET_SECONDS: f64 = 300.0;
+
+/// Why the order search stopped for one tube (or one `for_time` radius).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+pub enum SearchEnd {
+    /// The bound (radius) at order `next` is below the one at `best`: the optimum is
+    /// bracketed.
+    Peaked {
+        /// N_opt.
+        best: usize,
+        /// The first order past it computed.
+        next: usize,
+    },
+    /// The first order gives no bound (the maps do not separate the spheres, ρ₁ ≤ ρ₀; no
+    /// radius for the time): the tube is not searched further ([`Tube::failure`] says why).
+    NoBound {
+        /// The order tried.
+        order: usize,
+    },
+    /// The time budget was spent while the bound still grew.
+    Budget {
+        /// The budget, seconds.
+        budget: f64,
+        /// The last order computed (the bound still growing there).
+        last: usize,
+    },
+    /// The highest order allowed was reached while the bound still grew.
+    Ceiling {
+        /// That order.
+        last: usize,
+    },
+}
+
+/// What [`analyse_with`] tells as it goes.
+#[derive(Debug)]
+pub enum SearchEvent<'a> {
+    /// The verdict and the linear data, before any order (no tubes yet).
+    Start(&'a CanonicalReport),
+    /// The normal form of order N is started (`seconds`: since the analysis began).
+    Order {
+        /// N.
+        order: usize,
+        /// Seconds since the analysis began.
+        seconds: f64,
+    },
+    /// Tube `tube`'s row at one order.
+    Row {
+        /// Index of the tube in [`CanonicalOptions::tubes`].
+        tube: usize,
+        /// The row.
+        row: &'a OrderBound,
+    },
+    /// Radius `index`'s row at one order.
+    Radius {
+        /// Index in [`CanonicalOptions::for_time`].
+        index: usize,
+        /// The row.
+        row: &'a RadiusAtOrder,
+    },
+    /// The search stopped for tube `tube`.
+    TubeEnd {
+        /// Index of the tube.
+        tube: usize,
+        /// Why.
+        end: &'a SearchEnd,
+    },
+    /// The search stopped for radius `index`.
+    RadiusEnd {
+        /// Index in [`CanonicalOptions::for_time`].
+        index: usize,
+        /// Why.
+        end: &'a SearchEnd,
+    },
 }
 
 /// The validation runs of [`CanonicalOptions::validate`].
@@ -180,6 +269,8 @@ pub struct RadiusForTime {
     /// With `certified`: the certified radius, per order tried (the certified order search),
     /// and which of them is the largest.
     pub certified_radius: Option<CertifiedSearch<CertifiedRadius>>,
+    /// With the order search: why it stopped for this radius.
+    pub search_end: Option<SearchEnd>,
 }
 
 /// The certified bound of one tube or one radius, per order tried.
@@ -259,6 +350,8 @@ pub struct Tube {
     /// With the order search: whether the bound was seen to decrease past `best_order`
     /// (false: it still grew at the last order computed).
     pub optimum_bracketed: Option<bool>,
+    /// With the order search: why it stopped for this tube.
+    pub search_end: Option<SearchEnd>,
     /// With `certified`: the certified time at the certified search's best order, or (no
     /// order gave one) the first order's result, which says why.
     pub certified: Option<Result<CertifiedTube, String>>,
@@ -520,6 +613,18 @@ pub fn analyse(
     params: &[(String, f64)],
     o: &CanonicalOptions,
 ) -> Result<CanonicalReport, String> {
+    analyse_with(model, params, o, &mut |_| {})
+}
+
+/// [`analyse`], telling `on_event` what it has as it goes: the verdict before any order,
+/// then each order's rows as soon as they are computed and each tube's (radius's) end of
+/// the order search ([`SearchEvent`]).
+pub fn analyse_with(
+    model: &Model,
+    params: &[(String, f64)],
+    o: &CanonicalOptions,
+    on_event: &mut dyn FnMut(SearchEvent<'_>),
+) -> Result<CanonicalReport, String> {
     o.validate()?;
     let started = std::time::Instant::now();
     let at = |e: NormalFormError| format!("{}: {e}", model.name);
@@ -612,56 +717,17 @@ pub fn analyse(
         return Ok(report);
     }
     report.order_search = o.optimal;
-    // the orders: given (4, 6, …, N), or searched until every bound stops growing
-    let mut orders: Vec<usize> = Vec::new();
-    let mut forms: Vec<Form> = Vec::new();
-    let mut rows_by_tube: Vec<Vec<OrderBound>> = vec![Vec::new(); o.tubes.len()];
-    let mut radii: Vec<Vec<RadiusAtOrder>> = vec![Vec::new(); o.for_time.len()];
-    let mut precision = Precision::F64;
-    let candidates: Vec<usize> = {
-        let mut v: Vec<usize> = (4..=o.max_order).step_by(2).collect();
-        if o.max_order % 2 == 1 {
-            v.push(o.max_order);
-        }
-        v
-    };
-    // is the last value below the best so far (None counts as below)?
-    fn past_best(values: &[Option<f64>]) -> bool {
-        let best = values[..values.len() - 1]
-            .iter()
-            .flatten()
-            .copied()
-            .fold(f64::NEG_INFINITY, f64::max);
-        best.is_finite() && values.last().copied().flatten().is_none_or(|v| v < best)
-    }
-    for &n in &candidates {
-        let f = order_form(model, params, o, n, precision).map_err(at)?;
-        precision = f.nf.precision;
-        for (k, &(d0, d1)) in o.tubes.iter().enumerate() {
-            rows_by_tube[k].push(tube_row(&f, d0, d1, o.metric).map_err(at)?);
-        }
-        for (k, &time) in o.for_time.iter().enumerate() {
-            // start from the previous order's radius (they change slowly with N)
-            let start = radii[k].iter().rev().find_map(|r| r.d0).unwrap_or(1e-3);
-            radii[k].push(radius_at_order(&f, time, o.outer_ratio, o.metric, start).map_err(at)?);
-        }
-        orders.push(n);
-        forms.push(f);
-        if o.optimal && orders.len() >= 2 {
-            let tubes_done = rows_by_tube.iter().all(|rows| {
-                let v: Vec<Option<f64>> =
-                    rows.iter().map(|r| r.gradient.map(|t| t.lower)).collect();
-                past_best(&v)
-            });
-            let radii_done = radii.iter().all(|rs| {
-                let v: Vec<Option<f64>> = rs.iter().map(|r| r.d0).collect();
-                past_best(&v)
-            });
-            if tubes_done && radii_done {
-                break;
-            }
-        }
-    }
+    on_event(SearchEvent::Start(&report));
+    let Searched {
+        orders,
+        forms,
+        rows_by_tube,
+        radii,
+        precision,
+        candidates,
+        tube_ends,
+        radius_ends,
+    } = search_orders(model, params, o, started, on_event).map_err(at)?;
     let h = ModelHamiltonian::new(model, params).map_err(at)?;
     let mut cert = Certifier {
         model,
@@ -676,7 +742,7 @@ pub fn analyse(
     // the certified search runs over the orders the estimate may use (4, 6, …, `--order`,
     // or up to the search's ceiling), from the lowest, while its result grows
     let mut report_radii = Vec::new();
-    for (&time, orders) in o.for_time.iter().zip(radii) {
+    for ((&time, orders), search_end) in o.for_time.iter().zip(radii).zip(radius_ends) {
         let best = orders
             .iter()
             .filter_map(|r| r.d0.map(|d| (r.order, d)))
@@ -720,11 +786,12 @@ pub fn analyse(
             orders,
             certified,
             certified_radius,
+            search_end,
         });
     }
     report.radii = report_radii;
     let mut drift: Vec<Vec<(f64, f64)>> = vec![Vec::new(); orders.len()];
-    for (&(d0, d1), rows) in o.tubes.iter().zip(rows_by_tube) {
+    for ((&(d0, d1), rows), search_end) in o.tubes.iter().zip(rows_by_tube).zip(tube_ends) {
         let best_order = rows
             .iter()
             .filter_map(|r| r.gradient.map(|t| (r.order, t.lower)))
@@ -748,6 +815,8 @@ pub fn analyse(
         });
         let validation = match &o.validate {
             Some(v) if failure.is_none() => {
+                // the orders this tube was searched at
+                let forms = &forms[..rows.len()];
                 let charts: Vec<(&NormalForm, &Bound)> =
                     forms.iter().map(|f| (&f.nf, &f.bound)).collect();
                 let run = TubeRun {
@@ -769,7 +838,7 @@ pub fn analyse(
                         0.5 * (reach * reach - r.rho0 * r.rho0)
                     })
                     .collect();
-                let tv = summarize(&orbits, &orders, &allowed, v.horizon);
+                let tv = summarize(&orbits, &orders[..rows.len()], &allowed, v.horizon);
                 for (k, m) in tv.measured.iter().enumerate() {
                     if m.action_drift > tv.noise {
                         drift[k].push((d0, m.action_drift));
@@ -781,7 +850,7 @@ pub fn analyse(
         };
         let optimum_bracketed = o
             .optimal
-            .then(|| rows.last().map(|r| r.order) != best_order && best_order.is_some());
+            .then(|| matches!(search_end, Some(SearchEnd::Peaked { .. })));
         let certified_orders = (o.certified && best_order.is_some()).then(|| {
             cert.search(
                 &candidates,
@@ -809,6 +878,7 @@ pub fn analyse(
             validation,
             failure,
             optimum_bracketed,
+            search_end,
             certified,
             certified_orders,
         });
@@ -1178,6 +1248,55 @@ fn certified_radius_table(s: &mut String, c: &CertifiedSearch<CertifiedRadius>, 
     }
 }
 
+/// One row of a tube's table (columns [`CanonicalReport::row_header`]).
+pub fn row_line(r: &OrderBound) -> String {
+    let gap = r.gradient.map_or(String::new(), |g| {
+        format!("{:.1e}", g.upper / g.lower - 1.0)
+    });
+    format!(
+        "  {:>3} {:>3} {:>5} {:>12.5e} {:>12.5e} {:>5} {:>16} {:>16} {:>9} {:>8.2}",
+        r.order,
+        r.remainder_degree,
+        r.precision.to_string(),
+        r.rho0,
+        r.rho1,
+        r.lowest_degree.map_or("-".into(), |d| d.to_string()),
+        fmt_time(r.gradient),
+        fmt_time(r.radial),
+        gap,
+        r.seconds,
+    )
+}
+
+/// Why the order search of a tube ended, as a sentence (`None` without the search).
+pub fn search_end_line(
+    end: Option<&SearchEnd>,
+    best: Option<usize>,
+    rows: &[OrderBound],
+) -> Option<String> {
+    let at = |n: usize| rows.iter().find(|r| r.order == n);
+    let time_at = |n: usize| fmt_time(at(n).and_then(|r| r.gradient));
+    Some(match end? {
+        SearchEnd::Peaked { best, next } => format!(
+            "optimal order N_opt = {best} ({}): T = {} (the bound decreases beyond it: {} at N = {next})",
+            at(*best).map_or(String::new(), |r| r.precision.to_string()),
+            time_at(*best),
+            time_at(*next),
+        ),
+        SearchEnd::NoBound { order } => format!(
+            "no bound at N = {order} (ρ₁ ≤ ρ₀): the tube is not searched further"
+        ),
+        SearchEnd::Budget { budget, last } => format!(
+            "the time budget ({budget} s, --budget) was spent: best order so far N = {}, T = {}, still growing at N = {last}",
+            best.map_or("-".into(), |n| n.to_string()),
+            best.map_or("-".into(), time_at),
+        ),
+        SearchEnd::Ceiling { last } => format!(
+            "the bound still grows at N = {last}, the last order allowed (raise --order to search further)"
+        ),
+    })
+}
+
 fn fmt_time(t: Option<Time>) -> String {
     match t {
         Some(t) => format!("{:.4e}", t.lower),
@@ -1188,6 +1307,12 @@ fn fmt_time(t: Option<Time>) -> String {
 impl CanonicalReport {
     /// Human-readable tables.
     pub fn to_table(&self) -> String {
+        let mut s = self.head_table();
+        s.push_str(&self.tubes_table());
+        s
+    }
+    /// The model, the linear data and the verdict (the first lines of [`Self::to_table`]).
+    pub fn head_table(&self) -> String {
         use std::fmt::Write;
         let mut s = String::new();
         if self.equilibrium.is_empty() {
@@ -1210,6 +1335,19 @@ impl CanonicalReport {
             );
         }
         let _ = writeln!(s, "verdict: {}", self.verdict);
+        s
+    }
+    /// The column names of [`row_line`].
+    pub fn row_header() -> String {
+        format!(
+            "  {:>3} {:>3} {:>5} {:>12} {:>12} {:>5} {:>16} {:>16} {:>9} {:>8}",
+            "N", "M", "prec", "ρ0", "ρ1", "R≥", "T (gradient)", "T (radial)", "quad gap", "s"
+        )
+    }
+    /// Everything after [`Self::head_table`]: the tubes, the radii, the drift exponents.
+    pub fn tubes_table(&self) -> String {
+        use std::fmt::Write;
+        let mut s = String::new();
         for t in &self.tubes {
             let _ = writeln!(
                 s,
@@ -1220,56 +1358,22 @@ impl CanonicalReport {
                 let _ = writeln!(s, "  {why}");
                 continue;
             }
-            let _ = writeln!(
-                s,
-                "  {:>3} {:>3} {:>5} {:>12} {:>12} {:>5} {:>16} {:>16} {:>9} {:>8}",
-                "N", "M", "prec", "ρ0", "ρ1", "R≥", "T (gradient)", "T (radial)", "quad gap", "s"
-            );
+            let _ = writeln!(s, "{}", Self::row_header());
             for r in &t.orders {
-                let gap = r.gradient.map_or(String::new(), |g| {
-                    format!("{:.1e}", g.upper / g.lower - 1.0)
-                });
+                let mark = match (Some(r.order) == t.best_order, self.order_search) {
+                    (true, true) => "  ← N_opt",
+                    (true, false) => "  ← best",
+                    _ => "",
+                };
+                let _ = writeln!(s, "{}{mark}", row_line(r));
+            }
+            if let Some(line) = search_end_line(t.search_end.as_ref(), t.best_order, &t.orders) {
+                let _ = writeln!(s, "  {line}");
+            } else if let (Some(false), Some(n)) = (t.optimum_bracketed, t.best_order) {
                 let _ = writeln!(
                     s,
-                    "  {:>3} {:>3} {:>5} {:>12.5e} {:>12.5e} {:>5} {:>16} {:>16} {:>9} {:>8.2}{}",
-                    r.order,
-                    r.remainder_degree,
-                    r.precision.to_string(),
-                    r.rho0,
-                    r.rho1,
-                    r.lowest_degree.map_or("-".into(), |d| d.to_string()),
-                    fmt_time(r.gradient),
-                    fmt_time(r.radial),
-                    gap,
-                    r.seconds,
-                    if Some(r.order) == t.best_order {
-                        if self.order_search {
-                            "  ← N_opt"
-                        } else {
-                            "  ← best"
-                        }
-                    } else {
-                        ""
-                    }
+                    "  the bound still grows at N = {n}, the last order computed (raise --order to search further)"
                 );
-            }
-            match (t.optimum_bracketed, t.best_order) {
-                (Some(true), Some(n)) => {
-                    let best = t.orders.iter().find(|r| r.order == n);
-                    let _ = writeln!(
-                        s,
-                        "  optimal order N_opt = {n} ({}): T = {} (the bound decreases beyond it)",
-                        best.map_or(String::new(), |r| r.precision.to_string()),
-                        fmt_time(best.and_then(|r| r.gradient)),
-                    );
-                }
-                (Some(false), Some(n)) => {
-                    let _ = writeln!(
-                        s,
-                        "  the bound still grows at N = {n}, the last order computed (raise --order to search further)"
-                    );
-                }
-                _ => {}
             }
             let est = t
                 .best_order

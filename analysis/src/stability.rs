@@ -100,6 +100,8 @@ impl Default for StabilityOptions {
                 metric: Metric::Euclidean,
                 validate: None,
                 certified: false,
+                budget: Some(canonical::SEARCH_BUDGET_SECONDS),
+                progress: None,
             },
         }
     }
@@ -341,13 +343,24 @@ pub fn canonical(
     model: &LoadedModel,
     opts: &StabilityOptions,
 ) -> Result<CanonicalReport, ReportError> {
+    canonical_with(model, opts, &mut |_| {})
+}
+
+/// [`canonical()`] telling `on_event` the verdict and each order's rows as they come
+/// ([`canonical::analyse_with`]).
+pub fn canonical_with(
+    model: &LoadedModel,
+    opts: &StabilityOptions,
+    on_event: &mut dyn FnMut(canonical::SearchEvent<'_>),
+) -> Result<CanonicalReport, ReportError> {
     let params: Vec<(String, f64)> = parameters(model)
         .into_iter()
         .filter(|(_, v)| v.len() == 1)
         .map(|(n, v)| (n, v[0]))
         .collect();
     opts.canonical.validate().map_err(ReportError::Options)?;
-    canonical::analyse(lowered(model)?, &params, &opts.canonical).map_err(ReportError::Failed)
+    canonical::analyse_with(lowered(model)?, &params, &opts.canonical, on_event)
+        .map_err(ReportError::Failed)
 }
 
 /// The domain of attraction of a planar equilibrium.

@@ -226,12 +226,14 @@ pub use jet::Jet;
 /// Re-exported because they appear in this crate's API: [`HamiltonianFn::eval`] is generic
 /// over [`Scalar`], whose `powf` takes a [`Rational`].
 pub use lasalle_model::ir::{Rational, Scalar};
-pub use model::{normalize_model, normalize_model_file, ModelHamiltonian, ModelPoint};
+pub use model::{
+    normalize_model, normalize_model_file, normalize_model_orders, ModelHamiltonian, ModelPoint,
+};
 pub use monomial::{binomial, MonomialTable};
 pub use normal_form::{
-    normalize, ActionTerm, ArnoldMoser, DegreeError, Diagnostics, ErrorEstimate, NormalForm,
-    Options, Point, PolyMap, Precision, Progress, Remainder, RemainderPart, ResonantTerm,
-    SmallDivisor, Stage, Term, Timings, Value, DEFAULT_MAX_RELATIVE_ERROR, MAX_ORDER,
+    normalize, normalize_orders, ActionTerm, ArnoldMoser, DegreeError, Diagnostics, ErrorEstimate,
+    NormalForm, Options, Point, PolyMap, Precision, Progress, Remainder, RemainderPart,
+    ResonantTerm, SmallDivisor, Stage, Term, Timings, Value, DEFAULT_MAX_RELATIVE_ERROR, MAX_ORDER,
 };
 pub use poly::Poly;
 pub use qd::Qd;

@@ -321,34 +321,65 @@ pub(crate) fn canonical_m(m: &[i32], sigma: &[i8]) -> (Vec<i32>, bool) {
     (v, flip)
 }
 
-/// Runs the normalisation of `h` (complex, degrees ≥ 2, H₂ = Σ λ_k x_k y_k) to degree
-/// `order` = N: generators G₃…G_N, and H transformed up to the table's degree M ≥ N (the
-/// degrees N+1…M of the result are H ∘ φ_{G₃} ∘ … ∘ φ_{G_N} there, not normalised: the
-/// remainder). `omega_w`: the frequencies in double-double or wider (the divisors are formed
-/// from them);
-/// `is_resonant(m)` decides whether the term is kept (resonant normal form); it is only
-/// asked about canonical m; brackets with output degree ≤ `compensate_to` are accumulated in
-/// double-double ([`bracket_real_compensated`]); `on_degree(r)` is called before degree r is
-/// normalised.
-#[allow(clippy::needless_range_loop)]
-pub(crate) fn normalize<R: Real, W: Real>(
-    mut h: Poly<Complex<R>>,
-    order: usize,
-    omega_w: &[W],
-    sigma: &[i8],
-    is_resonant: &dyn Fn(&[i32]) -> bool,
+/// The normalisation degree by degree: H (complex, degrees ≥ 2, H₂ = Σ λ_k x_k y_k)
+/// transformed by the generators found so far, up to the table's degree M. After
+/// [`step`](Self::step)s 3…N its degrees ≤ N are Z and its degrees N+1…M are
+/// H ∘ φ_{G₃} ∘ … ∘ φ_{G_N} there, not normalised (the remainder of order N); a further step
+/// only adds G_{N+1}: the generators and the transformed terms of the lower degrees are those
+/// of every higher order. Truncating at a higher M changes no degree ≤ M (a degree of a Lie
+/// series depends on the lower degrees only).
+pub(crate) struct Normalizer<'a, R: Real, W: Real> {
+    /// H transformed by the generators so far.
+    pub h: Poly<Complex<R>>,
+    /// Generators G_r (index r; empty for r < 3, zero, or not yet computed).
+    pub generators: Vec<Vec<Complex<R>>>,
+    divisors: BTreeMap<Vec<i32>, Divisor<R>>,
+    omega_w: &'a [W],
+    sigma: &'a [i8],
+    is_resonant: &'a dyn Fn(&[i32]) -> bool,
     compensate_to: usize,
-    on_degree: &dyn Fn(usize),
-) -> LieOutput<R> {
-    let table = h.table().clone();
-    let nmax = table.max_degree();
-    let n = table.nvars() / 2;
-    let mut generators = vec![Vec::new(); nmax + 1];
-    let mut divisors: BTreeMap<Vec<i32>, Divisor<R>> = BTreeMap::new();
-    h.set_part(1, Vec::new());
-    for r in 3..=order.min(nmax) {
-        on_degree(r);
-        let Some(hr) = h.part(r) else { continue };
+}
+
+impl<'a, R: Real, W: Real> Normalizer<'a, R, W> {
+    /// `omega_w`: the frequencies in double-double or wider (the divisors are formed from
+    /// them); `is_resonant(m)` decides whether the term is kept (resonant normal form); it is
+    /// only asked about canonical m; brackets with output degree ≤ `compensate_to` are
+    /// accumulated in double-double ([`bracket_real_compensated`]).
+    pub(crate) fn new(
+        mut h: Poly<Complex<R>>,
+        omega_w: &'a [W],
+        sigma: &'a [i8],
+        is_resonant: &'a dyn Fn(&[i32]) -> bool,
+        compensate_to: usize,
+    ) -> Self {
+        let nmax = h.table().max_degree();
+        h.set_part(1, Vec::new());
+        Normalizer {
+            h,
+            generators: vec![Vec::new(); nmax + 1],
+            divisors: BTreeMap::new(),
+            omega_w,
+            sigma,
+            is_resonant,
+            compensate_to,
+        }
+    }
+
+    /// Every distinct m met so far with its divisor, by increasing |m·ω|.
+    pub(crate) fn divisors(&self) -> Vec<Divisor<R>> {
+        let mut divisors: Vec<Divisor<R>> = self.divisors.values().cloned().collect();
+        divisors.sort_by(|a, b| a.value.abs().to_f64().total_cmp(&b.value.abs().to_f64()));
+        divisors
+    }
+
+    /// Normalises degree r (the degrees 3…r−1 normalised before): G_r, and H ← H ∘ φ_{G_r}
+    /// to the table's degree.
+    #[allow(clippy::needless_range_loop)]
+    pub(crate) fn step(&mut self, r: usize) {
+        let table = self.h.table().clone();
+        let nmax = table.max_degree();
+        let n = table.nvars() / 2;
+        let Some(hr) = self.h.part(r) else { return };
         let hr = hr.to_vec();
         let mut g = vec![Complex::zero(); hr.len()];
         let mut zr = vec![Complex::zero(); hr.len()];
@@ -366,21 +397,20 @@ pub(crate) fn normalize<R: Real, W: Real>(
                 zr[i] = c;
                 continue;
             }
-            let (cm, _) = canonical_m(&m, sigma);
-            let entry = divisors.entry(cm.clone()).or_insert_with(|| {
+            let (cm, _) = canonical_m(&m, self.sigma);
+            let omega_w = self.omega_w;
+            self.divisors.entry(cm.clone()).or_insert_with(|| {
                 let v = cm
                     .iter()
                     .zip(omega_w)
                     .fold(W::zero(), |s, (&a, &w)| s + w.scale(a as f64));
-                let value = R::convert(v);
                 Divisor {
                     m: cm.clone(),
-                    value,
+                    value: R::convert(v),
                     order: r,
                 }
             });
-            let _ = entry;
-            if is_resonant(&cm) {
+            if (self.is_resonant)(&cm) {
                 zr[i] = c;
                 continue;
             }
@@ -390,7 +420,7 @@ pub(crate) fn normalize<R: Real, W: Real>(
             let s = m
                 .iter()
                 .zip(omega_w)
-                .zip(sigma)
+                .zip(self.sigma)
                 .fold(W::zero(), |acc, ((&mk, &w), &sg)| {
                     acc + w.scale((mk * sg as i32) as f64)
                 });
@@ -400,19 +430,93 @@ pub(crate) fn normalize<R: Real, W: Real>(
         }
         if any {
             let first: Vec<Complex<R>> = zr.iter().zip(&hr).map(|(&z, &x)| z - x).collect();
-            lie_transform_real(&mut h, &g, r, nmax, Some(first), compensate_to);
+            lie_transform_real(&mut self.h, &g, r, nmax, Some(first), self.compensate_to);
             // the degree-r part is Z_r up to rounding of h + (z − h); set it exactly
-            h.set_part(r, zr);
-            generators[r] = g;
+            self.h.set_part(r, zr);
+            self.generators[r] = g;
         }
     }
+}
+
+/// Runs the normalisation of `h` (complex, degrees ≥ 2, H₂ = Σ λ_k x_k y_k) to degree
+/// `order` = N ([`Normalizer`] through degree N): generators G₃…G_N, and H transformed up to
+/// the table's degree M ≥ N; `on_degree(r)` is called before degree r is normalised.
+pub(crate) fn normalize<R: Real, W: Real>(
+    h: Poly<Complex<R>>,
+    order: usize,
+    omega_w: &[W],
+    sigma: &[i8],
+    is_resonant: &dyn Fn(&[i32]) -> bool,
+    compensate_to: usize,
+    on_degree: &dyn Fn(usize),
+) -> LieOutput<R> {
+    let nmax = h.table().max_degree();
+    let mut nz = Normalizer::new(h, omega_w, sigma, is_resonant, compensate_to);
+    for r in 3..=order.min(nmax) {
+        on_degree(r);
+        nz.step(r);
+    }
+    let divisors = nz.divisors();
+    let mut h = nz.h;
     h.prune();
-    let mut divisors: Vec<Divisor<R>> = divisors.into_values().collect();
-    divisors.sort_by(|a, b| a.value.abs().to_f64().total_cmp(&b.value.abs().to_f64()));
     LieOutput {
         z: h,
-        generators,
+        generators: nz.generators,
         divisors,
+    }
+}
+
+/// Extends the coordinate maps of [`coordinate_maps`] (generators 3…`from`, truncated at
+/// `cap`) to the generators 3…N (`generators.len() − 1`), reusing them: the forward map
+/// (old in terms of new) takes the new flows last, `w ∘ Φ_N = (w ∘ Φ_from) ∘ φ_{from+1} ∘ …`;
+/// the inverse map (new in terms of old) takes them first,
+/// `w' = E⁻₃⋯E⁻_from (E⁻_{from+1}⋯E⁻_N w)` with `E⁻_r f = f ∘ φ_{−G_r}`, so it gains
+/// `E⁻₃⋯E⁻_from (D)` with `D = E⁻_{from+1}⋯E⁻_N w − w`, which starts at degree `from`: its
+/// Lie chains are short. Equal to [`coordinate_maps`] of all the generators up to rounding.
+pub(crate) fn extend_coordinate_maps<C: Coeff>(
+    table: &std::sync::Arc<MonomialTable>,
+    generators: &[Vec<C>],
+    from: usize,
+    maps: &mut [Poly<C>],
+    cap: usize,
+    forward: bool,
+) {
+    let nmax = generators.len() - 1;
+    let neg = |g: &[C]| -> Vec<C> { g.iter().map(|&c| -c).collect() };
+    for (j, map) in maps.iter_mut().enumerate() {
+        if forward {
+            for r in from + 1..=nmax {
+                if !generators[r].is_empty() {
+                    lie_transform(map, &generators[r], r, cap, None);
+                }
+            }
+            continue;
+        }
+        let w = Poly::variable(table.clone(), j, C::zero());
+        let mut f = w.clone();
+        for r in (from + 1..=nmax).rev() {
+            if !generators[r].is_empty() {
+                lie_transform(&mut f, &neg(&generators[r]), r, cap, None);
+            }
+        }
+        if let Some(w1) = w.part(1) {
+            for (d, &x) in f.part_mut(1).iter_mut().zip(w1) {
+                *d -= x;
+            }
+        }
+        for r in (3..=from.min(nmax)).rev() {
+            if !generators[r].is_empty() {
+                lie_transform(&mut f, &neg(&generators[r]), r, cap, None);
+            }
+        }
+        for k in 1..=cap {
+            if let Some(p) = f.part(k) {
+                let p = p.to_vec();
+                for (d, x) in map.part_mut(k).iter_mut().zip(p) {
+                    *d += x;
+                }
+            }
+        }
     }
 }
 

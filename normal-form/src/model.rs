@@ -146,7 +146,17 @@ pub fn normalize_model(
     options: &Options,
 ) -> Result<NormalForm, NormalFormError> {
     let h = ModelHamiltonian::new(model, params)?;
-    let start = match point {
+    let start = model_start(&h, model, point)?;
+    normalize(&h, &Point::Newton(start), options)
+}
+
+/// The starting point of Newton's method for `point`.
+fn model_start(
+    h: &ModelHamiltonian<'_>,
+    model: &Model,
+    point: &ModelPoint,
+) -> Result<Vec<f64>, NormalFormError> {
+    Ok(match point {
         ModelPoint::Named(name) => h.point(name).ok_or_else(|| {
             NormalFormError::Model(format!(
                 "no point `{name}` (the model has: {})",
@@ -172,6 +182,21 @@ pub fn normalize_model(
             })?;
             h.point(&name).expect("declared point")
         }
-    };
-    normalize(&h, &Point::Newton(start), options)
+    })
+}
+
+/// The normal forms of a lowered model at several orders from one normalisation
+/// ([`crate::normalize_orders`]: `orders` = [(N, M), …], each result to `on_form` as soon as
+/// it is complete, which returns whether to go on).
+pub fn normalize_model_orders(
+    model: &Model,
+    params: &[(String, f64)],
+    point: &ModelPoint,
+    options: &Options,
+    orders: &[(usize, usize)],
+    on_form: &mut dyn FnMut(NormalForm) -> bool,
+) -> Result<(), NormalFormError> {
+    let h = ModelHamiltonian::new(model, params)?;
+    let start = model_start(&h, model, point)?;
+    crate::normalize_orders(&h, &Point::Newton(start), options, orders, on_form)
 }

@@ -21,6 +21,10 @@ pub struct DegreeTable {
     /// For an even number of variables 2n: for each monomial `x^a y^b` (x the first n
     /// variables, y the last n) the index of `x^b y^a`; empty for an odd number.
     pub mirror: Vec<u32>,
+    /// For each monomial: (index in degree k−1 of it divided by its first variable, that
+    /// variable); `(u32::MAX, 0)` at degree 0. Evaluating all monomials at a point is then
+    /// one product each ([`MonomialTable::monomial_values`]).
+    pub parent: Vec<(u32, u8)>,
 }
 
 /// Monomial tables for `nvars` variables up to total degree `max_degree`.
@@ -126,12 +130,22 @@ impl MonomialTable {
             } else {
                 Vec::new()
             };
+            let parent = (0..count)
+                .map(|i| {
+                    let e = &exps[i * nvars..(i + 1) * nvars];
+                    match e.iter().position(|&x| x > 0) {
+                        Some(v) => (deriv[v][i].0, v as u8),
+                        None => (u32::MAX, 0),
+                    }
+                })
+                .collect();
             degrees.push(DegreeTable {
                 exps,
                 keys,
                 lookup,
                 deriv,
                 mirror,
+                parent,
             });
         }
         MonomialTable {
@@ -184,6 +198,29 @@ impl MonomialTable {
             .filter(|&i| i != u32::MAX)
             .map(|i| (k, i as usize))
     }
+    /// The values at `x` of every monomial of degree ≤ `degree` (≤ the table's), by degree:
+    /// one product per monomial.
+    pub fn monomial_values<T: Copy + std::ops::Mul<Output = T>>(
+        &self,
+        x: &[T],
+        one: T,
+        degree: usize,
+    ) -> Vec<Vec<T>> {
+        assert_eq!(x.len(), self.nvars);
+        let top = degree.min(self.max_degree);
+        let mut out: Vec<Vec<T>> = Vec::with_capacity(top + 1);
+        out.push(vec![one]);
+        for k in 1..=top {
+            let prev = &out[k - 1];
+            let vals = self.degrees[k]
+                .parent
+                .iter()
+                .map(|&(j, v)| prev[j as usize] * x[v as usize])
+                .collect();
+            out.push(vals);
+        }
+        out
+    }
     /// Approximate memory used by the tables, in bytes.
     pub fn memory_bytes(&self) -> usize {
         self.degrees
@@ -194,6 +231,7 @@ impl MonomialTable {
                     + 4 * t.lookup.len()
                     + t.deriv.iter().map(|d| 8 * d.len()).sum::<usize>()
                     + 4 * t.mirror.len()
+                    + 8 * t.parent.len()
             })
             .sum()
     }

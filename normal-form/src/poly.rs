@@ -348,6 +348,24 @@ impl<T: Coeff> Poly<T> {
         }
         r
     }
+    /// The highest degree with a stored part (0 if none): the degree at most.
+    pub fn stored_degree(&self) -> usize {
+        (0..self.parts.len())
+            .rev()
+            .find(|&k| !self.parts[k].is_empty())
+            .unwrap_or(0)
+    }
+    /// Value from the values of the monomials ([`MonomialTable::monomial_values`], up to at
+    /// least [`stored_degree`](Self::stored_degree)).
+    pub fn eval_monomials(&self, monomials: &[Vec<T>]) -> T {
+        let mut sum = T::zero();
+        for (part, m) in self.parts.iter().zip(monomials) {
+            for (&c, &v) in part.iter().zip(m) {
+                sum += c * v;
+            }
+        }
+        sum
+    }
     /// Value at a point.
     pub fn eval(&self, x: &[T]) -> T {
         let d = self.nvars();

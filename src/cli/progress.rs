@@ -59,6 +59,19 @@ impl RunProgress {
     }
 }
 
+/// A spinner with a message on standard error, drawn only if it is a terminal.
+pub fn spinner() -> ProgressBar {
+    if !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
+    if let Ok(style) = ProgressStyle::with_template("{spinner} {elapsed_precise} {msg}") {
+        bar.set_style(style);
+    }
+    bar.enable_steady_tick(std::time::Duration::from_millis(200));
+    bar
+}
+
 /// [`lasalle::simulate`] with a progress bar labelled with the method if `shown`.
 pub fn simulate<Mdl, X, FV, K>(
     model: &Mdl,

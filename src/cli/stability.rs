@@ -100,6 +100,11 @@ pub struct CanonicalArgs {
     /// With --validate: write the figure `stability_time.svg`/`.png` into this directory.
     #[arg(long, value_name = "DIR", requires = "validate")]
     pub figure: Option<std::path::PathBuf>,
+    /// Canonical models: the time budget of the order search (without --order), in seconds:
+    /// no further order is started once it is spent (or when the next would overrun it), and
+    /// the best order so far is reported with "still growing at N = …"; 0: no limit.
+    #[arg(long, value_name = "SECONDS", default_value_t = lasalle_analysis::canonical::SEARCH_BUDGET_SECONDS, value_parser = value::non_negative, allow_hyphen_values = true)]
+    pub budget: f64,
     /// Canonical models: also print a certified time (interval arithmetic through the
     /// field's Taylor models, branch and bound on the spheres) for every tube, and a
     /// certified radius for every --for-time, at the orders 4, 6, … (up to --order) while
@@ -135,6 +140,7 @@ const CANONICAL_FLAGS: &[&str] = &[
     "horizon",
     "figure",
     "certified",
+    "budget",
 ];
 const ATTRACTION_FLAGS: &[&str] = &["lyapunov", "radius", "plot"];
 
@@ -309,6 +315,8 @@ fn run_canonical(args: &StabilityArgs, model: &LoadedModel) -> CliResult {
             ..Validation::default()
         }),
         certified: c.certified,
+        budget: (c.budget > 0.0).then_some(c.budget),
+        progress: None,
     };
     if let Some(dir) = &c.figure {
         if !dir.is_dir() {
@@ -323,7 +331,7 @@ fn run_canonical(args: &StabilityArgs, model: &LoadedModel) -> CliResult {
         canonical: opts,
         ..StabilityOptions::default()
     };
-    let report = stability::canonical(model, &opts)?;
+    let report = streamed(model, opts, args.format == Format::Table)?;
     if let Some(dir) = &c.figure {
         super::stability_figure::write(&report, dir)?;
     }
@@ -331,7 +339,8 @@ fn run_canonical(args: &StabilityArgs, model: &LoadedModel) -> CliResult {
         // the report's fields in their declared order
         Format::Json => println!("{}", serde_json::to_string_pretty(&report)?),
         Format::Csv => print!("{}", report.to_csv()),
-        Format::Table => print!("{}", report.to_table()),
+        // the head and the rows were printed as they came
+        Format::Table => print!("{}", report.tubes_table()),
     }
     let failed = report.tubes.iter().filter(|t| t.failure.is_some()).count();
     if failed > 0 {
@@ -342,6 +351,74 @@ fn run_canonical(args: &StabilityArgs, model: &LoadedModel) -> CliResult {
         .into());
     }
     Ok(())
+}
+
+/// The canonical analysis, its verdict and each order's rows printed as they come (`table`),
+/// with a progress line on standard error if it is a terminal.
+fn streamed(
+    model: &LoadedModel,
+    mut opts: StabilityOptions,
+    table: bool,
+) -> Result<lasalle_analysis::canonical::CanonicalReport, Box<dyn std::error::Error>> {
+    use lasalle_analysis::canonical::{row_line, search_end_line, CanonicalReport, SearchEvent};
+    use lasalle_normal_form::{Progress, Stage};
+    let bar = super::progress::spinner();
+    let line = bar.clone();
+    opts.canonical.progress = Some(Progress(std::sync::Arc::new(move |stage| {
+        if let Stage::Degree {
+            degree,
+            order,
+            precision,
+        } = stage
+        {
+            line.set_message(format!(
+                "normal form of order {order} ({precision}): degree {degree}"
+            ));
+        }
+    })));
+    let tubes = opts.canonical.tubes.clone();
+    let many = tubes.len() > 1;
+    let mut printed = vec![Vec::new(); tubes.len()];
+    let mut on_event = |e: SearchEvent<'_>| {
+        let say = |text: String| bar.suspend(|| println!("{text}"));
+        match e {
+            SearchEvent::Start(r) if table => {
+                say(r.head_table().trim_end().to_string());
+                say(format!(
+                    "\nOrders as they complete ({}):\n{}{}",
+                    if many {
+                        "tube = the index of --time-bound"
+                    } else {
+                        "the table below is repeated in full at the end"
+                    },
+                    if many { "  tube" } else { "" },
+                    CanonicalReport::row_header()
+                ));
+            }
+            SearchEvent::Order { order, seconds } => {
+                bar.set_message(format!("order {order} ({seconds:.1} s so far)"))
+            }
+            SearchEvent::Row { tube, row } if table => {
+                printed[tube].push(row.clone());
+                let label = if many {
+                    format!("  {:>4}", tube + 1)
+                } else {
+                    String::new()
+                };
+                say(format!("{label}{}", row_line(row)));
+            }
+            SearchEvent::TubeEnd { tube, end } if table => {
+                if let Some(s) = search_end_line(Some(end), None, &printed[tube]) {
+                    let (d0, d1) = tubes[tube];
+                    say(format!("  tube {d0:e} → {d1:e}: {s}"));
+                }
+            }
+            _ => {}
+        }
+    };
+    let report = stability::canonical_with(model, &opts, &mut on_event);
+    bar.finish_and_clear();
+    Ok(report?)
 }
 
 /// Runs `lasalle stability`.

@@ -196,9 +196,23 @@ pub struct PolyMap {
 }
 
 impl PolyMap {
-    /// Evaluates the map.
+    /// Evaluates the map: the monomials once (one product each), then each component as
+    /// their linear combination.
     pub fn eval(&self, x: &[f64]) -> Vec<f64> {
-        self.components.iter().map(|p| p.eval(x)).collect()
+        let Some(first) = self.components.first() else {
+            return Vec::new();
+        };
+        let top = self
+            .components
+            .iter()
+            .map(|p| p.stored_degree())
+            .max()
+            .unwrap_or(0);
+        let monomials = first.table().monomial_values(x, 1.0, top);
+        self.components
+            .iter()
+            .map(|p| p.eval_monomials(&monomials))
+            .collect()
     }
 }
 

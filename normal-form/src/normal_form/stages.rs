@@ -32,39 +32,22 @@ pub(super) fn run<R: Real, H: HamiltonianFn + ?Sized>(
     point: &Point,
     o: &Options,
 ) -> Result<Raw<R>, NormalFormError> {
-    let t_start = Instant::now();
-    let precision = Precision::of::<R>();
-    Progress::report(&o.progress, Stage::Start(precision));
-    let (n, nmax) = (h.n_dof(), o.order);
+    let nmax = o.order;
     let top = o.remainder_degree.unwrap_or(nmax).max(nmax);
-    let Expansion { eq, hz, table } = expand::<R, H>(h, point, o, top)?;
-    let energy = hz.constant_term();
-    let mut timings = Timings {
-        taylor: t_start.elapsed().as_secs_f64(),
-        ..Timings::default()
-    };
-
+    let mut p = prepare::<R, H>(h, point, o, nmax, top)?;
+    check_nonresonant(h.n_dof(), nmax, &p.linear.lin.omega, o)?;
     let t = Instant::now();
-    let compensate_to = if R::NAME == "f64" {
-        o.compensated_degree.min(nmax)
-    } else {
-        0
-    };
-    let linear = normalize_linear(&hz, &table, o, compensate_to)?;
-    timings.linear = t.elapsed().as_secs_f64();
-
-    check_nonresonant(n, nmax, &linear.lin.omega, o)?;
+    let precision = p.precision;
     let tol = o.resonance_tol;
-    let is_res = |m: &[i32]| o.resonant && m_dot_omega(m, &linear.lin.omega).abs().to_f64() < tol;
-
-    let t = Instant::now();
+    let omega = p.linear.lin.omega.clone();
+    let is_res = |m: &[i32]| o.resonant && m_dot_omega(m, &omega).abs().to_f64() < tol;
     let out = lie::normalize(
-        linear.hc,
+        p.linear.hc.clone(),
         nmax,
-        &linear.omega_w,
-        &linear.lin.sigma,
+        &p.linear.omega_w,
+        &p.linear.lin.sigma,
         &is_res,
-        compensate_to,
+        p.compensate_to,
         &|degree| {
             Progress::report(
                 &o.progress,
@@ -77,14 +60,118 @@ pub(super) fn run<R: Real, H: HamiltonianFn + ?Sized>(
         },
     );
     Progress::report(&o.progress, Stage::Transform);
-    timings.lie = t.elapsed().as_secs_f64();
+    p.timings.lie = t.elapsed().as_secs_f64();
+    let (_, greal_parts, _) = real_generators(&out.generators, &p, nmax);
+    let maps = coordinate_maps_of(&p.table, &greal_parts, o, nmax, top);
+    Ok(finish(&p, &out, o, nmax, top, maps))
+}
 
-    let (hbar, hbar_imag, degrees) = in_actions(&out.z, &table, n, nmax);
+/// What every order of one run shares: the expansion, the linear normalisation and the
+/// timings of both.
+struct Prepared<R: Real> {
+    eq: Equilibrium<R>,
+    energy: R,
+    table: Arc<MonomialTable>,
+    linear: Linear<R>,
+    compensate_to: usize,
+    precision: Precision,
+    timings: Timings,
+    started: Instant,
+}
+
+/// Stages 1–2 with the table to degree `top` (brackets compensated to degree
+/// min(`compensated_degree`, `nmax`) in f64).
+fn prepare<R: Real, H: HamiltonianFn + ?Sized>(
+    h: &H,
+    point: &Point,
+    o: &Options,
+    nmax: usize,
+    top: usize,
+) -> Result<Prepared<R>, NormalFormError> {
+    let started = Instant::now();
+    let precision = Precision::of::<R>();
+    Progress::report(&o.progress, Stage::Start(precision));
+    let Expansion { eq, hz, table } = expand::<R, H>(h, point, o, top)?;
+    let energy = hz.constant_term();
+    let mut timings = Timings {
+        taylor: started.elapsed().as_secs_f64(),
+        ..Timings::default()
+    };
+    let t = Instant::now();
+    let compensate_to = if R::NAME == "f64" {
+        o.compensated_degree.min(nmax)
+    } else {
+        0
+    };
+    let linear = normalize_linear(&hz, &table, o, compensate_to)?;
+    timings.linear = t.elapsed().as_secs_f64();
+    Ok(Prepared {
+        eq,
+        energy,
+        table,
+        linear,
+        compensate_to,
+        precision,
+        timings,
+        started,
+    })
+}
+
+/// The generators in real form ([`generating_function`]) through degree `nmax`.
+#[allow(clippy::type_complexity)]
+fn real_generators<R: Real>(
+    generators: &[Vec<Complex<R>>],
+    p: &Prepared<R>,
+    nmax: usize,
+) -> (Vec<(Vec<u32>, usize, R)>, Vec<Vec<R>>, f64) {
+    let gens: Vec<Vec<Complex<R>>> = generators.iter().take(nmax + 1).cloned().collect();
+    let (greal_parts, generating, imag) = generating_function(&gens, &p.table, &p.linear.ci, nmax);
+    (generating, greal_parts, imag)
+}
+
+/// The coordinate maps (to, from the normal coordinates) to degree `top − 1`, as asked.
+#[allow(clippy::type_complexity)]
+fn coordinate_maps_of<R: Real>(
+    table: &Arc<MonomialTable>,
+    greal_parts: &[Vec<R>],
+    o: &Options,
+    nmax: usize,
+    top: usize,
+) -> (Option<Vec<Poly<R>>>, Option<Vec<Poly<R>>>) {
+    if o.transform && nmax >= 2 {
+        // the generators in real form generate the same maps in (Q, P), since the
+        // complexification is symplectic: the coordinate maps are real Lie series
+        let cap = top - 1;
+        (
+            Some(lie::coordinate_maps(table, greal_parts, cap, false)),
+            o.inverse_transform
+                .then(|| lie::coordinate_maps(table, greal_parts, cap, true)),
+        )
+    } else {
+        (None, None)
+    }
+}
+
+/// Stages 4–6 of order `nmax` with the remainder to degree `top`, from the normalisation
+/// `out` (its degrees above `top` are ignored) and the coordinate maps.
+fn finish<R: Real>(
+    p: &Prepared<R>,
+    out: &lie::LieOutput<R>,
+    o: &Options,
+    nmax: usize,
+    top: usize,
+    maps: (Option<Vec<Poly<R>>>, Option<Vec<Poly<R>>>),
+) -> Raw<R> {
+    let t = Instant::now();
+    let table = &p.table;
+    let n = table.nvars() / 2;
+    let tol = o.resonance_tol;
+    let (hbar, hbar_imag, degrees) = in_actions(&out.z, table, n, nmax);
     let mut remainder = o.remainder_degree.map(|_| Remainder {
         degree: top,
         parts: Vec::new(),
     });
-    let resonant_terms = off_action_terms(&out.z, &table, n, nmax, remainder.as_mut());
+    let resonant_terms = off_action_terms(&out.z, table, n, nmax, top, remainder.as_mut());
     let divisors = out
         .divisors
         .iter()
@@ -95,44 +182,31 @@ pub(super) fn run<R: Real, H: HamiltonianFn + ?Sized>(
             resonant: o.resonant && dv.value.abs().to_f64() < tol,
         })
         .collect();
+    let lin = &p.linear.lin;
     // D4 (meaningless when resonant terms were kept: H̄ is then not a function of I alone)
     let d4 = twist_coefficients(
         n,
         nmax,
         resonant_terms.is_empty(),
         &hbar,
-        &linear.lin.omega,
-        &linear.lin.sigma,
+        &lin.omega,
+        &lin.sigma,
     );
-
-    let t = Instant::now();
-    let (greal_parts, generating, generating_imag) =
-        generating_function(&out.generators, &table, &linear.ci, nmax);
-    let (to_normal, from_normal) = if o.transform && nmax >= 2 {
-        // the generators in real form generate the same maps in (Q, P), since the
-        // complexification is symplectic: the coordinate maps are real Lie series
-        let cap = top - 1;
-        (
-            Some(lie::coordinate_maps(&table, &greal_parts, cap, false)),
-            o.inverse_transform
-                .then(|| lie::coordinate_maps(&table, &greal_parts, cap, true)),
-        )
-    } else {
-        (None, None)
-    };
-    timings.transform = t.elapsed().as_secs_f64();
-    timings.total = t_start.elapsed().as_secs_f64();
-    let lin = linear.lin;
-    Ok(Raw {
-        eq,
-        energy,
+    let (generating, _, generating_imag) = real_generators(&out.generators, p, nmax);
+    let (to_normal, from_normal) = maps;
+    let mut timings = p.timings.clone();
+    timings.transform += t.elapsed().as_secs_f64();
+    timings.total = p.started.elapsed().as_secs_f64();
+    Raw {
+        eq: p.eq.clone(),
+        energy: p.energy,
         ainv: symplectic_inverse(&lin.a),
-        omega: lin.omega,
-        sigma: lin.sigma,
-        a: lin.a,
+        omega: lin.omega.clone(),
+        sigma: lin.sigma.clone(),
+        a: lin.a.clone(),
         symplectic_residual: lin.symplectic_residual,
         diagonal_residual: lin.diagonal_residual,
-        quadratic_residual: linear.quadratic_residual,
+        quadratic_residual: p.linear.quadratic_residual,
         hbar,
         hbar_imag,
         degrees,
@@ -147,7 +221,108 @@ pub(super) fn run<R: Real, H: HamiltonianFn + ?Sized>(
         transform_imag: 0.0,
         timings,
         table_bytes: table.memory_bytes(),
-    })
+    }
+}
+
+/// The polynomials truncated at degree `top`.
+fn truncated<R: Real>(maps: &[Poly<R>], top: usize) -> Vec<Poly<R>> {
+    maps.iter()
+        .map(|m| {
+            let mut m = m.clone();
+            for k in top + 1..=m.max_degree() {
+                m.set_part(k, Vec::new());
+            }
+            m
+        })
+        .collect()
+}
+
+/// The normal forms of the orders `orders` = [(N, M), …] (increasing N, remainder degree M)
+/// in one normalisation: the table to the largest M, the degrees normalised one after the
+/// other, each order's result taken when its degree is reached ([`lie::Normalizer`]) and its
+/// coordinate maps extended from the previous order's ([`lie::extend_coordinate_maps`]).
+/// Each result is the one [`run`] gives for (N, M) (bitwise in double-double and
+/// quad-double, and in f64 from N ≥ `compensated_degree`; to rounding otherwise) and goes
+/// to `emit`, which says whether to go on. Assumption 1′ is checked before each order.
+pub(super) fn run_orders<R: Real, H: HamiltonianFn + ?Sized>(
+    h: &H,
+    point: &Point,
+    o: &Options,
+    orders: &[(usize, usize)],
+    emit: &mut dyn FnMut(Raw<R>, usize) -> bool,
+) -> Result<(), NormalFormError> {
+    let (Some(&(last, _)), Some(cap)) = (orders.last(), orders.iter().map(|x| x.1).max()) else {
+        return Ok(());
+    };
+    let mut p = prepare::<R, H>(h, point, o, last, cap)?;
+    let precision = p.precision;
+    let tol = o.resonance_tol;
+    let omega = p.linear.lin.omega.clone();
+    let omega_w = p.linear.omega_w.clone();
+    let sigma = p.linear.lin.sigma.clone();
+    let is_res = |m: &[i32]| o.resonant && m_dot_omega(m, &omega).abs().to_f64() < tol;
+    let mut nz = lie::Normalizer::new(
+        p.linear.hc.clone(),
+        &omega_w,
+        &sigma,
+        &is_res,
+        p.compensate_to,
+    );
+    let mut done = 2usize;
+    let mut to_maps: Option<Vec<Poly<R>>> = None;
+    let mut from_maps: Option<Vec<Poly<R>>> = None;
+    for &(nmax, top) in orders {
+        check_nonresonant(h.n_dof(), nmax, &omega, o)?;
+        let t = Instant::now();
+        for r in done + 1..=nmax {
+            Progress::report(
+                &o.progress,
+                Stage::Degree {
+                    degree: r,
+                    order: nmax,
+                    precision,
+                },
+            );
+            nz.step(r);
+        }
+        p.timings.lie = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let (_, greal_parts, _) = real_generators(&nz.generators, &p, nmax);
+        if o.transform && nmax >= 2 {
+            let table = &p.table;
+            let grow = |maps: &mut Option<Vec<Poly<R>>>, forward: bool| match maps {
+                None => *maps = Some(lie::coordinate_maps(table, &greal_parts, cap - 1, forward)),
+                Some(m) => {
+                    lie::extend_coordinate_maps(table, &greal_parts, done, m, cap - 1, forward)
+                }
+            };
+            grow(&mut to_maps, false);
+            if o.inverse_transform {
+                grow(&mut from_maps, true);
+            }
+        }
+        p.timings.transform = t.elapsed().as_secs_f64();
+        done = nmax;
+        let out = lie::LieOutput {
+            z: nz.h.clone(),
+            generators: nz.generators[..=nmax].to_vec(),
+            divisors: nz.divisors(),
+        };
+        let maps = (
+            to_maps.as_ref().map(|m| truncated(m, top - 1)),
+            from_maps.as_ref().map(|m| truncated(m, top - 1)),
+        );
+        let o_n = Options {
+            order: nmax,
+            remainder_degree: Some(top),
+            ..o.clone()
+        };
+        let raw = finish(&p, &out, &o_n, nmax, top, maps);
+        if !emit(raw, nmax) {
+            break;
+        }
+    }
+    Ok(())
 }
 
 /// What the expansion hands on.
@@ -303,12 +478,13 @@ fn off_action_terms<R: Real>(
     table: &MonomialTable,
     n: usize,
     nmax: usize,
+    top: usize,
     mut remainder: Option<&mut Remainder>,
 ) -> Vec<ResonantTerm> {
     let mut resonant_terms = Vec::new();
     for (k, i, zc) in z.terms() {
         let e = table.exponents(k, i);
-        if k < 3 || e[..n] == e[n..] {
+        if k < 3 || k > top || e[..n] == e[n..] {
             continue;
         }
         if let Some(rem) = remainder.as_deref_mut() {
