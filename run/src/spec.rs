@@ -225,7 +225,8 @@ impl RunSpec {
         }
         if matches!(self.gains, GainPolicy::Bounded { .. }) && adaptive {
             return bad(format!(
-                "--gains bounded keeps h·k·L inside the stability interval of a fixed step;                  `{}` chooses its own steps: use --gains step",
+                "--gains bounded keeps h·k·L inside the stability interval of a fixed step; \
+                 `{}` chooses its own steps: use --gains step",
                 self.method
             ));
         }
