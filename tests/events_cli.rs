@@ -359,7 +359,7 @@ fn emitted_jit_and_interpreter_event_values_agree_bitwise() {
         emitted.event_values(&x, t, &mut a);
         jit.event_values(&x.to_vec(), t, &mut b);
         interp.event_values(&x.to_vec(), t, &mut c);
-        assert!(common::same(a[0], b[0]) && common::same(b[0], c[0]));
+        assert!(lasalle_testkit::same(a[0], b[0]) && lasalle_testkit::same(b[0], c[0]));
         assert_eq!(a[0], x[1]);
     }
 }

@@ -14,7 +14,7 @@ use lasalle_runtime::{
 };
 
 mod common;
-use common::same;
+use lasalle_testkit::same;
 
 #[deny(warnings)]
 #[allow(dead_code, missing_docs)] // the tests use part of the emitted API

@@ -12,7 +12,8 @@ use lasalle::{
 };
 
 mod common;
-use common::{assert_same, lasalle, same};
+use common::lasalle;
+use lasalle_testkit::{assert_same, same};
 
 fn scratch(name: &str) -> PathBuf {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);

@@ -17,7 +17,8 @@ use lasalle_runtime::{Field, Invariants, Lyapunov, Partitioned};
 use lasalle_testkit::{allocations, CountingAllocator};
 
 mod common;
-use common::{same, tapes};
+use common::tapes;
+use lasalle_testkit::same;
 
 #[global_allocator]
 static GLOBAL: CountingAllocator = CountingAllocator;

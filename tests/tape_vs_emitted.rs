@@ -14,7 +14,8 @@ use lasalle_exec::{Backend, Families, Kernel, LoadedModel};
 use lasalle_runtime::{Declared, Lyapunov, State};
 
 mod common;
-use common::{assert_same, tapes};
+use common::tapes;
+use lasalle_testkit::assert_same;
 
 include!(concat!(env!("OUT_DIR"), "/model_list.rs"));
 

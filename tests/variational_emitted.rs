@@ -11,7 +11,7 @@ use lasalle_run::chaos::{extend, Extension};
 use lasalle_runtime::Field;
 
 mod common;
-use common::same;
+use lasalle_testkit::same;
 
 /// A deterministic random number in ±[0.5, 1.5).
 fn rng() -> impl FnMut() -> f64 {
@@ -114,7 +114,7 @@ fn kepler_state_transition_matrix() {
         .prepare()
         .point_paper();
     let want = Extension::Variational { tangents: 6 }.extend_state(&base);
-    common::assert_same(&sys.point_paper(), &want, "the extended point");
+    lasalle_testkit::assert_same(&sys.point_paper(), &want, "the extended point");
 }
 
 #[test]
@@ -136,7 +136,7 @@ fn henon_heiles_state_transition_matrix_and_two_tangents() {
     );
     let base = plain.point_chaotic();
     let want = Extension::Variational { tangents: 2 }.extend_state(&base);
-    common::assert_same(&two.point_chaotic(), &want, "the extended point");
+    lasalle_testkit::assert_same(&two.point_chaotic(), &want, "the extended point");
 }
 
 #[test]

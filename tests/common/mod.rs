@@ -50,8 +50,6 @@ pub fn lasalle_text(args: &[&str]) -> (bool, String, String) {
     )
 }
 
-pub use lasalle_testkit::{assert_same, same};
-
 /// The tapes of a model file of `models/`, built as `generate_file` builds the emitted code.
 pub fn tapes(file: &str) -> (lasalle_codegen::Model, ModelTapes) {
     let path = format!("{}/models/{file}", env!("CARGO_MANIFEST_DIR"));
