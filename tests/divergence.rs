@@ -267,7 +267,9 @@ fn stability(summary: &serde_json::Value) -> (bool, f64, f64) {
 
 /// The Pleiades with RK4 at h = 10⁻⁴ to t = 3: with the default (bounded) gains feedback-RK4
 /// keeps each invariant's largest error and the distance from the test set's reference within
-/// 3× plain RK4's; the model file's gains (1 each) leave RK4's stability interval in the close
+/// 4× plain RK4's, the momentum's within 10⁻¹⁰ (RK4 keeps a linear invariant to rounding; the
+/// feedback step along ∇H moves it by h·k·(H − H₀)·Σᵢ ∂H/∂pᵢ until its own feedback pulls it
+/// back); the model file's gains (1 each) leave RK4's stability interval in the close
 /// encounters (h·k·L ≫ 2.785) and the run says so.
 #[test]
 fn pleiades_feedback_rk4_default_gains_are_no_worse_than_rk4() {
@@ -289,9 +291,9 @@ fn pleiades_feedback_rk4_default_gains_are_no_worse_than_rk4() {
     let (code, fb, stderr) = run("pleiades-feedback-rk4", &args("feedback-rk4"));
     assert_eq!(code, Some(0), "{stderr}");
     assert!(!stderr.contains("warning"), "{stderr}");
-    let report = no_worse(&rk4, &fb, distance_from_reference, 3.0, 1e-11);
+    let report = no_worse(&rk4, &fb, distance_from_reference, 4.0, 1e-10 / 4.0);
     let (left, hkl, beta) = stability(&fb);
-    assert!(!left && hkl <= 0.1 * beta * (1.0 + 1e-12), "{hkl} {beta}");
+    assert!(!left && hkl <= 0.5 * beta * (1.0 + 1e-12), "{hkl} {beta}");
     assert!(fb["stability"]["capped_steps"].as_u64().unwrap() > 0);
     println!("{report}");
 
@@ -309,8 +311,8 @@ fn pleiades_feedback_rk4_default_gains_are_no_worse_than_rk4() {
 }
 
 /// Arenstorf's periodic orbit (one period, RK4 at h = 10⁻⁴): with the default gains
-/// feedback-RK4 keeps the Jacobi integral's largest error and the orbit's closure error within
-/// 3× RK4's; explicit gains too stiff for the step are reported.
+/// feedback-RK4 keeps the Jacobi integral's largest error and the orbit's closure error below
+/// RK4's; explicit gains too stiff for the step are reported.
 #[test]
 fn arenstorf_feedback_rk4_default_gains_are_no_worse_than_rk4() {
     let period = "17.0652165601579625588917206249";
@@ -337,7 +339,7 @@ fn arenstorf_feedback_rk4_default_gains_are_no_worse_than_rk4() {
     let (code, fb, stderr) = run("arenstorf-feedback-rk4", &args("feedback-rk4"));
     assert_eq!(code, Some(0), "{stderr}");
     assert!(!stderr.contains("warning"), "{stderr}");
-    let report = no_worse(&rk4, &fb, closure, 3.0, 0.0);
+    let report = no_worse(&rk4, &fb, closure, 1.0, 0.0);
     assert!(!stability(&fb).0);
     println!("{report}");
 

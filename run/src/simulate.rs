@@ -19,6 +19,7 @@ use lasalle_runtime::{
     DriftBound, Driver, ExplicitRk, FeedbackField, Field, FixedMethod, GainBound, GainError,
     GainPolicy, Invariants, Lyapunov, ModelInfo, Observer, Projection, Recorder, State, StepError,
     Stepper, StormerVerlet, Stride, Tableau, Taylor, TaylorOptions, VerletVariant, Watch,
+    FEEDBACK_STEP_INTERVAL,
 };
 
 use crate::backward::{self, Backward, BackwardTaylor};
@@ -795,20 +796,26 @@ where
     };
     let plan: GainPlan<K> = plan_gains(model, x0, spec, order)?;
     let fb = FeedbackField::from_initial(model, x0, plan.initial.clone());
-    // a fixed-step base method: h·k·L is capped or watched against its stability interval
+    // a fixed-step base method: the bounded gains feed back after each step (h·k·L capped
+    // against explicit Euler's interval); other gains are watched against the method's
     let bound = match &stepper {
         FeedbackStepper::Base(b) if *b != Base::Dopri5 => {
-            real_stability_interval(b.order()).map(|limit| Bound {
-                inner: drive(model, &fb, x0, spec, progress),
-                mode: match spec.gains.clone().resolve(false) {
-                    GainPolicy::Bounded { c } => BoundMode::Cap {
+            let inner = drive(model, &fb, x0, spec, progress);
+            match spec.gains.clone().resolve(false) {
+                GainPolicy::Bounded { c } => Some(Bound {
+                    inner,
+                    mode: BoundMode::Cap {
                         model: plan.initial.clone(),
-                        theta: c * limit,
+                        theta: c * FEEDBACK_STEP_INTERVAL,
                     },
-                    _ => BoundMode::Watch,
-                },
-                limit,
-            })
+                    limit: FEEDBACK_STEP_INTERVAL,
+                }),
+                _ => real_stability_interval(b.order()).map(|limit| Bound {
+                    inner,
+                    mode: BoundMode::Watch,
+                    limit,
+                }),
+            }
         }
         _ => None,
     };
@@ -860,7 +867,7 @@ where
     }
 }
 
-/// A fixed-step feedback run inside [`GainBound`]: capped gains on the generic stepper; fixed
+/// A fixed-step feedback run inside [`GainBound`]: the feedback step after the generic stepper; fixed
 /// gains watched on the step compiled whole where the back end compiles one; the adaptive
 /// gain's wrapper watched from outside.
 fn feedback_bounded<'a, Mdl, X, FV, K, V>(
@@ -879,7 +886,7 @@ where
     V: Visit<FeedbackField<'a, Mdl, FV, K>, X, Out = Recording>,
 {
     if let BoundMode::Cap { .. } = bound.mode {
-        // the gains change between steps: the generic stepper reads them from the field
+        // the generic stepper on X alone, the gains of the feedback step chosen after each step
         return with_base(b, spec, bound);
     }
     let (mode, limit) = (bound.mode, bound.limit);

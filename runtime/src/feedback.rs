@@ -27,7 +27,7 @@
 //! assert!((energy - 0.5).abs() < 1e-3); // plain Euler: energy grows by a factor e^{t h} ≈ 2.7
 //! ```
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 
 use num_traits::Float;
 
@@ -38,12 +38,15 @@ use crate::state::State;
 /// the target f(x₀) (storage `F`) and the G gains (storage `K`).
 ///
 /// The gains sit in a [`RefCell`] so that a stepper wrapper (e.g. [`crate::AdaptiveGain`]) can
-/// change them between steps through a shared reference.
+/// change them between steps through a shared reference. A wrapper that applies the feedback
+/// after each step of the base method on X instead ([`crate::GainBound`]'s capped mode) turns
+/// it off within the steps with [`FeedbackField::set_in_stages`].
 #[derive(Debug)]
 pub struct FeedbackField<'a, Mdl: ?Sized, F, K> {
     model: &'a Mdl,
     target: F,
     gains: RefCell<K>,
+    in_stages: Cell<bool>,
 }
 
 impl<'a, Mdl: ?Sized, F, K: Clone> FeedbackField<'a, Mdl, F, K> {
@@ -53,6 +56,7 @@ impl<'a, Mdl: ?Sized, F, K: Clone> FeedbackField<'a, Mdl, F, K> {
             model,
             target,
             gains: RefCell::new(gains),
+            in_stages: Cell::new(true),
         }
     }
 
@@ -89,6 +93,11 @@ impl<'a, Mdl: ?Sized, F, K: Clone> FeedbackField<'a, Mdl, F, K> {
         *self.gains.borrow_mut() = gains;
     }
 
+    /// Changes the gains in place (takes effect at the next field evaluation).
+    pub fn update_gains<R>(&self, update: impl FnOnce(&mut K) -> R) -> R {
+        update(&mut self.gains.borrow_mut())
+    }
+
     /// Sets the gains to `unit · alpha` in place (no allocation; `unit` must have the length of
     /// the gains).
     pub fn set_scaled_gains<T: Float>(&self, unit: &K, alpha: T)
@@ -99,6 +108,23 @@ impl<'a, Mdl: ?Sized, F, K: Clone> FeedbackField<'a, Mdl, F, K> {
         for (k, u) in gains.as_mut().iter_mut().zip(unit.as_ref()) {
             *k = *u * alpha;
         }
+    }
+
+    /// Whether [`Field::field`] is X − ∇V (true, the default) or X alone (false: the
+    /// feedback is applied between steps by the stepper's wrapper).
+    pub fn set_in_stages(&self, on: bool) {
+        self.in_stages.set(on);
+    }
+
+    /// ∇V(x) with the current target and gains.
+    pub fn lyapunov_gradient<T: Float, X: State<T>>(&self, x: &X, grad: &mut X)
+    where
+        Mdl: Lyapunov<T, X, F, K>,
+        F: State<T>,
+        K: State<T>,
+    {
+        self.model
+            .lyapunov_gradient(x, &self.target, &self.gains.borrow(), grad)
     }
 
     /// V(x) with the current target and gains.
@@ -120,11 +146,16 @@ where
     F: State<T>,
     K: State<T>,
 {
-    /// ẋ = X(x) − ∇V(x) via [`Lyapunov::feedback_field`].
+    /// ẋ = X(x) − ∇V(x) via [`Lyapunov::feedback_field`] (X(x) alone where the feedback is
+    /// not in the stages: [`FeedbackField::set_in_stages`]).
     #[inline]
     fn field(&self, x: &X, dx: &mut X) {
-        self.model
-            .feedback_field(x, &self.target, &self.gains.borrow(), dx)
+        if self.in_stages.get() {
+            self.model
+                .feedback_field(x, &self.target, &self.gains.borrow(), dx)
+        } else {
+            self.model.field(x, dx)
+        }
     }
 }
 

@@ -11,25 +11,38 @@
 //! back to. L = ‖H‖₂ grows where the field stiffens (close encounters: |∇(1/r)|² ∝ r⁻⁴), so
 //! gains that are safe on most of an orbit are not safe everywhere on it.
 //!
-//! [`GainBound`] wraps the stepper of a fixed-step feedback run. Before every step of size h
-//! it estimates h·L at the current state for the gains about to be used — the trace
-//! tr(H) = Σᵢ kᵢ|∇fᵢ|² first (an upper bound, cheap), the power-iteration norm
-//! [`gauss_newton_norm`] only where the trace is not already inside the bound — and either
+//! The base method cannot be told to stay inside that interval on the stages themselves: its
+//! stages leave the level set by O(h²) (h²·XᵀD²f X where the field stiffens), and the
+//! feedback evaluated there turns those stage deviations into errors of the step — the
+//! order reduction of explicit methods on stiff terms (Hairer & Wanner II, §IV.15). On
+//! Arenstorf's orbit at h = 10⁻⁴, stage-wise feedback with gains scaled to h·k·L ≤ 0.1β
+//! still leaves the Jacobi integral's largest error 560 times plain RK4's.
 //!
-//! - **caps** ([`BoundMode::Cap`]): uses the model's gains scaled by
-//!   α = min(1, θ/(h·L(x))), so h·k·L never exceeds θ = c·β (the default gains of fixed-step
-//!   feedback methods, `--gains bounded[:c]`); where the model's gains are inside the bound
-//!   they are used unchanged (α = 1, the same run bit for bit), or
-//! - **watches** ([`BoundMode::Watch`]): leaves the gains alone (the model's, explicit or the
-//!   other policies') and records where h·k·L passed β.
+//! [`GainBound`] wraps the stepper of a fixed-step feedback run and either
 //!
-//! Either way it reports the largest h·k·L estimate of the run, the number of steps past β
+//! - **steps, then feeds back** ([`BoundMode::Cap`], the default gains of fixed-step
+//!   feedback methods, `--gains bounded[:c]`): each step of the base method on X alone is
+//!   followed by one explicit Euler step of the feedback field, x ← x − h·∇V(x). Each of the
+//!   model's gains k_g is scaled by α_g = min(1, θ_g/(h·k_g·s_g)), s_g = Σ|∇fᵢ|² over its
+//!   components, θ_g = θ/(the number of nonzero gains), so that h·tr(Dfᵀ K Df) ≥ h·k·L never
+//!   exceeds θ = c·2 (explicit Euler's interval; c = 1/2 by default: the deviation decays
+//!   monotonically), and the gain of an integral that does not stiffen keeps its strength
+//!   where another one's must give way. It is a Lie splitting of X and −∇V whose commutator
+//!   [X, ∇V] = ∇f (∇f·X) vanishes on the level set, so the splitting costs no order there; the
+//!   feedback sees the step's local error instead of the stages' O(h²) deviations, or
+//! - **watches** ([`BoundMode::Watch`], explicit gains and the other policies: the paper's
+//!   feedback integrator, the base method on X − ∇V): leaves the gains alone and records
+//!   where h·k·L passed β, estimated before every step by the trace tr(H) = Σᵢ kᵢ|∇fᵢ|² (an
+//!   upper bound, cheap) and, only where the trace is not already inside β, the
+//!   power-iteration norm [`gauss_newton_norm`].
+//!
+//! Either way it reports the largest h·k·L of the run, the number of steps past the interval
 //! and the time of the first one ([`GainBound::counters`]), which a run's summary shows.
 
 use crate::error::StepError;
 use crate::feedback::FeedbackField;
 use crate::field::{Lyapunov, ModelInfo};
-use crate::gains::{gauss_newton_norm, gauss_newton_trace};
+use crate::gains::{gain_traces, gauss_newton_norm, gauss_newton_trace};
 use crate::state::State;
 use crate::steppers::{StepOutcome, Stepper};
 
@@ -46,23 +59,23 @@ pub fn real_stability_interval(order: u32) -> Option<f64> {
     }
 }
 
-/// The default fraction c of β that the capped gains keep h·k·L within (`--gains bounded`).
-///
-/// The bound is about accuracy as much as stability: RK4's stages leave the level set by
-/// O(h²), and the feedback's share of the local error grows with h·k·L (the order reduction
-/// of explicit methods on stiff terms, Hairer & Wanner II, §IV.15). Measured on the Pleiades
-/// and Arenstorf's orbit (docs/performance.md, "Gains for fixed-step methods"): with c = 0.1
-/// feedback-RK4's largest invariant errors stay within a small factor of plain RK4's.
-pub const DEFAULT_BOUND_FRACTION: f64 = 0.1;
+/// The default fraction c of explicit Euler's interval β = 2 that the feedback step of the
+/// capped mode keeps h·k·L within (`--gains bounded`): h·k·L ≤ 1, where the deviation from the
+/// level set decays by the factor 1 − h·k·L ≥ 0 per step, monotonically.
+pub const DEFAULT_BOUND_FRACTION: f64 = 0.5;
+
+/// The real stability interval of the feedback step of [`BoundMode::Cap`] (explicit Euler).
+pub const FEEDBACK_STEP_INTERVAL: f64 = 2.0;
 
 /// What [`GainBound`] does with the gains.
 #[derive(Clone, Debug, PartialEq)]
 pub enum BoundMode<K> {
-    /// Use `model` (the model's gains) scaled down where h·k·L would pass `theta`.
+    /// Step the base method on X, then feed back with `model` (the model's gains) scaled down
+    /// where h·k·L would pass `theta`.
     Cap {
         /// The gains used where they are inside the bound.
         model: K,
-        /// The largest h·k·L allowed, θ = c·β.
+        /// The largest h·k·L allowed, θ = c·[`FEEDBACK_STEP_INTERVAL`].
         theta: f64,
     },
     /// Leave the gains as they are; record where h·k·L passes β.
@@ -70,15 +83,18 @@ pub enum BoundMode<K> {
 }
 
 /// A stepper wrapper for fixed-step feedback runs that keeps (or watches) h·k·L inside the
-/// base method's real stability interval (see the module docs).
+/// real stability interval of the step that feeds back (see the module docs).
 #[derive(Clone, Debug)]
-pub struct GainBound<S, K> {
+pub struct GainBound<S, K, X> {
     base: S,
     mode: BoundMode<K>,
-    /// β of the base method.
+    /// β of the step that feeds back: [`FEEDBACK_STEP_INTERVAL`] (cap), the base method's
+    /// (watch).
     limit: f64,
-    /// The factor the model's gains are scaled by now (cap mode).
-    factor: f64,
+    /// ∇V at the end of a step (cap mode).
+    grad: Option<X>,
+    /// Σ|∇fᵢ|² per gain at the end of a step (cap mode).
+    traces: Vec<f64>,
     /// The largest h·k·L estimate of the run.
     max_hkl: f64,
     /// Steps that started with h·k·L past β.
@@ -87,18 +103,21 @@ pub struct GainBound<S, K> {
     first_exceeded: f64,
     /// Steps with capped gains (α < 1).
     capped: u64,
-    /// The smallest α of the run.
+    /// The smallest α_g of the run.
     min_factor: f64,
 }
 
-impl<S, K> GainBound<S, K> {
-    /// Wraps `base`, a fixed-step method whose real stability interval is (−`limit`, 0].
+impl<S, K, X> GainBound<S, K, X> {
+    /// Wraps `base`, a fixed-step method: in [`BoundMode::Watch`], whose real stability
+    /// interval is (−`limit`, 0]; in [`BoundMode::Cap`] `limit` is
+    /// [`FEEDBACK_STEP_INTERVAL`].
     pub fn new(base: S, mode: BoundMode<K>, limit: f64) -> Self {
         GainBound {
             base,
             mode,
             limit,
-            factor: f64::NAN,
+            grad: None,
+            traces: Vec::new(),
             max_hkl: 0.0,
             exceeded: 0,
             first_exceeded: f64::NAN,
@@ -115,6 +134,61 @@ impl<S, K> GainBound<S, K> {
     /// Steps that started outside the stability interval so far.
     pub fn exceeded_steps(&self) -> u64 {
         self.exceeded
+    }
+
+    /// Sets the field's gains for the feedback step at `x`: each gain k_g of `unit` scaled by
+    /// α_g = min(1, θ_g/(h·k_g·s_g)), s_g = Σ|∇fᵢ|² over its components ([`gain_traces`]) and
+    /// θ_g = θ/(the number of nonzero gains), so that the trace h·tr(Dfᵀ K Df) ≥ h·k·L stays
+    /// within θ while the gains of the integrals that do not stiffen keep their strength.
+    /// Returns the trace.
+    fn cap_gains<'a, Mdl, F>(&mut self, field: &FeedbackField<'a, Mdl, F, K>, x: &X, h: f64) -> f64
+    where
+        Mdl: Lyapunov<f64, X, F, K> + ModelInfo + ?Sized,
+        X: State<f64>,
+        F: State<f64>,
+        K: State<f64>,
+    {
+        let BoundMode::Cap { model: unit, theta } = &self.mode else {
+            return 0.0;
+        };
+        let unit = unit.as_ref();
+        self.traces.resize(unit.len(), 0.0);
+        gain_traces(field.model(), x, &mut self.traces);
+        let share = *theta / unit.iter().filter(|k| **k != 0.0).count().max(1) as f64;
+        let mut hkl = 0.0;
+        let mut step_min = 1.0f64;
+        field.update_gains(|gains| {
+            for ((k, u), s) in gains.as_mut().iter_mut().zip(unit).zip(&self.traces) {
+                let hk = h * u * s;
+                // a degenerate estimate (non-finite) leaves the gain out of this step
+                let alpha = if hk > share {
+                    share / hk
+                } else if hk.is_finite() {
+                    1.0
+                } else {
+                    0.0
+                };
+                *k = u * alpha;
+                hkl += hk * alpha;
+                step_min = step_min.min(alpha);
+            }
+        });
+        if step_min < 1.0 {
+            self.capped += 1;
+            self.min_factor = self.min_factor.min(step_min);
+        }
+        hkl
+    }
+
+    /// Records a step's h·k·L estimate, from time `t`.
+    fn record(&mut self, t: f64, hkl: f64) {
+        self.max_hkl = self.max_hkl.max(hkl);
+        if hkl > self.limit {
+            self.exceeded += 1;
+            if self.first_exceeded.is_nan() {
+                self.first_exceeded = t;
+            }
+        }
     }
 }
 
@@ -134,7 +208,7 @@ where
     }
 }
 
-impl<'a, S, Mdl, X, F, K> Stepper<f64, X, FeedbackField<'a, Mdl, F, K>> for GainBound<S, K>
+impl<'a, S, Mdl, X, F, K> Stepper<f64, X, FeedbackField<'a, Mdl, F, K>> for GainBound<S, K, X>
 where
     S: Stepper<f64, X, FeedbackField<'a, Mdl, F, K>>,
     Mdl: Lyapunov<f64, X, F, K> + ModelInfo + ?Sized,
@@ -149,37 +223,26 @@ where
         x: &mut X,
         h: f64,
     ) -> Result<StepOutcome<f64>, StepError> {
-        if h > 0.0 {
-            let model = field.model();
-            let hkl = match &self.mode {
-                BoundMode::Cap { model: unit, theta } => {
-                    let hl = h_norm(model, x, unit.as_ref(), h, *theta);
-                    let factor = if hl > *theta { *theta / hl } else { 1.0 };
-                    // a degenerate estimate (non-finite) keeps the last factor
-                    if factor.is_finite() && factor.to_bits() != self.factor.to_bits() {
-                        field.set_scaled_gains(unit, factor);
-                        self.factor = factor;
-                    }
-                    if self.factor < 1.0 {
-                        self.capped += 1;
-                        self.min_factor = self.min_factor.min(self.factor);
-                    }
-                    hl * self.factor
-                }
-                BoundMode::Watch => {
-                    let gains = field.gains();
-                    h_norm(model, x, gains.as_ref(), h, self.limit)
-                }
-            };
-            self.max_hkl = self.max_hkl.max(hkl);
-            if hkl > self.limit {
-                self.exceeded += 1;
-                if self.first_exceeded.is_nan() {
-                    self.first_exceeded = t;
-                }
+        let model = field.model();
+        if self.mode == BoundMode::Watch {
+            if h > 0.0 {
+                let hkl = h_norm(model, x, field.gains().as_ref(), h, self.limit);
+                self.record(t, hkl);
             }
+            return self.base.step(field, t, x, h);
         }
-        self.base.step(field, t, x, h)
+        field.set_in_stages(false);
+        let outcome = self.base.step(field, t, x, h)?;
+        if h > 0.0 {
+            let hkl = self.cap_gains(field, x, h);
+            let grad = self.grad.get_or_insert_with(|| x.clone());
+            field.lyapunov_gradient(x, grad);
+            for (xi, gi) in x.as_mut().iter_mut().zip(grad.as_ref()) {
+                *xi -= h * *gi;
+            }
+            self.record(t, hkl);
+        }
+        Ok(outcome)
     }
 
     fn order(&self) -> u32 {
@@ -188,14 +251,18 @@ where
 
     fn name(&self) -> String {
         match self.mode {
-            BoundMode::Cap { .. } => format!("bounded-gain({})", self.base.name()),
+            BoundMode::Cap { .. } => format!("{}+feedback-step", self.base.name()),
             BoundMode::Watch => self.base.name(),
         }
     }
 
-    /// The base stepper's: the gains change between steps, not within one.
+    /// The base stepper's (watch mode: the gains change between steps, not within one); none
+    /// in cap mode, whose feedback step moves the state after the base step's interpolant.
     fn dense_output(&self) -> Option<&dyn crate::DenseOutput<f64, X>> {
-        self.base.dense_output()
+        match self.mode {
+            BoundMode::Cap { .. } => None,
+            BoundMode::Watch => self.base.dense_output(),
+        }
     }
 
     fn is_adaptive(&self) -> bool {
@@ -208,7 +275,6 @@ where
 
     fn reset(&mut self) {
         self.base.reset();
-        self.factor = f64::NAN;
         self.max_hkl = 0.0;
         self.exceeded = 0;
         self.first_exceeded = f64::NAN;

@@ -169,6 +169,29 @@ where
         })
 }
 
+/// Σᵢ |∇fᵢ(x)|² over the components fᵢ of each gain, into `traces` (one entry per gain):
+/// tr(Df(x)ᵀ K Df(x)) is Σ_g k_g · traces[g].
+pub fn gain_traces<Mdl, T, X, F>(model: &Mdl, x: &X, traces: &mut [T])
+where
+    Mdl: Invariants<T, X, F> + ModelInfo + ?Sized,
+    T: Float,
+    X: State<T>,
+    F: State<T>,
+{
+    let m = model.invariant_dim();
+    let mut jac = F::rows(F::len_for(m), X::filled(X::len_for(x.len()), T::zero()));
+    model.invariants_jacobian(x, &mut jac);
+    traces.iter_mut().for_each(|t| *t = T::zero());
+    let rows = jac.as_ref();
+    for info in model.invariant_infos() {
+        for c in info.slot.range() {
+            if let (Some(row), Some(t)) = (rows.get(c), traces.get_mut(info.gain)) {
+                *t = *t + row.as_ref().iter().fold(T::zero(), |r, v| r + *v * *v);
+            }
+        }
+    }
+}
+
 /// Why gains could not be chosen.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[non_exhaustive]

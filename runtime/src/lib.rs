@@ -60,7 +60,9 @@ pub use field::{
     lit, Field, InvariantInfo, InvariantKind, Invariants, Lyapunov, ModelInfo, Partitioned, Shape,
     Slot,
 };
-pub use gain_bound::{real_stability_interval, BoundMode, GainBound, DEFAULT_BOUND_FRACTION};
+pub use gain_bound::{
+    real_stability_interval, BoundMode, GainBound, DEFAULT_BOUND_FRACTION, FEEDBACK_STEP_INTERVAL,
+};
 pub use gains::{
     gauss_newton_hessian, gauss_newton_norm, gauss_newton_trace, scaled_gains, step_gain_target,
     symmetric_spectral_norm, AdaptiveGain, GainError, GainPolicy,
