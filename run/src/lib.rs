@@ -50,6 +50,7 @@
 mod backward;
 pub mod chaos;
 mod clock;
+mod delay;
 mod ensemble;
 mod error;
 mod events;
@@ -73,4 +74,5 @@ pub use recording::{json_number, Recording, Stability};
 pub use reuse::{KernelPool, Reusing};
 pub use simulate::{simulate, simulate_with_progress, RunModel};
 pub use spec::{find_preset, RunSpec, RunSpecBuilder, AUTO_SAMPLES, DEFAULT_MAX_STEPS};
+pub use delay::{growth, lags, Growth, MAX_DELAY_INTERVALS};
 pub use switching::{Switching, MAX_SWITCHES_PER_RUN};

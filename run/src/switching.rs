@@ -261,7 +261,7 @@ fn shift(rec: &mut Recording, t0: f64) {
 }
 
 /// `next` appended to the recording so far.
-fn merge(total: Option<Recording>, next: Recording) -> Recording {
+pub(crate) fn merge(total: Option<Recording>, next: Recording) -> Recording {
     let Some(mut total) = total else {
         return next;
     };
