@@ -22,6 +22,7 @@ fn example(name: &str) -> &'static str {
         "sin" => "sin(u)",
         "cos" => "cos(u)",
         "sign" => "sign(u)",
+        "delay" => "delay(u, a)",
         "norm" => "norm(x)",
         "dot" => "dot(x, x)",
         "cross" => "cross(x, x)[0]",

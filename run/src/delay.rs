@@ -278,7 +278,10 @@ where
         rec.t.iter_mut().for_each(|t| *t += t0);
         let hits = rec.events.iter_mut().chain(rec.stopped_by.as_mut());
         hits.for_each(|h| h.t += t0);
-        if total.is_some() && spec.t_eval.is_empty() {
+        if !spec.t_eval.is_empty() && seg.t_eval.is_empty() {
+            // no output time in the interval: an empty grid means every step to the driver
+            clear_samples(&mut rec);
+        } else if total.is_some() && spec.t_eval.is_empty() {
             drop_first(&mut rec);
         }
         let done = rec.failure.is_some() || rec.stopped_by.is_some() || t1 >= spec.t_end;
@@ -322,6 +325,13 @@ fn drop_first(rec: &mut Recording) {
     rec.x.drain(..n);
     let b = rec.blocks.len();
     rec.errors.drain(..b.min(rec.errors.len()));
+}
+
+/// Drops all of an interval's samples.
+fn clear_samples(rec: &mut Recording) {
+    rec.t.clear();
+    rec.x.clear();
+    rec.errors.clear();
 }
 
 /// The recorded lag slots set to the delayed values x(t − r) they stood for.

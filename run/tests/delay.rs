@@ -23,7 +23,7 @@ fn model(backend: Backend, a: f64, b: f64, r: f64) -> LoadedModel {
 }
 
 /// A run to `t_end`, sampled at `t_eval` (every step if empty).
-fn run(m: &LoadedModel, t_end: f64, t_eval: &[f64]) -> Result<Recording, RunError> {
+fn run(m: &mut LoadedModel, t_end: f64, t_eval: &[f64]) -> Result<Recording, RunError> {
     let mut b = RunSpec::from_preset(m.preset("steps"))
         .t_end(t_end)
         .rtol(1e-13)
@@ -32,7 +32,7 @@ fn run(m: &LoadedModel, t_end: f64, t_eval: &[f64]) -> Result<Recording, RunErro
         b = b.t_eval(t_eval.to_vec());
     }
     let (spec, x0) = b.prepare(m)?;
-    simulate(m, &x0, &spec)
+    simulate(&*m, &x0, &spec)
 }
 
 /// The rightmost real root of λ = a + b e^{−λr} (b > 0: the function λ − a − b e^{−λr}
@@ -68,9 +68,9 @@ fn exact(a: f64, b: f64, r: f64, t: f64) -> f64 {
 fn the_method_of_steps_matches_its_closed_form_on_two_intervals() {
     for backend in [Backend::Jit, Backend::Interpreter] {
         for (a, b, r) in [(0.5, 0.3, 1.0), (-0.5, 0.3, 1.0), (-1.2, 0.7, 0.6)] {
-            let m = model(backend, a, b, r);
+            let mut m = model(backend, a, b, r);
             let grid: Vec<f64> = (0..=200).map(|i| 2.0 * r * i as f64 / 200.0).collect();
-            let rec = run(&m, 2.0 * r, &grid).unwrap();
+            let rec = run(&mut m, 2.0 * r, &grid).unwrap();
             assert!(rec.failure.is_none(), "{:?}", rec.failure);
             assert_eq!(rec.t.len(), grid.len());
             let n = rec.state_names.len();
@@ -96,14 +96,14 @@ fn growth_and_decay_rates_are_the_characteristic_root() {
         let lambda = characteristic_root(a, b, r);
         assert!((lambda - expected).abs() < 1e-3, "{lambda}");
         assert!((lambda - a - b * (-lambda * r).exp()).abs() < 1e-15);
-        let m = model(Backend::Jit, a, b, r);
-        let rec = run(&m, 30.0, &[20.0, 30.0]).unwrap();
+        let mut m = model(Backend::Jit, a, b, r);
+        let rec = run(&mut m, 30.0, &[20.0, 30.0]).unwrap();
         let x = |i: usize| rec.x[i * rec.state_names.len()];
         let rate = (x(1) / x(0)).ln() / 10.0;
         println!("a = {a}: rate {rate:.12} on [20, 30], root {lambda:.12}");
         assert!((rate - lambda).abs() < 1e-8, "{rate} vs {lambda}");
         assert!(x(1) > 0.0);
-        let all = run(&m, 30.0, &[]).unwrap();
+        let all = run(&mut m, 30.0, &[]).unwrap();
         let g = growth(&all, Declared::<f64, Vec<f64>>::delays(&m)).unwrap();
         assert_eq!(g.verdict(), verdict);
         assert!((g.rate - lambda).abs() < 1e-6, "{g:?}");
@@ -118,10 +118,10 @@ fn the_papers_functional_decreases_along_the_solution() {
     let steps = 1000; // per unit time
     let h = 1.0 / steps as f64;
     for a in [0.5, -0.5] {
-        let m = model(Backend::Jit, a, b, r);
+        let mut m = model(Backend::Jit, a, b, r);
         let t_end = 10.0;
         let grid: Vec<f64> = (0..=(t_end as usize * steps)).map(|i| i as f64 * h).collect();
-        let rec = run(&m, t_end, &grid).unwrap();
+        let rec = run(&mut m, t_end, &grid).unwrap();
         let n = rec.state_names.len();
         // x on [−r, t_end], the constant history first
         let lag = (r / h).round() as usize;
@@ -165,25 +165,25 @@ fn the_papers_functional_decreases_along_the_solution() {
             // x_0 lies in G = {V < 0}, which no trajectory leaves: it is unbounded
             assert!(v(0.0) < 0.0 && previous < v(0.0));
         } else {
-            assert!(v(0.0) > 0.0 && previous > 0.0 && previous < 1e-2);
+            assert!(v(0.0) > 0.0 && previous > 0.0 && previous < 0.05 * v(0.0));
         }
     }
 }
 
 #[test]
 fn delay_errors_are_located() {
-    let m = model(Backend::Jit, 0.5, 0.3, 1.0);
+    let mut m = model(Backend::Jit, 0.5, 0.3, 1.0);
     for method in ["rk4", "taylor", "feedback-euler"] {
         let b = RunSpec::from_preset(m.preset("steps"))
             .method(method.parse::<Method>().unwrap())
             .dt(0.01);
-        let (spec, x0) = b.prepare(&m).unwrap();
+        let (spec, x0) = b.prepare(&mut m).unwrap();
         let e = simulate(&m, &x0, &spec).unwrap_err().to_string();
         assert!(e.contains("delay.lsl:16:") && e.contains("-m dopri5"), "{method}: {e}");
     }
     for r in [0.0, -1.0] {
-        let bad = model(Backend::Jit, 0.5, 0.3, r);
-        let e = run(&bad, 1.0, &[]).unwrap_err().to_string();
+        let mut bad = model(Backend::Jit, 0.5, 0.3, r);
+        let e = run(&mut bad, 1.0, &[]).unwrap_err().to_string();
         assert!(e.contains("delay.lsl:16:") && e.contains("positive constant"), "{e}");
     }
     let source = |body: &str| {
