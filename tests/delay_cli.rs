@@ -36,7 +36,10 @@ fn the_summary_says_grows_or_decays_at_the_characteristic_rate() {
         let args = ["run", &file, "--param", a, "--t-end", "10", "--out", out];
         let (ok, stdout, stderr) = lasalle_text(&args);
         assert!(ok, "{stderr}");
-        assert!(stdout.contains("method of steps: `delay(x, r)` with delay 1"), "{stdout}");
+        assert!(
+            stdout.contains("method of steps: `delay(x, r)` with delay 1"),
+            "{stdout}"
+        );
         let r = rate(&stdout, verdict);
         assert!((r - root).abs() < 1e-5, "{a}: {r}");
     }
@@ -48,8 +51,14 @@ fn the_compiled_model_runs_the_same_delay() {
     let mut compiled = Delay::<f64>::default().prepare();
     let mut loaded = LoadedModel::load(model_file(), lasalle::Backend::Jit).unwrap();
     let key = |d: &lasalle::DelaySpec| (d.text, d.component, d.slot, d.clock);
-    let c: Vec<_> = Declared::<f64, [f64; 3]>::delays(&compiled).iter().map(key).collect();
-    let l: Vec<_> = Declared::<f64, Vec<f64>>::delays(&loaded).iter().map(key).collect();
+    let c: Vec<_> = Declared::<f64, [f64; 3]>::delays(&compiled)
+        .iter()
+        .map(key)
+        .collect();
+    let l: Vec<_> = Declared::<f64, Vec<f64>>::delays(&loaded)
+        .iter()
+        .map(key)
+        .collect();
     assert_eq!(c, l);
     assert_eq!(c, [("delay(x, r)", 0, 2, 1)]);
     let grid = [1.0, 2.0, 5.0];
@@ -78,7 +87,10 @@ fn the_compiled_model_runs_the_same_delay() {
 fn delay_errors_are_located_and_exit_2() {
     let file = model_file();
     let rows: &[(&[&str], &str)] = &[
-        (&["-m", "rk4", "--dt", "0.01"], "has none here: give -m dopri5"),
+        (
+            &["-m", "rk4", "--dt", "0.01"],
+            "has none here: give -m dopri5",
+        ),
         (&["-m", "taylor"], "has none here: give -m dopri5"),
         (&["--param", "r=0"], "must be a positive constant"),
         (&["--t-end", "-1"], "integrates forwards"),

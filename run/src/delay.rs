@@ -168,9 +168,18 @@ where
     F: ?Sized,
     S: Stepper<f64, X, F>,
 {
-    fn step(&mut self, field: &F, t: f64, x: &mut X, h: f64) -> Result<StepOutcome<f64>, StepError> {
+    fn step(
+        &mut self,
+        field: &F,
+        t: f64,
+        x: &mut X,
+        h: f64,
+    ) -> Result<StepOutcome<f64>, StepError> {
         let outcome = self.inner.step(field, t, x, h)?;
-        let dense = self.inner.dense_output().expect("DOPRI5 has a continuous extension");
+        let dense = self
+            .inner
+            .dense_output()
+            .expect("DOPRI5 has a continuous extension");
         let (ta, tb) = dense.dense_interval().expect("a step was accepted");
         let mut out = x.clone();
         let mut history = self.history.borrow_mut();
@@ -242,7 +251,12 @@ where
     components.dedup();
     let index = specs
         .iter()
-        .map(|d| components.iter().position(|&c| c == d.component).expect("listed"))
+        .map(|d| {
+            components
+                .iter()
+                .position(|&c| c == d.component)
+                .expect("listed")
+        })
         .collect();
     let clock = specs[0].clock;
     x[clock] = 0.0;
@@ -259,8 +273,15 @@ where
         scratch: RefCell::new(x.clone()),
     };
     let r = lags.iter().copied().fold(f64::INFINITY, f64::min);
+    if spec.t_end / r > MAX_DELAY_INTERVALS as f64 {
+        return Err(RunError::Spec(format!(
+            "{}: a run to t = {} takes more than {MAX_DELAY_INTERVALS} intervals of the \
+             smallest delay {r}: shorten the run or lengthen the delay",
+            specs[0].location, spec.t_end
+        )));
+    }
     let mut total: Option<Recording> = None;
-    for k in 0..MAX_DELAY_INTERVALS {
+    for k in 0..=MAX_DELAY_INTERVALS {
         let t0 = k as f64 * r;
         let mut t1 = (k + 1) as f64 * r;
         if t1 >= spec.t_end * (1.0 - 1e-14) {
@@ -289,9 +310,9 @@ where
         if done {
             break;
         }
-        let last = stepper.last.ok_or_else(|| {
-            RunError::Spec(format!("the interval [{t0}, {t1}] took no step"))
-        })?;
+        let last = stepper
+            .last
+            .ok_or_else(|| RunError::Spec(format!("the interval [{t0}, {t1}] took no step")))?;
         x.as_mut().copy_from_slice(&last);
         x[clock] = t1;
     }

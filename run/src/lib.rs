@@ -64,6 +64,7 @@ mod spec;
 mod switching;
 
 pub use clock::process_cpu_seconds;
+pub use delay::{growth, lags, Growth, MAX_DELAY_INTERVALS};
 pub use ensemble::{simulate_lanes, simulate_many, Ensemble, Init, Member, ModelSource};
 pub use error::RunError;
 pub use events::{parse_t_eval, EventHit};
@@ -74,5 +75,4 @@ pub use recording::{json_number, Recording, Stability};
 pub use reuse::{KernelPool, Reusing};
 pub use simulate::{simulate, simulate_with_progress, RunModel};
 pub use spec::{find_preset, RunSpec, RunSpecBuilder, AUTO_SAMPLES, DEFAULT_MAX_STEPS};
-pub use delay::{growth, lags, Growth, MAX_DELAY_INTERVALS};
 pub use switching::{Switching, MAX_SWITCHES_PER_RUN};

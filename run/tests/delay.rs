@@ -83,7 +83,9 @@ fn the_method_of_steps_matches_its_closed_form_on_two_intervals() {
                 let lagged = if t <= r { 1.0 } else { exact(a, b, r, t - r) };
                 assert!((rec.x[i * n + 2] - lagged).abs() < 1e-10, "x(t − r) at {t}");
             }
-            println!("{backend:?} a = {a}, b = {b}, r = {r}: max |x − exact| on [0, 2r] = {worst:.2e}");
+            println!(
+                "{backend:?} a = {a}, b = {b}, r = {r}: max |x − exact| on [0, 2r] = {worst:.2e}"
+            );
             assert!(worst < 1e-10, "{worst}");
         }
     }
@@ -120,7 +122,9 @@ fn the_papers_functional_decreases_along_the_solution() {
     for a in [0.5, -0.5] {
         let mut m = model(Backend::Jit, a, b, r);
         let t_end = 10.0;
-        let grid: Vec<f64> = (0..=(t_end as usize * steps)).map(|i| i as f64 * h).collect();
+        let grid: Vec<f64> = (0..=(t_end as usize * steps))
+            .map(|i| i as f64 * h)
+            .collect();
         let rec = run(&mut m, t_end, &grid).unwrap();
         let n = rec.state_names.len();
         // x on [−r, t_end], the constant history first
@@ -133,7 +137,13 @@ fn the_papers_functional_decreases_along_the_solution() {
             let i0 = (t / h).round() as usize;
             let s: f64 = (0..=lag)
                 .map(|j| {
-                    let w = if j == 0 || j == lag { 1.0 } else if j % 2 == 1 { 4.0 } else { 2.0 };
+                    let w = if j == 0 || j == lag {
+                        1.0
+                    } else if j % 2 == 1 {
+                        4.0
+                    } else {
+                        2.0
+                    };
                     w * x[i0 + j].powi(2)
                 })
                 .sum();
@@ -151,14 +161,20 @@ fn the_papers_functional_decreases_along_the_solution() {
         for k in 1..=20 {
             let t = k as f64 * 0.5;
             let (vt, vd) = (v(t), v_dot(t));
-            println!("a = {a}: t = {t:4}: x = {:+.6e}, V = {vt:+.6e}, V̇ = {vd:+.6e}", at(t));
+            println!(
+                "a = {a}: t = {t:4}: x = {:+.6e}, V = {vt:+.6e}, V̇ = {vd:+.6e}",
+                at(t)
+            );
             assert!(vd < 0.0, "V̇ = {vd} at {t}");
             assert!(vt < previous, "V grew at {t}");
             previous = vt;
             // V̇ is the derivative of V: a central difference, away from the breakpoints
             if k % 2 == 1 && t > 1.0 {
                 let diff = (v(t + h) - v(t - h)) / (2.0 * h);
-                assert!((diff - vd).abs() < 1e-5 * vd.abs().max(1.0), "{diff} vs {vd} at {t}");
+                assert!(
+                    (diff - vd).abs() < 1e-5 * vd.abs().max(1.0),
+                    "{diff} vs {vd} at {t}"
+                );
             }
         }
         if a > 0.0 {
@@ -179,13 +195,25 @@ fn delay_errors_are_located() {
             .dt(0.01);
         let (spec, x0) = b.prepare(&mut m).unwrap();
         let e = simulate(&m, &x0, &spec).unwrap_err().to_string();
-        assert!(e.contains("delay.lsl:16:") && e.contains("-m dopri5"), "{method}: {e}");
+        assert!(
+            e.contains("delay.lsl:16:") && e.contains("-m dopri5"),
+            "{method}: {e}"
+        );
     }
     for r in [0.0, -1.0] {
         let mut bad = model(Backend::Jit, 0.5, 0.3, r);
         let e = run(&mut bad, 1.0, &[]).unwrap_err().to_string();
-        assert!(e.contains("delay.lsl:16:") && e.contains("positive constant"), "{e}");
+        assert!(
+            e.contains("delay.lsl:16:") && e.contains("positive constant"),
+            "{e}"
+        );
     }
+    let mut tiny = model(Backend::Jit, 0.5, 0.3, 1e-7);
+    let e = run(&mut tiny, 1.0, &[]).unwrap_err().to_string();
+    assert!(
+        e.contains("delay.lsl:16:") && e.contains("intervals of the smallest delay"),
+        "{e}"
+    );
     let source = |body: &str| {
         format!("model D {{ state x: scalar, y: scalar; param r = 1; {body} point p {{ x = 1; y = 0; }} }}")
     };
@@ -209,6 +237,9 @@ fn delay_errors_are_located() {
             Ok(_) => panic!("accepted: {body}"),
             Err(e) => e.to_string(),
         };
-        assert!(e.contains(message) && e.contains("bad.lsl:1:"), "{body}: {e}");
+        assert!(
+            e.contains(message) && e.contains("bad.lsl:1:"),
+            "{body}: {e}"
+        );
     }
 }

@@ -136,7 +136,12 @@ impl Lowerer {
             }
         }
         for inv in parts.invariants.iter() {
-            if inv.value.ids.iter().any(|&v| self.g.depends_on(v, lag_slot)) {
+            if inv
+                .value
+                .ids
+                .iter()
+                .any(|&v| self.g.depends_on(v, lag_slot))
+            {
                 return Err(located_outside(&inv.span, "an invariant"));
             }
         }

@@ -12,9 +12,9 @@ mod switching;
 mod value;
 
 pub use canonical::{CanonicalHamiltonian, NotCanonical};
+pub use delay::{Delay, MAX_DELAYS};
 pub use lower::lower;
 pub(crate) use lower::lower_with;
-pub use delay::{Delay, MAX_DELAYS};
 pub use switching::Switch;
 pub use value::{Shape, Value};
 
