@@ -11,11 +11,7 @@ fn run(name: &str) -> serde_json::Value {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("tm-x53478-{name}"));
     let _ = std::fs::remove_dir_all(&dir);
     let out = lasalle(&["experiment", name, "-q", "--out", dir.to_str().unwrap()]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = std::fs::read_to_string(dir.join("summary.json")).expect("summary.json written");
     serde_json::from_str(&text).expect("valid JSON")
 }
@@ -27,10 +23,7 @@ fn the_primer_vector_closed_form_meets_the_variational_equations_to_ten_digits()
     let es: Vec<f64> = rows.iter().map(|r| r["e"].as_f64().unwrap()).collect();
     assert_eq!(es, [0.0, 0.5, 0.9, 0.99, 1.0, 1.5]);
     for r in rows {
-        let (dl, dd) = (
-            r["digits_lambda"].as_f64().unwrap(),
-            r["digits_dlambda"].as_f64().unwrap(),
-        );
+        let (dl, dd) = (r["digits_lambda"].as_f64().unwrap(), r["digits_dlambda"].as_f64().unwrap());
         assert!(dl >= 10.0 && dd >= 10.0, "e = {}: {dl} {dd} digits", r["e"]);
     }
     // near e = 1 the first-order series holds where (17) cancels
@@ -49,29 +42,18 @@ fn infante_table_one_is_printed_and_proved() {
     let orders = s["orders"].as_array().unwrap();
     assert_eq!(orders.len(), 3);
     let n2 = &orders[0]["table"];
-    assert_eq!(
-        n2[0]["B"],
-        serde_json::json!([["a₁² + a₂", "a₁"], ["a₁", "1"]])
-    );
+    assert_eq!(n2[0]["B"], serde_json::json!([["a₁² + a₂", "a₁"], ["a₁", "1"]]));
     assert_eq!(n2[0]["C"], serde_json::json!(["2a₁a₂", "0"]));
     assert_eq!(n2[1]["B"], serde_json::json!([["a₂", "0"], ["0", "1"]]));
     assert_eq!(n2[1]["C"], serde_json::json!(["0", "2a₁"]));
     let n3 = &orders[1]["table"];
     assert_eq!(
         n3[1]["B"],
-        serde_json::json!([
-            ["a₁a₃", "a₃", "0"],
-            ["a₃", "a₁² + a₂", "a₁"],
-            ["0", "a₁", "1"]
-        ])
+        serde_json::json!([["a₁a₃", "a₃", "0"], ["a₃", "a₁² + a₂", "a₁"], ["0", "a₁", "1"]])
     );
     assert_eq!(
         n3[2]["B"],
-        serde_json::json!([
-            ["a₃²", "a₂a₃", "0"],
-            ["a₂a₃", "a₁a₃ + a₂²", "a₃"],
-            ["0", "a₃", "a₂"]
-        ])
+        serde_json::json!([["a₃²", "a₂a₃", "0"], ["a₂a₃", "a₁a₃ + a₂²", "a₃"], ["0", "a₃", "a₂"]])
     );
     for o in orders {
         for row in o["table"].as_array().unwrap() {
