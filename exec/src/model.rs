@@ -34,9 +34,9 @@ use lasalle_model::Model;
 use lasalle_model::{derive, Derived};
 use lasalle_model::{Direction, EVENT_TIME, GUARD_STEP};
 use lasalle_runtime::{
-    CompiledStep, Declared, EventDirection, EventSpec, Field, FixedMethod, GuardFailure,
+    CompiledStep, Declared, DelaySpec, EventDirection, EventSpec, Field, FixedMethod, GuardFailure,
     InvariantInfo, Invariants, Lyapunov, ModelInfo, ParamError, Parameters, Partitioned, Preset,
-    Shape, Slot, Splitting, SwitchSpec, DelaySpec,
+    Shape, Slot, Splitting, SwitchSpec,
 };
 
 use crate::{Backend, ExecError, Kernel};
