@@ -3,12 +3,28 @@
 //! compiled model (`build.rs`) runs the same delay as the loaded one; the errors are located
 //! and exit with code 2.
 
-mod common;
-
-use common::lasalle_text;
+use std::process::{Command, Output};
 use lasalle::models::delay::Delay;
 use lasalle::run::{simulate, RunSpec};
 use lasalle::{Declared, LoadedModel};
+
+/// Runs the `lasalle` binary.
+fn lasalle(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lasalle"))
+        .args(args)
+        .output()
+        .expect("the lasalle binary runs")
+}
+
+/// Runs the `lasalle` binary: (success, standard output, standard error).
+fn lasalle_text(args: &[&str]) -> (bool, String, String) {
+    let out = lasalle(args);
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
 
 fn model_file() -> String {
     format!("{}/models/delay.lsl", env!("CARGO_MANIFEST_DIR"))
@@ -98,7 +114,7 @@ fn delay_errors_are_located_and_exit_2() {
     for (extra, message) in rows {
         let mut args = vec!["run", file.as_str()];
         args.extend_from_slice(extra);
-        let out = common::lasalle(&args);
+        let out = lasalle(&args);
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{extra:?}: {stderr}");
         assert!(
