@@ -3,10 +3,10 @@
 //! compiled model (`build.rs`) runs the same delay as the loaded one; the errors are located
 //! and exit with code 2.
 
-use std::process::{Command, Output};
 use lasalle::models::delay::Delay;
 use lasalle::run::{simulate, RunSpec};
 use lasalle::{Declared, LoadedModel};
+use std::process::{Command, Output};
 
 /// Runs the `lasalle` binary.
 fn lasalle(args: &[&str]) -> Output {

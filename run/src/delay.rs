@@ -238,7 +238,7 @@ where
     if let Some(why) = specs.iter().find_map(|d| refusal(spec.method, d)) {
         return Err(RunError::Spec(why));
     }
-    if !(spec.t_end > 0.0) {
+    if spec.t_end <= 0.0 || spec.t_end.is_nan() {
         return Err(RunError::Spec(format!(
             "{}: a delay equation integrates forwards from its history: give a positive t_end",
             specs[0].location
