@@ -34,7 +34,7 @@ use lasalle_model::Model;
 use lasalle_model::{derive, Derived};
 use lasalle_model::{Direction, EVENT_TIME, GUARD_STEP};
 use lasalle_runtime::{
-    CompiledStep, Declared, EventDirection, EventSpec, Field, FixedMethod, GuardFailure,
+    CompiledStep, Declared, DelaySpec, EventDirection, EventSpec, Field, FixedMethod, GuardFailure,
     InvariantInfo, Invariants, Lyapunov, ModelInfo, ParamError, Parameters, Partitioned, Preset,
     Shape, Slot, Splitting, SwitchSpec,
 };
@@ -194,6 +194,7 @@ struct Info {
     guards: Vec<(&'static str, &'static str, bool)>,
     events: &'static [EventSpec],
     switches: &'static [SwitchSpec],
+    delays: &'static [DelaySpec],
 }
 
 fn leak<T>(v: Vec<T>) -> &'static [T] {
@@ -298,6 +299,19 @@ impl Info {
                         mode: s.mode,
                         slide: s.slide,
                         event: s.event,
+                    })
+                    .collect(),
+            ),
+            delays: leak(
+                model
+                    .delays
+                    .iter()
+                    .map(|d| DelaySpec {
+                        text: leak_str(&d.text),
+                        location: leak_str(&d.span.location()),
+                        component: d.component,
+                        slot: d.slot,
+                        clock: d.clock,
                     })
                     .collect(),
             ),
@@ -1095,6 +1109,10 @@ impl Declared<f64, Vec<f64>> for LoadedModel {
 
     fn switches(&self) -> &'static [SwitchSpec] {
         self.info.switches
+    }
+
+    fn delays(&self) -> &'static [DelaySpec] {
+        self.info.delays
     }
 
     fn event_values(&self, x: &Vec<f64>, t: f64, g: &mut [f64]) {

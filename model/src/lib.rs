@@ -72,9 +72,9 @@ pub use check::{check, Checked, Conservation, Verdict};
 pub use derive::{derive, Derivatives, Derived};
 pub use error::{Diagnostic, DiagnosticKind, Error, Result, Source, Span};
 pub use model::{
-    Binding, CanonicalHamiltonian, Direction, Event, Gain, Guard, Hamiltonian, Invariant,
+    Binding, CanonicalHamiltonian, Delay, Direction, Event, Gain, Guard, Hamiltonian, Invariant,
     InvariantKind, Model, NotCanonical, Param, Point, Preset, Shape, StateVar, Structure, Value,
-    EVENT_TIME, GUARD_STEP,
+    EVENT_TIME, GUARD_STEP, MAX_DELAYS,
 };
 pub use splitting::{Splitting, SplittingKind, SPLITTINGS};
 

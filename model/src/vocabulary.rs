@@ -44,6 +44,9 @@ pub enum Lowering {
     /// sign(g) of a scalar of the state: the mode of the switching surface g = 0, a state
     /// component the run keeps constant between switches (`model::switching`).
     Sign,
+    /// delay(x, r): the state component x read at t − r, for a positive constant r (the
+    /// method of steps over a constant history, `model::delay`).
+    Delay,
 }
 
 /// One built-in function of the model language.
@@ -163,6 +166,15 @@ pub const BUILTINS: &[Builtin] = &[
         doc: "−1, 0 or 1 as g < 0, g = 0, g > 0: a discontinuous field, switching on g = 0 (classical or Filippov solutions, [switching.md](switching.md))",
         derivative: "0 (g = 0 is located as an event)",
         lowering: Lowering::Sign,
+    },
+    Builtin {
+        name: "delay",
+        call: "delay(x, r)",
+        arity: Arity::Exactly(2),
+        shapes: "state component, positive constant → scalar",
+        doc: "x(t − r): a delay equation, integrated by the method of steps from the constant history x(t) = x(0) for t ≤ 0 ([delay.md](delay.md))",
+        derivative: "0 (x(t − r) is read from the solution's past)",
+        lowering: Lowering::Delay,
     },
     structural(
         "norm",

@@ -22,6 +22,7 @@ fn example(name: &str) -> &'static str {
         "sin" => "sin(u)",
         "cos" => "cos(u)",
         "sign" => "sign(u)",
+        "delay" => "delay(u, a)",
         "norm" => "norm(x)",
         "dot" => "dot(x, x)",
         "cross" => "cross(x, x)[0]",
@@ -149,7 +150,7 @@ fn lowering_rows_are_consistent() {
                 };
                 assert_eq!(format!("{}{}", letter(p), letter(q)), b.name);
             }
-            Lowering::Sqrt | Lowering::Structural | Lowering::Sign => {}
+            Lowering::Sqrt | Lowering::Structural | Lowering::Sign | Lowering::Delay => {}
         }
     }
     let mut names: Vec<&str> = BUILTINS.iter().map(|b| b.name).collect();

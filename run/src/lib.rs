@@ -50,6 +50,7 @@
 mod backward;
 pub mod chaos;
 mod clock;
+mod delay;
 mod ensemble;
 mod error;
 mod events;
@@ -63,6 +64,7 @@ mod spec;
 mod switching;
 
 pub use clock::process_cpu_seconds;
+pub use delay::{growth, lags, Growth, MAX_DELAY_INTERVALS};
 pub use ensemble::{simulate_lanes, simulate_many, Ensemble, Init, Member, ModelSource};
 pub use error::RunError;
 pub use events::{parse_t_eval, EventHit};

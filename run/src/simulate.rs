@@ -78,6 +78,9 @@ where
     FV: State<f64>,
     K: State<f64>,
 {
+    if !model.delays().is_empty() {
+        return crate::delay::delayed_run(model, x0, spec, progress);
+    }
     if !model.switches().is_empty() {
         if spec.t_end < 0.0 {
             return Err(RunError::Spec(
@@ -332,7 +335,7 @@ where
 
 /// The innermost visitor: integrates `field` with the stepper and records the model's
 /// invariants.
-struct Drive<'a, Mdl, F: ?Sized, X, FV> {
+pub(crate) struct Drive<'a, Mdl, F: ?Sized, X, FV> {
     model: &'a Mdl,
     field: &'a F,
     x0: X,
@@ -718,7 +721,7 @@ where
 
 /// The innermost visitor for `field` (the model itself, its feedback field or its partitioned
 /// half-fields), recording the model's invariants.
-fn drive<'a, Mdl, F: ?Sized, X: Clone, FV>(
+pub(crate) fn drive<'a, Mdl, F: ?Sized, X: Clone, FV>(
     model: &'a Mdl,
     field: &'a F,
     x0: &X,

@@ -56,13 +56,16 @@ enum Stop {
     SurfaceEnds,
 }
 
+/// An ordinary run from a state, with a spec and a progress callback.
+type PlainRun<'a, X> = dyn Fn(&X, &RunSpec, &dyn Fn(f64)) -> Result<Recording, RunError> + 'a;
+
 /// A switched run of `model` from `x0` (its modes are set from x0 first).
 pub(crate) fn switched_run<Mdl, X, FV, K>(
     model: &Mdl,
     x0: &X,
     spec: &RunSpec,
     progress: &dyn Fn(f64),
-    plain: &dyn Fn(&X, &RunSpec, &dyn Fn(f64)) -> Result<Recording, RunError>,
+    plain: &PlainRun<'_, X>,
 ) -> Result<Recording, RunError>
 where
     Mdl: RunModel<X, FV, K>,
@@ -261,7 +264,7 @@ fn shift(rec: &mut Recording, t0: f64) {
 }
 
 /// `next` appended to the recording so far.
-fn merge(total: Option<Recording>, next: Recording) -> Recording {
+pub(crate) fn merge(total: Option<Recording>, next: Recording) -> Recording {
     let Some(mut total) = total else {
         return next;
     };

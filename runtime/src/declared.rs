@@ -94,6 +94,26 @@ pub struct SwitchSpec {
     pub event: usize,
 }
 
+/// A delayed state x(t − r) of a delay equation (`delay(x, r)` in a model file): the state
+/// component x, the *lag slot* the field reads x(t − r) from, and the *clock* τ (τ̇ = 1) that
+/// carries the time into the field. The field of the lag slot is the delay r itself (an
+/// expression of the parameters): a run reads r there once, integrates the slot with
+/// derivative 0 and fills in x(t − r) before every evaluation (the method of steps,
+/// `lasalle_run`'s delay run, `docs/delay.md`). A plain run of such a model is meaningless.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DelaySpec {
+    /// The call as written in the model file, e.g. `delay(x, r)`.
+    pub text: &'static str,
+    /// Where it is: `file:line:column`.
+    pub location: &'static str,
+    /// The state component x.
+    pub component: usize,
+    /// The lag slot.
+    pub slot: usize,
+    /// The clock.
+    pub clock: usize,
+}
+
 /// The declarations of a model file that a run can use.
 ///
 /// Every method has a default meaning "nothing declared", so hand-written models implement it
@@ -120,6 +140,11 @@ pub trait Declared<T: Float, X: State<T>> {
 
     /// The switching surfaces of a discontinuous field (`sign(g)`), in order.
     fn switches(&self) -> &'static [SwitchSpec] {
+        &[]
+    }
+
+    /// The delayed states of a delay equation (`delay(x, r)`), in order.
+    fn delays(&self) -> &'static [DelaySpec] {
         &[]
     }
 

@@ -49,7 +49,7 @@ pub mod state;
 pub mod steppers;
 pub mod taylor;
 
-pub use declared::{Declared, GuardFailure, Preset, SwitchSpec};
+pub use declared::{Declared, DelaySpec, GuardFailure, Preset, SwitchSpec};
 pub use divergence::{DriftBound, DEFAULT_MAX_DRIFT};
 pub use driver::{integrate, Driver, GuardFn, Summary, INTERRUPT_EVERY};
 pub use elliptic::{ellipf, ellipj, ellipj_m1, ellipk, ellipkm1, Jacobi};

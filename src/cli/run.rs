@@ -320,12 +320,38 @@ pub fn run(args: &RunArgs, given: &Given) -> CliResult {
             println!("  stopped by event `{}` at t = {}", e.name, e.t);
         }
         switches_report(&model, &spec, &recording);
+        delays_report(&model, &recording);
         if has_events {
             println!("  {} event crossings (events.csv)", recording.events.len());
         }
         println!("wrote {}/trace.csv and summary.json", dir.display());
     }
     Ok(())
+}
+
+/// The delays of a run of a delay equation and whether its solution grows or decays.
+fn delays_report(model: &lasalle::LoadedModel, recording: &lasalle::Recording) {
+    let delays = lasalle::Declared::<f64, Vec<f64>>::delays(model);
+    if delays.is_empty() || recording.is_empty() {
+        return;
+    }
+    let n = recording.state_names.len();
+    let lags = lasalle::run::lags(model, &recording.x[..n].to_vec()).unwrap_or_default();
+    for (d, r) in delays.iter().zip(lags) {
+        println!(
+            "  method of steps: `{}` with delay {r}, constant history x(t) = x(0) for t ≤ 0",
+            d.text
+        );
+    }
+    if let Some(g) = lasalle::run::growth(recording, delays) {
+        println!(
+            "  |x| from {:.6e} to {:.6e}: {}, rate {:.6} (ln|x| per unit time over the second half)",
+            g.initial,
+            g.last,
+            g.verdict(),
+            g.rate
+        );
+    }
 }
 
 /// The switches of a run of a discontinuous field: each one's time and state, then the final

@@ -165,6 +165,9 @@ impl LoopDerived {
         if self.events.is_some() {
             out.extend(["EventDirection", "EventSpec"]);
         }
+        if !model.delays.is_empty() {
+            out.push("DelaySpec");
+        }
         out
     }
 
@@ -787,6 +790,26 @@ impl LoopDerived {
                  let mut values = [0.0; {k}];\n    self.event_functions(x, t, &mut values);\n    \
                  g[..{k}].copy_from_slice(&values);\n}}\n",
                 k = e.outputs
+            ));
+        }
+        if !model.delays.is_empty() {
+            let specs: Vec<String> = model
+                .delays
+                .iter()
+                .map(|d| {
+                    format!(
+                        "DelaySpec {{ text: {:?}, location: {:?}, component: {}, slot: {}, clock: {} }},",
+                        d.text,
+                        d.span.location(),
+                        d.component,
+                        d.slot,
+                        d.clock
+                    )
+                })
+                .collect();
+            items.push(format!(
+                "fn delays(&self) -> &'static [DelaySpec] {{\n    &[\n{}    ]\n}}\n",
+                indent(&specs.join("\n"), 8)
             ));
         }
         if let Some(sp) = &model.splitting {

@@ -298,6 +298,7 @@ const IMPORTABLE: &[(&str, &str)] = &[
     ("Scalar", "lasalle_runtime::nalgebra"),
     ("lit", "lasalle_runtime"),
     ("Declared", "lasalle_runtime"),
+    ("DelaySpec", "lasalle_runtime"),
     ("EventDirection", "lasalle_runtime"),
     ("EventSpec", "lasalle_runtime"),
     ("Field", "lasalle_runtime"),

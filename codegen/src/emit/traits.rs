@@ -377,6 +377,20 @@ impl Emitter<'_> {
             }
         };
         let events = self.events();
+        let delays = model.delays.iter().map(|d| {
+            let (text, location) = (&d.text, d.span.location());
+            let (component, slot, clock) = (d.component, d.slot, d.clock);
+            quote!(DelaySpec { text: #text, location: #location, component: #component, slot: #slot, clock: #clock })
+        });
+        let delays = if model.delays.is_empty() {
+            TokenStream::new()
+        } else {
+            quote! {
+                fn delays(&self) -> &'static [DelaySpec] {
+                    &[#(#delays),*]
+                }
+            }
+        };
         let partitioned = if self.d.partition.is_some() {
             quote! {
                 fn partitioned(&self) -> Option<&dyn Partitioned<T, [T; #n]>> {
@@ -404,6 +418,7 @@ impl Emitter<'_> {
                 #presets
                 #guards
                 #events
+                #delays
                 #partitioned
                 #splitting
                 #taylor

@@ -613,6 +613,11 @@ impl Lowerer {
                 let g = self.scalar_argument(builtin, args, 0, ctx)?;
                 self.sign(g, &args[0])?
             }
+            Lowering::Delay => {
+                let x = self.scalar_argument(builtin, args, 0, ctx)?;
+                let r = self.scalar_argument(builtin, args, 1, ctx)?;
+                self.delay(x, r, e, args)?
+            }
         };
         Ok(Value::scalar(y))
     }

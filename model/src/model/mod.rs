@@ -2,6 +2,7 @@
 
 mod canonical;
 mod declare;
+mod delay;
 mod expr;
 mod family;
 mod family_loop;
@@ -11,6 +12,7 @@ mod switching;
 mod value;
 
 pub use canonical::{CanonicalHamiltonian, NotCanonical};
+pub use delay::{Delay, MAX_DELAYS};
 pub use lower::lower;
 pub(crate) use lower::lower_with;
 pub use switching::Switch;
@@ -256,6 +258,8 @@ pub struct Model {
     pub splitting: Option<crate::splitting::Splitting>,
     /// The switching surfaces of its `sign(g)`s, in order of appearance (`model::switching`).
     pub switches: Vec<Switch>,
+    /// The delayed states of its `delay(x, r)`s, in order of appearance (`model::delay`).
+    pub delays: Vec<Delay>,
 }
 
 impl Model {

@@ -91,6 +91,8 @@ pub(super) struct Lowerer {
     pub(super) slot: Option<super::family_loop::SlotMode>,
     /// The switching functions g of the `sign(g)`s met so far (`model::switching`).
     pub(super) switches: Vec<super::switching::Surface>,
+    /// The delayed states of the `delay(x, r)`s met so far (`model::delay`).
+    pub(super) delays: Vec<super::delay::Lag>,
     /// The number of declared state components: the modes of the switches follow them.
     pub(super) declared_dim: usize,
 }
@@ -126,6 +128,7 @@ pub(crate) fn lower_with(
         loops: loops.map(crate::loops::Collector::new),
         slot: None,
         switches: Vec::new(),
+        delays: Vec::new(),
         declared_dim: 0,
     };
     let model = lw.model(ast);
@@ -194,6 +197,19 @@ impl Lowerer {
                 return None;
             }
         };
+        let parts = super::delay::Parts {
+            events: &events,
+            invariants: &invariants,
+            points: &mut points,
+            switched: !switches.is_empty(),
+        };
+        let delays = match self.delaying(&mut state, &mut field, &mut field_spans, parts) {
+            Ok(d) => d,
+            Err(d) => {
+                self.errors.push(d);
+                return None;
+            }
+        };
         let splitting = match splitting_decl {
             Some((kind, args, span)) => {
                 let decl = crate::splitting::Declaration {
@@ -234,6 +250,7 @@ impl Lowerer {
             events,
             splitting,
             switches,
+            delays,
         })
     }
 }
