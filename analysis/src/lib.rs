@@ -31,5 +31,6 @@ pub mod canonical;
 pub mod closed_forms;
 pub mod infante;
 pub mod lie_poisson;
+pub mod multipliers;
 pub mod primer;
 pub mod stability;
