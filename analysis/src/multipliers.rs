@@ -243,7 +243,9 @@ impl CoordinateChange {
         }
         let vars: Vec<Input> = (0..n as u32).map(Input::State).collect();
         let jac = jacobian(&mut graph, &h, &vars);
-        let sigma: Vec<Id> = (0..n as u32).map(|j| graph.input(Input::Symbol(j))).collect();
+        let sigma: Vec<Id> = (0..n as u32)
+            .map(|j| graph.input(Input::Symbol(j)))
+            .collect();
         let lambda: Vec<Id> = (0..n)
             .map(|i| {
                 let terms: Vec<Id> = (0..n).map(|j| graph.mul(&[sigma[j], jac[j][i]])).collect();
@@ -353,7 +355,9 @@ impl CoordinateChange {
             Some(vt) => {
                 let row = vt.row(k);
                 // the sign that makes the largest component positive
-                let big = row.iter().fold(0.0f64, |m, &v| if v.abs() > m.abs() { v } else { m });
+                let big = row
+                    .iter()
+                    .fold(0.0f64, |m, &v| if v.abs() > m.abs() { v } else { m });
                 let sign = if big < 0.0 { -1.0 } else { 1.0 };
                 self.from
                     .iter()
@@ -384,7 +388,9 @@ impl CoordinateChange {
         let n = self.dim();
         let mut found: Vec<Id> = Vec::new();
         for &id in &order {
-            if matches!(self.graph.node(id), Node::Num(_)) || values[id.index()].abs() > VANISHING * scale {
+            if matches!(self.graph.node(id), Node::Num(_))
+                || values[id.index()].abs() > VANISHING * scale
+            {
                 continue;
             }
             let moved = eval_nodes(&self.graph, &order, x, Some((id, 1e-3)));
@@ -473,12 +479,7 @@ impl CoordinateChange {
         self.sized("ẋ", xdot)?;
         self.sized("σ", sigma)?;
         self.sized("σ̇", sigma_dot)?;
-        let sym: Vec<f64> = sigma
-            .iter()
-            .chain(xdot)
-            .chain(sigma_dot)
-            .copied()
-            .collect();
+        let sym: Vec<f64> = sigma.iter().chain(xdot).chain(sigma_dot).copied().collect();
         let rates = self
             .graph
             .eval_f64(&self.lambda_rate, &mut inputs(x, &sym, &[]));
@@ -495,12 +496,7 @@ impl CoordinateChange {
         sigma_dot: &[f64],
     ) -> Result<Vec<(f64, f64)>, MultiplierError> {
         self.multiplier_rates(x, xdot, sigma, sigma_dot)?;
-        let sym: Vec<f64> = sigma
-            .iter()
-            .chain(xdot)
-            .chain(sigma_dot)
-            .copied()
-            .collect();
+        let sym: Vec<f64> = sigma.iter().chain(xdot).chain(sigma_dot).copied().collect();
         let scaled = self
             .lambda_rate
             .iter()
@@ -601,7 +597,10 @@ impl EulerLagrange {
         lambda: &[f64],
         params: &[f64],
     ) -> (Vec<(f64, f64)>, Vec<(f64, f64)>) {
-        let one = |e: &Id| self.graph.eval_with_scale(*e, &mut inputs(x, lambda, params));
+        let one = |e: &Id| {
+            self.graph
+                .eval_with_scale(*e, &mut inputs(x, lambda, params))
+        };
         (
             self.f.iter().map(one).collect(),
             self.adjoint.iter().map(one).collect(),

@@ -48,11 +48,7 @@ pub fn change() -> CoordinateChange {
     let (st, ct) = trig(&mut g, s[2]);
     let (sg, cg) = trig(&mut g, s[4]);
     let (sd, cd) = trig(&mut g, s[5]);
-    let mut h = vec![
-        g.mul(&[r, cf, ct]),
-        g.mul(&[r, cf, st]),
-        g.mul(&[r, sf]),
-    ];
+    let mut h = vec![g.mul(&[r, cf, ct]), g.mul(&[r, cf, st]), g.mul(&[r, sf])];
     // l = v[sin γ cos φ cos θ − sin φ cos θ cos γ cos δ + sin θ cos γ sin δ], m, n likewise
     let l = {
         let a = g.mul(&[sg, cf, ct]);
@@ -286,7 +282,9 @@ impl Extremal {
         Driver::new(0.0, t_end, 0.0)
             .max_steps(1_000_000)
             .run(&mut dp5, self, &x, &mut observe)
-            .map_err(|e| MultiplierError::Shape(format!("the extremal's integration failed: {e}")))?;
+            .map_err(|e| {
+                MultiplierError::Shape(format!("the extremal's integration failed: {e}"))
+            })?;
         Ok(out)
     }
 
@@ -425,7 +423,9 @@ impl Check {
         lam: &[f64],
     ) -> Result<f64, MultiplierError> {
         let params = [mu, a];
-        let (xd, ld) = self.change.transform_equations(&self.plumb, &params, x, lam)?;
+        let (xd, ld) = self
+            .change
+            .transform_equations(&self.plumb, &params, x, lam)?;
         // the rounding scales of λ̇ = Jᵀσ̇ + J̇ᵀσ at the same σ, ẋ, σ̇
         let sigma = self.change.multipliers_inverse(x, lam)?;
         let (_, sd) = self.plumb.eval(&self.change.apply(x)?, &sigma, &params);
@@ -438,4 +438,55 @@ impl Check {
             })
             .fold(0.0, f64::max))
     }
+}
+
+/// The thrusting extremal of the documentation and the experiment: μ of the Earth
+/// [km³/s²], a₀ = 20 m/s², a thousandth of the initial mass burnt per second, started at
+/// (r, φ, θ, v, γ, δ) = (6678.137 km, 0.3, 0.5, 7.9 km/s, 0.05, 0.8) with
+/// σ = (1e-3, −2e-3, 1.5e-3, 0.4, −0.7, 0.6); returns it with y₀ = h(x₀), σ₀ and x₀.
+pub fn example() -> (Extremal, [f64; 6], [f64; 6], [f64; 6]) {
+    let e = Extremal {
+        mu: 398_600.4418,
+        a0: 0.02,
+        k: 1e-3,
+    };
+    let x0 = [6678.137, 0.3, 0.5, 7.9, 0.05, 0.8];
+    let y = change().apply(&x0).expect("six finite values");
+    let y0 = [y[0], y[1], y[2], y[3], y[4], y[5]];
+    (e, y0, [1.0e-3, -2.0e-3, 1.5e-3, 0.4, -0.7, 0.6], x0)
+}
+
+/// `count` spherical points off the singular set (r ∈ [6500, 9000] km, |φ|, |γ| ≤ 1.2,
+/// v ∈ [3, 11] km/s) with multipliers (λ_v ∈ [0.2, 1], the others of both signs), from a
+/// xorshift64* generator seeded by `seed`.
+pub fn sample_points(count: usize, seed: u64) -> Vec<([f64; 6], [f64; 6])> {
+    let mut state = seed.max(1);
+    let mut next = |lo: f64, hi: f64| {
+        state ^= state >> 12;
+        state ^= state << 25;
+        state ^= state >> 27;
+        let u = (state.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64;
+        lo + (hi - lo) * u
+    };
+    (0..count)
+        .map(|_| {
+            let x = [
+                next(6500.0, 9000.0),
+                next(-1.2, 1.2),
+                next(-3.0, 3.0),
+                next(3.0, 11.0),
+                next(-1.2, 1.2),
+                next(-3.0, 3.0),
+            ];
+            let l = [
+                next(-1e-3, 1e-3),
+                next(-5.0, 5.0),
+                next(-5.0, 5.0),
+                next(0.2, 1.0),
+                next(-5.0, 5.0),
+                next(-5.0, 5.0),
+            ];
+            (x, l)
+        })
+        .collect()
 }
