@@ -1,5 +1,5 @@
-//! Lagrange multipliers across coordinate systems ("On the transformation of Lagrange
-//! multipliers", the fourth paper of NASA TM X-53478).
+//! Lagrange multipliers across coordinate systems (the fourth paper of NASA TM X-53478, on
+//! transforming state variables and their Lagrange multipliers between coordinate systems).
 //!
 //! A coordinate change y = h(x) between two descriptions of the same state, x = (x₁ … xₙ) and
 //! y = (y₁ … yₙ), carries the multipliers σ of the y-frame to those of the x-frame by

@@ -1,5 +1,5 @@
-//! Lagrange multipliers across coordinate systems ("On the transformation of Lagrange
-//! multipliers", NASA TM X-53478, fourth paper): the paper's identities between the plumb-line
+//! Lagrange multipliers across coordinate systems (NASA TM X-53478, fourth paper: transforming
+//! state variables and Lagrange multipliers between coordinate systems): the paper's identities between the plumb-line
 //! and spherical flight-path frames along an integrated thrusting extremal, the transformed
 //! Euler–Lagrange equations against the spherical ones at random points, the paper's printed
 //! partials, a second coordinate change (planar polar coordinates), and the singular points'
