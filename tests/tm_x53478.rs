@@ -1,6 +1,7 @@
 //! Papers of NASA TM X-53478 reproduced by `lasalle experiment`: the primer vector on coast
-//! arcs (seventh paper; docs/primer_vector.md) and Infante's Table I (fifth paper;
-//! docs/infante.md), through the command line and their `summary.json`.
+//! arcs (seventh paper; docs/primer_vector.md), Infante's Table I (fifth paper;
+//! docs/infante.md) and the multipliers across coordinate systems (fourth paper;
+//! docs/multipliers.md), through the command line and their `summary.json`.
 
 use std::path::PathBuf;
 
@@ -11,7 +12,11 @@ fn run(name: &str) -> serde_json::Value {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("tm-x53478-{name}"));
     let _ = std::fs::remove_dir_all(&dir);
     let out = lasalle(&["experiment", name, "-q", "--out", dir.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let text = std::fs::read_to_string(dir.join("summary.json")).expect("summary.json written");
     serde_json::from_str(&text).expect("valid JSON")
 }
@@ -23,7 +28,10 @@ fn the_primer_vector_closed_form_meets_the_variational_equations_to_ten_digits()
     let es: Vec<f64> = rows.iter().map(|r| r["e"].as_f64().unwrap()).collect();
     assert_eq!(es, [0.0, 0.5, 0.9, 0.99, 1.0, 1.5]);
     for r in rows {
-        let (dl, dd) = (r["digits_lambda"].as_f64().unwrap(), r["digits_dlambda"].as_f64().unwrap());
+        let (dl, dd) = (
+            r["digits_lambda"].as_f64().unwrap(),
+            r["digits_dlambda"].as_f64().unwrap(),
+        );
         assert!(dl >= 10.0 && dd >= 10.0, "e = {}: {dl} {dd} digits", r["e"]);
     }
     // near e = 1 the first-order series holds where (17) cancels
@@ -42,23 +50,71 @@ fn infante_table_one_is_printed_and_proved() {
     let orders = s["orders"].as_array().unwrap();
     assert_eq!(orders.len(), 3);
     let n2 = &orders[0]["table"];
-    assert_eq!(n2[0]["B"], serde_json::json!([["a₁² + a₂", "a₁"], ["a₁", "1"]]));
+    assert_eq!(
+        n2[0]["B"],
+        serde_json::json!([["a₁² + a₂", "a₁"], ["a₁", "1"]])
+    );
     assert_eq!(n2[0]["C"], serde_json::json!(["2a₁a₂", "0"]));
     assert_eq!(n2[1]["B"], serde_json::json!([["a₂", "0"], ["0", "1"]]));
     assert_eq!(n2[1]["C"], serde_json::json!(["0", "2a₁"]));
     let n3 = &orders[1]["table"];
     assert_eq!(
         n3[1]["B"],
-        serde_json::json!([["a₁a₃", "a₃", "0"], ["a₃", "a₁² + a₂", "a₁"], ["0", "a₁", "1"]])
+        serde_json::json!([
+            ["a₁a₃", "a₃", "0"],
+            ["a₃", "a₁² + a₂", "a₁"],
+            ["0", "a₁", "1"]
+        ])
     );
     assert_eq!(
         n3[2]["B"],
-        serde_json::json!([["a₃²", "a₂a₃", "0"], ["a₂a₃", "a₁a₃ + a₂²", "a₃"], ["0", "a₃", "a₂"]])
+        serde_json::json!([
+            ["a₃²", "a₂a₃", "0"],
+            ["a₂a₃", "a₁a₃ + a₂²", "a₃"],
+            ["0", "a₃", "a₂"]
+        ])
     );
     for o in orders {
         for row in o["table"].as_array().unwrap() {
             assert_eq!(row["proved"], true);
             assert!(row["min_pivot"].as_f64().unwrap() > 0.0);
         }
+    }
+}
+
+#[test]
+fn the_multiplier_identities_hold_along_the_extremal_and_singular_points_are_named() {
+    let s = run("multipliers");
+    assert!(s["steps"].as_u64().unwrap() > 100);
+    let residuals = s["residuals"].as_array().unwrap();
+    assert_eq!(residuals.len(), 6);
+    for r in residuals {
+        let max = r["max"].as_f64().unwrap();
+        assert!(max <= 1e-12, "{}: {max:e}", r["identity"]);
+    }
+    assert!(s["random_points_max"].as_f64().unwrap() <= 1e-12);
+    // the printed δ_l has the opposite sign; the other eight partials agree to rounding
+    let p = &s["printed_partials"];
+    for a in 0..3 {
+        for b in 0..3 {
+            let d = p[a][b].as_f64().unwrap();
+            if (a, b) == (2, 0) {
+                assert!(d > 0.1, "δ_l: {d}");
+            } else {
+                assert!(d <= 1e-12, "({a}, {b}): {d}");
+            }
+        }
+    }
+    let singular: Vec<&str> = s["singular"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m.as_str().unwrap())
+        .collect();
+    for (msg, factor) in singular
+        .iter()
+        .zip(["cos(γ) = ", "v = 0.000e0", "cos(φ) = "])
+    {
+        assert!(msg.contains(&format!("the factor {factor}")), "{msg}");
     }
 }

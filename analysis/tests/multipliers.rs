@@ -1,9 +1,9 @@
 //! Lagrange multipliers across coordinate systems (NASA TM X-53478, fourth paper: transforming
-//! state variables and Lagrange multipliers between coordinate systems): the paper's identities between the plumb-line
-//! and spherical flight-path frames along an integrated thrusting extremal, the transformed
-//! Euler–Lagrange equations against the spherical ones at random points, the paper's printed
-//! partials, a second coordinate change (planar polar coordinates), and the singular points'
-//! errors.
+//! state variables and Lagrange multipliers between coordinate systems): the paper's
+//! identities between the plumb-line and spherical flight-path frames along an integrated
+//! thrusting extremal, the transformed Euler–Lagrange equations against the spherical ones at
+//! random points, the paper's printed partials, a second coordinate change (planar polar
+//! coordinates), and the singular points' errors.
 
 use lasalle_analysis::multipliers::flight_path::{
     self, example, printed_partials, sample_points, spherical, Check,

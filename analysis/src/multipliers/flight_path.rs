@@ -4,8 +4,8 @@
 //! a = a₀/(1 − k t)).
 //!
 //! With U = (cos φ cos θ, cos φ sin θ, sin φ) (up), N = (−sin φ cos θ, −sin φ sin θ, cos φ)
-//! (north) and W = (sin θ, −cos θ, 0) — the paper's θ grows westward, θ̇ = −v cos γ sin δ/(r cos φ)
-//! — the change is R = r U, V = v (sin γ U + cos γ cos δ N + cos γ sin δ W), the paper's
+//! (north) and W = (sin θ, −cos θ, 0) — the paper's θ grows westward,
+//! θ̇ = −v cos γ sin δ/(r cos φ) — the change is R = r U, V = v (sin γ U + cos γ cos δ N + cos γ sin δ W), the paper's
 //! transformation equations. In the plumb-line frame the control angles eliminate to thrust
 //! along σ_V = (σ_l, σ_m, σ_n); in the spherical frame the paper obtains, by transforming,
 //!

@@ -1,8 +1,8 @@
 //! Multipliers across coordinate systems (NASA TM X-53478, fourth paper: transforming
-//! state variables and their Lagrange multipliers between coordinate systems): a thrusting extremal integrated in the plumb-line frame
-//! (DOPRI5, rtol 1e-13), carried to the spherical flight-path frame by λ = Jᵀσ
-//! ([`lasalle_analysis::multipliers`]), with the residuals of the paper's identities at every
-//! accepted step; the transformed Euler–Lagrange equations against the spherical ones at
+//! state variables and their Lagrange multipliers between coordinate systems): a thrusting
+//! extremal integrated in the plumb-line frame (DOPRI5, rtol 1e-13), carried to the spherical
+//! flight-path frame by λ = Jᵀσ ([`lasalle_analysis::multipliers`]), with the residuals of the
+//! paper's identities at every accepted step; the transformed Euler–Lagrange equations against the spherical ones at
 //! random points; the paper's printed partials against the IR's inverse Jacobian; and the
 //! errors at the singular points of the change.
 
@@ -36,7 +36,14 @@ fn along(check: &Check, t_end: f64, dir: &Path) -> CliResult<([f64; 6], usize, (
         let x = spherical(y);
         let l = check.change().multipliers(&x, s)?;
         lambda_v = (lambda_v.0.min(l[3]), lambda_v.1.max(l[3]));
-        let res = [r.norm, r.tan_alpha, r.tan_beta, r.thrust, r.state, r.adjoint];
+        let res = [
+            r.norm,
+            r.tan_alpha,
+            r.tan_beta,
+            r.thrust,
+            r.state,
+            r.adjoint,
+        ];
         for (w, v) in worst.iter_mut().zip(res) {
             *w = w.max(v);
         }
@@ -88,7 +95,7 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
         "σ_l² + σ_m² + σ_n² = λ_v² + λ_γ²/v² + λ_δ²/(v² cos²γ)",
         "tan α = λ_γ/(v λ_v)",
         "tan β = λ_δ/(v λ_v cos γ)",
-        "|a| from the rates = T/M",
+        "\\|a\\| from the rates = T/M",
         "ẋ = J⁻¹ẏ against the printed spherical equations",
         "λ̇ = Jᵀσ̇ + J̇ᵀσ against −∂(λ·f)/∂x",
     ];
