@@ -446,7 +446,7 @@ impl Check {
 /// σ = (1e-3, −2e-3, 1.5e-3, 0.4, −0.7, 0.6); returns it with y₀ = h(x₀), σ₀ and x₀.
 pub fn example() -> (Extremal, [f64; 6], [f64; 6], [f64; 6]) {
     let e = Extremal {
-        mu: 398_600.4418,
+        mu: 398_600.441_8,
         a0: 0.02,
         k: 1e-3,
     };
