@@ -1,6 +1,7 @@
 //! Papers of NASA TM X-53478 reproduced by `lasalle experiment`: the primer vector on coast
-//! arcs (seventh paper; docs/primer_vector.md) and Infante's Table I (fifth paper;
-//! docs/infante.md), through the command line and their `summary.json`.
+//! arcs (seventh paper; docs/primer_vector.md), Infante's Table I (fifth paper;
+//! docs/infante.md) and the multipliers across coordinate systems (fourth paper;
+//! docs/multipliers.md), through the command line and their `summary.json`.
 
 use std::path::PathBuf;
 
@@ -78,5 +79,42 @@ fn infante_table_one_is_printed_and_proved() {
             assert_eq!(row["proved"], true);
             assert!(row["min_pivot"].as_f64().unwrap() > 0.0);
         }
+    }
+}
+
+#[test]
+fn the_multiplier_identities_hold_along_the_extremal_and_singular_points_are_named() {
+    let s = run("multipliers");
+    assert!(s["steps"].as_u64().unwrap() > 100);
+    let residuals = s["residuals"].as_array().unwrap();
+    assert_eq!(residuals.len(), 6);
+    for r in residuals {
+        let max = r["max"].as_f64().unwrap();
+        assert!(max <= 1e-12, "{}: {max:e}", r["identity"]);
+    }
+    assert!(s["random_points_max"].as_f64().unwrap() <= 1e-12);
+    // the printed δ_l has the opposite sign; the other eight partials agree to rounding
+    let p = &s["printed_partials"];
+    for a in 0..3 {
+        for b in 0..3 {
+            let d = p[a][b].as_f64().unwrap();
+            if (a, b) == (2, 0) {
+                assert!(d > 0.1, "δ_l: {d}");
+            } else {
+                assert!(d <= 1e-12, "({a}, {b}): {d}");
+            }
+        }
+    }
+    let singular: Vec<&str> = s["singular"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m.as_str().unwrap())
+        .collect();
+    for (msg, factor) in singular
+        .iter()
+        .zip(["cos(γ) = ", "v = 0.000e0", "cos(φ) = "])
+    {
+        assert!(msg.contains(&format!("the factor {factor}")), "{msg}");
     }
 }

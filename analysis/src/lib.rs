@@ -19,6 +19,9 @@
 //!   corrected and as printed in the thesis they come from;
 //! - [`infante`]: Infante's quadratic Liapunov functions of the n-th order linear equation,
 //!   AᵀB + BA = −C solved for the companion matrix symbolically in its coefficients;
+//! - [`multipliers`]: Lagrange multipliers and Euler–Lagrange equations carried across a
+//!   coordinate change given in the IR (λ = Jᵀσ), with the plumb-line and flight-path frames of
+//!   a thrusting vehicle;
 //! - [`primer`]: the primer vector (the Lagrange multipliers of the minimum-fuel problem) on a
 //!   Kepler coast arc in closed form, for every eccentricity.
 //!
@@ -31,5 +34,6 @@ pub mod canonical;
 pub mod closed_forms;
 pub mod infante;
 pub mod lie_poisson;
+pub mod multipliers;
 pub mod primer;
 pub mod stability;

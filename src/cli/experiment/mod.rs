@@ -1,7 +1,8 @@
 //! `lasalle experiment <name>`: the paper's §4 experiments (rigid-body, kepler,
 //! perturbed-kepler; Chang, Jiménez & Perlmutter 2016, Figs. 1–10), the gain study (gains), the
 //! gains of adaptive methods (adaptive-gains), the thesis' SO(3) systems (so3), and from NASA
-//! TM X-53478 the primer vector on coast arcs (primer-vector) and Infante's Table I (infante).
+//! TM X-53478 the primer vector on coast arcs (primer-vector), Infante's Table I (infante) and
+//! the multipliers across coordinate systems (multipliers).
 //!
 //! Each experiment runs its methods through the same core as `lasalle run`
 //! ([`lasalle::simulate`]) and writes into `--out` (default `out/experiment-<name>/`):
@@ -13,6 +14,7 @@ mod adaptive_gains;
 mod gains;
 mod infante;
 mod kepler;
+mod multipliers;
 mod perturbed_kepler;
 mod primer;
 mod rigid_body;
@@ -36,7 +38,9 @@ pub struct ExperimentArgs {
     /// gain study), adaptive-gains (gains for DOPRI5 and Taylor; not part of `all`), so3 (the
     /// thesis' four extremal systems with reconstruction), primer-vector (the primer vector on
     /// Kepler coast arcs, closed form against integration; not part of `all`), infante
-    /// (Infante's Table I, solved symbolically; not part of `all`), or all.
+    /// (Infante's Table I, solved symbolically; not part of `all`), multipliers (the Lagrange
+    /// multipliers carried from the plumb-line to the flight-path frame along a thrusting
+    /// extremal; not part of `all`), or all.
     pub name: String,
     /// Output directory (default: out/experiment-<name>/).
     #[arg(long)]
@@ -87,6 +91,7 @@ enum Which {
     So3,
     Primer,
     Infante,
+    Multipliers,
     All,
 }
 
@@ -98,6 +103,7 @@ pub fn run(args: &ExperimentArgs) -> CliResult {
         "so3" => Which::So3,
         "primer-vector" | "primer" => Which::Primer,
         "infante" => Which::Infante,
+        "multipliers" => Which::Multipliers,
         "all" => Which::All,
         other => Which::Paper(
             Paper::ALL
@@ -105,7 +111,7 @@ pub fn run(args: &ExperimentArgs) -> CliResult {
                 .find(|p| normalise(p.name()) == normalise(other))
                 .ok_or_else(|| {
                     super::usage(format!(
-                        "unknown experiment `{other}`; experiments: rigid-body, kepler, perturbed-kepler, gains, adaptive-gains, so3, primer-vector, infante, all (use `lasalle run {other}` to integrate a model)"
+                        "unknown experiment `{other}`; experiments: rigid-body, kepler, perturbed-kepler, gains, adaptive-gains, so3, primer-vector, infante, multipliers, all (use `lasalle run {other}` to integrate a model)"
                     ))
                 })?,
         ),
@@ -117,6 +123,7 @@ pub fn run(args: &ExperimentArgs) -> CliResult {
         Which::So3 => so3::run(args, &out_dir(args, "so3")?),
         Which::Primer => primer::run(args, &out_dir(args, "primer-vector")?),
         Which::Infante => infante::run(args, &out_dir(args, "infante")?),
+        Which::Multipliers => multipliers::run(args, &out_dir(args, "multipliers")?),
         Which::All => {
             for p in Paper::ALL {
                 run_one(args, p)?;
