@@ -148,6 +148,9 @@ fn load(text: &str, c: [f64; 3], ty: Type, n: [f64; 3]) -> LoadedModel {
     m
 }
 
+/// The angles and P at each time.
+type Samples = Vec<([f64; 3], [f64; 3])>;
+
 /// The angles (and P) from the Euler-angle model at `times`, stopping (early) where
 /// |D|/√K < `fold`: the states reached, or the integration's error with the states reached
 /// before it.
@@ -157,7 +160,7 @@ fn angles(
     phi0: [f64; 3],
     times: &[f64],
     fold: f64,
-) -> Result<Vec<([f64; 3], [f64; 3])>, (Vec<([f64; 3], [f64; 3])>, StepError)> {
+) -> Result<Samples, (Samples, StepError)> {
     let x0: Vec<f64> = phi0.iter().chain(&p0).copied().collect();
     let mut out = Vec::with_capacity(times.len());
     let mut observer = |_: u64, _: f64, x: &Vec<f64>| {

@@ -850,7 +850,7 @@ pub fn analyse_with(
         };
         let optimum_bracketed = o
             .optimal
-            .then(|| matches!(search_end, Some(SearchEnd::Peaked { .. })));
+            .then_some(matches!(search_end, Some(SearchEnd::Peaked { .. })));
         let certified_orders = (o.certified && best_order.is_some()).then(|| {
             cert.search(
                 &candidates,

@@ -455,12 +455,12 @@ pub fn solve(c: &[Poly]) -> Result<Solution, InfanteError> {
     let mut rows = Vec::with_capacity(m);
     let mut rhs = Vec::with_capacity(m);
     for i in 0..n {
-        for j in i..n {
+        for (j, &op_ij) in op[i].iter().enumerate().skip(i) {
             let mut row = Vec::with_capacity(m);
             for u in 0..m {
                 let d = diff(
                     &mut g,
-                    op[i][j],
+                    op_ij,
                     Input::State(u as u32),
                     &mut Default::default(),
                 );
@@ -549,10 +549,11 @@ impl Solution {
         let mut residual: f64 = 0.0;
         for i in 0..n {
             for j in 0..n {
-                let mut s = if i == j { self.c[i].eval(a) } else { 0.0 };
-                for k in 0..n {
-                    s += am(k, i) * bm[k][j] + bm[i][k] * am(k, j);
-                }
+                let c = if i == j { self.c[i].eval(a) } else { 0.0 };
+                let s = c
+                    + (0..n)
+                        .map(|k| am(k, i) * bm[k][j] + bm[i][k] * am(k, j))
+                        .sum::<f64>();
                 residual = residual.max(s.abs());
             }
         }
@@ -565,10 +566,12 @@ impl Solution {
             if pivot <= 0.0 {
                 break;
             }
-            for i in k + 1..n {
-                let f = l[i][k] / pivot;
-                for j in k + 1..n {
-                    l[i][j] -= f * l[k][j];
+            let (upper, lower) = l.split_at_mut(k + 1);
+            let row_k = &upper[k];
+            for row_i in lower.iter_mut() {
+                let f = row_i[k] / pivot;
+                for (x, y) in row_i[k + 1..].iter_mut().zip(&row_k[k + 1..]) {
+                    *x -= f * y;
                 }
             }
         }

@@ -6,7 +6,7 @@ use lasalle_analysis::primer::{digits, Coast, Conic, GForm, KeplerState};
 use lasalle_runtime::{Control, DormandPrince, DormandPrinceOptions, Driver, Field};
 
 /// Earth's μ in km³/s² and a perigee 300 km above a 6378.137 km Earth.
-const MU: f64 = 398_600.4418;
+const MU: f64 = 398_600.441_8;
 const RP: f64 = 6678.137;
 const LAMBDA0: [f64; 3] = [0.3, -0.8, 0.5];
 const DLAMBDA0: [f64; 3] = [1.2e-3, 0.7e-3, -0.9e-3];

@@ -485,9 +485,9 @@ pub(crate) fn extend_coordinate_maps<C: Coeff>(
     let neg = |g: &[C]| -> Vec<C> { g.iter().map(|&c| -c).collect() };
     for (j, map) in maps.iter_mut().enumerate() {
         if forward {
-            for r in from + 1..=nmax {
-                if !generators[r].is_empty() {
-                    lie_transform(map, &generators[r], r, cap, None);
+            for (r, g) in generators.iter().enumerate().skip(from + 1) {
+                if !g.is_empty() {
+                    lie_transform(map, g, r, cap, None);
                 }
             }
             continue;

@@ -117,6 +117,28 @@ pub fn model_files() -> Vec<std::path::PathBuf> {
     paths
 }
 
+/// The same f64, bit for bit: `0.0` and `-0.0` differ, and any NaN equals any NaN (the sign
+/// and payload bits of a NaN may differ between back ends). What the tests mean by "bitwise".
+pub fn same(a: f64, b: f64) -> bool {
+    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+}
+
+/// Panics unless `a` and `b` have the same length and are [`same`] entry by entry, naming
+/// `what` and the first entry that differs.
+#[track_caller]
+pub fn assert_same(a: &[f64], b: &[f64], what: impl std::fmt::Display) {
+    assert_eq!(a.len(), b.len(), "{what}: lengths differ");
+    if let Some(i) = (0..a.len()).find(|&i| !same(a[i], b[i])) {
+        panic!(
+            "{what}: entry {i} differs bitwise: {:e} ({:#018x}) vs {:e} ({:#018x})",
+            a[i],
+            a[i].to_bits(),
+            b[i],
+            b[i].to_bits()
+        );
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::Rng;
@@ -141,27 +163,5 @@ mod tests {
         }
         let mean = (0..100_000).map(|_| r.unit()).sum::<f64>() / 1e5;
         assert!((mean - 0.5).abs() < 0.005, "mean {mean}");
-    }
-}
-
-/// The same f64, bit for bit: `0.0` and `-0.0` differ, and any NaN equals any NaN (the sign
-/// and payload bits of a NaN may differ between back ends). What the tests mean by "bitwise".
-pub fn same(a: f64, b: f64) -> bool {
-    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
-}
-
-/// Panics unless `a` and `b` have the same length and are [`same`] entry by entry, naming
-/// `what` and the first entry that differs.
-#[track_caller]
-pub fn assert_same(a: &[f64], b: &[f64], what: impl std::fmt::Display) {
-    assert_eq!(a.len(), b.len(), "{what}: lengths differ");
-    if let Some(i) = (0..a.len()).find(|&i| !same(a[i], b[i])) {
-        panic!(
-            "{what}: entry {i} differs bitwise: {:e} ({:#018x}) vs {:e} ({:#018x})",
-            a[i],
-            a[i].to_bits(),
-            b[i],
-            b[i].to_bits()
-        );
     }
 }

@@ -130,14 +130,13 @@ fn real_generators<R: Real>(
 }
 
 /// The coordinate maps (to, from the normal coordinates) to degree `top − 1`, as asked.
-#[allow(clippy::type_complexity)]
 fn coordinate_maps_of<R: Real>(
     table: &Arc<MonomialTable>,
     greal_parts: &[Vec<R>],
     o: &Options,
     nmax: usize,
     top: usize,
-) -> (Option<Vec<Poly<R>>>, Option<Vec<Poly<R>>>) {
+) -> Maps<R> {
     if o.transform && nmax >= 2 {
         // the generators in real form generate the same maps in (Q, P), since the
         // complexification is symplectic: the coordinate maps are real Lie series
@@ -152,6 +151,9 @@ fn coordinate_maps_of<R: Real>(
     }
 }
 
+/// The coordinate maps to and from the normal coordinates, each where asked for.
+type Maps<R> = (Option<Vec<Poly<R>>>, Option<Vec<Poly<R>>>);
+
 /// Stages 4–6 of order `nmax` with the remainder to degree `top`, from the normalisation
 /// `out` (its degrees above `top` are ignored) and the coordinate maps.
 fn finish<R: Real>(
@@ -160,7 +162,7 @@ fn finish<R: Real>(
     o: &Options,
     nmax: usize,
     top: usize,
-    maps: (Option<Vec<Poly<R>>>, Option<Vec<Poly<R>>>),
+    maps: Maps<R>,
 ) -> Raw<R> {
     let t = Instant::now();
     let table = &p.table;

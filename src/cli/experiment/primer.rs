@@ -19,7 +19,7 @@ use super::{write_outputs, ExperimentArgs, Table};
 use crate::cli::CliResult;
 
 /// Earth's μ [km³/s²] and a perigee 300 km above a 6378.137 km Earth [km].
-pub const MU: f64 = 398_600.4418;
+pub const MU: f64 = 398_600.441_8;
 /// The perigee radius [km].
 pub const RP: f64 = 6678.137;
 /// The start of the coast after perigee and its length [s] (the paper's).
@@ -75,11 +75,14 @@ fn vec3(v: [f64; 3]) -> String {
 }
 
 fn orbit(e: f64) -> &'static str {
-    match e {
-        e if e == 0.0 => "circle",
-        e if e < 1.0 => "ellipse",
-        e if e == 1.0 => "parabola",
-        _ => "hyperbola",
+    if e == 0.0 {
+        "circle"
+    } else if e < 1.0 {
+        "ellipse"
+    } else if e == 1.0 {
+        "parabola"
+    } else {
+        "hyperbola"
     }
 }
 
