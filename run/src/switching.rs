@@ -25,7 +25,7 @@ pub enum Switching {
     /// Classical solutions: on a surface, the field's own case there.
     #[default]
     Classical,
-    /// Solutions in the sense of Filippov: sliding with the convex combination K[X] tangent to
+    /// Solutions in the sense of Filippov: sliding with the convex combination K\[X\] tangent to
     /// a surface that both sides' fields point into.
     Filippov,
 }
