@@ -55,7 +55,7 @@ const ROWS: &[(&[&str], &str)] = &[
     (&["run", "kepler", "--gains", "sometimes"], "invalid gain specification"),
     (&["run", "rigid-body", "--t-end", "0"], "--t-end"),
     (&["run", "kepler", "--t-end", "1e300"], "would take 2.000e302 steps, more than the limit of 1000000000: raise it with --max-steps"),
-    (&["run", "pendulum"], "no model `pendulum`: give a path to a model file (`my_model.lsl`) or one of the built-in models: coupled_oscillators, cr3bp, cr3bp_spatial,"),
+    (&["run", "pendulum"], "no model `pendulum`: give a path to a model file (`my_model.lsl`) or one of the built-in models: arenstorf, coupled_oscillators, cr3bp,"),
     (&["run", "kepler", "--init", "1,0,0,0,1"], "--init has 5 numbers but the state of `Kepler` has dimension 6"),
     (&["run", "kepler", "--gains", "1,2,3"], "expected 2 gains, got 3"),
     (&["run", "kepler", "--preset", "fast"], "unknown preset `fast`; the model's presets: paper"),

@@ -309,7 +309,20 @@ fn thesis_frame_agrees_up_to_the_fold() {
         }
         let reference = reconstruct(case.ty, case.c, case.p0, &eye, &ts);
         let model = load(&model_text(case.ty), case.c, case.ty, n);
-        let euler = angles_ok(&model, case.p0, [0.0; 3], &ts, FOLD);
+        // the fold is checked at the output times: a case that folds may meet the chart's
+        // singularity (D = 0, steps below ten ulps) between two of them, and ends there
+        let euler = match angles(&model, case.p0, [0.0; 3], &ts, FOLD) {
+            Ok(euler) => euler,
+            Err((euler, e)) if FOLDING.contains(&case.figure) => {
+                println!("{}: {e}", case.figure);
+                euler
+            }
+            Err((euler, e)) => panic!(
+                "{}: DOPRI5 failed after output t = {}: {e}",
+                case.figure,
+                ts[euler.len()]
+            ),
+        };
         let err = g_error(n, &euler, &reference);
         let reached = ts[euler.len() - 1];
         if euler.len() < ts.len() {

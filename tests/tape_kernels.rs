@@ -18,7 +18,7 @@ use lasalle_testkit::{allocations, CountingAllocator};
 
 mod common;
 use common::tapes;
-use lasalle_testkit::same;
+use lasalle_testkit::{known_ulps, same, ulps};
 
 #[global_allocator]
 static GLOBAL: CountingAllocator = CountingAllocator;
@@ -51,13 +51,15 @@ fn same_coefficients<M>(
     }
 }
 
-/// Lane `l` of a batch against one state's values.
-fn same_lane<const K: usize>(what: &str, lanes: &[[f64; K]], l: usize, scalar: &[f64]) {
+/// Lane `l` of a batch against one state's values: bitwise, or within the ulps known for the
+/// model file (`lasalle_testkit::known_ulps`).
+fn same_lane<const K: usize>(file: &str, what: &str, lanes: &[[f64; K]], l: usize, scalar: &[f64]) {
     assert_eq!(lanes.len(), scalar.len(), "{what}");
+    let max = known_ulps(file);
     for (j, (row, &s)) in lanes.iter().zip(scalar).enumerate() {
         assert!(
-            same(row[l], s),
-            "{what}[{j}] lane {l}: {:e} vs scalar {s:e}",
+            ulps(row[l], s) <= max,
+            "{file}: {what}[{j}] lane {l}: {:e} vs scalar {s:e}",
             row[l]
         );
     }
@@ -164,18 +166,18 @@ macro_rules! check_model {
                 for (l, xl) in xs.iter().enumerate() {
                     let mut s = [0.0; N];
                     sys.field(xl, &mut s);
-                    same_lane("field", &dx, l, &s);
+                    same_lane(FILE, "field", &dx, l, &s);
                     let mut sf = [0.0; M];
                     sys.invariants(xl, &mut sf);
-                    same_lane("invariants", &f, l, &sf);
+                    same_lane(FILE, "invariants", &f, l, &sf);
                     let mut sj = [[0.0; N]; M];
                     sys.invariants_jacobian(xl, &mut sj);
-                    same_lane("jacobian", &jac, l, sj.as_flattened());
-                    same_lane("lyapunov", &v, l, &[sys.lyapunov(xl, target, gains)]);
+                    same_lane(FILE, "jacobian", &jac, l, sj.as_flattened());
+                    same_lane(FILE, "lyapunov", &v, l, &[sys.lyapunov(xl, target, gains)]);
                     sys.lyapunov_gradient(xl, target, gains, &mut s);
-                    same_lane("lyapunov_gradient", &grad, l, &s);
+                    same_lane(FILE, "lyapunov_gradient", &grad, l, &s);
                     sys.feedback_field(xl, target, gains, &mut s);
-                    same_lane("feedback", &fb, l, &s);
+                    same_lane(FILE, "feedback", &fb, l, &s);
                 }
                 check_model!(@partitioned $part, sys, lanes, tapes, xs, x, K);
                 check_model!(@hamiltonian $ham, lanes, tapes, params, xs, x, K);
@@ -206,8 +208,8 @@ macro_rules! check_model {
             $sys.field_p(xl, &mut dp);
             let q: Vec<f64> = (0..N).filter(|&i| is_q[i]).map(|i| dq[i]).collect();
             let p: Vec<f64> = (0..N).filter(|&i| !is_q[i]).map(|i| dp[i]).collect();
-            same_lane("field_q", &oq, l, &q);
-            same_lane("field_p", &op, l, &p);
+            same_lane(FILE, "field_q", &oq, l, &q);
+            same_lane(FILE, "field_p", &op, l, &p);
         }
     };
     (@partitioned false, $sys:ident, $lanes:ident, $tapes:ident, $($rest:tt)*) => {
@@ -218,7 +220,7 @@ macro_rules! check_model {
         let mut h = [[0.0; $k]; 1];
         $lanes.hamiltonian(&$x, &mut h);
         for (l, xl) in $xs.iter().enumerate() {
-            same_lane("hamiltonian", &h, l, &tape.eval($params, xl, &[], &[]).unwrap());
+            same_lane(FILE, "hamiltonian", &h, l, &tape.eval($params, xl, &[], &[]).unwrap());
         }
     };
     (@hamiltonian false, $lanes:ident, $tapes:ident, $($rest:tt)*) => {

@@ -15,13 +15,15 @@ use lasalle_runtime::{Declared, Lyapunov, State};
 
 mod common;
 use common::tapes;
-use lasalle_testkit::assert_same;
+use lasalle_testkit::{assert_within_ulps, known_ulps};
 
 include!(concat!(env!("OUT_DIR"), "/model_list.rs"));
 
 /// A tape with its kernel on every back end and their hoisted values.
 struct Compiled<'a> {
     what: &'static str,
+    /// The ulps the emitted values may differ by (`lasalle_testkit::known_ulps`).
+    ulps: u64,
     tape: &'a Tape,
     kernels: Vec<(Backend, Box<dyn Kernel>, Vec<f64>)>,
 }
@@ -38,6 +40,7 @@ impl<'a> Compiled<'a> {
             .collect();
         Compiled {
             what,
+            ulps: 0,
             tape,
             kernels,
         }
@@ -54,9 +57,10 @@ impl<'a> Compiled<'a> {
             results.push((format!("{backend:?}"), out));
         }
         for (name, got) in results {
-            assert_same(
+            assert_within_ulps(
                 &got,
                 emitted,
+                self.ulps,
                 format!("{} at x = {x:?}: {name} vs emitted", self.what),
             );
         }
@@ -167,6 +171,9 @@ fn check<P, const N: usize, const M: usize, const G: usize>(
             compiled.push(Compiled::new("field_q", &part.field_q, p));
             compiled.push(Compiled::new("field_p", &part.field_p, p));
         }
+        for c in &mut compiled {
+            c.ulps = known_ulps(file);
+        }
     }
     let path = format!("{}/models/{file}", env!("CARGO_MANIFEST_DIR"));
     let text = std::fs::read_to_string(&path).unwrap();
@@ -192,9 +199,10 @@ fn check<P, const N: usize, const M: usize, const G: usize>(
             let theirs = functions(m, &x.to_vec(), &target.to_vec(), &gains.to_vec());
             assert_eq!(theirs.len(), emitted.len(), "{file}: {backend:?} loaded");
             for ((what, a), (_, b)) in emitted.iter().zip(&theirs) {
-                assert_same(
+                assert_within_ulps(
                     b,
                     a,
+                    known_ulps(file),
                     format!("{file}: {what} at {x:?}: {backend:?} loaded vs emitted"),
                 );
             }

@@ -847,7 +847,11 @@ fn fused_powers_match_the_unfused_recurrences() {
                         if k <= 1 {
                             assert_eq!(u.to_bits(), v.to_bits(), "{name}: x_{i}^[{k}]");
                         }
-                        let err = (u - v).abs() / (scale * f64::EPSILON);
+                        let err = if u == v {
+                            0.0
+                        } else {
+                            (u - v).abs() / (scale * f64::EPSILON)
+                        };
                         worst = worst.max(err);
                         assert!(err <= 4096.0, "{name}: x_{i}^[{k}]: {u:e} vs {v:e}");
                     }
@@ -897,8 +901,11 @@ fn jit_kernel_agrees_with_the_tape_bitwise() {
                 let Some(mut jt) = JitTaylor::new(tape, &params, order).unwrap() else {
                     // too large to unroll: X − ∇V of the larger models at high orders, and the
                     // families (5 bodies, 16 particles)
+                    // and the fields that switch (`sign`), which the JIT does not expand
                     assert!(
-                        tape.dims.state >= 30 || (order >= 19 && what == "feedback"),
+                        tape.dims.state >= 30
+                            || (order >= 19 && what == "feedback")
+                            || text.contains("sign("),
                         "{name}: {what} at p = {order}"
                     );
                     continue;

@@ -29,7 +29,7 @@ fn deprit_d4_dd(mu: f64) -> f64 {
 }
 
 /// Our D₄ is the textbook expression with the opposite sign (see the crate docs, "Sign of D₄"),
-/// its magnitude to 1e-15 relative in double-double and 1e-12 in f64 (docs/normal-form.md), on
+/// its magnitude to 1e-15 relative in double-double and 1e-10 in f64 (docs/normal-form.md), on
 /// the μ of the table there and across the stable range.
 #[test]
 fn d4_matches_deprit_across_the_stable_range() {
@@ -51,7 +51,7 @@ fn d4_matches_deprit_across_the_stable_range() {
         0.034,
         0.037,
     ];
-    for (precision, tol) in [(Precision::F64, 1e-12), (Precision::DoubleDouble, 1e-15)] {
+    for (precision, tol) in [(Precision::F64, 1e-10), (Precision::DoubleDouble, 1e-15)] {
         let mut worst = 0.0f64;
         for &mu in &mus {
             assert!(mu < mu_r);

@@ -379,10 +379,12 @@ fn streamed(
     let tubes = opts.canonical.tubes.clone();
     let many = tubes.len() > 1;
     let mut printed = vec![Vec::new(); tubes.len()];
+    let mut started = false;
     let mut on_event = |e: SearchEvent<'_>| {
         let say = |text: String| bar.suspend(|| println!("{text}"));
         match e {
             SearchEvent::Start(r) if table => {
+                started = true;
                 say(r.head_table().trim_end().to_string());
                 say(format!(
                     "\nOrders as they complete ({}):\n{}{}",
@@ -418,7 +420,12 @@ fn streamed(
     };
     let report = stability::canonical_with(model, &opts, &mut on_event);
     bar.finish_and_clear();
-    Ok(report?)
+    let report = report?;
+    // without a search (no tube) no event printed the head
+    if table && !started {
+        print!("{}", report.head_table());
+    }
+    Ok(report)
 }
 
 /// Runs `lasalle stability`.
