@@ -18,7 +18,8 @@ CLI = pathlib.Path(os.environ.get("LASALLE_BIN", ROOT / "target" / "release" / "
 @pytest.mark.parametrize(
     "method, flags, kwargs",
     [
-        ("feedback-rk4", ["--dt", "0.005"], dict(dt=0.005)),
+        # the command line's run takes the preset `paper`, whose gains are the paper's
+        ("feedback-rk4", ["--dt", "0.005"], dict(dt=0.005, gains=[4.0, 2.0])),
         ("feedback-dopri5", ["--rtol", "1e-10", "--atol", "1e-10"], dict(rtol=1e-10, atol=1e-10)),
         ("taylor", ["--rtol", "1e-14"], dict(rtol=1e-14)),
     ],
