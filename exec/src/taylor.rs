@@ -291,6 +291,27 @@ impl LoadedModel {
         })
     }
 
+    /// The kernel of the field X at the order `order` on several orbits at once
+    /// ([`TaylorLanes`](lasalle_runtime::TaylorLanes)), where lanes pay: the JIT back end, the
+    /// unrolled form, a program small enough to compile at once
+    /// (`lasalle_exec::jit::taylor::JitTaylorBatch`); `Ok(None)` otherwise, and the orbits run
+    /// one by one.
+    pub fn taylor_batch(
+        &self,
+        order: u32,
+    ) -> Result<Option<Box<dyn lasalle_runtime::TaylorBatch<LoadedModel>>>, TaylorError> {
+        #[cfg(feature = "jit")]
+        if self.backend() == crate::Backend::Jit && self.loop_taylor().is_none() {
+            let derived = self.derived().map_err(TaylorError::kernels)?;
+            let tapes = ModelTapes::new(derived).map_err(TaylorError::kernels)?;
+            let batch =
+                crate::jit::taylor::JitTaylorBatch::new(&tapes.field, self.params(), order)?;
+            return Ok(batch.map(|b| Box::new(b) as _));
+        }
+        let _ = order;
+        Ok(None)
+    }
+
     /// The kernel of a loop field for this model's back end.
     fn loop_taylor_kernel(
         &self,

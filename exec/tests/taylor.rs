@@ -952,6 +952,106 @@ fn jit_kernel_agrees_with_the_tape_bitwise() {
     assert_eq!(ends[0], ends[1]);
 }
 
+/// `JitTaylorBatch` computes each orbit's coefficients bitwise as the interpreter does for it
+/// alone: every built-in model's field, every operation's recurrence (`EXPRS`) and the
+/// elliptic functions (calls made lane by lane), two different random states per call.
+#[cfg(feature = "jit")]
+#[test]
+fn batch_kernel_lanes_are_the_lone_coefficients_bitwise() {
+    use lasalle_exec::jit::taylor::{JitTaylorBatch, LANES};
+    use lasalle_runtime::TaylorBatch;
+    let mut rng = lasalle_testkit::Rng::new(0x5851_f42d_4c95_7f2d);
+    let mut rand = move || rng.uniform(0.25, 1.25);
+    let mut texts = model_and_expression_texts();
+    texts.push((
+        "elliptic".into(),
+        "model F { state t: scalar, u: scalar, v: scalar; param m = 0.7;
+         d/dt t = 1; d/dt u = ellipf(2 * t, m) + ellipk(m) * t;
+         d/dt v = sn(t * t, m) * cd(u, 0.3) + dn(t, m); }"
+            .into(),
+    ));
+    let mut compiled = 0;
+    for (name, text) in &texts {
+        let (tp, params) = tapes(text);
+        let n = tp.field.dims.state;
+        for order in [1u32, 7, 19] {
+            let Some(mut batch) = JitTaylorBatch::new(&tp.field, &params, order).unwrap() else {
+                continue;
+            };
+            compiled += 1;
+            let p = order as usize;
+            let mut tt = TaylorTape::new(&tp.field, &params, order).unwrap();
+            let states: Vec<Vec<f64>> = (0..LANES)
+                .map(|_| (0..n).map(|_| rand()).collect())
+                .collect();
+            let packed: Vec<f64> = (0..n * LANES)
+                .map(|j| states[j % LANES][j / LANES])
+                .collect();
+            batch.compute(&packed);
+            for (l, x) in states.iter().enumerate() {
+                tt.compute(x, p);
+                for i in 0..n {
+                    for (k, &want) in tt.state_coefficients(i).iter().enumerate() {
+                        let got = batch.table()[(i * (p + 1) + k) * LANES + l];
+                        assert!(
+                            same(got, want),
+                            "{name}, p = {order}, lane {l}, x_{i}^[{k}]: {got:e} vs {want:e}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+    assert!(compiled >= 3 * 20, "{compiled} batch kernels compiled");
+}
+
+/// Orbits in lanes (`TaylorLanes`) end bitwise where each ends alone under the driver, with
+/// their own step counts, a lane refilled as its orbit ends: Kepler orbits of eccentricities
+/// 0 … 0.9 (from 20 to several hundred steps), one from a non-finite state (failed, not
+/// started), to t = 30 from Jorba & Zou's first step and from a given one.
+#[cfg(feature = "jit")]
+#[test]
+fn orbits_in_lanes_end_where_they_end_alone() {
+    use lasalle_runtime::{LaneRuns, TaylorLanes};
+    let m = LoadedModel::from_source("kepler.lsl", &model_text("kepler"), Backend::Jit).unwrap();
+    let opts = TaylorOptions::with_tol(1e-15);
+    let order = opts.checked_order().unwrap();
+    let mut starts: Vec<Vec<f64>> = [0.0, 0.3, 0.9, 0.5, 0.1, 0.7]
+        .iter()
+        .map(|e: &f64| vec![1.0 - e, 0.0, 0.0, 0.0, ((1.0 + e) / (1.0 - e)).sqrt(), 0.05])
+        .collect();
+    starts.insert(2, vec![f64::NAN; 6]);
+    for h0 in [0.0, 1e-3] {
+        let kernel = m
+            .taylor_batch(order)
+            .unwrap()
+            .expect("Kepler's field compiles in lanes");
+        let mut lanes = TaylorLanes::new(kernel, opts).unwrap();
+        let runs = LaneRuns {
+            t_end: 30.0,
+            h0,
+            max_steps: 100_000,
+            guards: None,
+            stop: None,
+        };
+        let ends = lanes.run(&m, &starts, &runs);
+        for (x0, end) in starts.iter().zip(&ends) {
+            let mut taylor = m.taylor(opts).unwrap();
+            let alone = Driver::new(0.0, 30.0, h0).run(&mut taylor, &m, x0, &mut ());
+            match (alone, end) {
+                (Ok(alone), Some(end)) => {
+                    assert_eq!(end.steps, alone.steps, "{x0:?}");
+                    assert_eq!(end.evaluations, alone.evaluations, "{x0:?}");
+                    assert!(same(end.t, alone.t) && end.t == 30.0);
+                    assert_same(&end.x, &alone.x, format!("{x0:?}"));
+                }
+                (Err(_), None) => assert!(x0[0].is_nan()),
+                (alone, end) => panic!("{x0:?}: alone {alone:?}, in lanes {end:?}"),
+            }
+        }
+    }
+}
+
 /// A program above `MAX_INSTRUCTIONS` (Kepler's X − ∇V at p = 19) is interpreted for
 /// `DEFER_COMPUTES` computes, then compiled: the coefficients equal the interpreter's bitwise
 /// before and after the switch (random states, targets and gains, and a parameter change

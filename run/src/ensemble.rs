@@ -11,7 +11,8 @@ use lasalle_exec::{Backend, LaneField, LoadedModel};
 use lasalle_model::loops::Families;
 use lasalle_model::variational::Extension;
 use lasalle_runtime::{
-    Declared, DriftBound, Driver, ModelInfo, Observer, Parameters, Recorder, Stepper,
+    Declared, DriftBound, Driver, LaneRuns, ModelInfo, Observer, Parameters, Recorder, Stepper,
+    TaylorLanes, TaylorOptions,
 };
 use rayon::prelude::*;
 
@@ -121,6 +122,91 @@ impl<L: LaneField> Visit<L, Vec<f64>> for DriveLanes<'_, L> {
         });
         Some(recordings.collect())
     }
+}
+
+/// Integrates the states `x0s` of a loaded model with the Taylor method in lanes
+/// ([`TaylorLanes`]: one kernel call computes the coefficients of several
+/// orbits, each with its own steps; an orbit that ends leaves its lane to the next), as
+/// [`simulate`] integrates each alone: each recording equals the lone run's except for the
+/// wall and CPU time, the batch's divided by the number of runs. The batch kernel comes from
+/// `pool` (built once per order) and goes back to it.
+///
+/// `None` where lanes do not apply — a method other than `taylor` on X, fewer than two
+/// states, samples between the first and the last state (`spec.every` below the step
+/// budget), output times or events to watch, a backward run, a model without a batch kernel
+/// ([`LoadedModel::taylor_batch`]). Within `Some`, `None` for each run that does not start
+/// ([`simulate`] refuses it), fails or diverges: the caller runs it alone, which gives its
+/// failure where and as it happens.
+fn simulate_taylor_lanes(
+    model: &LoadedModel,
+    pool: &KernelPool,
+    x0s: &[Vec<f64>],
+    spec: &RunSpec,
+) -> Option<Vec<Option<Recording>>> {
+    let events = Declared::<f64, Vec<f64>>::events(model);
+    let watched =
+        !spec.t_eval.is_empty() || events.iter().any(|e| e.terminal || spec.record_events);
+    if spec.method != (Method::Taylor { feedback: false })
+        || spec.t_end < 0.0
+        || watched
+        || x0s.len() < 2
+        || spec.every < spec.max_steps
+    {
+        return None;
+    }
+    let opts = TaylorOptions::with_tol(spec.rtol);
+    let order = opts.checked_order().ok()?;
+    let kernel = pool.take_batch(order, || model.taylor_batch(order).ok().flatten())?;
+    let mut lanes = TaylorLanes::new(kernel, opts).ok()?;
+    let starting: Vec<usize> = (0..x0s.len())
+        .filter(|&k| check_start(model, &x0s[k], spec).is_ok())
+        .collect();
+    let starts: Vec<Vec<f64>> = starting.iter().map(|&k| x0s[k].clone()).collect();
+    // the lone run's guards, with the step size 0 of adaptive methods
+    let guards = |x: &[f64]| model.check_guards(&x.to_vec(), 0.0).is_none();
+    let stop = || spec.interrupt.as_ref().is_some_and(|i| i.is_stopped());
+    let runs = LaneRuns {
+        t_end: spec.t_end,
+        h0: spec.dt,
+        max_steps: spec.max_steps,
+        guards: model.has_guards().then_some(&guards as _),
+        stop: Some(&stop),
+    };
+    let (start, cpu_start) = (Instant::now(), process_cpu_seconds());
+    let ends = lanes.run(model, &starts, &runs);
+    let k = starts.len().max(1) as f64;
+    let wall = start.elapsed().as_secs_f64() / k;
+    let cpu = process_cpu_seconds()
+        .zip(cpu_start)
+        .map(|(end, start)| (end - start) / k);
+    let name = format!("taylor({})", lanes.order());
+    pool.put_batch(order, lanes.into_kernel());
+    let mut out: Vec<Option<Recording>> = vec![None; x0s.len()];
+    for (&at, end) in starting.iter().zip(ends) {
+        let x0 = &x0s[at];
+        let Some(end) = end else { continue };
+        // a run whose end diverged fails alone, where the failure is reported with its step
+        if DriftBound::new(model, x0, spec.max_drift)
+            .check(&end.x)
+            .is_some()
+        {
+            continue;
+        }
+        // the samples of the lone run with `every` above its steps: the first and the last
+        let mut rec = Recorder::new(model, x0, spec.record_every(), 2);
+        rec.observe(0, 0.0, x0);
+        rec.finish(end.steps, end.t, &end.x);
+        let counts = Ok((end.steps, end.evaluations, 0));
+        out[at] = Some(recording(
+            model,
+            spec,
+            (name.clone(), Vec::new()),
+            rec,
+            (wall, cpu),
+            counts,
+        ));
+    }
+    Some(out)
 }
 
 /// A model file's text, to load once per thread of an ensemble.
@@ -354,24 +440,29 @@ impl ThreadModel {
         let model = &self.model;
         let starts: Result<Vec<Vec<f64>>, RunError> =
             group.iter().map(|m| m.start(model)).collect();
-        if let Some(recordings) = starts
-            .ok()
-            .and_then(|x0s| simulate_lanes(model, &x0s, spec))
-        {
+        let reusing = Reusing::new(model, &self.kernels);
+        let alone = |m: &Member| {
+            let x0 = m.start(model)?;
+            if spec.method.is_taylor() {
+                simulate(&reusing, &x0, spec)
+            } else {
+                simulate(model, &x0, spec)
+            }
+        };
+        let Ok(x0s) = starts else {
+            return group.iter().map(|m| alone(m)).collect();
+        };
+        if let Some(recordings) = simulate_lanes(model, &x0s, spec) {
             return recordings.into_iter().map(Ok).collect();
         }
-        let reusing = Reusing::new(model, &self.kernels);
-        group
-            .iter()
-            .map(|m| {
-                let x0 = m.start(model)?;
-                if spec.method.is_taylor() {
-                    simulate(&reusing, &x0, spec)
-                } else {
-                    simulate(model, &x0, spec)
-                }
-            })
-            .collect()
+        match simulate_taylor_lanes(model, &self.kernels, &x0s, spec) {
+            Some(done) => group
+                .iter()
+                .zip(done)
+                .map(|(m, rec)| rec.map_or_else(|| alone(m), Ok))
+                .collect(),
+            None => group.iter().map(|m| alone(m)).collect(),
+        }
     }
 }
 

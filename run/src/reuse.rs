@@ -14,18 +14,31 @@ use std::sync::{Arc, Mutex};
 use lasalle_exec::LoadedModel;
 use lasalle_runtime::{
     CompiledStep, Declared, EventSpec, Field, FixedMethod, GuardFailure, InvariantInfo, Invariants,
-    Lyapunov, ModelInfo, Partitioned, Preset, Slot, Splitting, StepError, TaylorError,
+    Lyapunov, ModelInfo, Partitioned, Preset, Slot, Splitting, StepError, TaylorBatch, TaylorError,
     TaylorKernel, TaylorKernels,
 };
 
 /// A Taylor kernel of a loaded model.
 type Kernel = Box<dyn TaylorKernel<LoadedModel>>;
 
+/// A batch kernel of a loaded model's field ([`TaylorLanes`](lasalle_runtime::TaylorLanes)).
+pub(crate) type BatchKernel = Box<dyn TaylorBatch<LoadedModel>>;
+
+/// A pool's batch kernel of one order.
+enum Batch {
+    /// The model has none (lanes do not apply to it).
+    Refused,
+    /// Built and waiting.
+    Free(BatchKernel),
+}
+
 /// Taylor kernels of one loaded model (or of copies of it) kept between runs, by order.
 #[derive(Default)]
 pub struct KernelPool {
     /// (order, kernel of X, kernel of X − ∇V).
     free: Mutex<Vec<(u32, Kernel, Kernel)>>,
+    /// The batch kernels of X, by order.
+    batches: Mutex<Vec<(u32, Batch)>>,
 }
 
 impl std::fmt::Debug for KernelPool {
@@ -51,6 +64,38 @@ impl KernelPool {
     /// No kernels in the pool.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
+    }
+
+    /// The batch kernel of the order `order`: a waiting one, else `build`'s (`None`, and never
+    /// built again for this order, if the model has none).
+    pub(crate) fn take_batch(
+        &self,
+        order: u32,
+        build: impl FnOnce() -> Option<BatchKernel>,
+    ) -> Option<BatchKernel> {
+        let lock = || self.batches.lock().unwrap_or_else(|p| p.into_inner());
+        let mut batches = lock();
+        if let Some(at) = batches.iter().position(|(o, _)| *o == order) {
+            return match batches.swap_remove(at).1 {
+                Batch::Refused => {
+                    batches.push((order, Batch::Refused));
+                    None
+                }
+                Batch::Free(kernel) => Some(kernel),
+            };
+        }
+        drop(batches);
+        let kernel = build();
+        if kernel.is_none() {
+            lock().push((order, Batch::Refused));
+        }
+        kernel
+    }
+
+    /// Puts back a batch kernel of the order `order`.
+    pub(crate) fn put_batch(&self, order: u32, kernel: BatchKernel) {
+        let mut batches = self.batches.lock().unwrap_or_else(|p| p.into_inner());
+        batches.push((order, Batch::Free(kernel)));
     }
 
     fn lock(&self) -> std::sync::MutexGuard<'_, Vec<(u32, Kernel, Kernel)>> {

@@ -525,7 +525,7 @@ where
 
 /// (t + t_lo) + h as a normalised pair (hi, lo), hi = the sum rounded to nearest up to the
 /// pair's own rounding (Knuth's two-sum, then Dekker's fast two-sum).
-fn compensated_add<T: Float>(t: T, t_lo: T, h: T) -> (T, T) {
+pub(crate) fn compensated_add<T: Float>(t: T, t_lo: T, h: T) -> (T, T) {
     let s = t + h;
     let b = s - t;
     let err = (t - (s - b)) + (h - b);

@@ -79,4 +79,7 @@ pub use steppers::{
     RawBatch, RawStep, RigidBodySplitting, Rk4, Splitting, StepOutcome, Stepper, StormerVerlet,
     Tableau, VerletVariant,
 };
-pub use taylor::{Taylor, TaylorError, TaylorField, TaylorKernel, TaylorKernels, TaylorOptions};
+pub use taylor::{
+    LaneEnd, LaneRuns, Taylor, TaylorBatch, TaylorError, TaylorField, TaylorKernel, TaylorKernels,
+    TaylorLanes, TaylorOptions,
+};

@@ -189,7 +189,7 @@ impl JitTaylor {
         let p = order as usize;
         let inputs = Inputs::new(tape, params)?;
         let (code, func) = jit_module(OPT_LEVEL, false)
-            .and_then(|module| Code::compile(module, |m| define(m, &program, p)))
+            .and_then(|module| Code::compile(module, |m| define(m, &program, p, 1)))
             .map_err(TaylorError::kernels)?;
         // SAFETY: the function was just defined with this signature (five pointers, the host's
         // C calling convention), and the module owning its code lives in the result.
@@ -281,6 +281,106 @@ impl TaylorKernel<crate::LoadedModel> for JitTaylor {
     fn coefficients(&self, i: usize) -> &[f64] {
         let s = self.order + 1;
         &self.table[i * s..i * s + self.last + 1]
+    }
+}
+
+/// Orbits per call of a [`JitTaylorBatch`]: the two f64 of an SSE2 `F64X2` vector, the widest
+/// that Cranelift emits for x86-64.
+pub const LANES: usize = 2;
+
+/// A field tape's Taylor recurrences compiled for the order p on [`LANES`] states at once: the
+/// code of [`JitTaylor`] with every value a vector of one f64 per orbit (the calls of `std`'s
+/// functions made orbit by orbit), so each orbit's coefficients are bitwise its
+/// [`JitTaylor`]'s. A [`TaylorBatch`](lasalle_runtime::TaylorBatch) for
+/// [`TaylorLanes`](lasalle_runtime::TaylorLanes).
+pub struct JitTaylorBatch {
+    inputs: Inputs,
+    /// Owns the code `func` points into.
+    _code: Code,
+    func: TaylorFn,
+    dim: usize,
+    order: usize,
+    /// rows × (p + 1) × [`LANES`]: order k of row r of orbit l at (r(p + 1) + k)·LANES + l.
+    table: Vec<f64>,
+}
+
+// SAFETY: as `JitTaylor`'s
+unsafe impl Send for JitTaylorBatch {}
+
+impl std::fmt::Debug for JitTaylorBatch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("JitTaylorBatch")
+            .field("dim", &self.dim)
+            .field("order", &self.order)
+            .finish_non_exhaustive()
+    }
+}
+
+impl JitTaylorBatch {
+    /// Compiles the recurrences of `tape` (a field) for the order `order` with parameter
+    /// values `params`; `Ok(None)` above [`MAX_INSTRUCTIONS`] (estimated for one orbit), where
+    /// compiling costs more than lanes save in an ensemble's runs.
+    pub fn new(
+        tape: &Tape,
+        params: &[f64],
+        order: u32,
+    ) -> Result<Option<JitTaylorBatch>, TaylorError> {
+        let program = TaylorProgram::new(tape).map_err(TaylorError::kernels)?;
+        let p = order as usize;
+        if order == 0 || JitTaylor::instructions(&program, p) > MAX_INSTRUCTIONS {
+            return Ok(None);
+        }
+        let inputs = Inputs::new(tape, params)?;
+        let (code, func) = jit_module(OPT_LEVEL, false)
+            .and_then(|module| Code::compile(module, |m| define(m, &program, p, LANES)))
+            .map_err(TaylorError::kernels)?;
+        // SAFETY: as in `JitTaylor::with_program`
+        let func = unsafe { std::mem::transmute::<*const u8, TaylorFn>(func) };
+        Ok(Some(JitTaylorBatch {
+            inputs,
+            _code: code,
+            func,
+            dim: program.dim,
+            order: p,
+            table: vec![0.0; program.rows * (p + 1) * LANES],
+        }))
+    }
+}
+
+impl lasalle_runtime::TaylorBatch<crate::LoadedModel> for JitTaylorBatch {
+    fn dim(&self) -> usize {
+        self.dim
+    }
+
+    fn lanes(&self) -> usize {
+        LANES
+    }
+
+    fn order(&self) -> usize {
+        self.order
+    }
+
+    fn sync(&mut self, model: &crate::LoadedModel) -> Result<(), StepError> {
+        self.inputs.sync(model)
+    }
+
+    fn compute(&mut self, x: &[f64]) {
+        assert_eq!(x.len(), self.dim * LANES, "state dimension × lanes");
+        let i = &self.inputs;
+        // SAFETY: as in `JitTaylor::compute`, with the state and the table LANES times as long
+        unsafe {
+            (self.func)(
+                x.as_ptr(),
+                i.hoisted.as_ptr(),
+                i.target.as_ptr(),
+                i.gains.as_ptr(),
+                self.table.as_mut_ptr(),
+            )
+        }
+    }
+
+    fn table(&self) -> &[f64] {
+        &self.table[..self.dim * (self.order + 1) * LANES]
     }
 }
 
@@ -404,9 +504,10 @@ fn define(
     module: &mut JITModule,
     program: &TaylorProgram,
     p: usize,
+    lanes: usize,
 ) -> Result<cranelift_module::FuncId, ExecError> {
     // every offset into the table fits an immediate
-    offset(program.rows * (p + 1))?;
+    offset(program.rows * (p + 1) * lanes)?;
     let ptr = module.target_config().pointer_type();
     let mut sig = module.make_signature();
     sig.params.extend([AbiParam::new(ptr); 5]);
@@ -422,6 +523,10 @@ fn define(
         let args: [Value; 5] = b.block_params(entry).try_into().expect("five parameters");
         let [unary, binary, ellipj] = call_signatures(module);
         let zero = b.ins().f64const(Ieee64::with_bits(0f64.to_bits()));
+        let zero = match lanes {
+            1 => zero,
+            _ => b.ins().splat(types::F64X2, zero),
+        };
         let [state, hoisted, target, gains, table] = args;
         let mut e = Emit {
             b,
@@ -431,6 +536,7 @@ fn define(
             ellipj,
             table,
             stride: p + 1,
+            lanes,
             layout: None,
             rows: vec![0; program.rows],
             recent: Default::default(),
@@ -472,6 +578,9 @@ struct Emit<'a> {
     /// The table's address and its stride p + 1.
     table: Value,
     stride: usize,
+    /// Orbits per call: 1 (values `F64`) or [`LANES`] (values `F64X2`, the table's entries
+    /// `LANES` f64 apart, one per orbit).
+    lanes: usize,
     /// Where each row starts in the table and whether it holds every order (else only the
     /// current one, in one place), if not every row holds p + 1 orders at r (p + 1): the
     /// compact tables of the loop form (`loops::layout`).
@@ -508,21 +617,38 @@ impl Emit<'_> {
         if let Some(&(_, _, v)) = self.recent.iter().find(|&&(rr, kk, _)| rr == r && kk == k) {
             return v;
         }
-        let off = self.at(r, k) * 8;
+        let off = self.at(r, k) * 8 * self.lanes;
         let off = i32::try_from(off).expect("table size checked in `define`");
-        self.b
-            .ins()
-            .load(types::F64, MemFlagsData::trusted(), self.table, off)
+        let (ty, flags) = (self.ty(), self.flags());
+        self.b.ins().load(ty, flags, self.table, off)
+    }
+
+    /// The type of a value: one f64 per orbit.
+    fn ty(&self) -> types::Type {
+        if self.lanes == 1 {
+            types::F64
+        } else {
+            types::F64X2
+        }
+    }
+
+    /// The flags of the table's loads and stores: in bounds and aligned for one f64 (a
+    /// vector's 16 bytes are not known to be aligned).
+    fn flags(&self) -> MemFlagsData {
+        if self.lanes == 1 {
+            MemFlagsData::trusted()
+        } else {
+            MemFlagsData::new().with_notrap()
+        }
     }
 
     /// Stores order k of row `d`.
     fn push(&mut self, d: usize, k: usize, v: Value) {
         debug_assert_eq!(self.rows[d], k, "orders in sequence");
-        let off = self.at(d, k) * 8;
+        let off = self.at(d, k) * 8 * self.lanes;
         let off = i32::try_from(off).expect("table size checked in `define`");
-        self.b
-            .ins()
-            .store(MemFlagsData::trusted(), v, self.table, off);
+        let flags = self.flags();
+        self.b.ins().store(flags, v, self.table, off);
         self.rows[d] += 1;
         if self.recent.len() == RECENT {
             self.recent.pop_front();
@@ -551,12 +677,50 @@ impl Emit<'_> {
     }
 
     fn constant(&mut self, x: f64) -> Value {
-        self.b.ins().f64const(Ieee64::with_bits(x.to_bits()))
+        let x = self.b.ins().f64const(Ieee64::with_bits(x.to_bits()));
+        self.splat(x)
     }
 
+    /// A value of every orbit equal to the scalar `x`.
+    fn splat(&mut self, x: Value) -> Value {
+        match self.lanes {
+            1 => x,
+            _ => self.b.ins().splat(types::F64X2, x),
+        }
+    }
+
+    /// Input `i` shared by the orbits (a hoisted value, a target, a gain).
     fn load(&mut self, base: Value, i: usize) -> Result<Value, ExecError> {
         let flags = MemFlagsData::trusted().with_readonly().with_can_move();
-        Ok(self.b.ins().load(types::F64, flags, base, offset(i)?))
+        let x = self.b.ins().load(types::F64, flags, base, offset(i)?);
+        Ok(self.splat(x))
+    }
+
+    /// Component `i` of the state, one per orbit (the orbits' states interleaved).
+    fn load_state(&mut self, base: Value, i: usize) -> Result<Value, ExecError> {
+        let flags = self.flags().with_readonly().with_can_move();
+        let ty = self.ty();
+        Ok(self.b.ins().load(ty, flags, base, offset(i * self.lanes)?))
+    }
+
+    /// `f` of each orbit's values `args`, one scalar call per orbit.
+    fn per_lane(&mut self, f: usize, sig: &Signature, args: &[Value]) -> Value {
+        if self.lanes == 1 {
+            return self.call(f, sig, args).expect("one result");
+        }
+        let mut out = None;
+        for lane in 0..LANES as u8 {
+            let scalars: Vec<Value> = args
+                .iter()
+                .map(|&a| self.b.ins().extractlane(a, lane))
+                .collect();
+            let r = self.call(f, sig, &scalars).expect("one result");
+            out = Some(match out {
+                None => self.b.ins().splat(types::F64X2, r),
+                Some(v) => self.b.ins().insertlane(v, r, lane),
+            });
+        }
+        out.expect("at least one lane")
     }
 
     fn call(&mut self, f: usize, sig: &Signature, args: &[Value]) -> Option<Value> {
@@ -568,14 +732,12 @@ impl Emit<'_> {
 
     fn unary(&mut self, f: extern "C" fn(f64) -> f64, x: Value) -> Value {
         let sig = self.unary.clone();
-        self.call(f as *const () as usize, &sig, &[x])
-            .expect("one result")
+        self.per_lane(f as *const () as usize, &sig, &[x])
     }
 
     fn binary(&mut self, f: extern "C" fn(f64, f64) -> f64, x: Value, y: Value) -> Value {
         let sig = self.binary.clone();
-        self.call(f as *const () as usize, &sig, &[x, y])
-            .expect("one result")
+        self.per_lane(f as *const () as usize, &sig, &[x, y])
     }
 
     /// Σ_{j ∈ js} x_j·y_j from the first term upwards, `None` if empty; `term(j)` emits the
@@ -635,22 +797,22 @@ impl Emit<'_> {
                 s.expect("at least one term")
             })
             .collect();
-        let ptr = self.ptr;
+        let (ptr, ty, w) = (self.ptr, self.ty(), 8 * self.lanes);
         let at = |e: &mut Self, j: usize| {
-            let off = e.b.ins().iconst(ptr, (j * 8) as i64);
+            let off = e.b.ins().iconst(ptr, (j * w) as i64);
             e.b.ins().iadd(e.table, off)
         };
         let (up, down, end) = (at(self, head), at(self, k - head), at(self, hi + 1));
         let body = self.b.create_block();
         let mut accs: Vec<Value> = firsts
             .iter()
-            .map(|_| self.b.append_block_param(body, types::F64))
+            .map(|_| self.b.append_block_param(body, ty))
             .collect();
         let up_v = self.b.append_block_param(body, ptr);
         let down_v = self.b.append_block_param(body, ptr);
         let exit = self.b.create_block();
         for _ in pairs {
-            self.b.append_block_param(exit, types::F64);
+            self.b.append_block_param(exit, ty);
         }
         let args: Vec<BlockArg> = firsts
             .iter()
@@ -659,11 +821,11 @@ impl Emit<'_> {
             .collect();
         self.b.ins().jump(body, &args);
         self.b.switch_to_block(body);
-        let flags = MemFlagsData::trusted();
+        let flags = self.flags();
         let starts: Vec<(usize, i32)> = pairs
             .iter()
             .flat_map(|&(a, b)| [a, b])
-            .map(|r| (r, (self.at(r, 0) * 8) as i32))
+            .map(|r| (r, (self.at(r, 0) * w) as i32))
             .collect();
         let row = |r: usize| starts.iter().find(|s| s.0 == r).expect("a summed row").1;
         for u in 0..LOOP_UNROLL as i32 {
@@ -673,17 +835,17 @@ impl Emit<'_> {
                     if let Some(&(_, v)) = loaded.iter().find(|(kk, _)| *kk == key) {
                         return v;
                     }
-                    let v = e.b.ins().load(types::F64, flags, base, off);
+                    let v = e.b.ins().load(ty, flags, base, off);
                     loaded.push((key, v));
                     v
                 };
-                let x = load(self, (true, a), up_v, row(a) + 8 * u);
-                let y = load(self, (false, b), down_v, row(b) - 8 * u);
+                let x = load(self, (true, a), up_v, row(a) + w as i32 * u);
+                let y = load(self, (false, b), down_v, row(b) - w as i32 * u);
                 let t = self.fmul(x, y);
                 accs[m] = self.fadd(accs[m], t);
             }
         }
-        let step = self.b.ins().iconst(ptr, 8 * LOOP_UNROLL as i64);
+        let step = self.b.ins().iconst(ptr, (w * LOOP_UNROLL) as i64);
         let up_n = self.b.ins().iadd(up_v, step);
         let down_n = self.b.ins().isub(down_v, step);
         let more = self.b.ins().icmp(IntCC::NotEqual, up_n, end);
@@ -783,7 +945,7 @@ impl Emit<'_> {
         leaves: &Leaves,
     ) -> Result<(), ExecError> {
         for i in 0..program.dim {
-            let x = self.load(leaves.state, i)?;
+            let x = self.load_state(leaves.state, i)?;
             self.push(i, 0, x);
         }
         let early = program.early_sums(EARLY_GROUP);
@@ -899,10 +1061,28 @@ impl Emit<'_> {
                 };
                 let (u, m) = (self.c(a, 0), self.c(m, 0));
                 let sig = self.ellipj.clone();
-                self.call(call_ellipj as *const () as usize, &sig, &[u, m, out]);
-                let flags = MemFlagsData::trusted();
-                let [sn, cn, dn] =
-                    [0, 8, 16].map(|off| self.b.ins().load(types::F64, flags, out, off));
+                // one call per orbit, its sn, cn, dn gathered into the orbits' values
+                let mut lanes: Vec<[Value; 3]> = Vec::with_capacity(self.lanes);
+                for lane in 0..self.lanes {
+                    let (u, m) = match self.lanes {
+                        1 => (u, m),
+                        _ => (
+                            self.b.ins().extractlane(u, lane as u8),
+                            self.b.ins().extractlane(m, lane as u8),
+                        ),
+                    };
+                    self.call(call_ellipj as *const () as usize, &sig, &[u, m, out]);
+                    let flags = MemFlagsData::trusted();
+                    lanes
+                        .push([0, 8, 16].map(|off| self.b.ins().load(types::F64, flags, out, off)));
+                }
+                let [sn, cn, dn] = [0, 1, 2].map(|j| {
+                    let v = self.splat(lanes[0][j]);
+                    lanes[1..]
+                        .iter()
+                        .enumerate()
+                        .fold(v, |v, (l, x)| self.b.ins().insertlane(v, x[j], l as u8 + 1))
+                });
                 let cd = self.fmul(cn, dn);
                 let sd = self.fmul(sn, dn);
                 let sc = self.fmul(sn, cn);

@@ -286,6 +286,7 @@ fn define(
             ellipj,
             table,
             stride,
+            lanes: 1,
             layout: None,
             rows: vec![0; program.rows],
             recent: Default::default(),

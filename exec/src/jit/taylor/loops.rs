@@ -242,6 +242,7 @@ fn define(
             ellipj,
             table,
             stride,
+            lanes: 1,
             layout: None,
             rows: vec![0; program.base.rows],
             recent: Default::default(),

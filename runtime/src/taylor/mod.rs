@@ -117,6 +117,9 @@ use crate::field::Lyapunov;
 use crate::state::State;
 use crate::steppers::{DenseOutput, StepOutcome, Stepper};
 
+mod lanes;
+pub use lanes::{LaneEnd, LaneRuns, TaylorBatch, TaylorLanes};
+
 /// The largest order of the emitted kernels of compiled models (their coefficient table has
 /// this many + 1 columns). Jorba & Zou's order is 20 at the f64 precision, so this bounds the
 /// tolerance only far below what f64 can reach.
@@ -539,6 +542,51 @@ pub mod rec {
 /// 1/k! underflow) the step rule sees vanishing coefficients and takes unbounded steps.
 pub const TOL_FLOOR: f64 = f64::EPSILON * f64::EPSILON / 4.0;
 
+/// Jorba & Zou's three norms of an expansion of order p: the largest |x^\[0\]|, |x^\[p−1\]|
+/// and |x^\[p\]| over the `dim` components, `coefficients(i)` those of component i.
+fn norms<'a>(dim: usize, p: usize, coefficients: impl Fn(usize) -> &'a [f64]) -> (f64, f64, f64) {
+    let (mut n0, mut n1, mut n2) = (0.0f64, 0.0f64, 0.0f64);
+    for i in 0..dim {
+        let c = coefficients(i);
+        n0 = n0.max(c[0].abs());
+        n1 = n1.max(c[p - 1].abs());
+        n2 = n2.max(c[p].abs());
+    }
+    (n0, n1, n2)
+}
+
+/// x ← x + Σ_{k≥1} x^\[k\] h^k by Horner's scheme, eight components at a time (their
+/// multiply-add chains interleaved), added by a two-sum whose rounding error `low` carries to
+/// the next step (see [`Taylor`]'s compensated update); `coefficients(i)` are component i's.
+fn horner_update<'a>(
+    coefficients: impl Fn(usize) -> &'a [f64],
+    h: f64,
+    x: &mut [f64],
+    low: &mut [f64],
+) {
+    const LANES: usize = 8;
+    for (chunk, (outs, lows)) in x.chunks_mut(LANES).zip(low.chunks_mut(LANES)).enumerate() {
+        let mut c: [&[f64]; LANES] = [&[]; LANES];
+        for (l, cl) in c.iter_mut().enumerate().take(outs.len()) {
+            *cl = coefficients(chunk * LANES + l);
+        }
+        let mut acc = [0.0; LANES];
+        for k in (1..c[0].len()).rev() {
+            for (a, cl) in acc.iter_mut().zip(&c).take(outs.len()) {
+                *a = *a * h + cl[k];
+            }
+        }
+        for ((xi, lo), a) in outs.iter_mut().zip(lows.iter_mut()).zip(acc) {
+            // two-sum of x and (increment + carried error)
+            let y = a * h + *lo;
+            let s = *xi + y;
+            let b = s - *xi;
+            *lo = (*xi - (s - b)) + (y - b);
+            *xi = s;
+        }
+    }
+}
+
 /// The smallest step [`Taylor`] takes at time t: ten ulps of t (ten machine epsilons times
 /// |t|, as DOPRI5's), at t = 0 the smallest normal number. A Jorba–Zou step below it (the
 /// radius of convergence shrinking to zero: a collision, a finite escape time) ends the run
@@ -812,14 +860,7 @@ impl<M: ?Sized> Taylor<M> {
             Which::Feedback => &mut *self.feedback,
         };
         kernel.compute(x, p);
-        // the three norms in one pass over the components
-        let (mut n0, mut n1, mut n2) = (0.0f64, 0.0f64, 0.0f64);
-        for i in 0..kernel.dim() {
-            let c = kernel.coefficients(i);
-            n0 = n0.max(c[0].abs());
-            n1 = n1.max(c[p - 1].abs());
-            n2 = n2.max(c[p].abs());
-        }
+        let (n0, n1, n2) = norms(kernel.dim(), p, |i| kernel.coefficients(i));
         self.control.step(n0, n1, n2)
     }
 
@@ -852,7 +893,6 @@ impl<M: ?Sized> Taylor<M> {
     /// only if x is the state the last step returned (bitwise); a state changed in between
     /// starts afresh.
     fn compensated_update(&mut self, which: Which, h: f64, x: &mut [f64]) {
-        const LANES: usize = 8;
         let n = x.len();
         if self.carry.len() != 2 * n || self.carry[n..] != *x {
             self.carry.clear();
@@ -863,26 +903,7 @@ impl<M: ?Sized> Taylor<M> {
             Which::Feedback => &*self.feedback,
         };
         let (low, returned) = self.carry.split_at_mut(n);
-        for (chunk, (outs, lows)) in x.chunks_mut(LANES).zip(low.chunks_mut(LANES)).enumerate() {
-            let mut c: [&[f64]; LANES] = [&[]; LANES];
-            for (l, cl) in c.iter_mut().enumerate().take(outs.len()) {
-                *cl = kernel.coefficients(chunk * LANES + l);
-            }
-            let mut acc = [0.0; LANES];
-            for k in (1..c[0].len()).rev() {
-                for (a, cl) in acc.iter_mut().zip(&c).take(outs.len()) {
-                    *a = *a * h + cl[k];
-                }
-            }
-            for ((xi, lo), a) in outs.iter_mut().zip(lows.iter_mut()).zip(acc) {
-                // two-sum of x and (increment + carried error)
-                let y = a * h + *lo;
-                let s = *xi + y;
-                let b = s - *xi;
-                *lo = (*xi - (s - b)) + (y - b);
-                *xi = s;
-            }
-        }
+        horner_update(|i| kernel.coefficients(i), h, x, low);
         returned.copy_from_slice(x);
     }
 
