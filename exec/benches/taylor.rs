@@ -2,7 +2,9 @@
 //! and 1e-10: Kepler at its pericentre (e = 0.8) and the free rigid body, with the compiled
 //! kernel (JIT back end, the default) and the interpreted one; and the coefficients alone
 //! (`kernel/…`), so that the driver's share is the difference; and the kernel of the
-//! recurrences without fused powers (`kernel-unfused/…`, `TaylorProgram::unfused`).
+//! recurrences without fused powers (`kernel-unfused/…`, `TaylorProgram::unfused`). With the
+//! JIT, the batch kernel on two orbits per call (`kernel-lanes/…`, per orbit), also for the
+//! MEGNO system of Hénon–Heiles (`henon_heiles+megno`, the extended field of a MEGNO map).
 //!
 //! `cargo bench -p lasalle-exec --bench taylor` (ns per step).
 
@@ -65,5 +67,66 @@ fn steps(c: &mut Criterion) {
     group.finish();
 }
 
+/// The scalar kernel against the batch kernel of two orbits, per orbit.
+#[cfg(feature = "jit")]
+fn lanes(c: &mut Criterion) {
+    use criterion::Throughput;
+    use lasalle_exec::jit::taylor::{JitTaylorBatch, LANES};
+    use lasalle_model::variational::Extension;
+    use lasalle_runtime::TaylorBatch;
+    let mut group = c.benchmark_group("taylor_lanes");
+    group.measurement_time(Duration::from_secs(3));
+    let megno = {
+        let hh = model("henon_heiles", Backend::Jit);
+        let extended = Extension::Indicators
+            .apply(&hh.model().expect("the model lowers"))
+            .expect("extends");
+        let m = LoadedModel::from_model(extended, Backend::Jit).expect("loads");
+        let x0 = Extension::Indicators.extend_state(&[0.0, 0.1, 0.45, 0.0]);
+        (m, x0)
+    };
+    let mut cases: Vec<(String, LoadedModel, Vec<f64>)> = ["kepler", "rigid_body"]
+        .map(|name| {
+            let m = model(name, Backend::Jit);
+            let x0 = m.point("paper").expect("point paper");
+            (name.to_string(), m, x0)
+        })
+        .into();
+    cases.push(("henon_heiles+megno".into(), megno.0, megno.1));
+    for (name, m, x0) in &cases {
+        for tol in [1e-15, 1e-10] {
+            let p = TaylorOptions::with_tol(tol).checked_order().expect("order");
+            let tape = ModelTapes::new(m.derived().expect("the model lowers"))
+                .expect("tapes")
+                .field;
+            let Some(mut batch) = JitTaylorBatch::new(&tape, m.params(), p).expect("compiles")
+            else {
+                continue;
+            };
+            let mut kernel = m.taylor_tapes(p).expect("kernels").field;
+            let packed: Vec<f64> = (0..x0.len() * LANES).map(|j| x0[j / LANES]).collect();
+            let label = format!("{name}/tol={tol:e}/p={p}");
+            group.throughput(Throughput::Elements(1));
+            group.bench_function(format!("kernel/{label}"), |b| {
+                b.iter(|| {
+                    kernel.compute(black_box(x0), p as usize);
+                    black_box(kernel.coefficients(0)[p as usize]);
+                })
+            });
+            group.throughput(Throughput::Elements(LANES as u64));
+            group.bench_function(format!("kernel-lanes/{label}"), |b| {
+                b.iter(|| {
+                    batch.compute(black_box(&packed));
+                    black_box(batch.table()[p as usize * LANES]);
+                })
+            });
+        }
+    }
+    group.finish();
+}
+
+#[cfg(feature = "jit")]
+criterion_group!(benches, steps, lanes);
+#[cfg(not(feature = "jit"))]
 criterion_group!(benches, steps);
 criterion_main!(benches);

@@ -18,7 +18,7 @@ use lasalle_exec::LoadedModel;
 pub use lasalle_model::variational::{Extension, Indicators, PEAK_EVENT};
 use lasalle_runtime::{ModelInfo, Parameters};
 
-use crate::{simulate_with_progress, Method, Recording, RunError, RunSpec};
+use crate::{simulate_with_progress, KernelPool, Method, Recording, RunError, RunSpec, Reusing};
 
 /// A model extended by `extension`, compiled by `model`'s back end, with `model`'s current
 /// parameter values. A model loaded with its families kept as loops is extended in loop form
@@ -229,6 +229,9 @@ pub fn lyapunov_spectrum_with_progress(
     let mut spent = 0u64;
     let mut chunk = spec.clone();
     chunk.every = u64::MAX;
+    // the Taylor kernels are built once, not once per interval
+    let pool = KernelPool::new();
+    let reusing = Reusing::new(&extended, &pool);
     while t < spec.t_end {
         let h = interval.min(spec.t_end - t);
         chunk.t_end = h;
@@ -240,7 +243,12 @@ pub fn lyapunov_spectrum_with_progress(
                 spec.max_steps
             )));
         }
-        let rec = simulate_with_progress(&extended, &state, &chunk, &|s| progress(t + s))?;
+        let at_t = |s| progress(t + s);
+        let rec = if spec.method.is_taylor() {
+            simulate_with_progress(&reusing, &state, &chunk, &at_t)?
+        } else {
+            simulate_with_progress(&extended, &state, &chunk, &at_t)?
+        };
         if let Some(e) = &rec.failure {
             return Err(RunError::Model(format!(
                 "the variational run stopped at t = {}: {e}",

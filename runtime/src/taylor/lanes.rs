@@ -17,7 +17,7 @@
 //! guard, an interrupt) leaves its lane with no result: the caller runs it alone, which
 //! reports the failure where and as the lone run does.
 
-use super::{horner_update, min_step, norms, JorbaZou, TaylorError, TaylorOptions};
+use super::{min_step, JorbaZou, TaylorError, TaylorOptions};
 use crate::driver::{compensated_add, INTERRUPT_EVERY};
 use crate::error::{all_finite, StepError};
 
@@ -102,16 +102,6 @@ struct Lane {
     /// The next step asked for; 0 until the first expansion gives the initial step.
     h: f64,
     steps: u64,
-    x: Vec<f64>,
-    /// The compensated update's carried rounding error.
-    low: Vec<f64>,
-}
-
-/// What a step left an orbit.
-enum Flow {
-    Going,
-    Done,
-    Failed,
 }
 
 impl<M: ?Sized> TaylorLanes<M> {
@@ -151,23 +141,32 @@ impl<M: ?Sized> TaylorLanes<M> {
     /// the end time, `None` for one that failed (see the [module docs](self)).
     pub fn run(&mut self, model: &M, x0s: &[Vec<f64>], runs: &LaneRuns) -> Vec<Option<LaneEnd>> {
         let mut ends: Vec<Option<LaneEnd>> = vec![None; x0s.len()];
-        let (n, b, s) = (
-            self.kernel.dim(),
-            self.kernel.lanes(),
-            self.order as usize + 1,
-        );
+        let (n, b) = (self.kernel.dim(), self.kernel.lanes());
         if self.kernel.sync(model).is_err() || x0s.iter().any(|x| x.len() != n) {
             return ends;
         }
         let mut waiting = 0..x0s.len();
         let mut slots: Vec<Option<Lane>> = (0..b).map(|_| None).collect();
-        let (mut packed, mut coefficients) = (vec![0.0; n * b], vec![0.0; n * s]);
+        // the orbits' states and carried rounding errors, interleaved as the kernel reads them
+        let mut batch = Batch {
+            b,
+            x: vec![0.0; n * b],
+            low: vec![0.0; n * b],
+        };
+        // this sweep's step of each lane (taken where `stepping`)
+        let (mut h, mut stepping) = (vec![0.0; b], vec![false; b]);
+        let mut column = vec![0.0; n];
         let mut sweeps = 0u64;
         loop {
-            for slot in slots.iter_mut().filter(|s| s.is_none()) {
-                *slot = waiting.by_ref().find_map(|run| start(run, &x0s[run], runs));
+            for (l, slot) in slots.iter_mut().enumerate() {
+                if slot.is_none() {
+                    *slot = waiting.by_ref().find_map(|run| start(run, &x0s[run], runs));
+                    if let Some(lane) = slot {
+                        batch.set(l, &x0s[lane.run]);
+                    }
+                }
             }
-            let Some(first) = slots.iter().flatten().next() else {
+            let Some(first) = slots.iter().position(Option::is_some) else {
                 break;
             };
             if sweeps % INTERRUPT_EVERY == 0 && runs.stop.is_some_and(|stop| stop()) {
@@ -175,43 +174,55 @@ impl<M: ?Sized> TaylorLanes<M> {
             }
             sweeps += 1;
             // an empty lane computes a copy of a running orbit, whose values are finite
-            for (l, slot) in slots.iter().enumerate() {
-                let x = &slot.as_ref().unwrap_or(first).x;
-                for (i, &xi) in x.iter().enumerate() {
-                    packed[i * b + l] = xi;
+            for l in (0..b).filter(|&l| slots[l].is_none()) {
+                batch.copy(first, l);
+            }
+            self.kernel.compute(&batch.x);
+            let table = self.kernel.table();
+            for (l, slot) in slots.iter_mut().enumerate() {
+                stepping[l] = false;
+                let Some(lane) = slot else { continue };
+                match self.plan(lane, table, l, b, runs) {
+                    Plan::Step(taken) => (h[l], stepping[l]) = (taken, true),
+                    Plan::Done => {
+                        batch.get(l, &mut column);
+                        ends[lane.run] = Some(lane.end(&column, self.order));
+                        *slot = None;
+                    }
+                    Plan::Failed => *slot = None,
                 }
             }
-            self.kernel.compute(&packed);
+            horner_lanes(table, self.order as usize + 1, &h, &stepping, &mut batch);
             for (l, slot) in slots.iter_mut().enumerate() {
-                let Some(lane) = slot else { continue };
-                let table = self.kernel.table();
-                for (j, c) in coefficients.iter_mut().enumerate() {
-                    *c = table[j * b + l];
+                let Some(lane) = slot.as_mut().filter(|_| stepping[l]) else {
+                    continue;
+                };
+                batch.get(l, &mut column);
+                let guarded = runs.guards.is_some_and(|ok| !ok(&column));
+                if !all_finite(&column) || guarded {
+                    *slot = None;
+                } else if lane.t >= runs.t_end {
+                    ends[lane.run] = Some(lane.end(&column, self.order));
+                    *slot = None;
                 }
-                match self.step(lane, &coefficients, runs) {
-                    Flow::Going => continue,
-                    Flow::Done => {
-                        ends[lane.run] = Some(LaneEnd {
-                            t: lane.t,
-                            x: std::mem::take(&mut lane.x),
-                            steps: lane.steps,
-                            evaluations: lane.steps * u64::from(self.order),
-                        })
-                    }
-                    Flow::Failed => {}
-                }
-                *slot = None;
             }
         }
         ends
     }
 
-    /// One step of `lane` from the expansion `coefficients` (N × (p + 1), row-major) at its
-    /// state: [`Taylor`](super::Taylor)'s step under the driver's rules, in their order.
-    fn step(&self, lane: &mut Lane, coefficients: &[f64], runs: &LaneRuns) -> Flow {
-        let (n, p) = (lane.x.len(), self.order as usize);
-        let c = |i: usize| &coefficients[i * (p + 1)..(i + 1) * (p + 1)];
-        let (n0, n1, n2) = norms(n, p, c);
+    /// The step of `lane` from the expansion at its state (lane l of the batch table):
+    /// [`Taylor`](super::Taylor)'s step under the driver's rules, in their order; the lane's
+    /// time, step size and count advanced as if it were taken.
+    fn plan(&self, lane: &mut Lane, table: &[f64], l: usize, b: usize, runs: &LaneRuns) -> Plan {
+        let p = self.order as usize;
+        let at = |i: usize, k: usize| table[(i * (p + 1) + k) * b + l];
+        // Jorba & Zou's norms, as `super::norms` takes them
+        let (mut n0, mut n1, mut n2) = (0.0f64, 0.0f64, 0.0f64);
+        for i in 0..self.kernel.dim() {
+            n0 = n0.max(at(i, 0).abs());
+            n1 = n1.max(at(i, p - 1).abs());
+            n2 = n2.max(at(i, p).abs());
+        }
         let h_jz = self.control.step(n0, n1, n2);
         let t_end = runs.t_end;
         if !(lane.h > 0.0) {
@@ -219,12 +230,12 @@ impl<M: ?Sized> TaylorLanes<M> {
             let h = h_jz.min(self.opts.h_max);
             let h = if t_end > 0.0 { h.min(t_end) } else { h };
             if !(h > 0.0 && h.is_finite()) {
-                return Flow::Failed;
+                return Plan::Failed;
             }
             lane.h = h;
         }
         if lane.t >= t_end {
-            return Flow::Done;
+            return Plan::Done;
         }
         let remaining = t_end - lane.t;
         let (h_step, last) = if lane.h * 1.01 >= remaining {
@@ -233,14 +244,13 @@ impl<M: ?Sized> TaylorLanes<M> {
             (lane.h, false)
         };
         if lane.steps >= runs.max_steps || h_step.is_nan() || h_step <= 0.0 || h_jz.is_nan() {
-            return Flow::Failed;
+            return Plan::Failed;
         }
         let h_own = h_jz.min(self.opts.h_max);
         if h_own < min_step(lane.t) && h_step > h_own {
-            return Flow::Failed;
+            return Plan::Failed;
         }
         let h_taken = h_step.min(h_own);
-        horner_update(c, h_taken, &mut lane.x, &mut lane.low);
         lane.steps += 1;
         lane.t = if last && h_taken >= h_step {
             t_end
@@ -250,14 +260,107 @@ impl<M: ?Sized> TaylorLanes<M> {
             hi
         };
         lane.h = if h_own.is_finite() { h_own } else { h_step };
-        if !all_finite(&lane.x) || runs.guards.is_some_and(|ok| !ok(&lane.x)) {
-            return Flow::Failed;
+        Plan::Step(h_taken)
+    }
+}
+
+/// What the expansion at an orbit's state decides.
+enum Plan {
+    /// Take a step of this size.
+    Step(f64),
+    /// The end time is reached.
+    Done,
+    /// The run fails here.
+    Failed,
+}
+
+impl Lane {
+    fn end(&self, x: &[f64], order: u32) -> LaneEnd {
+        LaneEnd {
+            t: self.t,
+            x: x.to_vec(),
+            steps: self.steps,
+            evaluations: self.steps * u64::from(order),
         }
-        if lane.t >= t_end {
-            Flow::Done
-        } else {
-            Flow::Going
+    }
+}
+
+/// The states and carried rounding errors of the orbits in the lanes, interleaved: component
+/// i of lane l at `i·b + l`.
+struct Batch {
+    b: usize,
+    x: Vec<f64>,
+    low: Vec<f64>,
+}
+
+impl Batch {
+    /// A new orbit from `x0` in lane `l`.
+    fn set(&mut self, l: usize, x0: &[f64]) {
+        for (i, &v) in x0.iter().enumerate() {
+            self.x[i * self.b + l] = v;
+            self.low[i * self.b + l] = 0.0;
         }
+    }
+
+    /// The state of lane `from` into lane `to` (an empty lane's values).
+    fn copy(&mut self, from: usize, to: usize) {
+        for i in 0..self.x.len() / self.b {
+            self.x[i * self.b + to] = self.x[i * self.b + from];
+        }
+    }
+
+    /// The state of lane `l`.
+    fn get(&self, l: usize, out: &mut [f64]) {
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = self.x[i * self.b + l];
+        }
+    }
+}
+
+/// `super::horner_update` of every lane with `stepping[l]` by its step `h[l]`, the lanes side by
+/// side (the same operations in the same order in each lane, so each is bitwise the lone
+/// update); the other lanes are left as they are.
+fn horner_lanes(table: &[f64], s: usize, h: &[f64], stepping: &[bool], batch: &mut Batch) {
+    #[inline(always)]
+    fn update<const B: usize>(
+        table: &[f64],
+        s: usize,
+        h: &[f64],
+        stepping: &[bool],
+        batch: &mut Batch,
+    ) {
+        let h: [f64; B] = std::array::from_fn(|l| h[l]);
+        for (i, (x, low)) in batch
+            .x
+            .chunks_exact_mut(B)
+            .zip(batch.low.chunks_exact_mut(B))
+            .enumerate()
+        {
+            let row = &table[i * s * B..(i + 1) * s * B];
+            let mut acc = [0.0; B];
+            for k in (1..s).rev() {
+                for l in 0..B {
+                    acc[l] = acc[l] * h[l] + row[k * B + l];
+                }
+            }
+            for l in 0..B {
+                // two-sum of x and (increment + carried error)
+                let y = acc[l] * h[l] + low[l];
+                let sum = x[l] + y;
+                let b = sum - x[l];
+                if stepping[l] {
+                    low[l] = (x[l] - (sum - b)) + (y - b);
+                    x[l] = sum;
+                }
+            }
+        }
+    }
+    match batch.b {
+        1 => update::<1>(table, s, h, stepping, batch),
+        2 => update::<2>(table, s, h, stepping, batch),
+        4 => update::<4>(table, s, h, stepping, batch),
+        8 => update::<8>(table, s, h, stepping, batch),
+        b => unreachable!("{b} lanes: batch kernels have 1, 2, 4 or 8"),
     }
 }
 
@@ -269,13 +372,11 @@ fn start(run: usize, x0: &[f64], runs: &LaneRuns) -> Option<Lane> {
         && runs.h0 >= 0.0
         && runs.h0.is_finite()
         && runs.guards.is_none_or(|ok| ok(x0));
-    fine.then(|| Lane {
+    fine.then_some(Lane {
         run,
         t: 0.0,
         t_lo: 0.0,
         h: runs.h0,
         steps: 0,
-        x: x0.to_vec(),
-        low: vec![0.0; x0.len()],
     })
 }
