@@ -80,8 +80,8 @@ def children_cpu():
     return r.ru_utime + r.ru_stime
 
 
-def run_lasalle(ics, t_end, tol, method, out_dir, threads, every):
-    suffix = "" if every == 1 else f"_every{every}"
+def run_lasalle(ics, t_end, tol, method, out_dir, threads, every, lanes=8):
+    suffix = ("" if every == 1 else f"_every{every}") + ("" if lanes == 8 else f"_lanes{lanes}")
     listing = out_dir / f"megno_ics{suffix}.csv"
     write_listing(ics, listing)
     table = out_dir / (f"megno_map{suffix}.csv" if method == "taylor"
@@ -89,7 +89,8 @@ def run_lasalle(ics, t_end, tol, method, out_dir, threads, every):
     exe = os.environ.get("LASALLE", str(ROOT / "target/release/lasalle"))
     cmd = [exe, "sweep", str(ROOT / "models/henon_heiles.lsl"), "--list", str(listing),
            "--indicator", "megno", "-m", method, "--rtol", repr(tol), "--atol", repr(tol),
-           "--t-end", repr(t_end), "--out", str(table), "--threads", str(threads)]
+           "--t-end", repr(t_end), "--out", str(table), "--threads", str(threads),
+           "--lanes", str(lanes)]
     cpu0, wall0 = children_cpu(), time.perf_counter()
     subprocess.run(cmd, check=True)
     cpu, wall = children_cpu() - cpu0, time.perf_counter() - wall0
@@ -99,7 +100,9 @@ def run_lasalle(ics, t_end, tol, method, out_dir, threads, every):
     return cpu, wall, megno, " ".join(cmd[1:]).replace(str(ROOT) + "/", "")
 
 
-def run_heyoka(ics, t_end, tol, threads):
+def run_heyoka(ics, t_end, tol, threads, batch=None):
+    """heyoka's ensemble of the map: `taylor_adaptive_batch` of the host's SIMD width, or of
+    `batch` orbits (1: the scalar `taylor_adaptive`)."""
     import heyoka as hy
 
     q0, q1, p0, p1 = hy.make_vars("q0", "q1", "p0", "p1")
@@ -115,7 +118,7 @@ def run_heyoka(ics, t_end, tol, threads):
     sys_ += [(u[i], Au[i] - lam * u[i]) for i in range(4)]
     sys_ += [(ell, lam), (tau, hy.expression(1.0)), (a, tau * lam),
              (b, 2.0 * a * tau / (tau * tau + 1e-20))]
-    batch = hy.recommended_simd_size()
+    batch = batch or hy.recommended_simd_size()
     count = len(ics)
     ics = list(ics)
     while len(ics) % batch:
@@ -129,21 +132,32 @@ def run_heyoka(ics, t_end, tol, threads):
         return s
 
     cpu0, wall0 = time.process_time(), time.perf_counter()
-    ta = hy.taylor_adaptive_batch(sys_, state(ics[:batch]), tol=tol)
-    compile_cpu = time.process_time() - cpu0
     chunks = [ics[i:i + batch] for i in range(0, len(ics), batch)]
+    if batch == 1:
+        ta = hy.taylor_adaptive(sys_, state(ics[:1])[:, 0], tol=tol)
+        compile_cpu = time.process_time() - cpu0
 
-    def gen(ta_copy, i):
-        ta_copy.set_time(0.0)
-        ta_copy.state[:] = state(chunks[i])
-        return ta_copy
+        def gen(ta_copy, i):
+            ta_copy.time = 0.0
+            ta_copy.state[:] = state(chunks[i])[:, 0]
+            return ta_copy
 
-    res = hy.ensemble_propagate_until_batch(ta, t_end, len(chunks), gen, max_workers=threads)
+        res = hy.ensemble_propagate_until(ta, t_end, len(chunks), gen, max_workers=threads)
+    else:
+        ta = hy.taylor_adaptive_batch(sys_, state(ics[:batch]), tol=tol)
+        compile_cpu = time.process_time() - cpu0
+
+        def gen(ta_copy, i):
+            ta_copy.set_time(0.0)
+            ta_copy.state[:] = state(chunks[i])
+            return ta_copy
+
+        res = hy.ensemble_propagate_until_batch(ta, t_end, len(chunks), gen, max_workers=threads)
     cpu, wall = time.process_time() - cpu0, time.perf_counter() - wall0
     megno = []
     for r in res:
         s = r[0].state
-        megno.extend(s[11] / s[9])
+        megno.extend(np.atleast_1d(s[11] / s[9]))
     return cpu, wall, compile_cpu, np.array(megno[:count]), batch
 
 
@@ -173,7 +187,12 @@ def main():
     rows = []
     las_cpu, las_wall, las_megno, cmd = run_lasalle(ics, args.t_end, args.tol, "taylor",
                                                     args.out, args.threads, args.every)
-    rows.append(("lasalle sweep, taylor (JIT)", las_cpu, las_wall, "–"))
+    rows.append(("lasalle sweep, taylor (JIT), lanes", las_cpu, las_wall, "–"))
+    one_cpu, one_wall, one_megno, _ = run_lasalle(ics, args.t_end, args.tol, "taylor",
+                                                  args.out, args.threads, args.every, lanes=1)
+    assert np.array_equal(one_megno, las_megno, equal_nan=True), "lanes change the map"
+    rows.append(("lasalle sweep, taylor (JIT), each orbit alone (`--lanes 1`)", one_cpu,
+                 one_wall, "–"))
     if not args.no_dopri5:
         d_cpu, d_wall, d_megno, _ = run_lasalle(ics, args.t_end, args.tol, "dopri5",
                                                 args.out, args.threads, args.every)
@@ -182,6 +201,9 @@ def main():
                                                               args.threads)
     rows.append((f"heyoka.py {__import__('heyoka').__version__}, taylor_adaptive_batch "
                  f"(batch {batch}), ensemble", hy_cpu, hy_wall, f"{hy_compile:.2f}"))
+    s_cpu, s_wall, s_compile, _, _ = run_heyoka(ics, args.t_end, args.tol, args.threads, batch=1)
+    rows.append((f"heyoka.py {__import__('heyoka').__version__}, taylor_adaptive (scalar), "
+                 f"ensemble", s_cpu, s_wall, f"{s_compile:.2f}"))
     chaotic_l, chaotic_h = las_megno > 4.0, hy_megno > 4.0
     agree = np.mean(chaotic_l == chaotic_h)
     both_regular = ~chaotic_l & ~chaotic_h

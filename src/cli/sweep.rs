@@ -6,9 +6,10 @@
 //! tables, checking that every row is there exactly once.
 //!
 //! The runs are the library's ensemble ([`lasalle::simulate_many`]): one model per thread, and
-//! within a thread rows that share their parameters together in lanes (`--lanes`, fixed-step
-//! Runge–Kutta methods): one kernel call per stage for up to `--lanes` states, each row's
-//! result bitwise the one it gets alone.
+//! within a thread rows that share their parameters together in lanes (`--lanes`: fixed-step
+//! Runge–Kutta methods one kernel call per stage for up to `--lanes` states, the Taylor method
+//! one call of its recurrences for two orbits at a time), each row's result bitwise the one it
+//! gets alone.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -71,8 +72,8 @@ pub struct SweepArgs {
     /// Threads (default: all cores).
     #[arg(long, value_parser = value::size, allow_hyphen_values = true)]
     pub threads: Option<usize>,
-    /// Rows that share their parameters run this many at a time in lanes (methods euler, heun
-    /// and rk4; 1 runs every row alone). Results are the same either way.
+    /// Rows that share their parameters run this many at a time in lanes (methods euler, heun,
+    /// rk4 and taylor; 1 runs every row alone). Results are the same either way.
     #[arg(long, default_value_t = 8, value_parser = value::size, allow_hyphen_values = true)]
     pub lanes: usize,
     /// How the model's functions run.
