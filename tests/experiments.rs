@@ -807,3 +807,65 @@ fn gain_study_reports_divergence_as_such() {
         .fold(0.0, f64::max);
     assert!(worst < 1e3, "a cell reads {worst:e}");
 }
+
+// ---------------------------------------------------------------------------------------------
+// the paper's hypotheses
+
+/// Each §4 experiment computes the hypotheses of the paper's lemmas for its system: the rigid
+/// body's Df has rank 10 = 6 + 1 + 3 on V⁻¹(0), c < 12.5 (Lemma 3.3) and T_Ω = 6.4227; Kepler's
+/// f = (L, A) has rank 5 < 6 (L·A ≡ 0: Lemma 2.4 fails, warned), c < 0.04 (36); the perturbed
+/// problem has no common root of (57) and (58) (Theorem 3.9), a non-compact V⁻¹(0) (warned) and
+/// rank 4 on the component of x(0).
+#[test]
+fn experiments_check_the_papers_hypotheses() {
+    let run = |name: &str, extra: &[&str]| {
+        let dir = scratch(&format!("exp-hyp-{name}"));
+        let mut a = vec![
+            "experiment",
+            name,
+            "--no-figures",
+            "-q",
+            "--out",
+            dir.to_str().unwrap(),
+        ];
+        a.extend_from_slice(extra);
+        let o = lasalle(&a);
+        assert!(o.status.success(), "{}", stderr(&o));
+        (summary(&dir)["hypotheses"].clone(), stderr(&o))
+    };
+    let (h, warn) = run("rigid-body", &["--t-end", "5"]);
+    let rank = &h["lemma_2_4"];
+    assert_eq!(rank["rank_min"], 10);
+    assert_eq!(rank["rank_max"], 10);
+    assert!(rank["smallest_required_singular_value"].as_f64().unwrap() > 0.1);
+    assert!(rank["level_set_residual"].as_f64().unwrap() < 1e-12);
+    assert_eq!(h["c_bound"]["c"].as_f64(), Some(12.5));
+    assert!(h["c_bound"]["max_v_of_feedback_run"].as_f64().unwrap() < 12.5);
+    for p in [&h["period"]["closed_form"], &h["period"]["measured"]] {
+        assert!((p.as_f64().unwrap() - 6.4227).abs() < 5e-5, "{p}");
+    }
+    assert!(h["warnings"].as_array().unwrap().is_empty(), "{warn}");
+
+    let (h, warn) = run("kepler", &["--periods", "1"]);
+    assert_eq!(h["lemma_2_4"]["rank_max"], 5);
+    assert_eq!(h["lemma_2_4"]["holds"], false);
+    assert!(
+        warn.contains("warning: experiment kepler: Lemma 2.4"),
+        "{warn}"
+    );
+    assert!((h["c_bound"]["c"].as_f64().unwrap() - 0.04).abs() < 1e-15);
+
+    let (h, warn) = run("perturbed-kepler", &["--t-end", "1"]);
+    assert_eq!(h["theorem_3_9"]["holds"], true);
+    let roots = h["theorem_3_9"]["roots_58"].as_array().unwrap();
+    assert_eq!(roots.len(), 2);
+    assert!(roots
+        .iter()
+        .all(|r| r["residual_57"].as_f64().unwrap() > 0.1));
+    assert_eq!(h["compactness"]["compact"], false);
+    assert!(
+        warn.contains("warning: experiment perturbed-kepler: Theorem 3.9"),
+        "{warn}"
+    );
+    assert_eq!(h["lemma_2_4"]["rank_min"], 4);
+}

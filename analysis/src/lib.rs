@@ -17,6 +17,9 @@
 //!   ([`stability::StabilityReport::to_json`]);
 //! - [`closed_forms`]: the closed-form extremals of the SO(3) optimal-control problems, as
 //!   corrected and as printed in the thesis they come from;
+//! - [`feedback_hypotheses`]: the hypotheses of the feedback-integrator paper's lemmas and
+//!   theorems (Df's rank on V⁻¹(0), the bounds on c, Theorem 3.9's common root, the rigid
+//!   body's period) computed for its §4 systems (`lasalle experiment`);
 //! - [`infante`]: Infante's quadratic Liapunov functions of the n-th order linear equation,
 //!   AᵀB + BA = −C solved for the companion matrix symbolically in its coefficients;
 //! - [`multipliers`]: Lagrange multipliers and Euler–Lagrange equations carried across a
@@ -32,6 +35,7 @@
 pub mod attraction;
 pub mod canonical;
 pub mod closed_forms;
+pub mod feedback_hypotheses;
 pub mod infante;
 pub mod lie_poisson;
 pub mod multipliers;

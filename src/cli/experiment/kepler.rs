@@ -13,6 +13,7 @@ use super::super::plot::{decimate, write_figure, Chart, Style};
 use lasalle::{json_number as num, Base, GainPolicy, Method, Recording, RunSpec};
 
 use super::super::progress::simulate;
+use super::hypotheses;
 use super::{
     command_line, error_figure, failure_note, must, sci, write_outputs, ExperimentArgs, Table,
 };
@@ -129,8 +130,12 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
             .collect::<Vec<_>>()
             .join(", ")
     );
+    let hyp = hypotheses::kepler(&model, &x0, Kepler::<f64>::default_gains(), fb);
+    report.push_str(&hyp.markdown());
+    hyp.print_warnings();
     let json = json!({
         "experiment": "kepler",
+        "hypotheses": hyp.json(),
         "dt": dt,
         "t_end": t_end,
         "period": PERIOD,

@@ -12,6 +12,7 @@
 
 mod adaptive_gains;
 mod gains;
+mod hypotheses;
 mod infante;
 mod kepler;
 mod multipliers;

@@ -17,6 +17,7 @@ use super::super::plot::{thin, write_figure, Chart, Style};
 use lasalle::{json_number as num, Base, GainPolicy, Method, Recording, RunSpec};
 
 use super::super::progress::simulate;
+use super::hypotheses;
 use super::{
     command_line, error_figure, failure_note, must, sci, write_outputs, ExperimentArgs, Table,
 };
@@ -153,8 +154,13 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
     );
     report.push_str(&table.markdown());
 
+    let hyp = hypotheses::perturbed_kepler(&model, &x0);
+    report.push_str(&hyp.markdown());
+    hyp.print_warnings();
+
     let json = json!({
         "experiment": "perturbed-kepler",
+        "hypotheses": hyp.json(),
         "dt": dt,
         "t_end": t_end,
         "command": command_line(args, "perturbed-kepler"),

@@ -13,6 +13,7 @@ use super::super::plot::{thin, write_figure, Chart, Style};
 use lasalle::{json_number as num, Base, GainPolicy, Method, Recording, RunSpec};
 
 use super::super::progress::simulate;
+use super::hypotheses;
 use super::{
     command_line, error_figure, failure_note, must, sci, write_outputs, ExperimentArgs, Table,
 };
@@ -111,8 +112,13 @@ pub fn run(args: &ExperimentArgs, dir: &Path) -> CliResult {
         euler.wall_seconds / fb.wall_seconds
     );
 
+    let hyp = hypotheses::rigid_body(&model, &x0, RigidBody::<f64>::default_gains(), fb);
+    report.push_str(&hyp.markdown());
+    hyp.print_warnings();
+
     let json = json!({
         "experiment": "rigid-body",
+        "hypotheses": hyp.json(),
         "dt": dt,
         "t_end": t_end,
         "command": command_line(args, "rigid-body"),
