@@ -352,9 +352,10 @@ fn back_ends_agree_and_feedback_is_refused() {
 
 /// The indicators' model in an ensemble (what `lasalle sweep --indicator` runs): rk4 in lanes
 /// of 1, 3 and 8 rows gives every row's final extended state bitwise as the lone run of
-/// [`indicators`] does, and so its MEGNO and exponent; so does the Taylor method (which runs
-/// each row alone). The FLI needs the peaks of ln‖w‖, which lanes do not locate: an ensemble
-/// that records events runs each row alone and gives the lone run's supremum.
+/// [`indicators`] does, and so its MEGNO and exponent; so does the Taylor method, whose rows go
+/// two at a time through its batch kernel (`TaylorLanes`). The FLI needs the peaks of ln‖w‖,
+/// which lanes do not locate: an ensemble that records events runs each row alone and gives
+/// the lone run's supremum.
 #[test]
 fn indicators_in_lanes_are_the_lone_runs() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../models/henon_heiles.lsl");
@@ -389,7 +390,7 @@ fn indicators_in_lanes_are_the_lone_runs() {
                 ..s.clone()
             };
             if method == TAYLOR || lanes == 1 {
-                // no lanes: each row alone
+                // no Runge–Kutta lanes (the Taylor method's are `TaylorLanes`)
             } else {
                 // the lanes ran (and only where no events are to be located)
                 let extended = extend(&hh, Extension::Indicators).unwrap();
