@@ -110,6 +110,7 @@ pub fn run(args: &InfanteArgs) -> CliResult {
             "model": eq.name, "order": eq.order(), "alpha": alpha, "c": c, "i": criterion.i,
             "B": criterion.b, "beta": criterion.beta(),
             "coefficients": (1..=eq.order()).map(|k| eq.coefficient_text(k)).collect::<Vec<_>>(),
+            "slots": eq.legend,
             "t": a.t, "p": a.p, "w": a.terms.iter().map(|t| t.w).collect::<Vec<_>>(),
             "min_w": a.min_w, "t_min": a.t_min, "holds": a.holds(),
         });
@@ -128,21 +129,26 @@ fn report(
 ) -> String {
     let n = eq.order();
     let mut s = format!(
-        "{}: x⁽{n}⁾ + p₁x⁽{}⁾ + … = 0 in the states {}{}\n",
+        "{}: x⁽ⁿ⁾ + p₁(t)x⁽ⁿ⁻¹⁾ + … + pₙ(t)x = 0, n = {n}, in the states {}{}\n",
         eq.name,
-        n - 1,
         eq.names.join(", "),
         eq.clock_name
             .as_ref()
             .map_or(String::new(), |k| format!(", t the clock {k}"))
     );
     for k in 1..=n {
-        let _ = writeln!(s, "  p{k} = {}", eq.coefficient_text(k));
+        let _ = writeln!(s, "  p{k}(t) = {}", eq.coefficient_text(k));
     }
+    let _ = writeln!(s, "  ({})", eq.legend);
     let _ = writeln!(
         s,
         "α = {:?}, C = diag{:?}, i = {}, β_n{} = {:.6}\nB = {:?}\n",
-        c.alpha, c.c, c.i, c.i, c.beta(), c.b
+        c.alpha,
+        c.c,
+        c.i,
+        c.i,
+        c.beta(),
+        c.b
     );
     let _ = writeln!(
         s,
@@ -157,7 +163,10 @@ fn report(
             s,
             "| {:.4} | {:?} | {:.6} | {:.6} | {:.6} | {:.6} |",
             a.t[k],
-            a.p[k].iter().map(|x| (x * 1e6).round() / 1e6).collect::<Vec<_>>(),
+            a.p[k]
+                .iter()
+                .map(|x| (x * 1e6).round() / 1e6)
+                .collect::<Vec<_>>(),
             t.linear,
             t.upper,
             t.lower,

@@ -64,6 +64,8 @@ pub struct CompanionEquation {
     pub clock_name: Option<String>,
     /// p₁ … pₙ as expressions of the clock and the parameters.
     pub coefficients: Vec<Id>,
+    /// The printer's names of the slots ([`slot_legend`]).
+    pub legend: String,
 }
 
 /// The name of flat component k (`x`, or `x[2]` for a member of a vector state).
@@ -78,6 +80,32 @@ fn component_name(model: &Model, k: usize) -> String {
         s.name.clone()
     } else {
         format!("{}[{}]", s.name, k - s.offset)
+    }
+}
+
+/// The printer's names of the model's slots, `x0 = x, x1 = v, …; p0 = p, …`, for reading
+/// expressions shown by [`Graph::display`].
+pub fn slot_legend(model: &Model) -> String {
+    let states: Vec<String> = (0..model.dim())
+        .map(|k| format!("x{k} = {}", component_name(model, k)))
+        .collect();
+    let params: Vec<String> = model
+        .params
+        .iter()
+        .flat_map(|p| {
+            (0..p.slots()).map(move |k| {
+                if p.slots() == 1 {
+                    format!("p{} = {}", p.offset, p.name)
+                } else {
+                    format!("p{} = {}[{k}]", p.offset + k, p.name)
+                }
+            })
+        })
+        .collect();
+    if params.is_empty() {
+        states.join(", ")
+    } else {
+        format!("{}; {}", states.join(", "), params.join(", "))
     }
 }
 
@@ -121,10 +149,11 @@ impl CompanionEquation {
                     &model.field_spans[xs[k]],
                     format!(
                         "d/dt {} is {}; the form (2.1) has {} there (d/dt x₁ = x₂, …, d/dt xₙ₋₁ = xₙ, \
-                         d/dt xₙ = −pₙ(t)x₁ − … − p₁(t)xₙ, the states in that order)",
+                         d/dt xₙ = −pₙ(t)x₁ − … − p₁(t)xₙ, the states in that order) [{}]",
                         names[k],
                         model.graph.display(f),
-                        names[k + 1]
+                        names[k + 1],
+                        slot_legend(model)
                     ),
                 ));
             }
@@ -149,11 +178,12 @@ impl CompanionEquation {
                     span,
                     format!(
                         "the coefficient of {} in d/dt {} is {}, which depends on the state {}; \
-                         the coefficients may depend on the clock and the parameters only (a linear equation)",
+                         the coefficients may depend on the clock and the parameters only (a linear equation) [{}]",
                         names[j],
                         names[n - 1],
                         graph.display(d),
-                        component_name(model, *other)
+                        component_name(model, *other),
+                        slot_legend(model)
                     ),
                 ));
             }
@@ -166,6 +196,7 @@ impl CompanionEquation {
             names,
             clock_name: clock.map(|k| component_name(model, k)),
             coefficients,
+            legend: slot_legend(model),
         };
         eq.check_homogeneous(params, last, &xs, span)?;
         Ok(eq)

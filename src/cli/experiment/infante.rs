@@ -141,7 +141,9 @@ fn example_one(
                 0.25 + z1 + z1.sqrt()
             );
         }
-        rows.push(json!({"z1": z1, "z2_p1": a.z2, "z2_p2_5": b.z2, "printed": z2, "alpha_p1": a.alpha}));
+        rows.push(
+            json!({"z1": z1, "z2_p1": a.z2, "z2_p2_5": b.z2, "printed": z2, "alpha_p1": a.alpha}),
+        );
         z1s.push(z1);
         found.push(a.z2);
         printed.push(z2);
@@ -158,8 +160,20 @@ fn example_one(
             "z₂ = q₂/p²",
             false,
         );
-        c.add("(4.9) z₂ = z₁ + 2√(¼ + z₁ + √z₁)", z1s.clone(), printed, 0, Style::Line);
-        c.add("lasalle: max over α of the criterion's interval", z1s.clone(), found, 3, Style::Markers);
+        c.add(
+            "(4.9) z₂ = z₁ + 2√(¼ + z₁ + √z₁)",
+            z1s.clone(),
+            printed,
+            0,
+            Style::Line,
+        );
+        c.add(
+            "lasalle: max over α of the criterion's interval",
+            z1s.clone(),
+            found,
+            3,
+            Style::Markers,
+        );
         c.add("z₂ = z₁ (constant q)", z1s.clone(), z1s, 5, Style::Line);
         write_figure(dir, "fig1_example1", &[c], (1, 1), (800, 600))?;
     }
@@ -211,10 +225,28 @@ fn example_two(
             found.push(e.r2);
             printed.push(r);
         }
-        chart.add(&format!("(4.20) = Starzinski, λ = {lambda}"), ps.clone(), printed, 2 * color, Style::Line);
-        chart.add(&format!("lasalle, λ = {lambda}"), ps.clone(), found, 2 * color + 1, Style::Markers);
+        chart.add(
+            &format!("(4.20) = Starzinski, λ = {lambda}"),
+            ps.clone(),
+            printed,
+            2 * color,
+            Style::Line,
+        );
+        chart.add(
+            &format!("lasalle, λ = {lambda}"),
+            ps.clone(),
+            found,
+            2 * color + 1,
+            Style::Markers,
+        );
         if color == 0 {
-            chart.add("r = p (Routh–Hurwitz, constant r)", ps.clone(), ps, 5, Style::Line);
+            chart.add(
+                "r = p (Routh–Hurwitz, constant r)",
+                ps.clone(),
+                ps,
+                5,
+                Style::Line,
+            );
         }
     }
     let _ = writeln!(report);
