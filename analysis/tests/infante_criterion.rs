@@ -17,9 +17,9 @@ fn numerical_b_is_table_one() {
         for (k, s) in table(n).unwrap().iter().enumerate() {
             let c: Vec<f64> = c_diagonal(n, k + 1).iter().map(|p| p.eval(&a)).collect();
             let b = lyapunov_b(&a, &c).unwrap();
-            for i in 0..n {
-                for j in 0..n {
-                    assert!((b[i][j] - s.b[i][j].eval(&a)).abs() < 1e-12, "n {n} k {k}");
+            for (row, symbolic) in b.iter().zip(&s.b) {
+                for (x, p) in row.iter().zip(symbolic) {
+                    assert!((x - p.eval(&a)).abs() < 1e-12, "n {n} k {k}");
                 }
             }
         }

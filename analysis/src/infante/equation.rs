@@ -210,7 +210,7 @@ impl CompanionEquation {
         xs: &[usize],
         span: &Span,
     ) -> Result<(), EquationError> {
-        for t in [0.0, 0.377, 1.618, 2.718, 9.87] {
+        for t in [0.0, 0.377, 1.25, 2.5, 9.75] {
             let v = self.graph.eval_f64(&[last], &mut |i| match i {
                 Input::Param(k) => params[k as usize],
                 Input::State(k) if Some(k as usize) == self.clock => t,

@@ -170,9 +170,10 @@ fn example2_max_w0(p: f64, lambda: f64, a1: f64, x0: [f64; 2]) -> ([f64; 2], f64
             if fk < v[2] {
                 (s[2], v[2]) = (k, fk);
             } else {
-                for j in 1..3 {
-                    s[j] = [0.5 * (s[0][0] + s[j][0]), 0.5 * (s[0][1] + s[j][1])];
-                    v[j] = f(s[j]);
+                let best = s[0];
+                for (sj, vj) in s.iter_mut().zip(v.iter_mut()).skip(1) {
+                    *sj = [0.5 * (best[0] + sj[0]), 0.5 * (best[1] + sj[1])];
+                    *vj = f(*sj);
                 }
             }
         }
