@@ -83,6 +83,72 @@ fn infante_table_one_is_printed_and_proved() {
             assert!(row["min_pivot"].as_f64().unwrap() > 0.0);
         }
     }
+    // Example 1: the boundary derived from the criterion is (4.9) for p = 1 and p = 2.5
+    let one = s["example1"].as_array().unwrap();
+    assert_eq!(one.len(), 40);
+    for r in one {
+        let printed = r["printed"].as_f64().unwrap();
+        for key in ["z2_p1", "z2_p2_5"] {
+            let z2 = r[key].as_f64().unwrap();
+            assert!((z2 - printed).abs() <= 1e-11 * printed, "{r}");
+        }
+    }
+    // Example 2: the bound derived from the criterion is (4.20)
+    let two = s["example2"].as_array().unwrap();
+    assert_eq!(two.len(), 60);
+    for r in two {
+        let (r2, printed) = (r["r2"].as_f64().unwrap(), r["printed"].as_f64().unwrap());
+        assert!((r2 - printed).abs() <= 1e-7 * printed, "{r}");
+    }
+}
+
+/// `lasalle infante` on Example 1's model: w = 1 − (q − 5/4)² along q = 1.25 + 0.95 sin t.
+#[test]
+fn infante_criterion_along_t_on_a_model_and_its_refusals() {
+    let out = lasalle(&[
+        "infante",
+        "models/infante_example1.lsl",
+        "--alpha",
+        "0.5,1",
+        "--c",
+        "1,0",
+        "--t-end",
+        "6.283185307179586",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let s: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(s["holds"], true);
+    assert!((s["min_w"].as_f64().unwrap() - (1.0 - 0.95f64.powi(2))).abs() < 1e-12);
+    assert!((s["t_min"].as_f64().unwrap() - std::f64::consts::FRAC_PI_2).abs() < 1e-6);
+    // a nonlinear model is refused at its line, with a model error's exit code
+    let out = lasalle(&[
+        "infante", "duffing", "--alpha", "1,1", "--c", "1,0", "--t-end", "1",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("duffing.lsl:") && err.contains("depends on the state x1"),
+        "{err}"
+    );
+    // α's outside the Routh–Hurwitz region are a usage error
+    let out = lasalle(&[
+        "infante",
+        "models/infante_example1.lsl",
+        "--alpha",
+        "1,-1",
+        "--c",
+        "1,0",
+        "--t-end",
+        "1",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("Δ2 = -1"), "{err}");
 }
 
 #[test]

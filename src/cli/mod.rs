@@ -7,6 +7,7 @@ mod center_manifold;
 mod chaos;
 mod experiment;
 mod gen;
+mod infante;
 mod load;
 mod normal_form;
 mod plot;
@@ -138,6 +139,9 @@ enum Command {
     BenchEval(bench::BenchEvalArgs),
     /// A Poincaré section: the crossings of a model's event by many orbits, as CSV and a figure.
     Section(section::SectionArgs),
+    /// Infante's stability criterion for x⁽ⁿ⁾ + p₁(t)x⁽ⁿ⁻¹⁾ + … + pₙ(t)x = 0 on a model in
+    /// companion form: w(t) of the paraboloid (2.20) along t, and its smallest value.
+    Infante(infante::InfanteArgs),
 }
 
 /// Parses the command line and runs the subcommand. A malformed command line is a
@@ -163,6 +167,7 @@ pub fn main() -> CliResult {
         Command::Stability(args) => stability::run(&args, &given),
         Command::BenchEval(args) => bench::run(&args),
         Command::Section(args) => section::run(&args, &given),
+        Command::Infante(args) => infante::run(&args),
     }
 }
 

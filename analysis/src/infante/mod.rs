@@ -22,6 +22,10 @@
 //! point. [`companion_coefficients`] reads a₁ … aₙ off a matrix of IR expressions and says
 //! where a matrix is not a companion matrix.
 
+pub mod criterion;
+pub mod equation;
+pub mod examples;
+
 use std::collections::BTreeMap;
 use std::fmt;
 
