@@ -71,12 +71,12 @@ fn refuse(
     t_span: (f64, f64),
     forward: &[&str],
     renormalise_every: Option<f64>,
-) -> PyResult<Method> {
+) -> PyResult<()> {
     let method: Method = method
         .parse()
         .map_err(|e: RunError| PyValueError::new_err(keyword_message(&e.to_string())))?;
     if keywords.is_empty() {
-        return Ok(method);
+        return Ok(());
     }
     let named = keywords.join(", ");
     chaos::check_method(method).map_err(|e| PyValueError::new_err(format!("{named}: {e}")))?;
@@ -95,7 +95,7 @@ fn refuse(
             )));
         }
     }
-    Ok(method)
+    Ok(())
 }
 
 /// A failed extended run as Python's exception, naming the keyword that asked for it: a
@@ -249,7 +249,6 @@ fn check_extended(
         &asked.forward_keywords(),
         asked.lyapunov_spectrum,
     )
-    .map(|_| ())
 }
 
 /// The extended runs of one `solve` call from `y0` over [t0, t1] (the settings as `solve`

@@ -6,7 +6,7 @@ import json
 import os
 import pathlib
 import subprocess
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 import pytest
@@ -154,10 +154,10 @@ def test_solve_many_megno_is_batch_first_and_tells_chaos_from_order(hh):
     assert lone.megno == sols.megno[0] and lone.mle == sols.mle[0]
 
 
-def test_solve_many_indicators_through_an_executor_are_the_threads_bits(hh):
+def test_solve_many_indicators_through_a_process_pool_are_the_threads_bits(hh):
     y0s = section_points(hh, np.linspace(-0.3, 0.3, 7), np.zeros(7))
     serial = hh.solve_many(y0s, (0, 50), "dopri5", fli=True, **TOL)
-    with ThreadPoolExecutor(2) as ex:
+    with ProcessPoolExecutor(2) as ex:
         sharded = hh.solve_many(y0s, (0, 50), "dopri5", fli=True, executor=ex, shards=3, **TOL)
     for name in ("megno", "megno_y", "mle", "fli"):
         assert getattr(sharded, name).tolist() == getattr(serial, name).tolist(), name
