@@ -568,7 +568,7 @@ class Model:
         max_drift: Optional[float] = None,
         variational: bool = False,
         lyapunov_spectrum: bool = False,
-        renormalise_every: float = 1.0,
+        renormalise_every: Optional[float] = None,
         megno: bool = False,
         fli: bool = False,
     ) -> Solution:
@@ -605,7 +605,7 @@ class Model:
         run itself (as ``lasalle run --variational --lyapunov-spectrum --megno --fli``, bitwise):
         ``variational=True`` gives ``stm``, Φ(t1) = ∂x(t1)/∂x(t0); ``lyapunov_spectrum=True``
         the exponents (Benettin et al.'s method, re-orthonormalising every
-        ``renormalise_every`` time units); ``megno=True`` MEGNO's ⟨Y⟩ and Y, ``fli=True`` the
+        ``renormalise_every`` time units, default 1); ``megno=True`` MEGNO's ⟨Y⟩ and Y, ``fli=True`` the
         fast Lyapunov indicator (both from one run, with ``mle``). They take ``euler``,
         ``heun``, ``rk4``, ``dopri5`` or ``taylor``, and the indicators and the spectrum a
         forward span; anything else raises ``ValueError`` naming the keyword, and an extended
@@ -615,7 +615,10 @@ class Model:
         grid = _t_eval(t_eval, t0, t1)
         if grid is not None and every is not None:
             raise ValueError("every= and t_eval= exclude each other: t_eval gives the output times")
-        extended = (bool(variational), bool(lyapunov_spectrum), float(renormalise_every), bool(megno), bool(fli))
+        if renormalise_every is not None and not lyapunov_spectrum:
+            raise ValueError("renormalise_every= applies to lyapunov_spectrum=True")
+        interval = 1.0 if renormalise_every is None else float(renormalise_every)
+        extended = (bool(variational), bool(lyapunov_spectrum), interval, bool(megno), bool(fli))
         asked = any(extended[:2] + extended[3:])
         if asked:
             _lasalle.check_extended(str(method), t0, t1, *extended)

@@ -191,6 +191,8 @@ def test_indicators_refuse_a_backward_span_and_a_bad_interval(hh):
         hh.solve_many(np.array([hh.points["chaotic"]]), (1, 0), "dopri5", megno=True)
     with pytest.raises(ValueError, match="renormalise_every=0: "):
         hh.solve("chaotic", (0, 1), "dopri5", lyapunov_spectrum=True, renormalise_every=0.0)
+    with pytest.raises(ValueError, match="renormalise_every= applies to lyapunov_spectrum=True"):
+        hh.solve("chaotic", (0, 1), "dopri5", megno=True, renormalise_every=0.5)
     # Φ runs backwards as the flow does
     back = hh.solve("chaotic", (0, -1), "dopri5", variational=True, **TOL)
     assert abs(np.linalg.det(back.stm) - 1) < 1e-8
