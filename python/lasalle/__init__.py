@@ -175,6 +175,9 @@ def _main_thread() -> bool:
     return threading.current_thread() is threading.main_thread()
 
 
+# the indicators' entries of a row of ``solve_many(…, megno=True)`` or ``fli=True``
+_INDICATORS = ("megno", "megno_y", "mle", "fli")
+
 _SUCCESS = "The solver successfully reached the end of the integration interval."
 
 
@@ -222,7 +225,25 @@ class Solution:
     the step there, and a warning is issued), ``steps_outside``, ``first_outside_t``,
     ``capped_steps`` and ``min_gain_factor`` (default gains: the steps whose gains were scaled
     down, and the smallest factor).
+
+    The variational equations and chaos indicators (``solve(…, variational=True,
+    lyapunov_spectrum=True, megno=True, fli=True)``; None unless asked for, and when the run
+    itself failed): ``stm`` (n, n), the state-transition matrix Φ(t1) = ∂x(t1)/∂x(t0) by rows;
+    ``lyapunov_spectrum`` (n,), the Lyapunov exponents largest first, with
+    ``lyapunov_spectrum_qr_order`` (the order of the Gram–Schmidt columns) and
+    ``renormalisations``; ``megno`` (⟨Y⟩, MEGNO's mean), ``megno_y`` (Y), ``fli`` (sup ln‖w‖)
+    and ``mle`` (ln‖w‖/t); ``extended_runs``: the seconds and steps of each extended run.
     """
+
+    stm: Optional[np.ndarray] = None
+    lyapunov_spectrum: Optional[np.ndarray] = None
+    lyapunov_spectrum_qr_order: Optional[np.ndarray] = None
+    renormalisations: Optional[int] = None
+    megno: Optional[float] = None
+    megno_y: Optional[float] = None
+    fli: Optional[float] = None
+    mle: Optional[float] = None
+    extended_runs: Optional[Dict[str, Dict[str, float]]] = None
 
     t: np.ndarray
     y: np.ndarray
@@ -306,7 +327,15 @@ class Solutions:
     Events: ``event_names``; ``t_events[i]`` and ``y_events[i]``, row i's crossings as
     ``Solution`` has them (a list of arrays, one per declared event); ``stopped_by`` (B,) the
     terminal event's name where one ended the row (``status`` 1), else None.
+    Indicators (``solve_many(…, megno=True)`` or ``fli=True``): ``megno`` (B,) (⟨Y⟩),
+    ``megno_y`` (B,), ``mle`` (B,) and, with ``fli=True``, ``fli`` (B,); NaN where a row failed;
+    None without an indicator.
     """
+
+    megno: Optional[np.ndarray] = None
+    megno_y: Optional[np.ndarray] = None
+    mle: Optional[np.ndarray] = None
+    fli: Optional[np.ndarray] = None
 
     def __init__(
         self,
@@ -315,6 +344,7 @@ class Solutions:
         n: int,
         event_names: Sequence[str] = (),
         t_eval: Optional[np.ndarray] = None,
+        indicators: Sequence[str] = (),
     ) -> None:
         self.integrals = list(integrals)
         self.event_names = list(event_names)
@@ -368,6 +398,9 @@ class Solutions:
                 self.message.append(f["message"])
                 if f["t"] is not None:
                     self.t_failure[i] = f["t"]
+        for name in indicators:
+            values = [r[name] if isinstance(r, dict) else None for r in rows]
+            setattr(self, name, np.array([np.nan if v is None else v for v in values], dtype=float))
 
     @classmethod
     def _concat(cls, parts: List["Solutions"]) -> "Solutions":
@@ -388,6 +421,9 @@ class Solutions:
             setattr(out, name, np.concatenate([getattr(p, name) for p in parts]))
         for name in ("message", "t_events", "y_events", "stopped_by"):
             setattr(out, name, [v for p in parts for v in getattr(p, name)])
+        for name in _INDICATORS:
+            if getattr(parts[0], name) is not None:
+                setattr(out, name, np.concatenate([getattr(p, name) for p in parts]))
         return out
 
     def __len__(self) -> int:
@@ -530,6 +566,11 @@ class Model:
         every: Optional[int] = None,
         max_steps: Optional[int] = None,
         max_drift: Optional[float] = None,
+        variational: bool = False,
+        lyapunov_spectrum: bool = False,
+        renormalise_every: Optional[float] = None,
+        megno: bool = False,
+        fli: bool = False,
     ) -> Solution:
         """Integrates from ``y0`` (the flat state, or a point's name) over ``t_span``.
 
@@ -558,11 +599,29 @@ class Model:
         A run stopped by a guard, a blow-up or divergence returns ``success=False`` with its
         ``message``, ``t_failure`` and ``y_failure``; an initial state outside the guards
         raises ``GuardError``; bad arguments raise ``ValueError``.
+
+        The variational equations and chaos indicators (docs/chaos.md), each a run of its own
+        extended model from ``y0`` with the run's method, tolerances and step budget after the
+        run itself (as ``lasalle run --variational --lyapunov-spectrum --megno --fli``, bitwise):
+        ``variational=True`` gives ``stm``, Φ(t1) = ∂x(t1)/∂x(t0); ``lyapunov_spectrum=True``
+        the exponents (Benettin et al.'s method, re-orthonormalising every
+        ``renormalise_every`` time units, default 1); ``megno=True`` MEGNO's ⟨Y⟩ and Y, ``fli=True`` the
+        fast Lyapunov indicator (both from one run, with ``mle``). They take ``euler``,
+        ``heun``, ``rk4``, ``dopri5`` or ``taylor``, and the indicators and the spectrum a
+        forward span; anything else raises ``ValueError`` naming the keyword, and an extended
+        run that fails raises ``LasalleError``.
         """
         t0, t1 = _t_span(t_span)
         grid = _t_eval(t_eval, t0, t1)
         if grid is not None and every is not None:
             raise ValueError("every= and t_eval= exclude each other: t_eval gives the output times")
+        if renormalise_every is not None and not lyapunov_spectrum:
+            raise ValueError("renormalise_every= applies to lyapunov_spectrum=True")
+        interval = 1.0 if renormalise_every is None else float(renormalise_every)
+        extended = (bool(variational), bool(lyapunov_spectrum), interval, bool(megno), bool(fli))
+        asked = any(extended[:2] + extended[3:])
+        if asked:
+            _lasalle.check_extended(str(method), t0, t1, *extended)
         values = {k: _param_values(self._native, k, v) for k, v in (params or {}).items()}
         d = self._native.solve(
             self._y0(y0),
@@ -580,7 +639,26 @@ class Model:
             _run_times(grid, t0, t1),
             _main_thread(),
         )
-        return Solution(d, self.integrals, self.event_names, grid)
+        sol = Solution(d, self.integrals, self.event_names, grid)
+        if asked and sol.status != -1:
+            found = _lasalle.solve_extended(
+                self._native,
+                self._y0(y0),
+                t0,
+                t1,
+                str(method),
+                _check_tol("dt", dt),
+                _check_tol("rtol", rtol),
+                _check_tol("atol", atol),
+                gains,
+                values,
+                None if max_steps is None else _positive_int("max_steps", max_steps),
+                max_drift,
+                *extended,
+                _main_thread(),
+            )
+            sol.__dict__.update(found)
+        return sol
 
     def solve_many(
         self,
@@ -601,6 +679,8 @@ class Model:
         every: Optional[int] = None,
         max_steps: Optional[int] = None,
         max_drift: Optional[float] = None,
+        megno: bool = False,
+        fli: bool = False,
     ) -> Solutions:
         """Integrates every row of ``y0s`` (B, n), batch-first; each row's result is bitwise
         the one ``solve`` gives it with the same options.
@@ -616,6 +696,13 @@ class Model:
         ``mpi4py.futures.MPIPoolExecutor``): the rows go out in ``shards`` shards (default:
         16) of model source, parameters and a row range, and the results are bitwise the
         serial ones. Other options as in ``solve``.
+
+        ``megno=True`` or ``fli=True``: every row is one run of the model extended by the chaos
+        indicators' equations (docs/chaos.md), as ``lasalle sweep --indicator megno|fli`` runs
+        it, and ``megno``, ``megno_y``, ``mle`` (and with ``fli=True``, whose runs also locate
+        the peaks of ln‖w‖, ``fli``) are arrays (B,), each value bitwise the command line's;
+        ``y`` holds the model's own components of those runs. Methods and spans as ``solve``'s
+        indicators take them.
         """
         t0, t1 = _t_span(t_span)
         grid = _t_eval(t_eval, t0, t1)
@@ -634,6 +721,8 @@ class Model:
             max_steps=None if max_steps is None else _positive_int("max_steps", max_steps),
             max_drift=max_drift,
             t_eval=grid,
+            megno=bool(megno),
+            fli=bool(fli),
         )
         threads = _threads(threads)
         lanes = _positive_int("lanes", lanes)
@@ -704,6 +793,8 @@ def _param_columns(model: Model, params: Optional[Mapping[str, Any]], b: int) ->
 
 
 def _solve_rows(model: Model, y: np.ndarray, span, cols, opts, threads: int, lanes: int) -> Solutions:
+    if opts["megno"] or opts["fli"]:
+        return _solve_rows_indicators(model, y, span, cols, opts, threads, lanes)
     rows = model._native.solve_many(
         y,
         span[0],
@@ -723,6 +814,43 @@ def _solve_rows(model: Model, y: np.ndarray, span, cols, opts, threads: int, lan
         _main_thread(),
     )
     return Solutions(rows, model.integrals, model.dim, model.event_names, opts["t_eval"])
+
+
+def _solve_rows_indicators(model: Model, y: np.ndarray, span, cols, opts, threads: int, lanes: int) -> Solutions:
+    """``_solve_rows`` on the model extended by the indicators' equations: the rows' own
+    components of the extended runs, with the indicators."""
+    rows = _lasalle.solve_many_indicators(
+        model._native,
+        y,
+        span[0],
+        span[1],
+        opts["method"],
+        opts["dt"],
+        opts["rtol"],
+        opts["atol"],
+        opts["gains"],
+        cols,
+        opts["every"],
+        opts["max_steps"],
+        opts["max_drift"],
+        _run_times(opts["t_eval"], span[0], span[1]),
+        threads,
+        lanes,
+        opts["fli"],
+        _main_thread(),
+    )
+    n = model.dim
+    for r in rows:
+        if not isinstance(r, dict):
+            continue
+        r["y"] = r["y"][:n]
+        r["y_events"] = [a[:, :n] for a in r["y_events"]]
+        if r["stopped_by"] is not None:
+            r["stopped_by"]["state"] = r["stopped_by"]["state"][:n]
+        if r["failure"] is not None and r["failure"]["state"] is not None:
+            r["failure"]["state"] = r["failure"]["state"][:n]
+    names = _INDICATORS if opts["fli"] else _INDICATORS[:3]
+    return Solutions(rows, model.integrals, n, model.event_names, opts["t_eval"], names)
 
 
 def _run_shard(source: str, path: str, backend: str, params: Dict[str, Any], y, span, cols, opts, threads, lanes):

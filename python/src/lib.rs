@@ -1,5 +1,6 @@
 //! The native part of the Python package `lasalle` (`lasalle._lasalle`): a loaded model, one
-//! run, an ensemble, and the normal form, over the run engine ([`lasalle_run`]). The Python
+//! run, an ensemble, the chaos indicators (`chaos`) and the normal form, over the run engine
+//! ([`lasalle_run`]). The Python
 //! package (`lasalle/__init__.py`) gives it the public API: `Model`, `Solution`, `Solutions`,
 //! executors and pickling.
 //!
@@ -25,6 +26,8 @@ use pyo3::create_exception;
 use pyo3::exceptions::{PyException, PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
+
+mod chaos;
 
 mod models {
     include!(concat!(env!("OUT_DIR"), "/model_files.rs"));
@@ -827,54 +830,7 @@ impl NativeModel {
         let mut spec = opts.spec()?;
         let interrupt = Interrupt::new();
         spec.interrupt = Some(interrupt.clone());
-        let y0s = y0s.as_array();
-        let (b, n) = (y0s.nrows(), y0s.ncols());
-        if n != self.model.state_dim() {
-            return Err(PyValueError::new_err(format!(
-                "y0s has {n} columns but the state of `{}` has dimension {} ({})",
-                self.model.model_name(),
-                self.model.state_dim(),
-                component_names(self.model.state_slots()).join(", ")
-            )));
-        }
-        let base = self.all_params();
-        let mut columns: Vec<(String, usize, Vec<f64>)> = Vec::new();
-        for (name, values) in &params {
-            let slot = self.slot(name)?;
-            let values = values.as_array();
-            if values.nrows() != b || values.ncols() != slot.shape.len() {
-                return Err(PyValueError::new_err(format!(
-                    "params[{name:?}] has shape ({}, {}) but {b} rows of {} values are needed",
-                    values.nrows(),
-                    values.ncols(),
-                    slot.shape.len()
-                )));
-            }
-            if let Some(v) = values.iter().find(|v| !v.is_finite()) {
-                return Err(PyValueError::new_err(format!(
-                    "params[{name:?}]: {v} is not a finite number"
-                )));
-            }
-            columns.push((
-                name.clone(),
-                slot.shape.len(),
-                values.iter().copied().collect(),
-            ));
-        }
-        let members: Vec<Member> = (0..b)
-            .map(|row| {
-                let mut m = Member::at(y0s.row(row).iter().copied().collect());
-                for (name, values) in &base {
-                    if !params.contains_key(name) {
-                        m = m.param(name.clone(), values.clone());
-                    }
-                }
-                for (name, k, values) in &columns {
-                    m = m.param(name.clone(), values[row * k..(row + 1) * k].to_vec());
-                }
-                m
-            })
-            .collect();
+        let members = self.members(&y0s, &params)?;
         let source = &self.source;
         let run = || simulate_many(source, &members, &spec, threads, lanes);
         // Ctrl-C: only the main thread runs the interpreter's signal handlers
@@ -1148,6 +1104,63 @@ fn keywords(message: &str) -> String {
 }
 
 impl NativeModel {
+    /// The members of an ensemble: the rows of `y0s` (B, n), each with the model's current
+    /// parameters but those of `params` (name → (B, k) flat values), row by row.
+    fn members(
+        &self,
+        y0s: &PyReadonlyArray2<'_, f64>,
+        params: &HashMap<String, PyReadonlyArray2<'_, f64>>,
+    ) -> PyResult<Vec<Member>> {
+        let y0s = y0s.as_array();
+        let (b, n) = (y0s.nrows(), y0s.ncols());
+        if n != self.model.state_dim() {
+            return Err(PyValueError::new_err(format!(
+                "y0s has {n} columns but the state of `{}` has dimension {} ({})",
+                self.model.model_name(),
+                self.model.state_dim(),
+                component_names(self.model.state_slots()).join(", ")
+            )));
+        }
+        let base = self.all_params();
+        let mut columns: Vec<(String, usize, Vec<f64>)> = Vec::new();
+        for (name, values) in params {
+            let slot = self.slot(name)?;
+            let values = values.as_array();
+            if values.nrows() != b || values.ncols() != slot.shape.len() {
+                return Err(PyValueError::new_err(format!(
+                    "params[{name:?}] has shape ({}, {}) but {b} rows of {} values are needed",
+                    values.nrows(),
+                    values.ncols(),
+                    slot.shape.len()
+                )));
+            }
+            if let Some(v) = values.iter().find(|v| !v.is_finite()) {
+                return Err(PyValueError::new_err(format!(
+                    "params[{name:?}]: {v} is not a finite number"
+                )));
+            }
+            columns.push((
+                name.clone(),
+                slot.shape.len(),
+                values.iter().copied().collect(),
+            ));
+        }
+        Ok((0..b)
+            .map(|row| {
+                let mut m = Member::at(y0s.row(row).iter().copied().collect());
+                for (name, values) in &base {
+                    if !params.contains_key(name) {
+                        m = m.param(name.clone(), values.clone());
+                    }
+                }
+                for (name, k, values) in &columns {
+                    m = m.param(name.clone(), values[row * k..(row + 1) * k].to_vec());
+                }
+                m
+            })
+            .collect())
+    }
+
     fn restore(&mut self, saved: &[(String, Vec<f64>)]) {
         for (name, values) in saved {
             // the values were read from the model itself: they fit
@@ -1167,5 +1180,6 @@ fn _lasalle(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ModelError", py.get_type::<ModelError>())?;
     m.add("GuardError", py.get_type::<GuardError>())?;
     m.add("known_methods", Method::known())?;
+    chaos::register(m)?;
     Ok(())
 }
