@@ -636,29 +636,22 @@ mod tests {
         (d / b).abs()
     }
 
-    fn lcg(state: &mut u64) -> f64 {
-        *state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((*state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    }
-
-    fn random_qd(state: &mut u64) -> Qd {
-        let x0 = (lcg(state) - 0.5) * 2f64.powi((lcg(state) * 20.0) as i32 - 10);
+    fn random_qd(rng: &mut lasalle_testkit::Rng) -> Qd {
+        let x0 = (rng.unit() - 0.5) * 2f64.powi((rng.unit() * 20.0) as i32 - 10);
         let w = [
             x0,
-            x0 * (lcg(state) - 0.5) * 2f64.powi(-53),
-            x0 * (lcg(state) - 0.5) * 2f64.powi(-106),
-            x0 * (lcg(state) - 0.5) * 2f64.powi(-159),
+            x0 * (rng.unit() - 0.5) * 2f64.powi(-53),
+            x0 * (rng.unit() - 0.5) * 2f64.powi(-106),
+            x0 * (rng.unit() - 0.5) * 2f64.powi(-159),
         ];
         Qd::from_words(w)
     }
 
     #[test]
     fn addition_and_products_against_exact_expansions() {
-        let mut st = 7u64;
+        let mut rng = lasalle_testkit::Rng::new(7);
         for _ in 0..2000 {
-            let (a, b) = (random_qd(&mut st), random_qd(&mut st));
+            let (a, b) = (random_qd(&mut rng), random_qd(&mut rng));
             // a + b with the exact sum of the eight words (including heavy cancellation)
             let c = Qd::from_words([-b.x[0], -b.x[1], b.x[2], 0.0]);
             for (x, y) in [(a, b), (a, c), (a, -a + Qd::new(a.x[0] * 1e-30))] {

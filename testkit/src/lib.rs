@@ -5,8 +5,8 @@
 //!
 //! [`Rng`] is the one random generator of the tests: SplitMix64 (Steele, Lea & Flood 2014),
 //! seeded explicitly, so every failure reproduces from the seed printed with it. The library
-//! code that samples (the generator's numerical conservation check) has its own generator,
-//! `lasalle_model`'s `check::sampling::Rng`, because its verdicts are part of the product.
+//! code that samples (the conservation checks, the sampled bounds and points of the analyses)
+//! has its own, `lasalle_model::Rng`, because its verdicts are part of the product.
 //!
 //! [`same`] and [`assert_same`] are what "bitwise" means in the tests: equal bits, so `0.0`
 //! and `-0.0` differ, and NaN equals NaN (where `==` says the opposite of both).
@@ -71,6 +71,11 @@ impl Rng {
         a + (b - a) * self.unit()
     }
 
+    /// 10ᵘ with u uniform in [lo, hi): log-uniform over the decades 10^lo to 10^hi.
+    pub fn decade(&mut self, lo: f64, hi: f64) -> f64 {
+        10f64.powf(self.uniform(lo, hi))
+    }
+
     /// N values uniform in [a, b).
     pub fn array<const N: usize>(&mut self, a: f64, b: f64) -> [f64; N] {
         std::array::from_fn(|_| self.uniform(a, b))
@@ -91,6 +96,12 @@ impl Rng {
     /// True with probability p.
     pub fn chance(&mut self, p: f64) -> bool {
         self.unit() < p
+    }
+
+    /// ±u with u uniform in [lo, hi) and either sign equally likely: values bounded away from
+    /// zero (0 < lo) and of both signs.
+    pub fn signed(&mut self, lo: f64, hi: f64) -> f64 {
+        self.sign() * self.uniform(lo, hi)
     }
 
     /// ±1 with equal probability.
@@ -194,6 +205,12 @@ mod tests {
             let u = r.uniform(-2.0, 3.0);
             assert!((-2.0..3.0).contains(&u));
             assert!(r.below(7) < 7);
+            let s = r.signed(0.5, 1.5);
+            assert!((0.5..1.5).contains(&s.abs()), "{s}");
+        }
+        for _ in 0..1000 {
+            let d = r.decade(-300.0, 300.0);
+            assert!((1e-300..1e300).contains(&d), "{d}");
         }
         let mean = (0..100_000).map(|_| r.unit()).sum::<f64>() / 1e5;
         assert!((mean - 0.5).abs() < 0.005, "mean {mean}");
