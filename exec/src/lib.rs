@@ -27,6 +27,7 @@
 
 mod deferred;
 pub mod ensemble;
+mod intern;
 pub mod interp;
 #[cfg(feature = "jit")]
 pub mod jit;
@@ -37,6 +38,7 @@ pub mod taylor;
 pub use ensemble::{FeedbackLanes, LaneField, Lanes, PackError};
 pub use lasalle_model::loops::{Families, LoopModel};
 pub use loops::{LoopKernel, Stage, StagedKernel};
+pub use intern::{interned, Interned};
 pub use model::{LoadError, LoadedModel};
 pub use taylor::{
     LoopFeedbackTaylor, LoopTaylorTape, Taylor, TaylorError, TaylorField, TaylorOptions, TaylorTape,

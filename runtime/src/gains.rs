@@ -170,8 +170,9 @@ where
 }
 
 /// Σᵢ |∇fᵢ(x)|² over the components fᵢ of each gain, into `traces` (one entry per gain):
-/// tr(Df(x)ᵀ K Df(x)) is Σ_g k_g · traces[g].
-pub fn gain_traces<Mdl, T, X, F>(model: &Mdl, x: &X, traces: &mut [T])
+/// tr(Df(x)ᵀ K Df(x)) is Σ_g k_g · traces[g]. `jac` is the caller's storage for Df(x), sized
+/// at the first call and kept, so that a caller calling at every step allocates only once.
+pub fn gain_traces<Mdl, T, X, F>(model: &Mdl, x: &X, jac: &mut Option<F::Rows<X>>, traces: &mut [T])
 where
     Mdl: Invariants<T, X, F> + ModelInfo + ?Sized,
     T: Float,
@@ -179,8 +180,14 @@ where
     F: State<T>,
 {
     let m = model.invariant_dim();
-    let mut jac = F::rows(F::len_for(m), X::filled(X::len_for(x.len()), T::zero()));
-    model.invariants_jacobian(x, &mut jac);
+    let fits = jac
+        .as_ref()
+        .is_some_and(|j| j.as_ref().len() == m && j.as_ref().iter().all(|r| r.len() == x.len()));
+    if !fits {
+        *jac = Some(F::rows(F::len_for(m), X::filled(X::len_for(x.len()), T::zero())));
+    }
+    let jac = jac.as_mut().expect("sized above");
+    model.invariants_jacobian(x, jac);
     traces.iter_mut().for_each(|t| *t = T::zero());
     let rows = jac.as_ref();
     for info in model.invariant_infos() {

@@ -114,6 +114,42 @@ impl Rng {
     }
 }
 
+/// The Pleiades (seven bodies in the plane) of the IVP test set at t = 3: x₁…x₇, y₁…y₇,
+/// ẋ₁…ẋ₇, ẏ₁…ẏ₇, the 16 digits as published (Mazzia & Magherini, *Test Set for Initial Value
+/// Problem Solvers*, the Pleiades problem, reference solution), for `tests/models/pleiades.lsl`
+/// and `models/pleiades.lsl`.
+#[allow(clippy::excessive_precision)]
+pub const PLEIADES_AT_3: [f64; 28] = [
+    0.3706139143970502,
+    3.237284092057233,
+    -3.222559032418324,
+    0.6597091455775310,
+    0.3425581707156584,
+    1.562172101400631,
+    -0.7003092922212495,
+    -3.943437585517392,
+    -3.271380973972550,
+    5.225081843456543,
+    -2.590612434977470,
+    1.198213693392275,
+    -0.2429682344935824,
+    1.091449240428980,
+    3.417003806314313,
+    1.354584501625501,
+    -2.590065597810775,
+    2.025053734714242,
+    -1.155815100160448,
+    -0.8072988170223021,
+    0.5952396354208710,
+    -3.741244961234010,
+    0.3773459685750630,
+    0.9386858869551073,
+    0.3667922227200571,
+    -0.3474046353808490,
+    2.344915448180937,
+    -1.947020434263292,
+];
+
 /// The repository's model files (`models/*.lsl`), sorted: what the tests that run over every
 /// model (back ends, tapes, lanes) iterate on.
 pub fn model_files() -> Vec<std::path::PathBuf> {

@@ -458,10 +458,16 @@ pub fn example() -> (Extremal, [f64; 6], [f64; 6], [f64; 6]) {
 
 /// `count` spherical points off the singular set (r ∈ [6500, 9000] km, |φ|, |γ| ≤ 1.2,
 /// v ∈ [3, 11] km/s) with multipliers (λ_v ∈ [0.2, 1], the others of both signs), from a
-/// generator seeded by `seed` ([`lasalle_model::Rng`]).
+/// xorshift64* generator seeded by `seed`.
 pub fn sample_points(count: usize, seed: u64) -> Vec<([f64; 6], [f64; 6])> {
-    let mut rng = lasalle_model::Rng::new(seed);
-    let mut next = |lo: f64, hi: f64| rng.uniform(lo, hi);
+    let mut state = seed.max(1);
+    let mut next = |lo: f64, hi: f64| {
+        state ^= state >> 12;
+        state ^= state << 25;
+        state ^= state >> 27;
+        let u = (state.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64;
+        lo + (hi - lo) * u
+    };
     (0..count)
         .map(|_| {
             let x = [
