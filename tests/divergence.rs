@@ -12,9 +12,9 @@ mod common;
 use std::path::PathBuf;
 
 use common::lasalle;
-use lasalle_testkit::PLEIADES_AT_3;
 use lasalle::models::rigid_body::RigidBody;
 use lasalle::{DriftBound, Driver, ExplicitRk, StepError};
+use lasalle_testkit::PLEIADES_AT_3;
 
 const PLEIADES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/models/pleiades.lsl");
 /// The same Pleiades as a family, with the test set's point and preset.

@@ -36,9 +36,9 @@ pub mod model;
 pub mod taylor;
 
 pub use ensemble::{FeedbackLanes, LaneField, Lanes, PackError};
+pub use intern::{interned, Interned};
 pub use lasalle_model::loops::{Families, LoopModel};
 pub use loops::{LoopKernel, Stage, StagedKernel};
-pub use intern::{interned, Interned};
 pub use model::{LoadError, LoadedModel};
 pub use taylor::{
     LoopFeedbackTaylor, LoopTaylorTape, Taylor, TaylorError, TaylorField, TaylorOptions, TaylorTape,

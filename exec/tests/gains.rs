@@ -37,12 +37,21 @@ fn capped_steps_allocate_nothing_after_the_first() {
         stepper.step(&field, i as f64 * h, &mut x, h).unwrap();
     }
     assert_eq!(allocations() - before, 0, "allocations in 199 steps");
-    let counters = stepper.counters();
-    let capped = counters.iter().find(|(n, _)| *n == "capped_steps").unwrap().1;
+    type Field<'a> = FeedbackField<'a, LoadedModel, Vec<f64>, Vec<f64>>;
+    let counters = <_ as Stepper<f64, Vec<f64>, Field>>::counters(&stepper);
+    let capped = counters
+        .iter()
+        .find(|(n, _)| *n == "capped_steps")
+        .unwrap()
+        .1;
     assert!(capped > 0.0, "no step was capped: {counters:?}");
     assert!(x.iter().all(|v| v.is_finite()), "{x:?}");
     // the bound held: h·k·L never passed θ
-    assert!(stepper.max_hkl() <= theta * (1.0 + 1e-12), "{}", stepper.max_hkl());
+    assert!(
+        stepper.max_hkl() <= theta * (1.0 + 1e-12),
+        "{}",
+        stepper.max_hkl()
+    );
 }
 
 const NBODY: &str = include_str!("../../models/nbody.lsl");

@@ -11,12 +11,18 @@ fn loading_a_model_again_interns_nothing_new() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../models/rigid_body.lsl");
     let first = LoadedModel::load(path, Backend::Interpreter).unwrap();
     let after_first = interned();
-    assert!(after_first.names > 10 && after_first.tables > 5, "{after_first:?}");
+    assert!(
+        after_first.names > 10 && after_first.tables > 5,
+        "{after_first:?}"
+    );
     for _ in 0..50 {
         let again = LoadedModel::load(path, Backend::Interpreter).unwrap();
         assert!(std::ptr::eq(again.model_name(), first.model_name()));
         assert!(std::ptr::eq(again.state_slots(), first.state_slots()));
-        assert!(std::ptr::eq(again.invariant_infos(), first.invariant_infos()));
+        assert!(std::ptr::eq(
+            again.invariant_infos(),
+            first.invariant_infos()
+        ));
         assert!(std::ptr::eq(again.gain_names(), first.gain_names()));
     }
     assert_eq!(interned(), after_first);

@@ -16,7 +16,6 @@
 
 use crate::scalar::{Coeff, Real};
 use crate::Dd;
-use lasalle_model::ir::{Rational, Scalar};
 use std::fmt;
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
 
@@ -550,55 +549,13 @@ impl Real for Qd {
     }
 }
 
-/// Quad-double values in expression evaluation (`lasalle_model::ir::Graph::eval`).
-impl Scalar for Qd {
-    fn from_f64(c: f64) -> Self {
-        Qd::new(c)
-    }
-    fn add(&self, o: &Self) -> Self {
-        *self + *o
-    }
-    fn mul(&self, o: &Self) -> Self {
-        *self * *o
-    }
-    fn recip(&self) -> Self {
-        Qd::new(1.0) / *self
-    }
-    fn powi(&self, n: i32) -> Self {
-        crate::scalar::powi(*self, n as i64)
-    }
-    fn powf(&self, p: Rational) -> Self {
-        Real::powf(*self, p)
-    }
-    fn exp(&self) -> Self {
-        Real::exp(*self)
-    }
-    fn ln(&self) -> Self {
-        Real::ln(*self)
-    }
-    fn sin(&self) -> Self {
-        Real::sin(*self)
-    }
-    fn cos(&self) -> Self {
-        Real::cos(*self)
-    }
-    fn neg(&self) -> Self {
-        -*self
-    }
-    fn sub(&self, o: &Self) -> Self {
-        *self - *o
-    }
-    fn div(&self, o: &Self) -> Self {
-        *self / *o
-    }
-    fn sqrt(&self) -> Self {
-        Real::sqrt(*self)
-    }
-}
+// Quad-double values in expression evaluation.
+crate::scalar::scalar_by_real!(Qd);
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use lasalle_model::ir::Rational;
 
     /// |a − b| ≤ tol·|b|, measured in quad-double.
     fn close(a: Qd, b: Qd, tol: f64) -> bool {

@@ -151,7 +151,9 @@ mod tests {
         assert_eq!((found.path.as_str(), found.stem.as_str()), (path, "kepler"));
         match model_text("no/such/model.lsl") {
             Err(e @ LookupError::Unreadable { .. }) => {
-                assert!(e.to_string().starts_with("cannot read model file `no/such/model.lsl`: "))
+                assert!(e
+                    .to_string()
+                    .starts_with("cannot read model file `no/such/model.lsl`: "))
             }
             other => panic!("{other:?}"),
         }

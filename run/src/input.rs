@@ -172,7 +172,13 @@ mod tests {
             ("0: inf :3", ValuesError::NotANumber("inf".into())),
             ("0:1:0", ValuesError::Count("0".into())),
             ("0:1:2.5", ValuesError::Count("2.5".into())),
-            ("0:1:1", ValuesError::OneValue { start: 0.0, stop: 1.0 }),
+            (
+                "0:1:1",
+                ValuesError::OneValue {
+                    start: 0.0,
+                    stop: 1.0,
+                },
+            ),
             ("0:1", ValuesError::Shape),
             ("0:1:2:3", ValuesError::Shape),
         ];

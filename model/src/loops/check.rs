@@ -19,10 +19,10 @@
 
 use super::{Builder, LoopModel, Outputs, Source};
 use crate::check::{prove, Conservation, Verdict, EXPAND_LIMIT, SAMPLES, TOLERANCE};
-use crate::Rng;
 use crate::error::{Diagnostic, Error};
 use crate::ir::{FxHashMap, Graph, Id, Input};
 use crate::model::{InvariantKind, Structure};
+use crate::Rng;
 
 /// Fresh symbols of the proofs (above the families' own).
 const FRESH: u32 = 1 << 30;
