@@ -14,7 +14,7 @@ use lasalle_runtime::{
 };
 
 mod common;
-use lasalle_testkit::{same, Rng};
+use lasalle_testkit::same;
 
 #[deny(warnings)]
 #[allow(dead_code, missing_docs)] // the tests use part of the emitted API
@@ -36,6 +36,21 @@ fn sized(file: &str, n: usize) -> String {
     text.replace(line, &format!("    param n = {n};"))
 }
 
+/// A deterministic random number in ±[0.5, 1.5).
+fn rng(mut seed: u64) -> impl FnMut() -> f64 {
+    move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        let u = (seed >> 11) as f64 / (1u64 << 53) as f64;
+        if seed & 1 == 0 {
+            0.5 + u
+        } else {
+            -0.5 - u
+        }
+    }
+}
+
 /// The emitted `field` and `invariants` of one size against the loop kernels of every back
 /// end, at 100 random states (positions spread so no two bodies coincide).
 fn agrees<const N: usize, const M: usize>(
@@ -53,9 +68,9 @@ fn agrees<const N: usize, const M: usize>(
             (model.dim(), model.model().unwrap().invariant_dim()),
             (N, M)
         );
-        let mut rng = Rng::new(0x9e37_79b9_7f4a_7c15 ^ n as u64);
+        let mut rand = rng(0x9e37_79b9_7f4a_7c15 ^ n as u64);
         for _ in 0..100 {
-            let x: [f64; N] = std::array::from_fn(|k| rng.signed(0.5, 1.5) * (1 + k) as f64);
+            let x: [f64; N] = std::array::from_fn(|k| rand() * (1 + k) as f64);
             let (mut want, mut got) = (vec![0.0; N], [0.0; N]);
             model.field(&x.to_vec(), &mut want);
             field(&x, &mut got);
@@ -90,10 +105,10 @@ fn lanes_agree<const N: usize, const M: usize>(
     field_lanes: Batch<'_, N, N>,
     invariants_lanes: Batch<'_, N, M>,
 ) {
-    let mut rng = Rng::new(0x2545_f491_4f6c_dd1d ^ N as u64);
+    let mut rand = rng(0x2545_f491_4f6c_dd1d ^ N as u64);
     for _ in 0..20 {
         let xs: [[f64; N]; 4] =
-            std::array::from_fn(|_| std::array::from_fn(|k| rng.signed(0.5, 1.5) * (1 + k) as f64));
+            std::array::from_fn(|_| std::array::from_fn(|k| rand() * (1 + k) as f64));
         let soa: [[f64; 4]; N] = std::array::from_fn(|i| std::array::from_fn(|l| xs[l][i]));
         let (mut dx, mut f) = ([[0.0; 4]; N], [[0.0; 4]; M]);
         field_lanes(&soa, &mut dx);
@@ -198,14 +213,14 @@ where
         let theirs = model.partitioned().map(|p| p.is_q().to_vec());
         assert_eq!(is_q, theirs, "{path}: the partition, {name}");
     }
-    let mut rng = Rng::new(0x5851_f42d_4c95_7f2d ^ n as u64);
+    let mut rand = rng(0x5851_f42d_4c95_7f2d ^ n as u64);
     let mut worst = 0.0f64;
     for _ in 0..30 {
-        let x: [f64; N] = std::array::from_fn(|k| rng.signed(0.5, 1.5) * (1 + k) as f64);
-        let y: [f64; N] = std::array::from_fn(|k| rng.signed(0.5, 1.5) * (1 + k) as f64);
+        let x: [f64; N] = std::array::from_fn(|k| rand() * (1 + k) as f64);
+        let y: [f64; N] = std::array::from_fn(|k| rand() * (1 + k) as f64);
         let mut target = [0.0; M];
         m.invariants(&y, &mut target);
-        let gains: [f64; G] = std::array::from_fn(|_| rng.signed(0.5, 1.5).abs());
+        let gains: [f64; G] = std::array::from_fn(|_| rand().abs());
         let got = derived_of(m, &x, &target, &gains);
         for (name, model, bitwise) in &loaded {
             let want = derived_of(model, &x.to_vec(), &target.to_vec(), &gains.to_vec());
@@ -391,11 +406,11 @@ fn guards_and_events_equal_the_jit_bit_for_bit() {
             loaded.push((model, families == Families::Loops));
         }
     }
-    let mut rng = Rng::new(0x1405_7b7e_f767_814f);
+    let mut rand = rng(0x1405_7b7e_f767_814f);
     let (mut held, mut failed) = (0, 0);
     for _ in 0..200 {
-        let x: [f64; DIM] = std::array::from_fn(|_| rng.signed(0.5, 1.5) * 2.0);
-        let (dt, t) = (rng.signed(0.5, 1.5).abs() * 0.2, rng.signed(0.5, 1.5) * 3.0);
+        let x: [f64; DIM] = std::array::from_fn(|_| rand() * 2.0);
+        let (dt, t) = (rand().abs() * 0.2, rand() * 3.0);
         let got = m.check_guards(&x, dt);
         let mut g = [0.0; 2];
         m.event_values(&x, t, &mut g);
