@@ -39,15 +39,16 @@ pub(crate) fn name(name: &str) -> &'static str {
 /// `table`, stored once per distinct content. Two tables are the same when their `Debug` texts
 /// are: for the plain data of a model's description (names, shapes, offsets, numbers printed
 /// to the last bit) that is equality of every field.
-pub(crate) fn table<T: Debug + Send + Sync + 'static>(table: Vec<T>) -> &'static [T] {
+pub(crate) fn table<T: Debug + Send + Sync + 'static>(mut table: Vec<T>) -> &'static [T] {
     let key = (TypeId::of::<T>(), format!("{table:?}"));
     let mut interner = interner();
     if let Some(stored) = interner.tables.get(&key) {
         return stored
-            .downcast_ref::<Box<[T]>>()
+            .downcast_ref::<Vec<T>>()
             .expect("a table is stored under its own element type");
     }
-    let stored: &'static Box<[T]> = Box::leak(Box::new(table.into_boxed_slice()));
+    table.shrink_to_fit();
+    let stored: &'static Vec<T> = Box::leak(Box::new(table));
     interner.tables.insert(key, stored);
     stored
 }
