@@ -1,7 +1,6 @@
 //! Generates a module for every model in `models/` (and the variational equations of a few)
-//! into `$OUT_DIR/models.rs`, and embeds the
-//! model files themselves (`$OUT_DIR/model_files.rs`) so the command line finds them by name
-//! from any directory.
+//! into `$OUT_DIR/models.rs` (the model files themselves are embedded by `lasalle-run`, for
+//! every front end).
 
 use std::fmt::Write;
 use std::path::PathBuf;
@@ -35,23 +34,6 @@ fn main() {
         .collect();
     files.sort();
     model_list(&built, &files);
-    let mut out = String::from(
-        "/// The repository's model files, embedded: (file stem, text), sorted by name.\n\
-         pub const MODEL_FILES: &[(&str, &str)] = &[\n",
-    );
-    for f in &files {
-        let stem = f.file_stem().expect("a file").to_string_lossy();
-        writeln!(
-            out,
-            "    ({stem:?}, include_str!({:?})),",
-            f.display().to_string()
-        )
-        .unwrap();
-    }
-    out.push_str("];\n");
-    let target =
-        PathBuf::from(std::env::var("OUT_DIR").expect("set by cargo")).join("model_files.rs");
-    std::fs::write(target, out).expect("OUT_DIR is writable");
     println!("cargo:rerun-if-changed=models");
     println!("cargo:rerun-if-changed=tests/models/loop_ring.lsl");
 }

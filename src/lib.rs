@@ -32,11 +32,9 @@ pub use lasalle_run::{
     find_preset, initial_state, json_number, parse_numbers, process_cpu_seconds, simulate,
     simulate_lanes, simulate_many, simulate_with_progress, Base, Ensemble, Init, Member, Method,
     MethodSetting, ModelSource, Recording, RunError, RunModel, RunSpec, RunSpecBuilder,
-    AUTO_SAMPLES, DEFAULT_MAX_STEPS,
+    AUTO_SAMPLES, DEFAULT_MAX_STEPS, MODEL_FILES,
 };
 pub use lasalle_runtime::*;
-
-include!(concat!(env!("OUT_DIR"), "/model_files.rs"));
 
 /// The README, whose Rust blocks `cargo test --doc` compiles and runs as it does this crate's.
 #[cfg(doctest)]

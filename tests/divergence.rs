@@ -14,44 +14,12 @@ use std::path::PathBuf;
 use common::lasalle;
 use lasalle::models::rigid_body::RigidBody;
 use lasalle::{DriftBound, Driver, ExplicitRk, StepError};
+use lasalle_testkit::PLEIADES_AT_3;
 
 const PLEIADES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/models/pleiades.lsl");
 /// The same Pleiades as a family, with the test set's point and preset.
 const PLEIADES_MODEL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/models/pleiades.lsl");
 const ARENSTORF: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/models/arenstorf.lsl");
-
-/// x₁…x₇, y₁…y₇, ẋ₁…ẋ₇, ẏ₁…ẏ₇ at t = 3, the 16 digits as published.
-#[allow(clippy::excessive_precision)]
-const REFERENCE: [f64; 28] = [
-    0.3706139143970502,
-    3.237284092057233,
-    -3.222559032418324,
-    0.6597091455775310,
-    0.3425581707156584,
-    1.562172101400631,
-    -0.7003092922212495,
-    -3.943437585517392,
-    -3.271380973972550,
-    5.225081843456543,
-    -2.590612434977470,
-    1.198213693392275,
-    -0.2429682344935824,
-    1.091449240428980,
-    3.417003806314313,
-    1.354584501625501,
-    -2.590065597810775,
-    2.025053734714242,
-    -1.155815100160448,
-    -0.8072988170223021,
-    0.5952396354208710,
-    -3.741244961234010,
-    0.3773459685750630,
-    0.9386858869551073,
-    0.3667922227200571,
-    -0.3474046353808490,
-    2.344915448180937,
-    -1.947020434263292,
-];
 
 fn out(name: &str) -> String {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
@@ -90,7 +58,7 @@ fn distance_from_reference(summary: &serde_json::Value) -> f64 {
             } else {
                 x[i] / ((i % 7) + 1) as f64
             };
-            (v - REFERENCE[i]).abs()
+            (v - PLEIADES_AT_3[i]).abs()
         })
         .fold(0.0, f64::max)
 }

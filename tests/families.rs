@@ -9,6 +9,7 @@ mod common;
 use std::path::PathBuf;
 
 use common::lasalle;
+use lasalle_testkit::PLEIADES_AT_3;
 
 const PLEIADES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/models/pleiades.lsl");
 
@@ -23,39 +24,6 @@ const PLEIADES_FAMILY: &str = "model PleiadesFamily {
     integral L = sum(i in 0..n: q[i] * p[n + i] - q[n + i] * p[i]);
     point start { q = [3, 3, -1, -3, 2, -2, 2, 3, -3, 2, 0, 0, -4, 4]; p = [0, 0, 0, 0, 0, 10.5, -10.5, 0, 0, 0, -5, 5, 0, 0]; }
 }";
-
-/// x₁…x₇, y₁…y₇, ẋ₁…ẋ₇, ẏ₁…ẏ₇ at t = 3 (Mazzia & Magherini, the IVP test set).
-#[allow(clippy::excessive_precision)]
-const REFERENCE: [f64; 28] = [
-    0.3706139143970502,
-    3.237284092057233,
-    -3.222559032418324,
-    0.6597091455775310,
-    0.3425581707156584,
-    1.562172101400631,
-    -0.7003092922212495,
-    -3.943437585517392,
-    -3.271380973972550,
-    5.225081843456543,
-    -2.590612434977470,
-    1.198213693392275,
-    -0.2429682344935824,
-    1.091449240428980,
-    3.417003806314313,
-    1.354584501625501,
-    -2.590065597810775,
-    2.025053734714242,
-    -1.155815100160448,
-    -0.8072988170223021,
-    0.5952396354208710,
-    -3.741244961234010,
-    0.3773459685750630,
-    0.9386858869551073,
-    0.3667922227200571,
-    -0.3474046353808490,
-    2.344915448180937,
-    -1.947020434263292,
-];
 
 fn dir(name: &str) -> PathBuf {
     let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
@@ -122,7 +90,7 @@ fn pleiades_family_meets_the_ivp_test_set_as_the_written_model() {
         &b.iter().map(String::as_str).collect::<Vec<_>>(),
     );
     let (x, y) = (final_state(&s_family), final_state(&s_written));
-    for (i, (&r, (&xi, &yi))) in REFERENCE.iter().zip(x.iter().zip(&y)).enumerate() {
+    for (i, (&r, (&xi, &yi))) in PLEIADES_AT_3.iter().zip(x.iter().zip(&y)).enumerate() {
         // velocities are p / m, m_i = i
         let v = if i < 14 {
             xi
@@ -279,7 +247,7 @@ fn pleiades_loops_text() -> String {
 /// Final states of the loop form and the unrolled model (x, y, p_x, p_y) against the IVP test
 /// set's reference (positions and velocities) and each other.
 fn meets_reference(loops: &[f64], unrolled: &[f64]) {
-    for (i, &r) in REFERENCE.iter().enumerate() {
+    for (i, &r) in PLEIADES_AT_3.iter().enumerate() {
         let v = |x: &[f64]| {
             if i < 14 {
                 x[i]

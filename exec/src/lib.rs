@@ -27,6 +27,7 @@
 
 mod deferred;
 pub mod ensemble;
+mod intern;
 pub mod interp;
 #[cfg(feature = "jit")]
 pub mod jit;
@@ -35,6 +36,7 @@ pub mod model;
 pub mod taylor;
 
 pub use ensemble::{FeedbackLanes, LaneField, Lanes, PackError};
+pub use intern::{interned, Interned};
 pub use lasalle_model::loops::{Families, LoopModel};
 pub use loops::{LoopKernel, Stage, StagedKernel};
 pub use model::{LoadError, LoadedModel};

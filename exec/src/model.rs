@@ -39,7 +39,7 @@ use lasalle_runtime::{
     Shape, Slot, Splitting, SwitchSpec,
 };
 
-use crate::{Backend, ExecError, Kernel};
+use crate::{intern, Backend, ExecError, Kernel};
 
 /// Why a model could not be loaded.
 #[derive(Debug, thiserror::Error)]
@@ -179,9 +179,9 @@ impl Kernels {
     }
 }
 
-/// The model's description in the runtime's terms. The names live as long as the process (a
-/// few hundred bytes per loaded model), so that [`ModelInfo`] can hand out `'static` tables
-/// as compiled models do.
+/// The model's description in the runtime's terms. The names and tables live as long as the
+/// process, so that [`ModelInfo`] can hand out `'static` tables as compiled models do; they are
+/// interned ([`crate::intern`]), so loading the same model again adds nothing.
 struct Info {
     name: &'static str,
     state: &'static [Slot],
@@ -197,31 +197,23 @@ struct Info {
     delays: &'static [DelaySpec],
 }
 
-fn leak<T>(v: Vec<T>) -> &'static [T] {
-    Box::leak(v.into_boxed_slice())
-}
-
-fn leak_str(s: &str) -> &'static str {
-    Box::leak(s.to_string().into_boxed_str())
-}
-
 impl Info {
     fn new(model: &Model) -> Info {
         let slot = |name: &str, shape: Shape, offset: usize| Slot {
-            name: leak_str(name),
+            name: intern::name(name),
             shape,
             offset,
         };
         Info {
-            name: leak_str(&model.name),
-            state: leak(
+            name: intern::name(&model.name),
+            state: intern::table(
                 model
                     .state
                     .iter()
                     .map(|s| slot(&s.name, s.shape, s.offset))
                     .collect(),
             ),
-            invariants: leak(
+            invariants: intern::table(
                 model
                     .invariants
                     .iter()
@@ -232,9 +224,9 @@ impl Info {
                     })
                     .collect(),
             ),
-            gain_names: leak(model.gains.iter().map(|g| leak_str(&g.name)).collect()),
-            default_gains: leak(model.gains.iter().map(|g| g.default).collect()),
-            params: leak(
+            gain_names: intern::table(model.gains.iter().map(|g| intern::name(&g.name)).collect()),
+            default_gains: intern::table(model.gains.iter().map(|g| g.default).collect()),
+            params: intern::table(
                 model
                     .params
                     .iter()
@@ -248,23 +240,23 @@ impl Info {
                     })
                     .collect(),
             ),
-            points: leak(model.points.iter().map(|p| leak_str(&p.name)).collect()),
-            presets: leak(
+            points: intern::table(model.points.iter().map(|p| intern::name(&p.name)).collect()),
+            presets: intern::table(
                 model
                     .presets
                     .iter()
                     .map(|p| Preset {
-                        name: leak_str(&p.name),
-                        method: p.method.as_deref().map(leak_str),
+                        name: intern::name(&p.name),
+                        method: p.method.as_deref().map(intern::name),
                         dt: p.dt,
                         t_end: p.t_end,
                         every: p.every,
-                        init: p.init.as_deref().map(leak_str),
-                        gains: p.gains.clone().map(leak),
-                        params: leak(
+                        init: p.init.as_deref().map(intern::name),
+                        gains: p.gains.clone().map(intern::table),
+                        params: intern::table(
                             p.params
                                 .iter()
-                                .map(|(n, v)| (leak_str(n), leak(v.clone())))
+                                .map(|(n, v)| (intern::name(n), intern::table(v.clone())))
                                 .collect(),
                         ),
                     })
@@ -273,14 +265,14 @@ impl Info {
             guards: model
                 .guards
                 .iter()
-                .map(|g| (leak_str(&g.name), leak_str(&g.condition), g.strict))
+                .map(|g| (intern::name(&g.name), intern::name(&g.condition), g.strict))
                 .collect(),
-            events: leak(
+            events: intern::table(
                 model
                     .events
                     .iter()
                     .map(|e| EventSpec {
-                        name: leak_str(&e.name),
+                        name: intern::name(&e.name),
                         direction: match e.direction {
                             Direction::Both => EventDirection::Both,
                             Direction::Rising => EventDirection::Rising,
@@ -290,25 +282,25 @@ impl Info {
                     })
                     .collect(),
             ),
-            switches: leak(
+            switches: intern::table(
                 model
                     .switches
                     .iter()
                     .map(|s| SwitchSpec {
-                        surface: leak_str(&s.text),
+                        surface: intern::name(&s.text),
                         mode: s.mode,
                         slide: s.slide,
                         event: s.event,
                     })
                     .collect(),
             ),
-            delays: leak(
+            delays: intern::table(
                 model
                     .delays
                     .iter()
                     .map(|d| DelaySpec {
-                        text: leak_str(&d.text),
-                        location: leak_str(&d.span.location()),
+                        text: intern::name(&d.text),
+                        location: intern::name(&d.span.location()),
                         component: d.component,
                         slot: d.slot,
                         clock: d.clock,

@@ -63,6 +63,7 @@ pub mod loops;
 mod model;
 pub mod names;
 mod parse;
+mod rng;
 pub mod splitting;
 pub mod tape;
 pub mod variational;
@@ -76,6 +77,7 @@ pub use model::{
     InvariantKind, Model, NotCanonical, Param, Point, Preset, Shape, StateVar, Structure, Value,
     EVENT_TIME, GUARD_STEP, MAX_DELAYS,
 };
+pub use rng::Rng;
 pub use splitting::{Splitting, SplittingKind, SPLITTINGS};
 
 use std::path::Path;

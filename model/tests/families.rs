@@ -34,20 +34,11 @@ fn eval(m: &Model, outputs: &[lasalle_model::ir::Id], x: &[f64]) -> Vec<f64> {
     })
 }
 
-/// Deterministic states with components in [-2, 2].
+/// Deterministic states with components in [-2, 2).
 fn states(dim: usize, count: usize) -> Vec<Vec<f64>> {
-    let mut s = 0x2545_f491_4f6c_dd1du64;
+    let mut rng = lasalle_testkit::Rng::new(0x2545_f491_4f6c_dd1d);
     (0..count)
-        .map(|_| {
-            (0..dim)
-                .map(|_| {
-                    s ^= s << 13;
-                    s ^= s >> 7;
-                    s ^= s << 17;
-                    (s >> 11) as f64 / (1u64 << 53) as f64 * 4.0 - 2.0
-                })
-                .collect()
-        })
+        .map(|_| (0..dim).map(|_| rng.uniform(-2.0, 2.0)).collect())
         .collect()
 }
 

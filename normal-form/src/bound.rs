@@ -267,16 +267,10 @@ const SPHERE_SAMPLES: usize = 1000;
 /// Gradient steps of the local refinement.
 const REFINE_ITERATIONS: usize = 40;
 
-/// Deterministic directions on S^{d−1}: Gaussian vectors (Box–Muller on a 64-bit LCG),
-/// normalised, plus the ± coordinate axes.
+/// Deterministic directions on S^{d−1}: Gaussian vectors (Box–Muller on the seeded
+/// [`Rng`](lasalle_model::Rng)), normalised, plus the ± coordinate axes.
 fn sphere_directions(d: usize, count: usize) -> Vec<Vec<f64>> {
-    let mut state: u64 = 0x2545_f491_4f6c_dd1d;
-    let mut uniform = || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    };
+    let mut rng = lasalle_model::Rng::new(0x2545_f491_4f6c_dd1d);
     let mut out: Vec<Vec<f64>> = Vec::with_capacity(count + 2 * d);
     for k in 0..d {
         for s in [1.0, -1.0] {
@@ -288,7 +282,7 @@ fn sphere_directions(d: usize, count: usize) -> Vec<Vec<f64>> {
     while out.len() < count + 2 * d {
         let v: Vec<f64> = (0..d)
             .map(|_| {
-                let (u1, u2) = (uniform(), uniform());
+                let (u1, u2) = (rng.unit_positive(), rng.unit());
                 (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
             })
             .collect();

@@ -27,53 +27,9 @@ use crate::scalar::{Coeff, Real};
 use crate::Dd;
 use lasalle_model::ir::{Rational, Scalar};
 
-/// Double-double values in expression evaluation (`lasalle_model::ir::Graph::eval`, any
-/// [`HamiltonianFn`](crate::HamiltonianFn)); `f64` has its implementation in the code
-/// generator.
-impl Scalar for Dd {
-    fn from_f64(c: f64) -> Self {
-        Dd::new(c)
-    }
-    fn add(&self, o: &Self) -> Self {
-        *self + *o
-    }
-    fn mul(&self, o: &Self) -> Self {
-        *self * *o
-    }
-    fn recip(&self) -> Self {
-        Dd::new(1.0) / *self
-    }
-    fn powi(&self, n: i32) -> Self {
-        crate::scalar::powi(*self, n as i64)
-    }
-    fn powf(&self, p: Rational) -> Self {
-        Real::powf(*self, p)
-    }
-    fn exp(&self) -> Self {
-        Real::exp(*self)
-    }
-    fn ln(&self) -> Self {
-        Real::ln(*self)
-    }
-    fn sin(&self) -> Self {
-        Real::sin(*self)
-    }
-    fn cos(&self) -> Self {
-        Real::cos(*self)
-    }
-    fn neg(&self) -> Self {
-        -*self
-    }
-    fn sub(&self, o: &Self) -> Self {
-        *self - *o
-    }
-    fn div(&self, o: &Self) -> Self {
-        *self / *o
-    }
-    fn sqrt(&self) -> Self {
-        Real::sqrt(*self)
-    }
-}
+// Double-double values in expression evaluation (any [`HamiltonianFn`](crate::HamiltonianFn));
+// `f64` has its implementation in the code generator.
+crate::scalar::scalar_by_real!(Dd);
 
 /// A value in a jet evaluation: a constant, or a truncated series.
 #[derive(Clone, Debug)]

@@ -16,7 +16,6 @@
 
 use crate::scalar::{Coeff, Real};
 use crate::Dd;
-use lasalle_model::ir::{Rational, Scalar};
 use std::fmt;
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
 
@@ -550,55 +549,13 @@ impl Real for Qd {
     }
 }
 
-/// Quad-double values in expression evaluation (`lasalle_model::ir::Graph::eval`).
-impl Scalar for Qd {
-    fn from_f64(c: f64) -> Self {
-        Qd::new(c)
-    }
-    fn add(&self, o: &Self) -> Self {
-        *self + *o
-    }
-    fn mul(&self, o: &Self) -> Self {
-        *self * *o
-    }
-    fn recip(&self) -> Self {
-        Qd::new(1.0) / *self
-    }
-    fn powi(&self, n: i32) -> Self {
-        crate::scalar::powi(*self, n as i64)
-    }
-    fn powf(&self, p: Rational) -> Self {
-        Real::powf(*self, p)
-    }
-    fn exp(&self) -> Self {
-        Real::exp(*self)
-    }
-    fn ln(&self) -> Self {
-        Real::ln(*self)
-    }
-    fn sin(&self) -> Self {
-        Real::sin(*self)
-    }
-    fn cos(&self) -> Self {
-        Real::cos(*self)
-    }
-    fn neg(&self) -> Self {
-        -*self
-    }
-    fn sub(&self, o: &Self) -> Self {
-        *self - *o
-    }
-    fn div(&self, o: &Self) -> Self {
-        *self / *o
-    }
-    fn sqrt(&self) -> Self {
-        Real::sqrt(*self)
-    }
-}
+// Quad-double values in expression evaluation.
+crate::scalar::scalar_by_real!(Qd);
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use lasalle_model::ir::Rational;
 
     /// |a − b| ≤ tol·|b|, measured in quad-double.
     fn close(a: Qd, b: Qd, tol: f64) -> bool {
@@ -636,29 +593,22 @@ mod tests {
         (d / b).abs()
     }
 
-    fn lcg(state: &mut u64) -> f64 {
-        *state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((*state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    }
-
-    fn random_qd(state: &mut u64) -> Qd {
-        let x0 = (lcg(state) - 0.5) * 2f64.powi((lcg(state) * 20.0) as i32 - 10);
+    fn random_qd(rng: &mut lasalle_testkit::Rng) -> Qd {
+        let x0 = (rng.unit() - 0.5) * 2f64.powi((rng.unit() * 20.0) as i32 - 10);
         let w = [
             x0,
-            x0 * (lcg(state) - 0.5) * 2f64.powi(-53),
-            x0 * (lcg(state) - 0.5) * 2f64.powi(-106),
-            x0 * (lcg(state) - 0.5) * 2f64.powi(-159),
+            x0 * (rng.unit() - 0.5) * 2f64.powi(-53),
+            x0 * (rng.unit() - 0.5) * 2f64.powi(-106),
+            x0 * (rng.unit() - 0.5) * 2f64.powi(-159),
         ];
         Qd::from_words(w)
     }
 
     #[test]
     fn addition_and_products_against_exact_expansions() {
-        let mut st = 7u64;
+        let mut rng = lasalle_testkit::Rng::new(7);
         for _ in 0..2000 {
-            let (a, b) = (random_qd(&mut st), random_qd(&mut st));
+            let (a, b) = (random_qd(&mut rng), random_qd(&mut rng));
             // a + b with the exact sum of the eight words (including heavy cancellation)
             let c = Qd::from_words([-b.x[0], -b.x[1], b.x[2], 0.0]);
             for (x, y) in [(a, b), (a, c), (a, -a + Qd::new(a.x[0] * 1e-30))] {

@@ -321,3 +321,56 @@ impl Real for f64 {
         }
     }
 }
+
+/// The expression evaluator's scalar (`lasalle_model::ir::Scalar`, for `Graph::eval`) of a
+/// [`Real`] type, by its arithmetic and elementary functions: one implementation for
+/// double-double, quad-double and intervals.
+macro_rules! scalar_by_real {
+    ($t:ty) => {
+        impl lasalle_model::ir::Scalar for $t {
+            fn from_f64(c: f64) -> Self {
+                <$t as $crate::scalar::Coeff>::from_f64(c)
+            }
+            fn add(&self, o: &Self) -> Self {
+                *self + *o
+            }
+            fn mul(&self, o: &Self) -> Self {
+                *self * *o
+            }
+            fn recip(&self) -> Self {
+                <$t as $crate::scalar::Coeff>::from_f64(1.0) / *self
+            }
+            fn powi(&self, n: i32) -> Self {
+                $crate::scalar::powi(*self, n as i64)
+            }
+            fn powf(&self, p: lasalle_model::ir::Rational) -> Self {
+                $crate::scalar::Real::powf(*self, p)
+            }
+            fn exp(&self) -> Self {
+                $crate::scalar::Real::exp(*self)
+            }
+            fn ln(&self) -> Self {
+                $crate::scalar::Real::ln(*self)
+            }
+            fn sin(&self) -> Self {
+                $crate::scalar::Real::sin(*self)
+            }
+            fn cos(&self) -> Self {
+                $crate::scalar::Real::cos(*self)
+            }
+            fn neg(&self) -> Self {
+                -*self
+            }
+            fn sub(&self, o: &Self) -> Self {
+                *self - *o
+            }
+            fn div(&self, o: &Self) -> Self {
+                *self / *o
+            }
+            fn sqrt(&self) -> Self {
+                $crate::scalar::Real::sqrt(*self)
+            }
+        }
+    };
+}
+pub(crate) use scalar_by_real;

@@ -138,18 +138,12 @@ fn check_majorant<H: HamiltonianFn>(
     samples: usize,
 ) -> f64 {
     let n = 2 * nf.n_dof;
-    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-    let mut next = || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
+    let mut rng = lasalle_testkit::Rng::new(0x9e37_79b9_7f4a_7c15);
     let mut worst: f64 = 0.0;
     for r in [0.5 * c.y0, c.y0, 0.5 * (c.y0 + c.y1), c.y1] {
         let g = c.wdot.eval(r);
         for _ in 0..samples {
-            let v: Vec<f64> = (0..n).map(|_| next()).collect();
+            let v: Vec<f64> = (0..n).map(|_| rng.uniform(-1.0, 1.0)).collect();
             let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
             let y: Vec<f64> = v.iter().map(|x| x * r / norm).collect();
             let wd = wdot_at(h, nf, c.map_degree, &y);
@@ -401,17 +395,11 @@ fn sun_jupiter_l4_low_degrees_of_wdot_cancel_in_double_double() {
     let time = c.time.expect("a certified time");
     assert!(time > 7.0918e8, "{time}");
     // the majorant against |Ẇ| from the model's gradient, on the inner and outer spheres
-    let mut seed = 0x2545_f491_4f6c_dd1du64;
-    let mut next = || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
+    let mut rng = lasalle_testkit::Rng::new(0x2545_f491_4f6c_dd1d);
     for rad in [c.y0, c.y1] {
         let bound = c.wdot.eval(rad) + 1e-18;
         for _ in 0..100 {
-            let v: Vec<f64> = (0..4).map(|_| next()).collect();
+            let v: Vec<f64> = (0..4).map(|_| rng.uniform(-1.0, 1.0)).collect();
             let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
             let y: Vec<f64> = v.iter().map(|x| x * rad / norm).collect();
             let wd = wdot_at(&h, &nf, c.map_degree, &y);

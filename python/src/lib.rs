@@ -15,8 +15,8 @@ use std::time::{Duration, Instant};
 
 use lasalle_exec::{Backend, LoadError, LoadedModel};
 use lasalle_run::{
-    simulate, simulate_many, Interrupt, KernelPool, Member, Method, ModelSource, Recording,
-    Reusing, RunError, RunSpec,
+    normalise, simulate, simulate_many, Interrupt, KernelPool, LookupError, Member, Method,
+    ModelSource, Recording, Reusing, RunError, RunSpec,
 };
 use lasalle_runtime::{
     component_names, Declared, GainPolicy, ModelInfo, Parameters, Shape, Slot, StepError,
@@ -28,10 +28,6 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 mod chaos;
-
-mod models {
-    include!(concat!(env!("OUT_DIR"), "/model_files.rs"));
-}
 
 create_exception!(
     lasalle,
@@ -55,40 +51,21 @@ create_exception!(
      Attributes: guard (its name), t and state."
 );
 
-/// Lower case without `-` and `_`: `rigid-body`, `rigid_body` and `RigidBody` agree.
-fn normalise(s: &str) -> String {
-    s.chars()
-        .filter(|c| *c != '-' && *c != '_')
-        .flat_map(char::to_lowercase)
-        .collect()
-}
-
 /// The names of the built-in models (the repository's `models/*.lsl`).
 #[pyfunction]
 fn builtin_models() -> Vec<&'static str> {
-    models::MODEL_FILES.iter().map(|(stem, _)| *stem).collect()
+    lasalle_run::builtin_models()
 }
 
-/// The path (for messages) and text of a model given as a path or the name of a built-in one.
+/// The path (for messages) and text of a model given as a path or the name of a built-in one
+/// ([`lasalle_run::model_text`]): an unreadable path is `OSError`, an unknown name
+/// `ValueError`.
 #[pyfunction]
 fn model_text(arg: &str) -> PyResult<(String, String)> {
-    let path = std::path::Path::new(arg);
-    if arg.ends_with(".lsl") || arg.contains(['/', '\\']) || path.is_file() {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| PyOSError::new_err(format!("cannot read model file `{arg}`: {e}")))?;
-        return Ok((arg.to_string(), text));
-    }
-    let key = normalise(arg);
-    match models::MODEL_FILES
-        .iter()
-        .find(|(stem, _)| normalise(stem) == key)
-    {
-        Some((stem, text)) => Ok((format!("models/{stem}.lsl"), text.to_string())),
-        None => Err(PyValueError::new_err(format!(
-            "no model `{arg}`: give a path to a model file (`my_model.lsl`) or one of the \
-             built-in models: {}",
-            builtin_models().join(", ")
-        ))),
+    match lasalle_run::model_text(arg) {
+        Ok(found) => Ok((found.path, found.text)),
+        Err(e @ LookupError::Unreadable { .. }) => Err(PyOSError::new_err(e.to_string())),
+        Err(e) => Err(PyValueError::new_err(e.to_string())),
     }
 }
 

@@ -28,52 +28,10 @@ pub struct EventHit {
     pub touch: bool,
 }
 
-/// Output times from `a:b:n` (n equally spaced times from a to b, both included) or a
-/// comma-separated list of increasing numbers, as `--t-eval` takes them.
+/// Output times as `--t-eval` takes them: `a:b:n` (n equally spaced times from a to b, both
+/// included) or a comma-separated list ([`parse_values`](crate::parse_values)).
 pub fn parse_t_eval(text: &str) -> Result<Vec<f64>, RunError> {
-    let bad = |m: String| RunError::Spec(format!("--t-eval {text}: {m}"));
-    let num = |s: &str| {
-        s.trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| bad(format!("`{}` is not a finite number", s.trim())))
-    };
-    let parts: Vec<&str> = text.split(':').collect();
-    let times = match parts.as_slice() {
-        [a, b, n] => {
-            let (a, b) = (num(a)?, num(b)?);
-            let n: usize = n
-                .trim()
-                .parse()
-                .ok()
-                .filter(|&n| n >= 1)
-                .ok_or_else(|| bad(format!("`{}` is not a count ≥ 1", n.trim())))?;
-            if n == 1 {
-                if a != b {
-                    return Err(bad("one time needs a = b (or write the time alone)".into()));
-                }
-                vec![a]
-            } else {
-                (0..n)
-                    .map(|i| {
-                        if i == n - 1 {
-                            b
-                        } else {
-                            a + (b - a) * i as f64 / (n - 1) as f64
-                        }
-                    })
-                    .collect()
-            }
-        }
-        [list] => list.split(',').map(num).collect::<Result<_, _>>()?,
-        _ => {
-            return Err(bad(
-                "write `a:b:n` (n times from a to b) or a comma-separated list".into(),
-            ))
-        }
-    };
-    Ok(times)
+    crate::parse_values(text).map_err(|e| RunError::Spec(format!("--t-eval {text}: {e}")))
 }
 
 impl Recording {

@@ -22,7 +22,11 @@
 //!   (ensembles build them once per thread);
 //! - [`Recording`]: sampled times, states and invariant errors, the stepper's counters, wall
 //!   and CPU time, and the [`failure`](Recording::failure) that stopped a run early, written
-//!   as CSV ([`Recording::write_csv`]) and JSON ([`Recording::summary_json`]).
+//!   as CSV ([`Recording::write_csv`]) and JSON ([`Recording::summary_json`]);
+//! - [`model_text`]: a model given as a path or the name of one of the repository's models
+//!   (embedded, [`MODEL_FILES`]), for every front end;
+//! - [`parse_values`]: values as `start:stop:count` or a comma-separated list (output times,
+//!   parameter grids).
 //!
 //! A run of the Kepler model's preset (feedback-Euler, one period) with ten periods of
 //! feedback-RK4 instead:
@@ -48,6 +52,7 @@
 #![warn(missing_docs)]
 
 mod backward;
+mod builtin;
 pub mod chaos;
 mod clock;
 mod delay;
@@ -63,12 +68,13 @@ mod simulate;
 mod spec;
 mod switching;
 
+pub use builtin::{builtin_models, model_text, normalise, LookupError, ModelText, MODEL_FILES};
 pub use clock::process_cpu_seconds;
 pub use delay::{growth, lags, Growth, MAX_DELAY_INTERVALS};
 pub use ensemble::{simulate_lanes, simulate_many, Ensemble, Init, Member, ModelSource};
 pub use error::RunError;
 pub use events::{parse_t_eval, EventHit};
-pub use input::{initial_state, parse_numbers};
+pub use input::{initial_state, parse_numbers, parse_values, ValuesError};
 pub use interrupt::Interrupt;
 pub use method::{Base, Method, MethodSetting};
 pub use recording::{json_number, Recording, Stability};

@@ -12,6 +12,7 @@ use std::sync::Arc;
 use lasalle_exec::{Backend, LoadedModel};
 use lasalle_run::{simulate, Base, Interrupt, Method, RunError, RunSpec};
 use lasalle_runtime::{taylor, Parameters, StepError, INTERRUPT_EVERY};
+use lasalle_testkit::Rng;
 
 const OSC: &str = "model Osc { state q: scalar, p: scalar;
     d/dt q = p; d/dt p = -q;
@@ -30,27 +31,6 @@ const COLLISION: &str = "model Fall { state x: vec2, v: vec2;
     integral E = (v[0]^2 + v[1]^2) / 2 - 1 / norm(x) gain k = 1;
     point start { x = [1, 0]; v = [0, 0]; } }";
 
-/// SplitMix64 (Steele, Lea & Flood 2014): a seeded, dependency-free generator.
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn decade(&mut self, lo: f64, hi: f64) -> f64 {
-        10f64.powf(lo + (hi - lo) * self.unit())
-    }
-}
-
 /// How one fuzzed spec ended.
 #[derive(Debug, Default)]
 struct Tally {
@@ -63,7 +43,7 @@ struct Tally {
 
 /// One fuzzed run of `model` with `method`; tallies how it ended and fails on a run past its
 /// budget.
-fn fuzz_one(model: &LoadedModel, method: Method, rng: &mut SplitMix, tally: &mut Tally) {
+fn fuzz_one(model: &LoadedModel, method: Method, rng: &mut Rng, tally: &mut Tally) {
     let t_end = rng.decade(-300.0, 300.0);
     let dt = if rng.unit() < 0.5 {
         0.0
@@ -140,7 +120,7 @@ fn fuzz_one(model: &LoadedModel, method: Method, rng: &mut SplitMix, tally: &mut
 
 #[test]
 fn every_adaptive_run_ends_within_its_budget() {
-    let mut rng = SplitMix(0x5eed_b0d9e7);
+    let mut rng = Rng::new(0x5eed_b0d9e7);
     let models = [OSC, ESCAPE, COLLISION]
         .map(|text| LoadedModel::from_source("fuzz.lsl", text, Backend::default()).unwrap());
     let methods = [

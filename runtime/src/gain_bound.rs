@@ -83,9 +83,10 @@ pub enum BoundMode<K> {
 }
 
 /// A stepper wrapper for fixed-step feedback runs that keeps (or watches) h·k·L inside the
-/// real stability interval of the step that feeds back (see the module docs).
-#[derive(Clone, Debug)]
-pub struct GainBound<S, K, X> {
+/// real stability interval of the step that feeds back (see the module docs). `F` is the
+/// storage of the model's stacked invariants (its Jacobian is kept between steps).
+#[derive(Clone)]
+pub struct GainBound<S, K, X: State<f64>, F: State<f64>> {
     base: S,
     mode: BoundMode<K>,
     /// β of the step that feeds back: [`FEEDBACK_STEP_INTERVAL`] (cap), the base method's
@@ -95,6 +96,8 @@ pub struct GainBound<S, K, X> {
     grad: Option<X>,
     /// Σ|∇fᵢ|² per gain at the end of a step (cap mode).
     traces: Vec<f64>,
+    /// Df at the end of a step (cap mode), the storage of [`gain_traces`].
+    jac: Option<F::Rows<X>>,
     /// The largest h·k·L estimate of the run.
     max_hkl: f64,
     /// Steps that started with h·k·L past β.
@@ -107,7 +110,24 @@ pub struct GainBound<S, K, X> {
     min_factor: f64,
 }
 
-impl<S, K, X> GainBound<S, K, X> {
+impl<S: std::fmt::Debug, K: std::fmt::Debug, X: State<f64> + std::fmt::Debug, F: State<f64>>
+    std::fmt::Debug for GainBound<S, K, X, F>
+{
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GainBound")
+            .field("base", &self.base)
+            .field("mode", &self.mode)
+            .field("limit", &self.limit)
+            .field("max_hkl", &self.max_hkl)
+            .field("exceeded", &self.exceeded)
+            .field("first_exceeded", &self.first_exceeded)
+            .field("capped", &self.capped)
+            .field("min_factor", &self.min_factor)
+            .finish_non_exhaustive()
+    }
+}
+
+impl<S, K, X: State<f64>, F: State<f64>> GainBound<S, K, X, F> {
     /// Wraps `base`, a fixed-step method: in [`BoundMode::Watch`], whose real stability
     /// interval is (−`limit`, 0]; in [`BoundMode::Cap`] `limit` is
     /// [`FEEDBACK_STEP_INTERVAL`].
@@ -118,6 +138,7 @@ impl<S, K, X> GainBound<S, K, X> {
             limit,
             grad: None,
             traces: Vec::new(),
+            jac: None,
             max_hkl: 0.0,
             exceeded: 0,
             first_exceeded: f64::NAN,
@@ -141,11 +162,9 @@ impl<S, K, X> GainBound<S, K, X> {
     /// θ_g = θ/(the number of nonzero gains), so that the trace h·tr(Dfᵀ K Df) ≥ h·k·L stays
     /// within θ while the gains of the integrals that do not stiffen keep their strength.
     /// Returns the trace.
-    fn cap_gains<'a, Mdl, F>(&mut self, field: &FeedbackField<'a, Mdl, F, K>, x: &X, h: f64) -> f64
+    fn cap_gains<'a, Mdl>(&mut self, field: &FeedbackField<'a, Mdl, F, K>, x: &X, h: f64) -> f64
     where
         Mdl: Lyapunov<f64, X, F, K> + ModelInfo + ?Sized,
-        X: State<f64>,
-        F: State<f64>,
         K: State<f64>,
     {
         let BoundMode::Cap { model: unit, theta } = &self.mode else {
@@ -153,7 +172,7 @@ impl<S, K, X> GainBound<S, K, X> {
         };
         let unit = unit.as_ref();
         self.traces.resize(unit.len(), 0.0);
-        gain_traces(field.model(), x, &mut self.traces);
+        gain_traces(field.model(), x, &mut self.jac, &mut self.traces);
         let share = *theta / unit.iter().filter(|k| **k != 0.0).count().max(1) as f64;
         let mut hkl = 0.0;
         let mut step_min = 1.0f64;
@@ -208,7 +227,7 @@ where
     }
 }
 
-impl<'a, S, Mdl, X, F, K> Stepper<f64, X, FeedbackField<'a, Mdl, F, K>> for GainBound<S, K, X>
+impl<'a, S, Mdl, X, F, K> Stepper<f64, X, FeedbackField<'a, Mdl, F, K>> for GainBound<S, K, X, F>
 where
     S: Stepper<f64, X, FeedbackField<'a, Mdl, F, K>>,
     Mdl: Lyapunov<f64, X, F, K> + ModelInfo + ?Sized,

@@ -36,6 +36,23 @@ use crate::field::{lit, Invariants, Lyapunov, ModelInfo};
 use crate::state::State;
 use crate::steppers::{StepOutcome, Stepper};
 
+/// The factors of H_GN = Df(x)ᵀ K Df(x): the gains expanded to one per invariant component
+/// (the diagonal of K) and the Jacobian Df(x).
+fn factors<Mdl, T, X, F>(model: &Mdl, x: &X, gains: &[T]) -> (F, F::Rows<X>)
+where
+    Mdl: Invariants<T, X, F> + ModelInfo + ?Sized,
+    T: Float,
+    X: State<T>,
+    F: State<T>,
+{
+    let m = model.invariant_dim();
+    let mut k = F::filled(F::len_for(m), T::zero());
+    expand_gains(model, gains, k.as_mut());
+    let mut jac = F::rows(F::len_for(m), X::filled(X::len_for(x.len()), T::zero()));
+    model.invariants_jacobian(x, &mut jac);
+    (k, jac)
+}
+
 /// The Gauss–Newton Hessian H_GN = Df(x)ᵀ K Df(x) ∈ R^{N×N} of V = ½ΔfᵀKΔf, row by row.
 pub fn gauss_newton_hessian<Mdl, T, X, F>(model: &Mdl, x: &X, gains: &[T]) -> X::Rows<X>
 where
@@ -44,13 +61,13 @@ where
     X: State<T>,
     F: State<T>,
 {
-    let (n, m) = (x.len(), model.invariant_dim());
-    let mut k = F::filled(F::len_for(m), T::zero());
-    expand_gains(model, gains, k.as_mut());
-    let zero_x = X::filled(X::len_for(n), T::zero());
-    let mut jac = F::rows(F::len_for(m), zero_x.clone());
-    model.invariants_jacobian(x, &mut jac);
-    let mut h = X::rows(X::len_for(n), zero_x);
+    let (k, jac) = factors(model, x, gains);
+    hessian_of::<T, X, F>(&k, &jac, x.len())
+}
+
+/// Df(x)ᵀ K Df(x) from its [`factors`], N = `n`.
+fn hessian_of<T: Float, X: State<T>, F: State<T>>(k: &F, jac: &F::Rows<X>, n: usize) -> X::Rows<X> {
+    let mut h = X::rows(X::len_for(n), X::filled(X::len_for(n), T::zero()));
     for (row, &ki) in jac.as_ref().iter().zip(k.as_ref()) {
         if ki == T::zero() {
             continue;
@@ -126,14 +143,11 @@ where
     F: State<T>,
 {
     let (n, m) = (x.len(), model.invariant_dim());
-    let mut k = F::filled(F::len_for(m), T::zero());
-    expand_gains(model, gains, k.as_mut());
+    let (k, jac) = factors(model, x, gains);
     if m >= n || k.as_ref().iter().any(|&ki| !(ki >= T::zero())) {
-        let h = gauss_newton_hessian(model, x, gains);
+        let h = hessian_of::<T, X, F>(&k, &jac, n);
         return symmetric_spectral_norm(h.as_ref(), 200, lit(1e-8));
     }
-    let mut jac = F::rows(F::len_for(m), X::filled(X::len_for(n), T::zero()));
-    model.invariants_jacobian(x, &mut jac);
     let (jac, k) = (jac.as_ref(), k.as_ref());
     let mut g = F::rows(F::len_for(m), F::filled(F::len_for(m), T::zero()));
     for i in 0..m {
@@ -156,11 +170,7 @@ where
     X: State<T>,
     F: State<T>,
 {
-    let m = model.invariant_dim();
-    let mut k = F::filled(F::len_for(m), T::zero());
-    expand_gains(model, gains, k.as_mut());
-    let mut jac = F::rows(F::len_for(m), X::filled(X::len_for(x.len()), T::zero()));
-    model.invariants_jacobian(x, &mut jac);
+    let (k, jac) = factors(model, x, gains);
     jac.as_ref()
         .iter()
         .zip(k.as_ref())
@@ -170,8 +180,9 @@ where
 }
 
 /// Σᵢ |∇fᵢ(x)|² over the components fᵢ of each gain, into `traces` (one entry per gain):
-/// tr(Df(x)ᵀ K Df(x)) is Σ_g k_g · traces[g].
-pub fn gain_traces<Mdl, T, X, F>(model: &Mdl, x: &X, traces: &mut [T])
+/// tr(Df(x)ᵀ K Df(x)) is Σ_g k_g · traces[g]. `jac` is the caller's storage for Df(x), sized
+/// at the first call and kept, so that a caller calling at every step allocates only once.
+pub fn gain_traces<Mdl, T, X, F>(model: &Mdl, x: &X, jac: &mut Option<F::Rows<X>>, traces: &mut [T])
 where
     Mdl: Invariants<T, X, F> + ModelInfo + ?Sized,
     T: Float,
@@ -179,8 +190,17 @@ where
     F: State<T>,
 {
     let m = model.invariant_dim();
-    let mut jac = F::rows(F::len_for(m), X::filled(X::len_for(x.len()), T::zero()));
-    model.invariants_jacobian(x, &mut jac);
+    let fits = jac
+        .as_ref()
+        .is_some_and(|j| j.as_ref().len() == m && j.as_ref().iter().all(|r| r.len() == x.len()));
+    if !fits {
+        *jac = Some(F::rows(
+            F::len_for(m),
+            X::filled(X::len_for(x.len()), T::zero()),
+        ));
+    }
+    let jac = jac.as_mut().expect("sized above");
+    model.invariants_jacobian(x, jac);
     traces.iter_mut().for_each(|t| *t = T::zero());
     let rows = jac.as_ref();
     for info in model.invariant_infos() {

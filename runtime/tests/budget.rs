@@ -10,29 +10,7 @@ use std::cell::Cell;
 
 use common::*;
 use lasalle_runtime::*;
-
-/// SplitMix64 (Steele, Lea & Flood 2014): a seeded, dependency-free generator.
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1).
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    /// 10^u, u uniform in [lo, hi).
-    fn decade(&mut self, lo: f64, hi: f64) -> f64 {
-        10f64.powf(lo + (hi - lo) * self.unit())
-    }
-}
+use lasalle_testkit::Rng;
 
 /// The test fields, on R².
 #[derive(Clone, Copy, Debug)]
@@ -82,7 +60,7 @@ fn evaluation_limit(budget: u64, opts: &DormandPrinceOptions<f64>) -> u64 {
 
 #[test]
 fn every_dopri5_run_ends_within_its_budget() {
-    let mut rng = SplitMix(0x1a5a11e);
+    let mut rng = Rng::new(0x1a5a11e);
     let kinds = [
         Kind::Oscillator,
         Kind::Escape,

@@ -1,15 +1,10 @@
-//! Argument text shared by subcommands: `--param name=v1,v2,…`, and names compared without
-//! case or separators.
+//! Argument text shared by subcommands: `--param name=v1,v2,…`, `--grid name=start:stop:count`,
+//! and names compared without case or separators.
 
+use lasalle::run::parse_values;
 use lasalle::{parse_numbers, Parameters};
 
-/// Lower case without `-` and `_`, so `rigid-body`, `rigid_body` and `RigidBody` agree.
-pub fn normalise(s: &str) -> String {
-    s.chars()
-        .filter(|c| *c != '-' && *c != '_')
-        .flat_map(char::to_lowercase)
-        .collect()
-}
+pub use lasalle::run::normalise;
 
 /// `name=v1,v2,…` as the parameter's name and its values.
 pub fn parse_param(text: &str) -> Result<(String, Vec<f64>), String> {
@@ -17,6 +12,16 @@ pub fn parse_param(text: &str) -> Result<(String, Vec<f64>), String> {
         .split_once('=')
         .ok_or_else(|| format!("invalid --param `{text}`: expected `name=value[,value…]`"))?;
     let values = parse_numbers(values).map_err(|e| format!("invalid --param `{text}`: {e}"))?;
+    Ok((name.trim().to_string(), values))
+}
+
+/// `--grid name=start:stop:count` or `name=v1,v2,…` as the axis's name and its values
+/// ([`parse_values`]).
+pub fn parse_grid_axis(text: &str) -> Result<(String, Vec<f64>), String> {
+    let (name, spec) = text.split_once('=').ok_or_else(|| {
+        format!("invalid --grid `{text}`: expected `name=start:stop:count` or `name=v1,v2,…`")
+    })?;
+    let values = parse_values(spec).map_err(|e| format!("invalid --grid `{text}`: {e}"))?;
     Ok((name.trim().to_string(), values))
 }
 

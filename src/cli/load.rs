@@ -1,12 +1,9 @@
 //! Finding and loading a model: a path to any `.lsl` file, or the name of one of the
 //! repository's models (embedded in the binary, so the names work from any directory).
 
-use std::path::Path;
-
 use lasalle::exec::Families;
-use lasalle::{Backend, LoadedModel, MODEL_FILES};
+use lasalle::{Backend, LoadedModel};
 
-use super::args::normalise;
 use super::{model_failure, usage, CliResult};
 
 /// Which back end runs a loaded model (`--backend`).
@@ -68,35 +65,12 @@ impl From<FamiliesArg> for Families {
     }
 }
 
-/// The text of a model given as a path or a name, with the path to show in messages and the
-/// name to use for output directories (the file stem). A model that is not there is a
-/// [`super::Usage`] error.
+/// The text of a model given as a path or a name ([`lasalle::run::model_text`]), with the path
+/// to show in messages and the name to use for output directories (the file stem). A model
+/// that is not there is a [`super::Usage`] error.
 pub fn model_text(arg: &str) -> CliResult<(String, String, String)> {
-    let path = Path::new(arg);
-    let looks_like_path = arg.ends_with(".lsl") || arg.contains(['/', '\\']) || path.is_file();
-    if looks_like_path {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| usage(format!("cannot read model file `{arg}`: {e}")))?;
-        let stem = path
-            .file_stem()
-            .map_or_else(|| arg.to_string(), |s| s.to_string_lossy().into_owned());
-        return Ok((arg.to_string(), stem, text));
-    }
-    let key = normalise(arg);
-    match MODEL_FILES.iter().find(|(stem, _)| normalise(stem) == key) {
-        Some((stem, text)) => Ok((
-            format!("models/{stem}.lsl"),
-            stem.to_string(),
-            text.to_string(),
-        )),
-        None => {
-            let known: Vec<&str> = MODEL_FILES.iter().map(|(stem, _)| *stem).collect();
-            Err(usage(format!(
-                "no model `{arg}`: give a path to a model file (`my_model.lsl`) or one of the built-in models: {}",
-                known.join(", ")
-            )))
-        }
-    }
+    let found = lasalle::run::model_text(arg).map_err(|e| usage(e.to_string()))?;
+    Ok((found.path, found.stem, found.text))
 }
 
 /// Loads a model given as a path or a name and compiles it with `backend`.

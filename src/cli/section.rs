@@ -15,7 +15,7 @@ use lasalle::{
     Parameters, RunError, RunSpec,
 };
 
-use super::args::parse_param;
+use super::args::{parse_grid_axis, parse_param};
 use super::load::{model_text, BackendArg, FamiliesOpt};
 use super::plot::{write_figure, Chart, Style};
 use super::run::refuse_inapplicable;
@@ -94,20 +94,6 @@ pub struct SectionArgs {
     pub quiet: bool,
 }
 
-/// `name=start:stop:count` or `name=v1,v2,…`.
-fn parse_axis(text: &str) -> Result<(String, Vec<f64>), String> {
-    let (name, spec) = text.split_once('=').ok_or_else(|| {
-        format!("invalid --grid `{text}`: expected `name=start:stop:count` or `name=v1,v2,…`")
-    })?;
-    let values = lasalle::run::parse_t_eval(spec).map_err(|e| {
-        format!(
-            "invalid --grid `{text}`: {}",
-            e.to_string().replace("--t-eval ", "")
-        )
-    })?;
-    Ok((name.trim().to_string(), values))
-}
-
 /// The index of the state component `name`, or a message listing them.
 fn component(names: &[String], name: &str, flag: &str) -> Result<usize, String> {
     names.iter().position(|c| c == name).ok_or_else(|| {
@@ -122,7 +108,7 @@ fn component(names: &[String], name: &str, flag: &str) -> Result<usize, String> 
 fn conditions(args: &SectionArgs, names: &[String]) -> Result<Vec<Vec<(usize, f64)>>, String> {
     let mut rows: Vec<Vec<(usize, f64)>> = vec![Vec::new()];
     for axis in &args.grid {
-        let (name, values) = parse_axis(axis)?;
+        let (name, values) = parse_grid_axis(axis)?;
         let i = component(names, &name, "--grid")?;
         rows = rows
             .into_iter()

@@ -20,6 +20,7 @@ use lasalle::{
     Recording, RunError, RunSpec,
 };
 
+use super::args::parse_grid_axis;
 use super::load::{model_text, BackendArg, FamiliesOpt};
 use super::run::refuse_inapplicable;
 use super::{usage, value, CliResult, Given};
@@ -121,42 +122,6 @@ fn parse_shard(text: &str) -> Result<(usize, usize), String> {
     Ok((i, n))
 }
 
-/// The values of one `--grid` axis.
-fn parse_axis(text: &str) -> Result<(String, Vec<f64>), String> {
-    let bad = |why: &str| format!("invalid --grid `{text}`: {why}");
-    let (name, spec) = text
-        .split_once('=')
-        .ok_or_else(|| bad("expected `name=start:stop:count` or `name=v1,v2,…`"))?;
-    let number = |s: &str| -> Result<f64, String> {
-        s.trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| bad(&format!("`{s}` is not a finite number")))
-    };
-    let values = match spec.split(':').collect::<Vec<_>>().as_slice() {
-        [a, b, n] => {
-            let (a, b) = (number(a)?, number(b)?);
-            let n: usize = n
-                .trim()
-                .parse()
-                .ok()
-                .filter(|&n| n >= 1)
-                .ok_or_else(|| bad("the count must be a whole number ≥ 1"))?;
-            if n == 1 {
-                vec![a]
-            } else {
-                (0..n)
-                    .map(|k| a + (b - a) * k as f64 / (n - 1) as f64)
-                    .collect()
-            }
-        }
-        [list] => list.split(',').map(number).collect::<Result<_, _>>()?,
-        _ => return Err(bad("expected `name=start:stop:count` or `name=v1,v2,…`")),
-    };
-    Ok((name.trim().to_string(), values))
-}
-
 /// The rows of the sweep: for each run, (parameter, value) pairs.
 fn rows(args: &SweepArgs) -> Result<Vec<Row>, String> {
     let mut rows: Vec<Row> = vec![Vec::new()];
@@ -203,7 +168,7 @@ fn rows(args: &SweepArgs) -> Result<Vec<Row>, String> {
         rows = listed;
     }
     for axis in &args.grid {
-        let (name, values) = parse_axis(axis)?;
+        let (name, values) = parse_grid_axis(axis)?;
         let mut crossed = Vec::with_capacity(rows.len() * values.len());
         for row in rows {
             for &v in &values {

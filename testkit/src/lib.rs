@@ -3,10 +3,10 @@
 //! [`CountingAllocator`] counts the allocations of the current thread, for tests that assert a
 //! hot loop allocates nothing (install it with `#[global_allocator]` in the test file).
 //!
-//! [`Rng`] is the one random generator of the tests: SplitMix64 (Steele, Lea & Flood 2014),
-//! seeded explicitly, so every failure reproduces from the seed printed with it. The library
-//! code that samples (the generator's numerical conservation check) has its own generator,
-//! `lasalle_model`'s `check::sampling::Rng`, because its verdicts are part of the product.
+//! [`Rng`] is the one random generator of the tests: the library's seeded SplitMix64
+//! ([`lasalle_model::Rng`], which the conservation checks and sampled bounds use) with the
+//! helpers tests want, seeded explicitly, so every failure reproduces from the seed printed
+//! with it.
 //!
 //! [`same`] and [`assert_same`] are what "bitwise" means in the tests: equal bits, so `0.0`
 //! and `-0.0` differ, and NaN equals NaN (where `==` says the opposite of both).
@@ -42,33 +42,35 @@ pub fn allocations() -> u64 {
     ALLOCATIONS.with(|c| c.get())
 }
 
-/// SplitMix64: a small, fast, seeded generator with full 64-bit output.
+/// The library's seeded generator ([`lasalle_model::Rng`], SplitMix64) with what tests want
+/// of it besides: picks, signs, arrays, decades.
 #[derive(Clone, Debug)]
-pub struct Rng(u64);
+pub struct Rng(lasalle_model::Rng);
 
 impl Rng {
     /// A generator from a seed (any value, 0 included).
     pub fn new(seed: u64) -> Self {
-        Rng(seed)
+        Rng(lasalle_model::Rng::new(seed))
     }
 
     /// The next 64 random bits.
     pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
+        self.0.next_u64()
     }
 
     /// Uniform in [0, 1), on the 2⁻⁵³ grid.
     pub fn unit(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+        self.0.unit()
     }
 
     /// Uniform in [a, b).
     pub fn uniform(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.unit()
+        self.0.uniform(a, b)
+    }
+
+    /// 10ᵘ with u uniform in [lo, hi): log-uniform over the decades 10^lo to 10^hi.
+    pub fn decade(&mut self, lo: f64, hi: f64) -> f64 {
+        10f64.powf(self.uniform(lo, hi))
     }
 
     /// N values uniform in [a, b).
@@ -93,6 +95,12 @@ impl Rng {
         self.unit() < p
     }
 
+    /// ±u with u uniform in [lo, hi) and either sign equally likely: values bounded away from
+    /// zero (0 < lo) and of both signs.
+    pub fn signed(&mut self, lo: f64, hi: f64) -> f64 {
+        self.sign() * self.uniform(lo, hi)
+    }
+
     /// ±1 with equal probability.
     pub fn sign(&mut self) -> f64 {
         if self.next_u64() & 1 == 0 {
@@ -102,6 +110,42 @@ impl Rng {
         }
     }
 }
+
+/// The Pleiades (seven bodies in the plane) of the IVP test set at t = 3: x₁…x₇, y₁…y₇,
+/// ẋ₁…ẋ₇, ẏ₁…ẏ₇, the 16 digits as published (Mazzia & Magherini, *Test Set for Initial Value
+/// Problem Solvers*, the Pleiades problem, reference solution), for `tests/models/pleiades.lsl`
+/// and `models/pleiades.lsl`.
+#[allow(clippy::excessive_precision)]
+pub const PLEIADES_AT_3: [f64; 28] = [
+    0.3706139143970502,
+    3.237284092057233,
+    -3.222559032418324,
+    0.6597091455775310,
+    0.3425581707156584,
+    1.562172101400631,
+    -0.7003092922212495,
+    -3.943437585517392,
+    -3.271380973972550,
+    5.225081843456543,
+    -2.590612434977470,
+    1.198213693392275,
+    -0.2429682344935824,
+    1.091449240428980,
+    3.417003806314313,
+    1.354584501625501,
+    -2.590065597810775,
+    2.025053734714242,
+    -1.155815100160448,
+    -0.8072988170223021,
+    0.5952396354208710,
+    -3.741244961234010,
+    0.3773459685750630,
+    0.9386858869551073,
+    0.3667922227200571,
+    -0.3474046353808490,
+    2.344915448180937,
+    -1.947020434263292,
+];
 
 /// The repository's model files (`models/*.lsl`), sorted: what the tests that run over every
 /// model (back ends, tapes, lanes) iterate on.
@@ -178,22 +222,18 @@ mod tests {
     use super::Rng;
 
     #[test]
-    fn splitmix64_reference_values() {
-        // the first outputs for seed 1234567 of the reference implementation
-        // (https://prng.di.unimi.it/splitmix64.c)
-        let mut r = Rng::new(1234567);
-        assert_eq!(r.next_u64(), 6457827717110365317);
-        assert_eq!(r.next_u64(), 3203168211198807973);
-        assert_eq!(r.next_u64(), 9817491932198370423);
-    }
-
-    #[test]
     fn ranges_hold() {
         let mut r = Rng::new(0);
         for _ in 0..10_000 {
             let u = r.uniform(-2.0, 3.0);
             assert!((-2.0..3.0).contains(&u));
             assert!(r.below(7) < 7);
+            let s = r.signed(0.5, 1.5);
+            assert!((0.5..1.5).contains(&s.abs()), "{s}");
+        }
+        for _ in 0..1000 {
+            let d = r.decade(-300.0, 300.0);
+            assert!((1e-300..1e300).contains(&d), "{d}");
         }
         let mean = (0..100_000).map(|_| r.unit()).sum::<f64>() / 1e5;
         assert!((mean - 0.5).abs() < 0.005, "mean {mean}");

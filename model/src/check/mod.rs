@@ -12,7 +12,8 @@ use crate::derive::{Derivatives, Derived};
 use crate::error::{Diagnostic, DiagnosticKind, Error};
 use crate::ir::Input;
 use crate::model::{InvariantKind, Model};
-use sampling::{project_onto, Rng};
+use crate::Rng;
+use sampling::project_onto;
 
 /// Number of random states each invariant is checked at.
 pub const SAMPLES: usize = 128;

@@ -2,30 +2,6 @@
 
 use crate::ir::{Graph, Id, Input};
 
-/// SplitMix64: a tiny deterministic generator, so checks give the same verdict on every run.
-pub struct Rng(u64);
-
-impl Rng {
-    /// A generator with this seed.
-    pub fn new(seed: u64) -> Self {
-        Rng(seed)
-    }
-
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [a, b).
-    pub fn uniform(&mut self, a: f64, b: f64) -> f64 {
-        let u = (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
-        a + (b - a) * u
-    }
-}
-
 /// Moves `x` onto {c(x) = 0} by Levenberg–Marquardt on ½|c|² (c may have dependent rows,
 /// like the nine components of RᵀR − I). `None` if it does not converge to 1e-13.
 pub fn project_onto(

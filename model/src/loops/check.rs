@@ -18,10 +18,11 @@
 //! accepted when it is zero relative to the size of its terms, as the unrolled check does.
 
 use super::{Builder, LoopModel, Outputs, Source};
-use crate::check::{prove, sampling::Rng, Conservation, Verdict, EXPAND_LIMIT, SAMPLES, TOLERANCE};
+use crate::check::{prove, Conservation, Verdict, EXPAND_LIMIT, SAMPLES, TOLERANCE};
 use crate::error::{Diagnostic, Error};
 use crate::ir::{FxHashMap, Graph, Id, Input};
 use crate::model::{InvariantKind, Structure};
+use crate::Rng;
 
 /// Fresh symbols of the proofs (above the families' own).
 const FRESH: u32 = 1 << 30;

@@ -69,15 +69,9 @@ pub(super) fn check(d: &Declaration) -> Result<Vec<u32>, Diagnostic> {
     let slots = [p.offset as u32, p.offset as u32 + 1, p.offset as u32 + 2];
     // The field must be Ṙ = RΩ̂, Ω̇ = 𝕀⁻¹((𝕀Ω) × Ω): compare at random states.
     let defaults: Vec<f64> = d.params.iter().flat_map(|q| q.defaults.clone()).collect();
-    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-    let mut next = || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
+    let mut rng = crate::Rng::new(0x9e37_79b9_7f4a_7c15);
     for _ in 0..16 {
-        let x: Vec<f64> = (0..12).map(|_| next()).collect();
+        let x: Vec<f64> = (0..12).map(|_| rng.uniform(-1.0, 1.0)).collect();
         let got = d.graph.eval_f64(d.field, &mut |i| match i {
             Input::State(k) => x[k as usize],
             Input::Param(k) => defaults[k as usize],

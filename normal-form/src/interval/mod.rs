@@ -468,52 +468,9 @@ impl Real for Iv {
     }
 }
 
-/// Interval values in expression evaluation (`lasalle_model::ir::Graph::eval`, any
-/// [`HamiltonianFn`](crate::HamiltonianFn)): H enclosed at a point or over a box.
-impl lasalle_model::ir::Scalar for Iv {
-    fn from_f64(c: f64) -> Self {
-        Iv::point(c)
-    }
-    fn add(&self, o: &Self) -> Self {
-        *self + *o
-    }
-    fn mul(&self, o: &Self) -> Self {
-        *self * *o
-    }
-    fn recip(&self) -> Self {
-        Iv::point(1.0) / *self
-    }
-    fn powi(&self, n: i32) -> Self {
-        crate::scalar::powi(*self, n as i64)
-    }
-    fn powf(&self, p: lasalle_model::ir::Rational) -> Self {
-        Real::powf(*self, p)
-    }
-    fn exp(&self) -> Self {
-        Real::exp(*self)
-    }
-    fn ln(&self) -> Self {
-        Real::ln(*self)
-    }
-    fn sin(&self) -> Self {
-        Real::sin(*self)
-    }
-    fn cos(&self) -> Self {
-        Real::cos(*self)
-    }
-    fn neg(&self) -> Self {
-        -*self
-    }
-    fn sub(&self, o: &Self) -> Self {
-        *self - *o
-    }
-    fn div(&self, o: &Self) -> Self {
-        *self / *o
-    }
-    fn sqrt(&self) -> Self {
-        Real::sqrt(*self)
-    }
-}
+// Interval values in expression evaluation (any [`HamiltonianFn`](crate::HamiltonianFn)): H
+// enclosed at a point or over a box.
+crate::scalar::scalar_by_real!(Iv);
 
 #[cfg(test)]
 mod tests {

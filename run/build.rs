@@ -1,5 +1,7 @@
-//! Embeds the repository's model files (`../models/*.lsl`), so `lasalle.Model("kepler")` finds
-//! them by name, as the command line does.
+//! Embeds the repository's model files (`../models/*.lsl`) as `$OUT_DIR/model_files.rs`, so
+//! every front end finds them by name from any directory ([`crate::builtin`]). Built outside
+//! the repository (no `../models`), the table is empty and names are refused with the usual
+//! message.
 
 use std::fmt::Write;
 use std::path::PathBuf;
@@ -16,7 +18,10 @@ fn main() {
         })
         .unwrap_or_default();
     files.sort();
-    let mut out = String::from("pub const MODEL_FILES: &[(&str, &str)] = &[\n");
+    let mut out = String::from(
+        "/// The repository's model files, embedded: (file stem, text), sorted by name.\n\
+         pub const MODEL_FILES: &[(&str, &str)] = &[\n",
+    );
     for f in &files {
         let stem = f.file_stem().expect("a file").to_string_lossy();
         let path = f.canonicalize().unwrap_or_else(|_| f.clone());
@@ -25,7 +30,7 @@ fn main() {
             "    ({stem:?}, include_str!({:?})),",
             path.display().to_string()
         )
-        .unwrap();
+        .expect("writing to a String");
     }
     out.push_str("];\n");
     let target =
