@@ -15,7 +15,7 @@ and DOPRI5), heyoka `taylor_adaptive_batch` through `ensemble_propagate_until_ba
 all cores. CPU time is the process's (all threads); heyoka's includes compiling the
 integrator once, shown apart.
 
-    /work/venvs/heyoka/bin/python scripts/megno_map_bench.py --out docs/chaos
+    heyoka-venv/bin/python scripts/megno_map_bench.py --out docs/chaos
 
 writes the initial conditions (`megno_ics.csv`, the `--list` of `lasalle sweep`), the table
 (`megno_bench.md`), both maps (`megno_map.csv` and lasalle's figure `megno_map.png`) and prints

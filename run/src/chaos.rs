@@ -18,7 +18,7 @@ use lasalle_exec::LoadedModel;
 pub use lasalle_model::variational::{Extension, Indicators, PEAK_EVENT};
 use lasalle_runtime::{ModelInfo, Parameters};
 
-use crate::{simulate_with_progress, KernelPool, Method, Recording, RunError, RunSpec, Reusing};
+use crate::{simulate_with_progress, KernelPool, Method, Recording, Reusing, RunError, RunSpec};
 
 /// A model extended by `extension`, compiled by `model`'s back end, with `model`'s current
 /// parameter values. A model loaded with its families kept as loops is extended in loop form
