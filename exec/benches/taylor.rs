@@ -79,7 +79,7 @@ fn lanes(c: &mut Criterion) {
     let megno = {
         let hh = model("henon_heiles", Backend::Jit);
         let extended = Extension::Indicators
-            .apply(&hh.model().expect("the model lowers"))
+            .apply(hh.model().expect("the model lowers"))
             .expect("extends");
         let m = LoadedModel::from_model(extended, Backend::Jit).expect("loads");
         let x0 = Extension::Indicators.extend_state(&[0.0, 0.1, 0.45, 0.0]);

@@ -47,6 +47,9 @@ pub trait TaylorBatch<M: ?Sized>: Send {
     fn table(&self) -> &[f64];
 }
 
+/// Whether a state passes a model's guards.
+pub type Guards<'a> = dyn Fn(&[f64]) -> bool + 'a;
+
 /// The runs of [`TaylorLanes::run`]: each from t = 0, as the lone driver's.
 pub struct LaneRuns<'a> {
     /// The end time (≥ 0).
@@ -57,7 +60,7 @@ pub struct LaneRuns<'a> {
     /// The step budget of each run.
     pub max_steps: u64,
     /// Whether a state passes the model's guards (checked at the start and after every step).
-    pub guards: Option<&'a (dyn Fn(&[f64]) -> bool + 'a)>,
+    pub guards: Option<&'a Guards<'a>>,
     /// Whether to stop (asked every [`INTERRUPT_EVERY`] sweeps of the batch).
     pub stop: Option<&'a (dyn Fn() -> bool + 'a)>,
 }
@@ -371,7 +374,7 @@ fn start(run: usize, x0: &[f64], runs: &LaneRuns) -> Option<Lane> {
         && runs.t_end >= 0.0
         && runs.h0 >= 0.0
         && runs.h0.is_finite()
-        && runs.guards.is_none_or(|ok| ok(x0));
+        && !runs.guards.is_some_and(|ok| !ok(x0));
     fine.then_some(Lane {
         run,
         t: 0.0,
