@@ -1,5 +1,5 @@
 //! Taylor in lanes: several orbits of one model (same parameters, different initial states)
-//! integrated together, as heyoka's batch mode does, each bitwise the run [`Taylor`] gives it
+//! integrated together, as heyoka's batch mode does, each bitwise the run [`Taylor`](super::Taylor) gives it
 //! alone under the [`Driver`](crate::Driver).
 //!
 //! A [`TaylorBatch`] kernel computes the coefficients of B states in one call: its values are

@@ -117,7 +117,7 @@ use crate::field::Lyapunov;
 use crate::state::State;
 use crate::steppers::{DenseOutput, StepOutcome, Stepper};
 
-mod lanes;
+pub mod lanes;
 pub use lanes::{LaneEnd, LaneRuns, TaylorBatch, TaylorLanes};
 
 /// The largest order of the emitted kernels of compiled models (their coefficient table has
