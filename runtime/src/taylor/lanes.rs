@@ -1,6 +1,6 @@
 //! Taylor in lanes: several orbits of one model (same parameters, different initial states)
-//! integrated together, as heyoka's batch mode does, each bitwise the run [`Taylor`](super::Taylor) gives it
-//! alone under the [`Driver`](crate::Driver).
+//! integrated together, as heyoka's batch mode does, each bitwise the run
+//! [`Taylor`](super::Taylor) gives it alone under the [`Driver`](crate::Driver).
 //!
 //! A [`TaylorBatch`] kernel computes the coefficients of B states in one call: its values are
 //! vectors of B f64, one per orbit, so the recurrences' arithmetic runs once for all of them
