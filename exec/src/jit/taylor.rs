@@ -188,12 +188,7 @@ impl JitTaylor {
         }
         let p = order as usize;
         let inputs = Inputs::new(tape, params)?;
-        let (code, func) = jit_module(OPT_LEVEL, false)
-            .and_then(|module| Code::compile(module, |m| define(m, &program, p, 1)))
-            .map_err(TaylorError::kernels)?;
-        // SAFETY: the function was just defined with this signature (five pointers, the host's
-        // C calling convention), and the module owning its code lives in the result.
-        let func = unsafe { std::mem::transmute::<*const u8, TaylorFn>(func) };
+        let (code, func) = compile(&program, p, 1)?;
         Ok(JitTaylor {
             inputs,
             _code: code,
@@ -331,11 +326,7 @@ impl JitTaylorBatch {
             return Ok(None);
         }
         let inputs = Inputs::new(tape, params)?;
-        let (code, func) = jit_module(OPT_LEVEL, false)
-            .and_then(|module| Code::compile(module, |m| define(m, &program, p, LANES)))
-            .map_err(TaylorError::kernels)?;
-        // SAFETY: as in `JitTaylor::with_program`
-        let func = unsafe { std::mem::transmute::<*const u8, TaylorFn>(func) };
+        let (code, func) = compile(&program, p, LANES)?;
         Ok(Some(JitTaylorBatch {
             inputs,
             _code: code,
@@ -497,6 +488,22 @@ impl TaylorKernel<crate::LoadedModel> for DeferredJit {
             None => self.interpreted.state_coefficients(i),
         }
     }
+}
+
+/// The recurrences of `program` compiled for the order p on `lanes` orbits per call, and the
+/// code that owns the function.
+fn compile(
+    program: &TaylorProgram,
+    p: usize,
+    lanes: usize,
+) -> Result<(Code, TaylorFn), TaylorError> {
+    let (code, func) = jit_module(OPT_LEVEL, false)
+        .and_then(|module| Code::compile(module, |m| define(m, program, p, lanes)))
+        .map_err(TaylorError::kernels)?;
+    // SAFETY: the function was just defined with this signature (five pointers, the host's C
+    // calling convention), and `code` owns the module it lives in.
+    let func = unsafe { std::mem::transmute::<*const u8, TaylorFn>(func) };
+    Ok((code, func))
 }
 
 /// Defines and finalises the function; returns its id.
