@@ -345,6 +345,11 @@ const EXPRS: [&str; 12] = [
     "(1 + t^2)^(1/2) * t + (1 + t^2)^(7/2)", // √s read elsewhere, √s⁷ fused
 ];
 
+/// A model of the elliptic functions' recurrences.
+const ELLIPTIC: &str = "model F { state t: scalar, u: scalar, v: scalar; param m = 0.7;
+    d/dt t = 1; d/dt u = ellipf(2 * t, m) + ellipk(m) * t;
+    d/dt v = sn(t * t, m) * cd(u, 0.3) + dn(t, m); }";
+
 /// (name, model text) of every model file and of a one-equation model per expression of
 /// [`EXPRS`].
 fn model_and_expression_texts() -> Vec<(String, String)> {
@@ -882,13 +887,7 @@ fn jit_kernel_agrees_with_the_tape_bitwise() {
     let mut rng = lasalle_testkit::Rng::new(0x9e37_79b9_7f4a_7c15);
     let mut rand = move || rng.uniform(0.25, 1.25);
     let mut texts = model_and_expression_texts();
-    texts.push((
-        "elliptic".into(),
-        "model F { state t: scalar, u: scalar, v: scalar; param m = 0.7;
-         d/dt t = 1; d/dt u = ellipf(2 * t, m) + ellipk(m) * t;
-         d/dt v = sn(t * t, m) * cd(u, 0.3) + dn(t, m); }"
-            .into(),
-    ));
+    texts.push(("elliptic".into(), ELLIPTIC.into()));
     for (name, text) in &texts {
         let (tp, params) = tapes(text);
         for (what, tape) in [("field", &tp.field), ("feedback", &tp.feedback)] {
@@ -963,13 +962,7 @@ fn batch_kernel_lanes_are_the_lone_coefficients_bitwise() {
     let mut rng = lasalle_testkit::Rng::new(0x5851_f42d_4c95_7f2d);
     let mut rand = move || rng.uniform(0.25, 1.25);
     let mut texts = model_and_expression_texts();
-    texts.push((
-        "elliptic".into(),
-        "model F { state t: scalar, u: scalar, v: scalar; param m = 0.7;
-         d/dt t = 1; d/dt u = ellipf(2 * t, m) + ellipk(m) * t;
-         d/dt v = sn(t * t, m) * cd(u, 0.3) + dn(t, m); }"
-            .into(),
-    ));
+    texts.push(("elliptic".into(), ELLIPTIC.into()));
     let mut compiled = 0;
     for (name, text) in &texts {
         let (tp, params) = tapes(text);
